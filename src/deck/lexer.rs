@@ -1,0 +1,1 @@
+//! Lines → logical commands → tokens (stub; filled by the parser work).

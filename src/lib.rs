@@ -1,0 +1,24 @@
+//! # blockdem: a distinct element code for jointed rock
+//!
+//! A re-implementation of UDEC 1.2 and D3 (Cundall & Hart, SL-85-1, 1985) whose explicit cycle runs
+//! on the CPU in f64 (the accuracy reference) and, through wgpu, on the GPU.
+//!
+//! ## Module map (it mirrors the cycle, DESIGN.md §1)
+//!
+//! | module | what |
+//! |---|---|
+//! | [`deck`] | the command language: lines → tokens → [`deck::Command`]s |
+//! | [`model`] | the authoritative model: blocks, rounded corners, contacts, materials; geometry and SPLIT |
+//! | [`cpu`] | the CPU backend, one file per stage: law of motion, geometry update, contact forces, gather |
+//! | [`topology`] | stage 7, CPU only: contact detection and update, point-load cracking |
+//! | [`backend`] | the `Backend` trait the executor drives |
+//! | [`exec`] | the command executor: runs a deck against a backend |
+//! | [`output`] | PRINT tables, PLOT (PNG/SVG), state JSON, SAVE/RESTART files |
+
+pub mod backend;
+pub mod cpu;
+pub mod deck;
+pub mod exec;
+pub mod model;
+pub mod output;
+pub mod topology;

@@ -1,0 +1,1 @@
+//! Polygon geometry (stub; filled by the geometry work).

@@ -1,0 +1,306 @@
+//! The authoritative model (CPU, f64): blocks with their corners, contacts with their feature ids,
+//! materials and the global settings of a run (SL-85-1, Appendix A, "Program Guide").
+//!
+//! Only the CPU changes topology (DESIGN.md §2): blocks are created by BLOCK and SPLIT, removed by
+//! DELETE, cracked by the point-load criterion; contacts are created and dropped by the topology
+//! stage between cycles. Kernels (CPU or GPU) only move blocks and update contact forces.
+//!
+//! Storage is flat: `Model::blocks` and `Model::corners` are plain vectors, each block owning the
+//! contiguous corner range `corner_start .. corner_start + corner_count` (counter-clockwise). Hot
+//! loops use indices; `Block::id` and `Contact::id` are stable numbers for PRINT that never change
+//! when other blocks are deleted.
+
+pub mod geometry;
+pub mod split;
+
+use serde::{Deserialize, Serialize};
+
+/// Number of material slots (UDEC's NMAT); materials are numbered 1..=MAX_MATERIALS.
+pub const MAX_MATERIALS: usize = 20;
+
+/// Default rounding length DTOL when no ROUND command is given (problem units).
+pub const DEFAULT_ROUND: f64 = 0.5;
+
+/// Material properties (PROPERTY command; Appendix A "Property keywords").
+/// Units of joint normal and shear stiffness and joint cohesion are stress/displacement.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    pub density: f64,
+    pub bulk: f64,
+    pub shear: f64,
+    /// contact normal stiffness kn (force/displacement)
+    pub kn: f64,
+    /// contact shear stiffness ks (force/displacement)
+    pub ks: f64,
+    /// contact cohesion c (force)
+    pub cohesion: f64,
+    /// contact friction coefficient μ
+    pub friction: f64,
+    pub jkn: f64,
+    pub jks: f64,
+    pub jcohesion: f64,
+    pub jfriction: f64,
+    /// tensile strength factor t_f (point-load or Griffith cracking, Appendix A ¶15–17)
+    pub tf: f64,
+    pub jperm: f64,
+    pub cperm: f64,
+    pub azero: f64,
+    pub ares: f64,
+}
+
+/// How a block deforms (UDEC head codes MRIG, MSDEF, MFDEF).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BlockKind {
+    Rigid,
+    SimplyDeformable,
+    FullyDeformable,
+}
+
+impl BlockKind {
+    /// The word the state JSON and PRINT use: "rigid", "sdef", "fdef".
+    pub fn name(self) -> &'static str {
+        match self {
+            BlockKind::Rigid => "rigid",
+            BlockKind::SimplyDeformable => "sdef",
+            BlockKind::FullyDeformable => "fdef",
+        }
+    }
+}
+
+/// One polygonal block. Its shape is stored in the body frame (corner offsets from the centroid at
+/// rotation 0, in `Corner::local`), so a rigid block never distorts and f32 kernels keep millimetres
+/// on models far from the origin (DESIGN.md §2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Block {
+    /// Stable id shown by PRINT (never reused within a run).
+    pub id: u32,
+    pub kind: BlockKind,
+    pub material: u32,
+    pub constitutive: u32,
+    pub fixed: bool,
+    /// First corner in `Model::corners`.
+    pub corner_start: u32,
+    pub corner_count: u32,
+    pub area: f64,
+    pub mass: f64,
+    /// Polar moment of inertia about the centroid.
+    pub inertia: f64,
+    pub centroid: [f64; 2],
+    /// Rotation since the body-frame shape was recorded (radians, counter-clockwise).
+    pub rotation: f64,
+    pub velocity: [f64; 2],
+    pub angular_velocity: f64,
+    /// Force and moment sums at the centroid from the last gather (contacts + gravity + load).
+    pub force: [f64; 2],
+    pub moment: f64,
+    /// Static load at the centroid (LOAD command).
+    pub load: [f64; 2],
+    /// Largest distance from the centroid to any corner (for update tolerances).
+    pub radius: f64,
+    /// Corner displacement accumulated since this block's last contact update: |Δx| + |Δθ|·radius,
+    /// summed over cycles (DESIGN.md §1 stage 7, the report's update-after-threshold rule).
+    pub moved_since_update: f64,
+}
+
+/// One rounded corner (UDEC corner data array: KXP, KYP, KXCP, KYCP, KRAD).
+/// The corner's circle is tangent to both adjoining edges at distance `round` from the corner.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Corner {
+    /// Owning block index.
+    pub block: u32,
+    /// Corner position relative to the centroid, body frame.
+    pub local: [f64; 2],
+    /// Centre of the rounding circle relative to the centroid, body frame.
+    pub circle_local: [f64; 2],
+    /// Radius of the rounding circle (0 for a re-entrant corner, which needs no rounding).
+    pub radius: f64,
+    /// Distance from the corner to the tangent points along its two edges (≤ the ROUND length,
+    /// reduced on short edges so that two arcs never overlap).
+    pub round: f64,
+    /// Current world position of the corner.
+    pub position: [f64; 2],
+    /// Current world position of the rounding circle centre.
+    pub circle: [f64; 2],
+    /// Joint material and constitutive number of the edge from this corner to the next one
+    /// (counter-clockwise), set by SPLIT MAT= CONS=; 0 means "take the block's".
+    pub edge_material: u32,
+    pub edge_constitutive: u32,
+}
+
+/// Kind of a contact, as PRINT LIST names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ContactKind {
+    /// A corner of block 1 against a straight edge of block 2.
+    CornerEdge,
+    /// A corner of block 1 against a rounded corner of block 2.
+    CornerCorner,
+}
+
+impl ContactKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            ContactKind::CornerEdge => "corner-edge",
+            ContactKind::CornerCorner => "corner-corner",
+        }
+    }
+}
+
+/// A feature of a block's rounded boundary: corner k's arc is feature 2k, and the straight part of
+/// the edge from corner k to corner k+1 is feature 2k+1. Features are local to their block.
+pub type Feature = u32;
+
+/// One contact: a corner of `block1` (the corner owner) touching the rounded boundary of `block2`
+/// at feature `feature`. The normal points from block 2 into block 1; forces are those block 2
+/// exerts on block 1 (compression positive), applied with opposite sign to block 2 (report ¶19).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Contact {
+    pub id: u32,
+    pub block1: u32,
+    /// Global corner index (into `Model::corners`) of block 1's corner.
+    pub corner: u32,
+    pub block2: u32,
+    pub feature: Feature,
+    pub kind: ContactKind,
+    pub material: u32,
+    pub constitutive: u32,
+    /// True while the contact is still intact since creation in touch (it may carry tension up to
+    /// the cohesion); lost for good once it opens in tension beyond cohesion or slips.
+    pub bonded: bool,
+    /// Current contact point (midway through the overlap).
+    pub point: [f64; 2],
+    /// Unit normal, from block 2 into block 1.
+    pub normal: [f64; 2],
+    /// Normal displacement: the gap between the rounded surfaces, overlap negative (as UDEC prints).
+    pub gap: f64,
+    /// Normal force, compression positive (eqs. 16, 18).
+    pub normal_force: f64,
+    /// Shear force along the tangent t = (−n_y, n_x) acting on block 1 (eqs. 17, 19, 20).
+    pub shear_force: f64,
+    /// Accumulated shear displacement of block 1 relative to block 2 along t.
+    pub shear_displacement: f64,
+    /// Total force on block 1 in world axes, including any stiffness-proportional damping force; the
+    /// gather sums this (block 2 takes minus it).
+    pub force: [f64; 2],
+}
+
+/// Rayleigh damping (DAMPING command): mass-proportional α and stiffness-proportional β.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Damping {
+    pub alpha: f64,
+    pub beta: f64,
+    /// Internal mass damping of simply-deformable blocks (DAMP … INTERNAL, UDEC's ALPB).
+    pub alpha_internal: f64,
+}
+
+/// A LINK between a flying block and the block topologically closest to it (Appendix A ¶10).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Link {
+    pub flying: u32,
+    pub anchor: u32,
+}
+
+/// Tolerances of contact detection (UDEC's ATOL, BTOL, DTOL, ETOL), all derived from the rounding
+/// length so that they scale with the model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Tolerances {
+    /// Rounding length d (ROUND).
+    pub round: f64,
+    /// A contact is formed when the gap is below this.
+    pub atol: f64,
+    /// A contact is broken when the gap exceeds this.
+    pub btol: f64,
+    /// A block triggers a contact update after its corners moved this far since its last one.
+    /// Two blocks each below it approach by less than 2·etol < atol, so no contact can be missed.
+    pub etol: f64,
+}
+
+impl Tolerances {
+    pub fn from_round(round: f64) -> Self {
+        let atol = round;
+        Tolerances { round, atol, btol: 1.5 * atol, etol: 0.25 * atol }
+    }
+}
+
+/// The whole problem state. Serializable for SAVE/RESTART.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Model {
+    pub blocks: Vec<Block>,
+    pub corners: Vec<Corner>,
+    pub contacts: Vec<Contact>,
+    /// Materials 1..=MAX_MATERIALS stored at index n−1.
+    pub materials: Vec<Material>,
+    pub links: Vec<Link>,
+    pub gravity: [f64; 2],
+    pub damping: Damping,
+    /// Fraction of the critical time step (FRACTION).
+    pub frac: f64,
+    pub tol: Tolerances,
+    /// Current time step (0 until the first CYCLE computes it).
+    pub timestep: f64,
+    pub cycle: u64,
+    pub time: f64,
+    pub next_block_id: u32,
+    pub next_contact_id: u32,
+    /// Energy bookkeeping for the blow-up check: work done by gravity and loads since START.
+    pub external_work: f64,
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        Model {
+            blocks: Vec::new(),
+            corners: Vec::new(),
+            contacts: Vec::new(),
+            materials: vec![Material::default(); MAX_MATERIALS],
+            links: Vec::new(),
+            gravity: [0.0, 0.0],
+            damping: Damping::default(),
+            frac: 0.1,
+            tol: Tolerances::from_round(DEFAULT_ROUND),
+            timestep: 0.0,
+            cycle: 0,
+            time: 0.0,
+            next_block_id: 1,
+            next_contact_id: 1,
+            external_work: 0.0,
+        }
+    }
+}
+
+impl Model {
+    pub fn material(&self, n: u32) -> &Material {
+        &self.materials[(n.max(1) as usize - 1).min(MAX_MATERIALS - 1)]
+    }
+
+    /// The corners of block `b`, counter-clockwise.
+    pub fn block_corners(&self, b: usize) -> &[Corner] {
+        let blk = &self.blocks[b];
+        &self.corners[blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize]
+    }
+
+    /// Index of the block with stable id `id`.
+    pub fn block_index(&self, id: u32) -> Option<usize> {
+        self.blocks.iter().position(|b| b.id == id)
+    }
+
+    /// Indices of blocks whose centroid lies strictly inside x1 < x < x2, y1 < y < y2 (the range
+    /// rule of DELETE, FIX, FREE, LOAD, CHANGE).
+    pub fn blocks_in_range(&self, x1: f64, x2: f64, y1: f64, y2: f64) -> Vec<usize> {
+        let (xl, xh) = (x1.min(x2), x1.max(x2));
+        let (yl, yh) = (y1.min(y2), y1.max(y2));
+        self.blocks
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| {
+                let [x, y] = b.centroid;
+                x > xl && x < xh && y > yl && y < yh
+            })
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// World positions of block `b`'s corners.
+    pub fn corner_positions(&self, b: usize) -> Vec<[f64; 2]> {
+        self.block_corners(b).iter().map(|c| c.position).collect()
+    }
+}

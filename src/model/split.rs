@@ -1,0 +1,1 @@
+//! SPLIT (stub; filled by the geometry work).

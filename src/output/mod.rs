@@ -1,0 +1,1 @@
+//! Outputs: PRINT tables, PLOT files, the state JSON, SAVE/RESTART files (stub).
