@@ -1,1 +1,60 @@
-//! backend
+//! The `Backend` trait: what the command executor asks of whichever engine runs the cycle
+//! (DESIGN.md §3). Both backends take the same `Model`, run N cycles and give the same observable
+//! state back; the executor never knows which one ran.
+
+use crate::model::Model;
+
+/// What a run of cycles did besides moving blocks.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CycleReport {
+    pub cycles: u64,
+    /// Contact updates (stage 7 runs) and the contacts they created and dropped.
+    pub topology_updates: u64,
+    pub contacts_created: u64,
+    pub contacts_dropped: u64,
+    /// Cracks formed: (block id cracked, criterion value, crack ends).
+    pub cracks: Vec<CrackEvent>,
+    /// Time step changes forced by new, lighter blocks (from cracking).
+    pub timestep_changes: Vec<(u64, f64)>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CrackEvent {
+    pub cycle: u64,
+    pub block: u32,
+    pub new_block: u32,
+    pub value: f64,
+    pub from: [f64; 2],
+    pub to: [f64; 2],
+}
+
+/// A numerical failure. When a backend returns one, the model it was given holds the last good
+/// state (a checkpoint from before the failure), so it can still be printed and saved.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CycleError {
+    #[error(
+        "contact overlap too great at cycle {cycle}: blocks {block1} and {block2} overlap by {overlap:.4e} near ({x:.4e}, {y:.4e}), \
+         more than half the rounding length ({limit:.4e}); the blocks are being driven through each other — \
+         lower FRACTION, the loads or velocities, or raise the contact stiffness or ROUND"
+    )]
+    Overlap { cycle: u64, block1: u32, block2: u32, overlap: f64, limit: f64, x: f64, y: f64 },
+    #[error("non-finite value at cycle {cycle}: block {block} has {what}; the run diverged — lower FRACTION")]
+    NonFinite { cycle: u64, block: u32, what: String },
+    #[error(
+        "energy growing without a source at cycle {cycle}: kinetic + strain energy {energy:.4e} exceeds the energy put in ({budget:.4e}); \
+         the explicit integration is unstable — lower FRACTION (now {frac}; the largest safe value is about {safe_frac:.3})"
+    )]
+    EnergyGrowth { cycle: u64, energy: f64, budget: f64, frac: f64, safe_frac: f64 },
+    #[error("cannot cycle: {0}")]
+    Setup(String),
+}
+
+pub trait Backend {
+    /// A one-line description: backend, adapter, precision.
+    fn describe(&self) -> String;
+
+    /// Runs `cycles` cycles of the explicit scheme on `model`, calling `progress(done)` now and
+    /// then. `model.timestep` is set by the caller. On error the model is left at its last good
+    /// state.
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError>;
+}

@@ -1,1 +1,381 @@
-//! exec
+//! The command executor: runs a parsed deck against a backend, printing the run log in the layout
+//! of UDEC 1.2 (`)` echo, "INITIAL TIMESTEP", "CURRENT CYCLE COUNT", PRINT tables).
+//!
+//! The executor owns the model and all topology commands (BLOCK, SPLIT, DELETE, …); the backend
+//! only cycles. It does not know which backend runs.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crate::backend::{Backend, CycleError};
+use crate::deck::{Command, DampMode, DeckError, Located, PrintItem, Range};
+use crate::model::split::split_line;
+use crate::model::Model;
+use crate::output;
+use crate::output::plot::PlotSettings;
+use crate::output::restart::SaveFile;
+
+/// The file a SAVE or RESTART without a name uses, in the output folder.
+pub const DEFAULT_SAVE_FILE: &str = "blockdem.sav";
+
+/// Why a run stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Input(#[from] DeckError),
+    #[error("{file}:{line}: not supported yet: {what}")]
+    Unsupported { file: String, line: usize, what: String },
+    #[error("{file}:{line}: {source}")]
+    Numerical {
+        file: String,
+        line: usize,
+        #[source]
+        source: CycleError,
+    },
+    #[error("{file}:{line}: {message}")]
+    Command { file: String, line: usize, message: String },
+}
+
+impl RunError {
+    /// True when the run failed in the numerics (the model then holds the last good state).
+    pub fn is_numerical(&self) -> bool {
+        matches!(self, RunError::Numerical { .. })
+    }
+}
+
+/// Settings of a run that do not come from the deck.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Folder for PLOT files and SAVE files named without a folder.
+    pub out_dir: PathBuf,
+    /// Show a progress bar on long CYCLE commands.
+    pub progress: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions { out_dir: PathBuf::from("."), progress: false }
+    }
+}
+
+pub struct Executor<'a> {
+    pub model: Model,
+    backend: Box<dyn Backend + 'a>,
+    log: Box<dyn Write + 'a>,
+    options: RunOptions,
+    plot: PlotSettings,
+    plot_count: usize,
+    file: String,
+}
+
+impl<'a> Executor<'a> {
+    pub fn new(backend: Box<dyn Backend + 'a>, log: Box<dyn Write + 'a>, options: RunOptions, file: &str) -> Self {
+        Executor { model: Model::default(), backend, log, options, plot: PlotSettings::default(), plot_count: 0, file: file.to_string() }
+    }
+
+    /// Runs the commands in order until STOP, END or an error.
+    pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
+        for cmd in commands {
+            self.echo(&format!("){}", cmd.source));
+            let done = self.execute(cmd)?;
+            if done {
+                break;
+            }
+        }
+        let _ = self.log.flush();
+        Ok(())
+    }
+
+    fn echo(&mut self, line: &str) {
+        let _ = writeln!(self.log, "{line}");
+    }
+
+    fn command_error(&self, cmd: &Located, message: impl Into<String>) -> RunError {
+        RunError::Command { file: self.file.clone(), line: cmd.line, message: message.into() }
+    }
+
+    fn unsupported(&self, cmd: &Located, what: &str) -> RunError {
+        RunError::Unsupported { file: self.file.clone(), line: cmd.line, what: what.to_string() }
+    }
+
+    fn resolve(&self, name: &Option<String>) -> PathBuf {
+        let name = name.as_deref().unwrap_or(DEFAULT_SAVE_FILE);
+        let p = Path::new(name);
+        if p.is_absolute() || p.components().count() > 1 {
+            p.to_path_buf()
+        } else {
+            self.options.out_dir.join(p)
+        }
+    }
+
+    fn in_range(&self, r: &Range) -> Vec<usize> {
+        self.model.blocks_in_range(r.x1, r.x2, r.y1, r.y2)
+    }
+
+    /// Executes one command; returns true when the run should stop (STOP, END).
+    fn execute(&mut self, cmd: &Located) -> Result<bool, RunError> {
+        match &cmd.command {
+            Command::Start => {
+                self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+                self.echo("THIS IS A START RUN");
+            }
+            Command::Restart { file } => {
+                let path = self.resolve(file);
+                let saved = output::restart::load(&path).map_err(|e| self.command_error(cmd, format!("cannot restart from {}: {e}", path.display())))?;
+                self.model = saved.model;
+                self.plot = saved.plot;
+                self.plot_count = saved.plot_count;
+                self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+                self.echo(&format!("THIS IS A RESTART RUN (FROM {}, CYCLE {})", path.display(), self.model.cycle));
+            }
+            Command::Stop | Command::End => return Ok(true),
+            Command::Block { material, constitutive, corners } => {
+                self.model
+                    .add_block(corners, material.unwrap_or(1), constitutive.unwrap_or(1), None)
+                    .map_err(|e| self.command_error(cmd, format!("BLOCK: {e}")))?;
+            }
+            Command::Change { range, to, material, constitutive } => {
+                if let Some(to) = to {
+                    let what = match to {
+                        crate::deck::Deformability::Sdef => "CHANGE SDEF (simply-deformable blocks)",
+                        crate::deck::Deformability::Fdef => "CHANGE FDEF (fully-deformable blocks)",
+                    };
+                    return Err(self.unsupported(cmd, what));
+                }
+                for b in self.in_range(range) {
+                    if let Some(m) = material {
+                        self.model.blocks[b].material = *m;
+                    }
+                    if let Some(c) = constitutive {
+                        self.model.blocks[b].constitutive = *c;
+                    }
+                }
+                self.model.recompute_mass_properties();
+            }
+            Command::Cycle { n } => self.cycle(cmd, *n)?,
+            Command::Damping { fcrit, freq, mode } => {
+                // Rayleigh damping with its minimum ξ at the centre frequency ω = 2πf:
+                // α = ξω (mass-proportional), β = ξ/ω (stiffness-proportional), so that
+                // ξ(ω) = ½(α/ω + βω) equals fcrit there. MASS and STIFFNESS drop one term, as
+                // UDEC 1.2 did ("STIFFNESS-DAMPING TERM SET TO ZERO").
+                let omega = 2.0 * std::f64::consts::PI * freq;
+                let (alpha, beta) = (fcrit * omega, fcrit / omega);
+                match mode {
+                    DampMode::Full => {
+                        self.model.damping.alpha = alpha;
+                        self.model.damping.beta = beta;
+                    }
+                    DampMode::Mass => {
+                        self.model.damping.alpha = alpha;
+                        self.model.damping.beta = 0.0;
+                        self.echo("STIFFNESS-DAMPING TERM SET TO ZERO");
+                    }
+                    DampMode::Stiffness => {
+                        self.model.damping.alpha = 0.0;
+                        self.model.damping.beta = beta;
+                        self.echo("MASS-DAMPING TERM SET TO ZERO");
+                    }
+                    DampMode::Internal => {
+                        self.model.damping.alpha_internal = alpha;
+                        self.echo("NOTE - ONLY MASS-DAMPING USED");
+                    }
+                }
+            }
+            Command::Delete { range } => {
+                let gone = self.in_range(range);
+                self.model.remove_blocks(&gone);
+            }
+            Command::Dump { .. } => {
+                output::dump::dump(&self.model, &mut self.log).map_err(|e| self.command_error(cmd, format!("DUMP: {e}")))?;
+            }
+            Command::Fix { range } => {
+                for b in self.in_range(range) {
+                    let blk = &mut self.model.blocks[b];
+                    blk.fixed = true;
+                    blk.velocity = [0.0, 0.0];
+                    blk.angular_velocity = 0.0;
+                }
+            }
+            Command::Free { range } => {
+                for b in self.in_range(range) {
+                    self.model.blocks[b].fixed = false;
+                }
+            }
+            Command::Fraction { f } => self.model.frac = *f,
+            Command::Fluid { .. } => return Err(self.unsupported(cmd, "FLUID (fluid flow in joints and domains)")),
+            Command::Generate { .. } => return Err(self.unsupported(cmd, "GENERATE (zoning of fully-deformable blocks)")),
+            Command::PFix { .. } => return Err(self.unsupported(cmd, "PFIX (domain pressures)")),
+            Command::PFree { .. } => return Err(self.unsupported(cmd, "PFREE (domain pressures)")),
+            Command::Gravity { g } => self.model.gravity = *g,
+            Command::Link { flying, anchor } => {
+                let find = |p: [f64; 2]| (0..self.model.blocks.len()).find(|&b| crate::model::geometry::point_in_polygon(p, &self.model.corner_positions(b)));
+                let f = find(*flying).ok_or_else(|| self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the flying block", flying[0], flying[1])))?;
+                let a = find(*anchor).ok_or_else(|| self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the linking block", anchor[0], anchor[1])))?;
+                if f == a {
+                    return Err(self.command_error(cmd, "LINK: both points lie in the same block"));
+                }
+                // Contact detection here searches every block's neighbourhood each update, so a
+                // flying block is never lost; the link is kept and printed (PRINT LIST), as the
+                // virtual contact of UDEC 1.2 was.
+                self.model.links.push(crate::model::Link { flying: f as u32, anchor: a as u32 });
+            }
+            Command::Load { range, force } => {
+                for b in self.in_range(range) {
+                    self.model.blocks[b].load = *force;
+                }
+            }
+            Command::Plot { options } => {
+                self.plot_count += 1;
+                std::fs::create_dir_all(&self.options.out_dir).map_err(|e| self.command_error(cmd, format!("PLOT: cannot create {}: {e}", self.options.out_dir.display())))?;
+                let files = output::plot::plot(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count)
+                    .map_err(|e| self.command_error(cmd, format!("PLOT: {e}")))?;
+                self.echo(&format!("PLOT WRITTEN TO {} AND {}", files[0].display(), files[1].display()));
+            }
+            Command::Print { items } => {
+                for item in items {
+                    let r = match item {
+                        PrintItem::Blocks => output::print::print_blocks(&self.model, &mut self.log),
+                        PrintItem::Contacts => output::print::print_contacts(&self.model, &mut self.log),
+                        PrintItem::Corners => output::print::print_corners(&self.model, &mut self.log),
+                        PrintItem::List => output::print::print_block_lists(&self.model, &mut self.log),
+                        PrintItem::Energy => self.print_energy(),
+                        PrintItem::Domains => return Err(self.unsupported(cmd, "PRINT DOMAINS (fluid domains)")),
+                        PrintItem::DList => return Err(self.unsupported(cmd, "PRINT DLIST (domain linked lists)")),
+                        PrintItem::Flows => return Err(self.unsupported(cmd, "PRINT FLOWS (fluid flow)")),
+                    };
+                    r.map_err(|e| self.command_error(cmd, format!("PRINT: {e}")))?;
+                }
+            }
+            Command::Property { material, values } => {
+                use crate::deck::PropKey::*;
+                if *material == 0 || *material as usize > crate::model::MAX_MATERIALS {
+                    return Err(self.command_error(cmd, format!("PROPERTY: material number must be 1 to {}, found {material}", crate::model::MAX_MATERIALS)));
+                }
+                let m = &mut self.model.materials[*material as usize - 1];
+                for &(key, v) in values {
+                    match key {
+                        Bulk => m.bulk = v,
+                        Shear => m.shear = v,
+                        Density => m.density = v,
+                        Kn => m.kn = v,
+                        Ks => m.ks = v,
+                        Cohesion => m.cohesion = v,
+                        Friction => m.friction = v,
+                        Jkn => m.jkn = v,
+                        Jks => m.jks = v,
+                        Jcohesion => m.jcohesion = v,
+                        Jfriction => m.jfriction = v,
+                        Tf => m.tf = v,
+                        Jperm => m.jperm = v,
+                        Cperm => m.cperm = v,
+                        Azero => m.azero = v,
+                        Ares => m.ares = v,
+                    }
+                }
+                self.model.recompute_mass_properties();
+            }
+            Command::Round { d } => self.model.set_round(*d),
+            Command::Save { file } => {
+                let path = self.resolve(file);
+                if let Some(dir) = path.parent() {
+                    let _ = std::fs::create_dir_all(dir);
+                }
+                let save = SaveFile { model: self.model.clone(), plot: self.plot, plot_count: self.plot_count };
+                output::restart::save(&path, &save).map_err(|e| self.command_error(cmd, format!("SAVE: {e}")))?;
+                self.echo(&format!("STATE SAVED TO {}", path.display()));
+            }
+            Command::Split { from, to, material, constitutive } => {
+                let outcome = split_line(&mut self.model, *from, *to, *material, *constitutive);
+                for (id, why) in &outcome.rejected {
+                    self.echo(&format!("SPLIT REJECTED FOR BLOCK {id}: {why}"));
+                }
+            }
+            Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
+            Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],
+            Command::Velocity { range, velocity, angular } => {
+                for b in self.in_range(range) {
+                    let blk = &mut self.model.blocks[b];
+                    if !blk.fixed {
+                        blk.velocity = *velocity;
+                        blk.angular_velocity = angular.unwrap_or(0.0);
+                    }
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    fn print_energy(&mut self) -> std::io::Result<()> {
+        let e = self.model.energies();
+        let f = output::format::fmt_e;
+        writeln!(self.log)?;
+        writeln!(self.log, "ENERGY")?;
+        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY AND LOADS {}", f(e.kinetic), f(e.strain), f(e.external_work))
+    }
+
+    /// CYCLE n: checks the model can run, sets the time step, runs the backend.
+    fn cycle(&mut self, cmd: &Located, n: u64) -> Result<(), RunError> {
+        if self.model.blocks.is_empty() {
+            return Err(self.command_error(cmd, "CYCLE: there are no blocks (give a BLOCK command first)"));
+        }
+        self.model.recompute_mass_properties();
+        for b in &self.model.blocks {
+            let mat = self.model.material(b.material);
+            if !(b.mass > 0.0) {
+                return Err(self.command_error(cmd, format!("CYCLE: block {} has no mass: material {} has no density (PROPERTY MAT={} DENSITY=…)", b.id, b.material, b.material)));
+            }
+            if !(mat.kn > 0.0 && mat.ks > 0.0) {
+                return Err(self.command_error(cmd, format!("CYCLE: material {} of block {} needs contact stiffnesses KN and KS", b.material, b.id)));
+            }
+        }
+        for c in &self.model.corners {
+            if c.edge_material != 0 {
+                let mat = self.model.material(c.edge_material);
+                if !(mat.kn > 0.0 && mat.ks > 0.0) {
+                    return Err(self.command_error(cmd, format!("CYCLE: joint material {} (from SPLIT MAT=) needs contact stiffnesses KN and KS", c.edge_material)));
+                }
+            }
+        }
+        let dt = self.model.critical_timestep().ok_or_else(|| self.command_error(cmd, "CYCLE: cannot compute a time step (no block mass or contact stiffness)"))?;
+        self.model.timestep = dt;
+        self.echo(&format!("INITIAL TIMESTEP = {}", output::format::fmt_e(dt)));
+        let bar = (self.options.progress && n >= 1000).then(|| {
+            let pb = indicatif::ProgressBar::new(n);
+            pb.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {per_sec} eta {eta}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+            pb
+        });
+        let mut progress = |done: u64| {
+            if let Some(pb) = &bar {
+                pb.set_position(done);
+            }
+        };
+        let result = self.backend.run(&mut self.model, n, &mut progress);
+        if let Some(pb) = bar {
+            pb.finish_and_clear();
+        }
+        let report = result.map_err(|source| RunError::Numerical { file: self.file.clone(), line: cmd.line, source })?;
+        for c in &report.cracks {
+            self.echo(&format!(
+                "BLOCK {} CRACKED AT CYCLE {} (POINT-LOAD VALUE {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
+                c.block,
+                c.cycle,
+                output::format::fmt_e(c.value),
+                c.new_block,
+                output::format::fmt_e(c.from[0]),
+                output::format::fmt_e(c.from[1]),
+                output::format::fmt_e(c.to[0]),
+                output::format::fmt_e(c.to[1])
+            ));
+        }
+        for (cycle, dt) in &report.timestep_changes {
+            self.echo(&format!("TIMESTEP REDUCED TO {} AT CYCLE {cycle} (A LIGHTER BLOCK WAS CREATED)", output::format::fmt_e(*dt)));
+        }
+        self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle));
+        Ok(())
+    }
+
+    /// The backend's description, for the run log.
+    pub fn backend_description(&self) -> String {
+        self.backend.describe()
+    }
+}

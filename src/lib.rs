@@ -14,6 +14,7 @@
 //! | [`backend`] | the `Backend` trait the executor drives |
 //! | [`exec`] | the command executor: runs a deck against a backend |
 //! | [`output`] | PRINT tables, PLOT (PNG/SVG), state JSON, SAVE/RESTART files |
+//! | [`scenes`] | decks shared by the tests, benchmarks and verification |
 
 pub mod backend;
 pub mod cpu;
@@ -21,4 +22,5 @@ pub mod deck;
 pub mod exec;
 pub mod model;
 pub mod output;
+pub mod scenes;
 pub mod topology;

@@ -12,6 +12,7 @@
 
 pub mod geometry;
 pub mod split;
+pub mod timestep;
 
 use serde::{Deserialize, Serialize};
 

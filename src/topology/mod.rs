@@ -1,1 +1,11 @@
-//! topology
+//! Stage 7, CPU only: topology. Contacts are created and dropped here, blocks cracked, and the
+//! per-block adjacency lists the gather walks are rebuilt — always between cycles, never inside a
+//! kernel (DESIGN.md §1, STYLE.md item 6).
+
+pub mod adjacency;
+pub mod cracking;
+pub mod detect;
+
+pub use adjacency::Adjacency;
+pub use cracking::{find_point_load_crack, apply_crack, PointLoadCrack};
+pub use detect::update_contacts;

@@ -1,0 +1,257 @@
+//! Stage 4: contact kinematics and the force–displacement law (SL-85-1 eqs. 13–20), and the
+//! geometry of a rounded corner against a rounded block boundary (DESIGN.md §4).
+//!
+//! A contact is a corner of block 1 (a circle of radius r about `circle`) against one *feature* of
+//! block 2's rounded boundary: the arc of corner k (feature 2k) or the straight part of the edge
+//! from corner k to k+1 (feature 2k+1). Because every convex corner is rounded, the normal turns
+//! smoothly as a contact point slides round a corner (report ¶20), and "edge-to-edge" contact is
+//! simply two corner–edge contacts, one at each end of the touching length.
+
+use crate::model::{Contact, ContactKind, Corner, Damping, Feature, Material};
+
+/// Where a corner circle meets a block boundary: the feature, the gap between the two rounded
+/// surfaces (overlap negative), the unit normal from block 2 into block 1 and the contact point,
+/// taken midway through the overlap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CornerContactGeometry {
+    pub feature: Feature,
+    pub kind: ContactKind,
+    pub gap: f64,
+    pub normal: [f64; 2],
+    pub point: [f64; 2],
+    /// Unsigned distance from the circle centre to the feature's curve (the selection key).
+    pub distance: f64,
+}
+
+#[inline]
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+#[inline]
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+#[inline]
+fn norm(a: [f64; 2]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// Distance and outward normal from the circle centre `c` to feature `f` of a block whose corners
+/// (counter-clockwise) are `corners`. Returns (signed distance from the feature's surface, unsigned
+/// distance used to rank features, outward normal, whether `c` lies in the feature's own region).
+///
+/// An edge feature's region is the slab over its straight part; an arc's region is the wedge
+/// between the outward normals of its two edges. Outside its region a feature is measured from
+/// its nearer end point, so every feature has a finite, continuous distance and the nearest one
+/// is the closest part of the boundary.
+#[inline]
+fn feature_distance(corners: &[Corner], f: Feature, c: [f64; 2]) -> (f64, f64, [f64; 2], bool) {
+    let n = corners.len();
+    let k = (f / 2) as usize % n;
+    if f % 2 == 1 {
+        // Straight part of edge k → k+1, between the two tangent points.
+        let p0 = corners[k].position;
+        let p1 = corners[(k + 1) % n].position;
+        let e = sub(p1, p0);
+        let len = norm(e);
+        let u = [e[0] / len, e[1] / len];
+        let normal = [u[1], -u[0]]; // outward for a counter-clockwise outline
+        let ta = [p0[0] + u[0] * corners[k].round, p0[1] + u[1] * corners[k].round];
+        let straight = len - corners[k].round - corners[(k + 1) % n].round;
+        let rel = sub(c, ta);
+        let s = dot(rel, u);
+        if s >= 0.0 && s <= straight {
+            let d = dot(rel, normal);
+            (d, d.abs(), normal, true)
+        } else {
+            let s = s.clamp(0.0, straight.max(0.0));
+            let x = [ta[0] + u[0] * s, ta[1] + u[1] * s];
+            let r = sub(c, x);
+            let d = norm(r);
+            let nrm = if d > 0.0 { [r[0] / d, r[1] / d] } else { normal };
+            (d, d, nrm, false)
+        }
+    } else {
+        // Arc of corner k: a circle of radius `radius` about `circle`, spanning the outward normals
+        // of the edges k−1 → k and k → k+1.
+        let ck = &corners[k];
+        let pm = corners[(k + n - 1) % n].position;
+        let pp = corners[(k + 1) % n].position;
+        let e0 = sub(ck.position, pm);
+        let e1 = sub(pp, ck.position);
+        let n0 = {
+            let l = norm(e0);
+            [e0[1] / l, -e0[0] / l]
+        };
+        let n1 = {
+            let l = norm(e1);
+            [e1[1] / l, -e1[0] / l]
+        };
+        let r = sub(c, ck.circle);
+        let dist_c = norm(r);
+        let dir = if dist_c > 0.0 { [r[0] / dist_c, r[1] / dist_c] } else { [n0[0] + n1[0], n0[1] + n1[1]] };
+        // Inside the wedge from n0 to n1 (turning counter-clockwise, less than π for a convex
+        // corner): cross(n0, dir) ≥ 0 and cross(dir, n1) ≥ 0.
+        let convex = n0[0] * n1[1] - n0[1] * n1[0] > 0.0;
+        let in_wedge = convex && (n0[0] * dir[1] - n0[1] * dir[0]) >= 0.0 && (dir[0] * n1[1] - dir[1] * n1[0]) >= 0.0;
+        if in_wedge {
+            let d = dist_c - ck.radius;
+            (d, d.abs(), dir, true)
+        } else {
+            // Nearest end of the arc: one of its tangent points.
+            let t0 = [ck.circle[0] + n0[0] * ck.radius, ck.circle[1] + n0[1] * ck.radius];
+            let t1 = [ck.circle[0] + n1[0] * ck.radius, ck.circle[1] + n1[1] * ck.radius];
+            let (r0, r1) = (sub(c, t0), sub(c, t1));
+            let (d0, d1) = (norm(r0), norm(r1));
+            let (d, rr, fallback) = if d0 <= d1 { (d0, r0, n0) } else { (d1, r1, n1) };
+            let nrm = if d > 0.0 { [rr[0] / d, rr[1] / d] } else { fallback };
+            (d, d, nrm, false)
+        }
+    }
+}
+
+/// Builds the contact geometry from a feature's measurement.
+#[inline]
+fn geometry_from(f: Feature, signed: f64, unsigned: f64, normal: [f64; 2], c: [f64; 2], r: f64) -> CornerContactGeometry {
+    let gap = signed - r;
+    // Midway between block 1's surface point (c − n r) and block 2's (c − n (r + gap)).
+    let depth = r + 0.5 * gap;
+    CornerContactGeometry {
+        feature: f,
+        kind: if f % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge },
+        gap,
+        normal,
+        point: [c[0] - normal[0] * depth, c[1] - normal[1] * depth],
+        distance: unsigned,
+    }
+}
+
+/// Ranks two candidate features: nearer wins; on a tie (within round-off) an arc wins, so two
+/// aligned corners (a column of equal blocks) meet as one corner–corner contact.
+#[inline]
+fn better(candidate: (f64, bool, Feature), best: (f64, bool, Feature)) -> bool {
+    let tol = 1e-9 * (1.0 + best.0.abs());
+    if candidate.0 < best.0 - tol {
+        return true;
+    }
+    if candidate.0 <= best.0 + tol {
+        // Prefer a feature whose own region holds the centre, then an arc.
+        if candidate.1 != best.1 {
+            return candidate.1;
+        }
+        return candidate.2 % 2 == 0 && best.2 % 2 == 1;
+    }
+    false
+}
+
+/// Full search: the nearest feature of the whole boundary of a block (topology stage).
+pub fn nearest_feature(corners: &[Corner], c: [f64; 2], r: f64) -> CornerContactGeometry {
+    let nf = 2 * corners.len() as Feature;
+    let mut best: Option<((f64, bool, Feature), (f64, f64, [f64; 2]))> = None;
+    for f in 0..nf {
+        let (s, u, nrm, inside) = feature_distance(corners, f, c);
+        let key = (u, inside, f);
+        if best.is_none_or(|(b, _)| better(key, b)) {
+            best = Some((key, (s, u, nrm)));
+        }
+    }
+    let ((_, _, f), (s, u, nrm)) = best.expect("a block has at least three corners");
+    geometry_from(f, s, u, nrm, c, r)
+}
+
+/// Local search: the nearest feature among `feature` and its two neighbours on either side, the
+/// per-cycle update of a contact whose point slides along the boundary (stage 4).
+pub fn track_feature(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
+    let nf = 2 * corners.len() as Feature;
+    let mut best: Option<((f64, bool, Feature), (f64, f64, [f64; 2]))> = None;
+    for step in 0..5 {
+        let f = (feature + nf + step - 2) % nf;
+        let (s, u, nrm, inside) = feature_distance(corners, f, c);
+        let key = (u, inside, f);
+        if best.is_none_or(|(b, _)| better(key, b)) {
+            best = Some((key, (s, u, nrm)));
+        }
+    }
+    let ((_, _, f), (s, u, nrm)) = best.expect("five candidates");
+    geometry_from(f, s, u, nrm, c, r)
+}
+
+/// Kinematic state of a block at the contact stage.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockMotion {
+    pub centroid: [f64; 2],
+    pub velocity: [f64; 2],
+    pub angular_velocity: f64,
+}
+
+impl BlockMotion {
+    /// Velocity of the material point at `p` (eq. 11 in two dimensions: v + ω × r).
+    #[inline]
+    pub fn velocity_at(&self, p: [f64; 2]) -> [f64; 2] {
+        let r = sub(p, self.centroid);
+        [self.velocity[0] - self.angular_velocity * r[1], self.velocity[1] + self.angular_velocity * r[0]]
+    }
+}
+
+/// Force–displacement law for one contact whose geometry (gap, normal, point) is already current
+/// (eqs. 13–20). `active` is false for the mirror copy of a corner–corner contact, which carries
+/// no force so that the touch is counted once.
+///
+/// - Normal: eq. (16) integrated exactly, Fn = −kn·gap, since the rounded geometry gives the gap
+///   itself; tension is allowed only on an intact (bonded) contact and only up to the cohesion.
+/// - Shear: eq. (17) incrementally, ΔFs = −ks·Δus with Δus = v_s Δt; in 2D the shear force is a
+///   scalar along the current tangent, so the rotation correction of eq. (17) is implicit.
+/// - Coulomb limit, eq. (20): |Fs| ≤ c + μ Fn; once a contact slips or opens in tension it has lost
+///   its cohesion for good (residual strength).
+/// - Stiffness-proportional Rayleigh damping adds β·k·(relative velocity) dashpots, not stored.
+#[inline]
+pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion, b: &BlockMotion, damping: &Damping, dt: f64, active: bool) {
+    let n = contact.normal;
+    let t = [-n[1], n[0]];
+    let va = a.velocity_at(contact.point);
+    let vb = b.velocity_at(contact.point);
+    let vrel = sub(va, vb); // eq. (13): block 1 relative to block 2
+    let vn = dot(vrel, n); // eq. (14)
+    let vs = dot(vrel, t); // eq. (15)
+    contact.shear_displacement += vs * dt;
+    if !active {
+        contact.normal_force = 0.0;
+        contact.force = [0.0, 0.0];
+        return;
+    }
+    let mut fn_ = -mat.kn * contact.gap;
+    let cohesion = if contact.bonded { mat.cohesion } else { 0.0 };
+    if fn_ < 0.0 && (!contact.bonded || -fn_ > cohesion) {
+        // Open: no tension beyond the cohesion; an intact contact that breaks loses it for good.
+        contact.bonded = false;
+        contact.normal_force = 0.0;
+        contact.shear_force = 0.0;
+        contact.force = [0.0, 0.0];
+        return;
+    }
+    let mut fs = contact.shear_force - mat.ks * vs * dt; // eqs. (17), (19)
+    let limit = cohesion + mat.friction * fn_.max(0.0);
+    if fs.abs() > limit {
+        fs = fs.signum() * limit; // eq. (20)
+        if contact.bonded && mat.cohesion > 0.0 {
+            contact.bonded = false;
+        }
+    }
+    contact.normal_force = fn_;
+    contact.shear_force = fs;
+    let (mut dn, mut ds) = (0.0, 0.0);
+    if damping.beta > 0.0 && fn_ > 0.0 {
+        dn = -damping.beta * mat.kn * vn;
+        ds = -damping.beta * mat.ks * vs;
+    }
+    fn_ += dn;
+    let fs_total = fs + ds;
+    contact.force = [fn_ * n[0] + fs_total * t[0], fn_ * n[1] + fs_total * t[1]];
+}
+
+/// Whether a corner–corner contact is the counted one of its mirrored pair: the corner with the
+/// lower global index owns the touch.
+#[inline]
+pub fn owns_corner_corner(own_corner_global: u32, other_corner_global: u32) -> bool {
+    own_corner_global < other_corner_global
+}

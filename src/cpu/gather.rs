@@ -1,0 +1,27 @@
+//! Stage 6: each block sums the forces and moments of its contacts (eq. 12 in two dimensions,
+//! M = r × F), in the fixed order of its adjacency list, then adds gravity and its load. Forces are
+//! gathered, not scattered (DESIGN.md §2), so the sum is the same on every run and every backend.
+
+use crate::model::{Block, Contact};
+use crate::topology::Adjacency;
+
+/// Sums the forces acting on block `b`.
+#[inline]
+pub fn gather(b: usize, block: &mut Block, contacts: &[Contact], adjacency: &Adjacency, gravity: [f64; 2]) {
+    let mut fx = block.mass * gravity[0] + block.load[0];
+    let mut fy = block.mass * gravity[1] + block.load[1];
+    let mut m = 0.0;
+    let [cx, cy] = block.centroid;
+    for &entry in adjacency.entries(b) {
+        let contact = &contacts[(entry >> 1) as usize];
+        // Block 1 receives the contact force, block 2 its reaction (report ¶19).
+        let sign = if entry & 1 == 0 { 1.0 } else { -1.0 };
+        let [px, py] = contact.point;
+        let (gx, gy) = (sign * contact.force[0], sign * contact.force[1]);
+        fx += gx;
+        fy += gy;
+        m += (px - cx) * gy - (py - cy) * gx;
+    }
+    block.force = [fx, fy];
+    block.moment = m;
+}

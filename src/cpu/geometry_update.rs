@@ -1,0 +1,18 @@
+//! Stage 2: geometry update. A rigid block's corners and rounding-circle centres follow its
+//! centroid and rotation exactly: x = c + R(θ)·x_local (eq. 11 integrated without drift), so a
+//! rigid block never distorts however long it runs.
+
+use crate::model::{Block, Corner};
+
+/// Places the corners of one block in world coordinates.
+#[inline]
+pub fn geometry_update(block: &Block, corners: &mut [Corner]) {
+    let (s, c) = block.rotation.sin_cos();
+    let [cx, cy] = block.centroid;
+    for corner in corners {
+        let [lx, ly] = corner.local;
+        corner.position = [cx + c * lx - s * ly, cy + s * lx + c * ly];
+        let [qx, qy] = corner.circle_local;
+        corner.circle = [cx + c * qx - s * qy, cy + s * qx + c * qy];
+    }
+}

@@ -1,0 +1,45 @@
+//! Stage 1: the law of motion for rigid blocks (SL-85-1 eqs. 9–10 in two dimensions), integrated by
+//! central differences with mass-proportional Rayleigh damping:
+//!
+//!   v(t+Δt/2) = [v(t−Δt/2)·(1 − αΔt/2) + (ΣF/m)·Δt] / (1 + αΔt/2)
+//!
+//! which is UDEC's CON1/CON2 form (Appendix A, "Main Common Block Variables"). Velocities live at
+//! half steps, positions and forces at whole steps.
+
+use crate::model::Block;
+
+/// What one block's step did, for the update tolerance and the energy bookkeeping.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepOutcome {
+    /// Work done on the block by gravity and its load over this step.
+    pub external_work: f64,
+}
+
+/// Advances one free block by one step. Fixed blocks do not move (their velocity stays zero).
+/// `force` and `moment` are the sums gathered at the end of the previous cycle (stage 6), which
+/// already include gravity and load.
+#[inline]
+pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) -> StepOutcome {
+    if block.fixed {
+        block.velocity = [0.0, 0.0];
+        block.angular_velocity = 0.0;
+        return StepOutcome::default();
+    }
+    let con1 = 1.0 - 0.5 * alpha * dt;
+    let con2 = 1.0 / (1.0 + 0.5 * alpha * dt);
+    let inv_m = 1.0 / block.mass;
+    let vx = (block.velocity[0] * con1 + block.force[0] * inv_m * dt) * con2;
+    let vy = (block.velocity[1] * con1 + block.force[1] * inv_m * dt) * con2;
+    let w = (block.angular_velocity * con1 + block.moment / block.inertia * dt) * con2;
+    let (dx, dy, dtheta) = (vx * dt, vy * dt, w * dt);
+    block.velocity = [vx, vy];
+    block.angular_velocity = w;
+    block.centroid[0] += dx;
+    block.centroid[1] += dy;
+    block.rotation += dtheta;
+    // A corner moves at most |Δx| + |Δθ|·R: the displacement the update tolerance watches.
+    block.moved_since_update += (dx * dx + dy * dy).sqrt() + dtheta.abs() * block.radius;
+    let fx = block.mass * gravity[0] + block.load[0];
+    let fy = block.mass * gravity[1] + block.load[1];
+    StepOutcome { external_work: fx * dx + fy * dy }
+}

@@ -1,0 +1,111 @@
+//! The `blockdem` binary: exit status, error messages naming file and line, outputs.
+
+use std::process::Command;
+
+fn blockdem(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_blockdem")).args(args).output().expect("runs");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn temp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("blockdem-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write_deck(dir: &std::path::Path, text: &str) -> String {
+    let p = dir.join("deck.dat");
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn sample_1_runs_and_writes_plots_and_state() {
+    let dir = temp("sample1");
+    let deck = format!("{}/examples/udec1_point_load_cracking.dat", env!("CARGO_MANIFEST_DIR"));
+    let json = dir.join("state.json");
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", json.to_str().unwrap()]);
+    assert_eq!(code, 0, "stderr: {stderr}");
+    assert!(stdout.contains(")START"));
+    assert!(stdout.contains("BLOCK DATA"));
+    assert!(dir.join("plot_001.png").exists() && dir.join("plot_002.svg").exists());
+    let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(state["dim"], 2);
+    assert_eq!(state["cycle"], 600);
+    assert_eq!(state["blocks"].as_array().unwrap().len(), 6);
+}
+
+#[test]
+fn an_unknown_command_names_file_and_line_and_exits_nonzero() {
+    let dir = temp("unknown");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nFROBNICATE 1 2\nSTOP\n");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("{deck}:3")), "{stderr}");
+    assert!(stderr.to_lowercase().contains("frobnicate"), "{stderr}");
+}
+
+#[test]
+fn a_command_of_a_later_issue_stops_with_not_supported_yet() {
+    let dir = temp("unsupported");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nFLUID 1000 2E9\nCYCLE 10\n");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("not supported yet: FLUID"), "{stderr}");
+    assert!(stderr.contains(&format!("{deck}:4")), "{stderr}");
+}
+
+#[test]
+fn cycle_with_no_blocks_is_an_error_with_its_line() {
+    let dir = temp("noblocks");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nCYCLE 10\n");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("{deck}:3")) && stderr.contains("no blocks"), "{stderr}");
+}
+
+#[test]
+fn a_self_intersecting_block_is_an_error_with_its_line() {
+    let dir = temp("bowtie");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 1,1 1,0 0,1\n");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("{deck}:3")) && stderr.to_lowercase().contains("intersect"), "{stderr}");
+}
+
+#[test]
+fn an_overlap_beyond_half_the_rounding_stops_and_keeps_the_last_good_state() {
+    // A block fired at 200 m/s into a fixed one: the soft contact cannot stop it within d/2.
+    let dir = temp("overlap");
+    let deck = write_deck(
+        &dir,
+        "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 1.05,0 1.05,1 2.05,1 2.05,0\nFIX 1 3 0 1\n\
+         VELOCITY 0 1 0 1 200 0\nCYCLE 2000\n",
+    );
+    let json = dir.join("state.json");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", json.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("contact overlap too great") && stderr.contains("blocks 1 and 2") || stderr.contains("blocks 2 and 1"), "{stderr}");
+    assert!(dir.join("last_good.sav").exists(), "the last good state is saved");
+    let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for b in state["blocks"].as_array().unwrap() {
+        assert!(b["centroid"][0].as_f64().unwrap().is_finite());
+    }
+}
+
+#[test]
+fn an_unstable_fraction_is_caught_before_any_nan() {
+    // FRAC 5 is far above the stable limit of the central-difference scheme (≈ 0.5 here).
+    let dir = temp("unstable");
+    let deck = write_deck(
+        &dir,
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nFRAC 5\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 5000\n",
+    );
+    let json = dir.join("state.json");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", json.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("FRACTION") || stderr.contains("overlap"), "{stderr}");
+    let text = std::fs::read_to_string(&json).unwrap();
+    assert!(!text.contains("NaN") && !text.contains("null"), "the saved state holds no NaN");
+}
