@@ -10,6 +10,7 @@
 //! loops use indices; `Block::id` and `Contact::id` are stable numbers for PRINT that never change
 //! when other blocks are deleted.
 
+pub mod build;
 pub mod geometry;
 pub mod split;
 pub mod timestep;

@@ -1,0 +1,450 @@
+//! Creating, removing and re-rounding blocks (BLOCK, DELETE, ROUND; SL-85-1 Appendix A "Input
+//! Commands"), the per-cycle corner update, and the model's consistency check.
+//!
+//! Every function here keeps the storage invariant of [`Model`]: blocks own contiguous,
+//! non-overlapping corner ranges, stored counter-clockwise in the body frame, and every index held by
+//! a corner, contact or link points at a live entry.
+
+use super::geometry::{self, corner_rounding, polygon_properties};
+use super::{Block, BlockKind, Corner, Model, Tolerances};
+
+/// Why a block outline was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GeometryError {
+    #[error("a block needs at least 3 corners, {count} given")]
+    TooFewCorners { count: usize },
+    #[error("corner {index} of the block outline is not a finite number")]
+    NonFinite { index: usize },
+    #[error(
+        "corners {index} and {next} of the block outline are at the same place (zero-length edge)"
+    )]
+    RepeatedCorner { index: usize, next: usize },
+    #[error(
+        "the block outline crosses or touches itself; give the corners in order around the block"
+    )]
+    SelfIntersecting,
+    #[error("the block outline encloses no area (area {area:e}); are its corners collinear?")]
+    Degenerate { area: f64 },
+    #[error("{given} edge tags given for a block of {corners} corners")]
+    EdgeTagCount { given: usize, corners: usize },
+}
+
+/// Everything a new block takes over besides its outline: from the BLOCK command, or from the parent
+/// of a split.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BlockSeed {
+    pub id: u32,
+    pub kind: BlockKind,
+    pub material: u32,
+    pub constitutive: u32,
+    pub fixed: bool,
+    pub velocity: [f64; 2],
+    pub angular_velocity: f64,
+    pub load: [f64; 2],
+    pub moved_since_update: f64,
+}
+
+impl Model {
+    /// Creates a rigid block from its outline in world coordinates, in either orientation (the deck
+    /// gives it clockwise); it is stored counter-clockwise. `edge_tags[i]` = (joint material,
+    /// constitutive) of the edge from corner i to corner i + 1 of the GIVEN order (None: all 0, i.e.
+    /// "take the block's"). Mass and inertia use the material's current density (0 until PROPERTY
+    /// sets it; see [`Model::recompute_mass_properties`]). Returns the new block's index, which is
+    /// the last one.
+    pub fn add_block(
+        &mut self,
+        outline: &[[f64; 2]],
+        material: u32,
+        constitutive: u32,
+        edge_tags: Option<&[(u32, u32)]>,
+    ) -> Result<usize, GeometryError> {
+        let n = outline.len();
+        if n < 3 {
+            return Err(GeometryError::TooFewCorners { count: n });
+        }
+        if let Some(index) = outline
+            .iter()
+            .position(|p| !p[0].is_finite() || !p[1].is_finite())
+        {
+            return Err(GeometryError::NonFinite { index });
+        }
+        if let Some(index) = (0..n).find(|&i| outline[i] == outline[(i + 1) % n]) {
+            return Err(GeometryError::RepeatedCorner {
+                index,
+                next: (index + 1) % n,
+            });
+        }
+        if let Some(tags) = edge_tags {
+            if tags.len() != n {
+                return Err(GeometryError::EdgeTagCount {
+                    given: tags.len(),
+                    corners: n,
+                });
+            }
+        }
+        if !geometry::is_simple_polygon(outline) {
+            return Err(GeometryError::SelfIntersecting);
+        }
+        let props = polygon_properties(outline);
+        // Zero area within round-off: relative to the square of the outline's extent.
+        let extent = bbox_extent(outline);
+        if props.area.abs() <= 1e-12 * extent * extent {
+            return Err(GeometryError::Degenerate { area: props.area });
+        }
+
+        let mut pts = outline.to_vec();
+        let mut tags = edge_tags.map_or_else(|| vec![(0, 0); n], <[_]>::to_vec);
+        if props.area < 0.0 {
+            reverse_outline(&mut pts, &mut tags);
+        }
+        let id = self.next_block_id;
+        self.next_block_id += 1;
+        let seed = BlockSeed {
+            id,
+            kind: BlockKind::Rigid,
+            material,
+            constitutive,
+            fixed: false,
+            velocity: [0.0, 0.0],
+            angular_velocity: 0.0,
+            load: [0.0, 0.0],
+            moved_since_update: 0.0,
+        };
+        Ok(self.push_block(&pts, &tags, seed))
+    }
+
+    /// Appends a block from a counter-clockwise, simple world outline and its edge tags (tag i for
+    /// the edge from corner i to corner i + 1). Body frame: centroid origin, rotation 0.
+    pub(crate) fn push_block(
+        &mut self,
+        pts_ccw: &[[f64; 2]],
+        tags: &[(u32, u32)],
+        seed: BlockSeed,
+    ) -> usize {
+        debug_assert_eq!(pts_ccw.len(), tags.len());
+        let props = polygon_properties(pts_ccw);
+        let c = props.centroid;
+        let local: Vec<[f64; 2]> = pts_ccw.iter().map(|p| geometry::sub(*p, c)).collect();
+        let rounds = corner_rounding(&local, self.tol.round);
+        let density = self.material(seed.material).density;
+        let b = self.blocks.len();
+        let corner_start = self.corners.len() as u32;
+        self.corners.extend(
+            local
+                .iter()
+                .zip(&rounds)
+                .zip(tags)
+                .map(|((l, r), t)| Corner {
+                    block: b as u32,
+                    local: *l,
+                    circle_local: r.circle,
+                    radius: r.radius,
+                    round: r.round,
+                    position: geometry::add(c, *l),
+                    circle: geometry::add(c, r.circle),
+                    edge_material: t.0,
+                    edge_constitutive: t.1,
+                }),
+        );
+        self.blocks.push(Block {
+            id: seed.id,
+            kind: seed.kind,
+            material: seed.material,
+            constitutive: seed.constitutive,
+            fixed: seed.fixed,
+            corner_start,
+            corner_count: pts_ccw.len() as u32,
+            area: props.area,
+            mass: density * props.area,
+            inertia: density * props.polar_moment,
+            centroid: c,
+            rotation: 0.0,
+            velocity: seed.velocity,
+            angular_velocity: seed.angular_velocity,
+            force: [0.0, 0.0],
+            moment: 0.0,
+            load: seed.load,
+            radius: local.iter().map(|l| geometry::norm(*l)).fold(0.0, f64::max),
+            moved_since_update: seed.moved_since_update,
+        });
+        b
+    }
+
+    /// Mass = density · area and inertia = density · polar moment of every block, from the current
+    /// materials (the executor calls this before cycling, after PROPERTY or CHANGE).
+    pub fn recompute_mass_properties(&mut self) {
+        for b in 0..self.blocks.len() {
+            let local: Vec<[f64; 2]> = self.block_corners(b).iter().map(|c| c.local).collect();
+            let props = polygon_properties(&local);
+            let density = self.material(self.blocks[b].material).density;
+            let blk = &mut self.blocks[b];
+            blk.area = props.area;
+            blk.mass = density * props.area;
+            blk.inertia = density * props.polar_moment;
+        }
+    }
+
+    /// Removes the blocks at `indices` (any order, duplicates allowed), their corners, and every
+    /// contact and link that involves one of them. The remaining blocks and corners keep their
+    /// relative order and are compacted, so indices above a removed one shift down; every index
+    /// stored in corners, contacts and links is remapped. Ids never change.
+    pub fn remove_blocks(&mut self, indices: &[usize]) {
+        if indices.is_empty() {
+            return;
+        }
+        let nb = self.blocks.len();
+        let mut removed = vec![false; nb];
+        for &i in indices {
+            if i < nb {
+                removed[i] = true;
+            }
+        }
+        // Old block index → new one (u32::MAX for removed blocks).
+        let mut block_map = vec![u32::MAX; nb];
+        let mut next = 0u32;
+        for (i, gone) in removed.iter().enumerate() {
+            if !gone {
+                block_map[i] = next;
+                next += 1;
+            }
+        }
+        // Old corner index → new one, compacting corners in their current order.
+        let mut corner_map = vec![u32::MAX; self.corners.len()];
+        let mut kept_corners = Vec::with_capacity(self.corners.len());
+        for (ci, corner) in self.corners.iter().enumerate() {
+            let nbk = block_map[corner.block as usize];
+            if nbk != u32::MAX {
+                corner_map[ci] = kept_corners.len() as u32;
+                kept_corners.push(Corner {
+                    block: nbk,
+                    ..*corner
+                });
+            }
+        }
+        let mut new_blocks = Vec::with_capacity(next as usize);
+        for (i, blk) in self.blocks.drain(..).enumerate() {
+            if !removed[i] {
+                let corner_start = corner_map[blk.corner_start as usize];
+                new_blocks.push(Block {
+                    corner_start,
+                    ..blk
+                });
+            }
+        }
+        self.blocks = new_blocks;
+        self.corners = kept_corners;
+        self.contacts.retain_mut(|c| {
+            let (b1, b2) = (block_map[c.block1 as usize], block_map[c.block2 as usize]);
+            if b1 == u32::MAX || b2 == u32::MAX {
+                return false;
+            }
+            c.block1 = b1;
+            c.block2 = b2;
+            c.corner = corner_map[c.corner as usize];
+            true
+        });
+        self.links.retain_mut(|l| {
+            let (f, a) = (block_map[l.flying as usize], block_map[l.anchor as usize]);
+            if f == u32::MAX || a == u32::MAX {
+                return false;
+            }
+            l.flying = f;
+            l.anchor = a;
+            true
+        });
+    }
+
+    /// World position of block b's corners and rounding-circle centres:
+    /// x = centroid + R(rotation) · local (stage 2 of the cycle, DESIGN.md §1).
+    #[inline]
+    pub fn update_corner_positions(&mut self, b: usize) {
+        let blk = &self.blocks[b];
+        let (s, c) = blk.rotation.sin_cos();
+        let [cx, cy] = blk.centroid;
+        let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
+        for k in &mut self.corners[range] {
+            let [lx, ly] = k.local;
+            k.position = [cx + c * lx - s * ly, cy + s * lx + c * ly];
+            let [rx, ry] = k.circle_local;
+            k.circle = [cx + c * rx - s * ry, cy + s * rx + c * ry];
+        }
+    }
+
+    /// The current world outline of block b, counter-clockwise, computed from centroid and rotation
+    /// (not from the cached `Corner::position`).
+    pub fn world_outline(&self, b: usize) -> Vec<[f64; 2]> {
+        let blk = &self.blocks[b];
+        self.block_corners(b)
+            .iter()
+            .map(|k| geometry::add(blk.centroid, geometry::rotate(k.local, blk.rotation)))
+            .collect()
+    }
+
+    /// ROUND d: sets the rounding length and the tolerances derived from it, and re-rounds every
+    /// corner of every block in its body frame.
+    pub fn set_round(&mut self, d: f64) {
+        self.tol = Tolerances::from_round(d);
+        for b in 0..self.blocks.len() {
+            let blk = &self.blocks[b];
+            let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
+            let local: Vec<[f64; 2]> = self.corners[range.clone()]
+                .iter()
+                .map(|c| c.local)
+                .collect();
+            for (k, r) in self.corners[range]
+                .iter_mut()
+                .zip(corner_rounding(&local, d))
+            {
+                k.circle_local = r.circle;
+                k.radius = r.radius;
+                k.round = r.round;
+            }
+            self.update_corner_positions(b);
+        }
+    }
+
+    /// Consistency check of the whole model (STYLE.md item 6): corner ranges in bounds, disjoint and
+    /// covering every corner; corners pointing back at their block; body-frame outlines
+    /// counter-clockwise with the stored area; finite state; unique block ids below
+    /// `next_block_id`; contact and link indices in range, between distinct blocks, with the contact
+    /// corner owned by block 1 and the feature on block 2. Returns the first problem found.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        let nb = self.blocks.len();
+        let mut ranges: Vec<(usize, usize, usize)> = Vec::with_capacity(nb);
+        let mut ids = std::collections::HashSet::with_capacity(nb);
+        for (b, blk) in self.blocks.iter().enumerate() {
+            let (s, n) = (blk.corner_start as usize, blk.corner_count as usize);
+            if n < 3 {
+                return Err(format!("block {b} (id {}) has {n} corners", blk.id));
+            }
+            if s + n > self.corners.len() {
+                return Err(format!(
+                    "block {b} (id {}) corner range {s}..{} out of bounds",
+                    blk.id,
+                    s + n
+                ));
+            }
+            if !ids.insert(blk.id) || blk.id >= self.next_block_id {
+                return Err(format!(
+                    "block {b}: id {} repeated or not below next_block_id",
+                    blk.id
+                ));
+            }
+            let scalars = [
+                blk.area,
+                blk.mass,
+                blk.inertia,
+                blk.rotation,
+                blk.angular_velocity,
+                blk.moment,
+            ];
+            let pairs = [blk.centroid, blk.velocity, blk.force, blk.load];
+            if !finite(&scalars) || !pairs.iter().all(|p| finite(p)) || !blk.radius.is_finite() {
+                return Err(format!("block {b} (id {}) has a non-finite value", blk.id));
+            }
+            if blk.area <= 0.0 || blk.mass < 0.0 || blk.inertia < 0.0 {
+                return Err(format!(
+                    "block {b} (id {}): area {} mass {} inertia {}",
+                    blk.id, blk.area, blk.mass, blk.inertia
+                ));
+            }
+            let corners = &self.corners[s..s + n];
+            for (k, c) in corners.iter().enumerate() {
+                if c.block as usize != b {
+                    return Err(format!(
+                        "corner {} belongs to block {b} but says block {}",
+                        s + k,
+                        c.block
+                    ));
+                }
+                let vals = [c.local, c.circle_local, c.position, c.circle];
+                if !vals.iter().all(|p| finite(p))
+                    || !c.radius.is_finite()
+                    || c.radius < 0.0
+                    || c.round < 0.0
+                {
+                    return Err(format!("corner {} of block {b} has a bad value", s + k));
+                }
+            }
+            let local: Vec<[f64; 2]> = corners.iter().map(|c| c.local).collect();
+            let area = geometry::signed_area(&local);
+            if (area - blk.area).abs() > 1e-9 * blk.area.max(blk.radius * blk.radius) {
+                return Err(format!(
+                    "block {b} (id {}): outline area {area} (clockwise if negative) ≠ stored {}",
+                    blk.id, blk.area
+                ));
+            }
+            ranges.push((s, n, b));
+        }
+        ranges.sort_unstable();
+        let mut covered = 0;
+        for &(s, n, b) in &ranges {
+            if s != covered {
+                return Err(format!("corner ranges overlap or leave a gap at corner {covered} (block {b} starts at {s})"));
+            }
+            covered = s + n;
+        }
+        if covered != self.corners.len() {
+            return Err(format!("corners {covered}.. belong to no block"));
+        }
+        for (i, c) in self.contacts.iter().enumerate() {
+            let (b1, b2) = (c.block1 as usize, c.block2 as usize);
+            if b1 >= nb || b2 >= nb || b1 == b2 {
+                return Err(format!(
+                    "contact {i} (id {}) joins blocks {b1} and {b2} of {nb}",
+                    c.id
+                ));
+            }
+            let blk1 = &self.blocks[b1];
+            let corner = c.corner as usize;
+            if corner < blk1.corner_start as usize
+                || corner >= (blk1.corner_start + blk1.corner_count) as usize
+            {
+                return Err(format!(
+                    "contact {i} (id {}): corner {corner} is not a corner of block {b1}",
+                    c.id
+                ));
+            }
+            if c.feature >= 2 * self.blocks[b2].corner_count {
+                return Err(format!(
+                    "contact {i} (id {}): feature {} beyond block {b2}",
+                    c.id, c.feature
+                ));
+            }
+            let vals = [c.gap, c.normal_force, c.shear_force, c.shear_displacement];
+            if !finite(&vals) || !finite(&c.point) || !finite(&c.normal) || !finite(&c.force) {
+                return Err(format!("contact {i} (id {}) has a non-finite value", c.id));
+            }
+        }
+        for (i, l) in self.links.iter().enumerate() {
+            if l.flying as usize >= nb || l.anchor as usize >= nb || l.flying == l.anchor {
+                return Err(format!(
+                    "link {i} joins blocks {} and {} of {nb}",
+                    l.flying, l.anchor
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Largest side of the outline's bounding box.
+pub(crate) fn bbox_extent(pts: &[[f64; 2]]) -> f64 {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in pts {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (hi[0] - lo[0]).max(hi[1] - lo[1])
+}
+
+/// Reverses an outline's orientation, keeping each edge's tag on the same edge: with q_k = p_{n−1−k},
+/// the edge q_k → q_{k+1} is the given edge p_{n−2−k} → p_{n−1−k}, i.e. tag index n−2−k (mod n).
+pub(crate) fn reverse_outline(pts: &mut [[f64; 2]], tags: &mut Vec<(u32, u32)>) {
+    let n = pts.len();
+    pts.reverse();
+    *tags = (0..n).map(|k| tags[(2 * n - 2 - k) % n]).collect();
+}
