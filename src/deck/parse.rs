@@ -1,7 +1,1027 @@
-//! Tokens → commands (stub; filled by the parser work).
+//! Tokens → commands: the second half of the deck reader.
+//!
+//! [`lexer::split`] has already cut the deck into logical commands (continuations joined,
+//! comments dropped) and tokens with their line and column. Here each command word is resolved,
+//! its parameters are read and checked against SL-85-1 Appendix A ("Input Commands"), and a
+//! [`Command`] comes out. The first error stops the reading and names the line and column of the
+//! offending token (or, when something is *missing*, the place just past the command's last
+//! token).
+//!
+//! # Abbreviations
+//!
+//! "Upper-case letters in a command or parameter must be typed; the remaining letters are
+//! optional." The manual's capitalisation clashes in places (`F` is printed for FIX, FRACTION's
+//! `FRA` and FREE's `FR` overlap, `P` is PRINT and PLOT and ...), so blockdem fixes the minimum
+//! prefix of every name as below. A typed word matches a name when it is a prefix of the full name
+//! and at least the minimum long; see [`lexer::lookup`] for how remaining ties are broken.
+//!
+//! | command | min | | command | min | | command | min |
+//! |---|---|---|---|---|---|---|---|
+//! | BLOCK | `B` | | FREE | `FR` | | PROPERTY | `PRO` |
+//! | CHANGE | `CH` | | GENERATE | `GE` | | RESTART | `R` |
+//! | CYCLE | `C` | | GRAVITY | `G` | | RSET | `RS` |
+//! | DAMPING | `D` | | LINK | `LI` | | ROUND | `RO` |
+//! | DELETE | `DE` | | LOAD | `L` | | SAVE | `SA` |
+//! | DUMP | `DU` | | PFIX | `PF` | | SPLIT | `SP` |
+//! | END | `E` | | PFREE | `PFR` | | START | `STA` |
+//! | FIX | `F` | | PLOT | `PL` | | STOP | `S` |
+//! | FRACTION | `FRA` | | PRINT | `P` | | VIEW | `V` |
+//! | FLUID | `FL` | | VELOCITY (extension) | `VE` | | WINDOW | `W` |
+//!
+//! Keywords:
+//!
+//! | command | keywords (minimum prefix) |
+//! |---|---|
+//! | PROPERTY | MATERIAL `M` (first), BULK `B` or `K`, G, DENSITY `D`, KN, KS, COHESION `C`, FRICTION `F`, JKN, JKS, JCOHESION `JC`, JFRICTION `JF`, TF `T`, JPERM `JP`, CPERM `CP`, AZERO `AZ`, ARES `AR` |
+//! | BLOCK, SPLIT | MATERIAL `M`, CONSTITUTIVE `CO` |
+//! | CHANGE | SDEF `S`, FDEF `F`, MATERIAL `M`, CONSTITUTIVE `CO` |
+//! | DAMPING | MASS `M`, STIFFNESS `S`, INTERNAL `I` |
+//! | GENERATE | AUTOMATIC `A`, MANUAL `M`, GRIDPOINTS `GR`, ZONES `Z` |
+//! | PFIX, PFREE | OUTER `O` |
+//! | PLOT | NOFIX `N`, ZONES `Z`, NC, VELOCITY `V` |
+//! | PRINT | BLOCKS `B`, CONTACTS `C`, CORNERS `COR`, DOMAINS `D`, LIST `L`, DLIST `DL`, FLOWS `F`, ENERGY `E` |
+//!
+//! # Choices beyond the manual
+//!
+//! * Parameters named i..n in the manual (`n`, `m`, `ix1`, zone triples) must be typed as
+//!   integers: "Integers must be given for parameters starting with i, j, k, l, m, n. Real numbers
+//!   may be given as integers, but not vice versa."
+//! * A selection range with x1 ≥ x2 or y1 ≥ y2 selects nothing (the manual's range is the open
+//!   x1 < x < x2); it is reported as an error since it is always a typing slip.
+//! * RSET poked a value into the 1985 main array at a raw address; it is always an error here.
+//! * A 3D (D3, Appendix B) deck is recognised by a BLOCK whose parenthesised groups hold three
+//!   numbers, or GRAVITY with three components, and refused with a message saying so.
+//! * Commands after END are not read. END itself is returned (the executor may ignore it).
+
+use super::command::*;
+use super::lexer::{self, lookup, name, Name, NumberError, Token};
 use super::{DeckError, Located};
 
+type Result<T> = std::result::Result<T, DeckError>;
+
+/// The command words.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Word {
+    Block,
+    Change,
+    Cycle,
+    Damping,
+    Delete,
+    Dump,
+    End,
+    Fix,
+    Fraction,
+    Fluid,
+    Free,
+    Generate,
+    Gravity,
+    Link,
+    Load,
+    PFix,
+    PFree,
+    Plot,
+    Print,
+    Property,
+    Restart,
+    RSet,
+    Round,
+    Save,
+    Split,
+    Start,
+    Stop,
+    View,
+    Window,
+    Velocity,
+}
+
+/// Command names and their minimum abbreviations (see the table in the module docs).
+const COMMANDS: &[Name<Word>] = &[
+    name("BLOCK", "B", Word::Block),
+    name("CHANGE", "CH", Word::Change),
+    name("CYCLE", "C", Word::Cycle),
+    name("DAMPING", "D", Word::Damping),
+    name("DELETE", "DE", Word::Delete),
+    name("DUMP", "DU", Word::Dump),
+    name("END", "E", Word::End),
+    name("FIX", "F", Word::Fix),
+    name("FLUID", "FL", Word::Fluid),
+    name("FRACTION", "FRA", Word::Fraction),
+    name("FREE", "FR", Word::Free),
+    name("GENERATE", "GE", Word::Generate),
+    name("GRAVITY", "G", Word::Gravity),
+    name("LINK", "LI", Word::Link),
+    name("LOAD", "L", Word::Load),
+    name("PFIX", "PF", Word::PFix),
+    name("PFREE", "PFR", Word::PFree),
+    name("PLOT", "PL", Word::Plot),
+    name("PRINT", "P", Word::Print),
+    name("PROPERTY", "PRO", Word::Property),
+    name("RESTART", "R", Word::Restart),
+    name("ROUND", "RO", Word::Round),
+    name("RSET", "RS", Word::RSet),
+    name("SAVE", "SA", Word::Save),
+    name("SPLIT", "SP", Word::Split),
+    name("START", "STA", Word::Start),
+    name("STOP", "S", Word::Stop),
+    name("VELOCITY", "VE", Word::Velocity),
+    name("VIEW", "V", Word::View),
+    name("WINDOW", "W", Word::Window),
+];
+
+/// MATERIAL / CONSTITUTIVE, as BLOCK, SPLIT and CHANGE take them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum MatCons {
+    Material,
+    Constitutive,
+    Sdef,
+    Fdef,
+}
+
+const MAT_CONS: &[Name<MatCons>] =
+    &[name("MATERIAL", "M", MatCons::Material), name("CONSTITUTIVE", "CO", MatCons::Constitutive)];
+
+const CHANGE_KEYS: &[Name<MatCons>] = &[
+    name("SDEF", "S", MatCons::Sdef),
+    name("FDEF", "F", MatCons::Fdef),
+    name("MATERIAL", "M", MatCons::Material),
+    name("CONSTITUTIVE", "CO", MatCons::Constitutive),
+];
+
+const DAMP_KEYS: &[Name<DampMode>] = &[
+    name("MASS", "M", DampMode::Mass),
+    name("STIFFNESS", "S", DampMode::Stiffness),
+    name("INTERNAL", "I", DampMode::Internal),
+];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum GenKey {
+    Auto,
+    Manual,
+    Grid,
+    Zones,
+}
+
+const GEN_KEYS: &[Name<GenKey>] = &[
+    name("AUTOMATIC", "A", GenKey::Auto),
+    name("MANUAL", "M", GenKey::Manual),
+    name("GRIDPOINTS", "GR", GenKey::Grid),
+    name("ZONES", "Z", GenKey::Zones),
+];
+
+const OUTER: &[Name<()>] = &[name("OUTER", "O", ())];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum PlotKey {
+    NoFix,
+    Zones,
+    Nc,
+    Vel,
+}
+
+const PLOT_KEYS: &[Name<PlotKey>] = &[
+    name("NOFIX", "N", PlotKey::NoFix),
+    name("ZONES", "Z", PlotKey::Zones),
+    name("NC", "NC", PlotKey::Nc),
+    name("VELOCITY", "V", PlotKey::Vel),
+];
+
+const PRINT_KEYS: &[Name<PrintItem>] = &[
+    name("BLOCKS", "B", PrintItem::Blocks),
+    name("CONTACTS", "C", PrintItem::Contacts),
+    name("CORNERS", "COR", PrintItem::Corners),
+    name("DOMAINS", "D", PrintItem::Domains),
+    name("LIST", "L", PrintItem::List),
+    name("DLIST", "DL", PrintItem::DList),
+    name("FLOWS", "F", PrintItem::Flows),
+    name("ENERGY", "E", PrintItem::Energy),
+];
+
+/// PROPERTY keywords; `None` is MATERIAL, which must come first.
+const PROP_KEYS: &[Name<Option<PropKey>>] = &[
+    name("MATERIAL", "M", None),
+    name("BULK", "B", Some(PropKey::Bulk)),
+    name("K", "K", Some(PropKey::Bulk)),
+    name("G", "G", Some(PropKey::Shear)),
+    name("DENSITY", "D", Some(PropKey::Density)),
+    name("KN", "KN", Some(PropKey::Kn)),
+    name("KS", "KS", Some(PropKey::Ks)),
+    name("COHESION", "C", Some(PropKey::Cohesion)),
+    name("FRICTION", "F", Some(PropKey::Friction)),
+    name("JKN", "JKN", Some(PropKey::Jkn)),
+    name("JKS", "JKS", Some(PropKey::Jks)),
+    name("JCOHESION", "JC", Some(PropKey::Jcohesion)),
+    name("JFRICTION", "JF", Some(PropKey::Jfriction)),
+    name("TF", "T", Some(PropKey::Tf)),
+    name("JPERM", "JP", Some(PropKey::Jperm)),
+    name("CPERM", "CP", Some(PropKey::Cperm)),
+    name("AZERO", "AZ", Some(PropKey::Azero)),
+    name("ARES", "AR", Some(PropKey::Ares)),
+];
+
+/// The full names of a table, for "expected one of ..." messages.
+fn names<T>(table: &[Name<T>]) -> String {
+    table.iter().map(|n| n.full).collect::<Vec<_>>().join(", ")
+}
+
+fn full_name(w: Word) -> &'static str {
+    COMMANDS.iter().find(|n| n.value == w).map_or("?", |n| n.full)
+}
+
+/// The manual's synopsis of each command, quoted in messages about missing or extra values.
+fn usage(w: Word) -> &'static str {
+    match w {
+        Word::Block => "BLOCK [MATERIAL n] [CONSTITUTIVE m] x1 y1 x2 y2 ...",
+        Word::Change => "CHANGE x1 x2 y1 y2 [SDEF|FDEF] [MATERIAL n] [CONSTITUTIVE m]",
+        Word::Cycle => "CYCLE n",
+        Word::Damping => "DAMPING fcrit freq [MASS|STIFFNESS|INTERNAL]",
+        Word::Delete => "DELETE x1 x2 y1 y2",
+        Word::Dump => "DUMP [n m]",
+        Word::End => "END",
+        Word::Fix => "FIX x1 x2 y1 y2",
+        Word::Fraction => "FRACTION f",
+        Word::Fluid => "FLUID rhow bulkw",
+        Word::Free => "FREE x1 x2 y1 y2",
+        Word::Generate => "GENERATE x1 x2 y1 y2 AUTOMATIC amax | MANUAL GRIDPOINTS x y ... ZONES l m n ...",
+        Word::Gravity => "GRAVITY gx gy",
+        Word::Link => "LINK x1 y1 x2 y2",
+        Word::Load => "LOAD x1 x2 y1 y2 fx fy",
+        Word::PFix => "PFIX (n | OUTER) p",
+        Word::PFree => "PFREE (n | OUTER)",
+        Word::Plot => "PLOT [NOFIX] [ZONES] [NC] [VEL]",
+        Word::Print => "PRINT BLOCKS|CONTACTS|CORNERS|DOMAINS|LIST|DLIST|FLOWS|ENERGY ...",
+        Word::Property => "PROPERTY MATERIAL n keyword value ...",
+        Word::Restart => "RESTART [file]",
+        Word::RSet => "RSET v ia ioff",
+        Word::Round => "ROUND d",
+        Word::Save => "SAVE [file]",
+        Word::Split => "SPLIT x1 y1 x2 y2 [MATERIAL n] [CONSTITUTIVE m]",
+        Word::Start => "START",
+        Word::Stop => "STOP",
+        Word::View => "VIEW ix1 ix2 iy1 iy2",
+        Word::Window => "WINDOW x1 x2 y1 y2",
+        Word::Velocity => "VELOCITY x1 x2 y1 y2 vx vy [w]",
+    }
+}
+
+/// "Not a number" message, with a word for NaN/infinity (which Rust would otherwise parse).
+fn not_a_number(what: &str, t: &Token, integer: bool) -> String {
+    let bare = t.text.trim_start_matches(['+', '-']).to_ascii_lowercase();
+    let kind = if matches!(bare.as_str(), "nan" | "inf" | "infinity") {
+        "a finite number"
+    } else if integer {
+        "an integer"
+    } else {
+        "a number"
+    };
+    format!("expected {kind} for {what}, found '{}'", t.shown())
+}
+
+/// The parameters of one command, read left to right.
+struct Args<'a> {
+    file: &'a str,
+    word: Word,
+    /// The command word's token (for errors about the command as a whole, e.g. RSET).
+    head: &'a Token,
+    toks: &'a [Token],
+    pos: usize,
+}
+
+impl<'a> Args<'a> {
+    fn name(&self) -> &'static str {
+        full_name(self.word)
+    }
+
+    fn at(&self, t: &Token, msg: impl Into<String>) -> DeckError {
+        DeckError::new(self.file, t.line, t.column, msg)
+    }
+
+    /// An error about something missing: placed just past the command's last token, which is
+    /// on the line where the value should have been typed.
+    fn at_end(&self, msg: impl Into<String>) -> DeckError {
+        let last = self.toks.last().unwrap_or(self.head);
+        DeckError::new(self.file, last.line, last.end_column(), msg)
+    }
+
+    fn next(&mut self) -> Option<&'a Token> {
+        let t = self.toks.get(self.pos);
+        if t.is_some() {
+            self.pos += 1;
+        }
+        t
+    }
+
+    fn missing(&self, what: &str) -> DeckError {
+        self.at_end(format!("{} needs {what} ({})", self.name(), usage(self.word)))
+    }
+
+    fn too_many(&self, t: &Token) -> DeckError {
+        self.at(t, format!("too many values for {}: unexpected '{}' ({})", self.name(), t.shown(), usage(self.word)))
+    }
+
+    /// No tokens may be left.
+    fn finish(&self) -> Result<()> {
+        match self.toks.get(self.pos) {
+            Some(t) => Err(self.too_many(t)),
+            None => Ok(()),
+        }
+    }
+
+    /// Read a token as a real number.
+    fn real_of(&self, t: &Token, what: &str) -> Result<f64> {
+        lexer::parse_real(&t.text).map_err(|e| match e {
+            NumberError::TooLarge => self.at(
+                t,
+                format!("the number '{}' given for {what} is out of range (beyond about 1.8E308)", t.shown()),
+            ),
+            _ => self.at(t, not_a_number(what, t, false)),
+        })
+    }
+
+    /// Read a token as an integer (parameters named i..n in the manual).
+    fn int_of(&self, t: &Token, what: &str) -> Result<i64> {
+        lexer::parse_int(&t.text).map_err(|e| match e {
+            NumberError::TooLarge => self.at(t, format!("the integer '{}' given for {what} is out of range", t.shown())),
+            _ => self.at(t, not_a_number(what, t, true)),
+        })
+    }
+
+    fn real(&mut self, what: &str) -> Result<(f64, &'a Token)> {
+        let t = self.next().ok_or_else(|| self.missing(what))?;
+        Ok((self.real_of(t, what)?, t))
+    }
+
+    fn int(&mut self, what: &str) -> Result<(i64, &'a Token)> {
+        let t = self.next().ok_or_else(|| self.missing(what))?;
+        Ok((self.int_of(t, what)?, t))
+    }
+
+    /// A material or constitutive number: a positive integer.
+    fn id(&mut self, what: &str) -> Result<u32> {
+        let (v, t) = self.int(what)?;
+        self.id_of(v, t, what)
+    }
+
+    fn id_of(&self, v: i64, t: &Token, what: &str) -> Result<u32> {
+        match u32::try_from(v) {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => Err(self.at(t, format!("{what} must be a positive integer, found '{}'", t.shown()))),
+        }
+    }
+
+    fn positive(&self, v: f64, t: &Token, what: &str) -> Result<f64> {
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.at(t, format!("{what} must be positive, found {}", t.shown())))
+        }
+    }
+
+    fn non_negative(&self, v: f64, t: &Token, what: &str) -> Result<f64> {
+        if v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(self.at(t, format!("{what} must not be negative, found {}", t.shown())))
+        }
+    }
+
+    /// Set a keyword's value once; a second occurrence is an error (it is a slip, and which of
+    /// the two the user meant cannot be known).
+    fn once<T>(&self, slot: &mut Option<T>, v: T, t: &Token) -> Result<()> {
+        if slot.is_some() {
+            return Err(self.at(t, format!("'{}' is given twice in this {} command", t.shown(), self.name())));
+        }
+        *slot = Some(v);
+        Ok(())
+    }
+
+    /// The common shape "numbers in fixed positions, keywords anywhere": numeric tokens fill
+    /// `slots` in order (the first `required` of them must be given); words are looked up in
+    /// `keywords` and handed to `on_kw`, which may read the keyword's own value. Returns the
+    /// numeric tokens, unparsed, so the caller parses each with its slot's name.
+    fn walk<K: Copy>(
+        &mut self,
+        slots: &[&str],
+        required: usize,
+        keywords: &[Name<K>],
+        mut on_kw: impl FnMut(&mut Self, K, &'a Token) -> Result<()>,
+    ) -> Result<Vec<&'a Token>> {
+        let mut nums: Vec<&'a Token> = Vec::new();
+        while let Some(t) = self.next() {
+            if t.is_numeric() {
+                if nums.len() >= slots.len() {
+                    return Err(self.too_many(t));
+                }
+                nums.push(t);
+            } else if let Some(k) = lookup(&t.text, keywords) {
+                on_kw(self, k, t)?;
+            } else if nums.len() < required || (keywords.is_empty() && nums.len() < slots.len()) {
+                let msg = not_a_number(slots[nums.len()], t, false);
+                return Err(self.at(t, format!("{msg} ({})", usage(self.word))));
+            } else if keywords.is_empty() {
+                return Err(self.too_many(t));
+            } else {
+                return Err(self.at(
+                    t,
+                    format!("unknown keyword '{}' for {}; it takes {}", t.shown(), self.name(), names(keywords)),
+                ));
+            }
+        }
+        if nums.len() < required {
+            return Err(self.at_end(format!(
+                "{} needs {required} numbers ({}), found {}",
+                self.name(),
+                usage(self.word),
+                nums.len()
+            )));
+        }
+        Ok(nums)
+    }
+
+    /// Read the tokens of x1 x2 y1 y2 as a selection range, which must not be empty.
+    fn range(&self, t: &[&Token]) -> Result<Range> {
+        let x1 = self.real_of(t[0], "x1")?;
+        let x2 = self.real_of(t[1], "x2")?;
+        let y1 = self.real_of(t[2], "y1")?;
+        let y2 = self.real_of(t[3], "y2")?;
+        self.ordered(x1, x2, t[0], t[1], "x1", "x2")?;
+        self.ordered(y1, y2, t[2], t[3], "y1", "y2")?;
+        Ok(Range { x1, x2, y1, y2 })
+    }
+
+    fn ordered<T: PartialOrd>(&self, a: T, b: T, ta: &Token, tb: &Token, na: &str, nb: &str) -> Result<()> {
+        if a < b {
+            Ok(())
+        } else {
+            Err(self.at(
+                tb,
+                format!(
+                    "{} range is empty: {na} ({}) must be less than {nb} ({})",
+                    self.name(),
+                    ta.shown(),
+                    tb.shown()
+                ),
+            ))
+        }
+    }
+
+    /// Numbers only: exactly `slots.len()` reals.
+    fn reals(&mut self, slots: &[&str]) -> Result<Vec<f64>> {
+        let toks = self.walk::<()>(slots, slots.len(), &[], |_, _, _| Ok(()))?;
+        toks.iter().zip(slots).map(|(t, s)| self.real_of(t, s)).collect()
+    }
+
+    /// A domain reference: a domain number or OUTER.
+    fn domain(&mut self) -> Result<DomainRef> {
+        let what = "the domain (a domain number or OUTER)";
+        let t = self.next().ok_or_else(|| self.missing(what))?;
+        if t.is_numeric() {
+            let v = self.int_of(t, "the domain number")?;
+            return u32::try_from(v).map(DomainRef::Number).map_err(|_| {
+                self.at(t, format!("the domain number must be a non-negative integer, found '{}'", t.shown()))
+            });
+        }
+        match lookup(&t.text, OUTER) {
+            Some(()) => Ok(DomainRef::Outer),
+            None => Err(self.at(t, format!("expected {what}, found '{}'", t.shown()))),
+        }
+    }
+}
+
 /// Parse a whole deck. `file` is the name errors carry.
-pub fn parse_deck(_text: &str, file: &str) -> Result<Vec<Located>, DeckError> {
-    Err(DeckError::new(file, 0, 0, "parser not written yet"))
+///
+/// Returns every command up to and including END (commands after END are ignored; END may be
+/// missing), or the first error.
+pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
+    let statements = lexer::split(text, file)?;
+    if statements.is_empty() {
+        return Err(DeckError::new(file, 0, 0, "empty deck: no commands (only blank or comment lines)"));
+    }
+    let mut out = Vec::new();
+    for (i, st) in statements.iter().enumerate() {
+        let head = &st.tokens[0];
+        let word = lookup(&head.text, COMMANDS).filter(|_| !head.is_numeric()).ok_or_else(|| {
+            DeckError::new(
+                file,
+                head.line,
+                head.column,
+                format!("unknown command '{}'; expected one of {}", head.shown(), names(COMMANDS)),
+            )
+        })?;
+        // "The first command must be START or RESTART."
+        if i == 0 && !matches!(word, Word::Start | Word::Restart) {
+            return Err(DeckError::new(
+                file,
+                head.line,
+                head.column,
+                format!("the first command must be START or RESTART, found {}", full_name(word)),
+            ));
+        }
+        let mut args = Args { file, word, head, toks: &st.tokens[1..], pos: 0 };
+        let command = parse_command(&mut args)?;
+        let end = command == Command::End;
+        out.push(Located { command, line: st.line, source: st.source.clone() });
+        if end {
+            break;
+        }
+    }
+    Ok(out)
+}
+
+/// Parse a deck read as raw bytes: text that is not valid UTF-8 is refused as a binary file.
+pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse_deck(text, file),
+        Err(e) => {
+            let before = &bytes[..e.valid_up_to()];
+            let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+            Err(DeckError::new(file, line, 0, format!("binary file: invalid UTF-8 text at line {line}; a deck must be plain text")))
+        }
+    }
+}
+
+fn parse_command(a: &mut Args) -> Result<Command> {
+    let cmd = match a.word {
+        Word::Start => Command::Start,
+        Word::Stop => Command::Stop,
+        Word::End => Command::End,
+        Word::Restart => Command::Restart { file: a.next().map(|t| t.text.clone()) },
+        Word::Save => Command::Save { file: a.next().map(|t| t.text.clone()) },
+        Word::RSet => {
+            return Err(a.at(
+                a.head,
+                "RSET wrote a value into the 1985 program's main array at a raw memory address; addresses \
+                 have no meaning in blockdem (use PROPERTY, CHANGE or the command that sets the quantity)",
+            ))
+        }
+        Word::Block => block(a)?,
+        Word::Split => split(a)?,
+        Word::Change => change(a)?,
+        Word::Cycle => {
+            let (n, t) = a.int("the number of cycles n")?;
+            let n = u64::try_from(n)
+                .map_err(|_| a.at(t, format!("a negative cycle count is not allowed, found {}", t.shown())))?;
+            Command::Cycle { n }
+        }
+        Word::Damping => damping(a)?,
+        Word::Delete => Command::Delete { range: range_only(a)? },
+        Word::Fix => Command::Fix { range: range_only(a)? },
+        Word::Free => Command::Free { range: range_only(a)? },
+        Word::Dump => {
+            let toks = a.walk::<()>(&["n (first address)", "m (last address)"], 0, &[], |_, _, _| Ok(()))?;
+            let from = toks.first().map(|t| a.int_of(t, "n (first address)")).transpose()?;
+            let to = toks.get(1).map(|t| a.int_of(t, "m (last address)")).transpose()?;
+            Command::Dump { from, to }
+        }
+        Word::Fraction => {
+            let (f, t) = a.real("the fraction f of the critical time-step")?;
+            Command::Fraction { f: a.positive(f, t, "the time-step fraction")? }
+        }
+        Word::Fluid => {
+            let (rho, t) = a.real("the fluid density rhow")?;
+            let density = a.non_negative(rho, t, "the fluid density")?;
+            let (k, t) = a.real("the fluid bulk modulus bulkw")?;
+            let bulk = a.positive(k, t, "the fluid bulk modulus")?;
+            Command::Fluid { density, bulk }
+        }
+        Word::Generate => generate(a)?,
+        Word::Gravity => {
+            let toks = a.walk::<()>(&["gx", "gy", "gz"], 2, &[], |_, _, _| Ok(()))?;
+            if let Some(t) = toks.get(2) {
+                return Err(a.at(
+                    t,
+                    "GRAVITY with three components (gx gy gz) is a 3D (D3) command; 3D decks are not supported \
+                     by the 2D language yet",
+                ));
+            }
+            Command::Gravity { g: [a.real_of(toks[0], "gx")?, a.real_of(toks[1], "gy")?] }
+        }
+        Word::Link => {
+            let v = a.reals(&["x1", "y1", "x2", "y2"])?;
+            Command::Link { flying: [v[0], v[1]], anchor: [v[2], v[3]] }
+        }
+        Word::Load => {
+            let toks = a.walk::<()>(&["x1", "x2", "y1", "y2", "fx", "fy"], 6, &[], |_, _, _| Ok(()))?;
+            let range = a.range(&toks)?;
+            Command::Load { range, force: [a.real_of(toks[4], "fx")?, a.real_of(toks[5], "fy")?] }
+        }
+        Word::Velocity => {
+            let slots = ["x1", "x2", "y1", "y2", "vx", "vy", "w (angular velocity)"];
+            let toks = a.walk::<()>(&slots, 6, &[], |_, _, _| Ok(()))?;
+            let range = a.range(&toks)?;
+            let velocity = [a.real_of(toks[4], "vx")?, a.real_of(toks[5], "vy")?];
+            let angular = toks.get(6).map(|t| a.real_of(t, slots[6])).transpose()?;
+            Command::Velocity { range, velocity, angular }
+        }
+        Word::PFix => {
+            let domain = a.domain()?;
+            let (pressure, _) = a.real("the pressure p")?;
+            Command::PFix { domain, pressure }
+        }
+        Word::PFree => Command::PFree { domain: a.domain()? },
+        Word::Plot => {
+            let mut options = PlotOptions::default();
+            while let Some(t) = a.next() {
+                match lookup(&t.text, PLOT_KEYS).filter(|_| !t.is_numeric()) {
+                    Some(PlotKey::NoFix) => options.nofix = true,
+                    Some(PlotKey::Zones) => options.zones = true,
+                    Some(PlotKey::Nc) => options.no_rounding = true,
+                    Some(PlotKey::Vel) => options.velocities = true,
+                    None => {
+                        return Err(a.at(
+                            t,
+                            format!("unknown PLOT keyword '{}'; PLOT takes {}", t.shown(), names(PLOT_KEYS)),
+                        ))
+                    }
+                }
+            }
+            Command::Plot { options }
+        }
+        Word::Print => {
+            let mut items = Vec::new();
+            while let Some(t) = a.next() {
+                match lookup(&t.text, PRINT_KEYS).filter(|_| !t.is_numeric()) {
+                    Some(item) => items.push(item),
+                    None => {
+                        return Err(a.at(
+                            t,
+                            format!("unknown PRINT keyword '{}'; PRINT takes {}", t.shown(), names(PRINT_KEYS)),
+                        ))
+                    }
+                }
+            }
+            if items.is_empty() {
+                return Err(a.at_end(format!("PRINT needs at least one of {}", names(PRINT_KEYS))));
+            }
+            Command::Print { items }
+        }
+        Word::Property => property(a)?,
+        Word::Round => {
+            let (d, t) = a.real("the rounding length d")?;
+            Command::Round { d: a.positive(d, t, "the rounding length")? }
+        }
+        Word::View => {
+            let slots = ["ix1", "ix2", "iy1", "iy2"];
+            let toks = a.walk::<()>(&slots, 4, &[], |_, _, _| Ok(()))?;
+            let v: Vec<i64> = toks.iter().zip(slots).map(|(t, s)| a.int_of(t, s)).collect::<Result<_>>()?;
+            a.ordered(v[0], v[1], toks[0], toks[1], "ix1", "ix2")?;
+            a.ordered(v[2], v[3], toks[2], toks[3], "iy1", "iy2")?;
+            Command::View { ix1: v[0], ix2: v[1], iy1: v[2], iy2: v[3] }
+        }
+        Word::Window => {
+            let toks = a.walk::<()>(&["x1", "x2", "y1", "y2"], 4, &[], |_, _, _| Ok(()))?;
+            let r = a.range(&toks)?;
+            Command::Window { x1: r.x1, x2: r.x2, y1: r.y1, y2: r.y2 }
+        }
+    };
+    a.finish()?;
+    Ok(cmd)
+}
+
+/// FIX, FREE, DELETE: exactly x1 x2 y1 y2.
+fn range_only(a: &mut Args) -> Result<Range> {
+    let toks = a.walk::<()>(&["x1", "x2", "y1", "y2"], 4, &[], |_, _, _| Ok(()))?;
+    a.range(&toks)
+}
+
+/// BLOCK [MATERIAL n] [CONSTITUTIVE m] x1 y1 x2 y2 ...
+///
+/// "Corner coordinates are: (x1,y1), (x2,y2) etc., in a clockwise direction. Continuation lines
+/// may be used, but a pair of numbers defining a corner must not be separated." The keywords come
+/// before the corners, as in the manual's synopsis.
+fn block(a: &mut Args) -> Result<Command> {
+    let mut material = None;
+    let mut constitutive = None;
+    let mut coords: Vec<&Token> = Vec::new();
+    while let Some(t) = a.next() {
+        if t.is_numeric() {
+            coords.push(t);
+            continue;
+        }
+        let key = lookup(&t.text, MAT_CONS);
+        if !coords.is_empty() {
+            let n = coords.len();
+            let xy = if n % 2 == 0 { "x" } else { "y" };
+            let msg = if key.is_some() {
+                format!("BLOCK's MATERIAL and CONSTITUTIVE must come before the corner coordinates, found '{}'", t.shown())
+            } else {
+                not_a_number(&format!("the {xy} coordinate of corner {}", n / 2 + 1), t, false)
+            };
+            return Err(a.at(t, msg));
+        }
+        match key {
+            Some(MatCons::Material) => {
+                let v = a.id("the material number n")?;
+                a.once(&mut material, v, t)?
+            }
+            Some(_) => {
+                let v = a.id("the constitutive number m")?;
+                a.once(&mut constitutive, v, t)?
+            }
+            None => {
+                return Err(a.at(
+                    t,
+                    format!("expected MATERIAL, CONSTITUTIVE or the x coordinate of corner 1, found '{}'", t.shown()),
+                ))
+            }
+        }
+    }
+
+    // A D3 deck types each corner as a parenthesised (x,y,z) triple: refuse it as 3D rather than
+    // reading a nonsense 2D polygon from its numbers.
+    for (i, t) in coords.iter().enumerate() {
+        if let Some(g) = t.group {
+            let in_group = coords.iter().filter(|u| u.group == Some(g)).count();
+            if in_group == 3 && (i == 0 || coords[i - 1].group != Some(g)) {
+                return Err(a.at(
+                    t,
+                    "BLOCK corners are given as (x,y,z) triples: this is a 3D (D3) deck, and 3D decks are not \
+                     supported by the 2D language yet",
+                ));
+            }
+        }
+    }
+
+    let corners = pairs(a, &coords, "corner")?;
+    if corners.len() < 3 {
+        return Err(a.at_end(format!("BLOCK needs at least 3 corners (x y pairs), found {}", corners.len())));
+    }
+    Ok(Command::Block { material, constitutive, corners })
+}
+
+/// Read numeric tokens as x y pairs (BLOCK corners, GENERATE grid points): each must be a number,
+/// the count must be even, and a pair may not straddle a continuation line.
+fn pairs(a: &Args, coords: &[&Token], what: &str) -> Result<Vec<[f64; 2]>> {
+    let mut out = Vec::with_capacity(coords.len() / 2);
+    for (k, pair) in coords.chunks(2).enumerate() {
+        let n = k + 1;
+        let x = a.real_of(pair[0], &format!("the x coordinate of {what} {n}"))?;
+        let Some(ty) = pair.get(1) else {
+            return Err(a.at(
+                pair[0],
+                format!(
+                    "{what} {n} has an x coordinate ({}) but no y coordinate: {} takes x y pairs",
+                    pair[0].shown(),
+                    a.name()
+                ),
+            ));
+        };
+        let y = a.real_of(ty, &format!("the y coordinate of {what} {n}"))?;
+        if ty.line != pair[0].line {
+            return Err(a.at(
+                ty,
+                format!(
+                    "{what} {n} is split across a continuation line (x on line {}, y on line {}); the pair \
+                     of numbers defining a {what} must not be separated",
+                    pair[0].line, ty.line
+                ),
+            ));
+        }
+        out.push([x, y]);
+    }
+    Ok(out)
+}
+
+/// SPLIT x1 y1 x2 y2 [MATERIAL n] [CONSTITUTIVE m], keywords in any order (e.g. the manual's
+/// `SPLIT 10.,20 41.,20 MAT=1, CONS=1`).
+fn split(a: &mut Args) -> Result<Command> {
+    let mut material = None;
+    let mut constitutive = None;
+    let slots = ["x1", "y1", "x2", "y2"];
+    let toks = a.walk(&slots, 4, MAT_CONS, |a, k, t| match k {
+        MatCons::Material => {
+            let v = a.id("the joint material number n")?;
+            a.once(&mut material, v, t)
+        }
+        _ => {
+            let v = a.id("the joint constitutive number m")?;
+            a.once(&mut constitutive, v, t)
+        }
+    })?;
+    let v: Vec<f64> = toks.iter().zip(slots).map(|(t, s)| a.real_of(t, s)).collect::<Result<_>>()?;
+    Ok(Command::Split { from: [v[0], v[1]], to: [v[2], v[3]], material, constitutive })
+}
+
+/// CHANGE x1 x2 y1 y2 [SDEF|FDEF] [MATERIAL n] [CONSTITUTIVE m].
+fn change(a: &mut Args) -> Result<Command> {
+    let mut to = None;
+    let mut material = None;
+    let mut constitutive = None;
+    let toks = a.walk(&["x1", "x2", "y1", "y2"], 4, CHANGE_KEYS, |a, k, t| match k {
+        MatCons::Sdef => a.once(&mut to, Deformability::Sdef, t),
+        MatCons::Fdef => a.once(&mut to, Deformability::Fdef, t),
+        MatCons::Material => {
+            let v = a.id("the material number n")?;
+            a.once(&mut material, v, t)
+        }
+        MatCons::Constitutive => {
+            let v = a.id("the constitutive number m")?;
+            a.once(&mut constitutive, v, t)
+        }
+    })?;
+    let range = a.range(&toks)?;
+    if to.is_none() && material.is_none() && constitutive.is_none() {
+        return Err(a.at_end("CHANGE needs something to change: SDEF, FDEF, MATERIAL n or CONSTITUTIVE m"));
+    }
+    Ok(Command::Change { range, to, material, constitutive })
+}
+
+/// DAMPING fcrit freq [MASS|STIFFNESS|INTERNAL], e.g. `DAMP .1 15 (MASS)`.
+fn damping(a: &mut Args) -> Result<Command> {
+    let mut mode = None;
+    let toks = a.walk(&["fcrit", "freq"], 2, DAMP_KEYS, |a, k, t| a.once(&mut mode, k, t))?;
+    let fcrit = a.real_of(toks[0], "fcrit")?;
+    let fcrit = a.non_negative(fcrit, toks[0], "the fraction of critical damping fcrit")?;
+    let freq = a.real_of(toks[1], "freq")?;
+    let freq = a.positive(freq, toks[1], "the centre frequency freq")?;
+    Ok(Command::Damping { fcrit, freq, mode: mode.unwrap_or(DampMode::Full) })
+}
+
+/// PROPERTY MATERIAL n keyword value ... ("The first parameter must be the specification of the
+/// material number").
+fn property(a: &mut Args) -> Result<Command> {
+    let first = a.next().ok_or_else(|| a.missing("MATERIAL n first"))?;
+    if first.is_numeric() || lookup(&first.text, PROP_KEYS) != Some(None) {
+        return Err(a.at(
+            first,
+            format!("PROPERTY must begin with MATERIAL n (the material number), found '{}'", first.shown()),
+        ));
+    }
+    let material = a.id("the material number n")?;
+    let mut values = Vec::new();
+    while let Some(t) = a.next() {
+        let key = match lookup(&t.text, PROP_KEYS).filter(|_| !t.is_numeric()) {
+            Some(Some(k)) => k,
+            Some(None) => return Err(a.at(t, "MATERIAL may be given only once, as PROPERTY's first parameter")),
+            None => {
+                let list = names(&PROP_KEYS[1..]);
+                return Err(a.at(t, format!("expected a property keyword ({list}), found '{}'", t.shown())));
+            }
+        };
+        let (label, must_be_positive) = match key {
+            PropKey::Bulk => ("the bulk modulus", true),
+            PropKey::Shear => ("the shear modulus", true),
+            PropKey::Density => ("density", true),
+            PropKey::Kn => ("kn", true),
+            PropKey::Ks => ("ks", true),
+            PropKey::Jkn => ("jkn", true),
+            PropKey::Jks => ("jks", true),
+            PropKey::Cohesion => ("cohesion", false),
+            PropKey::Friction => ("friction", false),
+            PropKey::Jcohesion => ("jcohesion", false),
+            PropKey::Jfriction => ("jfriction", false),
+            PropKey::Tf => ("tf", false),
+            PropKey::Jperm => ("jperm", false),
+            PropKey::Cperm => ("cperm", false),
+            PropKey::Azero => ("azero", false),
+            PropKey::Ares => ("ares", false),
+        };
+        let (v, vt) = a.real(&format!("a value after {}", t.shown()))?;
+        let v = if must_be_positive { a.positive(v, vt, label)? } else { a.non_negative(v, vt, label)? };
+        values.push((key, v));
+    }
+    if values.is_empty() {
+        return Err(a.at_end("PROPERTY needs at least one keyword and value after MATERIAL n"));
+    }
+    Ok(Command::Property { material, values })
+}
+
+/// GENERATE x1 x2 y1 y2 AUTOMATIC amax | MANUAL GRIDPOINTS (glist) ZONES (zlist).
+///
+/// "Both (glist) and (zlist) may extend over an arbitrary number of continuation lines, but
+/// doubles and triples should not be split over two lines." Zone triples number the grid points
+/// counting back from the last one (the last grid point is number 1), so each must lie in
+/// 1..=number of grid points.
+fn generate(a: &mut Args) -> Result<Command> {
+    let mut range_toks = Vec::new();
+    for what in ["x1", "x2", "y1", "y2"] {
+        let t = a.next().ok_or_else(|| a.missing(&format!("{what} of the range")))?;
+        a.real_of(t, what)?;
+        range_toks.push(t);
+    }
+    let range = a.range(&range_toks)?;
+
+    let mode_what = "AUTOMATIC amax or MANUAL GRIDPOINTS ... ZONES ...";
+    let t = a.next().ok_or_else(|| a.missing(mode_what))?;
+    let mesh = match lookup(&t.text, GEN_KEYS).filter(|_| !t.is_numeric()) {
+        Some(GenKey::Auto) => {
+            let (amax, t) = a.real("the maximum zone edge length amax")?;
+            Mesh::Auto { max_edge: a.positive(amax, t, "the maximum zone edge length amax")? }
+        }
+        Some(GenKey::Manual) => {
+            // GRIDPOINTS is printed in the synopsis; accept the list without it too.
+            if let Some(t) = a.toks.get(a.pos) {
+                if !t.is_numeric() && lookup(&t.text, GEN_KEYS) == Some(GenKey::Grid) {
+                    a.pos += 1;
+                }
+            }
+            let mut coords = Vec::new();
+            let mut saw_zones = false;
+            while let Some(t) = a.next() {
+                if t.is_numeric() {
+                    coords.push(t);
+                } else if lookup(&t.text, GEN_KEYS) == Some(GenKey::Zones) {
+                    saw_zones = true;
+                    break;
+                } else {
+                    let n = coords.len();
+                    let xy = if n % 2 == 0 { "x" } else { "y" };
+                    let msg = not_a_number(&format!("the {xy} coordinate of grid point {} (or ZONES)", n / 2 + 1), t, false);
+                    return Err(a.at(t, msg));
+                }
+            }
+            let grid_points = pairs(a, &coords, "grid point")?;
+            if grid_points.len() < 3 {
+                return Err(a.at_end(format!(
+                    "GENERATE MANUAL needs at least 3 grid points (x y pairs), found {}",
+                    grid_points.len()
+                )));
+            }
+            if !saw_zones {
+                return Err(a.at_end("GENERATE MANUAL needs ZONES and the zone list after the grid points"));
+            }
+            let mut ztoks = Vec::new();
+            while let Some(t) = a.next() {
+                let v = a.int_of(t, &format!("a grid-point number of zone {}", ztoks.len() / 3 + 1))?;
+                ztoks.push((v, t));
+            }
+            let mut zones = Vec::new();
+            for (k, tri) in ztoks.chunks(3).enumerate() {
+                let n = k + 1;
+                if tri.len() < 3 {
+                    let t = tri[tri.len() - 1].1;
+                    return Err(a.at(t, format!("zone {n} is incomplete: a zone needs three grid-point numbers (l m n)")));
+                }
+                let mut z = [0u32; 3];
+                for (slot, &(v, t)) in z.iter_mut().zip(tri) {
+                    if t.line != tri[0].1.line {
+                        return Err(a.at(
+                            t,
+                            format!("zone {n} is split across a continuation line; a triple must not be separated"),
+                        ));
+                    }
+                    let id = a.id_of(v, t, "a grid-point number")?;
+                    if id as usize > grid_points.len() {
+                        return Err(a.at(
+                            t,
+                            format!(
+                                "zone {n} refers to grid point {id}, but only {} grid points were given",
+                                grid_points.len()
+                            ),
+                        ));
+                    }
+                    *slot = id;
+                }
+                zones.push(z);
+            }
+            if zones.is_empty() {
+                return Err(a.at_end("GENERATE MANUAL needs at least one zone (l m n) after ZONES"));
+            }
+            Mesh::Manual { grid_points, zones }
+        }
+        _ => return Err(a.at(t, format!("expected {mode_what}, found '{}'", t.shown()))),
+    };
+    Ok(Command::Generate { range, mesh })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every name's full spelling and its minimum abbreviation (in either case) resolve to that
+    /// name, so no minimum is shadowed by another entry.
+    fn resolves<T: Copy + PartialEq + std::fmt::Debug>(table: &[Name<T>]) {
+        for n in table {
+            assert!(n.min >= 1 && n.min <= n.full.len(), "{}", n.full);
+            for typed in [n.full.to_string(), n.full[..n.min].to_string(), n.full[..n.min].to_lowercase()] {
+                assert_eq!(lookup(&typed, table), Some(n.value), "{typed} should be {}", n.full);
+            }
+        }
+    }
+
+    #[test]
+    fn tables_are_unambiguous() {
+        resolves(COMMANDS);
+        resolves(MAT_CONS);
+        resolves(CHANGE_KEYS);
+        resolves(DAMP_KEYS);
+        resolves(GEN_KEYS);
+        resolves(PLOT_KEYS);
+        resolves(PRINT_KEYS);
+        resolves(PROP_KEYS);
+    }
+
+    #[test]
+    fn manual_clashes() {
+        for (typed, want) in [("FR", Word::Free), ("FRA", Word::Fraction), ("P", Word::Print), ("PR", Word::Print),
+            ("PRO", Word::Property), ("PF", Word::PFix), ("PFR", Word::PFree), ("ST", Word::Stop), ("STA", Word::Start),
+            ("S", Word::Stop), ("G", Word::Gravity), ("GE", Word::Generate), ("D", Word::Damping), ("DE", Word::Delete),
+            ("V", Word::View), ("VE", Word::Velocity), ("R", Word::Restart), ("RS", Word::RSet), ("RO", Word::Round)] {
+            assert_eq!(lookup(typed, COMMANDS), Some(want), "{typed}");
+        }
+        assert_eq!(lookup("K", PROP_KEYS), Some(Some(PropKey::Bulk)));
+        assert_eq!(lookup("KN", PROP_KEYS), Some(Some(PropKey::Kn)));
+        assert_eq!(lookup("JK", PROP_KEYS), None);
+        assert_eq!(lookup("CO", PRINT_KEYS), Some(PrintItem::Contacts));
+        assert_eq!(lookup("COR", PRINT_KEYS), Some(PrintItem::Corners));
+    }
 }
