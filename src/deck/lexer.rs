@@ -140,8 +140,14 @@ pub fn split(text: &str, file: &str) -> Result<Vec<Statement>, DeckError> {
     for (index, raw) in text.lines().enumerate() {
         let line = index + 1;
         if let Some((col, c)) = raw.chars().enumerate().find(|&(_, c)| is_binary(c)) {
-            let what = if c == '\0' { "a NUL byte".to_string() } else { format!("control character U+{:04X}", c as u32) };
-            return Err(DeckError::new(file, line, col + 1, format!("binary file: {what} at line {line}; a deck must be plain text")));
+            let what =
+                if c == '\0' { "a NUL byte".to_string() } else { format!("control character U+{:04X}", c as u32) };
+            return Err(DeckError::new(
+                file,
+                line,
+                col + 1,
+                format!("binary file: {what} at line {line}; a deck must be plain text"),
+            ));
         }
         let chars = raw.chars().count();
         if chars > MAX_LINE_CHARS {
@@ -157,7 +163,7 @@ pub fn split(text: &str, file: &str) -> Result<Vec<Statement>, DeckError> {
         let lead = raw.chars().take_while(|c| c.is_whitespace()).count();
         let body: String = raw.chars().skip(lead).collect();
         match body.chars().next() {
-            None => continue, // blank line
+            None => continue,      // blank line
             Some('*') => continue, // comment line
             Some('+') => {
                 let rest: String = body.chars().skip(1).collect();
@@ -269,7 +275,8 @@ pub fn parse_real(s: &str) -> Result<f64, NumberError> {
         return Err(NumberError::Syntax);
     }
     // Everything checked is ASCII, so byte slicing is on char boundaries.
-    let normal = format!("{}e{}", &s[..mantissa_end], if mantissa_end < s.len() { &s[mantissa_end + 1..] } else { "0" });
+    let normal =
+        format!("{}e{}", &s[..mantissa_end], if mantissa_end < s.len() { &s[mantissa_end + 1..] } else { "0" });
     let v: f64 = normal.parse().map_err(|_| NumberError::Syntax)?;
     if v.is_finite() {
         Ok(v)
@@ -297,7 +304,17 @@ mod tests {
 
     #[test]
     fn reals() {
-        for (s, v) in [("1", 1.0), ("-1.", -1.0), (".1", 0.1), ("1E8", 1e8), ("1.0E-6", 1e-6), ("1e+09", 1e9), ("-0.95E4", -9500.0), ("1D3", 1000.0), ("+2", 2.0)] {
+        for (s, v) in [
+            ("1", 1.0),
+            ("-1.", -1.0),
+            (".1", 0.1),
+            ("1E8", 1e8),
+            ("1.0E-6", 1e-6),
+            ("1e+09", 1e9),
+            ("-0.95E4", -9500.0),
+            ("1D3", 1000.0),
+            ("+2", 2.0),
+        ] {
             assert_eq!(parse_real(s), Ok(v), "{s}");
         }
         for s in ["", ".", "-", "1.0x", "nan", "inf", "1E", "1E+", "1..2", "1e5.0", "--1", "0x10"] {

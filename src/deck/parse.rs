@@ -51,6 +51,9 @@
 //! * RSET poked a value into the 1985 main array at a raw address; it is always an error here.
 //! * A 3D (D3, Appendix B) deck is recognised by a BLOCK whose parenthesised groups hold three
 //!   numbers, or GRAVITY with three components, and refused with a message saying so.
+//! * SAVE and RESTART take one bare file-name token, case kept. Since `/` is a separator in the
+//!   language, a name with a directory part (`runs/a.sav`) reads as two tokens and is refused
+//!   as "too many values".
 //! * Commands after END are not read. END itself is returned (the executor may ignore it).
 
 use super::command::*;
@@ -329,10 +332,8 @@ impl<'a> Args<'a> {
     /// Read a token as a real number.
     fn real_of(&self, t: &Token, what: &str) -> Result<f64> {
         lexer::parse_real(&t.text).map_err(|e| match e {
-            NumberError::TooLarge => self.at(
-                t,
-                format!("the number '{}' given for {what} is out of range (beyond about 1.8E308)", t.shown()),
-            ),
+            NumberError::TooLarge => self
+                .at(t, format!("the number '{}' given for {what} is out of range (beyond about 1.8E308)", t.shown())),
             _ => self.at(t, not_a_number(what, t, false)),
         })
     }
@@ -340,7 +341,9 @@ impl<'a> Args<'a> {
     /// Read a token as an integer (parameters named i..n in the manual).
     fn int_of(&self, t: &Token, what: &str) -> Result<i64> {
         lexer::parse_int(&t.text).map_err(|e| match e {
-            NumberError::TooLarge => self.at(t, format!("the integer '{}' given for {what} is out of range", t.shown())),
+            NumberError::TooLarge => {
+                self.at(t, format!("the integer '{}' given for {what} is out of range", t.shown()))
+            }
             _ => self.at(t, not_a_number(what, t, true)),
         })
     }
@@ -534,7 +537,12 @@ pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
         Err(e) => {
             let before = &bytes[..e.valid_up_to()];
             let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
-            Err(DeckError::new(file, line, 0, format!("binary file: invalid UTF-8 text at line {line}; a deck must be plain text")))
+            Err(DeckError::new(
+                file,
+                line,
+                0,
+                format!("binary file: invalid UTF-8 text at line {line}; a deck must be plain text"),
+            ))
         }
     }
 }
@@ -627,10 +635,9 @@ fn parse_command(a: &mut Args) -> Result<Command> {
                     Some(PlotKey::Nc) => options.no_rounding = true,
                     Some(PlotKey::Vel) => options.velocities = true,
                     None => {
-                        return Err(a.at(
-                            t,
-                            format!("unknown PLOT keyword '{}'; PLOT takes {}", t.shown(), names(PLOT_KEYS)),
-                        ))
+                        return Err(
+                            a.at(t, format!("unknown PLOT keyword '{}'; PLOT takes {}", t.shown(), names(PLOT_KEYS)))
+                        )
                     }
                 }
             }
@@ -683,7 +690,7 @@ fn range_only(a: &mut Args) -> Result<Range> {
     a.range(&toks)
 }
 
-/// BLOCK [MATERIAL n] [CONSTITUTIVE m] x1 y1 x2 y2 ...
+/// `BLOCK [MATERIAL n] [CONSTITUTIVE m] x1 y1 x2 y2 ...`
 ///
 /// "Corner coordinates are: (x1,y1), (x2,y2) etc., in a clockwise direction. Continuation lines
 /// may be used, but a pair of numbers defining a corner must not be separated." The keywords come
@@ -702,7 +709,10 @@ fn block(a: &mut Args) -> Result<Command> {
             let n = coords.len();
             let xy = if n % 2 == 0 { "x" } else { "y" };
             let msg = if key.is_some() {
-                format!("BLOCK's MATERIAL and CONSTITUTIVE must come before the corner coordinates, found '{}'", t.shown())
+                format!(
+                    "BLOCK's MATERIAL and CONSTITUTIVE must come before the corner coordinates, found '{}'",
+                    t.shown()
+                )
             } else {
                 not_a_number(&format!("the {xy} coordinate of corner {}", n / 2 + 1), t, false)
             };
@@ -781,7 +791,7 @@ fn pairs(a: &Args, coords: &[&Token], what: &str) -> Result<Vec<[f64; 2]>> {
     Ok(out)
 }
 
-/// SPLIT x1 y1 x2 y2 [MATERIAL n] [CONSTITUTIVE m], keywords in any order (e.g. the manual's
+/// `SPLIT x1 y1 x2 y2 [MATERIAL n] [CONSTITUTIVE m]`, keywords in any order (e.g. the manual's
 /// `SPLIT 10.,20 41.,20 MAT=1, CONS=1`).
 fn split(a: &mut Args) -> Result<Command> {
     let mut material = None;
@@ -801,7 +811,7 @@ fn split(a: &mut Args) -> Result<Command> {
     Ok(Command::Split { from: [v[0], v[1]], to: [v[2], v[3]], material, constitutive })
 }
 
-/// CHANGE x1 x2 y1 y2 [SDEF|FDEF] [MATERIAL n] [CONSTITUTIVE m].
+/// `CHANGE x1 x2 y1 y2 [SDEF|FDEF] [MATERIAL n] [CONSTITUTIVE m]`.
 fn change(a: &mut Args) -> Result<Command> {
     let mut to = None;
     let mut material = None;
@@ -825,7 +835,7 @@ fn change(a: &mut Args) -> Result<Command> {
     Ok(Command::Change { range, to, material, constitutive })
 }
 
-/// DAMPING fcrit freq [MASS|STIFFNESS|INTERNAL], e.g. `DAMP .1 15 (MASS)`.
+/// `DAMPING fcrit freq [MASS|STIFFNESS|INTERNAL]`, e.g. `DAMP .1 15 (MASS)`.
 fn damping(a: &mut Args) -> Result<Command> {
     let mut mode = None;
     let toks = a.walk(&["fcrit", "freq"], 2, DAMP_KEYS, |a, k, t| a.once(&mut mode, k, t))?;
@@ -925,7 +935,8 @@ fn generate(a: &mut Args) -> Result<Command> {
                 } else {
                     let n = coords.len();
                     let xy = if n % 2 == 0 { "x" } else { "y" };
-                    let msg = not_a_number(&format!("the {xy} coordinate of grid point {} (or ZONES)", n / 2 + 1), t, false);
+                    let msg =
+                        not_a_number(&format!("the {xy} coordinate of grid point {} (or ZONES)", n / 2 + 1), t, false);
                     return Err(a.at(t, msg));
                 }
             }
@@ -949,7 +960,9 @@ fn generate(a: &mut Args) -> Result<Command> {
                 let n = k + 1;
                 if tri.len() < 3 {
                     let t = tri[tri.len() - 1].1;
-                    return Err(a.at(t, format!("zone {n} is incomplete: a zone needs three grid-point numbers (l m n)")));
+                    return Err(
+                        a.at(t, format!("zone {n} is incomplete: a zone needs three grid-point numbers (l m n)"))
+                    );
                 }
                 let mut z = [0u32; 3];
                 for (slot, &(v, t)) in z.iter_mut().zip(tri) {
@@ -1012,10 +1025,27 @@ mod tests {
 
     #[test]
     fn manual_clashes() {
-        for (typed, want) in [("FR", Word::Free), ("FRA", Word::Fraction), ("P", Word::Print), ("PR", Word::Print),
-            ("PRO", Word::Property), ("PF", Word::PFix), ("PFR", Word::PFree), ("ST", Word::Stop), ("STA", Word::Start),
-            ("S", Word::Stop), ("G", Word::Gravity), ("GE", Word::Generate), ("D", Word::Damping), ("DE", Word::Delete),
-            ("V", Word::View), ("VE", Word::Velocity), ("R", Word::Restart), ("RS", Word::RSet), ("RO", Word::Round)] {
+        for (typed, want) in [
+            ("FR", Word::Free),
+            ("FRA", Word::Fraction),
+            ("P", Word::Print),
+            ("PR", Word::Print),
+            ("PRO", Word::Property),
+            ("PF", Word::PFix),
+            ("PFR", Word::PFree),
+            ("ST", Word::Stop),
+            ("STA", Word::Start),
+            ("S", Word::Stop),
+            ("G", Word::Gravity),
+            ("GE", Word::Generate),
+            ("D", Word::Damping),
+            ("DE", Word::Delete),
+            ("V", Word::View),
+            ("VE", Word::Velocity),
+            ("R", Word::Restart),
+            ("RS", Word::RSet),
+            ("RO", Word::Round),
+        ] {
             assert_eq!(lookup(typed, COMMANDS), Some(want), "{typed}");
         }
         assert_eq!(lookup("K", PROP_KEYS), Some(Some(PropKey::Bulk)));
