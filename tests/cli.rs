@@ -33,7 +33,7 @@ fn sample_1_runs_and_writes_plots_and_state() {
     let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(state["dim"], 2);
     assert_eq!(state["cycle"], 600);
-    assert_eq!(state["blocks"].as_array().unwrap().len(), 6);
+    assert_eq!(state["blocks"].as_array().unwrap().len(), 5);
 }
 
 #[test]

@@ -788,3 +788,9 @@ proptest! {
         let _ = blockdem::deck::parse::parse_deck_bytes(&b, FILE);
     }
 }
+
+#[test]
+fn save_and_restart_take_paths_with_slashes_whole() {
+    assert_eq!(parse("START\nSAVE /tmp/runs/a.sav")[1].command, Command::Save { file: Some("/tmp/runs/a.sav".into()) });
+    assert_eq!(parse("RESTART runs/b.sav")[0].command, Command::Restart { file: Some("runs/b.sav".into()) });
+}

@@ -287,6 +287,8 @@ struct Args<'a> {
     head: &'a Token,
     toks: &'a [Token],
     pos: usize,
+    /// The command as typed (for file names, which may hold the separator '/').
+    source: &'a str,
 }
 
 impl<'a> Args<'a> {
@@ -519,7 +521,7 @@ pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
                 format!("the first command must be START or RESTART, found {}", full_name(word)),
             ));
         }
-        let mut args = Args { file, word, head, toks: &st.tokens[1..], pos: 0 };
+        let mut args = Args { file, word, head, toks: &st.tokens[1..], pos: 0, source: &st.source };
         let command = parse_command(&mut args)?;
         let end = command == Command::End;
         out.push(Located { command, line: st.line, source: st.source.clone() });
@@ -547,13 +549,35 @@ pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
     }
 }
 
+/// The text after the command word, less blanks and the separators other than '/'.
+fn file_name_as_typed(source: &str, word: &str) -> Option<String> {
+    let start = source.find(word)? + word.len();
+    let name = source[start..].trim_matches(|c: char| c.is_whitespace() || matches!(c, '=' | '(' | ')' | ','));
+    (!name.is_empty() && !name.contains(char::is_whitespace)).then(|| name.to_string())
+}
+
+/// SAVE's and RESTART's optional file name. A name may hold '/', which the 1985 language counts
+/// as a separator, so when the text after the command word is one blank-free word it is taken whole
+/// (consuming the tokens the '/'s split it into); otherwise the first token is the name and any
+/// other is reported as too many values.
+fn file_name(a: &mut Args) -> Option<String> {
+    let first = a.next()?.text.clone();
+    match file_name_as_typed(a.source, &a.head.text) {
+        Some(whole) => {
+            a.pos = a.toks.len();
+            Some(whole)
+        }
+        None => Some(first),
+    }
+}
+
 fn parse_command(a: &mut Args) -> Result<Command> {
     let cmd = match a.word {
         Word::Start => Command::Start,
         Word::Stop => Command::Stop,
         Word::End => Command::End,
-        Word::Restart => Command::Restart { file: a.next().map(|t| t.text.clone()) },
-        Word::Save => Command::Save { file: a.next().map(|t| t.text.clone()) },
+        Word::Restart => Command::Restart { file: file_name(a) },
+        Word::Save => Command::Save { file: file_name(a) },
         Word::RSet => {
             return Err(a.at(
                 a.head,
