@@ -42,9 +42,15 @@ pub enum CycleError {
     NonFinite { cycle: u64, block: u32, what: String },
     #[error(
         "energy growing without a source at cycle {cycle}: kinetic + strain energy {energy:.4e} exceeds the energy put in ({budget:.4e}); \
-         the explicit integration is unstable — lower FRACTION (now {frac}; the largest safe value is about {safe_frac:.3})"
+         the explicit integration is unstable — lower FRACTION (now {frac}; the largest safe value is about {safe_frac:.2})"
     )]
     EnergyGrowth { cycle: u64, energy: f64, budget: f64, frac: f64, safe_frac: f64 },
+    #[error(
+        "block {block} moves too fast at cycle {cycle}: its corners travel {travel:.4e} in one step ({speed:.4e} per unit time), \
+         more than the contact update can follow ({limit:.4e}, a quarter of the contact-forming distance); it could pass through a neighbour between contact updates — \
+         lower FRACTION or raise ROUND"
+    )]
+    TooFast { cycle: u64, block: u32, travel: f64, limit: f64, speed: f64 },
     #[error("cannot cycle: {0}")]
     Setup(String),
 }

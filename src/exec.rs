@@ -25,13 +25,8 @@ pub enum RunError {
     Input(#[from] DeckError),
     #[error("{file}:{line}: not supported yet: {what}")]
     Unsupported { file: String, line: usize, what: String },
-    #[error("{file}:{line}: {source}")]
-    Numerical {
-        file: String,
-        line: usize,
-        #[source]
-        source: CycleError,
-    },
+    #[error("{file}:{line}: {failure}")]
+    Numerical { file: String, line: usize, failure: CycleError },
     #[error("{file}:{line}: {message}")]
     Command { file: String, line: usize, message: String },
 }
@@ -353,7 +348,7 @@ impl<'a> Executor<'a> {
         if let Some(pb) = bar {
             pb.finish_and_clear();
         }
-        let report = result.map_err(|source| RunError::Numerical { file: self.file.clone(), line: cmd.line, source })?;
+        let report = result.map_err(|failure| RunError::Numerical { file: self.file.clone(), line: cmd.line, failure })?;
         for c in &report.cracks {
             self.echo(&format!(
                 "BLOCK {} CRACKED AT CYCLE {} (POINT-LOAD VALUE {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",

@@ -47,11 +47,7 @@ enum Cmd {
 fn run(deck: PathBuf, backend: BackendChoice, out: PathBuf, state_json: Option<PathBuf>) -> anyhow::Result<()> {
     let name = deck.display().to_string();
     let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
-    let text = match String::from_utf8(bytes) {
-        Ok(t) => t,
-        Err(_) => bail!("{name}:0:0: binary file: a deck must be text"),
-    };
-    let commands = blockdem::deck::parse_deck(&text, &name)?;
+    let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
     let backend: Box<dyn blockdem::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(CpuBackend::new()),
         BackendChoice::Auto => {

@@ -13,6 +13,8 @@ use crate::model::Block;
 pub struct StepOutcome {
     /// Work done on the block by gravity and its load over this step.
     pub external_work: f64,
+    /// How far the block's corners can have moved in this step (|Δx| + |Δθ|·R).
+    pub corner_travel: f64,
 }
 
 /// Advances one free block by one step. Fixed blocks do not move (their velocity stays zero).
@@ -38,8 +40,9 @@ pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) 
     block.centroid[1] += dy;
     block.rotation += dtheta;
     // A corner moves at most |Δx| + |Δθ|·R: the displacement the update tolerance watches.
-    block.moved_since_update += (dx * dx + dy * dy).sqrt() + dtheta.abs() * block.radius;
+    let corner_travel = (dx * dx + dy * dy).sqrt() + dtheta.abs() * block.radius;
+    block.moved_since_update += corner_travel;
     let fx = block.mass * gravity[0] + block.load[0];
     let fy = block.mass * gravity[1] + block.load[1];
-    StepOutcome { external_work: fx * dx + fy * dy }
+    StepOutcome { external_work: fx * dx + fy * dy, corner_travel }
 }

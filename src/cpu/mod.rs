@@ -100,11 +100,16 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError
     let dt = model.timestep;
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
     let mut work = 0.0;
+    let mut fastest = (0.0f64, 0usize);
     // Stage 1: law of motion. Stage 2: geometry update.
     {
         let Model { blocks, corners, .. } = &mut *model;
-        for block in blocks.iter_mut() {
-            work += law_of_motion::law_of_motion(block, gravity, alpha, dt).external_work;
+        for (b, block) in blocks.iter_mut().enumerate() {
+            let step = law_of_motion::law_of_motion(block, gravity, alpha, dt);
+            work += step.external_work;
+            if step.corner_travel > fastest.0 {
+                fastest = (step.corner_travel, b);
+            }
             let range = block.corner_start as usize..(block.corner_start + block.corner_count) as usize;
             geometry_update::geometry_update(block, &mut corners[range]);
         }
@@ -119,6 +124,14 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError
             .find(|b| !(b.centroid[0].is_finite() && b.centroid[1].is_finite() && b.velocity[0].is_finite() && b.velocity[1].is_finite() && b.angular_velocity.is_finite()))
             .map_or(0, |b| b.id);
         return Err(CycleError::NonFinite { cycle: model.cycle, block, what: "a non-finite position or velocity".into() });
+    }
+    // Between contact updates a block's corners move at most etol plus one step's travel s, so two
+    // blocks approach by at most 2(etol + s); that must stay below atol for no touch to be missed.
+    // A faster block could cross a thin neighbour unseen: stop rather than let it tunnel.
+    let limit = 0.5 * model.tol.atol - model.tol.etol;
+    if fastest.0 > limit {
+        let b = &model.blocks[fastest.1];
+        return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
     // Stages 4 and 6.
     contacts_and_gather(model, adjacency, dt)
@@ -197,7 +210,18 @@ impl Backend for CpuBackend {
                 self.adjacency = adjacency;
                 Ok(report)
             }
-            Err(e) => {
+            Err(mut e) => {
+                // A block flying off may be the symptom of an unstable step: name the cause.
+                if let CycleError::TooFast { .. } = e {
+                    if let Err(energy) = check_energy(model, baseline, scale) {
+                        e = energy;
+                    }
+                }
+                // The stable-FRAC estimate needs the contact network of the last good state (the
+                // diverged one may have flung its blocks apart).
+                if let CycleError::EnergyGrowth { safe_frac, .. } = &mut e {
+                    *safe_frac = last_good.stable_frac_estimate();
+                }
                 *model = last_good;
                 Err(e)
             }

@@ -259,15 +259,8 @@ impl Model {
     #[inline]
     pub fn update_corner_positions(&mut self, b: usize) {
         let blk = &self.blocks[b];
-        let (s, c) = blk.rotation.sin_cos();
-        let [cx, cy] = blk.centroid;
         let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
-        for k in &mut self.corners[range] {
-            let [lx, ly] = k.local;
-            k.position = [cx + c * lx - s * ly, cy + s * lx + c * ly];
-            let [rx, ry] = k.circle_local;
-            k.circle = [cx + c * rx - s * ry, cy + s * rx + c * ry];
-        }
+        crate::cpu::geometry_update::geometry_update(blk, &mut self.corners[range]);
     }
 
     /// The current world outline of block b, counter-clockwise, computed from centroid and rotation
