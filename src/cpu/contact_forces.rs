@@ -35,78 +35,96 @@ fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
 fn norm(a: [f64; 2]) -> f64 {
     dot(a, a).sqrt()
 }
-
-/// Distance and outward normal from the circle centre `c` to feature `f` of a block whose corners
-/// (counter-clockwise) are `corners`. Returns (signed distance from the feature's surface, unsigned
-/// distance used to rank features, outward normal, whether `c` lies in the feature's own region).
-///
-/// An edge feature's region is the slab over its straight part; an arc's region is the wedge
-/// between the outward normals of its two edges. Outside its region a feature is measured from
-/// its nearer end point, so every feature has a finite, continuous distance and the nearest one
-/// is the closest part of the boundary.
+/// i + 1 and i − 1 around a cycle of n (no integer division in the hot loop).
 #[inline]
-fn feature_distance(corners: &[Corner], f: Feature, c: [f64; 2]) -> (f64, f64, [f64; 2], bool) {
+fn next(i: usize, n: usize) -> usize {
+    if i + 1 == n { 0 } else { i + 1 }
+}
+#[inline]
+fn prev(i: usize, n: usize) -> usize {
+    if i == 0 { n - 1 } else { i - 1 }
+}
+
+/// A straight edge of a block, from corner k to corner k+1: its start, unit direction and length.
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    p0: [f64; 2],
+    u: [f64; 2],
+    len: f64,
+}
+
+impl Edge {
+    /// Edge k as the geometry stage left it.
+    #[inline]
+    fn of(corners: &[Corner], k: usize) -> Edge {
+        let c = &corners[k];
+        Edge { p0: c.position, u: c.edge_dir, len: c.edge_length }
+    }
+
+    /// Outward normal for a counter-clockwise outline.
+    #[inline]
+    fn normal(&self) -> [f64; 2] {
+        [self.u[1], -self.u[0]]
+    }
+}
+
+/// A feature's measurement: signed distance from its surface, the unsigned distance that ranks
+/// features, the outward normal, and whether `c` lies in the feature's own region.
+type Measure = (f64, f64, [f64; 2], bool);
+
+/// Straight part of edge k (between the tangent points of corners k and k+1). Its region is the
+/// slab over it; outside, it is measured from its nearer end.
+#[inline]
+fn edge_distance(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> Measure {
     let n = corners.len();
-    let k = (f / 2) as usize % n;
-    if f % 2 == 1 {
-        // Straight part of edge k → k+1, between the two tangent points.
-        let p0 = corners[k].position;
-        let p1 = corners[(k + 1) % n].position;
-        let e = sub(p1, p0);
-        let len = norm(e);
-        let u = [e[0] / len, e[1] / len];
-        let normal = [u[1], -u[0]]; // outward for a counter-clockwise outline
-        let ta = [p0[0] + u[0] * corners[k].round, p0[1] + u[1] * corners[k].round];
-        let straight = len - corners[k].round - corners[(k + 1) % n].round;
-        let rel = sub(c, ta);
-        let s = dot(rel, u);
-        if s >= 0.0 && s <= straight {
-            let d = dot(rel, normal);
-            (d, d.abs(), normal, true)
-        } else {
-            let s = s.clamp(0.0, straight.max(0.0));
-            let x = [ta[0] + u[0] * s, ta[1] + u[1] * s];
-            let r = sub(c, x);
-            let d = norm(r);
-            let nrm = if d > 0.0 { [r[0] / d, r[1] / d] } else { normal };
-            (d, d, nrm, false)
-        }
+    let normal = e.normal();
+    let r0 = corners[k].round;
+    let ta = [e.p0[0] + e.u[0] * r0, e.p0[1] + e.u[1] * r0];
+    let straight = e.len - r0 - corners[next(k, n)].round;
+    let rel = sub(c, ta);
+    let s = dot(rel, e.u);
+    if s >= 0.0 && s <= straight {
+        let d = dot(rel, normal);
+        (d, d.abs(), normal, true)
     } else {
-        // Arc of corner k: a circle of radius `radius` about `circle`, spanning the outward normals
-        // of the edges k−1 → k and k → k+1.
-        let ck = &corners[k];
-        let pm = corners[(k + n - 1) % n].position;
-        let pp = corners[(k + 1) % n].position;
-        let e0 = sub(ck.position, pm);
-        let e1 = sub(pp, ck.position);
-        let n0 = {
-            let l = norm(e0);
-            [e0[1] / l, -e0[0] / l]
-        };
-        let n1 = {
-            let l = norm(e1);
-            [e1[1] / l, -e1[0] / l]
-        };
-        let r = sub(c, ck.circle);
-        let dist_c = norm(r);
-        let dir = if dist_c > 0.0 { [r[0] / dist_c, r[1] / dist_c] } else { [n0[0] + n1[0], n0[1] + n1[1]] };
-        // Inside the wedge from n0 to n1 (turning counter-clockwise, less than π for a convex
-        // corner): cross(n0, dir) ≥ 0 and cross(dir, n1) ≥ 0.
-        let convex = n0[0] * n1[1] - n0[1] * n1[0] > 0.0;
-        let in_wedge = convex && (n0[0] * dir[1] - n0[1] * dir[0]) >= 0.0 && (dir[0] * n1[1] - dir[1] * n1[0]) >= 0.0;
-        if in_wedge {
-            let d = dist_c - ck.radius;
-            (d, d.abs(), dir, true)
-        } else {
-            // Nearest end of the arc: one of its tangent points.
-            let t0 = [ck.circle[0] + n0[0] * ck.radius, ck.circle[1] + n0[1] * ck.radius];
-            let t1 = [ck.circle[0] + n1[0] * ck.radius, ck.circle[1] + n1[1] * ck.radius];
-            let (r0, r1) = (sub(c, t0), sub(c, t1));
-            let (d0, d1) = (norm(r0), norm(r1));
-            let (d, rr, fallback) = if d0 <= d1 { (d0, r0, n0) } else { (d1, r1, n1) };
-            let nrm = if d > 0.0 { [rr[0] / d, rr[1] / d] } else { fallback };
-            (d, d, nrm, false)
-        }
+        let s = s.clamp(0.0, straight.max(0.0));
+        let r = sub(c, [ta[0] + e.u[0] * s, ta[1] + e.u[1] * s]);
+        let d = norm(r);
+        (d, d, if d > 0.0 { [r[0] / d, r[1] / d] } else { normal }, false)
+    }
+}
+
+/// Arc of corner k, between the edges `before` (k−1 → k) and `after` (k → k+1). Its region is the
+/// wedge between their outward normals; outside, it is measured from its nearer tangent point.
+#[inline]
+fn arc_distance(corner: &Corner, before: &Edge, after: &Edge, c: [f64; 2]) -> Measure {
+    let (n0, n1) = (before.normal(), after.normal());
+    let r = sub(c, corner.circle);
+    let dist_c = norm(r);
+    let dir = if dist_c > 0.0 { [r[0] / dist_c, r[1] / dist_c] } else { [n0[0] + n1[0], n0[1] + n1[1]] };
+    // Inside the wedge turning counter-clockwise from n0 to n1 (less than π for a convex corner).
+    let convex = n0[0] * n1[1] - n0[1] * n1[0] > 0.0;
+    if convex && (n0[0] * dir[1] - n0[1] * dir[0]) >= 0.0 && (dir[0] * n1[1] - dir[1] * n1[0]) >= 0.0 {
+        let d = dist_c - corner.radius;
+        return (d, d.abs(), dir, true);
+    }
+    let t0 = [corner.circle[0] + n0[0] * corner.radius, corner.circle[1] + n0[1] * corner.radius];
+    let t1 = [corner.circle[0] + n1[0] * corner.radius, corner.circle[1] + n1[1] * corner.radius];
+    let (r0, r1) = (sub(c, t0), sub(c, t1));
+    let (d0, d1) = (norm(r0), norm(r1));
+    let (d, rr, fallback) = if d0 <= d1 { (d0, r0, n0) } else { (d1, r1, n1) };
+    (d, d, if d > 0.0 { [rr[0] / d, rr[1] / d] } else { fallback }, false)
+}
+
+/// Measures feature f with the edges supplied by `edge(k)`.
+#[inline]
+fn feature_distance(corners: &[Corner], f: Feature, c: [f64; 2], edge: impl Fn(usize) -> Edge) -> Measure {
+    let n = corners.len();
+    let k = (f / 2) as usize;
+    if f % 2 == 1 {
+        edge_distance(corners, k, &edge(k), c)
+    } else {
+        arc_distance(&corners[k], &edge(prev(k, n)), &edge(k), c)
     }
 }
 
@@ -144,36 +162,48 @@ fn better(candidate: (f64, bool, Feature), best: (f64, bool, Feature)) -> bool {
     false
 }
 
-/// Full search: the nearest feature of the whole boundary of a block (topology stage).
-pub fn nearest_feature(corners: &[Corner], c: [f64; 2], r: f64) -> CornerContactGeometry {
-    let nf = 2 * corners.len() as Feature;
-    let mut best: Option<((f64, bool, Feature), (f64, f64, [f64; 2]))> = None;
-    for f in 0..nf {
-        let (s, u, nrm, inside) = feature_distance(corners, f, c);
+/// Keeps the best-ranked feature seen so far.
+#[derive(Default)]
+struct Best(Option<((f64, bool, Feature), (f64, f64, [f64; 2]))>);
+
+impl Best {
+    #[inline]
+    fn offer(&mut self, f: Feature, (s, u, nrm, inside): Measure) {
         let key = (u, inside, f);
-        if best.is_none_or(|(b, _)| better(key, b)) {
-            best = Some((key, (s, u, nrm)));
+        if self.0.is_none_or(|(b, _)| better(key, b)) {
+            self.0 = Some((key, (s, u, nrm)));
         }
     }
-    let ((_, _, f), (s, u, nrm)) = best.expect("a block has at least three corners");
-    geometry_from(f, s, u, nrm, c, r)
+
+    #[inline]
+    fn geometry(self, c: [f64; 2], r: f64) -> CornerContactGeometry {
+        let ((_, _, f), (s, u, nrm)) = self.0.expect("at least one feature offered");
+        geometry_from(f, s, u, nrm, c, r)
+    }
 }
 
-/// Local search: the nearest feature among `feature` and its two neighbours on either side, the
-/// per-cycle update of a contact whose point slides along the boundary (stage 4).
+/// Full search: the nearest feature of the whole boundary of a block (topology stage).
+pub fn nearest_feature(corners: &[Corner], c: [f64; 2], r: f64) -> CornerContactGeometry {
+    let mut best = Best::default();
+    for f in 0..2 * corners.len() as Feature {
+        best.offer(f, feature_distance(corners, f, c, |k| Edge::of(corners, k)));
+    }
+    best.geometry(c, r)
+}
+
+/// Local search: the nearest of `feature` and its two neighbours, the per-cycle update of a
+/// contact whose point slides along the boundary (stage 4). A contact point moves far less than a
+/// feature's length in one step, so it can only pass onto a neighbouring feature.
 pub fn track_feature(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
     let nf = 2 * corners.len() as Feature;
-    let mut best: Option<((f64, bool, Feature), (f64, f64, [f64; 2]))> = None;
-    for step in 0..5 {
-        let f = (feature + nf + step - 2) % nf;
-        let (s, u, nrm, inside) = feature_distance(corners, f, c);
-        let key = (u, inside, f);
-        if best.is_none_or(|(b, _)| better(key, b)) {
-            best = Some((key, (s, u, nrm)));
-        }
+    let edge = |j: usize| Edge::of(corners, j);
+    let mut best = Best::default();
+    let feature = feature.min(nf - 1);
+    let (nf, f) = (nf as usize, feature as usize);
+    for f in [prev(f, nf) as Feature, feature, next(f, nf) as Feature] {
+        best.offer(f, feature_distance(corners, f, c, edge));
     }
-    let ((_, _, f), (s, u, nrm)) = best.expect("five candidates");
-    geometry_from(f, s, u, nrm, c, r)
+    best.geometry(c, r)
 }
 
 /// Kinematic state of a block at the contact stage.

@@ -9,10 +9,15 @@ pub mod geometry_update;
 pub mod law_of_motion;
 
 use crate::backend::{Backend, CrackEvent, CycleError, CycleReport};
-use crate::model::Model;
+use crate::model::{Corner, Model};
+use rayon::prelude::*;
 use crate::topology::{self, Adjacency};
 
 use contact_forces::{contact_force_law, track_feature, BlockMotion};
+
+/// Smallest number of blocks or contacts one parallel task takes: below it a stage runs on one
+/// thread, so small scenes pay no scheduling.
+const PARALLEL_CHUNK: usize = 512;
 
 /// Cycles between energy checks and checkpoints of the last good state.
 const CHECK_INTERVAL: u64 = 100;
@@ -53,65 +58,86 @@ fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &
 fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Result<(), CycleError> {
     let limit = 0.5 * model.tol.round;
     let damping = model.damping;
-    let mut failure = None;
-    for k in 0..model.contacts.len() {
-        let c = model.contacts[k];
-        let corner = model.corners[c.corner as usize];
-        let g = track_feature(model.block_corners(c.block2 as usize), c.feature, corner.circle, corner.radius);
-        let (b1, b2) = (&model.blocks[c.block1 as usize], &model.blocks[c.block2 as usize]);
+    let failure: Option<(usize, f64)>;
+    {
+        let Model { blocks, corners, contacts, materials, .. } = &mut *model;
         let motion = |b: &crate::model::Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
-        let (m1, m2) = (motion(b1), motion(b2));
-        let mat = *model.material(c.material);
-        let contact = &mut model.contacts[k];
-        contact.feature = g.feature;
-        contact.kind = g.kind;
-        contact.gap = g.gap;
-        contact.normal = g.normal;
-        contact.point = g.point;
-        let active = topology::detect::counts_force(model, &model.contacts[k]);
-        let contact = &mut model.contacts[k];
-        contact_force_law(contact, &mat, &m1, &m2, &damping, dt, active);
-        if active && -g.gap > limit && failure.is_none() {
-            failure = Some(CycleError::Overlap {
+        let overlaps: Vec<Option<f64>> = contacts.par_iter_mut().with_min_len(PARALLEL_CHUNK).map(|contact| {
+            let corner = &corners[contact.corner as usize];
+            let (b1, b2) = (&blocks[contact.block1 as usize], &blocks[contact.block2 as usize]);
+            let range2 = b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize;
+            let g = track_feature(&corners[range2], contact.feature, corner.circle, corner.radius);
+            contact.feature = g.feature;
+            contact.kind = g.kind;
+            contact.gap = g.gap;
+            contact.normal = g.normal;
+            contact.point = g.point;
+            // The mirror copy of a corner–corner touch carries no force (the touch counts once).
+            let active = g.kind != crate::model::ContactKind::CornerCorner
+                || contact_forces::owns_corner_corner(contact.corner, b2.corner_start + (g.feature / 2) % b2.corner_count);
+            let mat = &materials[(contact.material.max(1) as usize - 1).min(materials.len() - 1)];
+            contact_force_law(contact, mat, &motion(b1), &motion(b2), &damping, dt, active);
+            (active && -g.gap > limit).then_some(-g.gap)
+        }).collect();
+        failure = overlaps.iter().enumerate().find_map(|(k, o)| o.map(|o| (k, o)));
+    }
+    gather_all(model, adjacency);
+    match failure {
+        None => Ok(()),
+        Some((k, overlap)) => {
+            let c = &model.contacts[k];
+            Err(CycleError::Overlap {
                 cycle: model.cycle,
                 block1: model.blocks[c.block1 as usize].id,
                 block2: model.blocks[c.block2 as usize].id,
-                overlap: -g.gap,
+                overlap,
                 limit,
-                x: g.point[0],
-                y: g.point[1],
-            });
+                x: c.point[0],
+                y: c.point[1],
+            })
         }
     }
-    gather_all(model, adjacency);
-    failure.map_or(Ok(()), Err)
 }
 
 fn gather_all(model: &mut Model, adjacency: &Adjacency) {
     let gravity = model.gravity;
     let Model { blocks, contacts, .. } = model;
-    for (b, block) in blocks.iter_mut().enumerate() {
-        gather::gather(b, block, contacts, adjacency, gravity);
-    }
+    blocks.par_iter_mut().enumerate().with_min_len(PARALLEL_CHUNK).for_each(|(b, block)| gather::gather(b, block, contacts, adjacency, gravity));
 }
 
 /// One cycle of stages 1, 2, 4, 6 (the scene has no zones or fluid yet).
 fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError> {
     let dt = model.timestep;
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
+    // Stage 1: law of motion. Stage 2: geometry update. One block per task: its corners are its
+    // own contiguous slice, so the blocks run in parallel and each result is what a serial loop
+    // would give; the sums below are taken serially, so runs repeat bit for bit.
+    let steps: Vec<law_of_motion::StepOutcome> = {
+        let Model { blocks, corners, .. } = &mut *model;
+        let mut slices = Vec::with_capacity(blocks.len());
+        let mut rest: &mut [Corner] = corners;
+        for block in blocks.iter() {
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(block.corner_count as usize);
+            slices.push(mine);
+            rest = tail;
+        }
+        blocks
+            .par_iter_mut()
+            .zip(slices.into_par_iter())
+            .with_min_len(PARALLEL_CHUNK)
+            .map(|(block, corners)| {
+                let step = law_of_motion::law_of_motion(block, gravity, alpha, dt);
+                geometry_update::geometry_update(block, corners);
+                step
+            })
+            .collect()
+    };
     let mut work = 0.0;
     let mut fastest = (0.0f64, 0usize);
-    // Stage 1: law of motion. Stage 2: geometry update.
-    {
-        let Model { blocks, corners, .. } = &mut *model;
-        for (b, block) in blocks.iter_mut().enumerate() {
-            let step = law_of_motion::law_of_motion(block, gravity, alpha, dt);
-            work += step.external_work;
-            if step.corner_travel > fastest.0 {
-                fastest = (step.corner_travel, b);
-            }
-            let range = block.corner_start as usize..(block.corner_start + block.corner_count) as usize;
-            geometry_update::geometry_update(block, &mut corners[range]);
+    for (b, step) in steps.iter().enumerate() {
+        work += step.external_work;
+        if step.corner_travel > fastest.0 {
+            fastest = (step.corner_travel, b);
         }
     }
     model.external_work += work;

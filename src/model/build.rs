@@ -142,6 +142,8 @@ impl Model {
                     round: r.round,
                     position: geometry::add(c, *l),
                     circle: geometry::add(c, r.circle),
+                    edge_dir: [0.0, 0.0],
+                    edge_length: 0.0,
                     edge_material: t.0,
                     edge_constitutive: t.1,
                 }),
@@ -166,7 +168,10 @@ impl Model {
             load: seed.load,
             radius: local.iter().map(|l| geometry::norm(*l)).fold(0.0, f64::max),
             moved_since_update: seed.moved_since_update,
+            update_centroid: c,
+            update_rotation: 0.0,
         });
+        self.update_corner_positions(b);
         b
     }
 

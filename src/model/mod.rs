@@ -99,9 +99,14 @@ pub struct Block {
     pub load: [f64; 2],
     /// Largest distance from the centroid to any corner (for update tolerances).
     pub radius: f64,
-    /// Corner displacement accumulated since this block's last contact update: |Δx| + |Δθ|·radius,
-    /// summed over cycles (DESIGN.md §1 stage 7, the report's update-after-threshold rule).
+    /// How far this block's corners have moved since its last contact update (the report's
+    /// update-after-threshold rule, ¶26): the largest |c − c_ref| + |θ − θ_ref|·radius seen since
+    /// then, a net displacement, so a block vibrating in place does not trigger updates. Set it
+    /// above the tolerance to ask for an update (new pieces of a split).
     pub moved_since_update: f64,
+    /// Centroid and rotation at the last contact update (the reference of `moved_since_update`).
+    pub update_centroid: [f64; 2],
+    pub update_rotation: f64,
 }
 
 /// One rounded corner (UDEC corner data array: KXP, KYP, KXCP, KYCP, KRAD).
@@ -123,6 +128,10 @@ pub struct Corner {
     pub position: [f64; 2],
     /// Current world position of the rounding circle centre.
     pub circle: [f64; 2],
+    /// Current unit direction and length of the edge from this corner to the next one (stage 2
+    /// computes them once a cycle for all the contacts that measure against the edge).
+    pub edge_dir: [f64; 2],
+    pub edge_length: f64,
     /// Joint material and constitutive number of the edge from this corner to the next one
     /// (counter-clockwise), set by SPLIT MAT= CONS=; 0 means "take the block's".
     pub edge_material: u32,

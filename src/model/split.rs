@@ -305,7 +305,8 @@ fn push_pieces(model: &mut Model, b: usize, pieces: &[Outline]) {
             velocity: [parent.velocity[0] - w * r[1], parent.velocity[1] + w * r[0]],
             angular_velocity: w,
             load: scale(parent.load, props.area / total),
-            moved_since_update: parent.moved_since_update.max(model.tol.etol),
+            // New pieces have no contacts yet: due for detection at the next update.
+            moved_since_update: f64::INFINITY,
         };
         model.push_block(&piece.pts, &piece.tags, seed);
     }

@@ -13,7 +13,7 @@
 //! contact at the threshold does not flicker). A contact keeps its identity — and so its shear
 //! history — as long as the same corner stays near the same block (feature ids, STYLE.md item 7).
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::cpu::contact_forces::nearest_feature;
 use crate::model::{Contact, ContactKind, Model};
@@ -56,7 +56,7 @@ pub fn candidate_pairs(model: &Model, flagged: &[bool]) -> Vec<(u32, u32)> {
         y0 = y0.min(b[1]);
     }
     let cell_of = |x: f64, y: f64| -> (i64, i64) { (((x - x0) / cell).floor() as i64, ((y - y0) / cell).floor() as i64) };
-    let mut grid: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+    let mut grid: HashMap<(i64, i64), Vec<u32>> = HashMap::default();
     let mut large: Vec<u32> = Vec::new();
     for (b, bb) in boxes.iter().enumerate() {
         let (cx0, cy0) = cell_of(bb[0], bb[1]);
@@ -127,7 +127,7 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
     let pairs = candidate_pairs(model, &flagged);
 
     // Existing contacts by identity: the corner and the block it touches.
-    let mut existing: HashMap<(u32, u32), usize> = HashMap::with_capacity(model.contacts.len());
+    let mut existing: HashMap<(u32, u32), usize> = HashMap::with_capacity_and_hasher(model.contacts.len(), Default::default());
     for (i, c) in model.contacts.iter().enumerate() {
         existing.insert((c.corner, c.block2), i);
     }
@@ -210,6 +210,8 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
     for (b, f) in model.blocks.iter_mut().zip(&flagged) {
         if *f {
             b.moved_since_update = 0.0;
+            b.update_centroid = b.centroid;
+            b.update_rotation = b.rotation;
         }
     }
     (n_created, dropped)
