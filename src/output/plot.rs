@@ -1,0 +1,496 @@
+//! PLOT: the block outlines on the 1985 plotter page, written as PNG (tiny-skia) and SVG.
+//!
+//! The page is the plotter's 2000 × 1400 units (Appendix A, VIEW defaults), drawn at 0.5 pixel per
+//! unit: a 1000 × 700 image on white. WINDOW (problem units) is mapped onto the VIEW rectangle of
+//! the page with equal scales in x and y, centred in the view, and everything is clipped to the
+//! view, so four VIEW quadrants give four plots on one page as in sample problem 4.
+//!
+//! The drawing is built once as a [`Scene`] of polylines in pixel coordinates, and the PNG and SVG
+//! writers only render that scene: both files always show the same picture.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::io;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use tiny_skia::{FillRule, Mask, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
+
+use super::format::fmt_e;
+use crate::deck::PlotOptions;
+use crate::model::Model;
+
+/// Plotter page size in plotter units (VIEW defaults ix2 = 2000, iy2 = 1400).
+pub const PAGE_UNITS: [f64; 2] = [2000.0, 1400.0];
+/// Pixels per plotter unit.
+pub const PX_PER_UNIT: f64 = 0.5;
+/// Image size in pixels.
+pub const IMAGE_SIZE: [u32; 2] = [1000, 700];
+
+/// Largest angle one straight segment of a tessellated corner arc may span (5°): at 1000 px a
+/// rounding arc is at most a few tens of pixels, so the chords are invisible.
+const ARC_STEP: f64 = std::f64::consts::PI / 36.0;
+/// Half-length of the centroid cross, pixels.
+const CROSS_PX: f64 = 4.0;
+/// The largest velocity arrow is this fraction of the window width.
+const ARROW_FRACTION: f64 = 0.05;
+
+/// WINDOW and VIEW, the plot state that SAVE keeps with the model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlotSettings {
+    /// WINDOW x1 x2 y1 y2: the model region plotted, problem units (default 0 10 0 7).
+    pub window: [f64; 4],
+    /// VIEW ix1 ix2 iy1 iy2: where on the page, plotter units (default 0 2000 0 1400).
+    pub view: [i64; 4],
+}
+
+impl Default for PlotSettings {
+    fn default() -> Self {
+        PlotSettings {
+            window: [0.0, 10.0, 0.0, 7.0],
+            view: [0, 2000, 0, 1400],
+        }
+    }
+}
+
+/// The mapping problem units → pixels for one plot.
+#[derive(Clone, Copy, Debug)]
+struct Viewport {
+    /// Pixels per problem unit, equal in x and y.
+    scale: f64,
+    /// Pixel position of problem point (0, 0).
+    origin: [f64; 2],
+    /// The VIEW rectangle in pixels: left, top, right, bottom.
+    clip: [f64; 4],
+}
+
+impl Viewport {
+    fn new(settings: &PlotSettings) -> io::Result<Self> {
+        let [x1, x2, y1, y2] = settings.window;
+        let [ix1, ix2, iy1, iy2] = settings.view.map(|v| v as f64);
+        let (ww, wh) = (x2 - x1, y2 - y1);
+        let (vw, vh) = (ix2 - ix1, iy2 - iy1);
+        if !(ww > 0.0 && wh > 0.0 && ww.is_finite() && wh.is_finite()) {
+            return Err(invalid(format!(
+                "WINDOW {x1} {x2} {y1} {y2} is empty: need x1 < x2 and y1 < y2"
+            )));
+        }
+        if !(vw > 0.0 && vh > 0.0) {
+            return Err(invalid(format!(
+                "VIEW {ix1} {ix2} {iy1} {iy2} is empty: need ix1 < ix2 and iy1 < iy2"
+            )));
+        }
+        // Plotter units per problem unit: the window fits the view in its tighter direction and
+        // is centred in the other.
+        let s = (vw / ww).min(vh / wh);
+        let ux0 = ix1 + 0.5 * (vw - s * ww) - s * x1;
+        let uy0 = iy1 + 0.5 * (vh - s * wh) - s * y1;
+        // Plotter y grows upward, image y downward.
+        Ok(Viewport {
+            scale: s * PX_PER_UNIT,
+            origin: [ux0 * PX_PER_UNIT, (PAGE_UNITS[1] - uy0) * PX_PER_UNIT],
+            clip: [
+                ix1 * PX_PER_UNIT,
+                (PAGE_UNITS[1] - iy2) * PX_PER_UNIT,
+                ix2 * PX_PER_UNIT,
+                (PAGE_UNITS[1] - iy1) * PX_PER_UNIT,
+            ],
+        })
+    }
+
+    fn to_px(self, p: [f64; 2]) -> [f64; 2] {
+        [
+            self.origin[0] + self.scale * p[0],
+            self.origin[1] - self.scale * p[1],
+        ]
+    }
+}
+
+fn invalid(msg: String) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidInput, msg)
+}
+
+/// The outline of block `b` in world coordinates, counter-clockwise, as a closed polygon (the
+/// first point is not repeated).
+///
+/// With `rounded`, each corner is replaced by the arc of its rounding circle between its two
+/// tangent points, the points at distance `round` from the corner along its two edges (DESIGN.md
+/// §4), tessellated into chords of at most 5°; straight edges join the arcs. A corner with no
+/// rounding (re-entrant, `radius` or `round` zero) stays a sharp point. Without `rounded` the
+/// outline is the sharp polygon of the corner positions.
+///
+/// This is the one tessellation both the PNG and the SVG use.
+pub fn block_outline(model: &Model, b: usize, rounded: bool) -> Vec<[f64; 2]> {
+    let blk = &model.blocks[b];
+    let start = blk.corner_start as usize;
+    let corners = model
+        .corners
+        .get(start..start + blk.corner_count as usize)
+        .unwrap_or(&[]);
+    let n = corners.len();
+    if !rounded || n < 3 {
+        return corners.iter().map(|c| c.position).collect();
+    }
+    let mut out = Vec::with_capacity(n * 8);
+    for k in 0..n {
+        let c = &corners[k];
+        let prev = corners[(k + n - 1) % n].position;
+        let next = corners[(k + 1) % n].position;
+        let p = c.position;
+        let (Some(u_in), Some(u_out)) = (unit(sub(prev, p)), unit(sub(next, p))) else {
+            out.push(p);
+            continue;
+        };
+        if !(c.round > 0.0 && c.radius > 0.0) {
+            out.push(p);
+            continue;
+        }
+        let t_in = add(p, scale(u_in, c.round));
+        let t_out = add(p, scale(u_out, c.round));
+        arc(c.circle, t_in, t_out, &mut out);
+    }
+    out
+}
+
+/// Appends the arc about `centre` from `a` to `b` (both included), the short way round. A
+/// rounding arc always subtends less than π (it is π minus the interior angle of a convex
+/// corner), so the short way is the right one. The radius is interpolated between the two end
+/// distances so the ends land exactly on the tangent points even if the stored circle is off by
+/// rounding error.
+fn arc(centre: [f64; 2], a: [f64; 2], b: [f64; 2], out: &mut Vec<[f64; 2]>) {
+    let (da, db) = (sub(a, centre), sub(b, centre));
+    let (ra, rb) = (len(da), len(db));
+    let a0 = da[1].atan2(da[0]);
+    let mut sweep = db[1].atan2(db[0]) - a0;
+    if sweep > std::f64::consts::PI {
+        sweep -= std::f64::consts::TAU;
+    } else if sweep < -std::f64::consts::PI {
+        sweep += std::f64::consts::TAU;
+    }
+    let steps = ((sweep.abs() / ARC_STEP).ceil() as usize).max(1);
+    out.push(a);
+    for i in 1..steps {
+        let f = i as f64 / steps as f64;
+        let (r, t) = (ra + f * (rb - ra), a0 + f * sweep);
+        out.push([centre[0] + r * t.cos(), centre[1] + r * t.sin()]);
+    }
+    out.push(b);
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+fn add(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] + b[0], a[1] + b[1]]
+}
+fn scale(a: [f64; 2], s: f64) -> [f64; 2] {
+    [a[0] * s, a[1] * s]
+}
+fn len(a: [f64; 2]) -> f64 {
+    a[0].hypot(a[1])
+}
+fn unit(a: [f64; 2]) -> Option<[f64; 2]> {
+    let l = len(a);
+    (l > 0.0 && l.is_finite()).then(|| scale(a, 1.0 / l))
+}
+
+/// An RGB colour.
+type Rgb = [u8; 3];
+const BLACK: Rgb = [0, 0, 0];
+/// Fill of fixed blocks.
+const FIXED_GREY: Rgb = [200, 200, 200];
+/// Velocity arrows.
+const ARROW_BLUE: Rgb = [0, 70, 200];
+
+/// What a shape is, for the SVG's `class` attribute.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ShapeKind {
+    Block(u32),
+    Centroid,
+    Velocity,
+}
+
+/// One polyline in pixel coordinates.
+struct Shape {
+    kind: ShapeKind,
+    points: Vec<[f64; 2]>,
+    closed: bool,
+    fill: Option<Rgb>,
+    stroke: Rgb,
+}
+
+/// Everything one plot draws, in pixels.
+struct Scene {
+    /// The VIEW rectangle: left, top, right, bottom.
+    clip: [f64; 4],
+    shapes: Vec<Shape>,
+    caption: String,
+}
+
+fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) -> io::Result<Scene> {
+    let vp = Viewport::new(settings)?;
+    let shown: Vec<usize> = (0..model.blocks.len())
+        .filter(|&b| !(options.nofix && model.blocks[b].fixed))
+        .collect();
+    let mut shapes = Vec::new();
+
+    // Outlines first so that crosses and arrows are drawn over the grey of fixed blocks.
+    for &b in &shown {
+        let blk = &model.blocks[b];
+        let points: Vec<[f64; 2]> = block_outline(model, b, !options.no_rounding)
+            .into_iter()
+            .map(|p| vp.to_px(p))
+            .collect();
+        if points.len() >= 2 && points.iter().all(|p| p[0].is_finite() && p[1].is_finite()) {
+            let fill = blk.fixed.then_some(FIXED_GREY);
+            shapes.push(Shape {
+                kind: ShapeKind::Block(blk.id),
+                points,
+                closed: true,
+                fill,
+                stroke: BLACK,
+            });
+        }
+    }
+    for &b in &shown {
+        let [cx, cy] = vp.to_px(model.blocks[b].centroid);
+        if !(cx.is_finite() && cy.is_finite()) {
+            continue;
+        }
+        for (dx, dy) in [(CROSS_PX, 0.0), (0.0, CROSS_PX)] {
+            let points = vec![[cx - dx, cy - dy], [cx + dx, cy + dy]];
+            shapes.push(Shape {
+                kind: ShapeKind::Centroid,
+                points,
+                closed: false,
+                fill: None,
+                stroke: BLACK,
+            });
+        }
+    }
+    if options.velocities {
+        // Arrows scaled so the fastest block's arrow is 5% of the window width.
+        let speed = |b: usize| len(model.blocks[b].velocity);
+        let vmax = shown
+            .iter()
+            .map(|&b| speed(b))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        if vmax > 0.0 {
+            let k = ARROW_FRACTION * (settings.window[1] - settings.window[0]) / vmax;
+            for &b in &shown {
+                let blk = &model.blocks[b];
+                if !(speed(b) > 0.0 && speed(b).is_finite()) {
+                    continue;
+                }
+                let tail = vp.to_px(blk.centroid);
+                let head = vp.to_px(add(blk.centroid, scale(blk.velocity, k)));
+                shapes.extend(arrow(tail, head));
+            }
+        }
+    }
+    let caption = format!("CYCLE {}   TIME {}", model.cycle, fmt_e(model.time));
+    Ok(Scene {
+        clip: vp.clip,
+        shapes,
+        caption,
+    })
+}
+
+/// An arrow from `tail` to `head` (pixels): the shaft and a head of two 30° barbs.
+fn arrow(tail: [f64; 2], head: [f64; 2]) -> Vec<Shape> {
+    let d = sub(head, tail);
+    let l = len(d);
+    let mut shapes = vec![Shape {
+        kind: ShapeKind::Velocity,
+        points: vec![tail, head],
+        closed: false,
+        fill: None,
+        stroke: ARROW_BLUE,
+    }];
+    if let Some(u) = unit(d) {
+        let barb = (0.3 * l).min(6.0);
+        let (c, s) = (
+            std::f64::consts::FRAC_PI_6.cos(),
+            std::f64::consts::FRAC_PI_6.sin(),
+        );
+        let back = scale(u, -barb);
+        let left = add(head, [c * back[0] - s * back[1], s * back[0] + c * back[1]]);
+        let right = add(
+            head,
+            [c * back[0] + s * back[1], -s * back[0] + c * back[1]],
+        );
+        shapes.push(Shape {
+            kind: ShapeKind::Velocity,
+            points: vec![left, head, right],
+            closed: false,
+            fill: None,
+            stroke: ARROW_BLUE,
+        });
+    }
+    shapes
+}
+
+/// PLOT: writes `plot_NNN.png` and `plot_NNN.svg` (NNN = `number`, three digits) into `out_dir`
+/// and returns their paths in that order.
+///
+/// Draws every block's outline (rounded unless `no_rounding`), fixed blocks shaded light grey
+/// (left out entirely with `nofix`), a cross at each centroid, and with `velocities` an arrow at
+/// each centroid. The SVG carries a caption with the cycle number and time; the PNG has no text
+/// (tiny-skia renders no fonts). `zones` is accepted but draws nothing: the model has no zones
+/// yet. An empty WINDOW or VIEW is an `InvalidInput` error.
+pub fn plot(
+    model: &Model,
+    settings: &PlotSettings,
+    options: &PlotOptions,
+    out_dir: &Path,
+    number: usize,
+) -> io::Result<[PathBuf; 2]> {
+    let scene = build_scene(model, settings, options)?;
+    let png = out_dir.join(format!("plot_{number:03}.png"));
+    let svg = out_dir.join(format!("plot_{number:03}.svg"));
+    let pixmap = render_png(&scene)?;
+    let bytes = pixmap
+        .encode_png()
+        .map_err(|e| io::Error::other(format!("PNG encoding failed: {e}")))?;
+    fs::write(&png, bytes)?;
+    fs::write(&svg, render_svg(&scene))?;
+    Ok([png, svg])
+}
+
+fn render_png(scene: &Scene) -> io::Result<Pixmap> {
+    let [w, h] = IMAGE_SIZE;
+    let mut pixmap = Pixmap::new(w, h).expect("the page size is nonzero");
+    pixmap.fill(tiny_skia::Color::WHITE);
+
+    // Clip mask: the VIEW rectangle, hard-edged so nothing bleeds a half pixel outside it.
+    let [l, t, r, b] = scene.clip.map(|v| v as f32);
+    let mut mask = Mask::new(w, h).expect("the page size is nonzero");
+    if let Some(rect) = Rect::from_ltrb(l.max(0.0), t.max(0.0), r.min(w as f32), b.min(h as f32)) {
+        mask.fill_path(
+            &PathBuilder::from_rect(rect),
+            FillRule::Winding,
+            false,
+            Transform::identity(),
+        );
+    } else {
+        return Ok(pixmap); // the view lies off the page: nothing is visible
+    }
+
+    let stroke = Stroke {
+        width: 1.0,
+        ..Stroke::default()
+    };
+    for shape in &scene.shapes {
+        let Some(path) = tiny_path(&shape.points, shape.closed) else {
+            continue;
+        };
+        if let Some(fill) = shape.fill {
+            tiny_skia_fill(&mut pixmap, &path, fill, &mask);
+        }
+        let mut paint = Paint::default();
+        paint.set_color_rgba8(shape.stroke[0], shape.stroke[1], shape.stroke[2], 255);
+        paint.anti_alias = true;
+        pixmap.stroke_path(&path, &paint, &stroke, Transform::identity(), Some(&mask));
+    }
+    Ok(pixmap)
+}
+
+fn tiny_skia_fill(pixmap: &mut Pixmap, path: &tiny_skia::Path, rgb: Rgb, mask: &Mask) {
+    let mut paint = Paint::default();
+    paint.set_color_rgba8(rgb[0], rgb[1], rgb[2], 255);
+    paint.anti_alias = true;
+    pixmap.fill_path(
+        path,
+        &paint,
+        FillRule::Winding,
+        Transform::identity(),
+        Some(mask),
+    );
+}
+
+fn tiny_path(points: &[[f64; 2]], closed: bool) -> Option<tiny_skia::Path> {
+    let (first, rest) = points.split_first()?;
+    let mut pb = PathBuilder::new();
+    pb.move_to(first[0] as f32, first[1] as f32);
+    rest.iter()
+        .for_each(|p| pb.line_to(p[0] as f32, p[1] as f32));
+    if closed {
+        pb.close();
+    }
+    pb.finish()
+}
+
+fn render_svg(scene: &Scene) -> String {
+    let [w, h] = IMAGE_SIZE;
+    let [l, t, r, b] = scene.clip;
+    let mut s = String::new();
+    // `write!` into a String cannot fail.
+    let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
+    );
+    let _ = writeln!(
+        s,
+        r#"<rect x="0" y="0" width="{w}" height="{h}" fill="white"/>"#
+    );
+    let _ = writeln!(
+        s,
+        r#"<defs><clipPath id="view"><rect x="{l:.2}" y="{t:.2}" width="{:.2}" height="{:.2}"/></clipPath></defs>"#,
+        r - l,
+        b - t
+    );
+    let _ = writeln!(
+        s,
+        r#"<g clip-path="url(#view)" stroke-width="1" stroke-linejoin="round">"#
+    );
+    for shape in &scene.shapes {
+        let mut d = String::new();
+        for (i, p) in shape.points.iter().enumerate() {
+            let _ = write!(
+                d,
+                "{}{:.2},{:.2} ",
+                if i == 0 { 'M' } else { 'L' },
+                p[0],
+                p[1]
+            );
+        }
+        if shape.closed {
+            d.push('Z');
+        }
+        let class = match shape.kind {
+            ShapeKind::Block(id) => format!(r#"class="block" data-id="{id}""#),
+            ShapeKind::Centroid => r#"class="centroid""#.to_string(),
+            ShapeKind::Velocity => r#"class="velocity""#.to_string(),
+        };
+        let fill = shape.fill.map_or_else(|| "none".to_string(), hex);
+        let _ = writeln!(
+            s,
+            r#"<path {class} d="{}" fill="{fill}" stroke="{}"/>"#,
+            d.trim_end(),
+            hex(shape.stroke)
+        );
+    }
+    // The caption sits at the bottom left of the view, inside the clip like everything else.
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.2}" y="{:.2}" font-family="monospace" font-size="12" fill="black">{}</text>"#,
+        l + 6.0,
+        b - 6.0,
+        xml_escape(&scene.caption)
+    );
+    let _ = writeln!(s, "</g>");
+    let _ = writeln!(s, "</svg>");
+    s
+}
+
+fn hex(c: Rgb) -> String {
+    format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
+}
+
+fn xml_escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}

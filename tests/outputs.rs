@@ -1,0 +1,916 @@
+//! Tests of the output layer: number format, PRINT tables, state JSON, SAVE/RESTART, PLOT, DUMP.
+//!
+//! The models are built by hand (two rectangles and one contact) so these tests do not depend on
+//! the geometry or topology code.
+
+use std::path::{Path, PathBuf};
+
+use blockdem::deck::{PlotOptions, PrintItem};
+use blockdem::model::{Block, BlockKind, Contact, ContactKind, Corner, Model};
+use blockdem::output::{
+    block_outline, dump, fmt_e, load, plot, print_block_lists, print_blocks, print_contacts,
+    print_corners, print_item, save, state_json, write_state_json, PlotSettings, RestartError,
+    SaveFile, FORMAT_VERSION, MAGIC,
+};
+use serde_json::Value;
+
+// ---------------------------------------------------------------------------------------------
+// Test models
+
+/// Appends an axis-aligned rectangle block with counter-clockwise corners, each rounded with
+/// length `round` (for a right angle the rounding circle has radius `round` and its centre lies
+/// `round` inward along both edges). Returns the block's index.
+fn add_rect(
+    model: &mut Model,
+    id: u32,
+    [x0, y0, x1, y1]: [f64; 4],
+    round: f64,
+    fixed: bool,
+) -> usize {
+    let b = model.blocks.len();
+    let start = model.corners.len() as u32;
+    let c = [(x0 + x1) / 2.0, (y0 + y1) / 2.0];
+    let (w, h) = (x1 - x0, y1 - y0);
+    for p in [[x0, y0], [x1, y0], [x1, y1], [x0, y1]] {
+        let inward = [(c[0] - p[0]).signum(), (c[1] - p[1]).signum()];
+        let circle = [p[0] + inward[0] * round, p[1] + inward[1] * round];
+        model.corners.push(Corner {
+            block: b as u32,
+            local: [p[0] - c[0], p[1] - c[1]],
+            circle_local: [circle[0] - c[0], circle[1] - c[1]],
+            radius: round,
+            round,
+            position: p,
+            circle,
+            edge_material: 0,
+            edge_constitutive: 0,
+        });
+    }
+    let density = 2000.0;
+    let mass = density * w * h;
+    model.blocks.push(Block {
+        id,
+        kind: BlockKind::Rigid,
+        material: 1,
+        constitutive: 1,
+        fixed,
+        corner_start: start,
+        corner_count: 4,
+        area: w * h,
+        mass,
+        inertia: mass * (w * w + h * h) / 12.0,
+        centroid: c,
+        rotation: 0.0,
+        velocity: [0.0, 0.0],
+        angular_velocity: 0.0,
+        force: [0.0, 0.0],
+        moment: 0.0,
+        load: [0.0, 0.0],
+        radius: 0.5 * w.hypot(h),
+        moved_since_update: 0.0,
+    });
+    model.next_block_id = model.next_block_id.max(id + 1);
+    b
+}
+
+/// A fixed base (id 3, 0..6 × 0..1) with a block on it (id 5, 2..4 × 1..2, moving), and one
+/// contact (id 7) of the top block's bottom-left corner (global corner 4, printed 5) on the
+/// base's top edge (feature 5: the edge from corner 2 to corner 3). Ids differ from indices on
+/// purpose, so a table that prints indices fails.
+fn two_blocks() -> Model {
+    let mut m = Model {
+        cycle: 600,
+        time: 1.25,
+        timestep: 2.5e-4,
+        gravity: [0.0, -10.0],
+        ..Model::default()
+    };
+    add_rect(&mut m, 3, [0.0, 0.0, 6.0, 1.0], 0.1, true);
+    let top = add_rect(&mut m, 5, [2.0, 1.0, 4.0, 2.0], 0.1, false);
+    let b = &mut m.blocks[top];
+    b.velocity = [0.5, -0.25];
+    b.angular_velocity = 0.01;
+    b.force = [10.0, -2.0e4];
+    b.moment = 3.5;
+    b.material = 2;
+    b.constitutive = 4;
+    m.contacts.push(Contact {
+        id: 7,
+        block1: 1,
+        corner: 4,
+        block2: 0,
+        feature: 5,
+        kind: ContactKind::CornerEdge,
+        material: 1,
+        constitutive: 2,
+        bonded: true,
+        point: [2.0, 1.0],
+        normal: [0.0, 1.0],
+        gap: -1.5e-4,
+        normal_force: 1.962e4,
+        shear_force: -12.5,
+        shear_displacement: 3.0e-5,
+        force: [-12.5, 1.962e4],
+    });
+    m.next_contact_id = 8;
+    m
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("outputs")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn text(f: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>) -> String {
+    let mut buf = Vec::new();
+    f(&mut buf).unwrap();
+    String::from_utf8(buf).unwrap()
+}
+
+/// Four significant digits, as fmt_e prints them.
+fn close(printed: &str, expected: f64) -> bool {
+    let x: f64 = printed
+        .parse()
+        .unwrap_or_else(|_| panic!("not a number: {printed:?}"));
+    (x - expected).abs() <= 5e-4 * expected.abs()
+}
+
+// ---------------------------------------------------------------------------------------------
+// fmt_e
+
+#[test]
+fn fmt_e_cases() {
+    let cases: &[(f64, &str)] = &[
+        (0.0, "0.000E+00"),
+        (-0.0, "0.000E+00"),
+        (1.0, "1.000E+00"),
+        (123_400.0, "1.234E+05"),
+        (-0.0095, "-9.500E-03"),
+        (-1.0, "-1.000E+00"),
+        (9.9996, "1.000E+01"),
+        (0.12345, "1.235E-01"), // the binary value lies just above the tie
+        (1.0005, "1.000E+00"),  // ... and this one just below
+        (1e-300, "1.000E-300"),
+        (1e300, "1.000E+300"),
+        (-2.5e-120, "-2.500E-120"),
+        (f64::MAX, "1.798E+308"),
+        (5e-324, "4.941E-324"),
+        (f64::NAN, "NaN"),
+        (f64::INFINITY, "Inf"),
+        (f64::NEG_INFINITY, "-Inf"),
+    ];
+    for &(x, want) in cases {
+        assert_eq!(fmt_e(x), want, "fmt_e({x:e})");
+    }
+}
+
+#[test]
+fn fmt_e_parses_back_within_half_a_unit_of_the_last_digit() {
+    let mut x: f64 = 1.234_567_89e-30;
+    for _ in 0..120 {
+        for v in [x, -x] {
+            let s = fmt_e(v);
+            assert!(s.len() <= 10, "{s} is wider than a column");
+            let back: f64 = s.parse().unwrap();
+            assert!((back - v).abs() <= 5.0001e-4 * v.abs(), "{v:e} printed {s}");
+        }
+        x *= 3.7;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// PRINT tables
+
+/// The whitespace-separated fields of the first line whose first field is `first`.
+fn row<'a>(table: &'a str, first: &str) -> Vec<&'a str> {
+    table
+        .lines()
+        .map(|l| l.split_whitespace().collect::<Vec<_>>())
+        .find(|f| f.first() == Some(&first))
+        .unwrap_or_else(|| panic!("no row starting with {first} in\n{table}"))
+}
+
+fn assert_narrow(table: &str) {
+    for line in table.lines() {
+        assert!(line.len() <= 132, "line longer than 132 columns: {line:?}");
+    }
+}
+
+#[test]
+fn print_blocks_table() {
+    let m = two_blocks();
+    let t = text(|w| print_blocks(&m, w));
+    assert_narrow(&t);
+    assert!(t.starts_with("\nBLOCK DATA\n"), "{t}");
+    for heading in [
+        "BLOCK",
+        "MAT",
+        "CONST",
+        "CENTROID COORDS.",
+        "MASS",
+        "POL. MOM.",
+        "X,Y,THETA VELOCITIES",
+        "X,Y,THETA FORCES",
+    ] {
+        assert!(t.contains(heading), "missing heading {heading}:\n{t}");
+    }
+    let r = row(&t, "5");
+    assert_eq!(r.len(), 13, "{r:?}");
+    assert_eq!(&r[1..3], ["2", "4"]);
+    let b = &m.blocks[1];
+    let want = [
+        3.0, 1.5, b.mass, b.inertia, 0.5, -0.25, 0.01, 10.0, -2.0e4, 3.5,
+    ];
+    for (s, x) in r[3..].iter().zip(want) {
+        assert!(close(s, x), "printed {s}, expected {x}");
+    }
+    // The type line follows each block's row; the fixed base says so.
+    let lines: Vec<&str> = t.lines().collect();
+    let i = lines
+        .iter()
+        .position(|l| l.split_whitespace().next() == Some("3"))
+        .unwrap();
+    assert_eq!(lines[i + 1].trim(), "(RIGID) FIXED");
+    let i = lines
+        .iter()
+        .position(|l| l.split_whitespace().next() == Some("5"))
+        .unwrap();
+    assert_eq!(lines[i + 1].trim(), "(RIGID)");
+    // No block is numbered by its index.
+    assert!(t
+        .lines()
+        .all(|l| !l.trim_start().starts_with("0 ") && !l.trim_start().starts_with("1 ")));
+}
+
+#[test]
+fn print_blocks_names_deformable_types() {
+    let mut m = two_blocks();
+    m.blocks[0].kind = BlockKind::SimplyDeformable;
+    m.blocks[1].kind = BlockKind::FullyDeformable;
+    let t = text(|w| print_blocks(&m, w));
+    assert!(t.contains("(SDEF) FIXED") && t.contains("(FDEF)"), "{t}");
+}
+
+#[test]
+fn print_contacts_table() {
+    let m = two_blocks();
+    let t = text(|w| print_contacts(&m, w));
+    assert_narrow(&t);
+    assert!(t.starts_with("\nCONTACT DATA\n"), "{t}");
+    for heading in [
+        "CONTACT",
+        "BLOCK1",
+        "BLOCK2",
+        "MAT",
+        "CONST",
+        "X,Y COORDS.",
+        "FORCE",
+        "DISPLACEMENT",
+        "NORMAL",
+        "SHEAR",
+    ] {
+        assert!(t.contains(heading), "missing heading {heading}:\n{t}");
+    }
+    let r = row(&t, "7");
+    assert_eq!(&r[1..5], ["5", "3", "1", "2"], "ids, not indices: {r:?}");
+    let want = [2.0, 1.0, 1.962e4, -12.5, -1.5e-4, 3.0e-5];
+    for (s, x) in r[5..11].iter().zip(want) {
+        assert!(close(s, x), "printed {s}, expected {x}");
+    }
+    assert_eq!(r[11], "CORNER/EDGE");
+}
+
+#[test]
+fn print_contacts_leaves_unset_material_blank() {
+    let mut m = two_blocks();
+    m.contacts[0].material = 0;
+    m.contacts[0].constitutive = 0;
+    let t = text(|w| print_contacts(&m, w));
+    let r = row(&t, "7");
+    assert_eq!(&r[1..3], ["5", "3"]);
+    assert!(
+        close(r[3], 2.0),
+        "MAT and CONST columns should be blank: {r:?}"
+    );
+}
+
+#[test]
+fn print_corners_table() {
+    let m = two_blocks();
+    let t = text(|w| print_corners(&m, w));
+    assert_narrow(&t);
+    assert!(t.contains("CORNER COORDINATES (IN X,Y ORDER)"));
+    let r = row(&t, "BLOCK");
+    assert_eq!(r[1], "3");
+    let want = [0.0, 0.0, 6.0, 0.0, 6.0, 1.0, 0.0, 1.0];
+    assert_eq!(r.len(), 2 + want.len());
+    for (s, x) in r[2..].iter().zip(want) {
+        assert!(close(s, x), "printed {s}, expected {x}");
+    }
+}
+
+#[test]
+fn print_corners_wraps_long_blocks() {
+    // A 12-corner block needs three lines of at most five pairs.
+    let mut m = Model::default();
+    let n = 12;
+    for k in 0..n {
+        let a = std::f64::consts::TAU * k as f64 / n as f64;
+        let p = [5.0 + a.cos(), 5.0 + a.sin()];
+        m.corners.push(Corner {
+            block: 0,
+            local: [p[0] - 5.0, p[1] - 5.0],
+            circle_local: [0.0; 2],
+            radius: 0.0,
+            round: 0.0,
+            position: p,
+            circle: p,
+            edge_material: 0,
+            edge_constitutive: 0,
+        });
+    }
+    m.blocks.push(Block {
+        id: 42,
+        kind: BlockKind::Rigid,
+        material: 1,
+        constitutive: 1,
+        fixed: false,
+        corner_start: 0,
+        corner_count: n,
+        area: 3.0,
+        mass: 1.0,
+        inertia: 1.0,
+        centroid: [5.0, 5.0],
+        rotation: 0.0,
+        velocity: [0.0; 2],
+        angular_velocity: 0.0,
+        force: [0.0; 2],
+        moment: 0.0,
+        load: [0.0; 2],
+        radius: 1.0,
+        moved_since_update: 0.0,
+    });
+    let t = text(|w| print_corners(&m, w));
+    assert_narrow(&t);
+    let body: Vec<&str> = t
+        .lines()
+        .filter(|l| l.contains("E+") || l.contains("E-"))
+        .collect();
+    assert_eq!(body.len(), 3, "{t}");
+    assert!(body[0].starts_with("BLOCK     42"));
+    assert!(body[1].starts_with("            ") && body[2].starts_with("            "));
+    let numbers: usize = body
+        .iter()
+        .map(|l| l.split_whitespace().filter(|f| f.contains('E')).count())
+        .sum();
+    assert_eq!(numbers, 2 * n as usize);
+}
+
+#[test]
+fn print_block_lists_table() {
+    let m = two_blocks();
+    let t = text(|w| print_block_lists(&m, w));
+    assert_narrow(&t);
+    assert!(t.contains("BLOCK LINKED LISTS"));
+    let lines: Vec<&str> = t.lines().map(str::trim).collect();
+    // Base (id 3): corners 1..4; the contact sits on the edge after corner 3 (top edge), and the
+    // base is block 2 of it.
+    let base = lines.iter().position(|l| *l == "BLOCK 3 (RIGID)").unwrap();
+    assert_eq!(
+        &lines[base + 1..base + 7],
+        [
+            "CORNER 1, BLOCK 3",
+            "CORNER 2, BLOCK 3",
+            "CORNER 3, BLOCK 3",
+            "CONTACT 7, BLOCK1 5, BLOCK2 3 EDGE/CORNER",
+            "CORNER 4, BLOCK 3",
+            "",
+        ]
+    );
+    // Top block (id 5): corners 5..8; it owns corner 5, which makes the contact.
+    let top = lines.iter().position(|l| *l == "BLOCK 5 (RIGID)").unwrap();
+    assert_eq!(
+        &lines[top + 1..],
+        [
+            "CORNER 5, BLOCK 5",
+            "CONTACT 7, BLOCK1 5, BLOCK2 3 CORNER/EDGE",
+            "CORNER 6, BLOCK 5",
+            "CORNER 7, BLOCK 5",
+            "CORNER 8, BLOCK 5",
+        ]
+    );
+}
+
+#[test]
+fn print_item_dispatches_and_survives_a_bad_index() {
+    let mut m = two_blocks();
+    for item in [
+        PrintItem::Blocks,
+        PrintItem::Contacts,
+        PrintItem::Corners,
+        PrintItem::List,
+        PrintItem::Energy,
+        PrintItem::Domains,
+        PrintItem::DList,
+        PrintItem::Flows,
+    ] {
+        let t = text(|w| print_item(&m, item, w));
+        assert!(t.starts_with('\n') && t.len() > 10, "{item:?}: {t}");
+    }
+    // A contact that names a block that is not there prints "?" rather than panicking.
+    m.contacts[0].block2 = 99;
+    m.contacts[0].corner = 999;
+    let t = text(|w| print_contacts(&m, w));
+    assert_eq!(&row(&t, "7")[1..3], ["5", "?"]);
+    let t = text(|w| print_block_lists(&m, w));
+    assert!(
+        t.contains("CONTACT 7, BLOCK1 5, BLOCK2 ? CORNER/EDGE"),
+        "{t}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// State JSON
+
+#[test]
+fn state_json_has_every_key() {
+    let m = two_blocks();
+    let v = state_json(&m);
+    assert_eq!(v["dim"], 2);
+    assert_eq!(v["cycle"], 600);
+    assert_eq!(v["time"], 1.25);
+    assert_eq!(v["timestep"], 2.5e-4);
+    let blocks = v["blocks"].as_array().unwrap();
+    assert_eq!(blocks.len(), 2);
+
+    let base = &blocks[0];
+    let keys = [
+        "id",
+        "kind",
+        "material",
+        "constitutive",
+        "fixed",
+        "area",
+        "mass",
+        "inertia",
+        "centroid",
+        "velocity",
+        "angular_velocity",
+        "force",
+        "moment",
+        "corners",
+    ];
+    for b in blocks {
+        for k in keys {
+            assert!(b.get(k).is_some(), "block lacks {k}: {b}");
+        }
+    }
+    assert_eq!(base["id"], 3);
+    assert_eq!(base["kind"], "rigid");
+    assert_eq!(base["fixed"], true);
+    assert_eq!(base["area"], 6.0);
+    assert_eq!(base["mass"], 12000.0);
+    assert_eq!(
+        base["corners"],
+        serde_json::json!([[0.0, 0.0], [6.0, 0.0], [6.0, 1.0], [0.0, 1.0]])
+    );
+
+    let top = &blocks[1];
+    assert_eq!(top["id"], 5);
+    assert_eq!(top["material"], 2);
+    assert_eq!(top["constitutive"], 4);
+    assert_eq!(top["fixed"], false);
+    assert_eq!(top["centroid"], serde_json::json!([3.0, 1.5]));
+    assert_eq!(top["velocity"], serde_json::json!([0.5, -0.25]));
+    assert_eq!(top["angular_velocity"], 0.01);
+    assert_eq!(top["force"], serde_json::json!([10.0, -2.0e4]));
+    assert_eq!(top["moment"], 3.5);
+    assert!(top["inertia"].is_f64() && top["id"].is_u64() && top["kind"].is_string());
+
+    let contacts = v["contacts"].as_array().unwrap();
+    assert_eq!(contacts.len(), 1);
+    let c = &contacts[0];
+    assert_eq!(c["id"], 7);
+    assert_eq!(c["blocks"], serde_json::json!([5, 3]));
+    assert_eq!(c["kind"], "corner-edge");
+    assert_eq!(c["point"], serde_json::json!([2.0, 1.0]));
+    assert_eq!(c["normal"], serde_json::json!([0.0, 1.0]));
+    assert_eq!(c["normal_force"], 1.962e4);
+    assert_eq!(c["shear_force"], -12.5);
+    assert_eq!(c["normal_displacement"], -1.5e-4);
+    assert_eq!(c["shear_displacement"], 3.0e-5);
+}
+
+#[test]
+fn state_json_writes_null_for_non_finite_numbers() {
+    let mut m = two_blocks();
+    m.blocks[1].velocity = [f64::NAN, 1.0];
+    m.blocks[1].moment = f64::INFINITY;
+    m.time = f64::NEG_INFINITY;
+    let dir = out_dir("state_json_nan");
+    let path = dir.join("state.json");
+    write_state_json(&m, &path).unwrap();
+    let back: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(back, state_json(&m));
+    assert_eq!(
+        back["blocks"][1]["velocity"],
+        serde_json::json!([null, 1.0])
+    );
+    assert!(back["blocks"][1]["moment"].is_null());
+    assert!(back["time"].is_null());
+    // Only the file itself is left: the temporary file was renamed into place.
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+}
+
+// ---------------------------------------------------------------------------------------------
+// SAVE / RESTART
+
+fn save_file() -> SaveFile {
+    SaveFile {
+        model: two_blocks(),
+        plot: PlotSettings {
+            window: [0.0, 6.0, 0.0, 7.0],
+            view: [0, 700, 700, 1400],
+        },
+        plot_count: 3,
+    }
+}
+
+#[test]
+fn save_and_load_round_trip_exactly() {
+    let dir = out_dir("restart_round_trip");
+    let path = dir.join("run.sav");
+    let mut file = save_file();
+    // Values whose last bits a text format would lose.
+    file.model.blocks[1].centroid = [0.1 + 0.2, std::f64::consts::PI];
+    file.model.blocks[1].rotation = -0.0;
+    file.model.time = 1.0 / 3.0;
+    save(&path, &file).unwrap();
+    let back = load(&path).unwrap();
+    assert_eq!(back, file);
+    assert_eq!(
+        back.model.blocks[1].centroid[0].to_bits(),
+        (0.1f64 + 0.2).to_bits()
+    );
+    assert_eq!(back.model.blocks[1].rotation.to_bits(), (-0.0f64).to_bits());
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        1,
+        "temporary file left behind"
+    );
+
+    // Saving again over the same file replaces it.
+    file.plot_count = 4;
+    save(&path, &file).unwrap();
+    assert_eq!(load(&path).unwrap().plot_count, 4);
+}
+
+#[test]
+fn save_preserves_nan_bits() {
+    let dir = out_dir("restart_nan");
+    let path = dir.join("nan.sav");
+    let mut file = save_file();
+    let odd_nan = f64::from_bits(0x7ff8_dead_beef_0001);
+    file.model.blocks[0].velocity[0] = odd_nan;
+    save(&path, &file).unwrap();
+    let back = load(&path).unwrap();
+    assert_eq!(
+        back.model.blocks[0].velocity[0].to_bits(),
+        odd_nan.to_bits()
+    );
+}
+
+#[test]
+fn load_reports_bad_files_without_panicking() {
+    let dir = out_dir("restart_bad");
+    let good = dir.join("good.sav");
+    save(&good, &save_file()).unwrap();
+    let bytes = std::fs::read(&good).unwrap();
+    assert_eq!(bytes[..8], MAGIC);
+    let bad = dir.join("bad.sav");
+
+    // Every truncation is an error: short of the magic it is not a save file, after it corrupt.
+    for cut in (0..bytes.len())
+        .step_by(7)
+        .chain([8, 12, 27, 28, bytes.len() - 1])
+    {
+        std::fs::write(&bad, &bytes[..cut]).unwrap();
+        match load(&bad) {
+            Err(RestartError::NotASaveFile { .. }) => assert!(cut < 8, "cut {cut}"),
+            Err(RestartError::Corrupt { .. }) => assert!(cut >= 8, "cut {cut}"),
+            other => panic!("cut at {cut}: {other:?}"),
+        }
+    }
+
+    // Wrong magic.
+    let mut wrong = bytes.clone();
+    wrong[..8].copy_from_slice(b"UDEC1985");
+    std::fs::write(&bad, &wrong).unwrap();
+    assert!(matches!(load(&bad), Err(RestartError::NotASaveFile { .. })));
+    std::fs::write(&bad, "PROP MAT=1 DENS=2000\n").unwrap();
+    let err = load(&bad).unwrap_err();
+    assert!(matches!(err, RestartError::NotASaveFile { .. }));
+    assert!(
+        err.to_string().contains("not a blockdem save file"),
+        "{err}"
+    );
+
+    // Another version.
+    let mut future = bytes.clone();
+    future[8..12].copy_from_slice(&(FORMAT_VERSION + 98).to_le_bytes());
+    std::fs::write(&bad, &future).unwrap();
+    match load(&bad) {
+        Err(RestartError::UnsupportedVersion {
+            found, supported, ..
+        }) => {
+            assert_eq!((found, supported), (FORMAT_VERSION + 98, FORMAT_VERSION))
+        }
+        other => panic!("{other:?}"),
+    }
+
+    // A damaged payload byte, and bytes appended.
+    let mut damaged = bytes.clone();
+    let last = damaged.len() - 1;
+    damaged[last] ^= 0x40;
+    std::fs::write(&bad, &damaged).unwrap();
+    assert!(matches!(load(&bad), Err(RestartError::Corrupt { .. })));
+    let mut longer = bytes.clone();
+    longer.extend_from_slice(b"junk");
+    std::fs::write(&bad, &longer).unwrap();
+    assert!(matches!(load(&bad), Err(RestartError::Corrupt { .. })));
+
+    // A file that is not there.
+    assert!(matches!(
+        load(&dir.join("missing.sav")),
+        Err(RestartError::Io { .. })
+    ));
+}
+
+#[test]
+fn save_into_a_missing_directory_is_an_io_error() {
+    let dir = out_dir("restart_no_dir");
+    let err = save(&dir.join("no/such/dir/x.sav"), &save_file()).unwrap_err();
+    assert!(matches!(err, RestartError::Io { .. }), "{err:?}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// PLOT
+
+const WHITE: [u8; 4] = [255, 255, 255, 255];
+
+fn rgba(p: &tiny_skia::Pixmap, x: u32, y: u32) -> [u8; 4] {
+    let c = p.pixel(x, y).unwrap();
+    [c.red(), c.green(), c.blue(), c.alpha()]
+}
+
+fn load_png(path: &Path) -> tiny_skia::Pixmap {
+    tiny_skia::Pixmap::load_png(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn plot_default_page() {
+    let m = two_blocks();
+    let dir = out_dir("plot_default");
+    let [png, svg] = plot(
+        &m,
+        &PlotSettings::default(),
+        &PlotOptions::default(),
+        &dir,
+        1,
+    )
+    .unwrap();
+    assert_eq!(png, dir.join("plot_001.png"));
+    assert_eq!(svg, dir.join("plot_001.svg"));
+    let p = load_png(&png);
+    assert_eq!((p.width(), p.height()), (1000, 700));
+    // WINDOW 0 10 0 7 fills the whole page at 100 px per unit: (x, y) → (100x, 700 − 100y).
+    assert_eq!(
+        rgba(&p, 100, 650),
+        [200, 200, 200, 255],
+        "fixed base interior is grey"
+    );
+    assert_eq!(rgba(&p, 250, 550), WHITE, "free block interior is white");
+    assert_ne!(
+        rgba(&p, 300, 600),
+        WHITE,
+        "edge between the blocks is drawn"
+    );
+    assert_ne!(rgba(&p, 300, 550), WHITE, "centroid cross");
+    assert_ne!(rgba(&p, 250, 500), WHITE, "top edge of the free block");
+    // The rounded corner cuts the sharp corner: the corner pixel at (2, 2) → (200, 500) is outside
+    // the rounded outline, while the points 0.1 along the edges are on it.
+    assert_eq!(rgba(&p, 201, 501), WHITE, "corner rounding");
+    assert_eq!(rgba(&p, 900, 100), WHITE);
+}
+
+#[test]
+fn plot_in_a_view_quadrant_is_clipped_to_it() {
+    let m = two_blocks();
+    let dir = out_dir("plot_quadrant");
+    // Sample problem 4's first quadrant; the window is narrower than the base (0..6), so the base
+    // runs out of the view on the right and must be cut at its edge.
+    let settings = PlotSettings {
+        window: [0.0, 4.0, 0.0, 3.0],
+        view: [0, 700, 700, 1400],
+    };
+    let [png, _] = plot(
+        &m,
+        &settings,
+        &PlotOptions {
+            velocities: true,
+            ..Default::default()
+        },
+        &dir,
+        12,
+    )
+    .unwrap();
+    assert!(png.ends_with("plot_012.png"));
+    let p = load_png(&png);
+    let mut inside = 0;
+    for y in 0..p.height() {
+        for x in 0..p.width() {
+            let c = rgba(&p, x, y);
+            if x < 350 && y < 350 {
+                inside += (c != WHITE) as usize;
+            } else {
+                assert_eq!(c, WHITE, "pixel ({x}, {y}) outside the view is drawn");
+            }
+        }
+    }
+    assert!(inside > 1000, "only {inside} pixels drawn in the view");
+    // 175 plotter units per problem unit, centred vertically: y = 0.5 → image row 262.
+    assert_eq!(
+        rgba(&p, 345, 262),
+        [200, 200, 200, 255],
+        "base shaded up to the view edge"
+    );
+}
+
+#[test]
+fn plot_options_change_the_picture() {
+    let mut m = two_blocks();
+    m.blocks[0].velocity = [0.0, 0.0];
+    let dir = out_dir("plot_options");
+    let full = PlotOptions::default();
+    let nofix = PlotOptions {
+        nofix: true,
+        ..full
+    };
+    let nc = PlotOptions {
+        no_rounding: true,
+        velocities: true,
+        ..full
+    };
+    let [png1, svg1] = plot(&m, &PlotSettings::default(), &full, &dir, 1).unwrap();
+    let [png2, svg2] = plot(&m, &PlotSettings::default(), &nofix, &dir, 2).unwrap();
+    let [_, svg3] = plot(&m, &PlotSettings::default(), &nc, &dir, 3).unwrap();
+    let (s1, s2, s3) = [svg1, svg2, svg3]
+        .map(|p| std::fs::read_to_string(p).unwrap())
+        .into();
+
+    // SVG: well-formed enough, one path per shown block, caption with cycle and time.
+    for s in [&s1, &s2, &s3] {
+        assert!(s.starts_with("<?xml") && s.trim_end().ends_with("</svg>"));
+        assert_eq!(
+            s.matches("<path").count(),
+            s.matches("/>").count() - 2,
+            "paths are self-closing (plus two rects)"
+        );
+        assert!(s.contains("CYCLE 600") && s.contains("TIME 1.250E+00"));
+    }
+    assert_eq!(s1.matches(r#"class="block""#).count(), 2);
+    assert_eq!(s1.matches(r#"data-id="3""#).count(), 1);
+    assert_eq!(
+        s2.matches(r#"class="block""#).count(),
+        1,
+        "NOFIX leaves the fixed block out"
+    );
+    assert!(!s2.contains(r#"data-id="3""#));
+    assert!(!s1.contains("velocity") && s3.contains(r#"class="velocity""#));
+
+    // With NC a rectangle is its four corners; with rounding each corner is an arc.
+    let block_points = |s: &str, id: u32| {
+        let line = s
+            .lines()
+            .find(|l| l.contains(&format!(r#"data-id="{id}""#)))
+            .unwrap();
+        line.split(" d=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .matches(',')
+            .count()
+    };
+    assert_eq!(block_points(&s3, 5), 4);
+    assert!(block_points(&s1, 5) > 4 * 10);
+
+    let (p1, p2) = (load_png(&png1), load_png(&png2));
+    assert_eq!(rgba(&p1, 100, 650), [200, 200, 200, 255]);
+    assert_eq!(rgba(&p2, 100, 650), WHITE, "NOFIX: no grey");
+    assert_ne!(rgba(&p2, 250, 500), WHITE, "NOFIX still draws free blocks");
+}
+
+#[test]
+fn plot_rejects_an_empty_window() {
+    let m = two_blocks();
+    let dir = out_dir("plot_empty");
+    let settings = PlotSettings {
+        window: [5.0, 5.0, 0.0, 7.0],
+        ..Default::default()
+    };
+    let err = plot(&m, &settings, &PlotOptions::default(), &dir, 1).unwrap_err();
+    assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+    let settings = PlotSettings {
+        view: [0, 2000, 700, 700],
+        ..Default::default()
+    };
+    assert!(plot(&m, &settings, &PlotOptions::default(), &dir, 1).is_err());
+}
+
+#[test]
+fn block_outline_follows_the_rounding_arcs() {
+    let m = two_blocks();
+    let sharp = block_outline(&m, 1, false);
+    assert_eq!(sharp, vec![[2.0, 1.0], [4.0, 1.0], [4.0, 2.0], [2.0, 2.0]]);
+    let round = block_outline(&m, 1, true);
+    // Each corner contributes its two tangent points and the arc between them.
+    for t in [
+        [2.1, 1.0],
+        [3.9, 1.0],
+        [4.0, 1.1],
+        [4.0, 1.9],
+        [3.9, 2.0],
+        [2.1, 2.0],
+        [2.0, 1.9],
+        [2.0, 1.1],
+    ] {
+        assert!(
+            round
+                .iter()
+                .any(|p| (p[0] - t[0]).abs() < 1e-12 && (p[1] - t[1]).abs() < 1e-12),
+            "no tangent point {t:?}"
+        );
+    }
+    for p in &round {
+        assert!(
+            p[0] >= 2.0 - 1e-12
+                && p[0] <= 4.0 + 1e-12
+                && p[1] >= 1.0 - 1e-12
+                && p[1] <= 2.0 + 1e-12
+        );
+        // A point is on an edge or on an arc of radius 0.1 about one of the circle centres.
+        let on_edge = [p[0] - 2.0, 4.0 - p[0], p[1] - 1.0, 2.0 - p[1]]
+            .iter()
+            .any(|d| d.abs() < 1e-12);
+        let on_arc = m
+            .block_corners(1)
+            .iter()
+            .any(|c| ((p[0] - c.circle[0]).hypot(p[1] - c.circle[1]) - 0.1).abs() < 1e-12);
+        assert!(on_edge || on_arc, "{p:?}");
+    }
+    // Counter-clockwise: positive signed area, a little less than the sharp 2 × 1.
+    let area: f64 = (0..round.len())
+        .map(|i| {
+            let (a, b) = (round[i], round[(i + 1) % round.len()]);
+            0.5 * (a[0] * b[1] - b[0] * a[1])
+        })
+        .sum();
+    let expected = 2.0 - 4.0 * (0.01 - std::f64::consts::PI * 0.01 / 4.0);
+    assert!(
+        area < 2.0 && (area - expected).abs() < 1e-4,
+        "area {area}, expected {expected}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// DUMP
+
+#[test]
+fn dump_writes_every_field() {
+    let m = two_blocks();
+    let t = text(|w| dump(&m, w));
+    let (head, body) = t.trim_start().split_once('\n').unwrap();
+    assert_eq!(head, "FULL STATE DUMP (CYCLE 600, TIME 1.250E+00)");
+    let back: Model = serde_json::from_str(body).unwrap();
+    assert_eq!(back, m);
+}
+
+#[test]
+#[ignore = "prints the tables for a human to read"]
+fn show_tables() {
+    let m = two_blocks();
+    for item in [
+        PrintItem::Blocks,
+        PrintItem::Contacts,
+        PrintItem::Corners,
+        PrintItem::List,
+    ] {
+        print!("{}", text(|w| print_item(&m, item, w)));
+    }
+}
