@@ -20,6 +20,7 @@ pub mod backend;
 pub mod cpu;
 pub mod deck;
 pub mod exec;
+pub mod gpu;
 pub mod model;
 pub mod output;
 pub mod scenes;

@@ -20,7 +20,7 @@ use contact_forces::{contact_force_law, track_feature, BlockMotion};
 const PARALLEL_CHUNK: usize = 512;
 
 /// Cycles between energy checks and checkpoints of the last good state.
-const CHECK_INTERVAL: u64 = 100;
+pub(crate) const CHECK_INTERVAL: u64 = 100;
 
 /// Energy may exceed what was put in by this factor (plus a floor) before the run is declared
 /// unstable: an unstable explicit scheme grows exponentially, far past any such margin, while a
@@ -40,7 +40,7 @@ impl CpuBackend {
 }
 
 /// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
-fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
+pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
     let etol = model.tol.etol;
     if !force && !model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
         return false;
@@ -164,7 +164,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError
 }
 
 /// The energy check: kinetic + strain energy may not outgrow the energy put in.
-fn check_energy(model: &Model, baseline: f64, scale: f64) -> Result<(), CycleError> {
+pub(crate) fn check_energy(model: &Model, baseline: f64, scale: f64) -> Result<(), CycleError> {
     let e = model.energies();
     let energy = e.kinetic + e.strain;
     let budget = baseline + e.external_work;
@@ -257,7 +257,7 @@ impl Backend for CpuBackend {
 
 /// Checks every cracking candidate once and applies the cracks found. Returns whether any block
 /// cracked.
-fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut CycleReport) -> bool {
+pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut CycleReport) -> bool {
     let mut found = Vec::new();
     for b in 0..model.blocks.len() {
         if topology::cracking::is_point_load_candidate(model, b) {
