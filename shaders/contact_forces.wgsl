@@ -60,7 +60,11 @@ fn edge_distance(start: u32, n: u32, k: u32, e: Edge, c: vec2<real>) -> FeatureD
     let straight = e.len - r0 - corners[start + next_index(k, n)].round;
     let rel = c - ta;
     let s = dot(rel, e.u);
-    if (s >= 0.0 && s <= straight) {
+    // The region test tolerates round-off (REGION_TOL, see the prelude): at aligned corners the
+    // centre lies exactly on the slab's border, where exact arithmetic says "inside". Scaled by
+    // the rounding length, like the wedge test below (unit vectors from a circle centre).
+    let eps = REGION_TOL * r0;
+    if (s >= -eps && s <= straight + eps) {
         let d = dot(rel, normal);
         return FeatureDistance(d, abs(d), normal, true);
     }
@@ -88,7 +92,7 @@ fn arc_distance(corner: Corner, before: Edge, after: Edge, c: vec2<real>) -> Fea
     }
     // Inside the wedge turning counter-clockwise from n0 to n1 (less than π for a convex corner).
     let convex = n0.x * n1.y - n0.y * n1.x > 0.0;
-    if (convex && (n0.x * dir.y - n0.y * dir.x) >= 0.0 && (dir.x * n1.y - dir.y * n1.x) >= 0.0) {
+    if (convex && (n0.x * dir.y - n0.y * dir.x) >= -REGION_TOL && (dir.x * n1.y - dir.y * n1.x) >= -REGION_TOL) {
         let d = dist_c - corner.radius;
         return FeatureDistance(d, abs(d), dir, true);
     }

@@ -23,12 +23,20 @@ pub const KERNELS: &[(&str, &str)] = &[
 /// arc-wins rule of `better`). The CPU uses 1e-9; f32 positions relative to a centroid a few
 /// metres away carry ~1e-7 relative round-off, so f32 needs a wider window or two aligned corners
 /// could be seen as corner–edge from one side and double-count their force.
+///
+/// REGION_TOL widens the "centre lies in this feature's own region" tests (the slab over an
+/// edge, relative to the rounding length; the wedge of an arc, on unit cross products) by round-off. At
+/// two aligned corners (a column of equal blocks) the corner's circle centre lies exactly on the
+/// border of the arc's wedge and the edge's slab; exact arithmetic (and the CPU, whose round-off
+/// happens to cancel there) finds it inside both, so the arc wins from both sides and the touch
+/// counts once. Without the tolerance, GPU round-off (fused multiply–adds) flipped one side to
+/// corner–edge after ~2800 cycles of tests/physics.rs's column and the touch counted twice.
 pub fn prelude(precision: Precision) -> String {
-    let (real, tie) = match precision {
-        Precision::F32 => ("f32", "1e-5"),
-        Precision::F64 => ("f64", "1e-9"),
+    let (real, tie, region) = match precision {
+        Precision::F32 => ("f32", "1e-5", "1e-5"),
+        Precision::F64 => ("f64", "1e-9", "1e-12"),
     };
-    format!("alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst TIE_TOL: real = {tie};\n")
+    format!("alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n")
 }
 
 /// The full source of one kernel file in one precision.
