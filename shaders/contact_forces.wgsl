@@ -1,7 +1,6 @@
 // Stage 4: contact kinematics and the force–displacement law (SL-85-1 eqs. 13–20), and the
 // geometry of a rounded corner against the rounded boundary of the other block. Twin of
-// src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `feature_distance`, `track_feature`, `contact_force_law`) and of
-// `topology::detect::counts_force`. Geometry is relative to block 2's centroid.
+// src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `feature_distance`, `track_feature`, `contact_force_law`, `counts_force`). Geometry is relative to block 2's centroid.
 //
 // Feature 2k is the arc of corner k, feature 2k+1 the straight part of edge k → k+1.
 
@@ -225,13 +224,35 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
     return c;
 }
 
-// The mirror rule of a corner–corner touch: the corner with the lower global index owns it.
-fn counts_force(c: Contact, b2: Block) -> bool {
-    if (c.feature % 2u == 1u) {
-        return true;
+// Whether a contact carries the force of its touch (twin of `cpu::contact_forces::counts_force`):
+// of the two views of one touching corner pair exactly one counts, whatever kinds they found. An
+// arc (corner–corner) counts when the own corner has the lower index; an edge counts unless the
+// rounding circles of the own corner and of the edge's nearer end overlap (a corner pair), in
+// which case the lower index counts too. Circles are relative to block 2's centroid.
+fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, start2: u32, n2: u32, feature: u32) -> bool {
+    let k = (feature / 2u) % n2;
+    if (feature % 2u == 0u) {
+        return own_corner < start2 + k;
     }
-    let other = b2.corner_start + (c.feature / 2u) % b2.corner_count;
-    return c.corner < other;
+    let j = next_index(k, n2);
+    let ck = corners[start2 + k];
+    let cj = corners[start2 + j];
+    let rk = own_circle - vec2<real>(ck.ox, ck.oy);
+    let rj = own_circle - vec2<real>(cj.ox, cj.oy);
+    let dk = sqrt(dot(rk, rk));
+    let dj = sqrt(dot(rj, rj));
+    var b = k;
+    var d = dk;
+    var rb = ck.radius;
+    if (!(dk <= dj)) {
+        b = j;
+        d = dj;
+        rb = cj.radius;
+    }
+    if (d < own_radius + rb) {
+        return own_corner < start2 + b;
+    }
+    return true;
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -253,7 +274,7 @@ fn contact_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     c.ny = g.normal.y;
     c.px = g.point.x;
     c.py = g.point.y;
-    let counted = counts_force(c, b2);
+    let counted = counts_force(c.corner, circle, corner.radius, b2.corner_start, b2.corner_count, c.feature);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
     c = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);

@@ -66,15 +66,14 @@ fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Res
             let corner = &corners[contact.corner as usize];
             let (b1, b2) = (&blocks[contact.block1 as usize], &blocks[contact.block2 as usize]);
             let range2 = b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize;
-            let g = track_feature(&corners[range2], contact.feature, corner.circle, corner.radius);
+            let g = track_feature(&corners[range2.clone()], contact.feature, corner.circle, corner.radius);
             contact.feature = g.feature;
             contact.kind = g.kind;
             contact.gap = g.gap;
             contact.normal = g.normal;
             contact.point = g.point;
-            // The mirror copy of a corner–corner touch carries no force (the touch counts once).
-            let active = g.kind != crate::model::ContactKind::CornerCorner
-                || contact_forces::owns_corner_corner(contact.corner, b2.corner_start + (g.feature / 2) % b2.corner_count);
+            // The other view of a corner-pair touch carries no force (the touch counts once).
+            let active = contact_forces::counts_force(contact.corner, corner, &corners[range2.clone()], b2.corner_start, g.feature);
             let mat = &materials[(contact.material.max(1) as usize - 1).min(materials.len() - 1)];
             contact_force_law(contact, mat, &motion(b1), &motion(b2), &damping, dt, active);
             (active && -g.gap > limit).then_some(-g.gap)
