@@ -9,7 +9,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use blockdem::backend::Backend;
 use blockdem::cpu::CpuBackend;
-use blockdem::gpu::{AdapterChoice, GpuBackend, GpuError, GpuOptions, Precision};
+use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
 use blockdem::exec::{Executor, RunOptions};
 
 #[derive(Parser)]
@@ -21,7 +21,7 @@ struct Cli {
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 enum BackendChoice {
-    /// A GPU adapter when there is one, otherwise the CPU.
+    /// A hardware GPU adapter when there is one, otherwise the CPU.
     Auto,
     /// The f64 CPU backend (the accuracy reference).
     Cpu,
@@ -64,7 +64,7 @@ enum Cmd {
 }
 
 fn adapters() -> anyhow::Result<()> {
-    let list = blockdem::gpu::list_adapters(&AdapterChoice::Any);
+    let list = list_adapters(&AdapterChoice::Any);
     if list.is_empty() {
         println!("no GPU adapter found (Vulkan or GL); runs use the CPU backend");
         return Ok(());
@@ -93,17 +93,25 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
                 PrecisionChoice::F32 => Precision::F32,
                 PrecisionChoice::F64 => Precision::F64,
             };
-            let options = GpuOptions { adapter: adapter.parse().unwrap_or(AdapterChoice::Any), precision };
-            match GpuBackend::new(&options) {
-                Ok(gpu) => {
-                    eprintln!("blockdem: running on {}", gpu.describe());
-                    Box::new(gpu)
+            let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
+            // `auto` wants a real GPU: a software adapter (Mesa's lavapipe or llvmpipe) is slower
+            // than the CPU backend and less precise, so it is used only when asked for.
+            let hardware = list_adapters(&choice).into_iter().any(|a| a.compute && a.device_type != "Cpu");
+            if backend == BackendChoice::Auto && !hardware {
+                eprintln!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
+                Box::new(CpuBackend::new())
+            } else {
+                match GpuBackend::new(&GpuOptions { adapter: choice, precision }) {
+                    Ok(gpu) => {
+                        eprintln!("blockdem: running on {}", gpu.describe());
+                        Box::new(gpu)
+                    }
+                    Err(e) if backend == BackendChoice::Auto => {
+                        eprintln!("blockdem: {e}; running on the CPU (f64)");
+                        Box::new(CpuBackend::new())
+                    }
+                    Err(e) => bail!("--backend gpu: {e}"),
                 }
-                Err(e) if backend == BackendChoice::Auto && matches!(e, GpuError::NoAdapter(_)) => {
-                    eprintln!("blockdem: {e}; running on the CPU (f64)");
-                    Box::new(CpuBackend::new())
-                }
-                Err(e) => bail!("--backend gpu: {e}"),
             }
         }
     };

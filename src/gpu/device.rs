@@ -50,13 +50,27 @@ fn backends_for(choice: &AdapterChoice) -> wgpu::Backends {
 }
 
 fn instance(backends: wgpu::Backends) -> wgpu::Instance {
-    // Headless GL: Mesa picks the surfaceless EGL platform when there is no display; say so
-    // explicitly unless the user chose a platform.
-    if backends.contains(wgpu::Backends::GL) && std::env::var_os("EGL_PLATFORM").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() && std::env::var_os("DISPLAY").is_none() {
-        // SAFETY: set before any thread of ours reads the environment (device set-up is the
-        // first thing a GPU run does).
-        unsafe { std::env::set_var("EGL_PLATFORM", "surfaceless") };
-    }
+    // Headless (no X11 or Wayland display): say so to Mesa before it probes for a display.
+    // - GL: wgpu already asks EGL for Mesa's surfaceless platform when it has no display handle;
+    //   EGL_PLATFORM=surfaceless makes Mesa's own default agree.
+    // - Vulkan: Mesa's implicit device-select layer calls wl_display_connect to find the
+    //   "primary" GPU, which prints "XDG_RUNTIME_DIR is invalid or not set" on every instance;
+    //   NODEVICE_SELECT=1 turns that layer off (it only reorders devices; we rank them ourselves).
+    // Both only when the user has not set them, and once per process.
+    static HEADLESS_ENV: std::sync::Once = std::sync::Once::new();
+    HEADLESS_ENV.call_once(|| {
+        let headless = std::env::var_os("WAYLAND_DISPLAY").is_none() && std::env::var_os("DISPLAY").is_none();
+        if headless {
+            for (key, value) in [("EGL_PLATFORM", "surfaceless"), ("NODEVICE_SELECT", "1")] {
+                if std::env::var_os(key).is_none() {
+                    // SAFETY: done once, before the first wgpu instance of the process (the
+                    // binary sets up the device before any other thread exists; scripts/test.sh
+                    // exports both so that test threads never race here).
+                    unsafe { std::env::set_var(key, value) };
+                }
+            }
+        }
+    });
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
     desc.backends = backends;
     wgpu::Instance::new(desc)
