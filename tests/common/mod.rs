@@ -53,6 +53,7 @@ impl Target {
     }
 }
 
+#[allow(unused_macros)]
 /// Generates, for each scene function `fn scene(t: &Target)`, one test per backend, in modules
 /// `cpu`, `vulkan_f32`, `vulkan_f64`, `gl_f32`.
 macro_rules! every_backend {
@@ -71,4 +72,5 @@ macro_rules! every_backend {
         }
     };
 }
+#[allow(unused_imports)]
 pub(crate) use every_backend;
