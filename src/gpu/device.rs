@@ -141,6 +141,8 @@ pub struct GpuDevice {
     pub queue: wgpu::Queue,
     pub summary: AdapterSummary,
     pub precision: Precision,
+    /// The first error wgpu raised outside an error scope (its default handler would panic).
+    uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
 }
 
 impl GpuDevice {
@@ -195,15 +197,27 @@ impl GpuDevice {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Setup(format!("cannot open a device on {}: {e}", summary.name)))?;
-        Ok(GpuDevice { device, queue, summary, precision })
+        // wgpu's default handler panics on an error outside an error scope; keep it instead and
+        // turn it into an error value at the next wait.
+        let uncaptured = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut slot) = sink.lock() {
+                slot.get_or_insert_with(|| e.to_string());
+            }
+        }));
+        Ok(GpuDevice { device, queue, summary, precision, uncaptured })
     }
 
     /// Waits for all submitted work, at most `WAIT_TIMEOUT`.
     pub fn wait(&self) -> Result<(), GpuError> {
         self.device
             .poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(WAIT_TIMEOUT) })
-            .map(|_| ())
-            .map_err(|e| GpuError::Device(format!("waiting for the GPU: {e} (a kernel ran longer than {} s or the device was lost)", WAIT_TIMEOUT.as_secs())))
+            .map_err(|e| GpuError::Device(format!("waiting for the GPU: {e} (a kernel ran longer than {} s or the device was lost)", WAIT_TIMEOUT.as_secs())))?;
+        if let Some(e) = self.uncaptured.lock().ok().and_then(|mut slot| slot.take()) {
+            return Err(GpuError::Device(e));
+        }
+        Ok(())
     }
 
     /// Copies `size` bytes of `buffer` back to the CPU (bounded wait).
