@@ -10,6 +10,7 @@
 //! | [`deck`] | the command language: lines → tokens → [`deck::Command`]s |
 //! | [`model`] | the authoritative model: blocks, rounded corners, contacts, materials; geometry and SPLIT |
 //! | [`cpu`] | the CPU backend, one file per stage: law of motion, geometry update, contact forces, gather |
+//! | [`gpu`] | the wgpu backend: the same stages as WGSL kernels (`shaders/`, one file per stage, named like the CPU files), device set-up, Pod state structs |
 //! | [`topology`] | stage 7, CPU only: contact detection and update, point-load cracking |
 //! | [`backend`] | the `Backend` trait the executor drives |
 //! | [`exec`] | the command executor: runs a deck against a backend |
@@ -20,6 +21,7 @@ pub mod backend;
 pub mod cpu;
 pub mod deck;
 pub mod exec;
+pub mod gpu;
 pub mod model;
 pub mod output;
 pub mod scenes;

@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
 
+use blockdem::backend::Backend;
 use blockdem::cpu::CpuBackend;
+use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
 use blockdem::exec::{Executor, RunOptions};
 
 #[derive(Parser)]
@@ -19,12 +21,20 @@ struct Cli {
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 enum BackendChoice {
-    /// A GPU adapter when there is one, otherwise the CPU.
+    /// A hardware GPU adapter when there is one, otherwise the CPU.
     Auto,
     /// The f64 CPU backend (the accuracy reference).
     Cpu,
-    /// The wgpu backend (not built yet).
+    /// The wgpu backend (a GPU adapter, or Mesa's lavapipe / llvmpipe on a CPU).
     Gpu,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum PrecisionChoice {
+    /// Single precision (every adapter).
+    F32,
+    /// Double precision (adapters with SHADER_F64, e.g. Vulkan; not GL).
+    F64,
 }
 
 #[derive(Subcommand)]
@@ -35,6 +45,13 @@ enum Cmd {
         deck: PathBuf,
         #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
         backend: BackendChoice,
+        /// GPU adapter: vulkan, gl, any, or part of an adapter's name (see `blockdem adapters`).
+        /// WGPU_BACKEND and WGPU_ADAPTER_NAME are honoured too.
+        #[arg(long, default_value = "any")]
+        adapter: String,
+        /// Kernel precision on the GPU (the CPU is always f64).
+        #[arg(long, value_enum, default_value_t = PrecisionChoice::F32)]
+        precision: PrecisionChoice,
         /// Folder for PLOT files and unnamed SAVE files.
         #[arg(long, default_value = "out")]
         out: PathBuf,
@@ -42,19 +59,61 @@ enum Cmd {
         #[arg(long)]
         state_json: Option<PathBuf>,
     },
+    /// List the GPU adapters wgpu finds (Vulkan and GL/EGL, off-screen) with their limits.
+    Adapters,
 }
 
-fn run(deck: PathBuf, backend: BackendChoice, out: PathBuf, state_json: Option<PathBuf>) -> anyhow::Result<()> {
+fn adapters() -> anyhow::Result<()> {
+    let list = list_adapters(&AdapterChoice::Any);
+    if list.is_empty() {
+        println!("no GPU adapter found (Vulkan or GL); runs use the CPU backend");
+        return Ok(());
+    }
+    for (i, a) in list.iter().enumerate() {
+        println!("[{i}] {} ({}, {})", a.name, a.backend, a.device_type);
+        println!("    driver: {} ({})", a.driver, a.driver_info);
+        println!("    max_storage_buffers_per_shader_stage: {}", a.max_storage_buffers_per_shader_stage);
+        println!("    max_storage_buffer_binding_size: {}", a.max_storage_buffer_binding_size);
+        println!("    max_buffer_size: {}", a.max_buffer_size);
+        println!("    max_compute_workgroup_size_x: {}", a.max_compute_workgroup_size_x);
+        println!("    SHADER_F64: {}", if a.shader_f64 { "yes" } else { "no" });
+        println!("    compute shaders: {}", if a.compute { "yes" } else { "no (unusable)" });
+    }
+    Ok(())
+}
+
+fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: PrecisionChoice, out: PathBuf, state_json: Option<PathBuf>) -> anyhow::Result<()> {
     let name = deck.display().to_string();
     let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
     let backend: Box<dyn blockdem::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(CpuBackend::new()),
-        BackendChoice::Auto => {
-            eprintln!("blockdem: no GPU backend in this build yet; running on the CPU (f64)");
-            Box::new(CpuBackend::new())
+        BackendChoice::Auto | BackendChoice::Gpu => {
+            let precision = match precision {
+                PrecisionChoice::F32 => Precision::F32,
+                PrecisionChoice::F64 => Precision::F64,
+            };
+            let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
+            // `auto` wants a real GPU: a software adapter (Mesa's lavapipe or llvmpipe) is slower
+            // than the CPU backend and less precise, so it is used only when asked for.
+            let hardware = list_adapters(&choice).into_iter().any(|a| a.compute && a.device_type != "Cpu");
+            if backend == BackendChoice::Auto && !hardware {
+                eprintln!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
+                Box::new(CpuBackend::new())
+            } else {
+                match GpuBackend::new(&GpuOptions { adapter: choice, precision }) {
+                    Ok(gpu) => {
+                        eprintln!("blockdem: running on {}", gpu.describe());
+                        Box::new(gpu)
+                    }
+                    Err(e) if backend == BackendChoice::Auto => {
+                        eprintln!("blockdem: {e}; running on the CPU (f64)");
+                        Box::new(CpuBackend::new())
+                    }
+                    Err(e) => bail!("--backend gpu: {e}"),
+                }
+            }
         }
-        BackendChoice::Gpu => bail!("--backend gpu: the GPU backend is not built yet; use --backend cpu"),
     };
     let options = RunOptions { out_dir: out.clone(), progress: std::io::stdout().is_terminal() };
     let mut exec = Executor::new(backend, Box::new(std::io::stdout()), options, &name);
@@ -80,7 +139,8 @@ fn run(deck: PathBuf, backend: BackendChoice, out: PathBuf, state_json: Option<P
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Cmd::Run { deck, backend, out, state_json } => run(deck, backend, out, state_json),
+        Cmd::Run { deck, backend, adapter, precision, out, state_json } => run(deck, backend, adapter, precision, out, state_json),
+        Cmd::Adapters => adapters(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

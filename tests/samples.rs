@@ -1,8 +1,15 @@
-//! The report's sample decks, determinism, and SAVE/RESTART.
+//! The report's sample decks, determinism, and SAVE/RESTART, on every backend (tests/common).
 
-use blockdem::cpu::CpuBackend;
-use blockdem::model::Model;
+mod common;
+
 use blockdem::scenes::{run_deck_logged, run_deck_on};
+use common::{every_backend, Target};
+
+every_backend!(
+    sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base,
+    the_same_deck_twice_gives_bit_identical_state,
+    save_then_restart_continues_identically,
+);
 
 fn sample(name: &str) -> String {
     let path = format!("{}/examples/{name}", env!("CARGO_MANIFEST_DIR"));
@@ -23,11 +30,10 @@ impl std::io::Write for SharedLog {
     }
 }
 
-#[test]
-fn sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base() {
+fn sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base(t: &Target) {
     let log = SharedLog::default();
     let deck = sample("udec1_point_load_cracking.dat");
-    let m = run_deck_logged(&deck, Box::new(CpuBackend::new()), Box::new(log.clone())).expect("sample 1 runs");
+    let m = run_deck_logged(&deck, t.backend(), Box::new(log.clone())).expect("sample 1 runs");
     let text = String::from_utf8(log.0.borrow().clone()).unwrap();
     // The run log as UDEC printed it.
     assert!(text.contains("THIS IS A START RUN"));
@@ -52,25 +58,25 @@ fn sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base() {
     assert!(speed < 0.01, "piece still moving at {speed} m/s");
 }
 
-
-#[test]
-fn the_same_deck_twice_gives_bit_identical_state() {
+/// Two runs of one deck give bit-identical state: forces are gathered in a fixed order, never
+/// summed with float atomics, on every backend.
+fn the_same_deck_twice_gives_bit_identical_state(t: &Target) {
     let deck = sample("udec1_point_load_cracking.dat");
-    let a = run_deck_on(&deck, Box::new(CpuBackend::new())).unwrap();
-    let b = run_deck_on(&deck, Box::new(CpuBackend::new())).unwrap();
+    let a = run_deck_on(&deck, t.backend()).unwrap();
+    let b = run_deck_on(&deck, t.backend()).unwrap();
     assert_eq!(a, b);
 }
 
-#[test]
-fn save_then_restart_continues_identically() {
-    let dir = std::env::temp_dir().join(format!("blockdem-restart-{}", std::process::id()));
+fn save_then_restart_continues_identically(t: &Target) {
+    let tag: String = t.name().chars().filter(|c| c.is_ascii_alphanumeric()).collect();
+    let dir = std::env::temp_dir().join(format!("blockdem-restart-{}-{tag}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let save = dir.join("half.sav");
     let base = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1.5 1,2.5 2,2.5 2,1.5\n\
          FIX 0 4 0 0.9\nGRAV 0 -10\nVELOCITY 1 2 1.5 2.5 0.5 0 0.3\n";
-    let straight = run_deck_on(&format!("{base}CYCLE 400\nCYCLE 400\n"), Box::new(CpuBackend::new())).unwrap();
-    run_deck_on(&format!("{base}CYCLE 400\nSAVE {}\n", save.display()), Box::new(CpuBackend::new())).unwrap();
-    let resumed = run_deck_on(&format!("RESTART {}\nCYCLE 400\n", save.display()), Box::new(CpuBackend::new())).unwrap();
+    let straight = run_deck_on(&format!("{base}CYCLE 400\nCYCLE 400\n"), t.backend()).unwrap();
+    run_deck_on(&format!("{base}CYCLE 400\nSAVE {}\n", save.display()), t.backend()).unwrap();
+    let resumed = run_deck_on(&format!("RESTART {}\nCYCLE 400\n", save.display()), t.backend()).unwrap();
     assert_eq!(straight, resumed);
     let _ = std::fs::remove_dir_all(&dir);
 }

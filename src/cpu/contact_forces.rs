@@ -285,3 +285,31 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
 pub fn owns_corner_corner(own_corner_global: u32, other_corner_global: u32) -> bool {
     own_corner_global < other_corner_global
 }
+
+/// Whether a contact carries the force of its touch. Two rounded corners that touch are seen from
+/// both blocks, and the two views need not agree on the kind: one may find the other's arc
+/// (corner–corner), the other the straight edge beside the first corner (corner–edge), or both
+/// may find edges. Counting every corner–edge view then counts such a touch twice. The rule:
+///
+/// - corner–corner (arc of corner b): counts when the own corner a owns it, a < b;
+/// - corner–edge: when the two rounding circles of a and of the edge's nearer end corner b
+///   overlap (the touch is a corner pair, and b sees a's block in touch too), it counts only when
+///   a < b; otherwise (a corner on an edge's straight part) it always counts.
+///
+/// So of the two views of one corner pair exactly one counts, whatever kinds they found.
+/// `corners2` are block 2's corners, `start2` the global index of its first corner.
+#[inline]
+pub fn counts_force(own_corner_global: u32, own: &Corner, corners2: &[Corner], start2: u32, feature: Feature) -> bool {
+    let n = corners2.len();
+    let k = (feature / 2) as usize % n;
+    if feature % 2 == 0 {
+        return owns_corner_corner(own_corner_global, start2 + k as u32);
+    }
+    let j = next(k, n);
+    let (dk, dj) = (norm(sub(own.circle, corners2[k].circle)), norm(sub(own.circle, corners2[j].circle)));
+    let (b, d) = if dk <= dj { (k, dk) } else { (j, dj) };
+    if d < own.radius + corners2[b].radius {
+        return owns_corner_corner(own_corner_global, start2 + b as u32);
+    }
+    true
+}

@@ -20,7 +20,7 @@ use contact_forces::{contact_force_law, track_feature, BlockMotion};
 const PARALLEL_CHUNK: usize = 512;
 
 /// Cycles between energy checks and checkpoints of the last good state.
-const CHECK_INTERVAL: u64 = 100;
+pub(crate) const CHECK_INTERVAL: u64 = 100;
 
 /// Energy may exceed what was put in by this factor (plus a floor) before the run is declared
 /// unstable: an unstable explicit scheme grows exponentially, far past any such margin, while a
@@ -40,7 +40,7 @@ impl CpuBackend {
 }
 
 /// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
-fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
+pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
     let etol = model.tol.etol;
     if !force && !model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
         return false;
@@ -66,15 +66,14 @@ fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Res
             let corner = &corners[contact.corner as usize];
             let (b1, b2) = (&blocks[contact.block1 as usize], &blocks[contact.block2 as usize]);
             let range2 = b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize;
-            let g = track_feature(&corners[range2], contact.feature, corner.circle, corner.radius);
+            let g = track_feature(&corners[range2.clone()], contact.feature, corner.circle, corner.radius);
             contact.feature = g.feature;
             contact.kind = g.kind;
             contact.gap = g.gap;
             contact.normal = g.normal;
             contact.point = g.point;
-            // The mirror copy of a corner–corner touch carries no force (the touch counts once).
-            let active = g.kind != crate::model::ContactKind::CornerCorner
-                || contact_forces::owns_corner_corner(contact.corner, b2.corner_start + (g.feature / 2) % b2.corner_count);
+            // The other view of a corner-pair touch carries no force (the touch counts once).
+            let active = contact_forces::counts_force(contact.corner, corner, &corners[range2.clone()], b2.corner_start, g.feature);
             let mat = &materials[(contact.material.max(1) as usize - 1).min(materials.len() - 1)];
             contact_force_law(contact, mat, &motion(b1), &motion(b2), &damping, dt, active);
             (active && -g.gap > limit).then_some(-g.gap)
@@ -164,7 +163,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError
 }
 
 /// The energy check: kinetic + strain energy may not outgrow the energy put in.
-fn check_energy(model: &Model, baseline: f64, scale: f64) -> Result<(), CycleError> {
+pub(crate) fn check_energy(model: &Model, baseline: f64, scale: f64) -> Result<(), CycleError> {
     let e = model.energies();
     let energy = e.kinetic + e.strain;
     let budget = baseline + e.external_work;
@@ -257,7 +256,7 @@ impl Backend for CpuBackend {
 
 /// Checks every cracking candidate once and applies the cracks found. Returns whether any block
 /// cracked.
-fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut CycleReport) -> bool {
+pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut CycleReport) -> bool {
     let mut found = Vec::new();
     for b in 0..model.blocks.len() {
         if topology::cracking::is_point_load_candidate(model, b) {

@@ -16,7 +16,7 @@
 use rustc_hash::FxHashMap as HashMap;
 
 use crate::cpu::contact_forces::nearest_feature;
-use crate::model::{Contact, ContactKind, Model};
+use crate::model::{Contact, Model};
 
 /// Bounding boxes above this many grid cells are treated as "large" and tested against all.
 const MAX_CELLS_PER_BLOCK: usize = 64;
@@ -217,14 +217,10 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
     (n_created, dropped)
 }
 
-/// True for a contact that carries the force of its touch; false for the mirror copy of a
-/// corner–corner touch (the same two corners seen from the other block).
+/// True for a contact that carries the force of its touch; false for the other view of a touch
+/// of two corners (see `cpu::contact_forces::counts_force`).
 #[inline]
 pub fn counts_force(model: &Model, c: &Contact) -> bool {
-    if c.kind != ContactKind::CornerCorner {
-        return true;
-    }
     let b2 = &model.blocks[c.block2 as usize];
-    let other = b2.corner_start + (c.feature / 2) % b2.corner_count;
-    crate::cpu::contact_forces::owns_corner_corner(c.corner, other)
+    crate::cpu::contact_forces::counts_force(c.corner, &model.corners[c.corner as usize], model.block_corners(c.block2 as usize), b2.corner_start, c.feature)
 }

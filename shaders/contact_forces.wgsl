@@ -1,0 +1,286 @@
+// Stage 4: contact kinematics and the force–displacement law (SL-85-1 eqs. 13–20), and the
+// geometry of a rounded corner against the rounded boundary of the other block. Twin of
+// src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `feature_distance`, `track_feature`, `contact_force_law`, `counts_force`). Geometry is relative to block 2's centroid.
+//
+// Feature 2k is the arc of corner k, feature 2k+1 the straight part of edge k → k+1.
+
+struct FeatureDistance {
+    signed_distance: real,
+    distance: real,
+    normal: vec2<real>,
+    inside: bool,
+}
+
+struct ContactGeometry {
+    feature: u32,
+    gap: real,
+    normal: vec2<real>,
+    point: vec2<real>,
+    distance: real,
+}
+
+struct Motion {
+    centroid: vec2<real>,
+    velocity: vec2<real>,
+    w: real,
+}
+
+// Edge k (corner k → k+1) as the geometry stage left it: start, unit direction, length.
+struct Edge {
+    p0: vec2<real>,
+    u: vec2<real>,
+    len: real,
+}
+
+fn edge_of(start: u32, k: u32) -> Edge {
+    let c = corners[start + k];
+    return Edge(vec2<real>(c.px, c.py), vec2<real>(c.ux, c.uy), c.len);
+}
+
+// Outward normal for a counter-clockwise outline.
+fn edge_normal(e: Edge) -> vec2<real> {
+    return vec2<real>(e.u.y, -e.u.x);
+}
+
+fn next_index(i: u32, n: u32) -> u32 {
+    return select(i + 1u, 0u, i + 1u == n);
+}
+
+fn prev_index(i: u32, n: u32) -> u32 {
+    return select(i - 1u, n - 1u, i == 0u);
+}
+
+// Straight part of edge k, between the tangent points of corners k and k+1. Its region is the
+// slab over it; outside, it is measured from its nearer end.
+fn edge_distance(start: u32, n: u32, k: u32, e: Edge, c: vec2<real>) -> FeatureDistance {
+    let normal = edge_normal(e);
+    let r0 = corners[start + k].round;
+    let ta = e.p0 + e.u * r0;
+    let straight = e.len - r0 - corners[start + next_index(k, n)].round;
+    let rel = c - ta;
+    let s = dot(rel, e.u);
+    // The region test tolerates round-off (REGION_TOL, see the prelude): at aligned corners the
+    // centre lies exactly on the slab's border, where exact arithmetic says "inside". Scaled by
+    // the rounding length, like the wedge test below (unit vectors from a circle centre).
+    let eps = REGION_TOL * r0;
+    if (s >= -eps && s <= straight + eps) {
+        let d = dot(rel, normal);
+        return FeatureDistance(d, abs(d), normal, true);
+    }
+    let sc = min(max(s, 0.0), max(straight, 0.0));
+    let r = c - (ta + e.u * sc);
+    let d = sqrt(dot(r, r));
+    var nrm = normal;
+    if (d > 0.0) {
+        nrm = r / d;
+    }
+    return FeatureDistance(d, d, nrm, false);
+}
+
+// Arc of corner k between the edges `before` (k−1 → k) and `after` (k → k+1). Its region is the
+// wedge between their outward normals; outside, it is measured from its nearer tangent point.
+fn arc_distance(corner: Corner, before: Edge, after: Edge, c: vec2<real>) -> FeatureDistance {
+    let n0 = edge_normal(before);
+    let n1 = edge_normal(after);
+    let circle = vec2<real>(corner.ox, corner.oy);
+    let r = c - circle;
+    let dist_c = sqrt(dot(r, r));
+    var dir = n0 + n1;
+    if (dist_c > 0.0) {
+        dir = r / dist_c;
+    }
+    // Inside the wedge turning counter-clockwise from n0 to n1 (less than π for a convex corner).
+    let convex = n0.x * n1.y - n0.y * n1.x > 0.0;
+    if (convex && (n0.x * dir.y - n0.y * dir.x) >= -REGION_TOL && (dir.x * n1.y - dir.y * n1.x) >= -REGION_TOL) {
+        let d = dist_c - corner.radius;
+        return FeatureDistance(d, abs(d), dir, true);
+    }
+    let t0 = circle + n0 * corner.radius;
+    let t1 = circle + n1 * corner.radius;
+    let r0 = c - t0;
+    let r1 = c - t1;
+    let d0 = sqrt(dot(r0, r0));
+    let d1 = sqrt(dot(r1, r1));
+    var d = d1;
+    var rr = r1;
+    var fallback = n1;
+    if (d0 <= d1) {
+        d = d0;
+        rr = r0;
+        fallback = n0;
+    }
+    var nrm = fallback;
+    if (d > 0.0) {
+        nrm = rr / d;
+    }
+    return FeatureDistance(d, d, nrm, false);
+}
+
+// Distance and outward normal from the circle centre `c` to feature `f` of the block whose
+// corners are corners[start .. start+n] (counter-clockwise).
+fn feature_distance(start: u32, n: u32, f: u32, c: vec2<real>) -> FeatureDistance {
+    let k = f / 2u;
+    if (f % 2u == 1u) {
+        return edge_distance(start, n, k, edge_of(start, k), c);
+    }
+    return arc_distance(corners[start + k], edge_of(start, prev_index(k, n)), edge_of(start, k), c);
+}
+
+// Nearer wins; on a tie (within TIE_TOL, set per precision by the prelude) a feature whose own
+// region holds the centre wins, then an arc, so aligned corners meet as one corner–corner contact.
+fn better(cand_d: real, cand_inside: bool, cand_f: u32, best_d: real, best_inside: bool, best_f: u32) -> bool {
+    let tol = TIE_TOL * (1.0 + abs(best_d));
+    if (cand_d < best_d - tol) {
+        return true;
+    }
+    if (cand_d <= best_d + tol) {
+        if (cand_inside != best_inside) {
+            return cand_inside;
+        }
+        return cand_f % 2u == 0u && best_f % 2u == 1u;
+    }
+    return false;
+}
+
+// The nearest of `feature` and its two neighbours: the per-cycle update of a contact whose point
+// slides along the boundary (a point moves far less than a feature's length in one step).
+fn track_feature(start: u32, n: u32, feature: u32, c: vec2<real>, radius: real) -> ContactGeometry {
+    let nf = 2u * n;
+    let f = min(feature, nf - 1u);
+    let candidates = array<u32, 3>(prev_index(f, nf), f, next_index(f, nf));
+    var best_f = candidates[0];
+    var best = feature_distance(start, n, best_f, c);
+    for (var i = 1u; i < 3u; i += 1u) {
+        let g = candidates[i];
+        let fd = feature_distance(start, n, g, c);
+        if (better(fd.distance, fd.inside, g, best.distance, best.inside, best_f)) {
+            best = fd;
+            best_f = g;
+        }
+    }
+    let gap = best.signed_distance - radius;
+    // Midway between block 1's surface point (c − n r) and block 2's (c − n (r + gap)).
+    let depth = radius + 0.5 * gap;
+    return ContactGeometry(best_f, gap, best.normal, c - best.normal * depth, best.distance);
+}
+
+// Velocity of the material point p (eq. 11 in two dimensions: v + ω × r).
+fn velocity_at(m: Motion, p: vec2<real>) -> vec2<real> {
+    let r = p - m.centroid;
+    return vec2<real>(m.velocity.x - m.w * r.y, m.velocity.y + m.w * r.x);
+}
+
+// The force–displacement law, eqs. 13–20 (see the Rust twin for the physics). `active` is false
+// for the mirror copy of a corner–corner contact, which carries no force.
+fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta: real, dt: real, counted: bool) -> Contact {
+    var c = contact;
+    let n = vec2<real>(c.nx, c.ny);
+    let t = vec2<real>(-n.y, n.x);
+    let p = vec2<real>(c.px, c.py);
+    let vrel = velocity_at(a, p) - velocity_at(b, p); // eq. (13)
+    let vn = dot(vrel, n); // eq. (14)
+    let vs = dot(vrel, t); // eq. (15)
+    c.shear_displacement += vs * dt;
+    if (!counted) {
+        c.normal_force = 0.0;
+        c.fx = 0.0;
+        c.fy = 0.0;
+        return c;
+    }
+    var fn_ = -mat.kn * c.gap; // eq. (16) integrated exactly
+    let bonded = c.bonded != 0u;
+    var cohesion: real = 0.0;
+    if (bonded) {
+        cohesion = mat.cohesion;
+    }
+    if (fn_ < 0.0 && (!bonded || -fn_ > cohesion)) {
+        c.bonded = 0u;
+        c.normal_force = 0.0;
+        c.shear_force = 0.0;
+        c.fx = 0.0;
+        c.fy = 0.0;
+        return c;
+    }
+    var fs = c.shear_force - mat.ks * vs * dt; // eqs. (17), (19)
+    let limit = cohesion + mat.friction * max(fn_, 0.0);
+    if (abs(fs) > limit) {
+        fs = select(-limit, limit, fs > 0.0); // eq. (20)
+        if (bonded && mat.cohesion > 0.0) {
+            c.bonded = 0u;
+        }
+    }
+    c.normal_force = fn_;
+    c.shear_force = fs;
+    var dn: real = 0.0;
+    var ds: real = 0.0;
+    if (beta > 0.0 && fn_ > 0.0) {
+        dn = -beta * mat.kn * vn;
+        ds = -beta * mat.ks * vs;
+    }
+    fn_ += dn;
+    let fs_total = fs + ds;
+    c.fx = fn_ * n.x + fs_total * t.x;
+    c.fy = fn_ * n.y + fs_total * t.y;
+    return c;
+}
+
+// Whether a contact carries the force of its touch (twin of `cpu::contact_forces::counts_force`):
+// of the two views of one touching corner pair exactly one counts, whatever kinds they found. An
+// arc (corner–corner) counts when the own corner has the lower index; an edge counts unless the
+// rounding circles of the own corner and of the edge's nearer end overlap (a corner pair), in
+// which case the lower index counts too. Circles are relative to block 2's centroid.
+fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, start2: u32, n2: u32, feature: u32) -> bool {
+    let k = (feature / 2u) % n2;
+    if (feature % 2u == 0u) {
+        return own_corner < start2 + k;
+    }
+    let j = next_index(k, n2);
+    let ck = corners[start2 + k];
+    let cj = corners[start2 + j];
+    let rk = own_circle - vec2<real>(ck.ox, ck.oy);
+    let rj = own_circle - vec2<real>(cj.ox, cj.oy);
+    let dk = sqrt(dot(rk, rk));
+    let dj = sqrt(dot(rj, rj));
+    var b = k;
+    var d = dk;
+    var rb = ck.radius;
+    if (!(dk <= dj)) {
+        b = j;
+        d = dj;
+        rb = cj.radius;
+    }
+    if (d < own_radius + rb) {
+        return own_corner < start2 + b;
+    }
+    return true;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn contact_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if (k >= params.n_contacts || halted()) {
+        return;
+    }
+    var c = contacts[k];
+    let b1 = blocks[c.block1];
+    let b2 = blocks[c.block2];
+    let corner = corners[c.corner];
+    let d12 = centroid_difference(b1, b2);
+    let circle = d12 + vec2<real>(corner.ox, corner.oy);
+    let g = track_feature(b2.corner_start, b2.corner_count, c.feature, circle, corner.radius);
+    c.feature = g.feature;
+    c.gap = g.gap;
+    c.nx = g.normal.x;
+    c.ny = g.normal.y;
+    c.px = g.point.x;
+    c.py = g.point.y;
+    let counted = counts_force(c.corner, circle, corner.radius, b2.corner_start, b2.corner_count, c.feature);
+    let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
+    let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
+    c = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);
+    contacts[k] = c;
+    if (counted && -g.gap > params.overlap_limit) {
+        atomicOr(&flags.errors, ERR_OVERLAP);
+        atomicMin(&flags.overlap_contact, k);
+    }
+}

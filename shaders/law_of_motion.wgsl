@@ -1,0 +1,65 @@
+// Stage 1: the law of motion for rigid blocks (SL-85-1 eqs. 9–10), central differences with
+// mass-proportional Rayleigh damping (UDEC's CON1/CON2):
+//   v(t+Δt/2) = [v(t−Δt/2)·(1 − αΔt/2) + (ΣF/m)·Δt] / (1 + αΔt/2).
+// Twin of src/cpu/law_of_motion.rs. Also raises the flags the CPU checks after stage 1: a block
+// past the update tolerance, a non-finite step, a block too fast for the contact update.
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn law_of_motion(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let b = gid.x;
+    if (b >= params.n_blocks || halted()) {
+        return;
+    }
+    var blk = blocks[b];
+    if (blk.fixed != 0u) {
+        blk.vx = 0.0;
+        blk.vy = 0.0;
+        blk.w = 0.0;
+        blocks[b] = blk;
+        return;
+    }
+    let dt = params.dt;
+    let con1 = 1.0 - 0.5 * params.alpha * dt;
+    let con2 = 1.0 / (1.0 + 0.5 * params.alpha * dt);
+    let inv_m = 1.0 / blk.mass;
+    let vx = (blk.vx * con1 + blk.fx * inv_m * dt) * con2;
+    let vy = (blk.vy * con1 + blk.fy * inv_m * dt) * con2;
+    let w = (blk.w * con1 + blk.moment / blk.inertia * dt) * con2;
+    let dx = vx * dt;
+    let dy = vy * dt;
+    let dtheta = w * dt;
+    blk.vx = vx;
+    blk.vy = vy;
+    blk.w = w;
+    // Compensated centroid: small increments are not lost on a large coordinate in f32.
+    let sx = two_sum(blk.cx, dx + blk.cx_lo);
+    let sy = two_sum(blk.cy, dy + blk.cy_lo);
+    blk.cx = sx.x;
+    blk.cx_lo = sx.y;
+    blk.cy = sy.x;
+    blk.cy_lo = sy.y;
+    blk.rotation += dtheta;
+    // A corner moves at most |Δx| + |Δθ|·R in this step (the too-fast check).
+    let travel = sqrt(dx * dx + dy * dy) + abs(dtheta) * blk.radius;
+    // Net displacement since the last contact update, kept at its largest (report ¶26).
+    let ux = (blk.cx - blk.update_cx) + (blk.cx_lo - blk.update_cx_lo);
+    let uy = (blk.cy - blk.update_cy) + (blk.cy_lo - blk.update_cy_lo);
+    let net = sqrt(ux * ux + uy * uy) + abs(blk.rotation - blk.update_rotation) * blk.radius;
+    blk.moved = max(blk.moved, net);
+    let fx = blk.mass * params.gx + blk.load_x;
+    let fy = blk.mass * params.gy + blk.load_y;
+    let work = fx * dx + fy * dy;
+    blk.work += work;
+    blocks[b] = blk;
+    if (blk.moved > params.etol) {
+        atomicOr(&flags.update_due, 1u);
+    }
+    if (!is_finite(work)) {
+        atomicOr(&flags.errors, ERR_NONFINITE);
+        atomicMin(&flags.nonfinite_block, b);
+    }
+    if (travel > params.fast_limit) {
+        atomicOr(&flags.errors, ERR_TOO_FAST);
+        atomicMin(&flags.toofast_block, b);
+    }
+}

@@ -1,0 +1,251 @@
+//! Device set-up, separate from the work (DESIGN.md §3): finds adapters (honouring wgpu's
+//! `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`), requests a device with the adapter's own limits, and
+//! bounds every wait. Off-screen only: no window, no surface. Errors are values, never panics.
+
+use std::time::Duration;
+
+use super::{GpuError, Precision};
+
+/// Which adapter to use (`--adapter`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum AdapterChoice {
+    /// Vulkan only (NVIDIA, AMD, Intel, Mesa lavapipe on CPUs).
+    Vulkan,
+    /// OpenGL ES / GL through EGL only (Mesa llvmpipe on CPUs).
+    Gl,
+    /// The best adapter of any backend: a discrete or integrated GPU before a CPU emulation,
+    /// Vulkan before GL.
+    Any,
+    /// The first adapter whose name contains this text (case-insensitive).
+    Name(String),
+}
+
+impl std::str::FromStr for AdapterChoice {
+    type Err = std::convert::Infallible;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "vulkan" | "vk" => AdapterChoice::Vulkan,
+            "gl" | "gles" | "opengl" => AdapterChoice::Gl,
+            "any" | "" => AdapterChoice::Any,
+            _ => AdapterChoice::Name(s.to_string()),
+        })
+    }
+}
+
+/// Longest a single wait on the device may take before the run stops with an error: lavapipe
+/// has no watchdog, so a runaway kernel would otherwise hang the process.
+pub const WAIT_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// Largest single binding we create (the brief and DESIGN.md §3: under 128 MiB everywhere).
+pub const MAX_BINDING_BYTES: u64 = 128 << 20;
+
+/// The backends to look at: `WGPU_BACKEND` when set, else Vulkan and GL.
+fn backends_for(choice: &AdapterChoice) -> wgpu::Backends {
+    let base = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN | wgpu::Backends::GL);
+    match choice {
+        AdapterChoice::Vulkan => base & wgpu::Backends::VULKAN,
+        AdapterChoice::Gl => base & wgpu::Backends::GL,
+        _ => base,
+    }
+}
+
+fn instance(backends: wgpu::Backends) -> wgpu::Instance {
+    // Headless (no X11 or Wayland display): say so to Mesa before it probes for a display.
+    // - GL: wgpu already asks EGL for Mesa's surfaceless platform when it has no display handle;
+    //   EGL_PLATFORM=surfaceless makes Mesa's own default agree.
+    // - Vulkan: Mesa's implicit device-select layer calls wl_display_connect to find the
+    //   "primary" GPU, which prints "XDG_RUNTIME_DIR is invalid or not set" on every instance;
+    //   NODEVICE_SELECT=1 turns that layer off (it only reorders devices; we rank them ourselves).
+    // Both only when the user has not set them, and once per process.
+    static HEADLESS_ENV: std::sync::Once = std::sync::Once::new();
+    HEADLESS_ENV.call_once(|| {
+        let headless = std::env::var_os("WAYLAND_DISPLAY").is_none() && std::env::var_os("DISPLAY").is_none();
+        if headless {
+            for (key, value) in [("EGL_PLATFORM", "surfaceless"), ("NODEVICE_SELECT", "1")] {
+                if std::env::var_os(key).is_none() {
+                    // SAFETY: done once, before the first wgpu instance of the process (the
+                    // binary sets up the device before any other thread exists; scripts/test.sh
+                    // exports both so that test threads never race here).
+                    unsafe { std::env::set_var(key, value) };
+                }
+            }
+        }
+    });
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    desc.backends = backends;
+    wgpu::Instance::new(desc)
+}
+
+/// What `blockdem adapters` prints about one adapter.
+#[derive(Clone, Debug)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+    pub max_storage_buffers_per_shader_stage: u32,
+    pub max_storage_buffer_binding_size: u64,
+    pub max_buffer_size: u64,
+    pub max_compute_workgroup_size_x: u32,
+    pub shader_f64: bool,
+    /// Whether compute shaders are there at all (GL ES 3.0 adapters lack them).
+    pub compute: bool,
+}
+
+impl AdapterSummary {
+    fn of(adapter: &wgpu::Adapter) -> Self {
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        AdapterSummary {
+            name: info.name,
+            backend: format!("{:?}", info.backend),
+            device_type: format!("{:?}", info.device_type),
+            driver: info.driver,
+            driver_info: info.driver_info,
+            max_storage_buffers_per_shader_stage: limits.max_storage_buffers_per_shader_stage,
+            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size as u64,
+            max_buffer_size: limits.max_buffer_size,
+            max_compute_workgroup_size_x: limits.max_compute_workgroup_size_x,
+            shader_f64: adapter.features().contains(wgpu::Features::SHADER_F64),
+            compute: adapter.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS),
+        }
+    }
+}
+
+/// Every adapter wgpu finds on the backends `choice` allows.
+pub fn list_adapters(choice: &AdapterChoice) -> Vec<AdapterSummary> {
+    let backends = backends_for(choice);
+    if backends.is_empty() {
+        return Vec::new();
+    }
+    let inst = instance(backends);
+    pollster::block_on(inst.enumerate_adapters(backends)).iter().map(AdapterSummary::of).collect()
+}
+
+fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    };
+    let backend = if info.backend == wgpu::Backend::Vulkan { 0 } else { 1 };
+    (kind, backend)
+}
+
+/// A device ready for the kernels.
+pub struct GpuDevice {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub summary: AdapterSummary,
+    pub precision: Precision,
+    /// The first error wgpu raised outside an error scope (its default handler would panic).
+    uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
+}
+
+impl GpuDevice {
+    /// Finds the adapter `choice` names (or `WGPU_ADAPTER_NAME` when set and `choice` is `Any`)
+    /// and opens a device on it with the adapter's own limits.
+    pub fn open(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
+        let backends = backends_for(choice);
+        if backends.is_empty() {
+            return Err(GpuError::NoAdapter(format!("no wgpu backend allowed for --adapter {choice:?} (WGPU_BACKEND={:?})", std::env::var("WGPU_BACKEND").unwrap_or_default())));
+        }
+        let inst = instance(backends);
+        let mut adapters: Vec<wgpu::Adapter> = pollster::block_on(inst.enumerate_adapters(backends))
+            .into_iter()
+            .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
+            .collect();
+        let wanted_name = match choice {
+            AdapterChoice::Name(n) => Some(n.to_lowercase()),
+            AdapterChoice::Any => std::env::var("WGPU_ADAPTER_NAME").ok().map(|n| n.to_lowercase()),
+            _ => None,
+        };
+        if let Some(name) = &wanted_name {
+            adapters.retain(|a| a.get_info().name.to_lowercase().contains(name.as_str()));
+        }
+        if precision == Precision::F64 {
+            let any = !adapters.is_empty();
+            adapters.retain(|a| a.features().contains(wgpu::Features::SHADER_F64));
+            if adapters.is_empty() && any {
+                return Err(GpuError::NoF64(format!("{choice:?}")));
+            }
+        }
+        adapters.sort_by_key(|a| rank(&a.get_info()));
+        let adapter = adapters.into_iter().next().ok_or_else(|| {
+            GpuError::NoAdapter(match &wanted_name {
+                Some(n) => format!("no adapter with compute shaders whose name contains {n:?}"),
+                None => format!("no adapter with compute shaders on {backends:?}"),
+            })
+        })?;
+        let summary = AdapterSummary::of(&adapter);
+        let mut features = wgpu::Features::empty();
+        if precision == Precision::F64 {
+            features |= wgpu::Features::SHADER_F64;
+        }
+        // The adapter's own limits: the 256 MiB default buffer cap is too small for big scenes.
+        let limits = adapter.limits();
+        if limits.max_storage_buffers_per_shader_stage < 7 {
+            return Err(GpuError::Setup(format!("adapter {} offers {} storage buffers per stage; the kernels need 7", summary.name, limits.max_storage_buffers_per_shader_stage)));
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("blockdem"),
+            required_features: features,
+            required_limits: limits,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Setup(format!("cannot open a device on {}: {e}", summary.name)))?;
+        // wgpu's default handler panics on an error outside an error scope; keep it instead and
+        // turn it into an error value at the next wait.
+        let uncaptured = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(std::sync::Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut slot) = sink.lock() {
+                slot.get_or_insert_with(|| e.to_string());
+            }
+        }));
+        Ok(GpuDevice { device, queue, summary, precision, uncaptured })
+    }
+
+    /// Waits for all submitted work, at most `WAIT_TIMEOUT`.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(WAIT_TIMEOUT) })
+            .map_err(|e| GpuError::Device(format!("waiting for the GPU: {e} (a kernel ran longer than {} s or the device was lost)", WAIT_TIMEOUT.as_secs())))?;
+        if let Some(e) = self.uncaptured.lock().ok().and_then(|mut slot| slot.take()) {
+            return Err(GpuError::Device(e));
+        }
+        Ok(())
+    }
+
+    /// Copies `size` bytes of `buffer` back to the CPU (bounded wait).
+    pub fn read_buffer(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+        if size == 0 {
+            return Ok(Vec::new());
+        }
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit([enc.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        match rx.try_recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(GpuError::Device(format!("mapping a read-back buffer: {e}"))),
+            Err(_) => return Err(GpuError::Device("a read-back did not complete".into())),
+        }
+        let data = staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?.to_vec();
+        staging.unmap();
+        Ok(data)
+    }
+}

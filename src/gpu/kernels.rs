@@ -1,0 +1,207 @@
+//! Kernels apart from state (STYLE.md item 3): `Pipelines` holds one compute pipeline per entry
+//! point, named after it; `Buffers` holds the storage buffers. Both share one bind group layout
+//! (group 0, bindings as in `shaders/common.wgsl`), so one bind group serves every stage.
+
+use super::device::GpuDevice;
+use super::layout::{Block, Contact, Corner, Flags, Material, Params, Real};
+use super::{shaders, GpuError};
+
+/// One compute pipeline per entry point; each entry point is in the WGSL file of the same name.
+pub struct Pipelines {
+    pub law_of_motion: wgpu::ComputePipeline,
+    pub geometry_update: wgpu::ComputePipeline,
+    pub contact_forces: wgpu::ComputePipeline,
+    pub gather: wgpu::ComputePipeline,
+    pub end_cycle: wgpu::ComputePipeline,
+    pub bind_group_layout: wgpu::BindGroupLayout,
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
+impl Pipelines {
+    /// Validates every kernel with naga first (clear errors), then builds the pipelines inside a
+    /// validation error scope, so a driver's rejection is an error value, not a panic.
+    pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        let device = &dev.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("blockdem state"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+                    count: None,
+                },
+                storage(1, false),
+                storage(2, false),
+                storage(3, false),
+                storage(4, true),
+                storage(5, true),
+                storage(6, true),
+                storage(7, false),
+            ],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("blockdem"),
+            bind_group_layouts: &[Some(&bind_group_layout)],
+            immediate_size: 0,
+        });
+        let make = |name: &str| -> Result<wgpu::ComputePipeline, GpuError> {
+            let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+            shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
+            Ok(device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some(name),
+                compilation_options: Default::default(),
+                cache: None,
+            }))
+        };
+        let pipelines = Pipelines {
+            law_of_motion: make("law_of_motion")?,
+            geometry_update: make("geometry_update")?,
+            contact_forces: make("contact_forces")?,
+            gather: make("gather")?,
+            end_cycle: make("end_cycle")?,
+            bind_group_layout,
+        };
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Shader(format!("the driver rejected a kernel: {e}")));
+        }
+        Ok(pipelines)
+    }
+}
+
+/// A storage buffer with room for `capacity` items.
+pub struct Slab {
+    pub buffer: wgpu::Buffer,
+    pub capacity: usize,
+}
+
+/// The GPU state of a run.
+pub struct Buffers {
+    pub params: wgpu::Buffer,
+    pub blocks: Slab,
+    pub corners: Slab,
+    pub contacts: Slab,
+    pub materials: Slab,
+    pub adj_offsets: Slab,
+    pub adj_entries: Slab,
+    pub flags: wgpu::Buffer,
+}
+
+fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
+    let capacity = count.max(1).next_power_of_two();
+    let size = (capacity * item) as u64;
+    let cap = dev.summary.max_storage_buffer_binding_size.min(super::device::MAX_BINDING_BYTES);
+    if size > cap {
+        return Err(GpuError::Setup(format!("the {label} buffer would need {size} bytes, more than one binding may hold here ({cap} bytes)")));
+    }
+    let buffer = dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    Ok(Slab { buffer, capacity })
+}
+
+impl Buffers {
+    pub fn new<R: Real>(dev: &GpuDevice, blocks: usize, corners: usize, contacts: usize, materials: usize) -> Result<Self, GpuError>
+    where
+        Block<R>: bytemuck::Pod,
+        Corner<R>: bytemuck::Pod,
+        Contact<R>: bytemuck::Pod,
+        Material<R>: bytemuck::Pod,
+        Params<R>: bytemuck::Pod,
+    {
+        let params = dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: std::mem::size_of::<Params<R>>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let flags = dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("flags"),
+            size: std::mem::size_of::<Flags>() as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Ok(Buffers {
+            params,
+            blocks: slab(dev, "blocks", std::mem::size_of::<Block<R>>(), blocks)?,
+            corners: slab(dev, "corners", std::mem::size_of::<Corner<R>>(), corners)?,
+            contacts: slab(dev, "contacts", std::mem::size_of::<Contact<R>>(), contacts)?,
+            materials: slab(dev, "materials", std::mem::size_of::<Material<R>>(), materials)?,
+            adj_offsets: slab(dev, "adjacency offsets", 4, blocks + 1)?,
+            adj_entries: slab(dev, "adjacency entries", 4, 2 * contacts)?,
+            flags,
+        })
+    }
+
+    /// Grows `which` to hold `count` items of `item` bytes; returns whether it was re-created
+    /// (the bind group must then be rebuilt).
+    pub fn ensure(dev: &GpuDevice, which: &mut Slab, label: &str, item: usize, count: usize) -> Result<bool, GpuError> {
+        if count <= which.capacity {
+            return Ok(false);
+        }
+        *which = slab(dev, label, item, count)?;
+        Ok(true)
+    }
+
+    pub fn bind_group(&self, dev: &GpuDevice, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
+        fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+            wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+        }
+        dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("blockdem state"),
+            layout,
+            entries: &[
+                entry(0, &self.params),
+                entry(1, &self.blocks.buffer),
+                entry(2, &self.corners.buffer),
+                entry(3, &self.contacts.buffer),
+                entry(4, &self.materials.buffer),
+                entry(5, &self.adj_offsets.buffer),
+                entry(6, &self.adj_entries.buffer),
+                entry(7, &self.flags),
+            ],
+        })
+    }
+}
+
+/// Rust twin of the WGSL `sin_cos` (common.wgsl), in f64: (cos θ, sin θ) by reduction to
+/// |r| ≤ π/4 and Taylor series, with + − × only.
+pub fn sin_cos(theta: f64) -> (f64, f64) {
+    let k = ((theta as f32) * 0.636_619_8_f32).round() as i32;
+    let kr = k as f64;
+    let r = (theta - kr * 1.570_796_326_734_125_6) - kr * 6.077_100_506_506_192e-11;
+    let r2 = r * r;
+    let s = r
+        * (1.0
+            + r2 * (-1.0 / 6.0
+                + r2 * (1.0 / 120.0
+                    + r2 * (-1.0 / 5040.0
+                        + r2 * (1.0 / 362880.0 + r2 * (-1.0 / 39916800.0 + r2 * (1.0 / 6227020800.0 + r2 * (-1.0 / 1307674368000.0 + r2 * (1.0 / 355687428096000.0)))))))));
+    let c = 1.0
+        + r2 * (-0.5
+            + r2 * (1.0 / 24.0
+                + r2 * (-1.0 / 720.0
+                    + r2 * (1.0 / 40320.0 + r2 * (-1.0 / 3628800.0 + r2 * (1.0 / 479001600.0 + r2 * (-1.0 / 87178291200.0 + r2 * (1.0 / 20922789888000.0))))))));
+    match k & 3 {
+        0 => (c, s),
+        1 => (-s, c),
+        2 => (-c, -s),
+        _ => (s, -c),
+    }
+}

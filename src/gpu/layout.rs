@@ -1,0 +1,188 @@
+//! GPU state: flat storage buffers of `#[repr(C)]` Pod structs, defined once here and mirrored in
+//! `shaders/common.wgsl` (DESIGN.md §2). A test reads the WGSL structs through naga's layouter and
+//! checks every size and offset against these.
+//!
+//! Each struct is generic over the kernel precision `R` (f32 or f64, the WGSL `real` alias) and is
+//! laid out as all `real` fields first, then an even number of `u32` words. That rule gives the
+//! same layout in WGSL and Rust with no implicit padding in either precision (no vectors in
+//! storage, so no vec2/vec3 alignment surprises).
+//!
+//! Hot state only (STYLE.md item 5): names, ids and topology stay in the CPU `Model`.
+
+/// The kernel precision: the Rust twin of the WGSL `alias real = …;`.
+pub trait Real: bytemuck::Pod + Default + PartialEq + std::fmt::Debug + Send + Sync + 'static {
+    /// The WGSL type name.
+    const WGSL: &'static str;
+    fn from_f64(x: f64) -> Self;
+    fn to_f64(self) -> f64;
+}
+
+impl Real for f32 {
+    const WGSL: &'static str = "f32";
+    fn from_f64(x: f64) -> Self {
+        x as f32
+    }
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Real for f64 {
+    const WGSL: &'static str = "f64";
+    fn from_f64(x: f64) -> Self {
+        x
+    }
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+/// Defines a GPU struct generic over `R` (written `R` here, `real` in WGSL), its Pod impls for both precisions, and the list of its
+/// fields with their offsets (for the naga layout test).
+macro_rules! gpu_struct {
+    ($(#[doc = $d:literal])* $name:ident { $($(#[doc = $fd:literal])* $f:ident : $t:ty),* $(,)? }) => {
+        $(#[doc = $d])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq)]
+        pub struct $name<R> {
+            $($(#[doc = $fd])* pub $f: $t,)*
+        }
+        // SAFETY: `repr(C)`, every field is f32/f64/u32, reals first and an even number of u32
+        // words after them, so there is no padding in either precision (checked by a test).
+        unsafe impl bytemuck::Zeroable for $name<f32> {}
+        unsafe impl bytemuck::Pod for $name<f32> {}
+        unsafe impl bytemuck::Zeroable for $name<f64> {}
+        unsafe impl bytemuck::Pod for $name<f64> {}
+        impl<R> $name<R> {
+            /// The WGSL struct name and each field with its byte offset.
+            pub fn layout() -> StructLayout {
+                StructLayout {
+                    name: stringify!($name),
+                    size: std::mem::size_of::<Self>(),
+                    fields: vec![$((stringify!($f), std::mem::offset_of!(Self, $f))),*],
+                }
+            }
+        }
+    };
+}
+
+/// A struct's name, size and field offsets, as Rust lays it out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StructLayout {
+    pub name: &'static str,
+    pub size: usize,
+    pub fields: Vec<(&'static str, usize)>,
+}
+
+gpu_struct! {
+    /// One rigid block: 108 bytes in f32, 200 in f64. The centroid is kept relative to the run's
+    /// origin as a compensated pair (`cx + cx_lo`), so that small increments added to a large
+    /// coordinate are not lost in f32 (Kahan summation, law_of_motion.wgsl).
+    Block {
+        cx: R, cy: R, cx_lo: R, cy_lo: R,
+        rotation: R, vx: R, vy: R, w: R,
+        fx: R, fy: R, moment: R, mass: R,
+        inertia: R, load_x: R, load_y: R, radius: R,
+        /// Work of gravity and load on this block since the block buffer was uploaded.
+        work: R,
+        /// Largest net displacement since the last contact update (`Block::moved_since_update`),
+        /// then the reference centroid (compensated pair) and rotation it is measured from.
+        moved: R, update_cx: R, update_cy: R, update_cx_lo: R, update_cy_lo: R, update_rotation: R,
+        fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
+    }
+}
+
+gpu_struct! {
+    /// One rounded corner: 60 bytes in f32, 112 in f64. `px, py` and `ox, oy` (corner and
+    /// rounding-circle centre) are relative to the block's centroid, rotated: world = centroid + p.
+    /// `ux, uy, len`: unit direction and length of the edge to the next corner (`edge_dir`,
+    /// `edge_length`).
+    Corner {
+        lx: R, ly: R, qx: R, qy: R, radius: R, round: R,
+        px: R, py: R, ox: R, oy: R, ux: R, uy: R, len: R,
+        block: u32, _pad: u32,
+    }
+}
+
+gpu_struct! {
+    /// One contact: 64 bytes in f32, 104 in f64. The point is relative to block 2's centroid.
+    Contact {
+        px: R, py: R, nx: R, ny: R, gap: R,
+        normal_force: R, shear_force: R, shear_displacement: R, fx: R, fy: R,
+        block1: u32, corner: u32, block2: u32, feature: u32,
+        /// Index into the material table (0-based, as `Model::material` maps it).
+        material: u32,
+        bonded: u32,
+    }
+}
+
+gpu_struct! {
+    /// Contact properties of one material: 16 bytes in f32, 32 in f64.
+    Material { kn: R, ks: R, cohesion: R, friction: R }
+}
+
+gpu_struct! {
+    /// Run constants and live counts (a uniform): 48 bytes in f32, 80 in f64.
+    Params {
+        dt: R, alpha: R, beta: R, gx: R, gy: R,
+        /// The contact update tolerance.
+        etol: R,
+        /// Largest corner travel per step (½ atol − etol), beyond which a block is too fast.
+        fast_limit: R,
+        /// Overlap beyond which the run stops (½ ROUND).
+        overlap_limit: R,
+        n_blocks: u32, n_corners: u32, n_contacts: u32, _pad: u32,
+    }
+}
+
+/// Bits of `Flags::errors`.
+pub const ERR_NONFINITE: u32 = 1;
+pub const ERR_TOO_FAST: u32 = 2;
+pub const ERR_OVERLAP: u32 = 4;
+/// "No index" in the atomic-min index slots.
+pub const NO_INDEX: u32 = u32::MAX;
+
+/// Flags and counters the kernels raise (atomics in WGSL): 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Flags {
+    /// Set at the end of a cycle that needs the CPU: later cycles of the batch do nothing.
+    pub halted: u32,
+    pub cycles_done: u32,
+    /// A block moved past the update tolerance (stage 7 is due).
+    pub update_due: u32,
+    pub errors: u32,
+    /// Lowest index of a block with a non-finite state, of a too-fast block, of an overlapping
+    /// contact (`NO_INDEX` when none).
+    pub nonfinite_block: u32,
+    pub toofast_block: u32,
+    pub overlap_contact: u32,
+    pub _pad: u32,
+}
+
+impl Flags {
+    pub fn cleared() -> Self {
+        Flags { halted: 0, cycles_done: 0, update_due: 0, errors: 0, nonfinite_block: NO_INDEX, toofast_block: NO_INDEX, overlap_contact: NO_INDEX, _pad: 0 }
+    }
+    pub fn layout() -> StructLayout {
+        StructLayout {
+            name: "Flags",
+            size: std::mem::size_of::<Self>(),
+            fields: vec![
+                ("halted", std::mem::offset_of!(Self, halted)),
+                ("cycles_done", std::mem::offset_of!(Self, cycles_done)),
+                ("update_due", std::mem::offset_of!(Self, update_due)),
+                ("errors", std::mem::offset_of!(Self, errors)),
+                ("nonfinite_block", std::mem::offset_of!(Self, nonfinite_block)),
+                ("toofast_block", std::mem::offset_of!(Self, toofast_block)),
+                ("overlap_contact", std::mem::offset_of!(Self, overlap_contact)),
+                ("_pad", std::mem::offset_of!(Self, _pad)),
+            ],
+        }
+    }
+}
+
+/// Every GPU struct's Rust layout in precision `R`.
+pub fn layouts<R: Real>() -> Vec<StructLayout> {
+    vec![Block::<R>::layout(), Corner::<R>::layout(), Contact::<R>::layout(), Material::<R>::layout(), Params::<R>::layout(), Flags::layout()]
+}

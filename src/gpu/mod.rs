@@ -1,0 +1,603 @@
+//! The GPU backend (wgpu; DESIGN.md §1–3): stages 1, 2, 4 and 6 as compute kernels, stage 7 on the
+//! CPU between batches of cycles.
+//!
+//! - `device`: adapters, device set-up with the adapter's own limits, bounded waits.
+//! - `layout`: the Pod structs of the GPU state, twins of `shaders/common.wgsl`.
+//! - `shaders`: the WGSL prelude (the one precision alias) and naga validation.
+//! - `kernels`: `Pipelines` (one per entry point) and `Buffers`.
+//!
+//! ## How a run goes
+//!
+//! The model is uploaded once; then the GPU runs batches of cycles with no round trip inside a
+//! batch. Each cycle is five labelled compute passes — `law_of_motion`, `geometry_update`,
+//! `contact_forces`, `gather`, `end_cycle` — dispatched over the live counts of blocks, corners and
+//! contacts. Kernels raise flags (a block past the update tolerance, a non-finite step, a block
+//! too fast, an overlap too great); `end_cycle` then halts the rest of the batch, so the CPU sees
+//! exactly the state of the cycle that raised it, as the CPU backend would. After a batch the CPU
+//! reads back the flags only; it reads back the state when stage 7 is due, at the energy check
+//! (every 100 cycles, which is also the checkpoint of the last good state), and every cycle in
+//! scenes with point-load cracking candidates (the criterion is evaluated by the existing CPU code
+//! on the read-back contacts). It runs the existing CPU topology code on the `Model` and re-uploads
+//! only what changed: contacts and adjacency after a contact update (plus the reset update
+//! distances of the re-examined blocks); everything after a crack split a block.
+//!
+//! ## Precision
+//!
+//! f32 by default; f64 where the adapter has `SHADER_F64` (lavapipe does), by one alias in the
+//! prelude. f32 keeps geometry relative to block centroids: corner offsets are body-frame and
+//! rotated per block, contact points are stored relative to block 2's centroid, centroids are kept
+//! relative to an origin near the model as compensated (hi, lo) pairs, so f32 keeps millimetres far
+//! from the origin and small steps are not lost on large coordinates. f64 kernels use only
+//! + − × ÷, sqrt, abs, min, max: the rotation's cos/sin come from the block's rotation angle (the
+//! same state the CPU keeps) by range reduction and a Taylor polynomial (`sin_cos` in
+//! common.wgsl), not from a drifting product of rotation increments.
+
+pub mod device;
+pub mod kernels;
+pub mod layout;
+pub mod shaders;
+
+use crate::backend::{Backend, CycleError, CycleReport};
+use crate::cpu;
+use crate::model::{ContactKind, Model, MAX_MATERIALS};
+use crate::topology::Adjacency;
+
+pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuDevice};
+use kernels::{Buffers, Pipelines};
+use layout::{Block, Contact, Corner, Flags, Material, Params, Real};
+
+/// Kernel precision (`--precision`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Precision {
+    #[default]
+    F32,
+    F64,
+}
+
+impl std::fmt::Display for Precision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        })
+    }
+}
+
+/// Why the GPU backend could not start or went wrong.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum GpuError {
+    #[error("no GPU adapter: {0}")]
+    NoAdapter(String),
+    #[error("--precision f64 needs an adapter with SHADER_F64, and the adapter chosen ({0}) has none; use --precision f32 or a Vulkan adapter")]
+    NoF64(String),
+    #[error("GPU set-up: {0}")]
+    Setup(String),
+    #[error("GPU shader: {0}")]
+    Shader(String),
+    #[error("GPU device: {0}")]
+    Device(String),
+}
+
+/// How to pick the GPU and precision.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GpuOptions {
+    pub adapter: AdapterChoice,
+    pub precision: Precision,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions { adapter: AdapterChoice::Any, precision: Precision::F32 }
+    }
+}
+
+/// The wgpu backend behind the `Backend` trait.
+pub struct GpuBackend {
+    engine: EngineAny,
+}
+
+enum EngineAny {
+    F32(Engine<f32>),
+    F64(Engine<f64>),
+}
+
+impl GpuBackend {
+    /// Opens a device and builds the pipelines; errors (no adapter, no f64, a rejected kernel)
+    /// are values.
+    pub fn new(options: &GpuOptions) -> Result<Self, GpuError> {
+        let dev = GpuDevice::open(&options.adapter, options.precision)?;
+        let pipelines = Pipelines::new(&dev)?;
+        let engine = match options.precision {
+            Precision::F32 => EngineAny::F32(Engine::new(dev, pipelines)),
+            Precision::F64 => EngineAny::F64(Engine::new(dev, pipelines)),
+        };
+        Ok(GpuBackend { engine })
+    }
+
+    pub fn adapter(&self) -> &AdapterSummary {
+        match &self.engine {
+            EngineAny::F32(e) => &e.dev.summary,
+            EngineAny::F64(e) => &e.dev.summary,
+        }
+    }
+
+    pub fn precision(&self) -> Precision {
+        match &self.engine {
+            EngineAny::F32(_) => Precision::F32,
+            EngineAny::F64(_) => Precision::F64,
+        }
+    }
+}
+
+impl Backend for GpuBackend {
+    fn describe(&self) -> String {
+        let a = self.adapter();
+        format!("gpu ({}, {} [{}], {})", a.backend, a.name, a.driver, self.precision())
+    }
+
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+        match &mut self.engine {
+            EngineAny::F32(e) => e.run(model, cycles, progress),
+            EngineAny::F64(e) => e.run(model, cycles, progress),
+        }
+    }
+}
+
+fn device_error(e: GpuError) -> CycleError {
+    CycleError::Setup(e.to_string())
+}
+
+/// The GPU state of one precision and the code that drives it.
+struct Engine<R: Real> {
+    dev: GpuDevice,
+    pipelines: Pipelines,
+    buffers: Option<Buffers>,
+    bind_group: Option<wgpu::BindGroup>,
+    /// The model origin the GPU centroids are relative to.
+    origin: [f64; 2],
+    /// `Model::external_work` when the block buffer was last uploaded (its `work` fields count
+    /// from there).
+    work_base: f64,
+    /// The block buffer as last read back (to see which update distances stage 7 reset).
+    last_blocks: Vec<Block<R>>,
+    counts: (usize, usize, usize),
+}
+
+fn r<R: Real>(x: f64) -> R {
+    R::from_f64(x)
+}
+
+impl<R: Real> Engine<R>
+where
+    Block<R>: bytemuck::Pod,
+    Corner<R>: bytemuck::Pod,
+    Contact<R>: bytemuck::Pod,
+    Material<R>: bytemuck::Pod,
+    Params<R>: bytemuck::Pod,
+{
+    fn new(dev: GpuDevice, pipelines: Pipelines) -> Self {
+        Engine { dev, pipelines, buffers: None, bind_group: None, origin: [0.0, 0.0], work_base: 0.0, last_blocks: Vec::new(), counts: (0, 0, 0) }
+    }
+
+    fn buffers(&self) -> &Buffers {
+        self.buffers.as_ref().expect("buffers are created by upload_all")
+    }
+
+    fn gpu_contact(model: &Model, c: &crate::model::Contact) -> Contact<R> {
+        let c2 = model.blocks[c.block2 as usize].centroid;
+        Contact {
+            px: r(c.point[0] - c2[0]),
+            py: r(c.point[1] - c2[1]),
+            nx: r(c.normal[0]),
+            ny: r(c.normal[1]),
+            gap: r(c.gap),
+            normal_force: r(c.normal_force),
+            shear_force: r(c.shear_force),
+            shear_displacement: r(c.shear_displacement),
+            fx: r(c.force[0]),
+            fy: r(c.force[1]),
+            block1: c.block1,
+            corner: c.corner,
+            block2: c.block2,
+            feature: c.feature,
+            material: (c.material.max(1) as usize - 1).min(MAX_MATERIALS - 1) as u32,
+            bonded: c.bonded as u32,
+        }
+    }
+
+    /// Uploads the whole model (start of a run, or after a crack split a block).
+    fn upload_all(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
+        // Origin: the middle of the model, rounded to a whole unit, only for f32 (f64 has digits
+        // to spare and keeps the CPU's coordinates exactly).
+        self.origin = [0.0, 0.0];
+        if std::mem::size_of::<R>() == 4 && !model.blocks.is_empty() {
+            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+            for b in &model.blocks {
+                for i in 0..2 {
+                    lo[i] = lo[i].min(b.centroid[i]);
+                    hi[i] = hi[i].max(b.centroid[i]);
+                }
+            }
+            self.origin = [(0.5 * (lo[0] + hi[0])).round(), (0.5 * (lo[1] + hi[1])).round()];
+        }
+        self.work_base = model.external_work;
+        let blocks: Vec<Block<R>> = model
+            .blocks
+            .iter()
+            .map(|b| {
+                let (x, y) = (b.centroid[0] - self.origin[0], b.centroid[1] - self.origin[1]);
+                let (hx, hy) = (r::<R>(x), r::<R>(y));
+                let (x0, y0) = (b.update_centroid[0] - self.origin[0], b.update_centroid[1] - self.origin[1]);
+                let (ux, uy) = (r::<R>(x0), r::<R>(y0));
+                Block {
+                    cx: hx,
+                    cy: hy,
+                    cx_lo: r(x - hx.to_f64()),
+                    cy_lo: r(y - hy.to_f64()),
+                    rotation: r(b.rotation),
+                    vx: r(b.velocity[0]),
+                    vy: r(b.velocity[1]),
+                    w: r(b.angular_velocity),
+                    fx: r(b.force[0]),
+                    fy: r(b.force[1]),
+                    moment: r(b.moment),
+                    mass: r(b.mass),
+                    inertia: r(b.inertia),
+                    load_x: r(b.load[0]),
+                    load_y: r(b.load[1]),
+                    radius: r(b.radius),
+                    work: R::default(),
+                    moved: r(b.moved_since_update),
+                    update_cx: ux,
+                    update_cy: uy,
+                    update_cx_lo: r(x0 - ux.to_f64()),
+                    update_cy_lo: r(y0 - uy.to_f64()),
+                    update_rotation: r(b.update_rotation),
+                    fixed: b.fixed as u32,
+                    corner_start: b.corner_start,
+                    corner_count: b.corner_count,
+                    _pad: 0,
+                }
+            })
+            .collect();
+        let corners: Vec<Corner<R>> = model
+            .corners
+            .iter()
+            .map(|c| {
+                let cen = model.blocks[c.block as usize].centroid;
+                Corner {
+                    lx: r(c.local[0]),
+                    ly: r(c.local[1]),
+                    qx: r(c.circle_local[0]),
+                    qy: r(c.circle_local[1]),
+                    radius: r(c.radius),
+                    round: r(c.round),
+                    px: r(c.position[0] - cen[0]),
+                    py: r(c.position[1] - cen[1]),
+                    ox: r(c.circle[0] - cen[0]),
+                    oy: r(c.circle[1] - cen[1]),
+                    ux: r(c.edge_dir[0]),
+                    uy: r(c.edge_dir[1]),
+                    len: r(c.edge_length),
+                    block: c.block,
+                    _pad: 0,
+                }
+            })
+            .collect();
+        let materials: Vec<Material<R>> =
+            model.materials.iter().map(|m| Material { kn: r(m.kn), ks: r(m.ks), cohesion: r(m.cohesion), friction: r(m.friction) }).collect();
+        let rebuild = match &mut self.buffers {
+            None => {
+                self.buffers = Some(Buffers::new::<R>(&self.dev, blocks.len(), corners.len(), model.contacts.len(), materials.len())?);
+                true
+            }
+            Some(b) => {
+                let d = &self.dev;
+                let mut g = Buffers::ensure(d, &mut b.blocks, "blocks", std::mem::size_of::<Block<R>>(), blocks.len())?;
+                g |= Buffers::ensure(d, &mut b.corners, "corners", std::mem::size_of::<Corner<R>>(), corners.len())?;
+                g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, blocks.len() + 1)?;
+                g
+            }
+        };
+        if rebuild {
+            self.bind_group = None;
+        }
+        let q = &self.dev.queue;
+        let b = self.buffers();
+        q.write_buffer(&b.blocks.buffer, 0, bytemuck::cast_slice(&blocks));
+        q.write_buffer(&b.corners.buffer, 0, bytemuck::cast_slice(&corners));
+        q.write_buffer(&b.materials.buffer, 0, bytemuck::cast_slice(&materials));
+        self.last_blocks = blocks;
+        self.counts.0 = model.blocks.len();
+        self.counts.1 = model.corners.len();
+        self.upload_contacts(model, adjacency)
+    }
+
+    /// Uploads contacts and adjacency (after stage 7 changed them).
+    fn upload_contacts(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
+        let contacts: Vec<Contact<R>> = model.contacts.iter().map(|c| Self::gpu_contact(model, c)).collect();
+        let b = self.buffers.as_mut().expect("buffers exist");
+        let d = &self.dev;
+        let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
+        g |= Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
+        g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, adjacency.offsets.len())?;
+        if g {
+            self.bind_group = None;
+        }
+        let b = self.buffers();
+        let q = &self.dev.queue;
+        q.write_buffer(&b.contacts.buffer, 0, bytemuck::cast_slice(&contacts));
+        q.write_buffer(&b.adj_offsets.buffer, 0, bytemuck::cast_slice(&adjacency.offsets));
+        q.write_buffer(&b.adj_entries.buffer, 0, bytemuck::cast_slice(&adjacency.entries));
+        self.counts.2 = contacts.len();
+        if self.bind_group.is_none() {
+            self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
+        }
+        Ok(())
+    }
+
+    fn write_params(&self, model: &Model) {
+        let t = model.tol;
+        let params = Params::<R> {
+            dt: r(model.timestep),
+            alpha: r(model.damping.alpha),
+            beta: r(model.damping.beta),
+            gx: r(model.gravity[0]),
+            gy: r(model.gravity[1]),
+            etol: r(t.etol),
+            fast_limit: r(0.5 * t.atol - t.etol),
+            overlap_limit: r(0.5 * t.round),
+            n_blocks: self.counts.0 as u32,
+            n_corners: self.counts.1 as u32,
+            n_contacts: self.counts.2 as u32,
+            _pad: 0,
+        };
+        self.dev.queue.write_buffer(&self.buffers().params, 0, bytemuck::bytes_of(&params));
+    }
+
+    /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) in one submission; returns the
+    /// flags. With `gather_only`, runs stage 6 alone (the force sums after a topology change).
+    fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
+        let b = self.buffers();
+        let bg = self.bind_group.as_ref().expect("bind group built on upload");
+        self.dev.queue.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+        let groups = |n: usize| (n as u32).div_ceil(shaders::WORKGROUP_SIZE);
+        let p = &self.pipelines;
+        let (nb, nc, nk) = self.counts;
+        let stages: Vec<(&str, &wgpu::ComputePipeline, u32)> = if gather_only {
+            vec![("gather", &p.gather, groups(nb))]
+        } else {
+            vec![
+                ("law_of_motion", &p.law_of_motion, groups(nb)),
+                ("geometry_update", &p.geometry_update, groups(nc)),
+                ("contact_forces", &p.contact_forces, groups(nk)),
+                ("gather", &p.gather, groups(nb)),
+                ("end_cycle", &p.end_cycle, 1),
+            ]
+        };
+        let scope = self.dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("cycles") });
+        for _ in 0..cycles.max(1) {
+            for (label, pipeline, n) in &stages {
+                if *n == 0 {
+                    continue;
+                }
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, bg, &[]);
+                pass.dispatch_workgroups(*n, 1, 1);
+            }
+        }
+        self.dev.queue.submit([enc.finish()]);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Device(format!("a cycle was rejected: {e}")));
+        }
+        let bytes = self.dev.read_buffer(&b.flags, std::mem::size_of::<Flags>() as u64)?;
+        Ok(bytemuck::pod_read_unaligned(&bytes))
+    }
+
+    fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, n: usize) -> Result<Vec<T>, GpuError> {
+        let bytes = self.dev.read_buffer(buffer, (n * std::mem::size_of::<T>()) as u64)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
+    /// Reads the block state back into the model.
+    fn read_blocks(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        let blocks: Vec<Block<R>> = self.read(&self.buffers().blocks.buffer, self.counts.0)?;
+        let mut work = 0.0;
+        for (m, g) in model.blocks.iter_mut().zip(&blocks) {
+            m.centroid = [self.origin[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), self.origin[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
+            m.rotation = g.rotation.to_f64();
+            m.velocity = [g.vx.to_f64(), g.vy.to_f64()];
+            m.angular_velocity = g.w.to_f64();
+            m.force = [g.fx.to_f64(), g.fy.to_f64()];
+            m.moment = g.moment.to_f64();
+            m.moved_since_update = g.moved.to_f64();
+            m.update_centroid = [self.origin[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), self.origin[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
+            m.update_rotation = g.update_rotation.to_f64();
+            work += g.work.to_f64();
+        }
+        model.external_work = self.work_base + work;
+        self.last_blocks = blocks;
+        Ok(())
+    }
+
+    /// Reads blocks, corners and contacts back into the model.
+    fn readback(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        self.read_blocks(model)?;
+        let corners: Vec<Corner<R>> = self.read(&self.buffers().corners.buffer, self.counts.1)?;
+        for (m, g) in model.corners.iter_mut().zip(&corners) {
+            let cen = model.blocks[m.block as usize].centroid;
+            m.position = [cen[0] + g.px.to_f64(), cen[1] + g.py.to_f64()];
+            m.circle = [cen[0] + g.ox.to_f64(), cen[1] + g.oy.to_f64()];
+            m.edge_dir = [g.ux.to_f64(), g.uy.to_f64()];
+            m.edge_length = g.len.to_f64();
+        }
+        let contacts: Vec<Contact<R>> = self.read(&self.buffers().contacts.buffer, self.counts.2)?;
+        for (m, g) in model.contacts.iter_mut().zip(&contacts) {
+            let c2 = model.blocks[m.block2 as usize].centroid;
+            m.point = [c2[0] + g.px.to_f64(), c2[1] + g.py.to_f64()];
+            m.normal = [g.nx.to_f64(), g.ny.to_f64()];
+            m.gap = g.gap.to_f64();
+            m.normal_force = g.normal_force.to_f64();
+            m.shear_force = g.shear_force.to_f64();
+            m.shear_displacement = g.shear_displacement.to_f64();
+            m.force = [g.fx.to_f64(), g.fy.to_f64()];
+            m.feature = g.feature;
+            m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
+            m.bonded = g.bonded != 0;
+        }
+        Ok(())
+    }
+
+    /// After stage 7: the blocks it re-examined get their update distance reset and their
+    /// reference set to where they are now (one contiguous write of six fields each, copied from
+    /// the GPU's own values so the reference is exact).
+    fn upload_reset_distances(&self, model: &Model) {
+        let size = std::mem::size_of::<Block<R>>() as u64;
+        let offset = std::mem::offset_of!(Block<R>, moved) as u64;
+        for (i, (m, g)) in model.blocks.iter().zip(&self.last_blocks).enumerate() {
+            if m.moved_since_update == 0.0 && (g.moved.to_f64() != 0.0 || g.update_cx != g.cx || g.update_cy != g.cy || g.update_rotation != g.rotation) {
+                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, g.rotation];
+                self.dev.queue.write_buffer(&self.buffers().blocks.buffer, i as u64 * size + offset, bytemuck::cast_slice(&fields));
+            }
+        }
+    }
+
+    /// The CPU backend's error for the flags raised, from the read-back state (same priority as
+    /// the CPU's checks within a cycle: non-finite, too fast, overlap).
+    fn error_from_flags(model: &Model, flags: &Flags) -> CycleError {
+        let cycle = model.cycle;
+        if flags.errors & layout::ERR_NONFINITE != 0 {
+            let block = model
+                .blocks
+                .iter()
+                .find(|b| !(b.centroid[0].is_finite() && b.centroid[1].is_finite() && b.velocity[0].is_finite() && b.velocity[1].is_finite() && b.angular_velocity.is_finite()))
+                .map_or(0, |b| b.id);
+            return CycleError::NonFinite { cycle, block, what: "a non-finite position or velocity".into() };
+        }
+        if flags.errors & layout::ERR_TOO_FAST != 0 {
+            let dt = model.timestep;
+            let mut fastest = (0.0f64, flags.toofast_block as usize);
+            for (i, b) in model.blocks.iter().enumerate() {
+                if b.fixed {
+                    continue;
+                }
+                let travel = (b.velocity[0] * dt).hypot(b.velocity[1] * dt) + (b.angular_velocity * dt).abs() * b.radius;
+                if travel > fastest.0 {
+                    fastest = (travel, i);
+                }
+            }
+            let limit = 0.5 * model.tol.atol - model.tol.etol;
+            let b = &model.blocks[fastest.1.min(model.blocks.len() - 1)];
+            return CycleError::TooFast { cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt };
+        }
+        let k = (flags.overlap_contact as usize).min(model.contacts.len().saturating_sub(1));
+        let c = &model.contacts[k];
+        CycleError::Overlap {
+            cycle,
+            block1: model.blocks[c.block1 as usize].id,
+            block2: model.blocks[c.block2 as usize].id,
+            overlap: -c.gap,
+            limit: 0.5 * model.tol.round,
+            x: c.point[0],
+            y: c.point[1],
+        }
+    }
+
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+        if model.timestep <= 0.0 || !model.timestep.is_finite() {
+            return Err(CycleError::Setup("the time step is not set".into()));
+        }
+        let mut report = CycleReport::default();
+        let mut adjacency = Adjacency::default();
+        // As on the CPU: a full detection first (the executor may have changed the model), then
+        // the force sums the first step needs.
+        cpu::maybe_update_topology(model, &mut adjacency, &mut report, true);
+        self.upload_all(model, &adjacency).map_err(device_error)?;
+        self.write_params(model);
+        self.run_batch(1, true).map_err(device_error)?;
+        self.readback(model).map_err(device_error)?;
+        let e0 = model.energies();
+        let baseline = e0.kinetic + e0.strain - e0.external_work;
+        let g = (model.gravity[0].powi(2) + model.gravity[1].powi(2)).sqrt();
+        let scale = model.blocks.iter().map(|b| (b.mass * g + b.load[0].hypot(b.load[1])) * b.radius).sum::<f64>() + (e0.kinetic + e0.strain).abs();
+        let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
+        let mut last_good = model.clone();
+        let mut done_total = 0u64;
+        let result = (|| -> Result<(), CycleError> {
+            while done_total < cycles {
+                let left = cycles - done_total;
+                let batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left) };
+                self.write_params(model);
+                let flags = self.run_batch(batch, false).map_err(device_error)?;
+                let done = flags.cycles_done as u64;
+                for _ in 0..done {
+                    model.time += model.timestep;
+                }
+                model.cycle += done;
+                done_total += done;
+                if flags.errors != 0 {
+                    self.readback(model).map_err(device_error)?;
+                    return Err(Self::error_from_flags(model, &flags));
+                }
+                if done == 0 {
+                    return Err(CycleError::Setup("GPU: a batch ran no cycle".into()));
+                }
+                report.cycles += done;
+                let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
+                if !(cracking || flags.update_due != 0 || at_check) {
+                    continue;
+                }
+                // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
+                self.readback(model).map_err(device_error)?;
+                let mut changed = false;
+                if cracking && cpu::crack_step(model, &adjacency, &mut report) {
+                    changed = true;
+                    adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                    if let Some(dt) = model.critical_timestep() {
+                        if dt < model.timestep {
+                            model.timestep = dt;
+                            report.timestep_changes.push((model.cycle, dt));
+                        }
+                    }
+                    self.upload_all(model, &adjacency).map_err(device_error)?;
+                    self.write_params(model);
+                    self.run_batch(1, true).map_err(device_error)?;
+                    self.read_blocks(model).map_err(device_error)?;
+                }
+                if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
+                    changed = true;
+                    self.upload_reset_distances(model);
+                    self.upload_contacts(model, &adjacency).map_err(device_error)?;
+                    self.write_params(model);
+                    self.run_batch(1, true).map_err(device_error)?;
+                }
+                if changed {
+                    self.read_blocks(model).map_err(device_error)?;
+                }
+                if at_check {
+                    cpu::check_energy(model, baseline, scale)?;
+                    last_good.clone_from(model);
+                    progress(done_total);
+                }
+            }
+            Ok(())
+        })();
+        match result {
+            Ok(()) => Ok(report),
+            Err(mut e) => {
+                if let CycleError::TooFast { .. } = e {
+                    if let Err(energy) = cpu::check_energy(model, baseline, scale) {
+                        e = energy;
+                    }
+                }
+                if let CycleError::EnergyGrowth { safe_frac, .. } = &mut e {
+                    *safe_frac = last_good.stable_frac_estimate();
+                }
+                *model = last_good;
+                Err(e)
+            }
+        }
+    }
+}

@@ -1,0 +1,60 @@
+//! WGSL sources: a prelude generated here (precision alias, workgroup size, tie tolerance —
+//! constants live in Rust, STYLE.md item 4), then `shaders/common.wgsl`, then one kernel file.
+
+use super::Precision;
+
+/// Threads per workgroup of the per-item kernels.
+pub const WORKGROUP_SIZE: u32 = 64;
+
+pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
+
+/// The kernel files, one per stage, each named like its CPU twin in `src/cpu/`.
+pub const KERNELS: &[(&str, &str)] = &[
+    ("law_of_motion", include_str!("../../shaders/law_of_motion.wgsl")),
+    ("geometry_update", include_str!("../../shaders/geometry_update.wgsl")),
+    ("contact_forces", include_str!("../../shaders/contact_forces.wgsl")),
+    ("gather", include_str!("../../shaders/gather.wgsl")),
+    ("end_cycle", include_str!("../../shaders/end_cycle.wgsl")),
+];
+
+/// The prelude: the one precision switch and the constants.
+///
+/// TIE_TOL is the relative tolerance within which two candidate features are "equally near" (the
+/// arc-wins rule of `better`). The CPU uses 1e-9; f32 positions relative to a centroid a few
+/// metres away carry ~1e-7 relative round-off, so f32 needs a wider window or two aligned corners
+/// could be seen as corner–edge from one side and double-count their force.
+///
+/// REGION_TOL widens the "centre lies in this feature's own region" tests (the slab over an
+/// edge, relative to the rounding length; the wedge of an arc, on unit cross products) by round-off. At
+/// two aligned corners (a column of equal blocks) the corner's circle centre lies exactly on the
+/// border of the arc's wedge and the edge's slab; exact arithmetic (and the CPU, whose round-off
+/// happens to cancel there) finds it inside both, so the arc wins from both sides and the touch
+/// counts once. Without the tolerance, GPU round-off (fused multiply–adds) flipped one side to
+/// corner–edge after ~2800 cycles of tests/physics.rs's column and the touch counted twice.
+pub fn prelude(precision: Precision) -> String {
+    let (real, tie, region) = match precision {
+        Precision::F32 => ("f32", "1e-5", "1e-5"),
+        Precision::F64 => ("f64", "1e-9", "1e-12"),
+    };
+    format!("alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n")
+}
+
+/// The full source of one kernel file in one precision.
+pub fn source(kernel: &str, precision: Precision) -> Option<String> {
+    let body = KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
+    Some(format!("{}\n{COMMON}\n{body}", prelude(precision)))
+}
+
+/// Parses and validates WGSL with naga, with f64 allowed only in the f64 variant. Returns the
+/// module (for layout checks) or the error rendered with its source location.
+pub fn validate(source: &str, precision: Precision) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+    let mut caps = naga::valid::Capabilities::empty();
+    if precision == Precision::F64 {
+        caps |= naga::valid::Capabilities::FLOAT64;
+    }
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps)
+        .validate(&module)
+        .map_err(|e| e.emit_to_string(source))?;
+    Ok((module, info))
+}

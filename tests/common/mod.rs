@@ -1,0 +1,76 @@
+//! One scenario suite, every backend (STYLE.md item 8): each scene is written once as a function
+//! taking a `Target`, and `every_backend!` generates one test per scene and backend — CPU (f64),
+//! Vulkan f32, Vulkan f64, GL f32. On a machine without that adapter a GPU test prints that it
+//! skipped; with `BLOCKDEM_REQUIRE_GPU=1` (CI, where Mesa's lavapipe and llvmpipe are installed)
+//! it fails instead.
+#![allow(dead_code)]
+
+use blockdem::backend::Backend;
+use blockdem::cpu::CpuBackend;
+use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+
+/// Where a scene runs.
+#[derive(Clone, Debug)]
+pub enum Target {
+    Cpu,
+    Gpu(GpuOptions),
+}
+
+impl Target {
+    /// A GPU target if its adapter is present; otherwise None after saying so (or a panic under
+    /// `BLOCKDEM_REQUIRE_GPU=1`).
+    pub fn gpu(adapter: &str, precision: Precision) -> Option<Target> {
+        let choice: AdapterChoice = adapter.parse().unwrap();
+        let found = list_adapters(&choice).into_iter().any(|a| a.compute && (precision == Precision::F32 || a.shader_f64));
+        if found {
+            return Some(Target::Gpu(GpuOptions { adapter: choice, precision }));
+        }
+        let what = format!("no {adapter} adapter with compute shaders{}", if precision == Precision::F64 { " and SHADER_F64" } else { "" });
+        if std::env::var("BLOCKDEM_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+            panic!("BLOCKDEM_REQUIRE_GPU=1 but {what} was found (install mesa-vulkan-drivers libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri)");
+        }
+        eprintln!("skipped: {what}");
+        None
+    }
+
+    pub fn backend(&self) -> Box<dyn Backend> {
+        match self {
+            Target::Cpu => Box::new(CpuBackend::new()),
+            Target::Gpu(o) => Box::new(GpuBackend::new(o).unwrap_or_else(|e| panic!("{e}"))),
+        }
+    }
+
+    /// True for single-precision kernels (tolerances widen to f32 round-off).
+    pub fn is_f32(&self) -> bool {
+        matches!(self, Target::Gpu(GpuOptions { precision: Precision::F32, .. }))
+    }
+
+    pub fn name(&self) -> String {
+        match self {
+            Target::Cpu => "cpu".into(),
+            Target::Gpu(o) => format!("{:?} {}", o.adapter, o.precision),
+        }
+    }
+}
+
+#[allow(unused_macros)]
+/// Generates, for each scene function `fn scene(t: &Target)`, one test per backend, in modules
+/// `cpu`, `vulkan_f32`, `vulkan_f64`, `gl_f32`.
+macro_rules! every_backend {
+    ($($scene:ident),* $(,)?) => {
+        mod cpu {
+            $( #[test] fn $scene() { super::$scene(&crate::common::Target::Cpu) } )*
+        }
+        mod vulkan_f32 {
+            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("vulkan", blockdem::gpu::Precision::F32) { super::$scene(&t) } } )*
+        }
+        mod vulkan_f64 {
+            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("vulkan", blockdem::gpu::Precision::F64) { super::$scene(&t) } } )*
+        }
+        mod gl_f32 {
+            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("gl", blockdem::gpu::Precision::F32) { super::$scene(&t) } } )*
+        }
+    };
+}
+#[allow(unused_imports)]
+pub(crate) use every_backend;

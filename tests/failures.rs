@@ -1,0 +1,76 @@
+//! Numerical failures on every backend (tests/common): the same error as the CPU reference, at
+//! the same cycle, and the model left at its last good state (the checkpoint of the energy check,
+//! every 100 cycles), finite throughout.
+
+mod common;
+
+use blockdem::backend::CycleError;
+use blockdem::exec::{Executor, RunError, RunOptions};
+use blockdem::model::Model;
+use common::{every_backend, Target};
+
+every_backend!(
+    an_overlap_beyond_half_the_rounding_stops_at_the_last_good_state,
+    an_unstable_fraction_is_caught_before_any_nan,
+    a_projectile_that_would_tunnel_is_stopped,
+);
+
+/// Runs a deck that must fail; returns the failure and the model the executor kept.
+fn fail(t: &Target, deck: &str) -> (CycleError, Model) {
+    let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
+    let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), progress: false };
+    let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, "<scene>");
+    match exec.run(&commands) {
+        Err(RunError::Numerical { failure, .. }) => (failure, exec.model),
+        other => panic!("expected a numerical failure on {}, got {other:?}", t.name()),
+    }
+}
+
+fn assert_last_good(m: &Model, t: &Target) {
+    assert_eq!(m.cycle % 100, 0, "rolled back to a checkpoint on {}: cycle {}", t.name(), m.cycle);
+    for b in &m.blocks {
+        assert!(b.centroid.iter().chain(&b.velocity).all(|x| x.is_finite()) && b.angular_velocity.is_finite(), "finite state on {}", t.name());
+    }
+}
+
+fn an_overlap_beyond_half_the_rounding_stops_at_the_last_good_state(t: &Target) {
+    // A block fired at 2 m/s into a fixed one 5 cm away: the soft contact (stopping distance
+    // v√(m/kn) ≈ 0.09 m) cannot stop it within d/2 = 0.05 m.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 1.05,0 1.05,1 2.05,1 2.05,0\nFIX 1 3 0 1\n\
+         VELOCITY 0 1 0 1 2 0\nCYCLE 2000\n";
+    let (e, m) = fail(t, deck);
+    let (reference, _) = fail(&Target::Cpu, deck);
+    match (&e, &reference) {
+        (CycleError::Overlap { cycle, block1, block2, .. }, CycleError::Overlap { cycle: c0, .. }) => {
+            assert!([*block1, *block2].contains(&1) && [*block1, *block2].contains(&2));
+            // The overlap grows ~2 mm a step past the limit: f32 crosses it on the same step.
+            assert_eq!(cycle, c0, "same cycle as the CPU on {}", t.name());
+        }
+        _ => panic!("expected an overlap on {}: {e}", t.name()),
+    }
+    assert_last_good(&m, t);
+}
+
+fn an_unstable_fraction_is_caught_before_any_nan(t: &Target) {
+    // FRAC 5 is far above the stable limit of the central-difference scheme (≈ 0.5 here).
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nFRAC 5\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 5000\n";
+    let (e, m) = fail(t, deck);
+    assert!(matches!(e, CycleError::EnergyGrowth { .. } | CycleError::Overlap { .. } | CycleError::TooFast { .. }), "{e} on {}", t.name());
+    assert_last_good(&m, t);
+}
+
+fn a_projectile_that_would_tunnel_is_stopped(t: &Target) {
+    // 200 m/s with Δt ≈ 9e-3 s: 1.8 m a step, through a 1 m block in one step. Stopped at the
+    // first step, before any checkpoint: the model is the one the CYCLE started from.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 3,0 3,1 4,1 4,0\nFIX 2 5 0 1\n\
+         VELOCITY 0 1 0 1 200 0\nCYCLE 100\n";
+    let (e, m) = fail(t, deck);
+    match e {
+        CycleError::TooFast { cycle, block, .. } => {
+            assert_eq!((cycle, block), (1, 1), "on {}", t.name());
+        }
+        _ => panic!("expected too fast on {}: {e}", t.name()),
+    }
+    assert_last_good(&m, t);
+    assert!((m.blocks[0].centroid[0] - 0.5).abs() < 1e-6 && (m.blocks[0].velocity[0] - 200.0).abs() < 1e-3);
+}

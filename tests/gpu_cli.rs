@@ -1,0 +1,79 @@
+//! The GPU options of the `blockdem` binary: `adapters`, `--backend gpu|auto`, `--adapter`,
+//! `--precision`, and their errors.
+
+mod common;
+
+use std::process::Command;
+
+use blockdem::gpu::Precision;
+use common::Target;
+
+fn blockdem(args: &[&str], env: &[(&str, &str)]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_blockdem")).args(args).envs(env.iter().copied()).output().expect("runs");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+fn sample_1() -> String {
+    format!("{}/examples/udec1_point_load_cracking.dat", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn out_dir(name: &str) -> String {
+    let d = std::env::temp_dir().join(format!("blockdem-gpu-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d.display().to_string()
+}
+
+#[test]
+fn adapters_lists_backend_driver_limits_and_f64() {
+    if Target::gpu("vulkan", Precision::F32).is_none() {
+        return;
+    }
+    let (code, stdout, stderr) = blockdem(&["adapters"], &[]);
+    assert_eq!(code, 0, "{stderr}");
+    for key in ["Vulkan", "driver:", "max_storage_buffers_per_shader_stage", "max_storage_buffer_binding_size", "max_buffer_size", "max_compute_workgroup_size_x", "SHADER_F64"] {
+        assert!(stdout.contains(key), "{key} missing:\n{stdout}");
+    }
+    assert!(!stderr.contains("XDG_RUNTIME_DIR"), "headless Mesa stays quiet: {stderr}");
+}
+
+#[test]
+fn sample_1_runs_on_the_gpu_backend_from_the_command_line() {
+    if Target::gpu("vulkan", Precision::F32).is_none() {
+        return;
+    }
+    let out = out_dir("sample1");
+    let (code, stdout, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--adapter", "vulkan", "--out", &out], &[]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("running on gpu (Vulkan"), "{stderr}");
+    assert_eq!(stdout.matches("CRACKED AT CYCLE").count(), 1, "{stdout}");
+}
+
+#[test]
+fn f64_on_an_adapter_without_it_is_a_clear_error() {
+    if Target::gpu("gl", Precision::F32).is_none() {
+        return;
+    }
+    let (code, _, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--adapter", "gl", "--precision", "f64", "--out", &out_dir("f64")], &[]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("SHADER_F64") && stderr.contains("--precision f32"), "{stderr}");
+}
+
+#[test]
+fn an_unknown_adapter_name_is_an_error_for_gpu_and_a_fallback_for_auto() {
+    let (code, _, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--adapter", "no-such-adapter", "--out", &out_dir("name")], &[]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("no GPU adapter") && stderr.contains("no-such-adapter"), "{stderr}");
+    let (code, _, stderr) = blockdem(&["run", &sample_1(), "--backend", "auto", "--adapter", "no-such-adapter", "--out", &out_dir("auto")], &[]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(stderr.lines().filter(|l| l.contains("running on the CPU")).count(), 1, "one line says so: {stderr}");
+}
+
+#[test]
+fn wgpu_backend_env_is_honoured() {
+    if Target::gpu("gl", Precision::F32).is_none() {
+        return;
+    }
+    let (code, _, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--out", &out_dir("env")], &[("WGPU_BACKEND", "gl")]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("running on gpu (Gl"), "{stderr}");
+}

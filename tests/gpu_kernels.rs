@@ -1,0 +1,435 @@
+//! Each WGSL function with a Rust twin, checked on random inputs against the twin (dimforge's
+//! wgebra approach, STYLE.md item 10): a small test entry point is appended to the kernel file, run
+//! on the adapter, and its results compared with the Rust function's.
+//!
+//! - `track_feature` (with `feature_distance`, `edge_distance`, `arc_distance`, `better`) and
+//!   `counts_force`: the contact geometry of a rounded corner against a rounded polygon;
+//! - `contact_force_law`: the force–displacement law (eqs. 13–20);
+//! - `sin_cos`: the rotation of the geometry update, with + − × only.
+//!
+//! Tolerances: f64 kernels agree to rounding (a few ulps; the GPU compiler may fuse
+//! multiply–adds). f32 kernels get the inputs rounded to f32 and agree to f32 round-off scaled by
+//! the size of the numbers involved, stated at each check; a branch decided within round-off of
+//! its threshold (a tie between two features, |Fs| at the Coulomb limit) may go the other way in
+//! f32 for a small share of the random cases, bounded below.
+
+mod common;
+
+use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
+use blockdem::gpu::layout::{Contact as GContact, Corner as GCorner, Material as GMaterial, Real};
+use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
+use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
+use common::Target;
+
+/// xorshift64*: deterministic random numbers without a dependency.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next()
+    }
+    fn below(&mut self, n: u32) -> u32 {
+        ((self.next() * n as f64) as u32).min(n - 1)
+    }
+}
+
+/// A device for the target, or None (skipped) when the adapter is absent.
+fn device(adapter: &str, precision: Precision) -> Option<GpuDevice> {
+    Target::gpu(adapter, precision)?;
+    let choice: AdapterChoice = adapter.parse().unwrap();
+    Some(GpuDevice::open(&choice, precision).unwrap_or_else(|e| panic!("{e}")))
+}
+
+/// Runs `entry` (appended to contact_forces.wgsl) over `cases` invocations with the given
+/// storage buffers (binding, bytes, is_output); returns the outputs in order.
+fn run_kernel(dev: &GpuDevice, snippet: &str, entry: &str, cases: usize, buffers: &[(u32, Vec<u8>, bool)]) -> Vec<Vec<u8>> {
+    let src = format!("{}\n{snippet}", shaders::source("contact_forces", dev.precision).unwrap());
+    shaders::validate(&src, dev.precision).unwrap_or_else(|e| panic!("{e}"));
+    let device = &dev.device;
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(entry), source: wgpu::ShaderSource::Wgsl(src.into()) });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: None,
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let bufs: Vec<wgpu::Buffer> = buffers
+        .iter()
+        .map(|(b, bytes, _)| {
+            let size = bytes.len().max(16) as u64;
+            let buf = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(&format!("binding {b}")),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            dev.queue.write_buffer(&buf, 0, bytes);
+            buf
+        })
+        .collect();
+    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().zip(&bufs).map(|((b, _, _), buf)| wgpu::BindGroupEntry { binding: *b, resource: buf.as_entire_binding() }).collect();
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(entry), layout: &pipeline.get_bind_group_layout(0), entries: &entries });
+    let mut enc = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(entry), timestamp_writes: None });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((cases as u32).div_ceil(64), 1, 1);
+    }
+    dev.queue.submit([enc.finish()]);
+    buffers.iter().zip(&bufs).filter(|((_, _, out), _)| *out).map(|((_, bytes, _), buf)| dev.read_buffer(buf, bytes.len() as u64).unwrap()).collect()
+}
+
+fn reals<R: Real>(xs: &[f64]) -> Vec<u8> {
+    bytemuck::cast_slice(&xs.iter().map(|&x| R::from_f64(x)).collect::<Vec<R>>()).to_vec()
+}
+
+fn back<R: Real>(bytes: &[u8]) -> Vec<f64> {
+    bytemuck::pod_collect_to_vec::<u8, R>(bytes).into_iter().map(Real::to_f64).collect()
+}
+
+/// Rounds to the kernel precision and back (the CPU reference sees the GPU's inputs).
+fn q<R: Real>(x: f64) -> f64 {
+    R::from_f64(x).to_f64()
+}
+
+const TRACK: &str = r#"
+@group(0) @binding(8) var<storage, read> t_in_r: array<real>;
+@group(0) @binding(9) var<storage, read> t_in_u: array<u32>;
+@group(0) @binding(10) var<storage, read_write> t_out_r: array<real>;
+@group(0) @binding(11) var<storage, read_write> t_out_u: array<u32>;
+
+@compute @workgroup_size(64)
+fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= arrayLength(&t_in_u) / 4u) {
+        return;
+    }
+    let c = vec2<real>(t_in_r[3u * i], t_in_r[3u * i + 1u]);
+    let r = t_in_r[3u * i + 2u];
+    let start = t_in_u[4u * i];
+    let n = t_in_u[4u * i + 1u];
+    let g = track_feature(start, n, t_in_u[4u * i + 2u], c, r);
+    t_out_r[6u * i] = g.gap;
+    t_out_r[6u * i + 1u] = g.normal.x;
+    t_out_r[6u * i + 2u] = g.normal.y;
+    t_out_r[6u * i + 3u] = g.point.x;
+    t_out_r[6u * i + 4u] = g.point.y;
+    t_out_r[6u * i + 5u] = g.distance;
+    t_out_u[2u * i] = g.feature;
+    t_out_u[2u * i + 1u] = select(0u, 1u, counts_force(t_in_u[4u * i + 3u], c, r, start, n, g.feature));
+}
+"#;
+
+fn track_feature_matches_rust<R: Real>(dev: &GpuDevice)
+where
+    GCorner<R>: bytemuck::Pod,
+{
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut rng = Rng(0x5eed_1234_abcd_0001);
+    let cases = 2000;
+    let (mut gpu_corners, mut in_r, mut in_u) = (Vec::<GCorner<R>>::new(), Vec::new(), Vec::new());
+    let mut expected = Vec::new();
+    for _ in 0..cases {
+        // A random convex polygon (3–6 corners on a circle of radius 0.5–2 m, jittered), far from
+        // the origin so that the relative-to-centroid geometry is exercised, rounded by 2–20 cm.
+        let n = 3 + rng.below(4) as usize;
+        let size = rng.range(0.5, 2.0);
+        let far = [rng.range(-1e3, 1e3), rng.range(-1e3, 1e3)];
+        let phase = rng.range(0.0, 6.3);
+        let outline: Vec<[f64; 2]> = (0..n)
+            .map(|k| {
+                let a = phase + (k as f64 + rng.range(-0.25, 0.25)) * std::f64::consts::TAU / n as f64;
+                [far[0] + size * a.cos(), far[1] + size * a.sin()]
+            })
+            .collect();
+        let mut model = Model::default();
+        model.set_round(rng.range(0.02, 0.2) * size);
+        model.add_block(&outline, 1, 1, None).unwrap();
+        let cen = model.blocks[0].centroid;
+        let corners = model.block_corners(0).to_vec();
+        // Round the polygon to the kernel precision (relative to its centroid) so that the CPU
+        // reference measures what the GPU measures.
+        let mut ref_corners = corners.clone();
+        for c in ref_corners.iter_mut() {
+            for i in 0..2 {
+                c.position[i] = cen[i] + q::<R>(c.position[i] - cen[i]);
+                c.circle[i] = cen[i] + q::<R>(c.circle[i] - cen[i]);
+                c.edge_dir[i] = q::<R>(c.edge_dir[i]);
+            }
+            c.edge_length = q::<R>(c.edge_length);
+            c.radius = q::<R>(c.radius);
+            c.round = q::<R>(c.round);
+        }
+        let start = gpu_corners.len() as u32;
+        for c in &ref_corners {
+            gpu_corners.push(GCorner {
+                radius: R::from_f64(c.radius),
+                round: R::from_f64(c.round),
+                px: R::from_f64(c.position[0] - cen[0]),
+                py: R::from_f64(c.position[1] - cen[1]),
+                ox: R::from_f64(c.circle[0] - cen[0]),
+                oy: R::from_f64(c.circle[1] - cen[1]),
+                ux: R::from_f64(c.edge_dir[0]),
+                uy: R::from_f64(c.edge_dir[1]),
+                len: R::from_f64(c.edge_length),
+                ..Default::default()
+            });
+        }
+        // A corner circle near a random feature: on the boundary ± up to 30% of the size, the
+        // tracked feature one of that feature and its neighbours.
+        let nf = 2 * n as u32;
+        let f0 = rng.below(nf);
+        let k = (f0 / 2) as usize;
+        let (p0, p1) = (corners[k].position, corners[(k + 1) % n].position);
+        let t = if f0 % 2 == 1 { rng.range(0.0, 1.0) } else { 0.0 };
+        let base = [p0[0] + t * (p1[0] - p0[0]), p0[1] + t * (p1[1] - p0[1])];
+        let dir = [base[0] - cen[0], base[1] - cen[1]];
+        let dl = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
+        let off = rng.range(-0.1, 0.3) * size;
+        let rel = [q::<R>(base[0] - cen[0] + dir[0] / dl * off), q::<R>(base[1] - cen[1] + dir[1] / dl * off)];
+        let c = [cen[0] + rel[0], cen[1] + rel[1]];
+        let r = q::<R>(rng.range(0.01, 0.1) * size);
+        let feature = (f0 + nf + rng.below(3) - 1) % nf;
+        let own = start + rng.below(2 * n as u32);
+        let g = track_feature(&ref_corners, feature, c, r);
+        let mut own_corner = ref_corners[0];
+        own_corner.circle = c;
+        own_corner.radius = r;
+        let counted = counts_force(own, &own_corner, &ref_corners, start, g.feature);
+        in_r.extend([rel[0], rel[1], r]);
+        in_u.extend([start, n as u32, feature, own]);
+        expected.push((g, cen, size, counted));
+    }
+    let out = run_kernel(
+        dev,
+        TRACK,
+        "test_track_feature",
+        cases,
+        &[
+            (2, bytemuck::cast_slice(&gpu_corners).to_vec(), false),
+            (8, reals::<R>(&in_r), false),
+            (9, bytemuck::cast_slice(&in_u).to_vec(), false),
+            (10, vec![0; cases * 6 * std::mem::size_of::<R>()], true),
+            (11, vec![0; cases * 8], true),
+        ],
+    );
+    let (out_r, out_u) = (back::<R>(&out[0]), bytemuck::pod_collect_to_vec::<u8, u32>(&out[1]));
+    let mut other_feature = 0;
+    for (i, (g, cen, size, counted)) in expected.iter().enumerate() {
+        if out_u[2 * i] != g.feature {
+            other_feature += 1;
+            continue;
+        }
+        // f64: rounding (1e-12 of the polygon's size). f32: positions carry 2⁻²⁴ of the size
+        // (6e-8), a few operations each: 2e-6 of the size for lengths; the normal divides by
+        // distances no smaller than the 1 cm radius floor: 1e-4.
+        let (tl, tn) = if f32_kernel { (2e-6 * size, 1e-4) } else { (1e-12 * size, 1e-11) };
+        let o = &out_r[6 * i..6 * i + 6];
+        assert!((o[0] - g.gap).abs() < tl, "case {i}: gap {} vs {}", o[0], g.gap);
+        assert!((o[1] - g.normal[0]).abs() < tn && (o[2] - g.normal[1]).abs() < tn, "case {i}: normal");
+        assert!((o[3] + cen[0] - g.point[0]).abs() < tl && (o[4] + cen[1] - g.point[1]).abs() < tl, "case {i}: point");
+        assert!((o[5] - g.distance).abs() < tl, "case {i}: distance");
+        assert_eq!(out_u[2 * i + 1] != 0, *counted, "case {i}: counts_force");
+    }
+    // Features are chosen alike except within round-off of a tie: none in f64; in f32, under 1%.
+    let allowed = if f32_kernel { cases / 100 } else { 0 };
+    assert!(other_feature <= allowed, "{other_feature} of {cases} cases chose another feature");
+}
+
+const LAW: &str = r#"
+@group(0) @binding(8) var<storage, read> l_contacts: array<Contact>;
+@group(0) @binding(9) var<storage, read> l_materials: array<Material>;
+@group(0) @binding(10) var<storage, read> l_motion: array<real>;
+@group(0) @binding(11) var<storage, read_write> l_out: array<Contact>;
+
+@compute @workgroup_size(64)
+fn test_contact_force_law(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= arrayLength(&l_out)) {
+        return;
+    }
+    let m = 13u * i;
+    let a = Motion(vec2<real>(l_motion[m], l_motion[m + 1u]), vec2<real>(l_motion[m + 2u], l_motion[m + 3u]), l_motion[m + 4u]);
+    let b = Motion(vec2<real>(l_motion[m + 5u], l_motion[m + 6u]), vec2<real>(l_motion[m + 7u], l_motion[m + 8u]), l_motion[m + 9u]);
+    l_out[i] = contact_force_law(l_contacts[i], l_materials[i], a, b, l_motion[m + 10u], l_motion[m + 11u], l_motion[m + 12u] != 0.0);
+}
+"#;
+
+fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice)
+where
+    GContact<R>: bytemuck::Pod,
+    GMaterial<R>: bytemuck::Pod,
+{
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut rng = Rng(0x5eed_0000_0000_0002);
+    let cases = 4000;
+    let (mut gc, mut gm, mut motion, mut expected) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..cases {
+        let a = rng.range(0.0, 6.3);
+        let kn = q::<R>(10f64.powf(rng.range(6.0, 10.0)));
+        let mat = Material {
+            kn,
+            ks: q::<R>(kn * rng.range(0.1, 1.0)),
+            cohesion: q::<R>(if rng.next() < 0.3 { rng.range(0.0, 1e5) } else { 0.0 }),
+            friction: q::<R>(rng.range(0.0, 1.0)),
+            ..Default::default()
+        };
+        let gap = q::<R>(rng.range(-2e-3, 5e-4));
+        let contact = Contact {
+            id: 0,
+            block1: 0,
+            corner: 0,
+            block2: 1,
+            feature: 1,
+            kind: ContactKind::CornerEdge,
+            material: 1,
+            constitutive: 1,
+            bonded: rng.next() < 0.5,
+            point: [q::<R>(rng.range(-1.0, 1.0)), q::<R>(rng.range(-1.0, 1.0))],
+            normal: [q::<R>(a.cos()), q::<R>(a.sin())],
+            gap,
+            normal_force: 0.0,
+            shear_force: q::<R>(rng.range(-1.0, 1.0) * kn * 1e-3),
+            shear_displacement: q::<R>(rng.range(-1e-3, 1e-3)),
+            force: [0.0, 0.0],
+        };
+        let mut v = || q::<R>(rng.range(-1.0, 1.0));
+        let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v() };
+        let m2 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v() };
+        let beta = q::<R>(if rng.next() < 0.5 { rng.range(0.0, 1e-3) } else { 0.0 });
+        let dt = q::<R>(rng.range(1e-5, 1e-3));
+        let active = rng.next() < 0.9;
+        let mut out = contact;
+        contact_force_law(&mut out, &mat, &m1, &m2, &Damping { alpha: 0.0, beta, alpha_internal: 0.0 }, dt, active);
+        let r = R::from_f64;
+        gc.push(GContact {
+            px: r(contact.point[0]),
+            py: r(contact.point[1]),
+            nx: r(contact.normal[0]),
+            ny: r(contact.normal[1]),
+            gap: r(gap),
+            shear_force: r(contact.shear_force),
+            shear_displacement: r(contact.shear_displacement),
+            bonded: contact.bonded as u32,
+            ..Default::default()
+        });
+        gm.push(GMaterial { kn: r(mat.kn), ks: r(mat.ks), cohesion: r(mat.cohesion), friction: r(mat.friction) });
+        motion.extend([m1.centroid[0], m1.centroid[1], m1.velocity[0], m1.velocity[1], m1.angular_velocity]);
+        motion.extend([m2.centroid[0], m2.centroid[1], m2.velocity[0], m2.velocity[1], m2.angular_velocity]);
+        motion.extend([beta, dt, active as u32 as f64]);
+        expected.push((out, kn));
+    }
+    let out = run_kernel(
+        dev,
+        LAW,
+        "test_contact_force_law",
+        cases,
+        &[
+            (8, bytemuck::cast_slice(&gc).to_vec(), false),
+            (9, bytemuck::cast_slice(&gm).to_vec(), false),
+            (10, reals::<R>(&motion), false),
+            (11, vec![0; cases * std::mem::size_of::<GContact<R>>()], true),
+        ],
+    );
+    let got: Vec<GContact<R>> = bytemuck::pod_collect_to_vec(&out[0]);
+    let mut branch_flips = 0;
+    for (i, ((e, kn), g)) in expected.iter().zip(&got).enumerate() {
+        if (g.bonded != 0) != e.bonded {
+            branch_flips += 1;
+            continue;
+        }
+        // Force scale: the larger of kn·|gap| and |Fs| (f32: 1e-5 of it, a few roundings of
+        // products of f32 inputs; f64: 1e-12).
+        let scale = (kn * e.gap.abs()).max(e.shear_force.abs()).max(e.normal_force.abs()).max(1.0);
+        let tol = if f32_kernel { 1e-5 } else { 1e-12 } * scale;
+        let pairs = [
+            (g.normal_force.to_f64(), e.normal_force),
+            (g.shear_force.to_f64(), e.shear_force),
+            (g.fx.to_f64(), e.force[0]),
+            (g.fy.to_f64(), e.force[1]),
+        ];
+        if pairs.iter().any(|(a, b)| (a - b).abs() > tol) {
+            branch_flips += 1;
+            if !f32_kernel {
+                panic!("case {i}: {pairs:?} (tol {tol})");
+            }
+            continue;
+        }
+        let us_tol = if f32_kernel { 1e-6 } else { 1e-15 };
+        assert!((g.shear_displacement.to_f64() - e.shear_displacement).abs() < us_tol, "case {i}: shear displacement");
+    }
+    // Branches decided within round-off of their threshold (|Fs| at the Coulomb limit, Fn at the
+    // cohesion): none in f64, under 1% in f32.
+    let allowed = if f32_kernel { cases / 100 } else { 0 };
+    assert!(branch_flips <= allowed, "{branch_flips} of {cases} cases differ");
+}
+
+const SIN_COS: &str = r#"
+@group(0) @binding(8) var<storage, read> s_in: array<real>;
+@group(0) @binding(9) var<storage, read_write> s_out: array<real>;
+
+@compute @workgroup_size(64)
+fn test_sin_cos(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= arrayLength(&s_in)) {
+        return;
+    }
+    let cs = sin_cos(s_in[i]);
+    s_out[2u * i] = cs.x;
+    s_out[2u * i + 1u] = cs.y;
+}
+"#;
+
+fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut rng = Rng(0x5eed_0000_0000_0003);
+    let cases = 4096;
+    let thetas: Vec<f64> = (0..cases).map(|i| q::<R>(if i % 2 == 0 { rng.range(-0.5, 0.5) } else { rng.range(-100.0, 100.0) })).collect();
+    let out = run_kernel(dev, SIN_COS, "test_sin_cos", cases, &[(8, reals::<R>(&thetas), false), (9, vec![0; cases * 2 * std::mem::size_of::<R>()], true)]);
+    let got = back::<R>(&out[0]);
+    for (i, &t) in thetas.iter().enumerate() {
+        let (s, c) = t.sin_cos();
+        let rust_twin = blockdem::gpu::kernels::sin_cos(t);
+        // f64: a few ulps (the Cody–Waite reduction by k·π/2 is exact for |θ| ≤ 100). f32: the
+        // reduction θ − k·π/2 rounds k·π/2 to f32, an error of up to ~2 ulps of θ (1.2e-7·|θ|,
+        // the size of the rounding of θ itself to f32), plus the f32 polynomial (1e-6).
+        let tol = if f32_kernel { 1e-6 + 2.4e-7 * t.abs() } else { 4e-16 };
+        assert!((got[2 * i] - c).abs() <= tol && (got[2 * i + 1] - s).abs() <= tol, "θ = {t}: ({}, {}) vs ({c}, {s})", got[2 * i], got[2 * i + 1]);
+        assert!((rust_twin.0 - c).abs() <= 4e-16 && (rust_twin.1 - s).abs() <= 4e-16, "Rust twin at θ = {t}");
+    }
+}
+
+macro_rules! on_adapters {
+    ($($name:ident => $check:ident),* $(,)?) => {
+        $(
+            mod $name {
+                #[test]
+                fn vulkan_f32() {
+                    if let Some(d) = super::device("vulkan", blockdem::gpu::Precision::F32) { super::$check::<f32>(&d) }
+                }
+                #[test]
+                fn vulkan_f64() {
+                    if let Some(d) = super::device("vulkan", blockdem::gpu::Precision::F64) { super::$check::<f64>(&d) }
+                }
+                #[test]
+                fn gl_f32() {
+                    if let Some(d) = super::device("gl", blockdem::gpu::Precision::F32) { super::$check::<f32>(&d) }
+                }
+            }
+        )*
+    };
+}
+
+on_adapters!(
+    track_feature_and_counts_force => track_feature_matches_rust,
+    contact_force_law => contact_force_law_matches_rust,
+    sin_cos => sin_cos_matches_rust,
+);
