@@ -15,6 +15,7 @@
 //! | [`exec`] | the command executor: runs a deck against a backend |
 //! | [`output`] | PRINT tables, PLOT (PNG/SVG), state JSON, SAVE/RESTART files |
 //! | [`scenes`] | decks shared by the tests, benchmarks and verification |
+//! | [`verify`] | `blockdem verify`: closed-form cases on every backend, accuracy against speed, stability limits |
 
 pub mod backend;
 pub mod cpu;
@@ -24,3 +25,4 @@ pub mod model;
 pub mod output;
 pub mod scenes;
 pub mod topology;
+pub mod verify;

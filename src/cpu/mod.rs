@@ -45,7 +45,8 @@ fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &
     if !force && !model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
         return false;
     }
-    let (created, dropped) = topology::update_contacts(model, force);
+    // Contacts dropped while loaded take their energy terms to the ledger's retired account.
+    let (created, dropped) = model.retire_energy_around(|m| topology::update_contacts(m, force));
     report.topology_updates += 1;
     report.contacts_created += created as u64;
     report.contacts_dropped += dropped as u64;
@@ -163,11 +164,16 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError
     contacts_and_gather(model, adjacency, dt)
 }
 
-/// The energy check: kinetic + strain energy may not outgrow the energy put in.
-fn check_energy(model: &Model, baseline: f64, scale: f64) -> Result<(), CycleError> {
+/// The energy check: kinetic + strain energy may not outgrow the energy put in. The budget is the
+/// largest seen so far (`peak`): in a stable run that rings (a block dropped onto its contacts)
+/// the budget falls to ~0 at each rebound apex while the half-step kinetic energy and the
+/// shadow-energy error of central differences do not, which is no instability; an unstable run
+/// grows exponentially past any such margin.
+fn check_energy(model: &Model, baseline: f64, scale: f64, peak: &mut f64) -> Result<(), CycleError> {
     let e = model.energies();
     let energy = e.kinetic + e.strain;
-    let budget = baseline + e.external_work;
+    *peak = peak.max(baseline + e.external_work);
+    let budget = *peak;
     if !energy.is_finite() || energy > ENERGY_GROWTH_FACTOR * budget.max(0.0) + 1e-6 * scale {
         return Err(CycleError::EnergyGrowth { cycle: model.cycle, energy, budget, frac: model.frac, safe_frac: model.stable_frac_estimate() });
     }
@@ -190,7 +196,11 @@ impl Backend for CpuBackend {
         maybe_update_topology(model, &mut adjacency, &mut report, true);
         gather_all(model, &adjacency);
         let e0 = model.energies();
-        let baseline = e0.kinetic + e0.strain - e0.external_work;
+        // Contacts that start overlapping (blocks built into each other, the stage not yet run)
+        // hold strain energy the first force computation will release: it is energy put in.
+        let overlap_strain: f64 = model.contacts.iter().map(|c| 0.5 * model.material(c.material).kn * c.gap.min(0.0).powi(2)).sum();
+        let baseline = e0.kinetic + e0.strain.max(overlap_strain) - e0.external_work;
+        let mut peak = f64::NEG_INFINITY;
         // Energy scale for the floor of the growth test: potential energy of each block's weight
         // and load over its own size.
         let g = (model.gravity[0].powi(2) + model.gravity[1].powi(2)).sqrt();
@@ -223,7 +233,7 @@ impl Backend for CpuBackend {
             }
             report.cycles += 1;
             if (i + 1) % CHECK_INTERVAL == 0 || i + 1 == cycles {
-                if let Err(e) = check_energy(model, baseline, scale) {
+                if let Err(e) = check_energy(model, baseline, scale, &mut peak) {
                     result = Err(e);
                     break;
                 }
@@ -239,7 +249,7 @@ impl Backend for CpuBackend {
             Err(mut e) => {
                 // A block flying off may be the symptom of an unstable step: name the cause.
                 if let CycleError::TooFast { .. } = e {
-                    if let Err(energy) = check_energy(model, baseline, scale) {
+                    if let Err(energy) = check_energy(model, baseline, scale, &mut peak) {
                         e = energy;
                     }
                 }
@@ -272,7 +282,7 @@ fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut CycleReport
         let Some(b) = model.block_index(id) else { continue };
         crack.block = b;
         let before = model.next_block_id;
-        if topology::apply_crack(model, &crack).is_some() {
+        if model.retire_energy_around(|m| topology::apply_crack(m, &crack)).is_some() {
             changed = true;
             report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, value: crack.value, from: crack.from, to: crack.to });
         }
