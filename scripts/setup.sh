@@ -10,3 +10,8 @@ if ! command -v cargo >/dev/null 2>&1; then
     rustup default stable
   fi
 fi
+# The charts of `blockdem verify` draw their text with DejaVu Sans (plotters + ab_glyph).
+if [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSans.ttf ] && command -v apt-get >/dev/null 2>&1; then
+  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  $SUDO apt-get update -qq && $SUDO apt-get install -y -qq fonts-dejavu-core >/dev/null || echo "blockdem: fonts-dejavu-core not installed; verify charts will be skipped" >&2
+fi

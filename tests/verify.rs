@@ -58,7 +58,7 @@ fn energy_json_names_every_term() {
 #[test]
 fn a_model_beyond_the_verified_ratios_is_warned_before_cycle() {
     let mut log = Vec::new();
-    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E5 F=0.5\nPROP MAT=2 D=0.01 KN=1E9 KS=1E5\nROUND 0.05\nBLOCK 1E9,1E9 1E9,1000000001 1000000001,1000000001 1000000001,1E9\n\
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E5 F=0.5\nPROP MAT=2 D=1E-4 KN=1E9 KS=1E5\nROUND 0.05\nBLOCK 1E11,1E11 1E11,100000000001 100000000001,100000000001 100000000001,1E11\n\
          BLOCK MAT=2 0,0 0,1 1,1 1,0\nCYCLE 1\n";
     let r = blockdem::scenes::run_deck_logged(deck, Box::new(blockdem::cpu::CpuBackend::new()), Box::new(&mut log));
     assert!(r.is_ok(), "{:?}", r.err());
