@@ -12,14 +12,15 @@ if ! command -v cargo >/dev/null 2>&1; then
 fi
 
 # Off-screen GPU adapters that work without a GPU (Mesa): Vulkan through lavapipe and GL through
-# EGL/llvmpipe, so the GPU backend and its tests run anywhere. Installed only when missing.
-BLOCKDEM_GPU_PACKAGES="mesa-vulkan-drivers libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri"
+# EGL/llvmpipe, so the GPU backend and its tests run anywhere; and DejaVu Sans, the font the charts
+# of `blockdem verify` and `blockdem bench` draw their text with. Installed only when missing.
+BLOCKDEM_GPU_PACKAGES="mesa-vulkan-drivers libvulkan1 libegl1 libegl-mesa0 libgl1-mesa-dri fonts-dejavu-core"
 blockdem_missing=""
 for p in $BLOCKDEM_GPU_PACKAGES; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || blockdem_missing="$blockdem_missing $p"
 done
 if [ -n "$blockdem_missing" ] && command -v apt-get >/dev/null 2>&1; then
-  echo "blockdem: installing the software GPU adapters:$blockdem_missing" >&2
+  echo "blockdem: installing the software GPU adapters and chart font:$blockdem_missing" >&2
   SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq $blockdem_missing >/dev/null

@@ -178,7 +178,7 @@ impl<'a> Executor<'a> {
             }
             Command::Delete { range } => {
                 let gone = self.in_range(range);
-                self.model.remove_blocks(&gone);
+                self.model.retire_energy_around(|m| m.remove_blocks(&gone));
             }
             Command::Dump { .. } => {
                 output::dump::dump(&self.model, &mut self.log).map_err(|e| self.command_error(cmd, format!("DUMP: {e}")))?;
@@ -305,7 +305,16 @@ impl<'a> Executor<'a> {
         let f = output::format::fmt_e;
         writeln!(self.log)?;
         writeln!(self.log, "ENERGY")?;
-        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY AND LOADS {}", f(e.kinetic), f(e.strain), f(e.external_work))
+        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY AND LOADS {}", f(e.kinetic), f(e.strain), f(e.external_work))?;
+        writeln!(
+            self.log,
+            "  DISSIPATED: MASS DAMPING {}   CONTACT DASHPOTS {}   FRICTION {}   RELEASED (DELETED CONTACTS AND BLOCKS) {}",
+            f(e.mass_damping),
+            f(e.contact_damping),
+            f(e.friction),
+            f(e.released)
+        )?;
+        writeln!(self.log, "  BALANCE: KINETIC + STRAIN + DISSIPATED + RELEASED - WORK = {}", f(e.ledger()))
     }
 
     /// CYCLE n: checks the model can run, sets the time step, runs the backend.
@@ -333,6 +342,10 @@ impl<'a> Executor<'a> {
         }
         let dt = self.model.critical_timestep().ok_or_else(|| self.command_error(cmd, "CYCLE: cannot compute a time step (no block mass or contact stiffness)"))?;
         self.model.timestep = dt;
+        // Outside the ratios the suite has verified (blockdem verify): say so before cycling.
+        for w in crate::verify::stability::warnings(&self.model, &crate::verify::stability::LIMITS_CPU_F64) {
+            self.echo(&w);
+        }
         self.echo(&format!("INITIAL TIMESTEP = {}", output::format::fmt_e(dt)));
         let bar = (self.options.progress && n >= 1000).then(|| {
             let pb = indicatif::ProgressBar::new(n);

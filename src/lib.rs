@@ -16,6 +16,7 @@
 //! | [`exec`] | the command executor: runs a deck against a backend |
 //! | [`output`] | PRINT tables, PLOT (PNG/SVG), state JSON, SAVE/RESTART files |
 //! | [`scenes`] | decks shared by the tests, benchmarks and verification |
+//! | [`verify`] | `blockdem verify`: closed-form cases on every backend, accuracy against speed, stability limits |
 
 pub mod backend;
 pub mod cpu;
@@ -26,3 +27,4 @@ pub mod model;
 pub mod output;
 pub mod scenes;
 pub mod topology;
+pub mod verify;

@@ -61,6 +61,38 @@ enum Cmd {
     },
     /// List the GPU adapters wgpu finds (Vulkan and GL/EGL, off-screen) with their limits.
     Adapters,
+    /// Run the closed-form verification suite on every backend: a table of errors and costs, CSV
+    /// files and charts in --out. Exits non-zero when a check fails.
+    Verify {
+        /// The CI suite (fewer FRACTIONs, shorter stability bisections; well under 3 minutes).
+        #[arg(long)]
+        quick: bool,
+        /// Folder for the CSV files and PNG charts.
+        #[arg(long, default_value = "verify-out")]
+        out: PathBuf,
+        /// Run only the cases whose name contains this.
+        #[arg(long)]
+        only: Option<String>,
+    },
+}
+
+fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()> {
+    let options = blockdem::verify::VerifyOptions { quick, out: Some(out.clone()), only };
+    let suite = blockdem::verify::run_suite(&options);
+    print!("{}", blockdem::verify::table(&suite));
+    let (files, chart_problem) = blockdem::verify::write_outputs(&suite, &out).with_context(|| format!("cannot write into {}", out.display()))?;
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    if let Some(p) = chart_problem {
+        eprintln!("blockdem: charts not drawn: {p}");
+    }
+    let failed: Vec<String> = suite.failed_checks().iter().map(|r| format!("{} ({} {})", r.case, r.backend, r.precision)).collect();
+    let unstable: Vec<&str> = suite.stability.iter().filter(|t| !t.passed).map(|t| t.scene).collect();
+    if !failed.is_empty() || !unstable.is_empty() {
+        bail!("verification failed: closed-form checks {:?}, stability estimates {:?}", failed, unstable);
+    }
+    Ok(())
 }
 
 fn adapters() -> anyhow::Result<()> {
@@ -141,6 +173,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Cmd::Run { deck, backend, adapter, precision, out, state_json } => run(deck, backend, adapter, precision, out, state_json),
         Cmd::Adapters => adapters(),
+        Cmd::Verify { quick, out, only } => verify(quick, out, only),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -141,3 +141,18 @@ fn an_empty_or_binary_deck_is_an_error_not_a_panic() {
     assert_ne!(code, 0);
     assert!(stderr.contains("cannot read"), "{stderr}");
 }
+
+#[test]
+fn verify_quick_passes_and_writes_csv_and_charts() {
+    let dir = temp("verify");
+    let (code, stdout, stderr) = blockdem(&["verify", "--quick", "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stdout}\n{stderr}");
+    assert!(stdout.contains("CLOSED-FORM CHECKS") && stdout.contains("STABLE FRACTION"), "{stdout}");
+    for f in ["sweep.csv", "stability.csv", "extremes.csv"] {
+        assert!(dir.join(f).exists(), "{f} missing");
+    }
+    // The charts need DejaVu Sans; where it is installed they must be drawn.
+    if std::path::Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists() {
+        assert!(dir.join("accuracy_vs_speed.png").exists() && dir.join("error_vs_frac.png").exists(), "{stderr}");
+    }
+}

@@ -64,6 +64,9 @@ fn contact(block1: u32, corner: u32, block2: u32) -> Contact {
         shear_force: 0.0,
         shear_displacement: 0.0,
         force: [0.0, 1.0],
+        slip_work: 0.0,
+        dashpot_work: 0.0,
+        dashpot_velocity: [0.0, 0.0],
     }
 }
 

@@ -300,6 +300,9 @@ where
             shear_force: q::<R>(rng.range(-1.0, 1.0) * kn * 1e-3),
             shear_displacement: q::<R>(rng.range(-1e-3, 1e-3)),
             force: [0.0, 0.0],
+            slip_work: 0.0,
+            dashpot_work: 0.0,
+            dashpot_velocity: [0.0; 2],
         };
         let mut v = || q::<R>(rng.range(-1.0, 1.0));
         let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v() };

@@ -44,6 +44,8 @@ fn add_rect(
             circle,
             edge_material: 0,
             edge_constitutive: 0,
+            edge_dir: [0.0; 2],
+            edge_length: 0.0,
         });
     }
     let density = 2000.0;
@@ -68,6 +70,9 @@ fn add_rect(
         load: [0.0, 0.0],
         radius: 0.5 * w.hypot(h),
         moved_since_update: 0.0,
+        update_centroid: c,
+        update_rotation: 0.0,
+        damping_work: 0.0,
     });
     model.next_block_id = model.next_block_id.max(id + 1);
     b
@@ -111,6 +116,9 @@ fn two_blocks() -> Model {
         shear_force: -12.5,
         shear_displacement: 3.0e-5,
         force: [-12.5, 1.962e4],
+        slip_work: 0.0,
+        dashpot_work: 0.0,
+        dashpot_velocity: [0.0; 2],
     });
     m.next_contact_id = 8;
     m
@@ -331,6 +339,8 @@ fn print_corners_wraps_long_blocks() {
             circle: p,
             edge_material: 0,
             edge_constitutive: 0,
+            edge_dir: [0.0; 2],
+            edge_length: 0.0,
         });
     }
     m.blocks.push(Block {
@@ -353,6 +363,9 @@ fn print_corners_wraps_long_blocks() {
         load: [0.0; 2],
         radius: 1.0,
         moved_since_update: 0.0,
+        update_centroid: [5.0, 5.0],
+        update_rotation: 0.0,
+        damping_work: 0.0,
     });
     let t = text(|w| print_corners(&m, w));
     assert_narrow(&t);

@@ -244,6 +244,14 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     let vn = dot(vrel, n); // eq. (14)
     let vs = dot(vrel, t); // eq. (15)
     contact.shear_displacement += vs * dt;
+    // The dashpot force of the last step, −β·k·v(t−Δt/2), did work over that step's mean
+    // velocity ½(v(t−Δt/2) + v(t+Δt/2)), the velocity central differences move the blocks with;
+    // booking it so makes the ledger exact for the dashpots.
+    let [pvn, pvs] = contact.dashpot_velocity;
+    if pvn != 0.0 || pvs != 0.0 {
+        contact.dashpot_work += damping.beta * (mat.kn * pvn * 0.5 * (pvn + vn) + mat.ks * pvs * 0.5 * (pvs + vs)) * dt;
+        contact.dashpot_velocity = [0.0, 0.0];
+    }
     if !active {
         contact.normal_force = 0.0;
         contact.force = [0.0, 0.0];
@@ -251,18 +259,25 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     }
     let mut fn_ = -mat.kn * contact.gap;
     let cohesion = if contact.bonded { mat.cohesion } else { 0.0 };
+    let fs_old = contact.shear_force;
     if fn_ < 0.0 && (!contact.bonded || -fn_ > cohesion) {
         // Open: no tension beyond the cohesion; an intact contact that breaks loses it for good.
+        // The shear spring's energy and any bond tension go to the slip work.
+        contact.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, mat.ks);
+        if contact.normal_force < 0.0 && mat.kn > 0.0 {
+            contact.slip_work += contact.normal_force * contact.normal_force / (2.0 * mat.kn);
+        }
         contact.bonded = false;
         contact.normal_force = 0.0;
         contact.shear_force = 0.0;
         contact.force = [0.0, 0.0];
         return;
     }
-    let mut fs = contact.shear_force - mat.ks * vs * dt; // eqs. (17), (19)
+    let mut fs = fs_old - mat.ks * vs * dt; // eqs. (17), (19)
     let limit = cohesion + mat.friction * fn_.max(0.0);
     if fs.abs() > limit {
         fs = fs.signum() * limit; // eq. (20)
+        contact.slip_work += slip_dissipation(fs_old, fs, vs * dt, mat.ks);
         if contact.bonded && mat.cohesion > 0.0 {
             contact.bonded = false;
         }
@@ -273,10 +288,24 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     if damping.beta > 0.0 && fn_ > 0.0 {
         dn = -damping.beta * mat.kn * vn;
         ds = -damping.beta * mat.ks * vs;
+        contact.dashpot_velocity = [vn, vs];
     }
     fn_ += dn;
     let fs_total = fs + ds;
     contact.force = [fn_ * n[0] + fs_total * t[0], fn_ * n[1] + fs_total * t[1]];
+}
+
+/// Energy dissipated in one step by a shear spring whose force went from `fs_old` to `fs_new`
+/// while the surfaces slid `dus` (block 1 relative to block 2): the trapezoidal work the blocks
+/// did on the contact, −½(fs_old + fs_new)·Δus, less what the spring stored,
+/// (fs_new² − fs_old²)/2ks. Exactly zero for an elastic step (fs_new = fs_old − ks·Δus); at the
+/// Coulomb limit it is the friction force times the slip, ≥ 0.
+#[inline]
+pub fn slip_dissipation(fs_old: f64, fs_new: f64, dus: f64, ks: f64) -> f64 {
+    if ks <= 0.0 {
+        return 0.0;
+    }
+    -0.5 * (fs_old + fs_new) * dus - (fs_new * fs_new - fs_old * fs_old) / (2.0 * ks)
 }
 
 /// Whether a corner–corner contact is the counted one of its mirrored pair: the corner with the

@@ -34,6 +34,13 @@ pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) 
     let vy = (block.velocity[1] * con1 + block.force[1] * inv_m * dt) * con2;
     let w = (block.angular_velocity * con1 + block.moment / block.inertia * dt) * con2;
     let (dx, dy, dtheta) = (vx * dt, vy * dt, w * dt);
+    // Energy taken by the damping force: the scheme above is v⁺ − v⁻ = (F/m − α·v̄)Δt with
+    // v̄ = (v⁺ + v⁻)/2, so ½m(v⁺² − v⁻²) = F·v̄Δt − α·m·v̄²Δt exactly; the last term is the
+    // dissipation of this step.
+    if alpha > 0.0 {
+        let (mx, my, mw) = (0.5 * (vx + block.velocity[0]), 0.5 * (vy + block.velocity[1]), 0.5 * (w + block.angular_velocity));
+        block.damping_work += alpha * dt * (block.mass * (mx * mx + my * my) + block.inertia * mw * mw);
+    }
     block.velocity = [vx, vy];
     block.angular_velocity = w;
     block.centroid[0] += dx;

@@ -518,10 +518,7 @@ where
         self.write_params(model);
         self.run_batch(1, true).map_err(device_error)?;
         self.readback(model).map_err(device_error)?;
-        let e0 = model.energies();
-        let baseline = e0.kinetic + e0.strain - e0.external_work;
-        let g = (model.gravity[0].powi(2) + model.gravity[1].powi(2)).sqrt();
-        let scale = model.blocks.iter().map(|b| (b.mass * g + b.load[0].hypot(b.load[1])) * b.radius).sum::<f64>() + (e0.kinetic + e0.strain).abs();
+        let mut energy_check = cpu::EnergyCheck::new(model);
         let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
         let mut last_good = model.clone();
         let mut done_total = 0u64;
@@ -577,7 +574,7 @@ where
                     self.read_blocks(model).map_err(device_error)?;
                 }
                 if at_check {
-                    cpu::check_energy(model, baseline, scale)?;
+                    energy_check.check(model)?;
                     last_good.clone_from(model);
                     progress(done_total);
                 }
@@ -588,7 +585,7 @@ where
             Ok(()) => Ok(report),
             Err(mut e) => {
                 if let CycleError::TooFast { .. } = e {
-                    if let Err(energy) = cpu::check_energy(model, baseline, scale) {
+                    if let Err(energy) = energy_check.check(model) {
                         e = energy;
                     }
                 }

@@ -107,6 +107,10 @@ pub struct Block {
     /// Centroid and rotation at the last contact update (the reference of `moved_since_update`).
     pub update_centroid: [f64; 2],
     pub update_rotation: f64,
+    /// Energy dissipated by the mass-proportional Rayleigh damping force −α·m·v on this block
+    /// since START (J, summed each step; see `law_of_motion`).
+    #[serde(default)]
+    pub damping_work: f64,
 }
 
 /// One rounded corner (UDEC corner data array: KXP, KYP, KXCP, KYCP, KRAD).
@@ -192,6 +196,17 @@ pub struct Contact {
     /// Total force on block 1 in world axes, including any stiffness-proportional damping force; the
     /// gather sums this (block 2 takes minus it).
     pub force: [f64; 2],
+    /// Energy dissipated at this contact by friction (the shear force capped at the Coulomb limit
+    /// working through the slip) and by bond breakage, since the contact formed.
+    #[serde(default)]
+    pub slip_work: f64,
+    /// Energy dissipated at this contact by the stiffness-proportional dashpots β·k·v.
+    #[serde(default)]
+    pub dashpot_work: f64,
+    /// Normal and shear relative velocities the dashpots acted on in the last step (zero when they
+    /// did not act): their work is booked a step late, over the mean velocity of that step.
+    #[serde(default)]
+    pub dashpot_velocity: [f64; 2],
 }
 
 /// Rayleigh damping (DAMPING command): mass-proportional α and stiffness-proportional β.
@@ -254,6 +269,9 @@ pub struct Model {
     pub next_contact_id: u32,
     /// Energy bookkeeping for the blow-up check: work done by gravity and loads since START.
     pub external_work: f64,
+    /// Energy terms of blocks and contacts that no longer exist (see `timestep::RetiredEnergy`).
+    #[serde(default)]
+    pub retired: timestep::RetiredEnergy,
 }
 
 impl Default for Model {
@@ -274,6 +292,7 @@ impl Default for Model {
             next_block_id: 1,
             next_contact_id: 1,
             external_work: 0.0,
+            retired: timestep::RetiredEnergy::default(),
         }
     }
 }

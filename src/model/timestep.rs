@@ -2,13 +2,111 @@
 
 use super::Model;
 
-/// Mechanical energy of the model: kinetic energy of the blocks and strain energy stored in the
-/// contact springs, with the work done on it by gravity and loads since START.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// The energy ledger of the model (issue 4, item 3). With E₀ the kinetic + strain energy at START
+/// (what VELOCITY gave the blocks), the explicit cycle keeps
+///
+///   E_kin + E_strain + W_mass_damping + W_contact_damping + W_friction + E_released = E₀ + W_external
+///
+/// up to the O((ωΔt)²) shadow-energy term of central differences (the kinetic energy is taken at
+/// the whole step, from the half-step velocity and half a step of the current force).
+/// [`Energies::ledger`] is the left side minus W_external, which should stay at E₀.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Energies {
+    /// ½mv² + ½Iω² of the free blocks, velocities brought to the whole step.
     pub kinetic: f64,
+    /// Strain energy in the contact springs: Fn²/2kn + Fs²/2ks.
     pub strain: f64,
+    /// Work done on the blocks by gravity and loads since START.
     pub external_work: f64,
+    /// Dissipated by the mass-proportional damping force −α·m·v (per block, `Block::damping_work`).
+    pub mass_damping: f64,
+    /// Dissipated by the stiffness-proportional contact dashpots β·kn·vn, β·ks·vs
+    /// (per contact, `Contact::dashpot_work`).
+    pub contact_damping: f64,
+    /// Dissipated by friction (slip work at the Coulomb limit) and bond breakage
+    /// (per contact, `Contact::slip_work`).
+    pub friction: f64,
+    /// Strain and kinetic energy that left the model with deleted contacts and blocks (a contact
+    /// dropped while still loaded, DELETE of a moving block).
+    pub released: f64,
+}
+
+impl Energies {
+    /// Everything dissipated: mass and contact damping plus friction.
+    pub fn dissipated(&self) -> f64 {
+        self.mass_damping + self.contact_damping + self.friction
+    }
+
+    /// E_kin + E_strain + dissipated + released − W_external: constant (= E₀) in an exact
+    /// bookkeeping. Its drift against its START value is the balance error.
+    pub fn ledger(&self) -> f64 {
+        self.kinetic + self.strain + self.dissipated() + self.released - self.external_work
+    }
+
+    /// The largest term of the ledger, the scale a balance error is measured against.
+    pub fn scale(&self) -> f64 {
+        [self.kinetic, self.strain, self.external_work, self.mass_damping, self.contact_damping, self.friction, self.released]
+            .iter()
+            .fold(0.0f64, |a, b| a.max(b.abs()))
+    }
+}
+
+/// The accumulated energy terms of blocks and contacts that were removed (dropped contacts,
+/// deleted or cracked blocks), so that removing an element does not lose its share of the ledger.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RetiredEnergy {
+    pub mass_damping: f64,
+    pub contact_damping: f64,
+    pub friction: f64,
+    /// Kinetic and strain energy carried away by removed blocks and contacts.
+    pub released: f64,
+}
+
+impl Model {
+    /// Runs a topology change (`f`: contact update, crack, DELETE) and moves the energy terms of
+    /// whatever it removed into `self.retired`, so that the ledger still balances. Sums are taken
+    /// in storage order, so the result repeats bit for bit.
+    pub fn retire_energy_around<R>(&mut self, f: impl FnOnce(&mut Model) -> R) -> R {
+        let before = self.live_energies();
+        let r = f(self);
+        let after = self.live_energies();
+        self.retired.mass_damping += before.mass_damping - after.mass_damping;
+        self.retired.contact_damping += before.contact_damping - after.contact_damping;
+        self.retired.friction += before.friction - after.friction;
+        self.retired.released += (before.kinetic + before.strain) - (after.kinetic + after.strain);
+        r
+    }
+
+    /// The energy terms of the blocks and contacts that exist now (no retired terms).
+    fn live_energies(&self) -> Energies {
+        let mut e = Energies { external_work: self.external_work, ..Energies::default() };
+        for b in &self.blocks {
+            if !b.fixed && b.mass > 0.0 {
+                // Velocities live at t − Δt/2, positions and forces at t: half a step of the
+                // current force brings the velocity to t, so that kinetic and strain energy are
+                // taken at the same instant (otherwise an oscillation shows an O(ωΔt) swing in
+                // the ledger; free flight becomes exact).
+                let h = 0.5 * self.timestep;
+                let vx = b.velocity[0] + b.force[0] / b.mass * h;
+                let vy = b.velocity[1] + b.force[1] / b.mass * h;
+                let w = b.angular_velocity + if b.inertia > 0.0 { b.moment / b.inertia * h } else { 0.0 };
+                e.kinetic += 0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * w * w;
+            }
+            e.mass_damping += b.damping_work;
+        }
+        for c in &self.contacts {
+            let m = self.material(c.material);
+            if m.kn > 0.0 {
+                e.strain += c.normal_force.powi(2) / (2.0 * m.kn);
+            }
+            if m.ks > 0.0 {
+                e.strain += c.shear_force.powi(2) / (2.0 * m.ks);
+            }
+            e.contact_damping += c.dashpot_work;
+            e.friction += c.slip_work;
+        }
+        e
+    }
 }
 
 impl Model {
@@ -36,54 +134,54 @@ impl Model {
         (m_min.is_finite() && k_max > 0.0).then(|| self.frac * 2.0 * (m_min / k_max).sqrt())
     }
 
-    /// Kinetic and contact strain energy now. Velocities are at the half step, so the kinetic
-    /// energy lags the strain energy by Δt/2 — a small, bounded difference, not a drift.
+    /// Every term of the energy ledger now (see [`Energies`]): per-element accumulators summed
+    /// in storage order, plus the terms of removed elements.
     pub fn energies(&self) -> Energies {
-        let kinetic = self
-            .blocks
-            .iter()
-            .filter(|b| !b.fixed)
-            .map(|b| 0.5 * b.mass * (b.velocity[0].powi(2) + b.velocity[1].powi(2)) + 0.5 * b.inertia * b.angular_velocity.powi(2))
-            .sum();
-        let strain = self
-            .contacts
-            .iter()
-            .map(|c| {
-                let m = self.material(c.material);
-                let mut e = 0.0;
-                if m.kn > 0.0 {
-                    e += c.normal_force.powi(2) / (2.0 * m.kn);
-                }
-                if m.ks > 0.0 {
-                    e += c.shear_force.powi(2) / (2.0 * m.ks);
-                }
-                e
-            })
-            .sum();
-        Energies { kinetic, strain, external_work: self.external_work }
+        let mut e = self.live_energies();
+        e.mass_damping += self.retired.mass_damping;
+        e.contact_damping += self.retired.contact_damping;
+        e.friction += self.retired.friction;
+        e.released += self.retired.released;
+        e
     }
 }
 
 impl Model {
-    /// An estimate of the largest stable FRACTION for the current contact network. The largest
-    /// eigenvalue of M⁻¹K is bounded (Gershgorin) by twice the largest per-block sum of contact
-    /// stiffness over the block's translational and rotational inertia; the central-difference
-    /// scheme is stable for Δt < 2/ω_max, and FRAC scales UDEC's 2√(m_min/k_max).
+    /// An estimate of the largest stable FRACTION for the current contact network. Central
+    /// differences are stable for Δt < 2/ω_max; ω_max² is bounded (Gershgorin, on the
+    /// mass-normalised stiffness) by the largest per-block row sum: each force-carrying contact of
+    /// stiffness k = max(kn, ks) adds k·(a_i + √(a_i a_j)) to block i, with a = 1/m + r²/I the
+    /// block's compliance at the contact point (r from its centroid) and a_j = 0 for a fixed
+    /// neighbour. FRAC scales UDEC's 2√(m_min/k_max). Measured against the threshold of
+    /// instability by `blockdem verify` (README): 0.6–1.0 of it on the scenes there.
     pub fn stable_frac_estimate(&self) -> f64 {
         let mut per_block = vec![0.0f64; self.blocks.len()];
+        let compliance = |b: usize, p: [f64; 2]| -> f64 {
+            let blk = &self.blocks[b];
+            if blk.fixed || blk.mass <= 0.0 {
+                return 0.0;
+            }
+            let r2 = (p[0] - blk.centroid[0]).powi(2) + (p[1] - blk.centroid[1]).powi(2);
+            1.0 / blk.mass + if blk.inertia > 0.0 { r2 / blk.inertia } else { 0.0 }
+        };
         for c in &self.contacts {
+            // The mirror copy of a corner–corner touch carries no force.
+            if !crate::topology::detect::counts_force(self, c) {
+                continue;
+            }
             let m = self.material(c.material);
             let k = m.kn.max(m.ks);
-            for b in [c.block1 as usize, c.block2 as usize] {
-                let blk = &self.blocks[b];
-                if blk.fixed || blk.mass <= 0.0 {
-                    continue;
-                }
-                let r2 = (c.point[0] - blk.centroid[0]).powi(2) + (c.point[1] - blk.centroid[1]).powi(2);
-                per_block[b] += k * (1.0 / blk.mass + if blk.inertia > 0.0 { r2 / blk.inertia } else { 0.0 });
+            let (b1, b2) = (c.block1 as usize, c.block2 as usize);
+            let (a1, a2) = (compliance(b1, c.point), compliance(b2, c.point));
+            let shared = (a1 * a2).sqrt();
+            if a1 > 0.0 {
+                per_block[b1] += k * (a1 + shared);
+            }
+            if a2 > 0.0 {
+                per_block[b2] += k * (a2 + shared);
             }
         }
-        let lambda = 2.0 * per_block.iter().cloned().fold(0.0, f64::max);
+        let lambda = per_block.iter().cloned().fold(0.0, f64::max);
         let base = match self.critical_timestep() {
             Some(dt) if self.frac > 0.0 => dt / self.frac,
             _ => return f64::NAN,

@@ -28,7 +28,7 @@ use crate::model::Model;
 /// The first eight bytes of every save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// The save format this program writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Bytes before the payload: magic, version, length, checksum.
 const HEADER_LEN: usize = 8 + 4 + 8 + 8;
 

@@ -185,6 +185,9 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
                             shear_force: 0.0,
                             shear_displacement: 0.0,
                             force: [0.0, 0.0],
+                            slip_work: 0.0,
+                            dashpot_work: 0.0,
+                            dashpot_velocity: [0.0, 0.0],
                         });
                     }
                     None => {}

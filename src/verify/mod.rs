@@ -1,0 +1,411 @@
+//! `blockdem verify`: the 2D rigid engine against closed-form solutions (DESIGN.md §6, issue 4).
+//!
+//! Every case is a deck (so it exercises the command language too) run on every backend in
+//! [`backends`], at every FRACTION of a sweep. A row records the error against the closed form, the
+//! cost (wall time, cycles, cycles per second) and the energy balance; a run that stops with a
+//! numerical error is a row too (a failure, plotted as such, never dropped). The rows at the
+//! default FRACTION ([`CHECK_FRAC`]) are the checks: `blockdem verify` exits non-zero when one fails.
+//!
+//! | file | what |
+//! |---|---|
+//! | [`cases`] | the closed-form problems: decks, measurements, tolerances and why |
+//! | [`stability`] | measured thresholds of instability against `stable_frac_estimate`, extreme ratios |
+//! | [`chart`] | CSV and PNG charts (accuracy against speed) |
+
+pub mod cases;
+pub mod chart;
+pub mod stability;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::backend::Backend;
+use crate::cpu::CpuBackend;
+use crate::model::timestep::Energies;
+use crate::model::Model;
+
+/// The FRACTION the checks run at: the model's default (UDEC's 0.1).
+pub const CHECK_FRAC: f64 = 0.1;
+
+/// FRACTIONs of the accuracy-against-speed sweep.
+pub const QUICK_FRACS: &[f64] = &[0.05, 0.1, 0.2, 0.4, 0.7, 1.0];
+pub const FULL_FRACS: &[f64] = &[0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0];
+
+/// One backend the suite runs on: a label, its precision, and a factory (a fresh backend per run).
+pub struct BackendEntry {
+    pub label: String,
+    pub precision: String,
+    pub make: Box<dyn Fn() -> Box<dyn Backend>>,
+}
+
+impl BackendEntry {
+    pub fn new(label: &str, precision: &str, make: impl Fn() -> Box<dyn Backend> + 'static) -> Self {
+        BackendEntry { label: label.to_string(), precision: precision.to_string(), make: Box::new(make) }
+    }
+}
+
+/// The backends of this build. The GPU rows join here, one line per adapter and precision, e.g.
+/// `v.push(BackendEntry::new("gpu", "f32", || Box::new(GpuBackend::new(..))))`.
+pub fn backends() -> Vec<BackendEntry> {
+    vec![BackendEntry::new("cpu", "f64", || Box::new(CpuBackend::new()))]
+}
+
+/// What a suite run covers.
+#[derive(Clone, Debug)]
+pub struct VerifyOptions {
+    /// The CI suite: fewer FRACTIONs, shorter stability bisections.
+    pub quick: bool,
+    /// Where the CSV files and charts go (None: write nothing).
+    pub out: Option<PathBuf>,
+    /// Run only the cases whose name contains this.
+    pub only: Option<String>,
+}
+
+impl Default for VerifyOptions {
+    fn default() -> Self {
+        VerifyOptions { quick: true, out: None, only: None }
+    }
+}
+
+/// The cost of one run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Cost {
+    pub wall_s: f64,
+    pub cycles: u64,
+}
+
+impl Cost {
+    pub fn cycles_per_s(&self) -> f64 {
+        if self.wall_s > 0.0 { self.cycles as f64 / self.wall_s } else { f64::NAN }
+    }
+    fn add(&mut self, o: Cost) {
+        self.wall_s += o.wall_s;
+        self.cycles += o.cycles;
+    }
+}
+
+/// What a case measured.
+#[derive(Clone, Debug, Default)]
+pub struct Measured {
+    /// Error against the closed form, in the case's own measure (relative unless it says).
+    pub error: f64,
+    /// The numbers behind it, for the table.
+    pub detail: String,
+    pub cost: Cost,
+    /// |ledger(end) − ledger(start)| / scale, when the case checks the energy balance.
+    pub energy_balance: Option<f64>,
+}
+
+/// One row of the suite: a case on a backend at a FRACTION.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub case: &'static str,
+    pub backend: String,
+    pub precision: String,
+    pub frac: f64,
+    pub tolerance: f64,
+    /// None when the run stopped with a numerical error (`failure` says which).
+    pub error: Option<f64>,
+    pub failure: Option<String>,
+    pub detail: String,
+    pub cost: Cost,
+    pub energy_balance: Option<f64>,
+    /// Energy balance tolerance (1%) applies to the rows that report one.
+    pub passed: bool,
+    /// True for the rows at CHECK_FRAC: the assertions of the suite.
+    pub is_check: bool,
+}
+
+/// Energy-balance tolerance: 1% of the largest term of the ledger (issue 4, item 3). Central
+/// differences keep a shadow energy within O(ωΔt) of the true one; 1% leaves room for the
+/// half-step lag of the kinetic energy at FRAC 0.1.
+pub const ENERGY_TOLERANCE: f64 = 0.01;
+
+/// The whole suite's result.
+#[derive(Clone, Debug, Default)]
+pub struct Suite {
+    pub rows: Vec<Row>,
+    pub stability: Vec<stability::Threshold>,
+    pub extremes: Vec<stability::ExtremeLimit>,
+    pub wall_s: f64,
+}
+
+impl Suite {
+    pub fn checks(&self) -> impl Iterator<Item = &Row> {
+        self.rows.iter().filter(|r| r.is_check)
+    }
+    pub fn failed_checks(&self) -> Vec<&Row> {
+        self.checks().filter(|r| !r.passed).collect()
+    }
+    pub fn all_checks_pass(&self) -> bool {
+        self.failed_checks().is_empty() && self.stability.iter().all(|t| t.passed)
+    }
+}
+
+/// Runs the suite: every case × backend × FRACTION, then the stability measurements.
+pub fn run_suite(options: &VerifyOptions) -> Suite {
+    let start = Instant::now();
+    let fracs = if options.quick { QUICK_FRACS } else { FULL_FRACS };
+    let mut suite = Suite::default();
+    for backend in backends() {
+        for case in cases::all() {
+            if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
+                continue;
+            }
+            for &frac in fracs {
+                suite.rows.push(run_case(&case, &backend, frac));
+            }
+        }
+        if options.only.is_none() {
+            suite.stability.extend(stability::thresholds(&backend, options.quick));
+            suite.extremes.extend(stability::extreme_limits(&backend, options.quick));
+        }
+    }
+    suite.wall_s = start.elapsed().as_secs_f64();
+    suite
+}
+
+/// Runs one case at one FRACTION on one backend.
+pub fn run_case(case: &cases::Case, backend: &BackendEntry, frac: f64) -> Row {
+    let ctx = Ctx { frac, backend };
+    let result = (case.run)(&ctx);
+    let is_check = (frac - CHECK_FRAC).abs() < 1e-12;
+    let mut row = Row {
+        case: case.name,
+        backend: backend.label.clone(),
+        precision: backend.precision.clone(),
+        frac,
+        tolerance: case.tolerance,
+        error: None,
+        failure: None,
+        detail: String::new(),
+        cost: Cost::default(),
+        energy_balance: None,
+        passed: false,
+        is_check,
+    };
+    match result {
+        Ok(m) => {
+            row.passed = m.error <= case.tolerance && m.energy_balance.is_none_or(|e| e <= ENERGY_TOLERANCE);
+            row.error = Some(m.error);
+            row.detail = m.detail;
+            row.cost = m.cost;
+            row.energy_balance = m.energy_balance;
+        }
+        Err(f) => {
+            row.failure = Some(f.message);
+            row.cost = f.cost;
+        }
+    }
+    row
+}
+
+/// A run that stopped: the message and what it cost up to then.
+#[derive(Clone, Debug)]
+pub struct Failure {
+    pub message: String,
+    pub cost: Cost,
+}
+
+/// What a case runs with.
+pub struct Ctx<'a> {
+    pub frac: f64,
+    pub backend: &'a BackendEntry,
+}
+
+impl Ctx<'_> {
+    /// Runs deck text to its end on a fresh backend, timing it.
+    pub fn run(&self, deck: &str) -> Result<(Model, Cost), Failure> {
+        let t = Instant::now();
+        let commands = crate::deck::parse_deck(deck, "<verify>").map_err(|e| Failure { message: e.to_string(), cost: Cost::default() })?;
+        let options = crate::exec::RunOptions { out_dir: std::env::temp_dir().join("blockdem-verify"), progress: false };
+        let mut exec = crate::exec::Executor::new((self.backend.make)(), Box::new(std::io::sink()), options, "<verify>");
+        let r = exec.run(&commands);
+        let cost = Cost { wall_s: t.elapsed().as_secs_f64(), cycles: exec.model.cycle };
+        match r {
+            Ok(()) => Ok((exec.model, cost)),
+            Err(e) => Err(Failure { message: e.to_string(), cost }),
+        }
+    }
+
+    /// Runs `setup` (a deck ending before its CYCLE), then `cycles` single cycles, calling
+    /// `observe` after each: the time history a closed form needs. The probe's per-call overhead
+    /// makes this slow, so the cost reported is that of the same run done in one CYCLE.
+    pub fn run_observed(&self, setup: &str, cycles: u64, mut observe: impl FnMut(&Model)) -> Result<(Model, Cost), Failure> {
+        let (_, cost) = self.run(&format!("{setup}CYCLE {cycles}\n"))?;
+        let (mut model, _) = self.run(&format!("{setup}CYCLE 0\n"))?;
+        let mut backend = (self.backend.make)();
+        for _ in 0..cycles {
+            backend.run(&mut model, 1, &mut |_| {}).map_err(|e| Failure { message: e.to_string(), cost })?;
+            observe(&model);
+        }
+        Ok((model, cost))
+    }
+
+    /// `FRACTION f` for this run.
+    pub fn frac_line(&self) -> String {
+        format!("FRAC {}\n", self.frac)
+    }
+
+    /// Number of cycles to cover `time` with the UDEC time step of `model` at this FRACTION.
+    pub fn cycles_for(&self, setup: &str, time: f64) -> Result<u64, Failure> {
+        let (m, _) = self.run(&format!("{setup}CYCLE 0\n"))?;
+        Ok((time / m.timestep).ceil() as u64)
+    }
+}
+
+/// Energy balance of a run: |ledger(end) − ledger(start)| over the largest term.
+pub fn energy_balance(start: &Energies, end: &Energies) -> f64 {
+    let scale = start.scale().max(end.scale());
+    if scale > 0.0 { (end.ledger() - start.ledger()).abs() / scale } else { 0.0 }
+}
+
+/// The energy terms as JSON, for the state file's `energy` key.
+pub fn energy_json(e: &Energies) -> serde_json::Value {
+    serde_json::json!({
+        "kinetic": e.kinetic,
+        "strain": e.strain,
+        "external_work": e.external_work,
+        "mass_damping": e.mass_damping,
+        "contact_damping": e.contact_damping,
+        "friction": e.friction,
+        "released": e.released,
+        "ledger": e.ledger(),
+    })
+}
+
+fn fmt_err(e: Option<f64>) -> String {
+    e.map_or_else(|| "FAILED".to_string(), |e| format!("{e:.3e}"))
+}
+
+/// The table `blockdem verify` prints.
+pub fn table(suite: &Suite) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "CLOSED-FORM CHECKS (FRAC {CHECK_FRAC})");
+    let _ = writeln!(
+        s,
+        "{:<16} {:<9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>11}  {:<6} detail",
+        "case", "backend", "error", "tolerance", "energy", "wall s", "cycles", "cycles/s", "result"
+    );
+    for r in suite.checks() {
+        let _ = writeln!(
+            s,
+            "{:<16} {:<9} {:>10} {:>10.1e} {:>10} {:>9.4} {:>9} {:>11.3e}  {:<6} {}",
+            r.case,
+            format!("{} {}", r.backend, r.precision),
+            fmt_err(r.error),
+            r.tolerance,
+            r.energy_balance.map_or("-".to_string(), |e| format!("{e:.2e}")),
+            r.cost.wall_s,
+            r.cost.cycles,
+            r.cost.cycles_per_s(),
+            if r.passed { "ok" } else { "FAIL" },
+            r.failure.as_deref().unwrap_or(&r.detail)
+        );
+    }
+    let _ = writeln!(s, "\nACCURACY AGAINST SPEED (error / tolerance; FAILED = the run stopped with a numerical error)");
+    let mut fracs: Vec<f64> = suite.rows.iter().map(|r| r.frac).collect();
+    fracs.sort_by(f64::total_cmp);
+    fracs.dedup();
+    let _ = write!(s, "{:<16} {:<9}", "case", "backend");
+    for f in &fracs {
+        let _ = write!(s, " {:>9}", format!("F={f}"));
+    }
+    let _ = writeln!(s);
+    let mut keys: Vec<(&str, String)> = suite.rows.iter().map(|r| (r.case, format!("{} {}", r.backend, r.precision))).collect();
+    keys.dedup();
+    for (case, be) in keys {
+        let _ = write!(s, "{case:<16} {be:<9}");
+        for f in &fracs {
+            let cell = suite
+                .rows
+                .iter()
+                .find(|r| r.case == case && format!("{} {}", r.backend, r.precision) == be && r.frac == *f)
+                .map_or(String::new(), |r| r.error.map_or("FAILED".into(), |e| format!("{:.2e}", e / r.tolerance.max(1e-300))));
+            let _ = write!(s, " {cell:>9}");
+        }
+        let _ = writeln!(s);
+    }
+    if !suite.stability.is_empty() {
+        let _ = writeln!(s, "\nSTABLE FRACTION: estimate (stable_frac_estimate) against the measured threshold of instability");
+        let _ = writeln!(s, "{:<22} {:<9} {:>9} {:>9} {:>7}  {:<6} first failure above", "scene", "backend", "estimate", "measured", "ratio", "result");
+        for t in &suite.stability {
+            let _ = writeln!(
+                s,
+                "{:<22} {:<9} {:>9.3} {:>9.3} {:>7.2}  {:<6} {}",
+                t.scene,
+                t.backend,
+                t.estimate,
+                t.measured,
+                t.estimate / t.measured,
+                if t.passed { "ok" } else { "FAIL" },
+                t.failure
+            );
+        }
+    }
+    if !suite.extremes.is_empty() {
+        let _ = writeln!(s, "\nEXTREME RATIOS: largest value at which the check still passes (within the values tried)");
+        for x in &suite.extremes {
+            let _ = writeln!(s, "{:<26} {:<9} limit {:>9.1e}   tried: {}", x.what, x.backend, x.limit, x.tried);
+        }
+    }
+    let _ = writeln!(s, "\nsuite wall time {:.1} s", suite.wall_s);
+    s
+}
+
+/// Writes `checks.csv`, `sweep.csv`, `stability.csv` and the charts into `dir`; returns the files
+/// written and, separately, why a chart could not be drawn (the CSV files are always written).
+pub fn write_outputs(suite: &Suite, dir: &Path) -> std::io::Result<(Vec<PathBuf>, Option<String>)> {
+    std::fs::create_dir_all(dir)?;
+    let mut files = Vec::new();
+    let mut sweep = String::from("case,backend,precision,frac,error,tolerance,error_over_tolerance,failed,failure,energy_balance,wall_s,cycles,cycles_per_s,passed,is_check\n");
+    for r in &suite.rows {
+        let _ = writeln!(
+            sweep,
+            "{},{},{},{},{},{},{},{},\"{}\",{},{},{},{},{},{}",
+            r.case,
+            r.backend,
+            r.precision,
+            r.frac,
+            r.error.map_or(String::new(), |e| format!("{e:e}")),
+            r.tolerance,
+            r.error.map_or(String::new(), |e| format!("{:e}", e / r.tolerance.max(1e-300))),
+            r.error.is_none(),
+            r.failure.as_deref().unwrap_or("").replace('"', "'"),
+            r.energy_balance.map_or(String::new(), |e| format!("{e:e}")),
+            r.cost.wall_s,
+            r.cost.cycles,
+            r.cost.cycles_per_s(),
+            r.passed,
+            r.is_check
+        );
+    }
+    let p = dir.join("sweep.csv");
+    std::fs::write(&p, sweep)?;
+    files.push(p);
+    let mut st = String::from("scene,backend,estimate,measured,ratio,passed\n");
+    for t in &suite.stability {
+        let _ = writeln!(st, "{},{},{},{},{},{}", t.scene, t.backend, t.estimate, t.measured, t.estimate / t.measured, t.passed);
+    }
+    let p = dir.join("stability.csv");
+    std::fs::write(&p, st)?;
+    files.push(p);
+    let mut ex = String::from("what,backend,limit,tried\n");
+    for x in &suite.extremes {
+        let _ = writeln!(ex, "{},{},{},\"{}\"", x.what, x.backend, x.limit, x.tried);
+    }
+    let p = dir.join("extremes.csv");
+    std::fs::write(&p, ex)?;
+    files.push(p);
+    let mut chart_problem = None;
+    match chart::accuracy_vs_speed(suite, &dir.join("accuracy_vs_speed.png")) {
+        Ok(p) => files.push(p),
+        Err(e) => chart_problem = Some(e),
+    }
+    match chart::error_vs_frac(suite, &dir.join("error_vs_frac.png")) {
+        Ok(p) => files.push(p),
+        Err(e) => chart_problem = chart_problem.or(Some(e)),
+    }
+    Ok((files, chart_problem))
+}

@@ -1,0 +1,85 @@
+//! The verification suite through the library API: every closed-form check of `blockdem verify
+//! --quick` passes on every backend of this build, the energy ledger balances, and the stable-FRAC
+//! estimate is safe against the measured threshold of instability.
+
+use blockdem::verify::{self, cases, VerifyOptions};
+
+#[test]
+fn quick_suite_passes_every_check() {
+    let suite = verify::run_suite(&VerifyOptions { quick: true, out: None, only: None });
+    let table = verify::table(&suite);
+    assert!(suite.checks().count() >= cases::all().len(), "{table}");
+    for r in suite.checks() {
+        assert!(r.passed, "{} on {} {} failed: error {:?} (tolerance {}), energy balance {:?}, {:?}\n{table}", r.case, r.backend, r.precision, r.error, r.tolerance, r.energy_balance, r.failure);
+    }
+    for t in &suite.stability {
+        assert!(t.passed, "stable-FRAC estimate of {}: {} against a measured threshold {}\n{table}", t.scene, t.estimate, t.measured);
+    }
+    assert!(suite.all_checks_pass());
+}
+
+#[test]
+fn energy_ledger_balances_within_one_percent_on_the_closed_form_scenes() {
+    // E_kin + E_strain + W_damping + W_friction = E_0 + W_external (issue 4, item 3).
+    let backends = verify::backends();
+    for case in cases::all() {
+        if !["slide", "bounce_dashpot", "vibration_mass", "column"].contains(&case.name) {
+            continue;
+        }
+        let row = verify::run_case(&case, &backends[0], verify::CHECK_FRAC);
+        let balance = row.energy_balance.unwrap_or_else(|| panic!("{} reports no energy balance: {:?}", case.name, row.failure));
+        assert!(balance < 0.01, "{}: ledger drifts by {balance:.3e} of its largest term ({})", case.name, row.detail);
+    }
+}
+
+#[test]
+fn a_deleted_loaded_contact_keeps_the_ledger_balanced() {
+    // A column settled under gravity, then its top block deleted while its contacts carry the
+    // weight: the strain and kinetic energy leave through `released`, the ledger stays put.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 4,1 4,0\n\
+         BLOCK 1,1 1,2 2,2 2,1\nBLOCK 1,2 1,3 2,3 2,2\nFIX 0 4 0 0.9\nGRAV 0 -10\nDAMP 0.5 50 MASS\nCYCLE 1\n";
+    let first = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap().energies();
+    let m = blockdem::scenes::run_deck_on(&format!("{deck}CYCLE 1500\nDELETE 0 4 2 3\nCYCLE 1500\n"), Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let end = m.energies();
+    assert!(end.released > 0.0, "the deleted block's contacts carried strain energy");
+    let drift = (end.ledger() - first.ledger()).abs() / end.scale();
+    assert!(drift < 0.01, "ledger drift {drift:.3e}: {end:?}");
+}
+
+#[test]
+fn energy_json_names_every_term() {
+    let m = blockdem::scenes::run_deck_on("START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -10\nCYCLE 10\n", Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let j = verify::energy_json(&m.energies());
+    for key in ["kinetic", "strain", "external_work", "mass_damping", "contact_damping", "friction", "released", "ledger"] {
+        assert!(j[key].is_number(), "{key} missing in {j}");
+    }
+}
+
+#[test]
+fn a_model_beyond_the_verified_ratios_is_warned_before_cycle() {
+    let mut log = Vec::new();
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E5 F=0.5\nPROP MAT=2 D=1E-4 KN=1E9 KS=1E5\nROUND 0.05\nBLOCK 1E11,1E11 1E11,100000000001 100000000001,100000000001 100000000001,1E11\n\
+         BLOCK MAT=2 0,0 0,1 1,1 1,0\nCYCLE 1\n";
+    let r = blockdem::scenes::run_deck_logged(deck, Box::new(blockdem::cpu::CpuBackend::new()), Box::new(&mut log));
+    assert!(r.is_ok(), "{:?}", r.err());
+    let text = String::from_utf8(log).unwrap();
+    assert!(text.contains("WARNING: block masses range"), "{text}");
+    assert!(text.contains("WARNING: material 1 has KN/KS"), "{text}");
+    assert!(text.contains("WARNING: blocks lie"), "{text}");
+    let warn = text.find("WARNING").unwrap();
+    assert!(warn < text.find("INITIAL TIMESTEP").unwrap(), "warnings come before the run: {text}");
+}
+
+#[test]
+fn an_unstable_fraction_stops_naming_the_cause_and_a_safe_fraction_and_never_nan() {
+    // FRAC twice the measured threshold on the block-on-base scene.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nFRAC 1.3\nCYCLE 3000\n";
+    let err = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap_err();
+    let msg = err.to_string();
+    assert!(err.is_numerical() && msg.contains("FRACTION") && msg.contains("largest safe value"), "{msg}");
+    // The safe value named must itself run clean.
+    let safe: f64 = msg.split("largest safe value is about ").nth(1).unwrap().trim_end_matches(')').parse().unwrap();
+    assert!(safe > 0.05 && safe < 1.3, "{msg}");
+    let ok = blockdem::scenes::run_deck_on(&deck.replace("FRAC 1.3", &format!("FRAC {safe}")), Box::new(blockdem::cpu::CpuBackend::new()));
+    assert!(ok.is_ok(), "the named FRAC {safe} fails too: {:?}", ok.err());
+}
