@@ -913,17 +913,3 @@ fn dump_writes_every_field() {
     let back: Model = serde_json::from_str(body).unwrap();
     assert_eq!(back, m);
 }
-
-#[test]
-#[ignore = "prints the tables for a human to read"]
-fn show_tables() {
-    let m = two_blocks();
-    for item in [
-        PrintItem::Blocks,
-        PrintItem::Contacts,
-        PrintItem::Corners,
-        PrintItem::List,
-    ] {
-        print!("{}", text(|w| print_item(&m, item, w)));
-    }
-}
