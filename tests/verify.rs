@@ -49,10 +49,14 @@ fn a_deleted_loaded_contact_keeps_the_ledger_balanced() {
 #[test]
 fn energy_json_names_every_term() {
     let m = blockdem::scenes::run_deck_on("START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -10\nCYCLE 10\n", Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
-    let j = verify::energy_json(&m.energies());
+    let j = blockdem::output::state_json::energy_json(&m.energies());
     for key in ["kinetic", "strain", "external_work", "mass_damping", "contact_damping", "friction", "released", "ledger"] {
         assert!(j[key].is_number(), "{key} missing in {j}");
     }
+    // The state file carries the same terms under `energy`.
+    let state = blockdem::output::state_json::state_json(&m);
+    assert_eq!(state["energy"], j);
+    assert!(state["energy"]["external_work"].as_f64().unwrap() > 0.0, "gravity did work on the falling block");
 }
 
 #[test]

@@ -10,6 +10,7 @@ use std::path::Path;
 
 use serde_json::{json, Value};
 
+use crate::model::timestep::Energies;
 use crate::model::{Block, Contact, Model};
 
 /// A finite number, or `null`: JSON has no NaN or infinity.
@@ -73,8 +74,22 @@ fn contact_json(model: &Model, c: &Contact) -> Value {
     })
 }
 
-/// The state as a JSON value: `dim` (2), `cycle`, `time`, `timestep`, `gravity`, `blocks` and
-/// `contacts` (see the module documentation for the rules on keys).
+/// The energy terms as JSON, for the state file's `energy` key.
+pub fn energy_json(e: &Energies) -> Value {
+    json!({
+        "kinetic": num(e.kinetic),
+        "strain": num(e.strain),
+        "external_work": num(e.external_work),
+        "mass_damping": num(e.mass_damping),
+        "contact_damping": num(e.contact_damping),
+        "friction": num(e.friction),
+        "released": num(e.released),
+        "ledger": num(e.ledger()),
+    })
+}
+
+/// The state as a JSON value: `dim` (2), `cycle`, `time`, `timestep`, `gravity`, `energy`
+/// ([`energy_json`]), `blocks` and `contacts` (see the module documentation for the rules on keys).
 pub fn state_json(model: &Model) -> Value {
     let blocks: Vec<Value> = model
         .blocks
@@ -93,6 +108,7 @@ pub fn state_json(model: &Model) -> Value {
         "time": num(model.time),
         "timestep": num(model.timestep),
         "gravity": pair(model.gravity),
+        "energy": energy_json(&model.energies()),
         "blocks": blocks,
         "contacts": contacts,
     })

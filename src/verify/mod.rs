@@ -261,20 +261,6 @@ pub fn energy_balance(start: &Energies, end: &Energies) -> f64 {
     if scale > 0.0 { (end.ledger() - start.ledger()).abs() / scale } else { 0.0 }
 }
 
-/// The energy terms as JSON, for the state file's `energy` key.
-pub fn energy_json(e: &Energies) -> serde_json::Value {
-    serde_json::json!({
-        "kinetic": e.kinetic,
-        "strain": e.strain,
-        "external_work": e.external_work,
-        "mass_damping": e.mass_damping,
-        "contact_damping": e.contact_damping,
-        "friction": e.friction,
-        "released": e.released,
-        "ledger": e.ledger(),
-    })
-}
-
 fn fmt_err(e: Option<f64>) -> String {
     e.map_or_else(|| "FAILED".to_string(), |e| format!("{e:.3e}"))
 }
