@@ -69,8 +69,24 @@ impl Edge {
 }
 
 /// A feature's measurement: signed distance from its surface, the unsigned distance that ranks
-/// features, the outward normal, and whether `c` lies in the feature's own region.
-type Measure = (f64, f64, [f64; 2], bool);
+/// features, the outward direction *not yet normalised* (`dir / len` is the unit normal; the
+/// division is left to the feature that wins, see [`Best::geometry`]), and whether `c` lies in the
+/// feature's own region.
+#[derive(Clone, Copy)]
+struct Measure {
+    signed: f64,
+    unsigned: f64,
+    dir: [f64; 2],
+    len: f64,
+    inside: bool,
+}
+
+impl Measure {
+    #[inline]
+    fn normal(&self) -> [f64; 2] {
+        if self.len == 1.0 { self.dir } else { [self.dir[0] / self.len, self.dir[1] / self.len] }
+    }
+}
 
 /// Straight part of edge k (between the tangent points of corners k and k+1). Its region is the
 /// slab over it; outside, it is measured from its nearer end.
@@ -85,35 +101,50 @@ fn edge_distance(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> Measure
     let s = dot(rel, e.u);
     if s >= 0.0 && s <= straight {
         let d = dot(rel, normal);
-        (d, d.abs(), normal, true)
+        Measure { signed: d, unsigned: d.abs(), dir: normal, len: 1.0, inside: true }
     } else {
         let s = s.clamp(0.0, straight.max(0.0));
         let r = sub(c, [ta[0] + e.u[0] * s, ta[1] + e.u[1] * s]);
         let d = norm(r);
-        (d, d, if d > 0.0 { [r[0] / d, r[1] / d] } else { normal }, false)
+        if d > 0.0 {
+            Measure { signed: d, unsigned: d, dir: r, len: d, inside: false }
+        } else {
+            Measure { signed: d, unsigned: d, dir: normal, len: 1.0, inside: false }
+        }
     }
 }
 
 /// Arc of corner k, between the edges `before` (k−1 → k) and `after` (k → k+1). Its region is the
 /// wedge between their outward normals; outside, it is measured from its nearer tangent point.
+/// The wedge test is a pair of cross products, which do not care about the length of `c −
+/// circle`, so only the distance that ranks the arc takes a square root.
 #[inline]
 fn arc_distance(corner: &Corner, before: &Edge, after: &Edge, c: [f64; 2]) -> Measure {
     let (n0, n1) = (before.normal(), after.normal());
     let r = sub(c, corner.circle);
-    let dist_c = norm(r);
-    let dir = if dist_c > 0.0 { [r[0] / dist_c, r[1] / dist_c] } else { [n0[0] + n1[0], n0[1] + n1[1]] };
     // Inside the wedge turning counter-clockwise from n0 to n1 (less than π for a convex corner).
     let convex = n0[0] * n1[1] - n0[1] * n1[0] > 0.0;
-    if convex && (n0[0] * dir[1] - n0[1] * dir[0]) >= 0.0 && (dir[0] * n1[1] - dir[1] * n1[0]) >= 0.0 {
+    if convex && (n0[0] * r[1] - n0[1] * r[0]) >= 0.0 && (r[0] * n1[1] - r[1] * n1[0]) >= 0.0 {
+        let dist_c = norm(r);
         let d = dist_c - corner.radius;
-        return (d, d.abs(), dir, true);
+        return if dist_c > 0.0 {
+            Measure { signed: d, unsigned: d.abs(), dir: r, len: dist_c, inside: true }
+        } else {
+            // The centres coincide: any direction in the wedge will do.
+            Measure { signed: d, unsigned: d.abs(), dir: [n0[0] + n1[0], n0[1] + n1[1]], len: 1.0, inside: true }
+        };
     }
     let t0 = [corner.circle[0] + n0[0] * corner.radius, corner.circle[1] + n0[1] * corner.radius];
     let t1 = [corner.circle[0] + n1[0] * corner.radius, corner.circle[1] + n1[1] * corner.radius];
     let (r0, r1) = (sub(c, t0), sub(c, t1));
-    let (d0, d1) = (norm(r0), norm(r1));
-    let (d, rr, fallback) = if d0 <= d1 { (d0, r0, n0) } else { (d1, r1, n1) };
-    (d, d, if d > 0.0 { [rr[0] / d, rr[1] / d] } else { fallback }, false)
+    // The nearer tangent point, by squared distance: one square root instead of two.
+    let (rr, fallback) = if dot(r0, r0) <= dot(r1, r1) { (r0, n0) } else { (r1, n1) };
+    let d = norm(rr);
+    if d > 0.0 {
+        Measure { signed: d, unsigned: d, dir: rr, len: d, inside: false }
+    } else {
+        Measure { signed: d, unsigned: d, dir: fallback, len: 1.0, inside: false }
+    }
 }
 
 /// Measures feature f with the edges supplied by `edge(k)`.
@@ -164,21 +195,21 @@ fn better(candidate: (f64, bool, Feature), best: (f64, bool, Feature)) -> bool {
 
 /// Keeps the best-ranked feature seen so far.
 #[derive(Default)]
-struct Best(Option<((f64, bool, Feature), (f64, f64, [f64; 2]))>);
+struct Best(Option<((f64, bool, Feature), Measure)>);
 
 impl Best {
     #[inline]
-    fn offer(&mut self, f: Feature, (s, u, nrm, inside): Measure) {
-        let key = (u, inside, f);
+    fn offer(&mut self, f: Feature, m: Measure) {
+        let key = (m.unsigned, m.inside, f);
         if self.0.is_none_or(|(b, _)| better(key, b)) {
-            self.0 = Some((key, (s, u, nrm)));
+            self.0 = Some((key, m));
         }
     }
 
     #[inline]
     fn geometry(self, c: [f64; 2], r: f64) -> CornerContactGeometry {
-        let ((_, _, f), (s, u, nrm)) = self.0.expect("at least one feature offered");
-        geometry_from(f, s, u, nrm, c, r)
+        let ((_, _, f), m) = self.0.expect("at least one feature offered");
+        geometry_from(f, m.signed, m.unsigned, m.normal(), c, r)
     }
 }
 
@@ -195,6 +226,40 @@ pub fn nearest_feature(corners: &[Corner], c: [f64; 2], r: f64) -> CornerContact
 /// contact whose point slides along the boundary (stage 4). A contact point moves far less than a
 /// feature's length in one step, so it can only pass onto a neighbouring feature.
 pub fn track_feature(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
+    let nf = 2 * corners.len() as Feature;
+    let edge = |j: usize| Edge::of(corners, j);
+    let feature = feature.min(nf - 1);
+    let f = feature as usize;
+    // Fast path, most contacts on most cycles: a corner circle over the straight part of an edge
+    // between two convex corners. Its centre lies strictly inside the edge's slab and outside the
+    // line, so it is outside both neighbouring arcs' wedges, and the nearer tangent point of each
+    // arc is the one on this edge: their distances are √(s² + d²) ≥ d, and an inside feature wins
+    // every tie with an outside one. The full three-way comparison would pick this edge, so skip it
+    // (same result bit for bit; checked by `track_feature_fast_path_agrees` in the unit tests).
+    if f % 2 == 1 {
+        let k = f / 2;
+        let n = corners.len();
+        let m = edge_distance(corners, k, &edge(k), c);
+        if m.inside && m.signed > 0.0 {
+            let e = edge(k);
+            let ta = [e.p0[0] + e.u[0] * corners[k].round, e.p0[1] + e.u[1] * corners[k].round];
+            let s = dot(sub(c, ta), e.u);
+            let straight = e.len - corners[k].round - corners[next(k, n)].round;
+            let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
+            let turns_left = |a: &Edge, b: &Edge| cross(a.normal(), b.normal()) > 0.0;
+            // Clear of the slab's ends by more than round-off, which could otherwise put the centre
+            // in an arc's wedge too (aligned corners, where the full comparison prefers the arc).
+            let margin = 1e-6 * e.len + 1e-12 * (c[0].abs() + c[1].abs());
+            if s > margin && s < straight - margin && turns_left(&edge(prev(k, n)), &e) && turns_left(&e, &edge(next(k, n))) {
+                return geometry_from(feature, m.signed, m.unsigned, m.normal(), c, r);
+            }
+        }
+    }
+    track_feature_full(corners, feature, c, r)
+}
+
+/// [`track_feature`] without its fast path: the three-way comparison.
+pub fn track_feature_full(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
     let nf = 2 * corners.len() as Feature;
     let edge = |j: usize| Edge::of(corners, j);
     let mut best = Best::default();
@@ -335,10 +400,65 @@ pub fn counts_force(own_corner_global: u32, own: &Corner, corners2: &[Corner], s
         return owns_corner_corner(own_corner_global, start2 + k as u32);
     }
     let j = next(k, n);
-    let (dk, dj) = (norm(sub(own.circle, corners2[k].circle)), norm(sub(own.circle, corners2[j].circle)));
-    let (b, d) = if dk <= dj { (k, dk) } else { (j, dj) };
-    if d < own.radius + corners2[b].radius {
+    let (rk, rj) = (sub(own.circle, corners2[k].circle), sub(own.circle, corners2[j].circle));
+    let (b, d2) = if dot(rk, rk) <= dot(rj, rj) { (k, dot(rk, rk)) } else { (j, dot(rj, rj)) };
+    let reach = own.radius + corners2[b].radius;
+    if d2 < reach * reach {
         return owns_corner_corner(own_corner_global, start2 + b as u32);
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenes::run_deck_on;
+
+    /// A tiny deterministic generator (xorshift), so the test needs no seed handling.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// The fast path of `track_feature` gives what the three-way comparison gives, bit for bit:
+    /// on rectangles, a rotated hexagon and a triangle, with circle centres spread over and
+    /// beyond every edge, including the aligned-corner ties of a brick wall (centres exactly over
+    /// a slab's end).
+    #[test]
+    fn track_feature_fast_path_agrees() {
+        let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 1,0.5 1,0\n\
+                    BLOCK 3,0 4.2,0.7 3.9,1.9 2.7,2.6 1.5,1.9 1.8,0.7\nBLOCK 6,0 8,0 7,3\nBLOCK 20,20 20,20.5 20.5,20.5 20.5,20\nCYCLE 0\n";
+        let model = run_deck_on(deck, Box::new(crate::cpu::CpuBackend::new())).unwrap();
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        let mut fast_taken = 0;
+        for b in 0..model.blocks.len() {
+            let corners = model.block_corners(b);
+            let n = corners.len();
+            for k in 0..n {
+                let e = Edge::of(corners, k);
+                let nrm = e.normal();
+                for i in 0..400 {
+                    // Along the edge from before its start to past its end; exactly at the
+                    // tangent points every 10th sample.
+                    let t = if i % 10 == 0 { [corners[k].round, e.len - corners[(k + 1) % n].round][i / 10 % 2] } else { -0.2 + 1.4 * rng.next() * e.len };
+                    let h = 0.05 + 0.15 * rng.next();
+                    let c = [e.p0[0] + e.u[0] * t + nrm[0] * h, e.p0[1] + e.u[1] * t + nrm[1] * h];
+                    let r = 0.1;
+                    let feature = (2 * k + 1) as Feature;
+                    let fast = track_feature(corners, feature, c, r);
+                    let full = track_feature_full(corners, feature, c, r);
+                    assert_eq!(fast, full, "block {b} edge {k} at t={t} h={h}");
+                    if fast.feature == feature {
+                        fast_taken += 1;
+                    }
+                }
+            }
+        }
+        assert!(fast_taken > 1000, "the fast path was exercised ({fast_taken} edge results)");
+    }
 }
