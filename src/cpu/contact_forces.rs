@@ -255,6 +255,25 @@ pub fn track_feature(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) 
             }
         }
     }
+    // Fast path for a corner circle over the arc of a convex corner k (corner–corner touches):
+    // strictly inside the arc's wedge, the centre is outside both neighbouring edges' slabs, so
+    // each edge is measured from its tangent point T on this arc, and |c − T| ≥ |c − C| − r (the
+    // triangle inequality about the arc's centre C): the arc is nearest, or ties and wins as the
+    // inside feature. The wedge tests equal minus the slab coordinates, hence the same margin.
+    if f % 2 == 0 {
+        let k = f / 2;
+        let n = corners.len();
+        let (before, after) = (edge(prev(k, n)), edge(k));
+        let m = arc_distance(&corners[k], &before, &after, c);
+        if m.inside && m.signed > 0.0 {
+            let (n0, n1) = (before.normal(), after.normal());
+            let rel = sub(c, corners[k].circle);
+            let margin = 1e-6 * (before.len + after.len) + 1e-12 * (c[0].abs() + c[1].abs());
+            if n0[0] * rel[1] - n0[1] * rel[0] > margin && rel[0] * n1[1] - rel[1] * n1[0] > margin {
+                return geometry_from(feature, m.signed, m.unsigned, m.normal(), c, r);
+            }
+        }
+    }
     track_feature_full(corners, feature, c, r)
 }
 
@@ -459,6 +478,33 @@ mod tests {
                 }
             }
         }
-        assert!(fast_taken > 1000, "the fast path was exercised ({fast_taken} edge results)");
+        // Around every corner: the arc's wedge, its boundaries and both neighbouring slabs.
+        let mut arcs_taken = 0;
+        for b in 0..model.blocks.len() {
+            let corners = model.block_corners(b);
+            let n = corners.len();
+            for k in 0..n {
+                let (n0, n1) = (Edge::of(corners, (k + n - 1) % n).normal(), Edge::of(corners, k).normal());
+                let (a0, a1) = (n0[1].atan2(n0[0]), n1[1].atan2(n1[0]));
+                let mut turn = a1 - a0;
+                if turn < 0.0 {
+                    turn += std::f64::consts::TAU;
+                }
+                for i in 0..400 {
+                    // Angles from before n0 to past n1; exactly along n0 or n1 every 10th sample.
+                    let a = if i % 10 == 0 { [a0, a0 + turn][i / 10 % 2] } else { a0 - 0.3 + (turn + 0.6) * rng.next() };
+                    let rho = corners[k].radius + 0.05 + 0.15 * rng.next();
+                    let c = [corners[k].circle[0] + rho * a.cos(), corners[k].circle[1] + rho * a.sin()];
+                    let feature = (2 * k) as Feature;
+                    let fast = track_feature(corners, feature, c, 0.1);
+                    let full = track_feature_full(corners, feature, c, 0.1);
+                    assert_eq!(fast, full, "block {b} arc {k} at angle {a} radius {rho}");
+                    if fast.feature == feature {
+                        arcs_taken += 1;
+                    }
+                }
+            }
+        }
+        assert!(fast_taken > 1000 && arcs_taken > 1000, "the fast paths were exercised ({fast_taken} edge, {arcs_taken} arc results)");
     }
 }

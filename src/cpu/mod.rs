@@ -63,7 +63,8 @@ fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Res
     {
         let Model { blocks, corners, contacts, materials, .. } = &mut *model;
         let motion = |b: &crate::model::Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
-        let overlaps: Vec<Option<f64>> = contacts.par_iter_mut().with_min_len(PARALLEL_CHUNK).map(|contact| {
+        // The first contact (lowest index, so the report repeats) whose overlap passes the limit.
+        failure = contacts.par_iter_mut().enumerate().with_min_len(PARALLEL_CHUNK).filter_map(|(k, contact)| {
             let corner = &corners[contact.corner as usize];
             let (b1, b2) = (&blocks[contact.block1 as usize], &blocks[contact.block2 as usize]);
             let range2 = b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize;
@@ -77,9 +78,8 @@ fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Res
             let active = contact_forces::counts_force(contact.corner, corner, &corners[range2.clone()], b2.corner_start, g.feature);
             let mat = &materials[(contact.material.max(1) as usize - 1).min(materials.len() - 1)];
             contact_force_law(contact, mat, &motion(b1), &motion(b2), &damping, dt, active);
-            (active && -g.gap > limit).then_some(-g.gap)
-        }).collect();
-        failure = overlaps.iter().enumerate().find_map(|(k, o)| o.map(|o| (k, o)));
+            (active && -g.gap > limit).then_some((k, -g.gap))
+        }).min_by_key(|&(k, _)| k);
     }
     gather_all(model, adjacency);
     match failure {
