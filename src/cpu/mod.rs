@@ -189,6 +189,23 @@ impl EnergyCheck {
         EnergyCheck { baseline, scale, peak: f64::NEG_INFINITY }
     }
 
+    /// After a failure: names the cause (a block flying off may be the symptom of an unstable
+    /// step) and puts the last good state back in `model`.
+    pub(crate) fn roll_back(&mut self, mut e: CycleError, model: &mut Model, last_good: Model) -> CycleError {
+        if let CycleError::TooFast { .. } = e {
+            if let Err(energy) = self.check(model) {
+                e = energy;
+            }
+        }
+        // The stable-FRAC estimate needs the contact network of the last good state (the
+        // diverged one may have flung its blocks apart).
+        if let CycleError::EnergyGrowth { safe_frac, .. } = &mut e {
+            *safe_frac = last_good.stable_frac_estimate();
+        }
+        *model = last_good;
+        e
+    }
+
     pub(crate) fn check(&mut self, model: &Model) -> Result<(), CycleError> {
         let e = model.energies();
         let energy = e.kinetic + e.strain;
@@ -258,21 +275,7 @@ impl Backend for CpuBackend {
                 self.adjacency = adjacency;
                 Ok(report)
             }
-            Err(mut e) => {
-                // A block flying off may be the symptom of an unstable step: name the cause.
-                if let CycleError::TooFast { .. } = e {
-                    if let Err(energy) = energy_check.check(model) {
-                        e = energy;
-                    }
-                }
-                // The stable-FRAC estimate needs the contact network of the last good state (the
-                // diverged one may have flung its blocks apart).
-                if let CycleError::EnergyGrowth { safe_frac, .. } = &mut e {
-                    *safe_frac = last_good.stable_frac_estimate();
-                }
-                *model = last_good;
-                Err(e)
-            }
+            Err(e) => Err(energy_check.roll_back(e, model, last_good)),
         }
     }
 }

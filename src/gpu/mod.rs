@@ -583,18 +583,7 @@ where
         })();
         match result {
             Ok(()) => Ok(report),
-            Err(mut e) => {
-                if let CycleError::TooFast { .. } = e {
-                    if let Err(energy) = energy_check.check(model) {
-                        e = energy;
-                    }
-                }
-                if let CycleError::EnergyGrowth { safe_frac, .. } = &mut e {
-                    *safe_frac = last_good.stable_frac_estimate();
-                }
-                *model = last_good;
-                Err(e)
-            }
+            Err(e) => Err(energy_check.roll_back(e, model, last_good)),
         }
     }
 }
