@@ -3,14 +3,15 @@
 // `alias real = f32;` or `f64`, WORKGROUP_SIZE and TIE_TOL. Storage structs hold reals first and
 // then an even number of u32 words, so both precisions have the same field order and no padding.
 
-// 108 / 200 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo);
+// 112 / 208 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo);
+// `work`, `damping_work`: external work and mass-damping dissipation since the upload;
 // `moved` is the largest net displacement from the reference (update_*) of the last contact update.
 struct Block {
     cx: real, cy: real, cx_lo: real, cy_lo: real,
     rotation: real, vx: real, vy: real, w: real,
     fx: real, fy: real, moment: real, mass: real,
     inertia: real, load_x: real, load_y: real, radius: real,
-    work: real,
+    work: real, damping_work: real,
     moved: real, update_cx: real, update_cy: real, update_cx_lo: real, update_cy_lo: real, update_rotation: real,
     fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
 }
@@ -23,10 +24,13 @@ struct Corner {
     block: u32, _pad: u32,
 }
 
-// 64 / 104 bytes. The point (px, py) is relative to block 2's centroid.
+// 80 / 136 bytes. The point (px, py) is relative to block 2's centroid. slip_work, dashpot_work:
+// dissipation since the upload; (dashpot_vn, dashpot_vs): the velocities the dashpots acted on in
+// the last step, whose work is booked a step late.
 struct Contact {
     px: real, py: real, nx: real, ny: real, gap: real,
     normal_force: real, shear_force: real, shear_displacement: real, fx: real, fy: real,
+    slip_work: real, dashpot_work: real, dashpot_vn: real, dashpot_vs: real,
     block1: u32, corner: u32, block2: u32, feature: u32,
     material: u32, bonded: u32,
 }
