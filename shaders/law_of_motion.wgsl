@@ -43,8 +43,9 @@ fn law_of_motion(@builtin(global_invocation_id) gid: vec3<u32>) {
     blk.vy = vy;
     blk.w = w;
     // Compensated centroid: small increments are not lost on a large coordinate in f32.
-    let sx = two_sum(blk.cx, dx + blk.cx_lo);
-    let sy = two_sum(blk.cy, dy + blk.cy_lo);
+    let one = real(params.one);
+    let sx = two_sum(blk.cx, dx + blk.cx_lo, one);
+    let sy = two_sum(blk.cy, dy + blk.cy_lo, one);
     blk.cx = sx.x;
     blk.cx_lo = sx.y;
     blk.cy = sy.x;

@@ -478,6 +478,65 @@ fn mass_damping_work_matches_rust<R: Real>(dev: &GpuDevice) {
     }
 }
 
+const TWO_SUM: &str = r#"
+@group(0) @binding(8) var<storage, read> t_in: array<real>;
+@group(0) @binding(9) var<storage, read_write> t_out: array<real>;
+@group(0) @binding(10) var<storage, read> t_one: array<real>;
+
+@compute @workgroup_size(64)
+fn test_two_sum(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (2u * i >= arrayLength(&t_in)) {
+        return;
+    }
+    let s = two_sum(t_in[2u * i], t_in[2u * i + 1u], t_one[0]);
+    t_out[2u * i] = s.x;
+    t_out[2u * i + 1u] = s.y;
+}
+"#;
+
+/// Knuth's TwoSum in the kernel precision (Rust does not rewrite floating point): the exact
+/// rounding error of a + b.
+fn two_sum_rust<R: Real + std::ops::Add<Output = R> + std::ops::Sub<Output = R>>(a: R, b: R) -> (R, R) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
+fn two_sum_is_exact<R: Real + std::ops::Add<Output = R> + std::ops::Sub<Output = R>>(dev: &GpuDevice) {
+    let mut rng = Rng(0x5eed_0000_0000_0005);
+    let cases = 4096;
+    let mut input = Vec::new();
+    for _ in 0..cases {
+        // A coordinate of 1–1e4 m and a step of 1e-9–1e-3 m of either sign (the position update
+        // of law_of_motion), and now and then the other way round.
+        let sign = |x: f64, r: &mut Rng| if r.next() < 0.5 { -x } else { x };
+        let a = sign(rng.range(1.0, 1e4), &mut rng);
+        let b = sign(10f64.powf(rng.range(-9.0, -3.0)), &mut rng);
+        if rng.next() < 0.1 {
+            input.extend([q::<R>(b), q::<R>(a)]);
+        } else {
+            input.extend([q::<R>(a), q::<R>(b)]);
+        }
+    }
+    let out = run_kernel(
+        dev,
+        "contact_forces",
+        TWO_SUM,
+        "test_two_sum",
+        cases,
+        &[(8, reals::<R>(&input), false), (9, vec![0; cases * 2 * std::mem::size_of::<R>()], true), (10, reals::<R>(&[1.0]), false)],
+    );
+    let got = back::<R>(&out[0]);
+    for i in 0..cases {
+        // Exact: sum and error bit for bit, and together a + b (the error is not lost, as it was
+        // when the compiler folded it to 0).
+        let (s, e) = two_sum_rust(R::from_f64(input[2 * i]), R::from_f64(input[2 * i + 1]));
+        assert!(got[2 * i] == s.to_f64() && got[2 * i + 1] == e.to_f64(), "{} + {}: ({}, {}) vs ({:?}, {:?})", input[2 * i], input[2 * i + 1], got[2 * i], got[2 * i + 1], s, e);
+    }
+    assert!((0..cases).filter(|&i| got[2 * i + 1] != 0.0).count() > cases / 2, "most sums round");
+}
+
 const SIN_COS: &str = r#"
 @group(0) @binding(8) var<storage, read> s_in: array<real>;
 @group(0) @binding(9) var<storage, read_write> s_out: array<real>;
@@ -539,4 +598,5 @@ on_adapters!(
     contact_force_law => contact_force_law_matches_rust,
     mass_damping_work => mass_damping_work_matches_rust,
     sin_cos => sin_cos_matches_rust,
+    two_sum => two_sum_is_exact,
 );

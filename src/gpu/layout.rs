@@ -140,7 +140,9 @@ gpu_struct! {
         fast_limit: R,
         /// Overlap beyond which the run stops (½ ROUND).
         overlap_limit: R,
-        n_blocks: u32, n_corners: u32, n_contacts: u32, _pad: u32,
+        n_blocks: u32, n_corners: u32, n_contacts: u32,
+        /// Always 1: a one whose value the shader compiler cannot see, for `two_sum`.
+        one: u32,
     }
 }
 

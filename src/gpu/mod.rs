@@ -386,7 +386,7 @@ where
             n_blocks: self.counts.0 as u32,
             n_corners: self.counts.1 as u32,
             n_contacts: self.counts.2 as u32,
-            _pad: 0,
+            one: 1,
         };
         self.dev.queue.write_buffer(&self.buffers().params, 0, bytemuck::bytes_of(&params));
     }
