@@ -5,6 +5,8 @@
 //! - `layout`: the Pod structs of the GPU state, twins of `shaders/common.wgsl`.
 //! - `shaders`: the WGSL prelude (the one precision alias) and naga validation.
 //! - `kernels`: `Pipelines` (one per entry point) and `Buffers`.
+//! - `targets`: every adapter and precision present, the GPU rows of the scenario tests and of
+//!   `blockdem verify`.
 //!
 //! ## How a run goes
 //!
@@ -46,13 +48,15 @@ pub mod device;
 pub mod kernels;
 pub mod layout;
 pub mod shaders;
+pub mod targets;
 
 use crate::backend::{Backend, CycleError, CycleReport};
 use crate::cpu;
 use crate::model::{ContactKind, Model, MAX_MATERIALS};
 use crate::topology::Adjacency;
 
-pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuDevice};
+pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
+pub use targets::{find_target, scenario_backends, GpuTarget};
 use kernels::{Buffers, Pipelines};
 use layout::{Block, Contact, Corner, Flags, Material, Params, Real};
 
