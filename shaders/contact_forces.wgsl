@@ -1,6 +1,7 @@
 // Stage 4: contact kinematics and the force–displacement law (SL-85-1 eqs. 13–20), and the
 // geometry of a rounded corner against the rounded boundary of the other block. Twin of
-// src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `feature_distance`, `track_feature`, `contact_force_law`, `counts_force`). Geometry is relative to block 2's centroid.
+// src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `feature_distance`, `track_feature`, `contact_force_law`,
+// `slip_dissipation`, `counts_force`). Geometry is relative to block 2's centroid.
 //
 // Feature 2k is the arc of corner k, feature 2k+1 the straight part of edge k → k+1.
 
@@ -170,8 +171,9 @@ fn velocity_at(m: Motion, p: vec2<real>) -> vec2<real> {
     return vec2<real>(m.velocity.x - m.w * r.y, m.velocity.y + m.w * r.x);
 }
 
-// The force–displacement law, eqs. 13–20 (see the Rust twin for the physics). `active` is false
-// for the mirror copy of a corner–corner contact, which carries no force.
+// The force–displacement law, eqs. 13–20 (see the Rust twin for the physics), and the energy it
+// dissipates: slip work at the Coulomb limit and on opening, dashpot work a step late. `counted`
+// is false for the mirror copy of a corner–corner contact, which carries no force.
 fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta: real, dt: real, counted: bool) -> Contact {
     var c = contact;
     let n = vec2<real>(c.nx, c.ny);
@@ -181,6 +183,13 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
     let vn = dot(vrel, n); // eq. (14)
     let vs = dot(vrel, t); // eq. (15)
     c.shear_displacement += vs * dt;
+    // The dashpot force of the last step, −β·k·v(t−Δt/2), did work over that step's mean
+    // velocity ½(v(t−Δt/2) + v(t+Δt/2)) (booked a step late, as on the CPU).
+    if (c.dashpot_vn != 0.0 || c.dashpot_vs != 0.0) {
+        c.dashpot_work += beta * (mat.kn * c.dashpot_vn * 0.5 * (c.dashpot_vn + vn) + mat.ks * c.dashpot_vs * 0.5 * (c.dashpot_vs + vs)) * dt;
+        c.dashpot_vn = 0.0;
+        c.dashpot_vs = 0.0;
+    }
     if (!counted) {
         c.normal_force = 0.0;
         c.fx = 0.0;
@@ -193,7 +202,13 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
     if (bonded) {
         cohesion = mat.cohesion;
     }
+    let fs_old = c.shear_force;
     if (fn_ < 0.0 && (!bonded || -fn_ > cohesion)) {
+        // Open: the shear spring's energy and any bond tension go to the slip work.
+        c.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, mat.ks);
+        if (c.normal_force < 0.0 && mat.kn > 0.0) {
+            c.slip_work += c.normal_force * c.normal_force / (2.0 * mat.kn);
+        }
         c.bonded = 0u;
         c.normal_force = 0.0;
         c.shear_force = 0.0;
@@ -201,10 +216,11 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
         c.fy = 0.0;
         return c;
     }
-    var fs = c.shear_force - mat.ks * vs * dt; // eqs. (17), (19)
+    var fs = fs_old - mat.ks * vs * dt; // eqs. (17), (19)
     let limit = cohesion + mat.friction * max(fn_, 0.0);
     if (abs(fs) > limit) {
         fs = select(-limit, limit, fs > 0.0); // eq. (20)
+        c.slip_work += slip_dissipation(fs_old, fs, vs * dt, mat.ks);
         if (bonded && mat.cohesion > 0.0) {
             c.bonded = 0u;
         }
@@ -216,12 +232,25 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
     if (beta > 0.0 && fn_ > 0.0) {
         dn = -beta * mat.kn * vn;
         ds = -beta * mat.ks * vs;
+        c.dashpot_vn = vn;
+        c.dashpot_vs = vs;
     }
     fn_ += dn;
     let fs_total = fs + ds;
     c.fx = fn_ * n.x + fs_total * t.x;
     c.fy = fn_ * n.y + fs_total * t.y;
     return c;
+}
+
+// Energy a shear spring dissipates in one step while its force goes from fs_old to fs_new and the
+// surfaces slide dus: the trapezoidal work −½(fs_old + fs_new)·dus less what the spring stored,
+// (fs_new² − fs_old²)/2ks; zero for an elastic step, friction × slip at the Coulomb limit. Twin of
+// `cpu::contact_forces::slip_dissipation`.
+fn slip_dissipation(fs_old: real, fs_new: real, dus: real, ks: real) -> real {
+    if (ks <= 0.0) {
+        return 0.0;
+    }
+    return -0.5 * (fs_old + fs_new) * dus - (fs_new * fs_new - fs_old * fs_old) / (2.0 * ks);
 }
 
 // Whether a contact carries the force of its touch (twin of `cpu::contact_forces::counts_force`):

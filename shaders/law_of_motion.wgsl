@@ -4,6 +4,14 @@
 // Twin of src/cpu/law_of_motion.rs. Also raises the flags the CPU checks after stage 1: a block
 // past the update tolerance, a non-finite step, a block too fast for the contact update.
 
+// Energy the damping force −α·m·v takes in one step, from the velocities (vx, vy, ω) before (v0)
+// and after (v1): v⁺ − v⁻ = (F/m − α·v̄)Δt with v̄ = (v⁺ + v⁻)/2 gives ½m(v⁺² − v⁻²) = F·v̄Δt −
+// α·m·v̄²Δt exactly, the last term the dissipation. Twin of `cpu::law_of_motion::mass_damping_work`.
+fn mass_damping_work(mass: real, inertia: real, v0: vec3<real>, v1: vec3<real>, alpha: real, dt: real) -> real {
+    let m = 0.5 * (v0 + v1);
+    return alpha * dt * (mass * (m.x * m.x + m.y * m.y) + inertia * m.z * m.z);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn law_of_motion(@builtin(global_invocation_id) gid: vec3<u32>) {
     let b = gid.x;
@@ -28,12 +36,16 @@ fn law_of_motion(@builtin(global_invocation_id) gid: vec3<u32>) {
     let dx = vx * dt;
     let dy = vy * dt;
     let dtheta = w * dt;
+    if (params.alpha > 0.0) {
+        blk.damping_work += mass_damping_work(blk.mass, blk.inertia, vec3<real>(blk.vx, blk.vy, blk.w), vec3<real>(vx, vy, w), params.alpha, dt);
+    }
     blk.vx = vx;
     blk.vy = vy;
     blk.w = w;
     // Compensated centroid: small increments are not lost on a large coordinate in f32.
-    let sx = two_sum(blk.cx, dx + blk.cx_lo);
-    let sy = two_sum(blk.cy, dy + blk.cy_lo);
+    let one = real(params.one);
+    let sx = two_sum(blk.cx, dx + blk.cx_lo, one);
+    let sy = two_sum(blk.cy, dy + blk.cy_lo, one);
     blk.cx = sx.x;
     blk.cx_lo = sx.y;
     blk.cy = sy.x;

@@ -4,7 +4,9 @@
 //!
 //! - `track_feature` (with `feature_distance`, `edge_distance`, `arc_distance`, `better`) and
 //!   `counts_force`: the contact geometry of a rounded corner against a rounded polygon;
-//! - `contact_force_law`: the force–displacement law (eqs. 13–20);
+//! - `contact_force_law`: the force–displacement law (eqs. 13–20) with the energy it books
+//!   (slip work, dashpot work and the dashpot velocities it carries to the next step);
+//! - `mass_damping_work`: the energy the mass-proportional damping takes in a step (law_of_motion);
 //! - `sin_cos`: the rotation of the geometry update, with + − × only.
 //!
 //! Tolerances: f64 kernels agree to rounding (a few ulps; the GPU compiler may fuse
@@ -45,10 +47,10 @@ fn device(adapter: &str, precision: Precision) -> Option<GpuDevice> {
     Some(GpuDevice::open(&choice, precision).unwrap_or_else(|e| panic!("{e}")))
 }
 
-/// Runs `entry` (appended to contact_forces.wgsl) over `cases` invocations with the given
-/// storage buffers (binding, bytes, is_output); returns the outputs in order.
-fn run_kernel(dev: &GpuDevice, snippet: &str, entry: &str, cases: usize, buffers: &[(u32, Vec<u8>, bool)]) -> Vec<Vec<u8>> {
-    let src = format!("{}\n{snippet}", shaders::source("contact_forces", dev.precision).unwrap());
+/// Runs `entry` (appended to the kernel file `kernel`.wgsl) over `cases` invocations with the
+/// given storage buffers (binding, bytes, is_output); returns the outputs in order.
+fn run_kernel(dev: &GpuDevice, kernel: &str, snippet: &str, entry: &str, cases: usize, buffers: &[(u32, Vec<u8>, bool)]) -> Vec<Vec<u8>> {
+    let src = format!("{}\n{snippet}", shaders::source(kernel, dev.precision).unwrap());
     shaders::validate(&src, dev.precision).unwrap_or_else(|e| panic!("{e}"));
     let device = &dev.device;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(entry), source: wgpu::ShaderSource::Wgsl(src.into()) });
@@ -210,6 +212,7 @@ where
     }
     let out = run_kernel(
         dev,
+        "contact_forces",
         TRACK,
         "test_track_feature",
         cases,
@@ -283,6 +286,15 @@ where
             ..Default::default()
         };
         let gap = q::<R>(rng.range(-2e-3, 5e-4));
+        let bonded = rng.next() < 0.5;
+        // Ledger inputs: the accumulated works so far, the dashpot velocities of the last step
+        // (half the cases), the last normal force (a bonded contact may carry tension, which
+        // goes to the slip work when it opens).
+        let dashpot = rng.next() < 0.5;
+        let mut u = || q::<R>(rng.range(-1.0, 1.0));
+        let dashpot_velocity = if dashpot { [u(), u()] } else { [0.0; 2] };
+        let normal_force = q::<R>(if bonded { rng.range(-1.0, 1.0) } else { rng.range(0.0, 1.0) } * kn * 1e-3);
+        let (slip_work, dashpot_work) = (q::<R>(rng.range(0.0, 100.0)), q::<R>(rng.range(0.0, 100.0)));
         let contact = Contact {
             id: 0,
             block1: 0,
@@ -292,17 +304,17 @@ where
             kind: ContactKind::CornerEdge,
             material: 1,
             constitutive: 1,
-            bonded: rng.next() < 0.5,
+            bonded,
             point: [q::<R>(rng.range(-1.0, 1.0)), q::<R>(rng.range(-1.0, 1.0))],
             normal: [q::<R>(a.cos()), q::<R>(a.sin())],
             gap,
-            normal_force: 0.0,
+            normal_force,
             shear_force: q::<R>(rng.range(-1.0, 1.0) * kn * 1e-3),
             shear_displacement: q::<R>(rng.range(-1e-3, 1e-3)),
             force: [0.0, 0.0],
-            slip_work: 0.0,
-            dashpot_work: 0.0,
-            dashpot_velocity: [0.0; 2],
+            slip_work,
+            dashpot_work,
+            dashpot_velocity,
         };
         let mut v = || q::<R>(rng.range(-1.0, 1.0));
         let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v() };
@@ -319,8 +331,13 @@ where
             nx: r(contact.normal[0]),
             ny: r(contact.normal[1]),
             gap: r(gap),
+            normal_force: r(normal_force),
             shear_force: r(contact.shear_force),
             shear_displacement: r(contact.shear_displacement),
+            slip_work: r(slip_work),
+            dashpot_work: r(dashpot_work),
+            dashpot_vn: r(dashpot_velocity[0]),
+            dashpot_vs: r(dashpot_velocity[1]),
             bonded: contact.bonded as u32,
             ..Default::default()
         });
@@ -328,10 +345,20 @@ where
         motion.extend([m1.centroid[0], m1.centroid[1], m1.velocity[0], m1.velocity[1], m1.angular_velocity]);
         motion.extend([m2.centroid[0], m2.centroid[1], m2.velocity[0], m2.velocity[1], m2.angular_velocity]);
         motion.extend([beta, dt, active as u32 as f64]);
-        expected.push((out, kn));
+        // Energy scale of one step's bookkeeping: the larger of the spring energies F²/2k of the
+        // forces in play and the work of a force over the step's slip or dashpot velocity.
+        let vrel = {
+            let (va, vb) = (m1.velocity_at(contact.point), m2.velocity_at(contact.point));
+            (va[0] - vb[0]).hypot(va[1] - vb[1])
+        };
+        let force = (kn * gap.abs()).max(contact.shear_force.abs()).max(normal_force.abs()).max(1.0);
+        let dash = beta * kn * (dashpot_velocity[0].abs() + dashpot_velocity[1].abs() + vrel).powi(2) * dt;
+        let energy = (force * force / mat.ks).max(force * vrel * dt).max(dash);
+        expected.push((out, kn, energy, contact));
     }
     let out = run_kernel(
         dev,
+        "contact_forces",
         LAW,
         "test_contact_force_law",
         cases,
@@ -343,8 +370,8 @@ where
         ],
     );
     let got: Vec<GContact<R>> = bytemuck::pod_collect_to_vec(&out[0]);
-    let mut branch_flips = 0;
-    for (i, ((e, kn), g)) in expected.iter().zip(&got).enumerate() {
+    let (mut branch_flips, mut slipped, mut damped) = (0, 0, 0);
+    for (i, ((e, kn, energy, input), g)) in expected.iter().zip(&got).enumerate() {
         if (g.bonded != 0) != e.bonded {
             branch_flips += 1;
             continue;
@@ -368,11 +395,146 @@ where
         }
         let us_tol = if f32_kernel { 1e-6 } else { 1e-15 };
         assert!((g.shear_displacement.to_f64() - e.shear_displacement).abs() < us_tol, "case {i}: shear displacement");
+        // The ledger: the dashpot velocities handed to the next step are the step's relative
+        // velocities (f32: 1e-6 of them, velocities of order 1 m/s; f64: 1e-15); the works
+        // agree to 1e-5 (f32) or 1e-12 (f64) of the step's energy scale plus the rounding of the
+        // accumulated value they add to (f32: 2⁻²⁴ of it).
+        let v_tol = if f32_kernel { 1e-6 } else { 1e-15 };
+        assert!(
+            (g.dashpot_vn.to_f64() - e.dashpot_velocity[0]).abs() < v_tol && (g.dashpot_vs.to_f64() - e.dashpot_velocity[1]).abs() < v_tol,
+            "case {i}: dashpot velocity ({}, {}) vs {:?}",
+            g.dashpot_vn.to_f64(),
+            g.dashpot_vs.to_f64(),
+            e.dashpot_velocity
+        );
+        let (rel, acc) = if f32_kernel { (1e-5, 6e-8) } else { (1e-12, 2.3e-16) };
+        for (what, got, want, before) in [
+            ("slip work", g.slip_work.to_f64(), e.slip_work, input.slip_work),
+            ("dashpot work", g.dashpot_work.to_f64(), e.dashpot_work, input.dashpot_work),
+        ] {
+            let tol = rel * energy + acc * before.abs();
+            assert!((got - want).abs() <= tol, "case {i}: {what} {got:e} vs {want:e} (from {before:e}; tol {tol:e})");
+        }
+        if e.slip_work != input.slip_work {
+            slipped += 1;
+        }
+        if e.dashpot_work != input.dashpot_work {
+            damped += 1;
+        }
     }
+    // The random cases reach every branch of the bookkeeping.
+    assert!(slipped > cases / 10 && damped > cases / 10, "{slipped} slips, {damped} dashpot steps of {cases}");
     // Branches decided within round-off of their threshold (|Fs| at the Coulomb limit, Fn at the
     // cohesion): none in f64, under 1% in f32.
     let allowed = if f32_kernel { cases / 100 } else { 0 };
     assert!(branch_flips <= allowed, "{branch_flips} of {cases} cases differ");
+}
+
+const MASS_DAMPING: &str = r#"
+@group(0) @binding(8) var<storage, read> d_in: array<real>;
+@group(0) @binding(9) var<storage, read_write> d_out: array<real>;
+
+@compute @workgroup_size(64)
+fn test_mass_damping_work(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= arrayLength(&d_out)) {
+        return;
+    }
+    let m = 10u * i;
+    let v0 = vec3<real>(d_in[m + 2u], d_in[m + 3u], d_in[m + 4u]);
+    let v1 = vec3<real>(d_in[m + 5u], d_in[m + 6u], d_in[m + 7u]);
+    d_out[i] = mass_damping_work(d_in[m], d_in[m + 1u], v0, v1, d_in[m + 8u], d_in[m + 9u]);
+}
+"#;
+
+fn mass_damping_work_matches_rust<R: Real>(dev: &GpuDevice) {
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut rng = Rng(0x5eed_0000_0000_0004);
+    let cases = 4096;
+    let (mut input, mut expected) = (Vec::new(), Vec::new());
+    for _ in 0..cases {
+        // Masses 1 kg – 1e6 kg, inertias of blocks 0.1–10 m across, velocities up to 10 m/s
+        // (and rad/s) of either sign, α up to 100 /s, Δt 1e-6 – 1e-2 s.
+        let mass = q::<R>(10f64.powf(rng.range(0.0, 6.0)));
+        let inertia = q::<R>(mass * 10f64.powf(rng.range(-2.0, 2.0)));
+        let mut v = || q::<R>(rng.range(-10.0, 10.0));
+        let (v0, v1) = ([v(), v(), v()], [v(), v(), v()]);
+        let alpha = q::<R>(rng.range(0.0, 100.0));
+        let dt = q::<R>(10f64.powf(rng.range(-6.0, -2.0)));
+        input.extend([mass, inertia, v0[0], v0[1], v0[2], v1[0], v1[1], v1[2], alpha, dt]);
+        expected.push(blockdem::cpu::law_of_motion::mass_damping_work(mass, inertia, v0, v1, alpha, dt));
+    }
+    let out = run_kernel(dev, "law_of_motion", MASS_DAMPING, "test_mass_damping_work", cases, &[(8, reals::<R>(&input), false), (9, vec![0; cases * std::mem::size_of::<R>()], true)]);
+    let got = back::<R>(&out[0]);
+    for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+        // A sum of non-negative terms, each a product of a few rounded factors: relative error a
+        // few ulps — f32 2⁻²⁴ ≈ 6e-8 per operation, ~10 operations: 1e-6; f64: 1e-14. The mean
+        // velocity ½(v0 + v1) may cancel; its rounding is relative to |v0| + |v1| (the scale
+        // term below).
+        let rel = if f32_kernel { 1e-6 } else { 1e-14 };
+        let k = &input[10 * i..10 * i + 10];
+        let scale = k[8] * k[9] * (k[0] * ((k[2].abs() + k[5].abs()).powi(2) + (k[3].abs() + k[6].abs()).powi(2)) + k[1] * (k[4].abs() + k[7].abs()).powi(2));
+        assert!((g - e).abs() <= rel * scale, "case {i}: {g:e} vs {e:e}");
+    }
+}
+
+const TWO_SUM: &str = r#"
+@group(0) @binding(8) var<storage, read> t_in: array<real>;
+@group(0) @binding(9) var<storage, read_write> t_out: array<real>;
+@group(0) @binding(10) var<storage, read> t_one: array<real>;
+
+@compute @workgroup_size(64)
+fn test_two_sum(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (2u * i >= arrayLength(&t_in)) {
+        return;
+    }
+    let s = two_sum(t_in[2u * i], t_in[2u * i + 1u], t_one[0]);
+    t_out[2u * i] = s.x;
+    t_out[2u * i + 1u] = s.y;
+}
+"#;
+
+/// Knuth's TwoSum in the kernel precision (Rust does not rewrite floating point): the exact
+/// rounding error of a + b.
+fn two_sum_rust<R: Real + std::ops::Add<Output = R> + std::ops::Sub<Output = R>>(a: R, b: R) -> (R, R) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
+fn two_sum_is_exact<R: Real + std::ops::Add<Output = R> + std::ops::Sub<Output = R>>(dev: &GpuDevice) {
+    let mut rng = Rng(0x5eed_0000_0000_0005);
+    let cases = 4096;
+    let mut input = Vec::new();
+    for _ in 0..cases {
+        // A coordinate of 1–1e4 m and a step of 1e-9–1e-3 m of either sign (the position update
+        // of law_of_motion), and now and then the other way round.
+        let sign = |x: f64, r: &mut Rng| if r.next() < 0.5 { -x } else { x };
+        let a = sign(rng.range(1.0, 1e4), &mut rng);
+        let b = sign(10f64.powf(rng.range(-9.0, -3.0)), &mut rng);
+        if rng.next() < 0.1 {
+            input.extend([q::<R>(b), q::<R>(a)]);
+        } else {
+            input.extend([q::<R>(a), q::<R>(b)]);
+        }
+    }
+    let out = run_kernel(
+        dev,
+        "contact_forces",
+        TWO_SUM,
+        "test_two_sum",
+        cases,
+        &[(8, reals::<R>(&input), false), (9, vec![0; cases * 2 * std::mem::size_of::<R>()], true), (10, reals::<R>(&[1.0]), false)],
+    );
+    let got = back::<R>(&out[0]);
+    for i in 0..cases {
+        // Exact: sum and error bit for bit, and together a + b (the error is not lost, as it was
+        // when the compiler folded it to 0).
+        let (s, e) = two_sum_rust(R::from_f64(input[2 * i]), R::from_f64(input[2 * i + 1]));
+        assert!(got[2 * i] == s.to_f64() && got[2 * i + 1] == e.to_f64(), "{} + {}: ({}, {}) vs ({:?}, {:?})", input[2 * i], input[2 * i + 1], got[2 * i], got[2 * i + 1], s, e);
+    }
+    assert!((0..cases).filter(|&i| got[2 * i + 1] != 0.0).count() > cases / 2, "most sums round");
 }
 
 const SIN_COS: &str = r#"
@@ -396,7 +558,7 @@ fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_0003);
     let cases = 4096;
     let thetas: Vec<f64> = (0..cases).map(|i| q::<R>(if i % 2 == 0 { rng.range(-0.5, 0.5) } else { rng.range(-100.0, 100.0) })).collect();
-    let out = run_kernel(dev, SIN_COS, "test_sin_cos", cases, &[(8, reals::<R>(&thetas), false), (9, vec![0; cases * 2 * std::mem::size_of::<R>()], true)]);
+    let out = run_kernel(dev, "contact_forces", SIN_COS, "test_sin_cos", cases, &[(8, reals::<R>(&thetas), false), (9, vec![0; cases * 2 * std::mem::size_of::<R>()], true)]);
     let got = back::<R>(&out[0]);
     for (i, &t) in thetas.iter().enumerate() {
         let (s, c) = t.sin_cos();
@@ -434,5 +596,7 @@ macro_rules! on_adapters {
 on_adapters!(
     track_feature_and_counts_force => track_feature_matches_rust,
     contact_force_law => contact_force_law_matches_rust,
+    mass_damping_work => mass_damping_work_matches_rust,
     sin_cos => sin_cos_matches_rust,
+    two_sum => two_sum_is_exact,
 );

@@ -1,16 +1,27 @@
 //! The verification suite through the library API: every closed-form check of `blockdem verify
-//! --quick` passes on every backend of this build, the energy ledger balances, and the stable-FRAC
-//! estimate is safe against the measured threshold of instability.
+//! --quick` passes on every backend of this build (the CPU and every GPU adapter and precision
+//! present), the energy ledger balances, and the stable-FRAC estimate is safe against the
+//! measured threshold of instability.
+
+mod common;
 
 use blockdem::verify::{self, cases, VerifyOptions};
+
+/// The cases that report an energy balance (the ledger's 1% check).
+const LEDGER_CASES: [&str; 4] = ["slide", "bounce_dashpot", "vibration_mass", "column"];
 
 #[test]
 fn quick_suite_passes_every_check() {
     let suite = verify::run_suite(&VerifyOptions { quick: true, out: None, only: None });
     let table = verify::table(&suite);
-    assert!(suite.checks().count() >= cases::all().len(), "{table}");
+    let backends = verify::backends();
+    assert_eq!(suite.checks().count(), cases::all().len() * backends.len(), "one check per case and backend\n{table}");
     for r in suite.checks() {
         assert!(r.passed, "{} on {} {} failed: error {:?} (tolerance {}), energy balance {:?}, {:?}\n{table}", r.case, r.backend, r.precision, r.error, r.tolerance, r.energy_balance, r.failure);
+        // The ledger balances on the GPU rows too: their kernels book every dissipation term.
+        if LEDGER_CASES.contains(&r.case) {
+            assert!(r.energy_balance.is_some_and(|e| e < verify::ENERGY_TOLERANCE), "{} on {}: energy balance {:?}\n{table}", r.case, r.backend_name(), r.energy_balance);
+        }
     }
     for t in &suite.stability {
         assert!(t.passed, "stable-FRAC estimate of {}: {} against a measured threshold {}\n{table}", t.scene, t.estimate, t.measured);
@@ -19,11 +30,36 @@ fn quick_suite_passes_every_check() {
 }
 
 #[test]
+fn verify_runs_on_every_gpu_target_of_the_scenario_suite() {
+    // One list of GPU targets for the scenario tests and the suite (`gpu::scenario_backends`): each
+    // target the scenario tests find (Vulkan f32 and f64, GL f32; a failure under
+    // BLOCKDEM_REQUIRE_GPU=1 when absent) is a row of `blockdem verify`.
+    let backends = verify::backends();
+    assert_eq!((backends[0].label.as_str(), backends[0].precision.as_str(), backends[0].gpu), ("cpu", "f64", false));
+    for (api, precision) in common::GPU_TARGETS {
+        if common::Target::gpu(api, precision).is_none() {
+            continue;
+        }
+        let p = precision.to_string();
+        assert!(
+            backends.iter().any(|b| b.gpu && b.label.starts_with(&format!("{api} (")) && b.precision == p),
+            "no {api} {p} row among {:?}",
+            backends.iter().map(|b| b.name()).collect::<Vec<_>>()
+        );
+    }
+    // Mesa's software adapters carry their driver's name.
+    for b in backends.iter().filter(|b| b.gpu) {
+        assert!(!b.label.contains("llvmpipe") || b.label == "gl (llvmpipe)", "{}", b.label);
+        assert!(!b.label.starts_with("vulkan (llvmpipe"), "{}: Mesa's Vulkan driver is lavapipe", b.label);
+    }
+}
+
+#[test]
 fn energy_ledger_balances_within_one_percent_on_the_closed_form_scenes() {
     // E_kin + E_strain + W_damping + W_friction = E_0 + W_external (issue 4, item 3).
     let backends = verify::backends();
     for case in cases::all() {
-        if !["slide", "bounce_dashpot", "vibration_mass", "column"].contains(&case.name) {
+        if !LEDGER_CASES.contains(&case.name) {
             continue;
         }
         let row = verify::run_case(&case, &backends[0], verify::CHECK_FRAC);

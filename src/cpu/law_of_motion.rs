@@ -34,12 +34,8 @@ pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) 
     let vy = (block.velocity[1] * con1 + block.force[1] * inv_m * dt) * con2;
     let w = (block.angular_velocity * con1 + block.moment / block.inertia * dt) * con2;
     let (dx, dy, dtheta) = (vx * dt, vy * dt, w * dt);
-    // Energy taken by the damping force: the scheme above is v⁺ − v⁻ = (F/m − α·v̄)Δt with
-    // v̄ = (v⁺ + v⁻)/2, so ½m(v⁺² − v⁻²) = F·v̄Δt − α·m·v̄²Δt exactly; the last term is the
-    // dissipation of this step.
     if alpha > 0.0 {
-        let (mx, my, mw) = (0.5 * (vx + block.velocity[0]), 0.5 * (vy + block.velocity[1]), 0.5 * (w + block.angular_velocity));
-        block.damping_work += alpha * dt * (block.mass * (mx * mx + my * my) + block.inertia * mw * mw);
+        block.damping_work += mass_damping_work(block.mass, block.inertia, [block.velocity[0], block.velocity[1], block.angular_velocity], [vx, vy, w], alpha, dt);
     }
     block.velocity = [vx, vy];
     block.angular_velocity = w;
@@ -55,4 +51,15 @@ pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) 
     let fx = block.mass * gravity[0] + block.load[0];
     let fy = block.mass * gravity[1] + block.load[1];
     StepOutcome { external_work: fx * dx + fy * dy, corner_travel }
+}
+
+/// Energy the mass-proportional damping force takes from a block in one step, from its velocities
+/// (vx, vy, ω) before (`v0`, at t − Δt/2) and after (`v1`, at t + Δt/2). The scheme above is
+/// v⁺ − v⁻ = (F/m − α·v̄)Δt with v̄ = (v⁺ + v⁻)/2, so ½m(v⁺² − v⁻²) = F·v̄Δt − α·m·v̄²Δt exactly:
+/// the last term (and its rotational twin with I) is the dissipation. WGSL twin:
+/// `mass_damping_work` in law_of_motion.wgsl.
+#[inline]
+pub fn mass_damping_work(mass: f64, inertia: f64, v0: [f64; 3], v1: [f64; 3], alpha: f64, dt: f64) -> f64 {
+    let (mx, my, mw) = (0.5 * (v0[0] + v1[0]), 0.5 * (v0[1] + v1[1]), 0.5 * (v0[2] + v1[2]));
+    alpha * dt * (mass * (mx * mx + my * my) + inertia * mw * mw)
 }

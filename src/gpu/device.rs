@@ -18,6 +18,17 @@ pub enum AdapterChoice {
     Any,
     /// The first adapter whose name contains this text (case-insensitive).
     Name(String),
+    /// The first adapter of one graphics API whose name contains this text: one adapter exactly
+    /// (Mesa's software Vulkan and GL adapters share the name "llvmpipe"), as the suites pick
+    /// each adapter they find (`gpu::scenario_backends`).
+    OnApi(GpuApi, String),
+}
+
+/// The graphics APIs the GPU backend runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuApi {
+    Vulkan,
+    Gl,
 }
 
 impl std::str::FromStr for AdapterChoice {
@@ -44,7 +55,8 @@ fn backends_for(choice: &AdapterChoice) -> wgpu::Backends {
     let base = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN | wgpu::Backends::GL);
     match choice {
         AdapterChoice::Vulkan => base & wgpu::Backends::VULKAN,
-        AdapterChoice::Gl => base & wgpu::Backends::GL,
+        AdapterChoice::Gl | AdapterChoice::OnApi(GpuApi::Gl, _) => base & wgpu::Backends::GL,
+        AdapterChoice::OnApi(GpuApi::Vulkan, _) => base & wgpu::Backends::VULKAN,
         _ => base,
     }
 }
@@ -159,7 +171,7 @@ impl GpuDevice {
             .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS))
             .collect();
         let wanted_name = match choice {
-            AdapterChoice::Name(n) => Some(n.to_lowercase()),
+            AdapterChoice::Name(n) | AdapterChoice::OnApi(_, n) => Some(n.to_lowercase()),
             AdapterChoice::Any => std::env::var("WGPU_ADAPTER_NAME").ok().map(|n| n.to_lowercase()),
             _ => None,
         };

@@ -75,7 +75,7 @@ pub struct StructLayout {
 }
 
 gpu_struct! {
-    /// One rigid block: 108 bytes in f32, 200 in f64. The centroid is kept relative to the run's
+    /// One rigid block: 112 bytes in f32, 208 in f64. The centroid is kept relative to the run's
     /// origin as a compensated pair (`cx + cx_lo`), so that small increments added to a large
     /// coordinate are not lost in f32 (Kahan summation, law_of_motion.wgsl).
     Block {
@@ -85,6 +85,9 @@ gpu_struct! {
         inertia: R, load_x: R, load_y: R, radius: R,
         /// Work of gravity and load on this block since the block buffer was uploaded.
         work: R,
+        /// Energy taken by the mass-proportional damping since the block buffer was uploaded
+        /// (`Block::damping_work` counts from its value then; summed in f64 on the CPU).
+        damping_work: R,
         /// Largest net displacement since the last contact update (`Block::moved_since_update`),
         /// then the reference centroid (compensated pair) and rotation it is measured from.
         moved: R, update_cx: R, update_cy: R, update_cx_lo: R, update_cy_lo: R, update_rotation: R,
@@ -105,10 +108,16 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One contact: 64 bytes in f32, 104 in f64. The point is relative to block 2's centroid.
+    /// One contact: 80 bytes in f32, 136 in f64. The point is relative to block 2's centroid.
     Contact {
         px: R, py: R, nx: R, ny: R, gap: R,
         normal_force: R, shear_force: R, shear_displacement: R, fx: R, fy: R,
+        /// Friction and dashpot dissipation since the contact buffer was uploaded
+        /// (`Contact::slip_work`, `Contact::dashpot_work` count from their values then).
+        slip_work: R, dashpot_work: R,
+        /// `Contact::dashpot_velocity`: the normal and shear velocities the dashpots acted on in
+        /// the last step (state, uploaded and read back as is).
+        dashpot_vn: R, dashpot_vs: R,
         block1: u32, corner: u32, block2: u32, feature: u32,
         /// Index into the material table (0-based, as `Model::material` maps it).
         material: u32,
@@ -131,7 +140,9 @@ gpu_struct! {
         fast_limit: R,
         /// Overlap beyond which the run stops (½ ROUND).
         overlap_limit: R,
-        n_blocks: u32, n_corners: u32, n_contacts: u32, _pad: u32,
+        n_blocks: u32, n_corners: u32, n_contacts: u32,
+        /// Always 1: a one whose value the shader compiler cannot see, for `two_sum`.
+        one: u32,
     }
 }
 

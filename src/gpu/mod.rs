@@ -5,6 +5,8 @@
 //! - `layout`: the Pod structs of the GPU state, twins of `shaders/common.wgsl`.
 //! - `shaders`: the WGSL prelude (the one precision alias) and naga validation.
 //! - `kernels`: `Pipelines` (one per entry point) and `Buffers`.
+//! - `targets`: every adapter and precision present, the GPU rows of the scenario tests and of
+//!   `blockdem verify`.
 //!
 //! ## How a run goes
 //!
@@ -21,6 +23,16 @@
 //! only what changed: contacts and adjacency after a contact update (plus the reset update
 //! distances of the re-examined blocks); everything after a crack split a block.
 //!
+//! ## The energy ledger
+//!
+//! The kernels book every term of `Model::energies()` with the CPU's formulas: external work and
+//! mass-damping work per block (`law_of_motion`), slip and dashpot work per contact
+//! (`contact_forces`, with the dashpot velocities carried to the next step). Each accumulates from
+//! zero since its buffer was uploaded, in the kernel's `real`; the CPU adds the f64 value of the
+//! model at upload on every read-back. So an f32 sum runs only between two uploads of one element,
+//! and the model keeps the terms across contact updates (they live on the contacts the topology
+//! stage matches by corner and block) and re-uploads.
+//!
 //! ## Precision
 //!
 //! f32 by default; f64 where the adapter has `SHADER_F64` (lavapipe does), by one alias in the
@@ -36,13 +48,15 @@ pub mod device;
 pub mod kernels;
 pub mod layout;
 pub mod shaders;
+pub mod targets;
 
 use crate::backend::{Backend, CycleError, CycleReport};
 use crate::cpu;
 use crate::model::{ContactKind, Model, MAX_MATERIALS};
 use crate::topology::Adjacency;
 
-pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuDevice};
+pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
+pub use targets::{find_target, scenario_backends, GpuTarget};
 use kernels::{Buffers, Pipelines};
 use layout::{Block, Contact, Corner, Flags, Material, Params, Real};
 
@@ -158,6 +172,12 @@ struct Engine<R: Real> {
     /// `Model::external_work` when the block buffer was last uploaded (its `work` fields count
     /// from there).
     work_base: f64,
+    /// Each block's `damping_work` when the block buffer was last uploaded, and each contact's
+    /// `slip_work` and `dashpot_work` when the contact buffer was: the GPU accumulates from zero
+    /// in its `real` (a short sum per element, so f32 keeps its digits) and the CPU adds these
+    /// f64 bases back on read-back.
+    damping_base: Vec<f64>,
+    contact_base: Vec<[f64; 2]>,
     /// The block buffer as last read back (to see which update distances stage 7 reset).
     last_blocks: Vec<Block<R>>,
     counts: (usize, usize, usize),
@@ -176,7 +196,18 @@ where
     Params<R>: bytemuck::Pod,
 {
     fn new(dev: GpuDevice, pipelines: Pipelines) -> Self {
-        Engine { dev, pipelines, buffers: None, bind_group: None, origin: [0.0, 0.0], work_base: 0.0, last_blocks: Vec::new(), counts: (0, 0, 0) }
+        Engine {
+            dev,
+            pipelines,
+            buffers: None,
+            bind_group: None,
+            origin: [0.0, 0.0],
+            work_base: 0.0,
+            damping_base: Vec::new(),
+            contact_base: Vec::new(),
+            last_blocks: Vec::new(),
+            counts: (0, 0, 0),
+        }
     }
 
     fn buffers(&self) -> &Buffers {
@@ -196,6 +227,10 @@ where
             shear_displacement: r(c.shear_displacement),
             fx: r(c.force[0]),
             fy: r(c.force[1]),
+            slip_work: R::default(),
+            dashpot_work: R::default(),
+            dashpot_vn: r(c.dashpot_velocity[0]),
+            dashpot_vs: r(c.dashpot_velocity[1]),
             block1: c.block1,
             corner: c.corner,
             block2: c.block2,
@@ -221,6 +256,7 @@ where
             self.origin = [(0.5 * (lo[0] + hi[0])).round(), (0.5 * (lo[1] + hi[1])).round()];
         }
         self.work_base = model.external_work;
+        self.damping_base = model.blocks.iter().map(|b| b.damping_work).collect();
         let blocks: Vec<Block<R>> = model
             .blocks
             .iter()
@@ -247,6 +283,7 @@ where
                     load_y: r(b.load[1]),
                     radius: r(b.radius),
                     work: R::default(),
+                    damping_work: R::default(),
                     moved: r(b.moved_since_update),
                     update_cx: ux,
                     update_cy: uy,
@@ -316,6 +353,9 @@ where
     /// Uploads contacts and adjacency (after stage 7 changed them).
     fn upload_contacts(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
         let contacts: Vec<Contact<R>> = model.contacts.iter().map(|c| Self::gpu_contact(model, c)).collect();
+        // The contact update kept each surviving contact's ledger terms in the model (matched by
+        // corner and block, with their feature ids): they are the new bases.
+        self.contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
         let b = self.buffers.as_mut().expect("buffers exist");
         let d = &self.dev;
         let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
@@ -350,7 +390,7 @@ where
             n_blocks: self.counts.0 as u32,
             n_corners: self.counts.1 as u32,
             n_contacts: self.counts.2 as u32,
-            _pad: 0,
+            one: 1,
         };
         self.dev.queue.write_buffer(&self.buffers().params, 0, bytemuck::bytes_of(&params));
     }
@@ -405,7 +445,7 @@ where
     fn read_blocks(&mut self, model: &mut Model) -> Result<(), GpuError> {
         let blocks: Vec<Block<R>> = self.read(&self.buffers().blocks.buffer, self.counts.0)?;
         let mut work = 0.0;
-        for (m, g) in model.blocks.iter_mut().zip(&blocks) {
+        for ((m, g), base) in model.blocks.iter_mut().zip(&blocks).zip(&self.damping_base) {
             m.centroid = [self.origin[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), self.origin[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
             m.rotation = g.rotation.to_f64();
             m.velocity = [g.vx.to_f64(), g.vy.to_f64()];
@@ -415,6 +455,7 @@ where
             m.moved_since_update = g.moved.to_f64();
             m.update_centroid = [self.origin[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), self.origin[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
             m.update_rotation = g.update_rotation.to_f64();
+            m.damping_work = base + g.damping_work.to_f64();
             work += g.work.to_f64();
         }
         model.external_work = self.work_base + work;
@@ -434,7 +475,7 @@ where
             m.edge_length = g.len.to_f64();
         }
         let contacts: Vec<Contact<R>> = self.read(&self.buffers().contacts.buffer, self.counts.2)?;
-        for (m, g) in model.contacts.iter_mut().zip(&contacts) {
+        for ((m, g), base) in model.contacts.iter_mut().zip(&contacts).zip(&self.contact_base) {
             let c2 = model.blocks[m.block2 as usize].centroid;
             m.point = [c2[0] + g.px.to_f64(), c2[1] + g.py.to_f64()];
             m.normal = [g.nx.to_f64(), g.ny.to_f64()];
@@ -443,6 +484,9 @@ where
             m.shear_force = g.shear_force.to_f64();
             m.shear_displacement = g.shear_displacement.to_f64();
             m.force = [g.fx.to_f64(), g.fy.to_f64()];
+            m.slip_work = base[0] + g.slip_work.to_f64();
+            m.dashpot_work = base[1] + g.dashpot_work.to_f64();
+            m.dashpot_velocity = [g.dashpot_vn.to_f64(), g.dashpot_vs.to_f64()];
             m.feature = g.feature;
             m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
             m.bonded = g.bonded != 0;

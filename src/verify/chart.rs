@@ -66,20 +66,71 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-/// Series of the suite: one per (case, backend, precision), rows in FRACTION order.
-fn series(suite: &Suite) -> Vec<(String, Vec<&Row>)> {
-    let mut out: Vec<(String, Vec<&Row>)> = Vec::new();
+/// One line of a chart: a case on a backend (backend + precision), rows in FRACTION order.
+struct Series<'a> {
+    /// Index of the case (its colour) and of the backend (its marker and dash).
+    case: usize,
+    backend: usize,
+    rows: Vec<&'a Row>,
+}
+
+/// Cases and backends in suite order, and one series per (case, backend) pair.
+fn series(suite: &Suite) -> (Vec<&'static str>, Vec<String>, Vec<Series<'_>>) {
+    let (mut cases, mut backends): (Vec<&'static str>, Vec<String>) = (Vec::new(), Vec::new());
+    let mut out: Vec<Series> = Vec::new();
     for r in &suite.rows {
-        let key = format!("{} ({} {})", r.case, r.backend, r.precision);
-        match out.iter_mut().find(|(k, _)| *k == key) {
-            Some((_, v)) => v.push(r),
-            None => out.push((key, vec![r])),
+        let be = r.backend_name();
+        let c = cases.iter().position(|c| *c == r.case).unwrap_or_else(|| {
+            cases.push(r.case);
+            cases.len() - 1
+        });
+        let b = backends.iter().position(|b| *b == be).unwrap_or_else(|| {
+            backends.push(be);
+            backends.len() - 1
+        });
+        match out.iter_mut().find(|s| s.case == c && s.backend == b) {
+            Some(s) => s.rows.push(r),
+            None => out.push(Series { case: c, backend: b, rows: vec![r] }),
         }
     }
-    for (_, v) in &mut out {
-        v.sort_by(|a, b| a.frac.total_cmp(&b.frac));
+    for s in &mut out {
+        s.rows.sort_by(|a, b| a.frac.total_cmp(&b.frac));
     }
-    out
+    (cases, backends, out)
+}
+
+/// How a backend's series look: the CPU solid with circles, each GPU row its own dash and marker,
+/// so that one colour (the case) compares the backends.
+#[derive(Clone, Copy)]
+enum Look {
+    Circle,
+    Triangle,
+    HollowCircle,
+    HollowTriangle,
+}
+
+const LOOKS: [Look; 4] = [Look::Circle, Look::Triangle, Look::HollowCircle, Look::HollowTriangle];
+
+impl Look {
+    /// The marker at `p` (data or pixel coordinates).
+    fn marker<DB: DrawingBackend, C: Clone + 'static>(self, p: C, color: RGBColor) -> DynElement<'static, DB, C> {
+        match self {
+            Look::Circle => Circle::new(p, 3, color.filled()).into_dyn(),
+            Look::Triangle => TriangleMarker::new(p, 5, color.filled()).into_dyn(),
+            Look::HollowCircle => Circle::new(p, 4, color.stroke_width(2)).into_dyn(),
+            Look::HollowTriangle => TriangleMarker::new(p, 7, color.stroke_width(1)).into_dyn(),
+        }
+    }
+
+    /// Dash length and gap in pixels (None: a solid line).
+    fn dash(self) -> Option<(u32, u32)> {
+        match self {
+            Look::Circle => None,
+            Look::Triangle => Some((8, 5)),
+            Look::HollowCircle => Some((3, 4)),
+            Look::HollowTriangle => Some((12, 4)),
+        }
+    }
 }
 
 type Panel<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
@@ -114,22 +165,46 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
         .map_err(|x| e(&x))?
         .label("numerical failure (x)")
         .legend(|(x, y)| Cross::new((x + 9, y), 5, RED.stroke_width(2)));
-    for (i, (name, rows)) in series(suite).into_iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
+    let (cases, backends, lines) = series(suite);
+    for line in &lines {
+        let color = PALETTE[line.case % PALETTE.len()];
+        let look = LOOKS[line.backend % LOOKS.len()];
+        let rows = &line.rows;
         let ok: Vec<(f64, f64)> = rows.iter().filter_map(|r| normalized(r).map(|y| (x_of(r), y))).filter(|(x, _)| x.is_finite() && *x > 0.0).collect();
-        chart
-            .draw_series(LineSeries::new(ok.clone(), color.stroke_width(2)))
-            .map_err(|x| e(&x))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
-        chart.draw_series(ok.iter().map(|&p| Circle::new(p, 3, color.filled()))).map_err(|x| e(&x))?;
+        let style = color.stroke_width(2);
+        match look.dash() {
+            None => chart.draw_series(LineSeries::new(ok.clone(), style)).map(|_| ()),
+            Some((dash, gap)) => chart.draw_series(DashedLineSeries::new(ok.clone(), dash, gap, style)).map(|_| ()),
+        }
+        .map_err(|x| e(&x))?;
+        chart.draw_series(ok.iter().map(|&p| look.marker(p, color))).map_err(|x| e(&x))?;
         // The check FRACTION gets a ring, the numerical failures a cross on the failure line.
         chart
-            .draw_series(rows.iter().filter(|r| (r.frac - CHECK_FRAC).abs() < 1e-12).filter_map(|r| normalized(r).map(|y| Circle::new((x_of(r), y), 7, color.stroke_width(2)))))
+            .draw_series(rows.iter().filter(|r| (r.frac - CHECK_FRAC).abs() < 1e-12).filter_map(|r| normalized(r).map(|y| Circle::new((x_of(r), y), 8, color.stroke_width(1)))))
             .map_err(|x| e(&x))?;
         chart
             .draw_series(rows.iter().filter(|r| r.error.is_none()).map(|r| Cross::new((x_of(r).max(x0 * 1.01), FAILED_AT), 6, color.stroke_width(2))))
             .map_err(|x| e(&x))?;
+    }
+    // The legend: a colour per case, a line style and marker per backend (precision included).
+    for (i, case) in cases.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        chart
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+            .map_err(|x| e(&x))?
+            .label(*case)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(3)));
+    }
+    for (i, backend) in backends.iter().enumerate() {
+        let look = LOOKS[i % LOOKS.len()];
+        let grey = RGBColor(60, 60, 60);
+        chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(|x| e(&x))?.label(backend.as_str()).legend(move |(x, y)| {
+            let line: DynElement<_, (i32, i32)> = match look.dash() {
+                None => PathElement::new(vec![(x, y), (x + 18, y)], grey.stroke_width(2)).into_dyn(),
+                Some((dash, gap)) => plotters::element::DashedPathElement::new(vec![(x, y), (x + 18, y)].into_iter(), dash as i32 / 2, gap as i32 / 2, grey.stroke_width(2)).into_dyn(),
+            };
+            EmptyElement::at((0, 0)) + line + look.marker((x + 9, y), grey)
+        });
     }
     if legend {
         chart

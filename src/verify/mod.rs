@@ -31,24 +31,68 @@ pub const CHECK_FRAC: f64 = 0.1;
 /// FRACTIONs of the accuracy-against-speed sweep.
 pub const QUICK_FRACS: &[f64] = &[0.05, 0.1, 0.2, 0.4, 0.7, 1.0];
 pub const FULL_FRACS: &[f64] = &[0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0];
+/// FRACTIONs of the quick suite on the GPU rows: the check FRACTION only. Mesa's software
+/// adapters, which CI has, take ~1 ms a cycle (five dispatches), against ~1 µs on the CPU for
+/// these few-block scenes, so the quick sweep would cost minutes per adapter; the full suite
+/// sweeps every FRACTION on every backend.
+pub const QUICK_FRACS_GPU: &[f64] = &[CHECK_FRAC];
 
 /// One backend the suite runs on: a label, its precision, and a factory (a fresh backend per run).
 pub struct BackendEntry {
     pub label: String,
     pub precision: String,
+    /// A GPU adapter (the quick suite runs fewer FRACTIONs there, [`QUICK_FRACS_GPU`]).
+    pub gpu: bool,
     pub make: Box<dyn Fn() -> Box<dyn Backend>>,
 }
 
 impl BackendEntry {
     pub fn new(label: &str, precision: &str, make: impl Fn() -> Box<dyn Backend> + 'static) -> Self {
-        BackendEntry { label: label.to_string(), precision: precision.to_string(), make: Box::new(make) }
+        BackendEntry { label: label.to_string(), precision: precision.to_string(), gpu: false, make: Box::new(make) }
+    }
+
+    /// "cpu f64", "vulkan (lavapipe) f32": how tables and charts name the backend.
+    pub fn name(&self) -> String {
+        format!("{} {}", self.label, self.precision)
+    }
+
+    /// Single-precision kernels: the cases' f32 tolerances apply.
+    pub fn is_f32(&self) -> bool {
+        self.precision == "f32"
     }
 }
 
-/// The backends of this build. The GPU rows join here, one line per adapter and precision, e.g.
-/// `v.push(BackendEntry::new("gpu", "f32", || Box::new(GpuBackend::new(..))))`.
+/// The backends of this build: the CPU (f64), then one entry per GPU adapter and precision
+/// present (`gpu::scenario_backends`, the list the scenario tests run on too): with Mesa's
+/// software adapters, "vulkan (lavapipe)" f32 and f64 and "gl (llvmpipe)" f32.
 pub fn backends() -> Vec<BackendEntry> {
-    vec![BackendEntry::new("cpu", "f64", || Box::new(CpuBackend::new()))]
+    let mut v = vec![BackendEntry::new("cpu", "f64", || Box::new(CpuBackend::new()))];
+    for target in crate::gpu::scenario_backends() {
+        let (label, precision) = (target.label(), target.precision().to_string());
+        let mut entry = BackendEntry::new(&label, &precision, move || -> Box<dyn Backend> {
+            match target.backend() {
+                Ok(b) => Box::new(b),
+                Err(e) => Box::new(Unavailable(e.to_string())),
+            }
+        });
+        entry.gpu = true;
+        v.push(entry);
+    }
+    v
+}
+
+/// A backend that could not be opened: every run fails with why, so the rows say it (a failed
+/// row, never a panic or a silent skip).
+struct Unavailable(String);
+
+impl Backend for Unavailable {
+    fn describe(&self) -> String {
+        format!("unavailable ({})", self.0)
+    }
+
+    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64)) -> Result<crate::backend::CycleReport, crate::backend::CycleError> {
+        Err(crate::backend::CycleError::Setup(self.0.clone()))
+    }
 }
 
 /// What a suite run covers.
@@ -129,6 +173,8 @@ pub struct Suite {
     pub stability: Vec<stability::Threshold>,
     pub extremes: Vec<stability::ExtremeLimit>,
     pub wall_s: f64,
+    /// Run as `--quick` (fewer FRACTIONs; the GPU rows at the check FRACTION only).
+    pub quick: bool,
 }
 
 impl Suite {
@@ -143,21 +189,30 @@ impl Suite {
     }
 }
 
-/// Runs the suite: every case × backend × FRACTION, then the stability measurements.
+/// The FRACTIONs a backend sweeps.
+pub fn fracs_for(backend: &BackendEntry, quick: bool) -> &'static [f64] {
+    match (quick, backend.gpu) {
+        (true, false) => QUICK_FRACS,
+        (true, true) => QUICK_FRACS_GPU,
+        (false, _) => FULL_FRACS,
+    }
+}
+
+/// Runs the suite: every case × backend × FRACTION, then the stability measurements (in the quick
+/// suite on the CPU only, in the full suite on every backend).
 pub fn run_suite(options: &VerifyOptions) -> Suite {
     let start = Instant::now();
-    let fracs = if options.quick { QUICK_FRACS } else { FULL_FRACS };
-    let mut suite = Suite::default();
+    let mut suite = Suite { quick: options.quick, ..Suite::default() };
     for backend in backends() {
         for case in cases::all() {
             if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
                 continue;
             }
-            for &frac in fracs {
+            for &frac in fracs_for(&backend, options.quick) {
                 suite.rows.push(run_case(&case, &backend, frac));
             }
         }
-        if options.only.is_none() {
+        if options.only.is_none() && !(options.quick && backend.gpu) {
             suite.stability.extend(stability::thresholds(&backend, options.quick));
             suite.extremes.extend(stability::extreme_limits(&backend, options.quick));
         }
@@ -265,21 +320,30 @@ fn fmt_err(e: Option<f64>) -> String {
     e.map_or_else(|| "FAILED".to_string(), |e| format!("{e:.3e}"))
 }
 
+impl Row {
+    /// "cpu f64", "vulkan (lavapipe) f32".
+    pub fn backend_name(&self) -> String {
+        format!("{} {}", self.backend, self.precision)
+    }
+}
+
 /// The table `blockdem verify` prints.
 pub fn table(suite: &Suite) -> String {
     let mut s = String::new();
+    // The backend column fits the longest name ("vulkan (lavapipe) f32").
+    let w = suite.rows.iter().map(|r| r.backend_name().chars().count()).chain(suite.stability.iter().map(|t| t.backend.chars().count())).max().unwrap_or(7).max(7);
     let _ = writeln!(s, "CLOSED-FORM CHECKS (FRAC {CHECK_FRAC})");
     let _ = writeln!(
         s,
-        "{:<16} {:<9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>11}  {:<6} detail",
+        "{:<16} {:<w$} {:>10} {:>10} {:>10} {:>9} {:>9} {:>11}  {:<6} detail",
         "case", "backend", "error", "tolerance", "energy", "wall s", "cycles", "cycles/s", "result"
     );
     for r in suite.checks() {
         let _ = writeln!(
             s,
-            "{:<16} {:<9} {:>10} {:>10.1e} {:>10} {:>9.4} {:>9} {:>11.3e}  {:<6} {}",
+            "{:<16} {:<w$} {:>10} {:>10.1e} {:>10} {:>9.4} {:>9} {:>11.3e}  {:<6} {}",
             r.case,
-            format!("{} {}", r.backend, r.precision),
+            r.backend_name(),
             fmt_err(r.error),
             r.tolerance,
             r.energy_balance.map_or("-".to_string(), |e| format!("{e:.2e}")),
@@ -290,24 +354,28 @@ pub fn table(suite: &Suite) -> String {
             r.failure.as_deref().unwrap_or(&r.detail)
         );
     }
-    let _ = writeln!(s, "\nACCURACY AGAINST SPEED (error / tolerance; FAILED = the run stopped with a numerical error)");
+    let _ = writeln!(
+        s,
+        "\nACCURACY AGAINST SPEED (error / tolerance; FAILED = the run stopped with a numerical error{})",
+        if suite.quick && suite.rows.iter().any(|r| r.backend != "cpu") { "; --quick runs the GPU rows at the check FRACTION only" } else { "" }
+    );
     let mut fracs: Vec<f64> = suite.rows.iter().map(|r| r.frac).collect();
     fracs.sort_by(f64::total_cmp);
     fracs.dedup();
-    let _ = write!(s, "{:<16} {:<9}", "case", "backend");
+    let _ = write!(s, "{:<16} {:<w$}", "case", "backend");
     for f in &fracs {
         let _ = write!(s, " {:>9}", format!("F={f}"));
     }
     let _ = writeln!(s);
-    let mut keys: Vec<(&str, String)> = suite.rows.iter().map(|r| (r.case, format!("{} {}", r.backend, r.precision))).collect();
+    let mut keys: Vec<(&str, String)> = suite.rows.iter().map(|r| (r.case, r.backend_name())).collect();
     keys.dedup();
     for (case, be) in keys {
-        let _ = write!(s, "{case:<16} {be:<9}");
+        let _ = write!(s, "{case:<16} {be:<w$}");
         for f in &fracs {
             let cell = suite
                 .rows
                 .iter()
-                .find(|r| r.case == case && format!("{} {}", r.backend, r.precision) == be && r.frac == *f)
+                .find(|r| r.case == case && r.backend_name() == be && r.frac == *f)
                 .map_or(String::new(), |r| r.error.map_or("FAILED".into(), |e| format!("{:.2e}", e / r.tolerance.max(1e-300))));
             let _ = write!(s, " {cell:>9}");
         }
@@ -315,11 +383,11 @@ pub fn table(suite: &Suite) -> String {
     }
     if !suite.stability.is_empty() {
         let _ = writeln!(s, "\nSTABLE FRACTION: estimate (stable_frac_estimate) against the measured threshold of instability");
-        let _ = writeln!(s, "{:<22} {:<9} {:>9} {:>9} {:>7}  {:<6} first failure above", "scene", "backend", "estimate", "measured", "ratio", "result");
+        let _ = writeln!(s, "{:<22} {:<w$} {:>9} {:>9} {:>7}  {:<6} first failure above", "scene", "backend", "estimate", "measured", "ratio", "result");
         for t in &suite.stability {
             let _ = writeln!(
                 s,
-                "{:<22} {:<9} {:>9.3} {:>9.3} {:>7.2}  {:<6} {}",
+                "{:<22} {:<w$} {:>9.3} {:>9.3} {:>7.2}  {:<6} {}",
                 t.scene,
                 t.backend,
                 t.estimate,
@@ -333,7 +401,7 @@ pub fn table(suite: &Suite) -> String {
     if !suite.extremes.is_empty() {
         let _ = writeln!(s, "\nEXTREME RATIOS: largest value at which the check still passes (within the values tried)");
         for x in &suite.extremes {
-            let _ = writeln!(s, "{:<26} {:<9} limit {:>9.1e}   tried: {}", x.what, x.backend, x.limit, x.tried);
+            let _ = writeln!(s, "{:<26} {:<w$} limit {:>9.1e}   tried: {}", x.what, x.backend, x.limit, x.tried);
         }
     }
     let _ = writeln!(s, "\nsuite wall time {:.1} s", suite.wall_s);

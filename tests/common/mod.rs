@@ -1,13 +1,18 @@
 //! One scenario suite, every backend (STYLE.md item 8): each scene is written once as a function
 //! taking a `Target`, and `every_backend!` generates one test per scene and backend — CPU (f64),
-//! Vulkan f32, Vulkan f64, GL f32. On a machine without that adapter a GPU test prints that it
+//! Vulkan f32, Vulkan f64, GL f32 (the best adapter of each API). Whether a GPU target is there
+//! is decided by the library's `gpu::find_target`, the check behind `gpu::scenario_backends`
+//! (the rows of `blockdem verify`). On a machine without that adapter a GPU test prints that it
 //! skipped; with `BLOCKDEM_REQUIRE_GPU=1` (CI, where Mesa's lavapipe and llvmpipe are installed)
 //! it fails instead.
 #![allow(dead_code)]
 
 use blockdem::backend::Backend;
 use blockdem::cpu::CpuBackend;
-use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use blockdem::gpu::{find_target, AdapterChoice, GpuBackend, GpuOptions, Precision};
+
+/// The GPU targets of `every_backend!` (its modules `vulkan_f32`, `vulkan_f64`, `gl_f32`).
+pub const GPU_TARGETS: [(&str, Precision); 3] = [("vulkan", Precision::F32), ("vulkan", Precision::F64), ("gl", Precision::F32)];
 
 /// Where a scene runs.
 #[derive(Clone, Debug)]
@@ -21,9 +26,8 @@ impl Target {
     /// `BLOCKDEM_REQUIRE_GPU=1`).
     pub fn gpu(adapter: &str, precision: Precision) -> Option<Target> {
         let choice: AdapterChoice = adapter.parse().unwrap();
-        let found = list_adapters(&choice).into_iter().any(|a| a.compute && (precision == Precision::F32 || a.shader_f64));
-        if found {
-            return Some(Target::Gpu(GpuOptions { adapter: choice, precision }));
+        if let Some(found) = find_target(&choice, precision) {
+            return Some(Target::Gpu(found.options));
         }
         let what = format!("no {adapter} adapter with compute shaders{}", if precision == Precision::F64 { " and SHADER_F64" } else { "" });
         if std::env::var("BLOCKDEM_REQUIRE_GPU").is_ok_and(|v| v == "1") {

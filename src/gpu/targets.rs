@@ -1,0 +1,101 @@
+//! The GPU configurations a suite runs on (STYLE.md item 8): every adapter with compute shaders
+//! that wgpu finds, in f32 and, where it has `SHADER_F64`, in f64. One list for the scenario
+//! tests (tests/common) and for `blockdem verify`, so both cover the same backends. On a machine
+//! with Mesa's software adapters only, that is Vulkan (lavapipe) f32 and f64 and GL (llvmpipe)
+//! f32.
+
+use super::device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi};
+use super::{GpuBackend, GpuError, GpuOptions, Precision};
+
+/// One adapter in one precision.
+#[derive(Clone, Debug)]
+pub struct GpuTarget {
+    /// Options that open exactly this adapter.
+    pub options: GpuOptions,
+    pub adapter: AdapterSummary,
+}
+
+impl GpuTarget {
+    /// "vulkan (lavapipe)", "gl (llvmpipe)", "vulkan (NVIDIA GeForce RTX 4090)": the API and the
+    /// adapter's name without its parenthesised details. Mesa's software Vulkan driver, lavapipe,
+    /// names its device "llvmpipe" like the GL one; the label uses the driver's own name.
+    pub fn label(&self) -> String {
+        let a = &self.adapter;
+        let api = a.backend.to_lowercase();
+        let mut name = a.name.split(" (").next().unwrap_or(&a.name).trim().to_string();
+        if api == "vulkan" && name == "llvmpipe" {
+            name = "lavapipe".into();
+        }
+        format!("{api} ({name})")
+    }
+
+    pub fn precision(&self) -> Precision {
+        self.options.precision
+    }
+
+    /// A fresh backend on this adapter.
+    pub fn backend(&self) -> Result<GpuBackend, GpuError> {
+        GpuBackend::new(&self.options)
+    }
+}
+
+fn api_of(a: &AdapterSummary) -> Option<GpuApi> {
+    match a.backend.as_str() {
+        "Vulkan" => Some(GpuApi::Vulkan),
+        "Gl" => Some(GpuApi::Gl),
+        _ => None,
+    }
+}
+
+/// The adapter `choice` opens in `precision`, when it is there: an adapter with compute shaders,
+/// and `SHADER_F64` for f64 (the checks `GpuDevice::open` makes, without opening a device).
+pub fn find_target(choice: &AdapterChoice, precision: Precision) -> Option<GpuTarget> {
+    let mut found: Vec<AdapterSummary> = list_adapters(choice).into_iter().filter(|a| a.compute && (precision == Precision::F32 || a.shader_f64)).collect();
+    let wanted = match choice {
+        AdapterChoice::Name(n) | AdapterChoice::OnApi(_, n) => Some(n.to_lowercase()),
+        AdapterChoice::Any => std::env::var("WGPU_ADAPTER_NAME").ok().map(|n| n.to_lowercase()),
+        _ => None,
+    };
+    if let Some(n) = wanted {
+        found.retain(|a| a.name.to_lowercase().contains(&n));
+    }
+    found.sort_by_key(rank);
+    let adapter = found.into_iter().next()?;
+    Some(GpuTarget { options: GpuOptions { adapter: choice.clone(), precision }, adapter })
+}
+
+/// Hardware before software, Vulkan before GL (the order `GpuDevice::open` ranks adapters in).
+fn rank(a: &AdapterSummary) -> (u8, u8) {
+    let kind = match a.device_type.as_str() {
+        "DiscreteGpu" => 0,
+        "IntegratedGpu" => 1,
+        "VirtualGpu" => 2,
+        "Cpu" => 4,
+        _ => 3,
+    };
+    (kind, u8::from(a.backend != "Vulkan"))
+}
+
+/// Every GPU target present, in the order hardware before software, Vulkan before GL, f32 before
+/// f64: each adapter with compute shaders on Vulkan or GL, in f32, and in f64 where it has
+/// `SHADER_F64`. Each target's options name its API and adapter, so it opens that one adapter.
+pub fn scenario_backends() -> Vec<GpuTarget> {
+    let mut adapters: Vec<AdapterSummary> = list_adapters(&AdapterChoice::Any).into_iter().filter(|a| a.compute && api_of(a).is_some()).collect();
+    adapters.sort_by_key(rank);
+    let mut out = Vec::new();
+    let mut seen: Vec<(String, String)> = Vec::new();
+    for a in adapters {
+        // One entry per API and name: the options pick an adapter by those two (a driver may
+        // list one device twice, and two equal cards are one configuration).
+        if seen.contains(&(a.backend.clone(), a.name.clone())) {
+            continue;
+        }
+        seen.push((a.backend.clone(), a.name.clone()));
+        let api = api_of(&a).expect("filtered above");
+        let precisions: &[Precision] = if a.shader_f64 { &[Precision::F32, Precision::F64] } else { &[Precision::F32] };
+        for &precision in precisions {
+            out.push(GpuTarget { options: GpuOptions { adapter: AdapterChoice::OnApi(api, a.name.clone()), precision }, adapter: a.clone() });
+        }
+    }
+    out
+}
