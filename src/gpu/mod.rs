@@ -35,6 +35,7 @@
 pub mod device;
 pub mod kernels;
 pub mod layout;
+pub mod profile;
 pub mod shaders;
 
 use crate::backend::{Backend, CycleError, CycleReport};
@@ -207,6 +208,7 @@ where
 
     /// Uploads the whole model (start of a run, or after a crack split a block).
     fn upload_all(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Upload);
         // Origin: the middle of the model, rounded to a whole unit, only for f32 (f64 has digits
         // to spare and keeps the CPU's coordinates exactly).
         self.origin = [0.0, 0.0];
@@ -315,6 +317,7 @@ where
 
     /// Uploads contacts and adjacency (after stage 7 changed them).
     fn upload_contacts(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let contacts: Vec<Contact<R>> = model.contacts.iter().map(|c| Self::gpu_contact(model, c)).collect();
         let b = self.buffers.as_mut().expect("buffers exist");
         let d = &self.dev;
@@ -358,6 +361,7 @@ where
     /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) in one submission; returns the
     /// flags. With `gather_only`, runs stage 6 alone (the force sums after a topology change).
     fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
         let b = self.buffers();
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
         self.dev.queue.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
@@ -403,6 +407,7 @@ where
 
     /// Reads the block state back into the model.
     fn read_blocks(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Download);
         let blocks: Vec<Block<R>> = self.read(&self.buffers().blocks.buffer, self.counts.0)?;
         let mut work = 0.0;
         for (m, g) in model.blocks.iter_mut().zip(&blocks) {
@@ -424,6 +429,7 @@ where
 
     /// Reads blocks, corners and contacts back into the model.
     fn readback(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Download);
         self.read_blocks(model)?;
         let corners: Vec<Corner<R>> = self.read(&self.buffers().corners.buffer, self.counts.1)?;
         for (m, g) in model.corners.iter_mut().zip(&corners) {
@@ -454,6 +460,7 @@ where
     /// reference set to where they are now (one contiguous write of six fields each, copied from
     /// the GPU's own values so the reference is exact).
     fn upload_reset_distances(&self, model: &Model) {
+        let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let size = std::mem::size_of::<Block<R>>() as u64;
         let offset = std::mem::offset_of!(Block<R>, moved) as u64;
         for (i, (m, g)) in model.blocks.iter().zip(&self.last_blocks).enumerate() {
@@ -518,6 +525,7 @@ where
         self.write_params(model);
         self.run_batch(1, true).map_err(device_error)?;
         self.readback(model).map_err(device_error)?;
+        crate::profile::mark_cycles_start();
         let mut energy_check = cpu::EnergyCheck::new(model);
         let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
         let mut last_good = model.clone();
@@ -574,6 +582,7 @@ where
                     self.read_blocks(model).map_err(device_error)?;
                 }
                 if at_check {
+                    let _p = crate::profile::scope(crate::profile::Stage::Checks);
                     energy_check.check(model)?;
                     last_good.clone_from(model);
                     progress(done_total);
