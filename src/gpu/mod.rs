@@ -530,13 +530,18 @@ where
         let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
         let mut last_good = model.clone();
         let mut done_total = 0u64;
+        // Cycles per submission: up to the next energy check, fewer while contact updates halt
+        // batches early. A halted batch still dispatches the passes of its remaining cycles (they
+        // exit at once), and on a software adapter each costs about a real pass's launch.
+        let mut batch_cap = cpu::CHECK_INTERVAL;
         let result = (|| -> Result<(), CycleError> {
             while done_total < cycles {
                 let left = cycles - done_total;
-                let batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left) };
+                let batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left).min(batch_cap) };
                 self.write_params(model);
                 let flags = self.run_batch(batch, false).map_err(device_error)?;
                 let done = flags.cycles_done as u64;
+                batch_cap = if done < batch { (2 * done).max(1) } else { (2 * batch_cap).min(cpu::CHECK_INTERVAL) };
                 for _ in 0..done {
                     model.time += model.timestep;
                 }
