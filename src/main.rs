@@ -100,6 +100,10 @@ enum Cmd {
         /// adapters, 10^6 on hardware GPUs, 10^4 with --quick.
         #[arg(long)]
         max_blocks: Option<usize>,
+        /// Nominal sizes of the scaling family, comma-separated (default 1000,10000,100000,1000000;
+        /// those above --max-blocks are left out).
+        #[arg(long, value_delimiter = ',')]
+        sizes: Option<Vec<usize>>,
         /// Simulated seconds of the settle scene (default 2, 0.1 with --quick).
         #[arg(long)]
         settle_time: Option<f64>,
@@ -136,6 +140,7 @@ fn bench(
     adapter: String,
     precision: Option<PrecisionChoice>,
     max_blocks: Option<usize>,
+    sizes: Option<Vec<usize>>,
     settle_time: Option<f64>,
     impact_time: Option<f64>,
     frac: Option<f64>,
@@ -154,6 +159,9 @@ fn bench(
     options.impact = matches!(scene, BenchScene::Impact | BenchScene::All);
     options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
     options.max_blocks = max_blocks;
+    if let Some(sizes) = sizes {
+        options.sizes = sizes;
+    }
     options.verbose = true;
     if let Some(t) = settle_time {
         options.settle_time = t;
@@ -281,8 +289,8 @@ fn main() -> ExitCode {
         Cmd::Run { deck, backend, adapter, precision, out, state_json } => run(deck, backend, adapter, precision, out, state_json),
         Cmd::Adapters => adapters(),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
-        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, settle_time, impact_time, frac } => {
-            bench(quick, out, scene, backend, adapter, precision, max_blocks, settle_time, impact_time, frac)
+        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac } => {
+            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac)
         }
     };
     match result {
