@@ -3,7 +3,8 @@
 //!
 //! - Stage times: with `TIMESTAMP_QUERY` (requested at device set-up when the adapter has it) each
 //!   stage's compute pass of a normal cycle writes a timestamp at its start and end; without it,
-//!   each stage is dispatched alone, many times in one submission, and timed on the host. Either
+//!   each stage is dispatched alone, many times in one submission, and timed on the host
+//!   (`BLOCKDEM_STAGE_TIMING=isolated` asks for this even where timestamps exist). Either
 //!   way this runs on the state the last `run` left on the device and changes it; the next `run`
 //!   uploads the whole model again, so nothing leaks into a simulation.
 //! - Copy bandwidth: a large `copy_buffer_to_buffer`, repeated until it takes a measurable time;
@@ -94,6 +95,12 @@ pub fn copy_bandwidth(dev: &GpuDevice) -> Result<f64, GpuError> {
     Ok(best)
 }
 
+/// `BLOCKDEM_STAGE_TIMING=isolated` asks for isolated dispatches even where timestamps exist (to
+/// compare the two methods on one adapter).
+fn isolated_asked() -> bool {
+    std::env::var("BLOCKDEM_STAGE_TIMING").is_ok_and(|v| v.eq_ignore_ascii_case("isolated"))
+}
+
 type StageList<'a> = Vec<(&'static str, &'a wgpu::ComputePipeline, u32)>;
 
 impl<R: Real> Engine<R>
@@ -126,7 +133,7 @@ where
         let dev = &self.dev;
         let stages = self.stage_list();
         dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
-        let timestamps = dev.device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let timestamps = dev.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked();
         let mut sums = vec![0.0f64; stages.len()];
         if timestamps {
             let period_s = dev.queue.get_timestamp_period() as f64 * 1e-9;
@@ -202,7 +209,7 @@ impl GpuBackend {
 
     /// Whether the device writes pass timestamps (stage times are then measured inside cycles).
     pub fn has_timestamps(&self) -> bool {
-        self.device().device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+        self.device().device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked()
     }
 
     /// The device time of each kernel stage over `cycles` cycles (or dispatches), on the state the
