@@ -1,26 +1,27 @@
-//! Throughput of the CPU cycle on a brick wall in running bond resting on a fixed ground block
-//! (the scene of `blockdem::scenes::brick_wall_deck`), at about 10³ and 10⁴ blocks.
-//! Reports block-cycles/s and contact-cycles/s (criterion's "elements/s" of each group).
-//! Each iteration is one `Backend::run` of 50 cycles, including the full contact detection every
-//! run starts with — what one CYCLE 50 command costs a user.
+//! Throughput of the CPU cycle on the walls of `blockdem bench` (25 rows of 1 × 0.5 m bricks in
+//! running bond on a fixed ground block, `blockdem::bench::scene::scaling_wall`) at about 10³ and
+//! 10⁴ blocks. Reports block-cycles/s and contact-cycles/s (criterion's "elements/s" of each
+//! group). Each iteration is one `Backend::run` of 50 cycles, including the full contact
+//! detection every run starts with — what one CYCLE 50 command costs a user.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 
 use blockdem::backend::Backend;
+use blockdem::bench::scene::{scaling_wall, FRAC};
 use blockdem::cpu::CpuBackend;
-use blockdem::scenes::{brick_wall_deck, run_deck_on};
+use blockdem::scenes::run_deck_on;
 
 const CYCLES: u64 = 50;
 
-fn wall(rows: usize, bricks: usize) -> blockdem::model::Model {
-    // Settle briefly so the contacts carry load, as in a real run.
-    let deck = brick_wall_deck(rows, bricks, 1.0, 0.5, 1e9, 0.6) + "CYCLE 10\n";
+/// The wall of about `n` blocks, settled for 10 cycles so that its contacts carry load.
+fn wall(n: usize) -> blockdem::model::Model {
+    let deck = scaling_wall(n, FRAC).deck() + "CYCLE 10\n";
     run_deck_on(&deck, Box::new(CpuBackend::new())).expect("wall builds")
 }
 
 fn bench_cycle(c: &mut Criterion) {
-    for (rows, bricks) in [(25usize, 40usize), (50, 200)] {
-        let model = wall(rows, bricks);
+    for n in [1_000, 10_000] {
+        let model = wall(n);
         let (nb, nc) = (model.blocks.len() as u64, model.contacts.len() as u64);
         for (what, elements) in [("block-cycles", nb), ("contact-cycles", nc)] {
             let mut group = c.benchmark_group(format!("cpu_cycle/{what}"));

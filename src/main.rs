@@ -74,6 +74,121 @@ enum Cmd {
         #[arg(long)]
         only: Option<String>,
     },
+    /// Throughput on brick walls of 10^3 to 10^6 blocks and the reference wall (settle, impact)
+    /// on every backend, adapter and precision present: a table of rates, stage times, roofline
+    /// ratios and the targets; bench.csv, bench.json and bench.png (and more CSV) in --out.
+    Bench {
+        /// A short run (well under a minute): shortened reference scenes, walls up to 10^4 blocks.
+        #[arg(long)]
+        quick: bool,
+        /// Folder for the CSV, JSON and PNG files.
+        #[arg(long, default_value = "bench-out")]
+        out: PathBuf,
+        /// Which scenes: the reference settle or impact, the scaling family, or all.
+        #[arg(long, value_enum, default_value_t = BenchScene::All)]
+        scene: BenchScene,
+        /// Which backends: all present, the CPU, or the GPU adapters.
+        #[arg(long, value_enum, default_value_t = BenchBackends::All)]
+        backend: BenchBackends,
+        /// GPU adapters: any (every adapter found), vulkan, gl, or part of an adapter's name.
+        #[arg(long, default_value = "any")]
+        adapter: String,
+        /// GPU precisions: both where the adapter has f64, or one.
+        #[arg(long, value_enum)]
+        precision: Option<PrecisionChoice>,
+        /// Largest wall of the scaling family (blocks). Default: 10^5 on the CPU and software
+        /// adapters, 10^6 on hardware GPUs, 10^4 with --quick.
+        #[arg(long)]
+        max_blocks: Option<usize>,
+        /// Nominal sizes of the scaling family, comma-separated (default 1000,10000,100000,1000000;
+        /// those above --max-blocks are left out).
+        #[arg(long, value_delimiter = ',')]
+        sizes: Option<Vec<usize>>,
+        /// Simulated seconds of the settle scene (default 2, 0.1 with --quick).
+        #[arg(long)]
+        settle_time: Option<f64>,
+        /// Simulated seconds of the impact scene (default 1, 0.1 with --quick).
+        #[arg(long)]
+        impact_time: Option<f64>,
+        /// FRACTION of the time step for every scene (default UDEC's 0.1).
+        #[arg(long)]
+        frac: Option<f64>,
+    },
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum BenchScene {
+    Settle,
+    Impact,
+    Scaling,
+    All,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum BenchBackends {
+    All,
+    Cpu,
+    Gpu,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn bench(
+    quick: bool,
+    out: PathBuf,
+    scene: BenchScene,
+    backend: BenchBackends,
+    adapter: String,
+    precision: Option<PrecisionChoice>,
+    max_blocks: Option<usize>,
+    sizes: Option<Vec<usize>>,
+    settle_time: Option<f64>,
+    impact_time: Option<f64>,
+    frac: Option<f64>,
+) -> anyhow::Result<()> {
+    let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
+    let precision = precision.map(|p| match p {
+        PrecisionChoice::F32 => Precision::F32,
+        PrecisionChoice::F64 => Precision::F64,
+    });
+    let specs = blockdem::bench::present_backends(backend != BenchBackends::Gpu, backend != BenchBackends::Cpu, &choice, precision);
+    if specs.is_empty() {
+        bail!("no backend to benchmark: no GPU adapter found for --adapter {adapter}");
+    }
+    let mut options = blockdem::bench::BenchOptions::new(quick, specs);
+    options.settle = matches!(scene, BenchScene::Settle | BenchScene::All);
+    options.impact = matches!(scene, BenchScene::Impact | BenchScene::All);
+    options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
+    options.max_blocks = max_blocks;
+    if let Some(sizes) = sizes {
+        options.sizes = sizes;
+    }
+    options.verbose = true;
+    if let Some(t) = settle_time {
+        options.settle_time = t;
+    }
+    if let Some(t) = impact_time {
+        options.impact_time = t;
+    }
+    if let Some(f) = frac {
+        if !(f > 0.0 && f.is_finite()) {
+            bail!("--frac must be positive");
+        }
+        options.frac = f;
+    }
+    let report = blockdem::bench::run(&options);
+    print!("{}", blockdem::bench::table(&report));
+    let (files, chart_problem) = blockdem::bench::write_outputs(&report, &out).with_context(|| format!("cannot write into {}", out.display()))?;
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    if let Some(p) = chart_problem {
+        eprintln!("blockdem: chart not drawn: {p}");
+    }
+    let failed: Vec<String> = report.reference.iter().filter_map(|r| r.error.as_ref().map(|e| format!("{} on {}: {e}", r.scene, r.backend))).collect();
+    if !failed.is_empty() {
+        bail!("reference scene failed: {}", failed.join("; "));
+    }
+    Ok(())
 }
 
 fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()> {
@@ -174,6 +289,9 @@ fn main() -> ExitCode {
         Cmd::Run { deck, backend, adapter, precision, out, state_json } => run(deck, backend, adapter, precision, out, state_json),
         Cmd::Adapters => adapters(),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
+        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac } => {
+            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac)
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

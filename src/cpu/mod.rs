@@ -45,6 +45,7 @@ pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency
     if !force && !model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
         return false;
     }
+    let _p = crate::profile::scope(if force { crate::profile::Stage::DetectFull } else { crate::profile::Stage::DetectUpdate });
     // Contacts dropped while loaded take their energy terms to the ledger's retired account.
     let (created, dropped) = model.retire_energy_around(|m| topology::update_contacts(m, force));
     report.topology_updates += 1;
@@ -57,6 +58,7 @@ pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency
 /// Stages 4 and 6 for the whole model: contact kinematics and forces, then the gather.
 /// Returns the first overlap beyond the limit, if any.
 fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Result<(), CycleError> {
+    let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let damping = model.damping;
     let failure: Option<(usize, f64)>;
@@ -100,6 +102,7 @@ fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Res
 }
 
 fn gather_all(model: &mut Model, adjacency: &Adjacency) {
+    let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
     let Model { blocks, contacts, .. } = model;
     blocks.par_iter_mut().enumerate().with_min_len(PARALLEL_CHUNK).for_each(|(b, block)| gather::gather(b, block, contacts, adjacency, gravity));
@@ -113,6 +116,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError
     // own contiguous slice, so the blocks run in parallel and each result is what a serial loop
     // would give; the sums below are taken serially, so runs repeat bit for bit.
     let steps: Vec<law_of_motion::StepOutcome> = {
+        let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
         let Model { blocks, corners, .. } = &mut *model;
         let mut slices = Vec::with_capacity(blocks.len());
         let mut rest: &mut [Corner] = corners;
@@ -233,6 +237,7 @@ impl Backend for CpuBackend {
         // detection, then the force sums the first step needs.
         maybe_update_topology(model, &mut adjacency, &mut report, true);
         gather_all(model, &adjacency);
+        crate::profile::mark_cycles_start();
         let mut energy_check = EnergyCheck::new(model);
         let cracking = (0..model.blocks.len()).any(|b| topology::cracking::is_point_load_candidate(model, b));
         let mut last_good = model.clone();
@@ -262,6 +267,7 @@ impl Backend for CpuBackend {
             }
             report.cycles += 1;
             if (i + 1) % CHECK_INTERVAL == 0 || i + 1 == cycles {
+                let _p = crate::profile::scope(crate::profile::Stage::Checks);
                 if let Err(e) = energy_check.check(model) {
                     result = Err(e);
                     break;
@@ -283,6 +289,7 @@ impl Backend for CpuBackend {
 /// Checks every cracking candidate once and applies the cracks found. Returns whether any block
 /// cracked.
 pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut CycleReport) -> bool {
+    let _p = crate::profile::scope(crate::profile::Stage::Cracking);
     let mut found = Vec::new();
     for b in 0..model.blocks.len() {
         if topology::cracking::is_point_load_candidate(model, b) {

@@ -197,6 +197,8 @@ impl GpuDevice {
         if precision == Precision::F64 {
             features |= wgpu::Features::SHADER_F64;
         }
+        // Timestamp queries where the adapter has them: `blockdem bench` times each stage's pass.
+        features |= adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         // The adapter's own limits: the 256 MiB default buffer cap is too small for big scenes.
         let limits = adapter.limits();
         if limits.max_storage_buffers_per_shader_stage < 7 {

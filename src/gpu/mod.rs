@@ -47,6 +47,7 @@
 pub mod device;
 pub mod kernels;
 pub mod layout;
+pub mod profile;
 pub mod shaders;
 pub mod targets;
 
@@ -242,6 +243,7 @@ where
 
     /// Uploads the whole model (start of a run, or after a crack split a block).
     fn upload_all(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Upload);
         // Origin: the middle of the model, rounded to a whole unit, only for f32 (f64 has digits
         // to spare and keeps the CPU's coordinates exactly).
         self.origin = [0.0, 0.0];
@@ -352,6 +354,7 @@ where
 
     /// Uploads contacts and adjacency (after stage 7 changed them).
     fn upload_contacts(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let contacts: Vec<Contact<R>> = model.contacts.iter().map(|c| Self::gpu_contact(model, c)).collect();
         // The contact update kept each surviving contact's ledger terms in the model (matched by
         // corner and block, with their feature ids): they are the new bases.
@@ -398,6 +401,7 @@ where
     /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) in one submission; returns the
     /// flags. With `gather_only`, runs stage 6 alone (the force sums after a topology change).
     fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
         let b = self.buffers();
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
         self.dev.queue.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
@@ -443,6 +447,7 @@ where
 
     /// Reads the block state back into the model.
     fn read_blocks(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Download);
         let blocks: Vec<Block<R>> = self.read(&self.buffers().blocks.buffer, self.counts.0)?;
         let mut work = 0.0;
         for ((m, g), base) in model.blocks.iter_mut().zip(&blocks).zip(&self.damping_base) {
@@ -465,6 +470,7 @@ where
 
     /// Reads blocks, corners and contacts back into the model.
     fn readback(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Download);
         self.read_blocks(model)?;
         let corners: Vec<Corner<R>> = self.read(&self.buffers().corners.buffer, self.counts.1)?;
         for (m, g) in model.corners.iter_mut().zip(&corners) {
@@ -498,6 +504,7 @@ where
     /// reference set to where they are now (one contiguous write of six fields each, copied from
     /// the GPU's own values so the reference is exact).
     fn upload_reset_distances(&self, model: &Model) {
+        let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let size = std::mem::size_of::<Block<R>>() as u64;
         let offset = std::mem::offset_of!(Block<R>, moved) as u64;
         for (i, (m, g)) in model.blocks.iter().zip(&self.last_blocks).enumerate() {
@@ -562,17 +569,23 @@ where
         self.write_params(model);
         self.run_batch(1, true).map_err(device_error)?;
         self.readback(model).map_err(device_error)?;
+        crate::profile::mark_cycles_start();
         let mut energy_check = cpu::EnergyCheck::new(model);
         let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
         let mut last_good = model.clone();
         let mut done_total = 0u64;
+        // Cycles per submission: up to the next energy check, fewer while contact updates halt
+        // batches early. A halted batch still dispatches the passes of its remaining cycles (they
+        // exit at once), and on a software adapter each costs about a real pass's launch.
+        let mut batch_cap = cpu::CHECK_INTERVAL;
         let result = (|| -> Result<(), CycleError> {
             while done_total < cycles {
                 let left = cycles - done_total;
-                let batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left) };
+                let batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left).min(batch_cap) };
                 self.write_params(model);
                 let flags = self.run_batch(batch, false).map_err(device_error)?;
                 let done = flags.cycles_done as u64;
+                batch_cap = if done < batch { (2 * done).max(1) } else { (2 * batch_cap).min(cpu::CHECK_INTERVAL) };
                 for _ in 0..done {
                     model.time += model.timestep;
                 }
@@ -618,6 +631,7 @@ where
                     self.read_blocks(model).map_err(device_error)?;
                 }
                 if at_check {
+                    let _p = crate::profile::scope(crate::profile::Stage::Checks);
                     energy_check.check(model)?;
                     last_good.clone_from(model);
                     progress(done_total);

@@ -26,7 +26,7 @@ const FLOOR: f64 = 1e-4;
 /// Numerical failures are drawn on this line, above every finite point.
 const FAILED_AT: f64 = 1e3;
 
-fn ensure_font() -> Result<(), String> {
+pub(crate) fn ensure_font() -> Result<(), String> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
         let mut candidates: Vec<String> = Vec::new();
@@ -53,7 +53,7 @@ pub fn normalized(r: &Row) -> Option<f64> {
     r.error.map(|e| (e / r.tolerance.max(0.01)).max(FLOOR))
 }
 
-const PALETTE: [RGBColor; 10] = [
+pub(crate) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),

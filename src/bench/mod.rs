@@ -1,0 +1,604 @@
+//! `blockdem bench`: throughput of the explicit cycle on brick walls, on every backend, adapter and
+//! precision present (DESIGN.md §5), and the reference scene other engines are compared with.
+//!
+//! | file | what |
+//! |---|---|
+//! | [`scene`] | the reference wall (settle, impact), the decks in `examples/`, the scaling family, what is measured on the wall |
+//! | [`host`] | machine info, the host's copy bandwidth, the byte model of the CPU cycle |
+//! | [`report`] | the targets, the table, CSV and JSON |
+//! | [`chart`] | the PNG chart |
+//!
+//! ## What a scaling measurement is
+//!
+//! For each wall of about N blocks (25 rows, longer walls) and each backend: the wall is built
+//! (deck, full contact detection), settles 20 cycles (its contacts start unloaded), a short run
+//! calibrates the cost of a cycle, then one run of M cycles (M chosen so that it takes about
+//! `measure_s`) is timed with the stage profiler on ([`crate::profile`]). Every `Backend::run`
+//! begins with a full contact detection (and, on the GPU, an upload of the whole model): that
+//! set-up is reported apart (`setup_s`), and the rates are those of the cycles after it (the
+//! time from the backend's mark to the end of the run). On the GPU the kernels are then timed per
+//! stage on the same state (`gpu::profile`).
+
+pub mod chart;
+pub mod host;
+pub mod report;
+pub mod scene;
+
+use std::time::Instant;
+
+use crate::backend::{Backend, CycleError, CycleReport};
+use crate::cpu::CpuBackend;
+use crate::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use crate::model::Model;
+use crate::profile::{self, Stage, StageTimes};
+
+pub use report::{table, write_outputs};
+use scene::RefScene;
+
+/// Nominal wall sizes of the scaling family (blocks).
+pub const SIZES: &[usize] = &[1_000, 10_000, 100_000, 1_000_000];
+
+/// Cycles a wall settles before it is timed.
+const SETTLE_CYCLES: u64 = 20;
+
+/// Where a bench runs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BackendSpec {
+    Cpu,
+    Gpu(GpuOptions),
+}
+
+/// What a bench covers.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    pub quick: bool,
+    pub settle: bool,
+    pub impact: bool,
+    pub scaling: bool,
+    pub backends: Vec<BackendSpec>,
+    /// Largest wall of the scaling family; None: 10⁴ with `quick`, else 10⁵ on the CPU and
+    /// software adapters and 10⁶ on hardware GPUs.
+    pub max_blocks: Option<usize>,
+    /// Nominal sizes of the scaling family.
+    pub sizes: Vec<usize>,
+    /// Simulated time of the settle and impact scenes.
+    pub settle_time: f64,
+    pub impact_time: f64,
+    /// FRACTION of every scene.
+    pub frac: f64,
+    /// Wall time one scaling measurement aims at (seconds).
+    pub measure_s: f64,
+    /// Progress lines on stderr.
+    pub verbose: bool,
+}
+
+impl BenchOptions {
+    /// The full bench (or the quick one) on the given backends: every scene.
+    pub fn new(quick: bool, backends: Vec<BackendSpec>) -> Self {
+        BenchOptions {
+            quick,
+            settle: true,
+            impact: true,
+            scaling: true,
+            backends,
+            max_blocks: None,
+            sizes: SIZES.to_vec(),
+            settle_time: if quick { 0.1 } else { scene::SETTLE_TIME },
+            impact_time: if quick { 0.1 } else { scene::IMPACT_TIME },
+            frac: scene::FRAC,
+            measure_s: if quick { 0.25 } else { 1.5 },
+            verbose: false,
+        }
+    }
+}
+
+/// The backends present: the CPU (when `cpu`), and (when `gpu`) each GPU adapter `adapter`
+/// allows, in f32 and, where it has SHADER_F64, f64 (only `precision` when given).
+pub fn present_backends(cpu: bool, gpu: bool, adapter: &AdapterChoice, precision: Option<Precision>) -> Vec<BackendSpec> {
+    let mut out = Vec::new();
+    if cpu {
+        out.push(BackendSpec::Cpu);
+    }
+    if !gpu {
+        return out;
+    }
+    let found: Vec<_> = list_adapters(adapter).into_iter().filter(|a| a.compute).collect();
+    let mut choices: Vec<(AdapterChoice, bool)> = Vec::new();
+    match adapter {
+        AdapterChoice::Any => {
+            // The best adapter of each API; further adapters by name.
+            for (api, choice) in [("Vulkan", AdapterChoice::Vulkan), ("Gl", AdapterChoice::Gl)] {
+                let of_api: Vec<_> = found.iter().filter(|a| a.backend == api).collect();
+                if of_api.is_empty() {
+                    continue;
+                }
+                choices.push((choice, of_api.iter().any(|a| a.shader_f64)));
+                let first = &of_api[0].name;
+                for a in of_api.iter().skip(1).filter(|a| &a.name != first) {
+                    choices.push((AdapterChoice::Name(a.name.clone()), a.shader_f64));
+                }
+            }
+        }
+        other => {
+            if !found.is_empty() {
+                choices.push((other.clone(), found.iter().any(|a| a.shader_f64)));
+            }
+        }
+    }
+    for (choice, f64_ok) in choices {
+        for p in [Precision::F32, Precision::F64] {
+            if precision.is_some_and(|want| want != p) || (p == Precision::F64 && !f64_ok) {
+                continue;
+            }
+            let spec = BackendSpec::Gpu(GpuOptions { adapter: choice.clone(), precision: p });
+            if !out.contains(&spec) {
+                out.push(spec);
+            }
+        }
+    }
+    out
+}
+
+/// One backend of the bench as the report names it.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct BackendInfo {
+    /// Short name used in the tables and charts, e.g. `cpu f64`, `vulkan llvmpipe f32`.
+    pub label: String,
+    /// "cpu" or "gpu".
+    pub kind: String,
+    /// A CPU, or a GPU adapter that is a CPU emulation (Mesa's lavapipe / llvmpipe).
+    pub software: bool,
+    pub adapter: String,
+    pub api: String,
+    pub driver: String,
+    pub precision: String,
+    /// Copy bandwidth, bytes read + written per second (memcpy on the host for the CPU backend,
+    /// `copy_buffer_to_buffer` on a GPU adapter).
+    pub bandwidth_bytes_per_s: Option<f64>,
+    /// How stage times are measured.
+    pub stage_timing: String,
+    /// Largest nominal wall of the scaling family on this backend.
+    pub max_blocks: usize,
+    /// Why the backend could not be opened.
+    pub error: Option<String>,
+}
+
+/// One run of a reference scene.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ReferenceRow {
+    pub scene: String,
+    pub backend: String,
+    pub blocks: usize,
+    pub contacts: usize,
+    pub cycles: u64,
+    pub timestep: f64,
+    pub simulated_s: f64,
+    /// Wall time of the whole deck (parse, build, cycles).
+    pub wall_s: f64,
+    pub cycles_per_s: f64,
+    pub measures: Option<scene::WallMeasures>,
+    pub error: Option<String>,
+}
+
+/// Time of one stage per cycle.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct StageRow {
+    /// "host" (timed on the host during the run) or "device" (kernel times, `gpu::profile`).
+    pub source: String,
+    pub stage: String,
+    /// "cycle", "topology", "transfer", "check", "other" (host) or "kernel" (device).
+    pub group: String,
+    pub s_per_cycle: f64,
+    /// Bytes the stage must read + write per cycle (the byte model), where it has one.
+    pub bytes_per_cycle: Option<u64>,
+}
+
+/// One wall of the scaling family on one backend.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ScalingRow {
+    pub backend: String,
+    pub nominal: usize,
+    pub blocks: usize,
+    pub corners: usize,
+    pub contacts: usize,
+    /// Cycles timed.
+    pub cycles: u64,
+    /// Set-up of the timed run: full detection (and upload), seconds.
+    pub setup_s: f64,
+    /// The timed cycles after the set-up, seconds.
+    pub steady_s: f64,
+    pub s_per_cycle: f64,
+    pub s_per_block_cycle: f64,
+    pub block_cycles_per_s: f64,
+    pub contact_cycles_per_s: f64,
+    pub stages: Vec<StageRow>,
+    pub device_timing: Option<String>,
+    pub bytes_per_cycle: u64,
+    pub bandwidth_bytes_per_s: f64,
+    /// Achieved bytes per second (the byte model over the whole cycle time) over the bandwidth.
+    pub roofline: f64,
+    /// The same over the kernels' time only (GPU).
+    pub roofline_kernels: Option<f64>,
+    /// Shares of the cycle time (after set-up) spent in CPU topology work and in transfers.
+    pub topology_share: f64,
+    pub transfer_share: f64,
+    /// Share of the whole timed run, set-up included, spent in topology work and transfers.
+    pub run_topology_transfer_share: f64,
+    pub error: Option<String>,
+}
+
+/// A target of the issue next to what was measured.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct TargetRow {
+    pub target: String,
+    pub backend: String,
+    pub goal: String,
+    pub measured: String,
+    /// None: not measurable here (no hardware GPU, a shortened run, a size not reached).
+    pub met: Option<bool>,
+    pub note: String,
+}
+
+/// The options a report was made with (echoed in the JSON).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct OptionsEcho {
+    pub quick: bool,
+    pub scenes: Vec<String>,
+    pub sizes: Vec<usize>,
+    pub max_blocks: Option<usize>,
+    pub settle_time: f64,
+    pub impact_time: f64,
+    pub frac: f64,
+    pub round: f64,
+    pub measure_s: f64,
+}
+
+/// Everything a bench run measured.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct BenchReport {
+    pub machine: host::MachineInfo,
+    pub options: OptionsEcho,
+    pub backends: Vec<BackendInfo>,
+    pub reference: Vec<ReferenceRow>,
+    pub scaling: Vec<ScalingRow>,
+    pub targets: Vec<TargetRow>,
+}
+
+enum Engine {
+    Cpu(CpuBackend),
+    Gpu(Box<GpuBackend>),
+}
+
+impl Engine {
+    fn backend(&mut self) -> &mut dyn Backend {
+        match self {
+            Engine::Cpu(c) => c,
+            Engine::Gpu(g) => g.as_mut(),
+        }
+    }
+}
+
+/// A borrowed backend behind the `Backend` trait (the executor takes a box).
+struct Borrowed<'a>(&'a mut dyn Backend);
+
+impl Backend for Borrowed<'_> {
+    fn describe(&self) -> String {
+        self.0.describe()
+    }
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+        self.0.run(model, cycles, progress)
+    }
+}
+
+fn short_adapter_name(name: &str) -> String {
+    name.split_whitespace().next().unwrap_or("gpu").to_lowercase()
+}
+
+/// Opens a backend; its report entry either way.
+fn open(spec: &BackendSpec, opts: &BenchOptions) -> (BackendInfo, Option<Engine>) {
+    let default_max = |software: bool| opts.max_blocks.unwrap_or(if opts.quick { 10_000 } else if software { 100_000 } else { 1_000_000 });
+    match spec {
+        BackendSpec::Cpu => (
+            BackendInfo {
+                label: "cpu f64".into(),
+                kind: "cpu".into(),
+                software: true,
+                adapter: "CPU (rayon)".into(),
+                api: "-".into(),
+                driver: "-".into(),
+                precision: "f64".into(),
+                stage_timing: "host clock per stage".into(),
+                max_blocks: default_max(true),
+                ..Default::default()
+            },
+            Some(Engine::Cpu(CpuBackend::new())),
+        ),
+        BackendSpec::Gpu(o) => match GpuBackend::new(o) {
+            Ok(g) => {
+                let a = g.adapter().clone();
+                let software = a.device_type == "Cpu";
+                let info = BackendInfo {
+                    label: format!("{} {} {}", a.backend.to_lowercase(), short_adapter_name(&a.name), g.precision()),
+                    kind: "gpu".into(),
+                    software,
+                    adapter: a.name.clone(),
+                    api: a.backend.clone(),
+                    driver: format!("{} {}", a.driver, a.driver_info).trim().to_string(),
+                    precision: g.precision().to_string(),
+                    stage_timing: if g.has_timestamps() { "pass timestamps".into() } else { "isolated dispatches, host clock".into() },
+                    max_blocks: default_max(software),
+                    ..Default::default()
+                };
+                (info, Some(Engine::Gpu(Box::new(g))))
+            }
+            Err(e) => (
+                BackendInfo {
+                    label: format!("gpu {:?} {}", o.adapter, o.precision).to_lowercase(),
+                    kind: "gpu".into(),
+                    precision: o.precision.to_string(),
+                    error: Some(e.to_string()),
+                    ..Default::default()
+                },
+                None,
+            ),
+        },
+    }
+}
+
+/// Runs the bench.
+pub fn run(opts: &BenchOptions) -> BenchReport {
+    let began = Instant::now();
+    let say = |s: &str| {
+        if opts.verbose {
+            eprintln!("bench [{:6.1} s]: {s}", began.elapsed().as_secs_f64());
+        }
+    };
+    let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };
+    report.options = OptionsEcho {
+        quick: opts.quick,
+        scenes: [("settle", opts.settle), ("impact", opts.impact), ("scaling", opts.scaling)].iter().filter(|s| s.1).map(|s| s.0.to_string()).collect(),
+        sizes: opts.sizes.clone(),
+        max_blocks: opts.max_blocks,
+        settle_time: opts.settle_time,
+        impact_time: opts.impact_time,
+        frac: opts.frac,
+        round: scene::ROUND,
+        measure_s: opts.measure_s,
+    };
+    let mut engines: Vec<(usize, Engine)> = Vec::new();
+    let mut seen: Vec<String> = Vec::new();
+    for spec in &opts.backends {
+        let (mut info, engine) = open(spec, opts);
+        if seen.contains(&info.label) {
+            continue;
+        }
+        seen.push(info.label.clone());
+        if let Some(mut e) = engine {
+            if opts.scaling {
+                info.bandwidth_bytes_per_s = match &mut e {
+                    Engine::Cpu(_) => Some(host::host_copy_bandwidth()),
+                    Engine::Gpu(g) => g.copy_bandwidth().ok(),
+                };
+            }
+            say(&format!("{} opened ({}), copy bandwidth {:.1} GB/s", info.label, info.driver, info.bandwidth_bytes_per_s.unwrap_or(0.0) / 1e9));
+            engines.push((report.backends.len(), e));
+        } else {
+            say(&format!("{} not available: {}", info.label, info.error.as_deref().unwrap_or("")));
+        }
+        report.backends.push(info);
+    }
+
+    for (scene, wanted, time) in [(RefScene::Settle, opts.settle, opts.settle_time), (RefScene::Impact, opts.impact, opts.impact_time)] {
+        if !wanted {
+            continue;
+        }
+        for (i, engine) in engines.iter_mut() {
+            let label = report.backends[*i].label.clone();
+            say(&format!("{} ({time} s) on {label}", scene.name()));
+            let row = run_reference(scene, time, opts.frac, engine.backend(), &label);
+            if let Some(e) = &row.error {
+                say(&format!("  failed: {e}"));
+            }
+            report.reference.push(row);
+        }
+    }
+
+    if opts.scaling {
+        let largest = report.backends.iter().filter(|b| b.error.is_none()).map(|b| b.max_blocks).max().unwrap_or(0);
+        for &n in opts.sizes.iter().filter(|&&n| n <= largest) {
+            let wall = scene::scaling_wall(n, opts.frac);
+            say(&format!("scaling: building a wall of {} blocks", wall.brick_count() + 1));
+            if let Some(problem) = memory_problem(wall.brick_count() + 1) {
+                for (i, _) in engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks) {
+                    report.scaling.push(ScalingRow { backend: report.backends[*i].label.clone(), nominal: n, error: Some(problem.clone()), ..Default::default() });
+                }
+                continue;
+            }
+            let model0 = match crate::scenes::run_deck_on(&format!("{}CYCLE 0\n", wall.deck()), Box::new(CpuBackend::new())) {
+                Ok(m) => m,
+                Err(e) => {
+                    say(&format!("  the wall does not build: {e}"));
+                    continue;
+                }
+            };
+            for (i, engine) in engines.iter_mut() {
+                let info = &report.backends[*i];
+                if n > info.max_blocks {
+                    continue;
+                }
+                say(&format!("scaling: {} blocks on {}", model0.blocks.len(), info.label));
+                let row = measure_scaling(&model0, n, engine, info, opts);
+                match &row.error {
+                    Some(e) => say(&format!("  failed: {e}")),
+                    None => say(&format!("  {} cycles, {:.3e} block-cycles/s, {:.3e} contact-cycles/s", row.cycles, row.block_cycles_per_s, row.contact_cycles_per_s)),
+                }
+                report.scaling.push(row);
+            }
+        }
+    }
+    report.targets = report::targets(&report);
+    report
+}
+
+/// Why a wall of `blocks` blocks should not be built here, if it should not: the host model (and
+/// the checkpoint copy each backend keeps) must fit in the memory available.
+fn memory_problem(blocks: usize) -> Option<String> {
+    use crate::model::{Block, Contact, Corner};
+    // Per block: the block, 4 corners, about 8 contacts, ×3 (the model, the backend's last good
+    // state, the bench's pristine copy), plus the deck line.
+    let per_block = 3 * (std::mem::size_of::<Block>() + 4 * std::mem::size_of::<Corner>() + 8 * std::mem::size_of::<Contact>()) + 64;
+    let need = (blocks * per_block) as u64;
+    let available = host::memory_available()?;
+    (need > available / 10 * 7).then(|| format!("not enough memory: a wall of {blocks} blocks needs about {} MiB, {} MiB available", need >> 20, available >> 20))
+}
+
+/// Runs one reference scene on `backend`: the deck with its CYCLE command, timed whole.
+fn run_reference(scene: RefScene, time: f64, frac: f64, backend: &mut dyn Backend, label: &str) -> ReferenceRow {
+    let mut row = ReferenceRow { scene: scene.name().into(), backend: label.into(), simulated_s: time, ..Default::default() };
+    let body = scene::reference_body(scene, frac);
+    let wall = scene::reference_wall(frac);
+    let initial = match crate::scenes::run_deck_on(&body, Box::new(CpuBackend::new())) {
+        Ok(m) => m,
+        Err(e) => {
+            row.error = Some(e.to_string());
+            return row;
+        }
+    };
+    let (cycles, dt) = match scene::cycles_for(&body, time) {
+        Ok(c) => c,
+        Err(e) => {
+            row.error = Some(e.to_string());
+            return row;
+        }
+    };
+    row.cycles = cycles;
+    row.timestep = dt;
+    let deck = format!("{body}CYCLE {cycles}\n");
+    let start = Instant::now();
+    let result = crate::scenes::run_deck_logged(&deck, Box::new(Borrowed(backend)), Box::new(std::io::sink()));
+    row.wall_s = start.elapsed().as_secs_f64();
+    match result {
+        Ok(model) => {
+            row.blocks = model.blocks.len();
+            row.contacts = model.contacts.len();
+            row.cycles_per_s = cycles as f64 / row.wall_s;
+            row.measures = Some(scene::measure(&wall, &initial, &model));
+        }
+        Err(e) => row.error = Some(e.to_string()),
+    }
+    row
+}
+
+/// A run timed with the stage profiler on.
+struct Timed {
+    setup_s: f64,
+    steady_s: f64,
+    times: StageTimes,
+}
+
+fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Result<Timed, CycleError> {
+    profile::enable();
+    let start = Instant::now();
+    let result = backend.run(model, cycles, &mut |_| {});
+    let end = Instant::now();
+    let times = profile::take();
+    result?;
+    let mark = times.cycles_start.unwrap_or(start);
+    Ok(Timed { setup_s: (mark - start).as_secs_f64(), steady_s: (end - mark).as_secs_f64(), times })
+}
+
+fn measure_scaling(model0: &Model, nominal: usize, engine: &mut Engine, info: &BackendInfo, opts: &BenchOptions) -> ScalingRow {
+    let mut row = ScalingRow { backend: info.label.clone(), nominal, blocks: model0.blocks.len(), corners: model0.corners.len(), contacts: model0.contacts.len(), ..Default::default() };
+    let mut model = model0.clone();
+    let outcome = (|| -> Result<(), CycleError> {
+        let backend = engine.backend();
+        backend.run(&mut model, SETTLE_CYCLES, &mut |_| {})?;
+        let calibration = timed_run(backend, &mut model, 10)?;
+        let per_cycle = (calibration.steady_s / 10.0).max(1e-7);
+        let cycles = ((opts.measure_s / per_cycle).ceil() as u64).clamp(10, 1_000_000);
+        let run = timed_run(backend, &mut model, cycles)?;
+        fill_timing(&mut row, &model, cycles, &run, info);
+        Ok(())
+    })();
+    if let Err(e) = outcome {
+        row.error = Some(e.to_string());
+        return row;
+    }
+    match engine {
+        Engine::Cpu(_) => {
+            let bytes = host::cpu_bytes_per_cycle(row.blocks, row.corners, row.contacts);
+            for s in &mut row.stages {
+                if let Some(b) = bytes.iter().find(|b| b.stage == s.stage) {
+                    s.bytes_per_cycle = Some(b.read + b.written);
+                }
+            }
+            row.bytes_per_cycle = bytes.iter().map(|b| b.read + b.written).sum();
+        }
+        Engine::Gpu(g) => {
+            let bytes = g.bytes_per_cycle(row.blocks, row.corners, row.contacts, model.materials.len());
+            row.bytes_per_cycle = bytes.iter().map(|b| b.read + b.written).sum();
+            // Kernel times on the state the run left (a fraction of the measurement's time).
+            let reps = ((0.2 * opts.measure_s / row.s_per_cycle.max(1e-7)) as u32).clamp(3, 400);
+            match g.profile_stages(reps) {
+                Ok(p) => {
+                    row.device_timing = Some(format!("{} over {} cycles", p.method, p.cycles));
+                    let mut kernels = 0.0;
+                    for (name, s) in &p.stages {
+                        kernels += s;
+                        let b = bytes.iter().find(|b| b.stage == *name).map(|b| b.read + b.written);
+                        row.stages.push(StageRow { source: "device".into(), stage: name.to_string(), group: "kernel".into(), s_per_cycle: *s, bytes_per_cycle: b });
+                    }
+                    if kernels > 0.0 && row.bandwidth_bytes_per_s > 0.0 {
+                        row.roofline_kernels = Some(row.bytes_per_cycle as f64 / kernels / row.bandwidth_bytes_per_s);
+                    }
+                }
+                Err(e) => row.device_timing = Some(format!("not measured: {e}")),
+            }
+        }
+    }
+    if row.bandwidth_bytes_per_s > 0.0 && row.s_per_cycle > 0.0 {
+        row.roofline = row.bytes_per_cycle as f64 / row.s_per_cycle / row.bandwidth_bytes_per_s;
+    }
+    row
+}
+
+/// Rates, stage rows and shares of a timed run.
+fn fill_timing(row: &mut ScalingRow, model: &Model, cycles: u64, run: &Timed, info: &BackendInfo) {
+    row.blocks = model.blocks.len();
+    row.corners = model.corners.len();
+    row.contacts = model.contacts.len();
+    row.cycles = cycles;
+    row.setup_s = run.setup_s;
+    row.steady_s = run.steady_s;
+    row.s_per_cycle = run.steady_s / cycles as f64;
+    row.s_per_block_cycle = row.s_per_cycle / row.blocks.max(1) as f64;
+    row.block_cycles_per_s = (row.blocks as u64 * cycles) as f64 / run.steady_s;
+    row.contact_cycles_per_s = (row.contacts as u64 * cycles) as f64 / run.steady_s;
+    row.bandwidth_bytes_per_s = info.bandwidth_bytes_per_s.unwrap_or(0.0);
+    let mut accounted = 0.0;
+    let (mut topology, mut transfer, mut run_tt) = (0.0, 0.0, 0.0);
+    for s in Stage::ALL {
+        let d = run.times.cycles_of(s).as_secs_f64();
+        let setup = run.times.setup_of(s).as_secs_f64();
+        match s.group() {
+            "topology" => {
+                topology += d;
+                run_tt += d + setup;
+            }
+            "transfer" => {
+                transfer += d;
+                run_tt += d + setup;
+            }
+            _ => {}
+        }
+        if d > 0.0 {
+            accounted += d;
+            row.stages.push(StageRow { source: "host".into(), stage: s.name().into(), group: s.group().into(), s_per_cycle: d / cycles as f64, bytes_per_cycle: None });
+        }
+    }
+    let other = (run.steady_s - accounted).max(0.0);
+    row.stages.push(StageRow { source: "host".into(), stage: "other".into(), group: "other".into(), s_per_cycle: other / cycles as f64, bytes_per_cycle: None });
+    row.topology_share = topology / run.steady_s;
+    row.transfer_share = transfer / run.steady_s;
+    row.run_topology_transfer_share = run_tt / (run.steady_s + run.setup_s);
+}

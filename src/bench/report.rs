@@ -1,0 +1,451 @@
+//! The issue's targets next to the figures, the table, and the CSV / JSON files of a bench run.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::{BenchReport, ScalingRow, TargetRow};
+
+fn gpu_hardware_labels(r: &BenchReport) -> Vec<String> {
+    r.backends.iter().filter(|b| b.kind == "gpu" && !b.software && b.error.is_none()).map(|b| b.label.clone()).collect()
+}
+
+fn ok_rows<'a>(r: &'a BenchReport, backend: &'a str) -> impl Iterator<Item = &'a ScalingRow> + 'a {
+    r.scaling.iter().filter(move |s| s.backend == backend && s.error.is_none() && s.cycles > 0)
+}
+
+fn largest<'a>(r: &'a BenchReport, backend: &'a str) -> Option<&'a ScalingRow> {
+    ok_rows(r, backend).max_by_key(|s| s.nominal)
+}
+
+fn sci(x: f64) -> String {
+    format!("{x:.3e}")
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.1}%", 100.0 * x)
+}
+
+/// Each target of the issue with the figure measured here and whether it is met (None where it
+/// cannot be judged on this machine or in this run).
+pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
+    let mut t = Vec::new();
+    let hw = gpu_hardware_labels(r);
+    let none_here = |target: &str, goal: &str| TargetRow {
+        target: target.into(),
+        backend: "hardware GPU".into(),
+        goal: goal.into(),
+        measured: "-".into(),
+        met: None,
+        note: "no hardware GPU adapter here".into(),
+    };
+    // Hardware-GPU targets, at the largest wall each reached.
+    let hw_targets: [(&str, &str); 3] = [
+        ("contact-cycles/s, 10^6-block wall, one H100", ">= 1e9"),
+        ("cycle vs bandwidth roofline, H100", ">= 40%"),
+        ("CPU topology + transfers, H100", "< 10% of the run"),
+    ];
+    if hw.is_empty() {
+        for (target, goal) in hw_targets {
+            t.push(none_here(target, goal));
+        }
+    }
+    for label in &hw {
+        let Some(row) = largest(r, label) else {
+            for (target, goal) in hw_targets {
+                t.push(TargetRow { target: target.into(), backend: label.clone(), goal: goal.into(), measured: "-".into(), met: None, note: "no wall measured".into() });
+            }
+            continue;
+        };
+        let at = format!("at {} blocks", row.blocks);
+        let full = row.nominal >= 1_000_000;
+        let note = |extra: &str| if full { format!("{at}{extra}") } else { format!("{at}: the 10^6 wall was not reached{extra}") };
+        t.push(TargetRow {
+            target: hw_targets[0].0.into(),
+            backend: label.clone(),
+            goal: hw_targets[0].1.into(),
+            measured: sci(row.contact_cycles_per_s),
+            met: full.then_some(row.contact_cycles_per_s >= 1e9),
+            note: note(""),
+        });
+        t.push(TargetRow {
+            target: hw_targets[1].0.into(),
+            backend: label.clone(),
+            goal: hw_targets[1].1.into(),
+            measured: pct(row.roofline),
+            met: Some(row.roofline >= 0.4),
+            note: note(&row.roofline_kernels.map(|k| format!("; kernels alone {}", pct(k))).unwrap_or_default()),
+        });
+        let share = row.topology_share + row.transfer_share;
+        t.push(TargetRow {
+            target: hw_targets[2].0.into(),
+            backend: label.clone(),
+            goal: hw_targets[2].1.into(),
+            measured: pct(share),
+            met: Some(share < 0.1),
+            note: note(&format!("; with the set-up of the run {}", pct(row.run_topology_transfer_share))),
+        });
+    }
+    // Software adapters against the CPU at 10^5 blocks (or the largest wall both reached).
+    for b in r.backends.iter().filter(|b| b.kind == "gpu" && b.software && b.error.is_none()) {
+        let cpu: Vec<&ScalingRow> = ok_rows(r, "cpu f64").collect();
+        let pair = ok_rows(r, &b.label).filter_map(|g| cpu.iter().find(|c| c.nominal == g.nominal).map(|c| (g, *c))).max_by_key(|(g, _)| g.nominal);
+        let target = "software adapter vs CPU backend at 10^5 blocks".to_string();
+        match pair {
+            Some((g, c)) => {
+                let ratio = g.s_per_cycle / c.s_per_cycle;
+                let at_goal = g.nominal == 100_000;
+                t.push(TargetRow {
+                    target,
+                    backend: b.label.clone(),
+                    goal: "<= 2x the CPU's time per cycle".into(),
+                    measured: format!("{ratio:.2}x"),
+                    met: at_goal.then_some(ratio <= 2.0),
+                    note: if at_goal { format!("at {} blocks, same run", g.blocks) } else { format!("at {} blocks (10^5 not run)", g.blocks) },
+                });
+            }
+            None => t.push(TargetRow { target, backend: b.label.clone(), goal: "<= 2x".into(), measured: "-".into(), met: None, note: "no common wall with the CPU".into() }),
+        }
+    }
+    // Flat time per block-cycle over the sizes.
+    for b in r.backends.iter().filter(|b| b.error.is_none()) {
+        let rows: Vec<&ScalingRow> = ok_rows(r, &b.label).collect();
+        if rows.len() < 2 {
+            continue;
+        }
+        let (lo, hi) = rows.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), s| (lo.min(s.s_per_block_cycle), hi.max(s.s_per_block_cycle)));
+        let (n0, n1) = (rows.iter().map(|s| s.nominal).min().unwrap_or(0), rows.iter().map(|s| s.nominal).max().unwrap_or(0));
+        let spread = hi / lo;
+        let covered = n0 <= 1_000 && n1 >= 1_000_000;
+        t.push(TargetRow {
+            target: "time per block-cycle flat over N".into(),
+            backend: b.label.clone(),
+            goal: "max/min <= 1.2 from 10^3 to 10^6".into(),
+            measured: format!("{spread:.2}"),
+            met: Some(spread <= 1.2),
+            note: if covered { "10^3 to 10^6".into() } else { format!("over {n0} to {n1} only") },
+        });
+    }
+    // The reference settle on the CPU backend.
+    for row in r.reference.iter().filter(|x| x.scene == "settle" && x.backend == "cpu f64") {
+        let full = (row.simulated_s - super::scene::SETTLE_TIME).abs() < 1e-9;
+        let shortened = if full { String::new() } else { format!("shortened run ({} s simulated)", row.simulated_s) };
+        match (&row.error, &row.measures) {
+            (None, Some(m)) => {
+                let projected = row.wall_s * super::scene::SETTLE_TIME / row.simulated_s;
+                t.push(TargetRow {
+                    target: "reference settle, 2 s simulated, CPU backend".into(),
+                    backend: row.backend.clone(),
+                    goal: "< 4 s wall".into(),
+                    measured: format!("{:.2} s{}", projected, if full { "" } else { " (scaled)" }),
+                    met: full.then_some(projected < 4.0),
+                    note: if full { format!("{} cycles, {} cores", row.cycles, r.machine.cores) } else { shortened.clone() },
+                });
+                t.push(TargetRow {
+                    target: "reference settle drift, CPU backend".into(),
+                    backend: row.backend.clone(),
+                    goal: "< 1 mm".into(),
+                    measured: format!("{:.2} mm", 1e3 * m.drift),
+                    met: full.then_some(m.drift < 1e-3),
+                    note: format!(
+                        "{}top-row sink {:.2} mm, elastic estimate {:.2} mm",
+                        if full { String::new() } else { format!("{shortened}; ") },
+                        1e3 * m.top_sink,
+                        1e3 * m.elastic_estimate
+                    ),
+                });
+            }
+            _ => t.push(TargetRow {
+                target: "reference settle, CPU backend".into(),
+                backend: row.backend.clone(),
+                goal: "< 4 s, drift < 1 mm".into(),
+                measured: "failed".into(),
+                met: Some(false),
+                note: row.error.clone().unwrap_or_default(),
+            }),
+        }
+    }
+    t
+}
+
+fn mib(b: u64) -> String {
+    format!("{:.1}", b as f64 / (1u64 << 20) as f64)
+}
+
+/// The table `blockdem bench` prints.
+pub fn table(r: &BenchReport) -> String {
+    let mut s = String::new();
+    let m = &r.machine;
+    let _ = writeln!(s, "blockdem bench{} — {}", if r.options.quick { " --quick" } else { "" }, m.date);
+    let _ = writeln!(
+        s,
+        "machine: {} ({} logical cores, rayon {} threads), {:.1} GiB, {}{}",
+        m.cpu_model,
+        m.cores,
+        m.rayon_threads,
+        m.memory_total_bytes as f64 / (1u64 << 30) as f64,
+        m.os,
+        m.commit.as_ref().map(|c| format!(", commit {c}")).unwrap_or_default()
+    );
+    let _ = writeln!(s, "backends:");
+    for b in &r.backends {
+        match &b.error {
+            Some(e) => {
+                let _ = writeln!(s, "  {:<24} not available: {e}", b.label);
+            }
+            None => {
+                let _ = writeln!(
+                    s,
+                    "  {:<24} {} [{}]{} copy bandwidth {}, stage times: {}",
+                    b.label,
+                    b.adapter,
+                    b.driver,
+                    if b.software && b.kind == "gpu" { " (software adapter)" } else { "" },
+                    b.bandwidth_bytes_per_s.map(|x| format!("{:.1} GB/s", x / 1e9)).unwrap_or_else(|| "-".into()),
+                    b.stage_timing
+                );
+            }
+        }
+    }
+    let o = &r.options;
+    let _ = writeln!(s, "scenes: {}; FRACTION {}, ROUND {}", o.scenes.join(", "), o.frac, o.round);
+
+    if !r.reference.is_empty() {
+        let _ = writeln!(s, "\nREFERENCE WALL (1012 bricks; settle: the wall alone; impact: 0.5 m projectile, density 8000, 50 m/s)");
+        let _ = writeln!(
+            s,
+            "{:<8} {:<24} {:>6} {:>7} {:>10} {:>8} {:>8} {:>9} {:>10} {:>10} {:>10} {:>7}",
+            "scene", "backend", "bricks", "cycles", "dt (s)", "sim (s)", "wall (s)", "cycles/s", "drift (mm)", "sink (mm)", "elast (mm)", "moved"
+        );
+        for x in &r.reference {
+            match (&x.error, &x.measures) {
+                (None, Some(w)) => {
+                    let _ = writeln!(
+                        s,
+                        "{:<8} {:<24} {:>6} {:>7} {:>10.4e} {:>8.3} {:>8.2} {:>9.0} {:>10.3} {:>10.3} {:>10.3} {:>7}",
+                        x.scene,
+                        x.backend,
+                        w.bricks,
+                        x.cycles,
+                        x.timestep,
+                        x.simulated_s,
+                        x.wall_s,
+                        x.cycles_per_s,
+                        1e3 * w.drift,
+                        1e3 * w.top_sink,
+                        1e3 * w.elastic_estimate,
+                        w.moved
+                    );
+                }
+                _ => {
+                    let _ = writeln!(s, "{:<8} {:<24} FAILED: {}", x.scene, x.backend, x.error.as_deref().unwrap_or("?"));
+                }
+            }
+        }
+        let cpu = r.reference.iter().find(|x| x.backend == "cpu f64" && x.scene == "settle" && x.error.is_none());
+        for x in r.reference.iter().filter(|x| x.backend != "cpu f64" && x.scene == "settle" && x.error.is_none()) {
+            if let Some(c) = cpu {
+                let _ = writeln!(s, "  settle wall time {} / cpu f64: {:.2}x", x.backend, x.wall_s / c.wall_s);
+            }
+        }
+    }
+
+    if !r.scaling.is_empty() {
+        let _ = writeln!(s, "\nSCALING (25-row walls; rates over the cycles after each run's set-up; shares of that time)");
+        let _ = writeln!(
+            s,
+            "{:<24} {:>8} {:>8} {:>6} {:>10} {:>11} {:>11} {:>10} {:>8} {:>9} {:>7} {:>7} {:>8}",
+            "backend", "blocks", "contacts", "cycles", "s/cycle", "block-cyc/s", "contact-c/s", "MiB/cycle", "roofline", "(kernels)", "topo", "xfer", "setup(s)"
+        );
+        for x in &r.scaling {
+            if let Some(e) = &x.error {
+                let _ = writeln!(s, "{:<24} {:>8} FAILED/SKIPPED: {e}", x.backend, x.nominal);
+                continue;
+            }
+            let _ = writeln!(
+                s,
+                "{:<24} {:>8} {:>8} {:>6} {:>10.3e} {:>11.3e} {:>11.3e} {:>10} {:>8} {:>9} {:>7} {:>7} {:>8.2}",
+                x.backend,
+                x.blocks,
+                x.contacts,
+                x.cycles,
+                x.s_per_cycle,
+                x.block_cycles_per_s,
+                x.contact_cycles_per_s,
+                mib(x.bytes_per_cycle),
+                pct(x.roofline),
+                x.roofline_kernels.map(pct).unwrap_or_else(|| "-".into()),
+                pct(x.topology_share),
+                pct(x.transfer_share),
+                x.setup_s
+            );
+        }
+        // Ratios against the CPU in the same run.
+        for x in r.scaling.iter().filter(|x| x.backend != "cpu f64" && x.error.is_none()) {
+            if let Some(c) = r.scaling.iter().find(|c| c.backend == "cpu f64" && c.nominal == x.nominal && c.error.is_none()) {
+                let _ = writeln!(s, "  {} at {} blocks: time per cycle {:.2}x the CPU's", x.backend, x.blocks, x.s_per_cycle / c.s_per_cycle);
+            }
+        }
+        let _ = writeln!(s, "\nTIME PER STAGE (microseconds per cycle; host: timed during the run; device: kernel times)");
+        for x in r.scaling.iter().filter(|x| x.error.is_none()) {
+            let _ = writeln!(s, "  {} at {} blocks ({:.1} us/cycle){}", x.backend, x.blocks, 1e6 * x.s_per_cycle, x.device_timing.as_ref().map(|d| format!(", kernels by {d}")).unwrap_or_default());
+            for st in &x.stages {
+                let _ = writeln!(
+                    s,
+                    "    {:<6} {:<30} {:>12.2} {:>6}{}",
+                    st.source,
+                    st.stage,
+                    1e6 * st.s_per_cycle,
+                    pct(st.s_per_cycle / x.s_per_cycle),
+                    st.bytes_per_cycle.map(|b| format!("  {} MiB", mib(b))).unwrap_or_default()
+                );
+            }
+        }
+    }
+
+    if !r.targets.is_empty() {
+        let _ = writeln!(s, "\nTARGETS");
+        let _ = writeln!(s, "{:<50} {:<24} {:<30} {:<14} {:<5} note", "target", "backend", "goal", "measured", "met");
+        for t in &r.targets {
+            let met = match t.met {
+                Some(true) => "yes",
+                Some(false) => "NO",
+                None => "n/a",
+            };
+            let _ = writeln!(s, "{:<50} {:<24} {:<30} {:<14} {:<5} {}", t.target, t.backend, t.goal, t.measured, met, t.note);
+        }
+    }
+    s
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(|v| format!("{v:e}")).unwrap_or_default()
+}
+
+/// bench.csv: one row per wall and backend of the scaling family.
+pub fn scaling_csv(r: &BenchReport) -> String {
+    let mut s = String::from(
+        "backend,nominal,blocks,corners,contacts,cycles,setup_s,steady_s,s_per_cycle,s_per_block_cycle,block_cycles_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,topology_share,transfer_share,run_topology_transfer_share,error\n",
+    );
+    for x in &r.scaling {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{},{:e},{:e},{:e},{}",
+            csv_field(&x.backend),
+            x.nominal,
+            x.blocks,
+            x.corners,
+            x.contacts,
+            x.cycles,
+            x.setup_s,
+            x.steady_s,
+            x.s_per_cycle,
+            x.s_per_block_cycle,
+            x.block_cycles_per_s,
+            x.contact_cycles_per_s,
+            x.bytes_per_cycle,
+            x.bandwidth_bytes_per_s,
+            x.roofline,
+            opt(x.roofline_kernels),
+            x.topology_share,
+            x.transfer_share,
+            x.run_topology_transfer_share,
+            csv_field(x.error.as_deref().unwrap_or(""))
+        );
+    }
+    s
+}
+
+/// bench_stages.csv: the time (and bytes) of each stage per cycle.
+pub fn stages_csv(r: &BenchReport) -> String {
+    let mut s = String::from("backend,blocks,source,stage,group,s_per_cycle,share_of_cycle,bytes_per_cycle\n");
+    for x in r.scaling.iter().filter(|x| x.error.is_none()) {
+        for st in &x.stages {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{:e},{:e},{}",
+                csv_field(&x.backend),
+                x.blocks,
+                st.source,
+                csv_field(&st.stage),
+                st.group,
+                st.s_per_cycle,
+                st.s_per_cycle / x.s_per_cycle,
+                st.bytes_per_cycle.map(|b| b.to_string()).unwrap_or_default()
+            );
+        }
+    }
+    s
+}
+
+/// bench_reference.csv: the reference scenes.
+pub fn reference_csv(r: &BenchReport) -> String {
+    let mut s = String::from("scene,backend,bricks,blocks,contacts,cycles,timestep,simulated_s,wall_s,cycles_per_s,drift_m,top_sink_m,elastic_estimate_m,moved,error\n");
+    for x in &r.reference {
+        let m = x.measures.unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{:e},{},{:e},{:e},{:e},{:e},{:e},{},{}",
+            x.scene,
+            csv_field(&x.backend),
+            m.bricks,
+            x.blocks,
+            x.contacts,
+            x.cycles,
+            x.timestep,
+            x.simulated_s,
+            x.wall_s,
+            x.cycles_per_s,
+            m.drift,
+            m.top_sink,
+            m.elastic_estimate,
+            m.moved,
+            csv_field(x.error.as_deref().unwrap_or(""))
+        );
+    }
+    s
+}
+
+/// bench_targets.csv.
+pub fn targets_csv(r: &BenchReport) -> String {
+    let mut s = String::from("target,backend,goal,measured,met,note\n");
+    for t in &r.targets {
+        let met = t.met.map(|m| if m { "yes" } else { "no" }).unwrap_or("n/a");
+        let _ = writeln!(s, "{},{},{},{},{},{}", csv_field(&t.target), csv_field(&t.backend), csv_field(&t.goal), csv_field(&t.measured), met, csv_field(&t.note));
+    }
+    s
+}
+
+/// Writes bench.csv, bench_stages.csv, bench_reference.csv, bench_targets.csv, bench.json and
+/// bench.png into `dir`. Returns the files written and, when the chart could not be drawn, why.
+pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBuf>, Option<String>)> {
+    std::fs::create_dir_all(dir)?;
+    let mut files = Vec::new();
+    for (name, text) in [
+        ("bench.csv", scaling_csv(r)),
+        ("bench_stages.csv", stages_csv(r)),
+        ("bench_reference.csv", reference_csv(r)),
+        ("bench_targets.csv", targets_csv(r)),
+        ("bench.json", serde_json::to_string_pretty(r).map_err(std::io::Error::other)?),
+    ] {
+        let p = dir.join(name);
+        std::fs::write(&p, text)?;
+        files.push(p);
+    }
+    let chart = dir.join("bench.png");
+    let problem = match super::chart::draw(r, &chart) {
+        Ok(p) => {
+            files.push(p);
+            None
+        }
+        Err(e) => Some(e),
+    };
+    Ok((files, problem))
+}

@@ -1,0 +1,250 @@
+//! The reference scene other engines are compared with, and the scaling family of walls.
+//!
+//! The reference wall: 25 rows of 1 × 0.5 m bricks in running bond (40 whole bricks in even rows;
+//! odd rows start and end with a half brick), 1012 bricks, density 2000, friction 0.6,
+//! kn = ks = 1e9 N/m, no damping, on a fixed ground block under gravity −10.
+//! - settle: the wall alone for 2 s of simulated time; the largest brick drift is reported.
+//! - impact: a 0.5 m square projectile of density 8000 fired horizontally at 50 m/s from
+//!   x = −2, y = 11, for 1 s; the number of bricks that moved more than 0.1 m is reported.
+//!
+//! Both are written out as decks in `examples/` by [`example_deck`] (a test keeps the files equal
+//! to it). The scaling family keeps the 25 rows and makes the wall longer ([`scaling_wall`]).
+
+use crate::model::Model;
+use crate::scenes::BrickWall;
+
+/// ROUND of the reference scene. Not the 0.02·h = 0.01 of `brick_wall_deck`: at 50 m/s the
+/// projectile travels 7 mm per step (Δt = 1.4e-4 s), more than the contact update can follow
+/// (a quarter of the contact-forming distance atol = ROUND, the tunnelling guard), and the impact
+/// compresses the contacts by about v·√(m_red/k) ≈ 0.03 m, beyond half the rounding length.
+/// ROUND 0.1 allows 25 mm per step and 50 mm of overlap.
+pub const ROUND: f64 = 0.1;
+
+/// FRACTION of the reference scene: UDEC's default (see docs/BENCHMARKS.md for 0.2 and 0.3).
+pub const FRAC: f64 = 0.1;
+
+/// Simulated time of the settle and impact scenes.
+pub const SETTLE_TIME: f64 = 2.0;
+pub const IMPACT_TIME: f64 = 1.0;
+
+/// A brick "moved" in the impact scene when its centroid is this far from where it started.
+pub const MOVED_THRESHOLD: f64 = 0.1;
+
+/// Rows of every wall of the bench.
+pub const ROWS: usize = 25;
+
+/// The projectile: side, density, centre, velocity.
+pub const PROJECTILE_SIDE: f64 = 0.5;
+pub const PROJECTILE_DENSITY: f64 = 8000.0;
+pub const PROJECTILE_AT: [f64; 2] = [-2.0, 11.0];
+pub const PROJECTILE_VELOCITY: [f64; 2] = [50.0, 0.0];
+
+/// The two reference scenes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RefScene {
+    Settle,
+    Impact,
+}
+
+impl RefScene {
+    pub fn name(self) -> &'static str {
+        match self {
+            RefScene::Settle => "settle",
+            RefScene::Impact => "impact",
+        }
+    }
+
+    /// Simulated time of the reference.
+    pub fn time(self) -> f64 {
+        match self {
+            RefScene::Settle => SETTLE_TIME,
+            RefScene::Impact => IMPACT_TIME,
+        }
+    }
+}
+
+/// A wall of the bench: 25 rows, `bricks` whole bricks in even rows, the reference materials.
+pub fn wall(bricks: usize, frac: f64) -> BrickWall {
+    BrickWall { rows: ROWS, bricks, brick: [1.0, 0.5], density: 2000.0, kn: 1e9, friction: 0.6, round: Some(ROUND), frac: Some(frac), gravity: -10.0 }
+}
+
+/// The reference wall (1012 bricks).
+pub fn reference_wall(frac: f64) -> BrickWall {
+    wall(40, frac)
+}
+
+/// The scaling wall of about `n` blocks: the reference's 25 rows made longer (`n / 25` bricks per
+/// row). Fixed rows rather than a wall growing in both directions: every wall then carries the
+/// same loads, settles the same way and has the same contacts per block as the reference, so
+/// the time per block-cycle of different sizes measures the engine, not a different problem (a
+/// wall of 1000 rows would settle 1600 times as far and keep stage 7 busy).
+pub fn scaling_wall(n: usize, frac: f64) -> BrickWall {
+    wall((n / ROWS).max(2), frac)
+}
+
+/// The projectile's commands: its material (2), its block, its velocity.
+fn projectile_lines(wall: &BrickWall) -> String {
+    let [x, y] = PROJECTILE_AT;
+    let s = 0.5 * PROJECTILE_SIDE;
+    let (x0, x1, y0, y1) = (x - s, x + s, y - s, y + s);
+    let kn = wall.kn;
+    format!(
+        "PROP MAT=2 DENS={PROJECTILE_DENSITY} KN={kn:e} KS={kn:e} F={f}\nBLOCK MAT=2 {x0} {y0} {x0} {y1} {x1} {y1} {x1} {y0}\nVELOCITY {} {} {} {} {} {}\n",
+        x0 - s,
+        x1 + s,
+        y0 - s,
+        y1 + s,
+        PROJECTILE_VELOCITY[0],
+        PROJECTILE_VELOCITY[1],
+        f = wall.friction,
+    )
+}
+
+/// The deck of a reference scene up to (not including) its CYCLE command.
+pub fn reference_body(scene: RefScene, frac: f64) -> String {
+    let wall = reference_wall(frac);
+    let mut deck = wall.deck();
+    if scene == RefScene::Impact {
+        deck += &projectile_lines(&wall);
+    }
+    deck
+}
+
+/// The cycles that cover `time` at the time step the deck gets (UDEC's Δt = FRAC·2√(m_min/k_max)),
+/// and that time step.
+pub fn cycles_for(body: &str, time: f64) -> Result<(u64, f64), crate::exec::RunError> {
+    let model = crate::scenes::run_deck_on(&format!("{body}CYCLE 0\n"), Box::new(crate::cpu::CpuBackend::new()))?;
+    Ok(((time / model.timestep - 1e-9).ceil() as u64, model.timestep))
+}
+
+/// The text of `examples/brick_wall_settle.dat` or `examples/brick_wall_impact.dat`: the reference
+/// scene at its full simulated time, with comments that say what it is and why ROUND and FRACTION
+/// have their values.
+pub fn example_deck(scene: RefScene) -> String {
+    let body = reference_body(scene, FRAC);
+    let (cycles, dt) = cycles_for(&body, scene.time()).expect("the reference deck builds");
+    let wall = reference_wall(FRAC);
+    let what = match scene {
+        RefScene::Settle => format!(
+            "* SETTLE: the wall alone for {SETTLE_TIME} s of simulated time. `blockdem bench --scene settle`\n\
+             * reports the largest displacement of any brick from where it started (the drift), the\n\
+             * largest sink of the top row, and the elastic settlement expected under self-weight.\n"
+        ),
+        RefScene::Impact => format!(
+            "* IMPACT: a {PROJECTILE_SIDE} m square projectile of density {PROJECTILE_DENSITY} (material 2) fired\n\
+             * horizontally at {} m/s from x = {}, y = {} (VELOCITY, an extension of the 1985\n\
+             * language) strikes the wall for {IMPACT_TIME} s. `blockdem bench --scene impact` reports how\n\
+             * many bricks moved more than {MOVED_THRESHOLD} m.\n",
+            PROJECTILE_VELOCITY[0], PROJECTILE_AT[0], PROJECTILE_AT[1]
+        ),
+    };
+    format!(
+        "* blockdem reference scene: a brick wall in running bond ({name}).\n\
+         * Generated by blockdem::bench::scene::example_deck; tests/bench.rs checks that this file\n\
+         * equals the generator's output (BLOCKDEM_BLESS=1 cargo test --release --test bench rewrites it).\n\
+         *\n\
+         * {rows} rows of 1 x 0.5 m bricks: {b} whole bricks in even rows, odd rows start and end with a\n\
+         * half brick ({b1} bricks); {n} bricks in all, one BLOCK command each (an extension: the 1985\n\
+         * program took one BLOCK per run). Density 2000, friction 0.6, kn = ks = 1e9 N/m, no damping;\n\
+         * a fixed ground block; gravity -10.\n\
+         {what}\
+         *\n\
+         * ROUND {ROUND}, not the 0.02 h = 0.01 of a default brick wall: at 50 m/s the projectile moves\n\
+         * 7 mm per step, more than the contact update can follow (a quarter of the contact-forming\n\
+         * distance, which is ROUND: the tunnelling guard stops the run), and the impact compresses\n\
+         * its contacts by about v sqrt(m_red / k) = 0.03 m, more than half the rounding length (an\n\
+         * overlap error). ROUND {ROUND} allows 25 mm per step and 50 mm of overlap. Both scenes use it.\n\
+         * FRACTION {FRAC} (UDEC's default): dt = FRAC 2 sqrt(m_min / k_max) = {dt:.4e} s, m_min being a\n\
+         * half brick (500 kg); {time} s is {cycles} cycles.\n\
+         {body}\
+         CYCLE {cycles}\n\
+         STOP\n",
+        name = scene.name(),
+        rows = wall.rows,
+        b = wall.bricks,
+        b1 = wall.bricks + 1,
+        n = wall.brick_count(),
+        time = scene.time(),
+    )
+}
+
+/// The path of a scene's deck under the crate's `examples/`.
+pub fn example_path(scene: RefScene) -> &'static str {
+    match scene {
+        RefScene::Settle => "examples/brick_wall_settle.dat",
+        RefScene::Impact => "examples/brick_wall_impact.dat",
+    }
+}
+
+/// What the reference scene reports about the wall at the end of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct WallMeasures {
+    /// Bricks of the wall (material 1, not fixed).
+    pub bricks: usize,
+    /// Largest displacement of a brick centroid from where it started (m), and where that brick
+    /// started.
+    pub drift: f64,
+    pub drift_at: [f64; 2],
+    /// Largest downward displacement of a brick of the top row (m).
+    pub top_sink: f64,
+    /// Elastic settlement of the top under self-weight: Σ over the bed joints of the weight above
+    /// the joint over the joint's stiffness (force-carrying contacts across it × kn) (m).
+    pub elastic_estimate: f64,
+    /// Bricks whose centroid moved more than [`MOVED_THRESHOLD`].
+    pub moved: usize,
+}
+
+/// Measures the wall of `fin` against its state in `initial` (the same deck before any cycle).
+pub fn measure(wall: &BrickWall, initial: &Model, fin: &Model) -> WallMeasures {
+    let start: std::collections::HashMap<u32, [f64; 2]> = initial.blocks.iter().filter(|b| !b.fixed && b.material == 1).map(|b| (b.id, b.centroid)).collect();
+    let h = wall.brick[1];
+    let top_y = (wall.rows as f64 - 0.5) * h;
+    let mut m = WallMeasures::default();
+    for b in fin.blocks.iter().filter(|b| !b.fixed && b.material == 1) {
+        let Some(c0) = start.get(&b.id) else { continue };
+        m.bricks += 1;
+        let d = (b.centroid[0] - c0[0]).hypot(b.centroid[1] - c0[1]);
+        if d > m.drift {
+            m.drift = d;
+            m.drift_at = *c0;
+        }
+        if (c0[1] - top_y).abs() < 0.25 * h {
+            m.top_sink = m.top_sink.max(c0[1] - b.centroid[1]);
+        }
+        if d > MOVED_THRESHOLD {
+            m.moved += 1;
+        }
+    }
+    m.elastic_estimate = elastic_settlement(wall, fin);
+    m
+}
+
+/// The elastic settlement of the top of the wall under self-weight (module doc of
+/// [`WallMeasures::elastic_estimate`]): bed joint j (below row j, j = 0 on the ground) carries
+/// the weight of rows j and above, on the force-carrying contacts whose point lies on it and whose
+/// normal is near vertical; each is a spring kn. This assumes the weight spreads evenly along the
+/// wall, which running bond does away from the ends.
+pub fn elastic_settlement(wall: &BrickWall, model: &Model) -> f64 {
+    let h = wall.brick[1];
+    let g = model.gravity[1].abs();
+    let mut springs = vec![0usize; wall.rows];
+    for c in &model.contacts {
+        if c.normal[1].abs() < 0.7 || !crate::topology::detect::counts_force(model, c) {
+            continue;
+        }
+        let j = (c.point[1] / h).round();
+        if j >= 0.0 && (c.point[1] - j * h).abs() < 0.25 * h && (j as usize) < wall.rows {
+            springs[j as usize] += 1;
+        }
+    }
+    let mut weight_above = vec![0.0f64; wall.rows + 1];
+    for b in model.blocks.iter().filter(|b| !b.fixed && b.material == 1) {
+        let row = ((b.centroid[1] / h).floor().max(0.0) as usize).min(wall.rows - 1);
+        weight_above[row] += b.mass * g;
+    }
+    for j in (0..wall.rows).rev() {
+        weight_above[j] += weight_above[j + 1];
+    }
+    (0..wall.rows).filter(|&j| springs[j] > 0).map(|j| weight_above[j] / (springs[j] as f64 * wall.kn)).sum()
+}

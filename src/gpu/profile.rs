@@ -1,0 +1,236 @@
+//! What `blockdem bench` asks of the GPU beyond running cycles: the time of each kernel stage, the
+//! adapter's copy bandwidth, and the bytes each stage must move per cycle (the roofline model).
+//!
+//! - Stage times: with `TIMESTAMP_QUERY` (requested at device set-up when the adapter has it) each
+//!   stage's compute pass of a normal cycle writes a timestamp at its start and end; without it,
+//!   each stage is dispatched alone, many times in one submission, and timed on the host
+//!   (`BLOCKDEM_STAGE_TIMING=isolated` asks for this even where timestamps exist). Either
+//!   way this runs on the state the last `run` left on the device and changes it; the next `run`
+//!   uploads the whole model again, so nothing leaks into a simulation.
+//! - Copy bandwidth: a large `copy_buffer_to_buffer`, repeated until it takes a measurable time;
+//!   bytes read + bytes written per second (the same count the byte model uses).
+//! - Bytes per cycle: the compulsory traffic of each kernel, from the Pod struct sizes and the
+//!   live counts: every struct a kernel reads counts once per stage (as if each were fetched
+//!   from memory once and then cached), every struct it stores counts once. A GPU fetches whole
+//!   32-byte sectors, and these structs are 48–200 bytes read whole, so whole structs are counted.
+
+use std::time::Instant;
+
+use super::layout::{Block, Contact, Corner, Flags, Material, Params, Real};
+use super::{shaders, Engine, EngineAny, GpuBackend, GpuDevice, GpuError};
+
+/// Per-stage device time of one cycle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviceProfile {
+    /// "timestamps" (pass timestamps of whole cycles) or "isolated dispatches" (each stage alone,
+    /// timed on the host).
+    pub method: &'static str,
+    /// (kernel, seconds per cycle), in cycle order.
+    pub stages: Vec<(&'static str, f64)>,
+    /// Cycles (or dispatches per stage) measured.
+    pub cycles: u32,
+}
+
+/// Bytes one stage must read and write per cycle (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StageBytes {
+    pub stage: &'static str,
+    pub read: u64,
+    pub written: u64,
+}
+
+/// The compulsory traffic of each kernel per cycle in precision `R`, for `nb` blocks, `nc`
+/// corners and `nk` contacts (the buffers each kernel touches are in its WGSL file).
+pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usize) -> Vec<StageBytes> {
+    let (b, c, k) = (std::mem::size_of::<Block<R>>() as u64, std::mem::size_of::<Corner<R>>() as u64, std::mem::size_of::<Contact<R>>() as u64);
+    let (m, r, u) = (std::mem::size_of::<Material<R>>() as u64, std::mem::size_of::<R>() as u64, 4u64);
+    let (nb, nc, nk, nm) = (nb as u64, nc as u64, nk as u64, materials as u64);
+    let params = std::mem::size_of::<Params<R>>() as u64;
+    let flags = std::mem::size_of::<Flags>() as u64;
+    vec![
+        // Each block read and stored whole.
+        StageBytes { stage: "law_of_motion", read: b * nb + params, written: b * nb },
+        // Each corner (and the next one's body-frame offset) read and stored whole; each block read.
+        StageBytes { stage: "geometry_update", read: c * nc + b * nb + params, written: c * nc },
+        // Each contact read and stored whole; both blocks, block 1's corner and block 2's corners
+        // read (every corner and block once); the material table.
+        StageBytes { stage: "contact_forces", read: k * nk + c * nc + b * nb + m * nm + params, written: k * nk },
+        // Each block read, its force and moment stored; the adjacency lists (offsets, two
+        // entries per contact) and every contact read.
+        StageBytes { stage: "gather", read: b * nb + u * (nb + 1) + u * 2 * nk + k * nk + params, written: 3 * r * nb },
+        StageBytes { stage: "end_cycle", read: flags, written: flags },
+    ]
+}
+
+/// Measures the bandwidth of `copy_buffer_to_buffer` on `dev`: bytes read + bytes written per
+/// second. The copy is repeated in one submission until it takes at least 0.2 s.
+pub fn copy_bandwidth(dev: &GpuDevice) -> Result<f64, GpuError> {
+    let size = (256u64 << 20).min(dev.summary.max_buffer_size / 2).min(dev.summary.max_storage_buffer_binding_size) & !3;
+    let make = |label: &str, usage: wgpu::BufferUsages| dev.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false });
+    let src = make("bandwidth source", wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
+    let dst = make("bandwidth destination", wgpu::BufferUsages::COPY_DST);
+    let run = |reps: u32| -> Result<f64, GpuError> {
+        let start = Instant::now();
+        let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bandwidth") });
+        for _ in 0..reps {
+            enc.copy_buffer_to_buffer(&src, 0, &dst, 0, size);
+        }
+        dev.queue.submit([enc.finish()]);
+        dev.wait()?;
+        Ok(start.elapsed().as_secs_f64())
+    };
+    // First touch: the driver may allocate the memory lazily.
+    dev.queue.write_buffer(&src, 0, &vec![1u8; size as usize]);
+    run(1)?;
+    let mut reps = 1u32;
+    let mut best = 0.0f64;
+    for _ in 0..12 {
+        let t = run(reps)?;
+        best = best.max(2.0 * size as f64 * reps as f64 / t.max(1e-9));
+        if t >= 0.2 || reps >= 4096 {
+            break;
+        }
+        reps = (reps * 2).max((reps as f64 * 0.25 / t.max(1e-6)).min(4096.0) as u32);
+    }
+    Ok(best)
+}
+
+/// `BLOCKDEM_STAGE_TIMING=isolated` asks for isolated dispatches even where timestamps exist (to
+/// compare the two methods on one adapter).
+fn isolated_asked() -> bool {
+    std::env::var("BLOCKDEM_STAGE_TIMING").is_ok_and(|v| v.eq_ignore_ascii_case("isolated"))
+}
+
+type StageList<'a> = Vec<(&'static str, &'a wgpu::ComputePipeline, u32)>;
+
+impl<R: Real> Engine<R>
+where
+    Block<R>: bytemuck::Pod,
+    Corner<R>: bytemuck::Pod,
+    Contact<R>: bytemuck::Pod,
+    Material<R>: bytemuck::Pod,
+    Params<R>: bytemuck::Pod,
+{
+    /// The stages of one cycle with their workgroup counts, as `run_batch` dispatches them.
+    fn stage_list(&self) -> StageList<'_> {
+        let groups = |n: usize| (n as u32).div_ceil(shaders::WORKGROUP_SIZE);
+        let p = &self.pipelines;
+        let (nb, nc, nk) = self.counts;
+        vec![
+            ("law_of_motion", &p.law_of_motion, groups(nb)),
+            ("geometry_update", &p.geometry_update, groups(nc)),
+            ("contact_forces", &p.contact_forces, groups(nk)),
+            ("gather", &p.gather, groups(nb)),
+            ("end_cycle", &p.end_cycle, 1),
+        ]
+    }
+
+    fn profile_stages(&self, cycles: u32) -> Result<DeviceProfile, GpuError> {
+        let (Some(buffers), Some(bg)) = (self.buffers.as_ref(), self.bind_group.as_ref()) else {
+            return Err(GpuError::Setup("profile_stages needs a run first (no state on the device)".into()));
+        };
+        let cycles = cycles.max(1);
+        let dev = &self.dev;
+        let stages = self.stage_list();
+        dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+        let timestamps = dev.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked();
+        let mut sums = vec![0.0f64; stages.len()];
+        if timestamps {
+            let period_s = dev.queue.get_timestamp_period() as f64 * 1e-9;
+            let per_cycle = 2 * stages.len() as u32;
+            let cycles_per_set = (wgpu::QUERY_SET_MAX_QUERIES / per_cycle).max(1);
+            let mut done = 0;
+            while done < cycles {
+                let n = (cycles - done).min(cycles_per_set);
+                let count = n * per_cycle;
+                let set = dev.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage timestamps"), ty: wgpu::QueryType::Timestamp, count });
+                let resolve = dev.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("stage timestamps"),
+                    size: count as u64 * 8,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("profiled cycles") });
+                for c in 0..n {
+                    for (i, (label, pipeline, groups)) in stages.iter().enumerate() {
+                        let q = (c * stages.len() as u32 + i as u32) * 2;
+                        let writes = wgpu::ComputePassTimestampWrites { query_set: &set, beginning_of_pass_write_index: Some(q), end_of_pass_write_index: Some(q + 1) };
+                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: Some(writes) });
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, bg, &[]);
+                        pass.dispatch_workgroups((*groups).max(1), 1, 1);
+                    }
+                    // A halt raised by end_cycle (stage 7 due) would idle the later cycles: clear it.
+                    enc.clear_buffer(&buffers.flags, 0, None);
+                }
+                enc.resolve_query_set(&set, 0..count, &resolve, 0);
+                dev.queue.submit([enc.finish()]);
+                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&dev.read_buffer(&resolve, count as u64 * 8)?);
+                for (q, pair) in ticks.chunks_exact(2).enumerate() {
+                    sums[q % stages.len()] += pair[1].saturating_sub(pair[0]) as f64 * period_s;
+                }
+                done += n;
+            }
+        } else {
+            for (i, (label, pipeline, groups)) in stages.iter().enumerate() {
+                let batch = |reps: u32| -> Result<f64, GpuError> {
+                    let start = Instant::now();
+                    let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("isolated stage") });
+                    for _ in 0..reps {
+                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, bg, &[]);
+                        pass.dispatch_workgroups((*groups).max(1), 1, 1);
+                    }
+                    dev.queue.submit([enc.finish()]);
+                    dev.wait()?;
+                    Ok(start.elapsed().as_secs_f64())
+                };
+                batch(1)?;
+                dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+                sums[i] = batch(cycles)?;
+            }
+        }
+        Ok(DeviceProfile {
+            method: if timestamps { "timestamps" } else { "isolated dispatches" },
+            stages: stages.iter().zip(&sums).map(|((name, _, _), s)| (*name, s / cycles as f64)).collect(),
+            cycles,
+        })
+    }
+}
+
+impl GpuBackend {
+    fn device(&self) -> &GpuDevice {
+        match &self.engine {
+            EngineAny::F32(e) => &e.dev,
+            EngineAny::F64(e) => &e.dev,
+        }
+    }
+
+    /// Whether the device writes pass timestamps (stage times are then measured inside cycles).
+    pub fn has_timestamps(&self) -> bool {
+        self.device().device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked()
+    }
+
+    /// The device time of each kernel stage over `cycles` cycles (or dispatches), on the state the
+    /// last `run` left on the device (see the module doc; the next `run` re-uploads the model).
+    pub fn profile_stages(&self, cycles: u32) -> Result<DeviceProfile, GpuError> {
+        match &self.engine {
+            EngineAny::F32(e) => e.profile_stages(cycles),
+            EngineAny::F64(e) => e.profile_stages(cycles),
+        }
+    }
+
+    /// The adapter's `copy_buffer_to_buffer` bandwidth, bytes read + written per second.
+    pub fn copy_bandwidth(&self) -> Result<f64, GpuError> {
+        copy_bandwidth(self.device())
+    }
+
+    /// The bytes each kernel must move per cycle for these counts, in this backend's precision.
+    pub fn bytes_per_cycle(&self, blocks: usize, corners: usize, contacts: usize, materials: usize) -> Vec<StageBytes> {
+        match self.precision() {
+            super::Precision::F32 => bytes_per_cycle::<f32>(blocks, corners, contacts, materials),
+            super::Precision::F64 => bytes_per_cycle::<f64>(blocks, corners, contacts, materials),
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! `blockdem bench`: the reference wall, its decks in examples/, and a quick bench on every backend
+//! whose outputs must exist, parse and make physical sense.
+
+mod common;
+
+use blockdem::bench::scene::{self, RefScene};
+use blockdem::bench::{BackendSpec, BenchOptions};
+use common::Target;
+
+fn temp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("blockdem-bench-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn the_reference_wall_has_1012_bricks_on_a_ground_block() {
+    let wall = scene::reference_wall(scene::FRAC);
+    assert_eq!(wall.brick_count(), 1012, "13 even rows of 40 + 12 odd rows of 41");
+    let settle = blockdem::scenes::run_deck_on(&scene::reference_body(RefScene::Settle, scene::FRAC), Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    assert_eq!(settle.blocks.len(), 1013);
+    assert_eq!(settle.blocks.iter().filter(|b| b.fixed).count(), 1, "the ground block alone is fixed");
+    assert_eq!(settle.tol.round, 0.1);
+    let impact = blockdem::scenes::run_deck_on(&scene::reference_body(RefScene::Impact, scene::FRAC), Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    assert_eq!(impact.blocks.len(), 1014);
+    let p = impact.blocks.last().unwrap();
+    assert_eq!(p.centroid, [-2.0, 11.0]);
+    assert_eq!(p.velocity, [50.0, 0.0]);
+    assert!((p.mass - 8000.0 * 0.25).abs() < 1e-9, "a 0.5 m square of density 8000");
+    // Running bond: the centroids the generator reports are those of the blocks built.
+    for ((_, c), b) in wall.brick_centroids().iter().zip(settle.blocks.iter().skip(1)) {
+        assert!((c[0] - b.centroid[0]).abs() < 1e-12 && (c[1] - b.centroid[1]).abs() < 1e-12);
+    }
+    // The old helper gives the same wall with its own rounding.
+    assert_eq!(blockdem::scenes::brick_wall_deck(25, 40, 1.0, 0.5, 1e9, 0.6).matches("BLOCK").count(), 1013);
+}
+
+/// The decks in examples/ are what the generator writes (`BLOCKDEM_BLESS=1` rewrites them).
+#[test]
+fn example_decks_equal_the_generator() {
+    for s in [RefScene::Settle, RefScene::Impact] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(scene::example_path(s));
+        let text = scene::example_deck(s);
+        if std::env::var("BLOCKDEM_BLESS").is_ok_and(|v| v == "1") {
+            std::fs::write(&path, &text).unwrap();
+        }
+        let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(on_disk == text, "{} differs from scene::example_deck (run BLOCKDEM_BLESS=1 cargo test --release --test bench)", path.display());
+        let cycles: u64 = text.lines().find_map(|l| l.strip_prefix("CYCLE ")).unwrap().trim().parse().unwrap();
+        let expected = if s == RefScene::Settle { 14143 } else { 7072 };
+        assert_eq!(cycles, expected, "2 s and 1 s at dt = 0.1 * 2 sqrt(500 / 1e9)");
+    }
+}
+
+/// `blockdem run` takes the example deck (here with fewer cycles: the syntax is what is tested).
+#[test]
+fn the_impact_example_runs_through_the_binary() {
+    let dir = temp("example");
+    let text = scene::example_deck(RefScene::Impact).replace("CYCLE 7072", "CYCLE 100");
+    let deck = dir.join("impact.dat");
+    std::fs::write(&deck, text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_blockdem"))
+        .args(["run", deck.to_str().unwrap(), "--backend", "cpu", "--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("CURRENT CYCLE COUNT = 100"), "{stdout}");
+}
+
+/// A quick bench on one backend: shortened simulated times (the reference runs 2 s and 1 s), one
+/// small wall of the scaling family.
+fn quick_bench(t: &Target) {
+    let spec = match t {
+        Target::Cpu => BackendSpec::Cpu,
+        Target::Gpu(o) => BackendSpec::Gpu(o.clone()),
+    };
+    let mut options = BenchOptions::new(true, vec![spec]);
+    options.settle_time = 0.05;
+    // The projectile reaches the wall at 0.035 s; by 0.07 s the first bricks have moved 0.1 m.
+    options.impact_time = 0.07;
+    options.sizes = vec![1_000];
+    options.measure_s = 0.1;
+    let report = blockdem::bench::run(&options);
+    let dir = temp(&t.name().replace([' ', ':', '"', '(', ')'], "_"));
+    let (files, chart_problem) = blockdem::bench::write_outputs(&report, &dir).unwrap();
+    assert!(chart_problem.is_none(), "{chart_problem:?}");
+    for name in ["bench.csv", "bench_stages.csv", "bench_reference.csv", "bench_targets.csv", "bench.json", "bench.png"] {
+        let p = dir.join(name);
+        assert!(files.contains(&p) && std::fs::metadata(&p).unwrap().len() > 0, "{name}");
+    }
+    let png = std::fs::read(dir.join("bench.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap();
+    assert!(json["machine"]["cores"].as_u64().unwrap() >= 1);
+    assert_eq!(json["backends"].as_array().unwrap().len(), 1);
+    assert!(json["backends"][0]["error"].is_null(), "{}", json["backends"][0]);
+    let reference = json["reference"].as_array().unwrap();
+    assert_eq!(reference.len(), 2);
+    for r in reference {
+        assert!(r["error"].is_null(), "{r}");
+        assert_eq!(r["measures"]["bricks"], 1012, "{r}");
+    }
+    let settle = &reference[0]["measures"];
+    let drift = settle["drift"].as_f64().unwrap();
+    let elastic = settle["elastic_estimate"].as_f64().unwrap();
+    // The wall stands: its bricks move by the elastic settlement under self-weight, about
+    // 0.9 mm at the top (printed as elastic_estimate), at most twice that while it rings (the
+    // dynamic load factor of a load applied at once: its contacts start unloaded), and f32
+    // round-off adds a fraction of a millimetre. A wall that collapses, or whose contacts give
+    // way, moves by centimetres. Bound: 2 mm.
+    assert!(drift.is_finite() && drift < 2e-3, "settle drift {drift} m");
+    assert!((0.5e-3..1.5e-3).contains(&elastic), "elastic estimate {elastic} m");
+    let moved = reference[1]["measures"]["moved"].as_u64().unwrap();
+    assert!(moved > 0 && moved < 1012, "the projectile moves some bricks, not all: {moved}");
+
+    let scaling = json["scaling"].as_array().unwrap();
+    assert_eq!(scaling.len(), 1);
+    let row = &scaling[0];
+    assert!(row["error"].is_null(), "{row}");
+    assert_eq!(row["blocks"], 1013);
+    for key in ["block_cycles_per_s", "contact_cycles_per_s", "roofline", "bandwidth_bytes_per_s"] {
+        let v = row[key].as_f64().unwrap();
+        assert!(v.is_finite() && v > 0.0, "{key} = {v}");
+    }
+    assert!(row["stages"].as_array().unwrap().len() >= 3);
+    assert!(!json["targets"].as_array().unwrap().is_empty());
+
+    // The CSV files: a header and one row per measurement, the same number of fields in each.
+    let csv = std::fs::read_to_string(dir.join("bench.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 2);
+    assert_eq!(lines[0].split(',').count(), lines[1].split(',').count());
+    let reference_csv = std::fs::read_to_string(dir.join("bench_reference.csv")).unwrap();
+    assert_eq!(reference_csv.lines().count(), 3);
+    assert!(blockdem::bench::table(&report).contains("TARGETS"));
+}
+
+common::every_backend!(quick_bench);
