@@ -35,15 +35,24 @@ struct Contact {
     material: u32, bonded: u32,
 }
 
-// 16 / 32 bytes.
+// 16 / 32 bytes. What the gather needs of a contact: the force on block 1 (block 2 gets the
+// reaction) and the moment of each about its own centroid (eq. 12), written by contact_forces.
+struct ContactForce { fx: real, fy: real, m1: real, m2: real }
+
+// 16 / 32 bytes (the 16-byte stride a uniform array needs, in both precisions).
 struct Material { kn: real, ks: real, cohesion: real, friction: real }
 
-// 48 / 80 bytes.
+// 12 / 24 bytes: one workgroup's share of the energy check (energy_check.wgsl).
+struct EnergySum { kinetic: real, strain: real, work: real }
+
+// 56 / 88 bytes.
 struct Params {
     dt: real, alpha: real, beta: real, gx: real, gy: real,
     etol: real, fast_limit: real, overlap_limit: real,
     n_blocks: u32, n_corners: u32, n_contacts: u32,
     one: u32, // always 1 (see two_sum)
+    gather_fixed: u32, // 1: the gather also sums fixed blocks (before a read-back)
+    _pad: u32,
 }
 
 // 32 bytes.
@@ -62,14 +71,17 @@ const ERR_NONFINITE: u32 = 1u;
 const ERR_TOO_FAST: u32 = 2u;
 const ERR_OVERLAP: u32 = 4u;
 
+// Eight storage buffers (DESIGN.md §3) and two uniforms: run constants and the material table.
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> blocks: array<Block>;
 @group(0) @binding(2) var<storage, read_write> corners: array<Corner>;
 @group(0) @binding(3) var<storage, read_write> contacts: array<Contact>;
-@group(0) @binding(4) var<storage, read> materials: array<Material>;
+@group(0) @binding(4) var<uniform> materials: array<Material, MAX_MATERIALS>;
 @group(0) @binding(5) var<storage, read> adj_offsets: array<u32>;
 @group(0) @binding(6) var<storage, read> adj_entries: array<u32>;
 @group(0) @binding(7) var<storage, read_write> flags: Flags;
+@group(0) @binding(8) var<storage, read_write> contact_forces_out: array<ContactForce>;
+@group(0) @binding(9) var<storage, read_write> energy_sums_out: array<EnergySum>;
 
 // True when the batch was stopped at the end of an earlier cycle: the remaining cycles of the
 // batch do nothing, so the CPU sees the state of the cycle that raised the flag.

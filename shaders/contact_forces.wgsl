@@ -1,7 +1,8 @@
 // Stage 4: contact kinematics and the force–displacement law (SL-85-1 eqs. 13–20), and the
 // geometry of a rounded corner against the rounded boundary of the other block. Twin of
 // src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `feature_distance`, `track_feature`, `contact_force_law`,
-// `slip_dissipation`, `counts_force`). Geometry is relative to block 2's centroid.
+// `slip_dissipation`, `counts_force`). Geometry is relative to block 2's centroid. Besides the
+// contact itself, each invocation writes the compact record the gather sums (`ContactForce`).
 //
 // Feature 2k is the arc of corner k, feature 2k+1 the straight part of edge k → k+1.
 
@@ -308,6 +309,12 @@ fn contact_forces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
     c = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);
     contacts[k] = c;
+    // For the gather: the force on block 1 and its reaction on block 2, with their moments about
+    // each block's centroid (eq. 12). The point is relative to block 2's centroid, so block 1's
+    // lever arm is p − (c1 − c2).
+    let p = vec2<real>(c.px, c.py);
+    let r1 = p - d12;
+    contact_forces_out[k] = ContactForce(c.fx, c.fy, r1.x * c.fy - r1.y * c.fx, p.y * c.fx - p.x * c.fy);
     if (counted && -g.gap > params.overlap_limit) {
         atomicOr(&flags.errors, ERR_OVERLAP);
         atomicMin(&flags.overlap_contact, k);

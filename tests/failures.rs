@@ -13,6 +13,7 @@ every_backend!(
     an_overlap_beyond_half_the_rounding_stops_at_the_last_good_state,
     an_unstable_fraction_is_caught_before_any_nan,
     a_projectile_that_would_tunnel_is_stopped,
+    a_failure_after_a_checkpoint_restores_that_checkpoint,
 );
 
 /// Runs a deck that must fail; returns the failure and the model the executor kept.
@@ -73,4 +74,31 @@ fn a_projectile_that_would_tunnel_is_stopped(t: &Target) {
     }
     assert_last_good(&m, t);
     assert!((m.blocks[0].centroid[0] - 0.5).abs() < 1e-6 && (m.blocks[0].velocity[0] - 200.0).abs() < 1e-3);
+}
+
+fn a_failure_after_a_checkpoint_restores_that_checkpoint(t: &Target) {
+    // A block pressed onto a fixed base by its weight and a load: the static overlap
+    // (W + L)/2kn = 0.035 m is under the limit d/2 = 0.05 m, but the dynamic one (twice that,
+    // undamped) is not, and crosses it at cycle 178 with FRAC 0.004. So the run fails after the
+    // checkpoint of cycle 100, and the model must be that checkpoint: on the GPU it comes from
+    // the device copy taken after the energy check passed, with the fixed base's force summed
+    // on restore (the cycle skips fixed blocks).
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6 F=0.5\nROUND 0.1\nFRAC 0.004\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\n\
+         FIX 0 4 0 0.9\nGRAV 0 -10\nLOAD 1 2 1 2 0 -50000\nCYCLE 5000\n";
+    let (e, m) = fail(t, deck);
+    let (_, reference) = fail(&Target::Cpu, deck);
+    assert!(matches!(e, CycleError::Overlap { cycle: 178, .. }), "{e} on {}", t.name());
+    assert_eq!((m.cycle, reference.cycle), (100, 100), "on {}", t.name());
+    assert!((m.time - reference.time).abs() < 1e-12 * reference.time, "on {}", t.name());
+    // f32 keeps the centroid to ~1e-7 m and the velocity to ~1e-7 relative over 100 steps; the
+    // forces to f32 round-off of 1e5 N. The tolerances leave a factor of 10 or more.
+    for (g, c) in m.blocks.iter().zip(&reference.blocks) {
+        for i in 0..2 {
+            assert!((g.centroid[i] - c.centroid[i]).abs() < 1e-5, "centroid on {}: {:?} vs {:?}", t.name(), g.centroid, c.centroid);
+            assert!((g.velocity[i] - c.velocity[i]).abs() < 1e-5 * (1.0 + c.velocity[i].abs()), "velocity on {}: {:?} vs {:?}", t.name(), g.velocity, c.velocity);
+            assert!((g.force[i] - c.force[i]).abs() < 1e-4 * (1.0 + c.force[0].hypot(c.force[1])), "force on {}: {:?} vs {:?}", t.name(), g.force, c.force);
+        }
+    }
+    assert_eq!(m.contacts.len(), reference.contacts.len());
+    assert_last_good(&m, t);
 }

@@ -7,7 +7,9 @@
 //! - `contact_force_law`: the force–displacement law (eqs. 13–20) with the energy it books
 //!   (slip work, dashpot work and the dashpot velocities it carries to the next step);
 //! - `mass_damping_work`: the energy the mass-proportional damping takes in a step (law_of_motion);
-//! - `sin_cos`: the rotation of the geometry update, with + − × only.
+//! - `sin_cos`: the rotation of the geometry update, with + − × only;
+//! - `energy_sums` (the energy check on the device): its sums against `Model::energies` on the
+//!   state the run read back.
 //!
 //! Tolerances: f64 kernels agree to rounding (a few ulps; the GPU compiler may fuse
 //! multiply–adds). f32 kernels get the inputs rounded to f32 and agree to f32 round-off scaled by
@@ -103,10 +105,10 @@ fn q<R: Real>(x: f64) -> f64 {
 }
 
 const TRACK: &str = r#"
-@group(0) @binding(8) var<storage, read> t_in_r: array<real>;
-@group(0) @binding(9) var<storage, read> t_in_u: array<u32>;
-@group(0) @binding(10) var<storage, read_write> t_out_r: array<real>;
-@group(0) @binding(11) var<storage, read_write> t_out_u: array<u32>;
+@group(0) @binding(20) var<storage, read> t_in_r: array<real>;
+@group(0) @binding(21) var<storage, read> t_in_u: array<u32>;
+@group(0) @binding(22) var<storage, read_write> t_out_r: array<real>;
+@group(0) @binding(23) var<storage, read_write> t_out_u: array<u32>;
 
 @compute @workgroup_size(64)
 fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -218,10 +220,10 @@ where
         cases,
         &[
             (2, bytemuck::cast_slice(&gpu_corners).to_vec(), false),
-            (8, reals::<R>(&in_r), false),
-            (9, bytemuck::cast_slice(&in_u).to_vec(), false),
-            (10, vec![0; cases * 6 * std::mem::size_of::<R>()], true),
-            (11, vec![0; cases * 8], true),
+            (20, reals::<R>(&in_r), false),
+            (21, bytemuck::cast_slice(&in_u).to_vec(), false),
+            (22, vec![0; cases * 6 * std::mem::size_of::<R>()], true),
+            (23, vec![0; cases * 8], true),
         ],
     );
     let (out_r, out_u) = (back::<R>(&out[0]), bytemuck::pod_collect_to_vec::<u8, u32>(&out[1]));
@@ -248,10 +250,10 @@ where
 }
 
 const LAW: &str = r#"
-@group(0) @binding(8) var<storage, read> l_contacts: array<Contact>;
-@group(0) @binding(9) var<storage, read> l_materials: array<Material>;
-@group(0) @binding(10) var<storage, read> l_motion: array<real>;
-@group(0) @binding(11) var<storage, read_write> l_out: array<Contact>;
+@group(0) @binding(20) var<storage, read> l_contacts: array<Contact>;
+@group(0) @binding(21) var<storage, read> l_materials: array<Material>;
+@group(0) @binding(22) var<storage, read> l_motion: array<real>;
+@group(0) @binding(23) var<storage, read_write> l_out: array<Contact>;
 
 @compute @workgroup_size(64)
 fn test_contact_force_law(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -363,10 +365,10 @@ where
         "test_contact_force_law",
         cases,
         &[
-            (8, bytemuck::cast_slice(&gc).to_vec(), false),
-            (9, bytemuck::cast_slice(&gm).to_vec(), false),
-            (10, reals::<R>(&motion), false),
-            (11, vec![0; cases * std::mem::size_of::<GContact<R>>()], true),
+            (20, bytemuck::cast_slice(&gc).to_vec(), false),
+            (21, bytemuck::cast_slice(&gm).to_vec(), false),
+            (22, reals::<R>(&motion), false),
+            (23, vec![0; cases * std::mem::size_of::<GContact<R>>()], true),
         ],
     );
     let got: Vec<GContact<R>> = bytemuck::pod_collect_to_vec(&out[0]);
@@ -431,8 +433,8 @@ where
 }
 
 const MASS_DAMPING: &str = r#"
-@group(0) @binding(8) var<storage, read> d_in: array<real>;
-@group(0) @binding(9) var<storage, read_write> d_out: array<real>;
+@group(0) @binding(20) var<storage, read> d_in: array<real>;
+@group(0) @binding(21) var<storage, read_write> d_out: array<real>;
 
 @compute @workgroup_size(64)
 fn test_mass_damping_work(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -464,7 +466,7 @@ fn mass_damping_work_matches_rust<R: Real>(dev: &GpuDevice) {
         input.extend([mass, inertia, v0[0], v0[1], v0[2], v1[0], v1[1], v1[2], alpha, dt]);
         expected.push(blockdem::cpu::law_of_motion::mass_damping_work(mass, inertia, v0, v1, alpha, dt));
     }
-    let out = run_kernel(dev, "law_of_motion", MASS_DAMPING, "test_mass_damping_work", cases, &[(8, reals::<R>(&input), false), (9, vec![0; cases * std::mem::size_of::<R>()], true)]);
+    let out = run_kernel(dev, "law_of_motion", MASS_DAMPING, "test_mass_damping_work", cases, &[(20, reals::<R>(&input), false), (21, vec![0; cases * std::mem::size_of::<R>()], true)]);
     let got = back::<R>(&out[0]);
     for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
         // A sum of non-negative terms, each a product of a few rounded factors: relative error a
@@ -479,9 +481,9 @@ fn mass_damping_work_matches_rust<R: Real>(dev: &GpuDevice) {
 }
 
 const TWO_SUM: &str = r#"
-@group(0) @binding(8) var<storage, read> t_in: array<real>;
-@group(0) @binding(9) var<storage, read_write> t_out: array<real>;
-@group(0) @binding(10) var<storage, read> t_one: array<real>;
+@group(0) @binding(20) var<storage, read> t_in: array<real>;
+@group(0) @binding(21) var<storage, read_write> t_out: array<real>;
+@group(0) @binding(22) var<storage, read> t_one: array<real>;
 
 @compute @workgroup_size(64)
 fn test_two_sum(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -525,7 +527,7 @@ fn two_sum_is_exact<R: Real + std::ops::Add<Output = R> + std::ops::Sub<Output =
         TWO_SUM,
         "test_two_sum",
         cases,
-        &[(8, reals::<R>(&input), false), (9, vec![0; cases * 2 * std::mem::size_of::<R>()], true), (10, reals::<R>(&[1.0]), false)],
+        &[(20, reals::<R>(&input), false), (21, vec![0; cases * 2 * std::mem::size_of::<R>()], true), (22, reals::<R>(&[1.0]), false)],
     );
     let got = back::<R>(&out[0]);
     for i in 0..cases {
@@ -538,8 +540,8 @@ fn two_sum_is_exact<R: Real + std::ops::Add<Output = R> + std::ops::Sub<Output =
 }
 
 const SIN_COS: &str = r#"
-@group(0) @binding(8) var<storage, read> s_in: array<real>;
-@group(0) @binding(9) var<storage, read_write> s_out: array<real>;
+@group(0) @binding(20) var<storage, read> s_in: array<real>;
+@group(0) @binding(21) var<storage, read_write> s_out: array<real>;
 
 @compute @workgroup_size(64)
 fn test_sin_cos(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -558,7 +560,7 @@ fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_0003);
     let cases = 4096;
     let thetas: Vec<f64> = (0..cases).map(|i| q::<R>(if i % 2 == 0 { rng.range(-0.5, 0.5) } else { rng.range(-100.0, 100.0) })).collect();
-    let out = run_kernel(dev, "contact_forces", SIN_COS, "test_sin_cos", cases, &[(8, reals::<R>(&thetas), false), (9, vec![0; cases * 2 * std::mem::size_of::<R>()], true)]);
+    let out = run_kernel(dev, "contact_forces", SIN_COS, "test_sin_cos", cases, &[(20, reals::<R>(&thetas), false), (21, vec![0; cases * 2 * std::mem::size_of::<R>()], true)]);
     let got = back::<R>(&out[0]);
     for (i, &t) in thetas.iter().enumerate() {
         let (s, c) = t.sin_cos();
@@ -600,3 +602,40 @@ on_adapters!(
     sin_cos => sin_cos_matches_rust,
     two_sum => two_sum_is_exact,
 );
+
+/// The device's energy sums against `Model::energies` on the same state: a brick wall settling
+/// under gravity (kinetic and strain energy of hundreds of blocks and contacts). f64 sums differ
+/// only in the order of addition (a workgroup tree against a serial sum): 1e-12 relative. In f32
+/// each term carries ~1e-7 relative round-off and the tree sums add ~log2(64)·1e-7, so 1e-5 of
+/// the total leaves a wide margin while a missing or doubled term (≥ 1e-3 of it) fails.
+fn energy_sums_match_the_model(adapter: &str, precision: Precision) {
+    let Some(common::Target::Gpu(options)) = Target::gpu(adapter, precision) else { return };
+    let deck = format!("{}CYCLE 0\n", blockdem::scenes::brick_wall_deck(6, 10, 1.0, 0.5, 1e9, 0.6));
+    let mut model = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
+    use blockdem::backend::Backend;
+    gpu.run(&mut model, 150, &mut |_| {}).unwrap();
+    let (kinetic, strain, work) = gpu.energy_sums().unwrap();
+    let e = model.energies();
+    assert!(e.kinetic > 0.0 && e.strain > 0.0 && e.external_work > 0.0, "a moving, loaded wall: {e:?}");
+    let tol = if precision == Precision::F32 { 1e-5 } else { 1e-12 };
+    let scale = e.kinetic + e.strain + e.external_work;
+    for (name, gpu, cpu) in [("kinetic", kinetic, e.kinetic), ("strain", strain, e.strain), ("external work", work, e.external_work)] {
+        assert!((gpu - cpu).abs() <= tol * scale, "{name} on {adapter} {precision}: device {gpu:e}, model {cpu:e}");
+    }
+}
+
+#[test]
+fn energy_sums_vulkan_f32() {
+    energy_sums_match_the_model("vulkan", Precision::F32);
+}
+
+#[test]
+fn energy_sums_vulkan_f64() {
+    energy_sums_match_the_model("vulkan", Precision::F64);
+}
+
+#[test]
+fn energy_sums_gl_f32() {
+    energy_sums_match_the_model("gl", Precision::F32);
+}

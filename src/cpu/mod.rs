@@ -212,11 +212,17 @@ impl EnergyCheck {
 
     pub(crate) fn check(&mut self, model: &Model) -> Result<(), CycleError> {
         let e = model.energies();
-        let energy = e.kinetic + e.strain;
-        self.peak = self.peak.max(self.baseline + e.external_work);
+        self.check_sums(model.cycle, e.kinetic + e.strain, e.external_work, model.frac)
+    }
+
+    /// The check on sums taken elsewhere (the GPU's `energy_sums`): kinetic + strain energy
+    /// against the external work done since the start. The largest safe FRAC in the error is
+    /// filled in by `roll_back`, from the last good state's contact network.
+    pub(crate) fn check_sums(&mut self, cycle: u64, energy: f64, external_work: f64, frac: f64) -> Result<(), CycleError> {
+        self.peak = self.peak.max(self.baseline + external_work);
         let budget = self.peak;
         if !energy.is_finite() || energy > ENERGY_GROWTH_FACTOR * budget.max(0.0) + 1e-6 * self.scale {
-            return Err(CycleError::EnergyGrowth { cycle: model.cycle, energy, budget, frac: model.frac, safe_frac: model.stable_frac_estimate() });
+            return Err(CycleError::EnergyGrowth { cycle, energy, budget, frac, safe_frac: f64::NAN });
         }
         Ok(())
     }

@@ -47,8 +47,8 @@ impl std::str::FromStr for AdapterChoice {
 /// has no watchdog, so a runaway kernel would otherwise hang the process.
 pub const WAIT_TIMEOUT: Duration = Duration::from_secs(120);
 
-/// Largest single binding we create (the brief and DESIGN.md §3: under 128 MiB everywhere).
-pub const MAX_BINDING_BYTES: u64 = 128 << 20;
+
+
 
 /// The backends to look at: `WGPU_BACKEND` when set, else Vulkan and GL.
 fn backends_for(choice: &AdapterChoice) -> wgpu::Backends {

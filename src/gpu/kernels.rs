@@ -3,7 +3,7 @@
 //! (group 0, bindings as in `shaders/common.wgsl`), so one bind group serves every stage.
 
 use super::device::GpuDevice;
-use super::layout::{Block, Contact, Corner, Flags, Material, Params, Real};
+use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
 use super::{shaders, GpuError};
 
 /// One compute pipeline per entry point; each entry point is in the WGSL file of the same name.
@@ -13,7 +13,17 @@ pub struct Pipelines {
     pub contact_forces: wgpu::ComputePipeline,
     pub gather: wgpu::ComputePipeline,
     pub end_cycle: wgpu::ComputePipeline,
+    pub energy_sums: wgpu::ComputePipeline,
     pub bind_group_layout: wgpu::BindGroupLayout,
+}
+
+fn uniform(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -34,19 +44,16 @@ impl Pipelines {
         let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("blockdem state"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
-                    count: None,
-                },
+                uniform(0),
                 storage(1, false),
                 storage(2, false),
                 storage(3, false),
-                storage(4, true),
+                uniform(4),
                 storage(5, true),
                 storage(6, true),
                 storage(7, false),
+                storage(8, false),
+                storage(9, false),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -73,6 +80,7 @@ impl Pipelines {
             contact_forces: make("contact_forces")?,
             gather: make("gather")?,
             end_cycle: make("end_cycle")?,
+            energy_sums: make("energy_sums")?,
             bind_group_layout,
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -94,19 +102,35 @@ pub struct Buffers {
     pub blocks: Slab,
     pub corners: Slab,
     pub contacts: Slab,
-    pub materials: Slab,
+    /// `ContactForce` per contact: what the gather sums.
+    pub contact_forces: Slab,
+    /// The material table, a uniform of `MAX_MATERIALS` entries.
+    pub materials: wgpu::Buffer,
     pub adj_offsets: Slab,
     pub adj_entries: Slab,
     pub flags: wgpu::Buffer,
+    /// One `EnergySum` per workgroup of the energy check.
+    pub energy_sums: Slab,
+}
+
+/// The largest storage binding this device may hold: the adapter's own limit (128 MiB on Mesa's
+/// software adapters, 2 GiB on NVIDIA's Vulkan driver), within its largest buffer.
+pub fn binding_cap(dev: &GpuDevice) -> u64 {
+    dev.summary.max_storage_buffer_binding_size.min(dev.summary.max_buffer_size)
 }
 
 fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
-    let capacity = count.max(1).next_power_of_two();
-    let size = (capacity * item) as u64;
-    let cap = dev.summary.max_storage_buffer_binding_size.min(super::device::MAX_BINDING_BYTES);
-    if size > cap {
-        return Err(GpuError::Setup(format!("the {label} buffer would need {size} bytes, more than one binding may hold here ({cap} bytes)")));
+    let cap = binding_cap(dev);
+    let need = (count.max(1) * item) as u64;
+    if need > cap {
+        return Err(GpuError::Setup(format!(
+            "the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); use a smaller model or --precision f32"
+        )));
     }
+    // Room to grow (contacts come and go) without re-creating the buffer every update: a quarter
+    // more, within the cap.
+    let capacity = ((count.max(1) as u64 * 5 / 4).min(cap / item as u64) as usize).max(count.max(1));
+    let size = (capacity * item) as u64;
     let buffer = dev.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size,
@@ -117,7 +141,7 @@ fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab,
 }
 
 impl Buffers {
-    pub fn new<R: Real>(dev: &GpuDevice, blocks: usize, corners: usize, contacts: usize, materials: usize) -> Result<Self, GpuError>
+    pub fn new<R: Real>(dev: &GpuDevice, blocks: usize, corners: usize, contacts: usize) -> Result<Self, GpuError>
     where
         Block<R>: bytemuck::Pod,
         Corner<R>: bytemuck::Pod,
@@ -137,15 +161,23 @@ impl Buffers {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let materials = dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("materials"),
+            size: (crate::model::MAX_MATERIALS * std::mem::size_of::<Material<R>>()) as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         Ok(Buffers {
             params,
             blocks: slab(dev, "blocks", std::mem::size_of::<Block<R>>(), blocks)?,
             corners: slab(dev, "corners", std::mem::size_of::<Corner<R>>(), corners)?,
             contacts: slab(dev, "contacts", std::mem::size_of::<Contact<R>>(), contacts)?,
-            materials: slab(dev, "materials", std::mem::size_of::<Material<R>>(), materials)?,
+            contact_forces: slab(dev, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts)?,
+            materials,
             adj_offsets: slab(dev, "adjacency offsets", 4, blocks + 1)?,
             adj_entries: slab(dev, "adjacency entries", 4, 2 * contacts)?,
             flags,
+            energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
         })
     }
 
@@ -171,13 +203,20 @@ impl Buffers {
                 entry(1, &self.blocks.buffer),
                 entry(2, &self.corners.buffer),
                 entry(3, &self.contacts.buffer),
-                entry(4, &self.materials.buffer),
+                entry(4, &self.materials),
                 entry(5, &self.adj_offsets.buffer),
                 entry(6, &self.adj_entries.buffer),
                 entry(7, &self.flags),
+                entry(8, &self.contact_forces.buffer),
+                entry(9, &self.energy_sums.buffer),
             ],
         })
     }
+}
+
+/// Workgroups of the energy check: one invocation per block and contact, whichever are more.
+pub fn energy_groups(blocks: usize, contacts: usize) -> usize {
+    blocks.max(contacts).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1)
 }
 
 /// Rust twin of the WGSL `sin_cos` (common.wgsl), in f64: (cos θ, sin θ) by reduction to

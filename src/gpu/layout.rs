@@ -126,12 +126,28 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// Contact properties of one material: 16 bytes in f32, 32 in f64.
+    /// What the gather needs of one contact, written by `contact_forces` into its own compact
+    /// slot: 16 bytes in f32, 32 in f64. The force on block 1 (block 2 gets its reaction) and
+    /// the moment of each about its block's centroid (eq. 12, M = r × F), so that the gather
+    /// reads 16 contiguous bytes per contact instead of the whole contact and block 2.
+    ContactForce { fx: R, fy: R, m1: R, m2: R }
+}
+
+gpu_struct! {
+    /// Contact properties of one material: 16 bytes in f32, 32 in f64. A uniform array of
+    /// `MAX_MATERIALS` (16-byte stride in both precisions, as uniform arrays require).
     Material { kn: R, ks: R, cohesion: R, friction: R }
 }
 
 gpu_struct! {
-    /// Run constants and live counts (a uniform): 48 bytes in f32, 80 in f64.
+    /// One workgroup's share of the energy check (`energy_sums`): 12 bytes in f32, 24 in f64.
+    /// Kinetic energy of its blocks (at time t, as `Model::energies` takes it), strain energy of
+    /// its contacts, and its blocks' external work since the upload.
+    EnergySum { kinetic: R, strain: R, work: R }
+}
+
+gpu_struct! {
+    /// Run constants and live counts (a uniform): 56 bytes in f32, 88 in f64.
     Params {
         dt: R, alpha: R, beta: R, gx: R, gy: R,
         /// The contact update tolerance.
@@ -143,6 +159,10 @@ gpu_struct! {
         n_blocks: u32, n_corners: u32, n_contacts: u32,
         /// Always 1: a one whose value the shader compiler cannot see, for `two_sum`.
         one: u32,
+        /// 1: the gather also sums the forces of fixed blocks (before a read-back; their forces
+        /// are printed but move nothing, and a fixed base can carry a whole wall's contacts).
+        gather_fixed: u32,
+        _pad: u32,
     }
 }
 
@@ -195,5 +215,14 @@ impl Flags {
 
 /// Every GPU struct's Rust layout in precision `R`.
 pub fn layouts<R: Real>() -> Vec<StructLayout> {
-    vec![Block::<R>::layout(), Corner::<R>::layout(), Contact::<R>::layout(), Material::<R>::layout(), Params::<R>::layout(), Flags::layout()]
+    vec![
+        Block::<R>::layout(),
+        Corner::<R>::layout(),
+        Contact::<R>::layout(),
+        ContactForce::<R>::layout(),
+        Material::<R>::layout(),
+        EnergySum::<R>::layout(),
+        Params::<R>::layout(),
+        Flags::layout(),
+    ]
 }

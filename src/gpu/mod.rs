@@ -59,7 +59,7 @@ use crate::topology::Adjacency;
 pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 pub use targets::{find_target, scenario_backends, GpuTarget};
 use kernels::{Buffers, Pipelines};
-use layout::{Block, Contact, Corner, Flags, Material, Params, Real};
+use layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
 
 /// Kernel precision (`--precision`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -136,6 +136,16 @@ impl GpuBackend {
         }
     }
 
+    /// The energy check's sums of the state on the device, as `energy_sums.wgsl` takes them:
+    /// (kinetic, strain, external work). After a `run` the device holds the state the model was
+    /// given back, so these are the twin of `Model::energies` on it.
+    pub fn energy_sums(&self) -> Result<(f64, f64, f64), GpuError> {
+        match &self.engine {
+            EngineAny::F32(e) => e.energy_sums(),
+            EngineAny::F64(e) => e.energy_sums(),
+        }
+    }
+
     pub fn precision(&self) -> Precision {
         match &self.engine {
             EngineAny::F32(_) => Precision::F32,
@@ -162,12 +172,11 @@ fn device_error(e: GpuError) -> CycleError {
     CycleError::Setup(e.to_string())
 }
 
-/// The GPU state of one precision and the code that drives it.
-struct Engine<R: Real> {
-    dev: GpuDevice,
-    pipelines: Pipelines,
-    buffers: Option<Buffers>,
-    bind_group: Option<wgpu::BindGroup>,
+/// What the GPU's accumulators count from: the model's values when the state was uploaded (see
+/// "The energy ledger" above), and the origin the f32 centroids are relative to. Shared with the
+/// checkpoint taken under it, so a checkpoint costs no copy of these.
+#[derive(Clone, Debug, Default)]
+struct Uploaded {
     /// The model origin the GPU centroids are relative to.
     origin: [f64; 2],
     /// `Model::external_work` when the block buffer was last uploaded (its `work` fields count
@@ -179,6 +188,30 @@ struct Engine<R: Real> {
     /// f64 bases back on read-back.
     damping_base: Vec<f64>,
     contact_base: Vec<[f64; 2]>,
+}
+
+/// The last good state on the device: copies of the state buffers taken right after an energy
+/// check passed (device-to-device, no read-back), with the counts and bases they were taken
+/// under. The CPU side of the checkpoint (topology, ids) is the `Model` the run keeps.
+struct Checkpoint {
+    blocks: wgpu::Buffer,
+    corners: wgpu::Buffer,
+    contacts: wgpu::Buffer,
+    counts: (usize, usize, usize),
+    uploaded: std::rc::Rc<Uploaded>,
+}
+
+/// The GPU state of one precision and the code that drives it.
+struct Engine<R: Real> {
+    dev: GpuDevice,
+    pipelines: Pipelines,
+    buffers: Option<Buffers>,
+    bind_group: Option<wgpu::BindGroup>,
+    uploaded: std::rc::Rc<Uploaded>,
+    /// Counts uploads of the contact list (any topology change): the CPU copy of the last good
+    /// state must be re-taken when it changed since the checkpoint.
+    generation: u64,
+    checkpoint: Option<Checkpoint>,
     /// The block buffer as last read back (to see which update distances stage 7 reset).
     last_blocks: Vec<Block<R>>,
     counts: (usize, usize, usize),
@@ -188,11 +221,21 @@ fn r<R: Real>(x: f64) -> R {
     R::from_f64(x)
 }
 
+/// Which device buffers a read-back reads: the live state or the checkpoint.
+struct StateBuffers<'a> {
+    blocks: &'a wgpu::Buffer,
+    corners: &'a wgpu::Buffer,
+    contacts: &'a wgpu::Buffer,
+    counts: (usize, usize, usize),
+}
+
 impl<R: Real> Engine<R>
 where
     Block<R>: bytemuck::Pod,
     Corner<R>: bytemuck::Pod,
     Contact<R>: bytemuck::Pod,
+    ContactForce<R>: bytemuck::Pod,
+    EnergySum<R>: bytemuck::Pod,
     Material<R>: bytemuck::Pod,
     Params<R>: bytemuck::Pod,
 {
@@ -202,10 +245,9 @@ where
             pipelines,
             buffers: None,
             bind_group: None,
-            origin: [0.0, 0.0],
-            work_base: 0.0,
-            damping_base: Vec::new(),
-            contact_base: Vec::new(),
+            uploaded: Default::default(),
+            generation: 0,
+            checkpoint: None,
             last_blocks: Vec::new(),
             counts: (0, 0, 0),
         }
@@ -213,6 +255,11 @@ where
 
     fn buffers(&self) -> &Buffers {
         self.buffers.as_ref().expect("buffers are created by upload_all")
+    }
+
+    fn live(&self) -> StateBuffers<'_> {
+        let b = self.buffers();
+        StateBuffers { blocks: &b.blocks.buffer, corners: &b.corners.buffer, contacts: &b.contacts.buffer, counts: self.counts }
     }
 
     fn gpu_contact(model: &Model, c: &crate::model::Contact) -> Contact<R> {
@@ -241,12 +288,21 @@ where
         }
     }
 
+    /// The gather's record of a contact, from the model (after a topology change): the force on
+    /// block 1 and both moments, as `contact_forces` computes them.
+    fn gpu_contact_force(model: &Model, c: &crate::model::Contact) -> ContactForce<R> {
+        let (c1, c2) = (model.blocks[c.block1 as usize].centroid, model.blocks[c.block2 as usize].centroid);
+        let [fx, fy] = c.force;
+        let (r1, r2) = ([c.point[0] - c1[0], c.point[1] - c1[1]], [c.point[0] - c2[0], c.point[1] - c2[1]]);
+        ContactForce { fx: r(fx), fy: r(fy), m1: r(r1[0] * fy - r1[1] * fx), m2: r(r2[1] * fx - r2[0] * fy) }
+    }
+
     /// Uploads the whole model (start of a run, or after a crack split a block).
     fn upload_all(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
         // Origin: the middle of the model, rounded to a whole unit, only for f32 (f64 has digits
         // to spare and keeps the CPU's coordinates exactly).
-        self.origin = [0.0, 0.0];
+        let mut origin = [0.0, 0.0];
         if std::mem::size_of::<R>() == 4 && !model.blocks.is_empty() {
             let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
             for b in &model.blocks {
@@ -255,17 +311,21 @@ where
                     hi[i] = hi[i].max(b.centroid[i]);
                 }
             }
-            self.origin = [(0.5 * (lo[0] + hi[0])).round(), (0.5 * (lo[1] + hi[1])).round()];
+            origin = [(0.5 * (lo[0] + hi[0])).round(), (0.5 * (lo[1] + hi[1])).round()];
         }
-        self.work_base = model.external_work;
-        self.damping_base = model.blocks.iter().map(|b| b.damping_work).collect();
+        let uploaded = Uploaded {
+            origin,
+            work_base: model.external_work,
+            damping_base: model.blocks.iter().map(|b| b.damping_work).collect(),
+            contact_base: self.uploaded.contact_base.clone(),
+        };
         let blocks: Vec<Block<R>> = model
             .blocks
             .iter()
             .map(|b| {
-                let (x, y) = (b.centroid[0] - self.origin[0], b.centroid[1] - self.origin[1]);
+                let (x, y) = (b.centroid[0] - origin[0], b.centroid[1] - origin[1]);
                 let (hx, hy) = (r::<R>(x), r::<R>(y));
-                let (x0, y0) = (b.update_centroid[0] - self.origin[0], b.update_centroid[1] - self.origin[1]);
+                let (x0, y0) = (b.update_centroid[0] - origin[0], b.update_centroid[1] - origin[1]);
                 let (ux, uy) = (r::<R>(x0), r::<R>(y0));
                 Block {
                     cx: hx,
@@ -323,11 +383,13 @@ where
                 }
             })
             .collect();
-        let materials: Vec<Material<R>> =
-            model.materials.iter().map(|m| Material { kn: r(m.kn), ks: r(m.ks), cohesion: r(m.cohesion), friction: r(m.friction) }).collect();
+        let mut materials = vec![Material::<R>::default(); MAX_MATERIALS];
+        for (g, m) in materials.iter_mut().zip(&model.materials) {
+            *g = Material { kn: r(m.kn), ks: r(m.ks), cohesion: r(m.cohesion), friction: r(m.friction) };
+        }
         let rebuild = match &mut self.buffers {
             None => {
-                self.buffers = Some(Buffers::new::<R>(&self.dev, blocks.len(), corners.len(), model.contacts.len(), materials.len())?);
+                self.buffers = Some(Buffers::new::<R>(&self.dev, blocks.len(), corners.len(), model.contacts.len())?);
                 true
             }
             Some(b) => {
@@ -345,31 +407,39 @@ where
         let b = self.buffers();
         q.write_buffer(&b.blocks.buffer, 0, bytemuck::cast_slice(&blocks));
         q.write_buffer(&b.corners.buffer, 0, bytemuck::cast_slice(&corners));
-        q.write_buffer(&b.materials.buffer, 0, bytemuck::cast_slice(&materials));
+        q.write_buffer(&b.materials, 0, bytemuck::cast_slice(&materials));
         self.last_blocks = blocks;
         self.counts.0 = model.blocks.len();
         self.counts.1 = model.corners.len();
+        self.uploaded = std::rc::Rc::new(uploaded);
         self.upload_contacts(model, adjacency)
     }
 
-    /// Uploads contacts and adjacency (after stage 7 changed them).
+    /// Uploads contacts, their gather records and the adjacency (after stage 7 changed them).
     fn upload_contacts(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let contacts: Vec<Contact<R>> = model.contacts.iter().map(|c| Self::gpu_contact(model, c)).collect();
+        let forces: Vec<ContactForce<R>> = model.contacts.iter().map(|c| Self::gpu_contact_force(model, c)).collect();
         // The contact update kept each surviving contact's ledger terms in the model (matched by
         // corner and block, with their feature ids): they are the new bases.
-        self.contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+        let mut uploaded = (*self.uploaded).clone();
+        uploaded.contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+        self.uploaded = std::rc::Rc::new(uploaded);
+        self.generation += 1;
         let b = self.buffers.as_mut().expect("buffers exist");
         let d = &self.dev;
         let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
+        g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
         g |= Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
         g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, adjacency.offsets.len())?;
+        g |= Buffers::ensure(d, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(model.blocks.len(), contacts.len()))?;
         if g {
             self.bind_group = None;
         }
         let b = self.buffers();
         let q = &self.dev.queue;
         q.write_buffer(&b.contacts.buffer, 0, bytemuck::cast_slice(&contacts));
+        q.write_buffer(&b.contact_forces.buffer, 0, bytemuck::cast_slice(&forces));
         q.write_buffer(&b.adj_offsets.buffer, 0, bytemuck::cast_slice(&adjacency.offsets));
         q.write_buffer(&b.adj_entries.buffer, 0, bytemuck::cast_slice(&adjacency.entries));
         self.counts.2 = contacts.len();
@@ -394,17 +464,22 @@ where
             n_corners: self.counts.1 as u32,
             n_contacts: self.counts.2 as u32,
             one: 1,
+            gather_fixed: 0,
+            _pad: 0,
         };
         self.dev.queue.write_buffer(&self.buffers().params, 0, bytemuck::bytes_of(&params));
     }
 
     /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) in one submission; returns the
-    /// flags. With `gather_only`, runs stage 6 alone (the force sums after a topology change).
+    /// flags. With `gather_only`, runs stage 6 alone over every block, fixed ones too (the force
+    /// sums after a topology change, and before a read-back).
     fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
         let b = self.buffers();
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
-        self.dev.queue.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+        let q = &self.dev.queue;
+        q.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+        q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&(gather_only as u32)));
         let groups = |n: usize| (n as u32).div_ceil(shaders::WORKGROUP_SIZE);
         let p = &self.pipelines;
         let (nb, nc, nk) = self.counts;
@@ -432,7 +507,7 @@ where
                 pass.dispatch_workgroups(*n, 1, 1);
             }
         }
-        self.dev.queue.submit([enc.finish()]);
+        q.submit([enc.finish()]);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Device(format!("a cycle was rejected: {e}")));
         }
@@ -440,39 +515,114 @@ where
         Ok(bytemuck::pod_read_unaligned(&bytes))
     }
 
+    /// The energy check's sums on the device: (kinetic, strain, external work) of the state now,
+    /// the per-workgroup sums read back and added in order in f64.
+    fn energy_sums(&self) -> Result<(f64, f64, f64), GpuError> {
+        let Some(b) = self.buffers.as_ref() else {
+            return Err(GpuError::Setup("no state on the device: run some cycles first".into()));
+        };
+        let bg = self.bind_group.as_ref().expect("bind group built on upload");
+        let groups = kernels::energy_groups(self.counts.0, self.counts.2);
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy check") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("energy_sums"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines.energy_sums);
+            pass.set_bind_group(0, bg, &[]);
+            pass.dispatch_workgroups(groups as u32, 1, 1);
+        }
+        self.dev.queue.submit([enc.finish()]);
+        let sums: Vec<EnergySum<R>> = self.read(&b.energy_sums.buffer, groups)?;
+        let (mut kinetic, mut strain, mut work) = (0.0, 0.0, 0.0);
+        for s in &sums {
+            kinetic += s.kinetic.to_f64();
+            strain += s.strain.to_f64();
+            work += s.work.to_f64();
+        }
+        Ok((kinetic, strain, self.uploaded.work_base + work))
+    }
+
+    /// Copies the live state into the checkpoint buffers on the device (queued; no wait).
+    fn take_checkpoint(&mut self) {
+        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+        let b = self.buffers.as_ref().expect("buffers exist");
+        let (nb, nc, nk) = self.counts;
+        let sizes = [(nb * std::mem::size_of::<Block<R>>()) as u64, (nc * std::mem::size_of::<Corner<R>>()) as u64, (nk * std::mem::size_of::<Contact<R>>()) as u64];
+        let fits = self.checkpoint.as_ref().is_some_and(|c| c.blocks.size() >= sizes[0] && c.corners.size() >= sizes[1] && c.contacts.size() >= sizes[2]);
+        if !fits {
+            let make = |label: &str, size: u64| {
+                self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: size.max(16),
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                })
+            };
+            self.checkpoint = Some(Checkpoint {
+                blocks: make("checkpoint blocks", b.blocks.buffer.size()),
+                corners: make("checkpoint corners", b.corners.buffer.size()),
+                contacts: make("checkpoint contacts", b.contacts.buffer.size()),
+                counts: self.counts,
+                uploaded: self.uploaded.clone(),
+            });
+        }
+        let ck = self.checkpoint.as_mut().expect("made above");
+        ck.counts = self.counts;
+        ck.uploaded = self.uploaded.clone();
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("checkpoint") });
+        for ((src, dst), size) in [(&b.blocks.buffer, &ck.blocks), (&b.corners.buffer, &ck.corners), (&b.contacts.buffer, &ck.contacts)].into_iter().zip(sizes) {
+            if size > 0 {
+                enc.copy_buffer_to_buffer(src, 0, dst, 0, size);
+            }
+        }
+        self.dev.queue.submit([enc.finish()]);
+    }
+
+    /// Puts the device checkpoint's state into `model` (the CPU copy taken at that checkpoint),
+    /// and sums the fixed blocks' forces, which the cycle does not keep up to date.
+    fn restore_checkpoint(&self, model: &mut Model) -> Result<(), GpuError> {
+        let Some(ck) = &self.checkpoint else { return Ok(()) };
+        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, counts: ck.counts };
+        self.read_state(&src, &ck.uploaded, model)?;
+        let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+        let gravity = model.gravity;
+        let Model { blocks, contacts, .. } = model;
+        for (b, block) in blocks.iter_mut().enumerate().filter(|(_, blk)| blk.fixed) {
+            cpu::gather::gather(b, block, contacts, &adjacency, gravity);
+        }
+        Ok(())
+    }
+
     fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, n: usize) -> Result<Vec<T>, GpuError> {
         let bytes = self.dev.read_buffer(buffer, (n * std::mem::size_of::<T>()) as u64)?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 
-    /// Reads the block state back into the model.
-    fn read_blocks(&mut self, model: &mut Model) -> Result<(), GpuError> {
-        let _p = crate::profile::scope(crate::profile::Stage::Download);
-        let blocks: Vec<Block<R>> = self.read(&self.buffers().blocks.buffer, self.counts.0)?;
+    /// Reads the block state of `src` into the model; returns the blocks as read.
+    fn read_block_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
+        let blocks: Vec<Block<R>> = self.read(src.blocks, src.counts.0)?;
+        let o = up.origin;
         let mut work = 0.0;
-        for ((m, g), base) in model.blocks.iter_mut().zip(&blocks).zip(&self.damping_base) {
-            m.centroid = [self.origin[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), self.origin[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
+        for ((m, g), base) in model.blocks.iter_mut().zip(&blocks).zip(&up.damping_base) {
+            m.centroid = [o[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), o[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
             m.rotation = g.rotation.to_f64();
             m.velocity = [g.vx.to_f64(), g.vy.to_f64()];
             m.angular_velocity = g.w.to_f64();
             m.force = [g.fx.to_f64(), g.fy.to_f64()];
             m.moment = g.moment.to_f64();
             m.moved_since_update = g.moved.to_f64();
-            m.update_centroid = [self.origin[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), self.origin[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
+            m.update_centroid = [o[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), o[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
             m.update_rotation = g.update_rotation.to_f64();
             m.damping_work = base + g.damping_work.to_f64();
             work += g.work.to_f64();
         }
-        model.external_work = self.work_base + work;
-        self.last_blocks = blocks;
-        Ok(())
+        model.external_work = up.work_base + work;
+        Ok(blocks)
     }
 
-    /// Reads blocks, corners and contacts back into the model.
-    fn readback(&mut self, model: &mut Model) -> Result<(), GpuError> {
-        let _p = crate::profile::scope(crate::profile::Stage::Download);
-        self.read_blocks(model)?;
-        let corners: Vec<Corner<R>> = self.read(&self.buffers().corners.buffer, self.counts.1)?;
+    /// Reads blocks, corners and contacts of `src` into the model.
+    fn read_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
+        let blocks = self.read_block_state(src, up, model)?;
+        let corners: Vec<Corner<R>> = self.read(src.corners, src.counts.1)?;
         for (m, g) in model.corners.iter_mut().zip(&corners) {
             let cen = model.blocks[m.block as usize].centroid;
             m.position = [cen[0] + g.px.to_f64(), cen[1] + g.py.to_f64()];
@@ -480,8 +630,8 @@ where
             m.edge_dir = [g.ux.to_f64(), g.uy.to_f64()];
             m.edge_length = g.len.to_f64();
         }
-        let contacts: Vec<Contact<R>> = self.read(&self.buffers().contacts.buffer, self.counts.2)?;
-        for ((m, g), base) in model.contacts.iter_mut().zip(&contacts).zip(&self.contact_base) {
+        let contacts: Vec<Contact<R>> = self.read(src.contacts, src.counts.2)?;
+        for ((m, g), base) in model.contacts.iter_mut().zip(&contacts).zip(&up.contact_base) {
             let c2 = model.blocks[m.block2 as usize].centroid;
             m.point = [c2[0] + g.px.to_f64(), c2[1] + g.py.to_f64()];
             m.normal = [g.nx.to_f64(), g.ny.to_f64()];
@@ -497,6 +647,25 @@ where
             m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
             m.bonded = g.bonded != 0;
         }
+        Ok(blocks)
+    }
+
+    /// Reads the block state back into the model (after a gather-only pass, so fixed blocks'
+    /// forces are current).
+    fn read_blocks(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Download);
+        let up = self.uploaded.clone();
+        self.last_blocks = self.read_block_state(&self.live(), &up, model)?;
+        Ok(())
+    }
+
+    /// Reads blocks, corners and contacts back into the model, after summing the fixed blocks'
+    /// forces (the cycle skips them).
+    fn readback(&mut self, model: &mut Model) -> Result<(), GpuError> {
+        self.run_batch(1, true)?;
+        let _p = crate::profile::scope(crate::profile::Stage::Download);
+        let up = self.uploaded.clone();
+        self.last_blocks = self.read_state(&self.live(), &up, model)?;
         Ok(())
     }
 
@@ -572,7 +741,12 @@ where
         crate::profile::mark_cycles_start();
         let mut energy_check = cpu::EnergyCheck::new(model);
         let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
+        // The last good state: this CPU copy holds its topology (and, until the first device
+        // checkpoint, its state); after a passed energy check the state is on the device
+        // (`take_checkpoint`) and the copy is re-taken only when the topology changed since.
+        self.checkpoint = None;
         let mut last_good = model.clone();
+        let mut last_good_generation = self.generation;
         let mut done_total = 0u64;
         // Cycles per submission: up to the next energy check, fewer while contact updates halt
         // batches early. A halted batch still dispatches the passes of its remaining cycles (they
@@ -600,40 +774,57 @@ where
                 }
                 report.cycles += done;
                 let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
-                if !(cracking || flags.update_due != 0 || at_check) {
-                    continue;
-                }
-                // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
-                self.readback(model).map_err(device_error)?;
-                let mut changed = false;
-                if cracking && cpu::crack_step(model, &adjacency, &mut report) {
-                    changed = true;
-                    adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
-                    if let Some(dt) = model.critical_timestep() {
-                        if dt < model.timestep {
-                            model.timestep = dt;
-                            report.timestep_changes.push((model.cycle, dt));
+                if cracking || flags.update_due != 0 {
+                    // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
+                    self.readback(model).map_err(device_error)?;
+                    let mut changed = false;
+                    if cracking && cpu::crack_step(model, &adjacency, &mut report) {
+                        changed = true;
+                        adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                        if let Some(dt) = model.critical_timestep() {
+                            if dt < model.timestep {
+                                model.timestep = dt;
+                                report.timestep_changes.push((model.cycle, dt));
+                            }
                         }
+                        self.upload_all(model, &adjacency).map_err(device_error)?;
+                        self.write_params(model);
+                        self.run_batch(1, true).map_err(device_error)?;
+                        self.read_blocks(model).map_err(device_error)?;
                     }
-                    self.upload_all(model, &adjacency).map_err(device_error)?;
-                    self.write_params(model);
-                    self.run_batch(1, true).map_err(device_error)?;
-                    self.read_blocks(model).map_err(device_error)?;
-                }
-                if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
-                    changed = true;
-                    self.upload_reset_distances(model);
-                    self.upload_contacts(model, &adjacency).map_err(device_error)?;
-                    self.write_params(model);
-                    self.run_batch(1, true).map_err(device_error)?;
-                }
-                if changed {
-                    self.read_blocks(model).map_err(device_error)?;
+                    if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
+                        changed = true;
+                        self.upload_reset_distances(model);
+                        self.upload_contacts(model, &adjacency).map_err(device_error)?;
+                        self.write_params(model);
+                        self.run_batch(1, true).map_err(device_error)?;
+                    }
+                    if changed {
+                        self.read_blocks(model).map_err(device_error)?;
+                    }
                 }
                 if at_check {
-                    let _p = crate::profile::scope(crate::profile::Stage::Checks);
-                    energy_check.check(model)?;
-                    last_good.clone_from(model);
+                    // The energy check on device sums; the state stays on the device.
+                    let (kinetic, strain, external_work) = {
+                        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+                        self.energy_sums().map_err(device_error)?
+                    };
+                    if let Err(e) = energy_check.check_sums(model.cycle, kinetic + strain, external_work, model.frac) {
+                        self.readback(model).map_err(device_error)?;
+                        return Err(e);
+                    }
+                    self.take_checkpoint();
+                    if last_good_generation != self.generation {
+                        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+                        last_good.clone_from(model);
+                        last_good_generation = self.generation;
+                    }
+                    last_good.cycle = model.cycle;
+                    last_good.time = model.time;
+                    last_good.timestep = model.timestep;
+                    if done_total == cycles {
+                        self.readback(model).map_err(device_error)?;
+                    }
                     progress(done_total);
                 }
             }
@@ -641,7 +832,12 @@ where
         })();
         match result {
             Ok(()) => Ok(report),
-            Err(e) => Err(energy_check.roll_back(e, model, last_good)),
+            Err(e) => {
+                if let Err(d) = self.restore_checkpoint(&mut last_good) {
+                    return Err(device_error(d));
+                }
+                Err(energy_check.roll_back(e, model, last_good))
+            }
         }
     }
 }

@@ -16,7 +16,7 @@
 
 use std::time::Instant;
 
-use super::layout::{Block, Contact, Corner, Flags, Material, Params, Real};
+use super::layout::{Block, Contact, ContactForce, Corner, Flags, Material, Params, Real};
 use super::{shaders, Engine, EngineAny, GpuBackend, GpuDevice, GpuError};
 
 /// Per-stage device time of one cycle.
@@ -44,6 +44,7 @@ pub struct StageBytes {
 pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usize) -> Vec<StageBytes> {
     let (b, c, k) = (std::mem::size_of::<Block<R>>() as u64, std::mem::size_of::<Corner<R>>() as u64, std::mem::size_of::<Contact<R>>() as u64);
     let (m, r, u) = (std::mem::size_of::<Material<R>>() as u64, std::mem::size_of::<R>() as u64, 4u64);
+    let f = std::mem::size_of::<ContactForce<R>>() as u64;
     let (nb, nc, nk, nm) = (nb as u64, nc as u64, nk as u64, materials as u64);
     let params = std::mem::size_of::<Params<R>>() as u64;
     let flags = std::mem::size_of::<Flags>() as u64;
@@ -52,12 +53,13 @@ pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usiz
         StageBytes { stage: "law_of_motion", read: b * nb + params, written: b * nb },
         // Each corner (and the next one's body-frame offset) read and stored whole; each block read.
         StageBytes { stage: "geometry_update", read: c * nc + b * nb + params, written: c * nc },
-        // Each contact read and stored whole; both blocks, block 1's corner and block 2's corners
-        // read (every corner and block once); the material table.
-        StageBytes { stage: "contact_forces", read: k * nk + c * nc + b * nb + m * nm + params, written: k * nk },
+        // Each contact read and stored whole, its gather record stored; both blocks, block 1's
+        // corner and block 2's corners read (every corner and block once); the material table.
+        StageBytes { stage: "contact_forces", read: k * nk + c * nc + b * nb + m * nm + params, written: k * nk + f * nk },
         // Each block read, its force and moment stored; the adjacency lists (offsets, two
-        // entries per contact) and every contact read.
-        StageBytes { stage: "gather", read: b * nb + u * (nb + 1) + u * 2 * nk + k * nk + params, written: 3 * r * nb },
+        // entries per contact) and each contact's gather record (read by both its blocks, so
+        // fetched twice unless cached).
+        StageBytes { stage: "gather", read: b * nb + u * (nb + 1) + u * 2 * nk + f * nk + params, written: 3 * r * nb },
         StageBytes { stage: "end_cycle", read: flags, written: flags },
     ]
 }

@@ -1,4 +1,4 @@
-//! WGSL sources: a prelude generated here (precision alias, workgroup size, tie tolerance —
+//! WGSL sources: a prelude generated here (precision alias, workgroup size, material count, tie tolerance —
 //! constants live in Rust, STYLE.md item 4), then `shaders/common.wgsl`, then one kernel file.
 
 use super::Precision;
@@ -15,6 +15,7 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("contact_forces", include_str!("../../shaders/contact_forces.wgsl")),
     ("gather", include_str!("../../shaders/gather.wgsl")),
     ("end_cycle", include_str!("../../shaders/end_cycle.wgsl")),
+    ("energy_sums", include_str!("../../shaders/energy_sums.wgsl")),
 ];
 
 /// The prelude: the one precision switch and the constants.
@@ -36,7 +37,10 @@ pub fn prelude(precision: Precision) -> String {
         Precision::F32 => ("f32", "1e-5", "1e-5"),
         Precision::F64 => ("f64", "1e-9", "1e-12"),
     };
-    format!("alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n")
+    let materials = crate::model::MAX_MATERIALS;
+    format!(
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
+    )
 }
 
 /// The full source of one kernel file in one precision.
