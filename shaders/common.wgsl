@@ -52,7 +52,7 @@ struct Params {
     n_blocks: u32, n_corners: u32, n_contacts: u32,
     one: u32, // always 1 (see two_sum)
     gather_fixed: u32, // 1: the gather also sums fixed blocks (before a read-back)
-    _pad: u32,
+    n_heavy: u32, // blocks summed by gather_heavy, listed in adj_offsets after the offsets
 }
 
 // 32 bytes.
@@ -82,6 +82,12 @@ const ERR_OVERLAP: u32 = 4u;
 @group(0) @binding(7) var<storage, read_write> flags: Flags;
 @group(0) @binding(8) var<storage, read_write> contact_forces_out: array<ContactForce>;
 @group(0) @binding(9) var<storage, read_write> energy_sums_out: array<EnergySum>;
+
+// The item an invocation handles. Dispatches are two-dimensional (at most 65535 workgroups a
+// dimension, and a 10⁶-block wall has 8·10⁶ contacts), rows of workgroups laid end to end.
+fn item_index(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+    return (wg.y * nwg.x + wg.x) * WORKGROUP_SIZE + li;
+}
 
 // True when the batch was stopped at the end of an earlier cycle: the remaining cycles of the
 // batch do nothing, so the CPU sees the state of the cycle that raised the flag.

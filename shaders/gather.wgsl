@@ -4,38 +4,83 @@
 //
 // The contact stage has already put each contact's force and both moments into its compact
 // `ContactForce` slot, so a block reads 16 contiguous bytes per contact (in f32) and never its
-// neighbours. Fixed blocks are skipped in the cycle (their force moves nothing; a fixed base
-// under a long wall has tens of thousands of contacts, and one thread summing them would stall
-// every cycle); `params.gather_fixed` sums them too, in the pass before each read-back.
+// neighbours. Fixed blocks are skipped in the cycle (their force moves nothing);
+// `params.gather_fixed` sums them too, in the pass before each read-back.
+//
+// A block with a long list (a base under a long wall carries tens of thousands of contacts) is
+// left to `gather_heavy`: one workgroup per such block, each invocation summing a strided share
+// and the shares added by a fixed binary tree, so its sum also repeats bit for bit (in another
+// order than the CPU's serial sum: the two agree to rounding). The CPU lists these blocks after
+// the offsets in `adj_offsets` (`Adjacency::heavy`).
+
+// Force and moment on a block from one adjacency entry. Block 1 receives the contact force, block
+// 2 its reaction (report ¶19).
+fn entry_force(entry: u32) -> vec3<real> {
+    let f = contact_forces_out[entry >> 1u];
+    if ((entry & 1u) == 0u) {
+        return vec3<real>(f.fx, f.fy, f.m1);
+    }
+    return vec3<real>(-f.fx, -f.fy, f.m2);
+}
+
+// Whether block b's forces are summed in this pass.
+fn gathered(blk: Block) -> bool {
+    return blk.fixed == 0u || params.gather_fixed != 0u;
+}
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn gather(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let b = gid.x;
+fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, nwg, li);
     if (b >= params.n_blocks || halted()) {
         return;
     }
     let blk = blocks[b];
-    if (blk.fixed != 0u && params.gather_fixed == 0u) {
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    if (!gathered(blk) || end - first > HEAVY_DEGREE) {
         return;
     }
-    var fx = blk.mass * params.gx + blk.load_x;
-    var fy = blk.mass * params.gy + blk.load_y;
-    var m: real = 0.0;
-    for (var e = adj_offsets[b]; e < adj_offsets[b + 1u]; e += 1u) {
-        let entry = adj_entries[e];
-        let f = contact_forces_out[entry >> 1u];
-        // Block 1 receives the contact force, block 2 its reaction (report ¶19).
-        if ((entry & 1u) == 0u) {
-            fx += f.fx;
-            fy += f.fy;
-            m += f.m1;
-        } else {
-            fx -= f.fx;
-            fy -= f.fy;
-            m += f.m2;
+    var f = vec3<real>(blk.mass * params.gx + blk.load_x, blk.mass * params.gy + blk.load_y, 0.0);
+    for (var e = first; e < end; e += 1u) {
+        f += entry_force(adj_entries[e]);
+    }
+    blocks[b].fx = f.x;
+    blocks[b].fy = f.y;
+    blocks[b].moment = f.z;
+}
+
+var<workgroup> shares: array<vec3<real>, HEAVY_WORKGROUP_SIZE>;
+
+@compute @workgroup_size(HEAVY_WORKGROUP_SIZE)
+fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let h = wg.y * nwg.x + wg.x;
+    // Uniform across the workgroup: every invocation reaches every barrier.
+    let listed = h < params.n_heavy && !halted();
+    var b = 0u;
+    var f = vec3<real>(0.0, 0.0, 0.0);
+    var take = false;
+    if (listed) {
+        b = adj_offsets[params.n_blocks + 1u + h];
+        take = gathered(blocks[b]);
+    }
+    if (take) {
+        for (var e = adj_offsets[b] + li; e < adj_offsets[b + 1u]; e += HEAVY_WORKGROUP_SIZE) {
+            f += entry_force(adj_entries[e]);
         }
     }
-    blocks[b].fx = fx;
-    blocks[b].fy = fy;
-    blocks[b].moment = m;
+    shares[li] = f;
+    workgroupBarrier();
+    for (var s = HEAVY_WORKGROUP_SIZE / 2u; s > 0u; s = s >> 1u) {
+        if (li < s) {
+            shares[li] += shares[li + s];
+        }
+        workgroupBarrier();
+    }
+    if (take && li == 0u) {
+        let blk = blocks[b];
+        let t = shares[0] + vec3<real>(blk.mass * params.gx + blk.load_x, blk.mass * params.gy + blk.load_y, 0.0);
+        blocks[b].fx = t.x;
+        blocks[b].fy = t.y;
+        blocks[b].moment = t.z;
+    }
 }

@@ -13,8 +13,8 @@ fn mass_damping_work(mass: real, inertia: real, v0: vec3<real>, v1: vec3<real>, 
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn law_of_motion(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let b = gid.x;
+fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, nwg, li);
     if (b >= params.n_blocks || halted()) {
         return;
     }

@@ -7,9 +7,10 @@
 //! contact update, a read-back inside a stage-7 pass) is charged to the inner stage only, so the
 //! stages of a run add up to at most its wall time and never count a second twice.
 //!
-//! Times are split in two phases at [`mark_cycles_start`], which each backend calls once its run
-//! has set up (the full contact detection every run starts with, the upload to the GPU): what a
-//! CYCLE command costs once, and what each of its cycles costs.
+//! Times are split in phases at [`mark_cycles_start`], which each backend calls once its run has
+//! set up (the full contact detection every run starts with, the upload to the GPU), and at
+//! [`mark_cycles_end`], which the GPU backend calls before its final read-back: what a CYCLE
+//! command costs once, and what each of its cycles costs.
 //!
 //! Off (the default), [`scope`] returns an inert guard and nothing is timed. The profiler is per
 //! thread because a backend's `run` drives its stages from the calling thread (rayon workers run
@@ -97,8 +98,13 @@ pub struct StageTimes {
     pub setup: [Duration; N],
     /// After it: the cycles.
     pub cycles: [Duration; N],
+    /// After [`mark_cycles_end`]: what a run does once its cycles are done (the GPU backend's
+    /// final read-back of the state).
+    pub teardown: [Duration; N],
     /// When the last run marked the start of its cycles.
     pub cycles_start: Option<Instant>,
+    /// When the last run marked the end of its cycles (None: it ended with them).
+    pub cycles_end: Option<Instant>,
 }
 
 impl StageTimes {
@@ -107,6 +113,9 @@ impl StageTimes {
     }
     pub fn cycles_of(&self, s: Stage) -> Duration {
         self.cycles[s.index()]
+    }
+    pub fn teardown_of(&self, s: Stage) -> Duration {
+        self.teardown[s.index()]
     }
 }
 
@@ -119,7 +128,11 @@ struct Profiler {
 
 impl Profiler {
     fn charge(&mut self, stage: Stage, d: Duration) {
-        let slot = if self.phase == 0 { &mut self.times.setup } else { &mut self.times.cycles };
+        let slot = match self.phase {
+            0 => &mut self.times.setup,
+            1 => &mut self.times.cycles,
+            _ => &mut self.times.teardown,
+        };
         slot[stage.index()] += d;
     }
 }
@@ -154,6 +167,22 @@ pub fn mark_cycles_start() {
             }
             p.phase = 1;
             p.times.cycles_start = Some(now);
+        }
+    });
+}
+
+/// Called by a backend when its last cycle is done and only the hand-back of the state is left:
+/// later time is charged to the tear-down.
+pub fn mark_cycles_end() {
+    PROFILE.with(|p| {
+        if let Some(p) = p.borrow_mut().as_mut() {
+            let now = Instant::now();
+            if let Some(&(stage, since)) = p.stack.last() {
+                p.charge(stage, now - since);
+                p.stack.last_mut().expect("non-empty").1 = now;
+            }
+            p.phase = 2;
+            p.times.cycles_end = Some(now);
         }
     });
 }

@@ -14,9 +14,10 @@
 //! (deck, full contact detection), settles 20 cycles (its contacts start unloaded), a short run
 //! calibrates the cost of a cycle, then one run of M cycles (M chosen so that it takes about
 //! `measure_s`) is timed with the stage profiler on ([`crate::profile`]). Every `Backend::run`
-//! begins with a full contact detection (and, on the GPU, an upload of the whole model): that
-//! set-up is reported apart (`setup_s`), and the rates are those of the cycles after it (the
-//! time from the backend's mark to the end of the run). On the GPU the kernels are then timed per
+//! begins with a full contact detection (and, on the GPU, an upload of the whole model) and, on
+//! the GPU, ends with a read-back of the whole state: that set-up and tear-down are reported apart
+//! (`setup_s`, `teardown_s`, and in the whole-run share of topology work and transfers), and the
+//! rates are those of the cycles between the backend's two marks. On the GPU the kernels are then timed per
 //! stage on the same state (`gpu::profile`).
 
 pub mod chart;
@@ -205,6 +206,8 @@ pub struct ScalingRow {
     pub cycles: u64,
     /// Set-up of the timed run: full detection (and upload), seconds.
     pub setup_s: f64,
+    /// Tear-down of the timed run: the final read-back of the state (GPU), seconds.
+    pub teardown_s: f64,
     /// The timed cycles after the set-up, seconds.
     pub steady_s: f64,
     pub s_per_cycle: f64,
@@ -492,6 +495,7 @@ fn run_reference(scene: RefScene, time: f64, frac: f64, backend: &mut dyn Backen
 /// A run timed with the stage profiler on.
 struct Timed {
     setup_s: f64,
+    teardown_s: f64,
     steady_s: f64,
     times: StageTimes,
 }
@@ -504,7 +508,8 @@ fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Resul
     let times = profile::take();
     result?;
     let mark = times.cycles_start.unwrap_or(start);
-    Ok(Timed { setup_s: (mark - start).as_secs_f64(), steady_s: (end - mark).as_secs_f64(), times })
+    let last = times.cycles_end.unwrap_or(end);
+    Ok(Timed { setup_s: (mark - start).as_secs_f64(), steady_s: (last - mark).as_secs_f64(), teardown_s: (end - last).as_secs_f64(), times })
 }
 
 fn measure_scaling(model0: &Model, nominal: usize, engine: &mut Engine, info: &BackendInfo, opts: &BenchOptions) -> ScalingRow {
@@ -569,6 +574,7 @@ fn fill_timing(row: &mut ScalingRow, model: &Model, cycles: u64, run: &Timed, in
     row.contacts = model.contacts.len();
     row.cycles = cycles;
     row.setup_s = run.setup_s;
+    row.teardown_s = run.teardown_s;
     row.steady_s = run.steady_s;
     row.s_per_cycle = run.steady_s / cycles as f64;
     row.s_per_block_cycle = row.s_per_cycle / row.blocks.max(1) as f64;
@@ -579,7 +585,7 @@ fn fill_timing(row: &mut ScalingRow, model: &Model, cycles: u64, run: &Timed, in
     let (mut topology, mut transfer, mut run_tt) = (0.0, 0.0, 0.0);
     for s in Stage::ALL {
         let d = run.times.cycles_of(s).as_secs_f64();
-        let setup = run.times.setup_of(s).as_secs_f64();
+        let setup = run.times.setup_of(s).as_secs_f64() + run.times.teardown_of(s).as_secs_f64();
         match s.group() {
             "topology" => {
                 topology += d;
@@ -600,5 +606,5 @@ fn fill_timing(row: &mut ScalingRow, model: &Model, cycles: u64, run: &Timed, in
     row.stages.push(StageRow { source: "host".into(), stage: "other".into(), group: "other".into(), s_per_cycle: other / cycles as f64, bytes_per_cycle: None });
     row.topology_share = topology / run.steady_s;
     row.transfer_share = transfer / run.steady_s;
-    row.run_topology_transfer_share = run_tt / (run.steady_s + run.setup_s);
+    row.run_topology_transfer_share = run_tt / (run.steady_s + run.setup_s + run.teardown_s);
 }

@@ -250,11 +250,14 @@ pub fn table(r: &BenchReport) -> String {
     }
 
     if !r.scaling.is_empty() {
-        let _ = writeln!(s, "\nSCALING (25-row walls; rates over the cycles after each run's set-up; shares of that time)");
         let _ = writeln!(
             s,
-            "{:<24} {:>8} {:>8} {:>6} {:>10} {:>11} {:>11} {:>10} {:>8} {:>9} {:>7} {:>7} {:>8}",
-            "backend", "blocks", "contacts", "cycles", "s/cycle", "block-cyc/s", "contact-c/s", "MiB/cycle", "roofline", "(kernels)", "topo", "xfer", "setup(s)"
+            "\nSCALING (25-row walls; rates over the cycles between each run's set-up and its final read-back, shares of that time; set-up and final read-back apart)"
+        );
+        let _ = writeln!(
+            s,
+            "{:<24} {:>8} {:>8} {:>6} {:>10} {:>11} {:>11} {:>10} {:>8} {:>9} {:>7} {:>7} {:>8} {:>8}",
+            "backend", "blocks", "contacts", "cycles", "s/cycle", "block-cyc/s", "contact-c/s", "MiB/cycle", "roofline", "(kernels)", "topo", "xfer", "setup(s)", "final(s)"
         );
         for x in &r.scaling {
             if let Some(e) = &x.error {
@@ -263,7 +266,7 @@ pub fn table(r: &BenchReport) -> String {
             }
             let _ = writeln!(
                 s,
-                "{:<24} {:>8} {:>8} {:>6} {:>10.3e} {:>11.3e} {:>11.3e} {:>10} {:>8} {:>9} {:>7} {:>7} {:>8.2}",
+                "{:<24} {:>8} {:>8} {:>6} {:>10.3e} {:>11.3e} {:>11.3e} {:>10} {:>8} {:>9} {:>7} {:>7} {:>8.2} {:>8.2}",
                 x.backend,
                 x.blocks,
                 x.contacts,
@@ -276,7 +279,8 @@ pub fn table(r: &BenchReport) -> String {
                 x.roofline_kernels.map(pct).unwrap_or_else(|| "-".into()),
                 pct(x.topology_share),
                 pct(x.transfer_share),
-                x.setup_s
+                x.setup_s,
+                x.teardown_s
             );
         }
         // Ratios against the CPU in the same run.
@@ -332,12 +336,12 @@ fn opt(x: Option<f64>) -> String {
 /// bench.csv: one row per wall and backend of the scaling family.
 pub fn scaling_csv(r: &BenchReport) -> String {
     let mut s = String::from(
-        "backend,nominal,blocks,corners,contacts,cycles,setup_s,steady_s,s_per_cycle,s_per_block_cycle,block_cycles_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,topology_share,transfer_share,run_topology_transfer_share,error\n",
+        "backend,nominal,blocks,corners,contacts,cycles,setup_s,teardown_s,steady_s,s_per_cycle,s_per_block_cycle,block_cycles_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,topology_share,transfer_share,run_topology_transfer_share,error\n",
     );
     for x in &r.scaling {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{},{:e},{:e},{:e},{}",
+            "{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{},{:e},{:e},{:e},{}",
             csv_field(&x.backend),
             x.nominal,
             x.blocks,
@@ -345,6 +349,7 @@ pub fn scaling_csv(r: &BenchReport) -> String {
             x.contacts,
             x.cycles,
             x.setup_s,
+            x.teardown_s,
             x.steady_s,
             x.s_per_cycle,
             x.s_per_block_cycle,

@@ -236,6 +236,13 @@ impl GpuDevice {
 
     /// Copies `size` bytes of `buffer` back to the CPU (bounded wait).
     pub fn read_buffer(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+        self.read_pod(buffer, size as usize)
+    }
+
+    /// Copies the first `n` items of type `T` of `buffer` back to the CPU (bounded wait), with
+    /// one copy out of the mapped staging memory.
+    pub fn read_pod<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, n: usize) -> Result<Vec<T>, GpuError> {
+        let size = (n * std::mem::size_of::<T>()) as u64;
         if size == 0 {
             return Ok(Vec::new());
         }
@@ -258,7 +265,7 @@ impl GpuDevice {
             Ok(Err(e)) => return Err(GpuError::Device(format!("mapping a read-back buffer: {e}"))),
             Err(_) => return Err(GpuError::Device("a read-back did not complete".into())),
         }
-        let data = staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?.to_vec();
+        let data = bytemuck::pod_collect_to_vec(&staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?);
         staging.unmap();
         Ok(data)
     }

@@ -14,6 +14,7 @@ pub struct Pipelines {
     pub gather: wgpu::ComputePipeline,
     pub end_cycle: wgpu::ComputePipeline,
     pub energy_sums: wgpu::ComputePipeline,
+    pub gather_heavy: wgpu::ComputePipeline,
     pub bind_group_layout: wgpu::BindGroupLayout,
 }
 
@@ -61,19 +62,21 @@ impl Pipelines {
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
-        let make = |name: &str| -> Result<wgpu::ComputePipeline, GpuError> {
+        // `entry` in the kernel file `name`.wgsl.
+        let make_entry = |name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
             let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
             shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
             Ok(device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(name),
+                label: Some(entry),
                 layout: Some(&layout),
                 module: &module,
-                entry_point: Some(name),
+                entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
             }))
         };
+        let make = |name: &str| make_entry(name, name);
         let pipelines = Pipelines {
             law_of_motion: make("law_of_motion")?,
             geometry_update: make("geometry_update")?,
@@ -81,6 +84,7 @@ impl Pipelines {
             gather: make("gather")?,
             end_cycle: make("end_cycle")?,
             energy_sums: make("energy_sums")?,
+            gather_heavy: make_entry("gather", "gather_heavy")?,
             bind_group_layout,
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
@@ -214,9 +218,12 @@ impl Buffers {
     }
 }
 
-/// Workgroups of the energy check: one invocation per block and contact, whichever are more.
+/// Workgroups of the energy check: one invocation per block and contact, whichever are more,
+/// rounded up to whole rows of its two-dimensional dispatch (each workgroup writes one sum).
 pub fn energy_groups(blocks: usize, contacts: usize) -> usize {
-    blocks.max(contacts).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1)
+    let groups = blocks.max(contacts).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1) as u32;
+    let (x, y) = shaders::dispatch_grid(groups);
+    (x * y) as usize
 }
 
 /// Rust twin of the WGSL `sin_cos` (common.wgsl), in f64: (cos θ, sin θ) by reduction to

@@ -162,7 +162,8 @@ gpu_struct! {
         /// 1: the gather also sums the forces of fixed blocks (before a read-back; their forces
         /// are printed but move nothing, and a fixed base can carry a whole wall's contacts).
         gather_fixed: u32,
-        _pad: u32,
+        /// Blocks summed by `gather_heavy` (long contact lists), listed after the CSR offsets.
+        n_heavy: u32,
     }
 }
 

@@ -55,6 +55,7 @@ use crate::backend::{Backend, CycleError, CycleReport};
 use crate::cpu;
 use crate::model::{ContactKind, Model, MAX_MATERIALS};
 use crate::topology::Adjacency;
+use rayon::prelude::*;
 
 pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 pub use targets::{find_target, scenario_backends, GpuTarget};
@@ -215,7 +216,20 @@ struct Engine<R: Real> {
     /// The block buffer as last read back (to see which update distances stage 7 reset).
     last_blocks: Vec<Block<R>>,
     counts: (usize, usize, usize),
+    /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts).
+    n_heavy: usize,
 }
+
+/// One dispatch of a cycle: the stage's label, its pipeline and its two-dimensional grid.
+pub(crate) struct Dispatch<'a> {
+    pub label: &'static str,
+    pub pipeline: &'a wgpu::ComputePipeline,
+    pub grid: (u32, u32),
+}
+
+/// Cycles encoded per submission inside a batch: the GPU starts on the first ones while the CPU
+/// encodes the rest.
+const CYCLES_PER_SUBMIT: u64 = 10;
 
 fn r<R: Real>(x: f64) -> R {
     R::from_f64(x)
@@ -250,6 +264,7 @@ where
             checkpoint: None,
             last_blocks: Vec::new(),
             counts: (0, 0, 0),
+            n_heavy: 0,
         }
     }
 
@@ -321,7 +336,8 @@ where
         };
         let blocks: Vec<Block<R>> = model
             .blocks
-            .iter()
+            .par_iter()
+            .with_min_len(4096)
             .map(|b| {
                 let (x, y) = (b.centroid[0] - origin[0], b.centroid[1] - origin[1]);
                 let (hx, hy) = (r::<R>(x), r::<R>(y));
@@ -361,7 +377,8 @@ where
             .collect();
         let corners: Vec<Corner<R>> = model
             .corners
-            .iter()
+            .par_iter()
+            .with_min_len(4096)
             .map(|c| {
                 let cen = model.blocks[c.block as usize].centroid;
                 Corner {
@@ -418,8 +435,8 @@ where
     /// Uploads contacts, their gather records and the adjacency (after stage 7 changed them).
     fn upload_contacts(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
-        let contacts: Vec<Contact<R>> = model.contacts.iter().map(|c| Self::gpu_contact(model, c)).collect();
-        let forces: Vec<ContactForce<R>> = model.contacts.iter().map(|c| Self::gpu_contact_force(model, c)).collect();
+        let contacts: Vec<Contact<R>> = model.contacts.par_iter().with_min_len(4096).map(|c| Self::gpu_contact(model, c)).collect();
+        let forces: Vec<ContactForce<R>> = model.contacts.par_iter().with_min_len(4096).map(|c| Self::gpu_contact_force(model, c)).collect();
         // The contact update kept each surviving contact's ledger terms in the model (matched by
         // corner and block, with their feature ids): they are the new bases.
         let mut uploaded = (*self.uploaded).clone();
@@ -436,11 +453,20 @@ where
         if g {
             self.bind_group = None;
         }
+        // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl).
+        let mut offsets = adjacency.offsets.clone();
+        let heavy: Vec<u32> = adjacency.offsets.windows(2).enumerate().filter(|(_, w)| w[1] - w[0] > shaders::HEAVY_DEGREE).map(|(b, _)| b as u32).collect();
+        self.n_heavy = heavy.len();
+        offsets.extend(heavy);
+        let b = self.buffers.as_mut().expect("buffers exist");
+        if Buffers::ensure(&self.dev, &mut b.adj_offsets, "adjacency offsets", 4, offsets.len())? {
+            self.bind_group = None;
+        }
         let b = self.buffers();
         let q = &self.dev.queue;
         q.write_buffer(&b.contacts.buffer, 0, bytemuck::cast_slice(&contacts));
         q.write_buffer(&b.contact_forces.buffer, 0, bytemuck::cast_slice(&forces));
-        q.write_buffer(&b.adj_offsets.buffer, 0, bytemuck::cast_slice(&adjacency.offsets));
+        q.write_buffer(&b.adj_offsets.buffer, 0, bytemuck::cast_slice(&offsets));
         q.write_buffer(&b.adj_entries.buffer, 0, bytemuck::cast_slice(&adjacency.entries));
         self.counts.2 = contacts.len();
         if self.bind_group.is_none() {
@@ -465,14 +491,39 @@ where
             n_contacts: self.counts.2 as u32,
             one: 1,
             gather_fixed: 0,
-            _pad: 0,
+            n_heavy: self.n_heavy as u32,
         };
         self.dev.queue.write_buffer(&self.buffers().params, 0, bytemuck::bytes_of(&params));
     }
 
-    /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) in one submission; returns the
+    /// The dispatches of one cycle over the live counts (stage 6 alone with `gather_only`).
+    /// Stages with nothing to do are left out.
+    pub(crate) fn stages(&self, gather_only: bool) -> Vec<Dispatch<'_>> {
+        let grid = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
+        let p = &self.pipelines;
+        let (nb, nc, nk) = self.counts;
+        let mut stages = Vec::with_capacity(6);
+        if !gather_only {
+            stages.push(Dispatch { label: "law_of_motion", pipeline: &p.law_of_motion, grid: grid(nb) });
+            stages.push(Dispatch { label: "geometry_update", pipeline: &p.geometry_update, grid: grid(nc) });
+            stages.push(Dispatch { label: "contact_forces", pipeline: &p.contact_forces, grid: grid(nk) });
+        }
+        stages.push(Dispatch { label: "gather", pipeline: &p.gather, grid: grid(nb) });
+        if self.n_heavy > 0 {
+            stages.push(Dispatch { label: "gather_heavy", pipeline: &p.gather_heavy, grid: shaders::dispatch_grid(self.n_heavy as u32) });
+        }
+        if !gather_only {
+            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, grid: (1, 1) });
+        }
+        stages.retain(|d| d.grid.0 > 0);
+        stages
+    }
+
+    /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) with no round trip; returns the
     /// flags. With `gather_only`, runs stage 6 alone over every block, fixed ones too (the force
-    /// sums after a topology change, and before a read-back).
+    /// sums after a topology change, and before a read-back). Each submission holds one compute
+    /// pass of `CYCLES_PER_SUBMIT` cycles (wgpu orders the dispatches inside it), with a debug
+    /// group per stage so that tools and errors name it.
     fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
         let b = self.buffers();
@@ -480,34 +531,27 @@ where
         let q = &self.dev.queue;
         q.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
         q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&(gather_only as u32)));
-        let groups = |n: usize| (n as u32).div_ceil(shaders::WORKGROUP_SIZE);
-        let p = &self.pipelines;
-        let (nb, nc, nk) = self.counts;
-        let stages: Vec<(&str, &wgpu::ComputePipeline, u32)> = if gather_only {
-            vec![("gather", &p.gather, groups(nb))]
-        } else {
-            vec![
-                ("law_of_motion", &p.law_of_motion, groups(nb)),
-                ("geometry_update", &p.geometry_update, groups(nc)),
-                ("contact_forces", &p.contact_forces, groups(nk)),
-                ("gather", &p.gather, groups(nb)),
-                ("end_cycle", &p.end_cycle, 1),
-            ]
-        };
+        let stages = self.stages(gather_only);
         let scope = self.dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("cycles") });
-        for _ in 0..cycles.max(1) {
-            for (label, pipeline, n) in &stages {
-                if *n == 0 {
-                    continue;
-                }
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
-                pass.set_pipeline(pipeline);
+        let mut left = cycles.max(1);
+        while left > 0 {
+            let n = left.min(CYCLES_PER_SUBMIT);
+            left -= n;
+            let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("cycles") });
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cycles"), timestamp_writes: None });
                 pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(*n, 1, 1);
+                for _ in 0..n {
+                    for d in &stages {
+                        pass.push_debug_group(d.label);
+                        pass.set_pipeline(d.pipeline);
+                        pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
+                        pass.pop_debug_group();
+                    }
+                }
             }
+            q.submit([enc.finish()]);
         }
-        q.submit([enc.finish()]);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Device(format!("a cycle was rejected: {e}")));
         }
@@ -523,12 +567,13 @@ where
         };
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
         let groups = kernels::energy_groups(self.counts.0, self.counts.2);
+        let (x, y) = shaders::dispatch_grid(self.counts.0.max(self.counts.2).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1) as u32);
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy check") });
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("energy_sums"), timestamp_writes: None });
             pass.set_pipeline(&self.pipelines.energy_sums);
             pass.set_bind_group(0, bg, &[]);
-            pass.dispatch_workgroups(groups as u32, 1, 1);
+            pass.dispatch_workgroups(x, y, 1);
         }
         self.dev.queue.submit([enc.finish()]);
         let sums: Vec<EnergySum<R>> = self.read(&b.energy_sums.buffer, groups)?;
@@ -593,16 +638,16 @@ where
     }
 
     fn read<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, n: usize) -> Result<Vec<T>, GpuError> {
-        let bytes = self.dev.read_buffer(buffer, (n * std::mem::size_of::<T>()) as u64)?;
-        Ok(bytemuck::pod_collect_to_vec(&bytes))
+        self.dev.read_pod(buffer, n)
     }
 
     /// Reads the block state of `src` into the model; returns the blocks as read.
     fn read_block_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
         let blocks: Vec<Block<R>> = self.read(src.blocks, src.counts.0)?;
         let o = up.origin;
-        let mut work = 0.0;
-        for ((m, g), base) in model.blocks.iter_mut().zip(&blocks).zip(&up.damping_base) {
+        // Converted in parallel (a 10⁶-block model is read back at every contact update); the
+        // work is summed serially, so the result repeats bit for bit.
+        model.blocks.par_iter_mut().zip(blocks.par_iter()).zip(up.damping_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
             m.centroid = [o[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), o[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
             m.rotation = g.rotation.to_f64();
             m.velocity = [g.vx.to_f64(), g.vy.to_f64()];
@@ -613,8 +658,8 @@ where
             m.update_centroid = [o[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), o[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
             m.update_rotation = g.update_rotation.to_f64();
             m.damping_work = base + g.damping_work.to_f64();
-            work += g.work.to_f64();
-        }
+        });
+        let work: f64 = blocks.iter().map(|g| g.work.to_f64()).sum();
         model.external_work = up.work_base + work;
         Ok(blocks)
     }
@@ -623,16 +668,17 @@ where
     fn read_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
         let blocks = self.read_block_state(src, up, model)?;
         let corners: Vec<Corner<R>> = self.read(src.corners, src.counts.1)?;
-        for (m, g) in model.corners.iter_mut().zip(&corners) {
-            let cen = model.blocks[m.block as usize].centroid;
+        let Model { blocks: model_blocks, corners: model_corners, contacts: model_contacts, .. } = model;
+        model_corners.par_iter_mut().zip(corners.par_iter()).with_min_len(4096).for_each(|(m, g)| {
+            let cen = model_blocks[m.block as usize].centroid;
             m.position = [cen[0] + g.px.to_f64(), cen[1] + g.py.to_f64()];
             m.circle = [cen[0] + g.ox.to_f64(), cen[1] + g.oy.to_f64()];
             m.edge_dir = [g.ux.to_f64(), g.uy.to_f64()];
             m.edge_length = g.len.to_f64();
-        }
+        });
         let contacts: Vec<Contact<R>> = self.read(src.contacts, src.counts.2)?;
-        for ((m, g), base) in model.contacts.iter_mut().zip(&contacts).zip(&up.contact_base) {
-            let c2 = model.blocks[m.block2 as usize].centroid;
+        model_contacts.par_iter_mut().zip(contacts.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
+            let c2 = model_blocks[m.block2 as usize].centroid;
             m.point = [c2[0] + g.px.to_f64(), c2[1] + g.py.to_f64()];
             m.normal = [g.nx.to_f64(), g.ny.to_f64()];
             m.gap = g.gap.to_f64();
@@ -646,7 +692,7 @@ where
             m.feature = g.feature;
             m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
             m.bonded = g.bonded != 0;
-        }
+        });
         Ok(blocks)
     }
 
@@ -823,6 +869,7 @@ where
                     last_good.time = model.time;
                     last_good.timestep = model.timestep;
                     if done_total == cycles {
+                        crate::profile::mark_cycles_end();
                         self.readback(model).map_err(device_error)?;
                     }
                     progress(done_total);

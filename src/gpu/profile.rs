@@ -16,8 +16,8 @@
 
 use std::time::Instant;
 
-use super::layout::{Block, Contact, ContactForce, Corner, Flags, Material, Params, Real};
-use super::{shaders, Engine, EngineAny, GpuBackend, GpuDevice, GpuError};
+use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
+use super::{Engine, EngineAny, GpuBackend, GpuDevice, GpuError};
 
 /// Per-stage device time of one cycle.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,38 +103,26 @@ fn isolated_asked() -> bool {
     std::env::var("BLOCKDEM_STAGE_TIMING").is_ok_and(|v| v.eq_ignore_ascii_case("isolated"))
 }
 
-type StageList<'a> = Vec<(&'static str, &'a wgpu::ComputePipeline, u32)>;
-
 impl<R: Real> Engine<R>
 where
     Block<R>: bytemuck::Pod,
     Corner<R>: bytemuck::Pod,
     Contact<R>: bytemuck::Pod,
+    ContactForce<R>: bytemuck::Pod,
+    EnergySum<R>: bytemuck::Pod,
     Material<R>: bytemuck::Pod,
     Params<R>: bytemuck::Pod,
 {
-    /// The stages of one cycle with their workgroup counts, as `run_batch` dispatches them.
-    fn stage_list(&self) -> StageList<'_> {
-        let groups = |n: usize| (n as u32).div_ceil(shaders::WORKGROUP_SIZE);
-        let p = &self.pipelines;
-        let (nb, nc, nk) = self.counts;
-        vec![
-            ("law_of_motion", &p.law_of_motion, groups(nb)),
-            ("geometry_update", &p.geometry_update, groups(nc)),
-            ("contact_forces", &p.contact_forces, groups(nk)),
-            ("gather", &p.gather, groups(nb)),
-            ("end_cycle", &p.end_cycle, 1),
-        ]
-    }
-
     fn profile_stages(&self, cycles: u32) -> Result<DeviceProfile, GpuError> {
         let (Some(buffers), Some(bg)) = (self.buffers.as_ref(), self.bind_group.as_ref()) else {
             return Err(GpuError::Setup("profile_stages needs a run first (no state on the device)".into()));
         };
         let cycles = cycles.max(1);
         let dev = &self.dev;
-        let stages = self.stage_list();
+        let stages = self.stages(false);
         dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+        // The cycle's own gather (fixed blocks skipped), whatever pass ran last.
+        dev.queue.write_buffer(&buffers.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&0u32));
         let timestamps = dev.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked();
         let mut sums = vec![0.0f64; stages.len()];
         if timestamps {
@@ -154,13 +142,13 @@ where
                 });
                 let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("profiled cycles") });
                 for c in 0..n {
-                    for (i, (label, pipeline, groups)) in stages.iter().enumerate() {
+                    for (i, d) in stages.iter().enumerate() {
                         let q = (c * stages.len() as u32 + i as u32) * 2;
                         let writes = wgpu::ComputePassTimestampWrites { query_set: &set, beginning_of_pass_write_index: Some(q), end_of_pass_write_index: Some(q + 1) };
-                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: Some(writes) });
-                        pass.set_pipeline(pipeline);
+                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(d.label), timestamp_writes: Some(writes) });
+                        pass.set_pipeline(d.pipeline);
                         pass.set_bind_group(0, bg, &[]);
-                        pass.dispatch_workgroups((*groups).max(1), 1, 1);
+                        pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
                     }
                     // A halt raised by end_cycle (stage 7 due) would idle the later cycles: clear it.
                     enc.clear_buffer(&buffers.flags, 0, None);
@@ -174,15 +162,15 @@ where
                 done += n;
             }
         } else {
-            for (i, (label, pipeline, groups)) in stages.iter().enumerate() {
+            for (i, d) in stages.iter().enumerate() {
                 let batch = |reps: u32| -> Result<f64, GpuError> {
                     let start = Instant::now();
                     let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("isolated stage") });
                     for _ in 0..reps {
-                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
-                        pass.set_pipeline(pipeline);
+                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(d.label), timestamp_writes: None });
+                        pass.set_pipeline(d.pipeline);
                         pass.set_bind_group(0, bg, &[]);
-                        pass.dispatch_workgroups((*groups).max(1), 1, 1);
+                        pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
                     }
                     dev.queue.submit([enc.finish()]);
                     dev.wait()?;
@@ -195,7 +183,7 @@ where
         }
         Ok(DeviceProfile {
             method: if timestamps { "timestamps" } else { "isolated dispatches" },
-            stages: stages.iter().zip(&sums).map(|((name, _, _), s)| (*name, s / cycles as f64)).collect(),
+            stages: stages.iter().zip(&sums).map(|(d, s)| (d.label, s / cycles as f64)).collect(),
             cycles,
         })
     }

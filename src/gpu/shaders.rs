@@ -6,6 +6,27 @@ use super::Precision;
 /// Threads per workgroup of the per-item kernels.
 pub const WORKGROUP_SIZE: u32 = 64;
 
+/// A block with more contacts than this is gathered by a whole workgroup (`gather_heavy`)
+/// rather than by one invocation: a fixed base under a long wall has tens of thousands, and one
+/// invocation summing them stalls the pass.
+pub const HEAVY_DEGREE: u32 = 64;
+
+/// Threads of one `gather_heavy` workgroup.
+pub const HEAVY_WORKGROUP_SIZE: u32 = 256;
+
+/// Most workgroups a dispatch may have in one dimension (WebGPU's default limit).
+pub const MAX_GROUPS_PER_DIMENSION: u32 = 65535;
+
+/// The two-dimensional dispatch that covers `groups` workgroups (rows of at most
+/// `MAX_GROUPS_PER_DIMENSION`; `item_index` in common.wgsl lays them end to end).
+pub fn dispatch_grid(groups: u32) -> (u32, u32) {
+    if groups <= MAX_GROUPS_PER_DIMENSION {
+        (groups, 1)
+    } else {
+        (MAX_GROUPS_PER_DIMENSION, groups.div_ceil(MAX_GROUPS_PER_DIMENSION))
+    }
+}
+
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The kernel files, one per stage, each named like its CPU twin in `src/cpu/`.
@@ -39,7 +60,7 @@ pub fn prelude(precision: Precision) -> String {
     };
     let materials = crate::model::MAX_MATERIALS;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
     )
 }
 
