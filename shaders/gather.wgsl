@@ -31,7 +31,8 @@ fn gathered(blk: Block) -> bool {
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, nwg, li);
-    if (b >= params.n_blocks || halted()) {
+    let stop = workgroup_halted(li);
+    if (stop || b >= params.n_blocks) {
         return;
     }
     let blk = blocks[b];
@@ -55,7 +56,7 @@ var<workgroup> shares: array<vec3<real>, HEAVY_WORKGROUP_SIZE>;
 fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let h = wg.y * nwg.x + wg.x;
     // Uniform across the workgroup: every invocation reaches every barrier.
-    let listed = h < params.n_heavy && !halted();
+    let listed = !workgroup_halted(li) && h < params.n_heavy;
     var b = 0u;
     var f = vec3<real>(0.0, 0.0, 0.0);
     var take = false;

@@ -15,15 +15,15 @@ fn mass_damping_work(mass: real, inertia: real, v0: vec3<real>, v1: vec3<real>, 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, nwg, li);
-    if (b >= params.n_blocks || halted()) {
+    let stop = workgroup_halted(li);
+    if (stop || b >= params.n_blocks) {
         return;
     }
     var blk = blocks[b];
     if (blk.fixed != 0u) {
-        blk.vx = 0.0;
-        blk.vy = 0.0;
-        blk.w = 0.0;
-        blocks[b] = blk;
+        blocks[b].vx = 0.0;
+        blocks[b].vy = 0.0;
+        blocks[b].w = 0.0;
         return;
     }
     let dt = params.dt;
@@ -62,7 +62,18 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     let fy = blk.mass * params.gy + blk.load_y;
     let work = fx * dx + fy * dy;
     blk.work += work;
-    blocks[b] = blk;
+    // Only the fields this stage changes go back (a third of the block).
+    blocks[b].vx = blk.vx;
+    blocks[b].vy = blk.vy;
+    blocks[b].w = blk.w;
+    blocks[b].cx = blk.cx;
+    blocks[b].cx_lo = blk.cx_lo;
+    blocks[b].cy = blk.cy;
+    blocks[b].cy_lo = blk.cy_lo;
+    blocks[b].rotation = blk.rotation;
+    blocks[b].moved = blk.moved;
+    blocks[b].work = blk.work;
+    blocks[b].damping_work = blk.damping_work;
     if (blk.moved > params.etol) {
         atomicOr(&flags.update_due, 1u);
     }

@@ -784,7 +784,6 @@ where
         self.write_params(model);
         self.run_batch(1, true).map_err(device_error)?;
         self.readback(model).map_err(device_error)?;
-        crate::profile::mark_cycles_start();
         let mut energy_check = cpu::EnergyCheck::new(model);
         let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
         // The last good state: this CPU copy holds its topology (and, until the first device
@@ -792,6 +791,7 @@ where
         // (`take_checkpoint`) and the copy is re-taken only when the topology changed since.
         self.checkpoint = None;
         let mut last_good = model.clone();
+        crate::profile::mark_cycles_start();
         let mut last_good_generation = self.generation;
         let mut done_total = 0u64;
         // Cycles per submission: up to the next energy check, fewer while contact updates halt
