@@ -396,24 +396,25 @@ fn print_block_lists_table() {
     assert_eq!(
         &lines[base + 1..base + 7],
         [
-            "CORNER 1, BLOCK 3",
-            "CORNER 2, BLOCK 3",
-            "CORNER 3, BLOCK 3",
+            "CORNER 1, BLOCK 3, R-LINK 2",
+            "CORNER 2, BLOCK 3, R-LINK 3",
+            "CORNER 3, BLOCK 3, R-LINK 4",
             "CONTACT 7, BLOCK1 5, BLOCK2 3 EDGE/CORNER",
-            "CORNER 4, BLOCK 3",
+            "CORNER 4, BLOCK 3, R-LINK 1",
             "",
         ]
     );
-    // Top block (id 5): corners 5..8; it owns corner 5, which makes the contact.
+    // Top block (id 5): corners 5..8; it owns corner 5, which makes the contact. R-LINK closes
+    // each block's corner list: the last corner links back to the first.
     let top = lines.iter().position(|l| *l == "BLOCK 5 (RIGID)").unwrap();
     assert_eq!(
         &lines[top + 1..],
         [
-            "CORNER 5, BLOCK 5",
+            "CORNER 5, BLOCK 5, R-LINK 6",
             "CONTACT 7, BLOCK1 5, BLOCK2 3 CORNER/EDGE",
-            "CORNER 6, BLOCK 5",
-            "CORNER 7, BLOCK 5",
-            "CORNER 8, BLOCK 5",
+            "CORNER 6, BLOCK 5, R-LINK 7",
+            "CORNER 7, BLOCK 5, R-LINK 8",
+            "CORNER 8, BLOCK 5, R-LINK 5",
         ]
     );
 }
