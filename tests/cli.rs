@@ -220,3 +220,25 @@ fn every_sample_deck_runs_unchanged_or_stops_at_a_not_supported_yet_line() {
         }
     }
 }
+
+#[test]
+fn a_progress_bar_shows_on_long_cycles_only_when_stdout_is_a_terminal() {
+    // 2e6 cycles of one free block (~0.5 s): long enough for the bar to draw. Through a pipe (as
+    // here) there is none; under a pseudo-terminal (util-linux `script`, in Debian's essential
+    // bsdutils) there is one.
+    let dir = temp("progress");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 2000000\n");
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(!stdout.contains("/2000000 cycles") && !stderr.contains("/2000000 cycles"), "a bar on a pipe:\n{stdout}{stderr}");
+    if !std::path::Path::new("/usr/bin/script").exists() {
+        eprintln!("skipped the terminal half: no /usr/bin/script");
+        return;
+    }
+    let line = format!("{} run {deck} --backend cpu --out {}", env!("CARGO_BIN_EXE_blockdem"), dir.display());
+    let out = Command::new("/usr/bin/script").args(["-qec", &line, "/dev/null"]).output().expect("script runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("/2000000 cycles"), "no progress bar on a terminal:\n{text}");
+    assert!(text.contains("CURRENT CYCLE COUNT = 2000000"), "{text}");
+}
