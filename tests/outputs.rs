@@ -731,7 +731,7 @@ fn plot_in_a_view_quadrant_is_clipped_to_it() {
         window: [0.0, 4.0, 0.0, 3.0],
         view: [0, 700, 700, 1400],
     };
-    let [png, _] = plot(
+    let [png, svg] = plot(
         &m,
         &settings,
         &PlotOptions {
@@ -743,6 +743,12 @@ fn plot_in_a_view_quadrant_is_clipped_to_it() {
     )
     .unwrap();
     assert!(png.ends_with("plot_012.png"));
+    // The SVG is clipped to the same quadrant: the top-left 350 × 350 px of the 1000 × 700 page.
+    let s = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        s.contains(r#"<clipPath id="view"><rect x="0.00" y="0.00" width="350.00" height="350.00"/></clipPath>"#),
+        "{s}"
+    );
     let p = load_png(&png);
     let mut inside = 0;
     for y in 0..p.height() {
