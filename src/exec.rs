@@ -14,6 +14,7 @@ use crate::model::Model;
 use crate::output;
 use crate::output::plot::PlotSettings;
 use crate::output::restart::SaveFile;
+use crate::verify::stability::{Limits, LIMITS_CPU_F64};
 
 /// The file a SAVE or RESTART without a name uses, in the output folder.
 pub const DEFAULT_SAVE_FILE: &str = "blockdem.sav";
@@ -25,8 +26,11 @@ pub enum RunError {
     Input(#[from] DeckError),
     #[error("{file}:{line}: not supported yet: {what}")]
     Unsupported { file: String, line: usize, what: String },
-    #[error("{file}:{line}: {failure}")]
-    Numerical { file: String, line: usize, failure: CycleError },
+    /// `advice` is empty, or names the largest safe FRACTION when FRACTION is above the stable
+    /// limit of the model and the failure's own message does not (an overlap, a block too fast or
+    /// a non-finite value can be the first sign of an unstable time step).
+    #[error("{file}:{line}: {failure}{advice}")]
+    Numerical { file: String, line: usize, failure: CycleError, advice: String },
     #[error("{file}:{line}: {message}")]
     Command { file: String, line: usize, message: String },
 }
@@ -61,11 +65,29 @@ pub struct Executor<'a> {
     plot: PlotSettings,
     plot_count: usize,
     file: String,
+    /// The verified ratios the model is checked against before CYCLE (the backend's precision).
+    limits: Limits,
 }
 
 impl<'a> Executor<'a> {
     pub fn new(backend: Box<dyn Backend + 'a>, log: Box<dyn Write + 'a>, options: RunOptions, file: &str) -> Self {
-        Executor { model: Model::default(), backend, log, options, plot: PlotSettings::default(), plot_count: 0, file: file.to_string() }
+        Executor {
+            model: Model::default(),
+            backend,
+            log,
+            options,
+            plot: PlotSettings::default(),
+            plot_count: 0,
+            file: file.to_string(),
+            limits: LIMITS_CPU_F64,
+        }
+    }
+
+    /// The limits of extreme ratios measured on the backend that runs (`blockdem verify`): a model
+    /// beyond them gets a WARNING before each CYCLE. The default is the CPU f64 backend's; a run on
+    /// f32 GPU kernels sets [`crate::verify::stability::LIMITS_GPU_F32`].
+    pub fn set_limits(&mut self, limits: Limits) {
+        self.limits = limits;
     }
 
     /// Runs the commands in order until STOP, END or an error.
@@ -340,10 +362,35 @@ impl<'a> Executor<'a> {
                 }
             }
         }
+        // Griffith cracking (constitutive numbers 3 and 4, SL-85-1 Table A1) acts on the internal
+        // stresses of simply-deformable blocks, which come later: a block that asks for it (a
+        // tensile strength factor set) must not run as if it could not crack.
+        if let Some(b) = self.model.blocks.iter().find(|b| matches!(b.constitutive, 3 | 4) && self.model.material(b.material).tf > 0.0) {
+            let what = format!(
+                "Griffith cracking (block {} has constitutive number {} and material {} has TF = {}; the Griffith criterion \
+                 needs the stresses of simply-deformable blocks; constitutive numbers 1 and 2 crack by the point-load criterion)",
+                b.id,
+                b.constitutive,
+                b.material,
+                self.model.material(b.material).tf
+            );
+            return Err(self.unsupported(cmd, &what));
+        }
         let dt = self.model.critical_timestep().ok_or_else(|| self.command_error(cmd, "CYCLE: cannot compute a time step (no block mass or contact stiffness)"))?;
+        if !(dt > 0.0 && dt.is_finite()) {
+            // m_min/k_max under- or overflowed f64: no explicit run can follow such a model.
+            let m_min = self.model.blocks.iter().map(|b| b.mass).fold(f64::INFINITY, f64::min);
+            return Err(self.command_error(
+                cmd,
+                format!(
+                    "CYCLE: the time step FRAC·2√(m_min/k_max) is {dt:e}: the smallest block mass ({m_min:e}) and the largest contact \
+                     stiffness are too far apart to be represented; check the units of DENSITY, KN and KS"
+                ),
+            ));
+        }
         self.model.timestep = dt;
         // Outside the ratios the suite has verified (blockdem verify): say so before cycling.
-        for w in crate::verify::stability::warnings(&self.model, &crate::verify::stability::LIMITS_CPU_F64) {
+        for w in crate::verify::stability::warnings(&self.model, &self.limits) {
             self.echo(&w);
         }
         self.echo(&format!("INITIAL TIMESTEP = {}", output::format::fmt_e(dt)));
@@ -361,7 +408,10 @@ impl<'a> Executor<'a> {
         if let Some(pb) = bar {
             pb.finish_and_clear();
         }
-        let report = result.map_err(|failure| RunError::Numerical { file: self.file.clone(), line: cmd.line, failure })?;
+        let report = result.map_err(|failure| {
+            let advice = self.fraction_advice(&failure);
+            RunError::Numerical { file: self.file.clone(), line: cmd.line, failure, advice }
+        })?;
         for c in &report.cracks {
             self.echo(&format!(
                 "BLOCK {} CRACKED AT CYCLE {} (POINT-LOAD VALUE {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
@@ -380,6 +430,28 @@ impl<'a> Executor<'a> {
         }
         self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle));
         Ok(())
+    }
+
+    /// Names the largest safe FRACTION after a numerical failure whose message does not, when
+    /// FRACTION is above the stability estimate of the model (`Model::stable_frac_estimate`, taken
+    /// on the contacts the last good state has or would form at once). Empty otherwise: then the
+    /// failure is not one of the time step.
+    fn fraction_advice(&self, failure: &CycleError) -> String {
+        if matches!(failure, CycleError::EnergyGrowth { .. } | CycleError::Setup(_)) {
+            return String::new();
+        }
+        let mut probe = self.model.clone();
+        crate::topology::update_contacts(&mut probe, true);
+        let safe = probe.stable_frac_estimate();
+        if safe.is_finite() && safe > 0.0 && self.model.frac > safe {
+            format!(
+                " (FRACTION {} is above the stable limit of this model: the explicit integration diverges; the largest safe value \
+                 is about {safe:.2})",
+                self.model.frac
+            )
+        } else {
+            String::new()
+        }
     }
 
     /// The backend's description, for the run log.

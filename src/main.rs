@@ -233,6 +233,8 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
     let name = deck.display().to_string();
     let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    // The precision the cycle runs in, for the extreme-ratio warnings (`verify::stability`).
+    let mut runs_on = (false, "f64");
     let backend: Box<dyn blockdem::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(CpuBackend::new()),
         BackendChoice::Auto | BackendChoice::Gpu => {
@@ -251,6 +253,7 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
                 match GpuBackend::new(&GpuOptions { adapter: choice, precision }) {
                     Ok(gpu) => {
                         eprintln!("blockdem: running on {}", gpu.describe());
+                        runs_on = (true, if precision == Precision::F32 { "f32" } else { "f64" });
                         Box::new(gpu)
                     }
                     Err(e) if backend == BackendChoice::Auto => {
@@ -264,6 +267,7 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
     };
     let options = RunOptions { out_dir: out.clone(), progress: std::io::stdout().is_terminal() };
     let mut exec = Executor::new(backend, Box::new(std::io::stdout()), options, &name);
+    exec.set_limits(blockdem::verify::stability::limits_for(runs_on.0, runs_on.1));
     let result = exec.run(&commands);
     if let Some(path) = &state_json {
         blockdem::output::state_json::write_state_json(&exec.model, path).with_context(|| format!("cannot write {}", path.display()))?;

@@ -376,10 +376,10 @@ fn sample_4_projectile_beam() {
 #[test]
 fn sample_d3_is_refused_as_3d() {
     // The D3 deck's first BLOCK (line 10) gives corners as (x,y,z) triples.
-    let e = assert_err(&sample("d3_two_tetrahedra.dat"), 10, &["3D", "not supported by the 2D language yet"]);
+    let e = assert_err(&sample("d3_two_tetrahedra.dat"), 10, &["not supported yet: BLOCK with (x,y,z) corners", "3D deck of D3"]);
     assert_eq!(e.column, 14);
     // GRAVITY with three components is the other cheap tell.
-    assert_body_err("GRAV 0 0 -10", 2, &["3D", "not supported by the 2D language yet"]);
+    assert_body_err("GRAV 0 0 -10", 2, &["not supported yet: GRAVITY gx gy gz", "3D deck"]);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -437,14 +437,21 @@ fn restart_may_come_first() {
 
 #[test]
 fn whole_file_errors() {
-    let e = assert_err("", 0, &["empty deck"]);
-    assert_eq!(e.column, 0);
-    assert_err("* only a comment\n\n   \n", 0, &["empty deck"]);
+    // An empty deck names line 1, where the START it lacks belongs, and what was expected.
+    let e = assert_err("", 1, &["empty deck", "expected START or RESTART"]);
+    assert_eq!(e.column, 1);
+    assert_eq!(e.to_string(), "t.dat:1:1: empty deck: no commands (only blank or comment lines); expected START or RESTART as the first command");
+    assert_err("* only a comment\n\n   \n", 1, &["empty deck"]);
     assert_err("START\nCYC\0 10\n", 2, &["binary file"]);
     assert_err("START\n\u{1}\u{2}\u{3}", 2, &["binary file"]);
+    // Bytes that are not UTF-8: line and column of the first bad byte, and the byte.
     let e = parse_deck_bytes_err(b"START\nCYC \xff\xfe 10\n");
-    assert!(e.message.contains("binary file"), "{e}");
-    assert_eq!(e.line, 2);
+    assert!(e.message.contains("binary file") && e.message.contains("0xFF"), "{e}");
+    assert_eq!((e.line, e.column), (2, 5));
+    // Columns count characters: the two-byte 'é' is one column.
+    let e = parse_deck_bytes_err("START\n* é\n".bytes().chain([b'x', 0xc3]).collect::<Vec<u8>>().as_slice());
+    assert_eq!((e.line, e.column), (3, 2), "{e}");
+    assert!(e.to_string().starts_with("t.dat:3:2: binary file"), "{e}");
     let long = format!("START\nCYC 1 {}\n", " ".repeat(5000));
     let e = assert_err(&long, 2, &["line too long (5006 characters; at most 4096)"]);
     assert_eq!(e.column, 4097);

@@ -102,3 +102,43 @@ fn a_failure_after_a_checkpoint_restores_that_checkpoint(t: &Target) {
     assert_eq!(m.contacts.len(), reference.contacts.len());
     assert_last_good(&m, t);
 }
+
+/// FRACTION far above the stable limit can fail first as a block too fast for the contact update
+/// (or an overlap) rather than as energy growth: the message still names the cause and the
+/// largest safe FRACTION, that FRACTION runs clean, and the state kept holds no NaN. CPU: the
+/// advice comes from the executor, the same for every backend.
+#[test]
+fn a_fraction_far_above_the_limit_names_the_largest_safe_fraction_whatever_fails_first() {
+    let deck = |frac: f64| {
+        format!(
+            "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nFRAC {frac}\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\n\
+             GRAV 0 -10\nCYCLE 2000\n"
+        )
+    };
+    for frac in [20.0, 100.0] {
+        let text = deck(frac);
+        let (failure, m) = fail(&Target::Cpu, &text);
+        let err = blockdem::scenes::run_deck_on(&text, Target::Cpu.backend()).unwrap_err().to_string();
+        assert!(err.contains(&failure.to_string()), "the cause comes first: {err}");
+        let safe: f64 = err
+            .split("the largest safe value is about ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("FRAC {frac}: no safe FRACTION named: {err}"))
+            .trim_end_matches(')')
+            .parse()
+            .unwrap();
+        assert!(safe > 0.05 && safe < 1.0, "FRAC {frac}: {err}");
+        blockdem::scenes::run_deck_on(&deck(safe), Target::Cpu.backend()).unwrap_or_else(|e| panic!("the named FRACTION {safe} fails too: {e}"));
+        let json = blockdem::output::state_json::state_json(&m).to_string();
+        assert!(!json.contains("null") && !json.contains("NaN"), "FRAC {frac}: non-finite state kept");
+    }
+    // A failure that is not the time step's (a projectile too fast at the default FRACTION, no
+    // contact to make FRACTION unstable) names no FRACTION.
+    let err = blockdem::scenes::run_deck_on(
+        "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 3,0 3,1 4,1 4,0\nFIX 2 5 0 1\nVELOCITY 0 1 0 1 200 0\nCYCLE 100\n",
+        Target::Cpu.backend(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("moves too fast") && !err.contains("largest safe"), "{err}");
+}

@@ -396,24 +396,25 @@ fn print_block_lists_table() {
     assert_eq!(
         &lines[base + 1..base + 7],
         [
-            "CORNER 1, BLOCK 3",
-            "CORNER 2, BLOCK 3",
-            "CORNER 3, BLOCK 3",
+            "CORNER 1, BLOCK 3, R-LINK 2",
+            "CORNER 2, BLOCK 3, R-LINK 3",
+            "CORNER 3, BLOCK 3, R-LINK 4",
             "CONTACT 7, BLOCK1 5, BLOCK2 3 EDGE/CORNER",
-            "CORNER 4, BLOCK 3",
+            "CORNER 4, BLOCK 3, R-LINK 1",
             "",
         ]
     );
-    // Top block (id 5): corners 5..8; it owns corner 5, which makes the contact.
+    // Top block (id 5): corners 5..8; it owns corner 5, which makes the contact. R-LINK closes
+    // each block's corner list: the last corner links back to the first.
     let top = lines.iter().position(|l| *l == "BLOCK 5 (RIGID)").unwrap();
     assert_eq!(
         &lines[top + 1..],
         [
-            "CORNER 5, BLOCK 5",
+            "CORNER 5, BLOCK 5, R-LINK 6",
             "CONTACT 7, BLOCK1 5, BLOCK2 3 CORNER/EDGE",
-            "CORNER 6, BLOCK 5",
-            "CORNER 7, BLOCK 5",
-            "CORNER 8, BLOCK 5",
+            "CORNER 6, BLOCK 5, R-LINK 7",
+            "CORNER 7, BLOCK 5, R-LINK 8",
+            "CORNER 8, BLOCK 5, R-LINK 5",
         ]
     );
 }
@@ -730,7 +731,7 @@ fn plot_in_a_view_quadrant_is_clipped_to_it() {
         window: [0.0, 4.0, 0.0, 3.0],
         view: [0, 700, 700, 1400],
     };
-    let [png, _] = plot(
+    let [png, svg] = plot(
         &m,
         &settings,
         &PlotOptions {
@@ -742,6 +743,12 @@ fn plot_in_a_view_quadrant_is_clipped_to_it() {
     )
     .unwrap();
     assert!(png.ends_with("plot_012.png"));
+    // The SVG is clipped to the same quadrant: the top-left 350 × 350 px of the 1000 × 700 page.
+    let s = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        s.contains(r#"<clipPath id="view"><rect x="0.00" y="0.00" width="350.00" height="350.00"/></clipPath>"#),
+        "{s}"
+    );
     let p = load_png(&png);
     let mut inside = 0;
     for y in 0..p.height() {

@@ -65,6 +65,14 @@ fn the_same_deck_twice_gives_bit_identical_state(t: &Target) {
     let a = run_deck_on(&deck, t.backend()).unwrap();
     let b = run_deck_on(&deck, t.backend()).unwrap();
     assert_eq!(a, b);
+    // Bit for bit: `==` on f64 calls 0.0 and −0.0 equal and NaN unequal to itself; the serialized
+    // state (every f64 as its 8 IEEE bytes, as SAVE writes it) does not.
+    assert_eq!(bits(&a), bits(&b), "the serialized states differ on {}", t.name());
+}
+
+/// The model as SAVE serializes it: every f64 as its IEEE bytes.
+fn bits(m: &blockdem::model::Model) -> Vec<u8> {
+    postcard::to_stdvec(m).expect("serializes")
 }
 
 fn save_then_restart_continues_identically(t: &Target) {
@@ -78,5 +86,6 @@ fn save_then_restart_continues_identically(t: &Target) {
     run_deck_on(&format!("{base}CYCLE 400\nSAVE {}\n", save.display()), t.backend()).unwrap();
     let resumed = run_deck_on(&format!("RESTART {}\nCYCLE 400\n", save.display()), t.backend()).unwrap();
     assert_eq!(straight, resumed);
+    assert_eq!(bits(&straight), bits(&resumed), "bit for bit on {}", t.name());
     let _ = std::fs::remove_dir_all(&dir);
 }

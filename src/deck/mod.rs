@@ -13,15 +13,28 @@ pub use command::*;
 pub use parse::parse_deck;
 
 /// An input error: the file, line and column, and what was expected there.
+///
+/// Shown as `file:line:column: message`, the form editors and compilers use; `file:line: message`
+/// when the column is not known (0).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{file}:{line}:{column}: {message}")]
 pub struct DeckError {
     pub file: String,
-    /// 1-based line number (0 when the error concerns the whole file).
+    /// 1-based line number. Every error names a line: one about the file as a whole (an empty
+    /// deck) names line 1, where the START or RESTART it lacks should have been.
     pub line: usize,
     /// 1-based column (0 when unknown).
     pub column: usize,
     pub message: String,
+}
+
+impl std::fmt::Display for DeckError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.column > 0 {
+            write!(f, "{}:{}:{}: {}", self.file, self.line, self.column, self.message)
+        } else {
+            write!(f, "{}:{}: {}", self.file, self.line, self.message)
+        }
+    }
 }
 
 impl DeckError {

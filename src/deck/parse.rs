@@ -50,7 +50,9 @@
 //!   x1 < x < x2); it is reported as an error since it is always a typing slip.
 //! * RSET poked a value into the 1985 main array at a raw address; it is always an error here.
 //! * A 3D (D3, Appendix B) deck is recognised by a BLOCK whose parenthesised groups hold three
-//!   numbers, or GRAVITY with three components, and refused with a message saying so.
+//!   numbers, or GRAVITY with three components, and refused as "not supported yet" at that line,
+//!   like the 2D commands whose physics comes later (D3 has a language of its own, so the rest of
+//!   such a deck is not read as 2D commands).
 //! * SAVE and RESTART take one bare file-name token, case kept. Since `/` is a separator in the
 //!   language, a name with a directory part (`runs/a.sav`) reads as two tokens and is refused
 //!   as "too many values".
@@ -499,7 +501,12 @@ impl<'a> Args<'a> {
 pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
     let statements = lexer::split(text, file)?;
     if statements.is_empty() {
-        return Err(DeckError::new(file, 0, 0, "empty deck: no commands (only blank or comment lines)"));
+        return Err(DeckError::new(
+            file,
+            1,
+            1,
+            "empty deck: no commands (only blank or comment lines); expected START or RESTART as the first command",
+        ));
     }
     let mut out = Vec::new();
     for (i, st) in statements.iter().enumerate() {
@@ -539,11 +546,17 @@ pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
         Err(e) => {
             let before = &bytes[..e.valid_up_to()];
             let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+            // The column of the first bad byte, in characters of the (valid) text before it.
+            let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+            let column = std::str::from_utf8(&before[line_start..]).map_or(0, |t| t.chars().count()) + 1;
             Err(DeckError::new(
                 file,
                 line,
-                0,
-                format!("binary file: invalid UTF-8 text at line {line}; a deck must be plain text"),
+                column,
+                format!(
+                    "binary file: byte 0x{:02X} is not UTF-8 text (line {line}, column {column}); a deck must be plain text",
+                    bytes[e.valid_up_to()]
+                ),
             ))
         }
     }
@@ -621,8 +634,8 @@ fn parse_command(a: &mut Args) -> Result<Command> {
             if let Some(t) = toks.get(2) {
                 return Err(a.at(
                     t,
-                    "GRAVITY with three components (gx gy gz) is a 3D (D3) command; 3D decks are not supported \
-                     by the 2D language yet",
+                    "not supported yet: GRAVITY gx gy gz (three components: a 3D deck of D3, SL-85-1 Appendix B; \
+                     this program reads the 2D UDEC language, and D3 comes in a later version)",
                 ));
             }
             Command::Gravity { g: [a.real_of(toks[0], "gx")?, a.real_of(toks[1], "gy")?] }
@@ -768,8 +781,8 @@ fn block(a: &mut Args) -> Result<Command> {
             if in_group == 3 && (i == 0 || coords[i - 1].group != Some(g)) {
                 return Err(a.at(
                     t,
-                    "BLOCK corners are given as (x,y,z) triples: this is a 3D (D3) deck, and 3D decks are not \
-                     supported by the 2D language yet",
+                    "not supported yet: BLOCK with (x,y,z) corners (a 3D deck of D3, SL-85-1 Appendix B; this \
+                     program reads the 2D UDEC language, and D3 comes in a later version)",
                 ));
             }
         }

@@ -23,6 +23,10 @@ pub enum GeometryError {
         "the block outline crosses or touches itself; give the corners in order around the block"
     )]
     SelfIntersecting,
+    #[error(
+        "the block outline is too large to compute with (it spans {extent:e}; its area overflows f64); check the units of the coordinates"
+    )]
+    TooLarge { extent: f64 },
     #[error("the block outline encloses no area (area {area:e}); are its corners collinear?")]
     Degenerate { area: f64 },
     #[error("{given} edge tags given for a block of {corners} corners")]
@@ -88,6 +92,9 @@ impl Model {
         let props = polygon_properties(outline);
         // Zero area within round-off: relative to the square of the outline's extent.
         let extent = bbox_extent(outline);
+        if !props.area.is_finite() || !(extent * extent).is_finite() {
+            return Err(GeometryError::TooLarge { extent });
+        }
         if props.area.abs() <= 1e-12 * extent * extent {
             return Err(GeometryError::Degenerate { area: props.area });
         }

@@ -299,11 +299,14 @@ pub fn print_block_lists(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         writeln!(out)?;
         writeln!(out, "BLOCK {} {}", block.id, type_label(block.kind))?;
         for k in 0..n {
+            // R-LINK: the next corner of the block's circular corner list (counter-clockwise),
+            // as the 1985 list printed it.
             writeln!(
                 out,
-                "   CORNER {}, BLOCK {}",
+                "   CORNER {}, BLOCK {}, R-LINK {}",
                 block.corner_start as usize + k + 1,
-                block.id
+                block.id,
+                block.corner_start as usize + (k + 1) % n + 1
             )?;
             at_corner[k].sort_by_key(|e| e.contact.id);
             on_edge[k].sort_by(|a, b| {

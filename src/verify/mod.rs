@@ -276,6 +276,7 @@ impl Ctx<'_> {
         let commands = crate::deck::parse_deck(deck, "<verify>").map_err(|e| Failure { message: e.to_string(), cost: Cost::default() })?;
         let options = crate::exec::RunOptions { out_dir: std::env::temp_dir().join("blockdem-verify"), progress: false };
         let mut exec = crate::exec::Executor::new((self.backend.make)(), Box::new(std::io::sink()), options, "<verify>");
+        exec.set_limits(stability::limits_for(self.backend.gpu, &self.backend.precision));
         let r = exec.run(&commands);
         let cost = Cost { wall_s: t.elapsed().as_secs_f64(), cycles: exec.model.cycle };
         match r {

@@ -2,8 +2,10 @@
 //! FRACTION against `Model::stable_frac_estimate`, and the limits of extreme ratios (mass, contact
 //! stiffness, distance from the origin) on a backend, with the input-time warnings they give.
 //!
-//! The limits in [`LIMITS_CPU_F64`] were measured with `blockdem verify` on the CPU f64 backend
-//! (see README, "Accuracy against speed"); the f32 GPU limits come with the GPU rows.
+//! The limits in [`LIMITS_CPU_F64`], [`LIMITS_GPU_F64`] and [`LIMITS_GPU_F32`] were measured with
+//! `blockdem verify` (the full suite, [`extreme_limits`]) on the CPU and on Mesa's lavapipe in
+//! both precisions (see README, "Accuracy against speed"); [`limits_for`] picks the set of the
+//! backend that runs, and the executor warns before CYCLE against it.
 
 use std::fmt::Write as _;
 
@@ -113,6 +115,34 @@ pub struct Limits {
 ///   largest tried: geometry relative to the centroid keeps f64 contacts exact far out.
 pub const LIMITS_CPU_F64: Limits = Limits { mass_ratio: 1e6, stiffness_ratio: 10.0, offset_over_round: 2e11 };
 
+/// Measured with `blockdem verify` (full) on the GPU f64 kernels (Vulkan, lavapipe): the same as
+/// the CPU where tried. The mass ratio is tried only to 1e4 there (error 7e-9): the cycles
+/// grow as √ratio and a software adapter takes ~1 ms a cycle.
+pub const LIMITS_GPU_F64: Limits = Limits { mass_ratio: 1e4, stiffness_ratio: 10.0, offset_over_round: 2e11 };
+
+/// Measured with `blockdem verify` (full) on the GPU f32 kernels (Vulkan, lavapipe; the rounding
+/// of f32 arithmetic is the same on every IEEE adapter):
+///
+/// - mass ratio 10: the light-on-heavy column's interface forces are 0.09% off at 10, 2.3% at 30
+///   and 5% at 100 (1% allowed). The light block's contact overlap (its weight over kn, 2e-6 m
+///   at 100) is computed from corner positions relative to block centroids of metre size, where
+///   an f32 ulp is 1.2e-7 m: the force is resolved to about ulp/overlap. What the limit really
+///   bounds is overlap against block size; the mass ratio is how a model reaches it.
+/// - kn/ks 10: as on the CPU (the limit is the physics of the scene, not round-off).
+/// - offset: the slide is unchanged (error 2.9e-4) at 1e10 m from the origin with ROUND 0.05,
+///   the largest tried: centroids are compensated (two_sum) pairs and contact geometry is
+///   relative to them, so f32 loses nothing to the distance from the origin.
+pub const LIMITS_GPU_F32: Limits = Limits { mass_ratio: 10.0, stiffness_ratio: 10.0, offset_over_round: 2e11 };
+
+/// The limits of a backend: the CPU (always f64), or the GPU kernels in `precision`.
+pub fn limits_for(gpu: bool, precision: &str) -> Limits {
+    match (gpu, precision) {
+        (false, _) => LIMITS_CPU_F64,
+        (true, "f32") => LIMITS_GPU_F32,
+        (true, _) => LIMITS_GPU_F64,
+    }
+}
+
 /// The warnings a model outside `limits` gets at input time (the executor prints them before CYCLE).
 pub fn warnings(model: &Model, limits: &Limits) -> Vec<String> {
     let mut w = Vec::new();
@@ -202,7 +232,14 @@ pub fn extreme_limits(backend: &BackendEntry, quick: bool) -> Vec<ExtremeLimit> 
     out.push(ExtremeLimit { what: "kn/ks", backend: be.clone(), limit, tried });
 
     // Mass ratio: a light block on a heavy one on a fixed base; interface forces = weight above.
-    let ratios: &[f64] = if quick { &[1e2, 1e4] } else { &[1e2, 1e4, 1e5, 1e6] };
+    // Full suite: from 10 (where f32 kernels already stop: LIMITS_GPU_F32) to 1e6 on the CPU; the
+    // GPU rows stop at 1e4, since the cycles needed grow as √ratio and software adapters take
+    // ~1 ms a cycle.
+    let ratios: &[f64] = match (quick, backend.gpu) {
+        (true, _) => &[1e2, 1e4],
+        (false, false) => &[1e1, 1e2, 1e4, 1e5, 1e6],
+        (false, true) => &[1e1, 1e2, 1e3, 1e4],
+    };
     let mut tried = String::new();
     let mut limit = 1.0;
     for &r in ratios {
