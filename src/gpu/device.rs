@@ -239,6 +239,52 @@ impl GpuDevice {
         self.read_pod(buffer, size as usize)
     }
 
+    /// Copies the first `size` bytes of each of `parts` into one staging buffer with one
+    /// submission and one (bounded) wait, and hands `f` the bytes of each part, still mapped
+    /// (each part starts 16-byte aligned, so `bytemuck::cast_slice` to the GPU structs works).
+    pub fn read_parts<T>(&self, parts: &[(&wgpu::Buffer, u64)], f: impl FnOnce(&[&[u8]]) -> T) -> Result<T, GpuError> {
+        let mut offsets = Vec::with_capacity(parts.len());
+        let mut total = 0u64;
+        for (_, size) in parts {
+            offsets.push(total);
+            total += size.next_multiple_of(16);
+        }
+        if total == 0 {
+            let empty: Vec<&[u8]> = parts.iter().map(|_| &[][..]).collect();
+            return Ok(f(&empty));
+        }
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: total,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        for ((buffer, size), offset) in parts.iter().zip(&offsets) {
+            if *size > 0 {
+                enc.copy_buffer_to_buffer(buffer, 0, &staging, *offset, *size);
+            }
+        }
+        self.queue.submit([enc.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        match rx.try_recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(GpuError::Device(format!("mapping a read-back buffer: {e}"))),
+            Err(_) => return Err(GpuError::Device("a read-back did not complete".into())),
+        }
+        let result = {
+            let view = staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?;
+            let slices: Vec<&[u8]> = parts.iter().zip(&offsets).map(|((_, size), &o)| &view[o as usize..(o + size) as usize]).collect();
+            f(&slices)
+        };
+        staging.unmap();
+        Ok(result)
+    }
+
     /// Copies the first `n` items of type `T` of `buffer` back to the CPU (bounded wait), with
     /// one copy out of the mapped staging memory.
     pub fn read_pod<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, n: usize) -> Result<Vec<T>, GpuError> {

@@ -235,6 +235,15 @@ fn r<R: Real>(x: f64) -> R {
     R::from_f64(x)
 }
 
+/// Mapped bytes as GPU structs: in place when aligned (parts of a read-back start 16-byte
+/// aligned), else copied.
+fn pod_view<T: bytemuck::Pod>(bytes: &[u8]) -> std::borrow::Cow<'_, [T]> {
+    match bytemuck::try_cast_slice(bytes) {
+        Ok(items) => std::borrow::Cow::Borrowed(items),
+        Err(_) => std::borrow::Cow::Owned(bytemuck::pod_collect_to_vec(bytes)),
+    }
+}
+
 /// Which device buffers a read-back reads: the live state or the checkpoint.
 struct StateBuffers<'a> {
     blocks: &'a wgpu::Buffer,
@@ -555,6 +564,10 @@ where
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Device(format!("a cycle was rejected: {e}")));
         }
+        if gather_only {
+            // Nothing raises a flag in a gather; the next wait covers it.
+            return Ok(Flags::cleared());
+        }
         let bytes = self.dev.read_buffer(&b.flags, std::mem::size_of::<Flags>() as u64)?;
         Ok(bytemuck::pod_read_unaligned(&bytes))
     }
@@ -641,12 +654,27 @@ where
         self.dev.read_pod(buffer, n)
     }
 
-    /// Reads the block state of `src` into the model; returns the blocks as read.
-    fn read_block_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
-        let blocks: Vec<Block<R>> = self.read(src.blocks, src.counts.0)?;
+    /// Reads blocks, corners and contacts of `src` into the model (one copy, one wait);
+    /// returns the blocks as read.
+    fn read_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
+        let (nb, nc, nk) = src.counts;
+        let parts = [
+            (src.blocks, (nb * std::mem::size_of::<Block<R>>()) as u64),
+            (src.corners, (nc * std::mem::size_of::<Corner<R>>()) as u64),
+            (src.contacts, (nk * std::mem::size_of::<Contact<R>>()) as u64),
+        ];
+        self.dev.read_parts(&parts, |bytes| {
+            let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
+            Self::convert_state(&blocks, &pod_view(bytes[1]), &pod_view(bytes[2]), up, model);
+            blocks
+        })
+    }
+
+    /// The device state into the model: centroids back to the model's frame, accumulators onto
+    /// their f64 bases. Converted in parallel (a 10⁶-block model is read back at every contact
+    /// update); the external work is summed serially, so the result repeats bit for bit.
+    fn convert_state(blocks: &[Block<R>], corners: &[Corner<R>], contacts: &[Contact<R>], up: &Uploaded, model: &mut Model) {
         let o = up.origin;
-        // Converted in parallel (a 10⁶-block model is read back at every contact update); the
-        // work is summed serially, so the result repeats bit for bit.
         model.blocks.par_iter_mut().zip(blocks.par_iter()).zip(up.damping_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
             m.centroid = [o[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), o[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
             m.rotation = g.rotation.to_f64();
@@ -661,13 +689,6 @@ where
         });
         let work: f64 = blocks.iter().map(|g| g.work.to_f64()).sum();
         model.external_work = up.work_base + work;
-        Ok(blocks)
-    }
-
-    /// Reads blocks, corners and contacts of `src` into the model.
-    fn read_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
-        let blocks = self.read_block_state(src, up, model)?;
-        let corners: Vec<Corner<R>> = self.read(src.corners, src.counts.1)?;
         let Model { blocks: model_blocks, corners: model_corners, contacts: model_contacts, .. } = model;
         model_corners.par_iter_mut().zip(corners.par_iter()).with_min_len(4096).for_each(|(m, g)| {
             let cen = model_blocks[m.block as usize].centroid;
@@ -676,7 +697,6 @@ where
             m.edge_dir = [g.ux.to_f64(), g.uy.to_f64()];
             m.edge_length = g.len.to_f64();
         });
-        let contacts: Vec<Contact<R>> = self.read(src.contacts, src.counts.2)?;
         model_contacts.par_iter_mut().zip(contacts.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
             let c2 = model_blocks[m.block2 as usize].centroid;
             m.point = [c2[0] + g.px.to_f64(), c2[1] + g.py.to_f64()];
@@ -693,16 +713,6 @@ where
             m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
             m.bonded = g.bonded != 0;
         });
-        Ok(blocks)
-    }
-
-    /// Reads the block state back into the model (after a gather-only pass, so fixed blocks'
-    /// forces are current).
-    fn read_blocks(&mut self, model: &mut Model) -> Result<(), GpuError> {
-        let _p = crate::profile::scope(crate::profile::Stage::Download);
-        let up = self.uploaded.clone();
-        self.last_blocks = self.read_block_state(&self.live(), &up, model)?;
-        Ok(())
     }
 
     /// Reads blocks, corners and contacts back into the model, after summing the fixed blocks'
@@ -823,9 +833,9 @@ where
                 if cracking || flags.update_due != 0 {
                     // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
                     self.readback(model).map_err(device_error)?;
-                    let mut changed = false;
+                    // The model's state is read back only when the CPU needs it (here, the next
+                    // stage 7, an error, the end of the run): after a change the device holds it.
                     if cracking && cpu::crack_step(model, &adjacency, &mut report) {
-                        changed = true;
                         adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
                         if let Some(dt) = model.critical_timestep() {
                             if dt < model.timestep {
@@ -836,17 +846,12 @@ where
                         self.upload_all(model, &adjacency).map_err(device_error)?;
                         self.write_params(model);
                         self.run_batch(1, true).map_err(device_error)?;
-                        self.read_blocks(model).map_err(device_error)?;
                     }
                     if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
-                        changed = true;
                         self.upload_reset_distances(model);
                         self.upload_contacts(model, &adjacency).map_err(device_error)?;
                         self.write_params(model);
                         self.run_batch(1, true).map_err(device_error)?;
-                    }
-                    if changed {
-                        self.read_blocks(model).map_err(device_error)?;
                     }
                 }
                 if at_check {
