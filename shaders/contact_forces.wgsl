@@ -144,11 +144,47 @@ fn better(cand_d: real, cand_inside: bool, cand_f: u32, best_d: real, best_insid
     return false;
 }
 
+// The contact geometry of circle centre c (radius r) measured from feature f.
+fn contact_geometry(f: u32, fd: FeatureDistance, c: vec2<real>, radius: real) -> ContactGeometry {
+    let gap = fd.signed_distance - radius;
+    // Midway between block 1's surface point (c − n r) and block 2's (c − n (r + gap)).
+    let depth = radius + 0.5 * gap;
+    return ContactGeometry(f, gap, fd.normal, c - fd.normal * depth, fd.distance);
+}
+
+// Whether the outline turns left (convex) from edge a to edge b.
+fn turns_left(a: Edge, b: Edge) -> bool {
+    let na = edge_normal(a);
+    let nb = edge_normal(b);
+    return na.x * nb.y - na.y * nb.x > 0.0;
+}
+
 // The nearest of `feature` and its two neighbours: the per-cycle update of a contact whose point
 // slides along the boundary (a point moves far less than a feature's length in one step).
+//
+// Fast path, most contacts on most cycles (twin of the CPU's): a corner circle over the straight
+// part of an edge between two convex corners. Its centre lies inside the edge's slab, clear of
+// both ends by more than the region tolerance, and outside the line, so it is outside both
+// neighbouring arcs' wedges (their tolerance included), and each arc is measured from its tangent
+// point on this edge: √(s² + d²) ≥ d, and an inside feature wins every tie with an outside one.
+// The full three-way comparison would pick this edge with the same numbers, so skip it.
 fn track_feature(start: u32, n: u32, feature: u32, c: vec2<real>, radius: real) -> ContactGeometry {
     let nf = 2u * n;
     let f = min(feature, nf - 1u);
+    if (f % 2u == 1u) {
+        let k = f / 2u;
+        let e = edge_of(start, k);
+        let m = edge_distance(start, n, k, e, c);
+        if (m.inside && m.signed_distance > 0.0) {
+            let r0 = corners[start + k].round;
+            let s = dot(c - (e.p0 + e.u * r0), e.u);
+            let straight = e.len - r0 - corners[start + next_index(k, n)].round;
+            let margin = 1e-6 * e.len + 4.0 * REGION_TOL * (r0 + m.distance);
+            if (s > margin && s < straight - margin && turns_left(edge_of(start, prev_index(k, n)), e) && turns_left(e, edge_of(start, next_index(k, n)))) {
+                return contact_geometry(f, m, c, radius);
+            }
+        }
+    }
     let candidates = array<u32, 3>(prev_index(f, nf), f, next_index(f, nf));
     var best_f = candidates[0];
     var best = feature_distance(start, n, best_f, c);
@@ -160,10 +196,7 @@ fn track_feature(start: u32, n: u32, feature: u32, c: vec2<real>, radius: real) 
             best_f = g;
         }
     }
-    let gap = best.signed_distance - radius;
-    // Midway between block 1's surface point (c − n r) and block 2's (c − n (r + gap)).
-    let depth = radius + 0.5 * gap;
-    return ContactGeometry(best_f, gap, best.normal, c - best.normal * depth, best.distance);
+    return contact_geometry(best_f, best, c, radius);
 }
 
 // Velocity of the material point p (eq. 11 in two dimensions: v + ω × r).
