@@ -178,6 +178,11 @@ pub struct ReferenceRow {
     pub wall_s: f64,
     pub cycles_per_s: f64,
     pub measures: Option<scene::WallMeasures>,
+    /// Where the wall time went: host stages over the whole deck (set-up, cycles and tear-down
+    /// of every run together), seconds; the rest (parsing, building) is not listed.
+    pub stages: Vec<(String, String, f64)>,
+    /// Contact updates (stage 7 runs) during the CYCLE.
+    pub topology_updates: u64,
     pub error: Option<String>,
 }
 
@@ -455,6 +460,20 @@ fn memory_problem(blocks: usize) -> Option<String> {
     (need > available / 10 * 7).then(|| format!("not enough memory: a wall of {blocks} blocks needs about {} MiB, {} MiB available", need >> 20, available >> 20))
 }
 
+/// A backend that counts the contact updates of its runs.
+struct Counting<B>(B, std::rc::Rc<std::cell::Cell<u64>>);
+
+impl<B: Backend> Backend for Counting<B> {
+    fn describe(&self) -> String {
+        self.0.describe()
+    }
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+        let report = self.0.run(model, cycles, progress)?;
+        self.1.set(self.1.get() + report.topology_updates);
+        Ok(report)
+    }
+}
+
 /// Runs one reference scene on `backend`: the deck with its CYCLE command, timed whole.
 fn run_reference(scene: RefScene, time: f64, frac: f64, backend: &mut dyn Backend, label: &str) -> ReferenceRow {
     let mut row = ReferenceRow { scene: scene.name().into(), backend: label.into(), simulated_s: time, ..Default::default() };
@@ -477,9 +496,19 @@ fn run_reference(scene: RefScene, time: f64, frac: f64, backend: &mut dyn Backen
     row.cycles = cycles;
     row.timestep = dt;
     let deck = format!("{body}CYCLE {cycles}\n");
+    let updates = std::rc::Rc::new(std::cell::Cell::new(0u64));
     let start = Instant::now();
-    let result = crate::scenes::run_deck_logged(&deck, Box::new(Borrowed(backend)), Box::new(std::io::sink()));
+    profile::enable();
+    let result = crate::scenes::run_deck_logged(&deck, Box::new(Counting(Borrowed(backend), updates.clone())), Box::new(std::io::sink()));
+    let times = profile::take();
     row.wall_s = start.elapsed().as_secs_f64();
+    row.topology_updates = updates.get();
+    for s in Stage::ALL {
+        let t = (times.setup_of(s) + times.cycles_of(s) + times.teardown_of(s)).as_secs_f64();
+        if t > 0.0 {
+            row.stages.push((s.name().to_string(), s.group().to_string(), t));
+        }
+    }
     match result {
         Ok(model) => {
             row.blocks = model.blocks.len();

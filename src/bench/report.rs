@@ -241,10 +241,26 @@ pub fn table(r: &BenchReport) -> String {
                 }
             }
         }
-        let cpu = r.reference.iter().find(|x| x.backend == "cpu f64" && x.scene == "settle" && x.error.is_none());
-        for x in r.reference.iter().filter(|x| x.backend != "cpu f64" && x.scene == "settle" && x.error.is_none()) {
-            if let Some(c) = cpu {
-                let _ = writeln!(s, "  settle wall time {} / cpu f64: {:.2}x", x.backend, x.wall_s / c.wall_s);
+        // Where each reference run's wall time went.
+        for x in r.reference.iter().filter(|x| x.error.is_none()) {
+            let parts: Vec<String> = x.stages.iter().map(|(name, _, t)| format!("{name} {:.1}%", 100.0 * t / x.wall_s.max(1e-12))).collect();
+            let topo_xfer: f64 = x.stages.iter().filter(|(_, g, _)| g == "topology" || g == "transfer").map(|(_, _, t)| t).sum();
+            let _ = writeln!(
+                s,
+                "  {} on {}: {} contact updates; topology + transfers {:.1}% of the wall time ({})",
+                x.scene,
+                x.backend,
+                x.topology_updates,
+                100.0 * topo_xfer / x.wall_s.max(1e-12),
+                parts.join(", ")
+            );
+        }
+        for scene in ["settle", "impact"] {
+            let cpu = r.reference.iter().find(|x| x.backend == "cpu f64" && x.scene == scene && x.error.is_none());
+            for x in r.reference.iter().filter(|x| x.backend != "cpu f64" && x.scene == scene && x.error.is_none()) {
+                if let Some(c) = cpu {
+                    let _ = writeln!(s, "  {scene} wall time {} / cpu f64: {:.2}x", x.backend, x.wall_s / c.wall_s);
+                }
             }
         }
     }

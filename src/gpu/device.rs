@@ -204,13 +204,28 @@ impl GpuDevice {
         if limits.max_storage_buffers_per_shader_stage < 7 {
             return Err(GpuError::Setup(format!("adapter {} offers {} storage buffers per stage; the kernels need 7", summary.name, limits.max_storage_buffers_per_shader_stage)));
         }
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("blockdem"),
-            required_features: features,
-            required_limits: limits,
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::Setup(format!("cannot open a device on {}: {e}", summary.name)))?;
+        // Some drivers refuse a device with everything the adapter advertises (NVIDIA's GL through
+        // EGL has answered "device lost"): then without timestamps, then with the limits the
+        // kernels need rather than the adapter's all.
+        let mut needed = wgpu::Limits::downlevel_defaults();
+        needed.max_storage_buffers_per_shader_stage = 8;
+        needed.max_storage_buffer_binding_size = limits.max_storage_buffer_binding_size;
+        needed.max_buffer_size = limits.max_buffer_size;
+        needed.max_compute_workgroup_size_x = needed.max_compute_workgroup_size_x.max(256).min(limits.max_compute_workgroup_size_x);
+        needed.max_compute_invocations_per_workgroup = needed.max_compute_invocations_per_workgroup.max(256).min(limits.max_compute_invocations_per_workgroup);
+        let attempts = [(features, limits.clone()), (features - wgpu::Features::TIMESTAMP_QUERY, limits.clone()), (features - wgpu::Features::TIMESTAMP_QUERY, needed)];
+        let mut refusals = Vec::new();
+        let mut opened = None;
+        for (f, l) in attempts {
+            match pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor { label: Some("blockdem"), required_features: f, required_limits: l, ..Default::default() })) {
+                Ok(dq) => {
+                    opened = Some(dq);
+                    break;
+                }
+                Err(e) => refusals.push(e.to_string()),
+            }
+        }
+        let (device, queue) = opened.ok_or_else(|| GpuError::Setup(format!("cannot open a device on {}: {}", summary.name, refusals.join("; then "))))?;
         // wgpu's default handler panics on an error outside an error scope; keep it instead and
         // turn it into an error value at the next wait.
         let uncaptured = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
