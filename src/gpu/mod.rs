@@ -535,6 +535,18 @@ where
     /// group per stage so that tools and errors name it.
     fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
+        self.submit_batch(cycles, gather_only)?;
+        if gather_only {
+            // Nothing raises a flag in a gather; the next wait covers it.
+            return Ok(Flags::cleared());
+        }
+        let b = self.buffers();
+        let bytes = self.dev.read_buffer(&b.flags, std::mem::size_of::<Flags>() as u64)?;
+        Ok(bytemuck::pod_read_unaligned(&bytes))
+    }
+
+    /// Submits the passes of `run_batch` without waiting for them.
+    fn submit_batch(&self, cycles: u64, gather_only: bool) -> Result<(), GpuError> {
         let b = self.buffers();
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
         let q = &self.dev.queue;
@@ -564,12 +576,41 @@ where
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Device(format!("a cycle was rejected: {e}")));
         }
-        if gather_only {
-            // Nothing raises a flag in a gather; the next wait covers it.
-            return Ok(Flags::cleared());
+        Ok(())
+    }
+
+    /// Runs a batch and reads back its flags together with the whole state, in one round trip;
+    /// the state goes into the model only when stage 7 is due. For runs whose contacts change
+    /// every few cycles (a projectile), where a batch that stops for a contact update would
+    /// otherwise cost a second round trip for the state. Returns the flags and whether the model
+    /// now holds the state.
+    fn run_batch_with_state(&mut self, cycles: u64, model: &mut Model) -> Result<(Flags, bool), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
+        self.submit_batch(cycles, false)?;
+        let (nb, nc, nk) = self.counts;
+        let b = self.buffers();
+        let parts = [
+            (&b.flags, std::mem::size_of::<Flags>() as u64),
+            (&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64),
+            (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64),
+            (&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64),
+        ];
+        let up = self.uploaded.clone();
+        let (flags, blocks) = self.dev.read_parts(&parts, |bytes| {
+            let flags: Flags = bytemuck::pod_read_unaligned(bytes[0]);
+            if flags.update_due == 0 || flags.errors != 0 {
+                return (flags, None);
+            }
+            let _p = crate::profile::scope(crate::profile::Stage::Download);
+            let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[1]);
+            Self::convert_state(&blocks, &pod_view(bytes[2]), &pod_view(bytes[3]), &up, model);
+            (flags, Some(blocks))
+        })?;
+        let read = blocks.is_some();
+        if let Some(blocks) = blocks {
+            self.last_blocks = blocks;
         }
-        let bytes = self.dev.read_buffer(&b.flags, std::mem::size_of::<Flags>() as u64)?;
-        Ok(bytemuck::pod_read_unaligned(&bytes))
+        Ok((flags, read))
     }
 
     /// The energy check's sums on the device: (kinetic, strain, external work) of the state now,
@@ -719,6 +760,12 @@ where
     /// forces (the cycle skips them).
     fn readback(&mut self, model: &mut Model) -> Result<(), GpuError> {
         self.run_batch(1, true)?;
+        self.read_live_state(model)
+    }
+
+    /// Reads blocks, corners and contacts back as they are (fixed blocks' forces stale: what
+    /// stage 7 needs).
+    fn read_live_state(&mut self, model: &mut Model) -> Result<(), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Download);
         let up = self.uploaded.clone();
         self.last_blocks = self.read_state(&self.live(), &up, model)?;
@@ -808,12 +855,20 @@ where
         // batches early. A halted batch still dispatches the passes of its remaining cycles (they
         // exit at once), and on a software adapter each costs about a real pass's launch.
         let mut batch_cap = cpu::CHECK_INTERVAL;
+        // The last batch stopped for a contact update: the next one brings the state back with
+        // its flags (`run_batch_with_state`).
+        let mut busy = false;
         let result = (|| -> Result<(), CycleError> {
             while done_total < cycles {
                 let left = cycles - done_total;
                 let batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left).min(batch_cap) };
                 self.write_params(model);
-                let flags = self.run_batch(batch, false).map_err(device_error)?;
+                let (flags, state_read) = if busy && !cracking {
+                    self.run_batch_with_state(batch, model).map_err(device_error)?
+                } else {
+                    (self.run_batch(batch, false).map_err(device_error)?, false)
+                };
+                busy = flags.update_due != 0;
                 let done = flags.cycles_done as u64;
                 batch_cap = if done < batch { (2 * done).max(1) } else { (2 * batch_cap).min(cpu::CHECK_INTERVAL) };
                 for _ in 0..done {
@@ -832,7 +887,12 @@ where
                 let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
                 if cracking || flags.update_due != 0 {
                     // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
-                    self.readback(model).map_err(device_error)?;
+                    // The cracking criterion reads every block's forces, fixed ones too.
+                    if cracking {
+                        self.readback(model).map_err(device_error)?;
+                    } else if !state_read {
+                        self.read_live_state(model).map_err(device_error)?;
+                    }
                     // The model's state is read back only when the CPU needs it (here, the next
                     // stage 7, an error, the end of the run): after a change the device holds it.
                     if cracking && cpu::crack_step(model, &adjacency, &mut report) {
