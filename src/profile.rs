@@ -158,22 +158,17 @@ pub fn enabled() -> bool {
 
 /// Called by a backend once its run is set up: later time is charged to the cycles.
 pub fn mark_cycles_start() {
-    PROFILE.with(|p| {
-        if let Some(p) = p.borrow_mut().as_mut() {
-            let now = Instant::now();
-            if let Some(&(stage, since)) = p.stack.last() {
-                p.charge(stage, now - since);
-                p.stack.last_mut().expect("non-empty").1 = now;
-            }
-            p.phase = 1;
-            p.times.cycles_start = Some(now);
-        }
-    });
+    mark_phase(1, |t, now| t.cycles_start = Some(now));
 }
 
 /// Called by a backend when its last cycle is done and only the hand-back of the state is left:
 /// later time is charged to the tear-down.
 pub fn mark_cycles_end() {
+    mark_phase(2, |t, now| t.cycles_end = Some(now));
+}
+
+/// Charges the open scope up to now to the current phase, then moves to `phase`.
+fn mark_phase(phase: usize, record: impl FnOnce(&mut StageTimes, Instant)) {
     PROFILE.with(|p| {
         if let Some(p) = p.borrow_mut().as_mut() {
             let now = Instant::now();
@@ -181,8 +176,8 @@ pub fn mark_cycles_end() {
                 p.charge(stage, now - since);
                 p.stack.last_mut().expect("non-empty").1 = now;
             }
-            p.phase = 2;
-            p.times.cycles_end = Some(now);
+            p.phase = phase;
+            record(&mut p.times, now);
         }
     });
 }

@@ -303,31 +303,6 @@ impl GpuDevice {
     /// Copies the first `n` items of type `T` of `buffer` back to the CPU (bounded wait), with
     /// one copy out of the mapped staging memory.
     pub fn read_pod<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, n: usize) -> Result<Vec<T>, GpuError> {
-        let size = (n * std::mem::size_of::<T>()) as u64;
-        if size == 0 {
-            return Ok(Vec::new());
-        }
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
-        enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-        self.queue.submit([enc.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        staging.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
-        self.wait()?;
-        match rx.try_recv() {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(GpuError::Device(format!("mapping a read-back buffer: {e}"))),
-            Err(_) => return Err(GpuError::Device("a read-back did not complete".into())),
-        }
-        let data = bytemuck::pod_collect_to_vec(&staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?);
-        staging.unmap();
-        Ok(data)
+        self.read_parts(&[(buffer, (n * std::mem::size_of::<T>()) as u64)], |bytes| bytemuck::pod_collect_to_vec(bytes[0]))
     }
 }
