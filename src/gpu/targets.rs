@@ -47,8 +47,27 @@ fn api_of(a: &AdapterSummary) -> Option<GpuApi> {
     }
 }
 
+/// Whether a device opens with these options (remembered per process: a check costs a device).
+/// An adapter can be listed and still refuse every device: NVIDIA's GL through EGL without a
+/// display does (wgpu reports "Parent device is lost"); such an adapter is no target.
+pub fn device_opens(options: &GpuOptions) -> Result<(), String> {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    static OPENED: OnceLock<Mutex<HashMap<String, Result<(), String>>>> = OnceLock::new();
+    let key = format!("{:?} {:?}", options.adapter, options.precision);
+    let cache = OPENED.get_or_init(Default::default);
+    if let Some(known) = cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
+        return known;
+    }
+    let result = super::GpuDevice::open(&options.adapter, options.precision).map(|_| ()).map_err(|e| e.to_string());
+    if let Ok(mut c) = cache.lock() {
+        c.insert(key, result.clone());
+    }
+    result
+}
+
 /// The adapter `choice` opens in `precision`, when it is there: an adapter with compute shaders,
-/// and `SHADER_F64` for f64 (the checks `GpuDevice::open` makes, without opening a device).
+/// `SHADER_F64` for f64, on which a device opens.
 pub fn find_target(choice: &AdapterChoice, precision: Precision) -> Option<GpuTarget> {
     let mut found: Vec<AdapterSummary> = list_adapters(choice).into_iter().filter(|a| a.compute && (precision == Precision::F32 || a.shader_f64)).collect();
     let wanted = match choice {
@@ -61,7 +80,14 @@ pub fn find_target(choice: &AdapterChoice, precision: Precision) -> Option<GpuTa
     }
     found.sort_by_key(rank);
     let adapter = found.into_iter().next()?;
-    Some(GpuTarget { options: GpuOptions { adapter: choice.clone(), precision }, adapter })
+    let target = GpuTarget { options: GpuOptions { adapter: choice.clone(), precision }, adapter };
+    match device_opens(&target.options) {
+        Ok(()) => Some(target),
+        Err(e) => {
+            eprintln!("blockdem: {} {precision} is listed but opens no device: {e}", target.label());
+            None
+        }
+    }
 }
 
 /// Hardware before software, Vulkan before GL (the order `GpuDevice::open` ranks adapters in).
@@ -94,7 +120,11 @@ pub fn scenario_backends() -> Vec<GpuTarget> {
         let api = api_of(&a).expect("filtered above");
         let precisions: &[Precision] = if a.shader_f64 { &[Precision::F32, Precision::F64] } else { &[Precision::F32] };
         for &precision in precisions {
-            out.push(GpuTarget { options: GpuOptions { adapter: AdapterChoice::OnApi(api, a.name.clone()), precision }, adapter: a.clone() });
+            let target = GpuTarget { options: GpuOptions { adapter: AdapterChoice::OnApi(api, a.name.clone()), precision }, adapter: a.clone() };
+            match device_opens(&target.options) {
+                Ok(()) => out.push(target),
+                Err(e) => eprintln!("blockdem: {} {precision} is listed but opens no device: {e}", target.label()),
+            }
         }
     }
     out
