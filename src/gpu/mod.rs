@@ -775,15 +775,33 @@ where
     /// After stage 7: the blocks it re-examined get their update distance reset and their
     /// reference set to where they are now (one contiguous write of six fields each, copied from
     /// the GPU's own values so the reference is exact).
-    fn upload_reset_distances(&self, model: &Model) {
+    ///
+    /// `last_blocks` is the device's block state as just read back (no cycle ran since), so
+    /// when many blocks were re-examined (a busy impact) the whole block buffer is written in one
+    /// go with their fields reset, instead of one small write per block.
+    fn upload_reset_distances(&mut self, model: &Model) {
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let size = std::mem::size_of::<Block<R>>() as u64;
         let offset = std::mem::offset_of!(Block<R>, moved) as u64;
-        for (i, (m, g)) in model.blocks.iter().zip(&self.last_blocks).enumerate() {
-            if m.moved_since_update == 0.0 && (g.moved.to_f64() != 0.0 || g.update_cx != g.cx || g.update_cy != g.cy || g.update_rotation != g.rotation) {
-                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, g.rotation];
+        let reset: Vec<usize> = model
+            .blocks
+            .iter()
+            .zip(&self.last_blocks)
+            .enumerate()
+            .filter(|(_, (m, g))| m.moved_since_update == 0.0 && (g.moved.to_f64() != 0.0 || g.update_cx != g.cx || g.update_cy != g.cy || g.update_rotation != g.rotation))
+            .map(|(i, _)| i)
+            .collect();
+        let whole = reset.len() * 8 > self.last_blocks.len();
+        for &i in &reset {
+            let g = &mut self.last_blocks[i];
+            (g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation) = (R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, g.rotation);
+            if !whole {
+                let fields = [g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation];
                 self.dev.queue.write_buffer(&self.buffers().blocks.buffer, i as u64 * size + offset, bytemuck::cast_slice(&fields));
             }
+        }
+        if whole {
+            self.dev.queue.write_buffer(&self.buffers().blocks.buffer, 0, bytemuck::cast_slice(&self.last_blocks));
         }
     }
 
