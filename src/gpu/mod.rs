@@ -200,6 +200,9 @@ struct Checkpoint {
     contacts: wgpu::Buffer,
     counts: (usize, usize, usize),
     uploaded: std::rc::Rc<Uploaded>,
+    /// Whether it holds a state of the current run (the buffers are kept from run to run: a
+    /// 10⁶-block model's copy is a gigabyte to allocate).
+    valid: bool,
 }
 
 /// The GPU state of one precision and the code that drives it.
@@ -662,9 +665,11 @@ where
                 contacts: make("checkpoint contacts", b.contacts.buffer.size()),
                 counts: self.counts,
                 uploaded: self.uploaded.clone(),
+                valid: false,
             });
         }
         let ck = self.checkpoint.as_mut().expect("made above");
+        ck.valid = true;
         ck.counts = self.counts;
         ck.uploaded = self.uploaded.clone();
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("checkpoint") });
@@ -679,7 +684,7 @@ where
     /// Puts the device checkpoint's state into `model` (the CPU copy taken at that checkpoint),
     /// and sums the fixed blocks' forces, which the cycle does not keep up to date.
     fn restore_checkpoint(&self, model: &mut Model) -> Result<(), GpuError> {
-        let Some(ck) = &self.checkpoint else { return Ok(()) };
+        let Some(ck) = self.checkpoint.as_ref().filter(|c| c.valid) else { return Ok(()) };
         let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, counts: ck.counts };
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
@@ -864,7 +869,9 @@ where
         // The last good state: this CPU copy holds its topology (and, until the first device
         // checkpoint, its state); after a passed energy check the state is on the device
         // (`take_checkpoint`) and the copy is re-taken only when the topology changed since.
-        self.checkpoint = None;
+        if let Some(ck) = &mut self.checkpoint {
+            ck.valid = false;
+        }
         let mut last_good = model.clone();
         crate::profile::mark_cycles_start();
         let mut last_good_generation = self.generation;
