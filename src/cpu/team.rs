@@ -28,6 +28,17 @@ type Job<'a> = &'a (dyn Fn(usize) + Sync);
 
 /// Spin-loop rounds a waiting thread tries before it starts yielding its core (a few µs).
 const SPIN_ROUNDS: u32 = 2_000;
+/// A helper holds the driver up ("stalls") when the driver, out of chunks, waits for it longer
+/// than this and longer than its own share took: the helper was descheduled in mid-chunk, and a
+/// scheduler time slice (milliseconds) passes before it finishes. On a machine busy with other
+/// work that happens in a few per cent of the stages and costs more than the team saves; the
+/// team then runs stages on the driver alone for a while (`PAUSE_MIN` stages, doubling while the
+/// stalls go on, up to `PAUSE_MAX`) and tries again. Results do not depend on it (see the module
+/// doc), only the time does.
+const STALL: Duration = Duration::from_micros(200);
+const STALL_RATE_LIMIT: f64 = 0.02;
+const PAUSE_MIN: u32 = 1_000;
+const PAUSE_MAX: u32 = 64_000;
 /// How long a helper waits for the next stage, spinning and yielding, before it sleeps.
 const SLEEP_AFTER: Duration = Duration::from_millis(2);
 
@@ -69,6 +80,15 @@ pub struct Team<'t> {
     shared: &'t Shared,
     size: usize,
     generation: u64,
+    /// How often, lately, the driver was held up by a helper (see `run`): a moving average of
+    /// 0 (no) and 1 (yes) over the last ~64 stages.
+    stall_rate: f64,
+    /// Stages left to run on the driver alone after the team stalled too often, and how many the
+    /// next such pause lasts.
+    alone_for: u32,
+    pause: u32,
+    /// Stages with the team since the driver was last held up.
+    calm: u32,
 }
 
 /// Runs `f` with a team of `size` threads (the calling thread and `size − 1` helpers, none when
@@ -85,8 +105,9 @@ pub fn with_team<R>(size: usize, f: impl FnOnce(&mut Team) -> R) -> R {
         wake: Condvar::new(),
         sleepers: AtomicUsize::new(0),
     };
+    let team = |shared| Team { shared, size, generation: 0, stall_rate: 0.0, alone_for: 0, pause: PAUSE_MIN, calm: 0 };
     if size == 1 {
-        return f(&mut Team { shared: &shared, size, generation: 0 });
+        return f(&mut team(&shared));
     }
     std::thread::scope(|s| {
         for h in 1..size {
@@ -103,7 +124,7 @@ pub fn with_team<R>(size: usize, f: impl FnOnce(&mut Team) -> R) -> R {
             }
         }
         let _stop = StopOnDrop(&shared);
-        f(&mut Team { shared: &shared, size, generation: 0 })
+        f(&mut team(&shared))
     })
 }
 
@@ -115,6 +136,10 @@ impl Team<'_> {
         if p == 1 {
             return job(0);
         }
+        if self.alone_for > 0 {
+            self.alone_for -= 1;
+            return job(0);
+        }
         let shared = self.shared;
         // SAFETY: no helper can read `job` now (the last stage is closed and empty), and the
         // reference stays valid until this stage is closed and empty too, below, before this
@@ -124,10 +149,13 @@ impl Team<'_> {
         shared.active.store((self.generation & 0xFFFF_FFFF) << 32, Ordering::Relaxed);
         shared.stage.store(self.generation << PARTICIPANTS_BITS | p as u64, Ordering::Release);
         wake_sleepers(shared);
+        let started = Instant::now();
         let own = catch_unwind(AssertUnwindSafe(|| job(0)));
         // No helper joins from now on; wait for those in it.
+        let closed = Instant::now();
         shared.active.fetch_or(CLOSED, Ordering::AcqRel);
         wait_until(|| shared.active.load(Ordering::Acquire) & COUNT == 0);
+        self.note_wait(closed - started, closed.elapsed());
         // SAFETY: no helper is in the stage and none can join it.
         unsafe { *shared.job.get() = None };
         if let Err(e) = own {
@@ -135,6 +163,21 @@ impl Team<'_> {
         }
         if let Some(e) = shared.panic.lock().unwrap_or_else(|p| p.into_inner()).take() {
             resume_unwind(e);
+        }
+    }
+
+    /// Books how long the driver waited for the helpers after its own share (see [`STALL`]).
+    fn note_wait(&mut self, own: Duration, waited: Duration) {
+        let stalled = waited > STALL && waited > own;
+        self.stall_rate += (f64::from(stalled as u8) - self.stall_rate) / 64.0;
+        self.calm = if stalled { 0 } else { self.calm + 1 };
+        if self.stall_rate > STALL_RATE_LIMIT {
+            self.alone_for = self.pause;
+            self.pause = (2 * self.pause).min(PAUSE_MAX);
+            // One more stall soon after the pause starts a longer one.
+            self.stall_rate = 0.5 * STALL_RATE_LIMIT;
+        } else if self.calm > 4 * PAUSE_MIN {
+            self.pause = PAUSE_MIN;
         }
     }
 
