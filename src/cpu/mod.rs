@@ -22,6 +22,7 @@ use crate::topology::{self, Adjacency};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use contact_forces::{contact_force_law, track_feature, BlockMotion};
+use gather::ContactForce;
 use law_of_motion::StepOutcome;
 use team::Team;
 
@@ -47,8 +48,23 @@ const ENERGY_GROWTH_FACTOR: f64 = 2.0;
 pub struct CpuBackend {
     /// Per-block contact lists, rebuilt after every topology change.
     adjacency: Adjacency,
-    /// What each block's step did in the current cycle, kept so that a cycle allocates nothing.
+    scratch: Scratch,
+}
+
+/// Per-cycle working arrays, kept between cycles so that a cycle allocates nothing.
+#[derive(Default)]
+struct Scratch {
+    /// What each block's step did in the current cycle.
     steps: Vec<StepOutcome>,
+    /// What the gather reads of each contact, in contact order: written by stage 4, and copied
+    /// from the contacts after anything else changes them (`sync_forces`).
+    forces: Vec<ContactForce>,
+}
+
+/// Copies the gather's view of every contact after a topology change (stage 7, a crack).
+fn sync_forces(model: &Model, forces: &mut Vec<ContactForce>) {
+    forces.clear();
+    forces.extend(model.contacts.iter().map(ContactForce::from));
 }
 
 impl CpuBackend {
@@ -137,10 +153,10 @@ struct ContactInputs<'a> {
 /// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
 /// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
 /// limit.
-fn contact_piece(first: usize, contacts: &mut [Contact], inp: &ContactInputs) -> Option<usize> {
+fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
     let motion = |b: &Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
     let mut failure = None;
-    for (k, contact) in contacts.iter_mut().enumerate() {
+    for (k, (contact, force)) in contacts.iter_mut().zip(forces.iter_mut()).enumerate() {
         let corner = &inp.corners[contact.corner as usize];
         let (b1, b2) = (&inp.blocks[contact.block1 as usize], &inp.blocks[contact.block2 as usize]);
         let corners2 = &inp.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
@@ -154,6 +170,7 @@ fn contact_piece(first: usize, contacts: &mut [Contact], inp: &ContactInputs) ->
         let active = contact_forces::counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
         let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
         contact_force_law(contact, mat, &motion(b1), &motion(b2), &inp.damping, inp.dt, active);
+        *force = ContactForce::from(&*contact);
         if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);
         }
@@ -163,19 +180,21 @@ fn contact_piece(first: usize, contacts: &mut [Contact], inp: &ContactInputs) ->
 
 /// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
 /// index, so the report repeats) whose overlap passes the limit, if any.
-fn contact_stage(model: &mut Model, dt: f64, team: &mut Team) -> Result<(), CycleError> {
+fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: f64, team: &mut Team) -> Result<(), CycleError> {
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let failure = {
         let Model { blocks, corners, contacts, materials, damping, .. } = &mut *model;
         let inp = ContactInputs { blocks, corners, materials, damping: *damping, dt, limit };
         let n = contacts.len();
+        assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);
-        let shared = SharedMut::new(contacts);
+        let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
         team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
-            // SAFETY: the chunks are disjoint ranges of `contacts`, mutably borrowed here.
-            let piece = unsafe { shared.range(r.clone()) };
-            if let Some(k) = contact_piece(r.start, piece, &inp) {
+            // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` (as long),
+            // mutably borrowed here.
+            let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
+            if let Some(k) = contact_piece(r.start, piece, forces, &inp) {
                 first.fetch_min(k, Ordering::Relaxed);
             }
         });
@@ -198,25 +217,26 @@ fn contact_stage(model: &mut Model, dt: f64, team: &mut Team) -> Result<(), Cycl
 
 /// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces
 /// must be current between cycles (energy check, checkpoint, end of a run).
-fn gather_all(model: &mut Model, adjacency: &Adjacency, team: &mut Team) {
+fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: &Adjacency, team: &mut Team) {
     let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
-    let Model { blocks, contacts, .. } = model;
+    let blocks = &mut model.blocks;
+    debug_assert_eq!(forces.len(), model.contacts.len());
     let n = blocks.len();
     let shared = SharedMut::new(blocks);
     team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
         // SAFETY: the chunks are disjoint ranges of `blocks`, mutably borrowed here.
         let piece = unsafe { shared.range(r.clone()) };
         for (j, block) in piece.iter_mut().enumerate() {
-            gather::gather(r.start + j, block, contacts, adjacency, gravity);
+            gather::gather(r.start + j, block, forces, adjacency, gravity);
         }
     });
 }
 
 /// What stages 6, 1 and 2 read besides the blocks they move.
 struct BlockInputs<'a> {
-    /// The contacts and adjacency to gather from; `None` when the block forces are current.
-    gather: Option<(&'a [Contact], &'a Adjacency)>,
+    /// The contact forces and adjacency to gather from; `None` when the block forces are current.
+    gather: Option<(&'a [ContactForce], &'a Adjacency)>,
     gravity: [f64; 2],
     alpha: f64,
     dt: f64,
@@ -229,8 +249,8 @@ fn block_piece(first: usize, blocks: &mut [Block], mut corners: &mut [Corner], s
     for (j, (block, step)) in blocks.iter_mut().zip(steps.iter_mut()).enumerate() {
         let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
         corners = rest;
-        if let Some((contacts, adjacency)) = inp.gather {
-            gather::gather(first + j, block, contacts, adjacency, inp.gravity);
+        if let Some((forces, adjacency)) = inp.gather {
+            gather::gather(first + j, block, forces, adjacency, inp.gravity);
         }
         *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
         geometry_update::geometry_update(block, mine);
@@ -241,7 +261,8 @@ fn block_piece(first: usize, blocks: &mut [Block], mut corners: &mut [Corner], s
 /// previous cycle — the force sums stage 1 needs — runs here, fused with stages 1 and 2, unless
 /// `gathered` says the block forces are current already; on return they are not (stage 4 has
 /// changed the contact forces). The corners must be in block order (`corners_in_block_order`).
-fn cycle_once(model: &mut Model, adjacency: &Adjacency, steps: &mut Vec<StepOutcome>, gathered: bool, team: &mut Team) -> Result<(), CycleError> {
+fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, gathered: bool, team: &mut Team) -> Result<(), CycleError> {
+    let Scratch { steps, forces } = scratch;
     let dt = model.timestep;
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
     // Stages 6, 1 and 2, block by block: a block's corners are its own contiguous slice and its
@@ -250,9 +271,9 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, steps: &mut Vec<StepOutc
     // whatever the number of threads.
     {
         let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
-        let Model { blocks, corners, contacts, .. } = &mut *model;
+        let Model { blocks, corners, .. } = &mut *model;
         steps.resize(blocks.len(), StepOutcome::default());
-        let inp = BlockInputs { gather: (!gathered).then_some((&contacts[..], adjacency)), gravity, alpha, dt };
+        let inp = BlockInputs { gather: (!gathered).then_some((&forces[..], adjacency)), gravity, alpha, dt };
         let n = blocks.len();
         let (shared_blocks, shared_corners, shared_steps) = (SharedMut::new(blocks), SharedMut::new(corners), SharedMut::new(steps));
         team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
@@ -295,7 +316,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, steps: &mut Vec<StepOutc
         return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
     // Stage 4.
-    contact_stage(model, dt, team)
+    contact_stage(model, forces, dt, team)
 }
 
 /// The energy check: kinetic + strain energy may not outgrow the energy put in. The budget is the
@@ -369,10 +390,11 @@ impl Backend for CpuBackend {
         // Between runs the executor may have split, deleted or moved blocks: start with a full
         // detection.
         update_topology(model, &mut adjacency, &mut report, true);
-        let steps = &mut self.steps;
+        let scratch = &mut self.scratch;
+        sync_forces(model, &mut scratch.forces);
         let result = team::with_team(team_size(model), |team| {
             // Then the force sums the first step needs.
-            gather_all(model, &adjacency, team);
+            gather_all(model, &scratch.forces, &adjacency, team);
             // Whether the block forces are the gather of the current contact forces. Stage 6
             // runs fused into the next cycle's block pass; it runs on its own only where
             // something reads the block forces between cycles: the energy terms (kinetic energy
@@ -385,18 +407,19 @@ impl Backend for CpuBackend {
             let mut last_good = model.clone();
             let mut result = Ok(());
             for i in 0..cycles {
-                if let Err(e) = cycle_once(model, &adjacency, steps, gathered, team) {
+                if let Err(e) = cycle_once(model, &adjacency, scratch, gathered, team) {
                     result = Err(e);
                     break;
                 }
                 gathered = false;
                 // Stage 7: cracking, then contact updates.
                 if cracking {
-                    gather_all(model, &adjacency, team);
+                    gather_all(model, &scratch.forces, &adjacency, team);
                     gathered = true;
                     if crack_step(model, &adjacency, &mut report) {
                         assert!(corners_in_block_order(model), "corners are stored in block order");
                         adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                        sync_forces(model, &mut scratch.forces);
                         gathered = false;
                         if let Some(dt) = model.critical_timestep() {
                             if dt < model.timestep {
@@ -410,15 +433,16 @@ impl Backend for CpuBackend {
                 if model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
                     // The update books the energy of the contacts it drops, from the forces.
                     if !gathered {
-                        gather_all(model, &adjacency, team);
+                        gather_all(model, &scratch.forces, &adjacency, team);
                     }
                     update_topology(model, &mut adjacency, &mut report, false);
+                    sync_forces(model, &mut scratch.forces);
                     gathered = false;
                 }
                 report.cycles += 1;
                 if (i + 1) % CHECK_INTERVAL == 0 || i + 1 == cycles {
                     if !gathered {
-                        gather_all(model, &adjacency, team);
+                        gather_all(model, &scratch.forces, &adjacency, team);
                         gathered = true;
                     }
                     let _p = crate::profile::scope(crate::profile::Stage::Checks);
