@@ -28,15 +28,15 @@ type Job<'a> = &'a (dyn Fn(usize) + Sync);
 
 /// Spin-loop rounds a waiting thread tries before it starts yielding its core (a few µs).
 const SPIN_ROUNDS: u32 = 2_000;
-/// A helper holds the driver up ("stalls") when the driver, out of chunks, waits for it longer
-/// than this and longer than its own share took: the helper was descheduled in mid-chunk, and a
-/// scheduler time slice (milliseconds) passes before it finishes. On a machine busy with other
-/// work that happens in a few per cent of the stages and costs more than the team saves; the
-/// team then runs stages on the driver alone for a while (`PAUSE_MIN` stages, doubling while the
-/// stalls go on, up to `PAUSE_MAX`) and tries again. Results do not depend on it (see the module
-/// doc), only the time does.
-const STALL: Duration = Duration::from_micros(200);
-const STALL_RATE_LIMIT: f64 = 0.02;
+/// Whether the team pays: for every stage the driver times its own share and counts its
+/// elements, which at its own pace prices the whole stage on one thread; over the last ~64
+/// stages the team's time (the driver's share plus its wait for the helpers) is compared with
+/// that price. On a machine busy with other work a helper is descheduled in mid-chunk now and
+/// then, and the driver waits a scheduler time slice (milliseconds) for it; when that makes the
+/// team no faster than the driver alone (`PAYS` of the price), the team runs the next
+/// `PAUSE_MIN` stages on the driver alone, doubling the pause (up to `PAUSE_MAX`) while it keeps
+/// not paying, and tries again. Results do not depend on it (see the module doc), only the time.
+const PAYS: f64 = 0.9;
 const PAUSE_MIN: u32 = 1_000;
 const PAUSE_MAX: u32 = 64_000;
 /// How long a helper waits for the next stage, spinning and yielding, before it sleeps.
@@ -80,15 +80,14 @@ pub struct Team<'t> {
     shared: &'t Shared,
     size: usize,
     generation: u64,
-    /// How often, lately, the driver was held up by a helper (see `run`): a moving average of
-    /// 0 (no) and 1 (yes) over the last ~64 stages.
-    stall_rate: f64,
-    /// Stages left to run on the driver alone after the team stalled too often, and how many the
-    /// next such pause lasts.
+    /// Moving sums over the last ~64 stages of the team's time and of the driver-alone price
+    /// (see [`PAYS`]), and the stages they have seen since the last pause.
+    team_time: f64,
+    alone_price: f64,
+    seen: u32,
+    /// Stages left to run on the driver alone, and how many the next pause lasts.
     alone_for: u32,
     pause: u32,
-    /// Stages with the team since the driver was last held up.
-    calm: u32,
 }
 
 /// Runs `f` with a team of `size` threads (the calling thread and `size − 1` helpers, none when
@@ -105,7 +104,7 @@ pub fn with_team<R>(size: usize, f: impl FnOnce(&mut Team) -> R) -> R {
         wake: Condvar::new(),
         sleepers: AtomicUsize::new(0),
     };
-    let team = |shared| Team { shared, size, generation: 0, stall_rate: 0.0, alone_for: 0, pause: PAUSE_MIN, calm: 0 };
+    let team = |shared| Team { shared, size, generation: 0, team_time: 0.0, alone_price: 0.0, seen: 0, alone_for: 0, pause: PAUSE_MIN };
     if size == 1 {
         return f(&mut team(&shared));
     }
@@ -130,15 +129,14 @@ pub fn with_team<R>(size: usize, f: impl FnOnce(&mut Team) -> R) -> R {
 
 impl Team<'_> {
     /// Runs `job` on `participants` threads of the team (at most its size; the driver is
-    /// participant 0) and returns when all have finished.
-    pub fn run(&mut self, participants: usize, job: Job) {
+    /// participant 0) and returns when all have finished, with how long the driver's own share
+    /// took and how long it then waited for the helpers (zero when it ran alone).
+    pub fn run(&mut self, participants: usize, job: Job) -> (Duration, Duration) {
         let p = participants.clamp(1, self.size);
-        if p == 1 {
-            return job(0);
-        }
-        if self.alone_for > 0 {
-            self.alone_for -= 1;
-            return job(0);
+        if p == 1 || self.alone_for > 0 {
+            self.alone_for = self.alone_for.saturating_sub(1);
+            job(0);
+            return (Duration::ZERO, Duration::ZERO);
         }
         let shared = self.shared;
         // SAFETY: no helper can read `job` now (the last stage is closed and empty), and the
@@ -155,7 +153,7 @@ impl Team<'_> {
         let closed = Instant::now();
         shared.active.fetch_or(CLOSED, Ordering::AcqRel);
         wait_until(|| shared.active.load(Ordering::Acquire) & COUNT == 0);
-        self.note_wait(closed - started, closed.elapsed());
+        let waited = closed.elapsed();
         // SAFETY: no helper is in the stage and none can join it.
         unsafe { *shared.job.get() = None };
         if let Err(e) = own {
@@ -164,19 +162,27 @@ impl Team<'_> {
         if let Some(e) = shared.panic.lock().unwrap_or_else(|p| p.into_inner()).take() {
             resume_unwind(e);
         }
+        (closed - started, waited)
     }
 
-    /// Books how long the driver waited for the helpers after its own share (see [`STALL`]).
-    fn note_wait(&mut self, own: Duration, waited: Duration) {
-        let stalled = waited > STALL && waited > own;
-        self.stall_rate += (f64::from(stalled as u8) - self.stall_rate) / 64.0;
-        self.calm = if stalled { 0 } else { self.calm + 1 };
-        if self.stall_rate > STALL_RATE_LIMIT {
+    /// Books a stage the team ran: `own` and `waited` from [`Team::run`], the driver's share
+    /// `mine` of the stage's `n` elements (see [`PAYS`]).
+    fn book(&mut self, own: Duration, waited: Duration, mine: usize, n: usize) {
+        if mine == 0 || own.is_zero() {
+            return;
+        }
+        const KEEP: f64 = 63.0 / 64.0;
+        self.team_time = KEEP * self.team_time + (own + waited).as_secs_f64();
+        self.alone_price = KEEP * self.alone_price + own.as_secs_f64() * n as f64 / mine as f64;
+        self.seen += 1;
+        if self.seen < 64 {
+            return;
+        }
+        if self.team_time > PAYS * self.alone_price {
             self.alone_for = self.pause;
             self.pause = (2 * self.pause).min(PAUSE_MAX);
-            // One more stall soon after the pause starts a longer one.
-            self.stall_rate = 0.5 * STALL_RATE_LIMIT;
-        } else if self.calm > 4 * PAUSE_MIN {
+            (self.team_time, self.alone_price, self.seen) = (0.0, 0.0, 0);
+        } else if self.team_time < 0.5 * PAYS * self.alone_price {
             self.pause = PAUSE_MIN;
         }
     }
@@ -192,13 +198,19 @@ impl Team<'_> {
         // Several chunks per thread, so that one held up does not hold up the stage.
         let chunk = n.div_ceil(4 * p).max(min_chunk).max(1);
         let next = AtomicUsize::new(0);
-        self.run(p, &|_| loop {
+        let mine = AtomicUsize::new(0);
+        let (own, waited) = self.run(p, &|i| loop {
             let start = next.fetch_add(chunk, Ordering::Relaxed);
             if start >= n {
                 break;
             }
-            f(start..(start + chunk).min(n));
+            let end = (start + chunk).min(n);
+            f(start..end);
+            if i == 0 {
+                mine.fetch_add(end - start, Ordering::Relaxed);
+            }
         });
+        self.book(own, waited, mine.into_inner(), n);
     }
 }
 
