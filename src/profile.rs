@@ -22,11 +22,13 @@ use std::time::{Duration, Instant};
 /// A host-side stage of a run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
-    /// CPU backend, stages 1 and 2 (law of motion and geometry update run fused, one block per task).
+    /// CPU backend, the block pass: stage 6 of the previous cycle (the gather), stages 1 and 2
+    /// (law of motion, geometry update), fused, block by block.
     MotionGeometry,
     /// CPU backend, stage 4: contact kinematics and the force–displacement law.
     ContactForces,
-    /// CPU backend, stage 6: each block sums its contact forces.
+    /// CPU backend, stage 6 on its own: each block sums its contact forces where the block forces
+    /// are read between cycles (energy check, topology changes, the end of a run).
     Gather,
     /// Stage 7, the full contact detection each run starts with (and its adjacency lists).
     DetectFull,
@@ -60,9 +62,9 @@ impl Stage {
 
     pub fn name(self) -> &'static str {
         match self {
-            Stage::MotionGeometry => "motion+geometry (1,2)",
+            Stage::MotionGeometry => "gather+motion+geometry (6,1,2)",
             Stage::ContactForces => "contact forces (4)",
-            Stage::Gather => "gather (6)",
+            Stage::Gather => "gather alone (6)",
             Stage::DetectFull => "detection, start of run (7)",
             Stage::DetectUpdate => "contact updates (7)",
             Stage::Cracking => "cracking (7)",

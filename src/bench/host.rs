@@ -106,9 +106,11 @@ pub fn cpu_bytes_per_cycle(nb: usize, nc: usize, nk: usize) -> Vec<StageBytes> {
     let (b, c, k) = (std::mem::size_of::<Block>() as u64, std::mem::size_of::<Corner>() as u64, std::mem::size_of::<Contact>() as u64);
     let (nb, nc, nk) = (nb as u64, nc as u64, nk as u64);
     vec![
-        StageBytes { stage: "motion+geometry (1,2)", read: b * nb + c * nc, written: b * nb + c * nc },
-        StageBytes { stage: "contact forces (4)", read: k * nk + c * nc + b * nb, written: k * nk },
-        StageBytes { stage: "gather (6)", read: b * nb + 4 * (nb + 1) + 8 * nk + k * nk, written: 24 * nb },
+        // The block pass: the gather's adjacency lists and the 32-byte copies of the contact
+        // forces (cpu::gather::ContactForce), then the blocks and their corners. Stage 6 alone
+        // ("gather alone (6)") runs only between cycles.
+        StageBytes { stage: "gather+motion+geometry (6,1,2)", read: b * nb + c * nc + 4 * (nb + 1) + 8 * nk + 32 * nk, written: b * nb + c * nc },
+        StageBytes { stage: "contact forces (4)", read: k * nk + c * nc + b * nb, written: k * nk + 32 * nk },
     ]
 }
 

@@ -92,6 +92,13 @@ impl Measure {
 /// slab over it; outside, it is measured from its nearer end.
 #[inline]
 fn edge_distance(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> Measure {
+    edge_measure(corners, k, e, c).0
+}
+
+/// [`edge_distance`], with the coordinate `s` of `c` along the straight part (from its start) and
+/// that part's length, which the fast path of [`track_feature`] tests.
+#[inline]
+fn edge_measure(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> (Measure, f64, f64) {
     let n = corners.len();
     let normal = e.normal();
     let r0 = corners[k].round;
@@ -99,7 +106,7 @@ fn edge_distance(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> Measure
     let straight = e.len - r0 - corners[next(k, n)].round;
     let rel = sub(c, ta);
     let s = dot(rel, e.u);
-    if s >= 0.0 && s <= straight {
+    let m = if s >= 0.0 && s <= straight {
         let d = dot(rel, normal);
         Measure { signed: d, unsigned: d.abs(), dir: normal, len: 1.0, inside: true }
     } else {
@@ -111,7 +118,8 @@ fn edge_distance(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> Measure
         } else {
             Measure { signed: d, unsigned: d, dir: normal, len: 1.0, inside: false }
         }
-    }
+    };
+    (m, s, straight)
 }
 
 /// Arc of corner k, between the edges `before` (k−1 → k) and `after` (k → k+1). Its region is the
@@ -225,44 +233,45 @@ pub fn nearest_feature(corners: &[Corner], c: [f64; 2], r: f64) -> CornerContact
 /// Local search: the nearest of `feature` and its two neighbours, the per-cycle update of a
 /// contact whose point slides along the boundary (stage 4). A contact point moves far less than a
 /// feature's length in one step, so it can only pass onto a neighbouring feature.
+#[inline]
 pub fn track_feature(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
     let nf = 2 * corners.len() as Feature;
     let edge = |j: usize| Edge::of(corners, j);
     let feature = feature.min(nf - 1);
     let f = feature as usize;
-    // Fast path, most contacts on most cycles: a corner circle over the straight part of an edge
-    // between two convex corners. Its centre lies strictly inside the edge's slab and outside the
-    // line, so it is outside both neighbouring arcs' wedges, and the nearer tangent point of each
-    // arc is the one on this edge: their distances are √(s² + d²) ≥ d, and an inside feature wins
-    // every tie with an outside one. The full three-way comparison would pick this edge, so skip it
-    // (same result bit for bit; checked by `track_feature_fast_path_agrees` in the unit tests).
-    if f % 2 == 1 {
-        let k = f / 2;
-        let n = corners.len();
-        let m = edge_distance(corners, k, &edge(k), c);
+    let n = corners.len();
+    let k = f / 2;
+    // The contact's own feature is measured first; where no fast path below settles the contact,
+    // the three-way comparison reuses this measurement.
+    let own = if f % 2 == 1 {
+        // Fast path, most contacts on most cycles: a corner circle over the straight part of an
+        // edge between two convex corners. Its centre lies strictly inside the edge's slab and
+        // outside the line, so it is outside both neighbouring arcs' wedges, and the nearer
+        // tangent point of each arc is the one on this edge: their distances are √(s² + d²) ≥ d,
+        // and an inside feature wins every tie with an outside one. The full three-way comparison
+        // would pick this edge, so skip it (same result bit for bit; checked by
+        // `track_feature_fast_path_agrees` in the unit tests).
+        let e = edge(k);
+        let (m, s, straight) = edge_measure(corners, k, &e, c);
         if m.inside && m.signed > 0.0 {
-            let e = edge(k);
-            let ta = [e.p0[0] + e.u[0] * corners[k].round, e.p0[1] + e.u[1] * corners[k].round];
-            let s = dot(sub(c, ta), e.u);
-            let straight = e.len - corners[k].round - corners[next(k, n)].round;
             let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
             let turns_left = |a: &Edge, b: &Edge| cross(a.normal(), b.normal()) > 0.0;
-            // Clear of the slab's ends by more than round-off, which could otherwise put the centre
-            // in an arc's wedge too (aligned corners, where the full comparison prefers the arc).
+            // Clear of the slab's ends by more than round-off, which could otherwise put the
+            // centre in an arc's wedge too (aligned corners, where the full comparison prefers
+            // the arc).
             let margin = 1e-6 * e.len + 1e-12 * (c[0].abs() + c[1].abs());
             if s > margin && s < straight - margin && turns_left(&edge(prev(k, n)), &e) && turns_left(&e, &edge(next(k, n))) {
                 return geometry_from(feature, m.signed, m.unsigned, m.normal(), c, r);
             }
         }
-    }
-    // Fast path for a corner circle over the arc of a convex corner k (corner–corner touches):
-    // strictly inside the arc's wedge, the centre is outside both neighbouring edges' slabs, so
-    // each edge is measured from its tangent point T on this arc, and |c − T| ≥ |c − C| − r (the
-    // triangle inequality about the arc's centre C): the arc is nearest, or ties and wins as the
-    // inside feature. The wedge tests equal minus the slab coordinates, hence the same margin.
-    if f % 2 == 0 {
-        let k = f / 2;
-        let n = corners.len();
+        m
+    } else {
+        // Fast path for a corner circle over the arc of a convex corner k (corner–corner
+        // touches): strictly inside the arc's wedge, the centre is outside both neighbouring
+        // edges' slabs, so each edge is measured from its tangent point T on this arc, and
+        // |c − T| ≥ |c − C| − r (the triangle inequality about the arc's centre C): the arc is
+        // nearest, or ties and wins as the inside feature. The wedge tests equal minus the slab
+        // coordinates, hence the same margin.
         let (before, after) = (edge(prev(k, n)), edge(k));
         let m = arc_distance(&corners[k], &before, &after, c);
         if m.inside && m.signed > 0.0 {
@@ -273,19 +282,44 @@ pub fn track_feature(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) 
                 return geometry_from(feature, m.signed, m.unsigned, m.normal(), c, r);
             }
         }
-    }
-    track_feature_full(corners, feature, c, r)
+        m
+    };
+    three_way(corners, feature, own, c, r)
 }
 
 /// [`track_feature`] without its fast path: the three-way comparison.
+#[inline]
 pub fn track_feature_full(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
     let nf = 2 * corners.len() as Feature;
-    let edge = |j: usize| Edge::of(corners, j);
-    let mut best = Best::default();
     let feature = feature.min(nf - 1);
-    let (nf, f) = (nf as usize, feature as usize);
-    for f in [prev(f, nf) as Feature, feature, next(f, nf) as Feature] {
-        best.offer(f, feature_distance(corners, f, c, edge));
+    let own = feature_distance(corners, feature, c, |k| Edge::of(corners, k));
+    three_way(corners, feature, own, c, r)
+}
+
+/// The nearest of `feature` (already measured: `own`) and its two neighbours, offered in the
+/// order previous, own, next (the order decides exact ties). The neighbours of an edge are the
+/// arcs at its two ends, those of an arc the edges on either side of it: each is measured
+/// directly, with the edges loaded once.
+#[inline]
+fn three_way(corners: &[Corner], feature: Feature, own: Measure, c: [f64; 2], r: f64) -> CornerContactGeometry {
+    let n = corners.len();
+    let (nf, f) = (2 * n, feature as usize);
+    let (before, after) = (prev(f, nf) as Feature, next(f, nf) as Feature);
+    let k = f / 2;
+    let mut best = Best::default();
+    if f % 2 == 1 {
+        // Edge k: the arcs of corners k and k+1.
+        let (j, kn) = (prev(k, n), next(k, n));
+        let (ej, ek, en) = (Edge::of(corners, j), Edge::of(corners, k), Edge::of(corners, kn));
+        best.offer(before, arc_distance(&corners[k], &ej, &ek, c));
+        best.offer(feature, own);
+        best.offer(after, arc_distance(&corners[kn], &ek, &en, c));
+    } else {
+        // Arc k: the edges k−1 and k.
+        let j = prev(k, n);
+        best.offer(before, edge_distance(corners, j, &Edge::of(corners, j), c));
+        best.offer(feature, own);
+        best.offer(after, edge_distance(corners, k, &Edge::of(corners, k), c));
     }
     best.geometry(c, r)
 }

@@ -1,23 +1,40 @@
 //! The CPU backend: the explicit cycle in f64, the accuracy reference (DESIGN.md §1–3).
 //!
 //! Each stage lives in its own file, named like its WGSL kernel twin:
-//! `law_of_motion`, `geometry_update`, `contact_forces`, `gather`.
+//! `law_of_motion`, `geometry_update`, `contact_forces`, `gather`. A cycle makes two passes over
+//! the model, each shared out over a team of threads (`team`):
+//!
+//! 1. per block — stage 6 of the previous cycle (gather the contact forces), stage 1 (law of
+//!    motion), stage 2 (geometry update);
+//! 2. per contact — stage 4 (contact kinematics and force–displacement law);
+//!
+//! then, on the calling thread, stage 7 when a block has moved past the update tolerance.
 
 pub mod contact_forces;
 pub mod gather;
 pub mod geometry_update;
 pub mod law_of_motion;
+mod team;
 
 use crate::backend::{Backend, CrackEvent, CycleError, CycleReport};
-use crate::model::{Corner, Model};
-use rayon::prelude::*;
+use crate::model::{Block, Contact, Corner, Damping, Material, Model};
 use crate::topology::{self, Adjacency};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use contact_forces::{contact_force_law, track_feature, BlockMotion};
+use gather::ContactForce;
+use law_of_motion::StepOutcome;
+use team::Team;
 
-/// Smallest number of blocks or contacts one parallel task takes: below it a stage runs on one
-/// thread, so small scenes pay no scheduling.
-const PARALLEL_CHUNK: usize = 512;
+/// Least work a thread takes in a stage, in blocks (stages 6+1+2, some 50 ns a block) or
+/// contacts (stage 4, some 20 ns a contact): over 10 µs, several times what it costs to hand a
+/// stage to the waiting helpers of the team (see `team`). A stage runs on at most
+/// `items / MIN_…_PER_THREAD` threads, so a small model runs on the calling thread alone and a
+/// large one on all.
+const MIN_BLOCKS_PER_THREAD: usize = 256;
+const MIN_CONTACTS_PER_THREAD: usize = 512;
+/// Least elements in one chunk of work handed out to a thread.
+const MIN_CHUNK: usize = 64;
 
 /// Cycles between energy checks and checkpoints of the last good state.
 pub(crate) const CHECK_INTERVAL: u64 = 100;
@@ -31,6 +48,23 @@ const ENERGY_GROWTH_FACTOR: f64 = 2.0;
 pub struct CpuBackend {
     /// Per-block contact lists, rebuilt after every topology change.
     adjacency: Adjacency,
+    scratch: Scratch,
+}
+
+/// Per-cycle working arrays, kept between cycles so that a cycle allocates nothing.
+#[derive(Default)]
+struct Scratch {
+    /// What each block's step did in the current cycle.
+    steps: Vec<StepOutcome>,
+    /// What the gather reads of each contact, in contact order: written by stage 4, and copied
+    /// from the contacts after anything else changes them (`sync_forces`).
+    forces: Vec<ContactForce>,
+}
+
+/// Copies the gather's view of every contact after a topology change (stage 7, a crack).
+fn sync_forces(model: &Model, forces: &mut Vec<ContactForce>) {
+    forces.clear();
+    forces.extend(model.contacts.iter().map(ContactForce::from));
 }
 
 impl CpuBackend {
@@ -39,103 +73,221 @@ impl CpuBackend {
     }
 }
 
+/// How many threads the team of a run gets: as many as its largest stage can use (counting four
+/// contacts a block, as contacts may form during the run), at most rayon's thread count (which
+/// `RAYON_NUM_THREADS` sets).
+fn team_size(model: &Model) -> usize {
+    let (blocks, contacts) = (model.blocks.len(), model.contacts.len());
+    let want = (blocks / MIN_BLOCKS_PER_THREAD).max(contacts.max(4 * blocks) / MIN_CONTACTS_PER_THREAD);
+    want.clamp(1, rayon::current_num_threads())
+}
+
+/// A slice that the threads of a stage share, each taking its own elements from it.
+struct SharedMut<T>(*mut T);
+// SAFETY: the stages hand every thread disjoint ranges of the slice (see `range`).
+unsafe impl<T: Send> Sync for SharedMut<T> {}
+
+impl<T> SharedMut<T> {
+    fn new(s: &mut [T]) -> Self {
+        SharedMut(s.as_mut_ptr())
+    }
+
+    /// The elements `r` of the slice.
+    ///
+    /// # Safety
+    /// `r` lies within the slice, the slice stays mutably borrowed by the caller of `new` while
+    /// the result lives, and no other thread touches these elements meanwhile.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn range(&self, r: std::ops::Range<usize>) -> &mut [T] {
+        std::slice::from_raw_parts_mut(self.0.add(r.start), r.len())
+    }
+}
+
+/// Whether each block's corners are the contiguous range that follows the previous block's, as
+/// `Model` keeps them: the block pass hands each thread the corners of its blocks.
+fn corners_in_block_order(model: &Model) -> bool {
+    let mut next = 0usize;
+    for b in &model.blocks {
+        if b.corner_start as usize != next {
+            return false;
+        }
+        next += b.corner_count as usize;
+    }
+    next == model.corners.len()
+}
+
 /// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
 pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
     let etol = model.tol.etol;
     if !force && !model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
         return false;
     }
-    let _p = crate::profile::scope(if force { crate::profile::Stage::DetectFull } else { crate::profile::Stage::DetectUpdate });
+    update_topology(model, adjacency, report, force);
+    true
+}
+
+/// Stage 7: contact detection (all pairs when `full`, else around the blocks past the update
+/// tolerance) and the adjacency lists.
+fn update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, full: bool) {
+    let _p = crate::profile::scope(if full { crate::profile::Stage::DetectFull } else { crate::profile::Stage::DetectUpdate });
     // Contacts dropped while loaded take their energy terms to the ledger's retired account.
-    let (created, dropped) = model.retire_energy_around(|m| topology::update_contacts(m, force));
+    let (created, dropped) = model.retire_energy_around(|m| topology::update_contacts(m, full));
     report.topology_updates += 1;
     report.contacts_created += created as u64;
     report.contacts_dropped += dropped as u64;
     *adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
-    true
 }
 
-/// Stages 4 and 6 for the whole model: contact kinematics and forces, then the gather.
-/// Returns the first overlap beyond the limit, if any.
-fn contacts_and_gather(model: &mut Model, adjacency: &Adjacency, dt: f64) -> Result<(), CycleError> {
+/// What stage 4 reads: the blocks and corners as stages 1–2 left them, and the constants.
+struct ContactInputs<'a> {
+    blocks: &'a [Block],
+    corners: &'a [Corner],
+    materials: &'a [Material],
+    damping: Damping,
+    dt: f64,
+    /// Overlap beyond which the run stops (half the rounding length).
+    limit: f64,
+}
+
+/// Stage 4 for the contacts `first .. first + contacts.len()`: each contact follows its feature
+/// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
+/// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
+/// limit.
+fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
+    let motion = |b: &Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
+    let mut failure = None;
+    for (k, (contact, force)) in contacts.iter_mut().zip(forces.iter_mut()).enumerate() {
+        let corner = &inp.corners[contact.corner as usize];
+        let (b1, b2) = (&inp.blocks[contact.block1 as usize], &inp.blocks[contact.block2 as usize]);
+        let corners2 = &inp.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
+        let g = track_feature(corners2, contact.feature, corner.circle, corner.radius);
+        contact.feature = g.feature;
+        contact.kind = g.kind;
+        contact.gap = g.gap;
+        contact.normal = g.normal;
+        contact.point = g.point;
+        // The other view of a corner-pair touch carries no force (the touch counts once).
+        let active = contact_forces::counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
+        let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
+        contact_force_law(contact, mat, &motion(b1), &motion(b2), &inp.damping, inp.dt, active);
+        *force = ContactForce::from(&*contact);
+        if failure.is_none() && active && -g.gap > inp.limit {
+            failure = Some(first + k);
+        }
+    }
+    failure
+}
+
+/// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
+/// index, so the report repeats) whose overlap passes the limit, if any.
+fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: f64, team: &mut Team) -> Result<(), CycleError> {
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
-    let damping = model.damping;
-    let failure: Option<(usize, f64)>;
-    {
-        let Model { blocks, corners, contacts, materials, .. } = &mut *model;
-        let motion = |b: &crate::model::Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
-        // The first contact (lowest index, so the report repeats) whose overlap passes the limit.
-        failure = contacts.par_iter_mut().enumerate().with_min_len(PARALLEL_CHUNK).filter_map(|(k, contact)| {
-            let corner = &corners[contact.corner as usize];
-            let (b1, b2) = (&blocks[contact.block1 as usize], &blocks[contact.block2 as usize]);
-            let range2 = b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize;
-            let g = track_feature(&corners[range2.clone()], contact.feature, corner.circle, corner.radius);
-            contact.feature = g.feature;
-            contact.kind = g.kind;
-            contact.gap = g.gap;
-            contact.normal = g.normal;
-            contact.point = g.point;
-            // The other view of a corner-pair touch carries no force (the touch counts once).
-            let active = contact_forces::counts_force(contact.corner, corner, &corners[range2.clone()], b2.corner_start, g.feature);
-            let mat = &materials[(contact.material.max(1) as usize - 1).min(materials.len() - 1)];
-            contact_force_law(contact, mat, &motion(b1), &motion(b2), &damping, dt, active);
-            (active && -g.gap > limit).then_some((k, -g.gap))
-        }).min_by_key(|&(k, _)| k);
+    let failure = {
+        let Model { blocks, corners, contacts, materials, damping, .. } = &mut *model;
+        let inp = ContactInputs { blocks, corners, materials, damping: *damping, dt, limit };
+        let n = contacts.len();
+        assert_eq!(forces.len(), n, "one gather record per contact");
+        let first = AtomicUsize::new(usize::MAX);
+        let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
+        team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
+            // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` (as long),
+            // mutably borrowed here.
+            let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
+            if let Some(k) = contact_piece(r.start, piece, forces, &inp) {
+                first.fetch_min(k, Ordering::Relaxed);
+            }
+        });
+        first.into_inner()
+    };
+    if failure == usize::MAX {
+        return Ok(());
     }
-    gather_all(model, adjacency);
-    match failure {
-        None => Ok(()),
-        Some((k, overlap)) => {
-            let c = &model.contacts[k];
-            Err(CycleError::Overlap {
-                cycle: model.cycle,
-                block1: model.blocks[c.block1 as usize].id,
-                block2: model.blocks[c.block2 as usize].id,
-                overlap,
-                limit,
-                x: c.point[0],
-                y: c.point[1],
-            })
-        }
-    }
+    let c = &model.contacts[failure];
+    Err(CycleError::Overlap {
+        cycle: model.cycle,
+        block1: model.blocks[c.block1 as usize].id,
+        block2: model.blocks[c.block2 as usize].id,
+        overlap: -c.gap,
+        limit,
+        x: c.point[0],
+        y: c.point[1],
+    })
 }
 
-fn gather_all(model: &mut Model, adjacency: &Adjacency) {
+/// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces
+/// must be current between cycles (energy check, checkpoint, end of a run).
+fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: &Adjacency, team: &mut Team) {
     let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
-    let Model { blocks, contacts, .. } = model;
-    blocks.par_iter_mut().enumerate().with_min_len(PARALLEL_CHUNK).for_each(|(b, block)| gather::gather(b, block, contacts, adjacency, gravity));
+    let blocks = &mut model.blocks;
+    debug_assert_eq!(forces.len(), model.contacts.len());
+    let n = blocks.len();
+    let shared = SharedMut::new(blocks);
+    team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
+        // SAFETY: the chunks are disjoint ranges of `blocks`, mutably borrowed here.
+        let piece = unsafe { shared.range(r.clone()) };
+        for (j, block) in piece.iter_mut().enumerate() {
+            gather::gather(r.start + j, block, forces, adjacency, gravity);
+        }
+    });
 }
 
-/// One cycle of stages 1, 2, 4, 6 (the scene has no zones or fluid yet).
-fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError> {
+/// What stages 6, 1 and 2 read besides the blocks they move.
+struct BlockInputs<'a> {
+    /// The contact forces and adjacency to gather from; `None` when the block forces are current.
+    gather: Option<(&'a [ContactForce], &'a Adjacency)>,
+    gravity: [f64; 2],
+    alpha: f64,
+    dt: f64,
+}
+
+/// Stages 6, 1 and 2 for the blocks `first .. first + blocks.len()`, whose corners are `corners`
+/// (each block's contiguous range, in block order): each block sums its contact forces, takes its
+/// step and places its corners — one pass over the blocks instead of three.
+fn block_piece(first: usize, blocks: &mut [Block], mut corners: &mut [Corner], steps: &mut [StepOutcome], inp: &BlockInputs) {
+    for (j, (block, step)) in blocks.iter_mut().zip(steps.iter_mut()).enumerate() {
+        let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
+        corners = rest;
+        if let Some((forces, adjacency)) = inp.gather {
+            gather::gather(first + j, block, forces, adjacency, inp.gravity);
+        }
+        *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
+        geometry_update::geometry_update(block, mine);
+    }
+}
+
+/// One cycle of stages 6, 1, 2 and 4 (the scene has no zones or fluid yet). Stage 6 of the
+/// previous cycle — the force sums stage 1 needs — runs here, fused with stages 1 and 2, unless
+/// `gathered` says the block forces are current already; on return they are not (stage 4 has
+/// changed the contact forces). The corners must be in block order (`corners_in_block_order`).
+fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, gathered: bool, team: &mut Team) -> Result<(), CycleError> {
+    let Scratch { steps, forces } = scratch;
     let dt = model.timestep;
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
-    // Stage 1: law of motion. Stage 2: geometry update. One block per task: its corners are its
-    // own contiguous slice, so the blocks run in parallel and each result is what a serial loop
-    // would give; the sums below are taken serially, so runs repeat bit for bit.
-    let steps: Vec<law_of_motion::StepOutcome> = {
+    // Stages 6, 1 and 2, block by block: a block's corners are its own contiguous slice and its
+    // force sum reads only the contacts, so the blocks run on any thread and each result is what
+    // a serial loop would give; the sums below are taken serially, so runs repeat bit for bit
+    // whatever the number of threads.
+    {
         let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
         let Model { blocks, corners, .. } = &mut *model;
-        let mut slices = Vec::with_capacity(blocks.len());
-        let mut rest: &mut [Corner] = corners;
-        for block in blocks.iter() {
-            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(block.corner_count as usize);
-            slices.push(mine);
-            rest = tail;
-        }
-        blocks
-            .par_iter_mut()
-            .zip(slices.into_par_iter())
-            .with_min_len(PARALLEL_CHUNK)
-            .map(|(block, corners)| {
-                let step = law_of_motion::law_of_motion(block, gravity, alpha, dt);
-                geometry_update::geometry_update(block, corners);
-                step
-            })
-            .collect()
-    };
+        steps.resize(blocks.len(), StepOutcome::default());
+        let inp = BlockInputs { gather: (!gathered).then_some((&forces[..], adjacency)), gravity, alpha, dt };
+        let n = blocks.len();
+        let (shared_blocks, shared_corners, shared_steps) = (SharedMut::new(blocks), SharedMut::new(corners), SharedMut::new(steps));
+        team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
+            // SAFETY: the chunks are disjoint ranges of blocks; their corners, the contiguous
+            // range from the first block's first corner to the last block's last (corners in
+            // block order), are then disjoint too; `steps` has one slot per block.
+            let (blocks, steps) = unsafe { (shared_blocks.range(r.clone()), shared_steps.range(r.clone())) };
+            let (first, last) = (&blocks[0], &blocks[blocks.len() - 1]);
+            let corner_range = first.corner_start as usize..(last.corner_start + last.corner_count) as usize;
+            // SAFETY: as above.
+            let corners = unsafe { shared_corners.range(corner_range) };
+            block_piece(r.start, blocks, corners, steps, &inp);
+        });
+    }
     let mut work = 0.0;
     let mut fastest = (0.0f64, 0usize);
     for (b, step) in steps.iter().enumerate() {
@@ -163,8 +315,8 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency) -> Result<(), CycleError
         let b = &model.blocks[fastest.1];
         return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
-    // Stages 4 and 6.
-    contacts_and_gather(model, adjacency, dt)
+    // Stage 4.
+    contact_stage(model, forces, dt, team)
 }
 
 /// The energy check: kinetic + strain energy may not outgrow the energy put in. The budget is the
@@ -237,57 +389,85 @@ impl Backend for CpuBackend {
         if model.timestep <= 0.0 || !model.timestep.is_finite() {
             return Err(CycleError::Setup("the time step is not set".into()));
         }
+        // The block pass relies on it (and the model always keeps it).
+        assert!(corners_in_block_order(model), "corners are stored in block order");
         let mut report = CycleReport::default();
         let mut adjacency = std::mem::take(&mut self.adjacency);
         // Between runs the executor may have split, deleted or moved blocks: start with a full
-        // detection, then the force sums the first step needs.
-        maybe_update_topology(model, &mut adjacency, &mut report, true);
-        gather_all(model, &adjacency);
-        crate::profile::mark_cycles_start();
-        let mut energy_check = EnergyCheck::new(model);
-        let cracking = (0..model.blocks.len()).any(|b| topology::cracking::is_point_load_candidate(model, b));
-        let mut last_good = model.clone();
-        let mut result = Ok(());
-        for i in 0..cycles {
-            if let Err(e) = cycle_once(model, &adjacency) {
-                result = Err(e);
-                break;
-            }
-            // Stage 7: cracking, then contact updates.
-            let mut changed = false;
-            if cracking {
-                changed |= crack_step(model, &adjacency, &mut report);
-            }
-            if changed {
-                adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
-                gather_all(model, &adjacency);
-                if let Some(dt) = model.critical_timestep() {
-                    if dt < model.timestep {
-                        model.timestep = dt;
-                        report.timestep_changes.push((model.cycle, dt));
-                    }
-                }
-            }
-            if maybe_update_topology(model, &mut adjacency, &mut report, false) {
-                gather_all(model, &adjacency);
-            }
-            report.cycles += 1;
-            if (i + 1) % CHECK_INTERVAL == 0 || i + 1 == cycles {
-                let _p = crate::profile::scope(crate::profile::Stage::Checks);
-                if let Err(e) = energy_check.check(model) {
+        // detection.
+        update_topology(model, &mut adjacency, &mut report, true);
+        let scratch = &mut self.scratch;
+        sync_forces(model, &mut scratch.forces);
+        let result = team::with_team(team_size(model), |team| {
+            // Then the force sums the first step needs.
+            gather_all(model, &scratch.forces, &adjacency, team);
+            // Whether the block forces are the gather of the current contact forces. Stage 6
+            // runs fused into the next cycle's block pass; it runs on its own only where
+            // something reads the block forces between cycles: the energy terms (kinetic energy
+            // is taken at the whole step from the force, see `Model::energies`) that the energy
+            // check and every topology change book, and the state a run leaves.
+            let mut gathered = true;
+            crate::profile::mark_cycles_start();
+            let mut energy_check = EnergyCheck::new(model);
+            let cracking = (0..model.blocks.len()).any(|b| topology::cracking::is_point_load_candidate(model, b));
+            let mut last_good = model.clone();
+            let mut result = Ok(());
+            for i in 0..cycles {
+                if let Err(e) = cycle_once(model, &adjacency, scratch, gathered, team) {
                     result = Err(e);
                     break;
                 }
-                last_good.clone_from(model);
-                progress(i + 1);
+                gathered = false;
+                // Stage 7: cracking, then contact updates.
+                if cracking {
+                    gather_all(model, &scratch.forces, &adjacency, team);
+                    gathered = true;
+                    if crack_step(model, &adjacency, &mut report) {
+                        assert!(corners_in_block_order(model), "corners are stored in block order");
+                        adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                        sync_forces(model, &mut scratch.forces);
+                        gathered = false;
+                        if let Some(dt) = model.critical_timestep() {
+                            if dt < model.timestep {
+                                model.timestep = dt;
+                                report.timestep_changes.push((model.cycle, dt));
+                            }
+                        }
+                    }
+                }
+                let etol = model.tol.etol;
+                if model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
+                    // The update books the energy of the contacts it drops, from the forces.
+                    if !gathered {
+                        gather_all(model, &scratch.forces, &adjacency, team);
+                    }
+                    update_topology(model, &mut adjacency, &mut report, false);
+                    sync_forces(model, &mut scratch.forces);
+                    gathered = false;
+                }
+                report.cycles += 1;
+                if (i + 1) % CHECK_INTERVAL == 0 || i + 1 == cycles {
+                    if !gathered {
+                        gather_all(model, &scratch.forces, &adjacency, team);
+                        gathered = true;
+                    }
+                    let _p = crate::profile::scope(crate::profile::Stage::Checks);
+                    if let Err(e) = energy_check.check(model) {
+                        result = Err(e);
+                        break;
+                    }
+                    last_good.clone_from(model);
+                    progress(i + 1);
+                }
             }
-        }
+            result.map_err(|e| energy_check.roll_back(e, model, last_good))
+        });
         match result {
             Ok(()) => {
                 self.adjacency = adjacency;
                 Ok(report)
             }
-            Err(e) => Err(energy_check.roll_back(e, model, last_good)),
+            Err(e) => Err(e),
         }
     }
 }
@@ -317,3 +497,4 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
     }
     changed
 }
+
