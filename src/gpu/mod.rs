@@ -689,9 +689,9 @@ where
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
         let gravity = model.gravity;
-        let Model { blocks, contacts, .. } = model;
-        for (b, block) in blocks.iter_mut().enumerate().filter(|(_, blk)| blk.fixed) {
-            cpu::gather::gather(b, block, contacts, &adjacency, gravity);
+        let forces: Vec<cpu::gather::ContactForce> = model.contacts.iter().map(cpu::gather::ContactForce::from).collect();
+        for (b, block) in model.blocks.iter_mut().enumerate().filter(|(_, blk)| blk.fixed) {
+            cpu::gather::gather(b, block, &forces, &adjacency, gravity);
         }
         Ok(())
     }
