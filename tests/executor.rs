@@ -4,25 +4,15 @@
 //! physics comes later stopping with "not supported yet" and their line (the report's samples 2–4
 //! included), and the input errors found only when the model is built or cycled. CPU only.
 
+mod common;
+
+use common::SharedLog;
 use blockdem::cpu::CpuBackend;
 use blockdem::exec::RunError;
 use blockdem::model::Model;
 use blockdem::scenes::run_deck_logged;
 use blockdem::verify::stability::{LIMITS_CPU_F64, LIMITS_GPU_F32};
 
-/// A `Write` that appends to a shared buffer, to read the run log back.
-#[derive(Clone, Default)]
-struct SharedLog(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
-
-impl std::io::Write for SharedLog {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0.borrow_mut().extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
 
 /// Runs a deck on the CPU; returns the result and the run log.
 fn run_logged(deck: &str) -> (Result<Model, RunError>, String) {

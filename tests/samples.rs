@@ -3,7 +3,7 @@
 mod common;
 
 use blockdem::scenes::{run_deck_logged, run_deck_on};
-use common::{every_backend, Target};
+use common::{every_backend, SharedLog, Target};
 
 every_backend!(
     sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base,
@@ -16,19 +16,6 @@ fn sample(name: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
-/// A `Write` that appends to a shared buffer, to read the run log back.
-#[derive(Clone, Default)]
-struct SharedLog(std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
-
-impl std::io::Write for SharedLog {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.0.borrow_mut().extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
 
 fn sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base(t: &Target) {
     let log = SharedLog::default();

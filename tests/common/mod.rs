@@ -11,6 +11,20 @@ use blockdem::backend::Backend;
 use blockdem::cpu::CpuBackend;
 use blockdem::gpu::{find_target, AdapterChoice, GpuBackend, GpuOptions, Precision};
 
+/// A `Write` that appends to a shared buffer, to read the run log back.
+#[derive(Clone, Default)]
+pub struct SharedLog(pub std::rc::Rc<std::cell::RefCell<Vec<u8>>>);
+
+impl std::io::Write for SharedLog {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.borrow_mut().extend_from_slice(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 /// The GPU targets of `every_backend!` (its modules `vulkan_f32`, `vulkan_f64`, `gl_f32`).
 pub const GPU_TARGETS: [(&str, Precision); 3] = [("vulkan", Precision::F32), ("vulkan", Precision::F64), ("gl", Precision::F32)];
 
