@@ -46,12 +46,12 @@ pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency
         return false;
     }
     let _p = crate::profile::scope(if force { crate::profile::Stage::DetectFull } else { crate::profile::Stage::DetectUpdate });
-    // Contacts dropped while loaded take their energy terms to the ledger's retired account.
-    let (created, dropped) = model.retire_energy_around(|m| topology::update_contacts(m, force));
+    // Also keeps the adjacency lists, and moves the energy terms of contacts dropped while
+    // loaded to the ledger's retired account.
+    let (created, dropped) = topology::update_topology(model, force, adjacency);
     report.topology_updates += 1;
     report.contacts_created += created as u64;
     report.contacts_dropped += dropped as u64;
-    *adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
     true
 }
 
