@@ -69,20 +69,15 @@ impl Adjacency {
     }
 
     /// Brings the lists up to date after a contact update removed the contacts `removed`
-    /// (index, block 1, block 2; ascending by index in the old list) and inserted contacts at the
-    /// indices `inserted` of the new list `contacts` (ascending). The same lists as `build` would
-    /// give: the old entries renumbered (the contacts kept their order), and only the lists of
-    /// blocks that lost or gained a contact rebuilt.
-    pub fn apply(&mut self, block_count: usize, contacts: &[Contact], removed: &[(u32, u32, u32)], inserted: &[u32]) {
-        // A kept contact at old index k lands at k − (removed before it) + (inserted before it);
-        // an insertion at new index i sits before the kept contact at i − (inserted before it).
+    /// (index, block 1, block 2; ascending by index in the old list) and inserted new ones, each
+    /// before the old contact `insert_before` names and now at `inserted` in the new list
+    /// `contacts` (both ascending). The same lists as `build` would give: the old entries
+    /// renumbered (the kept contacts kept their order), and only the lists of blocks that lost or
+    /// gained a contact rebuilt.
+    pub fn apply(&mut self, block_count: usize, contacts: &[Contact], removed: &[(u32, u32, u32)], insert_before: &[u32], inserted: &[u32]) {
         let removed_at: Vec<u32> = removed.iter().map(|r| r.0).collect();
-        let inserted_before: Vec<u32> = inserted.iter().enumerate().map(|(j, &i)| i - j as u32).collect();
-        let renumber = |e: u32| {
-            let k = e >> 1;
-            let kept = k - removed_at.partition_point(|&r| r < k) as u32;
-            (kept + inserted_before.partition_point(|&p| p <= kept) as u32) << 1 | (e & 1)
-        };
+        let renumber = Renumber::new(self.entries.len() / 2, &removed_at, insert_before);
+        let renumber_entry = |e: u32| renumber.of(e >> 1) << 1 | (e & 1);
         // Blocks whose lists change, with their new entries from inserted contacts.
         let mut gained: Vec<(u32, u32)> = inserted.iter().flat_map(|&i| [(contacts[i as usize].block1, i << 1), (contacts[i as usize].block2, i << 1 | 1)]).collect();
         gained.sort_unstable();
@@ -93,20 +88,19 @@ impl Adjacency {
             return;
         }
         let list_of = |t: u32| -> Vec<u32> {
-            let t = t as usize;
-            let old = &self.entries[self.offsets[t] as usize..self.offsets[t + 1] as usize];
-            let mut list: Vec<u32> = old.iter().filter(|&&e| removed_at.binary_search(&(e >> 1)).is_err()).map(|&e| renumber(e)).collect();
-            let lo = gained.partition_point(|g| g.0 < t as u32);
-            list.extend(gained[lo..].iter().take_while(|g| g.0 == t as u32).map(|g| g.1));
+            let old = self.entries(t as usize);
+            let mut list: Vec<u32> = old.iter().filter(|&&e| removed_at.binary_search(&(e >> 1)).is_err()).map(|&e| renumber_entry(e)).collect();
+            let lo = gained.partition_point(|g| g.0 < t);
+            list.extend(gained[lo..].iter().take_while(|g| g.0 == t).map(|g| g.1));
             list.sort_unstable();
             list
         };
         let new_lists: Vec<Vec<u32>> = touched.par_iter().map(|&t| list_of(t)).collect();
+        // Each touched list moves the offsets after it by its change in length.
         let mut shift_after: Vec<i64> = Vec::with_capacity(touched.len());
         let mut shift = 0i64;
         for (&t, list) in touched.iter().zip(&new_lists) {
-            let t = t as usize;
-            shift += list.len() as i64 - (self.offsets[t + 1] - self.offsets[t]) as i64;
+            shift += list.len() as i64 - self.entries(t as usize).len() as i64;
             shift_after.push(shift);
         }
         let new_offset = |b: usize| -> u32 {
@@ -126,16 +120,27 @@ impl Adjacency {
                 pieces.push(piece);
                 rest = tail;
             }
-            let (old_entries, old_offsets) = (&self.entries, &self.offsets);
             pieces.into_par_iter().enumerate().for_each(|(c, out)| {
+                let (first, last) = (c * PARALLEL_BLOCKS, ((c + 1) * PARALLEL_BLOCKS).min(block_count));
+                let old = &self.entries[self.offsets[first] as usize..self.offsets[last] as usize];
+                let j0 = touched.partition_point(|&t| (t as usize) < first);
+                let j1 = touched.partition_point(|&t| (t as usize) < last);
+                if j0 == j1 {
+                    // No touched list here: the chunk's entries renumbered in one sweep.
+                    for (o, &e) in out.iter_mut().zip(old) {
+                        *o = renumber_entry(e);
+                    }
+                    return;
+                }
                 let mut w = 0;
-                for b in c * PARALLEL_BLOCKS..((c + 1) * PARALLEL_BLOCKS).min(block_count) {
-                    if let Ok(j) = touched.binary_search(&(b as u32)) {
-                        out[w..w + new_lists[j].len()].copy_from_slice(&new_lists[j]);
-                        w += new_lists[j].len();
+                for b in first..last {
+                    if let Ok(j) = touched[j0..j1].binary_search(&(b as u32)) {
+                        let list = &new_lists[j0 + j];
+                        out[w..w + list.len()].copy_from_slice(list);
+                        w += list.len();
                     } else {
-                        for &e in &old_entries[old_offsets[b] as usize..old_offsets[b + 1] as usize] {
-                            out[w] = renumber(e);
+                        for &e in self.entries(b) {
+                            out[w] = renumber_entry(e);
                             w += 1;
                         }
                     }
@@ -143,17 +148,63 @@ impl Adjacency {
             });
         }
         self.spare = std::mem::replace(&mut self.entries, entries);
-        // Offsets move by the change in length of every touched list before them.
-        let (touched, shift_after) = (&touched, &shift_after);
-        self.offsets.par_iter_mut().enumerate().with_min_len(PARALLEL_BLOCKS).skip(touched[0] as usize + 1).for_each(|(b, o)| {
-            let j = touched.partition_point(|&t| (t as usize) < b);
-            *o = (*o as i64 + shift_after[j - 1]) as u32;
-        });
+        for (j, &t) in touched.iter().enumerate() {
+            let end = touched.get(j + 1).map_or(block_count, |&u| u as usize);
+            for o in &mut self.offsets[t as usize + 1..=end] {
+                *o = (*o as i64 + shift_after[j]) as u32;
+            }
+        }
     }
 
     /// The entries of block `b`.
     #[inline]
     pub fn entries(&self, b: usize) -> &[u32] {
         &self.entries[self.offsets[b] as usize..self.offsets[b + 1] as usize]
+    }
+}
+
+/// Old contact index → new, for the contacts an update kept: k plus the insertions at or before
+/// it less the removals before it. A step function, tabulated per bucket of indices: most
+/// buckets hold no step, and an index in one costs a table look-up.
+struct Renumber {
+    /// (index from which the step applies, +1 for an insertion or −1 for a removal), ascending.
+    steps: Vec<(u32, i32)>,
+    /// Per bucket: the shift at its first index, and where its own steps start in `steps`.
+    base: Vec<i32>,
+    first: Vec<u32>,
+}
+
+impl Renumber {
+    const BUCKET_BITS: u32 = 10;
+
+    fn new(old_count: usize, removed_at: &[u32], insert_before: &[u32]) -> Self {
+        let mut steps: Vec<(u32, i32)> = removed_at.iter().map(|&r| (r + 1, -1)).chain(insert_before.iter().map(|&p| (p, 1))).collect();
+        steps.sort_unstable();
+        let buckets = (old_count >> Self::BUCKET_BITS) + 2;
+        let (mut base, mut first) = (Vec::with_capacity(buckets + 1), Vec::with_capacity(buckets + 1));
+        let (mut at, mut shift) = (0usize, 0i32);
+        for b in 0..=buckets {
+            let start = (b as u64) << Self::BUCKET_BITS;
+            while at < steps.len() && steps[at].0 as u64 <= start {
+                shift += steps[at].1;
+                at += 1;
+            }
+            base.push(shift);
+            first.push(at as u32);
+        }
+        Renumber { steps, base, first }
+    }
+
+    #[inline]
+    fn of(&self, k: u32) -> u32 {
+        let b = (k >> Self::BUCKET_BITS) as usize;
+        let mut shift = self.base[b];
+        for &(from, step) in &self.steps[self.first[b] as usize..self.first[b + 1] as usize] {
+            if from > k {
+                break;
+            }
+            shift += step;
+        }
+        (k as i64 + shift as i64) as u32
     }
 }

@@ -735,7 +735,7 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
         if all || !sorted || !adjacency.fits(n, model.contacts.len() + dropped.len() - n_created) {
             adjacency.rebuild(n, &model.contacts);
         } else if !dropped.is_empty() || n_created > 0 {
-            adjacency.apply(n, &model.contacts, &removed, &inserted_at);
+            adjacency.apply(n, &model.contacts, &removed, &insert_before, &inserted_at);
         }
     }
 
@@ -805,10 +805,10 @@ fn splice(contacts: &mut Vec<Contact>, dropped: &[u32], insert_before: &[u32], n
         contacts.resize(new_len, filler);
     }
     for &(s, e, d) in stretches.iter().filter(|t| t.2 < 0) {
-        contacts.copy_within(s..e, (s as isize + d) as usize);
+        move_stretch(contacts, s, e, d);
     }
     for &(s, e, d) in stretches.iter().rev().filter(|t| t.2 > 0) {
-        contacts.copy_within(s..e, (s as isize + d) as usize);
+        move_stretch(contacts, s, e, d);
     }
     for (&at, c) in inserted_at.iter().zip(new_contacts) {
         contacts[at as usize] = c;
@@ -817,10 +817,133 @@ fn splice(contacts: &mut Vec<Contact>, dropped: &[u32], insert_before: &[u32], n
     inserted_at
 }
 
+/// `v.copy_within(s..e, s + shift)`, in parallel for a long stretch and a short shift (a splice
+/// moves most of the list by a few places): the stretch is cut into pieces at least as long as
+/// the shift, each moved within its destination window, which no other piece reads or writes;
+/// the few elements each piece takes from a neighbouring window are put aside first.
+fn move_stretch<T: Copy + Send + Sync>(v: &mut [T], s: usize, e: usize, shift: isize) {
+    const PIECE: usize = 16384;
+    let d = shift.unsigned_abs();
+    if e - s < 4 * PIECE || d > PIECE {
+        v.copy_within(s..e, (s as isize + shift) as usize);
+        return;
+    }
+    let pieces = (e - s) / PIECE;
+    let bounds: Vec<usize> = (0..pieces).map(|i| s + i * PIECE).chain([e]).collect();
+    if shift < 0 {
+        // Window i = [a_i − d, a_{i+1} − d): its own [a_i, a_{i+1} − d) slides to the front, and
+        // [a_{i+1} − d, a_{i+1}), the start of the next window, lands at its end.
+        let aside: Vec<Vec<T>> = bounds[1..].iter().map(|&a| v[a - d..a].to_vec()).collect();
+        let windows = split_at_ends(&mut v[s - d..e - d], bounds[1..].iter().map(|&a| a - s));
+        windows.into_par_iter().zip(aside).for_each(|(w, next)| {
+            let len = w.len();
+            w.copy_within(d..len, 0);
+            w[len - d..].copy_from_slice(&next);
+        });
+    } else {
+        // Window i = [a_i + d, a_{i+1} + d): its own [a_i + d, a_{i+1}) slides to the back, and
+        // [a_i, a_i + d), the end of the previous window, lands at its start.
+        let aside: Vec<Vec<T>> = bounds[..pieces].iter().map(|&a| v[a..a + d].to_vec()).collect();
+        let windows = split_at_ends(&mut v[s + d..e + d], bounds[1..].iter().map(|&a| a - s));
+        windows.into_par_iter().zip(aside).for_each(|(w, previous)| {
+            let len = w.len();
+            w.copy_within(0..len - d, d);
+            w[..d].copy_from_slice(&previous);
+        });
+    }
+}
+
 /// True for a contact that carries the force of its touch; false for the other view of a touch
 /// of two corners (see `cpu::contact_forces::counts_force`).
 #[inline]
 pub fn counts_force(model: &Model, c: &Contact) -> bool {
     let b2 = &model.blocks[c.block2 as usize];
     crate::cpu::contact_forces::counts_force(c.corner, &model.corners[c.corner as usize], model.block_corners(c.block2 as usize), b2.corner_start, c.feature)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ContactKind;
+
+    #[test]
+    fn move_stretch_is_copy_within() {
+        // Short stretches (one copy) and long ones (pieces in parallel), either way, shifts up to
+        // a whole piece.
+        for (len, s, e, shift) in [(100, 5, 50, 3), (100, 5, 50, -5), (200_000, 10, 150_000, -7), (200_000, 1000, 190_000, 9), (200_000, 0, 199_990, 10), (200_000, 16384, 200_000, -16384), (200_000, 3, 170_000, 16384)] {
+            let mut a: Vec<u64> = (0..len as u64).collect();
+            let mut b = a.clone();
+            move_stretch(&mut a, s, e, shift);
+            b.copy_within(s..e, (s as isize + shift) as usize);
+            assert!(a == b, "len {len}, {s}..{e} by {shift}");
+        }
+    }
+
+    fn contact(id: u32) -> Contact {
+        Contact {
+            id,
+            block1: 0,
+            corner: 0,
+            block2: 1,
+            feature: 0,
+            kind: ContactKind::CornerEdge,
+            material: 1,
+            constitutive: 1,
+            bonded: false,
+            point: [0.0; 2],
+            normal: [0.0; 2],
+            gap: 0.0,
+            normal_force: 0.0,
+            shear_force: 0.0,
+            shear_displacement: 0.0,
+            force: [0.0; 2],
+            slip_work: 0.0,
+            dashpot_work: 0.0,
+            dashpot_velocity: [0.0; 2],
+        }
+    }
+
+    #[test]
+    fn splice_removes_and_inserts_in_place() {
+        // A naive splice to compare with: kept contacts and insertions by position.
+        let naive = |old: &[Contact], dropped: &[u32], insert_before: &[u32], new: &[Contact]| {
+            let mut out = Vec::new();
+            let mut j = 0;
+            for (k, c) in old.iter().enumerate() {
+                while j < insert_before.len() && insert_before[j] as usize == k {
+                    out.push(new[j]);
+                    j += 1;
+                }
+                if dropped.binary_search(&(k as u32)).is_err() {
+                    out.push(*c);
+                }
+            }
+            out.extend_from_slice(&new[j..]);
+            out
+        };
+        let mut seed = 0x2545f4914f6cdd1du64;
+        let mut next = |m: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % m
+        };
+        for len in [0usize, 1, 7, 300, 100_000] {
+            for _ in 0..6 {
+                let old: Vec<Contact> = (0..len as u32).map(contact).collect();
+                let mut dropped: Vec<u32> = (0..next(len as u64 / 10 + 2)).map(|_| next(len.max(1) as u64) as u32).filter(|&k| (k as usize) < len).collect();
+                dropped.sort_unstable();
+                dropped.dedup();
+                let mut insert_before: Vec<u32> = (0..next(len as u64 / 10 + 3)).map(|_| next(len as u64 + 1) as u32).collect();
+                insert_before.sort_unstable();
+                let new: Vec<Contact> = (0..insert_before.len() as u32).map(|i| contact(1_000_000 + i)).collect();
+                let expected = naive(&old, &dropped, &insert_before, &new);
+                let mut got = old.clone();
+                let at = splice(&mut got, &dropped, &insert_before, new.iter().copied());
+                assert!(got == expected, "len {len}, dropped {dropped:?}, inserted before {insert_before:?}");
+                let positions: Vec<u32> = expected.iter().enumerate().filter(|(_, c)| c.id >= 1_000_000).map(|(k, _)| k as u32).collect();
+                assert_eq!(at, positions);
+            }
+        }
+    }
 }
