@@ -501,7 +501,7 @@ pub struct ContactChanges {
 /// new contacts, drops broken ones, and returns how many contacts were created and dropped.
 /// The caller rebuilds the adjacency lists afterwards.
 pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
-    let ch = update(model, all, &mut BlockGrid::default(), None);
+    let ch = in_pool(|| update(model, all, &mut BlockGrid::default(), None));
     (ch.created, ch.dropped)
 }
 
@@ -510,9 +510,16 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
 /// of the contacts dropped moved to the ledger's retired account.
 pub fn update_topology(model: &mut Model, all: bool, adjacency: &mut Adjacency) -> (usize, usize) {
     let mut grid = std::mem::take(&mut adjacency.grid);
-    let ch = update(model, all, &mut grid, Some(adjacency));
+    let ch = in_pool(|| update(model, all, &mut grid, Some(adjacency)));
     adjacency.grid = grid;
     (ch.created, ch.dropped)
+}
+
+/// Runs `f` on one of rayon's worker threads: the update's many short parallel loops then start
+/// without each handing its work over from an outside thread (which costs about as much as a
+/// small model's whole update).
+fn in_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    rayon::scope(|_| f())
 }
 
 /// The contacts that are about to be dropped take their energy terms to `model.retired`: the
