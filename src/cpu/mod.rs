@@ -130,12 +130,12 @@ pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency
 /// tolerance) and the adjacency lists.
 fn update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, full: bool) {
     let _p = crate::profile::scope(if full { crate::profile::Stage::DetectFull } else { crate::profile::Stage::DetectUpdate });
-    // Contacts dropped while loaded take their energy terms to the ledger's retired account.
-    let (created, dropped) = model.retire_energy_around(|m| topology::update_contacts(m, full));
+    // Also keeps the adjacency lists, and moves the energy terms of contacts dropped while
+    // loaded to the ledger's retired account.
+    let (created, dropped) = topology::update_topology(model, full, adjacency);
     report.topology_updates += 1;
     report.contacts_created += created as u64;
     report.contacts_dropped += dropped as u64;
-    *adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
 }
 
 /// What stage 4 reads: the blocks and corners as stages 1–2 left them, and the constants.

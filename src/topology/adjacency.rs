@@ -2,20 +2,46 @@
 //! Entry = contact index × 2 + side (0: the block is the contact's block 1, 1: block 2), so the
 //! same u32 array serves the GPU gather unchanged.
 
+use rayon::prelude::*;
+
+use super::detect::BlockGrid;
 use crate::model::Contact;
 
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Smallest number of blocks one parallel task takes.
+const PARALLEL_BLOCKS: usize = 1024;
+
+#[derive(Clone, Debug, Default)]
 pub struct Adjacency {
     /// `offsets[b] .. offsets[b+1]` indexes `entries` for block b.
     pub offsets: Vec<u32>,
     pub entries: Vec<u32>,
+    /// The broad phase's grid, kept for the next contact update (`detect::update_topology`).
+    pub(crate) grid: BlockGrid,
+    /// Room for the next `entries`, kept to spare a large allocation per update.
+    spare: Vec<u32>,
+}
+
+/// Two adjacencies are equal when their lists are.
+impl PartialEq for Adjacency {
+    fn eq(&self, other: &Self) -> bool {
+        self.offsets == other.offsets && self.entries == other.entries
+    }
 }
 
 impl Adjacency {
     /// Builds the lists, each in ascending contact order (a fixed order: the gather repeats bit
     /// for bit).
     pub fn build(block_count: usize, contacts: &[Contact]) -> Self {
-        let mut counts = vec![0u32; block_count + 1];
+        let mut adjacency = Adjacency::default();
+        adjacency.rebuild(block_count, contacts);
+        adjacency
+    }
+
+    /// `build` into the lists' own storage.
+    pub fn rebuild(&mut self, block_count: usize, contacts: &[Contact]) {
+        let counts = &mut self.offsets;
+        counts.clear();
+        counts.resize(block_count + 1, 0);
         for c in contacts {
             counts[c.block1 as usize + 1] += 1;
             counts[c.block2 as usize + 1] += 1;
@@ -23,22 +49,162 @@ impl Adjacency {
         for b in 0..block_count {
             counts[b + 1] += counts[b];
         }
-        let offsets = counts.clone();
-        let mut fill = counts;
-        let mut entries = vec![0u32; 2 * contacts.len()];
+        let fill = &mut self.spare;
+        fill.clear();
+        fill.extend_from_slice(&self.offsets[..block_count]);
+        self.entries.clear();
+        self.entries.resize(2 * contacts.len(), 0);
         for (i, c) in contacts.iter().enumerate() {
             for (block, side) in [(c.block1, 0u32), (c.block2, 1u32)] {
                 let slot = &mut fill[block as usize];
-                entries[*slot as usize] = (i as u32) << 1 | side;
+                self.entries[*slot as usize] = (i as u32) << 1 | side;
                 *slot += 1;
             }
         }
-        Adjacency { offsets, entries }
+    }
+
+    /// True when the lists have the shape of `block_count` blocks and `contact_count` contacts.
+    pub fn fits(&self, block_count: usize, contact_count: usize) -> bool {
+        self.offsets.len() == block_count + 1 && self.entries.len() == 2 * contact_count && self.offsets[block_count] as usize == self.entries.len()
+    }
+
+    /// Brings the lists up to date after a contact update removed the contacts `removed`
+    /// (index, block 1, block 2; ascending by index in the old list) and inserted new ones, each
+    /// before the old contact `insert_before` names and now at `inserted` in the new list
+    /// `contacts` (both ascending). The same lists as `build` would give: the old entries
+    /// renumbered (the kept contacts kept their order), and only the lists of blocks that lost or
+    /// gained a contact rebuilt.
+    pub fn apply(&mut self, block_count: usize, contacts: &[Contact], removed: &[(u32, u32, u32)], insert_before: &[u32], inserted: &[u32]) {
+        let removed_at: Vec<u32> = removed.iter().map(|r| r.0).collect();
+        let renumber = Renumber::new(self.entries.len() / 2, &removed_at, insert_before);
+        let renumber_entry = |e: u32| renumber.of(e >> 1) << 1 | (e & 1);
+        // Blocks whose lists change, with their new entries from inserted contacts.
+        let mut gained: Vec<(u32, u32)> = inserted.iter().flat_map(|&i| [(contacts[i as usize].block1, i << 1), (contacts[i as usize].block2, i << 1 | 1)]).collect();
+        gained.sort_unstable();
+        let mut touched: Vec<u32> = removed.iter().flat_map(|r| [r.1, r.2]).chain(gained.iter().map(|g| g.0)).collect();
+        touched.sort_unstable();
+        touched.dedup();
+        if touched.is_empty() {
+            return;
+        }
+        let list_of = |t: u32| -> Vec<u32> {
+            let old = self.entries(t as usize);
+            let mut list: Vec<u32> = old.iter().filter(|&&e| removed_at.binary_search(&(e >> 1)).is_err()).map(|&e| renumber_entry(e)).collect();
+            let lo = gained.partition_point(|g| g.0 < t);
+            list.extend(gained[lo..].iter().take_while(|g| g.0 == t).map(|g| g.1));
+            list.sort_unstable();
+            list
+        };
+        let new_lists: Vec<Vec<u32>> = touched.par_iter().map(|&t| list_of(t)).collect();
+        // Each touched list moves the offsets after it by its change in length.
+        let mut shift_after: Vec<i64> = Vec::with_capacity(touched.len());
+        let mut shift = 0i64;
+        for (&t, list) in touched.iter().zip(&new_lists) {
+            shift += list.len() as i64 - self.entries(t as usize).len() as i64;
+            shift_after.push(shift);
+        }
+        let new_offset = |b: usize| -> u32 {
+            let j = touched.partition_point(|&t| (t as usize) < b);
+            (self.offsets[b] as i64 + if j == 0 { 0 } else { shift_after[j - 1] }) as u32
+        };
+        let mut entries = std::mem::take(&mut self.spare);
+        entries.clear();
+        entries.resize(2 * contacts.len(), 0);
+        {
+            let chunks = block_count.div_ceil(PARALLEL_BLOCKS);
+            let mut pieces = Vec::with_capacity(chunks);
+            let mut rest: &mut [u32] = &mut entries;
+            for c in 0..chunks {
+                let (lo, hi) = (new_offset(c * PARALLEL_BLOCKS), new_offset(((c + 1) * PARALLEL_BLOCKS).min(block_count)));
+                let (piece, tail) = std::mem::take(&mut rest).split_at_mut((hi - lo) as usize);
+                pieces.push(piece);
+                rest = tail;
+            }
+            pieces.into_par_iter().enumerate().for_each(|(c, out)| {
+                let (first, last) = (c * PARALLEL_BLOCKS, ((c + 1) * PARALLEL_BLOCKS).min(block_count));
+                let old = &self.entries[self.offsets[first] as usize..self.offsets[last] as usize];
+                let j0 = touched.partition_point(|&t| (t as usize) < first);
+                let j1 = touched.partition_point(|&t| (t as usize) < last);
+                if j0 == j1 {
+                    // No touched list here: the chunk's entries renumbered in one sweep.
+                    for (o, &e) in out.iter_mut().zip(old) {
+                        *o = renumber_entry(e);
+                    }
+                    return;
+                }
+                let mut w = 0;
+                for b in first..last {
+                    if let Ok(j) = touched[j0..j1].binary_search(&(b as u32)) {
+                        let list = &new_lists[j0 + j];
+                        out[w..w + list.len()].copy_from_slice(list);
+                        w += list.len();
+                    } else {
+                        for &e in self.entries(b) {
+                            out[w] = renumber_entry(e);
+                            w += 1;
+                        }
+                    }
+                }
+            });
+        }
+        self.spare = std::mem::replace(&mut self.entries, entries);
+        for (j, &t) in touched.iter().enumerate() {
+            let end = touched.get(j + 1).map_or(block_count, |&u| u as usize);
+            for o in &mut self.offsets[t as usize + 1..=end] {
+                *o = (*o as i64 + shift_after[j]) as u32;
+            }
+        }
     }
 
     /// The entries of block `b`.
     #[inline]
     pub fn entries(&self, b: usize) -> &[u32] {
         &self.entries[self.offsets[b] as usize..self.offsets[b + 1] as usize]
+    }
+}
+
+/// Old contact index → new, for the contacts an update kept: k plus the insertions at or before
+/// it less the removals before it. A step function, tabulated per bucket of indices: most
+/// buckets hold no step, and an index in one costs a table look-up.
+struct Renumber {
+    /// (index from which the step applies, +1 for an insertion or −1 for a removal), ascending.
+    steps: Vec<(u32, i32)>,
+    /// Per bucket: the shift at its first index, and where its own steps start in `steps`.
+    base: Vec<i32>,
+    first: Vec<u32>,
+}
+
+impl Renumber {
+    const BUCKET_BITS: u32 = 10;
+
+    fn new(old_count: usize, removed_at: &[u32], insert_before: &[u32]) -> Self {
+        let mut steps: Vec<(u32, i32)> = removed_at.iter().map(|&r| (r + 1, -1)).chain(insert_before.iter().map(|&p| (p, 1))).collect();
+        steps.sort_unstable();
+        let buckets = (old_count >> Self::BUCKET_BITS) + 2;
+        let (mut base, mut first) = (Vec::with_capacity(buckets + 1), Vec::with_capacity(buckets + 1));
+        let (mut at, mut shift) = (0usize, 0i32);
+        for b in 0..=buckets {
+            let start = (b as u64) << Self::BUCKET_BITS;
+            while at < steps.len() && steps[at].0 as u64 <= start {
+                shift += steps[at].1;
+                at += 1;
+            }
+            base.push(shift);
+            first.push(at as u32);
+        }
+        Renumber { steps, base, first }
+    }
+
+    #[inline]
+    fn of(&self, k: u32) -> u32 {
+        let b = (k >> Self::BUCKET_BITS) as usize;
+        let mut shift = self.base[b];
+        for &(from, step) in &self.steps[self.first[b] as usize..self.first[b + 1] as usize] {
+            if from > k {
+                break;
+            }
+            shift += step;
+        }
+        (k as i64 + shift as i64) as u32
     }
 }

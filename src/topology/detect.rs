@@ -6,25 +6,53 @@
 //! since its last update; two unflagged blocks can have approached each other by less than
 //! 2·etol < atol since their pair was last examined, so no touch can be missed.
 //!
-//! Broad phase: a uniform cell grid over bounding boxes inflated by atol/2 (very large blocks, such
-//! as a base, go to a list tested against every flagged block). Narrow phase: each corner circle of
-//! one block against the nearest feature of the other's rounded boundary, both ways round.
-//! Contacts form when the gap falls below `atol` and break when it exceeds `btol` (hysteresis, so a
-//! contact at the threshold does not flicker). A contact keeps its identity — and so its shear
-//! history — as long as the same corner stays near the same block (feature ids, STYLE.md item 7).
+//! Candidates are the block pairs, at least one of them flagged, whose corner boxes inflated by
+//! atol/2 overlap. Each is examined both ways round: every corner circle of one block against the
+//! nearest feature of the other's rounded boundary. Contacts form when the gap falls below `atol`
+//! and break when it exceeds `btol` (hysteresis, so a contact at the threshold does not flicker).
+//! A contact keeps its identity — and so its shear history — as long as the same corner stays near
+//! the same block (feature ids, STYLE.md item 7).
+//!
+//! Broad phase: a uniform cell grid, stored as (cell, block) entries sorted by cell, over boxes
+//! inflated by a further margin (very large blocks, such as a base, go to a list tested against
+//! every flagged block). The grid outlives an update: a block's stored box holds its corners while
+//! they stay within the margin of where they were when it was built, which the update checks from
+//! the block's centroid and rotation, so an update examines the flagged blocks and their
+//! neighbourhood and boxes only the blocks that have strayed. A full update, or one where many
+//! blocks moved, rebuilds it and sweeps it cell by cell.
+//!
+//! Everything runs in parallel and lands in a fixed order: the pairs are sorted, each block's
+//! corners are examined against its candidates in ascending order, and the contacts stay sorted by
+//! (block 1, corner, block 2). New contacts get their ids in the order a serial sweep over the
+//! sorted pairs would create them (lower block's corners first), so a run repeats bit for bit
+//! whatever the thread count.
 
-use rustc_hash::FxHashMap as HashMap;
+use rayon::prelude::*;
 
+use super::Adjacency;
 use crate::cpu::contact_forces::nearest_feature;
-use crate::model::{Contact, Model};
+use crate::model::{Block, Contact, Corner, Model, Tolerances};
 
 /// Bounding boxes above this many grid cells are treated as "large" and tested against all.
-const MAX_CELLS_PER_BLOCK: usize = 64;
+const MAX_CELLS_PER_BLOCK: u64 = 64;
+
+/// Smallest number of blocks one parallel task takes.
+const PARALLEL_BLOCKS: usize = 256;
+
+/// Smallest number of contacts one parallel task takes.
+const PARALLEL_CONTACTS: usize = 4096;
+
+/// An update rebuilds the grid and sweeps it cell by cell when more than 1/SWEEP_FRACTION of the
+/// blocks is flagged, and rebuilds it when more than 1/REBUILD_FRACTION has strayed from its
+/// stored box (each update boxes the strayed blocks afresh; a rebuild boxes them all once).
+const SWEEP_FRACTION: usize = 8;
+const REBUILD_FRACTION: usize = 32;
 
 /// Axis-aligned box of a block's corners, inflated by `pad`.
-fn bounding_box(model: &Model, b: usize, pad: f64) -> [f64; 4] {
+#[inline]
+fn bounding_box(corners: &[Corner], pad: f64) -> [f64; 4] {
     let mut bb = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
-    for c in model.block_corners(b) {
+    for c in corners {
         bb[0] = bb[0].min(c.position[0]);
         bb[1] = bb[1].min(c.position[1]);
         bb[2] = bb[2].max(c.position[0]);
@@ -38,79 +66,346 @@ fn boxes_overlap(a: &[f64; 4], b: &[f64; 4]) -> bool {
     a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3]
 }
 
-/// Candidate block pairs (i < j), at least one of them flagged, whose inflated boxes overlap.
-/// Sorted, so everything downstream runs in a fixed order.
-pub fn candidate_pairs(model: &Model, flagged: &[bool]) -> Vec<(u32, u32)> {
-    let n = model.blocks.len();
-    if n < 2 {
-        return Vec::new();
+#[inline]
+fn corners_of<'a>(blocks: &[Block], corners: &'a [Corner], b: usize) -> &'a [Corner] {
+    let blk = &blocks[b];
+    &corners[blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize]
+}
+
+/// The cells of the grid: square, of side `size`, counted from (x0, y0).
+#[derive(Clone, Copy, Debug, Default)]
+struct Cells {
+    x0: f64,
+    y0: f64,
+    size: f64,
+}
+
+/// A rectangle of cells, inclusive.
+#[derive(Clone, Copy)]
+struct CellRange {
+    x: (u32, u32),
+    y: (u32, u32),
+}
+
+impl CellRange {
+    fn count(&self) -> u64 {
+        (self.x.1 - self.x.0 + 1) as u64 * (self.y.1 - self.y.0 + 1) as u64
     }
-    let pad = 0.5 * model.tol.atol;
-    let boxes: Vec<[f64; 4]> = (0..n).map(|b| bounding_box(model, b, pad)).collect();
-    // Cell size: the mean box extent, so a typical block spans about four cells.
-    let mean_extent = boxes.iter().map(|b| (b[2] - b[0]).max(b[3] - b[1])).sum::<f64>() / n as f64;
-    let cell = mean_extent.max(1e-12);
-    let (mut x0, mut y0) = (f64::INFINITY, f64::INFINITY);
-    for b in &boxes {
-        x0 = x0.min(b[0]);
-        y0 = y0.min(b[1]);
+
+    fn keys(self) -> impl Iterator<Item = u64> {
+        (self.y.0..=self.y.1).flat_map(move |cy| (self.x.0..=self.x.1).map(move |cx| cell_key(cx, cy)))
     }
-    let cell_of = |x: f64, y: f64| -> (i64, i64) { (((x - x0) / cell).floor() as i64, ((y - y0) / cell).floor() as i64) };
-    let mut grid: HashMap<(i64, i64), Vec<u32>> = HashMap::default();
-    let mut large: Vec<u32> = Vec::new();
-    for (b, bb) in boxes.iter().enumerate() {
-        let (cx0, cy0) = cell_of(bb[0], bb[1]);
-        let (cx1, cy1) = cell_of(bb[2], bb[3]);
-        let cells = ((cx1 - cx0 + 1) * (cy1 - cy0 + 1)) as usize;
-        if cells > MAX_CELLS_PER_BLOCK {
-            large.push(b as u32);
-            continue;
+}
+
+#[inline]
+fn cell_key(cx: u32, cy: u32) -> u64 {
+    (cy as u64) << 32 | cx as u64
+}
+
+impl Cells {
+    /// The cell of a point. The map is monotone in each coordinate (the casts saturate), so the
+    /// cells of a box's two corners bound the cell of every point inside it: two overlapping boxes
+    /// share at least the cell of any common point.
+    #[inline]
+    fn of(&self, x: f64, y: f64) -> (u32, u32) {
+        (((x - self.x0) / self.size).floor() as u32, ((y - self.y0) / self.size).floor() as u32)
+    }
+
+    #[inline]
+    fn key_of(&self, x: f64, y: f64) -> u64 {
+        let (cx, cy) = self.of(x, y);
+        cell_key(cx, cy)
+    }
+
+    #[inline]
+    fn range(&self, bb: &[f64; 4]) -> CellRange {
+        let (cx0, cy0) = self.of(bb[0], bb[1]);
+        let (cx1, cy1) = self.of(bb[2], bb[3]);
+        CellRange { x: (cx0, cx1.max(cx0)), y: (cy0, cy1.max(cy0)) }
+    }
+}
+
+/// The blocks of a sorted (cell, block) list in one cell.
+fn members(entries: &[(u64, u32)], key: u64) -> &[(u64, u32)] {
+    let lo = entries.partition_point(|e| e.0 < key);
+    let hi = lo + entries[lo..].partition_point(|e| e.0 == key);
+    &entries[lo..hi]
+}
+
+/// Splits `buf` into consecutive pieces ending at each of `ends` (ascending, the last ≤ len).
+fn split_at_ends<T>(mut buf: &mut [T], ends: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    let mut pieces = Vec::new();
+    let mut at = 0;
+    for end in ends {
+        let (piece, rest) = std::mem::take(&mut buf).split_at_mut(end - at);
+        pieces.push(piece);
+        buf = rest;
+        at = end;
+    }
+    pieces
+}
+
+/// The broad phase's grid, kept between contact updates (it travels with the adjacency lists, the
+/// other index stage 7 keeps). Built from every block's box inflated by `margin`; a block's stored
+/// box holds its current box as long as its corners stay within the margin of where they were
+/// when the grid was built.
+#[derive(Clone, Default)]
+pub struct BlockGrid {
+    /// Blocks and corners of the model it was built for; anything else means a rebuild.
+    shape: Option<(usize, usize)>,
+    cells: Cells,
+    margin: f64,
+    /// Per block when the grid was built: centroid, rotation, and the farthest corner's distance
+    /// from the centroid (measured here, so the test below does not lean on `Block::radius`).
+    reference: Vec<[f64; 4]>,
+    /// Per block: its box (inflated by atol/2) inflated by `margin` when the grid was built.
+    stored: Vec<[f64; 4]>,
+    /// (cell key, block) for every cell of every stored box that is not large, sorted.
+    entries: Vec<(u64, u32)>,
+    /// Blocks whose stored box spans more than MAX_CELLS_PER_BLOCK cells.
+    large: Vec<u32>,
+}
+
+impl std::fmt::Debug for BlockGrid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BlockGrid").field("shape", &self.shape).field("cells", &self.cells).field("entries", &self.entries.len()).field("large", &self.large.len()).finish()
+    }
+}
+
+impl BlockGrid {
+    fn valid_for(&self, model: &Model) -> bool {
+        self.shape == Some((model.blocks.len(), model.corners.len()))
+    }
+
+    /// Builds the grid from the current positions; returns every block's current box (inflated
+    /// by atol/2) for a sweep that follows.
+    fn build(&mut self, model: &Model) -> Vec<[f64; 4]> {
+        let n = model.blocks.len();
+        let pad = 0.5 * model.tol.atol;
+        // The margin: a block may stray half of it before its stored box is given up (the other
+        // half absorbs rounding, and the f32 corner offsets a GPU backend reads back).
+        self.margin = model.tol.atol.max(2.0 * model.tol.etol);
+        let margin = self.margin;
+        let (blocks, corners) = (&model.blocks, &model.corners);
+        let mut current = Vec::with_capacity(n);
+        (0..n).into_par_iter().with_min_len(PARALLEL_BLOCKS).map(|b| bounding_box(corners_of(blocks, corners, b), pad)).collect_into_vec(&mut current);
+        self.stored.clear();
+        self.stored.par_extend(current.par_iter().map(|bb| [bb[0] - margin, bb[1] - margin, bb[2] + margin, bb[3] + margin]));
+        self.reference.clear();
+        self.reference.par_extend(blocks.par_iter().with_min_len(PARALLEL_BLOCKS).map(|blk| {
+            let c = blk.centroid;
+            let own = &corners[blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize];
+            let reach = own.iter().map(|k| (k.position[0] - c[0]).hypot(k.position[1] - c[1])).fold(0.0f64, f64::max);
+            [c[0], c[1], blk.rotation, reach]
+        }));
+        // Cell size: the mean stored extent, so a typical block spans about four cells. Summed in
+        // fixed chunks so that it does not depend on the thread count (it only sets the speed).
+        let extent = |bb: &[f64; 4]| (bb[2] - bb[0]).max(bb[3] - bb[1]);
+        let partial: Vec<(f64, usize)> = self
+            .stored
+            .par_chunks(4096)
+            .map(|ch| ch.iter().map(extent).filter(|e| e.is_finite()).fold((0.0, 0), |(s, k), e| (s + e, k + 1)))
+            .collect();
+        let (sum, count) = partial.iter().fold((0.0, 0), |(s, k), &(ps, pk)| (s + ps, k + pk));
+        let size = if count > 0 && sum > 0.0 { sum / count as f64 } else { 1.0 };
+        let x0 = self.stored.par_iter().map(|bb| bb[0]).reduce(|| f64::INFINITY, f64::min);
+        let y0 = self.stored.par_iter().map(|bb| bb[1]).reduce(|| f64::INFINITY, f64::min);
+        self.cells = Cells { x0: if x0.is_finite() { x0 } else { 0.0 }, y0: if y0.is_finite() { y0 } else { 0.0 }, size: size.max(1e-12) };
+        let cells = self.cells;
+        // Entries: each block's cells, written in parallel at offsets from a prefix sum.
+        let ranges: Vec<CellRange> = self.stored.par_iter().with_min_len(PARALLEL_BLOCKS).map(|bb| cells.range(bb)).collect();
+        let mut ends = Vec::with_capacity(n);
+        let mut total = 0usize;
+        self.large.clear();
+        for (b, r) in ranges.iter().enumerate() {
+            let k = r.count();
+            if k > MAX_CELLS_PER_BLOCK {
+                self.large.push(b as u32);
+            } else {
+                total += k as usize;
+            }
+            ends.push(total);
         }
-        for cx in cx0..=cx1 {
-            for cy in cy0..=cy1 {
-                grid.entry((cx, cy)).or_default().push(b as u32);
+        self.entries.clear();
+        self.entries.resize(total, (0, 0));
+        let chunk_ends = (1..=n.div_ceil(PARALLEL_BLOCKS)).map(|c| ends[(c * PARALLEL_BLOCKS).min(n) - 1]);
+        split_at_ends(&mut self.entries, chunk_ends).into_par_iter().enumerate().for_each(|(c, out)| {
+            let mut w = 0;
+            for (b, range) in ranges.iter().enumerate().take(((c + 1) * PARALLEL_BLOCKS).min(n)).skip(c * PARALLEL_BLOCKS) {
+                if range.count() <= MAX_CELLS_PER_BLOCK {
+                    for key in range.keys() {
+                        out[w] = (key, b as u32);
+                        w += 1;
+                    }
+                }
+            }
+        });
+        self.entries.par_sort_unstable();
+        self.shape = Some((n, model.corners.len()));
+        current
+    }
+
+    /// True when block `b` may have left its stored box: its corners can have moved by up to
+    /// |Δc| + |Δθ|·reach since the grid was built (a rigid motion), checked against half the
+    /// margin.
+    #[inline]
+    fn strayed(&self, b: usize, blk: &Block) -> bool {
+        let [x, y, rot, reach] = self.reference[b];
+        let moved = (blk.centroid[0] - x).hypot(blk.centroid[1] - y) + (blk.rotation - rot).abs() * reach;
+        moved.is_nan() || moved > 0.5 * self.margin
+    }
+
+    /// Every ordered pair (p, q), p ≠ q, of blocks whose current boxes overlap and at least one of
+    /// which is flagged, sorted: a sweep over the whole grid, right after `build` (`current` is
+    /// what it returned).
+    fn sweep(&self, current: &[[f64; 4]], flagged: &[bool]) -> Vec<u64> {
+        let cells = self.cells;
+        let stored = &self.stored;
+        let entries = &self.entries;
+        // Tasks of whole cells: chunk starts moved forward to the next cell boundary.
+        let step = 4 * PARALLEL_BLOCKS;
+        let mut starts: Vec<usize> = (0..entries.len()).step_by(step).map(|i| i + entries[i..].partition_point(|e| i > 0 && e.0 == entries[i - 1].0)).collect();
+        starts.push(entries.len());
+        starts.dedup();
+        let mut pairs: Vec<u64> = starts
+            .par_windows(2)
+            .flat_map_iter(|w| {
+                let mut out = Vec::new();
+                let mut i = w[0];
+                while i < w[1] {
+                    let key = entries[i].0;
+                    let j = i + entries[i..].partition_point(|e| e.0 == key);
+                    let cell = &entries[i..j];
+                    for (x, &(_, p)) in cell.iter().enumerate() {
+                        for &(_, q) in &cell[x + 1..] {
+                            let (p, q) = (p as usize, q as usize);
+                            if !(flagged[p] || flagged[q]) || !boxes_overlap(&current[p], &current[q]) {
+                                continue;
+                            }
+                            // Counted once: in the cell of the lower-left corner of the stored
+                            // boxes' intersection, which both boxes cover.
+                            if cells.key_of(stored[p][0].max(stored[q][0]), stored[p][1].max(stored[q][1])) == key {
+                                out.push((p as u64) << 32 | q as u64);
+                                out.push((q as u64) << 32 | p as u64);
+                            }
+                        }
+                    }
+                    i = j;
+                }
+                out
+            })
+            .collect();
+        for &l in &self.large {
+            let l = l as usize;
+            let found: Vec<u64> = (0..current.len())
+                .into_par_iter()
+                .with_min_len(PARALLEL_CONTACTS)
+                .filter(|&b| b != l && (flagged[l] || flagged[b]) && boxes_overlap(&current[l], &current[b]))
+                .flat_map_iter(|b| [(l as u64) << 32 | b as u64, (b as u64) << 32 | l as u64])
+                .collect();
+            pairs.extend(found);
+        }
+        pairs.par_sort_unstable();
+        // Two large blocks find each other twice.
+        pairs.dedup();
+        pairs
+    }
+
+    /// The same pairs as `sweep` for a few flagged blocks (`flagged_list`, ascending), from the
+    /// stored grid. `strayed` lists (ascending) the unflagged blocks that may have left their
+    /// stored boxes: those, and the flagged ones, are boxed afresh and put in a small grid of
+    /// their own.
+    fn query(&self, model: &Model, flagged_list: &[u32], strayed: &[u32]) -> Vec<u64> {
+        let (blocks, corners) = (&model.blocks, &model.corners);
+        let n = blocks.len();
+        let pad = 0.5 * model.tol.atol;
+        let cells = self.cells;
+        let boxed = |b: usize| bounding_box(corners_of(blocks, corners, b), pad);
+        // The moving set: flagged and strayed blocks, with their current boxes.
+        let mut moving: Vec<u32> = Vec::with_capacity(flagged_list.len() + strayed.len());
+        let (mut i, mut j) = (0, 0);
+        while i < flagged_list.len() || j < strayed.len() {
+            let take_f = j == strayed.len() || (i < flagged_list.len() && flagged_list[i] <= strayed[j]);
+            if take_f {
+                moving.push(flagged_list[i]);
+                i += 1;
+            } else {
+                moving.push(strayed[j]);
+                j += 1;
             }
         }
-    }
-    let mut pairs = Vec::new();
-    let mut consider = |i: u32, j: u32| {
-        let (i, j) = if i < j { (i, j) } else { (j, i) };
-        if i != j && (flagged[i as usize] || flagged[j as usize]) && boxes_overlap(&boxes[i as usize], &boxes[j as usize]) {
-            pairs.push((i, j));
-        }
-    };
-    for members in grid.values() {
-        for (k, &i) in members.iter().enumerate() {
-            for &j in &members[k + 1..] {
-                consider(i, j);
+        moving.dedup();
+        let is_moving = |b: u32| moving.binary_search(&b).is_ok();
+        let moving_box: Vec<[f64; 4]> = moving.par_iter().map(|&b| boxed(b as usize)).collect();
+        let box_of_moving = |b: u32| moving_box[moving.binary_search(&b).expect("a moving block")];
+        let mut moving_entries: Vec<(u64, u32)> = Vec::new();
+        let mut moving_large: Vec<u32> = Vec::new();
+        for (&b, bb) in moving.iter().zip(&moving_box) {
+            let r = cells.range(bb);
+            if r.count() > MAX_CELLS_PER_BLOCK {
+                moving_large.push(b);
+            } else {
+                moving_entries.extend(r.keys().map(|key| (key, b)));
             }
         }
+        moving_entries.sort_unstable();
+        let mut pairs: Vec<u64> = flagged_list
+            .par_iter()
+            .flat_map_iter(|&f| {
+                let fb = box_of_moving(f);
+                let mut found: Vec<u32> = Vec::new();
+                let mut offer_still = |b: u32| {
+                    // A block that has not strayed: its stored box holds its current one.
+                    if b != f && !is_moving(b) && boxes_overlap(&fb, &self.stored[b as usize]) && boxes_overlap(&fb, &boxed(b as usize)) {
+                        found.push(b);
+                    }
+                };
+                let range = cells.range(&fb);
+                if range.count() > (n as u64).max(MAX_CELLS_PER_BLOCK) {
+                    // A box wider than the whole grid's worth of cells: every block.
+                    (0..n as u32).for_each(&mut offer_still);
+                } else {
+                    for key in range.keys() {
+                        members(&self.entries, key).iter().for_each(|&(_, b)| offer_still(b));
+                    }
+                    self.large.iter().for_each(|&b| offer_still(b));
+                }
+                for key in range.keys() {
+                    for &(_, b) in members(&moving_entries, key) {
+                        if b != f && boxes_overlap(&fb, &box_of_moving(b)) {
+                            found.push(b);
+                        }
+                    }
+                }
+                for &b in &moving_large {
+                    if b != f && boxes_overlap(&fb, &box_of_moving(b)) {
+                        found.push(b);
+                    }
+                }
+                found.into_iter().flat_map(move |b| [(f as u64) << 32 | b as u64, (b as u64) << 32 | f as u64])
+            })
+            .collect();
+        pairs.par_sort_unstable();
+        pairs.dedup();
+        pairs
     }
-    for &l in &large {
-        for j in 0..n as u32 {
-            consider(l, j);
-        }
-    }
-    pairs.sort_unstable();
-    pairs.dedup();
-    pairs
 }
 
 /// The joint material and constitutive number of a new contact: a tag on the touched edge of
 /// block 2, else a tag on an edge at block 1's corner (SPLIT MAT= CONS=), else block 2's own
 /// (the manual: "the joint or contact will take the material and constitutive numbers of one of
 /// the adjoining blocks").
-fn contact_material(model: &Model, corner: u32, block2: usize, feature: u32) -> (u32, u32) {
-    let b2 = &model.blocks[block2];
-    let corners2 = model.block_corners(block2);
+fn contact_material(blocks: &[Block], corners: &[Corner], corner: u32, block2: usize, feature: u32) -> (u32, u32) {
+    let b2 = &blocks[block2];
+    let corners2 = corners_of(blocks, corners, block2);
     let k = (feature / 2) as usize % corners2.len();
     if feature % 2 == 1 && corners2[k].edge_material != 0 {
         return (corners2[k].edge_material, corners2[k].edge_constitutive.max(1));
     }
-    let c = &model.corners[corner as usize];
-    let b1 = &model.blocks[c.block as usize];
+    let c = &corners[corner as usize];
+    let b1 = &blocks[c.block as usize];
     let prev = if corner == b1.corner_start { b1.corner_start + b1.corner_count - 1 } else { corner - 1 };
-    for tagged in [c, &model.corners[prev as usize]] {
+    for tagged in [c, &corners[prev as usize]] {
         if tagged.edge_material != 0 {
             return (tagged.edge_material, tagged.edge_constitutive.max(1));
         }
@@ -118,106 +413,451 @@ fn contact_material(model: &Model, corner: u32, block2: usize, feature: u32) -> 
     (b2.material, b2.constitutive)
 }
 
+/// What examining one block's corners against its candidates decided.
+#[derive(Default)]
+struct Examined {
+    /// Contacts (indices into the contact list) whose gap now exceeds btol.
+    dropped: Vec<u32>,
+    /// New contacts, sorted by (corner, block 2), each with the index of the first contact after
+    /// it in the current list.
+    created: Vec<(u32, Contact)>,
+}
+
+/// Every corner of block `a` against the nearest feature of each candidate block `cands`
+/// (ascending). `run` holds a's contacts (block 1 = a), which start at `run_start` in the list:
+/// those that stay in touch get the new geometry, the others are reported dropped; a corner that
+/// has no contact with a candidate and comes within atol of it makes a new one.
+fn examine(a: usize, cands: &[u64], run: &mut [Contact], run_start: usize, blocks: &[Block], corners: &[Corner], tol: &Tolerances) -> Examined {
+    let mut out = Examined::default();
+    let blk = &blocks[a];
+    for corner in blk.corner_start..blk.corner_start + blk.corner_count {
+        let c = &corners[corner as usize];
+        for &pair in cands {
+            let b = pair as u32;
+            let g = nearest_feature(corners_of(blocks, corners, b as usize), c.circle, c.radius);
+            // The run is sorted by (corner, block 2); an identity found twice counts as its last.
+            let at = run.partition_point(|x| (x.corner, x.block2) <= (corner, b));
+            match at.checked_sub(1).filter(|&k| run[k].corner == corner && run[k].block2 == b) {
+                Some(k) => {
+                    if g.gap > tol.btol {
+                        out.dropped.push((run_start + k) as u32);
+                    } else {
+                        let contact = &mut run[k];
+                        contact.feature = g.feature;
+                        contact.kind = g.kind;
+                        contact.gap = g.gap;
+                        contact.normal = g.normal;
+                        contact.point = g.point;
+                    }
+                }
+                None if g.gap < tol.atol => {
+                    let (material, constitutive) = contact_material(blocks, corners, corner, b as usize, g.feature);
+                    let contact = Contact {
+                        id: 0,
+                        block1: a as u32,
+                        corner,
+                        block2: b,
+                        feature: g.feature,
+                        kind: g.kind,
+                        material,
+                        constitutive,
+                        // Surfaces already in touch when the contact forms (the two sides of
+                        // a SPLIT, blocks built against each other) are an intact joint.
+                        bonded: g.gap <= 1e-9 * tol.round.max(1e-300),
+                        point: g.point,
+                        normal: g.normal,
+                        gap: g.gap,
+                        normal_force: 0.0,
+                        shear_force: 0.0,
+                        shear_displacement: 0.0,
+                        force: [0.0, 0.0],
+                        slip_work: 0.0,
+                        dashpot_work: 0.0,
+                        dashpot_velocity: [0.0, 0.0],
+                    };
+                    out.created.push(((run_start + at) as u32, contact));
+                }
+                None => {}
+            }
+        }
+    }
+    out
+}
+
+#[inline]
+fn contact_key(c: &Contact) -> (u32, u32, u32) {
+    (c.block1, c.corner, c.block2)
+}
+
+/// What one contact update did, for the caller's report and for keeping the adjacency lists.
+pub struct ContactChanges {
+    pub created: usize,
+    pub dropped: usize,
+    /// The list was out of order on entry and has been sorted: the adjacency lists are stale.
+    pub reordered: bool,
+}
+
 /// Re-examines the neighbourhood of every flagged block (all blocks when `all` is true), creates
 /// new contacts, drops broken ones, and returns how many contacts were created and dropped.
 /// The caller rebuilds the adjacency lists afterwards.
 pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
-    let etol = model.tol.etol;
-    let flagged: Vec<bool> = model.blocks.iter().map(|b| all || (!b.fixed && b.moved_since_update > etol)).collect();
-    let pairs = candidate_pairs(model, &flagged);
+    let ch = in_pool(|| update(model, all, &mut BlockGrid::default(), None));
+    (ch.created, ch.dropped)
+}
 
-    // Existing contacts by identity: the corner and the block it touches.
-    let mut existing: HashMap<(u32, u32), usize> = HashMap::with_capacity_and_hasher(model.contacts.len(), Default::default());
-    for (i, c) in model.contacts.iter().enumerate() {
-        existing.insert((c.corner, c.block2), i);
+/// Stage 7's contact update as the backends run it: `update_contacts` with the broad phase's grid
+/// kept in `adjacency` between calls, the adjacency lists brought up to date, and the energy terms
+/// of the contacts dropped moved to the ledger's retired account.
+pub fn update_topology(model: &mut Model, all: bool, adjacency: &mut Adjacency) -> (usize, usize) {
+    let mut grid = std::mem::take(&mut adjacency.grid);
+    let ch = in_pool(|| update(model, all, &mut grid, Some(adjacency)));
+    adjacency.grid = grid;
+    (ch.created, ch.dropped)
+}
+
+/// Runs `f` on one of rayon's worker threads: the update's many short parallel loops then start
+/// without each handing its work over from an outside thread (which costs about as much as a
+/// small model's whole update).
+fn in_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    rayon::scope(|_| f())
+}
+
+/// The contacts that are about to be dropped take their energy terms to `model.retired`: the
+/// strain energy of their springs (released) and what their dashpots and friction dissipated.
+/// The same terms as the ledger's live sums, taken in storage order so the result repeats.
+fn retire(model: &mut Model, dropped: &[u32]) {
+    let (mut released, mut damping, mut friction) = (0.0, 0.0, 0.0);
+    for &k in dropped {
+        let c = &model.contacts[k as usize];
+        let m = model.material(c.material);
+        if m.kn > 0.0 {
+            released += c.normal_force.powi(2) / (2.0 * m.kn);
+        }
+        if m.ks > 0.0 {
+            released += c.shear_force.powi(2) / (2.0 * m.ks);
+        }
+        damping += c.dashpot_work;
+        friction += c.slip_work;
     }
-    let mut keep = vec![true; model.contacts.len()];
-    // Contacts of flagged blocks are re-decided below; contacts of pairs no longer candidates are
-    // decided by their current gap (kept up to date every cycle by the contact stage).
+    model.retired.released += released;
+    model.retired.contact_damping += damping;
+    model.retired.friction += friction;
+}
+
+fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<&mut Adjacency>) -> ContactChanges {
+    let n = model.blocks.len();
+    let etol = model.tol.etol;
     let btol = model.tol.btol;
-    for (i, c) in model.contacts.iter().enumerate() {
-        if c.gap > btol {
-            keep[i] = false;
+    // One pass over the blocks: those flagged, and (with a grid to keep) the unflagged ones that
+    // may have left their stored boxes.
+    let keep_grid = !all && grid.valid_for(model);
+    let (flagged_list, strayed): (Vec<u32>, Vec<u32>) = {
+        let g = &*grid;
+        model
+            .blocks
+            .par_iter()
+            .enumerate()
+            .with_min_len(PARALLEL_BLOCKS)
+            .fold(
+                || (Vec::new(), Vec::new()),
+                |(mut f, mut s), (b, blk)| {
+                    if all || (!blk.fixed && blk.moved_since_update > etol) {
+                        f.push(b as u32);
+                    } else if keep_grid && g.strayed(b, blk) {
+                        s.push(b as u32);
+                    }
+                    (f, s)
+                },
+            )
+            .reduce(
+                || (Vec::new(), Vec::new()),
+                |(mut f, mut s), (f2, s2)| {
+                    f.extend(f2);
+                    s.extend(s2);
+                    (f, s)
+                },
+            )
+    };
+
+    // Candidate pairs, both ways round, sorted: a sweep over a new grid when many blocks are
+    // flagged, else a query of the flagged ones, rebuilding the grid first when too many blocks
+    // have strayed from it.
+    let pairs = if n < 2 || flagged_list.is_empty() {
+        Vec::new()
+    } else if !keep_grid || flagged_list.len() > n / SWEEP_FRACTION {
+        let current = grid.build(model);
+        let mut flagged = vec![all; n];
+        if !all {
+            flagged_list.iter().for_each(|&b| flagged[b as usize] = true);
         }
+        grid.sweep(&current, &flagged)
+    } else if strayed.len() > n / REBUILD_FRACTION {
+        grid.build(model);
+        grid.query(model, &flagged_list, &[])
+    } else {
+        grid.query(model, &flagged_list, &strayed)
+    };
+
+    let owner_ends: Vec<usize> = {
+        let mut ends = Vec::new();
+        let mut i = 0;
+        while i < pairs.len() {
+            let p = pairs[i] >> 32;
+            i += pairs[i..].partition_point(|&x| x >> 32 == p);
+            ends.push(i);
+        }
+        ends
+    };
+    let many = owner_ends.len() > n / 64;
+    // One pass over the list: whether it is sorted by (block 1, corner, block 2), so that each
+    // block's contacts are one run; the contacts of pairs not examined below, decided by their
+    // current gap (kept up to date every cycle by the contact stage); and, when many blocks are
+    // examined, where each block's run starts.
+    let scan = |contacts: &[Contact]| {
+        contacts
+            .par_iter()
+            .enumerate()
+            .with_min_len(PARALLEL_CONTACTS)
+            .fold(
+                || (true, Vec::new(), Vec::new()),
+                |(mut in_order, mut drops, mut starts), (k, c)| {
+                    let prev = k.checked_sub(1).map(|j| &contacts[j]);
+                    in_order &= prev.is_none_or(|p| contact_key(p) <= contact_key(c));
+                    if c.gap > btol {
+                        drops.push(k as u32);
+                    }
+                    if many && prev.is_none_or(|p| p.block1 != c.block1) {
+                        starts.push((c.block1, k as u32));
+                    }
+                    (in_order, drops, starts)
+                },
+            )
+            .reduce(
+                || (true, Vec::new(), Vec::new()),
+                |(o1, mut d1, mut s1), (o2, d2, s2)| {
+                    d1.extend(d2);
+                    s1.extend(s2);
+                    (o1 && o2, d1, s1)
+                },
+            )
+    };
+    let contacts = &mut model.contacts;
+    let (sorted, mut gap_dropped, mut run_starts) = scan(contacts);
+    if !sorted {
+        // A list edited elsewhere: sorted first, stably, which leaves the result as it would be
+        // from the list as given.
+        contacts.par_sort_by_key(contact_key);
+        (_, gap_dropped, run_starts) = scan(contacts);
     }
-    let atol = model.tol.atol;
-    let mut created: Vec<Contact> = Vec::new();
-    for &(i, j) in &pairs {
-        for (a, b) in [(i as usize, j as usize), (j as usize, i as usize)] {
-            let range = {
-                let blk = &model.blocks[a];
-                blk.corner_start..blk.corner_start + blk.corner_count
-            };
-            for corner in range {
-                let c = &model.corners[corner as usize];
-                let g = nearest_feature(model.block_corners(b), c.circle, c.radius);
-                match existing.get(&(corner, b as u32)) {
-                    Some(&k) => {
-                        if g.gap > btol {
-                            keep[k] = false;
-                        } else {
-                            let contact = &mut model.contacts[k];
-                            contact.feature = g.feature;
-                            contact.kind = g.kind;
-                            contact.gap = g.gap;
-                            contact.normal = g.normal;
-                            contact.point = g.point;
-                        }
-                    }
-                    None if g.gap < atol => {
-                        let (material, constitutive) = contact_material(model, corner, b, g.feature);
-                        created.push(Contact {
-                            id: 0,
-                            block1: a as u32,
-                            corner,
-                            block2: b as u32,
-                            feature: g.feature,
-                            kind: g.kind,
-                            material,
-                            constitutive,
-                            // Surfaces already in touch when the contact forms (the two sides of
-                            // a SPLIT, blocks built against each other) are an intact joint.
-                            bonded: g.gap <= 1e-9 * model.tol.round.max(1e-300),
-                            point: g.point,
-                            normal: g.normal,
-                            gap: g.gap,
-                            normal_force: 0.0,
-                            shear_force: 0.0,
-                            shear_displacement: 0.0,
-                            force: [0.0, 0.0],
-                            slip_work: 0.0,
-                            dashpot_work: 0.0,
-                            dashpot_velocity: [0.0, 0.0],
-                        });
-                    }
-                    None => {}
+
+    // Narrow phase, one task per block with candidates, on that block's own run of contacts.
+    let owner_of = |e: usize| (pairs[e - 1] >> 32) as u32;
+    let m = contacts.len();
+    let runs: Vec<(usize, usize)> = owner_ends
+        .par_iter()
+        .map(|&e| {
+            let a = owner_of(e);
+            if many {
+                let j = run_starts.partition_point(|s| s.0 < a);
+                match run_starts.get(j) {
+                    Some(&(b, lo)) if b == a => (lo as usize, run_starts.get(j + 1).map_or(m, |s| s.1 as usize)),
+                    Some(&(_, lo)) => (lo as usize, lo as usize),
+                    None => (m, m),
                 }
+            } else {
+                let lo = contacts.partition_point(|c| c.block1 < a);
+                (lo, lo + contacts[lo..].partition_point(|c| c.block1 == a))
             }
+        })
+        .collect();
+    let examined: Vec<Examined> = {
+        let Model { blocks, corners, contacts, tol, .. } = &mut *model;
+        let mut slices = Vec::with_capacity(runs.len());
+        let mut rest: &mut [Contact] = contacts;
+        let mut at = 0;
+        for &(lo, hi) in &runs {
+            let (_, tail) = std::mem::take(&mut rest).split_at_mut(lo - at);
+            let (mine, tail) = tail.split_at_mut(hi - lo);
+            slices.push(mine);
+            rest = tail;
+            at = hi;
+        }
+        let (blocks, corners, tol) = (&*blocks, &*corners, &*tol);
+        let starts: Vec<usize> = std::iter::once(0).chain(owner_ends.iter().copied()).collect();
+        slices
+            .into_par_iter()
+            .zip(runs.par_iter())
+            .enumerate()
+            .map(|(o, (run, &(lo, _)))| {
+                let cands = &pairs[starts[o]..starts[o + 1]];
+                examine(owner_of(starts[o + 1]) as usize, cands, run, lo, blocks, corners, tol)
+            })
+            .collect()
+    };
+    drop(pairs);
+
+    // Dropped: by stored gap or by the gap just found (ascending, each once).
+    let mut dropped: Vec<u32> = gap_dropped;
+    let found: Vec<u32> = examined.iter().flat_map(|e| e.dropped.iter().copied()).collect();
+    if !found.is_empty() {
+        dropped.extend(found);
+        dropped.par_sort_unstable();
+        dropped.dedup();
+    }
+    // New contacts: where each goes (before the contact it names) and its id, in the order a
+    // serial sweep over the sorted pairs (i < j) creates them: pair by pair, block i's corners
+    // against j first, then j's against i, corners ascending.
+    let parts: Vec<Vec<(u32, Contact)>> = examined.into_iter().map(|e| e.created).collect();
+    let part_start: Vec<usize> = parts.iter().scan(0, |s, p| {
+        let at = *s;
+        *s += p.len();
+        Some(at)
+    }).collect();
+    let n_created: usize = parts.iter().map(Vec::len).sum();
+    let mut ids: Vec<u32> = Vec::new();
+    if n_created > 0 {
+        let order_key = |c: &Contact| {
+            let (lo, hi) = (c.block1.min(c.block2), c.block1.max(c.block2));
+            ((lo as u128) << 96) | ((hi as u128) << 64) | (((c.block1 > c.block2) as u128) << 32) | c.corner as u128
+        };
+        let mut order: Vec<(u128, u32)> =
+            parts.par_iter().zip(&part_start).flat_map_iter(|(p, &s)| p.iter().enumerate().map(move |(i, (_, c))| (order_key(c), (s + i) as u32))).collect();
+        order.par_sort_unstable();
+        ids.resize(n_created, 0);
+        for (rank, &(_, i)) in order.iter().enumerate() {
+            ids[i as usize] = model.next_contact_id + rank as u32;
+        }
+        model.next_contact_id += n_created as u32;
+    }
+    let insert_before: Vec<u32> = parts.iter().flat_map(|p| p.iter().map(|c| c.0)).collect();
+    let new_contacts = parts.iter().flatten().zip(&ids).map(|((_, c), &id)| Contact { id, ..*c });
+
+    let changes = ContactChanges { created: n_created, dropped: dropped.len(), reordered: !sorted };
+    if adjacency.is_some() && !dropped.is_empty() {
+        retire(model, &dropped);
+    }
+    let removed: Vec<(u32, u32, u32)> = if adjacency.is_some() { dropped.iter().map(|&k| (k, model.contacts[k as usize].block1, model.contacts[k as usize].block2)).collect() } else { Vec::new() };
+    let inserted_at = splice(&mut model.contacts, &dropped, &insert_before, new_contacts);
+    if let Some(adjacency) = adjacency {
+        if all || !sorted || !adjacency.fits(n, model.contacts.len() + dropped.len() - n_created) {
+            adjacency.rebuild(n, &model.contacts);
+        } else if !dropped.is_empty() || n_created > 0 {
+            adjacency.apply(n, &model.contacts, &removed, &insert_before, &inserted_at);
         }
     }
-    let before = model.contacts.len();
-    let mut k = 0;
-    model.contacts.retain(|_| {
-        k += 1;
-        keep[k - 1]
-    });
-    let dropped = before - model.contacts.len();
-    let n_created = created.len();
-    for mut c in created {
-        c.id = model.next_contact_id;
-        model.next_contact_id += 1;
-        model.contacts.push(c);
-    }
-    // A fixed order (by block 1, corner, block 2) makes runs repeat bit for bit.
-    model.contacts.sort_by_key(|c| (c.block1, c.corner, c.block2));
-    for (b, f) in model.blocks.iter_mut().zip(&flagged) {
-        if *f {
-            b.moved_since_update = 0.0;
-            b.update_centroid = b.centroid;
-            b.update_rotation = b.rotation;
+
+    let reset = |b: &mut Block| {
+        b.moved_since_update = 0.0;
+        b.update_centroid = b.centroid;
+        b.update_rotation = b.rotation;
+    };
+    if all {
+        model.blocks.par_iter_mut().with_min_len(PARALLEL_BLOCKS).for_each(reset);
+    } else {
+        for &b in &flagged_list {
+            reset(&mut model.blocks[b as usize]);
         }
     }
-    (n_created, dropped)
+    changes
+}
+
+/// Removes the contacts at `dropped` (ascending) and inserts `new_contacts`, each before the
+/// contact `insert_before` names (ascending), in place. Returns the new indices of the inserted contacts, ascending.
+///
+/// Each stretch of kept contacts between two changes moves once, by the insertions less the
+/// removals before it: those moving left first, front to back, then those moving right, back to
+/// front. Every move lands on the stretch's final place, which no stretch still to move occupies
+/// (final places keep the order), and a stretch whose changes cancel stays put.
+fn splice(contacts: &mut Vec<Contact>, dropped: &[u32], insert_before: &[u32], new_contacts: impl Iterator<Item = Contact>) -> Vec<u32> {
+    let old_len = contacts.len();
+    let new_len = (old_len + insert_before.len()) - dropped.len();
+    if dropped.len() == old_len {
+        // Nothing kept (the first detection of a model): the list is the new contacts.
+        contacts.clear();
+        contacts.extend(new_contacts);
+        return (0..new_len as u32).collect();
+    }
+    if dropped.is_empty() && insert_before.is_empty() {
+        return Vec::new();
+    }
+    // Kept stretches (start, end, shift) and the final index of each insertion.
+    let mut stretches: Vec<(usize, usize, isize)> = Vec::with_capacity(dropped.len() + insert_before.len() + 1);
+    let mut inserted_at: Vec<u32> = Vec::with_capacity(insert_before.len());
+    let (mut i, mut j, mut start, mut shift) = (0, 0, 0usize, 0isize);
+    loop {
+        let next_drop = dropped.get(i).map_or(old_len, |&k| k as usize);
+        let next_insert = insert_before.get(j).map_or(old_len, |&k| k as usize);
+        let at = next_drop.min(next_insert);
+        if at > start {
+            stretches.push((start, at, shift));
+        }
+        if at == old_len && j == insert_before.len() {
+            break;
+        }
+        // Insertions before the contact at `at`, then that contact's removal.
+        while j < insert_before.len() && insert_before[j] as usize == at {
+            inserted_at.push((at as isize + shift) as u32);
+            shift += 1;
+            j += 1;
+        }
+        start = at;
+        if i < dropped.len() && dropped[i] as usize == at {
+            shift -= 1;
+            i += 1;
+            start = at + 1;
+        }
+    }
+    if new_len > old_len {
+        let filler = contacts[0];
+        contacts.resize(new_len, filler);
+    }
+    for &(s, e, d) in stretches.iter().filter(|t| t.2 < 0) {
+        move_stretch(contacts, s, e, d);
+    }
+    for &(s, e, d) in stretches.iter().rev().filter(|t| t.2 > 0) {
+        move_stretch(contacts, s, e, d);
+    }
+    for (&at, c) in inserted_at.iter().zip(new_contacts) {
+        contacts[at as usize] = c;
+    }
+    contacts.truncate(new_len);
+    inserted_at
+}
+
+/// `v.copy_within(s..e, s + shift)`, in parallel for a long stretch and a short shift (a splice
+/// moves most of the list by a few places): the stretch is cut into pieces at least as long as
+/// the shift, each moved within its destination window, which no other piece reads or writes;
+/// the few elements each piece takes from a neighbouring window are put aside first.
+fn move_stretch<T: Copy + Send + Sync>(v: &mut [T], s: usize, e: usize, shift: isize) {
+    const PIECE: usize = 16384;
+    let d = shift.unsigned_abs();
+    if e - s < 4 * PIECE || d > PIECE {
+        v.copy_within(s..e, (s as isize + shift) as usize);
+        return;
+    }
+    let pieces = (e - s) / PIECE;
+    let bounds: Vec<usize> = (0..pieces).map(|i| s + i * PIECE).chain([e]).collect();
+    if shift < 0 {
+        // Window i = [a_i − d, a_{i+1} − d): its own [a_i, a_{i+1} − d) slides to the front, and
+        // [a_{i+1} − d, a_{i+1}), the start of the next window, lands at its end.
+        let aside: Vec<Vec<T>> = bounds[1..].iter().map(|&a| v[a - d..a].to_vec()).collect();
+        let windows = split_at_ends(&mut v[s - d..e - d], bounds[1..].iter().map(|&a| a - s));
+        windows.into_par_iter().zip(aside).for_each(|(w, next)| {
+            let len = w.len();
+            w.copy_within(d..len, 0);
+            w[len - d..].copy_from_slice(&next);
+        });
+    } else {
+        // Window i = [a_i + d, a_{i+1} + d): its own [a_i + d, a_{i+1}) slides to the back, and
+        // [a_i, a_i + d), the end of the previous window, lands at its start.
+        let aside: Vec<Vec<T>> = bounds[..pieces].iter().map(|&a| v[a..a + d].to_vec()).collect();
+        let windows = split_at_ends(&mut v[s + d..e + d], bounds[1..].iter().map(|&a| a - s));
+        windows.into_par_iter().zip(aside).for_each(|(w, previous)| {
+            let len = w.len();
+            w.copy_within(0..len - d, d);
+            w[..d].copy_from_slice(&previous);
+        });
+    }
 }
 
 /// True for a contact that carries the force of its touch; false for the other view of a touch
@@ -226,4 +866,91 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
 pub fn counts_force(model: &Model, c: &Contact) -> bool {
     let b2 = &model.blocks[c.block2 as usize];
     crate::cpu::contact_forces::counts_force(c.corner, &model.corners[c.corner as usize], model.block_corners(c.block2 as usize), b2.corner_start, c.feature)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ContactKind;
+
+    #[test]
+    fn move_stretch_is_copy_within() {
+        // Short stretches (one copy) and long ones (pieces in parallel), either way, shifts up to
+        // a whole piece.
+        for (len, s, e, shift) in [(100, 5, 50, 3), (100, 5, 50, -5), (200_000, 10, 150_000, -7), (200_000, 1000, 190_000, 9), (200_000, 0, 199_990, 10), (200_000, 16384, 200_000, -16384), (200_000, 3, 170_000, 16384)] {
+            let mut a: Vec<u64> = (0..len as u64).collect();
+            let mut b = a.clone();
+            move_stretch(&mut a, s, e, shift);
+            b.copy_within(s..e, (s as isize + shift) as usize);
+            assert!(a == b, "len {len}, {s}..{e} by {shift}");
+        }
+    }
+
+    fn contact(id: u32) -> Contact {
+        Contact {
+            id,
+            block1: 0,
+            corner: 0,
+            block2: 1,
+            feature: 0,
+            kind: ContactKind::CornerEdge,
+            material: 1,
+            constitutive: 1,
+            bonded: false,
+            point: [0.0; 2],
+            normal: [0.0; 2],
+            gap: 0.0,
+            normal_force: 0.0,
+            shear_force: 0.0,
+            shear_displacement: 0.0,
+            force: [0.0; 2],
+            slip_work: 0.0,
+            dashpot_work: 0.0,
+            dashpot_velocity: [0.0; 2],
+        }
+    }
+
+    #[test]
+    fn splice_removes_and_inserts_in_place() {
+        // A naive splice to compare with: kept contacts and insertions by position.
+        let naive = |old: &[Contact], dropped: &[u32], insert_before: &[u32], new: &[Contact]| {
+            let mut out = Vec::new();
+            let mut j = 0;
+            for (k, c) in old.iter().enumerate() {
+                while j < insert_before.len() && insert_before[j] as usize == k {
+                    out.push(new[j]);
+                    j += 1;
+                }
+                if dropped.binary_search(&(k as u32)).is_err() {
+                    out.push(*c);
+                }
+            }
+            out.extend_from_slice(&new[j..]);
+            out
+        };
+        let mut seed = 0x2545f4914f6cdd1du64;
+        let mut next = |m: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % m
+        };
+        for len in [0usize, 1, 7, 300, 100_000] {
+            for _ in 0..6 {
+                let old: Vec<Contact> = (0..len as u32).map(contact).collect();
+                let mut dropped: Vec<u32> = (0..next(len as u64 / 10 + 2)).map(|_| next(len.max(1) as u64) as u32).filter(|&k| (k as usize) < len).collect();
+                dropped.sort_unstable();
+                dropped.dedup();
+                let mut insert_before: Vec<u32> = (0..next(len as u64 / 10 + 3)).map(|_| next(len as u64 + 1) as u32).collect();
+                insert_before.sort_unstable();
+                let new: Vec<Contact> = (0..insert_before.len() as u32).map(|i| contact(1_000_000 + i)).collect();
+                let expected = naive(&old, &dropped, &insert_before, &new);
+                let mut got = old.clone();
+                let at = splice(&mut got, &dropped, &insert_before, new.iter().copied());
+                assert!(got == expected, "len {len}, dropped {dropped:?}, inserted before {insert_before:?}");
+                let positions: Vec<u32> = expected.iter().enumerate().filter(|(_, c)| c.id >= 1_000_000).map(|(k, _)| k as u32).collect();
+                assert_eq!(at, positions);
+            }
+        }
+    }
 }

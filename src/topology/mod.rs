@@ -8,4 +8,4 @@ pub mod detect;
 
 pub use adjacency::Adjacency;
 pub use cracking::{find_point_load_crack, apply_crack, PointLoadCrack};
-pub use detect::update_contacts;
+pub use detect::{update_contacts, update_topology};
