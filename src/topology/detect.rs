@@ -89,7 +89,7 @@ struct CellRange {
 
 impl CellRange {
     fn count(&self) -> u64 {
-        (self.x.1 - self.x.0 + 1) as u64 * (self.y.1 - self.y.0 + 1) as u64
+        (self.x.1 as u64 - self.x.0 as u64 + 1).saturating_mul(self.y.1 as u64 - self.y.0 as u64 + 1)
     }
 
     fn keys(self) -> impl Iterator<Item = u64> {
@@ -208,9 +208,19 @@ impl BlockGrid {
             .collect();
         let (sum, count) = partial.iter().fold((0.0, 0), |(s, k), &(ps, pk)| (s + ps, k + pk));
         let size = if count > 0 && sum > 0.0 { sum / count as f64 } else { 1.0 };
-        let x0 = self.stored.par_iter().map(|bb| bb[0]).reduce(|| f64::INFINITY, f64::min);
-        let y0 = self.stored.par_iter().map(|bb| bb[1]).reduce(|| f64::INFINITY, f64::min);
-        self.cells = Cells { x0: if x0.is_finite() { x0 } else { 0.0 }, y0: if y0.is_finite() { y0 } else { 0.0 }, size: size.max(1e-12) };
+        let size = size.max(1e-12);
+        // Origin: the lowest box corner, unless that lies more than 2³¹ cells below the median
+        // one (a block flung far away), so that the bulk of the blocks keeps distinct cells in
+        // the u32 range; outliers beyond it share its edge cells (their tests stay exact).
+        let origin = |axis: usize| {
+            let mut v: Vec<f64> = self.stored.par_iter().map(|bb| bb[axis]).collect();
+            let lowest = v.par_iter().copied().reduce(|| f64::INFINITY, f64::min);
+            let k = v.len() / 2;
+            let median = *v.select_nth_unstable_by(k, f64::total_cmp).1;
+            let o = lowest.max(median - 2f64.powi(31) * size);
+            if o.is_finite() { o } else { 0.0 }
+        };
+        self.cells = Cells { x0: origin(0), y0: origin(1), size };
         let cells = self.cells;
         // Entries: each block's cells, written in parallel at offsets from a prefix sum.
         let ranges: Vec<CellRange> = self.stored.par_iter().with_min_len(PARALLEL_BLOCKS).map(|bb| cells.range(bb)).collect();
@@ -353,34 +363,38 @@ impl BlockGrid {
             .par_iter()
             .flat_map_iter(|&f| {
                 let fb = box_of_moving(f);
+                let range = cells.range(&fb);
+                // A box over more cells than there are blocks tests every block instead.
+                let huge = range.count() > (n as u64).max(MAX_CELLS_PER_BLOCK);
                 let mut found: Vec<u32> = Vec::new();
+                {
+                    let mut offer_moving = |b: u32| {
+                        if b != f && boxes_overlap(&fb, &box_of_moving(b)) {
+                            found.push(b);
+                        }
+                    };
+                    moving_large.iter().for_each(|&b| offer_moving(b));
+                    if huge {
+                        moving.iter().for_each(|&b| offer_moving(b));
+                    } else {
+                        for key in range.keys() {
+                            members(&moving_entries, key).iter().for_each(|&(_, b)| offer_moving(b));
+                        }
+                    }
+                }
                 let mut offer_still = |b: u32| {
                     // A block that has not strayed: its stored box holds its current one.
                     if b != f && !is_moving(b) && boxes_overlap(&fb, &self.stored[b as usize]) && boxes_overlap(&fb, &boxed(b as usize)) {
                         found.push(b);
                     }
                 };
-                let range = cells.range(&fb);
-                if range.count() > (n as u64).max(MAX_CELLS_PER_BLOCK) {
-                    // A box wider than the whole grid's worth of cells: every block.
+                if huge {
                     (0..n as u32).for_each(&mut offer_still);
                 } else {
                     for key in range.keys() {
                         members(&self.entries, key).iter().for_each(|&(_, b)| offer_still(b));
                     }
                     self.large.iter().for_each(|&b| offer_still(b));
-                }
-                for key in range.keys() {
-                    for &(_, b) in members(&moving_entries, key) {
-                        if b != f && boxes_overlap(&fb, &box_of_moving(b)) {
-                            found.push(b);
-                        }
-                    }
-                }
-                for &b in &moving_large {
-                    if b != f && boxes_overlap(&fb, &box_of_moving(b)) {
-                        found.push(b);
-                    }
                 }
                 found.into_iter().flat_map(move |b| [(f as u64) << 32 | b as u64, (b as u64) << 32 | f as u64])
             })
@@ -872,6 +886,51 @@ pub fn counts_force(model: &Model, c: &Contact) -> bool {
 mod tests {
     use super::*;
     use crate::model::ContactKind;
+
+    /// A wall after a full detection, its adjacency kept as a backend keeps it.
+    fn wall(bricks: usize) -> (Model, Adjacency) {
+        let deck = format!("{}CYCLE 0\n", crate::bench::scene::scaling_wall(bricks, 0.1).deck());
+        let mut model = crate::scenes::run_deck_on(&deck, Box::new(crate::cpu::CpuBackend::new())).expect("the wall builds");
+        let mut adjacency = Adjacency::default();
+        update_topology(&mut model, true, &mut adjacency);
+        (model, adjacency)
+    }
+
+    /// Moves block b rigidly (its corners follow, as after a cycle).
+    fn shift(model: &mut Model, b: usize, by: [f64; 2], turn: f64) {
+        let blk = &mut model.blocks[b];
+        blk.centroid = [blk.centroid[0] + by[0], blk.centroid[1] + by[1]];
+        blk.rotation += turn;
+        let blk = blk.clone();
+        let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
+        crate::cpu::geometry_update::geometry_update(&blk, &mut model.corners[range]);
+    }
+
+    #[test]
+    fn kept_grid_and_lists_match_a_fresh_detection() {
+        // Updates through the kept grid (flagged blocks queried, strayed ones boxed afresh) and
+        // the renumbered adjacency lists against a detection from scratch and a rebuilt list.
+        let (mut model, mut adjacency) = wall(1000);
+        let etol = model.tol.etol;
+        for round in 0..6usize {
+            for k in 0..40 {
+                let b = 1 + (round * 97 + k * 13) % (model.blocks.len() - 1);
+                if model.blocks[b].fixed {
+                    continue;
+                }
+                let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+                shift(&mut model, b, [sign * 0.07 * (round + 1) as f64, 0.01 * round as f64], 0.002 * sign);
+                // Most are flagged; some move without the flag (they stray from the grid).
+                model.blocks[b].moved_since_update = if k % 5 == 0 { 0.5 * etol } else { 2.0 * etol };
+            }
+            let mut fresh = model.clone();
+            let expected = update_contacts(&mut fresh, false);
+            let got = update_topology(&mut model, false, &mut adjacency);
+            assert_eq!(got, expected, "round {round}");
+            assert!(model.contacts == fresh.contacts && model.blocks == fresh.blocks, "round {round}: contacts differ");
+            assert!(adjacency == Adjacency::build(model.blocks.len(), &model.contacts), "round {round}: adjacency");
+        }
+    }
 
     #[test]
     fn move_stretch_is_copy_within() {
