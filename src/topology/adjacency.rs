@@ -285,3 +285,56 @@ impl Renumber {
         (k as i64 + shift as i64) as u32
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ContactKind;
+
+    #[test]
+    fn parallel_build_gives_the_serial_lists() {
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let mut next = |m: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % m) as u32
+        };
+        let blocks = 5000;
+        let contacts: Vec<Contact> = (0..3 * PARALLEL_CONTACTS as u32)
+            .map(|id| {
+                let block1 = next(blocks);
+                let block2 = (block1 + 1 + next(blocks - 1)) % blocks as u32;
+                Contact {
+                    id,
+                    block1,
+                    corner: 0,
+                    block2,
+                    feature: 0,
+                    kind: ContactKind::CornerEdge,
+                    material: 1,
+                    constitutive: 1,
+                    bonded: false,
+                    point: [0.0; 2],
+                    normal: [0.0; 2],
+                    gap: 0.0,
+                    normal_force: 0.0,
+                    shear_force: 0.0,
+                    shear_displacement: 0.0,
+                    force: [0.0; 2],
+                    slip_work: 0.0,
+                    dashpot_work: 0.0,
+                    dashpot_velocity: [0.0; 2],
+                }
+            })
+            .collect();
+        let (mut serial, mut parallel) = (Adjacency::default(), Adjacency::default());
+        serial.rebuild_serial(blocks as usize, &contacts);
+        parallel.rebuild_parallel(blocks as usize, &contacts);
+        assert!(serial == parallel);
+        // Storage kept from a larger build.
+        parallel.rebuild_parallel(blocks as usize, &contacts[..PARALLEL_CONTACTS + 7]);
+        serial.rebuild_serial(blocks as usize, &contacts[..PARALLEL_CONTACTS + 7]);
+        assert!(serial == parallel);
+    }
+}
