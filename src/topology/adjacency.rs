@@ -2,6 +2,8 @@
 //! Entry = contact index × 2 + side (0: the block is the contact's block 1, 1: block 2), so the
 //! same u32 array serves the GPU gather unchanged.
 
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+
 use rayon::prelude::*;
 
 use super::detect::BlockGrid;
@@ -10,7 +12,10 @@ use crate::model::Contact;
 /// Smallest number of blocks one parallel task takes.
 const PARALLEL_BLOCKS: usize = 1024;
 
-#[derive(Clone, Debug, Default)]
+/// Below this many contacts the lists are built on one thread.
+const PARALLEL_CONTACTS: usize = 1 << 16;
+
+#[derive(Debug, Default)]
 pub struct Adjacency {
     /// `offsets[b] .. offsets[b+1]` indexes `entries` for block b.
     pub offsets: Vec<u32>,
@@ -19,6 +24,16 @@ pub struct Adjacency {
     pub(crate) grid: BlockGrid,
     /// Room for the next `entries`, kept to spare a large allocation per update.
     spare: Vec<u32>,
+    /// Per-block cursors and the slots of a parallel build, kept likewise.
+    cursors: Vec<AtomicU32>,
+    slots: Vec<AtomicU32>,
+}
+
+/// A copy of the lists and the grid (not of the work space).
+impl Clone for Adjacency {
+    fn clone(&self) -> Self {
+        Adjacency { offsets: self.offsets.clone(), entries: self.entries.clone(), grid: self.grid.clone(), ..Adjacency::default() }
+    }
 }
 
 /// Two adjacencies are equal when their lists are.
@@ -39,6 +54,15 @@ impl Adjacency {
 
     /// `build` into the lists' own storage.
     pub fn rebuild(&mut self, block_count: usize, contacts: &[Contact]) {
+        if contacts.len() < PARALLEL_CONTACTS {
+            self.rebuild_serial(block_count, contacts);
+        } else {
+            self.rebuild_parallel(block_count, contacts);
+        }
+    }
+
+    /// A counting sort: list lengths, their offsets, then each entry in contact order.
+    fn rebuild_serial(&mut self, block_count: usize, contacts: &[Contact]) {
         let counts = &mut self.offsets;
         counts.clear();
         counts.resize(block_count + 1, 0);
@@ -61,6 +85,59 @@ impl Adjacency {
                 *slot += 1;
             }
         }
+    }
+
+    /// The counting sort in parallel: list lengths counted with atomic adds (the same counts in
+    /// any order), each entry dropped into a free slot of its list's range, then every list
+    /// sorted, which gives the serial build's order (ascending contact index) whatever order the
+    /// slots were taken in.
+    fn rebuild_parallel(&mut self, block_count: usize, contacts: &[Contact]) {
+        let cursors = &mut self.cursors;
+        cursors.clear();
+        cursors.resize_with(block_count + 1, || AtomicU32::new(0));
+        contacts.par_iter().with_min_len(PARALLEL_BLOCKS).for_each(|c| {
+            cursors[c.block1 as usize + 1].fetch_add(1, Relaxed);
+            cursors[c.block2 as usize + 1].fetch_add(1, Relaxed);
+        });
+        self.offsets.clear();
+        self.offsets.extend(cursors.iter_mut().map(|a| *a.get_mut()));
+        for b in 0..block_count {
+            self.offsets[b + 1] += self.offsets[b];
+        }
+        cursors.par_iter_mut().zip(self.offsets.par_iter()).with_min_len(PARALLEL_BLOCKS).for_each(|(a, &o)| *a.get_mut() = o);
+        let slots = &mut self.slots;
+        slots.clear();
+        slots.resize_with(2 * contacts.len(), || AtomicU32::new(0));
+        contacts.par_iter().enumerate().with_min_len(PARALLEL_BLOCKS).for_each(|(i, c)| {
+            for (block, side) in [(c.block1, 0u32), (c.block2, 1u32)] {
+                let at = cursors[block as usize].fetch_add(1, Relaxed);
+                slots[at as usize].store((i as u32) << 1 | side, Relaxed);
+            }
+        });
+        self.entries.clear();
+        self.entries.resize(2 * contacts.len(), 0);
+        let offsets = &self.offsets;
+        let chunks = block_count.div_ceil(PARALLEL_BLOCKS);
+        let ends = (1..=chunks).map(|c| offsets[(c * PARALLEL_BLOCKS).min(block_count)] as usize);
+        let mut pieces = Vec::with_capacity(chunks);
+        let mut rest: &mut [u32] = &mut self.entries;
+        let mut at = 0;
+        for end in ends {
+            let (piece, tail) = std::mem::take(&mut rest).split_at_mut(end - at);
+            pieces.push(piece);
+            rest = tail;
+            at = end;
+        }
+        let slots = &*slots;
+        pieces.into_par_iter().enumerate().for_each(|(c, out)| {
+            let base = offsets[c * PARALLEL_BLOCKS] as usize;
+            for (o, slot) in out.iter_mut().zip(&slots[base..]) {
+                *o = slot.load(Relaxed);
+            }
+            for b in c * PARALLEL_BLOCKS..((c + 1) * PARALLEL_BLOCKS).min(block_count) {
+                out[offsets[b] as usize - base..offsets[b + 1] as usize - base].sort_unstable();
+            }
+        });
     }
 
     /// True when the lists have the shape of `block_count` blocks and `contact_count` contacts.
@@ -206,5 +283,58 @@ impl Renumber {
             shift += step;
         }
         (k as i64 + shift as i64) as u32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ContactKind;
+
+    #[test]
+    fn parallel_build_gives_the_serial_lists() {
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let mut next = |m: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % m) as u32
+        };
+        let blocks = 5000;
+        let contacts: Vec<Contact> = (0..3 * PARALLEL_CONTACTS as u32)
+            .map(|id| {
+                let block1 = next(blocks);
+                let block2 = (block1 + 1 + next(blocks - 1)) % blocks as u32;
+                Contact {
+                    id,
+                    block1,
+                    corner: 0,
+                    block2,
+                    feature: 0,
+                    kind: ContactKind::CornerEdge,
+                    material: 1,
+                    constitutive: 1,
+                    bonded: false,
+                    point: [0.0; 2],
+                    normal: [0.0; 2],
+                    gap: 0.0,
+                    normal_force: 0.0,
+                    shear_force: 0.0,
+                    shear_displacement: 0.0,
+                    force: [0.0; 2],
+                    slip_work: 0.0,
+                    dashpot_work: 0.0,
+                    dashpot_velocity: [0.0; 2],
+                }
+            })
+            .collect();
+        let (mut serial, mut parallel) = (Adjacency::default(), Adjacency::default());
+        serial.rebuild_serial(blocks as usize, &contacts);
+        parallel.rebuild_parallel(blocks as usize, &contacts);
+        assert!(serial == parallel);
+        // Storage kept from a larger build.
+        parallel.rebuild_parallel(blocks as usize, &contacts[..PARALLEL_CONTACTS + 7]);
+        serial.rebuild_serial(blocks as usize, &contacts[..PARALLEL_CONTACTS + 7]);
+        assert!(serial == parallel);
     }
 }
