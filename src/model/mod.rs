@@ -209,6 +209,35 @@ pub struct Contact {
     pub dashpot_velocity: [f64; 2],
 }
 
+impl Contact {
+    /// An unloaded corner–edge contact of corner 0 of `block1` against `block2`, material 1: a
+    /// starting point for unit tests of the topology code.
+    #[cfg(test)]
+    pub(crate) fn unloaded(id: u32, block1: u32, block2: u32) -> Contact {
+        Contact {
+            id,
+            block1,
+            corner: 0,
+            block2,
+            feature: 0,
+            kind: ContactKind::CornerEdge,
+            material: 1,
+            constitutive: 1,
+            bonded: false,
+            point: [0.0; 2],
+            normal: [0.0; 2],
+            gap: 0.0,
+            normal_force: 0.0,
+            shear_force: 0.0,
+            shear_displacement: 0.0,
+            force: [0.0; 2],
+            slip_work: 0.0,
+            dashpot_work: 0.0,
+            dashpot_velocity: [0.0; 2],
+        }
+    }
+}
+
 /// Rayleigh damping (DAMPING command): mass-proportional α and stiffness-proportional β.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Damping {

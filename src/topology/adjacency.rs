@@ -289,7 +289,6 @@ impl Renumber {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::ContactKind;
 
     #[test]
     fn parallel_build_gives_the_serial_lists() {
@@ -305,27 +304,7 @@ mod tests {
             .map(|id| {
                 let block1 = next(blocks);
                 let block2 = (block1 + 1 + next(blocks - 1)) % blocks as u32;
-                Contact {
-                    id,
-                    block1,
-                    corner: 0,
-                    block2,
-                    feature: 0,
-                    kind: ContactKind::CornerEdge,
-                    material: 1,
-                    constitutive: 1,
-                    bonded: false,
-                    point: [0.0; 2],
-                    normal: [0.0; 2],
-                    gap: 0.0,
-                    normal_force: 0.0,
-                    shear_force: 0.0,
-                    shear_displacement: 0.0,
-                    force: [0.0; 2],
-                    slip_work: 0.0,
-                    dashpot_work: 0.0,
-                    dashpot_velocity: [0.0; 2],
-                }
+                Contact::unloaded(id, block1, block2)
             })
             .collect();
         let (mut serial, mut parallel) = (Adjacency::default(), Adjacency::default());

@@ -885,7 +885,6 @@ pub fn counts_force(model: &Model, c: &Contact) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::ContactKind;
 
     /// A wall after a full detection, its adjacency kept as a backend keeps it.
     fn wall(bricks: usize) -> (Model, Adjacency) {
@@ -946,27 +945,7 @@ mod tests {
     }
 
     fn contact(id: u32) -> Contact {
-        Contact {
-            id,
-            block1: 0,
-            corner: 0,
-            block2: 1,
-            feature: 0,
-            kind: ContactKind::CornerEdge,
-            material: 1,
-            constitutive: 1,
-            bonded: false,
-            point: [0.0; 2],
-            normal: [0.0; 2],
-            gap: 0.0,
-            normal_force: 0.0,
-            shear_force: 0.0,
-            shear_displacement: 0.0,
-            force: [0.0; 2],
-            slip_work: 0.0,
-            dashpot_work: 0.0,
-            dashpot_velocity: [0.0; 2],
-        }
+        Contact::unloaded(id, 0, 1)
     }
 
     #[test]
