@@ -155,6 +155,8 @@ pub struct GpuDevice {
     pub precision: Precision,
     /// The first error wgpu raised outside an error scope (its default handler would panic).
     uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
+    /// The read-back staging buffer, kept between read-backs (`read_parts`).
+    staging: std::sync::Mutex<Option<wgpu::Buffer>>,
 }
 
 impl GpuDevice {
@@ -235,7 +237,7 @@ impl GpuDevice {
                 slot.get_or_insert_with(|| e.to_string());
             }
         }));
-        Ok(GpuDevice { device, queue, summary, precision, uncaptured })
+        Ok(GpuDevice { device, queue, summary, precision, uncaptured, staging: std::sync::Mutex::new(None) })
     }
 
     /// Waits for all submitted work, at most `WAIT_TIMEOUT`.
@@ -268,11 +270,16 @@ impl GpuDevice {
             let empty: Vec<&[u8]> = parts.iter().map(|_| &[][..]).collect();
             return Ok(f(&empty));
         }
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: total,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+        // One staging buffer, kept and grown as needed: a contact update of a large model reads
+        // the whole state back, and allocating that much mappable memory each time costs.
+        let kept = self.staging.lock().ok().and_then(|mut s| s.take()).filter(|b| b.size() >= total);
+        let staging = kept.unwrap_or_else(|| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: total + total / 4,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
         });
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
         for ((buffer, size), offset) in parts.iter().zip(&offsets) {
@@ -282,7 +289,7 @@ impl GpuDevice {
         }
         self.queue.submit([enc.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
-        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        staging.map_async(wgpu::MapMode::Read, ..total, move |r| {
             let _ = tx.send(r);
         });
         self.wait()?;
@@ -292,11 +299,14 @@ impl GpuDevice {
             Err(_) => return Err(GpuError::Device("a read-back did not complete".into())),
         }
         let result = {
-            let view = staging.get_mapped_range(..).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?;
+            let view = staging.get_mapped_range(..total).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?;
             let slices: Vec<&[u8]> = parts.iter().zip(&offsets).map(|((_, size), &o)| &view[o as usize..(o + size) as usize]).collect();
             f(&slices)
         };
         staging.unmap();
+        if let Ok(mut kept) = self.staging.lock() {
+            *kept = Some(staging);
+        }
         Ok(result)
     }
 
