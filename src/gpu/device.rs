@@ -47,9 +47,6 @@ impl std::str::FromStr for AdapterChoice {
 /// has no watchdog, so a runaway kernel would otherwise hang the process.
 pub const WAIT_TIMEOUT: Duration = Duration::from_secs(120);
 
-
-
-
 /// The backends to look at: `WGPU_BACKEND` when set, else Vulkan and GL.
 fn backends_for(choice: &AdapterChoice) -> wgpu::Backends {
     let base = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::VULKAN | wgpu::Backends::GL);

@@ -218,11 +218,14 @@ impl Buffers {
     }
 }
 
-/// Workgroups of the energy check: one invocation per block and contact, whichever are more,
-/// rounded up to whole rows of its two-dimensional dispatch (each workgroup writes one sum).
+/// The dispatch of the energy check: one invocation per block and contact, whichever are more.
+pub fn energy_grid(blocks: usize, contacts: usize) -> (u32, u32) {
+    shaders::dispatch_grid(blocks.max(contacts).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1) as u32)
+}
+
+/// Workgroups of the energy check, whole rows of its grid (each workgroup writes one sum).
 pub fn energy_groups(blocks: usize, contacts: usize) -> usize {
-    let groups = blocks.max(contacts).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1) as u32;
-    let (x, y) = shaders::dispatch_grid(groups);
+    let (x, y) = energy_grid(blocks, contacts);
     (x * y) as usize
 }
 

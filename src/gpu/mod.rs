@@ -11,17 +11,21 @@
 //! ## How a run goes
 //!
 //! The model is uploaded once; then the GPU runs batches of cycles with no round trip inside a
-//! batch. Each cycle is five labelled compute passes — `law_of_motion`, `geometry_update`,
-//! `contact_forces`, `gather`, `end_cycle` — dispatched over the live counts of blocks, corners and
-//! contacts. Kernels raise flags (a block past the update tolerance, a non-finite step, a block
-//! too fast, an overlap too great); `end_cycle` then halts the rest of the batch, so the CPU sees
-//! exactly the state of the cycle that raised it, as the CPU backend would. After a batch the CPU
-//! reads back the flags only; it reads back the state when stage 7 is due, at the energy check
-//! (every 100 cycles, which is also the checkpoint of the last good state), and every cycle in
-//! scenes with point-load cracking candidates (the criterion is evaluated by the existing CPU code
-//! on the read-back contacts). It runs the existing CPU topology code on the `Model` and re-uploads
-//! only what changed: contacts and adjacency after a contact update (plus the reset update
-//! distances of the re-examined blocks); everything after a crack split a block.
+//! batch: one compute pass per ten cycles, each cycle the dispatches `law_of_motion`,
+//! `geometry_update`, `contact_forces`, `gather` (and `gather_heavy` where a block has more than
+//! `HEAVY_DEGREE` contacts), `end_cycle`, over two-dimensional grids that follow the live counts
+//! of blocks, corners and contacts. Kernels raise flags (a block past the update tolerance, a
+//! non-finite step, a block too fast, an overlap too great); `end_cycle` then halts the rest of the
+//! batch, so the CPU sees exactly the state of the cycle that raised it, as the CPU backend would.
+//! After a batch the CPU reads back the flags only; it reads back the state when stage 7 is due
+//! (together with the flags while contacts change every few batches), every cycle in scenes with
+//! point-load cracking candidates (the criterion is evaluated by the existing CPU code on the
+//! read-back contacts), after a failure and at the end of the run. It runs the existing CPU
+//! topology code on the `Model` and re-uploads only what changed: contacts, their gather records
+//! and adjacency after a contact update (plus the reset update distances of the re-examined
+//! blocks); everything after a crack split a block. The energy check every 100 cycles is summed
+//! on the device (`energy_sums`), and the last good state is a device-side copy of the state
+//! buffers taken when a check passes (`take_checkpoint`), read back only if the run fails.
 //!
 //! ## The energy ledger
 //!
@@ -340,12 +344,8 @@ where
             }
             origin = [(0.5 * (lo[0] + hi[0])).round(), (0.5 * (lo[1] + hi[1])).round()];
         }
-        let uploaded = Uploaded {
-            origin,
-            work_base: model.external_work,
-            damping_base: model.blocks.iter().map(|b| b.damping_work).collect(),
-            contact_base: self.uploaded.contact_base.clone(),
-        };
+        // The contact bases are set by `upload_contacts`, which follows.
+        let uploaded = Uploaded { origin, work_base: model.external_work, damping_base: model.blocks.iter().map(|b| b.damping_work).collect(), contact_base: Vec::new() };
         let blocks: Vec<Block<R>> = model
             .blocks
             .par_iter()
@@ -451,27 +451,22 @@ where
         let forces: Vec<ContactForce<R>> = model.contacts.par_iter().with_min_len(4096).map(|c| Self::gpu_contact_force(model, c)).collect();
         // The contact update kept each surviving contact's ledger terms in the model (matched by
         // corner and block, with their feature ids): they are the new bases.
-        let mut uploaded = (*self.uploaded).clone();
-        uploaded.contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
-        self.uploaded = std::rc::Rc::new(uploaded);
+        // (A copy of the rest only when a checkpoint still shares it.)
+        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
         self.generation += 1;
-        let b = self.buffers.as_mut().expect("buffers exist");
-        let d = &self.dev;
-        let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
-        g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
-        g |= Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
-        g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, adjacency.offsets.len())?;
-        g |= Buffers::ensure(d, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(model.blocks.len(), contacts.len()))?;
-        if g {
-            self.bind_group = None;
-        }
         // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl).
         let mut offsets = adjacency.offsets.clone();
         let heavy: Vec<u32> = adjacency.offsets.windows(2).enumerate().filter(|(_, w)| w[1] - w[0] > shaders::HEAVY_DEGREE).map(|(b, _)| b as u32).collect();
         self.n_heavy = heavy.len();
         offsets.extend(heavy);
         let b = self.buffers.as_mut().expect("buffers exist");
-        if Buffers::ensure(&self.dev, &mut b.adj_offsets, "adjacency offsets", 4, offsets.len())? {
+        let d = &self.dev;
+        let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
+        g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
+        g |= Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
+        g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, offsets.len())?;
+        g |= Buffers::ensure(d, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(model.blocks.len(), contacts.len()))?;
+        if g {
             self.bind_group = None;
         }
         let b = self.buffers();
@@ -623,8 +618,8 @@ where
             return Err(GpuError::Setup("no state on the device: run some cycles first".into()));
         };
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
-        let groups = kernels::energy_groups(self.counts.0, self.counts.2);
-        let (x, y) = shaders::dispatch_grid(self.counts.0.max(self.counts.2).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1) as u32);
+        let (x, y) = kernels::energy_grid(self.counts.0, self.counts.2);
+        let groups = (x * y) as usize;
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy check") });
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("energy_sums"), timestamp_writes: None });

@@ -80,11 +80,15 @@ pub fn find_target(choice: &AdapterChoice, precision: Precision) -> Option<GpuTa
     }
     found.sort_by_key(rank);
     let adapter = found.into_iter().next()?;
-    let target = GpuTarget { options: GpuOptions { adapter: choice.clone(), precision }, adapter };
+    opening(GpuTarget { options: GpuOptions { adapter: choice.clone(), precision }, adapter })
+}
+
+/// The target if a device opens on it; else None, after saying why.
+fn opening(target: GpuTarget) -> Option<GpuTarget> {
     match device_opens(&target.options) {
         Ok(()) => Some(target),
         Err(e) => {
-            eprintln!("blockdem: {} {precision} is listed but opens no device: {e}", target.label());
+            eprintln!("blockdem: {} {} is listed but opens no device: {e}", target.label(), target.precision());
             None
         }
     }
@@ -120,11 +124,7 @@ pub fn scenario_backends() -> Vec<GpuTarget> {
         let api = api_of(&a).expect("filtered above");
         let precisions: &[Precision] = if a.shader_f64 { &[Precision::F32, Precision::F64] } else { &[Precision::F32] };
         for &precision in precisions {
-            let target = GpuTarget { options: GpuOptions { adapter: AdapterChoice::OnApi(api, a.name.clone()), precision }, adapter: a.clone() };
-            match device_opens(&target.options) {
-                Ok(()) => out.push(target),
-                Err(e) => eprintln!("blockdem: {} {precision} is listed but opens no device: {e}", target.label()),
-            }
+            out.extend(opening(GpuTarget { options: GpuOptions { adapter: AdapterChoice::OnApi(api, a.name.clone()), precision }, adapter: a.clone() }));
         }
     }
     out
