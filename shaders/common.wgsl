@@ -3,16 +3,17 @@
 // `alias real = f32;` or `f64`, WORKGROUP_SIZE and TIE_TOL. Storage structs hold reals first and
 // then an even number of u32 words, so both precisions have the same field order and no padding.
 
-// 112 / 208 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo);
+// 116 / 216 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo);
 // `work`, `damping_work`: external work and mass-damping dissipation since the upload;
-// `moved` is the largest net displacement from the reference (update_*) of the last contact update.
+// `moved` is the largest net displacement from the reference (update_*) of the last contact
+// update, due for the next one past etol + update_margin (the block's speed margin).
 struct Block {
     cx: real, cy: real, cx_lo: real, cy_lo: real,
     rotation: real, vx: real, vy: real, w: real,
     fx: real, fy: real, moment: real, mass: real,
     inertia: real, load_x: real, load_y: real, radius: real,
     work: real, damping_work: real,
-    moved: real, update_cx: real, update_cy: real, update_cx_lo: real, update_cy_lo: real, update_rotation: real,
+    moved: real, update_cx: real, update_cy: real, update_cx_lo: real, update_cy_lo: real, update_rotation: real, update_margin: real,
     fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
 }
 

@@ -74,7 +74,7 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     blocks[b].moved = blk.moved;
     blocks[b].work = blk.work;
     blocks[b].damping_work = blk.damping_work;
-    if (blk.moved > params.etol) {
+    if (blk.moved > params.etol + blk.update_margin) {
         atomicOr(&flags.update_due, 1u);
     }
     if (!is_finite(work)) {

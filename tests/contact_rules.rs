@@ -126,12 +126,62 @@ fn contact_updates_follow_displacement_not_every_cycle() {
     // the update tolerance (a fraction of the rounding length) since the last: many updates, but
     // far fewer than cycles.
     let mut m = run("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nVELOCITY 0 1 0 1 5 0\nCYCLE 0\n");
+    // With the report's fixed tolerance (no speed margins), each update follows a displacement
+    // of at most the tolerance: never more than one step past it.
+    m.tol.margin_steps = 0.0;
+    let mut fast = m.clone();
     let flying = cycle(&mut m, 1000);
     let per_update = 1000.0 / flying.topology_updates as f64;
     let step = 5.0 * m.timestep;
     assert!(flying.topology_updates >= 10 && per_update >= 3.0, "{} updates in 1000 cycles", flying.topology_updates);
-    // Each update follows a displacement of at most the tolerance: never more than one step past it.
     assert!(per_update * step <= m.tol.etol + step + 1e-12, "an update every {per_update} steps of {step} m; tolerance {}", m.tol.etol);
+    // With speed margins (the default) the block is searched farther around and may move the
+    // tolerance plus its margin, about `margin_steps` of its steps, between updates.
+    fast.tol.margin_steps = blockdem::model::DEFAULT_MARGIN_STEPS;
+    let fewer = cycle(&mut fast, 1000);
+    let margin = fast.tol.speed_margin(step);
+    assert!(margin > 0.0 && (fast.blocks[0].update_margin - margin).abs() < 1e-12, "margin {} for {step} m a step", fast.blocks[0].update_margin);
+    let per_update = 1000.0 / fewer.topology_updates as f64;
+    assert!(per_update * step <= fast.tol.etol + margin + step + 1e-12 && per_update * step >= fast.tol.etol + margin - step, "an update every {per_update} steps of {step} m, margin {margin}");
+}
+
+/// A 0.5 m projectile (density 8000) at 50 m/s into a small wall of 1 × 0.5 m bricks on a fixed
+/// base, gravity on: 7 mm a step against an update tolerance of 25 mm.
+fn projectile_into_bricks() -> Model {
+    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nPROP MAT=2 D=8000 KN=1E9 KS=1E9 F=0.6\nROUND 0.1\nBLOCK -1,-0.5 -1,0 6,0 6,-0.5\n");
+    for row in 0..3 {
+        let y = 0.5 * row as f64;
+        for col in 0..4 {
+            let x = col as f64 + if row % 2 == 1 { 0.5 } else { 0.0 };
+            deck += &format!("BLOCK {x},{y} {x},{} {},{} {},{y}\n", y + 0.5, x + 1.0, y + 0.5, x + 1.0);
+        }
+    }
+    deck += "FIX -2 7 -1 0\nGRAV 0 -10\nBLOCK MAT=2 -2.25,0.5 -2.25,1 -1.75,1 -1.75,0.5\nVELOCITY -2.5 -1.5 0.5 1 50 0\nCYCLE 0\n";
+    run(&deck)
+}
+
+#[test]
+fn speed_margins_change_the_update_count_not_the_motion() {
+    // Fast blocks are searched farther around and re-examined less often (`speed_margin`); the
+    // contacts found early are open and carry no force, so the motion must be the same as with
+    // the report's fixed tolerance, bit for bit, through the impact and the flying bricks.
+    let mut fixed = projectile_into_bricks();
+    fixed.tol.margin_steps = 0.0;
+    let mut speedy = projectile_into_bricks();
+    assert!(speedy.tol.margin_steps > 0.0, "margins are on by default");
+    let (a, b) = (cycle(&mut fixed, 1500), cycle(&mut speedy, 1500));
+    for (x, y) in fixed.blocks.iter().zip(&speedy.blocks) {
+        let bits = |b: &blockdem::model::Block| [b.centroid[0], b.centroid[1], b.rotation, b.velocity[0], b.velocity[1], b.angular_velocity].map(f64::to_bits);
+        assert_eq!(bits(x), bits(y), "block {} moved differently with speed margins", x.id);
+    }
+    // The projectile hit the wall and moved bricks (the scene tests something).
+    let hit = fixed.blocks.iter().filter(|b| !b.fixed && b.id != fixed.blocks.last().unwrap().id && b.velocity[0] > 1.0).count();
+    assert!(hit >= 2, "{hit} bricks set moving");
+    assert!(fixed.blocks.iter().all(|b| b.update_margin == 0.0), "no margins when margin_steps is 0");
+    assert!(b.topology_updates * 3 < a.topology_updates, "{} contact updates with speed margins, {} without", b.topology_updates, a.topology_updates);
+    // The margins made contacts beyond atol: open, no force.
+    let early: Vec<_> = speedy.contacts.iter().filter(|c| c.gap >= speedy.tol.atol).collect();
+    assert!(early.iter().all(|c| c.normal_force == 0.0 && c.shear_force == 0.0));
 }
 
 #[test]

@@ -72,6 +72,7 @@ fn add_rect(
         moved_since_update: 0.0,
         update_centroid: c,
         update_rotation: 0.0,
+        update_margin: 0.0,
         damping_work: 0.0,
     });
     model.next_block_id = model.next_block_id.max(id + 1);
@@ -365,6 +366,7 @@ fn print_corners_wraps_long_blocks() {
         moved_since_update: 0.0,
         update_centroid: [5.0, 5.0],
         update_rotation: 0.0,
+        update_margin: 0.0,
         damping_work: 0.0,
     });
     let t = text(|w| print_corners(&m, w));

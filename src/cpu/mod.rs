@@ -118,8 +118,8 @@ fn corners_in_block_order(model: &Model) -> bool {
 
 /// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
 pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
-    let etol = model.tol.etol;
-    if !force && !model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
+    let tol = model.tol;
+    if !force && !model.blocks.iter().any(|b| b.update_due(&tol)) {
         return false;
     }
     update_topology(model, adjacency, report, force);
@@ -435,8 +435,8 @@ impl Backend for CpuBackend {
                         }
                     }
                 }
-                let etol = model.tol.etol;
-                if model.blocks.iter().any(|b| !b.fixed && b.moved_since_update > etol) {
+                let tol = model.tol;
+                if model.blocks.iter().any(|b| b.update_due(&tol)) {
                     // The update books the energy of the contacts it drops, from the forces.
                     if !gathered {
                         gather_all(model, &scratch.forces, &adjacency, team);

@@ -89,8 +89,9 @@ gpu_struct! {
         /// (`Block::damping_work` counts from its value then; summed in f64 on the CPU).
         damping_work: R,
         /// Largest net displacement since the last contact update (`Block::moved_since_update`),
-        /// then the reference centroid (compensated pair) and rotation it is measured from.
-        moved: R, update_cx: R, update_cy: R, update_cx_lo: R, update_cy_lo: R, update_rotation: R,
+        /// then the reference centroid (compensated pair) and rotation it is measured from, and
+        /// the block's speed margin (`Block::update_margin`: it is due past etol + margin).
+        moved: R, update_cx: R, update_cy: R, update_cx_lo: R, update_cy_lo: R, update_rotation: R, update_margin: R,
         fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
     }
 }

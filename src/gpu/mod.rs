@@ -380,6 +380,7 @@ where
                     update_cx_lo: r(x0 - ux.to_f64()),
                     update_cy_lo: r(y0 - uy.to_f64()),
                     update_rotation: r(b.update_rotation),
+                    update_margin: r(b.update_margin),
                     fixed: b.fixed as u32,
                     corner_start: b.corner_start,
                     corner_count: b.corner_count,
@@ -726,6 +727,7 @@ where
             m.moved_since_update = g.moved.to_f64();
             m.update_centroid = [o[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), o[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
             m.update_rotation = g.update_rotation.to_f64();
+            m.update_margin = g.update_margin.to_f64();
             m.damping_work = base + g.damping_work.to_f64();
         });
         let work: f64 = blocks.iter().map(|g| g.work.to_f64()).sum();
@@ -772,9 +774,9 @@ where
         Ok(())
     }
 
-    /// After stage 7: the blocks it re-examined get their update distance reset and their
-    /// reference set to where they are now (one contiguous write of six fields each, copied from
-    /// the GPU's own values so the reference is exact).
+    /// After stage 7: the blocks it re-examined get their update distance reset, their
+    /// reference set to where they are now and their new speed margin (one contiguous write of
+    /// seven fields each, the reference copied from the GPU's own values so that it is exact).
     ///
     /// `last_blocks` is the device's block state as just read back (no cycle ran since), so
     /// when many blocks were re-examined (a busy impact) the whole block buffer is written in one
@@ -788,15 +790,19 @@ where
             .iter()
             .zip(&self.last_blocks)
             .enumerate()
-            .filter(|(_, (m, g))| m.moved_since_update == 0.0 && (g.moved.to_f64() != 0.0 || g.update_cx != g.cx || g.update_cy != g.cy || g.update_rotation != g.rotation))
+            .filter(|(_, (m, g))| {
+                m.moved_since_update == 0.0
+                    && (g.moved.to_f64() != 0.0 || g.update_cx != g.cx || g.update_cy != g.cy || g.update_rotation != g.rotation || g.update_margin != R::from_f64(m.update_margin))
+            })
             .map(|(i, _)| i)
             .collect();
         let whole = reset.len() * 8 > self.last_blocks.len();
         for &i in &reset {
             let g = &mut self.last_blocks[i];
             (g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation) = (R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, g.rotation);
+            g.update_margin = R::from_f64(model.blocks[i].update_margin);
             if !whole {
-                let fields = [g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation];
+                let fields = [g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation, g.update_margin];
                 self.dev.queue.write_buffer(&self.buffers().blocks.buffer, i as u64 * size + offset, bytemuck::cast_slice(&fields));
             }
         }
@@ -824,7 +830,7 @@ where
                 if b.fixed {
                     continue;
                 }
-                let travel = (b.velocity[0] * dt).hypot(b.velocity[1] * dt) + (b.angular_velocity * dt).abs() * b.radius;
+                let travel = b.travel_per_step(dt);
                 if travel > fastest.0 {
                     fastest = (travel, i);
                 }

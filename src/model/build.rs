@@ -177,6 +177,7 @@ impl Model {
             moved_since_update: seed.moved_since_update,
             update_centroid: c,
             update_rotation: 0.0,
+            update_margin: 0.0,
             damping_work: 0.0,
         });
         self.update_corner_positions(b);

@@ -107,10 +107,37 @@ pub struct Block {
     /// Centroid and rotation at the last contact update (the reference of `moved_since_update`).
     pub update_centroid: [f64; 2],
     pub update_rotation: f64,
+    /// Extra search distance this block was given at its last contact update, for its speed
+    /// (`Tolerances::speed_margin`): it was examined against blocks up to atol + its margin + the
+    /// other's away, and so it may move etol + margin before it needs the next update. 0 for a
+    /// block that moves less than a few millimetres a step (every block of a quiet scene).
+    #[serde(default)]
+    pub update_margin: f64,
     /// Energy dissipated by the mass-proportional Rayleigh damping force −α·m·v on this block
     /// since START (J, summed each step; see `law_of_motion`).
     #[serde(default)]
     pub damping_work: f64,
+}
+
+impl Block {
+    /// How far this block may move from its last contact update before it needs the next one.
+    #[inline]
+    pub fn update_threshold(&self, tol: &Tolerances) -> f64 {
+        tol.etol + self.update_margin
+    }
+
+    /// Whether this block has moved past its update threshold (fixed blocks never are).
+    #[inline]
+    pub fn update_due(&self, tol: &Tolerances) -> bool {
+        !self.fixed && self.moved_since_update > self.update_threshold(tol)
+    }
+
+    /// How far its corners travel in one step of `dt` at its present velocity: |v|·Δt + |ω|·Δt·R
+    /// (the too-fast check's measure).
+    #[inline]
+    pub fn travel_per_step(&self, dt: f64) -> f64 {
+        (self.velocity[0] * dt).hypot(self.velocity[1] * dt) + (self.angular_velocity * dt).abs() * self.radius
+    }
 }
 
 /// One rounded corner (UDEC corner data array: KXP, KYP, KXCP, KYCP, KRAD).
@@ -264,15 +291,48 @@ pub struct Tolerances {
     pub atol: f64,
     /// A contact is broken when the gap exceeds this.
     pub btol: f64,
-    /// A block triggers a contact update after its corners moved this far since its last one.
-    /// Two blocks each below it approach by less than 2·etol < atol, so no contact can be missed.
+    /// A block triggers a contact update after its corners moved this far since its last one
+    /// (plus its own `Block::update_margin`). Two blocks each below it approach by less than
+    /// 2·etol < atol, so no contact can be missed.
     pub etol: f64,
+    /// Steps of its current travel a fast block may make between two of its contact updates (0:
+    /// no speed margins, every block uses etol alone). See `speed_margin`.
+    #[serde(default = "default_margin_steps")]
+    pub margin_steps: f64,
+}
+
+/// A fast block is re-examined about every this many of its steps (`Tolerances::speed_margin`).
+pub const DEFAULT_MARGIN_STEPS: f64 = 16.0;
+
+fn default_margin_steps() -> f64 {
+    DEFAULT_MARGIN_STEPS
 }
 
 impl Tolerances {
     pub fn from_round(round: f64) -> Self {
         let atol = round;
-        Tolerances { round, atol, btol: 1.5 * atol, etol: 0.25 * atol }
+        Tolerances { round, atol, btol: 1.5 * atol, etol: 0.25 * atol, margin_steps: DEFAULT_MARGIN_STEPS }
+    }
+
+    /// The extra search distance for a block whose corners travel `travel` a step, given at its
+    /// contact update: enough for `margin_steps` steps at that speed beyond etol, at most 2·atol.
+    ///
+    /// The report's rule re-examines a block after it moved a fixed distance, so a projectile
+    /// that moves a third of etol a step forces a contact update every few cycles (on a GPU each
+    /// one is a round trip). A block examined against its neighbours up to atol + m_a + m_b away
+    /// may move etol + m_a before its next update: two blocks then approach by at most
+    /// (etol + m_a + s_a) + (etol + m_b + s_b), less than that distance while each step s stays
+    /// under the too-fast limit atol/2 − etol, as before. The contacts found early are open (a
+    /// positive gap carries no force, eq. 16), so the motion is the same as without the margin,
+    /// bit for bit (tests/contact_rules.rs); only the contact list is longer by the few pairs in
+    /// the margin of fast blocks. Slow blocks (m = 0) are examined exactly as before.
+    pub fn speed_margin(&self, travel: f64) -> f64 {
+        let m = self.margin_steps * travel - self.etol;
+        if m > 0.0 && m.is_finite() {
+            m.min(2.0 * self.atol)
+        } else {
+            0.0
+        }
     }
 }
 

@@ -1,15 +1,20 @@
 //! Contact detection and update.
 //!
 //! The report's rule (¶26): a block is re-examined only after it has moved more than a threshold
-//! since its previous update, so almost-stationary regions cost nothing. Here a block is flagged
+//! since its previous update, so almost-stationary regions cost nothing. Here a block is due
 //! when its corners have moved more than `etol` (a quarter of the contact-forming distance `atol`)
 //! since its last update; two unflagged blocks can have approached each other by less than
-//! 2·etol < atol since their pair was last examined, so no touch can be missed.
+//! 2·etol < atol since their pair was last examined, so no touch can be missed. A fast block gets
+//! a speed margin m at its update (`Tolerances::speed_margin`, about 16 of its steps): it is
+//! searched m farther around and is due only past etol + m, so a projectile asks for an update
+//! every ~16 steps rather than every 3. Once an update is due, every block past half of its own
+//! threshold is re-examined with it, so a crowd of flying blocks shares its updates.
 //!
 //! Candidates are the block pairs, at least one of them flagged, whose corner boxes inflated by
-//! atol/2 overlap. Each is examined both ways round: every corner circle of one block against the
-//! nearest feature of the other's rounded boundary. Contacts form when the gap falls below `atol`
-//! and break when it exceeds `btol` (hysteresis, so a contact at the threshold does not flicker).
+//! atol/2 and their speed margins overlap. Each is examined both ways round: every corner circle
+//! of one block against the nearest feature of the other's rounded boundary. Contacts form when
+//! the gap falls below `atol` and break when it exceeds `btol` (hysteresis, so a contact at the
+//! threshold does not flicker), both plus the two blocks' speed margins.
 //! A contact keeps its identity — and so its shear history — as long as the same corner stays near
 //! the same block (feature ids, STYLE.md item 7).
 //!
@@ -155,10 +160,12 @@ pub struct BlockGrid {
     shape: Option<(usize, usize)>,
     cells: Cells,
     margin: f64,
-    /// Per block when the grid was built: centroid, rotation, and the farthest corner's distance
-    /// from the centroid (measured here, so the test below does not lean on `Block::radius`).
-    reference: Vec<[f64; 4]>,
-    /// Per block: its box (inflated by atol/2) inflated by `margin` when the grid was built.
+    /// Per block when the grid was built: centroid, rotation, the farthest corner's distance
+    /// from the centroid (measured here, so the test below does not lean on `Block::radius`),
+    /// and its speed margin (a block given a larger one since has outgrown its stored box).
+    reference: Vec<[f64; 5]>,
+    /// Per block: its box (inflated by atol/2 and its speed margin) inflated by `margin` when the
+    /// grid was built.
     stored: Vec<[f64; 4]>,
     /// (cell key, block) for every cell of every stored box that is not large, sorted.
     entries: Vec<(u64, u32)>,
@@ -178,7 +185,7 @@ impl BlockGrid {
     }
 
     /// Builds the grid from the current positions; returns every block's current box (inflated
-    /// by atol/2) for a sweep that follows.
+    /// by atol/2 and its speed margin) for a sweep that follows.
     fn build(&mut self, model: &Model) -> Vec<[f64; 4]> {
         let n = model.blocks.len();
         let pad = 0.5 * model.tol.atol;
@@ -188,7 +195,7 @@ impl BlockGrid {
         let margin = self.margin;
         let (blocks, corners) = (&model.blocks, &model.corners);
         let mut current = Vec::with_capacity(n);
-        (0..n).into_par_iter().with_min_len(PARALLEL_BLOCKS).map(|b| bounding_box(corners_of(blocks, corners, b), pad)).collect_into_vec(&mut current);
+        (0..n).into_par_iter().with_min_len(PARALLEL_BLOCKS).map(|b| bounding_box(corners_of(blocks, corners, b), pad + blocks[b].update_margin)).collect_into_vec(&mut current);
         self.stored.clear();
         self.stored.par_extend(current.par_iter().map(|bb| [bb[0] - margin, bb[1] - margin, bb[2] + margin, bb[3] + margin]));
         self.reference.clear();
@@ -196,7 +203,7 @@ impl BlockGrid {
             let c = blk.centroid;
             let own = &corners[blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize];
             let reach = own.iter().map(|k| (k.position[0] - c[0]).hypot(k.position[1] - c[1])).fold(0.0f64, f64::max);
-            [c[0], c[1], blk.rotation, reach]
+            [c[0], c[1], blk.rotation, reach, blk.update_margin]
         }));
         // Cell size: the mean stored extent, so a typical block spans about four cells. Summed in
         // fixed chunks so that it does not depend on the thread count (it only sets the speed).
@@ -257,12 +264,12 @@ impl BlockGrid {
 
     /// True when block `b` may have left its stored box: its corners can have moved by up to
     /// |Δc| + |Δθ|·reach since the grid was built (a rigid motion), checked against half the
-    /// margin.
+    /// margin; or its speed margin has grown since.
     #[inline]
     fn strayed(&self, b: usize, blk: &Block) -> bool {
-        let [x, y, rot, reach] = self.reference[b];
+        let [x, y, rot, reach, speed_margin] = self.reference[b];
         let moved = (blk.centroid[0] - x).hypot(blk.centroid[1] - y) + (blk.rotation - rot).abs() * reach;
-        moved.is_nan() || moved > 0.5 * self.margin
+        moved.is_nan() || moved > 0.5 * self.margin || blk.update_margin > speed_margin
     }
 
     /// Every ordered pair (p, q), p ≠ q, of blocks whose current boxes overlap and at least one of
@@ -330,7 +337,7 @@ impl BlockGrid {
         let n = blocks.len();
         let pad = 0.5 * model.tol.atol;
         let cells = self.cells;
-        let boxed = |b: usize| bounding_box(corners_of(blocks, corners, b), pad);
+        let boxed = |b: usize| bounding_box(corners_of(blocks, corners, b), pad + blocks[b].update_margin);
         // The moving set: flagged and strayed blocks, with their current boxes.
         let mut moving: Vec<u32> = Vec::with_capacity(flagged_list.len() + strayed.len());
         let (mut i, mut j) = (0, 0);
@@ -440,7 +447,8 @@ struct Examined {
 /// Every corner of block `a` against the nearest feature of each candidate block `cands`
 /// (ascending). `run` holds a's contacts (block 1 = a), which start at `run_start` in the list:
 /// those that stay in touch get the new geometry, the others are reported dropped; a corner that
-/// has no contact with a candidate and comes within atol of it makes a new one.
+/// has no contact with a candidate and comes within atol of it makes a new one. Both distances
+/// grow by the speed margins of the two blocks (`Tolerances::speed_margin`).
 fn examine(a: usize, cands: &[u64], run: &mut [Contact], run_start: usize, blocks: &[Block], corners: &[Corner], tol: &Tolerances) -> Examined {
     let mut out = Examined::default();
     let blk = &blocks[a];
@@ -448,12 +456,13 @@ fn examine(a: usize, cands: &[u64], run: &mut [Contact], run_start: usize, block
         let c = &corners[corner as usize];
         for &pair in cands {
             let b = pair as u32;
+            let extra = blk.update_margin + blocks[b as usize].update_margin;
             let g = nearest_feature(corners_of(blocks, corners, b as usize), c.circle, c.radius);
             // The run is sorted by (corner, block 2); an identity found twice counts as its last.
             let at = run.partition_point(|x| (x.corner, x.block2) <= (corner, b));
             match at.checked_sub(1).filter(|&k| run[k].corner == corner && run[k].block2 == b) {
                 Some(k) => {
-                    if g.gap > tol.btol {
+                    if g.gap > tol.btol + extra {
                         out.dropped.push((run_start + k) as u32);
                     } else {
                         let contact = &mut run[k];
@@ -464,7 +473,7 @@ fn examine(a: usize, cands: &[u64], run: &mut [Contact], run_start: usize, block
                         contact.point = g.point;
                     }
                 }
-                None if g.gap < tol.atol => {
+                None if g.gap < tol.atol + extra => {
                     let (material, constitutive) = contact_material(blocks, corners, corner, b as usize, g.feature);
                     let contact = Contact {
                         id: 0,
@@ -560,10 +569,12 @@ fn retire(model: &mut Model, dropped: &[u32]) {
 
 fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<&mut Adjacency>) -> ContactChanges {
     let n = model.blocks.len();
-    let etol = model.tol.etol;
-    let btol = model.tol.btol;
+    let tol = model.tol;
+    let btol = tol.btol;
     // One pass over the blocks: those flagged, and (with a grid to keep) the unflagged ones that
-    // may have left their stored boxes.
+    // may have left their stored boxes. Flagged: past its update threshold, or past half of it
+    // (an update is under way: re-examining the blocks that would soon ask for one of their own
+    // keeps a crowd of moving blocks, flying debris, from calling one update each).
     let keep_grid = !all && grid.valid_for(model);
     let (flagged_list, strayed): (Vec<u32>, Vec<u32>) = {
         let g = &*grid;
@@ -575,7 +586,7 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
             .fold(
                 || (Vec::new(), Vec::new()),
                 |(mut f, mut s), (b, blk)| {
-                    if all || (!blk.fixed && blk.moved_since_update > etol) {
+                    if all || (!blk.fixed && blk.moved_since_update > 0.5 * blk.update_threshold(&tol)) {
                         f.push(b as u32);
                     } else if keep_grid && g.strayed(b, blk) {
                         s.push(b as u32);
@@ -592,6 +603,16 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
                 },
             )
     };
+
+    // The examined blocks' speed margins for the interval to their next update, from their
+    // velocity now: the search below reaches that much farther around them.
+    let dt = model.timestep;
+    let margin = |b: &mut Block| b.update_margin = if b.fixed { 0.0 } else { tol.speed_margin(b.travel_per_step(dt)) };
+    if all {
+        model.blocks.par_iter_mut().with_min_len(PARALLEL_BLOCKS).for_each(margin);
+    } else {
+        flagged_list.iter().for_each(|&b| margin(&mut model.blocks[b as usize]));
+    }
 
     // Candidate pairs, both ways round, sorted: a sweep over a new grid when many blocks are
     // flagged, else a query of the flagged ones, rebuilding the grid first when too many blocks
@@ -627,7 +648,7 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     // block's contacts are one run; the contacts of pairs not examined below, decided by their
     // current gap (kept up to date every cycle by the contact stage); and, when many blocks are
     // examined, where each block's run starts.
-    let scan = |contacts: &[Contact]| {
+    let scan = |contacts: &[Contact], blocks: &[Block]| {
         contacts
             .par_iter()
             .enumerate()
@@ -637,7 +658,7 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
                 |(mut in_order, mut drops, mut starts), (k, c)| {
                     let prev = k.checked_sub(1).map(|j| &contacts[j]);
                     in_order &= prev.is_none_or(|p| contact_key(p) <= contact_key(c));
-                    if c.gap > btol {
+                    if c.gap > btol + blocks[c.block1 as usize].update_margin + blocks[c.block2 as usize].update_margin {
                         drops.push(k as u32);
                     }
                     if many && prev.is_none_or(|p| p.block1 != c.block1) {
@@ -655,13 +676,13 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
                 },
             )
     };
-    let contacts = &mut model.contacts;
-    let (sorted, mut gap_dropped, mut run_starts) = scan(contacts);
+    let Model { blocks, contacts, .. } = &mut *model;
+    let (sorted, mut gap_dropped, mut run_starts) = scan(contacts, blocks);
     if !sorted {
         // A list edited elsewhere: sorted first, stably, which leaves the result as it would be
         // from the list as given.
         contacts.par_sort_by_key(contact_key);
-        (_, gap_dropped, run_starts) = scan(contacts);
+        (_, gap_dropped, run_starts) = scan(contacts, blocks);
     }
 
     // Narrow phase, one task per block with candidates, on that block's own run of contacts.
