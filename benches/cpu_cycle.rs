@@ -1,5 +1,6 @@
 //! Throughput of the CPU cycle on the walls of `blockdem bench` (25 rows of 1 × 0.5 m bricks in
-//! running bond on a fixed ground block, `blockdem::bench::scene::scaling_wall`) at about 10³ and
+//! running bond on a fixed ground block struck by the reference projectile,
+//! `blockdem::bench::scene::scaling_body`) at about 10³ and
 //! 10⁴ blocks. Reports block-cycles/s and contact-cycles/s (criterion's "elements/s" of each
 //! group). Each iteration is one `Backend::run` of 50 cycles, including the full contact
 //! detection every run starts with — what one CYCLE 50 command costs a user.
@@ -7,7 +8,7 @@
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 
 use blockdem::backend::Backend;
-use blockdem::bench::scene::{scaling_wall, FRAC};
+use blockdem::bench::scene::{scaling_body, FRAC};
 use blockdem::cpu::CpuBackend;
 use blockdem::scenes::run_deck_on;
 
@@ -15,7 +16,7 @@ const CYCLES: u64 = 50;
 
 /// The wall of about `n` blocks, settled for 10 cycles so that its contacts carry load.
 fn wall(n: usize) -> blockdem::model::Model {
-    let deck = scaling_wall(n, FRAC).deck() + "CYCLE 10\n";
+    let deck = scaling_body(n, FRAC) + "CYCLE 10\n";
     run_deck_on(&deck, Box::new(CpuBackend::new())).expect("wall builds")
 }
 

@@ -8,7 +8,7 @@
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 
 use blockdem::backend::Backend;
-use blockdem::bench::scene::{scaling_wall, FRAC};
+use blockdem::bench::scene::{scaling_body, FRAC};
 use blockdem::bench::{present_backends, BackendSpec};
 use blockdem::cpu::CpuBackend;
 use blockdem::gpu::{AdapterChoice, GpuBackend};
@@ -17,7 +17,7 @@ use blockdem::scenes::run_deck_on;
 const CYCLES: u64 = 50;
 
 fn wall(n: usize) -> blockdem::model::Model {
-    let deck = scaling_wall(n, FRAC).deck() + "CYCLE 10\n";
+    let deck = scaling_body(n, FRAC) + "CYCLE 10\n";
     run_deck_on(&deck, Box::new(CpuBackend::new())).expect("wall builds")
 }
 

@@ -10,8 +10,9 @@
 //!
 //! ## What a scaling measurement is
 //!
-//! For each wall of about N blocks (25 rows, longer walls) and each backend: the wall is built
-//! (deck, full contact detection), settles 20 cycles (its contacts start unloaded), a short run
+//! For each wall of about N blocks (25 rows, longer walls, the reference projectile flying at its
+//! left end) and each backend: the wall is built (deck, full contact detection), runs 20 cycles
+//! (its contacts start unloaded), a short run
 //! calibrates the cost of a cycle, then one run of M cycles (M chosen so that it takes about
 //! `measure_s`) is timed with the stage profiler on ([`crate::profile`]). Every `Backend::run`
 //! begins with a full contact detection (and, on the GPU, an upload of the whole model) and, on
@@ -415,14 +416,14 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         let largest = report.backends.iter().filter(|b| b.error.is_none()).map(|b| b.max_blocks).max().unwrap_or(0);
         for &n in opts.sizes.iter().filter(|&&n| n <= largest) {
             let wall = scene::scaling_wall(n, opts.frac);
-            say(&format!("scaling: building a wall of {} blocks", wall.brick_count() + 1));
-            if let Some(problem) = memory_problem(wall.brick_count() + 1) {
+            say(&format!("scaling: building a wall of {} blocks", wall.brick_count() + 2));
+            if let Some(problem) = memory_problem(wall.brick_count() + 2) {
                 for (i, _) in engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks) {
                     report.scaling.push(ScalingRow { backend: report.backends[*i].label.clone(), nominal: n, error: Some(problem.clone()), ..Default::default() });
                 }
                 continue;
             }
-            let model0 = match crate::scenes::run_deck_on(&format!("{}CYCLE 0\n", wall.deck()), Box::new(CpuBackend::new())) {
+            let model0 = match crate::scenes::run_deck_on(&format!("{}CYCLE 0\n", scene::scaling_body(n, opts.frac)), Box::new(CpuBackend::new())) {
                 Ok(m) => m,
                 Err(e) => {
                     say(&format!("  the wall does not build: {e}"));

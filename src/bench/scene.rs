@@ -8,7 +8,8 @@
 //!   x = −2, y = 11, for 1 s; the number of bricks that moved more than 0.1 m is reported.
 //!
 //! Both are written out as decks in `examples/` by [`example_deck`] (a test keeps the files equal
-//! to it). The scaling family keeps the 25 rows and makes the wall longer ([`scaling_wall`]).
+//! to it). The scaling family keeps the 25 rows, makes the wall longer ([`scaling_wall`]) and
+//! fires the same projectile at its left end ([`scaling_body`]).
 
 use crate::model::Model;
 use crate::scenes::BrickWall;
@@ -81,6 +82,16 @@ pub fn reference_wall(frac: f64) -> BrickWall {
 /// wall of 1000 rows would settle 1600 times as far and keep stage 7 busy).
 pub fn scaling_wall(n: usize, frac: f64) -> BrickWall {
     wall((n / ROWS).max(2), frac)
+}
+
+/// The deck of the scaling wall of about `n` blocks struck by the reference projectile (the
+/// issue's "family of brick walls of N blocks struck by a projectile"), up to its CYCLE command:
+/// the projectile is the reference's, at the wall's left end, so every wall of the family meets
+/// the same impact while the rest of it stands; what grows with N is the wall that each contact
+/// update has to keep track of around the projectile.
+pub fn scaling_body(n: usize, frac: f64) -> String {
+    let wall = scaling_wall(n, frac);
+    wall.deck() + &projectile_lines(&wall)
 }
 
 /// The projectile's commands: its material (2), its block, its velocity.

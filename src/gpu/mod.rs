@@ -17,6 +17,9 @@
 //! of blocks, corners and contacts. Kernels raise flags (a block past the update tolerance, a
 //! non-finite step, a block too fast, an overlap too great); `end_cycle` then halts the rest of the
 //! batch, so the CPU sees exactly the state of the cycle that raised it, as the CPU backend would.
+//! The cycles dispatched after a halt do nothing but still cost their launches (on a software
+//! adapter as much as a real cycle of a small model), so after a contact update a batch is cut at
+//! the cycle where the next one is expected at the velocities then (`cycles_to_next_update`).
 //! After a batch the CPU reads back the flags only; it reads back the state when stage 7 is due
 //! (together with the flags while contacts change every few batches), every cycle in scenes with
 //! point-load cracking candidates (the criterion is evaluated by the existing CPU code on the
@@ -65,6 +68,23 @@ pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice
 pub use targets::{find_target, scenario_backends, GpuTarget};
 use kernels::{Buffers, Pipelines};
 use layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
+
+/// How many more cycles, at the velocities now, until the first block passes its contact-update
+/// threshold (`Block::update_due`): the cycle that raises the flag, ⌊(threshold − moved)/s⌋ + 1 for
+/// a block whose corners travel s a step. None when nothing moves.
+fn cycles_to_next_update(model: &Model) -> Option<u64> {
+    let dt = model.timestep;
+    model
+        .blocks
+        .iter()
+        .filter(|b| !b.fixed)
+        .filter_map(|b| {
+            let s = b.travel_per_step(dt);
+            let room = (b.update_threshold(&model.tol) - b.moved_since_update).max(0.0);
+            (s > 0.0 && s.is_finite()).then(|| (room / s).floor().min(1e9) as u64 + 1)
+        })
+        .min()
+}
 
 /// Kernel precision (`--precision`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -884,10 +904,17 @@ where
         // The last batch stopped for a contact update: the next one brings the state back with
         // its flags (`run_batch_with_state`).
         let mut busy = false;
+        // Cycles until the next contact update is expected, from the velocities at the last one
+        // (`cycles_to_next_update`): a batch that would run past it is cut there, since the
+        // cycles dispatched after the halt still cost their launches.
+        let mut expected_update: Option<u64> = None;
         let result = (|| -> Result<(), CycleError> {
             while done_total < cycles {
                 let left = cycles - done_total;
-                let batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left).min(batch_cap) };
+                let mut batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left).min(batch_cap) };
+                if let Some(k) = expected_update {
+                    batch = batch.min(k.max(1));
+                }
                 self.write_params(model);
                 let (flags, state_read) = if busy && !cracking {
                     self.run_batch_with_state(batch, model).map_err(device_error)?
@@ -896,12 +923,14 @@ where
                 };
                 busy = flags.update_due != 0;
                 let done = flags.cycles_done as u64;
+
                 batch_cap = if done < batch { (2 * done).max(1) } else { (2 * batch_cap).min(cpu::CHECK_INTERVAL) };
                 for _ in 0..done {
                     model.time += model.timestep;
                 }
                 model.cycle += done;
                 done_total += done;
+                expected_update = expected_update.map(|k| k.saturating_sub(done)).filter(|&k| k > 0);
                 if flags.errors != 0 {
                     self.readback(model).map_err(device_error)?;
                     return Err(Self::error_from_flags(model, &flags));
@@ -934,6 +963,7 @@ where
                         self.run_batch(1, true).map_err(device_error)?;
                     }
                     if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
+                        expected_update = cycles_to_next_update(model);
                         self.upload_reset_distances(model);
                         self.upload_contacts(model, &adjacency).map_err(device_error)?;
                         self.write_params(model);
@@ -977,5 +1007,25 @@ where
                 Err(energy_check.roll_back(e, model, last_good))
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_next_contact_update_is_expected_when_the_fastest_block_passes_its_threshold() {
+        let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 5,0 5,1 6,1 6,0\nVELOCITY 0 1 0 1 5 0\nCYCLE 0\n";
+        let mut m = crate::scenes::run_deck_on(deck, Box::new(cpu::CpuBackend::new())).expect("deck runs");
+        let s = 5.0 * m.timestep;
+        let threshold = m.blocks[0].update_threshold(&m.tol);
+        // The moving block raises the flag on the cycle its displacement first exceeds the
+        // threshold; the block at rest never does.
+        assert_eq!(cycles_to_next_update(&m), Some((threshold / s).floor() as u64 + 1));
+        m.blocks[0].moved_since_update = threshold - 2.5 * s;
+        assert_eq!(cycles_to_next_update(&m), Some(3));
+        m.blocks[0].velocity = [0.0, 0.0];
+        assert_eq!(cycles_to_next_update(&m), None);
     }
 }
