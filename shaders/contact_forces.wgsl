@@ -185,15 +185,35 @@ fn track_feature(start: u32, n: u32, feature: u32, c: vec2<real>, radius: real) 
             }
         }
     }
-    let candidates = array<u32, 3>(prev_index(f, nf), f, next_index(f, nf));
-    var best_f = candidates[0];
-    var best = feature_distance(start, n, best_f, c);
+    // The candidates are the feature and its two neighbours: arc j, edge j, arc j+1 around edge
+    // f = 2j+1, or edge j−1, arc j, edge j around arc f = 2j. Both shapes are covered by the arcs
+    // j, j+1 and the edges j−1, j, measured unconditionally: invocations of one SIMD batch or warp
+    // that track features of different kinds then run one path, not both kinds thrice (the
+    // same distances, compared in the same order, as the three-way comparison of the Rust twin).
+    let j = f / 2u;
+    let jp = next_index(j, n);
+    let jm = prev_index(j, n);
+    let edge_m = edge_of(start, jm);
+    let edge_j = edge_of(start, j);
+    let edge_p = edge_of(start, jp);
+    let arc_j = arc_distance(corners[start + j], edge_m, edge_j, c);
+    let arc_p = arc_distance(corners[start + jp], edge_j, edge_p, c);
+    let line_m = edge_distance(start, n, jm, edge_m, c);
+    let line_j = edge_distance(start, n, j, edge_j, c);
+    let around_edge = f % 2u == 1u;
+    var cand = array<FeatureDistance, 3>(line_m, arc_j, line_j);
+    var ids = array<u32, 3>(2u * jm + 1u, 2u * j, 2u * j + 1u);
+    if (around_edge) {
+        cand = array<FeatureDistance, 3>(arc_j, line_j, arc_p);
+        ids = array<u32, 3>(2u * j, 2u * j + 1u, 2u * jp);
+    }
+    var best_f = ids[0];
+    var best = cand[0];
     for (var i = 1u; i < 3u; i += 1u) {
-        let g = candidates[i];
-        let fd = feature_distance(start, n, g, c);
-        if (better(fd.distance, fd.inside, g, best.distance, best.inside, best_f)) {
+        let fd = cand[i];
+        if (better(fd.distance, fd.inside, ids[i], best.distance, best.inside, best_f)) {
             best = fd;
-            best_f = g;
+            best_f = ids[i];
         }
     }
     return contact_geometry(best_f, best, c, radius);
