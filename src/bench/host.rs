@@ -18,7 +18,7 @@ pub struct MachineInfo {
     pub os: String,
     /// UTC date of the run (YYYY-MM-DD).
     pub date: String,
-    /// `git rev-parse --short HEAD` where the bench runs from a checkout.
+    /// The commit the binary was built from (`git rev-parse --short HEAD` at build time).
     pub commit: Option<String>,
 }
 
@@ -61,13 +61,16 @@ pub fn machine_info() -> MachineInfo {
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let (y, m, d) = civil_from_days((secs / 86_400) as i64);
-    let commit = std::process::Command::new("git")
-        .args(["rev-parse", "--short", "HEAD"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    // The commit the binary was built from (build.rs), else what git says where it was built.
+    let commit = option_env!("BLOCKDEM_COMMIT").map(str::to_string).or_else(|| {
+        std::process::Command::new("git")
+            .args(["rev-parse", "--short", "HEAD"])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    });
     MachineInfo {
         cpu_model,
         cores: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
