@@ -923,7 +923,6 @@ where
                 };
                 busy = flags.update_due != 0;
                 let done = flags.cycles_done as u64;
-
                 batch_cap = if done < batch { (2 * done).max(1) } else { (2 * batch_cap).min(cpu::CHECK_INTERVAL) };
                 for _ in 0..done {
                     model.time += model.timestep;
