@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 use rayon::prelude::*;
 
-use super::detect::BlockGrid;
+use super::detect::{split_at_ends, BlockGrid};
 use crate::model::Contact;
 
 /// Smallest number of blocks one parallel task takes.
@@ -119,15 +119,7 @@ impl Adjacency {
         let offsets = &self.offsets;
         let chunks = block_count.div_ceil(PARALLEL_BLOCKS);
         let ends = (1..=chunks).map(|c| offsets[(c * PARALLEL_BLOCKS).min(block_count)] as usize);
-        let mut pieces = Vec::with_capacity(chunks);
-        let mut rest: &mut [u32] = &mut self.entries;
-        let mut at = 0;
-        for end in ends {
-            let (piece, tail) = std::mem::take(&mut rest).split_at_mut(end - at);
-            pieces.push(piece);
-            rest = tail;
-            at = end;
-        }
+        let pieces = split_at_ends(&mut self.entries, ends);
         let slots = &*slots;
         pieces.into_par_iter().enumerate().for_each(|(c, out)| {
             let base = offsets[c * PARALLEL_BLOCKS] as usize;
@@ -189,15 +181,8 @@ impl Adjacency {
         entries.resize(2 * contacts.len(), 0);
         {
             let chunks = block_count.div_ceil(PARALLEL_BLOCKS);
-            let mut pieces = Vec::with_capacity(chunks);
-            let mut rest: &mut [u32] = &mut entries;
-            for c in 0..chunks {
-                let (lo, hi) = (new_offset(c * PARALLEL_BLOCKS), new_offset(((c + 1) * PARALLEL_BLOCKS).min(block_count)));
-                let (piece, tail) = std::mem::take(&mut rest).split_at_mut((hi - lo) as usize);
-                pieces.push(piece);
-                rest = tail;
-            }
-            pieces.into_par_iter().enumerate().for_each(|(c, out)| {
+            let ends = (1..=chunks).map(|c| new_offset((c * PARALLEL_BLOCKS).min(block_count)) as usize);
+            split_at_ends(&mut entries, ends).into_par_iter().enumerate().for_each(|(c, out)| {
                 let (first, last) = (c * PARALLEL_BLOCKS, ((c + 1) * PARALLEL_BLOCKS).min(block_count));
                 let old = &self.entries[self.offsets[first] as usize..self.offsets[last] as usize];
                 let j0 = touched.partition_point(|&t| (t as usize) < first);

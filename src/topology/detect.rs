@@ -138,7 +138,7 @@ fn members(entries: &[(u64, u32)], key: u64) -> &[(u64, u32)] {
 }
 
 /// Splits `buf` into consecutive pieces ending at each of `ends` (ascending, the last ≤ len).
-fn split_at_ends<T>(mut buf: &mut [T], ends: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+pub(super) fn split_at_ends<T>(mut buf: &mut [T], ends: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
     let mut pieces = Vec::new();
     let mut at = 0;
     for end in ends {
