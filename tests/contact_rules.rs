@@ -3,6 +3,8 @@
 //! material), contact detection driven by displacement, flying blocks finding new contacts, shear
 //! history kept through a contact update, cohesion and no tension beyond it. CPU f64.
 
+mod common;
+
 use blockdem::backend::{Backend, CycleReport};
 use blockdem::cpu::CpuBackend;
 use blockdem::model::Model;
@@ -192,6 +194,62 @@ fn speed_margins_change_the_update_count_not_the_motion() {
         }
     }
     assert!(early > 0, "no contact beyond btol: the margins were not used");
+}
+
+/// `model` run on a GPU target, contact updates spliced on the device or the whole list
+/// uploaded; returns the model, the report and the number of splices.
+fn gpu_run(t: &common::Target, mut m: Model, splice: bool, cycles: u64) -> (Model, CycleReport, u64) {
+    let common::Target::Gpu(options) = t else { unreachable!("a GPU target") };
+    let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
+    gpu.set_contact_splice(splice);
+    let report = gpu.run(&mut m, cycles, &mut |_| {}).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    (m, report, gpu.contact_splices())
+}
+
+/// Largest difference of block positions and of velocities between two runs of one model.
+fn largest_difference(a: &Model, b: &Model) -> (f64, f64) {
+    a.blocks.iter().zip(&b.blocks).fold((0.0f64, 0.0f64), |(p, v), (x, y)| {
+        (p.max((x.centroid[0] - y.centroid[0]).hypot(x.centroid[1] - y.centroid[1])), v.max((x.velocity[0] - y.velocity[0]).hypot(x.velocity[1] - y.velocity[1])))
+    })
+}
+
+#[test]
+fn a_contact_splice_on_the_device_runs_as_a_whole_upload() {
+    // After a contact update the GPU builds the new contact list from the old one on the device
+    // (`gpu::splice`); the whole upload it replaces sends the model's copy of every contact.
+    // Both hold the same state but for rounding: a kept contact's gather record is the device's
+    // own rather than recomputed in f64 from the read-back point. So the runs agree to rounding
+    // amplified by the motion. A block thrown at a fixed block and bouncing back (contacts made,
+    // loaded and dropped, ~35 updates): to 1e-9 m in f64, 1e-5 m in f32 (~100 f32 ulps of the
+    // 3 m positions). The projectile into bricks (~100 updates, many contacts made and dropped)
+    // is chaotic, so there only f64 is compared, to 1e-6 m (rounding grows ~10⁷× there: 3e-9 m
+    // measured), and in f32 both runs must move the same bricks.
+    let bounce = "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 0\n";
+    for (adapter, precision) in common::GPU_TARGETS {
+        let Some(t) = common::Target::gpu(adapter, precision) else { continue };
+        let f32_kernels = t.is_f32();
+        let (a, ra, splices) = gpu_run(&t, run(bounce), true, 600);
+        let (b, _, none) = gpu_run(&t, run(bounce), false, 600);
+        assert_eq!(none, 0, "no splice when it is off");
+        // The updates while the block is in touch (an empty list is simply uploaded).
+        assert!(splices > 0 && ra.contacts_created > 0 && ra.contacts_dropped > 0, "{splices} of {} contact updates spliced on {}: {ra:?}", ra.topology_updates, t.name());
+        let (dx, dv) = largest_difference(&a, &b);
+        eprintln!("bounce on {}: {splices} splices, {dx:.3e} m, {dv:.3e} m/s", t.name());
+        let tol = if f32_kernels { 1e-5 } else { 1e-9 };
+        assert!(dx <= tol && dv <= 100.0 * tol, "bounce on {}: positions differ by {dx:.3e} m, velocities by {dv:.3e} m/s", t.name());
+
+        let (a, ra, splices) = gpu_run(&t, projectile_into_bricks(), true, 1500);
+        let (b, _, _) = gpu_run(&t, projectile_into_bricks(), false, 1500);
+        // Every update after the run's first detection (which comes with the upload of the model).
+        assert!(splices + 1 == ra.topology_updates && ra.contacts_created > 10 && ra.contacts_dropped > 10, "{splices} splices on {}: {ra:?}", t.name());
+        let moving = |m: &Model| m.blocks.iter().filter(|b| b.velocity[0] > 1.0).count();
+        if f32_kernels {
+            assert_eq!(moving(&a), moving(&b), "impact on {}: bricks set moving", t.name());
+        } else {
+            let (dx, dv) = largest_difference(&a, &b);
+            assert!(dx <= 1e-6 && dv <= 1e-4, "impact on {}: positions differ by {dx:.3e} m, velocities by {dv:.3e} m/s", t.name());
+        }
+    }
 }
 
 #[test]

@@ -8,6 +8,7 @@
 //!   (slip work, dashpot work and the dashpot velocities it carries to the next step);
 //! - `mass_damping_work`: the energy the mass-proportional damping takes in a step (law_of_motion);
 //! - `sin_cos`: the rotation of the geometry update, with + − × only;
+//! - `splice_contacts`: the contact list built on the device after a contact update;
 //! - `energy_sums` (the energy check on the device): its sums against `Model::energies` on the
 //!   state the run read back.
 //!
@@ -20,7 +21,8 @@
 mod common;
 
 use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
-use blockdem::gpu::layout::{Contact as GContact, Corner as GCorner, Material as GMaterial, Real};
+use blockdem::gpu::layout::{Contact as GContact, ContactForce as GForce, Corner as GCorner, Material as GMaterial, Real};
+use blockdem::gpu::splice::{splice_contacts, NEW_CONTACT};
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
 use common::Target;
@@ -574,6 +576,63 @@ fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
     }
 }
 
+/// `splice_contacts.wgsl` against `gpu::splice::splice_contacts` on a random old list, random
+/// moves (kept contacts in order with a few dropped, new contacts between them) and random
+/// created contacts: the kernel only copies and clears, so the lists agree bit for bit in both
+/// precisions.
+fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice)
+where
+    GContact<R>: bytemuck::Pod,
+    GForce<R>: bytemuck::Pod,
+{
+    let mut rng = Rng(0x5eed_0000_0000_0004);
+    let contact = |rng: &mut Rng| {
+        let mut c: GContact<R> = bytemuck::Zeroable::zeroed();
+        let reals: &mut [R] = bytemuck::cast_slice_mut(&mut bytemuck::bytes_of_mut(&mut c)[..14 * std::mem::size_of::<R>()]);
+        for x in reals.iter_mut() {
+            *x = R::from_f64(rng.range(-1e3, 1e3));
+        }
+        (c.block1, c.corner, c.block2, c.feature, c.material, c.bonded) = (rng.below(1000), rng.below(4000), rng.below(1000), rng.below(8), rng.below(4), rng.below(2));
+        c
+    };
+    let force = |rng: &mut Rng| GForce::<R> { fx: R::from_f64(rng.range(-1e6, 1e6)), fy: R::from_f64(rng.range(-1e6, 1e6)), m1: R::from_f64(rng.next()), m2: R::from_f64(-rng.next()) };
+    let n_old = 3000;
+    let old: Vec<GContact<R>> = (0..n_old).map(|_| contact(&mut rng)).collect();
+    let old_forces: Vec<GForce<R>> = (0..n_old).map(|_| force(&mut rng)).collect();
+    let (mut moves, mut created, mut created_forces) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..n_old as u32 {
+        if rng.next() < 0.1 {
+            moves.push([NEW_CONTACT | created.len() as u32, 0]);
+            created.push(contact(&mut rng));
+            created_forces.push(force(&mut rng));
+        }
+        if rng.next() > 0.05 {
+            moves.push([k, rng.below(8)]);
+        }
+    }
+    let (want, want_forces) = splice_contacts(&old, &old_forces, &moves, &created, &created_forces);
+    let n = moves.len();
+    let out = run_kernel(
+        dev,
+        "splice_contacts",
+        "",
+        "splice_contacts",
+        n,
+        &[
+            (0, bytemuck::cast_slice(&old).to_vec(), false),
+            (1, bytemuck::cast_slice(&old_forces).to_vec(), false),
+            (2, bytemuck::cast_slice(&moves).to_vec(), false),
+            (3, bytemuck::cast_slice(&created).to_vec(), false),
+            (4, bytemuck::cast_slice(&created_forces).to_vec(), false),
+            (5, vec![0; n * std::mem::size_of::<GContact<R>>()], true),
+            (6, vec![0; n * std::mem::size_of::<GForce<R>>()], true),
+        ],
+    );
+    assert!(created.len() > 100 && n < n_old + created.len(), "the case creates and drops");
+    assert_eq!(bytemuck::cast_slice::<GContact<R>, u8>(&want), &out[0][..], "contacts");
+    assert_eq!(bytemuck::cast_slice::<GForce<R>, u8>(&want_forces), &out[1][..], "gather records");
+}
+
 macro_rules! on_adapters {
     ($($name:ident => $check:ident),* $(,)?) => {
         $(
@@ -601,6 +660,7 @@ on_adapters!(
     mass_damping_work => mass_damping_work_matches_rust,
     sin_cos => sin_cos_matches_rust,
     two_sum => two_sum_is_exact,
+    splice => splice_contacts_matches_rust,
 );
 
 /// The device's energy sums against `Model::energies` on the same state: a brick wall settling

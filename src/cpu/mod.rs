@@ -118,12 +118,17 @@ fn corners_in_block_order(model: &Model) -> bool {
 
 /// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
 pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
-    let tol = model.tol;
-    if !force && !model.blocks.iter().any(|b| b.update_due(&tol)) {
+    if !force && !topology_update_due(model) {
         return false;
     }
     update_topology(model, adjacency, report, force);
     true
+}
+
+/// Whether a block has passed its contact-update threshold (`Block::update_due`).
+pub(crate) fn topology_update_due(model: &Model) -> bool {
+    let tol = model.tol;
+    model.blocks.iter().any(|b| b.update_due(&tol))
 }
 
 /// Stage 7: contact detection (all pairs when `full`, else around the blocks past the update

@@ -1,6 +1,7 @@
 //! Kernels apart from state (STYLE.md item 3): `Pipelines` holds one compute pipeline per entry
 //! point, named after it; `Buffers` holds the storage buffers. Both share one bind group layout
-//! (group 0, bindings as in `shaders/common.wgsl`), so one bind group serves every stage.
+//! (group 0, bindings as in `shaders/common.wgsl`), so one bind group serves every stage of the
+//! cycle; `splice_contacts` has a layout of its own.
 
 use super::device::GpuDevice;
 use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
@@ -16,6 +17,9 @@ pub struct Pipelines {
     pub energy_sums: wgpu::ComputePipeline,
     pub gather_heavy: wgpu::ComputePipeline,
     pub bind_group_layout: wgpu::BindGroupLayout,
+    /// `splice_contacts.wgsl`, with its own bindings (`splice_bind_group`).
+    pub splice_contacts: wgpu::ComputePipeline,
+    pub splice_layout: wgpu::BindGroupLayout,
 }
 
 fn uniform(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -62,20 +66,32 @@ impl Pipelines {
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
-        // `entry` in the kernel file `name`.wgsl.
-        let make_entry = |name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
+        // The splice's bindings: the old list and records, the moves, the created contacts and
+        // records (read), the new list and records (written).
+        let splice_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("blockdem splice"),
+            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, true), storage(5, false), storage(6, false)],
+        });
+        let splice_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("blockdem splice"),
+            bind_group_layouts: &[Some(&splice_layout)],
+            immediate_size: 0,
+        });
+        // `entry` in the kernel file `name`.wgsl, on `layout`.
+        let make_on = |layout: &wgpu::PipelineLayout, name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
             let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
             shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
             Ok(device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
-                layout: Some(&layout),
+                layout: Some(layout),
                 module: &module,
                 entry_point: Some(entry),
                 compilation_options: Default::default(),
                 cache: None,
             }))
         };
+        let make_entry = |name: &str, entry: &str| make_on(&layout, name, entry);
         let make = |name: &str| make_entry(name, name);
         let pipelines = Pipelines {
             law_of_motion: make("law_of_motion")?,
@@ -86,6 +102,8 @@ impl Pipelines {
             energy_sums: make("energy_sums")?,
             gather_heavy: make_entry("gather", "gather_heavy")?,
             bind_group_layout,
+            splice_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "splice_contacts")?,
+            splice_layout,
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader(format!("the driver rejected a kernel: {e}")));
@@ -115,6 +133,9 @@ pub struct Buffers {
     pub flags: wgpu::Buffer,
     /// One `EnergySum` per workgroup of the energy check.
     pub energy_sums: Slab,
+    /// The other pair of contact and gather-record buffers, which `splice_contacts` writes the
+    /// new list into before the two pairs change places (made at the first splice).
+    pub spare_contacts: Option<(Slab, Slab)>,
 }
 
 /// The largest storage binding this device may hold: the adapter's own limit (128 MiB on Mesa's
@@ -182,6 +203,7 @@ impl Buffers {
             adj_entries: slab(dev, "adjacency entries", 4, 2 * contacts)?,
             flags,
             energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
+            spare_contacts: None,
         })
     }
 
@@ -193,6 +215,31 @@ impl Buffers {
         }
         *which = slab(dev, label, item, count)?;
         Ok(true)
+    }
+
+    /// Makes sure the spare pair holds `count` contacts (its contents are not kept).
+    pub fn ensure_spare<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError>
+    where
+        Contact<R>: bytemuck::Pod,
+        ContactForce<R>: bytemuck::Pod,
+    {
+        if self.spare_contacts.as_ref().is_some_and(|(c, f)| c.capacity >= count && f.capacity >= count) {
+            return Ok(());
+        }
+        // The old spare goes first, so the two are never held at once.
+        self.spare_contacts = None;
+        let contacts = slab(dev, "contacts (spare)", std::mem::size_of::<Contact<R>>(), count)?;
+        let forces = slab(dev, "contact forces (spare)", std::mem::size_of::<ContactForce<R>>(), count)?;
+        self.spare_contacts = Some((contacts, forces));
+        Ok(())
+    }
+
+    /// The spare pair becomes the live contacts and records (after a splice wrote into it).
+    pub fn swap_contacts(&mut self) {
+        let (contacts, forces) = self.spare_contacts.take().expect("a spare pair to swap in");
+        let old_contacts = std::mem::replace(&mut self.contacts, contacts);
+        let old_forces = std::mem::replace(&mut self.contact_forces, forces);
+        self.spare_contacts = Some((old_contacts, old_forces));
     }
 
     pub fn bind_group(&self, dev: &GpuDevice, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {

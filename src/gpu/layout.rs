@@ -1,5 +1,5 @@
 //! GPU state: flat storage buffers of `#[repr(C)]` Pod structs, defined once here and mirrored in
-//! `shaders/common.wgsl` (DESIGN.md §2). A test reads the WGSL structs through naga's layouter and
+//! `shaders/layout.wgsl` (DESIGN.md §2). A test reads the WGSL structs through naga's layouter and
 //! checks every size and offset against these.
 //!
 //! Each struct is generic over the kernel precision `R` (f32 or f64, the WGSL `real` alias) and is

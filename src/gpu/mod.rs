@@ -2,9 +2,10 @@
 //! CPU between batches of cycles.
 //!
 //! - `device`: adapters, device set-up with the adapter's own limits, bounded waits.
-//! - `layout`: the Pod structs of the GPU state, twins of `shaders/common.wgsl`.
+//! - `layout`: the Pod structs of the GPU state, twins of `shaders/layout.wgsl`.
 //! - `shaders`: the WGSL prelude (the one precision alias) and naga validation.
 //! - `kernels`: `Pipelines` (one per entry point) and `Buffers`.
+//! - `splice`: the contact list after a contact update, built on the device from the old one.
 //! - `targets`: every adapter and precision present, the GPU rows of the scenario tests and of
 //!   `blockdem verify`.
 //!
@@ -24,9 +25,11 @@
 //! (together with the flags while contacts change every few batches), every cycle in scenes with
 //! point-load cracking candidates (the criterion is evaluated by the existing CPU code on the
 //! read-back contacts), after a failure and at the end of the run. It runs the existing CPU
-//! topology code on the `Model` and re-uploads only what changed: contacts, their gather records
-//! and adjacency after a contact update (plus the reset update distances of the re-examined
-//! blocks); everything after a crack split a block. The energy check every 100 cycles is summed
+//! topology code on the `Model` and sends only what changed: after a contact update, one move per
+//! contact (where in the old list it comes from, and its feature) and the contacts created, from
+//! which `splice_contacts` builds the new list and gather records on the device (`splice`; the
+//! whole list is uploaded when the update had to re-sort it), the adjacency, and the reset update
+//! distances of the re-examined blocks; everything after a crack split a block. The energy check every 100 cycles is summed
 //! on the device (`energy_sums`), and the last good state is a device-side copy of the state
 //! buffers taken when a check passes (`take_checkpoint`), read back only if the run fails.
 //!
@@ -56,6 +59,7 @@ pub mod kernels;
 pub mod layout;
 pub mod profile;
 pub mod shaders;
+pub mod splice;
 pub mod targets;
 
 use crate::backend::{Backend, CycleError, CycleReport};
@@ -151,7 +155,13 @@ impl GpuBackend {
             Precision::F32 => EngineAny::F32(Engine::new(dev, pipelines)),
             Precision::F64 => EngineAny::F64(Engine::new(dev, pipelines)),
         };
-        Ok(GpuBackend { engine })
+        let mut backend = GpuBackend { engine };
+        // BLOCKDEM_CONTACT_SPLICE=0: the whole list uploaded at each contact update, the baseline
+        // the splice is measured against (docs/BENCHMARKS.md).
+        if std::env::var("BLOCKDEM_CONTACT_SPLICE").is_ok_and(|v| v == "0") {
+            backend.set_contact_splice(false);
+        }
+        Ok(backend)
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -168,6 +178,24 @@ impl GpuBackend {
         match &self.engine {
             EngineAny::F32(e) => e.energy_sums(),
             EngineAny::F64(e) => e.energy_sums(),
+        }
+    }
+
+    /// Whether contact updates build the new list on the device from the old one (the default)
+    /// or upload it whole, as before the splice (kept to measure the splice against, and to
+    /// test that both give the same run).
+    pub fn set_contact_splice(&mut self, on: bool) {
+        match &mut self.engine {
+            EngineAny::F32(e) => e.splice = on,
+            EngineAny::F64(e) => e.splice = on,
+        }
+    }
+
+    /// How many contact updates were spliced on the device so far (the others uploaded the list).
+    pub fn contact_splices(&self) -> u64 {
+        match &self.engine {
+            EngineAny::F32(e) => e.splices,
+            EngineAny::F64(e) => e.splices,
         }
     }
 
@@ -245,6 +273,10 @@ struct Engine<R: Real> {
     counts: (usize, usize, usize),
     /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts).
     n_heavy: usize,
+    /// Contact updates splice the list on the device (`splice_contacts`) rather than upload it.
+    splice: bool,
+    /// Contact updates spliced on the device since the backend was made.
+    splices: u64,
 }
 
 /// One dispatch of a cycle: the stage's label, its pipeline and its two-dimensional grid.
@@ -301,6 +333,8 @@ where
             last_blocks: Vec::new(),
             counts: (0, 0, 0),
             n_heavy: 0,
+            splice: true,
+            splices: 0,
         }
     }
 
@@ -470,23 +504,12 @@ where
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let contacts: Vec<Contact<R>> = model.contacts.par_iter().with_min_len(4096).map(|c| Self::gpu_contact(model, c)).collect();
         let forces: Vec<ContactForce<R>> = model.contacts.par_iter().with_min_len(4096).map(|c| Self::gpu_contact_force(model, c)).collect();
-        // The contact update kept each surviving contact's ledger terms in the model (matched by
-        // corner and block, with their feature ids): they are the new bases.
-        // (A copy of the rest only when a checkpoint still shares it.)
-        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
-        self.generation += 1;
-        // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl).
-        let mut offsets = adjacency.offsets.clone();
-        let heavy: Vec<u32> = adjacency.offsets.windows(2).enumerate().filter(|(_, w)| w[1] - w[0] > shaders::HEAVY_DEGREE).map(|(b, _)| b as u32).collect();
-        self.n_heavy = heavy.len();
-        offsets.extend(heavy);
+        self.new_contact_list(model);
         let b = self.buffers.as_mut().expect("buffers exist");
         let d = &self.dev;
         let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
         g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
-        g |= Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
-        g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, offsets.len())?;
-        g |= Buffers::ensure(d, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(model.blocks.len(), contacts.len()))?;
+        g |= self.upload_adjacency(model.blocks.len(), contacts.len(), adjacency)?;
         if g {
             self.bind_group = None;
         }
@@ -494,12 +517,90 @@ where
         let q = &self.dev.queue;
         q.write_buffer(&b.contacts.buffer, 0, bytemuck::cast_slice(&contacts));
         q.write_buffer(&b.contact_forces.buffer, 0, bytemuck::cast_slice(&forces));
-        q.write_buffer(&b.adj_offsets.buffer, 0, bytemuck::cast_slice(&offsets));
-        q.write_buffer(&b.adj_entries.buffer, 0, bytemuck::cast_slice(&adjacency.entries));
         self.counts.2 = contacts.len();
         if self.bind_group.is_none() {
             self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
         }
+        Ok(())
+    }
+
+    /// The bookkeeping of a new contact list on the device: the ledger bases of its contacts and
+    /// the generation the last good state's CPU copy is compared with.
+    fn new_contact_list(&mut self, model: &Model) {
+        // The contact update kept each surviving contact's ledger terms in the model (matched by
+        // corner and block, with their feature ids): they are the new bases.
+        // (A copy of the rest only when a checkpoint still shares it.)
+        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+        self.generation += 1;
+    }
+
+    /// Uploads the adjacency lists (and makes room for the energy check's sums of the new
+    /// counts); returns whether a buffer was re-created (the bind group must then be rebuilt).
+    fn upload_adjacency(&mut self, n_blocks: usize, n_contacts: usize, adjacency: &Adjacency) -> Result<bool, GpuError> {
+        // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl).
+        let mut offsets = adjacency.offsets.clone();
+        let heavy: Vec<u32> = adjacency.offsets.windows(2).enumerate().filter(|(_, w)| w[1] - w[0] > shaders::HEAVY_DEGREE).map(|(b, _)| b as u32).collect();
+        self.n_heavy = heavy.len();
+        offsets.extend(heavy);
+        let b = self.buffers.as_mut().expect("buffers exist");
+        let d = &self.dev;
+        let mut g = Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
+        g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, offsets.len())?;
+        g |= Buffers::ensure(d, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(n_blocks, n_contacts))?;
+        let q = &self.dev.queue;
+        q.write_buffer(&b.adj_offsets.buffer, 0, bytemuck::cast_slice(&offsets));
+        q.write_buffer(&b.adj_entries.buffer, 0, bytemuck::cast_slice(&adjacency.entries));
+        Ok(g)
+    }
+
+    /// After a contact update whose kept contacts stayed in order: the new list is built on the
+    /// device from the old one (`splice_contacts.wgsl`) from 8 bytes of moves per contact and
+    /// the contacts created, instead of an upload of the whole list and its gather records.
+    /// The kept contacts keep the device's own state (no round trip through f64).
+    fn splice_contacts(&mut self, model: &Model, adjacency: &Adjacency, moves: &splice::ContactMoves) -> Result<(), GpuError> {
+        use wgpu::util::DeviceExt;
+        let _p = crate::profile::scope(crate::profile::Stage::Upload);
+        let n = model.contacts.len();
+        let mut created: Vec<Contact<R>> = moves.created.iter().map(|&i| Self::gpu_contact(model, &model.contacts[i as usize])).collect();
+        let mut created_forces: Vec<ContactForce<R>> = moves.created.iter().map(|&i| Self::gpu_contact_force(model, &model.contacts[i as usize])).collect();
+        if created.is_empty() {
+            // A binding holds at least one item.
+            created.push(Contact::default());
+            created_forces.push(ContactForce::default());
+        }
+        self.new_contact_list(model);
+        let dev = &self.dev;
+        let b = self.buffers.as_mut().expect("buffers exist");
+        b.ensure_spare::<R>(dev, n)?;
+        let init = |label: &str, contents: &[u8]| dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE });
+        let moves_buffer = init("contact moves", bytemuck::cast_slice(&moves.moves));
+        let created_buffer = init("created contacts", bytemuck::cast_slice(&created));
+        let created_forces_buffer = init("created contact forces", bytemuck::cast_slice(&created_forces));
+        let (spare, spare_forces) = b.spare_contacts.as_ref().expect("made above");
+        let entries: Vec<wgpu::BindGroupEntry> = [&b.contacts.buffer, &b.contact_forces.buffer, &moves_buffer, &created_buffer, &created_forces_buffer, &spare.buffer, &spare_forces.buffer]
+            .into_iter()
+            .enumerate()
+            .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
+            .collect();
+        let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("splice"), layout: &self.pipelines.splice_layout, entries: &entries });
+        let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("splice") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("splice_contacts"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines.splice_contacts);
+            pass.set_bind_group(0, &bind_group, &[]);
+            let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::WORKGROUP_SIZE as usize) as u32);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        dev.queue.submit([enc.finish()]);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Device(format!("the contact splice was rejected: {e}")));
+        }
+        b.swap_contacts();
+        self.splices += 1;
+        self.counts.2 = n;
+        self.upload_adjacency(model.blocks.len(), n, adjacency)?;
+        self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
         Ok(())
     }
 
@@ -961,10 +1062,17 @@ where
                         self.write_params(model);
                         self.run_batch(1, true).map_err(device_error)?;
                     }
+                    // The list before the update, for the splice's moves (only when one is due).
+                    let before = (self.splice && cpu::topology_update_due(model)).then(|| splice::ContactsBefore::of(model));
                     if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
                         expected_update = cycles_to_next_update(model);
                         self.upload_reset_distances(model);
-                        self.upload_contacts(model, &adjacency).map_err(device_error)?;
+                        let moves = before.filter(|_| !model.contacts.is_empty()).and_then(|b| splice::contact_moves(&b, &model.contacts));
+                        match moves {
+                            Some(m) => self.splice_contacts(model, &adjacency, &m),
+                            None => self.upload_contacts(model, &adjacency),
+                        }
+                        .map_err(device_error)?;
                         self.write_params(model);
                         self.run_batch(1, true).map_err(device_error)?;
                     }

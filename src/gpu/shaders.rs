@@ -1,5 +1,7 @@
 //! WGSL sources: a prelude generated here (precision alias, workgroup size, material count, tie tolerance —
-//! constants live in Rust, STYLE.md item 4), then `shaders/common.wgsl`, then one kernel file.
+//! constants live in Rust, STYLE.md item 4), then `shaders/layout.wgsl` (the structs), then for the
+//! kernels of the cycle `shaders/common.wgsl` (their shared bindings and helpers), then one kernel
+//! file.
 
 use super::Precision;
 
@@ -18,7 +20,7 @@ pub const HEAVY_WORKGROUP_SIZE: u32 = 256;
 pub const MAX_GROUPS_PER_DIMENSION: u32 = 65535;
 
 /// The two-dimensional dispatch that covers `groups` workgroups (rows of at most
-/// `MAX_GROUPS_PER_DIMENSION`; `item_index` in common.wgsl lays them end to end).
+/// `MAX_GROUPS_PER_DIMENSION`; `item_index` in layout.wgsl lays them end to end).
 pub fn dispatch_grid(groups: u32) -> (u32, u32) {
     if groups <= MAX_GROUPS_PER_DIMENSION {
         (groups, 1)
@@ -27,9 +29,11 @@ pub fn dispatch_grid(groups: u32) -> (u32, u32) {
     }
 }
 
+pub const LAYOUT: &str = include_str!("../../shaders/layout.wgsl");
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
-/// The kernel files, one per stage, each named like its CPU twin in `src/cpu/`.
+/// The kernel files of the cycle, one per stage, each named like its CPU twin in `src/cpu/`;
+/// they share the bindings of common.wgsl (one bind group serves them all).
 pub const KERNELS: &[(&str, &str)] = &[
     ("law_of_motion", include_str!("../../shaders/law_of_motion.wgsl")),
     ("geometry_update", include_str!("../../shaders/geometry_update.wgsl")),
@@ -38,6 +42,15 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("end_cycle", include_str!("../../shaders/end_cycle.wgsl")),
     ("energy_sums", include_str!("../../shaders/energy_sums.wgsl")),
 ];
+
+/// Kernels of the topology changes between cycles, with bindings of their own (the state's bind
+/// group is at the eight storage buffers a stage may have); named like their Rust twins.
+pub const TOPOLOGY_KERNELS: &[(&str, &str)] = &[("splice_contacts", include_str!("../../shaders/splice_contacts.wgsl"))];
+
+/// Every kernel file's name, the cycle's first.
+pub fn kernel_names() -> impl Iterator<Item = &'static str> {
+    KERNELS.iter().chain(TOPOLOGY_KERNELS).map(|(name, _)| *name)
+}
 
 /// The prelude: the one precision switch and the constants.
 ///
@@ -66,8 +79,11 @@ pub fn prelude(precision: Precision) -> String {
 
 /// The full source of one kernel file in one precision.
 pub fn source(kernel: &str, precision: Precision) -> Option<String> {
-    let body = KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
-    Some(format!("{}\n{COMMON}\n{body}", prelude(precision)))
+    if let Some((_, body)) = KERNELS.iter().find(|(name, _)| *name == kernel) {
+        return Some(format!("{}\n{LAYOUT}\n{COMMON}\n{body}", prelude(precision)));
+    }
+    let body = TOPOLOGY_KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
+    Some(format!("{}\n{LAYOUT}\n{body}", prelude(precision)))
 }
 
 /// Parses and validates WGSL with naga, with f64 allowed only in the f64 variant. Returns the

@@ -1,0 +1,81 @@
+// The GPU structs, twins of src/gpu/layout.rs (sizes given as f32 / f64), and the layout of items
+// over a dispatch: shared by every kernel, the cycle's (which add common.wgsl's bindings and
+// helpers) and the topology kernels with bindings of their own (splice_contacts.wgsl). The Rust
+// prelude in front of this file defines `alias real = f32;` or `f64`, WORKGROUP_SIZE and the
+// other constants. Storage structs hold reals first and then an even number of u32 words, so both
+// precisions have the same field order and no padding.
+
+// 116 / 216 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo);
+// `work`, `damping_work`: external work and mass-damping dissipation since the upload;
+// `moved` is the largest net displacement from the reference (update_*) of the last contact
+// update, due for the next one past etol + update_margin (the block's speed margin).
+struct Block {
+    cx: real, cy: real, cx_lo: real, cy_lo: real,
+    rotation: real, vx: real, vy: real, w: real,
+    fx: real, fy: real, moment: real, mass: real,
+    inertia: real, load_x: real, load_y: real, radius: real,
+    work: real, damping_work: real,
+    moved: real, update_cx: real, update_cy: real, update_cx_lo: real, update_cy_lo: real, update_rotation: real, update_margin: real,
+    fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
+}
+
+// 60 / 112 bytes. (px, py) corner and (ox, oy) circle centre relative to the block centroid;
+// (ux, uy) unit direction and len length of the edge to the next corner.
+struct Corner {
+    lx: real, ly: real, qx: real, qy: real, radius: real, round: real,
+    px: real, py: real, ox: real, oy: real, ux: real, uy: real, len: real,
+    block: u32, _pad: u32,
+}
+
+// 80 / 136 bytes. The point (px, py) is relative to block 2's centroid. slip_work, dashpot_work:
+// dissipation since the upload; (dashpot_vn, dashpot_vs): the velocities the dashpots acted on in
+// the last step, whose work is booked a step late.
+struct Contact {
+    px: real, py: real, nx: real, ny: real, gap: real,
+    normal_force: real, shear_force: real, shear_displacement: real, fx: real, fy: real,
+    slip_work: real, dashpot_work: real, dashpot_vn: real, dashpot_vs: real,
+    block1: u32, corner: u32, block2: u32, feature: u32,
+    material: u32, bonded: u32,
+}
+
+// 16 / 32 bytes. What the gather needs of a contact: the force on block 1 (block 2 gets the
+// reaction) and the moment of each about its own centroid (eq. 12), written by contact_forces.
+struct ContactForce { fx: real, fy: real, m1: real, m2: real }
+
+// 16 / 32 bytes (the 16-byte stride a uniform array needs, in both precisions).
+struct Material { kn: real, ks: real, cohesion: real, friction: real }
+
+// 12 / 24 bytes: one workgroup's share of the energy check (energy_check.wgsl).
+struct EnergySum { kinetic: real, strain: real, work: real }
+
+// 56 / 88 bytes.
+struct Params {
+    dt: real, alpha: real, beta: real, gx: real, gy: real,
+    etol: real, fast_limit: real, overlap_limit: real,
+    n_blocks: u32, n_corners: u32, n_contacts: u32,
+    one: u32, // always 1 (see two_sum)
+    gather_fixed: u32, // 1: the gather also sums fixed blocks (before a read-back)
+    n_heavy: u32, // blocks summed by gather_heavy, listed in adj_offsets after the offsets
+}
+
+// 32 bytes.
+struct Flags {
+    halted: atomic<u32>,
+    cycles_done: atomic<u32>,
+    update_due: atomic<u32>,
+    errors: atomic<u32>,
+    nonfinite_block: atomic<u32>,
+    toofast_block: atomic<u32>,
+    overlap_contact: atomic<u32>,
+    _pad: atomic<u32>,
+}
+
+const ERR_NONFINITE: u32 = 1u;
+const ERR_TOO_FAST: u32 = 2u;
+const ERR_OVERLAP: u32 = 4u;
+
+// The item an invocation handles. Dispatches are two-dimensional (at most 65535 workgroups a
+// dimension, and a 10⁶-block wall has 8·10⁶ contacts), rows of workgroups laid end to end.
+fn item_index(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+    return (wg.y * nwg.x + wg.x) * WORKGROUP_SIZE + li;
+}
