@@ -245,7 +245,10 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
         c.dashpot_vs = 0.0;
     }
     if (!counted) {
+        // The other view carries the touch; this view's own shear spring lets go (see the twin).
+        c.slip_work += slip_dissipation(c.shear_force, 0.0, vs * dt, mat.ks);
         c.normal_force = 0.0;
+        c.shear_force = 0.0;
         c.fx = 0.0;
         c.fy = 0.0;
         return c;

@@ -371,7 +371,13 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
         contact.dashpot_velocity = [0.0, 0.0];
     }
     if !active {
+        // The other view carries the touch. The normal force follows the shared gap, but the
+        // shear spring is this view's own (eq. 17 is incremental): if it held a force from when
+        // this view was the counted one, it lets go as on opening (its energy to the slip
+        // work), or it would stay in the ledger's strain energy and in a PRINT of the contact.
+        contact.slip_work += slip_dissipation(contact.shear_force, 0.0, vs * dt, mat.ks);
         contact.normal_force = 0.0;
+        contact.shear_force = 0.0;
         contact.force = [0.0, 0.0];
         return;
     }
@@ -476,6 +482,22 @@ mod tests {
             self.0 ^= self.0 << 17;
             (self.0 >> 11) as f64 / (1u64 << 53) as f64
         }
+    }
+
+    /// A view of a corner–corner touch that stops being the counted one lets its shear spring go:
+    /// no force, no shear force left to print or to count as strain energy, its spring's energy
+    /// booked as slip work (the ledger stays balanced); a view that never carried one is unchanged.
+    #[test]
+    fn an_uncounted_view_keeps_no_shear_force() {
+        let mat = Material { kn: 1e9, ks: 5e8, friction: 0.6, ..Default::default() };
+        let still = BlockMotion { centroid: [0.0, 0.0], velocity: [0.0, 0.0], angular_velocity: 0.0 };
+        let mut c = Contact { normal: [0.0, 1.0], gap: -1e-4, normal_force: 1e5, shear_force: 2e4, force: [-2e4, 1e5], ..Contact::unloaded(0, 0, 1) };
+        contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
+        assert_eq!((c.normal_force, c.shear_force, c.force), (0.0, 0.0, [0.0, 0.0]));
+        assert!((c.slip_work - 2e4f64.powi(2) / (2.0 * mat.ks)).abs() < 1e-9, "the spring's energy, {}", c.slip_work);
+        let before = c.clone();
+        contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
+        assert_eq!(c, before, "nothing more to let go");
     }
 
     /// The fast path of `track_feature` gives what the three-way comparison gives, bit for bit:
