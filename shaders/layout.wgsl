@@ -42,6 +42,12 @@ struct Contact {
 // reaction) and the moment of each about its own centroid (eq. 12), written by contact_forces.
 struct ContactForce { fx: real, fy: real, m1: real, m2: real }
 
+// 28 / 48 bytes. What a contact update reads back of a contact (pack_contacts.wgsl).
+struct ContactSummary {
+    gap: real, normal_force: real, shear_force: real, slip_work: real, dashpot_work: real,
+    feature: u32, bonded: u32,
+}
+
 // 16 / 32 bytes (the 16-byte stride a uniform array needs, in both precisions).
 struct Material { kn: real, ks: real, cohesion: real, friction: real }
 

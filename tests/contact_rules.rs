@@ -216,7 +216,8 @@ fn largest_difference(a: &Model, b: &Model) -> (f64, f64) {
 #[test]
 fn a_contact_splice_on_the_device_runs_as_a_whole_upload() {
     // After a contact update the GPU builds the new contact list from the old one on the device
-    // (`gpu::splice`); the whole upload it replaces sends the model's copy of every contact.
+    // (`gpu::splice`), having read back only each contact's summary (`pack_contacts`); the whole
+    // read-back and upload they replace send the model's copy of every contact.
     // Both hold the same state but for rounding: a kept contact's gather record is the device's
     // own rather than recomputed in f64 from the read-back point. So the runs agree to rounding
     // amplified by the motion. A block thrown at a fixed block and bouncing back (contacts made,

@@ -8,7 +8,8 @@
 //!   (slip work, dashpot work and the dashpot velocities it carries to the next step);
 //! - `mass_damping_work`: the energy the mass-proportional damping takes in a step (law_of_motion);
 //! - `sin_cos`: the rotation of the geometry update, with + − × only;
-//! - `splice_contacts`: the contact list built on the device after a contact update;
+//! - `splice_contacts`: the contact list built on the device after a contact update, and
+//!   `pack_contacts`, the summaries of the contacts a contact update reads back;
 //! - `energy_sums` (the energy check on the device): its sums against `Model::energies` on the
 //!   state the run read back.
 //!
@@ -21,8 +22,8 @@
 mod common;
 
 use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
-use blockdem::gpu::layout::{Contact as GContact, ContactForce as GForce, Corner as GCorner, Material as GMaterial, Real};
-use blockdem::gpu::splice::{splice_contacts, NEW_CONTACT};
+use blockdem::gpu::layout::{Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, Material as GMaterial, Real};
+use blockdem::gpu::splice::{pack_contacts, splice_contacts, NEW_CONTACT};
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
 use common::Target;
@@ -584,6 +585,7 @@ fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice)
 where
     GContact<R>: bytemuck::Pod,
     GForce<R>: bytemuck::Pod,
+    GSummary<R>: bytemuck::Pod,
 {
     let mut rng = Rng(0x5eed_0000_0000_0004);
     let contact = |rng: &mut Rng| {
@@ -631,6 +633,17 @@ where
     assert!(created.len() > 100 && n < n_old + created.len(), "the case creates and drops");
     assert_eq!(bytemuck::cast_slice::<GContact<R>, u8>(&want), &out[0][..], "contacts");
     assert_eq!(bytemuck::cast_slice::<GForce<R>, u8>(&want_forces), &out[1][..], "gather records");
+
+    // `pack_contacts.wgsl` on the spliced list: the summaries a contact update reads back.
+    let packed = run_kernel(
+        dev,
+        "pack_contacts",
+        "",
+        "pack_contacts",
+        n,
+        &[(0, bytemuck::cast_slice(&want).to_vec(), false), (1, vec![0; n * std::mem::size_of::<GSummary<R>>()], true)],
+    );
+    assert_eq!(bytemuck::cast_slice::<GSummary<R>, u8>(&pack_contacts(&want)), &packed[0][..], "contact summaries");
 }
 
 macro_rules! on_adapters {

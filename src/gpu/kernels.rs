@@ -4,7 +4,7 @@
 //! cycle; `splice_contacts` has a layout of its own.
 
 use super::device::GpuDevice;
-use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
+use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
 use super::{shaders, GpuError};
 
 /// One compute pipeline per entry point; each entry point is in the WGSL file of the same name.
@@ -20,6 +20,9 @@ pub struct Pipelines {
     /// `splice_contacts.wgsl`, with its own bindings (`splice_bind_group`).
     pub splice_contacts: wgpu::ComputePipeline,
     pub splice_layout: wgpu::BindGroupLayout,
+    /// `pack_contacts.wgsl`, with its own bindings (the contacts, the summaries).
+    pub pack_contacts: wgpu::ComputePipeline,
+    pub pack_layout: wgpu::BindGroupLayout,
 }
 
 fn uniform(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -77,6 +80,9 @@ impl Pipelines {
             bind_group_layouts: &[Some(&splice_layout)],
             immediate_size: 0,
         });
+        let pack_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem pack"), entries: &[storage(0, true), storage(1, false)] });
+        let pack_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem pack"), bind_group_layouts: &[Some(&pack_layout)], immediate_size: 0 });
         // `entry` in the kernel file `name`.wgsl, on `layout`.
         let make_on = |layout: &wgpu::PipelineLayout, name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
             let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
@@ -104,6 +110,8 @@ impl Pipelines {
             bind_group_layout,
             splice_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "splice_contacts")?,
             splice_layout,
+            pack_contacts: make_on(&pack_pipeline_layout, "pack_contacts", "pack_contacts")?,
+            pack_layout,
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader(format!("the driver rejected a kernel: {e}")));
@@ -136,6 +144,8 @@ pub struct Buffers {
     /// The other pair of contact and gather-record buffers, which `splice_contacts` writes the
     /// new list into before the two pairs change places (made at the first splice).
     pub spare_contacts: Option<(Slab, Slab)>,
+    /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
+    pub summaries: Option<Slab>,
 }
 
 /// The largest storage binding this device may hold: the adapter's own limit (128 MiB on Mesa's
@@ -204,6 +214,7 @@ impl Buffers {
             flags,
             energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
             spare_contacts: None,
+            summaries: None,
         })
     }
 
@@ -231,6 +242,18 @@ impl Buffers {
         let contacts = slab(dev, "contacts (spare)", std::mem::size_of::<Contact<R>>(), count)?;
         let forces = slab(dev, "contact forces (spare)", std::mem::size_of::<ContactForce<R>>(), count)?;
         self.spare_contacts = Some((contacts, forces));
+        Ok(())
+    }
+
+    /// Makes sure the summaries buffer holds `count` contacts.
+    pub fn ensure_summaries<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError>
+    where
+        ContactSummary<R>: bytemuck::Pod,
+    {
+        if self.summaries.as_ref().is_none_or(|s| s.capacity < count) {
+            self.summaries = None;
+            self.summaries = Some(slab(dev, "contact summaries", std::mem::size_of::<ContactSummary<R>>(), count)?);
+        }
         Ok(())
     }
 

@@ -127,6 +127,17 @@ gpu_struct! {
 }
 
 gpu_struct! {
+    /// What a contact update reads back of one contact (`pack_contacts.wgsl`): 28 bytes in f32,
+    /// 48 in f64, against 80 / 136 for the whole contact. The gap decides drops, the forces and
+    /// the dissipation go to the ledger (and to its retired account when the contact is
+    /// dropped), the feature is the one the contact follows, `bonded` whether it is still intact.
+    ContactSummary {
+        gap: R, normal_force: R, shear_force: R, slip_work: R, dashpot_work: R,
+        feature: u32, bonded: u32,
+    }
+}
+
+gpu_struct! {
     /// What the gather needs of one contact, written by `contact_forces` into its own compact
     /// slot: 16 bytes in f32, 32 in f64. The force on block 1 (block 2 gets its reaction) and
     /// the moment of each about its block's centroid (eq. 12, M = r × F), so that the gather
@@ -222,6 +233,7 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         Corner::<R>::layout(),
         Contact::<R>::layout(),
         ContactForce::<R>::layout(),
+        ContactSummary::<R>::layout(),
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),

@@ -71,7 +71,7 @@ use rayon::prelude::*;
 pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 pub use targets::{find_target, scenario_backends, GpuTarget};
 use kernels::{Buffers, Pipelines};
-use layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
+use layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
 
 /// How many more cycles, at the velocities now, until the first block passes its contact-update
 /// threshold (`Block::update_due`): the cycle that raises the flag, ⌊(threshold − moved)/s⌋ + 1 for
@@ -317,6 +317,7 @@ where
     Corner<R>: bytemuck::Pod,
     Contact<R>: bytemuck::Pod,
     ContactForce<R>: bytemuck::Pod,
+    ContactSummary<R>: bytemuck::Pod,
     EnergySum<R>: bytemuck::Pod,
     Material<R>: bytemuck::Pod,
     Params<R>: bytemuck::Pod,
@@ -704,16 +705,21 @@ where
     /// every few cycles (a projectile), where a batch that stops for a contact update would
     /// otherwise cost a second round trip for the state. Returns the flags and whether the model
     /// now holds the state.
-    fn run_batch_with_state(&mut self, cycles: u64, model: &mut Model) -> Result<(Flags, bool), GpuError> {
+    ///
+    /// `packed`: the contacts come back as `ContactSummary` records (`pack_contacts`), not whole.
+    fn run_batch_with_state(&mut self, cycles: u64, model: &mut Model, packed: bool) -> Result<(Flags, bool), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
         self.submit_batch(cycles, false)?;
-        let (nb, nc, nk) = self.counts;
+        if packed {
+            self.pack_contacts()?;
+        }
+        let (nb, nc, _) = self.counts;
         let b = self.buffers();
         let parts = [
             (&b.flags, std::mem::size_of::<Flags>() as u64),
             (&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64),
             (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64),
-            (&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64),
+            self.contacts_part(packed),
         ];
         let up = self.uploaded.clone();
         let (flags, blocks) = self.dev.read_parts(&parts, |bytes| {
@@ -723,7 +729,8 @@ where
             }
             let _p = crate::profile::scope(crate::profile::Stage::Download);
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[1]);
-            Self::convert_state(&blocks, &pod_view(bytes[2]), &pod_view(bytes[3]), &up, model);
+            Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[2]), &up, model);
+            Self::convert_contacts_read(bytes[3], packed, &up, model);
             (flags, Some(blocks))
         })?;
         let read = blocks.is_some();
@@ -817,6 +824,50 @@ where
         self.dev.read_pod(buffer, n)
     }
 
+    /// What a read-back reads of the live contacts: whole, or their packed summaries.
+    fn contacts_part(&self, packed: bool) -> (&wgpu::Buffer, u64) {
+        let (b, nk) = (self.buffers(), self.counts.2);
+        match (packed, b.summaries.as_ref()) {
+            (true, Some(s)) => (&s.buffer, (nk * std::mem::size_of::<ContactSummary<R>>()) as u64),
+            (true, None) => (&b.contacts.buffer, 0),
+            (false, _) => (&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64),
+        }
+    }
+
+    /// Queues `pack_contacts`: each live contact's summary for a packed read-back.
+    fn pack_contacts(&mut self) -> Result<(), GpuError> {
+        let n = self.counts.2;
+        if n == 0 {
+            return Ok(());
+        }
+        let dev = &self.dev;
+        let b = self.buffers.as_mut().expect("buffers exist");
+        b.ensure_summaries::<R>(dev, n)?;
+        let summaries = b.summaries.as_ref().expect("made above");
+        // Bound to the live count: the kernel packs arrayLength(&summaries) contacts.
+        fn sized(buffer: &wgpu::Buffer, bytes: usize) -> wgpu::BindingResource<'_> {
+            wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer, offset: 0, size: std::num::NonZeroU64::new(bytes as u64) })
+        }
+        let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pack"),
+            layout: &self.pipelines.pack_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: sized(&b.contacts.buffer, n * std::mem::size_of::<Contact<R>>()) },
+                wgpu::BindGroupEntry { binding: 1, resource: sized(&summaries.buffer, n * std::mem::size_of::<ContactSummary<R>>()) },
+            ],
+        });
+        let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("pack") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("pack_contacts"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines.pack_contacts);
+            pass.set_bind_group(0, &bind_group, &[]);
+            let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::WORKGROUP_SIZE as usize) as u32);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        dev.queue.submit([enc.finish()]);
+        Ok(())
+    }
+
     /// Reads blocks, corners and contacts of `src` into the model (one copy, one wait);
     /// returns the blocks as read.
     fn read_state(&self, src: &StateBuffers, up: &Uploaded, model: &mut Model) -> Result<Vec<Block<R>>, GpuError> {
@@ -828,7 +879,8 @@ where
         ];
         self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
-            Self::convert_state(&blocks, &pod_view(bytes[1]), &pod_view(bytes[2]), up, model);
+            Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), up, model);
+            Self::convert_contacts(&pod_view(bytes[2]), up, model);
             blocks
         })
     }
@@ -836,7 +888,7 @@ where
     /// The device state into the model: centroids back to the model's frame, accumulators onto
     /// their f64 bases. Converted in parallel (a 10⁶-block model is read back at every contact
     /// update); the external work is summed serially, so the result repeats bit for bit.
-    fn convert_state(blocks: &[Block<R>], corners: &[Corner<R>], contacts: &[Contact<R>], up: &Uploaded, model: &mut Model) {
+    fn convert_blocks_and_corners(blocks: &[Block<R>], corners: &[Corner<R>], up: &Uploaded, model: &mut Model) {
         let o = up.origin;
         model.blocks.par_iter_mut().zip(blocks.par_iter()).zip(up.damping_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
             m.centroid = [o[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), o[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
@@ -853,7 +905,7 @@ where
         });
         let work: f64 = blocks.iter().map(|g| g.work.to_f64()).sum();
         model.external_work = up.work_base + work;
-        let Model { blocks: model_blocks, corners: model_corners, contacts: model_contacts, .. } = model;
+        let Model { blocks: model_blocks, corners: model_corners, .. } = model;
         model_corners.par_iter_mut().zip(corners.par_iter()).with_min_len(4096).for_each(|(m, g)| {
             let cen = model_blocks[m.block as usize].centroid;
             m.position = [cen[0] + g.px.to_f64(), cen[1] + g.py.to_f64()];
@@ -861,6 +913,36 @@ where
             m.edge_dir = [g.ux.to_f64(), g.uy.to_f64()];
             m.edge_length = g.len.to_f64();
         });
+    }
+
+    /// The contacts of a read-back, whole or packed, into the model.
+    fn convert_contacts_read(bytes: &[u8], packed: bool, up: &Uploaded, model: &mut Model) {
+        if packed {
+            Self::convert_summaries(&pod_view(bytes), up, model);
+        } else {
+            Self::convert_contacts(&pod_view(bytes), up, model);
+        }
+    }
+
+    /// Packed contacts into the model: what detection and the ledger use. The model's point,
+    /// normal, shear displacement, force and dashpot velocities stay as they were (stale) until
+    /// the next whole read-back; the splice keeps the device's.
+    fn convert_summaries(summaries: &[ContactSummary<R>], up: &Uploaded, model: &mut Model) {
+        model.contacts.par_iter_mut().zip(summaries.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
+            m.gap = g.gap.to_f64();
+            m.normal_force = g.normal_force.to_f64();
+            m.shear_force = g.shear_force.to_f64();
+            m.slip_work = base[0] + g.slip_work.to_f64();
+            m.dashpot_work = base[1] + g.dashpot_work.to_f64();
+            m.feature = g.feature;
+            m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
+            m.bonded = g.bonded != 0;
+        });
+    }
+
+    /// Whole contacts into the model.
+    fn convert_contacts(contacts: &[Contact<R>], up: &Uploaded, model: &mut Model) {
+        let Model { blocks: model_blocks, contacts: model_contacts, .. } = model;
         model_contacts.par_iter_mut().zip(contacts.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
             let c2 = model_blocks[m.block2 as usize].centroid;
             m.point = [c2[0] + g.px.to_f64(), c2[1] + g.py.to_f64()];
@@ -883,15 +965,28 @@ where
     /// forces (the cycle skips them).
     fn readback(&mut self, model: &mut Model) -> Result<(), GpuError> {
         self.run_batch(1, true)?;
-        self.read_live_state(model)
+        self.read_live_state(model, false)
     }
 
     /// Reads blocks, corners and contacts back as they are (fixed blocks' forces stale: what
-    /// stage 7 needs).
-    fn read_live_state(&mut self, model: &mut Model) -> Result<(), GpuError> {
+    /// stage 7 needs); `packed`: the contacts' summaries only (`pack_contacts`).
+    fn read_live_state(&mut self, model: &mut Model, packed: bool) -> Result<(), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Download);
         let up = self.uploaded.clone();
-        self.last_blocks = self.read_state(&self.live(), &up, model)?;
+        if !packed {
+            self.last_blocks = self.read_state(&self.live(), &up, model)?;
+            return Ok(());
+        }
+        self.pack_contacts()?;
+        let (nb, nc, _) = self.counts;
+        let b = self.buffers();
+        let parts = [(&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64), (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64), self.contacts_part(true)];
+        self.last_blocks = self.dev.read_parts(&parts, |bytes| {
+            let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
+            Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), &up, model);
+            Self::convert_contacts_read(bytes[2], true, &up, model);
+            blocks
+        })?;
         Ok(())
     }
 
@@ -1009,6 +1104,9 @@ where
         // (`cycles_to_next_update`): a batch that would run past it is cut there, since the
         // cycles dispatched after the halt still cost their launches.
         let mut expected_update: Option<u64> = None;
+        // Read-backs for a contact update bring the contacts' summaries only (`pack_contacts`),
+        // since the splice keeps the rest on the device; cracking reads everything.
+        let packed = self.splice && !cracking;
         let result = (|| -> Result<(), CycleError> {
             while done_total < cycles {
                 let left = cycles - done_total;
@@ -1018,7 +1116,7 @@ where
                 }
                 self.write_params(model);
                 let (flags, state_read) = if busy && !cracking {
-                    self.run_batch_with_state(batch, model).map_err(device_error)?
+                    self.run_batch_with_state(batch, model, packed).map_err(device_error)?
                 } else {
                     (self.run_batch(batch, false).map_err(device_error)?, false)
                 };
@@ -1046,7 +1144,7 @@ where
                     if cracking {
                         self.readback(model).map_err(device_error)?;
                     } else if !state_read {
-                        self.read_live_state(model).map_err(device_error)?;
+                        self.read_live_state(model, packed).map_err(device_error)?;
                     }
                     // The model's state is read back only when the CPU needs it (here, the next
                     // stage 7, an error, the end of the run): after a change the device holds it.
@@ -1063,14 +1161,27 @@ where
                         self.run_batch(1, true).map_err(device_error)?;
                     }
                     // The list before the update, for the splice's moves (only when one is due).
-                    let before = (self.splice && cpu::topology_update_due(model)).then(|| splice::ContactsBefore::of(model));
+                    // After a packed read the update may go on only if the splice will place
+                    // every kept contact (the whole upload would send stale fields): otherwise
+                    // the contacts are read whole first (the device has not moved since).
+                    let mut before = (self.splice && cpu::topology_update_due(model)).then(|| splice::ContactsBefore::of(model));
+                    if before.as_ref().is_some_and(|b| !b.spliceable()) {
+                        before = None;
+                        if packed {
+                            self.read_live_state(model, false).map_err(device_error)?;
+                        }
+                    }
+                    let packed_before = packed && before.is_some();
                     if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
                         expected_update = cycles_to_next_update(model);
                         self.upload_reset_distances(model);
-                        let moves = before.filter(|_| !model.contacts.is_empty()).and_then(|b| splice::contact_moves(&b, &model.contacts));
+                        let moves = before.filter(|_| !model.contacts.is_empty()).map(|b| splice::contact_moves(&b, &model.contacts));
                         match moves {
-                            Some(m) => self.splice_contacts(model, &adjacency, &m),
-                            None => self.upload_contacts(model, &adjacency),
+                            Some(Some(m)) => self.splice_contacts(model, &adjacency, &m),
+                            Some(None) if packed_before => {
+                                return Err(CycleError::Setup("GPU: the contact update reordered kept contacts of a list it found in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()))
+                            }
+                            _ => self.upload_contacts(model, &adjacency),
                         }
                         .map_err(device_error)?;
                         self.write_params(model);

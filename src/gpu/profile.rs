@@ -109,6 +109,7 @@ where
     Corner<R>: bytemuck::Pod,
     Contact<R>: bytemuck::Pod,
     ContactForce<R>: bytemuck::Pod,
+    super::layout::ContactSummary<R>: bytemuck::Pod,
     EnergySum<R>: bytemuck::Pod,
     Material<R>: bytemuck::Pod,
     Params<R>: bytemuck::Pod,

@@ -12,8 +12,14 @@
 //!
 //! What moves is 8 bytes per contact (its source and its feature) plus the created contacts,
 //! against 96 (f32) or 168 (f64) bytes per contact for the whole list and its gather records.
+//!
+//! The read-back before the update is packed the same way (`pack_contacts`): detection and the
+//! energy ledger need a contact's gap, forces, dissipation and feature, not its point, normal or
+//! dashpot velocities, which stay on the device. The model's copies of those are then stale
+//! until the next whole read-back, so the whole-list upload must never follow a packed read:
+//! `ContactsBefore::spliceable` says beforehand whether the merge will place every kept contact.
 
-use super::layout::{Contact, ContactForce, Real};
+use super::layout::{Contact, ContactForce, ContactSummary, Real};
 use crate::model;
 use rayon::prelude::*;
 
@@ -34,6 +40,15 @@ impl ContactsBefore {
     pub fn of(model: &model::Model) -> Self {
         let keys = model.contacts.par_iter().with_min_len(4096).map(|c| [c.id, c.block1, c.corner, c.block2]).collect();
         ContactsBefore { keys, first_new_id: model.next_contact_id }
+    }
+
+    /// Whether the merge will place every contact the update keeps: the list is in the update's
+    /// order (block 1, corner, block 2), which the update then keeps rather than re-sorts, and
+    /// every id is below the first new one, so no kept contact is taken for a new one.
+    pub fn spliceable(&self) -> bool {
+        let n = self.keys.len();
+        n < NEW_CONTACT as usize
+            && self.keys.par_iter().enumerate().with_min_len(4096).all(|(i, k)| k[0] < self.first_new_id && (i == 0 || self.keys[i - 1][1..] <= k[1..]))
     }
 }
 
@@ -96,6 +111,22 @@ where
             (c, old_forces[source as usize])
         })
         .unzip()
+}
+
+/// Rust twin of `pack_contacts.wgsl`: what a contact update reads back of each contact.
+pub fn pack_contacts<R: Real>(contacts: &[Contact<R>]) -> Vec<ContactSummary<R>> {
+    contacts
+        .iter()
+        .map(|c| ContactSummary {
+            gap: c.gap,
+            normal_force: c.normal_force,
+            shear_force: c.shear_force,
+            slip_work: c.slip_work,
+            dashpot_work: c.dashpot_work,
+            feature: c.feature,
+            bonded: c.bonded,
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -184,8 +215,15 @@ mod tests {
         let before = ContactsBefore::of(&model);
         let mut new = model.contacts.clone();
         assert_eq!(contact_moves(&before, &new).map(|m| m.created.len()), Some(0));
+        assert!(before.spliceable());
         new.swap(3, 10);
         assert_eq!(contact_moves(&before, &new), None);
+        let mut swapped = model.clone();
+        swapped.contacts.swap(3, 10);
+        assert!(!ContactsBefore::of(&swapped).spliceable(), "out of order");
+        swapped.contacts.swap(3, 10);
+        swapped.contacts[7].id = swapped.next_contact_id;
+        assert!(!ContactsBefore::of(&swapped).spliceable(), "an id not below the next");
         // An old id on another pair is not taken for that contact.
         let mut new = model.contacts.clone();
         new[5].corner += 1;
