@@ -22,6 +22,7 @@
 //! adapter as much as a real cycle of a small model), so after a contact update a batch is cut at
 //! the cycle where the next one is expected at the velocities then (`cycles_to_next_update`).
 //! After a batch the CPU reads back the flags only; it reads back the state when stage 7 is due
+//! (the blocks, corners and a summary of each contact, `pack_contacts`)
 //! (together with the flags while contacts change every few batches), every cycle in scenes with
 //! point-load cracking candidates (the criterion is evaluated by the existing CPU code on the
 //! read-back contacts), after a failure and at the end of the run. It runs the existing CPU
