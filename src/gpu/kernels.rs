@@ -288,6 +288,26 @@ impl Buffers {
     }
 }
 
+/// One pass of a topology kernel (`shaders::TOPOLOGY_KERNELS`, bindings of its own) over `n`
+/// items, submitted with no wait; a binding the driver rejects is an error value.
+pub fn dispatch_items(dev: &GpuDevice, label: &str, pipeline: &wgpu::ComputePipeline, layout: &wgpu::BindGroupLayout, entries: &[wgpu::BindGroupEntry], n: usize) -> Result<(), GpuError> {
+    let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries });
+    let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::WORKGROUP_SIZE as usize) as u32);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+    dev.queue.submit([enc.finish()]);
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(GpuError::Device(format!("{label} was rejected: {e}")));
+    }
+    Ok(())
+}
+
 /// The dispatch of the energy check: one invocation per block and contact, whichever are more.
 pub fn energy_grid(blocks: usize, contacts: usize) -> (u32, u32) {
     shaders::dispatch_grid(blocks.max(contacts).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1) as u32)

@@ -584,20 +584,7 @@ where
             .enumerate()
             .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
             .collect();
-        let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("splice"), layout: &self.pipelines.splice_layout, entries: &entries });
-        let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("splice") });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("splice_contacts"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipelines.splice_contacts);
-            pass.set_bind_group(0, &bind_group, &[]);
-            let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::WORKGROUP_SIZE as usize) as u32);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-        dev.queue.submit([enc.finish()]);
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Device(format!("the contact splice was rejected: {e}")));
-        }
+        kernels::dispatch_items(dev, "splice_contacts", &self.pipelines.splice_contacts, &self.pipelines.splice_layout, &entries, n)?;
         b.swap_contacts();
         self.splices += 1;
         self.counts.2 = n;
@@ -849,24 +836,11 @@ where
         fn sized(buffer: &wgpu::Buffer, bytes: usize) -> wgpu::BindingResource<'_> {
             wgpu::BindingResource::Buffer(wgpu::BufferBinding { buffer, offset: 0, size: std::num::NonZeroU64::new(bytes as u64) })
         }
-        let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("pack"),
-            layout: &self.pipelines.pack_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: sized(&b.contacts.buffer, n * std::mem::size_of::<Contact<R>>()) },
-                wgpu::BindGroupEntry { binding: 1, resource: sized(&summaries.buffer, n * std::mem::size_of::<ContactSummary<R>>()) },
-            ],
-        });
-        let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("pack") });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("pack_contacts"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipelines.pack_contacts);
-            pass.set_bind_group(0, &bind_group, &[]);
-            let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::WORKGROUP_SIZE as usize) as u32);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-        dev.queue.submit([enc.finish()]);
-        Ok(())
+        let entries = [
+            wgpu::BindGroupEntry { binding: 0, resource: sized(&b.contacts.buffer, n * std::mem::size_of::<Contact<R>>()) },
+            wgpu::BindGroupEntry { binding: 1, resource: sized(&summaries.buffer, n * std::mem::size_of::<ContactSummary<R>>()) },
+        ];
+        kernels::dispatch_items(dev, "pack_contacts", &self.pipelines.pack_contacts, &self.pipelines.pack_layout, &entries, n)
     }
 
     /// Reads blocks, corners and contacts of `src` into the model (one copy, one wait);
