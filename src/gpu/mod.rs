@@ -22,16 +22,16 @@
 //! adapter as much as a real cycle of a small model), so after a contact update a batch is cut at
 //! the cycle where the next one is expected at the velocities then (`cycles_to_next_update`).
 //! After a batch the CPU reads back the flags only; it reads back the state when stage 7 is due
-//! (the blocks, corners and a summary of each contact, `pack_contacts`)
-//! (together with the flags while contacts change every few batches), every cycle in scenes with
-//! point-load cracking candidates (the criterion is evaluated by the existing CPU code on the
-//! read-back contacts), after a failure and at the end of the run. It runs the existing CPU
-//! topology code on the `Model` and sends only what changed: after a contact update, one move per
-//! contact (where in the old list it comes from, and its feature) and the contacts created, from
-//! which `splice_contacts` builds the new list and gather records on the device (`splice`; the
-//! whole list is uploaded when the update had to re-sort it), the adjacency, and the reset update
-//! distances of the re-examined blocks; everything after a crack split a block. The energy check every 100 cycles is summed
-//! on the device (`energy_sums`), and the last good state is a device-side copy of the state
+//! (together with the flags while contacts change every few batches: the blocks, the corners and
+//! a summary of each contact, `pack_contacts`), every cycle in scenes with point-load cracking
+//! candidates (the criterion is evaluated by the existing CPU code on the read-back contacts,
+//! read whole), after a failure and at the end of the run. It runs the existing CPU topology code
+//! on the `Model` and sends only what changed: after a contact update, one move per contact (where
+//! in the old list it comes from, and its feature) and the contacts created, from which
+//! `splice_contacts` builds the new list and gather records on the device (`splice`; the whole
+//! list is read and uploaded when the list was not in the update's order), the adjacency, and the
+//! reset update distances of the re-examined blocks; everything after a crack split a block. The
+//! energy check every 100 cycles is summed on the device (`energy_sums`), and the last good state is a device-side copy of the state
 //! buffers taken when a check passes (`take_checkpoint`), read back only if the run fails.
 //!
 //! ## The energy ledger
@@ -304,7 +304,8 @@ fn pod_view<T: bytemuck::Pod>(bytes: &[u8]) -> std::borrow::Cow<'_, [T]> {
     }
 }
 
-/// Which device buffers a read-back reads: the live state or the checkpoint.
+/// The checkpoint's buffers, as `read_state` reads them (the live state is read by
+/// `read_live_state`, which may pack its contacts).
 struct StateBuffers<'a> {
     blocks: &'a wgpu::Buffer,
     corners: &'a wgpu::Buffer,
@@ -342,11 +343,6 @@ where
 
     fn buffers(&self) -> &Buffers {
         self.buffers.as_ref().expect("buffers are created by upload_all")
-    }
-
-    fn live(&self) -> StateBuffers<'_> {
-        let b = self.buffers();
-        StateBuffers { blocks: &b.blocks.buffer, corners: &b.corners.buffer, contacts: &b.contacts.buffer, counts: self.counts }
     }
 
     fn gpu_contact(model: &Model, c: &crate::model::Contact) -> Contact<R> {
@@ -817,6 +813,7 @@ where
         let (b, nk) = (self.buffers(), self.counts.2);
         match (packed, b.summaries.as_ref()) {
             (true, Some(s)) => (&s.buffer, (nk * std::mem::size_of::<ContactSummary<R>>()) as u64),
+            // No contacts were ever packed (none live): nothing to read.
             (true, None) => (&b.contacts.buffer, 0),
             (false, _) => (&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64),
         }
@@ -947,19 +944,17 @@ where
     /// stage 7 needs); `packed`: the contacts' summaries only (`pack_contacts`).
     fn read_live_state(&mut self, model: &mut Model, packed: bool) -> Result<(), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Download);
-        let up = self.uploaded.clone();
-        if !packed {
-            self.last_blocks = self.read_state(&self.live(), &up, model)?;
-            return Ok(());
+        if packed {
+            self.pack_contacts()?;
         }
-        self.pack_contacts()?;
+        let up = self.uploaded.clone();
         let (nb, nc, _) = self.counts;
         let b = self.buffers();
-        let parts = [(&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64), (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64), self.contacts_part(true)];
+        let parts = [(&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64), (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64), self.contacts_part(packed)];
         self.last_blocks = self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), &up, model);
-            Self::convert_contacts_read(bytes[2], true, &up, model);
+            Self::convert_contacts_read(bytes[2], packed, &up, model);
             blocks
         })?;
         Ok(())
