@@ -13,23 +13,6 @@
 @group(0) @binding(8) var<storage, read_write> contact_forces_out: array<ContactForce>;
 @group(0) @binding(9) var<storage, read_write> energy_sums_out: array<EnergySum>;
 
-// True when the batch was stopped at the end of an earlier cycle: the remaining cycles of the
-// batch do nothing, so the CPU sees the state of the cycle that raised the flag.
-fn halted() -> bool {
-    return atomicLoad(&flags.halted) != 0u;
-}
-
-// The same, read once per workgroup (by its first invocation) and shared: an atomic load by
-// every invocation of an 8·10⁶-contact pass is 8·10⁶ reads of one word. Call it first, from
-// uniform control flow (it holds a workgroup barrier).
-var<workgroup> workgroup_halt: u32;
-fn workgroup_halted(li: u32) -> bool {
-    if (li == 0u) {
-        workgroup_halt = atomicLoad(&flags.halted);
-    }
-    return workgroupUniformLoad(&workgroup_halt) != 0u;
-}
-
 // Finite test without isnan/isinf (which compilers may fold away): false for NaN and ±inf.
 fn is_finite(x: real) -> bool {
     return abs(x) <= real(1.0e38);

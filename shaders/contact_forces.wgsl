@@ -342,10 +342,9 @@ fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, start
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let k = item_index(wg, nwg, li);
-    let stop = workgroup_halted(li);
-    if (stop || k >= params.n_contacts) {
+fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
         return;
     }
     var c = contacts[k];

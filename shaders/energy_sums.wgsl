@@ -11,8 +11,8 @@
 var<workgroup> partial: array<vec3<real>, WORKGROUP_SIZE>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let i = item_index(wg, nwg, li);
+fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let i = item_index(wg, li);
     var e = vec3<real>(0.0, 0.0, 0.0);
     if (i < params.n_blocks) {
         let b = blocks[i];
@@ -48,6 +48,6 @@ fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
     }
     if (li == 0u) {
         let t = partial[0];
-        energy_sums_out[wg.y * nwg.x + wg.x] = EnergySum(t.x, t.y, t.z);
+        energy_sums_out[workgroup_index(wg)] = EnergySum(t.x, t.y, t.z);
     }
 }

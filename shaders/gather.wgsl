@@ -29,10 +29,9 @@ fn gathered(blk: Block) -> bool {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let b = item_index(wg, nwg, li);
-    let stop = workgroup_halted(li);
-    if (stop || b >= params.n_blocks) {
+fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
         return;
     }
     let blk = blocks[b];
@@ -53,10 +52,10 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
 var<workgroup> shares: array<vec3<real>, HEAVY_WORKGROUP_SIZE>;
 
 @compute @workgroup_size(HEAVY_WORKGROUP_SIZE)
-fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let h = wg.y * nwg.x + wg.x;
+fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let h = workgroup_index(wg);
     // Uniform across the workgroup: every invocation reaches every barrier.
-    let listed = !workgroup_halted(li) && h < params.n_heavy;
+    let listed = h < params.n_heavy;
     var b = 0u;
     var f = vec3<real>(0.0, 0.0, 0.0);
     var take = false;

@@ -9,10 +9,9 @@ fn rotate(cs: vec2<real>, x: real, y: real) -> vec2<real> {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn geometry_update(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let i = item_index(wg, nwg, li);
-    let stop = workgroup_halted(li);
-    if (stop || i >= params.n_corners) {
+fn geometry_update(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let i = item_index(wg, li);
+    if (i >= params.n_corners) {
         return;
     }
     var corner = corners[i];

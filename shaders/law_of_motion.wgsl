@@ -13,10 +13,9 @@ fn mass_damping_work(mass: real, inertia: real, v0: vec3<real>, v1: vec3<real>, 
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let b = item_index(wg, nwg, li);
-    let stop = workgroup_halted(li);
-    if (stop || b >= params.n_blocks) {
+fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
         return;
     }
     var blk = blocks[b];

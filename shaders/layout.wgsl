@@ -80,8 +80,14 @@ const ERR_NONFINITE: u32 = 1u;
 const ERR_TOO_FAST: u32 = 2u;
 const ERR_OVERLAP: u32 = 4u;
 
-// The item an invocation handles. Dispatches are two-dimensional (at most 65535 workgroups a
-// dimension, and a 10⁶-block wall has 8·10⁶ contacts), rows of workgroups laid end to end.
-fn item_index(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
-    return (wg.y * nwg.x + wg.x) * WORKGROUP_SIZE + li;
+// The workgroup's place in its dispatch and the item an invocation handles. Dispatches are
+// two-dimensional (at most 65535 workgroups a dimension, and a 10⁶-block wall has 8·10⁶
+// contacts): rows of GROUPS_PER_ROW workgroups laid end to end (`shaders::dispatch_grid`). The row
+// length is a constant rather than `num_workgroups`, which an indirect dispatch need not supply.
+fn workgroup_index(wg: vec3<u32>) -> u32 {
+    return wg.y * GROUPS_PER_ROW + wg.x;
+}
+
+fn item_index(wg: vec3<u32>, li: u32) -> u32 {
+    return workgroup_index(wg) * WORKGROUP_SIZE + li;
 }

@@ -8,8 +8,8 @@
 @group(0) @binding(1) var<storage, read_write> summaries: array<ContactSummary>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn pack_contacts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let i = item_index(wg, nwg, li);
+fn pack_contacts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let i = item_index(wg, li);
     if (i >= arrayLength(&summaries)) {
         return;
     }

@@ -24,8 +24,8 @@ const NEW_CONTACT: u32 = 0x80000000u;
 @group(0) @binding(6) var<storage, read_write> new_forces: array<ContactForce>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn splice_contacts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let i = item_index(wg, nwg, li);
+fn splice_contacts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let i = item_index(wg, li);
     if (i >= arrayLength(&moves)) {
         return;
     }

@@ -712,3 +712,39 @@ fn energy_sums_vulkan_f64() {
 fn energy_sums_gl_f32() {
     energy_sums_match_the_model("gl", Precision::F32);
 }
+
+/// `end_cycle` counts a cycle and, when a kernel raised a flag the CPU must act on, halts the
+/// batch and zeroes every grid of `dispatch_args`, so the batch's later cycles launch nothing;
+/// once halted it changes nothing (the flags are [halted, cycles_done, update_due, errors, …]).
+fn end_cycle_halts_by_zeroing_the_grids(adapter: &str) {
+    let Some(dev) = device(adapter, Precision::F32) else { return };
+    let grids: Vec<u32> = vec![3, 1, 1, 7, 1, 1, 65535, 2, 1, 0, 1, 1];
+    let words = |w: &[u32]| bytemuck::cast_slice::<u32, u8>(w).to_vec();
+    let run = |flags: [u32; 8]| {
+        let out = run_kernel(&dev, "end_cycle", "", "end_cycle", 1, &[(7, words(&flags), true), (10, words(&grids), true)]);
+        (bytemuck::pod_collect_to_vec::<u8, u32>(&out[0]), bytemuck::pod_collect_to_vec::<u8, u32>(&out[1]))
+    };
+    let none = u32::MAX;
+    // Nothing raised: the cycle is counted, the grids stay.
+    let (flags, args) = run([0, 4, 0, 0, none, none, none, 0]);
+    assert_eq!((flags[0], flags[1], &args[..]), (0, 5, &grids[..]), "a quiet cycle on {adapter}");
+    // A contact update due, or an error: halted, and nothing more is launched.
+    for (due, errors) in [(1, 0), (0, 4)] {
+        let (flags, args) = run([0, 4, due, errors, none, none, none, 0]);
+        assert_eq!((flags[0], flags[1]), (1, 5), "halt on {adapter} (due {due}, errors {errors})");
+        assert!(args.iter().all(|&a| a == 0), "grids after a halt on {adapter}: {args:?}");
+    }
+    // Already halted: not counted, nothing written.
+    let (flags, args) = run([1, 4, 1, 0, none, none, none, 0]);
+    assert_eq!((flags[0], flags[1], &args[..]), (1, 4, &grids[..]), "a halted cycle on {adapter}");
+}
+
+#[test]
+fn end_cycle_halts_vulkan() {
+    end_cycle_halts_by_zeroing_the_grids("vulkan");
+}
+
+#[test]
+fn end_cycle_halts_gl() {
+    end_cycle_halts_by_zeroing_the_grids("gl");
+}

@@ -277,7 +277,6 @@ fn a_projectile_bounces_off_a_wall_with_few_contact_updates(t: &Target) {
     // bounce back: elastic contacts, no damping, |v| within 2% (the energy error of central
     // differences over a contact of ~10 steps), never through the wall; it compresses its
     // contacts by v·√(m/2kn) = 20 mm, under the overlap limit of 50 mm.
-    use blockdem::backend::Backend;
     let mut m = run(t, "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 0\n");
     let report = t.backend().run(&mut m, 600, &mut |_| {}).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
     let b = &m.blocks[0];

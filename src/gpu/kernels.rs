@@ -13,7 +13,10 @@ pub struct Pipelines {
     pub geometry_update: wgpu::ComputePipeline,
     pub contact_forces: wgpu::ComputePipeline,
     pub gather: wgpu::ComputePipeline,
+    /// `end_cycle.wgsl`, with its own bindings (the flags and the dispatch grids it zeroes on a
+    /// halt, `Buffers::end_cycle_bind_group`).
     pub end_cycle: wgpu::ComputePipeline,
+    pub end_cycle_layout: wgpu::BindGroupLayout,
     pub energy_sums: wgpu::ComputePipeline,
     pub gather_heavy: wgpu::ComputePipeline,
     pub bind_group_layout: wgpu::BindGroupLayout,
@@ -83,6 +86,10 @@ impl Pipelines {
         let pack_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem pack"), entries: &[storage(0, true), storage(1, false)] });
         let pack_pipeline_layout =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem pack"), bind_group_layouts: &[Some(&pack_layout)], immediate_size: 0 });
+        // End of cycle: the flags (binding 7, as in common.wgsl) and the dispatch grids (10).
+        let end_cycle_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem end_cycle"), entries: &[storage(7, false), storage(10, false)] });
+        let end_cycle_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem end_cycle"), bind_group_layouts: &[Some(&end_cycle_layout)], immediate_size: 0 });
         // `entry` in the kernel file `name`.wgsl, on `layout`.
         let make_on = |layout: &wgpu::PipelineLayout, name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
             let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
@@ -104,7 +111,8 @@ impl Pipelines {
             geometry_update: make("geometry_update")?,
             contact_forces: make("contact_forces")?,
             gather: make("gather")?,
-            end_cycle: make("end_cycle")?,
+            end_cycle: make_on(&end_cycle_pipeline_layout, "end_cycle", "end_cycle")?,
+            end_cycle_layout,
             energy_sums: make("energy_sums")?,
             gather_heavy: make_entry("gather", "gather_heavy")?,
             bind_group_layout,
@@ -139,6 +147,9 @@ pub struct Buffers {
     pub adj_offsets: Slab,
     pub adj_entries: Slab,
     pub flags: wgpu::Buffer,
+    /// The grids of the cycle's indirect dispatches, (x, y, z) for each of `Grid`; written at the
+    /// start of each batch, zeroed by `end_cycle` when it halts the batch.
+    pub dispatch_args: wgpu::Buffer,
     /// One `EnergySum` per workgroup of the energy check.
     pub energy_sums: Slab,
     /// The other pair of contact and gather-record buffers, which `splice_contacts` writes the
@@ -196,6 +207,12 @@ impl Buffers {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let dispatch_args = dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("dispatch grids"),
+            size: (Grid::ALL.len() * 12) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let materials = dev.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("materials"),
             size: (crate::model::MAX_MATERIALS * std::mem::size_of::<Material<R>>()) as u64,
@@ -212,6 +229,7 @@ impl Buffers {
             adj_offsets: slab(dev, "adjacency offsets", 4, blocks + 1)?,
             adj_entries: slab(dev, "adjacency entries", 4, 2 * contacts)?,
             flags,
+            dispatch_args,
             energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
             spare_contacts: None,
             summaries: None,
@@ -265,6 +283,18 @@ impl Buffers {
         self.spare_contacts = Some((old_contacts, old_forces));
     }
 
+    /// `end_cycle`'s bindings: the flags and the dispatch grids (neither is ever re-created).
+    pub fn end_cycle_bind_group(&self, dev: &GpuDevice, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
+        dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("blockdem end_cycle"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 7, resource: self.flags.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 10, resource: self.dispatch_args.as_entire_binding() },
+            ],
+        })
+    }
+
     pub fn bind_group(&self, dev: &GpuDevice, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
         fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
             wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
@@ -285,6 +315,24 @@ impl Buffers {
                 entry(9, &self.energy_sums.buffer),
             ],
         })
+    }
+}
+
+/// The grids of the cycle's indirect dispatches, in the order of `Buffers::dispatch_args`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Grid {
+    Blocks,
+    Corners,
+    Contacts,
+    HeavyBlocks,
+}
+
+impl Grid {
+    pub const ALL: [Grid; 4] = [Grid::Blocks, Grid::Corners, Grid::Contacts, Grid::HeavyBlocks];
+
+    /// Byte offset of this grid's (x, y, z) in `Buffers::dispatch_args`.
+    pub fn offset(self) -> u64 {
+        self as u64 * 12
     }
 }
 

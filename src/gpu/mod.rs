@@ -18,9 +18,11 @@
 //! of blocks, corners and contacts. Kernels raise flags (a block past the update tolerance, a
 //! non-finite step, a block too fast, an overlap too great); `end_cycle` then halts the rest of the
 //! batch, so the CPU sees exactly the state of the cycle that raised it, as the CPU backend would.
-//! The cycles dispatched after a halt do nothing but still cost their launches (on a software
-//! adapter as much as a real cycle of a small model), so after a contact update a batch is cut at
-//! the cycle where the next one is expected at the velocities then (`cycles_to_next_update`).
+//! The cycle's kernels are dispatched indirectly from grids the CPU writes at the start of each
+//! batch (`Buffers::dispatch_args`); halting zeroes them, so the cycles after a halt launch no
+//! workgroups and no kernel reads the halt flag. Their dispatch commands are still encoded and
+//! submitted, so after a contact update a batch is cut at the cycle where the next one is
+//! expected at the velocities then (`cycles_to_next_update`).
 //! After a batch the CPU reads back the flags only; it reads back the state when stage 7 is due
 //! (together with the flags while contacts change every few batches: the blocks, the corners and
 //! a summary of each contact, `pack_contacts`), every cycle in scenes with point-load cracking
@@ -50,8 +52,8 @@
 //! prelude. f32 keeps geometry relative to block centroids: corner offsets are body-frame and
 //! rotated per block, contact points are stored relative to block 2's centroid, centroids are kept
 //! relative to an origin near the model as compensated (hi, lo) pairs, so f32 keeps millimetres far
-//! from the origin and small steps are not lost on large coordinates. f64 kernels use only
-//! + − × ÷, sqrt, abs, min, max: the rotation's cos/sin come from the block's rotation angle (the
+//! from the origin and small steps are not lost on large coordinates. f64 kernels use only the
+//! operators + − × ÷ and sqrt, abs, min, max: the rotation's cos/sin come from the block's rotation angle (the
 //! same state the CPU keeps) by range reduction and a Taylor polynomial (`sin_cos` in
 //! common.wgsl), not from a drifting product of rotation increments.
 
@@ -71,7 +73,7 @@ use rayon::prelude::*;
 
 pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 pub use targets::{find_target, scenario_backends, GpuTarget};
-use kernels::{Buffers, Pipelines};
+use kernels::{Buffers, Grid, Pipelines};
 use layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
 
 /// How many more cycles, at the velocities now, until the first block passes its contact-update
@@ -264,6 +266,8 @@ struct Engine<R: Real> {
     pipelines: Pipelines,
     buffers: Option<Buffers>,
     bind_group: Option<wgpu::BindGroup>,
+    /// `end_cycle`'s bindings (`Buffers::end_cycle_bind_group`), made with the buffers.
+    end_cycle_bind_group: Option<wgpu::BindGroup>,
     uploaded: std::rc::Rc<Uploaded>,
     /// Counts uploads of the contact list (any topology change): the CPU copy of the last good
     /// state must be re-taken when it changed since the checkpoint.
@@ -280,11 +284,15 @@ struct Engine<R: Real> {
     splices: u64,
 }
 
-/// One dispatch of a cycle: the stage's label, its pipeline and its two-dimensional grid.
+/// One dispatch of a cycle: the stage's label, its pipeline, its bind group and its
+/// two-dimensional grid over the live counts; `indirect`: the grid in `Buffers::dispatch_args`
+/// that a batch launches it with (None for `end_cycle`, launched directly).
 pub(crate) struct Dispatch<'a> {
     pub label: &'static str,
     pub pipeline: &'a wgpu::ComputePipeline,
+    pub bind_group: &'a wgpu::BindGroup,
     pub grid: (u32, u32),
+    pub indirect: Option<Grid>,
 }
 
 /// Cycles encoded per submission inside a batch: the GPU starts on the first ones while the CPU
@@ -330,6 +338,7 @@ where
             pipelines,
             buffers: None,
             bind_group: None,
+            end_cycle_bind_group: None,
             uploaded: Default::default(),
             generation: 0,
             checkpoint: None,
@@ -471,7 +480,9 @@ where
         }
         let rebuild = match &mut self.buffers {
             None => {
-                self.buffers = Some(Buffers::new::<R>(&self.dev, blocks.len(), corners.len(), model.contacts.len())?);
+                let buffers = Buffers::new::<R>(&self.dev, blocks.len(), corners.len(), model.contacts.len())?;
+                self.end_cycle_bind_group = Some(buffers.end_cycle_bind_group(&self.dev, &self.pipelines.end_cycle_layout));
+                self.buffers = Some(buffers);
                 true
             }
             Some(b) => {
@@ -613,24 +624,37 @@ where
     /// The dispatches of one cycle over the live counts (stage 6 alone with `gather_only`).
     /// Stages with nothing to do are left out.
     pub(crate) fn stages(&self, gather_only: bool) -> Vec<Dispatch<'_>> {
-        let grid = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
         let p = &self.pipelines;
-        let (nb, nc, nk) = self.counts;
+        let bg = self.bind_group.as_ref().expect("bind group built on upload");
+        let cycle = |label, pipeline, g: Grid| Dispatch { label, pipeline, bind_group: bg, grid: self.grid(g), indirect: Some(g) };
         let mut stages = Vec::with_capacity(6);
         if !gather_only {
-            stages.push(Dispatch { label: "law_of_motion", pipeline: &p.law_of_motion, grid: grid(nb) });
-            stages.push(Dispatch { label: "geometry_update", pipeline: &p.geometry_update, grid: grid(nc) });
-            stages.push(Dispatch { label: "contact_forces", pipeline: &p.contact_forces, grid: grid(nk) });
+            stages.push(cycle("law_of_motion", &p.law_of_motion, Grid::Blocks));
+            stages.push(cycle("geometry_update", &p.geometry_update, Grid::Corners));
+            stages.push(cycle("contact_forces", &p.contact_forces, Grid::Contacts));
         }
-        stages.push(Dispatch { label: "gather", pipeline: &p.gather, grid: grid(nb) });
+        stages.push(cycle("gather", &p.gather, Grid::Blocks));
         if self.n_heavy > 0 {
-            stages.push(Dispatch { label: "gather_heavy", pipeline: &p.gather_heavy, grid: shaders::dispatch_grid(self.n_heavy as u32) });
+            stages.push(cycle("gather_heavy", &p.gather_heavy, Grid::HeavyBlocks));
         }
         if !gather_only {
-            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, grid: (1, 1) });
+            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
+            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
         }
         stages.retain(|d| d.grid.0 > 0);
         stages
+    }
+
+    /// The grid of `g` over the live counts: one invocation per block, corner or contact, one
+    /// workgroup per heavy block.
+    fn grid(&self, g: Grid) -> (u32, u32) {
+        let items = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
+        match g {
+            Grid::Blocks => items(self.counts.0),
+            Grid::Corners => items(self.counts.1),
+            Grid::Contacts => items(self.counts.2),
+            Grid::HeavyBlocks => shaders::dispatch_grid(self.n_heavy as u32),
+        }
     }
 
     /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) with no round trip; returns the
@@ -653,9 +677,14 @@ where
     /// Submits the passes of `run_batch` without waiting for them.
     fn submit_batch(&self, cycles: u64, gather_only: bool) -> Result<(), GpuError> {
         let b = self.buffers();
-        let bg = self.bind_group.as_ref().expect("bind group built on upload");
         let q = &self.dev.queue;
         q.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+        // The grids of the indirect dispatches, which end_cycle zeroes when it halts the batch.
+        let args: Vec<u32> = Grid::ALL.iter().flat_map(|&g| {
+            let (x, y) = self.grid(g);
+            [x, y, 1]
+        }).collect();
+        q.write_buffer(&b.dispatch_args, 0, bytemuck::cast_slice(&args));
         q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&(gather_only as u32)));
         let stages = self.stages(gather_only);
         let scope = self.dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -666,12 +695,15 @@ where
             let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("cycles") });
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cycles"), timestamp_writes: None });
-                pass.set_bind_group(0, bg, &[]);
                 for _ in 0..n {
                     for d in &stages {
                         pass.push_debug_group(d.label);
                         pass.set_pipeline(d.pipeline);
-                        pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
+                        pass.set_bind_group(0, d.bind_group, &[]);
+                        match d.indirect {
+                            Some(g) => pass.dispatch_workgroups_indirect(&b.dispatch_args, g.offset()),
+                            None => pass.dispatch_workgroups(d.grid.0, d.grid.1, 1),
+                        }
                         pass.pop_debug_group();
                     }
                 }
@@ -1064,15 +1096,15 @@ where
         let mut last_good_generation = self.generation;
         let mut done_total = 0u64;
         // Cycles per submission: up to the next energy check, fewer while contact updates halt
-        // batches early. A halted batch still dispatches the passes of its remaining cycles (they
-        // exit at once), and on a software adapter each costs about a real pass's launch.
+        // batches early. A halted batch still encodes and submits the dispatches of its remaining
+        // cycles (with zeroed grids: they launch nothing).
         let mut batch_cap = cpu::CHECK_INTERVAL;
         // The last batch stopped for a contact update: the next one brings the state back with
         // its flags (`run_batch_with_state`).
         let mut busy = false;
         // Cycles until the next contact update is expected, from the velocities at the last one
         // (`cycles_to_next_update`): a batch that would run past it is cut there, since the
-        // cycles dispatched after the halt still cost their launches.
+        // cycles after the halt are still encoded and submitted.
         let mut expected_update: Option<u64> = None;
         // Read-backs for a contact update bring the contacts' summaries only (`pack_contacts`),
         // since the splice keeps the rest on the device; cracking reads everything.

@@ -115,7 +115,7 @@ where
     Params<R>: bytemuck::Pod,
 {
     fn profile_stages(&self, cycles: u32) -> Result<DeviceProfile, GpuError> {
-        let (Some(buffers), Some(bg)) = (self.buffers.as_ref(), self.bind_group.as_ref()) else {
+        let (Some(buffers), Some(_)) = (self.buffers.as_ref(), self.bind_group.as_ref()) else {
             return Err(GpuError::Setup("profile_stages needs a run first (no state on the device)".into()));
         };
         let cycles = cycles.max(1);
@@ -148,7 +148,7 @@ where
                         let writes = wgpu::ComputePassTimestampWrites { query_set: &set, beginning_of_pass_write_index: Some(q), end_of_pass_write_index: Some(q + 1) };
                         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(d.label), timestamp_writes: Some(writes) });
                         pass.set_pipeline(d.pipeline);
-                        pass.set_bind_group(0, bg, &[]);
+                        pass.set_bind_group(0, d.bind_group, &[]);
                         pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
                     }
                     // A halt raised by end_cycle (stage 7 due) would idle the later cycles: clear it.
@@ -170,7 +170,7 @@ where
                     for _ in 0..reps {
                         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(d.label), timestamp_writes: None });
                         pass.set_pipeline(d.pipeline);
-                        pass.set_bind_group(0, bg, &[]);
+                        pass.set_bind_group(0, d.bind_group, &[]);
                         pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
                     }
                     dev.queue.submit([enc.finish()]);

@@ -22,6 +22,8 @@ pub const MAX_GROUPS_PER_DIMENSION: u32 = 65535;
 /// The two-dimensional dispatch that covers `groups` workgroups (rows of at most
 /// `MAX_GROUPS_PER_DIMENSION`; `item_index` in layout.wgsl lays them end to end).
 pub fn dispatch_grid(groups: u32) -> (u32, u32) {
+    // A grid of more than one row has rows of MAX_GROUPS_PER_DIMENSION workgroups, the
+    // GROUPS_PER_ROW of the prelude that `workgroup_index` counts with.
     if groups <= MAX_GROUPS_PER_DIMENSION {
         (groups, 1)
     } else {
@@ -74,7 +76,7 @@ pub fn prelude(precision: Precision) -> String {
     };
     let materials = crate::model::MAX_MATERIALS;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
     )
 }
 
@@ -99,4 +101,29 @@ pub fn validate(source: &str, precision: Precision) -> Result<(naga::Module, nag
         .validate(&module)
         .map_err(|e| e.emit_to_string(source))?;
     Ok((module, info))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `workgroup_index` (layout.wgsl) numbers the workgroups of a `dispatch_grid` as
+    /// y·GROUPS_PER_ROW + x: every workgroup of 0..groups exactly once, whatever the grid's rows.
+    #[test]
+    fn a_grid_numbers_each_workgroup_once() {
+        for groups in [1, 2, 1000, MAX_GROUPS_PER_DIMENSION - 1, MAX_GROUPS_PER_DIMENSION, MAX_GROUPS_PER_DIMENSION + 1, 3 * MAX_GROUPS_PER_DIMENSION + 17] {
+            let (x, y) = dispatch_grid(groups);
+            assert!(x <= MAX_GROUPS_PER_DIMENSION && y <= MAX_GROUPS_PER_DIMENSION, "{groups}: grid ({x}, {y})");
+            let mut seen = vec![false; (x * y) as usize];
+            for wy in 0..y {
+                for wx in 0..x {
+                    let i = (wy * MAX_GROUPS_PER_DIMENSION + wx) as usize;
+                    assert!(!seen[i], "{groups}: workgroup {i} twice");
+                    seen[i] = true;
+                }
+            }
+            assert!(seen.iter().take(groups as usize).all(|&s| s), "{groups}: a workgroup below the count is missing");
+        }
+        assert!(prelude(Precision::F32).contains(&format!("const GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;")));
+    }
 }
