@@ -1,7 +1,8 @@
 //! Kernels apart from state (STYLE.md item 3): `Pipelines` holds one compute pipeline per entry
 //! point, named after it; `Buffers` holds the storage buffers. Both share one bind group layout
-//! (group 0, bindings as in `shaders/common.wgsl`), so one bind group serves every stage of the
-//! cycle; `splice_contacts` has a layout of its own.
+//! (group 0, bindings as in `shaders/common.wgsl`), so one bind group serves the four stages of
+//! the cycle; `end_cycle` (the flags and the grids of the indirect dispatches), `splice_contacts`
+//! and `pack_contacts` have layouts of their own.
 
 use super::device::GpuDevice;
 use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};

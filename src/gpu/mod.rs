@@ -53,9 +53,9 @@
 //! rotated per block, contact points are stored relative to block 2's centroid, centroids are kept
 //! relative to an origin near the model as compensated (hi, lo) pairs, so f32 keeps millimetres far
 //! from the origin and small steps are not lost on large coordinates. f64 kernels use only the
-//! operators + − × ÷ and sqrt, abs, min, max: the rotation's cos/sin come from the block's rotation angle (the
-//! same state the CPU keeps) by range reduction and a Taylor polynomial (`sin_cos` in
-//! common.wgsl), not from a drifting product of rotation increments.
+//! operators + − × ÷ and sqrt, abs, min, max: the rotation's cos/sin come from the block's
+//! rotation angle (the same state the CPU keeps) by range reduction and a Taylor polynomial
+//! (`sin_cos` in common.wgsl), not from a drifting product of rotation increments.
 
 pub mod device;
 pub mod kernels;
