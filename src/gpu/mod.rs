@@ -695,11 +695,16 @@ where
             let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("cycles") });
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cycles"), timestamp_writes: None });
+                // The bind group changes only around end_cycle's own: set it when it changes.
+                let mut bound: Option<&wgpu::BindGroup> = None;
                 for _ in 0..n {
                     for d in &stages {
                         pass.push_debug_group(d.label);
                         pass.set_pipeline(d.pipeline);
-                        pass.set_bind_group(0, d.bind_group, &[]);
+                        if !bound.is_some_and(|g| std::ptr::eq(g, d.bind_group)) {
+                            pass.set_bind_group(0, d.bind_group, &[]);
+                            bound = Some(d.bind_group);
+                        }
                         match d.indirect {
                             Some(g) => pass.dispatch_workgroups_indirect(&b.dispatch_args, g.offset()),
                             None => pass.dispatch_workgroups(d.grid.0, d.grid.1, 1),
