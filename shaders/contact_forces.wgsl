@@ -1,6 +1,6 @@
 // Stage 4: contact kinematics and the force–displacement law (SL-85-1 eqs. 13–20), and the
 // geometry of a rounded corner against the rounded boundary of the other block. Twin of
-// src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `feature_distance`, `track_feature`, `contact_force_law`,
+// src/cpu/contact_forces.rs (`edge_distance`, `arc_distance`, `track_feature`, `contact_force_law`,
 // `slip_dissipation`, `counts_force`). Geometry is relative to block 2's centroid. Besides the
 // contact itself, each invocation writes the compact record the gather sums (`ContactForce`).
 //
@@ -34,9 +34,44 @@ struct Edge {
     len: real,
 }
 
-fn edge_of(start: u32, k: u32) -> Edge {
-    let c = corners[start + k];
-    return Edge(vec2<real>(c.px, c.py), vec2<real>(c.ux, c.uy), c.len);
+// A corner of block 2 as this stage reads it: the edge that starts at it, its rounding length
+// along that edge, and its rounding circle (centre, radius).
+struct CornerView {
+    edge: Edge,
+    round: real,
+    circle: vec2<real>,
+    radius: real,
+}
+
+// The corners around a tracked feature f of block 2 (j = f/2): j−1, j and j+1, with their indices.
+// Everything that tracking the feature and deciding which view of a touch counts reads of block
+// 2, each field loaded once: a software adapter (lavapipe) loads from a storage buffer a lane at a
+// time and runs every branch of a SIMD slice, so each load written in the kernel costs on every
+// contact, and loads of a read_write buffer are not merged by its compiler.
+struct Neighbourhood {
+    feature: u32,
+    start: u32,
+    jm: u32,
+    j: u32,
+    jp: u32,
+    m: CornerView,
+    c: CornerView,
+    p: CornerView,
+}
+
+fn corner_view(i: u32) -> CornerView {
+    let c = corners[i];
+    return CornerView(Edge(vec2<real>(c.px, c.py), vec2<real>(c.ux, c.uy), c.len), c.round, vec2<real>(c.ox, c.oy), c.radius);
+}
+
+// The neighbourhood of `feature` (clamped to the block's features) of the block whose corners
+// are corners[start .. start+n] (counter-clockwise).
+fn neighbourhood(start: u32, n: u32, feature: u32) -> Neighbourhood {
+    let f = min(feature, 2u * n - 1u);
+    let j = f / 2u;
+    let jm = prev_index(j, n);
+    let jp = next_index(j, n);
+    return Neighbourhood(f, start, jm, j, jp, corner_view(start + jm), corner_view(start + j), corner_view(start + jp));
 }
 
 // Outward normal for a counter-clockwise outline.
@@ -52,13 +87,12 @@ fn prev_index(i: u32, n: u32) -> u32 {
     return select(i - 1u, n - 1u, i == 0u);
 }
 
-// Straight part of edge k, between the tangent points of corners k and k+1. Its region is the
-// slab over it; outside, it is measured from its nearer end.
-fn edge_distance(start: u32, n: u32, k: u32, e: Edge, c: vec2<real>) -> FeatureDistance {
+// Straight part of edge e, between the tangent points of its corners' roundings (r0 at its start,
+// r1 at its end). Its region is the slab over it; outside, it is measured from its nearer end.
+fn edge_distance(e: Edge, r0: real, r1: real, c: vec2<real>) -> FeatureDistance {
     let normal = edge_normal(e);
-    let r0 = corners[start + k].round;
     let ta = e.p0 + e.u * r0;
-    let straight = e.len - r0 - corners[start + next_index(k, n)].round;
+    let straight = e.len - r0 - r1;
     let rel = c - ta;
     let s = dot(rel, e.u);
     // The region test tolerates round-off (REGION_TOL, see the prelude): at aligned corners the
@@ -79,12 +113,12 @@ fn edge_distance(start: u32, n: u32, k: u32, e: Edge, c: vec2<real>) -> FeatureD
     return FeatureDistance(d, d, nrm, false);
 }
 
-// Arc of corner k between the edges `before` (k−1 → k) and `after` (k → k+1). Its region is the
-// wedge between their outward normals; outside, it is measured from its nearer tangent point.
-fn arc_distance(corner: Corner, before: Edge, after: Edge, c: vec2<real>) -> FeatureDistance {
+// Arc of a corner (its rounding circle: centre, radius) between the edges `before` (k−1 → k) and
+// `after` (k → k+1). Its region is the wedge between their outward normals; outside, it is
+// measured from its nearer tangent point.
+fn arc_distance(circle: vec2<real>, radius: real, before: Edge, after: Edge, c: vec2<real>) -> FeatureDistance {
     let n0 = edge_normal(before);
     let n1 = edge_normal(after);
-    let circle = vec2<real>(corner.ox, corner.oy);
     let r = c - circle;
     let dist_c = sqrt(dot(r, r));
     var dir = n0 + n1;
@@ -94,11 +128,11 @@ fn arc_distance(corner: Corner, before: Edge, after: Edge, c: vec2<real>) -> Fea
     // Inside the wedge turning counter-clockwise from n0 to n1 (less than π for a convex corner).
     let convex = n0.x * n1.y - n0.y * n1.x > 0.0;
     if (convex && (n0.x * dir.y - n0.y * dir.x) >= -REGION_TOL && (dir.x * n1.y - dir.y * n1.x) >= -REGION_TOL) {
-        let d = dist_c - corner.radius;
+        let d = dist_c - radius;
         return FeatureDistance(d, abs(d), dir, true);
     }
-    let t0 = circle + n0 * corner.radius;
-    let t1 = circle + n1 * corner.radius;
+    let t0 = circle + n0 * radius;
+    let t1 = circle + n1 * radius;
     let r0 = c - t0;
     let r1 = c - t1;
     let d0 = sqrt(dot(r0, r0));
@@ -116,16 +150,6 @@ fn arc_distance(corner: Corner, before: Edge, after: Edge, c: vec2<real>) -> Fea
         nrm = rr / d;
     }
     return FeatureDistance(d, d, nrm, false);
-}
-
-// Distance and outward normal from the circle centre `c` to feature `f` of the block whose
-// corners are corners[start .. start+n] (counter-clockwise).
-fn feature_distance(start: u32, n: u32, f: u32, c: vec2<real>) -> FeatureDistance {
-    let k = f / 2u;
-    if (f % 2u == 1u) {
-        return edge_distance(start, n, k, edge_of(start, k), c);
-    }
-    return arc_distance(corners[start + k], edge_of(start, prev_index(k, n)), edge_of(start, k), c);
 }
 
 // Nearer wins; on a tie (within TIE_TOL, set per precision by the prelude) a feature whose own
@@ -159,8 +183,9 @@ fn turns_left(a: Edge, b: Edge) -> bool {
     return na.x * nb.y - na.y * nb.x > 0.0;
 }
 
-// The nearest of `feature` and its two neighbours: the per-cycle update of a contact whose point
-// slides along the boundary (a point moves far less than a feature's length in one step).
+// The nearest of the neighbourhood's feature and its two neighbours: the per-cycle update of a
+// contact whose point slides along the boundary (a point moves far less than a feature's length
+// in one step).
 //
 // Fast path, most contacts on most cycles (twin of the CPU's): a corner circle over the straight
 // part of an edge between two convex corners. Its centre lies inside the edge's slab, clear of
@@ -168,21 +193,16 @@ fn turns_left(a: Edge, b: Edge) -> bool {
 // neighbouring arcs' wedges (their tolerance included), and each arc is measured from its tangent
 // point on this edge: √(s² + d²) ≥ d, and an inside feature wins every tie with an outside one.
 // The full three-way comparison would pick this edge with the same numbers, so skip it.
-fn track_feature(start: u32, n: u32, feature: u32, c: vec2<real>, radius: real) -> ContactGeometry {
-    let nf = 2u * n;
-    let f = min(feature, nf - 1u);
-    if (f % 2u == 1u) {
-        let k = f / 2u;
-        let e = edge_of(start, k);
-        let m = edge_distance(start, n, k, e, c);
-        if (m.inside && m.signed_distance > 0.0) {
-            let r0 = corners[start + k].round;
-            let s = dot(c - (e.p0 + e.u * r0), e.u);
-            let straight = e.len - r0 - corners[start + next_index(k, n)].round;
-            let margin = 1e-6 * e.len + 4.0 * REGION_TOL * (r0 + m.distance);
-            if (s > margin && s < straight - margin && turns_left(edge_of(start, prev_index(k, n)), e) && turns_left(e, edge_of(start, next_index(k, n)))) {
-                return contact_geometry(f, m, c, radius);
-            }
+fn track_feature(nb: Neighbourhood, c: vec2<real>, radius: real) -> ContactGeometry {
+    let f = nb.feature;
+    let line_j = edge_distance(nb.c.edge, nb.c.round, nb.p.round, c);
+    if (f % 2u == 1u && line_j.inside && line_j.signed_distance > 0.0) {
+        let e = nb.c.edge;
+        let s = dot(c - (e.p0 + e.u * nb.c.round), e.u);
+        let straight = e.len - nb.c.round - nb.p.round;
+        let margin = 1e-6 * e.len + 4.0 * REGION_TOL * (nb.c.round + line_j.distance);
+        if (s > margin && s < straight - margin && turns_left(nb.m.edge, e) && turns_left(e, nb.p.edge)) {
+            return contact_geometry(f, line_j, c, radius);
         }
     }
     // The candidates are the feature and its two neighbours: arc j, edge j, arc j+1 around edge
@@ -190,22 +210,14 @@ fn track_feature(start: u32, n: u32, feature: u32, c: vec2<real>, radius: real) 
     // j, j+1 and the edges j−1, j, measured unconditionally: invocations of one SIMD batch or warp
     // that track features of different kinds then run one path, not both kinds thrice (the
     // same distances, compared in the same order, as the three-way comparison of the Rust twin).
-    let j = f / 2u;
-    let jp = next_index(j, n);
-    let jm = prev_index(j, n);
-    let edge_m = edge_of(start, jm);
-    let edge_j = edge_of(start, j);
-    let edge_p = edge_of(start, jp);
-    let arc_j = arc_distance(corners[start + j], edge_m, edge_j, c);
-    let arc_p = arc_distance(corners[start + jp], edge_j, edge_p, c);
-    let line_m = edge_distance(start, n, jm, edge_m, c);
-    let line_j = edge_distance(start, n, j, edge_j, c);
-    let around_edge = f % 2u == 1u;
+    let arc_j = arc_distance(nb.c.circle, nb.c.radius, nb.m.edge, nb.c.edge, c);
+    let arc_p = arc_distance(nb.p.circle, nb.p.radius, nb.c.edge, nb.p.edge, c);
+    let line_m = edge_distance(nb.m.edge, nb.m.round, nb.c.round, c);
     var cand = array<FeatureDistance, 3>(line_m, arc_j, line_j);
-    var ids = array<u32, 3>(2u * jm + 1u, 2u * j, 2u * j + 1u);
-    if (around_edge) {
+    var ids = array<u32, 3>(2u * nb.jm + 1u, 2u * nb.j, 2u * nb.j + 1u);
+    if (f % 2u == 1u) {
         cand = array<FeatureDistance, 3>(arc_j, line_j, arc_p);
-        ids = array<u32, 3>(2u * j, 2u * j + 1u, 2u * jp);
+        ids = array<u32, 3>(2u * nb.j, 2u * nb.j + 1u, 2u * nb.jp);
     }
     var best_f = ids[0];
     var best = cand[0];
@@ -314,17 +326,24 @@ fn slip_dissipation(fs_old: real, fs_new: real, dus: real, ks: real) -> real {
 // of the two views of one touching corner pair exactly one counts, whatever kinds they found. An
 // arc (corner–corner) counts when the own corner has the lower index; an edge counts unless the
 // rounding circles of the own corner and of the edge's nearer end overlap (a corner pair), in
-// which case the lower index counts too. Circles are relative to block 2's centroid.
-fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, start2: u32, n2: u32, feature: u32) -> bool {
-    let k = (feature / 2u) % n2;
+// which case the lower index counts too. Circles are relative to block 2's centroid; `feature` is
+// one that `track_feature` chose in the neighbourhood `nb` (an edge among them is j−1 or j).
+fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, nb: Neighbourhood, feature: u32) -> bool {
+    let k = feature / 2u;
     if (feature % 2u == 0u) {
-        return own_corner < start2 + k;
+        return own_corner < nb.start + k;
     }
-    let j = next_index(k, n2);
-    let ck = corners[start2 + k];
-    let cj = corners[start2 + j];
-    let rk = own_circle - vec2<real>(ck.ox, ck.oy);
-    let rj = own_circle - vec2<real>(cj.ox, cj.oy);
+    // Edge k runs from corner k to corner j = k+1: j−1 → j, or j → j+1.
+    var ck = nb.m;
+    var cj = nb.c;
+    var j = nb.j;
+    if (k == nb.j) {
+        ck = nb.c;
+        cj = nb.p;
+        j = nb.jp;
+    }
+    let rk = own_circle - ck.circle;
+    let rj = own_circle - cj.circle;
     let dk = sqrt(dot(rk, rk));
     let dj = sqrt(dot(rj, rj));
     var b = k;
@@ -336,7 +355,7 @@ fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, start
         rb = cj.radius;
     }
     if (d < own_radius + rb) {
-        return own_corner < start2 + b;
+        return own_corner < nb.start + b;
     }
     return true;
 }
@@ -353,18 +372,19 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let corner = corners[c.corner];
     let d12 = centroid_difference(b1, b2);
     let circle = d12 + vec2<real>(corner.ox, corner.oy);
-    let g = track_feature(b2.corner_start, b2.corner_count, c.feature, circle, corner.radius);
+    let nb = neighbourhood(b2.corner_start, b2.corner_count, c.feature);
+    let g = track_feature(nb, circle, corner.radius);
     c.feature = g.feature;
     c.gap = g.gap;
     c.nx = g.normal.x;
     c.ny = g.normal.y;
     c.px = g.point.x;
     c.py = g.point.y;
-    let counted = counts_force(c.corner, circle, corner.radius, b2.corner_start, b2.corner_count, c.feature);
+    let counted = counts_force(c.corner, circle, corner.radius, nb, c.feature);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
     c = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);
-    contacts[k] = c;
+    store_contact_state(k, c);
     // For the gather: the force on block 1 and its reaction on block 2, with their moments about
     // each block's centroid (eq. 12). The point is relative to block 2's centroid, so block 1's
     // lever arm is p − (c1 − c2).
@@ -375,4 +395,25 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
         atomicOr(&flags.errors, ERR_OVERLAP);
         atomicMin(&flags.overlap_contact, k);
     }
+}
+
+// Stores what a cycle changes of contact k: not the blocks, corner and material it joins, which
+// only the CPU's topology changes (a store costs on every contact on a software adapter).
+fn store_contact_state(k: u32, c: Contact) {
+    contacts[k].px = c.px;
+    contacts[k].py = c.py;
+    contacts[k].nx = c.nx;
+    contacts[k].ny = c.ny;
+    contacts[k].gap = c.gap;
+    contacts[k].normal_force = c.normal_force;
+    contacts[k].shear_force = c.shear_force;
+    contacts[k].shear_displacement = c.shear_displacement;
+    contacts[k].fx = c.fx;
+    contacts[k].fy = c.fy;
+    contacts[k].slip_work = c.slip_work;
+    contacts[k].dashpot_work = c.dashpot_work;
+    contacts[k].dashpot_vn = c.dashpot_vn;
+    contacts[k].dashpot_vs = c.dashpot_vs;
+    contacts[k].feature = c.feature;
+    contacts[k].bonded = c.bonded;
 }

@@ -113,6 +113,10 @@ enum Cmd {
         /// FRACTION of the time step for every scene (default UDEC's 0.1).
         #[arg(long)]
         frac: Option<f64>,
+        /// Wall seconds each scaling measurement aims at (default 1.5, 0.25 with --quick);
+        /// longer runs average out the noise of a shared machine.
+        #[arg(long)]
+        measure: Option<f64>,
     },
 }
 
@@ -144,6 +148,7 @@ fn bench(
     settle_time: Option<f64>,
     impact_time: Option<f64>,
     frac: Option<f64>,
+    measure: Option<f64>,
 ) -> anyhow::Result<()> {
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let precision = precision.map(|p| match p {
@@ -174,6 +179,12 @@ fn bench(
             bail!("--frac must be positive");
         }
         options.frac = f;
+    }
+    if let Some(m) = measure {
+        if !(m > 0.0 && m.is_finite()) {
+            bail!("--measure must be a positive number of seconds");
+        }
+        options.measure_s = m;
     }
     let report = blockdem::bench::run(&options);
     print!("{}", blockdem::bench::table(&report));
@@ -293,8 +304,8 @@ fn main() -> ExitCode {
         Cmd::Run { deck, backend, adapter, precision, out, state_json } => run(deck, backend, adapter, precision, out, state_json),
         Cmd::Adapters => adapters(),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
-        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac } => {
-            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac)
+        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure } => {
+            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure)
         }
     };
     match result {

@@ -2,7 +2,7 @@
 //! wgebra approach, STYLE.md item 10): a small test entry point is appended to the kernel file, run
 //! on the adapter, and its results compared with the Rust function's.
 //!
-//! - `track_feature` (with `feature_distance`, `edge_distance`, `arc_distance`, `better`) and
+//! - `track_feature` (with `neighbourhood`, `edge_distance`, `arc_distance`, `better`) and
 //!   `counts_force`: the contact geometry of a rounded corner against a rounded polygon;
 //! - `contact_force_law`: the force–displacement law (eqs. 13–20) with the energy it books
 //!   (slip work, dashpot work and the dashpot velocities it carries to the next step);
@@ -123,7 +123,8 @@ fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
     let r = t_in_r[3u * i + 2u];
     let start = t_in_u[4u * i];
     let n = t_in_u[4u * i + 1u];
-    let g = track_feature(start, n, t_in_u[4u * i + 2u], c, r);
+    let nb = neighbourhood(start, n, t_in_u[4u * i + 2u]);
+    let g = track_feature(nb, c, r);
     t_out_r[6u * i] = g.gap;
     t_out_r[6u * i + 1u] = g.normal.x;
     t_out_r[6u * i + 2u] = g.normal.y;
@@ -131,7 +132,7 @@ fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
     t_out_r[6u * i + 4u] = g.point.y;
     t_out_r[6u * i + 5u] = g.distance;
     t_out_u[2u * i] = g.feature;
-    t_out_u[2u * i + 1u] = select(0u, 1u, counts_force(t_in_u[4u * i + 3u], c, r, start, n, g.feature));
+    t_out_u[2u * i + 1u] = select(0u, 1u, counts_force(t_in_u[4u * i + 3u], c, r, nb, g.feature));
 }
 "#;
 
