@@ -367,6 +367,25 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
         return;
     }
     var c = contacts[k];
+    let feature_before = c.feature;
+    let bonded_before = c.bonded;
+    // Fields most contacts need on no cycle are read only where they matter (a software adapter
+    // runs a branch only when a lane of its SIMD slice takes it, so a rare branch costs nothing,
+    // but every load outside one costs on every contact): the accumulators start from zero and
+    // their increments are added below; the normal force of the last step matters only to a
+    // bond's tension (an unbonded contact never pulls); the dashpots only when live.
+    c.slip_work = 0.0;
+    c.dashpot_work = 0.0;
+    c.normal_force = 0.0;
+    if (c.bonded != 0u) {
+        c.normal_force = contacts[k].normal_force;
+    }
+    c.dashpot_vn = 0.0;
+    c.dashpot_vs = 0.0;
+    if (params.dashpots != 0u) {
+        c.dashpot_vn = contacts[k].dashpot_vn;
+        c.dashpot_vs = contacts[k].dashpot_vs;
+    }
     let b1 = blocks[c.block1];
     let b2 = blocks[c.block2];
     let corner = corners[c.corner];
@@ -385,6 +404,22 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
     c = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);
     store_contact_state(k, c);
+    if (c.slip_work != 0.0) {
+        contacts[k].slip_work += c.slip_work;
+    }
+    if (params.dashpots != 0u) {
+        contacts[k].dashpot_vn = c.dashpot_vn;
+        contacts[k].dashpot_vs = c.dashpot_vs;
+        if (c.dashpot_work != 0.0) {
+            contacts[k].dashpot_work += c.dashpot_work;
+        }
+    }
+    if (c.feature != feature_before) {
+        contacts[k].feature = c.feature;
+    }
+    if (c.bonded != bonded_before) {
+        contacts[k].bonded = c.bonded;
+    }
     // For the gather: the force on block 1 and its reaction on block 2, with their moments about
     // each block's centroid (eq. 12). The point is relative to block 2's centroid, so block 1's
     // lever arm is p − (c1 − c2).
@@ -397,8 +432,7 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     }
 }
 
-// Stores what a cycle changes of contact k: not the blocks, corner and material it joins, which
-// only the CPU's topology changes (a store costs on every contact on a software adapter).
+// Stores what every cycle changes of contact k (the kernel stores the rest only when it changed).
 fn store_contact_state(k: u32, c: Contact) {
     contacts[k].px = c.px;
     contacts[k].py = c.py;
@@ -410,10 +444,4 @@ fn store_contact_state(k: u32, c: Contact) {
     contacts[k].shear_displacement = c.shear_displacement;
     contacts[k].fx = c.fx;
     contacts[k].fy = c.fy;
-    contacts[k].slip_work = c.slip_work;
-    contacts[k].dashpot_work = c.dashpot_work;
-    contacts[k].dashpot_vn = c.dashpot_vn;
-    contacts[k].dashpot_vs = c.dashpot_vs;
-    contacts[k].feature = c.feature;
-    contacts[k].bonded = c.bonded;
 }

@@ -159,7 +159,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// Run constants and live counts (a uniform): 56 bytes in f32, 88 in f64.
+    /// Run constants and live counts (a uniform): 64 bytes in f32, 96 in f64.
     Params {
         dt: R, alpha: R, beta: R, gx: R, gy: R,
         /// The contact update tolerance.
@@ -176,6 +176,10 @@ gpu_struct! {
         gather_fixed: u32,
         /// Blocks summed by `gather_heavy` (long contact lists), listed after the CSR offsets.
         n_heavy: u32,
+        /// 1: the contacts' dashpots are live (β > 0, or velocities of an earlier run's dashpots
+        /// still to be booked); 0: the contact stage neither reads nor writes dashpot fields.
+        dashpots: u32,
+        _pad: u32,
     }
 }
 
