@@ -2,7 +2,9 @@
 // mass-proportional Rayleigh damping (UDEC's CON1/CON2):
 //   v(t+Δt/2) = [v(t−Δt/2)·(1 − αΔt/2) + (ΣF/m)·Δt] / (1 + αΔt/2).
 // Twin of src/cpu/law_of_motion.rs. Also raises the flags the CPU checks after stage 1: a block
-// past the update tolerance, a non-finite step, a block too fast for the contact update.
+// past the update tolerance, a non-finite step, a block too fast for the contact update; then
+// runs stage 2 for the block it moved (`geometry_update`, geometry_update.wgsl). A fixed block
+// neither moves nor turns: its corners stay as uploaded.
 
 // Energy the damping force −α·m·v takes in one step, from the velocities (vx, vy, ω) before (v0)
 // and after (v1): v⁺ − v⁻ = (F/m − α·v̄)Δt with v̄ = (v⁺ + v⁻)/2 gives ½m(v⁺² − v⁻²) = F·v̄Δt −
@@ -73,6 +75,7 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     blocks[b].moved = blk.moved;
     blocks[b].work = blk.work;
     blocks[b].damping_work = blk.damping_work;
+    geometry_update(blk);
     if (blk.moved > params.etol + blk.update_margin) {
         atomicOr(&flags.update_due, 1u);
     }

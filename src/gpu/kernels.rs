@@ -10,8 +10,8 @@ use super::{shaders, GpuError};
 
 /// One compute pipeline per entry point; each entry point is in the WGSL file of the same name.
 pub struct Pipelines {
+    /// Stages 1 and 2 (the invocation that moves a block places its corners).
     pub law_of_motion: wgpu::ComputePipeline,
-    pub geometry_update: wgpu::ComputePipeline,
     pub contact_forces: wgpu::ComputePipeline,
     pub gather: wgpu::ComputePipeline,
     /// `end_cycle.wgsl`, with its own bindings (the flags and the dispatch grids it zeroes on a
@@ -109,7 +109,6 @@ impl Pipelines {
         let make = |name: &str| make_entry(name, name);
         let pipelines = Pipelines {
             law_of_motion: make("law_of_motion")?,
-            geometry_update: make("geometry_update")?,
             contact_forces: make("contact_forces")?,
             gather: make("gather")?,
             end_cycle: make_on(&end_cycle_pipeline_layout, "end_cycle", "end_cycle")?,
@@ -323,13 +322,12 @@ impl Buffers {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Grid {
     Blocks,
-    Corners,
     Contacts,
     HeavyBlocks,
 }
 
 impl Grid {
-    pub const ALL: [Grid; 4] = [Grid::Blocks, Grid::Corners, Grid::Contacts, Grid::HeavyBlocks];
+    pub const ALL: [Grid; 3] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks];
 
     /// Byte offset of this grid's (x, y, z) in `Buffers::dispatch_args`.
     pub fn offset(self) -> u64 {

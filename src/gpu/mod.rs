@@ -12,10 +12,10 @@
 //! ## How a run goes
 //!
 //! The model is uploaded once; then the GPU runs batches of cycles with no round trip inside a
-//! batch: one compute pass per ten cycles, each cycle the dispatches `law_of_motion`,
-//! `geometry_update`, `contact_forces`, `gather` (and `gather_heavy` where a block has more than
-//! `HEAVY_DEGREE` contacts), `end_cycle`, over two-dimensional grids that follow the live counts
-//! of blocks, corners and contacts. Kernels raise flags (a block past the update tolerance, a
+//! batch: one compute pass per ten cycles, each cycle the dispatches `law_of_motion` (whose
+//! invocations also run stage 2, `geometry_update`, for the block they moved), `contact_forces`,
+//! `gather` (and `gather_heavy` where a block has more than `HEAVY_DEGREE` contacts), `end_cycle`,
+//! over two-dimensional grids that follow the live counts of blocks and contacts. Kernels raise flags (a block past the update tolerance, a
 //! non-finite step, a block too fast, an overlap too great); `end_cycle` then halts the rest of the
 //! batch, so the CPU sees exactly the state of the cycle that raised it, as the CPU backend would.
 //! The cycle's kernels are dispatched indirectly from grids the CPU writes at the start of each
@@ -638,7 +638,6 @@ where
         let mut stages = Vec::with_capacity(6);
         if !gather_only {
             stages.push(cycle("law_of_motion", &p.law_of_motion, Grid::Blocks));
-            stages.push(cycle("geometry_update", &p.geometry_update, Grid::Corners));
             stages.push(cycle("contact_forces", &p.contact_forces, Grid::Contacts));
         }
         stages.push(cycle("gather", &p.gather, Grid::Blocks));
@@ -659,7 +658,6 @@ where
         let items = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
         match g {
             Grid::Blocks => items(self.counts.0),
-            Grid::Corners => items(self.counts.1),
             Grid::Contacts => items(self.counts.2),
             Grid::HeavyBlocks => shaders::dispatch_grid(self.n_heavy as u32),
         }

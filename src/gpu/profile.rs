@@ -49,10 +49,8 @@ pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usiz
     let params = std::mem::size_of::<Params<R>>() as u64;
     let flags = std::mem::size_of::<Flags>() as u64;
     vec![
-        // Each block read and stored whole.
-        StageBytes { stage: "law_of_motion", read: b * nb + params, written: b * nb },
-        // Each corner (and the next one's body-frame offset) read and stored whole; each block read.
-        StageBytes { stage: "geometry_update", read: c * nc + b * nb + params, written: c * nc },
+        // Each block read and stored whole; with stage 2, each of its corners read and stored whole.
+        StageBytes { stage: "law_of_motion", read: b * nb + c * nc + params, written: b * nb + c * nc },
         // Each contact read and stored whole, its gather record stored; both blocks, block 1's
         // corner and block 2's corners read (every corner and block once); the material table.
         StageBytes { stage: "contact_forces", read: k * nk + c * nc + b * nb + m * nm + params, written: k * nk + f * nk },

@@ -35,10 +35,10 @@ pub const LAYOUT: &str = include_str!("../../shaders/layout.wgsl");
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The kernel files of the cycle, one per stage, each named like its CPU twin in `src/cpu/`;
-/// they share the bindings of common.wgsl (one bind group serves them all).
+/// they share the bindings of common.wgsl (one bind group serves them all). Stage 2
+/// (`shaders/geometry_update.wgsl`, no entry point of its own) is run by stage 1's invocations.
 pub const KERNELS: &[(&str, &str)] = &[
-    ("law_of_motion", include_str!("../../shaders/law_of_motion.wgsl")),
-    ("geometry_update", include_str!("../../shaders/geometry_update.wgsl")),
+    ("law_of_motion", concat!(include_str!("../../shaders/geometry_update.wgsl"), "\n", include_str!("../../shaders/law_of_motion.wgsl"))),
     ("contact_forces", include_str!("../../shaders/contact_forces.wgsl")),
     ("gather", include_str!("../../shaders/gather.wgsl")),
     ("end_cycle", include_str!("../../shaders/end_cycle.wgsl")),
