@@ -27,27 +27,28 @@ struct Motion {
     w: real,
 }
 
-// Edge k (corner k → k+1) as the geometry stage left it: start, unit direction, length.
+// Edge k (corner k → k+1): start, unit direction, length (`edge_from`).
 struct Edge {
     p0: vec2<real>,
     u: vec2<real>,
     len: real,
 }
 
-// A corner of block 2 as this stage reads it: the edge that starts at it, its rounding length
-// along that edge, and its rounding circle (centre, radius).
+// A corner of block 2 as this stage reads it: its position, its rounding length along its
+// edges, and its rounding circle (centre, radius).
 struct CornerView {
-    edge: Edge,
+    p: vec2<real>,
     round: real,
     circle: vec2<real>,
     radius: real,
 }
 
-// The corners around a tracked feature f of block 2 (j = f/2): j−1, j and j+1, with their indices.
-// Everything that tracking the feature and deciding which view of a touch counts reads of block
-// 2, each field loaded once: a software adapter (lavapipe) loads from a storage buffer a lane at a
-// time and runs every branch of a SIMD slice, so each load written in the kernel costs on every
-// contact, and loads of a read_write buffer are not merged by its compiler.
+// The corners around a tracked feature f of block 2 (j = f/2): j−1, j and j+1, with their indices,
+// and the edges j−1, j, j+1 between them (the last one's end is corner j+2, of which only the
+// position is read). Everything that tracking the feature and deciding which view of a touch
+// counts reads of block 2, each field loaded once: a software adapter (lavapipe) loads from a
+// storage buffer a lane at a time, so each load written in the kernel costs on every contact, and
+// loads of a read_write buffer are not merged by its compiler.
 struct Neighbourhood {
     feature: u32,
     start: u32,
@@ -57,11 +58,22 @@ struct Neighbourhood {
     m: CornerView,
     c: CornerView,
     p: CornerView,
+    edge_m: Edge,
+    edge_j: Edge,
+    edge_p: Edge,
 }
 
 fn corner_view(i: u32) -> CornerView {
     let c = corners[i];
-    return CornerView(Edge(vec2<real>(c.px, c.py), vec2<real>(c.ux, c.uy), c.len), c.round, vec2<real>(c.ox, c.oy), c.radius);
+    return CornerView(vec2<real>(c.px, c.py), c.round, vec2<real>(c.ox, c.oy), c.radius);
+}
+
+// The edge from corner position a to the next corner's, b: the geometry stage's twin measures
+// it so on the CPU (unit direction, length), here it is measured where it is used.
+fn edge_from(a: vec2<real>, b: vec2<real>) -> Edge {
+    let e = b - a;
+    let len = sqrt(e.x * e.x + e.y * e.y);
+    return Edge(a, vec2<real>(e.x / len, e.y / len), len);
 }
 
 // The neighbourhood of `feature` (clamped to the block's features) of the block whose corners
@@ -71,7 +83,12 @@ fn neighbourhood(start: u32, n: u32, feature: u32) -> Neighbourhood {
     let j = f / 2u;
     let jm = prev_index(j, n);
     let jp = next_index(j, n);
-    return Neighbourhood(f, start, jm, j, jp, corner_view(start + jm), corner_view(start + j), corner_view(start + jp));
+    let m = corner_view(start + jm);
+    let c = corner_view(start + j);
+    let p = corner_view(start + jp);
+    let i_after = start + next_index(jp, n);
+    let after = vec2<real>(corners[i_after].px, corners[i_after].py);
+    return Neighbourhood(f, start, jm, j, jp, m, c, p, edge_from(m.p, c.p), edge_from(c.p, p.p), edge_from(p.p, after));
 }
 
 // Outward normal for a counter-clockwise outline.
@@ -195,13 +212,13 @@ fn turns_left(a: Edge, b: Edge) -> bool {
 // The full three-way comparison would pick this edge with the same numbers, so skip it.
 fn track_feature(nb: Neighbourhood, c: vec2<real>, radius: real) -> ContactGeometry {
     let f = nb.feature;
-    let line_j = edge_distance(nb.c.edge, nb.c.round, nb.p.round, c);
+    let line_j = edge_distance(nb.edge_j, nb.c.round, nb.p.round, c);
     if (f % 2u == 1u && line_j.inside && line_j.signed_distance > 0.0) {
-        let e = nb.c.edge;
+        let e = nb.edge_j;
         let s = dot(c - (e.p0 + e.u * nb.c.round), e.u);
         let straight = e.len - nb.c.round - nb.p.round;
         let margin = 1e-6 * e.len + 4.0 * REGION_TOL * (nb.c.round + line_j.distance);
-        if (s > margin && s < straight - margin && turns_left(nb.m.edge, e) && turns_left(e, nb.p.edge)) {
+        if (s > margin && s < straight - margin && turns_left(nb.edge_m, e) && turns_left(e, nb.edge_p)) {
             return contact_geometry(f, line_j, c, radius);
         }
     }
@@ -210,9 +227,9 @@ fn track_feature(nb: Neighbourhood, c: vec2<real>, radius: real) -> ContactGeome
     // j, j+1 and the edges j−1, j, measured unconditionally: invocations of one SIMD batch or warp
     // that track features of different kinds then run one path, not both kinds thrice (the
     // same distances, compared in the same order, as the three-way comparison of the Rust twin).
-    let arc_j = arc_distance(nb.c.circle, nb.c.radius, nb.m.edge, nb.c.edge, c);
-    let arc_p = arc_distance(nb.p.circle, nb.p.radius, nb.c.edge, nb.p.edge, c);
-    let line_m = edge_distance(nb.m.edge, nb.m.round, nb.c.round, c);
+    let arc_j = arc_distance(nb.c.circle, nb.c.radius, nb.edge_m, nb.edge_j, c);
+    let arc_p = arc_distance(nb.p.circle, nb.p.radius, nb.edge_j, nb.edge_p, c);
+    let line_m = edge_distance(nb.edge_m, nb.m.round, nb.c.round, c);
     var cand = array<FeatureDistance, 3>(line_m, arc_j, line_j);
     var ids = array<u32, 3>(2u * nb.jm + 1u, 2u * nb.j, 2u * nb.j + 1u);
     if (f % 2u == 1u) {

@@ -19,11 +19,11 @@ struct Block {
     fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
 }
 
-// 60 / 112 bytes. (px, py) corner and (ox, oy) circle centre relative to the block centroid;
-// (ux, uy) unit direction and len length of the edge to the next corner.
+// 48 / 88 bytes. (px, py) corner and (ox, oy) circle centre relative to the block centroid. The
+// edge to the next corner is measured where it is used (contact_forces.wgsl, `edge_from`).
 struct Corner {
     lx: real, ly: real, qx: real, qy: real, radius: real, round: real,
-    px: real, py: real, ox: real, oy: real, ux: real, uy: real, len: real,
+    px: real, py: real, ox: real, oy: real,
     block: u32, _pad: u32,
 }
 

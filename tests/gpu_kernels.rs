@@ -164,17 +164,24 @@ where
         let cen = model.blocks[0].centroid;
         let corners = model.block_corners(0).to_vec();
         // Round the polygon to the kernel precision (relative to its centroid) so that the CPU
-        // reference measures what the GPU measures.
+        // reference measures what the GPU measures; the kernel measures each edge from the two
+        // rounded corners (`edge_from`), so the reference does too.
         let mut ref_corners = corners.clone();
         for c in ref_corners.iter_mut() {
             for i in 0..2 {
                 c.position[i] = cen[i] + q::<R>(c.position[i] - cen[i]);
                 c.circle[i] = cen[i] + q::<R>(c.circle[i] - cen[i]);
-                c.edge_dir[i] = q::<R>(c.edge_dir[i]);
             }
-            c.edge_length = q::<R>(c.edge_length);
             c.radius = q::<R>(c.radius);
             c.round = q::<R>(c.round);
+        }
+        let rel = |c: &blockdem::model::Corner| [c.position[0] - cen[0], c.position[1] - cen[1]];
+        for k in 0..n {
+            let (a, b) = (rel(&ref_corners[k]), rel(&ref_corners[(k + 1) % n]));
+            let e = [b[0] - a[0], b[1] - a[1]];
+            let len = e[0].hypot(e[1]);
+            ref_corners[k].edge_dir = [e[0] / len, e[1] / len];
+            ref_corners[k].edge_length = len;
         }
         let start = gpu_corners.len() as u32;
         for c in &ref_corners {
@@ -185,9 +192,6 @@ where
                 py: R::from_f64(c.position[1] - cen[1]),
                 ox: R::from_f64(c.circle[0] - cen[0]),
                 oy: R::from_f64(c.circle[1] - cen[1]),
-                ux: R::from_f64(c.edge_dir[0]),
-                uy: R::from_f64(c.edge_dir[1]),
-                len: R::from_f64(c.edge_length),
                 ..Default::default()
             });
         }

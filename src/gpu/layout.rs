@@ -97,13 +97,13 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One rounded corner: 60 bytes in f32, 112 in f64. `px, py` and `ox, oy` (corner and
+    /// One rounded corner: 48 bytes in f32, 88 in f64. `px, py` and `ox, oy` (corner and
     /// rounding-circle centre) are relative to the block's centroid, rotated: world = centroid + p.
-    /// `ux, uy, len`: unit direction and length of the edge to the next corner (`edge_dir`,
-    /// `edge_length`).
+    /// The edge to the next corner (`edge_dir`, `edge_length` on the CPU) is not stored: the
+    /// contact stage measures it from the two corners it loads anyway.
     Corner {
         lx: R, ly: R, qx: R, qy: R, radius: R, round: R,
-        px: R, py: R, ox: R, oy: R, ux: R, uy: R, len: R,
+        px: R, py: R, ox: R, oy: R,
         block: u32, _pad: u32,
     }
 }

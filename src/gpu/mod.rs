@@ -469,9 +469,6 @@ where
                     py: r(c.position[1] - cen[1]),
                     ox: r(c.circle[0] - cen[0]),
                     oy: r(c.circle[1] - cen[1]),
-                    ux: r(c.edge_dir[0]),
-                    uy: r(c.edge_dir[1]),
-                    len: r(c.edge_length),
                     block: c.block,
                     _pad: 0,
                 }
@@ -921,12 +918,18 @@ where
         let work: f64 = blocks.iter().map(|g| g.work.to_f64()).sum();
         model.external_work = up.work_base + work;
         let Model { blocks: model_blocks, corners: model_corners, .. } = model;
-        model_corners.par_iter_mut().zip(corners.par_iter()).with_min_len(4096).for_each(|(m, g)| {
-            let cen = model_blocks[m.block as usize].centroid;
+        model_corners.par_iter_mut().enumerate().zip(corners.par_iter()).with_min_len(4096).for_each(|((i, m), g)| {
+            let blk = &model_blocks[m.block as usize];
+            let cen = blk.centroid;
             m.position = [cen[0] + g.px.to_f64(), cen[1] + g.py.to_f64()];
             m.circle = [cen[0] + g.ox.to_f64(), cen[1] + g.oy.to_f64()];
-            m.edge_dir = [g.ux.to_f64(), g.uy.to_f64()];
-            m.edge_length = g.len.to_f64();
+            // The edge to the next corner of the block, measured as the contact stage measures
+            // it (from the two corners relative to the centroid), in f64.
+            let next = if i + 1 == (blk.corner_start + blk.corner_count) as usize { blk.corner_start as usize } else { i + 1 };
+            let e = [corners[next].px.to_f64() - g.px.to_f64(), corners[next].py.to_f64() - g.py.to_f64()];
+            let len = e[0].hypot(e[1]);
+            m.edge_dir = [e[0] / len, e[1] / len];
+            m.edge_length = len;
         });
     }
 
