@@ -11,7 +11,8 @@
 // left to `gather_heavy`: one workgroup per such block, each invocation summing a strided share
 // and the shares added by a fixed binary tree, so its sum also repeats bit for bit (in another
 // order than the CPU's serial sum: the two agree to rounding). The CPU lists these blocks after
-// the offsets in `adj_offsets` (`Adjacency::heavy`).
+// the offsets in `adj_offsets`, free ones first: a cycle dispatches only those (`params.n_heavy`;
+// a fixed base under a long wall is summed only in the pass before a read-back).
 
 // Force and moment on a block from one adjacency entry. Block 1 receives the contact force, block
 // 2 its reaction (report ¶19).

@@ -273,6 +273,12 @@ fn a_slab_carrying_forty_blocks_carries_their_weight(t: &Target) {
     let s = &m.blocks[m.block_index(2).unwrap()];
     let sunk = 1.25 - total / (2.0 * 1e8);
     assert!(s.velocity[0].hypot(s.velocity[1]) < 1e-4 && (s.centroid[1] - sunk).abs() < 1e-5, "the slab rests: {:?} {:?} on {}", s.centroid, s.velocity, t.name());
+    // The same slab fixed: a heavy block the cycle does not gather (fixed blocks move nothing),
+    // summed only in the pass before a read-back. Its force is its weight and the forty blocks'.
+    let fixed = deck.replace("FIX 0 40 0 0.9", "FIX 0 40 0 1.4");
+    let m = run(t, &fixed);
+    let s = &m.blocks[m.block_index(2).unwrap()];
+    assert!(s.fixed && (s.force[1] + total).abs() < 0.01 * total && s.force[0].abs() < 0.01 * total, "the fixed slab's force {:?}, weight carried {total} N on {}", s.force, t.name());
 }
 
 fn a_projectile_bounces_off_a_wall_with_few_contact_updates(t: &Target) {

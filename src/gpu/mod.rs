@@ -276,8 +276,10 @@ struct Engine<R: Real> {
     /// The block buffer as last read back (to see which update distances stage 7 reset).
     last_blocks: Vec<Block<R>>,
     counts: (usize, usize, usize),
-    /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts).
+    /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts), and how many of
+    /// them (listed first) are free: a cycle skips fixed blocks, so it dispatches only those.
     n_heavy: usize,
+    n_heavy_free: usize,
     /// Contact updates splice the list on the device (`splice_contacts`) rather than upload it.
     splice: bool,
     /// Contact updates spliced on the device since the backend was made.
@@ -347,6 +349,7 @@ where
             last_blocks: Vec::new(),
             counts: (0, 0, 0),
             n_heavy: 0,
+            n_heavy_free: 0,
             splice: true,
             dashpots_pending: false,
             splices: 0,
@@ -521,7 +524,7 @@ where
         let d = &self.dev;
         let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
         g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
-        g |= self.upload_adjacency(model.blocks.len(), contacts.len(), adjacency)?;
+        g |= self.upload_adjacency(&model.blocks, contacts.len(), adjacency)?;
         if g {
             self.bind_group = None;
         }
@@ -548,12 +551,17 @@ where
 
     /// Uploads the adjacency lists (and makes room for the energy check's sums of the new
     /// counts); returns whether a buffer was re-created (the bind group must then be rebuilt).
-    fn upload_adjacency(&mut self, n_blocks: usize, n_contacts: usize, adjacency: &Adjacency) -> Result<bool, GpuError> {
-        // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl).
+    fn upload_adjacency(&mut self, blocks: &[crate::model::Block], n_contacts: usize, adjacency: &Adjacency) -> Result<bool, GpuError> {
+        let n_blocks = blocks.len();
+        // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl): free ones first,
+        // then fixed ones, which only the pass before a read-back sums (a base under a wall).
         let mut offsets = adjacency.offsets.clone();
-        let heavy: Vec<u32> = adjacency.offsets.windows(2).enumerate().filter(|(_, w)| w[1] - w[0] > shaders::HEAVY_DEGREE).map(|(b, _)| b as u32).collect();
-        self.n_heavy = heavy.len();
-        offsets.extend(heavy);
+        let heavy = |fixed: bool| adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| w[1] - w[0] > shaders::HEAVY_DEGREE && blocks[*b].fixed == fixed).map(|(b, _)| b as u32);
+        let free: Vec<u32> = heavy(false).collect();
+        self.n_heavy_free = free.len();
+        offsets.extend(free);
+        offsets.extend(heavy(true));
+        self.n_heavy = offsets.len() - adjacency.offsets.len();
         let b = self.buffers.as_mut().expect("buffers exist");
         let d = &self.dev;
         let mut g = Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
@@ -598,7 +606,7 @@ where
         b.swap_contacts();
         self.splices += 1;
         self.counts.2 = n;
-        self.upload_adjacency(model.blocks.len(), n, adjacency)?;
+        self.upload_adjacency(&model.blocks, n, adjacency)?;
         self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
         Ok(())
     }
@@ -619,7 +627,7 @@ where
             n_contacts: self.counts.2 as u32,
             one: 1,
             gather_fixed: 0,
-            n_heavy: self.n_heavy as u32,
+            n_heavy: self.heavy_blocks(false) as u32,
             dashpots: (model.damping.beta > 0.0 || self.dashpots_pending) as u32,
             _pad: 0,
         };
@@ -631,14 +639,14 @@ where
     pub(crate) fn stages(&self, gather_only: bool) -> Vec<Dispatch<'_>> {
         let p = &self.pipelines;
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
-        let cycle = |label, pipeline, g: Grid| Dispatch { label, pipeline, bind_group: bg, grid: self.grid(g), indirect: Some(g) };
+        let cycle = |label, pipeline, g: Grid| Dispatch { label, pipeline, bind_group: bg, grid: self.grid(g, gather_only), indirect: Some(g) };
         let mut stages = Vec::with_capacity(6);
         if !gather_only {
             stages.push(cycle("law_of_motion", &p.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces", &p.contact_forces, Grid::Contacts));
         }
         stages.push(cycle("gather", &p.gather, Grid::Blocks));
-        if self.n_heavy > 0 {
+        if self.heavy_blocks(gather_only) > 0 {
             stages.push(cycle("gather_heavy", &p.gather_heavy, Grid::HeavyBlocks));
         }
         if !gather_only {
@@ -651,13 +659,27 @@ where
 
     /// The grid of `g` over the live counts: one invocation per block, corner or contact, one
     /// workgroup per heavy block.
-    fn grid(&self, g: Grid) -> (u32, u32) {
+    fn grid(&self, g: Grid, gather_only: bool) -> (u32, u32) {
         let items = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
         match g {
             Grid::Blocks => items(self.counts.0),
             Grid::Contacts => items(self.counts.2),
-            Grid::HeavyBlocks => shaders::dispatch_grid(self.n_heavy as u32),
+            Grid::HeavyBlocks => shaders::dispatch_grid(self.heavy_blocks(gather_only) as u32),
         }
+    }
+
+    /// Heavy blocks a pass gathers: the free ones in a cycle, all (fixed ones too) in the pass
+    /// before a read-back.
+    fn heavy_blocks(&self, gather_only: bool) -> usize {
+        if gather_only { self.n_heavy } else { self.n_heavy_free }
+    }
+
+    /// The run constants that differ between a cycle and the gather-only pass before a
+    /// read-back (queued; the pass's dispatches follow).
+    pub(crate) fn write_pass_params(&self, gather_only: bool) {
+        let (b, q) = (self.buffers(), &self.dev.queue);
+        q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&(gather_only as u32)));
+        q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, n_heavy) as u64, bytemuck::bytes_of(&(self.heavy_blocks(gather_only) as u32)));
     }
 
     /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) with no round trip; returns the
@@ -684,11 +706,11 @@ where
         q.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
         // The grids of the indirect dispatches, which end_cycle zeroes when it halts the batch.
         let args: Vec<u32> = Grid::ALL.iter().flat_map(|&g| {
-            let (x, y) = self.grid(g);
+            let (x, y) = self.grid(g, gather_only);
             [x, y, 1]
         }).collect();
         q.write_buffer(&b.dispatch_args, 0, bytemuck::cast_slice(&args));
-        q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&(gather_only as u32)));
+        self.write_pass_params(gather_only);
         let stages = self.stages(gather_only);
         let scope = self.dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut left = cycles.max(1);

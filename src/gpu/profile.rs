@@ -121,7 +121,7 @@ where
         let stages = self.stages(false);
         dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
         // The cycle's own gather (fixed blocks skipped), whatever pass ran last.
-        dev.queue.write_buffer(&buffers.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&0u32));
+        self.write_pass_params(false);
         let timestamps = dev.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked();
         let mut sums = vec![0.0f64; stages.len()];
         if timestamps {
