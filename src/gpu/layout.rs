@@ -174,7 +174,8 @@ gpu_struct! {
         /// 1: the gather also sums the forces of fixed blocks (before a read-back; their forces
         /// are printed but move nothing, and a fixed base can carry a whole wall's contacts).
         gather_fixed: u32,
-        /// Blocks summed by `gather_heavy` (long contact lists), listed after the CSR offsets.
+        /// Blocks `gather_heavy` sums in this pass (long contact lists), listed after the CSR
+        /// offsets: the free ones in a cycle, fixed ones too in the pass before a read-back.
         n_heavy: u32,
         /// 1: the contacts' dashpots are live (β > 0, or velocities of an earlier run's dashpots
         /// still to be booked); 0: the contact stage neither reads nor writes dashpot fields.

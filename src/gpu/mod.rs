@@ -14,9 +14,10 @@
 //! The model is uploaded once; then the GPU runs batches of cycles with no round trip inside a
 //! batch: one compute pass per ten cycles, each cycle the dispatches `law_of_motion` (whose
 //! invocations also run stage 2, `geometry_update`, for the block they moved), `contact_forces`,
-//! `gather` (and `gather_heavy` where a block has more than `HEAVY_DEGREE` contacts), `end_cycle`,
-//! over two-dimensional grids that follow the live counts of blocks and contacts. Kernels raise flags (a block past the update tolerance, a
-//! non-finite step, a block too fast, an overlap too great); `end_cycle` then halts the rest of the
+//! `gather` (and `gather_heavy` where a free block has more than `HEAVY_DEGREE` contacts),
+//! `end_cycle`, over two-dimensional grids that follow the live counts of blocks and contacts.
+//! Kernels raise flags (a block past the update tolerance, a non-finite step, a block too fast,
+//! an overlap too great); `end_cycle` then halts the rest of the
 //! batch, so the CPU sees exactly the state of the cycle that raised it, as the CPU backend would.
 //! The cycle's kernels are dispatched indirectly from grids the CPU writes at the start of each
 //! batch (`Buffers::dispatch_args`); halting zeroes them, so the cycles after a halt launch no
@@ -657,8 +658,8 @@ where
         stages
     }
 
-    /// The grid of `g` over the live counts: one invocation per block, corner or contact, one
-    /// workgroup per heavy block.
+    /// The grid of `g` over the live counts: one invocation per block or contact, one workgroup
+    /// per heavy block the pass gathers.
     fn grid(&self, g: Grid, gather_only: bool) -> (u32, u32) {
         let items = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
         match g {
