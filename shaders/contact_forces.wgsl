@@ -442,7 +442,7 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     // lever arm is p − (c1 − c2).
     let p = vec2<real>(c.px, c.py);
     let r1 = p - d12;
-    contact_forces_out[k] = ContactForce(c.fx, c.fy, r1.x * c.fy - r1.y * c.fx, p.y * c.fx - p.x * c.fy);
+    contact_forces_out[k] = ContactForce(c.fx, c.fy, array<real, 2>(r1.x * c.fy - r1.y * c.fx, p.y * c.fx - p.x * c.fy));
     if (counted && -g.gap > params.overlap_limit) {
         atomicOr(&flags.errors, ERR_OVERLAP);
         atomicMin(&flags.overlap_contact, k);

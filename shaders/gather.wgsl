@@ -14,14 +14,14 @@
 // the offsets in `adj_offsets`, free ones first: a cycle dispatches only those (`params.n_heavy`;
 // a fixed base under a long wall is summed only in the pass before a read-back).
 
-// Force and moment on a block from one adjacency entry. Block 1 receives the contact force, block
-// 2 its reaction (report ¶19).
+// Force and moment on a block from one adjacency entry (contact·2 + side). Block 1 (side 0)
+// receives the contact force, block 2 its reaction (report ¶19); the side picks the moment, so
+// an entry loads three fields (a software adapter loads each field of each lane on its own).
 fn entry_force(entry: u32) -> vec3<real> {
-    let f = contact_forces_out[entry >> 1u];
-    if ((entry & 1u) == 0u) {
-        return vec3<real>(f.fx, f.fy, f.m1);
-    }
-    return vec3<real>(-f.fx, -f.fy, f.m2);
+    let k = entry >> 1u;
+    let side = entry & 1u;
+    let sign = select(real(1.0), real(-1.0), side == 1u);
+    return vec3<real>(sign * contact_forces_out[k].fx, sign * contact_forces_out[k].fy, contact_forces_out[k].m[side]);
 }
 
 // Whether block b's forces are summed in this pass.

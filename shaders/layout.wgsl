@@ -40,7 +40,7 @@ struct Contact {
 
 // 16 / 32 bytes. What the gather needs of a contact: the force on block 1 (block 2 gets the
 // reaction) and the moment of each about its own centroid (eq. 12), written by contact_forces.
-struct ContactForce { fx: real, fy: real, m1: real, m2: real }
+struct ContactForce { fx: real, fy: real, m: array<real, 2> }
 
 // 28 / 48 bytes. What a contact update reads back of a contact (pack_contacts.wgsl).
 struct ContactSummary {

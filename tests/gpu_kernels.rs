@@ -602,7 +602,7 @@ where
         (c.block1, c.corner, c.block2, c.feature, c.material, c.bonded) = (rng.below(1000), rng.below(4000), rng.below(1000), rng.below(8), rng.below(4), rng.below(2));
         c
     };
-    let force = |rng: &mut Rng| GForce::<R> { fx: R::from_f64(rng.range(-1e6, 1e6)), fy: R::from_f64(rng.range(-1e6, 1e6)), m1: R::from_f64(rng.next()), m2: R::from_f64(-rng.next()) };
+    let force = |rng: &mut Rng| GForce::<R> { fx: R::from_f64(rng.range(-1e6, 1e6)), fy: R::from_f64(rng.range(-1e6, 1e6)), m: [R::from_f64(rng.next()), R::from_f64(-rng.next())] };
     let n_old = 3000;
     let old: Vec<GContact<R>> = (0..n_old).map(|_| contact(&mut rng)).collect();
     let old_forces: Vec<GForce<R>> = (0..n_old).map(|_| force(&mut rng)).collect();

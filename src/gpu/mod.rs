@@ -393,7 +393,7 @@ where
         let (c1, c2) = (model.blocks[c.block1 as usize].centroid, model.blocks[c.block2 as usize].centroid);
         let [fx, fy] = c.force;
         let (r1, r2) = ([c.point[0] - c1[0], c.point[1] - c1[1]], [c.point[0] - c2[0], c.point[1] - c2[1]]);
-        ContactForce { fx: r(fx), fy: r(fy), m1: r(r1[0] * fy - r1[1] * fx), m2: r(r2[1] * fx - r2[0] * fy) }
+        ContactForce { fx: r(fx), fy: r(fy), m: [r(r1[0] * fy - r1[1] * fx), r(r2[1] * fx - r2[0] * fy)] }
     }
 
     /// Uploads the whole model (start of a run, or after a crack split a block).
