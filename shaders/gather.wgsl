@@ -3,8 +3,8 @@
 // scattered, and no float atomics: a run repeats bit for bit. Twin of src/cpu/gather.rs.
 //
 // The contact stage has already put each contact's force and both moments into its compact
-// `ContactForce` slot, so a block reads 16 contiguous bytes per contact (in f32) and never its
-// neighbours. Fixed blocks are skipped in the cycle (their force moves nothing);
+// `ContactForce` slot, so a block reads 12 of 16 contiguous bytes per contact (in f32: the force
+// and its own side's moment) and never its neighbours. Fixed blocks are skipped in the cycle (their force moves nothing);
 // `params.gather_fixed` sums them too, in the pass before each read-back.
 //
 // A block with a long list (a base under a long wall carries tens of thousands of contacts) is
