@@ -120,7 +120,7 @@ impl AdapterSummary {
             driver: info.driver,
             driver_info: info.driver_info,
             max_storage_buffers_per_shader_stage: limits.max_storage_buffers_per_shader_stage,
-            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size as u64,
+            max_storage_buffer_binding_size: limits.max_storage_buffer_binding_size,
             max_buffer_size: limits.max_buffer_size,
             max_compute_workgroup_size_x: limits.max_compute_workgroup_size_x,
             shader_f64: adapter.features().contains(wgpu::Features::SHADER_F64),

@@ -369,7 +369,8 @@ pub fn energy_groups(blocks: usize, contacts: usize) -> usize {
 /// Rust twin of the WGSL `sin_cos` (common.wgsl), in f64: (cos θ, sin θ) by reduction to
 /// |r| ≤ π/4 and Taylor series, with + − × only.
 pub fn sin_cos(theta: f64) -> (f64, f64) {
-    let k = ((theta as f32) * 0.636_619_8_f32).round() as i32;
+    // 2/π in f32, as the WGSL literal rounds to: the quadrant k is found in f32 there too.
+    let k = ((theta as f32) * std::f32::consts::FRAC_2_PI).round() as i32;
     let kr = k as f64;
     let r = (theta - kr * 1.570_796_326_734_125_6) - kr * 6.077_100_506_506_192e-11;
     let r2 = r * r;
