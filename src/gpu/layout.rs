@@ -141,9 +141,9 @@ gpu_struct! {
     /// What the gather needs of one contact, written by `contact_forces` into its own compact
     /// slot: 16 bytes in f32, 32 in f64. The force on block 1 (block 2 gets its reaction) and
     /// the moment of each about its block's centroid (eq. 12, M = r × F), so that the gather
-    /// reads 16 contiguous bytes per contact instead of the whole contact and block 2. `m[0]`
-    /// is block 1's moment, `m[1]` block 2's: an adjacency entry's side indexes it, so the gather
-    /// loads three fields an entry, not four.
+    /// reads 12 of these 16 contiguous bytes per contact instead of the whole contact and block
+    /// 2. `m[0]` is block 1's moment, `m[1]` block 2's: an adjacency entry's side indexes it, so
+    /// the gather loads three fields an entry, not four.
     ContactForce { fx: R, fy: R, m: [R; 2] }
 }
 
