@@ -14,6 +14,7 @@ every_backend!(
     an_unstable_fraction_is_caught_before_any_nan,
     a_projectile_that_would_tunnel_is_stopped,
     a_failure_after_a_checkpoint_restores_that_checkpoint,
+    a_failure_in_a_later_run_restores_that_runs_start,
 );
 
 /// Runs a deck that must fail; returns the failure and the model the executor kept.
@@ -101,6 +102,29 @@ fn a_failure_after_a_checkpoint_restores_that_checkpoint(t: &Target) {
     }
     assert_eq!(m.contacts.len(), reference.contacts.len());
     assert_last_good(&m, t);
+}
+
+fn a_failure_in_a_later_run_restores_that_runs_start(t: &Target) {
+    // The block of the test above settles for 150 cycles without the load; the second CYCLE
+    // adds a load large enough to cross the overlap limit (cycle 234) before that run's first
+    // checkpoint. The last good state is then the second run's start, load included: the
+    // backends keep their copy of the last good state from run to run (its storage is reused),
+    // and a copy left from the first run (cycle 150 too, but without the load) would be wrong.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6 F=0.5\nROUND 0.1\nFRAC 0.004\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\n\
+         FIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 150\nLOAD 1 2 1 2 0 -150000\nCYCLE 5000\n";
+    let (e, m) = fail(t, deck);
+    let (_, reference) = fail(&Target::Cpu, deck);
+    assert!(matches!(e, CycleError::Overlap { cycle: 234, .. }), "{e} on {}", t.name());
+    assert_eq!((m.cycle, reference.cycle), (150, 150), "on {}", t.name());
+    let loaded = m.blocks.iter().find(|b| !b.fixed).expect("a free block");
+    assert_eq!(loaded.load, [0.0, -150000.0], "the load of the second run is kept on {}", t.name());
+    // The state 150 cycles into the settling (as in the test above, f32 keeps ~1e-7).
+    for (g, c) in m.blocks.iter().zip(&reference.blocks) {
+        for i in 0..2 {
+            assert!((g.centroid[i] - c.centroid[i]).abs() < 1e-5, "centroid on {}: {:?} vs {:?}", t.name(), g.centroid, c.centroid);
+            assert!((g.velocity[i] - c.velocity[i]).abs() < 1e-5 * (1.0 + c.velocity[i].abs()), "velocity on {}: {:?} vs {:?}", t.name(), g.velocity, c.velocity);
+        }
+    }
 }
 
 /// FRACTION far above the stable limit can fail first as a block too fast for the contact update

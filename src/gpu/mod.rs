@@ -287,6 +287,9 @@ struct Engine<R: Real> {
     splices: u64,
     /// The uploaded contacts carry dashpot velocities whose work is still to be booked.
     dashpots_pending: bool,
+    /// The CPU copy of the last good state, kept from run to run so that a run copies into its
+    /// storage instead of allocating a second model.
+    last_good: Model,
 }
 
 /// One dispatch of a cycle: the stage's label, its pipeline, its bind group and its
@@ -354,6 +357,7 @@ where
             splice: true,
             dashpots_pending: false,
             splices: 0,
+            last_good: Model::default(),
         }
     }
 
@@ -1128,7 +1132,8 @@ where
         if let Some(ck) = &mut self.checkpoint {
             ck.valid = false;
         }
-        let mut last_good = model.clone();
+        let mut last_good = std::mem::take(&mut self.last_good);
+        last_good.clone_from(model);
         crate::profile::mark_cycles_start();
         let mut last_good_generation = self.generation;
         let mut done_total = 0u64;
@@ -1256,7 +1261,10 @@ where
             Ok(())
         })();
         match result {
-            Ok(()) => Ok(report),
+            Ok(()) => {
+                self.last_good = last_good;
+                Ok(report)
+            }
             Err(e) => {
                 if let Err(d) = self.restore_checkpoint(&mut last_good) {
                     return Err(device_error(d));

@@ -336,8 +336,9 @@ impl Tolerances {
     }
 }
 
-/// The whole problem state. Serializable for SAVE/RESTART.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The whole problem state. Serializable for SAVE/RESTART. `clone_from` copies into the
+/// target's own storage (see the `Clone` impl below).
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
 pub struct Model {
     pub blocks: Vec<Block>,
     pub corners: Vec<Corner>,
@@ -361,6 +362,55 @@ pub struct Model {
     /// Energy terms of blocks and contacts that no longer exist (see `timestep::RetiredEnergy`).
     #[serde(default)]
     pub retired: timestep::RetiredEnergy,
+}
+
+/// Field by field, so that `clone_from` reuses the target's vectors: the backends keep a copy of
+/// the last good state and refresh it after every energy check (every 100 cycles), and the derived
+/// `clone_from` (a fresh clone dropped into place) allocated and first-touched the whole model each
+/// time: 80–330 ms at 10⁵ blocks where copying into the kept vectors takes ~16 ms. The
+/// destructuring is exhaustive, so a new field cannot be left out of either.
+impl Clone for Model {
+    fn clone(&self) -> Self {
+        let Model { blocks, corners, contacts, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = self;
+        Model {
+            blocks: blocks.clone(),
+            corners: corners.clone(),
+            contacts: contacts.clone(),
+            materials: materials.clone(),
+            links: links.clone(),
+            gravity: *gravity,
+            damping: *damping,
+            frac: *frac,
+            tol: *tol,
+            timestep: *timestep,
+            cycle: *cycle,
+            time: *time,
+            next_block_id: *next_block_id,
+            next_contact_id: *next_contact_id,
+            external_work: *external_work,
+            retired: *retired,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let Model { blocks, corners, contacts, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = source;
+        self.blocks.clone_from(blocks);
+        self.corners.clone_from(corners);
+        self.contacts.clone_from(contacts);
+        self.materials.clone_from(materials);
+        self.links.clone_from(links);
+        self.gravity = *gravity;
+        self.damping = *damping;
+        self.frac = *frac;
+        self.tol = *tol;
+        self.timestep = *timestep;
+        self.cycle = *cycle;
+        self.time = *time;
+        self.next_block_id = *next_block_id;
+        self.next_contact_id = *next_contact_id;
+        self.external_work = *external_work;
+        self.retired = *retired;
+    }
 }
 
 impl Default for Model {
