@@ -117,6 +117,10 @@ enum Cmd {
         /// longer runs average out the noise of a shared machine.
         #[arg(long)]
         measure: Option<f64>,
+        /// Rounds each scaling measurement is cut into, the backends taking turns, so that a
+        /// ratio of two backends is taken from runs seconds apart (default 3, 1 with --quick).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
+        rounds: Option<u32>,
     },
 }
 
@@ -149,6 +153,7 @@ fn bench(
     impact_time: Option<f64>,
     frac: Option<f64>,
     measure: Option<f64>,
+    rounds: Option<u32>,
 ) -> anyhow::Result<()> {
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let precision = precision.map(|p| match p {
@@ -185,6 +190,9 @@ fn bench(
             bail!("--measure must be a positive number of seconds");
         }
         options.measure_s = m;
+    }
+    if let Some(r) = rounds {
+        options.rounds = r;
     }
     let report = blockdem::bench::run(&options);
     print!("{}", blockdem::bench::table(&report));
@@ -304,8 +312,8 @@ fn main() -> ExitCode {
         Cmd::Run { deck, backend, adapter, precision, out, state_json } => run(deck, backend, adapter, precision, out, state_json),
         Cmd::Adapters => adapters(),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
-        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure } => {
-            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure)
+        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds } => {
+            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds)
         }
     };
     match result {

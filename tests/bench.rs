@@ -140,3 +140,34 @@ fn quick_bench(t: &Target) {
 }
 
 common::every_backend!(quick_bench);
+
+/// The scaling measurement in rounds, the backends taking turns: each row keeps every round's
+/// time per cycle, its rates are those of its median round, and the software adapter's ratio to
+/// the CPU is the median of the ratios within the rounds.
+#[test]
+fn scaling_rounds_alternate_the_backends() {
+    let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::gpu::Precision::F32) else {
+        return;
+    };
+    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
+    options.settle = false;
+    options.impact = false;
+    options.sizes = vec![1_000];
+    options.measure_s = 0.3;
+    options.rounds = 3;
+    let report = blockdem::bench::run(&options);
+    assert_eq!(report.scaling.len(), 2, "{:?}", report.scaling);
+    for row in &report.scaling {
+        assert!(row.error.is_none(), "{:?}", row.error);
+        assert_eq!(row.round_s_per_cycle.len(), 3, "{}", row.backend);
+        let mut sorted = row.round_s_per_cycle.clone();
+        sorted.sort_by(f64::total_cmp);
+        assert!((row.s_per_cycle - sorted[1]).abs() <= 1e-12 * sorted[1], "{}: the median round {} of {:?}", row.backend, row.s_per_cycle, sorted);
+    }
+    let (gpu_row, cpu_row) = (&report.scaling[1], &report.scaling[0]);
+    let (ratio, how) = blockdem::bench::report::round_ratio(gpu_row, cpu_row);
+    assert!(ratio > 0.0 && how.contains("median of 3 rounds"), "{ratio} {how}");
+    let target = report.targets.iter().find(|t| t.target.starts_with("software adapter")).expect("the software adapter's target");
+    assert_eq!(target.measured, format!("{ratio:.2}x"));
+    assert!(target.note.contains("median of 3 rounds"), "{}", target.note);
+}

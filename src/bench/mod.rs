@@ -13,8 +13,12 @@
 //! For each wall of about N blocks (25 rows, longer walls, the reference projectile flying at its
 //! left end) and each backend: the wall is built (deck, full contact detection), runs 20 cycles
 //! (its contacts start unloaded), a short run
-//! calibrates the cost of a cycle, then one run of M cycles (M chosen so that it takes about
-//! `measure_s`) is timed with the stage profiler on ([`crate::profile`]). Every `Backend::run`
+//! calibrates the cost of a cycle, then runs of M cycles (M chosen so that the `rounds` runs
+//! take about `measure_s` in all) are timed with the stage profiler on ([`crate::profile`]), the
+//! backends taking turns: round 1 on every backend, then round 2, and so on. The machines this
+//! runs on are shared, and their speed drifts by 20% and more over seconds; a ratio of two
+//! backends is taken within each round (runs seconds apart) and its median reported, and each
+//! row holds the round of median time per cycle (`round_s_per_cycle` lists them all). Every `Backend::run`
 //! begins with a full contact detection (and, on the GPU, an upload of the whole model) and, on
 //! the GPU, ends with a read-back of the whole state: that set-up and tear-down are reported apart
 //! (`setup_s`, `teardown_s`, and in the whole-run share of topology work and transfers), and the
@@ -68,8 +72,11 @@ pub struct BenchOptions {
     pub impact_time: f64,
     /// FRACTION of every scene.
     pub frac: f64,
-    /// Wall time one scaling measurement aims at (seconds).
+    /// Wall time one scaling measurement aims at (seconds), over all its rounds.
     pub measure_s: f64,
+    /// Rounds each scaling measurement is cut into, the backends taking turns (see the module
+    /// doc): the ratio of two backends is taken within each round.
+    pub rounds: u32,
     /// Progress lines on stderr.
     pub verbose: bool,
 }
@@ -89,6 +96,7 @@ impl BenchOptions {
             impact_time: if quick { 0.1 } else { scene::IMPACT_TIME },
             frac: scene::FRAC,
             measure_s: if quick { 0.25 } else { 1.5 },
+            rounds: if quick { 1 } else { 3 },
             verbose: false,
         }
     }
@@ -233,6 +241,9 @@ pub struct ScalingRow {
     pub transfer_share: f64,
     /// Share of the whole timed run, set-up included, spent in topology work and transfers.
     pub run_topology_transfer_share: f64,
+    /// Time per cycle of each round, in turn with the other backends (the row's rates are those
+    /// of the round of median time).
+    pub round_s_per_cycle: Vec<f64>,
     pub error: Option<String>,
 }
 
@@ -260,6 +271,8 @@ pub struct OptionsEcho {
     pub frac: f64,
     pub round: f64,
     pub measure_s: f64,
+    /// Timed rounds of each scaling measurement (not ROUND, the rounding length above).
+    pub rounds: u32,
 }
 
 /// Everything a bench run measured.
@@ -373,6 +386,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         frac: opts.frac,
         round: scene::ROUND,
         measure_s: opts.measure_s,
+        rounds: opts.rounds,
     };
     let mut engines: Vec<(usize, Engine)> = Vec::new();
     let mut seen: Vec<String> = Vec::new();
@@ -417,7 +431,8 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         for &n in opts.sizes.iter().filter(|&&n| n <= largest) {
             let wall = scene::scaling_wall(n, opts.frac);
             say(&format!("scaling: building a wall of {} blocks", wall.brick_count() + 2));
-            if let Some(problem) = memory_problem(wall.brick_count() + 2) {
+            let engines_here = engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks).count();
+            if let Some(problem) = memory_problem(wall.brick_count() + 2, engines_here) {
                 for (i, _) in engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks) {
                     report.scaling.push(ScalingRow { backend: report.backends[*i].label.clone(), nominal: n, error: Some(problem.clone()), ..Default::default() });
                 }
@@ -430,16 +445,13 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
                     continue;
                 }
             };
-            for (i, engine) in engines.iter_mut() {
-                let info = &report.backends[*i];
-                if n > info.max_blocks {
-                    continue;
-                }
-                say(&format!("scaling: {} blocks on {}", model0.blocks.len(), info.label));
-                let row = measure_scaling(&model0, n, engine, info, opts);
+            let mut here: Vec<(&mut Engine, &BackendInfo)> =
+                engines.iter_mut().map(|(i, e)| (e, &report.backends[*i])).filter(|(_, info)| n <= info.max_blocks).collect();
+            say(&format!("scaling: {} blocks on {} backends, {} rounds", model0.blocks.len(), here.len(), opts.rounds.max(1)));
+            for row in measure_scaling(&model0, n, &mut here, opts) {
                 match &row.error {
-                    Some(e) => say(&format!("  failed: {e}")),
-                    None => say(&format!("  {} cycles, {:.3e} block-cycles/s, {:.3e} contact-cycles/s", row.cycles, row.block_cycles_per_s, row.contact_cycles_per_s)),
+                    Some(e) => say(&format!("  {} failed: {e}", row.backend)),
+                    None => say(&format!("  {}: {} cycles a round, {:.3e} block-cycles/s, {:.3e} contact-cycles/s", row.backend, row.cycles, row.block_cycles_per_s, row.contact_cycles_per_s)),
                 }
                 report.scaling.push(row);
             }
@@ -451,11 +463,13 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
 
 /// Why a wall of `blocks` blocks should not be built here, if it should not: the host model (and
 /// the checkpoint copy each backend keeps) must fit in the memory available.
-fn memory_problem(blocks: usize) -> Option<String> {
+fn memory_problem(blocks: usize, engines: usize) -> Option<String> {
     use crate::model::{Block, Contact, Corner};
-    // Per block: the block, 4 corners, about 8 contacts, ×3 (the model, the backend's last good
-    // state, the bench's pristine copy), plus the deck line.
-    let per_block = 3 * (std::mem::size_of::<Block>() + 4 * std::mem::size_of::<Corner>() + 8 * std::mem::size_of::<Contact>()) + 64;
+    // Per block: the block, 4 corners, about 8 contacts, for the bench's pristine copy and, on
+    // each backend measured in turn, the model and the backend's last good state; plus the deck
+    // line.
+    let copies = 1 + 2 * engines.max(1);
+    let per_block = copies * (std::mem::size_of::<Block>() + 4 * std::mem::size_of::<Corner>() + 8 * std::mem::size_of::<Contact>()) + 64;
     let need = (blocks * per_block) as u64;
     let available = host::memory_available()?;
     (need > available / 10 * 7).then(|| format!("not enough memory: a wall of {blocks} blocks needs about {} MiB, {} MiB available", need >> 20, available >> 20))
@@ -542,23 +556,53 @@ fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Resul
     Ok(Timed { setup_s: (mark - start).as_secs_f64(), steady_s: (last - mark).as_secs_f64(), teardown_s: (end - last).as_secs_f64(), times })
 }
 
-fn measure_scaling(model0: &Model, nominal: usize, engine: &mut Engine, info: &BackendInfo, opts: &BenchOptions) -> ScalingRow {
+/// One wall on each backend of `engines`: settled and calibrated on each, then timed in
+/// `opts.rounds` rounds, the backends taking turns (module doc). One row per backend.
+fn measure_scaling(model0: &Model, nominal: usize, engines: &mut [(&mut Engine, &BackendInfo)], opts: &BenchOptions) -> Vec<ScalingRow> {
+    let rounds = opts.rounds.max(1) as u64;
+    // Per backend: its model, the cycles of one round, its timed rounds, or why it stopped.
+    let mut runs: Vec<(Model, u64, Vec<Timed>, Option<String>)> = Vec::with_capacity(engines.len());
+    for (engine, _) in engines.iter_mut() {
+        let mut model = model0.clone();
+        let prepared = (|| -> Result<u64, CycleError> {
+            let backend = engine.backend();
+            backend.run(&mut model, SETTLE_CYCLES, &mut |_| {})?;
+            let calibration = timed_run(backend, &mut model, 10)?;
+            let per_cycle = (calibration.steady_s / 10.0).max(1e-7);
+            Ok(((opts.measure_s / rounds as f64 / per_cycle).ceil() as u64).clamp(10, 1_000_000))
+        })();
+        match prepared {
+            Ok(cycles) => runs.push((model, cycles, Vec::new(), None)),
+            Err(e) => runs.push((model, 0, Vec::new(), Some(e.to_string()))),
+        }
+    }
+    for _ in 0..rounds {
+        for ((engine, _), (model, cycles, timed, error)) in engines.iter_mut().zip(runs.iter_mut()) {
+            if error.is_some() {
+                continue;
+            }
+            match timed_run(engine.backend(), model, *cycles) {
+                Ok(t) => timed.push(t),
+                Err(e) => *error = Some(e.to_string()),
+            }
+        }
+    }
+    engines.iter_mut().zip(runs).map(|((engine, info), (model, cycles, timed, error))| finish_scaling(model0, nominal, engine, info, opts, &model, cycles, timed, error)).collect()
+}
+
+/// The row of one backend's rounds: the rates of its round of median time per cycle, then (GPU)
+/// the kernels timed per stage on the state the rounds left.
+#[allow(clippy::too_many_arguments)]
+fn finish_scaling(model0: &Model, nominal: usize, engine: &mut Engine, info: &BackendInfo, opts: &BenchOptions, model: &Model, cycles: u64, mut timed: Vec<Timed>, error: Option<String>) -> ScalingRow {
     let mut row = ScalingRow { backend: info.label.clone(), nominal, blocks: model0.blocks.len(), corners: model0.corners.len(), contacts: model0.contacts.len(), ..Default::default() };
-    let mut model = model0.clone();
-    let outcome = (|| -> Result<(), CycleError> {
-        let backend = engine.backend();
-        backend.run(&mut model, SETTLE_CYCLES, &mut |_| {})?;
-        let calibration = timed_run(backend, &mut model, 10)?;
-        let per_cycle = (calibration.steady_s / 10.0).max(1e-7);
-        let cycles = ((opts.measure_s / per_cycle).ceil() as u64).clamp(10, 1_000_000);
-        let run = timed_run(backend, &mut model, cycles)?;
-        fill_timing(&mut row, &model, cycles, &run, info);
-        Ok(())
-    })();
-    if let Err(e) = outcome {
-        row.error = Some(e.to_string());
+    if let Some(e) = error {
+        row.error = Some(e);
         return row;
     }
+    row.round_s_per_cycle = timed.iter().map(|t| t.steady_s / cycles as f64).collect();
+    timed.sort_by(|a, b| a.steady_s.total_cmp(&b.steady_s));
+    let median = timed.swap_remove(timed.len() / 2);
+    fill_timing(&mut row, model, cycles, &median, info);
     match engine {
         Engine::Cpu(_) => {
             let bytes = host::cpu_bytes_per_cycle(row.blocks, row.corners, row.contacts);
