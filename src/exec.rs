@@ -340,6 +340,8 @@ impl<'a> Executor<'a> {
     }
 
     /// CYCLE n: checks the model can run, sets the time step, runs the backend.
+    // `!(x > 0.0)` on purpose: a NaN mass or stiffness fails the check too.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn cycle(&mut self, cmd: &Located, n: u64) -> Result<(), RunError> {
         if self.model.blocks.is_empty() {
             return Err(self.command_error(cmd, "CYCLE: there are no blocks (give a BLOCK command first)"));

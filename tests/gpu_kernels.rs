@@ -168,9 +168,9 @@ where
         // rounded corners (`edge_from`), so the reference does too.
         let mut ref_corners = corners.clone();
         for c in ref_corners.iter_mut() {
-            for i in 0..2 {
-                c.position[i] = cen[i] + q::<R>(c.position[i] - cen[i]);
-                c.circle[i] = cen[i] + q::<R>(c.circle[i] - cen[i]);
+            for (i, &o) in cen.iter().enumerate() {
+                c.position[i] = o + q::<R>(c.position[i] - o);
+                c.circle[i] = o + q::<R>(c.circle[i] - o);
             }
             c.radius = q::<R>(c.radius);
             c.round = q::<R>(c.round);

@@ -287,14 +287,14 @@ pub struct BenchReport {
 }
 
 enum Engine {
-    Cpu(CpuBackend),
+    Cpu(Box<CpuBackend>),
     Gpu(Box<GpuBackend>),
 }
 
 impl Engine {
     fn backend(&mut self) -> &mut dyn Backend {
         match self {
-            Engine::Cpu(c) => c,
+            Engine::Cpu(c) => c.as_mut(),
             Engine::Gpu(g) => g.as_mut(),
         }
     }
@@ -333,7 +333,7 @@ fn open(spec: &BackendSpec, opts: &BenchOptions) -> (BackendInfo, Option<Engine>
                 max_blocks: default_max(true),
                 ..Default::default()
             },
-            Some(Engine::Cpu(CpuBackend::new())),
+            Some(Engine::Cpu(Box::new(CpuBackend::new()))),
         ),
         BackendSpec::Gpu(o) => match GpuBackend::new(o) {
             Ok(g) => {

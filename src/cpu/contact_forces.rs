@@ -495,7 +495,7 @@ mod tests {
         contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
         assert_eq!((c.normal_force, c.shear_force, c.force), (0.0, 0.0, [0.0, 0.0]));
         assert!((c.slip_work - 2e4f64.powi(2) / (2.0 * mat.ks)).abs() < 1e-9, "the spring's energy, {}", c.slip_work);
-        let before = c.clone();
+        let before = c;
         contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
         assert_eq!(c, before, "nothing more to let go");
     }

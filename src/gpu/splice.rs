@@ -169,7 +169,7 @@ mod tests {
     fn apply(old: &[model::Contact], new: &[model::Contact], m: &ContactMoves) -> Vec<model::Contact> {
         m.moves
             .iter()
-            .map(|&[s, feature]| if s & NEW_CONTACT != 0 { new[m.created[(s & !NEW_CONTACT) as usize] as usize].clone() } else { model::Contact { feature, ..old[s as usize].clone() } })
+            .map(|&[s, feature]| if s & NEW_CONTACT != 0 { new[m.created[(s & !NEW_CONTACT) as usize] as usize] } else { model::Contact { feature, ..old[s as usize] } })
             .collect()
     }
 

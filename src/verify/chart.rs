@@ -201,7 +201,7 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
         chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(|x| e(&x))?.label(backend.as_str()).legend(move |(x, y)| {
             let line: DynElement<_, (i32, i32)> = match look.dash() {
                 None => PathElement::new(vec![(x, y), (x + 18, y)], grey.stroke_width(2)).into_dyn(),
-                Some((dash, gap)) => plotters::element::DashedPathElement::new(vec![(x, y), (x + 18, y)].into_iter(), dash as i32 / 2, gap as i32 / 2, grey.stroke_width(2)).into_dyn(),
+                Some((dash, gap)) => plotters::element::DashedPathElement::new(vec![(x, y), (x + 18, y)], dash as i32 / 2, gap as i32 / 2, grey.stroke_width(2)).into_dyn(),
             };
             EmptyElement::at((0, 0)) + line + look.marker((x + 9, y), grey)
         });
