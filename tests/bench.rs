@@ -170,4 +170,10 @@ fn scaling_rounds_alternate_the_backends() {
     let target = report.targets.iter().find(|t| t.target.starts_with("software adapter")).expect("the software adapter's target");
     assert_eq!(target.measured, format!("{ratio:.2}x"));
     assert!(target.note.contains("median of 3 rounds"), "{}", target.note);
+    // The chart draws the rounds' spread as bars.
+    let dir = temp("rounds");
+    let (files, chart_problem) = blockdem::bench::write_outputs(&report, &dir).unwrap();
+    assert!(chart_problem.is_none() && files.contains(&dir.join("bench.png")), "{chart_problem:?}");
+    let csv = std::fs::read_to_string(dir.join("bench.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().contains("round_s_per_cycle") && csv.lines().skip(1).all(|l| l.split(';').count() == 3), "{csv}");
 }

@@ -1,7 +1,8 @@
 //! bench.png: four panels drawn with plotters (the route and font of `verify::chart`).
 //!
 //! (a) block-cycles/s (solid) and contact-cycles/s (dashed) against N, log-log, one colour per
-//! backend; (b) time per block-cycle against N (flat is the target); (c) where a cycle's time goes
+//! backend; (b) time per block-cycle against N (flat is the target), each point the median of
+//! the measurement's rounds with a bar over their spread; (c) where a cycle's time goes
 //! on each backend at its largest wall, in ns per block-cycle (GPU kernels from their own timing,
 //! scaled to the measured batch time); (d) the roofline ratio (solid) and the share of CPU
 //! topology work and transfers (dashed) against N.
@@ -112,9 +113,9 @@ fn throughput(area: &Panel, r: &BenchReport) -> Result<(), String> {
 
 fn per_block_cycle(area: &Panel, r: &BenchReport) -> Result<(), String> {
     let (x0, x1) = n_range(r);
-    let (y0, y1) = log_range(r.scaling.iter().filter(|x| x.error.is_none()).map(|x| 1e9 * x.s_per_block_cycle));
+    let (y0, y1) = log_range(r.scaling.iter().filter(|x| x.error.is_none()).flat_map(|x| round_range(x).map(|(lo, hi)| [lo, hi]).unwrap_or([x.s_per_block_cycle; 2])).map(|t| 1e9 * t));
     let mut chart = ChartBuilder::on(area)
-        .caption("(b) Time per block-cycle (flat = perfect scaling)", ("sans-serif", 18))
+        .caption("(b) Time per block-cycle (flat = perfect scaling; bars: the rounds)", ("sans-serif", 18))
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(65)
@@ -138,8 +139,24 @@ fn per_block_cycle(area: &Panel, r: &BenchReport) -> Result<(), String> {
             .label(name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
         chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(err)?;
+        // The spread of the rounds behind each point (the median round), as a bar.
+        let bars: Vec<PathElement<(f64, f64)>> = rows
+            .iter()
+            .filter_map(|x| round_range(x).map(|(lo, hi)| PathElement::new(vec![(x.blocks as f64, 1e9 * lo), (x.blocks as f64, 1e9 * hi)], c.stroke_width(2))))
+            .collect();
+        chart.draw_series(bars).map_err(err)?;
     }
     legend!(chart, SeriesLabelPosition::UpperRight)
+}
+
+/// The shortest and the longest time per block-cycle among a row's rounds (None for one round).
+fn round_range(x: &ScalingRow) -> Option<(f64, f64)> {
+    if x.round_s_per_cycle.len() < 2 {
+        return None;
+    }
+    let per = |t: f64| t / x.blocks.max(1) as f64;
+    let (lo, hi) = x.round_s_per_cycle.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &t| (a.min(t), b.max(t)));
+    Some((per(lo), per(hi)))
 }
 
 /// The segments of one backend's bar: (stage, ns per block-cycle).
