@@ -21,6 +21,8 @@ every_backend!(
     a_wave_in_a_chain_keeps_its_energy,
     a_slab_carrying_forty_blocks_carries_their_weight,
     a_projectile_bounces_off_a_wall_with_few_contact_updates,
+    cycle_commands_in_a_row_run_as_one,
+    an_edit_between_cycle_commands_is_honoured,
 );
 
 fn run(t: &Target, deck: &str) -> Model {
@@ -296,4 +298,29 @@ fn a_projectile_bounces_off_a_wall_with_few_contact_updates(t: &Target) {
     assert!(b.centroid[0] < 2.5, "passed into the wall: {:?} on {}", b.centroid, t.name());
     assert!((b.velocity[0] + 20.0).abs() < 0.4 && b.velocity[1].abs() < 0.1, "bounced back at {:?} on {}", b.velocity, t.name());
     assert!(report.topology_updates >= 20 && report.topology_updates <= 50, "{} contact updates in 600 cycles on {}", report.topology_updates, t.name());
+}
+
+fn cycle_commands_in_a_row_run_as_one(t: &Target) {
+    // A wall of the bench's scaling family struck by its projectile (contact updates on the
+    // way): 300 cycles in one CYCLE command or in three leave the same model, bit for bit. With
+    // no command in between, a run goes on from the state the last one left (its contacts, and
+    // on a GPU the device's own state) instead of starting with a full detection and upload.
+    let body = blockdem::bench::scene::scaling_body(1_000, 0.1);
+    let one = run(t, &format!("{body}CYCLE 300\n"));
+    let three = run(t, &format!("{body}CYCLE 100\nCYCLE 120\nCYCLE 80\n"));
+    assert_eq!(one.cycle, 300);
+    assert!(one.contacts.len() > 7000, "{} contacts", one.contacts.len());
+    assert!(one == three, "CYCLE 300 and CYCLE 100/120/80 differ on {}", t.name());
+}
+
+fn an_edit_between_cycle_commands_is_honoured(t: &Target) {
+    // A lone block at rest; VELOCITY between two CYCLE commands sets it moving at 2 m/s, which
+    // the second run must see (the model differs from the state the first run left, so the run
+    // starts over from the model).
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 10\nVELOCITY 0 1 0 1 2 0\nCYCLE 100\n";
+    let m = run(t, deck);
+    let dt = m.timestep;
+    let moved = m.blocks[0].centroid[0] - 0.5;
+    assert!((moved - 2.0 * 100.0 * dt).abs() < 1e-5, "moved {moved} on {}, expected {}", t.name(), 2.0 * 100.0 * dt);
+    assert!((m.blocks[0].velocity[0] - 2.0).abs() < 1e-6, "on {}", t.name());
 }

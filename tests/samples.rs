@@ -71,7 +71,28 @@ fn save_then_restart_continues_identically(t: &Target) {
          FIX 0 4 0 0.9\nGRAV 0 -10\nVELOCITY 1 2 1.5 2.5 0.5 0 0.3\n";
     let straight = run_deck_on(&format!("{base}CYCLE 400\nCYCLE 400\n"), t.backend()).unwrap();
     run_deck_on(&format!("{base}CYCLE 400\nSAVE {}\n", save.display()), t.backend()).unwrap();
-    let resumed = run_deck_on(&format!("RESTART {}\nCYCLE 400\n", save.display()), t.backend()).unwrap();
+    let mut resumed = run_deck_on(&format!("RESTART {}\nCYCLE 400\n", save.display()), t.backend()).unwrap();
+    if !matches!(t, Target::Cpu) {
+        // The straight run's second CYCLE goes on from the device's state (nothing changed the
+        // model in between); the restarted one uploads the saved state, and with it re-bases
+        // the energy ledger's accumulators (the device sums from zero onto the model's f64
+        // value). Those sums may then differ in their last bits (the rounding of two groupings:
+        // 1e-12 in f64; in f32 the device's sums are f32, 2e-7 measured, 1e-6 allowed);
+        // everything else is the same bit for bit.
+        let tol = if t.is_f32() { 1e-6 } else { 1e-12 };
+        let close = |a: f64, b: f64, what: &str| assert!((a - b).abs() <= tol * a.abs().max(b.abs()), "{what}: {a:e} vs {b:e} on {}", t.name());
+        close(straight.external_work, resumed.external_work, "external work");
+        resumed.external_work = straight.external_work;
+        for (s, r) in straight.blocks.iter().zip(resumed.blocks.iter_mut()) {
+            close(s.damping_work, r.damping_work, "mass damping work");
+            r.damping_work = s.damping_work;
+        }
+        for (s, r) in straight.contacts.iter().zip(resumed.contacts.iter_mut()) {
+            close(s.slip_work, r.slip_work, "slip work");
+            close(s.dashpot_work, r.dashpot_work, "dashpot work");
+            (r.slip_work, r.dashpot_work) = (s.slip_work, s.dashpot_work);
+        }
+    }
     assert_eq!(straight, resumed);
     assert_eq!(bits(&straight), bits(&resumed), "bit for bit on {}", t.name());
     let _ = std::fs::remove_dir_all(&dir);

@@ -52,6 +52,9 @@ pub struct CpuBackend {
     /// The last good state of the previous run, kept so that the next run copies into its
     /// storage rather than allocating a second model (hundreds of megabytes at 10⁶ blocks).
     last_good: Model,
+    /// The previous run ended well, so `last_good` is the state it left and `adjacency` its
+    /// contact lists: a run on a model still equal to it goes on without a full detection.
+    resumable: bool,
 }
 
 /// Per-cycle working arrays, kept between cycles so that a cycle allocates nothing.
@@ -402,8 +405,12 @@ impl Backend for CpuBackend {
         let mut report = CycleReport::default();
         let mut adjacency = std::mem::take(&mut self.adjacency);
         // Between runs the executor may have split, deleted or moved blocks: start with a full
-        // detection.
-        update_topology(model, &mut adjacency, &mut report, true);
+        // detection, unless the model is the very state the last run left (no command changed
+        // it: CYCLE after CYCLE), whose contacts are current. Then two runs are one, bit for bit.
+        let resume = std::mem::take(&mut self.resumable) && *model == self.last_good;
+        if !resume {
+            update_topology(model, &mut adjacency, &mut report, true);
+        }
         let scratch = &mut self.scratch;
         sync_forces(model, &mut scratch.forces);
         let mut kept = std::mem::take(&mut self.last_good);
@@ -475,6 +482,8 @@ impl Backend for CpuBackend {
         self.last_good = kept;
         match result {
             Ok(()) => {
+                // The last check copied the final state (`i + 1 == cycles`).
+                self.resumable = cycles > 0;
                 self.adjacency = adjacency;
                 Ok(report)
             }

@@ -290,6 +290,11 @@ struct Engine<R: Real> {
     /// The CPU copy of the last good state, kept from run to run so that a run copies into its
     /// storage instead of allocating a second model.
     last_good: Model,
+    /// The previous run ended well: `last_good` is the state it read back last, `adjacency` its
+    /// contact lists, and the device holds that state. A run on a model still equal to it goes
+    /// on from the device without detection, upload or read-back.
+    resumable: bool,
+    adjacency: Adjacency,
 }
 
 /// One dispatch of a cycle: the stage's label, its pipeline, its bind group and its
@@ -358,6 +363,8 @@ where
             dashpots_pending: false,
             splices: 0,
             last_good: Model::default(),
+            resumable: false,
+            adjacency: Adjacency::default(),
         }
     }
 
@@ -1116,14 +1123,21 @@ where
             return Err(CycleError::Setup("the time step is not set".into()));
         }
         let mut report = CycleReport::default();
-        let mut adjacency = Adjacency::default();
+        let mut adjacency = std::mem::take(&mut self.adjacency);
         // As on the CPU: a full detection first (the executor may have changed the model), then
-        // the force sums the first step needs.
-        cpu::maybe_update_topology(model, &mut adjacency, &mut report, true);
-        self.upload_all(model, &adjacency).map_err(device_error)?;
-        self.write_params(model);
-        self.run_batch(1, true).map_err(device_error)?;
-        self.readback(model).map_err(device_error)?;
+        // the force sums the first step needs; unless the model is the very state the last run
+        // left (CYCLE after CYCLE), which the device still holds with its contacts, its force
+        // sums and the f32 digits the model does not keep: then the run goes on from there.
+        let resume = std::mem::take(&mut self.resumable) && self.buffers.is_some() && *model == self.last_good;
+        if resume {
+            self.write_params(model);
+        } else {
+            cpu::maybe_update_topology(model, &mut adjacency, &mut report, true);
+            self.upload_all(model, &adjacency).map_err(device_error)?;
+            self.write_params(model);
+            self.run_batch(1, true).map_err(device_error)?;
+            self.readback(model).map_err(device_error)?;
+        }
         let mut energy_check = cpu::EnergyCheck::new(model);
         let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
         // The last good state: this CPU copy holds its topology (and, until the first device
@@ -1262,7 +1276,11 @@ where
         })();
         match result {
             Ok(()) => {
+                // The state read back last, for the next run to compare with.
+                last_good.clone_from(model);
                 self.last_good = last_good;
+                self.adjacency = adjacency;
+                self.resumable = true;
                 Ok(report)
             }
             Err(e) => {
