@@ -177,3 +177,33 @@ fn scaling_rounds_alternate_the_backends() {
     let csv = std::fs::read_to_string(dir.join("bench.csv")).unwrap();
     assert!(csv.lines().next().unwrap().contains("round_s_per_cycle") && csv.lines().skip(1).all(|l| l.split(';').count() == 3), "{csv}");
 }
+
+/// The bench times the kernels on the state a run left (`profile_stages`), which moves that
+/// state on: the next run must then start from the model, not resume from the device. A run of
+/// 100 cycles, profiling, and 100 more give what 200 cycles give.
+#[test]
+fn profiling_between_runs_leaves_the_next_run_unchanged() {
+    use blockdem::backend::Backend;
+    let Some(Target::Gpu(options)) = Target::gpu("vulkan", blockdem::gpu::Precision::F32) else {
+        return;
+    };
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1.2 1,2.2 2,2.2 2,1.2\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 0\n";
+    let model0 = blockdem::scenes::run_deck_on(deck, Target::Cpu.backend()).unwrap();
+    let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
+    let mut split = model0.clone();
+    gpu.run(&mut split, 100, &mut |_| {}).unwrap();
+    let profile = gpu.profile_stages(20).unwrap();
+    assert!(!profile.stages.is_empty());
+    gpu.run(&mut split, 100, &mut |_| {}).unwrap();
+    let mut straight = model0.clone();
+    blockdem::gpu::GpuBackend::new(&options).unwrap().run(&mut straight, 200, &mut |_| {}).unwrap();
+    assert_eq!(split.cycle, 200);
+    // The split run re-uploads at its second start (f32 state through the model's f64): the
+    // same trajectory to f32 round-off (the block falls 0.2 m onto the base and rests).
+    for (a, b) in split.blocks.iter().zip(&straight.blocks) {
+        for i in 0..2 {
+            assert!((a.centroid[i] - b.centroid[i]).abs() < 1e-5, "{:?} vs {:?}", a.centroid, b.centroid);
+            assert!((a.velocity[i] - b.velocity[i]).abs() < 1e-4, "{:?} vs {:?}", a.velocity, b.velocity);
+        }
+    }
+}

@@ -112,7 +112,9 @@ where
     Material<R>: bytemuck::Pod,
     Params<R>: bytemuck::Pod,
 {
-    fn profile_stages(&self, cycles: u32) -> Result<DeviceProfile, GpuError> {
+    fn profile_stages(&mut self, cycles: u32) -> Result<DeviceProfile, GpuError> {
+        // The profiled cycles move the device's state on: the next run must start from the model.
+        self.resumable = false;
         let (Some(buffers), Some(_)) = (self.buffers.as_ref(), self.bind_group.as_ref()) else {
             return Err(GpuError::Setup("profile_stages needs a run first (no state on the device)".into()));
         };
@@ -203,8 +205,8 @@ impl GpuBackend {
 
     /// The device time of each kernel stage over `cycles` cycles (or dispatches), on the state the
     /// last `run` left on the device (see the module doc; the next `run` re-uploads the model).
-    pub fn profile_stages(&self, cycles: u32) -> Result<DeviceProfile, GpuError> {
-        match &self.engine {
+    pub fn profile_stages(&mut self, cycles: u32) -> Result<DeviceProfile, GpuError> {
+        match &mut self.engine {
             EngineAny::F32(e) => e.profile_stages(cycles),
             EngineAny::F64(e) => e.profile_stages(cycles),
         }
