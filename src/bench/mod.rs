@@ -19,7 +19,8 @@
 //! runs on are shared, and their speed drifts by 20% and more over seconds; a ratio of two
 //! backends is taken within each round (runs seconds apart) and its median reported, and each
 //! row holds the round of median time per cycle (`round_s_per_cycle` lists them all). Every `Backend::run`
-//! begins with a full contact detection (and, on the GPU, an upload of the whole model) and, on
+//! begins with a full contact detection (and, on the GPU, an upload of the whole model), unless it
+//! goes on from the state the backend's last run left (the runs after the first here do), and, on
 //! the GPU, ends with a read-back of the whole state: that set-up and tear-down are reported apart
 //! (`setup_s`, `teardown_s`, and in the whole-run share of topology work and transfers), and the
 //! rates are those of the cycles between the backend's two marks. On the GPU the kernels are then timed per
