@@ -426,7 +426,10 @@ impl Backend for CpuBackend {
             let mut energy_check = EnergyCheck::new(model);
             let cracking = (0..model.blocks.len()).any(|b| topology::cracking::is_point_load_candidate(model, b));
             let last_good = &mut kept;
-            last_good.clone_from(model);
+            if !resume {
+                // (When resuming it is the model already.)
+                last_good.clone_from(model);
+            }
             crate::profile::mark_cycles_start();
             let mut result = Ok(());
             for i in 0..cycles {

@@ -1147,7 +1147,10 @@ where
             ck.valid = false;
         }
         let mut last_good = std::mem::take(&mut self.last_good);
-        last_good.clone_from(model);
+        if !resume {
+            // (When resuming it is the model already.)
+            last_good.clone_from(model);
+        }
         crate::profile::mark_cycles_start();
         let mut last_good_generation = self.generation;
         let mut done_total = 0u64;
