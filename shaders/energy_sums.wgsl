@@ -3,39 +3,50 @@
 // in, which would mean the explicit scheme is unstable. Summing on the device means the CPU reads
 // back one EnergySum per workgroup instead of the whole model.
 //
-// Invocation i takes block i and contact i. Kinetic energy is taken at time t, as the CPU takes
-// it: velocities live at t − Δt/2, and half a step of the current force brings them to t. Strain
-// energy is Fn²/2kn + Fs²/2ks. Each workgroup reduces its values by a fixed binary tree, so the
-// sums repeat bit for bit; the CPU adds the workgroups' sums in order, in f64.
+// Each invocation takes ENERGY_ITEMS blocks and contacts, WORKGROUP_SIZE apart (neighbouring
+// invocations read neighbouring items), and reads only the fields it sums: a software adapter
+// loads a struct field by field and lane by lane, and a workgroup's tree reduction costs its
+// barriers, so a workgroup covers ENERGY_ITEMS × WORKGROUP_SIZE items (at 10^5 blocks the check
+// had cost as much as a whole cycle's contact stage on lavapipe).
+//
+// Kinetic energy is taken at time t, as the CPU takes it: velocities live at t − Δt/2, and half a
+// step of the current force brings them to t. Strain energy is Fn²/2kn + Fs²/2ks. Each invocation
+// adds its items in a fixed order and each workgroup reduces by a fixed binary tree, so the sums
+// repeat bit for bit; the CPU adds the workgroups' sums in order, in f64.
 
 var<workgroup> partial: array<vec3<real>, WORKGROUP_SIZE>;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let i = item_index(wg, li);
+    let first = workgroup_index(wg) * (WORKGROUP_SIZE * ENERGY_ITEMS) + li;
+    let h = 0.5 * params.dt;
     var e = vec3<real>(0.0, 0.0, 0.0);
-    if (i < params.n_blocks) {
-        let b = blocks[i];
-        if (b.fixed == 0u && b.mass > 0.0) {
-            let h = 0.5 * params.dt;
-            let vx = b.vx + b.fx / b.mass * h;
-            let vy = b.vy + b.fy / b.mass * h;
-            var w = b.w;
-            if (b.inertia > 0.0) {
-                w += b.moment / b.inertia * h;
+    for (var k = 0u; k < ENERGY_ITEMS; k++) {
+        let i = first + k * WORKGROUP_SIZE;
+        if (i < params.n_blocks) {
+            let mass = blocks[i].mass;
+            if (blocks[i].fixed == 0u && mass > 0.0) {
+                let vx = blocks[i].vx + blocks[i].fx / mass * h;
+                let vy = blocks[i].vy + blocks[i].fy / mass * h;
+                let inertia = blocks[i].inertia;
+                var w = blocks[i].w;
+                if (inertia > 0.0) {
+                    w += blocks[i].moment / inertia * h;
+                }
+                e.x += 0.5 * mass * (vx * vx + vy * vy) + 0.5 * inertia * w * w;
             }
-            e.x = 0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * w * w;
+            e.z += blocks[i].work;
         }
-        e.z = b.work;
-    }
-    if (i < params.n_contacts) {
-        let c = contacts[i];
-        let mat = materials[c.material];
-        if (mat.kn > 0.0) {
-            e.y += c.normal_force * c.normal_force / (2.0 * mat.kn);
-        }
-        if (mat.ks > 0.0) {
-            e.y += c.shear_force * c.shear_force / (2.0 * mat.ks);
+        if (i < params.n_contacts) {
+            let mat = materials[contacts[i].material];
+            if (mat.kn > 0.0) {
+                let fn_ = contacts[i].normal_force;
+                e.y += fn_ * fn_ / (2.0 * mat.kn);
+            }
+            if (mat.ks > 0.0) {
+                let fs = contacts[i].shear_force;
+                e.y += fs * fs / (2.0 * mat.ks);
+            }
         }
     }
     partial[li] = e;

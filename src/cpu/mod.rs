@@ -476,6 +476,11 @@ impl Backend for CpuBackend {
                         result = Err(e);
                         break;
                     }
+                    if i + 1 == cycles {
+                        // What is left is the hand-back: the copy the next run resumes from
+                        // (the GPU charges its final read-back and copy to the tear-down too).
+                        crate::profile::mark_cycles_end();
+                    }
                     last_good.clone_from(model);
                     progress(i + 1);
                 }

@@ -355,9 +355,11 @@ pub fn dispatch_items(dev: &GpuDevice, label: &str, pipeline: &wgpu::ComputePipe
     Ok(())
 }
 
-/// The dispatch of the energy check: one invocation per block and contact, whichever are more.
+/// The dispatch of the energy check: one invocation per `ENERGY_ITEMS` blocks and contacts,
+/// whichever are more.
 pub fn energy_grid(blocks: usize, contacts: usize) -> (u32, u32) {
-    shaders::dispatch_grid(blocks.max(contacts).div_ceil(shaders::WORKGROUP_SIZE as usize).max(1) as u32)
+    let per_group = (shaders::WORKGROUP_SIZE * shaders::ENERGY_ITEMS) as usize;
+    shaders::dispatch_grid(blocks.max(contacts).div_ceil(per_group).max(1) as u32)
 }
 
 /// Workgroups of the energy check, whole rows of its grid (each workgroup writes one sum).

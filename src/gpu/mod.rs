@@ -1259,18 +1259,24 @@ where
                         self.readback(model).map_err(device_error)?;
                         return Err(e);
                     }
-                    self.take_checkpoint();
-                    if last_good_generation != self.generation {
-                        let _p = crate::profile::scope(crate::profile::Stage::Checks);
-                        last_good.clone_from(model);
-                        last_good_generation = self.generation;
-                    }
-                    last_good.cycle = model.cycle;
-                    last_good.time = model.time;
-                    last_good.timestep = model.timestep;
                     if done_total == cycles {
+                        // The run's end: the state comes back to the model, which becomes the
+                        // last good state below. No device checkpoint or CPU copy of the
+                        // topology is taken for it (the next run starts by invalidating the
+                        // one, the other would be a copy of a copy); if the read-back fails,
+                        // the checkpoint before, with its topology, is what is restored.
                         crate::profile::mark_cycles_end();
                         self.readback(model).map_err(device_error)?;
+                    } else {
+                        self.take_checkpoint();
+                        if last_good_generation != self.generation {
+                            let _p = crate::profile::scope(crate::profile::Stage::Checks);
+                            last_good.clone_from(model);
+                            last_good_generation = self.generation;
+                        }
+                        last_good.cycle = model.cycle;
+                        last_good.time = model.time;
+                        last_good.timestep = model.timestep;
                     }
                     progress(done_total);
                 }

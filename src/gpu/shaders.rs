@@ -16,6 +16,10 @@ pub const HEAVY_DEGREE: u32 = 64;
 /// Threads of one `gather_heavy` workgroup.
 pub const HEAVY_WORKGROUP_SIZE: u32 = 256;
 
+/// Blocks and contacts one invocation of the energy check (`energy_sums`) adds up before its
+/// workgroup's reduction: fewer workgroups, fewer barriers and partial sums.
+pub const ENERGY_ITEMS: u32 = 16;
+
 /// Most workgroups a dispatch may have in one dimension (WebGPU's default limit).
 pub const MAX_GROUPS_PER_DIMENSION: u32 = 65535;
 
@@ -76,7 +80,7 @@ pub fn prelude(precision: Precision) -> String {
     };
     let materials = crate::model::MAX_MATERIALS;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
     )
 }
 
