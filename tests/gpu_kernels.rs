@@ -682,14 +682,18 @@ on_adapters!(
 );
 
 /// The device's energy sums against `Model::energies` on the same state: a brick wall settling
-/// under gravity (kinetic and strain energy of hundreds of blocks and contacts). f64 sums differ
-/// only in the order of addition (a workgroup tree against a serial sum): 1e-12 relative. In f32
-/// each term carries ~1e-7 relative round-off and the tree sums add ~log2(64)·1e-7, so 1e-5 of
-/// the total leaves a wide margin while a missing or doubled term (≥ 1e-3 of it) fails.
+/// under gravity (kinetic and strain energy of a thousand blocks and four thousand contacts, so
+/// both span several of the check's workgroups). f64 sums differ only in the order of addition
+/// (each invocation's serial sum of ENERGY_ITEMS terms, then a workgroup tree, against one serial
+/// sum): 1e-12 relative. In f32 each term carries ~1e-7 relative round-off and the sums add
+/// ~(ENERGY_ITEMS + log2(64))·1e-7, so 1e-5 of the total leaves a margin while a missing or
+/// doubled term (≥ 1e-4 of it) fails.
 fn energy_sums_match_the_model(adapter: &str, precision: Precision) {
     let Some(common::Target::Gpu(options)) = Target::gpu(adapter, precision) else { return };
-    let deck = format!("{}CYCLE 0\n", blockdem::scenes::brick_wall_deck(6, 10, 1.0, 0.5, 1e9, 0.6));
+    let deck = format!("{}CYCLE 0\n", blockdem::scenes::brick_wall_deck(25, 45, 1.0, 0.5, 1e9, 0.6));
     let mut model = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let per_workgroup = (shaders::WORKGROUP_SIZE * shaders::ENERGY_ITEMS) as usize;
+    assert!(model.blocks.len() > per_workgroup && model.contacts.len() > 2 * per_workgroup, "blocks and contacts over several workgroups");
     let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
     use blockdem::backend::Backend;
     gpu.run(&mut model, 150, &mut |_| {}).unwrap();
