@@ -4,8 +4,9 @@
 //
 // The contact stage has already put each contact's force and both moments into its compact
 // `ContactForce` slot, so a block reads 12 of 16 contiguous bytes per contact (in f32: the force
-// and its own side's moment) and never its neighbours. Fixed blocks are skipped in the cycle (their force moves nothing);
-// `params.gather_fixed` sums them too, in the pass before each read-back.
+// and its own side's moment) and never its neighbours. Fixed blocks are skipped in the cycle
+// (their force moves nothing); `params.gather_fixed` sums them too, in the pass before each
+// read-back.
 //
 // A block with a long list (a base under a long wall carries tens of thousands of contacts) is
 // left to `gather_heavy`: one workgroup per such block, each invocation summing a strided share

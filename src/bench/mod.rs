@@ -20,8 +20,9 @@
 //! backends is taken within each round (runs seconds apart) and its median reported, and each
 //! row holds the round of median time per cycle (`round_s_per_cycle` lists them all). Every `Backend::run`
 //! begins with a full contact detection (and, on the GPU, an upload of the whole model), unless it
-//! goes on from the state the backend's last run left (the runs after the first here do), and, on
-//! the GPU, ends with a read-back of the whole state: that set-up and tear-down are reported apart
+//! goes on from the state the backend's last run left (the runs after the first here do), and
+//! ends by handing the state back (on the GPU a read-back of the whole state, on both a copy of
+//! it for the next run to resume from): that set-up and tear-down are reported apart
 //! (`setup_s`, `teardown_s`, and in the whole-run share of topology work and transfers), and the
 //! rates are those of the cycles between the backend's two marks. On the GPU the kernels are then timed per
 //! stage on the same state (`gpu::profile`).
