@@ -248,6 +248,13 @@ fn track_feature(nb: Neighbourhood, c: vec2<real>, radius: real) -> ContactGeome
     return contact_geometry(best_f, best, c, radius);
 }
 
+// What the force–displacement law gives: the contact's new state and the force it applies to
+// block 1 (normal, shear and dashpot parts; block 2 gets the reaction).
+struct ForceLaw {
+    contact: Contact,
+    force: vec2<real>,
+}
+
 // Velocity of the material point p (eq. 11 in two dimensions: v + ω × r).
 fn velocity_at(m: Motion, p: vec2<real>) -> vec2<real> {
     let r = p - m.centroid;
@@ -257,7 +264,7 @@ fn velocity_at(m: Motion, p: vec2<real>) -> vec2<real> {
 // The force–displacement law, eqs. 13–20 (see the Rust twin for the physics), and the energy it
 // dissipates: slip work at the Coulomb limit and on opening, dashpot work a step late. `counted`
 // is false for the mirror copy of a corner–corner contact, which carries no force.
-fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta: real, dt: real, counted: bool) -> Contact {
+fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta: real, dt: real, counted: bool) -> ForceLaw {
     var c = contact;
     let n = vec2<real>(c.nx, c.ny);
     let t = vec2<real>(-n.y, n.x);
@@ -278,9 +285,7 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
         c.slip_work += slip_dissipation(c.shear_force, 0.0, vs * dt, mat.ks);
         c.normal_force = 0.0;
         c.shear_force = 0.0;
-        c.fx = 0.0;
-        c.fy = 0.0;
-        return c;
+        return ForceLaw(c, vec2<real>(0.0, 0.0));
     }
     var fn_ = -mat.kn * c.gap; // eq. (16) integrated exactly
     let bonded = c.bonded != 0u;
@@ -298,9 +303,7 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
         c.bonded = 0u;
         c.normal_force = 0.0;
         c.shear_force = 0.0;
-        c.fx = 0.0;
-        c.fy = 0.0;
-        return c;
+        return ForceLaw(c, vec2<real>(0.0, 0.0));
     }
     var fs = fs_old - mat.ks * vs * dt; // eqs. (17), (19)
     let limit = cohesion + mat.friction * max(fn_, 0.0);
@@ -323,9 +326,7 @@ fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta
     }
     fn_ += dn;
     let fs_total = fs + ds;
-    c.fx = fn_ * n.x + fs_total * t.x;
-    c.fy = fn_ * n.y + fs_total * t.y;
-    return c;
+    return ForceLaw(c, vec2<real>(fn_ * n.x + fs_total * t.x, fn_ * n.y + fs_total * t.y));
 }
 
 // Energy a shear spring dissipates in one step while its force goes from fs_old to fs_new and the
@@ -419,7 +420,9 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let counted = counts_force(c.corner, circle, corner.radius, nb, c.feature);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
-    c = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);
+    let law = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);
+    c = law.contact;
+    let f = law.force;
     store_contact_state(k, c);
     if (c.slip_work != 0.0) {
         contacts[k].slip_work += c.slip_work;
@@ -442,7 +445,7 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     // lever arm is p − (c1 − c2).
     let p = vec2<real>(c.px, c.py);
     let r1 = p - d12;
-    contact_forces_out[k] = ContactForce(c.fx, c.fy, array<real, 2>(r1.x * c.fy - r1.y * c.fx, p.y * c.fx - p.x * c.fy));
+    contact_forces_out[k] = ContactForce(f.x, f.y, array<real, 2>(r1.x * f.y - r1.y * f.x, p.y * f.x - p.x * f.y));
     if (counted && -g.gap > params.overlap_limit) {
         atomicOr(&flags.errors, ERR_OVERLAP);
         atomicMin(&flags.overlap_contact, k);
@@ -459,6 +462,4 @@ fn store_contact_state(k: u32, c: Contact) {
     contacts[k].normal_force = c.normal_force;
     contacts[k].shear_force = c.shear_force;
     contacts[k].shear_displacement = c.shear_displacement;
-    contacts[k].fx = c.fx;
-    contacts[k].fy = c.fy;
 }

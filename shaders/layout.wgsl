@@ -27,12 +27,13 @@ struct Corner {
     block: u32, _pad: u32,
 }
 
-// 80 / 136 bytes. The point (px, py) is relative to block 2's centroid. slip_work, dashpot_work:
+// 72 / 120 bytes. The point (px, py) is relative to block 2's centroid. slip_work, dashpot_work:
 // dissipation since the upload; (dashpot_vn, dashpot_vs): the velocities the dashpots acted on in
-// the last step, whose work is booked a step late.
+// the last step, whose work is booked a step late. The contact's force is kept once, in its
+// `ContactForce` record (the gather's, read back with the contacts).
 struct Contact {
     px: real, py: real, nx: real, ny: real, gap: real,
-    normal_force: real, shear_force: real, shear_displacement: real, fx: real, fy: real,
+    normal_force: real, shear_force: real, shear_displacement: real,
     slip_work: real, dashpot_work: real, dashpot_vn: real, dashpot_vs: real,
     block1: u32, corner: u32, block2: u32, feature: u32,
     material: u32, bonded: u32,

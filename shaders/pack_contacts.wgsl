@@ -1,7 +1,7 @@
 // What a contact update needs of each contact, packed for the read-back (twin of
 // `gpu::splice::pack_contacts`): the CPU's detection drops a contact by its gap, the energy ledger
 // takes its forces and dissipation (`retire`, the bases of the next upload), and the splice that
-// follows keeps the feature it follows. 28 of the contact's 80 bytes in f32 (48 of 136 in f64);
+// follows keeps the feature it follows. 28 of the contact's 72 bytes in f32 (48 of 120 in f64);
 // the rest of the contact stays on the device, which the splice builds the new list from.
 
 @group(0) @binding(0) var<storage, read> contacts: array<Contact>;

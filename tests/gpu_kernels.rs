@@ -262,6 +262,7 @@ const LAW: &str = r#"
 @group(0) @binding(21) var<storage, read> l_materials: array<Material>;
 @group(0) @binding(22) var<storage, read> l_motion: array<real>;
 @group(0) @binding(23) var<storage, read_write> l_out: array<Contact>;
+@group(0) @binding(24) var<storage, read_write> l_force: array<vec2<real>>;
 
 @compute @workgroup_size(64)
 fn test_contact_force_law(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -272,7 +273,9 @@ fn test_contact_force_law(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = 13u * i;
     let a = Motion(vec2<real>(l_motion[m], l_motion[m + 1u]), vec2<real>(l_motion[m + 2u], l_motion[m + 3u]), l_motion[m + 4u]);
     let b = Motion(vec2<real>(l_motion[m + 5u], l_motion[m + 6u]), vec2<real>(l_motion[m + 7u], l_motion[m + 8u]), l_motion[m + 9u]);
-    l_out[i] = contact_force_law(l_contacts[i], l_materials[i], a, b, l_motion[m + 10u], l_motion[m + 11u], l_motion[m + 12u] != 0.0);
+    let law = contact_force_law(l_contacts[i], l_materials[i], a, b, l_motion[m + 10u], l_motion[m + 11u], l_motion[m + 12u] != 0.0);
+    l_out[i] = law.contact;
+    l_force[i] = law.force;
 }
 "#;
 
@@ -377,11 +380,13 @@ where
             (21, bytemuck::cast_slice(&gm).to_vec(), false),
             (22, reals::<R>(&motion), false),
             (23, vec![0; cases * std::mem::size_of::<GContact<R>>()], true),
+            (24, vec![0; cases * 2 * std::mem::size_of::<R>()], true),
         ],
     );
     let got: Vec<GContact<R>> = bytemuck::pod_collect_to_vec(&out[0]);
+    let got_force: Vec<[R; 2]> = bytemuck::pod_collect_to_vec(&out[1]);
     let (mut branch_flips, mut slipped, mut damped) = (0, 0, 0);
-    for (i, ((e, kn, energy, input), g)) in expected.iter().zip(&got).enumerate() {
+    for (i, (((e, kn, energy, input), g), gf)) in expected.iter().zip(&got).zip(&got_force).enumerate() {
         if (g.bonded != 0) != e.bonded {
             branch_flips += 1;
             continue;
@@ -393,8 +398,8 @@ where
         let pairs = [
             (g.normal_force.to_f64(), e.normal_force),
             (g.shear_force.to_f64(), e.shear_force),
-            (g.fx.to_f64(), e.force[0]),
-            (g.fy.to_f64(), e.force[1]),
+            (gf[0].to_f64(), e.force[0]),
+            (gf[1].to_f64(), e.force[1]),
         ];
         if pairs.iter().any(|(a, b)| (a - b).abs() > tol) {
             branch_flips += 1;

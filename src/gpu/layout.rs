@@ -109,10 +109,11 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One contact: 80 bytes in f32, 136 in f64. The point is relative to block 2's centroid.
+    /// One contact: 72 bytes in f32, 120 in f64. The point is relative to block 2's centroid.
+    /// Its force on block 1 is kept once, in its `ContactForce` record.
     Contact {
         px: R, py: R, nx: R, ny: R, gap: R,
-        normal_force: R, shear_force: R, shear_displacement: R, fx: R, fy: R,
+        normal_force: R, shear_force: R, shear_displacement: R,
         /// Friction and dashpot dissipation since the contact buffer was uploaded
         /// (`Contact::slip_work`, `Contact::dashpot_work` count from their values then).
         slip_work: R, dashpot_work: R,
@@ -128,7 +129,7 @@ gpu_struct! {
 
 gpu_struct! {
     /// What a contact update reads back of one contact (`pack_contacts.wgsl`): 28 bytes in f32,
-    /// 48 in f64, against 80 / 136 for the whole contact. The gap decides drops, the forces and
+    /// 48 in f64, against 72 / 120 for the whole contact. The gap decides drops, the forces and
     /// the dissipation go to the ledger (and to its retired account when the contact is
     /// dropped), the feature is the one the contact follows, `bonded` whether it is still intact.
     ContactSummary {

@@ -254,6 +254,8 @@ struct Checkpoint {
     blocks: wgpu::Buffer,
     corners: wgpu::Buffer,
     contacts: wgpu::Buffer,
+    /// The contacts' gather records (their forces).
+    forces: wgpu::Buffer,
     counts: (usize, usize, usize),
     uploaded: std::rc::Rc<Uploaded>,
     /// Whether it holds a state of the current run (the buffers are kept from run to run: a
@@ -331,6 +333,8 @@ struct StateBuffers<'a> {
     blocks: &'a wgpu::Buffer,
     corners: &'a wgpu::Buffer,
     contacts: &'a wgpu::Buffer,
+    /// The contacts' gather records, which hold their forces.
+    forces: &'a wgpu::Buffer,
     counts: (usize, usize, usize),
 }
 
@@ -383,8 +387,6 @@ where
             normal_force: r(c.normal_force),
             shear_force: r(c.shear_force),
             shear_displacement: r(c.shear_displacement),
-            fx: r(c.force[0]),
-            fy: r(c.force[1]),
             slip_work: R::default(),
             dashpot_work: R::default(),
             dashpot_vn: r(c.dashpot_velocity[0]),
@@ -773,11 +775,13 @@ where
         }
         let (nb, nc, _) = self.counts;
         let b = self.buffers();
+        let [contacts, forces] = self.contacts_parts(packed);
         let parts = [
             (&b.flags, std::mem::size_of::<Flags>() as u64),
             (&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64),
             (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64),
-            self.contacts_part(packed),
+            contacts,
+            forces,
         ];
         let up = self.uploaded.clone();
         let (flags, blocks) = self.dev.read_parts(&parts, |bytes| {
@@ -788,7 +792,7 @@ where
             let _p = crate::profile::scope(crate::profile::Stage::Download);
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[1]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[2]), &up, model);
-            Self::convert_contacts_read(bytes[3], packed, &up, model);
+            Self::convert_contacts_read(&bytes[3..], packed, &up, model);
             (flags, Some(blocks))
         })?;
         let read = blocks.is_some();
@@ -830,8 +834,13 @@ where
         let _p = crate::profile::scope(crate::profile::Stage::Checks);
         let b = self.buffers.as_ref().expect("buffers exist");
         let (nb, nc, nk) = self.counts;
-        let sizes = [(nb * std::mem::size_of::<Block<R>>()) as u64, (nc * std::mem::size_of::<Corner<R>>()) as u64, (nk * std::mem::size_of::<Contact<R>>()) as u64];
-        let fits = self.checkpoint.as_ref().is_some_and(|c| c.blocks.size() >= sizes[0] && c.corners.size() >= sizes[1] && c.contacts.size() >= sizes[2]);
+        let sizes = [
+            (nb * std::mem::size_of::<Block<R>>()) as u64,
+            (nc * std::mem::size_of::<Corner<R>>()) as u64,
+            (nk * std::mem::size_of::<Contact<R>>()) as u64,
+            (nk * std::mem::size_of::<ContactForce<R>>()) as u64,
+        ];
+        let fits = self.checkpoint.as_ref().is_some_and(|c| c.blocks.size() >= sizes[0] && c.corners.size() >= sizes[1] && c.contacts.size() >= sizes[2] && c.forces.size() >= sizes[3]);
         if !fits {
             let make = |label: &str, size: u64| {
                 self.dev.device.create_buffer(&wgpu::BufferDescriptor {
@@ -845,6 +854,7 @@ where
                 blocks: make("checkpoint blocks", b.blocks.buffer.size()),
                 corners: make("checkpoint corners", b.corners.buffer.size()),
                 contacts: make("checkpoint contacts", b.contacts.buffer.size()),
+                forces: make("checkpoint contact forces", b.contact_forces.buffer.size()),
                 counts: self.counts,
                 uploaded: self.uploaded.clone(),
                 valid: false,
@@ -855,7 +865,8 @@ where
         ck.counts = self.counts;
         ck.uploaded = self.uploaded.clone();
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("checkpoint") });
-        for ((src, dst), size) in [(&b.blocks.buffer, &ck.blocks), (&b.corners.buffer, &ck.corners), (&b.contacts.buffer, &ck.contacts)].into_iter().zip(sizes) {
+        let pairs = [(&b.blocks.buffer, &ck.blocks), (&b.corners.buffer, &ck.corners), (&b.contacts.buffer, &ck.contacts), (&b.contact_forces.buffer, &ck.forces)];
+        for ((src, dst), size) in pairs.into_iter().zip(sizes) {
             if size > 0 {
                 enc.copy_buffer_to_buffer(src, 0, dst, 0, size);
             }
@@ -867,7 +878,7 @@ where
     /// and sums the fixed blocks' forces, which the cycle does not keep up to date.
     fn restore_checkpoint(&self, model: &mut Model) -> Result<(), GpuError> {
         let Some(ck) = self.checkpoint.as_ref().filter(|c| c.valid) else { return Ok(()) };
-        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, counts: ck.counts };
+        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, counts: ck.counts };
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
         let gravity = model.gravity;
@@ -882,14 +893,25 @@ where
         self.dev.read_pod(buffer, n)
     }
 
-    /// What a read-back reads of the live contacts: whole, or their packed summaries.
-    fn contacts_part(&self, packed: bool) -> (&wgpu::Buffer, u64) {
+    /// What a read-back reads of the live contacts: whole with their gather records (which
+    /// hold their forces), or their packed summaries only (the second part then reads nothing).
+    fn contacts_parts(&self, packed: bool) -> [(&wgpu::Buffer, u64); 2] {
         let (b, nk) = (self.buffers(), self.counts.2);
+        let forces = &b.contact_forces.buffer;
         match (packed, b.summaries.as_ref()) {
-            (true, Some(s)) => (&s.buffer, (nk * std::mem::size_of::<ContactSummary<R>>()) as u64),
+            (true, Some(s)) => [(&s.buffer, (nk * std::mem::size_of::<ContactSummary<R>>()) as u64), (forces, 0)],
             // No contacts were ever packed (none live): nothing to read.
-            (true, None) => (&b.contacts.buffer, 0),
-            (false, _) => (&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64),
+            (true, None) => [(&b.contacts.buffer, 0), (forces, 0)],
+            (false, _) => [(&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64), (forces, (nk * std::mem::size_of::<ContactForce<R>>()) as u64)],
+        }
+    }
+
+    /// The contacts of a read-back (`contacts_parts`), whole or packed, into the model.
+    fn convert_contacts_read(parts: &[&[u8]], packed: bool, up: &Uploaded, model: &mut Model) {
+        if packed {
+            Self::convert_summaries(&pod_view(parts[0]), up, model);
+        } else {
+            Self::convert_contacts(&pod_view(parts[0]), &pod_view(parts[1]), up, model);
         }
     }
 
@@ -922,11 +944,12 @@ where
             (src.blocks, (nb * std::mem::size_of::<Block<R>>()) as u64),
             (src.corners, (nc * std::mem::size_of::<Corner<R>>()) as u64),
             (src.contacts, (nk * std::mem::size_of::<Contact<R>>()) as u64),
+            (src.forces, (nk * std::mem::size_of::<ContactForce<R>>()) as u64),
         ];
         self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), up, model);
-            Self::convert_contacts(&pod_view(bytes[2]), up, model);
+            Self::convert_contacts(&pod_view(bytes[2]), &pod_view(bytes[3]), up, model);
             blocks
         })
     }
@@ -967,14 +990,6 @@ where
         });
     }
 
-    /// The contacts of a read-back, whole or packed, into the model.
-    fn convert_contacts_read(bytes: &[u8], packed: bool, up: &Uploaded, model: &mut Model) {
-        if packed {
-            Self::convert_summaries(&pod_view(bytes), up, model);
-        } else {
-            Self::convert_contacts(&pod_view(bytes), up, model);
-        }
-    }
 
     /// Packed contacts into the model: what detection and the ledger use. The model's point,
     /// normal, shear displacement, force and dashpot velocities stay as they were (stale) until
@@ -992,10 +1007,11 @@ where
         });
     }
 
-    /// Whole contacts into the model.
-    fn convert_contacts(contacts: &[Contact<R>], up: &Uploaded, model: &mut Model) {
+    /// Whole contacts, with the forces of their gather records, into the model.
+    fn convert_contacts(contacts: &[Contact<R>], forces: &[ContactForce<R>], up: &Uploaded, model: &mut Model) {
         let Model { blocks: model_blocks, contacts: model_contacts, .. } = model;
-        model_contacts.par_iter_mut().zip(contacts.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
+        let device = contacts.par_iter().zip(forces.par_iter());
+        model_contacts.par_iter_mut().zip(device).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, (g, f)), base)| {
             let c2 = model_blocks[m.block2 as usize].centroid;
             m.point = [c2[0] + g.px.to_f64(), c2[1] + g.py.to_f64()];
             m.normal = [g.nx.to_f64(), g.ny.to_f64()];
@@ -1003,7 +1019,7 @@ where
             m.normal_force = g.normal_force.to_f64();
             m.shear_force = g.shear_force.to_f64();
             m.shear_displacement = g.shear_displacement.to_f64();
-            m.force = [g.fx.to_f64(), g.fy.to_f64()];
+            m.force = [f.fx.to_f64(), f.fy.to_f64()];
             m.slip_work = base[0] + g.slip_work.to_f64();
             m.dashpot_work = base[1] + g.dashpot_work.to_f64();
             m.dashpot_velocity = [g.dashpot_vn.to_f64(), g.dashpot_vs.to_f64()];
@@ -1030,11 +1046,12 @@ where
         let up = self.uploaded.clone();
         let (nb, nc, _) = self.counts;
         let b = self.buffers();
-        let parts = [(&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64), (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64), self.contacts_part(packed)];
+        let [contacts, forces] = self.contacts_parts(packed);
+        let parts = [(&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64), (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64), contacts, forces];
         self.last_blocks = self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), &up, model);
-            Self::convert_contacts_read(bytes[2], packed, &up, model);
+            Self::convert_contacts_read(&bytes[2..], packed, &up, model);
             blocks
         })?;
         Ok(())
