@@ -19,12 +19,13 @@ struct Block {
     fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
 }
 
-// 48 / 88 bytes. (px, py) corner and (ox, oy) circle centre relative to the block centroid. The
-// edge to the next corner is measured where it is used (contact_forces.wgsl, `edge_from`).
+// 40 / 80 bytes. (px, py) corner and (ox, oy) circle centre relative to the block centroid. The
+// edge to the next corner is measured where it is used (contact_forces.wgsl, `edge_from`); the
+// block a corner belongs to is known to whoever reads it (the block's `corner_start`, a
+// contact's `block1`), so it is not stored.
 struct Corner {
     lx: real, ly: real, qx: real, qy: real, radius: real, round: real,
     px: real, py: real, ox: real, oy: real,
-    block: u32, _pad: u32,
 }
 
 // 72 / 120 bytes. The point (px, py) is relative to block 2's centroid. slip_work, dashpot_work:

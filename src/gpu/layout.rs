@@ -97,14 +97,14 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One rounded corner: 48 bytes in f32, 88 in f64. `px, py` and `ox, oy` (corner and
+    /// One rounded corner: 40 bytes in f32, 80 in f64. `px, py` and `ox, oy` (corner and
     /// rounding-circle centre) are relative to the block's centroid, rotated: world = centroid + p.
     /// The edge to the next corner (`edge_dir`, `edge_length` on the CPU) is not stored: the
-    /// contact stage measures it from the two corners it loads anyway.
+    /// contact stage measures it from the two corners it loads anyway. Nor is the corner's
+    /// block: every reader comes from it (a block's `corner_start`, a contact's `block1`).
     Corner {
         lx: R, ly: R, qx: R, qy: R, radius: R, round: R,
         px: R, py: R, ox: R, oy: R,
-        block: u32, _pad: u32,
     }
 }
 

@@ -486,8 +486,6 @@ where
                     py: r(c.position[1] - cen[1]),
                     ox: r(c.circle[0] - cen[0]),
                     oy: r(c.circle[1] - cen[1]),
-                    block: c.block,
-                    _pad: 0,
                 }
             })
             .collect();
