@@ -6,7 +6,7 @@
 
 use super::device::GpuDevice;
 use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
-use super::{shaders, GpuError};
+use super::{shaders, GpuError, Precision};
 
 /// One compute pipeline per entry point; each entry point is in the WGSL file of the same name.
 pub struct Pipelines {
@@ -165,13 +165,22 @@ pub fn binding_cap(dev: &GpuDevice) -> u64 {
     dev.summary.max_storage_buffer_binding_size.min(dev.summary.max_buffer_size)
 }
 
+/// Why a buffer cannot be made, with advice that fits the run: f32 halves most buffers; in f32
+/// only a smaller model (at most cap / item of these items) or an adapter with larger bindings
+/// helps.
+fn too_large(label: &str, need: u64, cap: u64, item: usize, precision: Precision) -> String {
+    let advice = match precision {
+        Precision::F64 => "use a smaller model or --precision f32 (about half the bytes)".to_string(),
+        Precision::F32 => format!("use a smaller model (at most {} {label} here) or an adapter with larger bindings (hardware GPUs allow 2 GiB and more)", cap / item as u64),
+    };
+    format!("the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); {advice}")
+}
+
 fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
     let cap = binding_cap(dev);
     let need = (count.max(1) * item) as u64;
     if need > cap {
-        return Err(GpuError::Setup(format!(
-            "the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); use a smaller model or --precision f32"
-        )));
+        return Err(GpuError::Setup(too_large(label, need, cap, item, dev.precision)));
     }
     // Room to grow (contacts come and go) without re-creating the buffer every update: a quarter
     // more, within the cap.
@@ -392,5 +401,22 @@ pub fn sin_cos(theta: f64) -> (f64, f64) {
         1 => (-s, c),
         2 => (-c, -s),
         _ => (s, -c),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A model too large for one binding is refused with advice that fits the run: f32 only where
+    /// the run is in f64, and in f32 how many items the adapter's binding holds.
+    #[test]
+    fn a_buffer_past_the_binding_limit_gets_advice_for_its_precision() {
+        let cap = 134_217_728;
+        let f32_msg = too_large("corners", 160_000_560, cap, 40, Precision::F32);
+        assert!(f32_msg.contains("160000560 bytes") && f32_msg.contains("(134217728 bytes)"), "{f32_msg}");
+        assert!(f32_msg.contains("at most 3355443 corners here") && !f32_msg.contains("--precision f32"), "{f32_msg}");
+        let f64_msg = too_large("contacts", 960_000_000, cap, 120, Precision::F64);
+        assert!(f64_msg.contains("--precision f32"), "{f64_msg}");
     }
 }
