@@ -452,14 +452,44 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     }
 }
 
-// Stores what every cycle changes of contact k (the kernel stores the rest only when it changed).
+// Stores what every cycle changes of contact k and the next cycle or a contact update reads (the
+// kernel stores the rest only when it changed). The point and normal are not stored: nothing on
+// the device reads them, and `contact_points` places them for a read-back.
 fn store_contact_state(k: u32, c: Contact) {
-    contacts[k].px = c.px;
-    contacts[k].py = c.py;
-    contacts[k].nx = c.nx;
-    contacts[k].ny = c.ny;
     contacts[k].gap = c.gap;
     contacts[k].normal_force = c.normal_force;
     contacts[k].shear_force = c.shear_force;
     contacts[k].shear_displacement = c.shear_displacement;
+}
+
+// The geometry of the neighbourhood's own feature, without tracking: edge j or arc j, measured as
+// `track_feature` measures it (the same distance function on the same corners and edges, since
+// the neighbourhood of the feature it chose holds them).
+fn feature_geometry(nb: Neighbourhood, c: vec2<real>, radius: real) -> ContactGeometry {
+    if (nb.feature % 2u == 1u) {
+        return contact_geometry(nb.feature, edge_distance(nb.edge_j, nb.c.round, nb.p.round, c), c, radius);
+    }
+    return contact_geometry(nb.feature, arc_distance(nb.c.circle, nb.c.radius, nb.edge_m, nb.edge_j, c), c, radius);
+}
+
+// Each contact's point and normal for the feature it follows, from the blocks where they are now:
+// what the last `contact_forces` found, since no block has moved since and the contact keeps the
+// feature it chose. The cycle does not store them (four stores a contact a cycle that nothing on
+// the device reads); this runs before a read-back or checkpoint of whole contacts.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn contact_points(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
+        return;
+    }
+    let b1 = blocks[contacts[k].block1];
+    let b2 = blocks[contacts[k].block2];
+    let corner = corners[contacts[k].corner];
+    let circle = centroid_difference(b1, b2) + vec2<real>(corner.ox, corner.oy);
+    let nb = neighbourhood(b2.corner_start, b2.corner_count, contacts[k].feature);
+    let g = feature_geometry(nb, circle, corner.radius);
+    contacts[k].px = g.point.x;
+    contacts[k].py = g.point.y;
+    contacts[k].nx = g.normal.x;
+    contacts[k].ny = g.normal.y;
 }

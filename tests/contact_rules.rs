@@ -214,6 +214,45 @@ fn largest_difference(a: &Model, b: &Model) -> (f64, f64) {
 }
 
 #[test]
+fn read_back_contacts_have_the_points_and_normals_of_the_read_back_state() {
+    // The GPU cycle does not store a contact's point and normal (nothing on the device reads
+    // them); `contact_points` places them before each read-back and checkpoint. So every contact
+    // read back must have the point and normal of its feature in the state read back with it, as
+    // the CPU's stage 4 finds them from that state: a point left from the upload or the last
+    // splice would be off by the bricks' motion since (centimetres here). f64 agrees to rounding
+    // (1e-9 m: f64 positions relative to a centroid, converted back); f32 to 1e-5 m and 1e-5 in
+    // the normal (~100 f32 ulps of the metre-sized geometry). A contact whose tracked feature
+    // differs is left out: none in f64; in f32 the aligned corners of the bricks tie within the
+    // wider f32 tie window (6 of 72 contacts after 37 cycles), at most a tenth.
+    for (adapter, precision) in common::GPU_TARGETS {
+        let Some(t) = common::Target::gpu(adapter, precision) else { continue };
+        let tol = if t.is_f32() { 1e-5 } else { 1e-9 };
+        // Several lengths, so that the state read back follows contact updates (splices) as well
+        // as plain cycles; a checkpoint's read-back is checked by the failures suite.
+        for cycles in [1, 37, 400, 1200] {
+            let (m, _, _) = gpu_run(&t, projectile_into_bricks(), true, cycles);
+            let (mut checked, mut other_feature) = (0, 0);
+            for c in &m.contacts {
+                let b2 = &m.blocks[c.block2 as usize];
+                let corners2 = &m.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
+                let own = &m.corners[c.corner as usize];
+                let g = blockdem::cpu::contact_forces::track_feature(corners2, c.feature, own.circle, own.radius);
+                if g.feature != c.feature {
+                    other_feature += 1;
+                    continue;
+                }
+                let dp = (g.point[0] - c.point[0]).hypot(g.point[1] - c.point[1]);
+                let dn = (g.normal[0] - c.normal[0]).hypot(g.normal[1] - c.normal[1]);
+                assert!(dp <= tol && dn <= tol, "{} after {cycles} cycles: contact {} point {:?} vs {:?}, normal {:?} vs {:?}", t.name(), c.id, c.point, g.point, c.normal, g.normal);
+                checked += 1;
+            }
+            let ties = if t.is_f32() { m.contacts.len() / 10 } else { 0 };
+            assert!(checked > 20 && other_feature <= ties, "{} after {cycles} cycles: {checked} checked, {other_feature} tracked another feature", t.name());
+        }
+    }
+}
+
+#[test]
 fn a_contact_splice_on_the_device_runs_as_a_whole_upload() {
     // After a contact update the GPU builds the new contact list from the old one on the device
     // (`gpu::splice`), having read back only each contact's summary (`pack_contacts`); the whole

@@ -13,6 +13,9 @@ pub struct Pipelines {
     /// Stages 1 and 2 (the invocation that moves a block places its corners).
     pub law_of_motion: wgpu::ComputePipeline,
     pub contact_forces: wgpu::ComputePipeline,
+    /// `contact_points` in contact_forces.wgsl: the contacts' points and normals, which the
+    /// cycle does not store, placed before a read-back or checkpoint of whole contacts.
+    pub contact_points: wgpu::ComputePipeline,
     pub gather: wgpu::ComputePipeline,
     /// `end_cycle.wgsl`, with its own bindings (the flags and the dispatch grids it zeroes on a
     /// halt, `Buffers::end_cycle_bind_group`).
@@ -110,6 +113,7 @@ impl Pipelines {
         let pipelines = Pipelines {
             law_of_motion: make("law_of_motion")?,
             contact_forces: make("contact_forces")?,
+            contact_points: make_entry("contact_forces", "contact_points")?,
             gather: make("gather")?,
             end_cycle: make_on(&end_cycle_pipeline_layout, "end_cycle", "end_cycle")?,
             end_cycle_layout,

@@ -770,6 +770,8 @@ where
         self.submit_batch(cycles, false)?;
         if packed {
             self.pack_contacts()?;
+        } else {
+            self.place_contact_points()?;
         }
         let (nb, nc, _) = self.counts;
         let b = self.buffers();
@@ -863,6 +865,9 @@ where
         ck.counts = self.counts;
         ck.uploaded = self.uploaded.clone();
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("checkpoint") });
+        self.encode_contact_points(&mut enc);
+        let b = self.buffers.as_ref().expect("buffers exist");
+        let ck = self.checkpoint.as_ref().expect("made above");
         let pairs = [(&b.blocks.buffer, &ck.blocks), (&b.corners.buffer, &ck.corners), (&b.contacts.buffer, &ck.contacts), (&b.contact_forces.buffer, &ck.forces)];
         for ((src, dst), size) in pairs.into_iter().zip(sizes) {
             if size > 0 {
@@ -911,6 +916,30 @@ where
         } else {
             Self::convert_contacts(&pod_view(parts[0]), &pod_view(parts[1]), up, model);
         }
+    }
+
+    /// Encodes `contact_points` over the live contacts: their points and normals, which the
+    /// cycle does not store, for a read-back or checkpoint of whole contacts that follows.
+    fn encode_contact_points(&self, enc: &mut wgpu::CommandEncoder) {
+        let n = self.counts.2;
+        let Some(bg) = self.bind_group.as_ref().filter(|_| n > 0) else { return };
+        let (x, y) = shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("contact_points"), timestamp_writes: None });
+        pass.set_pipeline(&self.pipelines.contact_points);
+        pass.set_bind_group(0, bg, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+
+    /// Queues `contact_points` (no wait; the read-back that follows waits for it).
+    fn place_contact_points(&self) -> Result<(), GpuError> {
+        let scope = self.dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("contact points") });
+        self.encode_contact_points(&mut enc);
+        self.dev.queue.submit([enc.finish()]);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Device(format!("contact_points was rejected: {e}")));
+        }
+        Ok(())
     }
 
     /// Queues `pack_contacts`: each live contact's summary for a packed read-back.
@@ -1040,6 +1069,8 @@ where
         let _p = crate::profile::scope(crate::profile::Stage::Download);
         if packed {
             self.pack_contacts()?;
+        } else {
+            self.place_contact_points()?;
         }
         let up = self.uploaded.clone();
         let (nb, nc, _) = self.counts;
