@@ -11,8 +11,10 @@
 //!   bytes read + bytes written per second (the same count the byte model uses).
 //! - Bytes per cycle: the compulsory traffic of each kernel, from the Pod struct sizes and the
 //!   live counts: every struct a kernel reads counts once per stage (as if each were fetched
-//!   from memory once and then cached), every struct it stores counts once. A GPU fetches whole
-//!   32-byte sectors, and these structs are 48–200 bytes read whole, so whole structs are counted.
+//!   from memory once and then cached), and the fields it stores count once. A GPU fetches
+//!   whole 32-byte sectors, and these structs are 40–200 bytes with their fields read all over
+//!   them, so whole structs are counted as read; stores count the fields a stage writes every
+//!   cycle (a contact's four changing state fields are one sector in f64).
 
 use std::time::Instant;
 
@@ -49,11 +51,15 @@ pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usiz
     let params = std::mem::size_of::<Params<R>>() as u64;
     let flags = std::mem::size_of::<Flags>() as u64;
     vec![
-        // Each block read and stored whole; with stage 2, each of its corners read and stored whole.
-        StageBytes { stage: "law_of_motion", read: b * nb + c * nc + params, written: b * nb + c * nc },
-        // Each contact read and stored whole, its gather record stored; both blocks, block 1's
-        // corner and block 2's corners read (every corner and block once); the material table.
-        StageBytes { stage: "contact_forces", read: k * nk + c * nc + b * nb + m * nm + params, written: k * nk + f * nk },
+        // Each block read whole and its 11 changed fields stored (velocities, centroid pairs,
+        // rotation, update distance, works); with stage 2, each of its corners read whole and
+        // its placed corner and circle centre (4 fields) stored.
+        StageBytes { stage: "law_of_motion", read: b * nb + c * nc + params, written: 11 * r * nb + 4 * r * nc },
+        // Each contact read whole, the 4 state fields every cycle changes stored (gap, normal and
+        // shear force, shear displacement; the rest only on the rare cycle it changes) and its
+        // gather record stored; both blocks, block 1's corner and block 2's corners read (every
+        // corner and block once); the material table.
+        StageBytes { stage: "contact_forces", read: k * nk + c * nc + b * nb + m * nm + params, written: 4 * r * nk + f * nk },
         // Each block read, its force and moment stored; the adjacency lists (offsets, two
         // entries per contact) and each contact's gather record (read by both its blocks, so
         // fetched twice unless cached).
