@@ -475,7 +475,9 @@ fn feature_geometry(nb: Neighbourhood, c: vec2<real>, radius: real) -> ContactGe
 // Each contact's point and normal for the feature it follows, from the blocks where they are now:
 // what the last `contact_forces` found, since no block has moved since and the contact keeps the
 // feature it chose. The cycle does not store them (four stores a contact a cycle that nothing on
-// the device reads); this runs before a read-back or checkpoint of whole contacts.
+// the device reads); this runs before a read-back or checkpoint of whole contacts. The CPU's twin
+// is the point and normal its stage 4 stores (`cpu::contact_forces`, from `track_feature`);
+// tests/contact_rules.rs checks the read-back ones against it.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn contact_points(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let k = item_index(wg, li);
