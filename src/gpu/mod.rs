@@ -1017,7 +1017,6 @@ where
         });
     }
 
-
     /// Packed contacts into the model: what detection and the ledger use. The model's point,
     /// normal, shear displacement, force and dashpot velocities stay as they were (stale) until
     /// the next whole read-back; the splice keeps the device's.
