@@ -68,6 +68,20 @@ struct Params {
     _pad: u32,
 }
 
+// 32 / 64 bytes. Where a block stood when stage 7's broad-phase grid was built (the grid's
+// reference, `BlockGrid` in topology/detect.rs): centroid relative to the run's origin as a
+// compensated pair, rotation, reach (its farthest corner from the centroid), speed margin then.
+// Read by list_blocks.wgsl to list the blocks that may have left their boxes in the grid.
+struct GridReference {
+    x: real, y: real, x_lo: real, y_lo: real, rotation: real, reach: real, margin: real, _r: real,
+}
+
+// 32 / 48 bytes (a uniform). The constants of list_blocks.wgsl.
+struct ListParams {
+    dt: real, etol: real, btol: real, stray_limit: real,
+    n_blocks: u32, n_contacts: u32, grid_kept: u32, _pad: u32,
+}
+
 // 32 bytes.
 struct Flags {
     halted: atomic<u32>,

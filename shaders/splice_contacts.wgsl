@@ -7,13 +7,17 @@
 // `source` — its shear force and displacement (eq. 18 is incremental), its dashpot velocities,
 // its gather record — and takes the feature the update found nearest (the contact stage measures
 // the geometry from it each cycle); its slip and dashpot work restart from zero, since the CPU
-// has moved what they held onto the f64 bases of the ledger. A source with NEW_CONTACT set
-// names an entry of `created`, uploaded whole with its gather record.
+// has moved what they held onto the f64 bases of the ledger. A contact the CPU did not read
+// (KEEP_FEATURE) keeps its feature and work. A source with NEW_CONTACT set names an entry of
+// `created`, uploaded whole with its gather record.
 //
 // Its own bindings (not common.wgsl's): the old list is read from one pair of buffers and the new
 // one written into another, which then take each other's places (`Buffers::swap_contacts`).
 
 const NEW_CONTACT: u32 = 0x80000000u;
+// The feature of a kept contact the CPU did not read back (a partial read, `gpu::partial`): it
+// keeps the device's feature and its dissipation since its ledger bases, which stay as they were.
+const KEEP_FEATURE: u32 = 0xffffffffu;
 
 @group(0) @binding(0) var<storage, read> old_contacts: array<Contact>;
 @group(0) @binding(1) var<storage, read> old_forces: array<ContactForce>;
@@ -37,9 +41,11 @@ fn splice_contacts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocati
         return;
     }
     var c = old_contacts[m.x];
-    c.feature = m.y;
-    c.slip_work = real(0.0);
-    c.dashpot_work = real(0.0);
+    if (m.y != KEEP_FEATURE) {
+        c.feature = m.y;
+        c.slip_work = real(0.0);
+        c.dashpot_work = real(0.0);
+    }
     new_contacts[i] = c;
     new_forces[i] = old_forces[m.x];
 }

@@ -10,6 +10,7 @@
 //! - `sin_cos`: the rotation of the geometry update, with + − × only;
 //! - `splice_contacts`: the contact list built on the device after a contact update, and
 //!   `pack_contacts`, the summaries of the contacts a contact update reads back;
+//! - `list_blocks` and `list_contacts`: the lists a contact update reads back first;
 //! - `energy_sums` (the energy check on the device): its sums against `Model::energies` on the
 //!   state the run read back.
 //!
@@ -22,7 +23,7 @@
 mod common;
 
 use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
-use blockdem::gpu::layout::{Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, Material as GMaterial, Real};
+use blockdem::gpu::layout::{Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams, Material as GMaterial, Real};
 use blockdem::gpu::splice::{pack_contacts, splice_contacts, NEW_CONTACT};
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
@@ -74,7 +75,8 @@ fn run_kernel(dev: &GpuDevice, kernel: &str, snippet: &str, entry: &str, cases: 
             let buf = device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(&format!("binding {b}")),
                 size,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                // UNIFORM too: a kernel's constants (binding 0 of list_blocks.wgsl) are a uniform.
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
             dev.queue.write_buffer(&buf, 0, bytes);
@@ -656,6 +658,111 @@ where
     assert_eq!(bytemuck::cast_slice::<GSummary<R>, u8>(&pack_contacts(&want)), &packed[0][..], "contact summaries");
 }
 
+/// `list_blocks.wgsl` against `gpu::partial::list_blocks` and `list_contacts` on random blocks
+/// (some near their update threshold, some strayed from a random grid reference, some fixed) and
+/// random contacts. f64: the same lists and the same fewest cycles. f32: a block or contact
+/// within round-off of a threshold may be listed by one and not the other (the CPU applies its
+/// exact test to what is listed, and the lists are loosened by 1% for that): at most 1% of the
+/// cases; the fewest cycles to within 1 (⌊room / s⌋ at a rounding edge) and 1e-5 relative.
+fn update_lists_match_rust<R: Real>(dev: &GpuDevice)
+where
+    GBlock<R>: bytemuck::Pod,
+    GContact<R>: bytemuck::Pod,
+    GridReference<R>: bytemuck::Pod,
+    ListParams<R>: bytemuck::Pod,
+{
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut rng = Rng(0x5eed_0000_0000_0005);
+    let r = |x: f64| R::from_f64(x);
+    let (nb, nk) = (3000usize, 8000usize);
+    let mut blocks: Vec<GBlock<R>> = Vec::with_capacity(nb);
+    let mut reference: Vec<GridReference<R>> = Vec::with_capacity(nb);
+    for _ in 0..nb {
+        let mut b: GBlock<R> = bytemuck::Zeroable::zeroed();
+        let (x, y) = (rng.range(-50.0, 50.0), rng.range(0.0, 12.0));
+        (b.cx, b.cy, b.cx_lo, b.cy_lo) = (r(x), r(y), r(rng.range(-1e-7, 1e-7)), r(rng.range(-1e-7, 1e-7)));
+        b.rotation = r(rng.range(-0.1, 0.1));
+        let fast = rng.next() < 0.3;
+        let speed = if fast { 50.0 } else { 0.1 };
+        (b.vx, b.vy, b.w) = (r(rng.range(-speed, speed)), r(rng.range(-speed, speed)), r(rng.range(-1.0, 1.0)));
+        if rng.next() < 0.1 {
+            (b.vx, b.vy, b.w) = (r(0.0), r(0.0), r(0.0));
+        }
+        b.radius = r(rng.range(0.3, 1.0));
+        b.update_margin = r(if fast { rng.range(0.0, 0.2) } else { 0.0 });
+        b.moved = r(rng.range(0.0, 0.06));
+        b.fixed = (rng.next() < 0.1) as u32;
+        let d = rng.range(0.0, 0.06);
+        let a = rng.range(0.0, std::f64::consts::TAU);
+        let (rx, ry) = (x + d * a.cos(), y + d * a.sin());
+        let split = |v: f64| (r(v), r(v - r(v).to_f64()));
+        let ((x_hi, x_lo), (y_hi, y_lo)) = (split(rx), split(ry));
+        let margin = if rng.next() < 0.5 { b.update_margin } else { r(rng.range(0.0, 0.2)) };
+        reference.push(GridReference { x: x_hi, y: y_hi, x_lo, y_lo, rotation: r(b.rotation.to_f64() + rng.range(-0.02, 0.02)), reach: b.radius, margin, _r: R::default() });
+        blocks.push(b);
+    }
+    let contacts: Vec<GContact<R>> = (0..nk)
+        .map(|_| {
+            let mut c: GContact<R> = bytemuck::Zeroable::zeroed();
+            c.gap = r(rng.range(-0.01, 0.5));
+            (c.block1, c.block2) = (rng.below(nb as u32), rng.below(nb as u32));
+            c
+        })
+        .collect();
+    let lp = ListParams::<R> { dt: r(1e-4), etol: r(0.025), btol: r(0.15), stray_limit: r(0.05), n_blocks: nb as u32, n_contacts: nk as u32, grid_kept: 1, _pad: 0 };
+    let header = bytemuck::cast_slice(&[0u32, 0, u32::MAX, 0]).to_vec();
+    let out = run_kernel(
+        dev,
+        "list_blocks",
+        "",
+        "list_blocks",
+        nb,
+        &[
+            (0, bytemuck::bytes_of(&lp).to_vec(), false),
+            (1, bytemuck::cast_slice(&blocks).to_vec(), false),
+            (3, bytemuck::cast_slice(&reference).to_vec(), false),
+            (4, header.clone(), true),
+            (5, vec![0; nb * 4], true),
+        ],
+    );
+    let (want, want_fewest) = blockdem::gpu::partial::list_blocks(&blocks, &reference, &lp);
+    let head: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
+    let mut got: Vec<u32> = bytemuck::pod_collect_to_vec::<u8, u32>(&out[1])[..head[0] as usize].to_vec();
+    got.sort_unstable();
+    let differ = |a: &[u32], b: &[u32]| a.iter().filter(|x| b.binary_search(x).is_err()).count() + b.iter().filter(|x| a.binary_search(x).is_err()).count();
+    assert!(want.len() > nb / 10 && want.len() < nb * 9 / 10, "a mixed case: {} of {nb} blocks listed", want.len());
+    let off = differ(&want, &got);
+    if f32_kernel {
+        assert!(off <= nb / 100, "{off} blocks listed by one only");
+        let (a, b) = (head[2] as f64, want_fewest as f64);
+        assert!((a - b).abs() <= 1.0 + 1e-5 * b, "fewest cycles {a} against {b}");
+    } else {
+        assert!(off == 0 && head[2] == want_fewest, "{off} blocks listed by one only; fewest cycles {} against {want_fewest}", head[2]);
+    }
+
+    let out = run_kernel(
+        dev,
+        "list_blocks",
+        "",
+        "list_contacts",
+        nk,
+        &[
+            (0, bytemuck::bytes_of(&lp).to_vec(), false),
+            (1, bytemuck::cast_slice(&blocks).to_vec(), false),
+            (2, bytemuck::cast_slice(&contacts).to_vec(), false),
+            (4, header, true),
+            (6, vec![0; nk * 4], true),
+        ],
+    );
+    let want = blockdem::gpu::partial::list_contacts(&blocks, &contacts, &lp);
+    let head: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
+    let mut got: Vec<u32> = bytemuck::pod_collect_to_vec::<u8, u32>(&out[1])[..head[1] as usize].to_vec();
+    got.sort_unstable();
+    assert!(want.len() > nk / 10 && want.len() < nk * 9 / 10, "a mixed case: {} of {nk} contacts listed", want.len());
+    let off = differ(&want, &got);
+    assert!(if f32_kernel { off <= nk / 100 } else { off == 0 }, "{off} contacts listed by one only");
+}
+
 macro_rules! on_adapters {
     ($($name:ident => $check:ident),* $(,)?) => {
         $(
@@ -684,6 +791,7 @@ on_adapters!(
     sin_cos => sin_cos_matches_rust,
     two_sum => two_sum_is_exact,
     splice => splice_contacts_matches_rust,
+    update_lists => update_lists_match_rust,
 );
 
 /// The device's energy sums against `Model::energies` on the same state: a brick wall settling

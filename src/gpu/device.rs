@@ -264,18 +264,30 @@ impl GpuDevice {
     /// submission and one (bounded) wait, and hands `f` the bytes of each part, still mapped
     /// (each part starts 16-byte aligned, so `bytemuck::cast_slice` to the GPU structs works).
     pub fn read_parts<T>(&self, parts: &[(&wgpu::Buffer, u64)], f: impl FnOnce(&[&[u8]]) -> T) -> Result<T, GpuError> {
+        let ranges: Vec<[(&wgpu::Buffer, u64, u64); 1]> = parts.iter().map(|&(buffer, size)| [(buffer, 0, size)]).collect();
+        let gathered: Vec<&[(&wgpu::Buffer, u64, u64)]> = ranges.iter().map(|r| &r[..]).collect();
+        self.read_gathered(&gathered, f)
+    }
+
+    /// As `read_parts`, each part gathered from ranges (buffer, byte offset, bytes) laid end to
+    /// end: a contact update reads the few blocks, corners and contacts it touches this way, one
+    /// copy per run of neighbouring items. Offsets and sizes are multiples of 4 (whole structs).
+    pub fn read_gathered<T>(&self, parts: &[&[(&wgpu::Buffer, u64, u64)]], f: impl FnOnce(&[&[u8]]) -> T) -> Result<T, GpuError> {
         let mut offsets = Vec::with_capacity(parts.len());
+        let mut sizes = Vec::with_capacity(parts.len());
         let mut total = 0u64;
-        for (_, size) in parts {
+        for ranges in parts {
+            let size: u64 = ranges.iter().map(|r| r.2).sum();
             offsets.push(total);
+            sizes.push(size);
             total += size.next_multiple_of(16);
         }
         if total == 0 {
             let empty: Vec<&[u8]> = parts.iter().map(|_| &[][..]).collect();
             return Ok(f(&empty));
         }
-        // One staging buffer, kept and grown as needed: a contact update of a large model reads
-        // the whole state back, and allocating that much mappable memory each time costs.
+        // One staging buffer, kept and grown as needed: a contact update of a large model may
+        // read the whole state back, and allocating that much mappable memory each time costs.
         let kept = self.staging.lock().ok().and_then(|mut s| s.take()).filter(|b| b.size() >= total);
         let staging = kept.unwrap_or_else(|| {
             self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -286,9 +298,13 @@ impl GpuDevice {
             })
         });
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
-        for ((buffer, size), offset) in parts.iter().zip(&offsets) {
-            if *size > 0 {
-                enc.copy_buffer_to_buffer(buffer, 0, &staging, *offset, *size);
+        for (ranges, &offset) in parts.iter().zip(&offsets) {
+            let mut at = offset;
+            for &(buffer, from, size) in ranges.iter() {
+                if size > 0 {
+                    enc.copy_buffer_to_buffer(buffer, from, &staging, at, size);
+                }
+                at += size;
             }
         }
         self.queue.submit([enc.finish()]);
@@ -304,7 +320,7 @@ impl GpuDevice {
         }
         let result = {
             let view = staging.get_mapped_range(..total).map_err(|e| GpuError::Device(format!("reading a mapped buffer: {e:?}")))?;
-            let slices: Vec<&[u8]> = parts.iter().zip(&offsets).map(|((_, size), &o)| &view[o as usize..(o + size) as usize]).collect();
+            let slices: Vec<&[u8]> = sizes.iter().zip(&offsets).map(|(&size, &o)| &view[o as usize..(o + size) as usize]).collect();
             f(&slices)
         };
         staging.unmap();

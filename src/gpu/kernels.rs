@@ -30,6 +30,10 @@ pub struct Pipelines {
     /// `pack_contacts.wgsl`, with its own bindings (the contacts, the summaries).
     pub pack_contacts: wgpu::ComputePipeline,
     pub pack_layout: wgpu::BindGroupLayout,
+    /// `list_blocks.wgsl` (`list_blocks`, `list_contacts`), with their own bindings (`ListBuffers`).
+    pub list_blocks: wgpu::ComputePipeline,
+    pub list_contacts: wgpu::ComputePipeline,
+    pub lists_layout: wgpu::BindGroupLayout,
 }
 
 fn uniform(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -90,6 +94,14 @@ impl Pipelines {
         let pack_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem pack"), entries: &[storage(0, true), storage(1, false)] });
         let pack_pipeline_layout =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem pack"), bind_group_layouts: &[Some(&pack_layout)], immediate_size: 0 });
+        // Stage 7's lists: the constants, blocks, contacts and grid reference (read), the header
+        // and the two lists (written).
+        let lists_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("blockdem update lists"),
+            entries: &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, false)],
+        });
+        let lists_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem update lists"), bind_group_layouts: &[Some(&lists_layout)], immediate_size: 0 });
         // End of cycle: the flags (binding 7, as in common.wgsl) and the dispatch grids (10).
         let end_cycle_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem end_cycle"), entries: &[storage(7, false), storage(10, false)] });
         let end_cycle_pipeline_layout =
@@ -124,6 +136,9 @@ impl Pipelines {
             splice_layout,
             pack_contacts: make_on(&pack_pipeline_layout, "pack_contacts", "pack_contacts")?,
             pack_layout,
+            list_blocks: make_on(&lists_pipeline_layout, "list_blocks", "list_blocks")?,
+            list_contacts: make_on(&lists_pipeline_layout, "list_blocks", "list_contacts")?,
+            lists_layout,
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader(format!("the driver rejected a kernel: {e}")));

@@ -187,6 +187,28 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Where a block stood when stage 7's broad-phase grid was last built (`BlockGrid`'s
+    /// reference): 32 bytes in f32, 64 in f64. Centroid relative to the run's origin as a
+    /// compensated pair, rotation, reach (farthest corner from the centroid), speed margin then.
+    /// `list_blocks.wgsl` lists the blocks that may have left their boxes in the grid from it.
+    GridReference { x: R, y: R, x_lo: R, y_lo: R, rotation: R, reach: R, margin: R, _r: R }
+}
+
+gpu_struct! {
+    /// The constants of `list_blocks.wgsl` (a uniform): 32 bytes in f32, 48 in f64.
+    ListParams {
+        dt: R, etol: R, btol: R,
+        /// Half the grid's margin: a block whose corners moved farther since the grid was built
+        /// may have left its box in it.
+        stray_limit: R,
+        n_blocks: u32, n_contacts: u32,
+        /// 1: the grid is kept from an earlier update (its reference is on the device).
+        grid_kept: u32,
+        _pad: u32,
+    }
+}
+
 /// Bits of `Flags::errors`.
 pub const ERR_NONFINITE: u32 = 1;
 pub const ERR_TOO_FAST: u32 = 2;
@@ -245,6 +267,8 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),
+        GridReference::<R>::layout(),
+        ListParams::<R>::layout(),
         Flags::layout(),
     ]
 }

@@ -63,6 +63,7 @@ pub mod kernels;
 pub mod layout;
 pub mod profile;
 pub mod shaders;
+pub mod partial;
 pub mod splice;
 pub mod targets;
 
@@ -75,23 +76,33 @@ use rayon::prelude::*;
 pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 pub use targets::{find_target, scenario_backends, GpuTarget};
 use kernels::{Buffers, Grid, Pipelines};
-use layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
+use layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, GridReference, ListParams, Material, Params, Real};
 
 /// How many more cycles, at the velocities now, until the first block passes its contact-update
 /// threshold (`Block::update_due`): the cycle that raises the flag, ⌊(threshold − moved)/s⌋ + 1 for
 /// a block whose corners travel s a step. None when nothing moves.
 fn cycles_to_next_update(model: &Model) -> Option<u64> {
-    let dt = model.timestep;
-    model
-        .blocks
-        .iter()
-        .filter(|b| !b.fixed)
-        .filter_map(|b| {
-            let s = b.travel_per_step(dt);
-            let room = (b.update_threshold(&model.tol) - b.moved_since_update).max(0.0);
-            (s > 0.0 && s.is_finite()).then(|| (room / s).floor().min(1e9) as u64 + 1)
-        })
-        .min()
+    model.blocks.iter().filter_map(|b| cycles_to_threshold(model, b)).min()
+}
+
+/// `cycles_to_next_update` for one block (None: fixed, or not moving).
+fn cycles_to_threshold(model: &Model, b: &crate::model::Block) -> Option<u64> {
+    if b.fixed {
+        return None;
+    }
+    let s = b.travel_per_step(model.timestep);
+    let room = (b.update_threshold(&model.tol) - b.moved_since_update).max(0.0);
+    (s > 0.0 && s.is_finite()).then(|| (room / s).floor().min(1e9) as u64 + 1)
+}
+
+/// What `Engine::partial_contact_update` did.
+enum PartialUpdate {
+    /// Nothing: the update needs the whole state (the caller reads it back as before).
+    Declined,
+    /// No block is past its threshold by the CPU's exact test: no update.
+    NotDue,
+    /// The update ran; the next one is expected after this many cycles.
+    Updated(Option<u64>),
 }
 
 /// Kernel precision (`--precision`).
@@ -165,7 +176,29 @@ impl GpuBackend {
         if std::env::var("BLOCKDEM_CONTACT_SPLICE").is_ok_and(|v| v == "0") {
             backend.set_contact_splice(false);
         }
+        // BLOCKDEM_PARTIAL_READS=0: contact updates read the whole state back (the baseline the
+        // partial read-back is measured and tested against).
+        if std::env::var("BLOCKDEM_PARTIAL_READS").is_ok_and(|v| v == "0") {
+            backend.set_partial_reads(false);
+        }
         Ok(backend)
+    }
+
+    /// Whether contact updates read back only the blocks, corners and contacts they touch
+    /// (`gpu::partial`; on by default, needs the splice) or the whole state.
+    pub fn set_partial_reads(&mut self, on: bool) {
+        match &mut self.engine {
+            EngineAny::F32(e) => e.partial_reads = on,
+            EngineAny::F64(e) => e.partial_reads = on,
+        }
+    }
+
+    /// How many contact updates read back only what they touched so far.
+    pub fn partial_updates(&self) -> u64 {
+        match &self.engine {
+            EngineAny::F32(e) => e.partial_updates,
+            EngineAny::F64(e) => e.partial_updates,
+        }
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -287,6 +320,13 @@ struct Engine<R: Real> {
     splice: bool,
     /// Contact updates spliced on the device since the backend was made.
     splices: u64,
+    /// Contact updates read back only the blocks, corners and contacts they touch
+    /// (`partial_contact_update`), when the splice is on.
+    partial_reads: bool,
+    /// Contact updates made so since the backend was made.
+    partial_updates: u64,
+    /// The buffers of `list_blocks.wgsl` (made at the first partial update).
+    lists: Option<partial::ListBuffers>,
     /// The uploaded contacts carry dashpot velocities whose work is still to be booked.
     dashpots_pending: bool,
     /// The CPU copy of the last good state, kept from run to run so that a run copies into its
@@ -348,6 +388,8 @@ where
     EnergySum<R>: bytemuck::Pod,
     Material<R>: bytemuck::Pod,
     Params<R>: bytemuck::Pod,
+    GridReference<R>: bytemuck::Pod,
+    ListParams<R>: bytemuck::Pod,
 {
     fn new(dev: GpuDevice, pipelines: Pipelines) -> Self {
         Engine {
@@ -366,6 +408,9 @@ where
             splice: true,
             dashpots_pending: false,
             splices: 0,
+            partial_reads: true,
+            partial_updates: 0,
+            lists: None,
             last_good: Model::default(),
             resumable: false,
             adjacency: Adjacency::default(),
@@ -554,10 +599,26 @@ where
     /// The bookkeeping of a new contact list on the device: the ledger bases of its contacts and
     /// the generation the last good state's CPU copy is compared with.
     fn new_contact_list(&mut self, model: &Model) {
+        self.new_contact_list_moved(model, &[]);
+    }
+
+    /// `new_contact_list` after a splice by `moves`: a kept contact the CPU did not read
+    /// (`splice::KEEP_FEATURE`) keeps its old bases, since the device keeps its dissipation.
+    fn new_contact_list_moved(&mut self, model: &Model, moves: &[[u32; 2]]) {
         // The contact update kept each surviving contact's ledger terms in the model (matched by
         // corner and block, with their feature ids): they are the new bases.
         // (A copy of the rest only when a checkpoint still shares it.)
-        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+        let old = &self.uploaded.contact_base;
+        let bases: Vec<[f64; 2]> = model
+            .contacts
+            .iter()
+            .enumerate()
+            .map(|(i, c)| match moves.get(i) {
+                Some(&[source, splice::KEEP_FEATURE]) if source & splice::NEW_CONTACT == 0 => old[source as usize],
+                _ => [c.slip_work, c.dashpot_work],
+            })
+            .collect();
+        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = bases;
         self.generation += 1;
     }
 
@@ -600,7 +661,7 @@ where
             created.push(Contact::default());
             created_forces.push(ContactForce::default());
         }
-        self.new_contact_list(model);
+        self.new_contact_list_moved(model, &moves.moves);
         let dev = &self.dev;
         let b = self.buffers.as_mut().expect("buffers exist");
         b.ensure_spare::<R>(dev, n)?;
@@ -985,52 +1046,62 @@ where
     /// their f64 bases. Converted in parallel (a 10⁶-block model is read back at every contact
     /// update); the external work is summed serially, so the result repeats bit for bit.
     fn convert_blocks_and_corners(blocks: &[Block<R>], corners: &[Corner<R>], up: &Uploaded, model: &mut Model) {
-        let o = up.origin;
-        model.blocks.par_iter_mut().zip(blocks.par_iter()).zip(up.damping_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
-            m.centroid = [o[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), o[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
-            m.rotation = g.rotation.to_f64();
-            m.velocity = [g.vx.to_f64(), g.vy.to_f64()];
-            m.angular_velocity = g.w.to_f64();
-            m.force = [g.fx.to_f64(), g.fy.to_f64()];
-            m.moment = g.moment.to_f64();
-            m.moved_since_update = g.moved.to_f64();
-            m.update_centroid = [o[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), o[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
-            m.update_rotation = g.update_rotation.to_f64();
-            m.update_margin = g.update_margin.to_f64();
-            m.damping_work = base + g.damping_work.to_f64();
-        });
+        model.blocks.par_iter_mut().zip(blocks.par_iter()).zip(up.damping_base.par_iter()).with_min_len(4096).for_each(|((m, g), &base)| Self::convert_block(g, base, up.origin, m));
         let work: f64 = blocks.iter().map(|g| g.work.to_f64()).sum();
         model.external_work = up.work_base + work;
         let Model { blocks: model_blocks, corners: model_corners, .. } = model;
         model_corners.par_iter_mut().enumerate().zip(corners.par_iter()).with_min_len(4096).for_each(|((i, m), g)| {
             let blk = &model_blocks[m.block as usize];
-            let cen = blk.centroid;
-            m.position = [cen[0] + g.px.to_f64(), cen[1] + g.py.to_f64()];
-            m.circle = [cen[0] + g.ox.to_f64(), cen[1] + g.oy.to_f64()];
-            // The edge to the next corner of the block, measured as the contact stage measures
-            // it (from the two corners relative to the centroid), in f64.
             let next = if i + 1 == (blk.corner_start + blk.corner_count) as usize { blk.corner_start as usize } else { i + 1 };
-            let e = [corners[next].px.to_f64() - g.px.to_f64(), corners[next].py.to_f64() - g.py.to_f64()];
-            let len = e[0].hypot(e[1]);
-            m.edge_dir = [e[0] / len, e[1] / len];
-            m.edge_length = len;
+            Self::convert_corner(g, &corners[next], blk.centroid, m);
         });
+    }
+
+    /// One block of the device state into the model (`damping_base`: its mass-damping base).
+    fn convert_block(g: &Block<R>, damping_base: f64, o: [f64; 2], m: &mut crate::model::Block) {
+        m.centroid = [o[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), o[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
+        m.rotation = g.rotation.to_f64();
+        m.velocity = [g.vx.to_f64(), g.vy.to_f64()];
+        m.angular_velocity = g.w.to_f64();
+        m.force = [g.fx.to_f64(), g.fy.to_f64()];
+        m.moment = g.moment.to_f64();
+        m.moved_since_update = g.moved.to_f64();
+        m.update_centroid = [o[0] + (g.update_cx.to_f64() + g.update_cx_lo.to_f64()), o[1] + (g.update_cy.to_f64() + g.update_cy_lo.to_f64())];
+        m.update_rotation = g.update_rotation.to_f64();
+        m.update_margin = g.update_margin.to_f64();
+        m.damping_work = damping_base + g.damping_work.to_f64();
+    }
+
+    /// One corner of the device state into the model, its block's centroid already converted;
+    /// `next` is the block's next corner.
+    fn convert_corner(g: &Corner<R>, next: &Corner<R>, centroid: [f64; 2], m: &mut crate::model::Corner) {
+        m.position = [centroid[0] + g.px.to_f64(), centroid[1] + g.py.to_f64()];
+        m.circle = [centroid[0] + g.ox.to_f64(), centroid[1] + g.oy.to_f64()];
+        // The edge to the next corner of the block, measured as the contact stage measures it
+        // (from the two corners relative to the centroid), in f64.
+        let e = [next.px.to_f64() - g.px.to_f64(), next.py.to_f64() - g.py.to_f64()];
+        let len = e[0].hypot(e[1]);
+        m.edge_dir = [e[0] / len, e[1] / len];
+        m.edge_length = len;
     }
 
     /// Packed contacts into the model: what detection and the ledger use. The model's point,
     /// normal, shear displacement, force and dashpot velocities stay as they were (stale) until
     /// the next whole read-back; the splice keeps the device's.
     fn convert_summaries(summaries: &[ContactSummary<R>], up: &Uploaded, model: &mut Model) {
-        model.contacts.par_iter_mut().zip(summaries.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), base)| {
-            m.gap = g.gap.to_f64();
-            m.normal_force = g.normal_force.to_f64();
-            m.shear_force = g.shear_force.to_f64();
-            m.slip_work = base[0] + g.slip_work.to_f64();
-            m.dashpot_work = base[1] + g.dashpot_work.to_f64();
-            m.feature = g.feature;
-            m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
-            m.bonded = g.bonded != 0;
-        });
+        model.contacts.par_iter_mut().zip(summaries.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), &base)| Self::convert_summary(g, base, m));
+    }
+
+    /// One contact's summary into the model (`base`: its ledger bases).
+    fn convert_summary(g: &ContactSummary<R>, base: [f64; 2], m: &mut crate::model::Contact) {
+        m.gap = g.gap.to_f64();
+        m.normal_force = g.normal_force.to_f64();
+        m.shear_force = g.shear_force.to_f64();
+        m.slip_work = base[0] + g.slip_work.to_f64();
+        m.dashpot_work = base[1] + g.dashpot_work.to_f64();
+        m.feature = g.feature;
+        m.kind = if g.feature % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge };
+        m.bonded = g.bonded != 0;
     }
 
     /// Whole contacts, with the forces of their gather records, into the model.
@@ -1120,6 +1191,240 @@ where
         if whole {
             self.dev.queue.write_buffer(&self.buffers().blocks.buffer, 0, bytemuck::cast_slice(&self.last_blocks));
         }
+    }
+
+    /// Stage 7 from what it touches (`gpu::partial`): the device lists the blocks that may be
+    /// re-examined or have strayed from the kept grid and the contacts that may be dropped; the
+    /// CPU reads those back, then the neighbourhoods of the blocks it re-examines (their blocks,
+    /// corners and contacts), runs the update on them, resets the re-examined blocks' update
+    /// distances on the device and splices the contact list there, leaving every contact it did
+    /// not read as the device holds it. The model is current only where it was read until the
+    /// next whole read-back. Declines, changing nothing, when the update needs the whole state.
+    fn partial_contact_update(&mut self, model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport) -> Result<PartialUpdate, GpuError> {
+        let (nb, _, nk) = self.counts;
+        if nb < 2 || !adjacency.grid.kept_for(model) {
+            return Ok(PartialUpdate::Declined);
+        }
+        let before = splice::ContactsBefore::of(model);
+        if !before.spliceable() {
+            return Ok(PartialUpdate::Declined);
+        }
+        // The lists, on the device.
+        let (listed, listed_contacts, fewest) = {
+            let _p = crate::profile::scope(crate::profile::Stage::Download);
+            if self.lists.as_ref().is_none_or(|l| !l.fits(nb, nk)) {
+                self.lists = None;
+                self.lists = Some(partial::ListBuffers::new::<R>(&self.dev, nb, nk * 5 / 4)?);
+            }
+            let origin = self.uploaded.origin;
+            let grid = &adjacency.grid;
+            let lists = self.lists.as_mut().expect("made above");
+            let key = (grid.builds(), origin, nb);
+            if lists.reference_of != Some(key) {
+                let reference = partial::grid_reference::<R>(grid.reference(), origin);
+                self.dev.queue.write_buffer(&lists.reference, 0, bytemuck::cast_slice(&reference));
+                lists.reference_of = Some(key);
+            }
+            let t = model.tol;
+            let lp = ListParams::<R> {
+                dt: r(model.timestep),
+                etol: r(t.etol),
+                btol: r(t.btol),
+                stray_limit: r(grid.stray_limit()),
+                n_blocks: nb as u32,
+                n_contacts: nk as u32,
+                grid_kept: 1,
+                _pad: 0,
+            };
+            let q = &self.dev.queue;
+            q.write_buffer(&lists.params, 0, bytemuck::bytes_of(&lp));
+            q.write_buffer(&lists.header, 0, bytemuck::cast_slice(&[0u32, 0, u32::MAX, 0]));
+            let b = self.buffers();
+            let lists = self.lists.as_ref().expect("made above");
+            let entries = [
+                wgpu::BindGroupEntry { binding: 0, resource: lists.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: b.blocks.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: b.contacts.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: lists.reference.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: lists.header.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: lists.listed_blocks.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: lists.listed_contacts.as_entire_binding() },
+            ];
+            let p = &self.pipelines;
+            kernels::dispatch_items(&self.dev, "list_blocks", &p.list_blocks, &p.lists_layout, &entries, nb)?;
+            if nk > 0 {
+                kernels::dispatch_items(&self.dev, "list_contacts", &p.list_contacts, &p.lists_layout, &entries, nk)?;
+            }
+            let header: Vec<u32> = self.dev.read_pod(&lists.header, 4)?;
+            let (n_listed, n_contacts) = (header[0] as usize, header[1] as usize);
+            // Many listed: an update that sweeps or rebuilds the grid (it reads every block), or
+            // one that drops a crowd of contacts; the whole read-back is then as cheap.
+            if n_listed > nb / 8 || n_contacts > nk / 8 + 64 {
+                return Ok(PartialUpdate::Declined);
+            }
+            let (mut listed, mut listed_contacts) = self.dev.read_parts(&[(&lists.listed_blocks, (n_listed * 4) as u64), (&lists.listed_contacts, (n_contacts * 4) as u64)], |bytes| {
+                (bytemuck::pod_collect_to_vec::<u8, u32>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, u32>(bytes[1]))
+            })?;
+            listed.sort_unstable();
+            listed_contacts.sort_unstable();
+            (listed, listed_contacts, header[2])
+        };
+        // The listed blocks and contacts into the model.
+        let records = self.read_subset(model, &listed, &partial::runs(&listed_contacts))?;
+        let tol = model.tol;
+        if !listed.iter().any(|&b| model.blocks[b as usize].update_due(&tol)) {
+            return Ok(PartialUpdate::NotDue);
+        }
+        // The update, which fetches the re-examined blocks' neighbourhoods.
+        let mut read_contacts = partial::runs(&listed_contacts);
+        let mut read_all = false;
+        let outcome = {
+            let _p = crate::profile::scope(crate::profile::Stage::DetectUpdate);
+            let mut fetch = |m: &mut Model, needed: Option<&[u32]>| -> Result<(), String> {
+                match needed {
+                    None => {
+                        self.read_live_state(m, true).map_err(|e| e.to_string())?;
+                        read_all = true;
+                    }
+                    Some(blocks) => {
+                        // Each block's run of contacts (as block 1; the list is in that order).
+                        let contact_runs: Vec<(u32, u32)> = partial::merge_runs(
+                            &blocks
+                                .iter()
+                                .map(|&b| {
+                                    let lo = m.contacts.partition_point(|c| c.block1 < b);
+                                    (lo as u32, (lo + m.contacts[lo..].partition_point(|c| c.block1 == b)) as u32)
+                                })
+                                .collect::<Vec<_>>(),
+                            &[],
+                        );
+                        self.read_subset(m, blocks, &contact_runs).map_err(|e| e.to_string())?;
+                        read_contacts = partial::merge_runs(&read_contacts, &contact_runs);
+                    }
+                }
+                Ok(())
+            };
+            let mut attention = crate::topology::detect::Attention { blocks: listed.clone(), contacts: listed_contacts, fetch: &mut fetch };
+            crate::topology::detect::update_topology_with(model, adjacency, &mut attention)
+        };
+        let (created, dropped, flagged) = outcome.map_err(GpuError::Device)?;
+        report.topology_updates += 1;
+        report.contacts_created += created as u64;
+        report.contacts_dropped += dropped as u64;
+        self.partial_updates += 1;
+        {
+            // The re-examined blocks: their update distance reset on the device, their reference
+            // where they are now and their new speed margin (the model keeps it as the device
+            // does, rounded to its precision, as a read-back would give it).
+            let _p = crate::profile::scope(crate::profile::Stage::Upload);
+            let size = std::mem::size_of::<Block<R>>() as u64;
+            let offset = std::mem::offset_of!(Block<R>, moved) as u64;
+            for &b in &flagged {
+                let Ok(i) = listed.binary_search(&b) else {
+                    return Err(GpuError::Device(format!("GPU: block {b} was re-examined but not listed (a bug; run with BLOCKDEM_PARTIAL_READS=0)")));
+                };
+                let g = &records[i];
+                let m = &mut model.blocks[b as usize];
+                let margin = R::from_f64(m.update_margin);
+                m.update_margin = margin.to_f64();
+                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, g.rotation, margin];
+                self.dev.queue.write_buffer(&self.buffers().blocks.buffer, b as u64 * size + offset, bytemuck::cast_slice(&fields));
+            }
+        }
+        // The next update expected: the device's figure for the blocks not listed, the CPU's for
+        // those it read.
+        let from_listed = listed.iter().filter_map(|&b| cycles_to_threshold(model, &model.blocks[b as usize])).min();
+        let from_device = (fewest != u32::MAX).then_some(fewest as u64);
+        let expected = from_listed.into_iter().chain(from_device).min();
+        // The splice, every kept contact not read keeping the device's state.
+        let Some(mut moves) = (!model.contacts.is_empty()).then(|| splice::contact_moves(&before, &model.contacts)).flatten() else {
+            if model.contacts.is_empty() {
+                self.upload_contacts(model, adjacency)?;
+                self.write_params(model);
+                self.run_batch(1, true)?;
+                return Ok(PartialUpdate::Updated(expected));
+            }
+            return Err(GpuError::Device("GPU: the contact update reordered kept contacts of a list it found in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()));
+        };
+        if !read_all {
+            let mut at = 0;
+            for mv in &mut moves.moves {
+                if mv[0] & splice::NEW_CONTACT != 0 {
+                    continue;
+                }
+                while at < read_contacts.len() && read_contacts[at].1 <= mv[0] {
+                    at += 1;
+                }
+                let read = at < read_contacts.len() && read_contacts[at].0 <= mv[0];
+                if !read {
+                    mv[1] = splice::KEEP_FEATURE;
+                }
+            }
+        }
+        self.splice_contacts(model, adjacency, &moves)?;
+        self.write_params(model);
+        self.run_batch(1, true)?;
+        Ok(PartialUpdate::Updated(expected))
+    }
+
+    /// Reads the blocks `blocks` (ascending; records and corners) and the contacts of `contacts`
+    /// (runs of indices) back into the model, as a whole read-back would convert them (contacts
+    /// as their summaries: gap, forces, dissipation, feature, bond); returns the block records.
+    fn read_subset(&mut self, model: &mut Model, blocks: &[u32], contacts: &[(u32, u32)]) -> Result<Vec<Block<R>>, GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Download);
+        let b = self.buffers();
+        let (bs, cs, ks) = (std::mem::size_of::<Block<R>>() as u64, std::mem::size_of::<Corner<R>>() as u64, std::mem::size_of::<Contact<R>>() as u64);
+        let block_runs = partial::runs(blocks);
+        let corner_runs = partial::merge_runs(
+            &blocks.iter().map(|&k| {
+                let blk = &model.blocks[k as usize];
+                (blk.corner_start, blk.corner_start + blk.corner_count)
+            }).collect::<Vec<_>>(),
+            &[],
+        );
+        fn ranges<'a>(buffer: &'a wgpu::Buffer, runs: &[(u32, u32)], size: u64) -> Vec<(&'a wgpu::Buffer, u64, u64)> {
+            runs.iter().map(|&(s, e)| (buffer, s as u64 * size, (e - s) as u64 * size)).collect()
+        }
+        let (rb, rc, rk) = (ranges(&b.blocks.buffer, &block_runs, bs), ranges(&b.corners.buffer, &corner_runs, cs), ranges(&b.contacts.buffer, contacts, ks));
+        let up = self.uploaded.clone();
+        self.dev.read_gathered(&[&rb, &rc, &rk], |bytes| {
+            let records: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
+            let corners: std::borrow::Cow<'_, [Corner<R>]> = pod_view(bytes[1]);
+            let gathered: std::borrow::Cow<'_, [Contact<R>]> = pod_view(bytes[2]);
+            for (&k, g) in blocks.iter().zip(&records) {
+                Self::convert_block(g, up.damping_base[k as usize], up.origin, &mut model.blocks[k as usize]);
+            }
+            // Corners: the runs laid end to end; each block's are within one run.
+            let mut at = 0usize;
+            let mut first = Vec::with_capacity(corner_runs.len());
+            for &(s, e) in &corner_runs {
+                first.push((s, e, at));
+                at += (e - s) as usize;
+            }
+            for &k in blocks {
+                let (centroid, s, count) = {
+                    let blk = &model.blocks[k as usize];
+                    (blk.centroid, blk.corner_start, blk.corner_count as usize)
+                };
+                let start = s as usize;
+                let run = first.partition_point(|r| r.1 <= s);
+                let base = first[run].2 + (s - first[run].0) as usize;
+                for j in 0..count {
+                    let next = if j + 1 == count { 0 } else { j + 1 };
+                    Self::convert_corner(&corners[base + j], &corners[base + next], centroid, &mut model.corners[start + j]);
+                }
+            }
+            let mut at = 0usize;
+            for &(s, e) in contacts {
+                for k in s..e {
+                    let g = &gathered[at];
+                    at += 1;
+                    let summary = ContactSummary { gap: g.gap, normal_force: g.normal_force, shear_force: g.shear_force, slip_work: g.slip_work, dashpot_work: g.dashpot_work, feature: g.feature, bonded: g.bonded };
+                    Self::convert_summary(&summary, up.contact_base[k as usize], &mut model.contacts[k as usize]);
+                }
+            }
+            records
+        })
     }
 
     /// The CPU backend's error for the flags raised, from the read-back state (same priority as
@@ -1221,7 +1526,8 @@ where
                     batch = batch.min(k.max(1));
                 }
                 self.write_params(model);
-                let (flags, state_read) = if busy && !cracking {
+                let partial_reads = self.partial_reads && self.splice && !cracking;
+                let (flags, state_read) = if busy && !cracking && !partial_reads {
                     self.run_batch_with_state(batch, model, packed).map_err(device_error)?
                 } else {
                     (self.run_batch(batch, false).map_err(device_error)?, false)
@@ -1244,7 +1550,20 @@ where
                 }
                 report.cycles += done;
                 let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
-                if cracking || flags.update_due != 0 {
+                let mut handled = false;
+                if partial_reads && flags.update_due != 0 {
+                    // Stage 7 on what it touches (`partial_contact_update`), unless it needs the
+                    // whole state.
+                    match self.partial_contact_update(model, &mut adjacency, &mut report).map_err(device_error)? {
+                        PartialUpdate::Declined => {}
+                        PartialUpdate::NotDue => handled = true,
+                        PartialUpdate::Updated(expected) => {
+                            expected_update = expected;
+                            handled = true;
+                        }
+                    }
+                }
+                if !handled && (cracking || flags.update_due != 0) {
                     // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
                     // The cracking criterion reads every block's forces, fixed ones too.
                     if cracking {

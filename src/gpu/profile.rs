@@ -18,7 +18,7 @@
 
 use std::time::Instant;
 
-use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, Material, Params, Real};
+use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, GridReference, ListParams, Material, Params, Real};
 use super::{Engine, EngineAny, GpuBackend, GpuDevice, GpuError};
 
 /// Per-stage device time of one cycle.
@@ -117,6 +117,8 @@ where
     EnergySum<R>: bytemuck::Pod,
     Material<R>: bytemuck::Pod,
     Params<R>: bytemuck::Pod,
+    GridReference<R>: bytemuck::Pod,
+    ListParams<R>: bytemuck::Pod,
 {
     fn profile_stages(&mut self, cycles: u32) -> Result<DeviceProfile, GpuError> {
         // The profiled cycles move the device's state on: the next run must start from the model.

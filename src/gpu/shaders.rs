@@ -52,7 +52,11 @@ pub const KERNELS: &[(&str, &str)] = &[
 /// Kernels of the topology changes between cycles, with bindings of their own (the state's bind
 /// group is at the eight storage buffers a stage may have); named like their Rust twins.
 pub const TOPOLOGY_KERNELS: &[(&str, &str)] =
-    &[("splice_contacts", include_str!("../../shaders/splice_contacts.wgsl")), ("pack_contacts", include_str!("../../shaders/pack_contacts.wgsl"))];
+    &[
+        ("splice_contacts", include_str!("../../shaders/splice_contacts.wgsl")),
+        ("pack_contacts", include_str!("../../shaders/pack_contacts.wgsl")),
+        ("list_blocks", include_str!("../../shaders/list_blocks.wgsl")),
+    ];
 
 /// Every kernel file's name, the cycle's first.
 pub fn kernel_names() -> impl Iterator<Item = &'static str> {

@@ -26,6 +26,11 @@ use rayon::prelude::*;
 /// The source bit of a move that names an entry of the created contacts, not an old index.
 pub const NEW_CONTACT: u32 = 0x8000_0000;
 
+/// The feature of a move whose kept contact the CPU did not read (a partial read-back,
+/// `gpu::partial`): it keeps the device's feature and its dissipation since its ledger bases,
+/// which stay as they were.
+pub const KEEP_FEATURE: u32 = u32::MAX;
+
 /// What identifies a contact of the list before an update: its id, block 1, corner and block 2.
 pub type ContactKey = [u32; 4];
 
@@ -105,9 +110,11 @@ where
                 return (created[k], created_forces[k]);
             }
             let mut c = old[source as usize];
-            c.feature = feature;
-            c.slip_work = R::default();
-            c.dashpot_work = R::default();
+            if feature != KEEP_FEATURE {
+                c.feature = feature;
+                c.slip_work = R::default();
+                c.dashpot_work = R::default();
+            }
             (c, old_forces[source as usize])
         })
         .unzip()

@@ -171,6 +171,8 @@ pub struct BlockGrid {
     entries: Vec<(u64, u32)>,
     /// Blocks whose stored box spans more than MAX_CELLS_PER_BLOCK cells.
     large: Vec<u32>,
+    /// Builds so far (`builds`).
+    builds: u64,
 }
 
 impl std::fmt::Debug for BlockGrid {
@@ -259,6 +261,7 @@ impl BlockGrid {
         });
         self.entries.par_sort_unstable();
         self.shape = Some((n, model.corners.len()));
+        self.builds += 1;
         current
     }
 
@@ -326,6 +329,48 @@ impl BlockGrid {
         // Two large blocks find each other twice.
         pairs.dedup();
         pairs
+    }
+
+    /// Whether the grid was built for a model of this shape (an update then keeps it).
+    pub fn kept_for(&self, model: &Model) -> bool {
+        self.valid_for(model)
+    }
+
+    /// How many times a grid was built (`build`): the reference below changes only then.
+    pub fn builds(&self) -> u64 {
+        self.builds
+    }
+
+    /// Per block when the grid was built: centroid, rotation, reach, speed margin.
+    pub fn reference(&self) -> &[[f64; 5]] {
+        &self.reference
+    }
+
+    /// Half the grid's margin: a block whose corners moved farther since the build may have left
+    /// its stored box (`strayed`).
+    pub fn stray_limit(&self) -> f64 {
+        0.5 * self.margin
+    }
+
+    /// Every block `query` may read for these flagged and strayed blocks (ascending): the flagged
+    /// and strayed ones, and those whose stored boxes overlap a flagged block's box (`boxes`,
+    /// current, in the order of `flagged_list`). None when a box spans more cells than there are
+    /// blocks (the query then tests every block).
+    fn neighbourhood(&self, n: usize, flagged_list: &[u32], strayed: &[u32], boxes: &[[f64; 4]]) -> Option<Vec<u32>> {
+        let mut out: Vec<u32> = flagged_list.iter().chain(strayed).copied().collect();
+        for fb in boxes {
+            let range = self.cells.range(fb);
+            if range.count() > (n as u64).max(MAX_CELLS_PER_BLOCK) {
+                return None;
+            }
+            for key in range.keys() {
+                out.extend(members(&self.entries, key).iter().map(|&(_, b)| b).filter(|&b| boxes_overlap(fb, &self.stored[b as usize])));
+            }
+            out.extend(self.large.iter().copied().filter(|&b| boxes_overlap(fb, &self.stored[b as usize])));
+        }
+        out.sort_unstable();
+        out.dedup();
+        Some(out)
     }
 
     /// The same pairs as `sweep` for a few flagged blocks (`flagged_list`, ascending), from the
@@ -524,7 +569,7 @@ pub struct ContactChanges {
 /// new contacts, drops broken ones, and returns how many contacts were created and dropped.
 /// The caller rebuilds the adjacency lists afterwards.
 pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
-    let ch = in_pool(|| update(model, all, &mut BlockGrid::default(), None));
+    let ch = in_pool(|| update_here(model, all, &mut BlockGrid::default(), None));
     (ch.created, ch.dropped)
 }
 
@@ -533,9 +578,49 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
 /// of the contacts dropped moved to the ledger's retired account.
 pub fn update_topology(model: &mut Model, all: bool, adjacency: &mut Adjacency) -> (usize, usize) {
     let mut grid = std::mem::take(&mut adjacency.grid);
-    let ch = in_pool(|| update(model, all, &mut grid, Some(adjacency)));
+    let ch = in_pool(|| update_here(model, all, &mut grid, Some(adjacency)));
     adjacency.grid = grid;
     (ch.created, ch.dropped)
+}
+
+/// Brings blocks (or, given None, everything) into a model current only in part (`Attention`).
+pub type Fetch<'a> = dyn FnMut(&mut Model, Option<&[u32]>) -> Result<(), String> + 'a;
+
+/// What a backend whose state lives elsewhere (the GPU's device memory) gives the contact update
+/// instead of a model whose every block and contact is current (`update_topology_with`).
+pub struct Attention<'a> {
+    /// Ascending: a superset of the blocks the update may re-examine (past half their threshold)
+    /// or find strayed from the grid, each current in the model (record and corners).
+    pub blocks: Vec<u32>,
+    /// Ascending: a superset of the contacts it may drop by their gap, each current in the model;
+    /// with them every contact of a block in `blocks` whose margin it may change.
+    pub contacts: Vec<u32>,
+    /// Called once the re-examined and strayed blocks are known, before anything in the model
+    /// changes: brings into the model the blocks the update will read (ascending; their records,
+    /// corners and runs of contacts, block 1 first), or, given None, everything. An error ends
+    /// the update with the model as it was.
+    pub fetch: &'a mut Fetch<'a>,
+}
+
+/// `update_topology` on a model that is current only where `attention` says (and where its
+/// `fetch` brings it): the contact list must be in the update's order (block 1, corner, block 2)
+/// and the grid kept in `adjacency` built for this model. The blocks re-examined and the
+/// contacts dropped are exactly those `update_topology` would find on the whole current model.
+/// Returns the contacts created and dropped and the blocks re-examined (ascending).
+pub fn update_topology_with(model: &mut Model, adjacency: &mut Adjacency, attention: &mut Attention<'_>) -> Result<(usize, usize, Vec<u32>), String> {
+    let mut grid = std::mem::take(&mut adjacency.grid);
+    // Not in rayon's pool: the fetch may hold the device, which stays on this thread.
+    let result = update(model, false, &mut grid, Some(adjacency), Some(attention));
+    adjacency.grid = grid;
+    result.map(|(ch, flagged)| (ch.created, ch.dropped, flagged))
+}
+
+/// `update` where nothing is fetched (no attention), so nothing can fail.
+fn update_here(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<&mut Adjacency>) -> ContactChanges {
+    match update(model, all, grid, adjacency, None) {
+        Ok((ch, _)) => ch,
+        Err(e) => unreachable!("an update without attention fetched nothing: {e}"),
+    }
 }
 
 /// Runs `f` on one of rayon's worker threads: the update's many short parallel loops then start
@@ -567,47 +652,91 @@ fn retire(model: &mut Model, dropped: &[u32]) {
     model.retired.friction += friction;
 }
 
-fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<&mut Adjacency>) -> ContactChanges {
+fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<&mut Adjacency>, mut attention: Option<&mut Attention<'_>>) -> Result<(ContactChanges, Vec<u32>), String> {
     let n = model.blocks.len();
     let tol = model.tol;
     let btol = tol.btol;
-    // One pass over the blocks: those flagged, and (with a grid to keep) the unflagged ones that
-    // may have left their stored boxes. Flagged: past its update threshold, or past half of it
-    // (an update is under way: re-examining the blocks that would soon ask for one of their own
-    // keeps a crowd of moving blocks, flying debris, from calling one update each).
+    // One pass over the blocks (or over those the attention lists): those flagged, and (with a
+    // grid to keep) the unflagged ones that may have left their stored boxes. Flagged: past its
+    // update threshold, or past half of it (an update is under way: re-examining the blocks that
+    // would soon ask for one of their own keeps a crowd of moving blocks, flying debris, from
+    // calling one update each).
     let keep_grid = !all && grid.valid_for(model);
-    let (flagged_list, strayed): (Vec<u32>, Vec<u32>) = {
-        let g = &*grid;
-        model
-            .blocks
-            .par_iter()
-            .enumerate()
-            .with_min_len(PARALLEL_BLOCKS)
-            .fold(
-                || (Vec::new(), Vec::new()),
-                |(mut f, mut s), (b, blk)| {
-                    if all || (!blk.fixed && blk.moved_since_update > 0.5 * blk.update_threshold(&tol)) {
-                        f.push(b as u32);
-                    } else if keep_grid && g.strayed(b, blk) {
-                        s.push(b as u32);
-                    }
-                    (f, s)
-                },
-            )
-            .reduce(
-                || (Vec::new(), Vec::new()),
-                |(mut f, mut s), (f2, s2)| {
-                    f.extend(f2);
-                    s.extend(s2);
-                    (f, s)
-                },
-            )
+    // 1: flagged, 2: strayed, 0: neither.
+    let pick = |g: &BlockGrid, b: usize, blk: &Block| -> u8 {
+        if all || (!blk.fixed && blk.moved_since_update > 0.5 * blk.update_threshold(&tol)) {
+            1
+        } else if keep_grid && g.strayed(b, blk) {
+            2
+        } else {
+            0
+        }
+    };
+    let (flagged_list, strayed): (Vec<u32>, Vec<u32>) = match attention.as_deref() {
+        Some(att) => {
+            let (mut f, mut s) = (Vec::new(), Vec::new());
+            for &b in &att.blocks {
+                match pick(grid, b as usize, &model.blocks[b as usize]) {
+                    1 => f.push(b),
+                    2 => s.push(b),
+                    _ => {}
+                }
+            }
+            (f, s)
+        }
+        None => {
+            let g = &*grid;
+            model
+                .blocks
+                .par_iter()
+                .enumerate()
+                .with_min_len(PARALLEL_BLOCKS)
+                .fold(
+                    || (Vec::new(), Vec::new()),
+                    |(mut f, mut s), (b, blk)| {
+                        match pick(g, b, blk) {
+                            1 => f.push(b as u32),
+                            2 => s.push(b as u32),
+                            _ => {}
+                        }
+                        (f, s)
+                    },
+                )
+                .reduce(
+                    || (Vec::new(), Vec::new()),
+                    |(mut f, mut s), (f2, s2)| {
+                        f.extend(f2);
+                        s.extend(s2);
+                        (f, s)
+                    },
+                )
+        }
     };
 
     // The examined blocks' speed margins for the interval to their next update, from their
     // velocity now: the search below reaches that much farther around them.
     let dt = model.timestep;
-    let margin = |b: &mut Block| b.update_margin = if b.fixed { 0.0 } else { tol.speed_margin(b.travel_per_step(dt)) };
+    let new_margin = |b: &Block| if b.fixed { 0.0 } else { tol.speed_margin(b.travel_per_step(dt)) };
+    if let Some(att) = attention.as_deref_mut() {
+        // What the search below reads, brought in before the margins change (a fetch of
+        // everything would overwrite them): the flagged blocks' neighbourhoods in the kept grid,
+        // or everything when the update sweeps or rebuilds the grid.
+        if n >= 2 && !flagged_list.is_empty() {
+            let sweeps = !keep_grid || flagged_list.len() > n / SWEEP_FRACTION || strayed.len() > n / REBUILD_FRACTION;
+            let needed = if sweeps {
+                None
+            } else {
+                let pad = 0.5 * tol.atol;
+                let boxes: Vec<[f64; 4]> = flagged_list
+                    .iter()
+                    .map(|&f| bounding_box(corners_of(&model.blocks, &model.corners, f as usize), pad + new_margin(&model.blocks[f as usize])))
+                    .collect();
+                grid.neighbourhood(n, &flagged_list, &strayed, &boxes)
+            };
+            (att.fetch)(model, needed.as_deref())?;
+        }
+    }
+    let margin = |b: &mut Block| b.update_margin = new_margin(b);
     if all {
         model.blocks.par_iter_mut().with_min_len(PARALLEL_BLOCKS).for_each(margin);
     } else {
@@ -648,6 +777,8 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     // block's contacts are one run; the contacts of pairs not examined below, decided by their
     // current gap (kept up to date every cycle by the contact stage); and, when many blocks are
     // examined, where each block's run starts.
+    let exact_drop = |c: &Contact, blocks: &[Block]| c.gap > btol + blocks[c.block1 as usize].update_margin + blocks[c.block2 as usize].update_margin;
+    let check_gaps = attention.is_none();
     let scan = |contacts: &[Contact], blocks: &[Block]| {
         contacts
             .par_iter()
@@ -658,7 +789,7 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
                 |(mut in_order, mut drops, mut starts), (k, c)| {
                     let prev = k.checked_sub(1).map(|j| &contacts[j]);
                     in_order &= prev.is_none_or(|p| contact_key(p) <= contact_key(c));
-                    if c.gap > btol + blocks[c.block1 as usize].update_margin + blocks[c.block2 as usize].update_margin {
+                    if check_gaps && exact_drop(c, blocks) {
                         drops.push(k as u32);
                     }
                     if many && prev.is_none_or(|p| p.block1 != c.block1) {
@@ -683,6 +814,12 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
         // from the list as given.
         contacts.par_sort_by_key(contact_key);
         (_, gap_dropped, run_starts) = scan(contacts, blocks);
+    }
+    if let Some(att) = attention.as_deref() {
+        // The attention's contacts are indices into the list as it came (in order, checked by
+        // the caller: `Attention` needs it).
+        debug_assert!(sorted, "an attention's contact list must be in the update's order");
+        gap_dropped = att.contacts.iter().copied().filter(|&k| exact_drop(&contacts[k as usize], blocks)).collect();
     }
 
     // Narrow phase, one task per block with candidates, on that block's own run of contacts.
@@ -793,7 +930,7 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
             reset(&mut model.blocks[b as usize]);
         }
     }
-    changes
+    Ok((changes, flagged_list))
 }
 
 /// Removes the contacts at `dropped` (ascending) and inserts `new_contacts`, each before the
@@ -950,6 +1087,92 @@ mod tests {
             assert!(model.contacts == fresh.contacts && model.blocks == fresh.blocks, "round {round}: contacts differ");
             assert!(adjacency == Adjacency::build(model.blocks.len(), &model.contacts), "round {round}: adjacency");
         }
+    }
+
+    #[test]
+    fn an_update_from_what_it_reads_matches_the_whole_state() {
+        // A backend that keeps the state elsewhere (the GPU) gives the update lists of what it may
+        // touch and a fetch for the rest (`update_topology_with`); the model it holds is stale
+        // elsewhere. Here `stale` is current only where the lists and the fetches made it so,
+        // and the update must find what the whole current state (`truth`) gives: the same
+        // contacts created, dropped and re-featured, the same blocks re-examined. Each round also
+        // moves the flagged blocks' right-hand neighbours by 3 cm, unflagged and within the grid's
+        // margin, so a fetch that missed a neighbourhood would measure gaps from stale corners.
+        let (mut truth, mut adjacency) = wall(1000);
+        let mut stale = truth.clone();
+        let mut stale_adjacency = adjacency.clone();
+        let etol = truth.tol.etol;
+        let mut changed = 0;
+        for round in 0..6usize {
+            for k in 0..30 {
+                let b = 1 + (round * 97 + k * 13) % (truth.blocks.len() - 2);
+                if truth.blocks[b].fixed || truth.blocks[b + 1].fixed {
+                    continue;
+                }
+                let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+                shift(&mut truth, b, [sign * 0.07 * (round + 1) as f64, 0.01 * round as f64], 0.002 * sign);
+                truth.blocks[b].moved_since_update = if k % 5 == 0 { 0.5 * etol } else { 2.0 * etol };
+                shift(&mut truth, b + 1, [-0.03 * sign, 0.0], 0.0);
+                truth.blocks[b + 1].moved_since_update = truth.blocks[b + 1].moved_since_update.max(0.3 * etol);
+            }
+            // The lists, loosened as the device's are: blocks near their update or strayed,
+            // contacts opened near btol or of such a block.
+            let grid = &stale_adjacency.grid;
+            let near = |m: &Model, b: usize| !m.blocks[b].fixed && m.blocks[b].moved_since_update > 0.45 * m.blocks[b].update_threshold(&m.tol);
+            let blocks: Vec<u32> = (0..truth.blocks.len()).filter(|&b| near(&truth, b) || grid.strayed(b, &truth.blocks[b])).map(|b| b as u32).collect();
+            let contacts: Vec<u32> = (0..truth.contacts.len())
+                .filter(|&k| {
+                    let c = &truth.contacts[k];
+                    let limit = truth.tol.btol + truth.blocks[c.block1 as usize].update_margin + truth.blocks[c.block2 as usize].update_margin;
+                    c.gap > 0.99 * limit || near(&truth, c.block1 as usize) || near(&truth, c.block2 as usize)
+                })
+                .map(|k| k as u32)
+                .collect();
+            // What a backend reads back: the listed blocks (records, corners) and contacts.
+            let bring_block = |to: &mut Model, from: &Model, b: usize| {
+                to.blocks[b] = from.blocks[b].clone();
+                let blk = &from.blocks[b];
+                let r = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
+                to.corners[r.clone()].clone_from_slice(&from.corners[r]);
+            };
+            for &b in &blocks {
+                bring_block(&mut stale, &truth, b as usize);
+            }
+            for &k in &contacts {
+                stale.contacts[k as usize] = truth.contacts[k as usize];
+            }
+            let before = truth.clone();
+            let mut fetched = 0;
+            let mut fetch = |m: &mut Model, needed: Option<&[u32]>| -> Result<(), String> {
+                match needed {
+                    None => *m = before.clone(),
+                    Some(list) => {
+                        fetched += list.len();
+                        for &b in list {
+                            bring_block(m, &before, b as usize);
+                            for (k, c) in before.contacts.iter().enumerate().filter(|(_, c)| c.block1 == b) {
+                                m.contacts[k] = *c;
+                            }
+                        }
+                    }
+                }
+                Ok(())
+            };
+            let mut attention = Attention { blocks, contacts, fetch: &mut fetch };
+            let (created, dropped, flagged) = update_topology_with(&mut stale, &mut stale_adjacency, &mut attention).expect("fetched");
+            let expected = update_topology(&mut truth, false, &mut adjacency);
+            assert_eq!((created, dropped), expected, "round {round}");
+            assert!(!flagged.is_empty(), "round {round}: nothing re-examined");
+            changed += created + dropped;
+            assert!(fetched < truth.blocks.len() / 4, "round {round}: fetched {fetched} blocks");
+            let key = |c: &Contact| (c.id, c.block1, c.corner, c.block2, c.feature, c.kind);
+            assert!(stale.contacts.iter().map(key).eq(truth.contacts.iter().map(key)), "round {round}: contact lists differ");
+            for &b in &flagged {
+                assert_eq!(stale.blocks[b as usize], truth.blocks[b as usize], "round {round}: block {b}");
+            }
+            assert!(stale_adjacency == adjacency, "round {round}: adjacency");
+        }
+        assert!(changed > 50, "the moves created and dropped {changed} contacts");
     }
 
     #[test]
