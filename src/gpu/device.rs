@@ -161,6 +161,8 @@ pub struct GpuDevice {
     uncaptured: std::sync::Arc<std::sync::Mutex<Option<String>>>,
     /// The read-back staging buffer, kept between read-backs (`read_parts`).
     staging: std::sync::Mutex<Option<wgpu::Buffer>>,
+    /// Bytes read back so far (`read_gathered`), for the benchmark's transfer figures.
+    read_bytes: std::sync::atomic::AtomicU64,
 }
 
 impl GpuDevice {
@@ -241,7 +243,7 @@ impl GpuDevice {
                 slot.get_or_insert_with(|| e.to_string());
             }
         }));
-        Ok(GpuDevice { device, queue, summary, precision, uncaptured, staging: std::sync::Mutex::new(None) })
+        Ok(GpuDevice { device, queue, summary, precision, uncaptured, staging: std::sync::Mutex::new(None), read_bytes: Default::default() })
     }
 
     /// Waits for all submitted work, at most `WAIT_TIMEOUT`.
@@ -308,6 +310,7 @@ impl GpuDevice {
             }
         }
         self.queue.submit([enc.finish()]);
+        self.read_bytes.fetch_add(sizes.iter().sum::<u64>(), std::sync::atomic::Ordering::Relaxed);
         let (tx, rx) = std::sync::mpsc::channel();
         staging.map_async(wgpu::MapMode::Read, ..total, move |r| {
             let _ = tx.send(r);
@@ -328,6 +331,11 @@ impl GpuDevice {
             *kept = Some(staging);
         }
         Ok(result)
+    }
+
+    /// Bytes read back from the device so far.
+    pub fn bytes_read(&self) -> u64 {
+        self.read_bytes.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Copies the first `n` items of type `T` of `buffer` back to the CPU (bounded wait), with
