@@ -340,7 +340,7 @@ struct Engine<R: Real> {
     /// Contact updates read back only the blocks, corners and contacts they touch
     /// (`partial_contact_update`), when the splice is on.
     partial_reads: bool,
-    /// Contact updates made so since the backend was made.
+    /// Contact updates made that way since the backend was made.
     partial_updates: u64,
     /// The buffers of `list_blocks.wgsl` (made at the first partial update).
     lists: Option<partial::ListBuffers>,
