@@ -106,8 +106,10 @@ fn cycles_to_threshold(model: &Model, b: &crate::model::Block) -> Option<u64> {
 
 /// What `Engine::partial_contact_update` did.
 enum PartialUpdate {
-    /// Nothing: the update needs the whole state (the caller reads it back as before).
-    Declined,
+    /// Nothing: the update needs the whole state (the caller reads it back as before), with the
+    /// contact list's keys when they were taken (the splice's merge needs them; the whole
+    /// read-back does not change them).
+    Declined(Option<splice::ContactsBefore>),
     /// No block is past its threshold by the CPU's exact test: no update.
     NotDue,
     /// The update ran; the next one is expected after this many cycles.
@@ -1220,11 +1222,11 @@ where
     fn partial_contact_update(&mut self, model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport) -> Result<PartialUpdate, GpuError> {
         let (nb, _, nk) = self.counts;
         if nb < 2 || !adjacency.grid.kept_for(model) {
-            return Ok(PartialUpdate::Declined);
+            return Ok(PartialUpdate::Declined(None));
         }
         let before = splice::ContactsBefore::of(model);
         if !before.spliceable() {
-            return Ok(PartialUpdate::Declined);
+            return Ok(PartialUpdate::Declined(Some(before)));
         }
         // The lists, on the device.
         let (listed, listed_contacts, fewest) = {
@@ -1277,7 +1279,7 @@ where
             // Many listed: an update that sweeps or rebuilds the grid (it reads every block), or
             // one that drops a crowd of contacts; the whole read-back is then as cheap.
             if n_listed > nb / 8 || n_contacts > nk / 8 + 64 {
-                return Ok(PartialUpdate::Declined);
+                return Ok(PartialUpdate::Declined(Some(before)));
             }
             let (mut listed, mut listed_contacts) = self.dev.read_parts(&[(&lists.listed_blocks, (n_listed * 4) as u64), (&lists.listed_contacts, (n_contacts * 4) as u64)], |bytes| {
                 (bytemuck::pod_collect_to_vec::<u8, u32>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, u32>(bytes[1]))
@@ -1568,11 +1570,12 @@ where
                 report.cycles += done;
                 let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
                 let mut handled = false;
+                let mut keys_before = None;
                 if partial_reads && flags.update_due != 0 {
                     // Stage 7 on what it touches (`partial_contact_update`), unless it needs the
                     // whole state.
                     match self.partial_contact_update(model, &mut adjacency, &mut report).map_err(device_error)? {
-                        PartialUpdate::Declined => {}
+                        PartialUpdate::Declined(keys) => keys_before = keys,
                         PartialUpdate::NotDue => handled = true,
                         PartialUpdate::Updated(expected) => {
                             expected_update = expected;
@@ -1606,7 +1609,7 @@ where
                     // After a packed read the update may go on only if the splice will place
                     // every kept contact (the whole upload would send stale fields): otherwise
                     // the contacts are read whole first (the device has not moved since).
-                    let mut before = (self.splice && cpu::topology_update_due(model)).then(|| splice::ContactsBefore::of(model));
+                    let mut before = (self.splice && cpu::topology_update_due(model)).then(|| keys_before.take().unwrap_or_else(|| splice::ContactsBefore::of(model)));
                     if before.as_ref().is_some_and(|b| !b.spliceable()) {
                         before = None;
                         if packed {
