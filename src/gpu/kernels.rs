@@ -195,7 +195,7 @@ fn too_large(label: &str, need: u64, cap: u64, item: usize, precision: Precision
     format!("the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); {advice}")
 }
 
-fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
+pub(crate) fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
     let cap = binding_cap(dev);
     let need = (count.max(1) * item) as u64;
     if need > cap {

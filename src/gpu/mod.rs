@@ -1221,7 +1221,7 @@ where
     /// next whole read-back. Declines, changing nothing, when the update needs the whole state.
     fn partial_contact_update(&mut self, model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport) -> Result<PartialUpdate, GpuError> {
         let (nb, _, nk) = self.counts;
-        if nb < 2 || !adjacency.grid.kept_for(model) {
+        if nb < 2 || !adjacency.grid.valid_for(model) {
             return Ok(PartialUpdate::Declined(None));
         }
         let before = splice::ContactsBefore::of(model);
@@ -1233,7 +1233,7 @@ where
             let _p = crate::profile::scope(crate::profile::Stage::Download);
             if self.lists.as_ref().is_none_or(|l| !l.fits(nb, nk)) {
                 self.lists = None;
-                self.lists = Some(partial::ListBuffers::new::<R>(&self.dev, nb, nk * 5 / 4)?);
+                self.lists = Some(partial::ListBuffers::new::<R>(&self.dev, nb, nk)?);
             }
             let origin = self.uploaded.origin;
             let grid = &adjacency.grid;
@@ -1241,7 +1241,7 @@ where
             let key = (grid.builds(), origin, nb);
             if lists.reference_of != Some(key) {
                 let reference = partial::grid_reference::<R>(grid.reference(), origin);
-                self.dev.queue.write_buffer(&lists.reference, 0, bytemuck::cast_slice(&reference));
+                self.dev.queue.write_buffer(&lists.reference.buffer, 0, bytemuck::cast_slice(&reference));
                 lists.reference_of = Some(key);
             }
             let t = model.tol;
@@ -1257,31 +1257,31 @@ where
             };
             let q = &self.dev.queue;
             q.write_buffer(&lists.params, 0, bytemuck::bytes_of(&lp));
-            q.write_buffer(&lists.header, 0, bytemuck::cast_slice(&[0u32, 0, u32::MAX, 0]));
+            q.write_buffer(&lists.header.buffer, 0, bytemuck::cast_slice(&[0u32, 0, u32::MAX, 0]));
             let b = self.buffers();
             let lists = self.lists.as_ref().expect("made above");
             let entries = [
                 wgpu::BindGroupEntry { binding: 0, resource: lists.params.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: b.blocks.buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: b.contacts.buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: lists.reference.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: lists.header.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: lists.listed_blocks.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: lists.listed_contacts.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: lists.reference.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: lists.header.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: lists.listed_blocks.buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: lists.listed_contacts.buffer.as_entire_binding() },
             ];
             let p = &self.pipelines;
             kernels::dispatch_items(&self.dev, "list_blocks", &p.list_blocks, &p.lists_layout, &entries, nb)?;
             if nk > 0 {
                 kernels::dispatch_items(&self.dev, "list_contacts", &p.list_contacts, &p.lists_layout, &entries, nk)?;
             }
-            let header: Vec<u32> = self.dev.read_pod(&lists.header, 4)?;
+            let header: Vec<u32> = self.dev.read_pod(&lists.header.buffer, 4)?;
             let (n_listed, n_contacts) = (header[0] as usize, header[1] as usize);
             // Many listed: an update that sweeps or rebuilds the grid (it reads every block), or
             // one that drops a crowd of contacts; the whole read-back is then as cheap.
             if n_listed > nb / 8 || n_contacts > nk / 8 + 64 {
                 return Ok(PartialUpdate::Declined(Some(before)));
             }
-            let (mut listed, mut listed_contacts) = self.dev.read_parts(&[(&lists.listed_blocks, (n_listed * 4) as u64), (&lists.listed_contacts, (n_contacts * 4) as u64)], |bytes| {
+            let (mut listed, mut listed_contacts) = self.dev.read_parts(&[(&lists.listed_blocks.buffer, (n_listed * 4) as u64), (&lists.listed_contacts.buffer, (n_contacts * 4) as u64)], |bytes| {
                 (bytemuck::pod_collect_to_vec::<u8, u32>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, u32>(bytes[1]))
             })?;
             listed.sort_unstable();
@@ -1289,13 +1289,13 @@ where
             (listed, listed_contacts, header[2])
         };
         // The listed blocks and contacts into the model.
-        let records = self.read_subset(model, &listed, &partial::runs(&listed_contacts))?;
+        let mut read_contacts = partial::runs(&listed_contacts);
+        let records = self.read_subset(model, &listed, &read_contacts)?;
         let tol = model.tol;
         if !listed.iter().any(|&b| model.blocks[b as usize].update_due(&tol)) {
             return Ok(PartialUpdate::NotDue);
         }
         // The update, which fetches the re-examined blocks' neighbourhoods.
-        let mut read_contacts = partial::runs(&listed_contacts);
         let mut read_all = false;
         let outcome = {
             let _p = crate::profile::scope(crate::profile::Stage::DetectUpdate);
@@ -1307,18 +1307,12 @@ where
                     }
                     Some(blocks) => {
                         // Each block's run of contacts (as block 1; the list is in that order).
-                        let contact_runs: Vec<(u32, u32)> = partial::merge_runs(
-                            &blocks
-                                .iter()
-                                .map(|&b| {
-                                    let lo = m.contacts.partition_point(|c| c.block1 < b);
-                                    (lo as u32, (lo + m.contacts[lo..].partition_point(|c| c.block1 == b)) as u32)
-                                })
-                                .collect::<Vec<_>>(),
-                            &[],
-                        );
+                        let contact_runs = partial::join_runs(blocks.iter().map(|&b| {
+                            let lo = m.contacts.partition_point(|c| c.block1 < b);
+                            (lo as u32, (lo + m.contacts[lo..].partition_point(|c| c.block1 == b)) as u32)
+                        }));
                         self.read_subset(m, blocks, &contact_runs).map_err(|e| e.to_string())?;
-                        read_contacts = partial::merge_runs(&read_contacts, &contact_runs);
+                        read_contacts = partial::join_runs(read_contacts.iter().chain(&contact_runs).copied());
                     }
                 }
                 Ok(())
@@ -1394,13 +1388,10 @@ where
         let b = self.buffers();
         let (bs, cs, ks) = (std::mem::size_of::<Block<R>>() as u64, std::mem::size_of::<Corner<R>>() as u64, std::mem::size_of::<Contact<R>>() as u64);
         let block_runs = partial::runs(blocks);
-        let corner_runs = partial::merge_runs(
-            &blocks.iter().map(|&k| {
-                let blk = &model.blocks[k as usize];
-                (blk.corner_start, blk.corner_start + blk.corner_count)
-            }).collect::<Vec<_>>(),
-            &[],
-        );
+        let corner_runs = partial::join_runs(blocks.iter().map(|&k| {
+            let blk = &model.blocks[k as usize];
+            (blk.corner_start, blk.corner_start + blk.corner_count)
+        }));
         fn ranges<'a>(buffer: &'a wgpu::Buffer, runs: &[(u32, u32)], size: u64) -> Vec<(&'a wgpu::Buffer, u64, u64)> {
             runs.iter().map(|&(s, e)| (buffer, s as u64 * size, (e - s) as u64 * size)).collect()
         }

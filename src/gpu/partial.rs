@@ -10,6 +10,7 @@
 //! is then current only where it was read; the device keeps the rest, and the splice that
 //! follows leaves unread contacts as the device holds them (`splice::KEEP_FEATURE`).
 
+use super::kernels::{slab, Slab};
 use super::layout::{Block, Contact, GridReference, ListParams, Real};
 use super::GpuError;
 
@@ -100,9 +101,9 @@ pub fn runs(sorted: &[u32]) -> Vec<(u32, u32)> {
     out
 }
 
-/// Merges two sets of ascending, disjoint runs into one.
-pub fn merge_runs(a: &[(u32, u32)], b: &[(u32, u32)]) -> Vec<(u32, u32)> {
-    let mut all: Vec<(u32, u32)> = a.iter().chain(b).copied().filter(|r| r.0 < r.1).collect();
+/// Runs [start, end) in any order, overlapping or touching, joined into ascending disjoint ones.
+pub fn join_runs(runs: impl IntoIterator<Item = (u32, u32)>) -> Vec<(u32, u32)> {
+    let mut all: Vec<(u32, u32)> = runs.into_iter().filter(|r| r.0 < r.1).collect();
     all.sort_unstable();
     let mut out: Vec<(u32, u32)> = Vec::with_capacity(all.len());
     for r in all {
@@ -118,10 +119,10 @@ pub fn merge_runs(a: &[(u32, u32)], b: &[(u32, u32)]) -> Vec<(u32, u32)> {
 /// and fewest cycles) and the two lists.
 pub struct ListBuffers {
     pub params: wgpu::Buffer,
-    pub reference: wgpu::Buffer,
-    pub header: wgpu::Buffer,
-    pub listed_blocks: wgpu::Buffer,
-    pub listed_contacts: wgpu::Buffer,
+    pub reference: Slab,
+    pub header: Slab,
+    pub listed_blocks: Slab,
+    pub listed_contacts: Slab,
     /// (grid builds, origin, blocks) the reference on the device was made for.
     pub reference_of: Option<(u64, [f64; 2], usize)>,
 }
@@ -132,27 +133,25 @@ impl ListBuffers {
         GridReference<R>: bytemuck::Pod,
         ListParams<R>: bytemuck::Pod,
     {
-        let cap = super::kernels::binding_cap(dev);
-        let make = |label: &str, size: u64, usage: wgpu::BufferUsages| -> Result<wgpu::Buffer, GpuError> {
-            if size > cap {
-                return Err(GpuError::Setup(format!("the {label} buffer would need {size} bytes, more than one binding may hold on this adapter ({cap} bytes)")));
-            }
-            Ok(dev.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size.max(16), usage, mapped_at_creation: false }))
-        };
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let params = dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("list params"),
+            size: std::mem::size_of::<ListParams<R>>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         Ok(ListBuffers {
-            params: make("list params", std::mem::size_of::<ListParams<R>>() as u64, wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST)?,
-            reference: make("grid reference", (blocks.max(1) * std::mem::size_of::<GridReference<R>>()) as u64, storage)?,
-            header: make("list header", 16, storage)?,
-            listed_blocks: make("listed blocks", (blocks.max(1) * 4) as u64, storage)?,
-            listed_contacts: make("listed contacts", (contacts.max(1) * 4) as u64, storage)?,
+            params,
+            reference: slab(dev, "grid reference", std::mem::size_of::<GridReference<R>>(), blocks)?,
+            header: slab(dev, "list header", 4, 4)?,
+            listed_blocks: slab(dev, "listed blocks", 4, blocks)?,
+            listed_contacts: slab(dev, "listed contacts", 4, contacts)?,
             reference_of: None,
         })
     }
 
     /// Whether these buffers hold lists of this many blocks and contacts.
     pub fn fits(&self, blocks: usize, contacts: usize) -> bool {
-        self.listed_blocks.size() >= (blocks * 4) as u64 && self.listed_contacts.size() >= (contacts * 4) as u64
+        self.reference.capacity >= blocks && self.listed_blocks.capacity >= blocks && self.listed_contacts.capacity >= contacts
     }
 }
 
@@ -165,6 +164,6 @@ mod tests {
         assert_eq!(runs(&[]), vec![]);
         assert_eq!(runs(&[3, 4, 5, 9, 11, 12]), vec![(3, 6), (9, 10), (11, 13)]);
         assert_eq!(runs(&[3, 3, 4]), vec![(3, 5)]);
-        assert_eq!(merge_runs(&[(0, 2), (5, 7)], &[(1, 3), (7, 8), (10, 10)]), vec![(0, 3), (5, 8)]);
+        assert_eq!(join_runs([(5, 7), (0, 2), (1, 3), (7, 8), (10, 10)]), vec![(0, 3), (5, 8)]);
     }
 }

@@ -182,7 +182,8 @@ impl std::fmt::Debug for BlockGrid {
 }
 
 impl BlockGrid {
-    fn valid_for(&self, model: &Model) -> bool {
+    /// Whether the grid was built for a model of this shape (an update then keeps it).
+    pub fn valid_for(&self, model: &Model) -> bool {
         self.shape == Some((model.blocks.len(), model.corners.len()))
     }
 
@@ -329,11 +330,6 @@ impl BlockGrid {
         // Two large blocks find each other twice.
         pairs.dedup();
         pairs
-    }
-
-    /// Whether the grid was built for a model of this shape (an update then keeps it).
-    pub fn kept_for(&self, model: &Model) -> bool {
-        self.valid_for(model)
     }
 
     /// How many times a grid was built (`build`): the reference below changes only then.
