@@ -24,7 +24,8 @@ mod common;
 
 use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
 use blockdem::gpu::layout::{Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams, Material as GMaterial, Real};
-use blockdem::gpu::splice::{pack_contacts, splice_contacts, KEEP_FEATURE, NEW_CONTACT};
+use blockdem::gpu::splice::{pack_contacts, patch_contacts, splice_contacts, NEW_CONTACT};
+use blockdem::topology::detect::ListEdit;
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
 use common::Target;
@@ -589,10 +590,10 @@ fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
     }
 }
 
-/// `splice_contacts.wgsl` against `gpu::splice::splice_contacts` on a random old list, random
-/// moves (kept contacts in order with a few dropped, new contacts between them) and random
-/// created contacts: the kernel only copies and clears, so the lists agree bit for bit in both
-/// precisions.
+/// `splice_contacts.wgsl` against `gpu::splice::splice_contacts` and `patch_contacts` on a random
+/// old list, a random edit (a few dropped, new contacts between the kept ones, as runs) with
+/// random created contacts, and random patches of kept contacts (and one past the list): the
+/// kernels only copy and clear, so the lists agree bit for bit in both precisions.
 fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice)
 where
     GContact<R>: bytemuck::Pod,
@@ -610,23 +611,34 @@ where
         c
     };
     let force = |rng: &mut Rng| GForce::<R> { fx: R::from_f64(rng.range(-1e6, 1e6)), fy: R::from_f64(rng.range(-1e6, 1e6)), m: [R::from_f64(rng.next()), R::from_f64(-rng.next())] };
-    let n_old = 3000;
+    let n_old = 3000u32;
     let old: Vec<GContact<R>> = (0..n_old).map(|_| contact(&mut rng)).collect();
     let old_forces: Vec<GForce<R>> = (0..n_old).map(|_| force(&mut rng)).collect();
-    let (mut moves, mut created, mut created_forces) = (Vec::new(), Vec::new(), Vec::new());
-    for k in 0..n_old as u32 {
-        if rng.next() < 0.1 {
-            moves.push([NEW_CONTACT | created.len() as u32, 0]);
-            created.push(contact(&mut rng));
-            created_forces.push(force(&mut rng));
+    let (mut dropped, mut insert_before) = (Vec::new(), Vec::new());
+    for k in 0..=n_old {
+        while rng.next() < 0.1 {
+            insert_before.push(k);
         }
-        if rng.next() > 0.05 {
-            // A fifth kept as the device holds them (contacts a partial read-back did not read).
-            moves.push([k, if rng.next() < 0.2 { KEEP_FEATURE } else { rng.below(8) }]);
+        if k < n_old && rng.next() < 0.05 {
+            dropped.push(k);
         }
     }
-    let (want, want_forces) = splice_contacts(&old, &old_forces, &moves, &created, &created_forces);
-    let n = moves.len();
+    let created: Vec<GContact<R>> = insert_before.iter().map(|_| contact(&mut rng)).collect();
+    let created_forces: Vec<GForce<R>> = insert_before.iter().map(|_| force(&mut rng)).collect();
+    let mut positions: Vec<u32> = (0..n_old).collect();
+    let inserted_at = blockdem::topology::detect::splice(&mut positions, &dropped, &insert_before, std::iter::repeat_n(u32::MAX, insert_before.len()));
+    let edit = ListEdit { old_len: n_old, dropped, insert_before, inserted_at };
+    let runs = edit.runs(NEW_CONTACT);
+    let n = edit.new_len() as usize;
+    // A fifth of the kept contacts patched, as a partial read-back gives them.
+    let mut patches: Vec<[u32; 2]> = Vec::new();
+    for k in (0..n_old).filter(|k| edit.dropped.binary_search(k).is_err()) {
+        if rng.next() < 0.2 {
+            patches.push([edit.new_index(k), rng.below(8)]);
+        }
+    }
+    patches.push([n as u32 + 5, 3]);
+    let (mut want, want_forces) = splice_contacts(&old, &old_forces, &runs, &created, &created_forces);
     let out = run_kernel(
         dev,
         "splice_contacts",
@@ -636,17 +648,28 @@ where
         &[
             (0, bytemuck::cast_slice(&old).to_vec(), false),
             (1, bytemuck::cast_slice(&old_forces).to_vec(), false),
-            (2, bytemuck::cast_slice(&moves).to_vec(), false),
+            (2, bytemuck::cast_slice(&runs).to_vec(), false),
             (3, bytemuck::cast_slice(&created).to_vec(), false),
             (4, bytemuck::cast_slice(&created_forces).to_vec(), false),
             (5, vec![0; n * std::mem::size_of::<GContact<R>>()], true),
             (6, vec![0; n * std::mem::size_of::<GForce<R>>()], true),
         ],
     );
-    assert!(created.len() > 100 && n < n_old + created.len(), "the case creates and drops");
-    assert!(moves.iter().filter(|m| m[1] == KEEP_FEATURE).count() > 300, "the case keeps contacts unread");
+    assert!(created.len() > 200 && edit.dropped.len() > 100 && runs.len() > 300, "the case creates and drops");
     assert_eq!(bytemuck::cast_slice::<GContact<R>, u8>(&want), &out[0][..], "contacts");
     assert_eq!(bytemuck::cast_slice::<GForce<R>, u8>(&want_forces), &out[1][..], "gather records");
+    // The patches on the spliced list.
+    let patched = run_kernel(
+        dev,
+        "splice_contacts",
+        "",
+        "patch_contacts",
+        patches.len(),
+        &[(2, bytemuck::cast_slice(&runs).to_vec(), false), (5, out[0].clone(), true), (7, bytemuck::cast_slice(&patches).to_vec(), false)],
+    );
+    patch_contacts(&mut want, &patches);
+    assert!(patches.len() > 300);
+    assert_eq!(bytemuck::cast_slice::<GContact<R>, u8>(&want), &patched[0][..], "patched contacts");
 
     // `pack_contacts.wgsl` on the spliced list: the summaries a contact update reads back.
     let packed = run_kernel(

@@ -26,6 +26,8 @@ pub struct Pipelines {
     pub bind_group_layout: wgpu::BindGroupLayout,
     /// `splice_contacts.wgsl`, with its own bindings (`splice_bind_group`).
     pub splice_contacts: wgpu::ComputePipeline,
+    /// Its second entry, `patch_contacts`, on the same bindings.
+    pub patch_contacts: wgpu::ComputePipeline,
     pub splice_layout: wgpu::BindGroupLayout,
     /// `pack_contacts.wgsl`, with its own bindings (the contacts, the summaries).
     pub pack_contacts: wgpu::ComputePipeline,
@@ -80,11 +82,11 @@ impl Pipelines {
             bind_group_layouts: &[Some(&bind_group_layout)],
             immediate_size: 0,
         });
-        // The splice's bindings: the old list and records, the moves, the created contacts and
-        // records (read), the new list and records (written).
+        // The splice's bindings: the old list and records, the runs, the created contacts and
+        // records (read), the new list and records (written), the patches (read).
         let splice_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("blockdem splice"),
-            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, true), storage(5, false), storage(6, false)],
+            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, true), storage(5, false), storage(6, false), storage(7, true)],
         });
         let splice_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("blockdem splice"),
@@ -133,6 +135,7 @@ impl Pipelines {
             gather_heavy: make_entry("gather", "gather_heavy")?,
             bind_group_layout,
             splice_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "splice_contacts")?,
+            patch_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "patch_contacts")?,
             splice_layout,
             pack_contacts: make_on(&pack_pipeline_layout, "pack_contacts", "pack_contacts")?,
             pack_layout,
@@ -366,10 +369,16 @@ impl Grid {
 /// One pass of a topology kernel (`shaders::TOPOLOGY_KERNELS`, bindings of its own) over `n`
 /// items, submitted with no wait; a binding the driver rejects is an error value.
 pub fn dispatch_items(dev: &GpuDevice, label: &str, pipeline: &wgpu::ComputePipeline, layout: &wgpu::BindGroupLayout, entries: &[wgpu::BindGroupEntry], n: usize) -> Result<(), GpuError> {
+    dispatch_passes(dev, label, &[(pipeline, n)], layout, entries)
+}
+
+/// `dispatch_items` for several passes on one bind group, one after the other in one submission
+/// (a pass of no items is left out).
+pub fn dispatch_passes(dev: &GpuDevice, label: &str, passes: &[(&wgpu::ComputePipeline, usize)], layout: &wgpu::BindGroupLayout, entries: &[wgpu::BindGroupEntry]) -> Result<(), GpuError> {
     let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries });
     let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-    {
+    for &(pipeline, n) in passes.iter().filter(|p| p.1 > 0) {
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind_group, &[]);

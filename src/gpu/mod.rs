@@ -79,6 +79,7 @@ pub mod targets;
 use crate::backend::{Backend, CycleError, CycleReport};
 use crate::cpu;
 use crate::model::{ContactKind, Model, MAX_MATERIALS};
+use crate::topology::detect::ListEdit;
 use crate::topology::Adjacency;
 use rayon::prelude::*;
 
@@ -106,10 +107,8 @@ fn cycles_to_threshold(model: &Model, b: &crate::model::Block) -> Option<u64> {
 
 /// What `Engine::partial_contact_update` did.
 enum PartialUpdate {
-    /// Nothing: the update needs the whole state (the caller reads it back as before), with the
-    /// contact list's keys when they were taken (the splice's merge needs them; the whole
-    /// read-back does not change them).
-    Declined(Option<splice::ContactsBefore>),
+    /// Nothing: the update needs the whole state (the caller reads it back as before).
+    Declined,
     /// No block is past its threshold by the CPU's exact test: no update.
     NotDue,
     /// The update ran; the next one is expected after this many cycles.
@@ -339,6 +338,10 @@ struct Engine<R: Real> {
     splice: bool,
     /// Contact updates spliced on the device since the backend was made.
     splices: u64,
+    /// The model's contact list is in the contact update's order (block 1, corner, block 2), as
+    /// every update leaves it: the next update then records its edit (`detect::ListEdit`), which
+    /// the splice follows. Cleared when something else (a crack) changed the list.
+    list_in_order: bool,
     /// Contact updates read back only the blocks, corners and contacts they touch
     /// (`partial_contact_update`), when the splice is on.
     partial_reads: bool,
@@ -427,6 +430,7 @@ where
             splice: true,
             dashpots_pending: false,
             splices: 0,
+            list_in_order: false,
             partial_reads: true,
             partial_updates: 0,
             lists: None,
@@ -618,26 +622,23 @@ where
     /// The bookkeeping of a new contact list on the device: the ledger bases of its contacts and
     /// the generation the last good state's CPU copy is compared with.
     fn new_contact_list(&mut self, model: &Model) {
-        self.new_contact_list_moved(model, &[]);
-    }
-
-    /// `new_contact_list` after a splice by `moves`: a kept contact the CPU did not read
-    /// (`splice::KEEP_FEATURE`) keeps its old bases, since the device keeps its dissipation.
-    fn new_contact_list_moved(&mut self, model: &Model, moves: &[[u32; 2]]) {
         // The contact update kept each surviving contact's ledger terms in the model (matched by
         // corner and block, with their feature ids): they are the new bases.
-        // (A copy of the rest only when a checkpoint still shares it.)
-        let old = &self.uploaded.contact_base;
-        let bases: Vec<[f64; 2]> = model
-            .contacts
-            .iter()
-            .enumerate()
-            .map(|(i, c)| match moves.get(i) {
-                Some(&[source, splice::KEEP_FEATURE]) if source & splice::NEW_CONTACT == 0 => old[source as usize],
-                _ => [c.slip_work, c.dashpot_work],
-            })
-            .collect();
-        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = bases;
+        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+        self.generation += 1;
+    }
+
+    /// `new_contact_list` after a splice of `edit` where only the kept contacts at `patched`
+    /// (new indices) were read: the others keep their old bases, since the device keeps their
+    /// dissipation. (A copy of the bases only when a checkpoint still shares them.)
+    fn edit_contact_list(&mut self, model: &Model, edit: &ListEdit, patched: &[u32]) {
+        let bases = &mut std::rc::Rc::make_mut(&mut self.uploaded).contact_base;
+        let created = edit.inserted_at.iter().map(|&k| [model.contacts[k as usize].slip_work, model.contacts[k as usize].dashpot_work]);
+        crate::topology::detect::splice(bases, &edit.dropped, &edit.insert_before, created);
+        for &k in patched {
+            let c = &model.contacts[k as usize];
+            bases[k as usize] = [c.slip_work, c.dashpot_work];
+        }
         self.generation += 1;
     }
 
@@ -665,36 +666,45 @@ where
         Ok(g)
     }
 
-    /// After a contact update whose kept contacts stayed in order: the new list is built on the
-    /// device from the old one (`splice_contacts.wgsl`) from 8 bytes of moves per contact and
-    /// the contacts created, instead of an upload of the whole list and its gather records.
-    /// The kept contacts keep the device's own state (no round trip through f64).
-    fn splice_contacts(&mut self, model: &Model, adjacency: &Adjacency, moves: &splice::ContactMoves) -> Result<(), GpuError> {
+    /// After a contact update that recorded its edit (the list was in order): the new list is
+    /// built on the device from the old one (`splice_contacts.wgsl`) from the edit's runs, the
+    /// contacts created and the patches (index, feature) of the kept contacts the CPU read,
+    /// instead of an upload of the whole list and its gather records. The kept contacts keep the
+    /// device's own state (no round trip through f64). The caller has brought the ledger bases
+    /// up to date for the patches (`new_contact_list` or `edit_contact_list`).
+    fn splice_contacts(&mut self, model: &Model, adjacency: &Adjacency, edit: &ListEdit, patches: &[[u32; 2]]) -> Result<(), GpuError> {
         use wgpu::util::DeviceExt;
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let n = model.contacts.len();
-        let mut created: Vec<Contact<R>> = moves.created.iter().map(|&i| Self::gpu_contact(model, &model.contacts[i as usize])).collect();
-        let mut created_forces: Vec<ContactForce<R>> = moves.created.iter().map(|&i| Self::gpu_contact_force(model, &model.contacts[i as usize])).collect();
+        debug_assert_eq!(edit.new_len() as usize, n);
+        let mut created: Vec<Contact<R>> = edit.inserted_at.iter().map(|&i| Self::gpu_contact(model, &model.contacts[i as usize])).collect();
+        let mut created_forces: Vec<ContactForce<R>> = edit.inserted_at.iter().map(|&i| Self::gpu_contact_force(model, &model.contacts[i as usize])).collect();
         if created.is_empty() {
             // A binding holds at least one item.
             created.push(Contact::default());
             created_forces.push(ContactForce::default());
         }
-        self.new_contact_list_moved(model, &moves.moves);
+        let runs = edit.runs(splice::NEW_CONTACT);
+        // (An index past the list patches nothing: the binding's one item when there are none.)
+        let no_patch = [[u32::MAX, 0]];
+        let patches = if patches.is_empty() { &no_patch[..] } else { patches };
         let dev = &self.dev;
         let b = self.buffers.as_mut().expect("buffers exist");
         b.ensure_spare::<R>(dev, n)?;
         let init = |label: &str, contents: &[u8]| dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE });
-        let moves_buffer = init("contact moves", bytemuck::cast_slice(&moves.moves));
+        let runs_buffer = init("contact runs", bytemuck::cast_slice(&runs));
         let created_buffer = init("created contacts", bytemuck::cast_slice(&created));
         let created_forces_buffer = init("created contact forces", bytemuck::cast_slice(&created_forces));
+        let patches_buffer = init("contact patches", bytemuck::cast_slice(patches));
         let (spare, spare_forces) = b.spare_contacts.as_ref().expect("made above");
-        let entries: Vec<wgpu::BindGroupEntry> = [&b.contacts.buffer, &b.contact_forces.buffer, &moves_buffer, &created_buffer, &created_forces_buffer, &spare.buffer, &spare_forces.buffer]
-            .into_iter()
-            .enumerate()
-            .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
-            .collect();
-        kernels::dispatch_items(dev, "splice_contacts", &self.pipelines.splice_contacts, &self.pipelines.splice_layout, &entries, n)?;
+        let entries: Vec<wgpu::BindGroupEntry> =
+            [&b.contacts.buffer, &b.contact_forces.buffer, &runs_buffer, &created_buffer, &created_forces_buffer, &spare.buffer, &spare_forces.buffer, &patches_buffer]
+                .into_iter()
+                .enumerate()
+                .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
+                .collect();
+        let p = &self.pipelines;
+        kernels::dispatch_passes(dev, "splice_contacts", &[(&p.splice_contacts, n), (&p.patch_contacts, patches.len())], &p.splice_layout, &entries)?;
         b.swap_contacts();
         self.splices += 1;
         self.counts.2 = n;
@@ -1221,12 +1231,9 @@ where
     /// next whole read-back. Declines, changing nothing, when the update needs the whole state.
     fn partial_contact_update(&mut self, model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport) -> Result<PartialUpdate, GpuError> {
         let (nb, _, nk) = self.counts;
-        if nb < 2 || !adjacency.grid.valid_for(model) {
-            return Ok(PartialUpdate::Declined(None));
-        }
-        let before = splice::ContactsBefore::of(model);
-        if !before.spliceable() {
-            return Ok(PartialUpdate::Declined(Some(before)));
+        // (The attention's contact indices and the splice need the list in the update's order.)
+        if nb < 2 || !self.list_in_order || !adjacency.grid.valid_for(model) {
+            return Ok(PartialUpdate::Declined);
         }
         // The lists, on the device.
         let (listed, listed_contacts, fewest) = {
@@ -1279,7 +1286,7 @@ where
             // Many listed: an update that sweeps or rebuilds the grid (it reads every block), or
             // one that drops a crowd of contacts; the whole read-back is then as cheap.
             if n_listed > nb / 8 || n_contacts > nk / 8 + 64 {
-                return Ok(PartialUpdate::Declined(Some(before)));
+                return Ok(PartialUpdate::Declined);
             }
             let (mut listed, mut listed_contacts) = self.dev.read_parts(&[(&lists.listed_blocks.buffer, (n_listed * 4) as u64), (&lists.listed_contacts.buffer, (n_contacts * 4) as u64)], |bytes| {
                 (bytemuck::pod_collect_to_vec::<u8, u32>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, u32>(bytes[1]))
@@ -1349,32 +1356,30 @@ where
         let from_listed = listed.iter().filter_map(|&b| cycles_to_threshold(model, &model.blocks[b as usize])).min();
         let from_device = (fewest != u32::MAX).then_some(fewest as u64);
         let expected = from_listed.into_iter().chain(from_device).min();
-        // The splice, every kept contact not read keeping the device's state.
-        let Some(mut moves) = (!model.contacts.is_empty()).then(|| splice::contact_moves(&before, &model.contacts)).flatten() else {
-            if model.contacts.is_empty() {
-                self.upload_contacts(model, adjacency)?;
-                self.write_params(model);
-                self.run_batch(1, true)?;
-                return Ok(PartialUpdate::Updated(expected));
-            }
-            return Err(GpuError::Device("GPU: the contact update reordered kept contacts of a list it found in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()));
+        // The splice: the kept contacts read are patched, the others keep the device's state.
+        let Some(edit) = adjacency.take_edit().filter(|e| e.old_len as usize == nk) else {
+            return Err(GpuError::Device("GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_PARTIAL_READS=0)".into()));
         };
-        if !read_all {
-            let mut at = 0;
-            for mv in &mut moves.moves {
-                if mv[0] & splice::NEW_CONTACT != 0 {
-                    continue;
-                }
-                while at < read_contacts.len() && read_contacts[at].1 <= mv[0] {
-                    at += 1;
-                }
-                let read = at < read_contacts.len() && read_contacts[at].0 <= mv[0];
-                if !read {
-                    mv[1] = splice::KEEP_FEATURE;
-                }
-            }
+        if model.contacts.is_empty() {
+            self.upload_contacts(model, adjacency)?;
+        } else {
+            let read: Vec<u32> = if read_all {
+                (0..edit.old_len).collect()
+            } else {
+                read_contacts.iter().flat_map(|&(s, e)| s..e).collect()
+            };
+            let patches: Vec<[u32; 2]> = read
+                .into_iter()
+                .filter(|k| edit.dropped.binary_search(k).is_err())
+                .map(|k| {
+                    let i = edit.new_index(k);
+                    [i, model.contacts[i as usize].feature]
+                })
+                .collect();
+            let patched: Vec<u32> = patches.iter().map(|p| p[0]).collect();
+            self.edit_contact_list(model, &edit, &patched);
+            self.splice_contacts(model, adjacency, &edit, &patches)?;
         }
-        self.splice_contacts(model, adjacency, &moves)?;
         self.write_params(model);
         self.run_batch(1, true)?;
         Ok(PartialUpdate::Updated(expected))
@@ -1493,6 +1498,7 @@ where
             self.write_params(model);
         } else {
             cpu::maybe_update_topology(model, &mut adjacency, &mut report, true);
+            self.list_in_order = true;
             self.upload_all(model, &adjacency).map_err(device_error)?;
             self.write_params(model);
             self.run_batch(1, true).map_err(device_error)?;
@@ -1561,14 +1567,14 @@ where
                 report.cycles += done;
                 let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
                 let mut handled = false;
-                let mut keys_before = None;
                 if partial_reads && flags.update_due != 0 {
                     // Stage 7 on what it touches (`partial_contact_update`), unless it needs the
                     // whole state.
                     match self.partial_contact_update(model, &mut adjacency, &mut report).map_err(device_error)? {
-                        PartialUpdate::Declined(keys) => keys_before = keys,
+                        PartialUpdate::Declined => {}
                         PartialUpdate::NotDue => handled = true,
                         PartialUpdate::Updated(expected) => {
+                            self.list_in_order = true;
                             expected_update = expected;
                             handled = true;
                         }
@@ -1593,31 +1599,40 @@ where
                             }
                         }
                         self.upload_all(model, &adjacency).map_err(device_error)?;
+                        self.list_in_order = false;
                         self.write_params(model);
                         self.run_batch(1, true).map_err(device_error)?;
                     }
-                    // The list before the update, for the splice's moves (only when one is due).
-                    // After a packed read the update may go on only if the splice will place
-                    // every kept contact (the whole upload would send stale fields): otherwise
-                    // the contacts are read whole first (the device has not moved since).
-                    let mut before = (self.splice && cpu::topology_update_due(model)).then(|| keys_before.take().unwrap_or_else(|| splice::ContactsBefore::of(model)));
-                    if before.as_ref().is_some_and(|b| !b.spliceable()) {
-                        before = None;
-                        if packed {
-                            self.read_live_state(model, false).map_err(device_error)?;
-                        }
+                    // After a packed read the update may go on only if the splice will follow
+                    // it, which needs the list in order (the whole upload would send stale
+                    // fields): otherwise the contacts are read whole first (the device has not
+                    // moved since).
+                    let splice_follows = self.splice && self.list_in_order;
+                    if packed && !splice_follows && cpu::topology_update_due(model) {
+                        self.read_live_state(model, false).map_err(device_error)?;
                     }
-                    let packed_before = packed && before.is_some();
                     if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
+                        self.list_in_order = true;
                         expected_update = cycles_to_next_update(model);
                         self.upload_reset_distances(model);
-                        let moves = before.filter(|_| !model.contacts.is_empty()).map(|b| splice::contact_moves(&b, &model.contacts));
-                        match moves {
-                            Some(Some(m)) => self.splice_contacts(model, &adjacency, &m),
-                            Some(None) if packed_before => {
-                                return Err(CycleError::Setup("GPU: the contact update reordered kept contacts of a list it found in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()))
+                        let edit = adjacency.take_edit().filter(|e| splice_follows && e.old_len as usize == self.counts.2);
+                        match edit {
+                            _ if model.contacts.is_empty() => self.upload_contacts(model, &adjacency),
+                            Some(edit) => {
+                                // Every kept contact was read: each is patched, and takes its
+                                // bases from the model.
+                                let mut created = edit.inserted_at.iter().peekable();
+                                let patches: Vec<[u32; 2]> = (0..model.contacts.len() as u32)
+                                    .filter(|&i| created.next_if_eq(&&i).is_none())
+                                    .map(|i| [i, model.contacts[i as usize].feature])
+                                    .collect();
+                                self.new_contact_list(model);
+                                self.splice_contacts(model, &adjacency, &edit, &patches)
                             }
-                            _ => self.upload_contacts(model, &adjacency),
+                            None if packed && splice_follows => {
+                                return Err(CycleError::Setup("GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()))
+                            }
+                            None => self.upload_contacts(model, &adjacency),
                         }
                         .map_err(device_error)?;
                         self.write_params(model);

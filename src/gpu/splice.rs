@@ -1,100 +1,35 @@
-//! Stage 7's contact list on the device: after a contact update the CPU sends, per contact of the
-//! new list, where it comes from (`contact_moves`), and `splice_contacts.wgsl` builds the new list
-//! from the old one in place of an upload of the whole list.
+//! Stage 7's contact list on the device: after a contact update the CPU sends what the update
+//! changed, and `splice_contacts.wgsl` builds the new list from the old one in place of an upload
+//! of the whole list.
 //!
 //! The CPU's update (`topology::detect`) keeps the surviving contacts in their order, removes the
-//! dropped ones and inserts the new ones, whose ids start at the model's `next_contact_id` before
-//! the update. So one merge over the ids, old list against new, finds each kept contact's old
-//! index; a contact it cannot place (a list the update had to sort, an id out of turn) makes it
-//! give up, and the caller uploads the whole list as before. A contact the merge takes for new is
-//! uploaded whole from the model, which holds its state, so the only thing the merge must not get
-//! wrong is an old index — it matches the contact's corner and blocks as well as its id.
+//! dropped ones and inserts the new ones, and records the edit (`detect::ListEdit`: the indices
+//! dropped and where the new ones went) when the list was in order on entry. The new list is
+//! then a few runs, each a stretch of the old list or of the created contacts
+//! (`ListEdit::runs`); the kernel finds each new contact's run by a binary search. What moves to
+//! the device is in proportion to the changes: 8 bytes a run, the created contacts whole, and
+//! 8 bytes a *patch*, a kept contact the CPU read and may have given a new feature
+//! (`patch_contacts`: the feature, and a fresh start of its slip and dashpot work, which the
+//! CPU's ledger bases now hold). A kept contact the CPU did not read keeps the device's state.
 //!
-//! What moves is 8 bytes per contact (its source and its feature) plus the created contacts,
-//! against 96 (f32) or 168 (f64) bytes per contact for the whole list and its gather records.
-//!
-//! The read-back before the update is packed the same way (`pack_contacts`): detection and the
-//! energy ledger need a contact's gap, forces, dissipation and feature, not its point, normal or
-//! dashpot velocities, which stay on the device. The model's copies of those are then stale
-//! until the next whole read-back, so the whole-list upload must never follow a packed read:
-//! `ContactsBefore::spliceable` says beforehand whether the merge will place every kept contact.
+//! The read-back before the update is packed (`pack_contacts`): detection and the energy ledger
+//! need a contact's gap, forces, dissipation and feature, not its point, normal or dashpot
+//! velocities, which stay on the device. The model's copies of those are then stale until the
+//! next whole read-back, so the whole-list upload must never follow a packed read: the caller
+//! knows the list is in order beforehand, and so that the update will record its edit.
 
 use super::layout::{Contact, ContactForce, ContactSummary, Real};
-use crate::model;
-use rayon::prelude::*;
 
-/// The source bit of a move that names an entry of the created contacts, not an old index.
+/// The source bit of a run of created contacts (`ListEdit::runs`), not of old ones.
 pub const NEW_CONTACT: u32 = 0x8000_0000;
 
-/// The feature of a move whose kept contact the CPU did not read (a partial read-back,
-/// `gpu::partial`): it keeps the device's feature and its dissipation since its ledger bases,
-/// which stay as they were.
-pub const KEEP_FEATURE: u32 = u32::MAX;
-
-/// What identifies a contact of the list before an update: its id, block 1, corner and block 2.
-pub type ContactKey = [u32; 4];
-
-/// The contact list before an update, as the merge needs it.
-pub struct ContactsBefore {
-    pub keys: Vec<ContactKey>,
-    /// `Model::next_contact_id` before the update: contacts it creates have ids from here on.
-    pub first_new_id: u32,
-}
-
-impl ContactsBefore {
-    pub fn of(model: &model::Model) -> Self {
-        let keys = model.contacts.par_iter().with_min_len(4096).map(|c| [c.id, c.block1, c.corner, c.block2]).collect();
-        ContactsBefore { keys, first_new_id: model.next_contact_id }
-    }
-
-    /// Whether the merge will place every contact the update keeps: the list is in the update's
-    /// order (block 1, corner, block 2), which the update then keeps rather than re-sorts, and
-    /// every id is below the first new one, so no kept contact is taken for a new one.
-    pub fn spliceable(&self) -> bool {
-        let n = self.keys.len();
-        n < NEW_CONTACT as usize
-            && self.keys.par_iter().enumerate().with_min_len(4096).all(|(i, k)| k[0] < self.first_new_id && (i == 0 || self.keys[i - 1][1..] <= k[1..]))
-    }
-}
-
-/// The new list as moves: `moves[i]` = (source, feature) of contact i, the source an index into
-/// the old list or `NEW_CONTACT | k` for `created[k]`, an index into the new list.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct ContactMoves {
-    pub moves: Vec<[u32; 2]>,
-    pub created: Vec<u32>,
-}
-
-/// The moves that turn the old list into `new` (the model's list after the update), or None when
-/// a kept contact is not found in order after the one before it.
-pub fn contact_moves(before: &ContactsBefore, new: &[model::Contact]) -> Option<ContactMoves> {
-    let old = &before.keys;
-    if old.len() >= NEW_CONTACT as usize || new.len() >= NEW_CONTACT as usize {
-        return None;
-    }
-    let mut out = ContactMoves { moves: Vec::with_capacity(new.len()), created: Vec::new() };
-    let mut p = 0;
-    for (i, c) in new.iter().enumerate() {
-        if c.id >= before.first_new_id {
-            out.moves.push([NEW_CONTACT | out.created.len() as u32, c.feature]);
-            out.created.push(i as u32);
-            continue;
-        }
-        let key = [c.id, c.block1, c.corner, c.block2];
-        // Dropped contacts lie between two kept ones: skip them.
-        p += old[p..].iter().position(|k| *k == key)?;
-        out.moves.push([p as u32, c.feature]);
-        p += 1;
-    }
-    Some(out)
-}
-
 /// Rust twin of `splice_contacts.wgsl`: the new list and its gather records from the old ones,
-/// the moves and the created contacts (with their records).
+/// the runs (`ListEdit::runs(NEW_CONTACT)`, ending with the new length) and the created
+/// contacts (with their records).
 pub fn splice_contacts<R: Real>(
     old: &[Contact<R>],
     old_forces: &[ContactForce<R>],
-    moves: &[[u32; 2]],
+    runs: &[[u32; 2]],
     created: &[Contact<R>],
     created_forces: &[ContactForce<R>],
 ) -> (Vec<Contact<R>>, Vec<ContactForce<R>>)
@@ -102,22 +37,31 @@ where
     Contact<R>: bytemuck::Pod,
     ContactForce<R>: bytemuck::Pod,
 {
-    moves
-        .iter()
-        .map(|&[source, feature]| {
-            if source & NEW_CONTACT != 0 {
-                let k = (source & !NEW_CONTACT) as usize;
-                return (created[k], created_forces[k]);
+    let n = runs.last().map_or(0, |r| r[0]);
+    (0..n)
+        .map(|i| {
+            // The last run starting at or before i.
+            let r = runs[runs.partition_point(|r| r[0] <= i) - 1];
+            let at = ((r[1] & !NEW_CONTACT) + (i - r[0])) as usize;
+            if r[1] & NEW_CONTACT != 0 {
+                (created[at], created_forces[at])
+            } else {
+                (old[at], old_forces[at])
             }
-            let mut c = old[source as usize];
-            if feature != KEEP_FEATURE {
-                c.feature = feature;
-                c.slip_work = R::default();
-                c.dashpot_work = R::default();
-            }
-            (c, old_forces[source as usize])
         })
         .unzip()
+}
+
+/// Rust twin of `patch_contacts` (splice_contacts.wgsl): each patch (index, feature) gives a
+/// kept contact the feature the CPU's update found and restarts its slip and dashpot work.
+pub fn patch_contacts<R: Real>(contacts: &mut [Contact<R>], patches: &[[u32; 2]]) {
+    for &[k, feature] in patches {
+        if let Some(c) = contacts.get_mut(k as usize) {
+            c.feature = feature;
+            c.slip_work = R::default();
+            c.dashpot_work = R::default();
+        }
+    }
 }
 
 /// Rust twin of `pack_contacts.wgsl`: what a contact update reads back of each contact.
@@ -172,16 +116,8 @@ mod tests {
         (0..model.blocks.len()).filter(|&b| !model.blocks[b].fixed).collect()
     }
 
-    /// Applies the moves to the old list of model contacts (the twin's logic on the CPU's structs).
-    fn apply(old: &[model::Contact], new: &[model::Contact], m: &ContactMoves) -> Vec<model::Contact> {
-        m.moves
-            .iter()
-            .map(|&[s, feature]| if s & NEW_CONTACT != 0 { new[m.created[(s & !NEW_CONTACT) as usize] as usize] } else { model::Contact { feature, ..old[s as usize] } })
-            .collect()
-    }
-
     #[test]
-    fn moves_rebuild_the_list_a_contact_update_makes() {
+    fn the_edit_rebuilds_the_list_a_contact_update_makes() {
         let mut model = wall(1000);
         let mut adjacency = crate::topology::Adjacency::default();
         crate::topology::update_topology(&mut model, true, &mut adjacency);
@@ -191,7 +127,6 @@ mod tests {
         }
         measure_gaps(&mut model);
         crate::topology::update_topology(&mut model, false, &mut adjacency);
-        let before = ContactsBefore::of(&model);
         let old = model.contacts.clone();
         for (k, b) in movable(&model).into_iter().step_by(23).enumerate() {
             let by = match k % 3 {
@@ -204,47 +139,49 @@ mod tests {
         measure_gaps(&mut model);
         let (created, dropped) = crate::topology::update_topology(&mut model, false, &mut adjacency);
         assert!(created > 0 && dropped > 0, "the update both creates and drops ({created}, {dropped})");
-        let m = contact_moves(&before, &model.contacts).expect("kept contacts are in order");
-        assert_eq!(m.created.len(), created);
-        assert_eq!(m.moves.len(), model.contacts.len());
-        let rebuilt = apply(&old, &model.contacts, &m);
+        let edit = adjacency.take_edit().expect("a list in order records its edit");
+        assert_eq!((edit.inserted_at.len(), edit.dropped.len(), edit.new_len() as usize), (created, dropped, model.contacts.len()));
+        let runs = edit.runs(NEW_CONTACT);
+        let mut rebuilt = Vec::new();
+        for w in runs.windows(2) {
+            let source = w[0][1];
+            for i in 0..(w[1][0] - w[0][0]) as usize {
+                rebuilt.push(if source & NEW_CONTACT != 0 { model.contacts[edit.inserted_at[(source & !NEW_CONTACT) as usize + i] as usize] } else { old[source as usize + i] });
+            }
+        }
+        assert_eq!(rebuilt.len(), model.contacts.len());
         for (a, b) in rebuilt.iter().zip(&model.contacts) {
-            assert_eq!((a.id, a.block1, a.corner, a.block2, a.feature), (b.id, b.block1, b.corner, b.block2, b.feature));
+            assert_eq!((a.id, a.block1, a.corner, a.block2), (b.id, b.block1, b.corner, b.block2));
             assert_eq!((a.shear_force, a.shear_displacement, a.normal_force), (b.shear_force, b.shear_displacement, b.normal_force));
         }
+        // A kept contact's new index.
+        let kept = (0..old.len() as u32).find(|k| edit.dropped.binary_search(k).is_err() && *k > edit.dropped[0]).expect("kept after a drop");
+        assert_eq!(model.contacts[edit.new_index(kept) as usize].id, old[kept as usize].id);
     }
 
     #[test]
-    fn a_list_out_of_order_has_no_moves() {
+    fn a_list_out_of_order_records_no_edit() {
         let mut model = wall(1000);
         let mut adjacency = crate::topology::Adjacency::default();
         crate::topology::update_topology(&mut model, true, &mut adjacency);
-        let before = ContactsBefore::of(&model);
-        let mut new = model.contacts.clone();
-        assert_eq!(contact_moves(&before, &new).map(|m| m.created.len()), Some(0));
-        assert!(before.spliceable());
-        new.swap(3, 10);
-        assert_eq!(contact_moves(&before, &new), None);
-        let mut swapped = model.clone();
-        swapped.contacts.swap(3, 10);
-        assert!(!ContactsBefore::of(&swapped).spliceable(), "out of order");
-        swapped.contacts.swap(3, 10);
-        swapped.contacts[7].id = swapped.next_contact_id;
-        assert!(!ContactsBefore::of(&swapped).spliceable(), "an id not below the next");
-        // An old id on another pair is not taken for that contact.
-        let mut new = model.contacts.clone();
-        new[5].corner += 1;
-        assert_eq!(contact_moves(&before, &new), None);
+        crate::topology::update_topology(&mut model, false, &mut adjacency);
+        assert_eq!(adjacency.take_edit().map(|e| (e.dropped.len(), e.inserted_at.len())), Some((0, 0)), "nothing changed");
+        model.contacts.swap(3, 10);
+        crate::topology::update_topology(&mut model, false, &mut adjacency);
+        assert_eq!(adjacency.take_edit(), None, "the list was sorted first");
+        assert_eq!(adjacency.take_edit(), None, "taken once");
     }
 
     #[test]
-    fn the_twin_copies_kept_contacts_with_their_new_feature_and_a_fresh_ledger() {
+    fn the_twin_copies_runs_and_patches_features_with_a_fresh_ledger() {
         let c = |k: u32| Contact::<f64> { px: k as f64, slip_work: 1.0, dashpot_work: 2.0, feature: k, block1: k, ..Default::default() };
         let f = |k: u32| ContactForce::<f64> { fx: k as f64, ..Default::default() };
-        let old = [c(0), c(1), c(2)];
-        let old_f = [f(0), f(1), f(2)];
-        let (new, forces) = splice_contacts(&old, &old_f, &[[2, 9], [NEW_CONTACT, 7], [0, 0]], &[c(5)], &[f(5)]);
-        assert_eq!(new.iter().map(|c| (c.block1, c.feature, c.slip_work, c.dashpot_work)).collect::<Vec<_>>(), [(2, 9, 0.0, 0.0), (5, 5, 1.0, 2.0), (0, 0, 0.0, 0.0)]);
-        assert_eq!(forces.iter().map(|f| f.fx).collect::<Vec<_>>(), [2.0, 5.0, 0.0]);
+        let old = [c(0), c(1), c(2), c(3)];
+        let old_f = [f(0), f(1), f(2), f(3)];
+        // Old 0, a created contact, old 2 and 3 (1 dropped).
+        let (mut new, forces) = splice_contacts(&old, &old_f, &[[0, 0], [1, NEW_CONTACT], [2, 2], [4, 0]], &[c(5)], &[f(5)]);
+        patch_contacts(&mut new, &[[2, 9], [7, 1]]);
+        assert_eq!(new.iter().map(|c| (c.block1, c.feature, c.slip_work, c.dashpot_work)).collect::<Vec<_>>(), [(0, 0, 1.0, 2.0), (5, 5, 1.0, 2.0), (2, 9, 0.0, 0.0), (3, 3, 1.0, 2.0)]);
+        assert_eq!(forces.iter().map(|f| f.fx).collect::<Vec<_>>(), [0.0, 5.0, 2.0, 3.0]);
     }
 }

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 use rayon::prelude::*;
 
-use super::detect::{split_at_ends, BlockGrid};
+use super::detect::{split_at_ends, BlockGrid, ListEdit};
 use crate::model::Contact;
 
 /// Smallest number of blocks one parallel task takes.
@@ -22,6 +22,9 @@ pub struct Adjacency {
     pub entries: Vec<u32>,
     /// The broad phase's grid, kept for the next contact update (`detect::update_topology`).
     pub(crate) grid: BlockGrid,
+    /// The edit the last contact update made to the contact list (`detect::ListEdit`), or None
+    /// when it had to sort the list first; taken by a backend that mirrors the list.
+    pub(crate) edit: Option<ListEdit>,
     /// Room for the next `entries`, kept to spare a large allocation per update.
     spare: Vec<u32>,
     /// Per-block cursors and the slots of a parallel build, kept likewise.
@@ -216,6 +219,12 @@ impl Adjacency {
                 *o = (*o as i64 + shift_after[j]) as u32;
             }
         }
+    }
+
+    /// Takes the edit the last contact update made to the contact list (None: none recorded,
+    /// or that update sorted the list first).
+    pub fn take_edit(&mut self) -> Option<ListEdit> {
+        self.edit.take()
     }
 
     /// The entries of block `b`.

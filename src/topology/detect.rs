@@ -804,7 +804,15 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
             )
     };
     let Model { blocks, contacts, .. } = &mut *model;
-    let (sorted, mut gap_dropped, mut run_starts) = scan(contacts, blocks);
+    // An attention vouches for the order (its contact indices need it) and lists the contacts to
+    // drop by their gap: the pass is then needed only for the runs' starts (a pass over every
+    // contact is most of a small update's cost on a large model).
+    let (sorted, mut gap_dropped, mut run_starts) = if attention.is_some() && !many {
+        debug_assert!(contacts.is_sorted_by_key(contact_key), "an attention's contact list must be in the update's order");
+        (true, Vec::new(), Vec::new())
+    } else {
+        scan(contacts, blocks)
+    };
     if !sorted {
         // A list edited elsewhere: sorted first, stably, which leaves the result as it would be
         // from the list as given.
@@ -905,6 +913,7 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
         retire(model, &dropped);
     }
     let removed: Vec<(u32, u32, u32)> = if adjacency.is_some() { dropped.iter().map(|&k| (k, model.contacts[k as usize].block1, model.contacts[k as usize].block2)).collect() } else { Vec::new() };
+    let old_len = model.contacts.len() as u32;
     let inserted_at = splice(&mut model.contacts, &dropped, &insert_before, new_contacts);
     if let Some(adjacency) = adjacency {
         if all || !sorted || !adjacency.fits(n, model.contacts.len() + dropped.len() - n_created) {
@@ -912,6 +921,8 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
         } else if !dropped.is_empty() || n_created > 0 {
             adjacency.apply(n, &model.contacts, &removed, &insert_before, &inserted_at);
         }
+        // What changed in the list, for a backend that keeps a copy of it (the GPU's).
+        adjacency.edit = sorted.then_some(ListEdit { old_len, dropped, insert_before, inserted_at });
     }
 
     let reset = |b: &mut Block| {
@@ -929,14 +940,83 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     Ok((changes, flagged_list))
 }
 
+/// What one contact update did to the list, as indices: a backend holding a copy of the list
+/// (the GPU backend's device buffers) makes the same edit to its copy from this, in proportion
+/// to the changes. Given only when the list was in the update's order on entry (an update that
+/// had to sort it first changed every index).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ListEdit {
+    /// The list's length before the update.
+    pub old_len: u32,
+    /// Indices in the old list of the contacts dropped (ascending).
+    pub dropped: Vec<u32>,
+    /// For each new contact, the old contact it was inserted before (ascending; `old_len`: at
+    /// the end).
+    pub insert_before: Vec<u32>,
+    /// The new contacts' indices in the new list (ascending).
+    pub inserted_at: Vec<u32>,
+}
+
+impl ListEdit {
+    /// The list's length after the update.
+    pub fn new_len(&self) -> u32 {
+        self.old_len + self.inserted_at.len() as u32 - self.dropped.len() as u32
+    }
+
+    /// The new index of the kept contact at old index `k`: k, plus the insertions before it, less
+    /// the removals before it.
+    pub fn new_index(&self, k: u32) -> u32 {
+        k + self.insert_before.partition_point(|&p| p <= k) as u32 - self.dropped.partition_point(|&d| d < k) as u32
+    }
+
+    /// The new list as runs: (first new index, source), ascending, where the source is the old
+    /// index of the run's first contact, or, with `new_bit` set, the index among the inserted
+    /// contacts of its first; contacts within a run follow one another in their source. Ends with
+    /// (new length, 0), so that run r covers `runs[r].0 .. runs[r + 1].0`.
+    pub fn runs(&self, new_bit: u32) -> Vec<[u32; 2]> {
+        let mut runs: Vec<[u32; 2]> = Vec::with_capacity(2 * (self.dropped.len() + self.inserted_at.len()) + 2);
+        let (mut d, mut j, mut new) = (0usize, 0usize, 0u32);
+        let mut old = 0u32;
+        loop {
+            // Kept contacts up to the next change.
+            let next_drop = self.dropped.get(d).copied().unwrap_or(self.old_len);
+            let next_insert = self.insert_before.get(j).copied().unwrap_or(self.old_len);
+            let at = next_drop.min(next_insert);
+            if at > old {
+                runs.push([new, old]);
+                new += at - old;
+            }
+            old = at;
+            // The insertions before the contact at `at`, then its removal.
+            if j < self.insert_before.len() && self.insert_before[j] == at {
+                runs.push([new, new_bit | j as u32]);
+                while j < self.insert_before.len() && self.insert_before[j] == at {
+                    j += 1;
+                    new += 1;
+                }
+            }
+            if d < self.dropped.len() && self.dropped[d] == at {
+                d += 1;
+                old = at + 1;
+            }
+            if old >= self.old_len && j == self.insert_before.len() {
+                break;
+            }
+        }
+        runs.push([new, 0]);
+        runs
+    }
+}
+
 /// Removes the contacts at `dropped` (ascending) and inserts `new_contacts`, each before the
-/// contact `insert_before` names (ascending), in place. Returns the new indices of the inserted contacts, ascending.
+/// contact `insert_before` names (ascending), in place. Returns the new indices of the inserted
+/// contacts, ascending. (Any list kept index for index with the contacts takes the same edit.)
 ///
 /// Each stretch of kept contacts between two changes moves once, by the insertions less the
 /// removals before it: those moving left first, front to back, then those moving right, back to
 /// front. Every move lands on the stretch's final place, which no stretch still to move occupies
 /// (final places keep the order), and a stretch whose changes cancel stays put.
-fn splice(contacts: &mut Vec<Contact>, dropped: &[u32], insert_before: &[u32], new_contacts: impl Iterator<Item = Contact>) -> Vec<u32> {
+pub fn splice<T: Copy + Send + Sync>(contacts: &mut Vec<T>, dropped: &[u32], insert_before: &[u32], new_contacts: impl Iterator<Item = T>) -> Vec<u32> {
     let old_len = contacts.len();
     let new_len = (old_len + insert_before.len()) - dropped.len();
     if dropped.len() == old_len {
@@ -1228,6 +1308,25 @@ mod tests {
                 assert!(got == expected, "len {len}, dropped {dropped:?}, inserted before {insert_before:?}");
                 let positions: Vec<u32> = expected.iter().enumerate().filter(|(_, c)| c.id >= 1_000_000).map(|(k, _)| k as u32).collect();
                 assert_eq!(at, positions);
+                // The same edit as runs and as a renumbering of the kept contacts.
+                let edit = ListEdit { old_len: len as u32, dropped: dropped.clone(), insert_before: insert_before.clone(), inserted_at: at };
+                assert_eq!(edit.new_len() as usize, expected.len());
+                const NEW: u32 = 1 << 31;
+                let runs = edit.runs(NEW);
+                assert_eq!(runs[0][0], 0);
+                assert_eq!(*runs.last().unwrap(), [expected.len() as u32, 0]);
+                let mut from_runs = Vec::new();
+                for w in runs.windows(2) {
+                    assert!(w[0][0] < w[1][0], "runs are not empty");
+                    for i in 0..w[1][0] - w[0][0] {
+                        let source = w[0][1];
+                        from_runs.push(if source & NEW != 0 { new[(source & !NEW) as usize + i as usize] } else { old[(source + i) as usize] });
+                    }
+                }
+                assert!(from_runs == expected, "runs of len {len}, dropped {dropped:?}, inserted before {insert_before:?}: {runs:?}");
+                for k in (0..len as u32).filter(|k| dropped.binary_search(k).is_err()) {
+                    assert_eq!(expected[edit.new_index(k) as usize].id, k);
+                }
             }
         }
     }
