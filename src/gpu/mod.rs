@@ -628,10 +628,17 @@ where
         self.generation += 1;
     }
 
-    /// `new_contact_list` after a splice of `edit` where only the kept contacts at `patched`
-    /// (new indices) were read: the others keep their old bases, since the device keeps their
-    /// dissipation. (A copy of the bases only when a checkpoint still shares them.)
-    fn edit_contact_list(&mut self, model: &Model, edit: &ListEdit, patched: &[u32]) {
+    /// `new_contact_list` after a splice of `edit`, where the kept contacts at `patched` (new
+    /// indices; None: all) were read and take their bases from the model: the others keep their
+    /// old bases, since the device keeps their dissipation. (A copy of the bases only when a
+    /// checkpoint still shares them.) An edit that changed no contact leaves the generation: the
+    /// last good state's copy of the topology still holds (a checkpoint's bases are its own).
+    fn edit_contact_list(&mut self, model: &Model, edit: &ListEdit, patched: Option<&[u32]>) {
+        let Some(patched) = patched else {
+            std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+            self.generation += u64::from(!edit.is_empty());
+            return;
+        };
         let bases = &mut std::rc::Rc::make_mut(&mut self.uploaded).contact_base;
         let created = edit.inserted_at.iter().map(|&k| [model.contacts[k as usize].slip_work, model.contacts[k as usize].dashpot_work]);
         crate::topology::detect::splice(bases, &edit.dropped, &edit.insert_before, created);
@@ -639,7 +646,7 @@ where
             let c = &model.contacts[k as usize];
             bases[k as usize] = [c.slip_work, c.dashpot_work];
         }
-        self.generation += 1;
+        self.generation += u64::from(!edit.is_empty());
     }
 
     /// Uploads the adjacency lists (and makes room for the energy check's sums of the new
@@ -671,7 +678,8 @@ where
     /// contacts created and the patches (index, feature) of the kept contacts the CPU read,
     /// instead of an upload of the whole list and its gather records. The kept contacts keep the
     /// device's own state (no round trip through f64). The caller has brought the ledger bases
-    /// up to date for the patches (`new_contact_list` or `edit_contact_list`).
+    /// up to date for the patches (`edit_contact_list`). An edit that changed no contact only
+    /// patches the live list: nothing moves, and the adjacency stays as it is on the device.
     fn splice_contacts(&mut self, model: &Model, adjacency: &Adjacency, edit: &ListEdit, patches: &[[u32; 2]]) -> Result<(), GpuError> {
         use wgpu::util::DeviceExt;
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
@@ -697,16 +705,25 @@ where
         let created_forces_buffer = init("created contact forces", bytemuck::cast_slice(&created_forces));
         let patches_buffer = init("contact patches", bytemuck::cast_slice(patches));
         let (spare, spare_forces) = b.spare_contacts.as_ref().expect("made above");
+        let (live, live_forces) = (&b.contacts.buffer, &b.contact_forces.buffer);
+        let (spare, spare_forces) = (&spare.buffer, &spare_forces.buffer);
+        let moves = !edit.is_empty();
+        // Old list → new list; or, with nothing to move, the patches on the live list (the spare
+        // bound as the unused old one).
+        let (old, old_forces, new, new_forces) = if moves { (live, live_forces, spare, spare_forces) } else { (spare, spare_forces, live, live_forces) };
         let entries: Vec<wgpu::BindGroupEntry> =
-            [&b.contacts.buffer, &b.contact_forces.buffer, &runs_buffer, &created_buffer, &created_forces_buffer, &spare.buffer, &spare_forces.buffer, &patches_buffer]
+            [old, old_forces, &runs_buffer, &created_buffer, &created_forces_buffer, new, new_forces, &patches_buffer]
                 .into_iter()
                 .enumerate()
                 .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
                 .collect();
         let p = &self.pipelines;
-        kernels::dispatch_passes(dev, "splice_contacts", &[(&p.splice_contacts, n), (&p.patch_contacts, patches.len())], &p.splice_layout, &entries)?;
-        b.swap_contacts();
+        kernels::dispatch_passes(dev, "splice_contacts", &[(&p.splice_contacts, if moves { n } else { 0 }), (&p.patch_contacts, patches.len())], &p.splice_layout, &entries)?;
         self.splices += 1;
+        if !moves {
+            return Ok(());
+        }
+        b.swap_contacts();
         self.counts.2 = n;
         self.upload_adjacency(&model.blocks, n, adjacency)?;
         self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
@@ -1377,7 +1394,7 @@ where
                 })
                 .collect();
             let patched: Vec<u32> = patches.iter().map(|p| p[0]).collect();
-            self.edit_contact_list(model, &edit, &patched);
+            self.edit_contact_list(model, &edit, Some(&patched));
             self.splice_contacts(model, adjacency, &edit, &patches)?;
         }
         self.write_params(model);
@@ -1626,7 +1643,7 @@ where
                                     .filter(|&i| created.next_if_eq(&&i).is_none())
                                     .map(|i| [i, model.contacts[i as usize].feature])
                                     .collect();
-                                self.new_contact_list(model);
+                                self.edit_contact_list(model, &edit, None);
                                 self.splice_contacts(model, &adjacency, &edit, &patches)
                             }
                             None if packed && splice_follows => {

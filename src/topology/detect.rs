@@ -963,6 +963,11 @@ impl ListEdit {
         self.old_len + self.inserted_at.len() as u32 - self.dropped.len() as u32
     }
 
+    /// Nothing dropped and nothing created: the list is as it was.
+    pub fn is_empty(&self) -> bool {
+        self.dropped.is_empty() && self.inserted_at.is_empty()
+    }
+
     /// The new index of the kept contact at old index `k`: k, plus the insertions before it, less
     /// the removals before it.
     pub fn new_index(&self, k: u32) -> u32 {
