@@ -38,11 +38,11 @@
 //! evaluated by the existing CPU code on the read-back contacts, read whole), after a failure
 //! and at the end of the run; between, the model is current only where it was read. The CPU runs
 //! the existing CPU topology code on the `Model` and sends only what changed: after a contact
-//! update, one move per contact (where in the old list it comes from, and its feature, or
-//! `KEEP_FEATURE` for a contact it did not read) and the contacts created, from which
-//! `splice_contacts` builds the new list and gather records on the device (`splice`; the whole
-//! list is read and uploaded when the list was not in the update's order), the adjacency, and the
-//! reset update distances of the re-examined blocks; everything after a crack split a block. The
+//! update, the update's own edit of the list as runs (`detect::ListEdit`), the contacts created
+//! and a patch (index, feature) per kept contact it read, from which `splice_contacts` builds the
+//! new list and gather records on the device (`splice`; the whole list is uploaded when the
+//! update had to sort it), the adjacency when a contact was created or dropped, and the reset
+//! update distances of the re-examined blocks; everything after a crack split a block. The
 //! energy check every 100 cycles is summed on the device (`energy_sums`), and the last good state is a device-side copy of the state
 //! buffers taken when a check passes (`take_checkpoint`), read back only if the run fails.
 //!

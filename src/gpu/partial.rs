@@ -8,7 +8,7 @@
 //! it picks the same blocks and drops the same contacts as on the whole state, since the lists
 //! are supersets (loosened tests) and the exact tests run on the CPU on what was read. The model
 //! is then current only where it was read; the device keeps the rest, and the splice that
-//! follows leaves unread contacts as the device holds them (`splice::KEEP_FEATURE`).
+//! follows patches only the contacts read and leaves the others as the device holds them.
 
 use super::kernels::{slab, Slab};
 use super::layout::{Block, Contact, GridReference, ListParams, Real};
