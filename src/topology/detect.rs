@@ -648,6 +648,15 @@ fn retire(model: &mut Model, dropped: &[u32]) {
     model.retired.friction += friction;
 }
 
+/// What the update makes of a block (`update`'s first pass).
+enum Pick {
+    /// Re-examined: past half its update threshold (or every block, for a sweep).
+    Flagged,
+    /// Not flagged, but outside the box the kept grid stores for it: the grid must follow it.
+    Strayed,
+    Neither,
+}
+
 fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<&mut Adjacency>, mut attention: Option<&mut Attention<'_>>) -> Result<(ContactChanges, Vec<u32>), String> {
     let n = model.blocks.len();
     let tol = model.tol;
@@ -658,14 +667,13 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     // would soon ask for one of their own keeps a crowd of moving blocks, flying debris, from
     // calling one update each).
     let keep_grid = !all && grid.valid_for(model);
-    // 1: flagged, 2: strayed, 0: neither.
-    let pick = |g: &BlockGrid, b: usize, blk: &Block| -> u8 {
+    let pick = |g: &BlockGrid, b: usize, blk: &Block| -> Pick {
         if all || (!blk.fixed && blk.moved_since_update > 0.5 * blk.update_threshold(&tol)) {
-            1
+            Pick::Flagged
         } else if keep_grid && g.strayed(b, blk) {
-            2
+            Pick::Strayed
         } else {
-            0
+            Pick::Neither
         }
     };
     let (flagged_list, strayed): (Vec<u32>, Vec<u32>) = match attention.as_deref() {
@@ -673,9 +681,9 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
             let (mut f, mut s) = (Vec::new(), Vec::new());
             for &b in &att.blocks {
                 match pick(grid, b as usize, &model.blocks[b as usize]) {
-                    1 => f.push(b),
-                    2 => s.push(b),
-                    _ => {}
+                    Pick::Flagged => f.push(b),
+                    Pick::Strayed => s.push(b),
+                    Pick::Neither => {}
                 }
             }
             (f, s)
@@ -691,9 +699,9 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
                     || (Vec::new(), Vec::new()),
                     |(mut f, mut s), (b, blk)| {
                         match pick(g, b, blk) {
-                            1 => f.push(b as u32),
-                            2 => s.push(b as u32),
-                            _ => {}
+                            Pick::Flagged => f.push(b as u32),
+                            Pick::Strayed => s.push(b as u32),
+                            Pick::Neither => {}
                         }
                         (f, s)
                     },
