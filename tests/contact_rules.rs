@@ -237,7 +237,7 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
         let go = |partial: bool| {
             let mut m = projectile_into_wall(8, 24);
             let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
-            gpu.set_partial_reads(partial);
+            gpu.set_partial_reads(if partial { blockdem::gpu::PartialReads::Always } else { blockdem::gpu::PartialReads::Never });
             let report = gpu.run(&mut m, 1500, &mut |_| {}).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
             (m, report, gpu.partial_updates())
         };
