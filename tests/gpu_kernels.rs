@@ -24,7 +24,8 @@ mod common;
 
 use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
 use blockdem::gpu::layout::{Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams, Material as GMaterial, Real};
-use blockdem::gpu::splice::{pack_contacts, patch_contacts, splice_contacts, NEW_CONTACT};
+use blockdem::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
+use blockdem::topology::adjacency::FROM_LISTS;
 use blockdem::topology::detect::ListEdit;
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
@@ -627,7 +628,7 @@ where
     let created_forces: Vec<GForce<R>> = insert_before.iter().map(|_| force(&mut rng)).collect();
     let mut positions: Vec<u32> = (0..n_old).collect();
     let inserted_at = blockdem::topology::detect::splice(&mut positions, &dropped, &insert_before, std::iter::repeat_n(u32::MAX, insert_before.len()));
-    let edit = ListEdit { old_len: n_old, dropped, insert_before, inserted_at };
+    let edit = ListEdit { old_len: n_old, dropped, insert_before, inserted_at, entries: None };
     let runs = edit.runs(NEW_CONTACT);
     let n = edit.new_len() as usize;
     // A fifth of the kept contacts patched, as a partial read-back gives them.
@@ -681,6 +682,85 @@ where
         &[(0, bytemuck::cast_slice(&want).to_vec(), false), (1, vec![0; n * std::mem::size_of::<GSummary<R>>()], true)],
     );
     assert_eq!(bytemuck::cast_slice::<GSummary<R>, u8>(&pack_contacts(&want)), &packed[0][..], "contact summaries");
+}
+
+/// `splice_adjacency.wgsl` against `gpu::splice::splice_adjacency` and `shift_offsets` on random
+/// old entries, runs (stretches of old entries and of new lists), a random contact edit's
+/// renumbering, and random touched lists shifting random offsets both ways: integer work, the
+/// same bit for bit.
+/// (Generic like its neighbours for `on_adapters!`: integer work, in either precision's prelude.)
+#[allow(clippy::extra_unused_type_parameters)]
+fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
+    let mut rng = Rng(0x5eed_0000_0000_0006);
+    let n_old = 5000u32;
+    let old: Vec<u32> = (0..2 * n_old).map(|_| rng.below(n_old) << 1 | rng.below(2)).collect();
+    let (mut dropped, mut insert_before) = (Vec::new(), Vec::new());
+    for k in 0..=n_old {
+        if rng.next() < 0.05 {
+            insert_before.push(k);
+        }
+        if k < n_old && rng.next() < 0.05 {
+            dropped.push(k);
+        }
+    }
+    let renumber = renumber_table(&ListEdit { old_len: n_old, dropped, insert_before, ..Default::default() });
+    let (mut runs, mut lists, mut at) = (Vec::new(), Vec::new(), 0u32);
+    let mut new_len = 0u32;
+    while at < 2 * n_old {
+        let len = 1 + rng.below(40);
+        if rng.next() < 0.3 {
+            runs.push([new_len, FROM_LISTS | lists.len() as u32]);
+            lists.extend((0..len).map(|_| rng.below(1 << 30)));
+        } else {
+            let len = len.min(2 * n_old - at);
+            runs.push([new_len, at]);
+            at += len + rng.below(3);
+            new_len += len;
+            continue;
+        }
+        new_len += len;
+    }
+    runs.push([new_len, 0]);
+    let want = splice_adjacency(&old, &runs, &lists, &renumber);
+    let out = run_kernel(
+        dev,
+        "splice_adjacency",
+        "",
+        "splice_adjacency",
+        new_len as usize,
+        &[
+            (0, bytemuck::cast_slice(&old).to_vec(), false),
+            (1, bytemuck::cast_slice(&runs).to_vec(), false),
+            (2, bytemuck::cast_slice(&lists).to_vec(), false),
+            (3, bytemuck::cast_slice(&renumber).to_vec(), false),
+            (4, vec![0; new_len as usize * 4], true),
+        ],
+    );
+    assert!(renumber.len() > 300 && runs.len() > 200 && !lists.is_empty(), "the case renumbers and splices");
+    assert_eq!(bytemuck::cast_slice::<u32, u8>(&want), &out[0][..], "entries");
+    // Offsets after touched lists that grew and shrank; the blocks after the offsets stay.
+    let n_blocks = 4000u32;
+    let mut offsets: Vec<u32> = (0..=n_blocks).map(|b| 1_000_000 + 10 * b).chain([7, 8, 9]).collect();
+    let mut touched: Vec<[u32; 2]> = Vec::new();
+    let mut shift = 0i32;
+    for t in 0..n_blocks {
+        if rng.next() < 0.05 {
+            shift += rng.below(9) as i32 - 4;
+            touched.push([t, shift as u32]);
+        }
+    }
+    touched.push([n_blocks + 1, 0]);
+    let shifted = run_kernel(
+        dev,
+        "splice_adjacency",
+        "",
+        "shift_offsets",
+        n_blocks as usize + 1,
+        &[(5, bytemuck::cast_slice(&offsets).to_vec(), true), (6, bytemuck::cast_slice(&touched).to_vec(), false)],
+    );
+    shift_offsets(&mut offsets, &touched);
+    assert_eq!(&offsets[n_blocks as usize + 1..], [7, 8, 9]);
+    assert_eq!(bytemuck::cast_slice::<u32, u8>(&offsets), &shifted[0][..], "offsets");
 }
 
 /// `list_blocks.wgsl` against `gpu::partial::list_blocks` and `list_contacts` on random blocks
@@ -816,6 +896,7 @@ on_adapters!(
     sin_cos => sin_cos_matches_rust,
     two_sum => two_sum_is_exact,
     splice => splice_contacts_matches_rust,
+    splice_adjacency => splice_adjacency_matches_rust,
     update_lists => update_lists_match_rust,
 );
 

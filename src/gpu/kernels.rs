@@ -28,6 +28,10 @@ pub struct Pipelines {
     pub splice_contacts: wgpu::ComputePipeline,
     /// Its second entry, `patch_contacts`, on the same bindings.
     pub patch_contacts: wgpu::ComputePipeline,
+    /// `splice_adjacency.wgsl`'s two entries, on bindings of their own (`adjacency_layout`).
+    pub splice_adjacency: wgpu::ComputePipeline,
+    pub shift_offsets: wgpu::ComputePipeline,
+    pub adjacency_layout: wgpu::BindGroupLayout,
     pub splice_layout: wgpu::BindGroupLayout,
     /// `pack_contacts.wgsl`, with its own bindings (the contacts, the summaries).
     pub pack_contacts: wgpu::ComputePipeline,
@@ -93,6 +97,14 @@ impl Pipelines {
             bind_group_layouts: &[Some(&splice_layout)],
             immediate_size: 0,
         });
+        // The adjacency's edit: the old entries, runs, new lists and renumbering (read), the new
+        // entries and the offsets (written), the touched lists (read).
+        let adjacency_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("blockdem adjacency"),
+            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, true)],
+        });
+        let adjacency_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem adjacency"), bind_group_layouts: &[Some(&adjacency_layout)], immediate_size: 0 });
         let pack_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem pack"), entries: &[storage(0, true), storage(1, false)] });
         let pack_pipeline_layout =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem pack"), bind_group_layouts: &[Some(&pack_layout)], immediate_size: 0 });
@@ -136,6 +148,9 @@ impl Pipelines {
             bind_group_layout,
             splice_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "splice_contacts")?,
             patch_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "patch_contacts")?,
+            splice_adjacency: make_on(&adjacency_pipeline_layout, "splice_adjacency", "splice_adjacency")?,
+            shift_offsets: make_on(&adjacency_pipeline_layout, "splice_adjacency", "shift_offsets")?,
+            adjacency_layout,
             splice_layout,
             pack_contacts: make_on(&pack_pipeline_layout, "pack_contacts", "pack_contacts")?,
             pack_layout,
@@ -177,6 +192,8 @@ pub struct Buffers {
     /// The other pair of contact and gather-record buffers, which `splice_contacts` writes the
     /// new list into before the two pairs change places (made at the first splice).
     pub spare_contacts: Option<(Slab, Slab)>,
+    /// Likewise the adjacency entries' other buffer, which `splice_adjacency` writes.
+    pub spare_entries: Option<Slab>,
     /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
     pub summaries: Option<Slab>,
 }
@@ -263,6 +280,7 @@ impl Buffers {
             dispatch_args,
             energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
             spare_contacts: None,
+            spare_entries: None,
             summaries: None,
         })
     }
@@ -304,6 +322,21 @@ impl Buffers {
             self.summaries = Some(slab(dev, "contact summaries", std::mem::size_of::<ContactSummary<R>>(), count)?);
         }
         Ok(())
+    }
+
+    /// Makes sure the spare adjacency entries hold `count` (its contents are not kept).
+    pub fn ensure_spare_entries(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
+        if self.spare_entries.as_ref().is_none_or(|s| s.capacity < count) {
+            self.spare_entries = None;
+            self.spare_entries = Some(slab(dev, "adjacency entries (spare)", 4, count)?);
+        }
+        Ok(())
+    }
+
+    /// The spare entries become the live ones (after `splice_adjacency` wrote into them).
+    pub fn swap_entries(&mut self) {
+        let entries = self.spare_entries.take().expect("spare entries to swap in");
+        self.spare_entries = Some(std::mem::replace(&mut self.adj_entries, entries));
     }
 
     /// The spare pair becomes the live contacts and records (after a splice wrote into it).

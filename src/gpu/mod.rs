@@ -749,9 +749,67 @@ where
         }
         b.swap_contacts();
         self.counts.2 = n;
-        self.upload_adjacency(&model.blocks, n, adjacency)?;
+        if !self.edit_adjacency(&model.blocks, adjacency, edit)? {
+            self.upload_adjacency(&model.blocks, n, adjacency)?;
+        }
         self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
         Ok(())
+    }
+
+    /// The adjacency lists on the device take the update's edit (`splice_adjacency.wgsl`): the
+    /// touched blocks' new lists, the renumbering and the offsets' shifts, in proportion to the
+    /// changes, where `upload_adjacency` sends the lists whole (4 bytes an entry). The blocks
+    /// `gather_heavy` sums are listed again only when a touched block crossed `HEAVY_DEGREE`.
+    /// Returns false, having changed nothing, when the lists were rebuilt rather than edited or
+    /// the heavy blocks outgrow their room: the caller uploads the lists whole.
+    fn edit_adjacency(&mut self, blocks: &[crate::model::Block], adjacency: &Adjacency, edit: &ListEdit) -> Result<bool, GpuError> {
+        use wgpu::util::DeviceExt;
+        let Some(entries) = edit.entries.as_ref() else { return Ok(false) };
+        let n_blocks = blocks.len();
+        let n_entries = adjacency.entries.len();
+        if adjacency.offsets.len() != n_blocks + 1 || entries.runs.last().map(|r| r[0] as usize) != Some(n_entries) {
+            return Ok(false);
+        }
+        // Whether a touched block crossed HEAVY_DEGREE (its degree before: now less its change).
+        let heavy = |degree: i64| degree > shaders::HEAVY_DEGREE as i64;
+        let crossed = entries.touched.iter().enumerate().any(|(j, &t)| {
+            let now = (adjacency.offsets[t as usize + 1] - adjacency.offsets[t as usize]) as i64;
+            let change = entries.shift_after[j] - if j == 0 { 0 } else { entries.shift_after[j - 1] };
+            heavy(now) != heavy(now - change)
+        });
+        let heavy_list: Option<(Vec<u32>, usize)> = crossed.then(|| {
+            let list = |fixed: bool| adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| heavy((w[1] - w[0]) as i64) && blocks[*b].fixed == fixed).map(|(b, _)| b as u32);
+            let free: Vec<u32> = list(false).collect();
+            let n_free = free.len();
+            (free.into_iter().chain(list(true)).collect(), n_free)
+        });
+        let b = self.buffers.as_mut().expect("buffers exist");
+        if heavy_list.as_ref().is_some_and(|(h, _)| n_blocks + 1 + h.len() > b.adj_offsets.capacity) {
+            return Ok(false);
+        }
+        let dev = &self.dev;
+        b.ensure_spare_entries(dev, n_entries.max(1))?;
+        Buffers::ensure(dev, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(n_blocks, edit.new_len() as usize))?;
+        let init = |label: &str, contents: &[u8]| dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE });
+        // (A binding holds at least one item.)
+        let lists: &[u32] = if entries.lists.is_empty() { &[0] } else { &entries.lists };
+        let touched = splice::touched_shifts(entries, n_blocks + 1);
+        let runs_buffer = init("adjacency runs", bytemuck::cast_slice(&entries.runs));
+        let lists_buffer = init("adjacency lists", bytemuck::cast_slice(lists));
+        let renumber_buffer = init("contact renumbering", bytemuck::cast_slice(&splice::renumber_table(edit)));
+        let touched_buffer = init("touched lists", bytemuck::cast_slice(&touched));
+        let spare = b.spare_entries.as_ref().expect("made above");
+        let buffers = [&b.adj_entries.buffer, &runs_buffer, &lists_buffer, &renumber_buffer, &spare.buffer, &b.adj_offsets.buffer, &touched_buffer];
+        let bindings: Vec<wgpu::BindGroupEntry> = buffers.into_iter().enumerate().map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() }).collect();
+        let p = &self.pipelines;
+        kernels::dispatch_passes(dev, "splice_adjacency", &[(&p.splice_adjacency, n_entries), (&p.shift_offsets, n_blocks + 1)], &p.adjacency_layout, &bindings)?;
+        b.swap_entries();
+        if let Some((list, n_free)) = heavy_list {
+            dev.queue.write_buffer(&b.adj_offsets.buffer, ((n_blocks + 1) * 4) as u64, bytemuck::cast_slice(&list));
+            self.n_heavy = list.len();
+            self.n_heavy_free = n_free;
+        }
+        Ok(true)
     }
 
     fn write_params(&self, model: &Model) {

@@ -56,6 +56,7 @@ pub const TOPOLOGY_KERNELS: &[(&str, &str)] =
         ("splice_contacts", include_str!("../../shaders/splice_contacts.wgsl")),
         ("pack_contacts", include_str!("../../shaders/pack_contacts.wgsl")),
         ("list_blocks", include_str!("../../shaders/list_blocks.wgsl")),
+        ("splice_adjacency", include_str!("../../shaders/splice_adjacency.wgsl")),
     ];
 
 /// Every kernel file's name, the cycle's first.

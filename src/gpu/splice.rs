@@ -19,6 +19,8 @@
 //! knows the list is in order beforehand, and so that the update will record its edit.
 
 use super::layout::{Contact, ContactForce, ContactSummary, Real};
+use crate::topology::adjacency::{EntriesEdit, FROM_LISTS};
+use crate::topology::detect::ListEdit;
 
 /// The source bit of a run of created contacts (`ListEdit::runs`), not of old ones.
 pub const NEW_CONTACT: u32 = 0x8000_0000;
@@ -60,6 +62,62 @@ pub fn patch_contacts<R: Real>(contacts: &mut [Contact<R>], patches: &[[u32; 2]]
             c.feature = feature;
             c.slip_work = R::default();
             c.dashpot_work = R::default();
+        }
+    }
+}
+
+/// The renumbering of a contact list's edit as `splice_adjacency.wgsl` reads it: (first old
+/// index, shift from there on as i32 bits), ascending, the first from index 0: a kept contact k
+/// takes the shift of the last entry at or below it (`ListEdit::new_index`).
+pub fn renumber_table(edit: &ListEdit) -> Vec<[u32; 2]> {
+    let mut steps: Vec<(u32, i32)> = edit.dropped.iter().map(|&r| (r + 1, -1)).chain(edit.insert_before.iter().map(|&p| (p, 1))).collect();
+    steps.sort_unstable();
+    let mut table: Vec<[u32; 2]> = vec![[0, 0]];
+    let mut shift = 0i32;
+    for (from, step) in steps {
+        shift += step;
+        match table.last_mut() {
+            Some(last) if last[0] == from => last[1] = shift as u32,
+            _ => table.push([from, shift as u32]),
+        }
+    }
+    table
+}
+
+/// The touched lists of an adjacency edit as `shift_offsets` reads them: (block, change in length
+/// up to and including its list, as i32 bits), ending with (`n_offsets`, 0).
+pub fn touched_shifts(edit: &EntriesEdit, n_offsets: usize) -> Vec<[u32; 2]> {
+    edit.touched.iter().zip(&edit.shift_after).map(|(&t, &s)| [t, s as i32 as u32]).chain([[n_offsets as u32, 0]]).collect()
+}
+
+/// Rust twin of `splice_adjacency` (splice_adjacency.wgsl): the new adjacency entries from the
+/// old ones, the edit's runs (`EntriesEdit::runs`), the touched blocks' new lists and the
+/// contacts' renumbering (`renumber_table`).
+pub fn splice_adjacency(old: &[u32], runs: &[[u32; 2]], lists: &[u32], renumber: &[[u32; 2]]) -> Vec<u32> {
+    let n = runs.last().map_or(0, |r| r[0]);
+    (0..n)
+        .map(|p| {
+            let r = runs[runs.partition_point(|r| r[0] <= p) - 1];
+            let at = ((r[1] & !FROM_LISTS) + (p - r[0])) as usize;
+            if r[1] & FROM_LISTS != 0 {
+                return lists[at];
+            }
+            let e = old[at];
+            let k = e >> 1;
+            let shift = renumber[renumber.partition_point(|x| x[0] <= k) - 1][1] as i32;
+            ((k as i32 + shift) as u32) << 1 | (e & 1)
+        })
+        .collect()
+}
+
+/// Rust twin of `shift_offsets` (splice_adjacency.wgsl): the offsets moved, in place, by the
+/// touched lists before each block (`touched_shifts`).
+pub fn shift_offsets(offsets: &mut [u32], touched: &[[u32; 2]]) {
+    let Some((&[n, _], touched)) = touched.split_last() else { return };
+    for (b, o) in offsets.iter_mut().enumerate().take(n as usize) {
+        let j = touched.partition_point(|t| (t[0] as usize) < b);
+        if j > 0 {
+            *o = (*o as i32 + touched[j - 1][1] as i32) as u32;
         }
     }
 }
@@ -157,6 +215,36 @@ mod tests {
         // A kept contact's new index.
         let kept = (0..old.len() as u32).find(|k| edit.dropped.binary_search(k).is_err() && *k > edit.dropped[0]).expect("kept after a drop");
         assert_eq!(model.contacts[edit.new_index(kept) as usize].id, old[kept as usize].id);
+    }
+
+    /// The device's form of an update's adjacency edit (`renumber_table`, `touched_shifts` and
+    /// the twins) turns the lists before the update into the CPU's lists after it.
+    #[test]
+    fn the_twins_edit_the_adjacency_as_the_update_does() {
+        let mut model = wall(1000);
+        let mut adjacency = crate::topology::Adjacency::default();
+        crate::topology::update_topology(&mut model, true, &mut adjacency);
+        measure_gaps(&mut model);
+        crate::topology::update_topology(&mut model, false, &mut adjacency);
+        let before = adjacency.clone();
+        for (k, b) in movable(&model).into_iter().step_by(19).enumerate() {
+            shift(&mut model, b, if k % 2 == 0 { [0.0, 30.0] } else { [0.35, 0.0] });
+        }
+        measure_gaps(&mut model);
+        let (created, dropped) = crate::topology::update_topology(&mut model, false, &mut adjacency);
+        assert!(created > 0 && dropped > 0);
+        let edit = adjacency.take_edit().expect("an edit");
+        let entries = edit.entries.as_ref().expect("the lists were edited, not rebuilt");
+        let renumber = renumber_table(&edit);
+        assert_eq!(splice_adjacency(&before.entries, &entries.runs, &entries.lists, &renumber), adjacency.entries);
+        let mut offsets = before.offsets.clone();
+        let touched = touched_shifts(entries, offsets.len());
+        shift_offsets(&mut offsets, &touched);
+        assert_eq!(offsets, adjacency.offsets);
+        for k in (0..edit.old_len).step_by(7).filter(|k| edit.dropped.binary_search(k).is_err()) {
+            let shift = renumber[renumber.partition_point(|x| x[0] <= k) - 1][1] as i32;
+            assert_eq!((k as i32 + shift) as u32, edit.new_index(k));
+        }
     }
 
     #[test]

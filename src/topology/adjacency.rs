@@ -15,6 +15,36 @@ const PARALLEL_BLOCKS: usize = 1024;
 /// Below this many contacts the lists are built on one thread.
 const PARALLEL_CONTACTS: usize = 1 << 16;
 
+/// The source bit of a run of `EntriesEdit::runs` that comes from `EntriesEdit::lists`.
+pub const FROM_LISTS: u32 = 1 << 31;
+
+/// What one contact update did to the adjacency lists (`Adjacency::apply`), for a backend that
+/// keeps a copy of them (the GPU's) and makes the same edit to it: the lists of the blocks that
+/// gained or lost a contact are new, every other entry is the old one renumbered (the contact
+/// list's own edit, `detect::ListEdit::new_index`) and moved by the change in length of the
+/// lists before it.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EntriesEdit {
+    /// The blocks whose lists changed (ascending).
+    pub touched: Vec<u32>,
+    /// For each touched block, the change in the entries' total up to and including its list:
+    /// the offsets of the blocks after it, up to and including the next touched one, move by it.
+    pub shift_after: Vec<i64>,
+    /// The new entries as runs: (first new position, source), the source an old position or, with
+    /// `FROM_LISTS`, a position in `lists`; ends with (new length, 0).
+    pub runs: Vec<[u32; 2]>,
+    /// The touched blocks' new lists, one after another.
+    pub lists: Vec<u32>,
+}
+
+impl EntriesEdit {
+    /// No list changed: `entries` entries where they were.
+    pub fn unchanged(entries: usize) -> Self {
+        let n = entries as u32;
+        EntriesEdit { runs: if n > 0 { vec![[0, 0], [n, 0]] } else { vec![[0, 0]] }, ..EntriesEdit::default() }
+    }
+}
+
 #[derive(Debug, Default)]
 pub struct Adjacency {
     /// `offsets[b] .. offsets[b+1]` indexes `entries` for block b.
@@ -145,8 +175,8 @@ impl Adjacency {
     /// before the old contact `insert_before` names and now at `inserted` in the new list
     /// `contacts` (both ascending). The same lists as `build` would give: the old entries
     /// renumbered (the kept contacts kept their order), and only the lists of blocks that lost or
-    /// gained a contact rebuilt.
-    pub fn apply(&mut self, block_count: usize, contacts: &[Contact], removed: &[(u32, u32, u32)], insert_before: &[u32], inserted: &[u32]) {
+    /// gained a contact rebuilt. Returns what changed.
+    pub fn apply(&mut self, block_count: usize, contacts: &[Contact], removed: &[(u32, u32, u32)], insert_before: &[u32], inserted: &[u32]) -> EntriesEdit {
         let removed_at: Vec<u32> = removed.iter().map(|r| r.0).collect();
         let renumber = Renumber::new(self.entries.len() / 2, &removed_at, insert_before);
         let renumber_entry = |e: u32| renumber.of(e >> 1) << 1 | (e & 1);
@@ -157,7 +187,7 @@ impl Adjacency {
         touched.sort_unstable();
         touched.dedup();
         if touched.is_empty() {
-            return;
+            return EntriesEdit::unchanged(self.entries.len());
         }
         let list_of = |t: u32| -> Vec<u32> {
             let old = self.entries(t as usize);
@@ -179,6 +209,24 @@ impl Adjacency {
             let j = touched.partition_point(|&t| (t as usize) < b);
             (self.offsets[b] as i64 + if j == 0 { 0 } else { shift_after[j - 1] }) as u32
         };
+        // The same as runs: each stretch of untouched blocks' entries moves as one, by the
+        // shift before it; each touched list comes from `lists`.
+        let mut runs: Vec<[u32; 2]> = Vec::with_capacity(2 * touched.len() + 2);
+        let (mut first, mut at) = (0usize, 0u32);
+        for (&t, list) in touched.iter().zip(&new_lists) {
+            if self.offsets[t as usize] > self.offsets[first] {
+                runs.push([new_offset(first), self.offsets[first]]);
+            }
+            if !list.is_empty() {
+                runs.push([new_offset(t as usize), FROM_LISTS | at]);
+                at += list.len() as u32;
+            }
+            first = t as usize + 1;
+        }
+        if self.offsets[block_count] > self.offsets[first] {
+            runs.push([new_offset(first), self.offsets[first]]);
+        }
+        runs.push([2 * contacts.len() as u32, 0]);
         let mut entries = std::mem::take(&mut self.spare);
         entries.clear();
         entries.resize(2 * contacts.len(), 0);
@@ -219,6 +267,7 @@ impl Adjacency {
                 *o = (*o as i64 + shift_after[j]) as u32;
             }
         }
+        EntriesEdit { touched, shift_after, runs, lists: new_lists.concat() }
     }
 
     /// Takes the edit the last contact update made to the contact list (None: none recorded,
@@ -309,5 +358,65 @@ mod tests {
         parallel.rebuild_parallel(blocks as usize, &contacts[..PARALLEL_CONTACTS + 7]);
         serial.rebuild_serial(blocks as usize, &contacts[..PARALLEL_CONTACTS + 7]);
         assert!(serial == parallel);
+    }
+
+    /// `apply` gives the lists `build` gives on the new contact list, and the edit it returns
+    /// turns the old lists into them (runs of renumbered old entries and new lists; offsets moved
+    /// by the touched lists' shifts), as a backend holding a copy makes it.
+    #[test]
+    fn an_applied_edit_rebuilds_the_lists() {
+        let mut seed = 0x1234_5678_9abc_def1u64;
+        let mut next = |m: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed % m) as u32
+        };
+        let blocks = 3000u32;
+        for (n, changes) in [(20_000u32, 40u32), (20_000, 2), (500, 300)] {
+            let contact = |id: u32, next: &mut dyn FnMut(u64) -> u32| {
+                let block1 = next(blocks as u64);
+                let block2 = (block1 + 1 + next(blocks as u64 - 1)) % blocks;
+                Contact::unloaded(id, block1, block2)
+            };
+            let old: Vec<Contact> = (0..n).map(|id| contact(id, &mut next)).collect();
+            let mut dropped: Vec<u32> = (0..changes).map(|_| next(n as u64)).collect();
+            dropped.sort_unstable();
+            dropped.dedup();
+            let mut insert_before: Vec<u32> = (0..changes).map(|_| next(n as u64 + 1)).collect();
+            insert_before.sort_unstable();
+            let created: Vec<Contact> = (0..insert_before.len() as u32).map(|i| contact(n + i, &mut next)).collect();
+            let mut new = old.clone();
+            let inserted = crate::topology::detect::splice(&mut new, &dropped, &insert_before, created.into_iter());
+            let removed: Vec<(u32, u32, u32)> = dropped.iter().map(|&k| (k, old[k as usize].block1, old[k as usize].block2)).collect();
+            let before = Adjacency::build(blocks as usize, &old);
+            let mut after = Adjacency::build(blocks as usize, &old);
+            let edit = after.apply(blocks as usize, &new, &removed, &insert_before, &inserted);
+            assert!(after == Adjacency::build(blocks as usize, &new), "apply gives the built lists");
+            // The edit on the old lists.
+            let renumber = Renumber::new(old.len(), &dropped, &insert_before);
+            let mut entries = Vec::new();
+            for w in edit.runs.windows(2) {
+                assert!(w[0][0] < w[1][0], "no empty run");
+                let (source, len) = (w[0][1], (w[1][0] - w[0][0]) as usize);
+                for i in 0..len {
+                    entries.push(if source & FROM_LISTS != 0 {
+                        edit.lists[(source & !FROM_LISTS) as usize + i]
+                    } else {
+                        let e = before.entries[source as usize + i];
+                        renumber.of(e >> 1) << 1 | (e & 1)
+                    });
+                }
+            }
+            assert_eq!(*edit.runs.last().unwrap(), [after.entries.len() as u32, 0]);
+            assert!(entries == after.entries, "entries from the runs ({n} contacts, {changes} changes)");
+            let offsets: Vec<u32> = (0..=blocks)
+                .map(|b| {
+                    let j = edit.touched.partition_point(|&t| t < b);
+                    (before.offsets[b as usize] as i64 + if j == 0 { 0 } else { edit.shift_after[j - 1] }) as u32
+                })
+                .collect();
+            assert!(offsets == after.offsets, "offsets from the shifts");
+        }
     }
 }

@@ -34,6 +34,7 @@
 
 use rayon::prelude::*;
 
+use super::adjacency::EntriesEdit;
 use super::Adjacency;
 use crate::cpu::contact_forces::nearest_feature;
 use crate::model::{Block, Contact, Corner, Model, Tolerances};
@@ -924,13 +925,16 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     let old_len = model.contacts.len() as u32;
     let inserted_at = splice(&mut model.contacts, &dropped, &insert_before, new_contacts);
     if let Some(adjacency) = adjacency {
-        if all || !sorted || !adjacency.fits(n, model.contacts.len() + dropped.len() - n_created) {
+        let entries = if all || !sorted || !adjacency.fits(n, model.contacts.len() + dropped.len() - n_created) {
             adjacency.rebuild(n, &model.contacts);
+            None
         } else if !dropped.is_empty() || n_created > 0 {
-            adjacency.apply(n, &model.contacts, &removed, &insert_before, &inserted_at);
-        }
+            Some(adjacency.apply(n, &model.contacts, &removed, &insert_before, &inserted_at))
+        } else {
+            Some(EntriesEdit::unchanged(adjacency.entries.len()))
+        };
         // What changed in the list, for a backend that keeps a copy of it (the GPU's).
-        adjacency.edit = sorted.then_some(ListEdit { old_len, dropped, insert_before, inserted_at });
+        adjacency.edit = sorted.then_some(ListEdit { old_len, dropped, insert_before, inserted_at, entries });
     }
 
     let reset = |b: &mut Block| {
@@ -963,6 +967,8 @@ pub struct ListEdit {
     pub insert_before: Vec<u32>,
     /// The new contacts' indices in the new list (ascending).
     pub inserted_at: Vec<u32>,
+    /// The same update's edit of the adjacency lists, when they were edited rather than rebuilt.
+    pub entries: Option<EntriesEdit>,
 }
 
 impl ListEdit {
@@ -1322,7 +1328,7 @@ mod tests {
                 let positions: Vec<u32> = expected.iter().enumerate().filter(|(_, c)| c.id >= 1_000_000).map(|(k, _)| k as u32).collect();
                 assert_eq!(at, positions);
                 // The same edit as runs and as a renumbering of the kept contacts.
-                let edit = ListEdit { old_len: len as u32, dropped: dropped.clone(), insert_before: insert_before.clone(), inserted_at: at };
+                let edit = ListEdit { old_len: len as u32, dropped: dropped.clone(), insert_before: insert_before.clone(), inserted_at: at, entries: None };
                 assert_eq!(edit.new_len() as usize, expected.len());
                 const NEW: u32 = 1 << 31;
                 let runs = edit.runs(NEW);
