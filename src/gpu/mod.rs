@@ -41,8 +41,9 @@
 //! update, the update's own edit of the list as runs (`detect::ListEdit`), the contacts created
 //! and a patch (index, feature) per kept contact it read, from which `splice_contacts` builds the
 //! new list and gather records on the device (`splice`; the whole list is uploaded when the
-//! update had to sort it), the adjacency when a contact was created or dropped, and the reset
-//! update distances of the re-examined blocks; everything after a crack split a block. The
+//! update had to sort it), the edit of the adjacency lists when a contact was created or dropped
+//! (`splice_adjacency`: the touched blocks' new lists and the renumbering), and the reset update
+//! distances of the re-examined blocks; everything after a crack split a block. The
 //! energy check every 100 cycles is summed on the device (`energy_sums`), and the last good state is a device-side copy of the state
 //! buffers taken when a check passes (`take_checkpoint`), read back only if the run fails.
 //!
