@@ -351,6 +351,10 @@ struct Engine<R: Real> {
     /// Counts uploads of the contact list (any topology change): the CPU copy of the last good
     /// state must be re-taken when it changed since the checkpoint.
     generation: u64,
+    /// Counts uploads of the whole model (blocks and corners too: a run's start, a crack): when
+    /// only `generation` moved, the copy takes the contacts alone (`clone_from_except_blocks`;
+    /// a restore takes the blocks' and corners' state from the device checkpoint).
+    block_generation: u64,
     checkpoint: Option<Checkpoint>,
     /// The block buffer as last read back (to see which update distances stage 7 reset).
     last_blocks: Vec<Block<R>>,
@@ -447,6 +451,7 @@ where
             end_cycle_bind_group: None,
             uploaded: Default::default(),
             generation: 0,
+            block_generation: 0,
             checkpoint: None,
             last_blocks: Vec::new(),
             counts: (0, 0, 0),
@@ -505,6 +510,7 @@ where
     /// Uploads the whole model (start of a run, or after a crack split a block).
     fn upload_all(&mut self, model: &Model, adjacency: &Adjacency) -> Result<(), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
+        self.block_generation += 1;
         // Origin: the middle of the model, rounded to a whole unit, only for f32 (f64 has digits
         // to spare and keeps the CPU's coordinates exactly).
         let mut origin = [0.0, 0.0];
@@ -1629,7 +1635,7 @@ where
             last_good.clone_from(model);
         }
         crate::profile::mark_cycles_start();
-        let mut last_good_generation = self.generation;
+        let mut last_good_generation = (self.generation, self.block_generation);
         let mut done_total = 0u64;
         // Cycles per submission: up to the next energy check, fewer while contact updates halt
         // batches early. A halted batch still encodes and submits the dispatches of its remaining
@@ -1770,10 +1776,15 @@ where
                         self.readback(model).map_err(device_error)?;
                     } else {
                         self.take_checkpoint();
-                        if last_good_generation != self.generation {
+                        let now = (self.generation, self.block_generation);
+                        if last_good_generation != now {
                             let _p = crate::profile::scope(crate::profile::Stage::Checks);
-                            last_good.clone_from(model);
-                            last_good_generation = self.generation;
+                            if last_good_generation.1 == now.1 {
+                                last_good.clone_from_except_blocks(model);
+                            } else {
+                                last_good.clone_from(model);
+                            }
+                            last_good_generation = now;
                         }
                         last_good.cycle = model.cycle;
                         last_good.time = model.time;

@@ -393,9 +393,19 @@ impl Clone for Model {
     }
 
     fn clone_from(&mut self, source: &Self) {
-        let Model { blocks, corners, contacts, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = source;
-        self.blocks.clone_from(blocks);
-        self.corners.clone_from(corners);
+        self.blocks.clone_from(&source.blocks);
+        self.corners.clone_from(&source.corners);
+        self.clone_from_except_blocks(source);
+    }
+}
+
+impl Model {
+    /// `clone_from` of everything but the blocks and corners: for a copy of the last good state
+    /// whose blocks and corners keep their structure and take their state from elsewhere (the GPU
+    /// backend's device checkpoint) when it is restored, refreshed after contact updates only
+    /// (the contacts are most of a large model: 54 of the 90 ms a whole copy takes at 10⁶ blocks).
+    pub fn clone_from_except_blocks(&mut self, source: &Self) {
+        let Model { blocks: _, corners: _, contacts, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = source;
         self.contacts.clone_from(contacts);
         self.materials.clone_from(materials);
         self.links.clone_from(links);
