@@ -15,6 +15,7 @@ every_backend!(
     a_projectile_that_would_tunnel_is_stopped,
     a_failure_after_a_checkpoint_restores_that_checkpoint,
     a_failure_in_a_later_run_restores_that_runs_start,
+    a_failure_after_contact_updates_restores_the_checkpoints_contacts,
 );
 
 /// Runs a deck that must fail; returns the failure and the model the executor kept.
@@ -132,6 +133,38 @@ fn a_failure_in_a_later_run_restores_that_runs_start(t: &Target) {
             assert!((g.velocity[i] - c.velocity[i]).abs() < 1e-5 * (1.0 + c.velocity[i].abs()), "velocity on {}: {:?} vs {:?}", t.name(), g.velocity, c.velocity);
         }
     }
+}
+
+fn a_failure_after_contact_updates_restores_the_checkpoints_contacts(t: &Target) {
+    // A block slides without friction at 5 m/s over a row of fixed blocks, its corners passing
+    // from one to the next (contacts made and dropped at contact updates), and strikes a fixed
+    // wall hard enough to overlap it past the limit (cycle 2373 on the CPU). The last good state
+    // is the checkpoint of cycle 2300, with the contacts of then, not of the run's start: the
+    // GPU backend refreshes its copy of the topology after contact updates (the contacts alone,
+    // the blocks' state coming from its device checkpoint).
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.0\nROUND 0.01\n\
+         BLOCK 0,0 0,1 1,1 1,0\nBLOCK 1,0 1,1 2,1 2,0\nBLOCK 2,0 2,1 3,1 3,0\nBLOCK 3,0 3,1 4,1 4,0\nBLOCK 4,0 4,1 5,1 5,0\nBLOCK 5,0 5,1 6,1 6,0\n\
+         BLOCK 6,0 6,2 7,2 7,0\nBLOCK 0.2,1 0.2,1.5 0.7,1.5 0.7,1\nFIX 0 7 0 0.99\nFIX 6 7 0 2\nGRAV 0 -10\nVELOCITY 0 1 1 1.5 5 0\nCYCLE 5000\n";
+    let (e, m) = fail(t, deck);
+    let (re, reference) = fail(&Target::Cpu, deck);
+    assert!(matches!(re, CycleError::Overlap { cycle: 2373, .. }), "{re} on the CPU");
+    assert!(matches!(e, CycleError::Overlap { .. }), "{e} on {}", t.name());
+    assert_eq!((m.cycle, reference.cycle), (2300, 2300), "on {}", t.name());
+    // The slider touches the last blocks of the row by then, not the first it started on.
+    let slider = reference.blocks.iter().position(|b| !b.fixed).expect("a free block") as u32;
+    let touched: Vec<u32> = reference.contacts.iter().filter(|c| c.block1 == slider || c.block2 == slider).map(|c| c.block1 + c.block2 - slider).collect();
+    assert!(!touched.is_empty() && touched.iter().all(|&b| b >= 4), "the slider's contacts at cycle 2300: {touched:?}");
+    let key = |m: &Model| m.contacts.iter().map(|c| (c.block1, c.corner, c.block2)).collect::<Vec<_>>();
+    assert_eq!(key(&m), key(&reference), "the checkpoint's contacts on {}", t.name());
+    // Its state of cycle 2300 (another checkpoint's would be 0.2 m away): the position to 1e-4 m;
+    // the velocity to 0.05 m/s, since the corners rattle over each joint of the row and round-off
+    // decides the small bounces (the GPU in f64 and the CPU differ by 0.015–0.03 m/s vertically).
+    let (g, c) = (&m.blocks[slider as usize], &reference.blocks[slider as usize]);
+    for i in 0..2 {
+        assert!((g.centroid[i] - c.centroid[i]).abs() < 1e-4, "centroid on {}: {:?} vs {:?}", t.name(), g.centroid, c.centroid);
+        assert!((g.velocity[i] - c.velocity[i]).abs() < 0.05, "velocity on {}: {:?} vs {:?}", t.name(), g.velocity, c.velocity);
+    }
+    assert_last_good(&m, t);
 }
 
 /// FRACTION far above the stable limit can fail first as a block too fast for the contact update
