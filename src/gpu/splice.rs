@@ -25,6 +25,13 @@ use crate::topology::detect::ListEdit;
 /// The source bit of a run of created contacts (`ListEdit::runs`), not of old ones.
 pub const NEW_CONTACT: u32 = 0x8000_0000;
 
+/// Where item i of a list given as runs (first index, source; the binary search of the kernels)
+/// comes from: whether its run's source has `bit` set (the second array), and its index there.
+fn source_in_runs(runs: &[[u32; 2]], i: u32, bit: u32) -> (bool, usize) {
+    let r = runs[runs.partition_point(|r| r[0] <= i) - 1];
+    (r[1] & bit != 0, ((r[1] & !bit) + (i - r[0])) as usize)
+}
+
 /// Rust twin of `splice_contacts.wgsl`: the new list and its gather records from the old ones,
 /// the runs (`ListEdit::runs(NEW_CONTACT)`, ending with the new length) and the created
 /// contacts (with their records).
@@ -41,15 +48,9 @@ where
 {
     let n = runs.last().map_or(0, |r| r[0]);
     (0..n)
-        .map(|i| {
-            // The last run starting at or before i.
-            let r = runs[runs.partition_point(|r| r[0] <= i) - 1];
-            let at = ((r[1] & !NEW_CONTACT) + (i - r[0])) as usize;
-            if r[1] & NEW_CONTACT != 0 {
-                (created[at], created_forces[at])
-            } else {
-                (old[at], old_forces[at])
-            }
+        .map(|i| match source_in_runs(runs, i, NEW_CONTACT) {
+            (true, at) => (created[at], created_forces[at]),
+            (false, at) => (old[at], old_forces[at]),
         })
         .unzip()
 }
@@ -97,9 +98,8 @@ pub fn splice_adjacency(old: &[u32], runs: &[[u32; 2]], lists: &[u32], renumber:
     let n = runs.last().map_or(0, |r| r[0]);
     (0..n)
         .map(|p| {
-            let r = runs[runs.partition_point(|r| r[0] <= p) - 1];
-            let at = ((r[1] & !FROM_LISTS) + (p - r[0])) as usize;
-            if r[1] & FROM_LISTS != 0 {
+            let (from_lists, at) = source_in_runs(runs, p, FROM_LISTS);
+            if from_lists {
                 return lists[at];
             }
             let e = old[at];
