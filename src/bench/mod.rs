@@ -243,6 +243,11 @@ pub struct ScalingRow {
     pub transfer_share: f64,
     /// Share of the whole timed run, set-up included, spent in topology work and transfers.
     pub run_topology_transfer_share: f64,
+    /// Contact updates (stage 7 runs) during the timed cycles of the median round.
+    pub topology_updates: u64,
+    /// Host time of topology work and transfers in those cycles per contact update, seconds
+    /// (0 without updates): what an update costs the host, in proportion to what it changes.
+    pub host_s_per_update: f64,
     /// Time per cycle of each round, in turn with the other backends (the row's rates are those
     /// of the round of median time).
     pub round_s_per_cycle: Vec<f64>,
@@ -544,6 +549,8 @@ struct Timed {
     teardown_s: f64,
     steady_s: f64,
     times: StageTimes,
+    /// Contact updates the run made (its set-up's full detection not counted).
+    updates: u64,
 }
 
 fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Result<Timed, CycleError> {
@@ -552,10 +559,13 @@ fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Resul
     let result = backend.run(model, cycles, &mut |_| {});
     let end = Instant::now();
     let times = profile::take();
-    result?;
+    let report = result?;
     let mark = times.cycles_start.unwrap_or(start);
     let last = times.cycles_end.unwrap_or(end);
-    Ok(Timed { setup_s: (mark - start).as_secs_f64(), steady_s: (last - mark).as_secs_f64(), teardown_s: (end - last).as_secs_f64(), times })
+    // (A run that starts from the model counts its full detection as an update too.)
+    let full_detection = times.setup_of(Stage::DetectFull) > std::time::Duration::ZERO;
+    let updates = report.topology_updates.saturating_sub(u64::from(full_detection));
+    Ok(Timed { setup_s: (mark - start).as_secs_f64(), steady_s: (last - mark).as_secs_f64(), teardown_s: (end - last).as_secs_f64(), times, updates })
 }
 
 /// One wall on each backend of `engines`: settled and calibrated on each, then timed in
@@ -682,5 +692,7 @@ fn fill_timing(row: &mut ScalingRow, model: &Model, cycles: u64, run: &Timed, in
     row.stages.push(StageRow { source: "host".into(), stage: "other".into(), group: "other".into(), s_per_cycle: other / cycles as f64, bytes_per_cycle: None });
     row.topology_share = topology / run.steady_s;
     row.transfer_share = transfer / run.steady_s;
+    row.topology_updates = run.updates;
+    row.host_s_per_update = if run.updates > 0 { (topology + transfer) / run.updates as f64 } else { 0.0 };
     row.run_topology_transfer_share = run_tt / (run.steady_s + run.setup_s + run.teardown_s);
 }
