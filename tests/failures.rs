@@ -140,8 +140,8 @@ fn a_failure_after_contact_updates_restores_the_checkpoints_contacts(t: &Target)
     // from one to the next (contacts made and dropped at contact updates), and strikes a fixed
     // wall hard enough to overlap it past the limit (cycle 2373 on the CPU). The last good state
     // is the checkpoint of cycle 2300, with the contacts of then, not of the run's start: the
-    // GPU backend refreshes its copy of the topology after contact updates (the contacts alone,
-    // the blocks' state coming from its device checkpoint).
+    // GPU backend refreshes its copy of the topology after contact updates (the contacts'
+    // identities alone, their state and the blocks' coming from its device checkpoint).
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.0\nROUND 0.01\n\
          BLOCK 0,0 0,1 1,1 1,0\nBLOCK 1,0 1,1 2,1 2,0\nBLOCK 2,0 2,1 3,1 3,0\nBLOCK 3,0 3,1 4,1 4,0\nBLOCK 4,0 4,1 5,1 5,0\nBLOCK 5,0 5,1 6,1 6,0\n\
          BLOCK 6,0 6,2 7,2 7,0\nBLOCK 0.2,1 0.2,1.5 0.7,1.5 0.7,1\nFIX 0 7 0 0.99\nFIX 6 7 0 2\nGRAV 0 -10\nVELOCITY 0 1 1 1.5 5 0\nCYCLE 5000\n";

@@ -127,6 +127,52 @@ pub enum PartialReads {
 /// the whole read also crosses the bus.
 pub const PARTIAL_READ_MIN_BYTES: usize = 2 << 20;
 
+/// What the device does not hold of a contact: its identity, material and constitutive model.
+/// Between whole copies, the last good state keeps its contact list as these (24 bytes a contact
+/// where a model contact takes 144); a restore rebuilds the contacts from them and fills in their
+/// state from the device checkpoint (`Engine::restore_checkpoint`).
+#[derive(Clone, Copy)]
+struct ContactIdentity {
+    id: u32,
+    block1: u32,
+    corner: u32,
+    block2: u32,
+    material: u32,
+    constitutive: u32,
+}
+
+impl ContactIdentity {
+    fn of(c: &crate::model::Contact) -> Self {
+        ContactIdentity { id: c.id, block1: c.block1, corner: c.corner, block2: c.block2, material: c.material, constitutive: c.constitutive }
+    }
+
+    /// The contact with this identity, its state zero until a read-back fills it.
+    fn contact(self) -> crate::model::Contact {
+        let ContactIdentity { id, block1, corner, block2, material, constitutive } = self;
+        crate::model::Contact {
+            id,
+            block1,
+            corner,
+            block2,
+            feature: 0,
+            kind: ContactKind::CornerEdge,
+            material,
+            constitutive,
+            bonded: false,
+            point: [0.0; 2],
+            normal: [0.0; 2],
+            gap: 0.0,
+            normal_force: 0.0,
+            shear_force: 0.0,
+            shear_displacement: 0.0,
+            force: [0.0; 2],
+            slip_work: 0.0,
+            dashpot_work: 0.0,
+            dashpot_velocity: [0.0; 2],
+        }
+    }
+}
+
 /// What `Engine::partial_contact_update` did.
 enum PartialUpdate {
     /// Nothing: the update needs the whole state (the caller reads it back as before).
@@ -352,9 +398,13 @@ struct Engine<R: Real> {
     /// state must be re-taken when it changed since the checkpoint.
     generation: u64,
     /// Counts uploads of the whole model (blocks and corners too: a run's start, a crack): when
-    /// only `generation` moved, the copy takes the contacts alone (`clone_from_except_blocks`;
-    /// a restore takes the blocks' and corners' state from the device checkpoint).
+    /// only `generation` moved, the last good state's copy takes the contacts' identities alone
+    /// (`last_good_contacts`) and the model's scalars; a restore takes the blocks', corners' and
+    /// contacts' state from the device checkpoint.
     block_generation: u64,
+    /// The last good state's contact list when it is newer than the copy's own (Some after a
+    /// contact update since the last whole copy): identities only.
+    last_good_contacts: Option<Vec<ContactIdentity>>,
     checkpoint: Option<Checkpoint>,
     /// The block buffer as last read back (to see which update distances stage 7 reset).
     last_blocks: Vec<Block<R>>,
@@ -452,6 +502,7 @@ where
             uploaded: Default::default(),
             generation: 0,
             block_generation: 0,
+            last_good_contacts: None,
             checkpoint: None,
             last_blocks: Vec::new(),
             counts: (0, 0, 0),
@@ -1077,6 +1128,9 @@ where
     /// and sums the fixed blocks' forces, which the cycle does not keep up to date.
     fn restore_checkpoint(&self, model: &mut Model) -> Result<(), GpuError> {
         let Some(ck) = self.checkpoint.as_ref().filter(|c| c.valid) else { return Ok(()) };
+        if let Some(identities) = &self.last_good_contacts {
+            model.contacts = identities.par_iter().map(|c| c.contact()).collect();
+        }
         let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, counts: ck.counts };
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
@@ -1630,6 +1684,7 @@ where
             ck.valid = false;
         }
         let mut last_good = std::mem::take(&mut self.last_good);
+        self.last_good_contacts = None;
         if !resume {
             // (When resuming it is the model already.)
             last_good.clone_from(model);
@@ -1780,9 +1835,12 @@ where
                         if last_good_generation != now {
                             let _p = crate::profile::scope(crate::profile::Stage::Checks);
                             if last_good_generation.1 == now.1 {
-                                last_good.clone_from_except_blocks(model);
+                                last_good.clone_settings_from(model);
+                                let identities = self.last_good_contacts.get_or_insert_with(Vec::new);
+                                model.contacts.par_iter().map(ContactIdentity::of).collect_into_vec(identities);
                             } else {
                                 last_good.clone_from(model);
+                                self.last_good_contacts = None;
                             }
                             last_good_generation = now;
                         }
@@ -1799,6 +1857,7 @@ where
             Ok(()) => {
                 // The state read back last, for the next run to compare with.
                 last_good.clone_from(model);
+                self.last_good_contacts = None;
                 self.last_good = last_good;
                 self.adjacency = adjacency;
                 self.resumable = true;
