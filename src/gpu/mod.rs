@@ -149,27 +149,7 @@ impl ContactIdentity {
     /// The contact with this identity, its state zero until a read-back fills it.
     fn contact(self) -> crate::model::Contact {
         let ContactIdentity { id, block1, corner, block2, material, constitutive } = self;
-        crate::model::Contact {
-            id,
-            block1,
-            corner,
-            block2,
-            feature: 0,
-            kind: ContactKind::CornerEdge,
-            material,
-            constitutive,
-            bonded: false,
-            point: [0.0; 2],
-            normal: [0.0; 2],
-            gap: 0.0,
-            normal_force: 0.0,
-            shear_force: 0.0,
-            shear_displacement: 0.0,
-            force: [0.0; 2],
-            slip_work: 0.0,
-            dashpot_work: 0.0,
-            dashpot_velocity: [0.0; 2],
-        }
+        crate::model::Contact::identity(id, block1, corner, block2, material, constitutive)
     }
 }
 

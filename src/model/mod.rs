@@ -237,19 +237,18 @@ pub struct Contact {
 }
 
 impl Contact {
-    /// An unloaded corner–edge contact of corner 0 of `block1` against `block2`, material 1: a
-    /// starting point for unit tests of the topology code.
-    #[cfg(test)]
-    pub(crate) fn unloaded(id: u32, block1: u32, block2: u32) -> Contact {
+    /// A contact of `corner` of `block1` against `block2` with no state yet (no feature, gap,
+    /// force or history): what a read-back of its state fills in (the GPU backend's restore).
+    pub fn identity(id: u32, block1: u32, corner: u32, block2: u32, material: u32, constitutive: u32) -> Contact {
         Contact {
             id,
             block1,
-            corner: 0,
+            corner,
             block2,
             feature: 0,
             kind: ContactKind::CornerEdge,
-            material: 1,
-            constitutive: 1,
+            material,
+            constitutive,
             bonded: false,
             point: [0.0; 2],
             normal: [0.0; 2],
@@ -262,6 +261,13 @@ impl Contact {
             dashpot_work: 0.0,
             dashpot_velocity: [0.0; 2],
         }
+    }
+
+    /// An unloaded corner–edge contact of corner 0 of `block1` against `block2`, material 1: a
+    /// starting point for unit tests of the topology code.
+    #[cfg(test)]
+    pub(crate) fn unloaded(id: u32, block1: u32, block2: u32) -> Contact {
+        Contact::identity(id, block1, 0, block2, 1, 1)
     }
 }
 
