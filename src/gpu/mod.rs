@@ -684,10 +684,14 @@ where
     /// The bookkeeping of a new contact list on the device: the ledger bases of its contacts and
     /// the generation the last good state's CPU copy is compared with.
     fn new_contact_list(&mut self, model: &Model) {
-        // The contact update kept each surviving contact's ledger terms in the model (matched by
-        // corner and block, with their feature ids): they are the new bases.
-        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+        self.bases_from_model(model);
         self.generation += 1;
+    }
+
+    /// Every contact's ledger bases from the model: the contact update kept each surviving
+    /// contact's ledger terms there (matched by corner and block, with their feature ids).
+    fn bases_from_model(&mut self, model: &Model) {
+        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
     }
 
     /// `new_contact_list` after a splice of `edit`, where the kept contacts at `patched` (new
@@ -696,17 +700,16 @@ where
     /// checkpoint still shares them.) An edit that changed no contact leaves the generation: the
     /// last good state's copy of the topology still holds (a checkpoint's bases are its own).
     fn edit_contact_list(&mut self, model: &Model, edit: &ListEdit, patched: Option<&[u32]>) {
-        let Some(patched) = patched else {
-            std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
-            self.generation += u64::from(!edit.is_empty());
-            return;
-        };
-        let bases = &mut std::rc::Rc::make_mut(&mut self.uploaded).contact_base;
-        let created = edit.inserted_at.iter().map(|&k| [model.contacts[k as usize].slip_work, model.contacts[k as usize].dashpot_work]);
-        crate::topology::detect::splice(bases, &edit.dropped, &edit.insert_before, created);
-        for &k in patched {
-            let c = &model.contacts[k as usize];
-            bases[k as usize] = [c.slip_work, c.dashpot_work];
+        match patched {
+            None => self.bases_from_model(model),
+            Some(patched) => {
+                let bases = &mut std::rc::Rc::make_mut(&mut self.uploaded).contact_base;
+                let base = |k: u32| [model.contacts[k as usize].slip_work, model.contacts[k as usize].dashpot_work];
+                crate::topology::detect::splice(bases, &edit.dropped, &edit.insert_before, edit.inserted_at.iter().map(|&k| base(k)));
+                for &k in patched {
+                    bases[k as usize] = base(k);
+                }
+            }
         }
         self.generation += u64::from(!edit.is_empty());
     }
@@ -1362,13 +1365,6 @@ where
         }
     }
 
-    /// Stage 7 from what it touches (`gpu::partial`): the device lists the blocks that may be
-    /// re-examined or have strayed from the kept grid and the contacts that may be dropped; the
-    /// CPU reads those back, then the neighbourhoods of the blocks it re-examines (their blocks,
-    /// corners and contacts), runs the update on them, resets the re-examined blocks' update
-    /// distances on the device and splices the contact list there, leaving every contact it did
-    /// not read as the device holds it. The model is current only where it was read until the
-    /// next whole read-back. Declines, changing nothing, when the update needs the whole state.
     /// Whether a contact update now reads back only what it touches (`PartialReads`).
     fn partial_reads_pay(&self) -> bool {
         let (nb, nc, nk) = self.counts;
@@ -1380,6 +1376,13 @@ where
         }
     }
 
+    /// Stage 7 from what it touches (`gpu::partial`): the device lists the blocks that may be
+    /// re-examined or have strayed from the kept grid and the contacts that may be dropped; the
+    /// CPU reads those back, then the neighbourhoods of the blocks it re-examines (their blocks,
+    /// corners and contacts), runs the update on them, resets the re-examined blocks' update
+    /// distances on the device and splices the contact list there, leaving every contact it did
+    /// not read as the device holds it. The model is current only where it was read until the
+    /// next whole read-back. Declines, changing nothing, when the update needs the whole state.
     fn partial_contact_update(&mut self, model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport) -> Result<PartialUpdate, GpuError> {
         let (nb, _, nk) = self.counts;
         // (The attention's contact indices and the splice need the list in the update's order.)
