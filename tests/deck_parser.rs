@@ -425,6 +425,30 @@ fn commands_after_end_are_ignored_and_end_may_be_missing() {
     assert_eq!(v.len(), 4);
 }
 
+/// A long deck is read statement by statement in parallel; what it gives must not show it:
+/// commands in order, the first bad command of the file reported, nothing after END read.
+#[test]
+fn a_long_deck_reads_in_order_and_reports_its_first_error() {
+    let n = 5000;
+    let mut deck = String::from("START\n");
+    for k in 0..n {
+        deck += &format!("BLOCK {k} 0 {k} 1 {} 1\n", k + 1);
+    }
+    let v = parse(&(deck.clone() + "END\n"));
+    assert_eq!(v.len(), n + 2);
+    for (k, located) in v[1..=n].iter().enumerate() {
+        assert_eq!(located.line, k + 2);
+        let Command::Block { corners, .. } = &located.command else { panic!("line {}: {:?}", k + 2, located.command) };
+        assert_eq!(corners[0], [k as f64, 0.0]);
+    }
+    // Two bad coordinates, the later one first in no particular thread's order.
+    let bad = deck.replacen("BLOCK 4000 0", "BLOCK 4000 x", 1).replacen("BLOCK 300 0", "BLOCK 300 y", 1);
+    assert_err(&(bad.clone() + "END\n"), 302, &["the y coordinate of corner 1", "'y'"]);
+    // A bad command after END is never read.
+    let v = parse(&(deck + "END\nBLOCK 1 2 x\n"));
+    assert_eq!(v.len(), n + 2);
+}
+
 #[test]
 fn restart_may_come_first() {
     let v = parse("RESTART beam.sav\nCYC 100\nEND");

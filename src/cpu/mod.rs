@@ -69,9 +69,18 @@ struct Scratch {
 
 /// Copies the gather's view of every contact after a topology change (stage 7, a crack).
 fn sync_forces(model: &Model, forces: &mut Vec<ContactForce>) {
-    forces.clear();
-    forces.extend(model.contacts.iter().map(ContactForce::from));
+    use rayon::prelude::*;
+    if model.contacts.len() < PARALLEL_SYNC {
+        forces.clear();
+        forces.extend(model.contacts.iter().map(ContactForce::from));
+    } else {
+        model.contacts.par_iter().with_min_len(PARALLEL_SYNC / 4).map(ContactForce::from).collect_into_vec(forces);
+    }
 }
+
+/// Contacts from which `sync_forces` runs on rayon's threads (a topology change of a small model
+/// would pay more to hand the copy over than it saves).
+const PARALLEL_SYNC: usize = 1 << 16;
 
 impl CpuBackend {
     pub fn new() -> Self {

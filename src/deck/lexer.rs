@@ -21,6 +21,7 @@
 //! command words and keywords share it; the name tables themselves live in `parse.rs`.
 
 use super::DeckError;
+use compact_str::CompactString;
 
 /// The longest line accepted, in characters. The 1985 program read 80-column card images
 /// (`LINE(80)` in the Program Guide); we are more generous but still refuse absurd lines, which
@@ -31,7 +32,7 @@ pub const MAX_LINE_CHARS: usize = 4096;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Token {
     /// The text as typed (case kept: SAVE/RESTART file names need it).
-    pub text: String,
+    pub text: CompactString,
     /// 1-based line number in the deck.
     pub line: usize,
     /// 1-based column (in characters) of the token's first character.
@@ -93,17 +94,19 @@ fn is_binary(c: char) -> bool {
 
 /// Split one physical line (without its `+`) into tokens. `col0` is the 1-based column of the
 /// first character of `text`; `group` carries the parenthesised-group counter through the
-/// statement.
+/// statement. A token's text is a slice of the line, kept inline (`CompactString`) when short, as
+/// numbers and keywords are: a deck of 10⁶ BLOCKs has 10⁷ tokens.
 fn tokenize(text: &str, line: usize, col0: usize, groups: &mut GroupState, out: &mut Vec<Token>) {
-    let mut current: Option<(usize, String)> = None;
-    let flush = |current: &mut Option<(usize, String)>, out: &mut Vec<Token>, group: Option<usize>| {
-        if let Some((column, text)) = current.take() {
-            out.push(Token { text, line, column, group });
+    // The current token: its first byte and its column.
+    let mut current: Option<(usize, usize)> = None;
+    let flush = |current: &mut Option<(usize, usize)>, end: usize, out: &mut Vec<Token>, group: Option<usize>| {
+        if let Some((start, column)) = current.take() {
+            out.push(Token { text: CompactString::from(&text[start..end]), line, column, group });
         }
     };
-    for (i, c) in text.chars().enumerate() {
+    for (i, (at, c)) in text.char_indices().enumerate() {
         if is_separator(c) {
-            flush(&mut current, out, groups.open);
+            flush(&mut current, at, out, groups.open);
             match c {
                 '(' => {
                     groups.open = Some(groups.next);
@@ -112,11 +115,11 @@ fn tokenize(text: &str, line: usize, col0: usize, groups: &mut GroupState, out: 
                 ')' => groups.open = None,
                 _ => {}
             }
-        } else {
-            current.get_or_insert_with(|| (col0 + i, String::new())).1.push(c);
+        } else if current.is_none() {
+            current = Some((at, col0 + i));
         }
     }
-    flush(&mut current, out, groups.open);
+    flush(&mut current, text.len(), out, groups.open);
 }
 
 /// Parenthesis bookkeeping for [`Token::group`]. Unbalanced parentheses are not an error (they
@@ -132,13 +135,69 @@ struct GroupState {
 /// Errors: `binary file` (NUL or other control characters), `line too long`, and a `+`
 /// continuation line with no command before it. An empty result is not an error here; the
 /// parser reports "empty deck".
+///
+/// A long deck (a generated wall of 10⁶ BLOCK commands is 45 MB) is read in pieces on rayon's
+/// threads: each piece but the first starts at a line that begins a command (its first
+/// non-blank character a letter), so no statement spans two pieces, and the first error of the
+/// earliest piece that has one is the first error of the file, as when read in one go.
 pub fn split(text: &str, file: &str) -> Result<Vec<Statement>, DeckError> {
+    split_in_pieces(text, file, PIECE_BYTES)
+}
+
+/// `split` with pieces of about `piece_bytes`.
+fn split_in_pieces(text: &str, file: &str, piece_bytes: usize) -> Result<Vec<Statement>, DeckError> {
+    use rayon::prelude::*;
+    let starts = piece_starts(text, piece_bytes);
+    let ends: Vec<usize> = starts.iter().skip(1).copied().chain([text.len()]).collect();
+    // Each piece's first line number: 1 + the line ends before it.
+    let breaks: Vec<usize> = starts.par_iter().zip(&ends).map(|(&a, &b)| text.as_bytes()[a..b].iter().filter(|&&c| c == b'\n').count()).collect();
+    let first_lines: Vec<usize> = breaks.iter().scan(1, |line, &n| {
+        let first = *line;
+        *line += n;
+        Some(first)
+    }).collect();
+    let pieces: Vec<Result<Vec<Statement>, DeckError>> =
+        starts.par_iter().zip(&ends).zip(&first_lines).map(|((&a, &b), &line)| split_lines(&text[a..b], line, file)).collect();
+    let mut statements = Vec::new();
+    for piece in pieces {
+        statements.extend(piece?);
+    }
+    Ok(statements)
+}
+
+/// The size of a piece of deck read on one thread by [`split`].
+const PIECE_BYTES: usize = 1 << 20;
+
+/// Byte offsets where `split`'s pieces start: 0, then, about every `size` bytes, the start of the
+/// next line whose first character other than blanks and tabs is an ASCII letter. Such a line is
+/// neither blank, nor a comment, nor a continuation, nor a line of separators: it begins a
+/// statement of its own.
+fn piece_starts(text: &str, size: usize) -> Vec<usize> {
+    let bytes = text.as_bytes();
+    let mut starts = vec![0];
+    let mut at = size;
+    while at < bytes.len() {
+        let Some(newline) = bytes[at - 1..].iter().position(|&c| c == b'\n') else { break };
+        let line = at - 1 + newline + 1;
+        let first = bytes[line..].iter().position(|&c| c != b' ' && c != b'\t').map(|k| bytes[line + k]);
+        if line < bytes.len() && first.is_some_and(|c| c.is_ascii_alphabetic()) {
+            starts.push(line);
+            at = line + size;
+        } else {
+            at = line + 1;
+        }
+    }
+    starts
+}
+
+/// `split` of the lines of `text`, the first of which is line `first_line` of the deck.
+fn split_lines(text: &str, first_line: usize, file: &str) -> Result<Vec<Statement>, DeckError> {
     let mut statements: Vec<Statement> = Vec::new();
     let mut groups = GroupState::default();
 
     // `lines()` splits on `\n` and strips a `\r` before it, so DOS decks read the same.
     for (index, raw) in text.lines().enumerate() {
-        let line = index + 1;
+        let line = first_line + index;
         if let Some((col, c)) = raw.chars().enumerate().find(|&(_, c)| is_binary(c)) {
             let what =
                 if c == '\0' { "a NUL byte".to_string() } else { format!("control character U+{:04X}", c as u32) };
@@ -161,12 +220,12 @@ pub fn split(text: &str, file: &str) -> Result<Vec<Statement>, DeckError> {
 
         // Leading blanks are allowed before `*` and `+`; columns stay those of the raw line.
         let lead = raw.chars().take_while(|c| c.is_whitespace()).count();
-        let body: String = raw.chars().skip(lead).collect();
+        let body = raw.trim_start();
         match body.chars().next() {
             None => continue,      // blank line
             Some('*') => continue, // comment line
             Some('+') => {
-                let rest: String = body.chars().skip(1).collect();
+                let rest = &body[1..];
                 let Some(st) = statements.last_mut() else {
                     return Err(DeckError::new(
                         file,
@@ -176,7 +235,7 @@ pub fn split(text: &str, file: &str) -> Result<Vec<Statement>, DeckError> {
                     ));
                 };
                 let before = st.tokens.len();
-                tokenize(&rest, line, lead + 2, &mut groups, &mut st.tokens);
+                tokenize(rest, line, lead + 2, &mut groups, &mut st.tokens);
                 if st.tokens.len() > before {
                     st.source.push(' ');
                     st.source.push_str(rest.trim());
@@ -185,7 +244,7 @@ pub fn split(text: &str, file: &str) -> Result<Vec<Statement>, DeckError> {
             Some(_) => {
                 groups = GroupState::default();
                 let mut tokens = Vec::new();
-                tokenize(&body, line, lead + 1, &mut groups, &mut tokens);
+                tokenize(body, line, lead + 1, &mut groups, &mut tokens);
                 // A line of nothing but separators carries no command; treat it as blank.
                 if tokens.is_empty() {
                     continue;
@@ -301,6 +360,39 @@ pub fn parse_int(s: &str) -> Result<i64, NumberError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A deck of every layout rule (comments, blank and separator-only lines, continuations
+    /// after them, indented and parenthesised lines, DOS line ends), read in pieces of a few
+    /// bytes, gives the statements of one piece, and the first error of the file.
+    #[test]
+    fn a_deck_read_in_pieces_is_the_deck_read_whole() {
+        let mut deck = String::from("START\n");
+        for k in 0..400 {
+            deck += &match k % 8 {
+                0 => format!("BLOCK MAT=1 {k} 0 {k} 1 {} 1\n", k + 1),
+                1 => "* a comment\n\n".to_string(),
+                2 => format!("  PROP MAT={} (DENS=2000)\r\n", k % 5 + 1),
+                3 => "+ KN=1e9\n".to_string(),
+                4 => "= , /\n+ KS=1e9\n".to_string(),
+                5 => format!("\tFIX {k} {} 0 1\n", k + 1),
+                6 => "   \n".to_string(),
+                _ => format!("SPLIT ({k},0) ({k},1)\n+ (2,3)\n"),
+            };
+        }
+        deck += "CYCLE 10\nEND\n";
+        let whole = split_lines(&deck, 1, "d").unwrap();
+        for size in [1, 7, 64, 1000] {
+            assert!(piece_starts(&deck, size).len() > deck.len() / size.max(40) / 2, "{size}-byte pieces");
+            assert_eq!(split_in_pieces(&deck, "d", size).unwrap(), whole, "{size}-byte pieces");
+        }
+        // Errors in two places: the first in the file is reported, whichever piece it is in.
+        let bad = deck.replacen("FIX 13", "FIX\u{1}13", 1).replacen("FIX 101", "FIX\u{0}101", 1);
+        let first = split_lines(&bad, 1, "d").unwrap_err();
+        assert!(first.to_string().contains("U+0001"), "{first}");
+        for size in [1, 64, 1000] {
+            assert_eq!(split_in_pieces(&bad, "d", size).unwrap_err().to_string(), first.to_string(), "{size}-byte pieces");
+        }
+    }
 
     #[test]
     fn reals() {

@@ -335,10 +335,18 @@ impl<'a> Args<'a> {
 
     /// Read a token as a real number.
     fn real_of(&self, t: &Token, what: &str) -> Result<f64> {
-        lexer::parse_real(&t.text).map_err(|e| match e {
-            NumberError::TooLarge => self
-                .at(t, format!("the number '{}' given for {what} is out of range (beyond about 1.8E308)", t.shown())),
-            _ => self.at(t, not_a_number(what, t, false)),
+        self.real_named(t, || what.to_string())
+    }
+
+    /// `real_of` with the quantity's name made only for an error message (a deck of 10⁶ BLOCKs
+    /// reads 8·10⁶ coordinates).
+    fn real_named(&self, t: &Token, what: impl FnOnce() -> String) -> Result<f64> {
+        lexer::parse_real(&t.text).map_err(|e| {
+            let what = what();
+            match e {
+                NumberError::TooLarge => self.at(t, format!("the number '{}' given for {what} is out of range (beyond about 1.8E308)", t.shown())),
+                _ => self.at(t, not_a_number(&what, t, false)),
+            }
         })
     }
 
@@ -508,35 +516,47 @@ pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
             "empty deck: no commands (only blank or comment lines); expected START or RESTART as the first command",
         ));
     }
-    let mut out = Vec::new();
-    for (i, st) in statements.iter().enumerate() {
-        let head = &st.tokens[0];
-        let word = lookup(&head.text, COMMANDS).filter(|_| !head.is_numeric()).ok_or_else(|| {
-            DeckError::new(
-                file,
-                head.line,
-                head.column,
-                format!("unknown command '{}'; expected one of {}", head.shown(), names(COMMANDS)),
-            )
-        })?;
-        // "The first command must be START or RESTART."
-        if i == 0 && !matches!(word, Word::Start | Word::Restart) {
-            return Err(DeckError::new(
-                file,
-                head.line,
-                head.column,
-                format!("the first command must be START or RESTART, found {}", full_name(word)),
-            ));
-        }
-        let mut args = Args { file, word, head, toks: &st.tokens[1..], pos: 0, source: &st.source };
-        let command = parse_command(&mut args)?;
+    // Each statement is read on its own, in parallel (a generated deck may hold 10⁶ BLOCKs),
+    // then taken in order: the first error in the file is the one reported, and nothing after
+    // END counts.
+    use rayon::prelude::*;
+    let n = statements.len();
+    let commands: Vec<(Result<Command>, usize, String)> =
+        statements.into_par_iter().enumerate().with_min_len(256).map(|(i, st)| (statement(&st, i == 0, file), st.line, st.source)).collect();
+    let mut out = Vec::with_capacity(n);
+    for (command, line, source) in commands {
+        let command = command?;
         let end = command == Command::End;
-        out.push(Located { command, line: st.line, source: st.source.clone() });
+        out.push(Located { command, line, source });
         if end {
             break;
         }
     }
     Ok(out)
+}
+
+/// One statement's command; `first`: the deck's first, which must be START or RESTART.
+fn statement(st: &lexer::Statement, first: bool, file: &str) -> Result<Command> {
+    let head = &st.tokens[0];
+    let word = lookup(&head.text, COMMANDS).filter(|_| !head.is_numeric()).ok_or_else(|| {
+        DeckError::new(
+            file,
+            head.line,
+            head.column,
+            format!("unknown command '{}'; expected one of {}", head.shown(), names(COMMANDS)),
+        )
+    })?;
+    // "The first command must be START or RESTART."
+    if first && !matches!(word, Word::Start | Word::Restart) {
+        return Err(DeckError::new(
+            file,
+            head.line,
+            head.column,
+            format!("the first command must be START or RESTART, found {}", full_name(word)),
+        ));
+    }
+    let mut args = Args { file, word, head, toks: &st.tokens[1..], pos: 0, source: &st.source };
+    parse_command(&mut args)
 }
 
 /// Parse a deck read as raw bytes: text that is not valid UTF-8 is refused as a binary file.
@@ -574,7 +594,7 @@ fn file_name_as_typed(source: &str, word: &str) -> Option<String> {
 /// (consuming the tokens the '/'s split it into); otherwise the first token is the name and any
 /// other is reported as too many values.
 fn file_name(a: &mut Args) -> Option<String> {
-    let first = a.next()?.text.clone();
+    let first = a.next()?.text.to_string();
     match file_name_as_typed(a.source, &a.head.text) {
         Some(whole) => {
             a.pos = a.toks.len();
@@ -801,7 +821,7 @@ fn pairs(a: &Args, coords: &[&Token], what: &str) -> Result<Vec<[f64; 2]>> {
     let mut out = Vec::with_capacity(coords.len() / 2);
     for (k, pair) in coords.chunks(2).enumerate() {
         let n = k + 1;
-        let x = a.real_of(pair[0], &format!("the x coordinate of {what} {n}"))?;
+        let x = a.real_named(pair[0], || format!("the x coordinate of {what} {n}"))?;
         let Some(ty) = pair.get(1) else {
             return Err(a.at(
                 pair[0],
@@ -812,7 +832,7 @@ fn pairs(a: &Args, coords: &[&Token], what: &str) -> Result<Vec<[f64; 2]>> {
                 ),
             ));
         };
-        let y = a.real_of(ty, &format!("the y coordinate of {what} {n}"))?;
+        let y = a.real_named(ty, || format!("the y coordinate of {what} {n}"))?;
         if ty.line != pair[0].line {
             return Err(a.at(
                 ty,

@@ -15,6 +15,7 @@ pub mod geometry;
 pub mod split;
 pub mod timestep;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Number of material slots (UDEC's NMAT); materials are numbered 1..=MAX_MATERIALS.
@@ -379,9 +380,9 @@ impl Clone for Model {
     fn clone(&self) -> Self {
         let Model { blocks, corners, contacts, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = self;
         Model {
-            blocks: blocks.clone(),
-            corners: corners.clone(),
-            contacts: contacts.clone(),
+            blocks: cloned_list(blocks),
+            corners: cloned_list(corners),
+            contacts: cloned_list(contacts),
             materials: materials.clone(),
             links: links.clone(),
             gravity: *gravity,
@@ -399,11 +400,45 @@ impl Clone for Model {
     }
 
     fn clone_from(&mut self, source: &Self) {
-        self.blocks.clone_from(&source.blocks);
-        self.corners.clone_from(&source.corners);
-        self.contacts.clone_from(&source.contacts);
+        clone_list_from(&mut self.blocks, &source.blocks);
+        clone_list_from(&mut self.corners, &source.corners);
+        clone_list_from(&mut self.contacts, &source.contacts);
         self.clone_settings_from(source);
     }
+}
+
+/// Lists shorter than this are copied on the calling thread.
+const PARALLEL_COPY: usize = 1 << 16;
+/// Elements a thread copies at a time.
+const COPY_CHUNK: usize = 1 << 14;
+
+/// `dst.clone_from(src)`, a long list on rayon's threads: at 10⁶ blocks the model's lists are
+/// 1.7 GB, whose copy (the last good state each run starts with) is bound by memory bandwidth
+/// and, into new memory, by the kernel's page faults, both of which scale with threads.
+pub fn clone_list_from<T: Clone + Send + Sync>(dst: &mut Vec<T>, src: &[T]) {
+    if src.len() < PARALLEL_COPY {
+        src.clone_into(dst);
+        return;
+    }
+    dst.truncate(src.len());
+    let kept = dst.len();
+    dst.par_chunks_mut(COPY_CHUNK).zip(src[..kept].par_chunks(COPY_CHUNK)).for_each(|(d, s)| d.clone_from_slice(s));
+    let more = src.len() - kept;
+    dst.reserve_exact(more);
+    dst.spare_capacity_mut()[..more].par_chunks_mut(COPY_CHUNK).zip(src[kept..].par_chunks(COPY_CHUNK)).for_each(|(d, s)| {
+        for (slot, x) in d.iter_mut().zip(s) {
+            slot.write(x.clone());
+        }
+    });
+    // SAFETY: the `more` slots past the length were each written just above.
+    unsafe { dst.set_len(src.len()) };
+}
+
+/// A copy of a list (`clone_list_from` into a new one).
+pub fn cloned_list<T: Clone + Send + Sync>(src: &[T]) -> Vec<T> {
+    let mut v = Vec::new();
+    clone_list_from(&mut v, src);
+    v
 }
 
 impl Model {
@@ -487,5 +522,25 @@ impl Model {
     /// World positions of block `b`'s corners.
     pub fn corner_positions(&self, b: usize) -> Vec<[f64; 2]> {
         self.block_corners(b).iter().map(|c| c.position).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The parallel copy is `clone_from`: into an empty list, a longer one and a shorter one,
+    /// small lists and long ones.
+    #[test]
+    fn a_list_copied_in_parallel_is_its_clone() {
+        for len in [0, 10, PARALLEL_COPY - 1, PARALLEL_COPY, 3 * PARALLEL_COPY + 17] {
+            let src: Vec<(u64, String)> = (0..len).map(|k| (k as u64 * 7919, format!("{k}"))).collect();
+            for start in [0, len / 2, len + COPY_CHUNK + 3] {
+                let mut dst: Vec<(u64, String)> = (0..start).map(|k| (k as u64, "old".to_string())).collect();
+                clone_list_from(&mut dst, &src);
+                assert_eq!(dst, src, "{len} elements over {start}");
+            }
+            assert_eq!(cloned_list(&src), src);
+        }
     }
 }

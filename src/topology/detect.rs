@@ -923,7 +923,13 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     }
     let removed: Vec<(u32, u32, u32)> = if adjacency.is_some() { dropped.iter().map(|&k| (k, model.contacts[k as usize].block1, model.contacts[k as usize].block2)).collect() } else { Vec::new() };
     let old_len = model.contacts.len() as u32;
-    let inserted_at = splice(&mut model.contacts, &dropped, &insert_before, new_contacts);
+    let inserted_at = if dropped.len() == model.contacts.len() {
+        // Nothing kept (the first detection of a model): the list is the new contacts.
+        fill_contacts(&mut model.contacts, &parts, &part_start, &ids);
+        (0..n_created as u32).collect()
+    } else {
+        splice(&mut model.contacts, &dropped, &insert_before, new_contacts)
+    };
     if let Some(adjacency) = adjacency {
         let entries = if all || !sorted || !adjacency.fits(n, model.contacts.len() + dropped.len() - n_created) {
             adjacency.rebuild(n, &model.contacts);
@@ -1027,6 +1033,25 @@ impl ListEdit {
     }
 }
 
+/// Makes `contacts` the new contacts of `parts` (each part's starting at `part_start`), with
+/// their `ids`, in parallel: a first detection writes the whole list (a gigabyte at 10⁶ blocks),
+/// which grown from an iterator would be written and copied on one thread.
+fn fill_contacts(contacts: &mut Vec<Contact>, parts: &[Vec<(u32, Contact)>], part_start: &[usize], ids: &[u32]) {
+    let n = ids.len();
+    contacts.clear();
+    contacts.reserve_exact(n);
+    let spare = &mut contacts.spare_capacity_mut()[..n];
+    let pieces = split_at_ends(spare, part_start.iter().skip(1).copied().chain([n]));
+    pieces.into_par_iter().zip(parts).zip(part_start).for_each(|((out, part), &s)| {
+        for ((slot, (_, c)), &id) in out.iter_mut().zip(part).zip(&ids[s..]) {
+            slot.write(Contact { id, ..*c });
+        }
+    });
+    // SAFETY: the pieces cover the first n slots (part_start ascends from 0 and the parts hold
+    // n contacts in all), and every slot of each piece was written just above.
+    unsafe { contacts.set_len(n) };
+}
+
 /// Removes the contacts at `dropped` (ascending) and inserts `new_contacts`, each before the
 /// contact `insert_before` names (ascending), in place. Returns the new indices of the inserted
 /// contacts, ascending. (Any list kept index for index with the contacts takes the same edit.)
@@ -1041,6 +1066,7 @@ pub fn splice<T: Copy + Send + Sync>(contacts: &mut Vec<T>, dropped: &[u32], ins
     if dropped.len() == old_len {
         // Nothing kept (the first detection of a model): the list is the new contacts.
         contacts.clear();
+        contacts.reserve_exact(new_len);
         contacts.extend(new_contacts);
         return (0..new_len as u32).collect();
     }
