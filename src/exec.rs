@@ -92,14 +92,25 @@ impl<'a> Executor<'a> {
 
     /// Runs the commands in order until STOP, END or an error.
     pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
+        let result = self.run_commands(commands);
+        // Also on an error, before the caller reports it.
+        let _ = self.log.flush();
+        result
+    }
+
+    fn run_commands(&mut self, commands: &[Located]) -> Result<(), RunError> {
         for cmd in commands {
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
             if done {
                 break;
             }
+            // What a command printed is seen when it ends; BLOCK commands, which print only their
+            // echo, are left to the log's buffer (a generated deck has 10⁶ of them).
+            if !matches!(cmd.command, Command::Block { .. }) {
+                let _ = self.log.flush();
+            }
         }
-        let _ = self.log.flush();
         Ok(())
     }
 
@@ -406,6 +417,8 @@ impl<'a> Executor<'a> {
                 pb.set_position(done);
             }
         };
+        // The log up to here is seen while the cycles run.
+        let _ = self.log.flush();
         let result = self.backend.run(&mut self.model, n, &mut progress);
         if let Some(pb) = bar {
             pb.finish_and_clear();

@@ -74,6 +74,26 @@ fn a_self_intersecting_block_is_an_error_with_its_line() {
     assert!(stderr.contains(&format!("{deck}:3")) && stderr.contains("crosses or touches itself"), "{stderr}");
 }
 
+/// The run log is buffered between BLOCK commands: after an error it still holds the echo of
+/// every command up to the bad one, in order, and nothing after it.
+#[test]
+fn the_log_of_a_long_deck_is_whole_up_to_its_error() {
+    let dir = temp("long-log");
+    let mut text = String::from("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\n");
+    for k in 0..3000 {
+        text += &format!("BLOCK {k},0 {k},1 {},1 {},0\n", k + 1, k + 1);
+    }
+    text += "BLOCK 0,0 1,1 1,0 0,1\nBLOCK 5000,0 5000,1 5001,1 5001,0\nCYCLE 1\n";
+    let deck = write_deck(&dir, &text);
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("{deck}:3003")), "{stderr}");
+    let echoes: Vec<&str> = stdout.lines().filter(|l| l.starts_with(")BLOCK")).collect();
+    assert_eq!(echoes.len(), 3001);
+    assert_eq!(echoes[1234], ")BLOCK 1234,0 1234,1 1235,1 1235,0");
+    assert_eq!(stdout.lines().last(), Some(")BLOCK 0,0 1,1 1,0 0,1"));
+}
+
 #[test]
 fn an_overlap_beyond_half_the_rounding_stops_and_keeps_the_last_good_state() {
     // A block fired at 2 m/s into a fixed one 5 cm away: the soft contact (stopping distance
