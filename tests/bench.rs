@@ -167,6 +167,8 @@ fn scaling_rounds_alternate_the_backends() {
         // the rounds' runs go on from the last (no full detection counted as an update).
         assert!(row.topology_updates > 0 && row.topology_updates < row.cycles, "{}: {} updates in {} cycles", row.backend, row.topology_updates, row.cycles);
         assert!(row.host_s_per_update > 0.0 && row.host_s_per_update * row.topology_updates as f64 <= row.steady_s, "{}: {} s an update", row.backend, row.host_s_per_update);
+        // The wall's own build (deck, blocks, first detection), one figure for both rows.
+        assert!(row.build_s > 0.0 && row.build_s == report.scaling[0].build_s, "{}: built in {} s", row.backend, row.build_s);
     }
     let (gpu_row, cpu_row) = (&report.scaling[1], &report.scaling[0]);
     let (ratio, how) = blockdem::bench::report::round_ratio(gpu_row, cpu_row);
@@ -180,7 +182,7 @@ fn scaling_rounds_alternate_the_backends() {
     assert!(chart_problem.is_none() && files.contains(&dir.join("bench.png")), "{chart_problem:?}");
     let csv = std::fs::read_to_string(dir.join("bench.csv")).unwrap();
     assert!(csv.lines().next().unwrap().contains("round_s_per_cycle") && csv.lines().skip(1).all(|l| l.split(';').count() == 3), "{csv}");
-    assert!(csv.lines().next().unwrap().contains("contact_updates,host_s_per_update"), "{csv}");
+    assert!(csv.lines().next().unwrap().contains("contact_updates,host_s_per_update,build_s"), "{csv}");
 }
 
 /// The bench times the kernels on the state a run left (`profile_stages`), which moves that

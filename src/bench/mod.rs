@@ -220,6 +220,10 @@ pub struct ScalingRow {
     pub contacts: usize,
     /// Cycles timed.
     pub cycles: u64,
+    /// The wall's deck read, its blocks built and its contacts first detected, on the CPU,
+    /// seconds (what a user's run of the deck pays before its first cycle, less the backend's own
+    /// set-up; one figure per wall, shared by its backends' rows).
+    pub build_s: f64,
     /// Set-up of the timed run: full detection (and upload), seconds.
     pub setup_s: f64,
     /// Tear-down of the timed run: the final read-back of the state (GPU), seconds.
@@ -445,7 +449,9 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
                 }
                 continue;
             }
-            let model0 = match crate::scenes::run_deck_on(&format!("{}CYCLE 0\n", scene::scaling_body(n, opts.frac)), Box::new(CpuBackend::new())) {
+            let deck = format!("{}CYCLE 0\n", scene::scaling_body(n, opts.frac));
+            let built = std::time::Instant::now();
+            let model0 = match crate::scenes::run_deck_on(&deck, Box::new(CpuBackend::new())) {
                 Ok(m) => m,
                 Err(e) => {
                     say(&format!("  the wall does not build: {e}"));
@@ -454,8 +460,10 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             };
             let mut here: Vec<(&mut Engine, &BackendInfo)> =
                 engines.iter_mut().map(|(i, e)| (e, &report.backends[*i])).filter(|(_, info)| n <= info.max_blocks).collect();
-            say(&format!("scaling: {} blocks on {} backends, {} rounds", model0.blocks.len(), here.len(), opts.rounds.max(1)));
-            for row in measure_scaling(&model0, n, &mut here, opts) {
+            let build_s = built.elapsed().as_secs_f64();
+            say(&format!("scaling: {} blocks (built in {build_s:.2} s) on {} backends, {} rounds", model0.blocks.len(), here.len(), opts.rounds.max(1)));
+            for mut row in measure_scaling(&model0, n, &mut here, opts) {
+                row.build_s = build_s;
                 match &row.error {
                     Some(e) => say(&format!("  {} failed: {e}", row.backend)),
                     None => say(&format!("  {}: {} cycles a round, {:.3e} block-cycles/s, {:.3e} contact-cycles/s", row.backend, row.cycles, row.block_cycles_per_s, row.contact_cycles_per_s)),

@@ -321,6 +321,12 @@ pub fn table(r: &BenchReport) -> String {
                 let _ = writeln!(s, "  {} at {} blocks: time per cycle {ratio:.2}x the CPU's ({how})", x.backend, x.blocks);
             }
         }
+        // What building each wall cost (deck, blocks, first detection on the CPU).
+        let mut walls: Vec<(usize, f64)> = r.scaling.iter().filter(|x| x.error.is_none()).map(|x| (x.blocks, x.build_s)).collect();
+        walls.dedup_by_key(|w| w.0);
+        for (blocks, build_s) in walls {
+            let _ = writeln!(s, "  the wall of {blocks} blocks: built in {build_s:.2} s (deck read, blocks, first contact detection, on the CPU)");
+        }
         // What a contact update costs the host (topology work and transfers), per update.
         for x in r.scaling.iter().filter(|x| x.error.is_none() && x.topology_updates > 0) {
             let _ = writeln!(s, "  {} at {} blocks: {} contact updates in {} cycles, {:.3} ms of host topology + transfers each", x.backend, x.blocks, x.topology_updates, x.cycles, 1e3 * x.host_s_per_update);
@@ -372,12 +378,12 @@ fn opt(x: Option<f64>) -> String {
 /// bench.csv: one row per wall and backend of the scaling family.
 pub fn scaling_csv(r: &BenchReport) -> String {
     let mut s = String::from(
-        "backend,nominal,blocks,corners,contacts,cycles,setup_s,teardown_s,steady_s,s_per_cycle,s_per_block_cycle,block_cycles_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,topology_share,transfer_share,run_topology_transfer_share,contact_updates,host_s_per_update,round_s_per_cycle,error\n",
+        "backend,nominal,blocks,corners,contacts,cycles,setup_s,teardown_s,steady_s,s_per_cycle,s_per_block_cycle,block_cycles_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,topology_share,transfer_share,run_topology_transfer_share,contact_updates,host_s_per_update,build_s,round_s_per_cycle,error\n",
     );
     for x in &r.scaling {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{},{:e},{:e},{:e},{},{:e},{},{}",
+            "{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{},{:e},{:e},{:e},{},{:e},{:e},{},{}",
             csv_field(&x.backend),
             x.nominal,
             x.blocks,
@@ -400,6 +406,7 @@ pub fn scaling_csv(r: &BenchReport) -> String {
             x.run_topology_transfer_share,
             x.topology_updates,
             x.host_s_per_update,
+            x.build_s,
             x.round_s_per_cycle.iter().map(|t| format!("{t:e}")).collect::<Vec<_>>().join(";"),
             csv_field(x.error.as_deref().unwrap_or(""))
         );
