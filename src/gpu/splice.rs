@@ -71,8 +71,7 @@ pub fn patch_contacts<R: Real>(contacts: &mut [Contact<R>], patches: &[[u32; 2]]
 /// index, shift from there on as i32 bits), ascending, the first from index 0: a kept contact k
 /// takes the shift of the last entry at or below it (`ListEdit::new_index`).
 pub fn renumber_table(edit: &ListEdit) -> Vec<[u32; 2]> {
-    let mut steps: Vec<(u32, i32)> = edit.dropped.iter().map(|&r| (r + 1, -1)).chain(edit.insert_before.iter().map(|&p| (p, 1))).collect();
-    steps.sort_unstable();
+    let steps = crate::topology::adjacency::renumber_steps(&edit.dropped, &edit.insert_before);
     let mut table: Vec<[u32; 2]> = vec![[0, 0]];
     let mut shift = 0i32;
     for (from, step) in steps {

@@ -294,12 +294,21 @@ struct Renumber {
     first: Vec<u32>,
 }
 
+/// The steps of a contact list's renumbering by an edit: (first old index it applies to, ±1),
+/// ascending. A contact dropped at r moves every later one down by one; one inserted before p
+/// moves p and every later one up. A kept contact's new index is its old one plus the steps at or
+/// below it (`Renumber` here, `gpu::splice::renumber_table` for the device).
+pub(crate) fn renumber_steps(removed_at: &[u32], insert_before: &[u32]) -> Vec<(u32, i32)> {
+    let mut steps: Vec<(u32, i32)> = removed_at.iter().map(|&r| (r + 1, -1)).chain(insert_before.iter().map(|&p| (p, 1))).collect();
+    steps.sort_unstable();
+    steps
+}
+
 impl Renumber {
     const BUCKET_BITS: u32 = 10;
 
     fn new(old_count: usize, removed_at: &[u32], insert_before: &[u32]) -> Self {
-        let mut steps: Vec<(u32, i32)> = removed_at.iter().map(|&r| (r + 1, -1)).chain(insert_before.iter().map(|&p| (p, 1))).collect();
-        steps.sort_unstable();
+        let steps = renumber_steps(removed_at, insert_before);
         let buckets = (old_count >> Self::BUCKET_BITS) + 2;
         let (mut base, mut first) = (Vec::with_capacity(buckets + 1), Vec::with_capacity(buckets + 1));
         let (mut at, mut shift) = (0usize, 0i32);
