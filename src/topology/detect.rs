@@ -505,6 +505,8 @@ struct NewContact {
     gap: f64,
 }
 
+const _: () = assert!(std::mem::size_of::<NewContact>() == 72 && std::mem::size_of::<(u32, Contact)>() == 152);
+
 impl NewContact {
     fn contact(&self, id: u32) -> Contact {
         let NewContact { before: _, block1, corner, block2, feature, material, constitutive, kind, bonded, point, normal, gap } = *self;
