@@ -215,12 +215,19 @@ fn too_large(label: &str, need: u64, cap: u64, item: usize, precision: Precision
     format!("the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); {advice}")
 }
 
-pub(crate) fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
-    let cap = binding_cap(dev);
+/// Whether `count` items of `item` bytes fit one binding of `cap` bytes; if not, the error that
+/// making their buffer would give.
+pub(crate) fn check_fits(label: &str, item: usize, count: usize, cap: u64, precision: Precision) -> Result<(), GpuError> {
     let need = (count.max(1) * item) as u64;
     if need > cap {
-        return Err(GpuError::Setup(too_large(label, need, cap, item, dev.precision)));
+        return Err(GpuError::Setup(too_large(label, need, cap, item, precision)));
     }
+    Ok(())
+}
+
+pub(crate) fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
+    let cap = binding_cap(dev);
+    check_fits(label, item, count, cap, dev.precision)?;
     // Room to grow (contacts come and go) without re-creating the buffer every update: a quarter
     // more, within the cap.
     let capacity = ((count.max(1) as u64 * 5 / 4).min(cap / item as u64) as usize).max(count.max(1));
@@ -479,5 +486,12 @@ mod tests {
         assert!(f32_msg.contains("at most 3355443 corners here") && !f32_msg.contains("--precision f32"), "{f32_msg}");
         let f64_msg = too_large("contacts", 960_000_000, cap, 120, Precision::F64);
         assert!(f64_msg.contains("--precision f32"), "{f64_msg}");
+        // The check a run makes before its full detection gives the same refusal, and passes
+        // what fits.
+        match check_fits("corners", 40, 4_000_014, cap, Precision::F32) {
+            Err(GpuError::Setup(m)) => assert!(m.contains("160000560 bytes") && m.contains("at most 3355443 corners here"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+        assert!(check_fits("corners", 40, 3_355_443, cap, Precision::F32).is_ok());
     }
 }

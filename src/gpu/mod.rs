@@ -1641,6 +1641,12 @@ where
         if model.timestep <= 0.0 || !model.timestep.is_finite() {
             return Err(CycleError::Setup("the time step is not set".into()));
         }
+        // A model whose blocks or corners alone are past the adapter's binding limit is refused
+        // now, not after the full detection (seconds at 10⁶ blocks).
+        let cap = kernels::binding_cap(&self.dev);
+        kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, self.dev.precision)
+            .and_then(|()| kernels::check_fits("corners", std::mem::size_of::<Corner<R>>(), model.corners.len(), cap, self.dev.precision))
+            .map_err(device_error)?;
         let mut report = CycleReport::default();
         let mut adjacency = std::mem::take(&mut self.adjacency);
         // As on the CPU: a full detection first (the executor may have changed the model), then
