@@ -461,7 +461,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             let mut here: Vec<(&mut Engine, &BackendInfo)> =
                 engines.iter_mut().map(|(i, e)| (e, &report.backends[*i])).filter(|(_, info)| n <= info.max_blocks).collect();
             let build_s = built.elapsed().as_secs_f64();
-            say(&format!("scaling: {} blocks (built in {build_s:.2} s) on {} backends, {} rounds", model0.blocks.len(), here.len(), opts.rounds.max(1)));
+            say(&format!("scaling: {} blocks (built in {build_s:.3} s) on {} backends, {} rounds", model0.blocks.len(), here.len(), opts.rounds.max(1)));
             for mut row in measure_scaling(&model0, n, &mut here, opts) {
                 row.build_s = build_s;
                 match &row.error {

@@ -325,7 +325,7 @@ pub fn table(r: &BenchReport) -> String {
         let mut walls: Vec<(usize, f64)> = r.scaling.iter().filter(|x| x.error.is_none()).map(|x| (x.blocks, x.build_s)).collect();
         walls.dedup_by_key(|w| w.0);
         for (blocks, build_s) in walls {
-            let _ = writeln!(s, "  the wall of {blocks} blocks: built in {build_s:.2} s (deck read, blocks, first contact detection, on the CPU)");
+            let _ = writeln!(s, "  the wall of {blocks} blocks: built in {build_s:.3} s (deck read, blocks, first contact detection, on the CPU)");
         }
         // What a contact update costs the host (topology work and transfers), per update.
         for x in r.scaling.iter().filter(|x| x.error.is_none() && x.topology_updates > 0) {
