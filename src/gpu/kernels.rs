@@ -225,6 +225,26 @@ pub(crate) fn check_fits(label: &str, item: usize, count: usize, cap: u64, preci
     Ok(())
 }
 
+/// A uniform buffer of `size` bytes, written from the CPU.
+pub(crate) fn uniform_buffer(dev: &GpuDevice, label: &str, size: usize) -> wgpu::Buffer {
+    dev.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size as u64, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false })
+}
+
+/// The bind group entries of `buffers`, each whole, at bindings 0, 1, 2, … in order.
+pub(crate) fn whole_bindings<'a>(buffers: &[&'a wgpu::Buffer]) -> Vec<wgpu::BindGroupEntry<'a>> {
+    buffers.iter().enumerate().map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() }).collect()
+}
+
+/// Makes sure the optional buffer `slot` holds `count` items of `item` bytes (its contents are
+/// not kept: the old buffer goes first, so that the two are never held at once).
+fn ensure_slot(dev: &GpuDevice, slot: &mut Option<Slab>, label: &str, item: usize, count: usize) -> Result<(), GpuError> {
+    if slot.as_ref().is_none_or(|s| s.capacity < count) {
+        *slot = None;
+        *slot = Some(slab(dev, label, item, count)?);
+    }
+    Ok(())
+}
+
 pub(crate) fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
     let cap = binding_cap(dev);
     check_fits(label, item, count, cap, dev.precision)?;
@@ -250,12 +270,7 @@ impl Buffers {
         Material<R>: bytemuck::Pod,
         Params<R>: bytemuck::Pod,
     {
-        let params = dev.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("params"),
-            size: std::mem::size_of::<Params<R>>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let params = uniform_buffer(dev, "params", std::mem::size_of::<Params<R>>());
         let flags = dev.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("flags"),
             size: std::mem::size_of::<Flags>() as u64,
@@ -268,12 +283,7 @@ impl Buffers {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let materials = dev.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("materials"),
-            size: (crate::model::MAX_MATERIALS * std::mem::size_of::<Material<R>>()) as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let materials = uniform_buffer(dev, "materials", crate::model::MAX_MATERIALS * std::mem::size_of::<Material<R>>());
         Ok(Buffers {
             params,
             blocks: slab(dev, "blocks", std::mem::size_of::<Block<R>>(), blocks)?,
@@ -324,20 +334,12 @@ impl Buffers {
     where
         ContactSummary<R>: bytemuck::Pod,
     {
-        if self.summaries.as_ref().is_none_or(|s| s.capacity < count) {
-            self.summaries = None;
-            self.summaries = Some(slab(dev, "contact summaries", std::mem::size_of::<ContactSummary<R>>(), count)?);
-        }
-        Ok(())
+        ensure_slot(dev, &mut self.summaries, "contact summaries", std::mem::size_of::<ContactSummary<R>>(), count)
     }
 
     /// Makes sure the spare adjacency entries hold `count` (its contents are not kept).
     pub fn ensure_spare_entries(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
-        if self.spare_entries.as_ref().is_none_or(|s| s.capacity < count) {
-            self.spare_entries = None;
-            self.spare_entries = Some(slab(dev, "adjacency entries (spare)", 4, count)?);
-        }
-        Ok(())
+        ensure_slot(dev, &mut self.spare_entries, "adjacency entries (spare)", 4, count)
     }
 
     /// The spare entries become the live ones (after `splice_adjacency` wrote into them).

@@ -776,12 +776,7 @@ where
         // Old list → new list; or, with nothing to move, the patches on the live list (the spare
         // bound as the unused old one).
         let (old, old_forces, new, new_forces) = if moves { (live, live_forces, spare, spare_forces) } else { (spare, spare_forces, live, live_forces) };
-        let entries: Vec<wgpu::BindGroupEntry> =
-            [old, old_forces, &runs_buffer, &created_buffer, &created_forces_buffer, new, new_forces, &patches_buffer]
-                .into_iter()
-                .enumerate()
-                .map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() })
-                .collect();
+        let entries = kernels::whole_bindings(&[old, old_forces, &runs_buffer, &created_buffer, &created_forces_buffer, new, new_forces, &patches_buffer]);
         let p = &self.pipelines;
         kernels::dispatch_passes(dev, "splice_contacts", &[(&p.splice_contacts, if moves { n } else { 0 }), (&p.patch_contacts, patches.len())], &p.splice_layout, &entries)?;
         self.splices += 1;
@@ -840,8 +835,7 @@ where
         let renumber_buffer = init("contact renumbering", bytemuck::cast_slice(&splice::renumber_table(edit)));
         let touched_buffer = init("touched lists", bytemuck::cast_slice(&touched));
         let spare = b.spare_entries.as_ref().expect("made above");
-        let buffers = [&b.adj_entries.buffer, &runs_buffer, &lists_buffer, &renumber_buffer, &spare.buffer, &b.adj_offsets.buffer, &touched_buffer];
-        let bindings: Vec<wgpu::BindGroupEntry> = buffers.into_iter().enumerate().map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() }).collect();
+        let bindings = kernels::whole_bindings(&[&b.adj_entries.buffer, &runs_buffer, &lists_buffer, &renumber_buffer, &spare.buffer, &b.adj_offsets.buffer, &touched_buffer]);
         let p = &self.pipelines;
         kernels::dispatch_passes(dev, "splice_adjacency", &[(&p.splice_adjacency, n_entries), (&p.shift_offsets, n_blocks + 1)], &p.adjacency_layout, &bindings)?;
         b.swap_entries();
@@ -1421,15 +1415,15 @@ where
             q.write_buffer(&lists.header.buffer, 0, bytemuck::cast_slice(&[0u32, 0, u32::MAX, 0]));
             let b = self.buffers();
             let lists = self.lists.as_ref().expect("made above");
-            let entries = [
-                wgpu::BindGroupEntry { binding: 0, resource: lists.params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: b.blocks.buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: b.contacts.buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: lists.reference.buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: lists.header.buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: lists.listed_blocks.buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: lists.listed_contacts.buffer.as_entire_binding() },
-            ];
+            let entries = kernels::whole_bindings(&[
+                &lists.params,
+                &b.blocks.buffer,
+                &b.contacts.buffer,
+                &lists.reference.buffer,
+                &lists.header.buffer,
+                &lists.listed_blocks.buffer,
+                &lists.listed_contacts.buffer,
+            ]);
             let p = &self.pipelines;
             kernels::dispatch_items(&self.dev, "list_blocks", &p.list_blocks, &p.lists_layout, &entries, nb)?;
             if nk > 0 {

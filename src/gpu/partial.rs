@@ -10,7 +10,7 @@
 //! is then current only where it was read; the device keeps the rest, and the splice that
 //! follows patches only the contacts read and leaves the others as the device holds them.
 
-use super::kernels::{slab, Slab};
+use super::kernels::{slab, uniform_buffer, Slab};
 use super::layout::{Block, Contact, GridReference, ListParams, Real};
 use super::GpuError;
 
@@ -133,14 +133,8 @@ impl ListBuffers {
         GridReference<R>: bytemuck::Pod,
         ListParams<R>: bytemuck::Pod,
     {
-        let params = dev.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("list params"),
-            size: std::mem::size_of::<ListParams<R>>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         Ok(ListBuffers {
-            params,
+            params: uniform_buffer(dev, "list params", std::mem::size_of::<ListParams<R>>()),
             reference: slab(dev, "grid reference", std::mem::size_of::<GridReference<R>>(), blocks)?,
             header: slab(dev, "list header", 4, 4)?,
             listed_blocks: slab(dev, "listed blocks", 4, blocks)?,
