@@ -344,13 +344,8 @@ mod tests {
 
     #[test]
     fn parallel_build_gives_the_serial_lists() {
-        let mut seed = 0x9e3779b97f4a7c15u64;
-        let mut next = |m: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed % m) as u32
-        };
+        let mut rng = crate::topology::xorshift(0x9e3779b97f4a7c15u64);
+        let mut next = |m: u64| rng(m) as u32;
         let blocks = 5000;
         let contacts: Vec<Contact> = (0..3 * PARALLEL_CONTACTS as u32)
             .map(|id| {
@@ -374,13 +369,8 @@ mod tests {
     /// by the touched lists' shifts), as a backend holding a copy makes it.
     #[test]
     fn an_applied_edit_rebuilds_the_lists() {
-        let mut seed = 0x1234_5678_9abc_def1u64;
-        let mut next = |m: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed % m) as u32
-        };
+        let mut rng = crate::topology::xorshift(0x1234_5678_9abc_def1u64);
+        let mut next = |m: u64| rng(m) as u32;
         let blocks = 3000u32;
         for (n, changes) in [(20_000u32, 40u32), (20_000, 2), (500, 300)] {
             let contact = |id: u32, next: &mut dyn FnMut(u64) -> u32| {

@@ -1351,13 +1351,7 @@ mod tests {
             out.extend_from_slice(&new[j..]);
             out
         };
-        let mut seed = 0x2545f4914f6cdd1du64;
-        let mut next = |m: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed % m
-        };
+        let mut next = crate::topology::xorshift(0x2545f4914f6cdd1d);
         for len in [0usize, 1, 7, 300, 100_000] {
             for _ in 0..6 {
                 let old: Vec<Contact> = (0..len as u32).map(contact).collect();

@@ -9,3 +9,14 @@ pub mod detect;
 pub use adjacency::Adjacency;
 pub use cracking::{find_point_load_crack, apply_crack, PointLoadCrack};
 pub use detect::{update_contacts, update_topology};
+
+/// The unit tests' random numbers: a xorshift64 stream from `seed`, each call a value below `m`.
+#[cfg(test)]
+pub(crate) fn xorshift(mut seed: u64) -> impl FnMut(u64) -> u64 {
+    move |m: u64| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed % m
+    }
+}
