@@ -601,6 +601,44 @@ fn save_preserves_nan_bits() {
 }
 
 #[test]
+fn a_save_header_is_filled_in_after_its_streamed_payload() {
+    // SAVE streams the payload and writes its length and checksum into the header last: they
+    // must describe the bytes that follow, and the payload must be postcard's encoding.
+    let dir = out_dir("restart_header");
+    let path = dir.join("streamed.sav");
+    let file = save_file();
+    save(&path, &file).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let payload = &bytes[28..];
+    assert_eq!(payload, postcard::to_stdvec(&file).unwrap().as_slice());
+    assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), FORMAT_VERSION);
+    assert_eq!(u64::from_le_bytes(bytes[12..20].try_into().unwrap()), payload.len() as u64);
+    assert_eq!(u64::from_le_bytes(bytes[20..28].try_into().unwrap()), crc32fast::hash(payload) as u64);
+}
+
+#[test]
+fn a_save_file_of_format_2_still_loads() {
+    // Version 2 files (up to this format change) carry an FNV-1a 64 checksum of the same payload.
+    let dir = out_dir("restart_v2");
+    let file = save_file();
+    let payload = postcard::to_stdvec(&file).unwrap();
+    let fnv = payload.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3));
+    let mut bytes = MAGIC.to_vec();
+    bytes.extend_from_slice(&2u32.to_le_bytes());
+    bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&fnv.to_le_bytes());
+    bytes.extend_from_slice(&payload);
+    let path = dir.join("v2.sav");
+    std::fs::write(&path, &bytes).unwrap();
+    assert_eq!(load(&path).unwrap(), file);
+    // Its checksum is checked as FNV: a damaged byte is still found.
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(&path, &bytes).unwrap();
+    assert!(matches!(load(&path), Err(RestartError::Corrupt { .. })));
+}
+
+#[test]
 fn load_reports_bad_files_without_panicking() {
     let dir = out_dir("restart_bad");
     let good = dir.join("good.sav");
@@ -836,6 +874,44 @@ fn plot_options_change_the_picture() {
     assert_eq!(rgba(&p1, 100, 650), [200, 200, 200, 255]);
     assert_eq!(rgba(&p2, 100, 650), WHITE, "NOFIX: no grey");
     assert_ne!(rgba(&p2, 250, 500), WHITE, "NOFIX still draws free blocks");
+}
+
+#[test]
+fn plot_draws_only_what_shows_in_the_view() {
+    // Blocks wholly outside the VIEW (beyond the default window 0..10 x 0..7, on every side and
+    // just past its corner) are clipped away: the PNG is pixel for pixel the one without them,
+    // and the SVG leaves them out (a 10^6-block model plotted through a small window wrote a
+    // 1.7 GB SVG of shapes nobody could see).
+    let dir = out_dir("plot_cull");
+    let m = two_blocks();
+    let mut with_far = two_blocks();
+    let far = [[20.0, 0.0, 22.0, 1.0], [-5.0, 2.0, -3.0, 3.0], [2.0, 9.0, 4.0, 10.0], [2.0, -4.0, 4.0, -3.0], [10.05, 7.05, 11.0, 8.0]];
+    for (id, r) in (100..).zip(far) {
+        add_rect(&mut with_far, id, r, 0.1, false);
+    }
+    // One block overlapping the window's right edge is still drawn (in part).
+    let mut with_edge = with_far.clone();
+    add_rect(&mut with_edge, 200, [9.5, 3.0, 11.0, 4.0], 0.1, false);
+    let vel = PlotOptions { velocities: true, ..Default::default() };
+    let [png0, svg0] = plot(&m, &PlotSettings::default(), &vel, &dir, 1).unwrap();
+    let [png1, svg1] = plot(&with_far, &PlotSettings::default(), &vel, &dir, 2).unwrap();
+    let [png2, svg2] = plot(&with_edge, &PlotSettings::default(), &vel, &dir, 3).unwrap();
+    let (p0, p1, p2) = (load_png(&png0), load_png(&png1), load_png(&png2));
+    assert!(p0.data() == p1.data(), "blocks outside the view changed the PNG");
+    assert!(p0.data() != p2.data(), "a block across the view's edge is drawn");
+    let (s0, s1, s2) = [svg0, svg1, svg2].map(|p| std::fs::read_to_string(p).unwrap()).into();
+    assert_eq!(s0, s1, "blocks outside the view are not in the SVG");
+    assert_eq!(s2.matches(r#"class="block""#).count(), 3);
+    assert!(s2.contains(r#"data-id="200""#));
+    assert_eq!(s2.matches(r#"class="centroid""#).count(), 4, "the edge block's cross (10.25, 3.5) is in the view");
+
+    // Zoomed out to the whole model, the outlines keep their shape but a rounding far under a
+    // pixel is drawn as its corner: four points a rectangle, where 5-degree steps make 76.
+    let far_view = PlotSettings { window: [-1.0e4, 1.0e4, -7.0e3, 7.0e3], ..Default::default() };
+    let [_, svg] = plot(&m, &far_view, &PlotOptions::default(), &dir, 4).unwrap();
+    let s = std::fs::read_to_string(svg).unwrap();
+    let line = s.lines().find(|l| l.contains(r#"data-id="5""#)).unwrap();
+    assert_eq!(line.matches(',').count(), 4, "{line}");
 }
 
 #[test]

@@ -27,15 +27,16 @@ pub use restart::{load, save, RestartError, SaveFile, FORMAT_VERSION, MAGIC};
 pub use state_json::{state_json, write_state_json};
 
 use std::fs::{self, File};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 
 /// Writes a file so that a crash or a full disk never leaves a half-written one under `path`:
 /// the content goes to a temporary file in the same directory (so the rename cannot cross file
 /// systems), is flushed to disk, and is then renamed over `path` in one step.
+/// The writer is buffered and seekable (SAVE fills in its header last).
 pub(crate) fn write_atomically(
     path: &Path,
-    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 ) -> io::Result<()> {
     let tmp = temp_path(path);
     let result = (|| {

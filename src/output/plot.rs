@@ -30,6 +30,13 @@ pub const IMAGE_SIZE: [u32; 2] = [1000, 700];
 /// Largest angle one straight segment of a tessellated corner arc may span (5°): at 1000 px a
 /// rounding arc is at most a few tens of pixels, so the chords are invisible.
 const ARC_STEP: f64 = std::f64::consts::PI / 36.0;
+/// Shortest chord a plotted arc is cut into, pixels: an arc a few pixels long needs no 5° steps,
+/// and the rounding of a block far smaller than a pixel (a whole 10⁶-block wall on one page) is
+/// drawn as its two tangent points.
+const MIN_CHORD_PX: f64 = 1.0;
+/// Pixels beyond the VIEW within which a shape still counts as visible: half the 1-pixel stroke
+/// and its anti-aliased fringe.
+const CULL_MARGIN_PX: f64 = 2.0;
 /// Half-length of the centroid cross, pixels.
 const CROSS_PX: f64 = 4.0;
 /// The largest velocity arrow is this fraction of the window width.
@@ -104,6 +111,37 @@ impl Viewport {
             self.origin[1] - self.scale * p[1],
         ]
     }
+
+    /// Whether a shape within the pixel box `lo`..`hi` can show in the VIEW (everything is
+    /// clipped to it, so a shape wholly outside draws nothing and is left out of both files).
+    /// False for a box with a non-finite side.
+    fn shows(self, [lo, hi]: [[f64; 2]; 2]) -> bool {
+        let [l, t, r, b] = self.clip;
+        let m = CULL_MARGIN_PX;
+        lo[0] <= r + m && hi[0] >= l - m && lo[1] <= b + m && hi[1] >= t - m
+    }
+
+    /// The pixel box of the world box `lo`..`hi` (image y runs down).
+    fn box_to_px(self, [lo, hi]: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
+        let (a, b) = (self.to_px([lo[0], hi[1]]), self.to_px([hi[0], lo[1]]));
+        [a, b]
+    }
+}
+
+/// The box around `points`: [lower, upper] corners (NaN sides if a point is not finite).
+fn bounding_box(points: &[[f64; 2]]) -> [[f64; 2]; 2] {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in points {
+        for i in 0..2 {
+            if !p[i].is_finite() {
+                return [[f64::NAN; 2]; 2];
+            }
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    [lo, hi]
 }
 
 fn invalid(msg: String) -> io::Error {
@@ -121,6 +159,12 @@ fn invalid(msg: String) -> io::Error {
 ///
 /// This is the one tessellation both the PNG and the SVG use.
 pub fn block_outline(model: &Model, b: usize, rounded: bool) -> Vec<[f64; 2]> {
+    outline(model, b, rounded, 0.0)
+}
+
+/// [`block_outline`] with no arc chord shorter than `min_chord` (world units) where 5° steps
+/// would make them shorter: what a plot at a given scale needs.
+fn outline(model: &Model, b: usize, rounded: bool, min_chord: f64) -> Vec<[f64; 2]> {
     let blk = &model.blocks[b];
     let start = blk.corner_start as usize;
     let corners = model
@@ -141,13 +185,15 @@ pub fn block_outline(model: &Model, b: usize, rounded: bool) -> Vec<[f64; 2]> {
             out.push(p);
             continue;
         };
-        if !(c.round > 0.0 && c.radius > 0.0) {
+        // A rounding shorter than half a chord (half a pixel, in a plot) is drawn sharp: its two
+        // tangent points would land within a pixel of the corner.
+        if !(c.round > 0.0 && c.radius > 0.0 && c.round >= 0.5 * min_chord) {
             out.push(p);
             continue;
         }
         let t_in = add(p, scale(u_in, c.round));
         let t_out = add(p, scale(u_out, c.round));
-        arc(c.circle, t_in, t_out, &mut out);
+        arc(c.circle, t_in, t_out, min_chord, &mut out);
     }
     out
 }
@@ -156,8 +202,8 @@ pub fn block_outline(model: &Model, b: usize, rounded: bool) -> Vec<[f64; 2]> {
 /// rounding arc always subtends less than π (it is π minus the interior angle of a convex
 /// corner), so the short way is the right one. The radius is interpolated between the two end
 /// distances so the ends land exactly on the tangent points even if the stored circle is off by
-/// rounding error.
-fn arc(centre: [f64; 2], a: [f64; 2], b: [f64; 2], out: &mut Vec<[f64; 2]>) {
+/// rounding error. Steps of at most 5°, fewer where they would be shorter than `min_chord`.
+fn arc(centre: [f64; 2], a: [f64; 2], b: [f64; 2], min_chord: f64, out: &mut Vec<[f64; 2]>) {
     let (da, db) = (sub(a, centre), sub(b, centre));
     let (ra, rb) = (len(da), len(db));
     let a0 = da[1].atan2(da[0]);
@@ -167,7 +213,11 @@ fn arc(centre: [f64; 2], a: [f64; 2], b: [f64; 2], out: &mut Vec<[f64; 2]>) {
     } else if sweep < -std::f64::consts::PI {
         sweep += std::f64::consts::TAU;
     }
-    let steps = ((sweep.abs() / ARC_STEP).ceil() as usize).max(1);
+    let mut steps = ((sweep.abs() / ARC_STEP).ceil() as usize).max(1);
+    if min_chord > 0.0 {
+        let length = sweep.abs() * ra.max(rb);
+        steps = steps.min((length / min_chord).floor() as usize).max(1);
+    }
     out.push(a);
     for i in 1..steps {
         let f = i as f64 / steps as f64;
@@ -233,15 +283,26 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
         .filter(|&b| !(options.nofix && model.blocks[b].fixed))
         .collect();
     let mut shapes = Vec::new();
+    // Only what shows in the VIEW is drawn: a plot of a 10x7 m window of a 10⁶-block wall draws
+    // a few hundred blocks, not a million clipped away. A block's rounded outline lies within
+    // the box of its corners.
+    let block_shows = |b: usize| {
+        let blk = &model.blocks[b];
+        let start = blk.corner_start as usize;
+        let corners = model.corners.get(start..start + blk.corner_count as usize).unwrap_or(&[]);
+        let positions: Vec<[f64; 2]> = corners.iter().map(|c| c.position).collect();
+        vp.shows(vp.box_to_px(bounding_box(&positions)))
+    };
+    let min_chord = MIN_CHORD_PX / vp.scale;
 
     // Outlines first so that crosses and arrows are drawn over the grey of fixed blocks.
-    for &b in &shown {
+    for &b in shown.iter().filter(|&&b| block_shows(b)) {
         let blk = &model.blocks[b];
-        let points: Vec<[f64; 2]> = block_outline(model, b, !options.no_rounding)
+        let points: Vec<[f64; 2]> = outline(model, b, !options.no_rounding, min_chord)
             .into_iter()
             .map(|p| vp.to_px(p))
             .collect();
-        if points.len() >= 2 && points.iter().all(|p| p[0].is_finite() && p[1].is_finite()) {
+        if points.len() >= 2 && vp.shows(bounding_box(&points)) {
             let fill = blk.fixed.then_some(FIXED_GREY);
             shapes.push(Shape {
                 kind: ShapeKind::Block(blk.id),
@@ -254,7 +315,7 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
     }
     for &b in &shown {
         let [cx, cy] = vp.to_px(model.blocks[b].centroid);
-        if !(cx.is_finite() && cy.is_finite()) {
+        if !vp.shows([[cx - CROSS_PX, cy - CROSS_PX], [cx + CROSS_PX, cy + CROSS_PX]]) {
             continue;
         }
         for (dx, dy) in [(CROSS_PX, 0.0), (0.0, CROSS_PX)] {
@@ -285,7 +346,7 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
                 }
                 let tail = vp.to_px(blk.centroid);
                 let head = vp.to_px(add(blk.centroid, scale(blk.velocity, k)));
-                shapes.extend(arrow(tail, head));
+                shapes.extend(arrow(tail, head).into_iter().filter(|a| vp.shows(bounding_box(&a.points))));
             }
         }
     }
@@ -354,7 +415,9 @@ pub fn plot(
         .encode_png()
         .map_err(|e| io::Error::other(format!("PNG encoding failed: {e}")))?;
     fs::write(&png, bytes)?;
-    fs::write(&svg, render_svg(&scene))?;
+    let mut w = io::BufWriter::new(fs::File::create(&svg)?);
+    render_svg(&scene, &mut w)?;
+    io::Write::flush(&mut w)?;
     Ok([png, svg])
 }
 
@@ -421,30 +484,29 @@ fn tiny_path(points: &[[f64; 2]], closed: bool) -> Option<tiny_skia::Path> {
     pb.finish()
 }
 
-fn render_svg(scene: &Scene) -> String {
+/// Writes the SVG of `scene` to `s` (streamed: a plot of many blocks is never one string).
+fn render_svg(scene: &Scene, s: &mut impl io::Write) -> io::Result<()> {
     let [w, h] = IMAGE_SIZE;
     let [l, t, r, b] = scene.clip;
-    let mut s = String::new();
-    // `write!` into a String cannot fail.
-    let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
-    let _ = writeln!(
+    writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#)?;
+    writeln!(
         s,
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
-    );
-    let _ = writeln!(
+    )?;
+    writeln!(
         s,
         r#"<rect x="0" y="0" width="{w}" height="{h}" fill="white"/>"#
-    );
-    let _ = writeln!(
+    )?;
+    writeln!(
         s,
         r#"<defs><clipPath id="view"><rect x="{l:.2}" y="{t:.2}" width="{:.2}" height="{:.2}"/></clipPath></defs>"#,
         r - l,
         b - t
-    );
-    let _ = writeln!(
+    )?;
+    writeln!(
         s,
         r#"<g clip-path="url(#view)" stroke-width="1" stroke-linejoin="round">"#
-    );
+    )?;
     for shape in &scene.shapes {
         let mut d = String::new();
         for (i, p) in shape.points.iter().enumerate() {
@@ -465,24 +527,23 @@ fn render_svg(scene: &Scene) -> String {
             ShapeKind::Velocity => r#"class="velocity""#.to_string(),
         };
         let fill = shape.fill.map_or_else(|| "none".to_string(), hex);
-        let _ = writeln!(
+        writeln!(
             s,
             r#"<path {class} d="{}" fill="{fill}" stroke="{}"/>"#,
             d.trim_end(),
             hex(shape.stroke)
-        );
+        )?;
     }
     // The caption sits at the bottom left of the view, inside the clip like everything else.
-    let _ = writeln!(
+    writeln!(
         s,
         r#"<text x="{:.2}" y="{:.2}" font-family="monospace" font-size="12" fill="black">{}</text>"#,
         l + 6.0,
         b - 6.0,
         xml_escape(&scene.caption)
-    );
-    let _ = writeln!(s, "</g>");
-    let _ = writeln!(s, "</svg>");
-    s
+    )?;
+    writeln!(s, "</g>")?;
+    writeln!(s, "</svg>")
 }
 
 fn hex(c: Rgb) -> String {

@@ -8,16 +8,21 @@
 //! | 8 | magic `BLOCKDEM` |
 //! | 4 | format version (u32), [`FORMAT_VERSION`] |
 //! | 8 | payload length in bytes (u64) |
-//! | 8 | FNV-1a 64 checksum of the payload (u64) |
+//! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in version 3, FNV-1a 64 in version 2 |
 //! | n | payload: [`SaveFile`] serialized with postcard |
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
 //! a model with silently wrong numbers. The version must change whenever `SaveFile` or anything
 //! in it (the `Model` types) changes shape: postcard is not self-describing.
+//!
+//! The payload is streamed to the file as it is serialized and the header's length and checksum
+//! written last: a 10⁶-block model's 1.6 GB payload is never held in memory, twice, as it was
+//! up to version 2, whose byte-at-a-time FNV checksum also cost a second a gigabyte (CRC-32 runs
+//! at memory speed). Version 2 files are still read.
 
 use std::fs;
-use std::io;
+use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -27,8 +32,10 @@ use crate::model::Model;
 
 /// The first eight bytes of every save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKDEM";
-/// The save format this program writes and reads.
-pub const FORMAT_VERSION: u32 = 2;
+/// The save format this program writes (and reads, with version 2).
+pub const FORMAT_VERSION: u32 = 3;
+/// The older format still read: the same payload under an FNV-1a 64 checksum.
+const FNV_VERSION: u32 = 2;
 /// Bytes before the payload: magic, version, length, checksum.
 const HEADER_LEN: usize = 8 + 4 + 8 + 8;
 
@@ -62,28 +69,98 @@ pub enum RestartError {
     Corrupt { path: PathBuf, reason: String },
 }
 
-/// FNV-1a, 64 bit: a few lines, no dependency, and enough to catch damage (not tampering).
+/// FNV-1a, 64 bit: the checksum of version 2 files.
 fn fnv1a64(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
     })
 }
 
+/// The checksum a file of format `version` carries for `payload`.
+fn checksum(version: u32, payload: &[u8]) -> u64 {
+    if version == FNV_VERSION {
+        fnv1a64(payload)
+    } else {
+        crc32fast::hash(payload) as u64
+    }
+}
+
+/// Bytes the payload is checksummed and written in.
+const CHUNK: usize = 1 << 16;
+
+/// The payload's way to the file: postcard writes it a field at a time (often 8 bytes), this
+/// gathers them into chunks, checksums each chunk and writes it on, and counts the bytes. An
+/// I/O error is kept (postcard reports every failure of its writer as a full buffer).
+struct PayloadWriter<'a, W: Write> {
+    file: &'a mut W,
+    chunk: Vec<u8>,
+    crc: crc32fast::Hasher,
+    length: u64,
+    error: Option<io::Error>,
+}
+
+impl<'a, W: Write> PayloadWriter<'a, W> {
+    fn new(file: &'a mut W) -> Self {
+        PayloadWriter { file, chunk: Vec::with_capacity(CHUNK), crc: crc32fast::Hasher::new(), length: 0, error: None }
+    }
+
+    fn write_chunk(&mut self) -> io::Result<()> {
+        self.crc.update(&self.chunk);
+        self.length += self.chunk.len() as u64;
+        let r = self.file.write_all(&self.chunk);
+        self.chunk.clear();
+        r.inspect_err(|e| self.error = Some(io::Error::new(e.kind(), e.to_string())))
+    }
+
+    /// Writes what is left; the payload's length and checksum.
+    fn finish(mut self) -> io::Result<(u64, u64)> {
+        self.write_chunk()?;
+        Ok((self.length, self.crc.finalize() as u64))
+    }
+}
+
+impl<W: Write> Write for PayloadWriter<'_, W> {
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        if self.chunk.len() + bytes.len() > CHUNK {
+            self.write_chunk()?;
+        }
+        if bytes.len() >= CHUNK {
+            self.chunk.extend_from_slice(bytes);
+            self.write_chunk()?;
+        } else {
+            self.chunk.extend_from_slice(bytes);
+        }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
 /// SAVE: writes `file` to `path`, atomically (a temporary file renamed into place), so an
-/// interrupted SAVE leaves the previous save file intact.
+/// interrupted SAVE leaves the previous save file intact. The header goes first with its
+/// length and checksum zero, the payload after it as it is serialized, and then the two are
+/// written into the header.
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
     let io_err = |source| RestartError::Io {
         path: path.to_path_buf(),
         source,
     };
-    let payload = postcard::to_stdvec(file).map_err(|e| io_err(io::Error::other(e)))?;
-    let mut bytes = Vec::with_capacity(HEADER_LEN + payload.len());
-    bytes.extend_from_slice(&MAGIC);
-    bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    bytes.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
-    bytes.extend_from_slice(&payload);
-    super::write_atomically(path, |w| w.write_all(&bytes)).map_err(io_err)
+    super::write_atomically(path, |w| {
+        w.write_all(&MAGIC)?;
+        w.write_all(&FORMAT_VERSION.to_le_bytes())?;
+        w.write_all(&[0; 16])?;
+        let mut payload = PayloadWriter::new(w);
+        if let Err(e) = postcard::to_io(file, &mut payload) {
+            return Err(payload.error.take().unwrap_or_else(|| io::Error::other(e)));
+        }
+        let (length, checksum) = payload.finish()?;
+        w.seek(SeekFrom::Start((MAGIC.len() + 4) as u64))?;
+        w.write_all(&length.to_le_bytes())?;
+        w.write_all(&checksum.to_le_bytes())
+    })
+    .map_err(io_err)
 }
 
 /// RESTART: reads a save file written by [`save`].
@@ -130,10 +207,10 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
-    if version != FORMAT_VERSION {
+    if version != FORMAT_VERSION && version != FNV_VERSION {
         return Err(DecodeError::UnsupportedVersion(version));
     }
-    let (length, checksum) = (u64_at(12), u64_at(20));
+    let (length, expected) = (u64_at(12), u64_at(20));
     let payload = &bytes[HEADER_LEN..];
     if payload.len() as u64 != length {
         return Err(DecodeError::Corrupt(format!(
@@ -141,7 +218,7 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
             payload.len()
         )));
     }
-    if fnv1a64(payload) != checksum {
+    if checksum(version, payload) != expected {
         return Err(DecodeError::Corrupt(
             "the payload checksum does not match".to_string(),
         ));

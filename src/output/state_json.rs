@@ -5,7 +5,7 @@
 //! added, none renamed or removed. Blocks and contacts are named by their stable ids. Non-finite
 //! numbers (a diverged run) are written as `null`, so the file is always valid JSON.
 
-use std::io;
+use std::io::{self, Write};
 use std::path::Path;
 
 use serde_json::{json, Value};
