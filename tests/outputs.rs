@@ -542,6 +542,28 @@ fn state_json_writes_null_for_non_finite_numbers() {
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
 }
 
+#[test]
+fn the_streamed_state_file_is_the_state_value_pretty_printed() {
+    // write_state_json streams the state from the model; its text must be the JSON value's,
+    // keys in alphabetical order (serde_json's maps are sorted), the layout tools have read.
+    let mut m = two_blocks();
+    m.blocks[1].rotation = f64::NAN;
+    m.contacts[0].block2 = 99; // a corrupt reference is written as null
+    let dir = out_dir("state_json_stream");
+    let path = dir.join("state.json");
+    write_state_json(&m, &path).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let value = state_json(&m);
+    assert_eq!(text, serde_json::to_string_pretty(&value).unwrap() + "\n");
+    assert_eq!(value["contacts"][0]["blocks"], serde_json::json!([5, null]));
+    let keys: Vec<&String> = value["blocks"][0].as_object().unwrap().keys().collect();
+    let first = text.find("\"angular_velocity\"").unwrap();
+    for pair in keys.windows(2) {
+        let (a, b) = (text[first..].find(&format!("\"{}\"", pair[0])).unwrap(), text[first..].find(&format!("\"{}\"", pair[1])).unwrap());
+        assert!(a < b, "{} before {}", pair[0], pair[1]);
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // SAVE / RESTART
 

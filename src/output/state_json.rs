@@ -8,117 +8,207 @@
 use std::io::{self, Write};
 use std::path::Path;
 
-use serde_json::{json, Value};
+use serde::ser::{Serialize, SerializeSeq, Serializer};
+use serde_json::Value;
 
 use crate::model::timestep::Energies;
 use crate::model::{Block, Contact, Model};
 
+// The state is serialized from views of the model as it is written, never built as a
+// `serde_json::Value` tree first: that tree cost ~50 times the file's size in memory (5.5 GB for
+// a 10⁵-block wall; a 10⁶-block one did not fit). The fields of each view are in alphabetical
+// order, the order the JSON has always had (serde_json's maps are sorted).
+
 /// A finite number, or `null`: JSON has no NaN or infinity.
-fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
+struct Num(f64);
+
+impl Serialize for Num {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if self.0.is_finite() {
+            s.serialize_f64(self.0)
+        } else {
+            s.serialize_none()
+        }
     }
 }
 
-fn pair(p: [f64; 2]) -> Value {
-    Value::Array(vec![num(p[0]), num(p[1])])
+fn pair(p: [f64; 2]) -> [Num; 2] {
+    p.map(Num)
 }
 
-fn block_json(model: &Model, b: usize, blk: &Block) -> Value {
-    let corners: Vec<Value> = corner_positions(model, b).into_iter().map(pair).collect();
-    json!({
-        "id": blk.id,
-        "kind": blk.kind.name(),
-        "material": blk.material,
-        "constitutive": blk.constitutive,
-        "fixed": blk.fixed,
-        "area": num(blk.area),
-        "mass": num(blk.mass),
-        "inertia": num(blk.inertia),
-        "centroid": pair(blk.centroid),
-        "rotation": num(blk.rotation),
-        "velocity": pair(blk.velocity),
-        "angular_velocity": num(blk.angular_velocity),
-        "force": pair(blk.force),
-        "moment": num(blk.moment),
-        "load": pair(blk.load),
-        "corners": corners,
-    })
+#[derive(serde::Serialize)]
+struct BlockJson {
+    angular_velocity: Num,
+    area: Num,
+    centroid: [Num; 2],
+    constitutive: u32,
+    corners: Vec<[Num; 2]>,
+    fixed: bool,
+    force: [Num; 2],
+    id: u32,
+    inertia: Num,
+    kind: &'static str,
+    load: [Num; 2],
+    mass: Num,
+    material: u32,
+    moment: Num,
+    rotation: Num,
+    velocity: [Num; 2],
 }
 
-fn contact_json(model: &Model, c: &Contact) -> Value {
+fn block_json(model: &Model, b: usize, blk: &Block) -> BlockJson {
+    BlockJson {
+        angular_velocity: Num(blk.angular_velocity),
+        area: Num(blk.area),
+        centroid: pair(blk.centroid),
+        constitutive: blk.constitutive,
+        corners: corner_positions(model, b).into_iter().map(pair).collect(),
+        fixed: blk.fixed,
+        force: pair(blk.force),
+        id: blk.id,
+        inertia: Num(blk.inertia),
+        kind: blk.kind.name(),
+        load: pair(blk.load),
+        mass: Num(blk.mass),
+        material: blk.material,
+        moment: Num(blk.moment),
+        rotation: Num(blk.rotation),
+        velocity: pair(blk.velocity),
+    }
+}
+
+#[derive(serde::Serialize)]
+struct ContactJson {
+    blocks: [Option<u32>; 2],
+    bonded: bool,
+    constitutive: u32,
+    corner: u32,
+    feature: u32,
+    id: u32,
+    kind: &'static str,
+    material: u32,
+    normal: [Num; 2],
+    normal_displacement: Num,
+    normal_force: Num,
+    point: [Num; 2],
+    shear_displacement: Num,
+    shear_force: Num,
+}
+
+fn contact_json(model: &Model, c: &Contact) -> ContactJson {
     // A contact naming a block index that does not exist (a corrupt model) gets `null` there.
-    let id = |i: u32| {
-        model
-            .blocks
-            .get(i as usize)
-            .map_or(Value::Null, |b| json!(b.id))
-    };
-    json!({
-        "id": c.id,
-        "blocks": [id(c.block1), id(c.block2)],
-        "kind": c.kind.name(),
-        "material": c.material,
-        "constitutive": c.constitutive,
-        "corner": c.corner,
-        "feature": c.feature,
-        "bonded": c.bonded,
-        "point": pair(c.point),
-        "normal": pair(c.normal),
-        "normal_force": num(c.normal_force),
-        "shear_force": num(c.shear_force),
-        "normal_displacement": num(c.gap),
-        "shear_displacement": num(c.shear_displacement),
-    })
+    let id = |i: u32| model.blocks.get(i as usize).map(|b| b.id);
+    ContactJson {
+        blocks: [id(c.block1), id(c.block2)],
+        bonded: c.bonded,
+        constitutive: c.constitutive,
+        corner: c.corner,
+        feature: c.feature,
+        id: c.id,
+        kind: c.kind.name(),
+        material: c.material,
+        normal: pair(c.normal),
+        normal_displacement: Num(c.gap),
+        normal_force: Num(c.normal_force),
+        point: pair(c.point),
+        shear_displacement: Num(c.shear_displacement),
+        shear_force: Num(c.shear_force),
+    }
+}
+
+#[derive(serde::Serialize)]
+struct EnergyJson {
+    contact_damping: Num,
+    external_work: Num,
+    friction: Num,
+    kinetic: Num,
+    ledger: Num,
+    mass_damping: Num,
+    released: Num,
+    strain: Num,
+}
+
+fn energy_view(e: &Energies) -> EnergyJson {
+    EnergyJson {
+        contact_damping: Num(e.contact_damping),
+        external_work: Num(e.external_work),
+        friction: Num(e.friction),
+        kinetic: Num(e.kinetic),
+        ledger: Num(e.ledger()),
+        mass_damping: Num(e.mass_damping),
+        released: Num(e.released),
+        strain: Num(e.strain),
+    }
 }
 
 /// The energy terms as JSON, for the state file's `energy` key.
 pub fn energy_json(e: &Energies) -> Value {
-    json!({
-        "kinetic": num(e.kinetic),
-        "strain": num(e.strain),
-        "external_work": num(e.external_work),
-        "mass_damping": num(e.mass_damping),
-        "contact_damping": num(e.contact_damping),
-        "friction": num(e.friction),
-        "released": num(e.released),
-        "ledger": num(e.ledger()),
-    })
+    serde_json::to_value(energy_view(e)).expect("numbers and strings always convert")
+}
+
+/// A model's blocks, each viewed as it is written.
+struct Blocks<'a>(&'a Model);
+
+impl Serialize for Blocks<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut seq = s.serialize_seq(Some(self.0.blocks.len()))?;
+        for (b, blk) in self.0.blocks.iter().enumerate() {
+            seq.serialize_element(&block_json(self.0, b, blk))?;
+        }
+        seq.end()
+    }
+}
+
+/// A model's contacts, each viewed as it is written.
+struct Contacts<'a>(&'a Model);
+
+impl Serialize for Contacts<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut seq = s.serialize_seq(Some(self.0.contacts.len()))?;
+        for c in &self.0.contacts {
+            seq.serialize_element(&contact_json(self.0, c))?;
+        }
+        seq.end()
+    }
+}
+
+#[derive(serde::Serialize)]
+struct StateJson<'a> {
+    blocks: Blocks<'a>,
+    contacts: Contacts<'a>,
+    cycle: u64,
+    dim: u32,
+    energy: EnergyJson,
+    gravity: [Num; 2],
+    time: Num,
+    timestep: Num,
+}
+
+fn state_view(model: &Model) -> StateJson<'_> {
+    StateJson {
+        blocks: Blocks(model),
+        contacts: Contacts(model),
+        cycle: model.cycle,
+        dim: 2,
+        energy: energy_view(&model.energies()),
+        gravity: pair(model.gravity),
+        time: Num(model.time),
+        timestep: Num(model.timestep),
+    }
 }
 
 /// The state as a JSON value: `dim` (2), `cycle`, `time`, `timestep`, `gravity`, `energy`
 /// ([`energy_json`]), `blocks` and `contacts` (see the module documentation for the rules on keys).
+/// For a large model write it with [`write_state_json`], which streams it.
 pub fn state_json(model: &Model) -> Value {
-    let blocks: Vec<Value> = model
-        .blocks
-        .iter()
-        .enumerate()
-        .map(|(b, blk)| block_json(model, b, blk))
-        .collect();
-    let contacts: Vec<Value> = model
-        .contacts
-        .iter()
-        .map(|c| contact_json(model, c))
-        .collect();
-    json!({
-        "dim": 2,
-        "cycle": model.cycle,
-        "time": num(model.time),
-        "timestep": num(model.timestep),
-        "gravity": pair(model.gravity),
-        "energy": energy_json(&model.energies()),
-        "blocks": blocks,
-        "contacts": contacts,
-    })
+    serde_json::to_value(state_view(model)).expect("numbers and strings always convert")
 }
 
-/// Writes [`state_json`] to `path`, pretty-printed, replacing the file atomically.
+/// Writes [`state_json`] to `path`, pretty-printed, replacing the file atomically; streamed from
+/// the model as it is written.
 pub fn write_state_json(model: &Model, path: &Path) -> io::Result<()> {
-    let value = state_json(model);
     super::write_atomically(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, &value)?;
+        serde_json::to_writer_pretty(&mut *w, &state_view(model))?;
         writeln!(w)
     })
 }
