@@ -13,7 +13,6 @@ use crate::model::split::split_line;
 use crate::model::Model;
 use crate::output;
 use crate::output::plot::PlotSettings;
-use crate::output::restart::SaveFile;
 use crate::verify::stability::{Limits, LIMITS_CPU_F64};
 
 /// The file a SAVE or RESTART without a name uses, in the output folder.
@@ -308,8 +307,7 @@ impl<'a> Executor<'a> {
                 if let Some(dir) = path.parent() {
                     let _ = std::fs::create_dir_all(dir);
                 }
-                let save = SaveFile { model: self.model.clone(), plot: self.plot, plot_count: self.plot_count };
-                output::restart::save(&path, &save).map_err(|e| self.command_error(cmd, format!("SAVE: {e}")))?;
+                output::restart::save_state(&path, &self.model, &self.plot, self.plot_count).map_err(|e| self.command_error(cmd, format!("SAVE: {e}")))?;
                 self.echo(&format!("STATE SAVED TO {}", path.display()));
             }
             Command::Split { from, to, material, constitutive } => {

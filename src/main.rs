@@ -298,8 +298,7 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
             // Never lose work: the last good state goes to a restart file beside the plots.
             let _ = std::fs::create_dir_all(&out);
             let path = out.join("last_good.sav");
-            let save = blockdem::output::restart::SaveFile { model: exec.model.clone(), plot: Default::default(), plot_count: 0 };
-            if blockdem::output::restart::save(&path, &save).is_ok() {
+            if blockdem::output::restart::save_state(&path, &exec.model, &Default::default(), 0).is_ok() {
                 eprintln!("blockdem: the last good state (cycle {}) is saved in {}", exec.model.cycle, path.display());
             }
         }

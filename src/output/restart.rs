@@ -138,11 +138,27 @@ impl<W: Write> Write for PayloadWriter<'_, W> {
     }
 }
 
-/// SAVE: writes `file` to `path`, atomically (a temporary file renamed into place), so an
-/// interrupted SAVE leaves the previous save file intact. The header goes first with its
-/// length and checksum zero, the payload after it as it is serialized, and then the two are
-/// written into the header.
+/// What SAVE writes, borrowed from the running program: serialized field for field as a
+/// [`SaveFile`] (postcard writes a struct as its fields in order), so a save needs no copy of
+/// the model.
+#[derive(Serialize)]
+struct SaveView<'a> {
+    model: &'a Model,
+    plot: &'a PlotSettings,
+    plot_count: usize,
+}
+
+/// SAVE: writes `file` to `path` (see [`save_state`]).
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
+    save_state(path, &file.model, &file.plot, file.plot_count)
+}
+
+/// SAVE: writes the model and the plot state to `path` as a [`SaveFile`], atomically (a
+/// temporary file renamed into place), so an interrupted SAVE leaves the previous save file
+/// intact. The header goes first with its length and checksum zero, the payload after it as it
+/// is serialized, and then the two are written into the header.
+pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
+    let file = SaveView { model, plot, plot_count };
     let io_err = |source| RestartError::Io {
         path: path.to_path_buf(),
         source,
@@ -152,7 +168,7 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
         w.write_all(&FORMAT_VERSION.to_le_bytes())?;
         w.write_all(&[0; 16])?;
         let mut payload = PayloadWriter::new(w);
-        if let Err(e) = postcard::to_io(file, &mut payload) {
+        if let Err(e) = postcard::to_io(&file, &mut payload) {
             return Err(payload.error.take().unwrap_or_else(|| io::Error::other(e)));
         }
         let (length, checksum) = payload.finish()?;
