@@ -422,6 +422,35 @@ fn print_block_lists_table() {
 }
 
 #[test]
+fn the_linked_lists_name_every_contact_under_both_its_blocks() {
+    // A wall of 200 bricks and its ~1500 contacts: each contact is listed exactly once under its
+    // block 1 and once under its block 2 (the lists are grouped by one sort of the contacts, not
+    // a scan of them per block).
+    let deck = format!("{}CYCLE 1\n", blockdem::bench::scene::scaling_body(200, 0.1));
+    let m = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    assert!(m.contacts.len() > 1000);
+    let t = text(|w| print_block_lists(&m, w));
+    let mut seen: std::collections::HashMap<u32, Vec<u32>> = Default::default();
+    let mut block = 0;
+    for line in t.lines().map(str::trim) {
+        if let Some(id) = line.strip_prefix("BLOCK ").and_then(|rest| rest.split(' ').next()?.parse().ok()) {
+            block = id;
+        } else if let Some(rest) = line.strip_prefix("CONTACT ") {
+            let id: u32 = rest.split(',').next().unwrap().parse().unwrap();
+            seen.entry(id).or_default().push(block);
+        }
+    }
+    assert_eq!(seen.len(), m.contacts.len(), "every contact is listed");
+    for c in &m.contacts {
+        let mut blocks = seen[&c.id].clone();
+        blocks.sort_unstable();
+        let mut expected = vec![m.blocks[c.block1 as usize].id, m.blocks[c.block2 as usize].id];
+        expected.sort_unstable();
+        assert_eq!(blocks, expected, "contact {}", c.id);
+    }
+}
+
+#[test]
 fn print_item_dispatches_and_survives_a_bad_index() {
     let mut m = two_blocks();
     for item in [

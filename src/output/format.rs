@@ -1,6 +1,8 @@
 //! Number formatting in the style of the 1985 listings (print-formats.md: "Numbers were printed in
 //! `1.234E+05` form").
 
+use std::fmt::Write as _;
+
 /// Width of one numeric column in the PRINT tables: room for `-1.234E+05` (10 characters) and one
 /// space of separation. Three-digit exponents (|exp| ≥ 100) take one more character and simply push
 /// the rest of the line right by one; they are rare enough in a PRINT table not to cost a column.
@@ -20,26 +22,40 @@ pub const NUMBER_WIDTH: usize = 11;
 /// Zero of either sign prints as `0.000E+00`. Non-finite values print as `NaN`, `Inf` or `-Inf`
 /// so that a diverging run still produces a readable table.
 pub fn fmt_e(x: f64) -> String {
+    let mut s = String::with_capacity(NUMBER_WIDTH);
+    push_e(&mut s, x);
+    s
+}
+
+/// Appends [`fmt_e`]`(x)` to `out` (a table of 10⁶ rows formats 10⁷ numbers: no string each).
+pub(crate) fn push_e(out: &mut String, x: f64) {
     if x.is_nan() {
-        return "NaN".to_string();
+        return out.push_str("NaN");
     }
     if x.is_infinite() {
-        return if x > 0.0 { "Inf" } else { "-Inf" }.to_string();
+        return out.push_str(if x > 0.0 { "Inf" } else { "-Inf" });
     }
     if x == 0.0 {
         // Also catches −0.0, which the 1985 listings never showed.
-        return "0.000E+00".to_string();
+        return out.push_str("0.000E+00");
     }
     // Rust's `{:.3E}` rounds correctly (including 9.9995 → 1.000E1) but writes the exponent
     // bare ("1.234E5", "9.500E-3"); only the exponent needs rewriting.
-    let s = format!("{x:.3E}");
-    let (mantissa, exp) = s.split_once('E').expect("{:E} always writes an exponent");
-    let exp: i32 = exp.parse().expect("{:E} writes a decimal exponent");
-    let sign = if exp < 0 { '-' } else { '+' };
-    format!("{mantissa}E{sign}{:02}", exp.unsigned_abs())
+    let start = out.len();
+    let _ = write!(out, "{x:.3E}");
+    let e = start + out[start..].find('E').expect("{:E} always writes an exponent");
+    let exp: i32 = out[e + 1..].parse().expect("{:E} writes a decimal exponent");
+    out.truncate(e + 1);
+    out.push(if exp < 0 { '-' } else { '+' });
+    let _ = write!(out, "{:02}", exp.unsigned_abs());
 }
 
-/// `fmt_e` right-aligned in a column of `NUMBER_WIDTH` characters.
-pub(crate) fn col_e(x: f64) -> String {
-    format!("{:>width$}", fmt_e(x), width = NUMBER_WIDTH)
+/// Appends [`fmt_e`]`(x)` right-aligned in a column of `NUMBER_WIDTH` characters to `out`.
+pub(crate) fn push_col_e(out: &mut String, x: f64) {
+    let start = out.len();
+    push_e(out, x);
+    let written = out.len() - start;
+    if written < NUMBER_WIDTH {
+        out.insert_str(start, &"           "[..NUMBER_WIDTH - written]);
+    }
 }
