@@ -31,7 +31,7 @@ fn bench_cycle(c: &mut Criterion) {
             group.bench_function(format!("wall_{nb}_blocks_{nc}_contacts"), |b| {
                 b.iter_batched(
                     || (model.clone(), CpuBackend::new()),
-                    |(mut m, mut backend)| backend.run(&mut m, CYCLES, &mut |_| {}).expect("stable"),
+                    |(mut m, mut backend)| backend.run(&mut m, CYCLES, &mut |_| true).expect("stable"),
                     BatchSize::LargeInput,
                 )
             });

@@ -59,8 +59,10 @@ pub trait Backend {
     /// A one-line description: backend, adapter, precision.
     fn describe(&self) -> String;
 
-    /// Runs `cycles` cycles of the explicit scheme on `model`, calling `progress(done)` now and
-    /// then. `model.timestep` is set by the caller. On error the model is left at its last good
-    /// state.
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError>;
+    /// Runs `cycles` cycles of the explicit scheme on `model`, calling `progress(done)` at each
+    /// energy check (every `CHECK_INTERVAL` cycles) and at the end. `progress` returns whether to
+    /// go on: `false` ends the run there, with the model at that cycle as after a run of that
+    /// many cycles (`CycleReport::cycles` says how many ran; an interrupted run). `model.timestep`
+    /// is set by the caller. On error the model is left at its last good state.
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError>;
 }

@@ -6,6 +6,8 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use crate::backend::{Backend, CycleError};
 use crate::deck::{Command, DampMode, DeckError, Located, PrintItem, Range};
@@ -32,12 +34,21 @@ pub enum RunError {
     Numerical { file: String, line: usize, failure: CycleError, advice: String },
     #[error("{file}:{line}: {message}")]
     Command { file: String, line: usize, message: String },
+    /// The run was interrupted (`RunOptions::interrupt`): during a CYCLE, at its next energy
+    /// check, with the model at that cycle; otherwise before the command at `line`.
+    #[error("{file}:{line}: interrupted at cycle {cycle}")]
+    Interrupted { file: String, line: usize, cycle: u64 },
 }
 
 impl RunError {
     /// True when the run failed in the numerics (the model then holds the last good state).
     pub fn is_numerical(&self) -> bool {
         matches!(self, RunError::Numerical { .. })
+    }
+
+    /// True when the run was interrupted (the model then holds the state it was stopped at).
+    pub fn is_interrupted(&self) -> bool {
+        matches!(self, RunError::Interrupted { .. })
     }
 }
 
@@ -48,11 +59,20 @@ pub struct RunOptions {
     pub out_dir: PathBuf,
     /// Show a progress bar on long CYCLE commands.
     pub progress: bool,
+    /// Set (by a Ctrl-C handler) to stop the run: a CYCLE ends at its next energy check (every
+    /// 100 cycles) with its state intact, and no further command runs.
+    pub interrupt: Option<Arc<AtomicBool>>,
 }
 
 impl Default for RunOptions {
     fn default() -> Self {
-        RunOptions { out_dir: PathBuf::from("."), progress: false }
+        RunOptions { out_dir: PathBuf::from("."), progress: false, interrupt: None }
+    }
+}
+
+impl RunOptions {
+    fn interrupted(&self) -> bool {
+        self.interrupt.as_ref().is_some_and(|flag| flag.load(Ordering::Relaxed))
     }
 }
 
@@ -99,6 +119,9 @@ impl<'a> Executor<'a> {
 
     fn run_commands(&mut self, commands: &[Located]) -> Result<(), RunError> {
         for cmd in commands {
+            if self.options.interrupted() {
+                return Err(self.interrupted(cmd));
+            }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
             if done {
@@ -115,6 +138,10 @@ impl<'a> Executor<'a> {
 
     fn echo(&mut self, line: &str) {
         let _ = writeln!(self.log, "{line}");
+    }
+
+    fn interrupted(&self, cmd: &Located) -> RunError {
+        RunError::Interrupted { file: self.file.clone(), line: cmd.line, cycle: self.model.cycle }
     }
 
     fn command_error(&self, cmd: &Located, message: impl Into<String>) -> RunError {
@@ -410,10 +437,14 @@ impl<'a> Executor<'a> {
             pb.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {per_sec} eta {eta}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
             pb
         });
+        let options = &self.options;
+        let mut stopped = false;
         let mut progress = |done: u64| {
             if let Some(pb) = &bar {
                 pb.set_position(done);
             }
+            stopped = options.interrupted();
+            !stopped
         };
         // The log up to here is seen while the cycles run.
         let _ = self.log.flush();
@@ -442,6 +473,10 @@ impl<'a> Executor<'a> {
             self.echo(&format!("TIMESTEP REDUCED TO {} AT CYCLE {cycle} (A LIGHTER BLOCK WAS CREATED)", output::format::fmt_e(*dt)));
         }
         self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle));
+        if stopped && report.cycles < n {
+            self.echo(&format!("CYCLE INTERRUPTED AFTER {} OF {n} CYCLES", report.cycles));
+            return Err(self.interrupted(cmd));
+        }
         Ok(())
     }
 

@@ -3,6 +3,8 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -10,7 +12,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use blockdem::backend::Backend;
 use blockdem::cpu::CpuBackend;
 use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
-use blockdem::exec::{Executor, RunOptions};
+use blockdem::exec::{Executor, RunError, RunOptions};
 
 #[derive(Parser)]
 #[command(name = "blockdem", version, about = "Distinct element code for jointed rock (UDEC 1.2 / D3 after Cundall & Hart 1985)")]
@@ -284,7 +286,20 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
             }
         }
     };
-    let options = RunOptions { out_dir: out.clone(), progress: std::io::stdout().is_terminal() };
+    // Ctrl-C stops the run at its next energy check with the state saved (below); a second one
+    // quits at once.
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let flag = interrupt.clone();
+    let handler = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::Relaxed) {
+            std::process::exit(INTERRUPTED_EXIT);
+        }
+        eprintln!("\nblockdem: interrupted; stopping at the next energy check (within 100 cycles) to save the state (Ctrl-C again to quit now)");
+    });
+    if let Err(e) = handler {
+        eprintln!("blockdem: Ctrl-C will end the run without saving its state ({e})");
+    }
+    let options = RunOptions { out_dir: out.clone(), progress: std::io::stdout().is_terminal(), interrupt: Some(interrupt) };
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
@@ -294,18 +309,23 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
         blockdem::output::state_json::write_state_json(&exec.model, path).with_context(|| format!("cannot write {}", path.display()))?;
     }
     if let Err(e) = result {
-        if e.is_numerical() {
-            // Never lose work: the last good state goes to a restart file beside the plots.
+        if e.is_numerical() || e.is_interrupted() {
+            // Never lose work: the last good state (or the state an interrupt stopped at) goes
+            // to a restart file beside the plots.
             let _ = std::fs::create_dir_all(&out);
             let path = out.join("last_good.sav");
+            let which = if e.is_interrupted() { "the state" } else { "the last good state" };
             if blockdem::output::restart::save_state(&path, &exec.model, &Default::default(), 0).is_ok() {
-                eprintln!("blockdem: the last good state (cycle {}) is saved in {}", exec.model.cycle, path.display());
+                eprintln!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
             }
         }
         return Err(e.into());
     }
     Ok(())
 }
+
+/// The exit status of a run ended by Ctrl-C (128 + SIGINT, as a shell reports it).
+const INTERRUPTED_EXIT: i32 = 130;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -321,7 +341,8 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            let interrupted = e.downcast_ref::<RunError>().is_some_and(RunError::is_interrupted);
+            if interrupted { ExitCode::from(INTERRUPTED_EXIT as u8) } else { ExitCode::FAILURE }
         }
     }
 }

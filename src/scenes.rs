@@ -16,7 +16,7 @@ pub fn run_deck_on(text: &str, backend: Box<dyn Backend>) -> Result<Model, RunEr
 /// Runs deck text on a backend writing the run log to `log`.
 pub fn run_deck_logged<'a>(text: &str, backend: Box<dyn Backend + 'a>, log: Box<dyn std::io::Write + 'a>) -> Result<Model, RunError> {
     let commands = crate::deck::parse_deck(text, "<scene>")?;
-    let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-scenes"), progress: false };
+    let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-scenes"), ..Default::default() };
     let mut exec = Executor::new(backend, log, options, "<scene>");
     exec.run(&commands)?;
     Ok(exec.model)

@@ -198,12 +198,12 @@ fn profiling_between_runs_leaves_the_next_run_unchanged() {
     let model0 = blockdem::scenes::run_deck_on(deck, Target::Cpu.backend()).unwrap();
     let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
     let mut split = model0.clone();
-    gpu.run(&mut split, 100, &mut |_| {}).unwrap();
+    gpu.run(&mut split, 100, &mut |_| true).unwrap();
     let profile = gpu.profile_stages(20).unwrap();
     assert!(!profile.stages.is_empty());
-    gpu.run(&mut split, 100, &mut |_| {}).unwrap();
+    gpu.run(&mut split, 100, &mut |_| true).unwrap();
     let mut straight = model0.clone();
-    blockdem::gpu::GpuBackend::new(&options).unwrap().run(&mut straight, 200, &mut |_| {}).unwrap();
+    blockdem::gpu::GpuBackend::new(&options).unwrap().run(&mut straight, 200, &mut |_| true).unwrap();
     assert_eq!(split.cycle, 200);
     // The split run re-uploads at its second start (f32 state through the model's f64): the
     // same trajectory to f32 round-off (the block falls 0.2 m onto the base and rests).

@@ -115,6 +115,49 @@ fn an_overlap_beyond_half_the_rounding_stops_and_keeps_the_last_good_state() {
     }
 }
 
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_a_long_cycle_at_an_energy_check_and_saves_its_state() {
+    use std::io::BufRead;
+    // A projectile bouncing off a wall for 10^8 cycles (hours): SIGINT once the cycles have
+    // started ends the run at its next energy check (a multiple of 100 cycles), with the state
+    // at that cycle saved for RESTART, a message naming the deck's CYCLE line, and the shell's
+    // status for an interrupt (130). A RESTART from the file goes on.
+    let dir = temp("interrupt");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 100000000\nSTOP\n");
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_blockdem"))
+        .args(["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("runs");
+    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut log = String::new();
+    // The log is flushed before the cycles start: its time step line says they have.
+    while !log.contains("INITIAL TIMESTEP") {
+        assert!(stdout.read_line(&mut log).unwrap() > 0, "the run ended before its cycles: {log}");
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let sent = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill runs");
+    assert!(sent.success());
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut stdout, &mut rest).unwrap();
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "stderr: {stderr}");
+    assert!(stderr.contains("deck.dat:8: interrupted at cycle"), "{stderr}");
+    let saved = blockdem::output::load(&out.join("last_good.sav")).unwrap();
+    let cycle = saved.model.cycle;
+    assert!(cycle > 0 && cycle % 100 == 0 && cycle < 100_000_000, "saved at cycle {cycle}");
+    assert!(stderr.contains(&format!("the state (cycle {cycle}) is saved")), "{stderr}");
+    assert!(rest.contains(&format!("CYCLE INTERRUPTED AFTER {cycle} OF 100000000 CYCLES")), "{rest}");
+    let again = write_deck(&dir, &format!("RESTART {}\nCYCLE 100\nSTOP\n", out.join("last_good.sav").display()));
+    let (code, stdout, stderr) = blockdem(&["run", &again, "--backend", "cpu", "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains(&format!("CURRENT CYCLE COUNT = {}", cycle + 100)), "{stdout}");
+}
+
 #[test]
 fn an_unstable_fraction_is_caught_before_any_nan() {
     // FRAC 5 is far above the stable limit of the central-difference scheme (≈ 0.5 here).

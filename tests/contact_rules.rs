@@ -16,7 +16,7 @@ fn run(deck: &str) -> Model {
 
 /// Runs `cycles` more cycles of a model on the CPU backend, returning its report.
 fn cycle(m: &mut Model, cycles: u64) -> CycleReport {
-    CpuBackend::new().run(m, cycles, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"))
+    CpuBackend::new().run(m, cycles, &mut |_| true).unwrap_or_else(|e| panic!("{e}"))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -202,7 +202,7 @@ fn gpu_run(t: &common::Target, mut m: Model, splice: bool, cycles: u64) -> (Mode
     let common::Target::Gpu(options) = t else { unreachable!("a GPU target") };
     let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
     gpu.set_contact_splice(splice);
-    let report = gpu.run(&mut m, cycles, &mut |_| {}).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    let report = gpu.run(&mut m, cycles, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
     (m, report, gpu.contact_splices())
 }
 
@@ -238,7 +238,7 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
             let mut m = projectile_into_wall(8, 24);
             let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
             gpu.set_partial_reads(if partial { blockdem::gpu::PartialReads::Always } else { blockdem::gpu::PartialReads::Never });
-            let report = gpu.run(&mut m, 1500, &mut |_| {}).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+            let report = gpu.run(&mut m, 1500, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
             (m, report, gpu.partial_updates())
         };
         let (a, ra, partial) = go(true);
@@ -473,7 +473,7 @@ fn contacts_form_within_one_tolerance_and_break_past_another() {
     let mut run_to = |m: &mut Model, gap: f64| {
         let now = m.blocks[1].centroid[1] - 1.5;
         let n = ((gap - now) / step).ceil() as u64;
-        backend.run(m, n, &mut |_| {}).unwrap();
+        backend.run(m, n, &mut |_| true).unwrap();
     };
     run_to(&mut m, 0.5 * (atol + btol));
     assert_eq!(m.contacts.len(), 2, "kept between the tolerances");

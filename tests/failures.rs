@@ -21,7 +21,7 @@ every_backend!(
 /// Runs a deck that must fail; returns the failure and the model the executor kept.
 fn fail(t: &Target, deck: &str) -> (CycleError, Model) {
     let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
-    let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), progress: false };
+    let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), ..Default::default() };
     let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, "<scene>");
     match exec.run(&commands) {
         Err(RunError::Numerical { failure, .. }) => (failure, exec.model),

@@ -915,7 +915,7 @@ fn energy_sums_match_the_model(adapter: &str, precision: Precision) {
     assert!(model.blocks.len() > per_workgroup && model.contacts.len() > 2 * per_workgroup, "blocks and contacts over several workgroups");
     let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
     use blockdem::backend::Backend;
-    gpu.run(&mut model, 150, &mut |_| {}).unwrap();
+    gpu.run(&mut model, 150, &mut |_| true).unwrap();
     let (kinetic, strain, work) = gpu.energy_sums().unwrap();
     let e = model.energies();
     assert!(e.kinetic > 0.0 && e.strain > 0.0 && e.external_work > 0.0, "a moving, loaded wall: {e:?}");

@@ -23,6 +23,7 @@ every_backend!(
     a_projectile_bounces_off_a_wall_with_few_contact_updates,
     cycle_commands_in_a_row_run_as_one,
     an_edit_between_cycle_commands_is_honoured,
+    a_run_its_caller_stops_is_a_shorter_run_and_goes_on_as_one,
 );
 
 fn run(t: &Target, deck: &str) -> Model {
@@ -293,7 +294,7 @@ fn a_projectile_bounces_off_a_wall_with_few_contact_updates(t: &Target) {
     // differences over a contact of ~10 steps), never through the wall; it compresses its
     // contacts by v·√(m/2kn) = 20 mm, under the overlap limit of 50 mm.
     let mut m = run(t, "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 0\n");
-    let report = t.backend().run(&mut m, 600, &mut |_| {}).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    let report = t.backend().run(&mut m, 600, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
     let b = &m.blocks[0];
     assert!(b.centroid[0] < 2.5, "passed into the wall: {:?} on {}", b.centroid, t.name());
     assert!((b.velocity[0] + 20.0).abs() < 0.4 && b.velocity[1].abs() < 0.1, "bounced back at {:?} on {}", b.velocity, t.name());
@@ -323,4 +324,32 @@ fn an_edit_between_cycle_commands_is_honoured(t: &Target) {
     let moved = m.blocks[0].centroid[0] - 0.5;
     assert!((moved - 2.0 * 100.0 * dt).abs() < 1e-5, "moved {moved} on {}, expected {}", t.name(), 2.0 * 100.0 * dt);
     assert!((m.blocks[0].velocity[0] - 2.0).abs() < 1e-6, "on {}", t.name());
+}
+
+fn a_run_its_caller_stops_is_a_shorter_run_and_goes_on_as_one(t: &Target) {
+    // Ctrl-C stops a CYCLE through its progress callback, which the backend calls at each energy
+    // check: asked for 600 cycles and stopped at the check after 300, the run is a 300-cycle run
+    // bit for bit, and a second run of 300 on the same backend (CYCLE after the interrupted
+    // CYCLE, nothing changed) ends where one uninterrupted 600-cycle run does. The scene makes
+    // contact updates: the projectile of the test above, bouncing off the wall.
+    let start = run(t, "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 0\n");
+    let mut stopped = start.clone();
+    let mut backend = t.backend();
+    let mut calls = Vec::new();
+    let report = backend
+        .run(&mut stopped, 600, &mut |done| {
+            calls.push(done);
+            done < 300
+        })
+        .unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    assert_eq!(calls, [100, 200, 300], "progress at each energy check on {}", t.name());
+    assert_eq!((report.cycles, stopped.cycle), (300, start.cycle + 300), "on {}", t.name());
+    let mut short = start.clone();
+    t.backend().run(&mut short, 300, &mut |_| true).unwrap();
+    assert!(stopped == short, "the stopped run is not the 300-cycle run on {}", t.name());
+    backend.run(&mut stopped, 300, &mut |_| true).unwrap();
+    let mut whole = start.clone();
+    let updates = t.backend().run(&mut whole, 600, &mut |_| true).unwrap().topology_updates;
+    assert!(updates > 10 && whole.blocks[0].velocity[0] < 0.0, "{updates} contact updates, the projectile bounced on {}", t.name());
+    assert!(stopped == whole, "stopped and gone on is not the uninterrupted run on {}", t.name());
 }

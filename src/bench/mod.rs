@@ -318,7 +318,7 @@ impl Backend for Borrowed<'_> {
     fn describe(&self) -> String {
         self.0.describe()
     }
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         self.0.run(model, cycles, progress)
     }
 }
@@ -497,7 +497,7 @@ impl<B: Backend> Backend for Counting<B> {
     fn describe(&self) -> String {
         self.0.describe()
     }
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let report = self.0.run(model, cycles, progress)?;
         self.1.set(self.1.get() + report.topology_updates);
         Ok(report)
@@ -564,7 +564,7 @@ struct Timed {
 fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Result<Timed, CycleError> {
     profile::enable();
     let start = Instant::now();
-    let result = backend.run(model, cycles, &mut |_| {});
+    let result = backend.run(model, cycles, &mut |_| true);
     let end = Instant::now();
     let times = profile::take();
     let report = result?;
@@ -586,7 +586,7 @@ fn measure_scaling(model0: &Model, nominal: usize, engines: &mut [(&mut Engine, 
         let mut model = model0.clone();
         let prepared = (|| -> Result<u64, CycleError> {
             let backend = engine.backend();
-            backend.run(&mut model, SETTLE_CYCLES, &mut |_| {})?;
+            backend.run(&mut model, SETTLE_CYCLES, &mut |_| true)?;
             let calibration = timed_run(backend, &mut model, 10)?;
             let per_cycle = (calibration.steady_s / 10.0).max(1e-7);
             Ok(((opts.measure_s / rounds as f64 / per_cycle).ceil() as u64).clamp(10, 1_000_000))

@@ -405,7 +405,7 @@ impl Backend for CpuBackend {
         "cpu (f64)".to_string()
     }
 
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         if model.timestep <= 0.0 || !model.timestep.is_finite() {
             return Err(CycleError::Setup("the time step is not set".into()));
         }
@@ -485,13 +485,17 @@ impl Backend for CpuBackend {
                         result = Err(e);
                         break;
                     }
-                    if i + 1 == cycles {
+                    // The caller may end the run here (an interrupt): as if `cycles` were i + 1.
+                    let go_on = progress(i + 1) && i + 1 < cycles;
+                    if !go_on {
                         // What is left is the hand-back: the copy the next run resumes from
                         // (the GPU charges its final read-back and copy to the tear-down too).
                         crate::profile::mark_cycles_end();
                     }
                     last_good.clone_from(model);
-                    progress(i + 1);
+                    if !go_on {
+                        break;
+                    }
                 }
             }
             result.map_err(|e| energy_check.roll_back(e, model, std::mem::take(last_good)))

@@ -319,7 +319,7 @@ impl Backend for GpuBackend {
         format!("gpu ({}, {} [{}], {})", a.backend, a.name, a.driver, self.precision())
     }
 
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         match &mut self.engine {
             EngineAny::F32(e) => e.run(model, cycles, progress),
             EngineAny::F64(e) => e.run(model, cycles, progress),
@@ -1631,7 +1631,7 @@ where
         }
     }
 
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64)) -> Result<CycleReport, CycleError> {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         if model.timestep <= 0.0 || !model.timestep.is_finite() {
             return Err(CycleError::Setup("the time step is not set".into()));
         }
@@ -1804,7 +1804,9 @@ where
                         self.readback(model).map_err(device_error)?;
                         return Err(e);
                     }
-                    if done_total == cycles {
+                    // The caller may end the run here (an interrupt): as if `cycles` were done.
+                    let go_on = progress(done_total) && done_total < cycles;
+                    if !go_on {
                         // The run's end: the state comes back to the model, which becomes the
                         // last good state below. No device checkpoint or CPU copy of the
                         // topology is taken for it (the next run starts by invalidating the
@@ -1831,7 +1833,9 @@ where
                         last_good.time = model.time;
                         last_good.timestep = model.timestep;
                     }
-                    progress(done_total);
+                    if !go_on {
+                        break;
+                    }
                 }
             }
             Ok(())

@@ -90,7 +90,7 @@ impl Backend for Unavailable {
         format!("unavailable ({})", self.0)
     }
 
-    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64)) -> Result<crate::backend::CycleReport, crate::backend::CycleError> {
+    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<crate::backend::CycleReport, crate::backend::CycleError> {
         Err(crate::backend::CycleError::Setup(self.0.clone()))
     }
 }
@@ -274,7 +274,7 @@ impl Ctx<'_> {
     pub fn run(&self, deck: &str) -> Result<(Model, Cost), Failure> {
         let t = Instant::now();
         let commands = crate::deck::parse_deck(deck, "<verify>").map_err(|e| Failure { message: e.to_string(), cost: Cost::default() })?;
-        let options = crate::exec::RunOptions { out_dir: std::env::temp_dir().join("blockdem-verify"), progress: false };
+        let options = crate::exec::RunOptions { out_dir: std::env::temp_dir().join("blockdem-verify"), ..Default::default() };
         let mut exec = crate::exec::Executor::new((self.backend.make)(), Box::new(std::io::sink()), options, "<verify>");
         exec.set_limits(stability::limits_for(self.backend.gpu, &self.backend.precision));
         let r = exec.run(&commands);
@@ -293,7 +293,7 @@ impl Ctx<'_> {
         let (mut model, _) = self.run(&format!("{setup}CYCLE 0\n"))?;
         let mut backend = (self.backend.make)();
         for _ in 0..cycles {
-            backend.run(&mut model, 1, &mut |_| {}).map_err(|e| Failure { message: e.to_string(), cost })?;
+            backend.run(&mut model, 1, &mut |_| true).map_err(|e| Failure { message: e.to_string(), cost })?;
             observe(&model);
         }
         Ok((model, cost))
