@@ -286,8 +286,9 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
             }
         }
     };
-    // Ctrl-C stops the run at its next energy check with the state saved (below); a second one
-    // quits at once.
+    // Ctrl-C (SIGINT), or SIGTERM / SIGHUP (a batch system's time limit, a closed terminal),
+    // stops the run at its next energy check with the state saved (below); a second one quits
+    // at once.
     let interrupt = Arc::new(AtomicBool::new(false));
     let flag = interrupt.clone();
     let handler = ctrlc::set_handler(move || {
@@ -324,7 +325,8 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
     Ok(())
 }
 
-/// The exit status of a run ended by Ctrl-C (128 + SIGINT, as a shell reports it).
+/// The exit status of a run ended by Ctrl-C or another termination signal (128 + SIGINT, as a
+/// shell reports Ctrl-C).
 const INTERRUPTED_EXIT: i32 = 130;
 
 fn main() -> ExitCode {

@@ -118,12 +118,23 @@ fn an_overlap_beyond_half_the_rounding_stops_and_keeps_the_last_good_state() {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_a_long_cycle_at_an_energy_check_and_saves_its_state() {
+    interrupt_a_long_cycle("-INT");
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_stops_a_long_cycle_as_ctrl_c_does() {
+    interrupt_a_long_cycle("-TERM");
+}
+
+#[cfg(unix)]
+fn interrupt_a_long_cycle(signal: &str) {
     use std::io::BufRead;
-    // A projectile bouncing off a wall for 10^8 cycles (hours): SIGINT once the cycles have
-    // started ends the run at its next energy check (a multiple of 100 cycles), with the state
-    // at that cycle saved for RESTART, a message naming the deck's CYCLE line, and the shell's
-    // status for an interrupt (130). A RESTART from the file goes on.
-    let dir = temp("interrupt");
+    // A projectile bouncing off a wall for 10^8 cycles (hours): the signal, sent once the cycles
+    // have started, ends the run at its next energy check (a multiple of 100 cycles), with the
+    // state at that cycle saved for RESTART, a message naming the deck's CYCLE line, and the
+    // shell's status for an interrupt (130). A RESTART from the file goes on.
+    let dir = temp(&format!("interrupt{signal}"));
     let deck = write_deck(&dir, "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 100000000\nSTOP\n");
     let out = dir.join("out");
     let mut child = Command::new(env!("CARGO_BIN_EXE_blockdem"))
@@ -139,7 +150,7 @@ fn ctrl_c_stops_a_long_cycle_at_an_energy_check_and_saves_its_state() {
         assert!(stdout.read_line(&mut log).unwrap() > 0, "the run ended before its cycles: {log}");
     }
     std::thread::sleep(std::time::Duration::from_millis(300));
-    let sent = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill runs");
+    let sent = Command::new("kill").args([signal, &child.id().to_string()]).status().expect("kill runs");
     assert!(sent.success());
     let mut rest = String::new();
     std::io::Read::read_to_string(&mut stdout, &mut rest).unwrap();
