@@ -57,8 +57,8 @@ impl RunError {
 pub struct RunOptions {
     /// Folder for PLOT files and SAVE files named without a folder.
     pub out_dir: PathBuf,
-    /// Show a progress bar on long CYCLE commands.
-    pub progress: bool,
+    /// How long CYCLE commands show their progress.
+    pub progress: Progress,
     /// Set (by a Ctrl-C handler) to stop the run: a CYCLE ends at its next energy check (every
     /// 100 cycles) with its state intact, and no further command runs.
     pub interrupt: Option<Arc<AtomicBool>>,
@@ -66,8 +66,33 @@ pub struct RunOptions {
 
 impl Default for RunOptions {
     fn default() -> Self {
-        RunOptions { out_dir: PathBuf::from("."), progress: false, interrupt: None }
+        RunOptions { out_dir: PathBuf::from("."), progress: Progress::Off, interrupt: None }
     }
+}
+
+/// How a CYCLE of 1000 cycles or more shows its progress.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Progress {
+    /// Not at all (tests, the library's scenes).
+    #[default]
+    Off,
+    /// A progress bar (the run's log goes to a terminal).
+    Bar,
+    /// A line on stderr at most every `every` of wall time (the log goes to a file or a pipe:
+    /// a batch run still says how far it is and how long it has left).
+    Lines { every: std::time::Duration },
+}
+
+/// The progress line of `Progress::Lines`: done of n cycles after `elapsed` seconds.
+fn progress_line(done: u64, n: u64, elapsed: f64) -> String {
+    let rate = done as f64 / elapsed.max(1e-9);
+    let left = (n - done.min(n)) as f64 / rate.max(1e-9);
+    let (m, sec) = ((left / 60.0).floor(), left % 60.0);
+    format!(
+        "blockdem: cycle {done} of {n} ({:.1}%), {rate:.3e} cycles/s, about {}{sec:.0} s left",
+        100.0 * done as f64 / n as f64,
+        if m > 0.0 { format!("{m:.0} min ") } else { String::new() }
+    )
 }
 
 impl RunOptions {
@@ -432,16 +457,25 @@ impl<'a> Executor<'a> {
             self.echo(&w);
         }
         self.echo(&format!("INITIAL TIMESTEP = {}", output::format::fmt_e(dt)));
-        let bar = (self.options.progress && n >= 1000).then(|| {
+        let long = n >= 1000;
+        let bar = (self.options.progress == Progress::Bar && long).then(|| {
             let pb = indicatif::ProgressBar::new(n);
             pb.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {per_sec} eta {eta}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
             pb
         });
         let options = &self.options;
         let mut stopped = false;
+        let started = std::time::Instant::now();
+        let mut last_line = started;
         let mut progress = |done: u64| {
             if let Some(pb) = &bar {
                 pb.set_position(done);
+            }
+            if let (Progress::Lines { every }, true) = (options.progress, long && done < n) {
+                if last_line.elapsed() >= every {
+                    last_line = std::time::Instant::now();
+                    eprintln!("{}", progress_line(done, n, started.elapsed().as_secs_f64()));
+                }
             }
             stopped = options.interrupted();
             !stopped

@@ -12,7 +12,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use blockdem::backend::Backend;
 use blockdem::cpu::CpuBackend;
 use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
-use blockdem::exec::{Executor, RunError, RunOptions};
+use blockdem::exec::{Executor, Progress, RunError, RunOptions};
 
 #[derive(Parser)]
 #[command(name = "blockdem", version, about = "Distinct element code for jointed rock (UDEC 1.2 / D3 after Cundall & Hart 1985)")]
@@ -300,7 +300,15 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
     if let Err(e) = handler {
         eprintln!("blockdem: Ctrl-C will end the run without saving its state ({e})");
     }
-    let options = RunOptions { out_dir: out.clone(), progress: std::io::stdout().is_terminal(), interrupt: Some(interrupt) };
+    // A bar on a terminal; otherwise (a batch run, a log file) a line on stderr every 30 s, or
+    // every BLOCKDEM_PROGRESS_SECONDS.
+    let progress = if std::io::stdout().is_terminal() {
+        Progress::Bar
+    } else {
+        let seconds = std::env::var("BLOCKDEM_PROGRESS_SECONDS").ok().and_then(|v| v.parse::<f64>().ok()).filter(|s| s.is_finite() && *s >= 0.0);
+        Progress::Lines { every: std::time::Duration::from_secs_f64(seconds.unwrap_or(30.0)) }
+    };
+    let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt) };
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
