@@ -8,6 +8,7 @@
 use std::io::{self, Write};
 use std::path::Path;
 
+use rayon::prelude::*;
 use serde::ser::{Serialize, SerializeSeq, Serializer};
 use serde_json::Value;
 
@@ -176,6 +177,13 @@ impl Serialize for Contacts<'_> {
 struct StateJson<'a> {
     blocks: Blocks<'a>,
     contacts: Contacts<'a>,
+    #[serde(flatten)]
+    scalars: Scalars,
+}
+
+/// The members after the two lists (alphabetical, as the lists are).
+#[derive(serde::Serialize)]
+struct Scalars {
     cycle: u64,
     dim: u32,
     energy: EnergyJson,
@@ -184,10 +192,8 @@ struct StateJson<'a> {
     timestep: Num,
 }
 
-fn state_view(model: &Model) -> StateJson<'_> {
-    StateJson {
-        blocks: Blocks(model),
-        contacts: Contacts(model),
+fn scalars(model: &Model) -> Scalars {
+    Scalars {
         cycle: model.cycle,
         dim: 2,
         energy: energy_view(&model.energies()),
@@ -201,16 +207,65 @@ fn state_view(model: &Model) -> StateJson<'_> {
 /// ([`energy_json`]), `blocks` and `contacts` (see the module documentation for the rules on keys).
 /// For a large model write it with [`write_state_json`], which streams it.
 pub fn state_json(model: &Model) -> Value {
-    serde_json::to_value(state_view(model)).expect("numbers and strings always convert")
+    let state = StateJson { blocks: Blocks(model), contacts: Contacts(model), scalars: scalars(model) };
+    serde_json::to_value(state).expect("numbers and strings always convert")
 }
 
-/// Writes [`state_json`] to `path`, pretty-printed, replacing the file atomically; streamed from
-/// the model as it is written.
+/// Writes [`state_json`] to `path`, pretty-printed, replacing the file atomically. The two lists
+/// are formatted in parallel pieces and written in order, the rest as serde_json prints it: the
+/// text is serde_json's pretty print of the value, byte for byte (4.7 GB for a 10⁶-block wall).
 pub fn write_state_json(model: &Model, path: &Path) -> io::Result<()> {
     super::write_atomically(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, &state_view(model))?;
+        w.write_all(b"{\n  \"blocks\": ")?;
+        write_list(w, model.blocks.len(), |b| block_json(model, b, &model.blocks[b]))?;
+        w.write_all(b",\n  \"contacts\": ")?;
+        write_list(w, model.contacts.len(), |k| contact_json(model, &model.contacts[k]))?;
+        // The other members as serde_json prints them at the top level, less its opening brace.
+        let rest = serde_json::to_vec_pretty(&scalars(model))?;
+        w.write_all(b",\n")?;
+        w.write_all(&rest[2..])?;
         writeln!(w)
     })
+}
+
+/// Items one worker formats at a time.
+const PIECE: usize = 2048;
+/// Pieces formatted before they are written (bounds the text in memory to ~100 MB).
+const WAVE: usize = 64;
+
+/// Writes the JSON array of `count` elements (`element(i)`), a member of the top-level object,
+/// as serde_json's pretty printer would: `[]` when empty; otherwise each element on lines of its
+/// own, four spaces in.
+fn write_list<V: Serialize>(w: &mut impl Write, count: usize, element: impl Fn(usize) -> V + Sync) -> io::Result<()> {
+    if count == 0 {
+        return w.write_all(b"[]");
+    }
+    w.write_all(b"[")?;
+    let pieces: Vec<std::ops::Range<usize>> = (0..count).step_by(PIECE).map(|s| s..(s + PIECE).min(count)).collect();
+    for wave in pieces.chunks(WAVE) {
+        let texts: Vec<io::Result<Vec<u8>>> = wave
+            .par_iter()
+            .map(|range| {
+                let (mut text, mut one) = (Vec::new(), Vec::new());
+                for i in range.clone() {
+                    one.clear();
+                    serde_json::to_writer_pretty(&mut one, &element(i))?;
+                    text.extend_from_slice(if i == 0 { b"\n    " } else { b",\n    " });
+                    for line in one.split_inclusive(|&c| c == b'\n') {
+                        text.extend_from_slice(line);
+                        if line.ends_with(b"\n") {
+                            text.extend_from_slice(b"    ");
+                        }
+                    }
+                }
+                Ok(text)
+            })
+            .collect();
+        for text in texts {
+            w.write_all(&text?)?;
+        }
+    }
+    w.write_all(b"\n  ]")
 }
 
 /// World positions of block `b`'s corners, or none when its corner range lies outside
