@@ -18,6 +18,18 @@ pub struct CycleReport {
     pub timestep_changes: Vec<(u64, f64)>,
 }
 
+impl CycleReport {
+    /// Adds the report of the run that followed this one (a CYCLE run in pieces).
+    pub fn extend(&mut self, next: CycleReport) {
+        self.cycles += next.cycles;
+        self.topology_updates += next.topology_updates;
+        self.contacts_created += next.contacts_created;
+        self.contacts_dropped += next.contacts_dropped;
+        self.cracks.extend(next.cracks);
+        self.timestep_changes.extend(next.timestep_changes);
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CrackEvent {
     pub cycle: u64,

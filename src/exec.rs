@@ -62,11 +62,19 @@ pub struct RunOptions {
     /// Set (by a Ctrl-C handler) to stop the run: a CYCLE ends at its next energy check (every
     /// 100 cycles) with its state intact, and no further command runs.
     pub interrupt: Option<Arc<AtomicBool>>,
+    /// Write the state to `CHECKPOINT_FILE` in `out_dir` about this often during a CYCLE (a
+    /// running restart file: a run killed outright, by the system or a power cut, loses at most
+    /// this much). The CYCLE then runs in pieces of whole energy-check intervals, which are one
+    /// run bit for bit (a CYCLE after a CYCLE goes on from the backend's state).
+    pub checkpoint_every: Option<std::time::Duration>,
 }
+
+/// The running restart file of `RunOptions::checkpoint_every`, in the output folder.
+pub const CHECKPOINT_FILE: &str = "checkpoint.sav";
 
 impl Default for RunOptions {
     fn default() -> Self {
-        RunOptions { out_dir: PathBuf::from("."), progress: Progress::Off, interrupt: None }
+        RunOptions { out_dir: PathBuf::from("."), progress: Progress::Off, interrupt: None, checkpoint_every: None }
     }
 }
 
@@ -464,7 +472,7 @@ impl<'a> Executor<'a> {
             pb
         });
         let options = &self.options;
-        let mut stopped = false;
+        let stopped = std::cell::Cell::new(false);
         let started = std::time::Instant::now();
         let mut last_line = started;
         let mut progress = |done: u64| {
@@ -477,16 +485,48 @@ impl<'a> Executor<'a> {
                     eprintln!("{}", progress_line(done, n, started.elapsed().as_secs_f64()));
                 }
             }
-            stopped = options.interrupted();
-            !stopped
+            stopped.set(options.interrupted());
+            !stopped.get()
         };
         // The log up to here is seen while the cycles run.
         let _ = self.log.flush();
-        let result = self.backend.run(&mut self.model, n, &mut progress);
+        // In one run, or with running restart files in pieces of whole check intervals sized to
+        // last about `every`, each followed by the file when `every` has passed since the last.
+        let mut report = crate::backend::CycleReport::default();
+        let mut result = Ok(());
+        let mut piece = if options.checkpoint_every.is_some() { crate::cpu::CHECK_INTERVAL } else { n };
+        let mut last_checkpoint = std::time::Instant::now();
+        // (At least one run: CYCLE 0 still detects the contacts.)
+        loop {
+            let (base, k, t0) = (report.cycles, piece.min(n - report.cycles), std::time::Instant::now());
+            match self.backend.run(&mut self.model, k, &mut |done| progress(base + done)) {
+                Ok(r) => report.extend(r),
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            }
+            let Some(every) = options.checkpoint_every else { break };
+            if last_checkpoint.elapsed() >= every {
+                let path = options.out_dir.join(CHECKPOINT_FILE);
+                let _ = std::fs::create_dir_all(&options.out_dir);
+                if let Err(e) = output::restart::save_state(&path, &self.model, &self.plot, self.plot_count) {
+                    eprintln!("blockdem: the running restart file was not written ({e}); the run goes on");
+                }
+                last_checkpoint = std::time::Instant::now();
+            }
+            if report.cycles >= n || report.cycles == base || stopped.get() {
+                break;
+            }
+            let per_cycle = t0.elapsed().as_secs_f64() / k as f64;
+            let interval = crate::cpu::CHECK_INTERVAL;
+            piece = ((every.as_secs_f64() / per_cycle.max(1e-12)) as u64).clamp(1, u64::MAX / 2).div_ceil(interval) * interval;
+        }
+        let stopped = stopped.get();
         if let Some(pb) = bar {
             pb.finish_and_clear();
         }
-        let report = result.map_err(|failure| {
+        let report = result.map(|()| report).map_err(|failure| {
             let advice = self.fraction_advice(&failure);
             RunError::Numerical { file: self.file.clone(), line: cmd.line, failure, advice }
         })?;

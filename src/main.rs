@@ -60,6 +60,10 @@ enum Cmd {
         /// Write the final state as JSON (also after a numerical failure: the last good state).
         #[arg(long)]
         state_json: Option<PathBuf>,
+        /// Write a running restart file, OUT/checkpoint.sav, about every SECONDS during long
+        /// CYCLE commands (a run killed outright loses at most that much; RESTART goes on).
+        #[arg(long, value_name = "SECONDS", value_parser = seconds)]
+        checkpoint_every: Option<f64>,
     },
     /// List the GPU adapters wgpu finds (Vulkan and GL/EGL, off-screen) with their limits.
     Adapters,
@@ -250,7 +254,23 @@ fn adapters() -> anyhow::Result<()> {
     Ok(())
 }
 
-fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: PrecisionChoice, out: PathBuf, state_json: Option<PathBuf>) -> anyhow::Result<()> {
+/// A duration in seconds: a finite number, zero or more.
+fn seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 => Ok(s),
+        _ => Err(format!("expected a number of seconds (0 or more), found '{text}'")),
+    }
+}
+
+fn run(
+    deck: PathBuf,
+    backend: BackendChoice,
+    adapter: String,
+    precision: PrecisionChoice,
+    out: PathBuf,
+    state_json: Option<PathBuf>,
+    checkpoint_every: Option<f64>,
+) -> anyhow::Result<()> {
     let name = deck.display().to_string();
     let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
@@ -308,7 +328,8 @@ fn run(deck: PathBuf, backend: BackendChoice, adapter: String, precision: Precis
         let seconds = std::env::var("BLOCKDEM_PROGRESS_SECONDS").ok().and_then(|v| v.parse::<f64>().ok()).filter(|s| s.is_finite() && *s >= 0.0);
         Progress::Lines { every: std::time::Duration::from_secs_f64(seconds.unwrap_or(30.0)) }
     };
-    let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt) };
+    let checkpoint_every = checkpoint_every.map(std::time::Duration::from_secs_f64);
+    let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt), checkpoint_every };
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
@@ -340,7 +361,9 @@ const INTERRUPTED_EXIT: i32 = 130;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Cmd::Run { deck, backend, adapter, precision, out, state_json } => run(deck, backend, adapter, precision, out, state_json),
+        Cmd::Run { deck, backend, adapter, precision, out, state_json, checkpoint_every } => {
+            run(deck, backend, adapter, precision, out, state_json, checkpoint_every)
+        }
         Cmd::Adapters => adapters(),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
         Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds } => {

@@ -170,6 +170,24 @@ fn interrupt_a_long_cycle(signal: &str) {
 }
 
 #[test]
+fn a_running_restart_file_is_written_with_checkpoint_every() {
+    // --checkpoint-every 0: the file after every piece of the CYCLE, the last one the final state;
+    // a RESTART from it goes on. A bad value is an argument error.
+    let dir = temp("checkpoint");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAVITY 0 -10\nCYCLE 450\nSTOP\n");
+    let out = dir.join("out");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap(), "--checkpoint-every", "0"]);
+    assert_eq!(code, 0, "{stderr}");
+    let saved = blockdem::output::load(&out.join("checkpoint.sav")).unwrap();
+    assert_eq!(saved.model.cycle, 450);
+    let again = write_deck(&dir, &format!("RESTART {}\nCYCLE 50\nSTOP\n", out.join("checkpoint.sav").display()));
+    let (code, stdout, stderr) = blockdem(&["run", &again, "--backend", "cpu", "--out", out.to_str().unwrap()]);
+    assert!(code == 0 && stdout.contains("CURRENT CYCLE COUNT = 500"), "{stdout}{stderr}");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--checkpoint-every", "soon"]);
+    assert!(code != 0 && stderr.contains("expected a number of seconds"), "{stderr}");
+}
+
+#[test]
 fn an_unstable_fraction_is_caught_before_any_nan() {
     // FRAC 5 is far above the stable limit of the central-difference scheme (≈ 0.5 here).
     let dir = temp("unstable");

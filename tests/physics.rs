@@ -24,6 +24,7 @@ every_backend!(
     cycle_commands_in_a_row_run_as_one,
     an_edit_between_cycle_commands_is_honoured,
     a_run_its_caller_stops_is_a_shorter_run_and_goes_on_as_one,
+    a_cycle_with_running_restart_files_is_the_same_run,
 );
 
 fn run(t: &Target, deck: &str) -> Model {
@@ -352,4 +353,36 @@ fn a_run_its_caller_stops_is_a_shorter_run_and_goes_on_as_one(t: &Target) {
     let updates = t.backend().run(&mut whole, 600, &mut |_| true).unwrap().topology_updates;
     assert!(updates > 10 && whole.blocks[0].velocity[0] < 0.0, "{updates} contact updates, the projectile bounced on {}", t.name());
     assert!(stopped == whole, "stopped and gone on is not the uninterrupted run on {}", t.name());
+}
+
+fn a_cycle_with_running_restart_files_is_the_same_run(t: &Target) {
+    // --checkpoint-every runs a CYCLE in pieces of whole check intervals and writes the state
+    // between them: the pieces are one run bit for bit, and the last file holds the final state.
+    // Every 0 s: a file after each piece of 100 cycles (ten of them, with contact updates).
+    let deck = "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 1000\n";
+    let whole = run(t, deck);
+    let dir = std::env::temp_dir().join(format!("blockdem-checkpoint-{}-{}", std::process::id(), t.name().replace(' ', "_")));
+    let _ = std::fs::remove_dir_all(&dir);
+    let options = blockdem::exec::RunOptions { out_dir: dir.clone(), checkpoint_every: Some(std::time::Duration::ZERO), ..Default::default() };
+    let runs = std::rc::Rc::new(std::cell::Cell::new(0));
+    let counted = Box::new(CountedRuns(t.backend(), runs.clone()));
+    let mut exec = blockdem::exec::Executor::new(counted, Box::new(std::io::sink()), options, "<checkpoints>");
+    exec.run(&blockdem::deck::parse_deck(deck, "<checkpoints>").unwrap()).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    assert_eq!(runs.get(), 10, "pieces of 100 cycles on {}", t.name());
+    assert!(exec.model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
+    let saved = blockdem::output::load(&dir.join(blockdem::exec::CHECKPOINT_FILE)).unwrap();
+    assert!(saved.model == whole && saved.model.cycle == 1000, "the last running restart file is not the final state on {}", t.name());
+}
+
+/// A backend that counts the runs asked of it.
+struct CountedRuns(Box<dyn blockdem::backend::Backend>, std::rc::Rc<std::cell::Cell<u32>>);
+
+impl blockdem::backend::Backend for CountedRuns {
+    fn describe(&self) -> String {
+        self.0.describe()
+    }
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<blockdem::backend::CycleReport, blockdem::backend::CycleError> {
+        self.1.set(self.1.get() + 1);
+        self.0.run(model, cycles, progress)
+    }
 }
