@@ -17,7 +17,7 @@
 //! | [`output`] | PRINT tables, PLOT (PNG/SVG), state JSON, SAVE/RESTART files |
 //! | [`scenes`] | decks shared by the tests, benchmarks and verification |
 //! | [`verify`] | `blockdem verify`: closed-form cases on every backend, accuracy against speed, stability limits |
-//! | [`bench`] | `blockdem bench`: throughput on brick walls on every backend, the reference scene, roofline, targets |
+//! | [`mod@bench`] | `blockdem bench`: throughput on brick walls on every backend, the reference scene, roofline, targets |
 //! | [`profile`] | the per-stage timer the backends report to while `blockdem bench` measures |
 
 pub mod backend;

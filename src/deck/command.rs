@@ -162,7 +162,7 @@ pub enum Command {
     View { ix1: i64, ix2: i64, iy1: i64, iy2: i64 },
     /// WINDOW x1 x2 y1 y2
     Window { x1: f64, x2: f64, y1: f64, y2: f64 },
-    /// VELOCITY x1 x2 y1 y2 vx vy [w] (extension): blocks whose centroids lie in the range start
+    /// VELOCITY x1 x2 y1 y2 vx vy \[w\] (extension): blocks whose centroids lie in the range start
     /// with this velocity and angular velocity.
     Velocity { range: Range, velocity: [f64; 2], angular: Option<f64> },
 }

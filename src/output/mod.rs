@@ -3,11 +3,11 @@
 //!
 //! | file | what |
 //! |---|---|
-//! | [`format`] | numbers in the 1985 `1.234E+05` form |
-//! | [`print`] | PRINT BLOCKS, CONTACTS, CORNERS, LIST tables (print-formats.md) |
-//! | [`plot`] | PLOT: the plotter page as PNG (tiny-skia) and SVG, WINDOW/VIEW honoured |
-//! | [`state_json`] | `--state-json`: the observable state as JSON with fixed keys |
-//! | [`dump`] | DUMP: every field of the model, readable |
+//! | [`mod@format`] | numbers in the 1985 `1.234E+05` form |
+//! | [`mod@print`] | PRINT BLOCKS, CONTACTS, CORNERS, LIST tables (print-formats.md) |
+//! | [`mod@plot`] | PLOT: the plotter page as PNG (tiny-skia) and SVG, WINDOW/VIEW honoured |
+//! | [`mod@state_json`] | `--state-json`: the observable state as JSON with fixed keys |
+//! | [`mod@dump`] | DUMP: every field of the model, readable |
 //! | [`restart`] | SAVE/RESTART: versioned binary files with a magic header |
 //!
 //! Every writer takes the model read-only; none of them changes state.

@@ -5,7 +5,7 @@
 //! the page with equal scales in x and y, centred in the view, and everything is clipped to the
 //! view, so four VIEW quadrants give four plots on one page as in sample problem 4.
 //!
-//! The drawing is built once as a [`Scene`] of polylines in pixel coordinates, and the PNG and SVG
+//! The drawing is built once as a `Scene` of polylines in pixel coordinates, and the PNG and SVG
 //! writers only render that scene: both files always show the same picture.
 
 use std::fmt::Write as _;
