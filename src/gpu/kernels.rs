@@ -205,12 +205,15 @@ pub fn binding_cap(dev: &GpuDevice) -> u64 {
 }
 
 /// Why a buffer cannot be made, with advice that fits the run: f32 halves most buffers; in f32
-/// only a smaller model (at most cap / item of these items) or an adapter with larger bindings
-/// helps.
+/// only a smaller model (at most cap / item of these items), an adapter with larger bindings or
+/// the CPU backend helps.
 fn too_large(label: &str, need: u64, cap: u64, item: usize, precision: Precision) -> String {
     let advice = match precision {
         Precision::F64 => "use a smaller model or --precision f32 (about half the bytes)".to_string(),
-        Precision::F32 => format!("use a smaller model (at most {} {label} here) or an adapter with larger bindings (hardware GPUs allow 2 GiB and more)", cap / item as u64),
+        Precision::F32 => format!(
+            "use a smaller model (at most {} {label} here), an adapter with larger bindings (hardware GPUs allow 2 GiB and more) or --backend cpu (no such limit)",
+            cap / item as u64
+        ),
     };
     format!("the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); {advice}")
 }
