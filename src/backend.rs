@@ -65,6 +65,45 @@ pub enum CycleError {
     TooFast { cycle: u64, block: u32, travel: f64, limit: f64, speed: f64 },
     #[error("cannot cycle: {0}")]
     Setup(String),
+    /// The model does not fit the backend (a GPU adapter's binding limit); another may run it.
+    #[error("cannot cycle: {0}")]
+    TooLarge(String),
+}
+
+/// `--backend auto` on a GPU: the GPU backend while the models fit it, the CPU backend (f64)
+/// from the first run whose model is past its limits (said once on stderr) to the end.
+pub struct GpuOrCpu {
+    gpu: Box<dyn Backend>,
+    cpu: Option<crate::cpu::CpuBackend>,
+}
+
+impl GpuOrCpu {
+    pub fn new(gpu: Box<dyn Backend>) -> Self {
+        GpuOrCpu { gpu, cpu: None }
+    }
+}
+
+impl Backend for GpuOrCpu {
+    fn describe(&self) -> String {
+        match &self.cpu {
+            Some(cpu) => cpu.describe(),
+            None => self.gpu.describe(),
+        }
+    }
+
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        if let Some(cpu) = &mut self.cpu {
+            return cpu.run(model, cycles, progress);
+        }
+        match self.gpu.run(model, cycles, progress) {
+            // Refused before any cycle, the model at its state before the run.
+            Err(CycleError::TooLarge(why)) => {
+                eprintln!("blockdem: {why}; --backend auto goes on on the CPU (f64)");
+                self.cpu.insert(crate::cpu::CpuBackend::new()).run(model, cycles, progress)
+            }
+            result => result,
+        }
+    }
 }
 
 pub trait Backend {

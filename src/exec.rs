@@ -559,7 +559,7 @@ impl<'a> Executor<'a> {
     /// on the contacts the last good state has or would form at once). Empty otherwise: then the
     /// failure is not one of the time step.
     fn fraction_advice(&self, failure: &CycleError) -> String {
-        if matches!(failure, CycleError::EnergyGrowth { .. } | CycleError::Setup(_)) {
+        if matches!(failure, CycleError::EnergyGrowth { .. } | CycleError::Setup(_) | CycleError::TooLarge(_)) {
             return String::new();
         }
         let mut probe = self.model.clone();

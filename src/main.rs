@@ -9,7 +9,7 @@ use std::sync::Arc;
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
 
-use blockdem::backend::Backend;
+use blockdem::backend::{Backend, GpuOrCpu};
 use blockdem::cpu::CpuBackend;
 use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
 use blockdem::exec::{Executor, Progress, RunError, RunOptions};
@@ -295,7 +295,12 @@ fn run(
                     Ok(gpu) => {
                         eprintln!("blockdem: running on {}", gpu.describe());
                         runs_on = (true, if precision == Precision::F32 { "f32" } else { "f64" });
-                        Box::new(gpu)
+                        if backend == BackendChoice::Auto {
+                            // A model past the adapter's limits runs on the CPU instead.
+                            Box::new(GpuOrCpu::new(Box::new(gpu)))
+                        } else {
+                            Box::new(gpu)
+                        }
                     }
                     Err(e) if backend == BackendChoice::Auto => {
                         eprintln!("blockdem: {e}; running on the CPU (f64)");

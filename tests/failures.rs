@@ -206,3 +206,32 @@ fn a_fraction_far_above_the_limit_names_the_largest_safe_fraction_whatever_fails
     .to_string();
     assert!(err.contains("moves too fast") && !err.contains("largest safe"), "{err}");
 }
+
+/// A GPU backend whose adapter cannot hold the model: refuses every run before any cycle.
+struct TooSmallAdapter(std::rc::Rc<std::cell::Cell<u32>>);
+
+impl blockdem::backend::Backend for TooSmallAdapter {
+    fn describe(&self) -> String {
+        "gpu (a small adapter)".into()
+    }
+    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<blockdem::backend::CycleReport, CycleError> {
+        self.0.set(self.0.get() + 1);
+        Err(CycleError::TooLarge("GPU set-up: the corners buffer would need more than one binding may hold".into()))
+    }
+}
+
+#[test]
+fn auto_goes_on_on_the_cpu_when_the_model_is_past_the_gpus_limits() {
+    // `--backend auto` wraps the GPU in GpuOrCpu: a run the GPU refuses as too large runs on the
+    // CPU backend, as if the CPU had been chosen, and so does every later run (the GPU is not
+    // asked again). Any other failure stays a failure.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX -1 2 0 1\nGRAVITY 0 -10\nCYCLE 300\nCYCLE 200\n";
+    let asked = std::rc::Rc::new(std::cell::Cell::new(0));
+    let auto = blockdem::backend::GpuOrCpu::new(Box::new(TooSmallAdapter(asked.clone())));
+    let m = blockdem::scenes::run_deck_on(deck, Box::new(auto)).unwrap();
+    let cpu = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    assert!(m == cpu && m.cycle == 500, "the CPU's run");
+    assert_eq!(asked.get(), 1, "the GPU is asked once");
+    let err = blockdem::scenes::run_deck_on(deck, Box::new(TooSmallAdapter(asked.clone()))).unwrap_err();
+    assert!(matches!(err, RunError::Numerical { failure: CycleError::TooLarge(_), .. }), "{err:?}");
+}

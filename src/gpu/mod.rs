@@ -189,6 +189,9 @@ pub enum GpuError {
     NoF64(String),
     #[error("GPU set-up: {0}")]
     Setup(String),
+    /// A buffer the model needs is past the adapter's binding limit (`kernels::check_fits`).
+    #[error("GPU set-up: {0}")]
+    TooLarge(String),
     #[error("GPU shader: {0}")]
     Shader(String),
     #[error("GPU device: {0}")]
@@ -328,7 +331,10 @@ impl Backend for GpuBackend {
 }
 
 fn device_error(e: GpuError) -> CycleError {
-    CycleError::Setup(e.to_string())
+    match e {
+        GpuError::TooLarge(_) => CycleError::TooLarge(e.to_string()),
+        _ => CycleError::Setup(e.to_string()),
+    }
 }
 
 /// What the GPU's accumulators count from: the model's values when the state was uploaded (see
