@@ -65,7 +65,9 @@ pub struct RunOptions {
     /// Write the state to `CHECKPOINT_FILE` in `out_dir` about this often during a CYCLE (a
     /// running restart file: a run killed outright, by the system or a power cut, loses at most
     /// this much). The CYCLE then runs in pieces of whole energy-check intervals, which are one
-    /// run bit for bit (a CYCLE after a CYCLE goes on from the backend's state).
+    /// run bit for bit (a CYCLE after a CYCLE goes on from the backend's state); only the energy
+    /// check's budget starts again with each piece, as it does with each CYCLE command (an
+    /// instability grows exponentially, within a piece of 100 cycles or more).
     pub checkpoint_every: Option<std::time::Duration>,
 }
 
