@@ -311,20 +311,8 @@ fn run(
             }
         }
     };
-    // Ctrl-C (SIGINT), or SIGTERM / SIGHUP (a batch system's time limit, a closed terminal),
-    // stops the run at its next energy check with the state saved (below); a second one quits
-    // at once.
     let interrupt = Arc::new(AtomicBool::new(false));
-    let flag = interrupt.clone();
-    let handler = ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::Relaxed) {
-            std::process::exit(INTERRUPTED_EXIT);
-        }
-        eprintln!("\nblockdem: interrupted; stopping at the next energy check (within 100 cycles) to save the state (Ctrl-C again to quit now)");
-    });
-    if let Err(e) = handler {
-        eprintln!("blockdem: Ctrl-C will end the run without saving its state ({e})");
-    }
+    watch_interrupts(interrupt.clone());
     // A bar on a terminal; otherwise (a batch run, a log file) a line on stderr every 30 s, or
     // every BLOCKDEM_PROGRESS_SECONDS.
     let progress = if std::io::stdout().is_terminal() {
@@ -359,8 +347,32 @@ fn run(
     Ok(())
 }
 
-/// The exit status of a run ended by Ctrl-C or another termination signal (128 + SIGINT, as a
-/// shell reports Ctrl-C).
+/// Ctrl-C (SIGINT) or SIGTERM (a batch system's time limit, `kill`) sets `flag`, which stops the
+/// run at its next energy check with the state saved; a second one quits at once. SIGHUP keeps
+/// its own handling, so that `nohup` still keeps a run going after a logout.
+#[cfg(unix)]
+fn watch_interrupts(flag: Arc<AtomicBool>) {
+    match signal_hook::iterator::Signals::new([signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM]) {
+        Ok(mut signals) => {
+            std::thread::spawn(move || {
+                for _ in signals.forever() {
+                    if flag.swap(true, Ordering::Relaxed) {
+                        std::process::exit(INTERRUPTED_EXIT);
+                    }
+                    eprintln!("\nblockdem: interrupted; stopping at the next energy check (within 100 cycles) to save the state (Ctrl-C again to quit now)");
+                }
+            });
+        }
+        Err(e) => eprintln!("blockdem: Ctrl-C will end the run without saving its state ({e})"),
+    }
+}
+
+/// Elsewhere Ctrl-C ends the run as the system does (the flag is never set).
+#[cfg(not(unix))]
+fn watch_interrupts(_flag: Arc<AtomicBool>) {}
+
+/// The exit status of a run ended by Ctrl-C or SIGTERM (128 + SIGINT, as a shell reports
+/// Ctrl-C).
 const INTERRUPTED_EXIT: i32 = 130;
 
 fn main() -> ExitCode {

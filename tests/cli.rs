@@ -128,6 +128,35 @@ fn sigterm_stops_a_long_cycle_as_ctrl_c_does() {
 }
 
 #[cfg(unix)]
+#[test]
+fn sighup_under_nohup_leaves_the_run_going() {
+    use std::io::BufRead;
+    // blockdem handles SIGINT and SIGTERM only: a run started with `nohup` ignores the hang-up
+    // of a closed terminal and goes on (it would stop within 100 cycles if it were caught).
+    let dir = temp("nohup");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 100000000\nSTOP\n");
+    let mut child = Command::new("nohup")
+        .args([env!("CARGO_BIN_EXE_blockdem"), "run", &deck, "--backend", "cpu", "--out", dir.join("out").to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("nohup runs");
+    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut log = String::new();
+    while !log.contains("INITIAL TIMESTEP") {
+        assert!(stdout.read_line(&mut log).unwrap() > 0, "the run ended before its cycles: {log}");
+    }
+    let pid = child.id().to_string();
+    assert!(Command::new("kill").args(["-HUP", &pid]).status().unwrap().success());
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let after_hangup = child.try_wait().unwrap();
+    assert!(Command::new("kill").args(["-INT", &pid]).status().unwrap().success());
+    let output = child.wait_with_output().unwrap();
+    assert!(after_hangup.is_none(), "the hang-up ended the run: {after_hangup:?}");
+    assert_eq!(output.status.code(), Some(130), "{}", String::from_utf8_lossy(&output.stderr));
+}
+
+#[cfg(unix)]
 fn interrupt_a_long_cycle(signal: &str) {
     use std::io::BufRead;
     // A projectile bouncing off a wall for 10^8 cycles (hours): the signal, sent once the cycles
