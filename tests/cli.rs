@@ -130,22 +130,13 @@ fn sigterm_stops_a_long_cycle_as_ctrl_c_does() {
 #[cfg(unix)]
 #[test]
 fn sighup_under_nohup_leaves_the_run_going() {
-    use std::io::BufRead;
     // blockdem handles SIGINT and SIGTERM only: a run started with `nohup` ignores the hang-up
     // of a closed terminal and goes on (it would stop within 100 cycles if it were caught).
     let dir = temp("nohup");
     let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 100000000\nSTOP\n");
-    let mut child = Command::new("nohup")
-        .args([env!("CARGO_BIN_EXE_blockdem"), "run", &deck, "--backend", "cpu", "--out", dir.join("out").to_str().unwrap()])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("nohup runs");
-    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
-    let mut log = String::new();
-    while !log.contains("INITIAL TIMESTEP") {
-        assert!(stdout.read_line(&mut log).unwrap() > 0, "the run ended before its cycles: {log}");
-    }
+    let mut nohup = Command::new("nohup");
+    nohup.args([env!("CARGO_BIN_EXE_blockdem"), "run", &deck, "--backend", "cpu", "--out", dir.join("out").to_str().unwrap()]);
+    let (mut child, _stdout) = start_cycling(nohup);
     let pid = child.id().to_string();
     assert!(Command::new("kill").args(["-HUP", &pid]).status().unwrap().success());
     std::thread::sleep(std::time::Duration::from_millis(500));
@@ -156,9 +147,22 @@ fn sighup_under_nohup_leaves_the_run_going() {
     assert_eq!(output.status.code(), Some(130), "{}", String::from_utf8_lossy(&output.stderr));
 }
 
+/// Starts a run with its output piped and waits until its cycles have started: the log is
+/// flushed before they do, and its time step line says they have.
+#[cfg(unix)]
+fn start_cycling(mut command: Command) -> (std::process::Child, std::io::BufReader<std::process::ChildStdout>) {
+    use std::io::BufRead;
+    let mut child = command.stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().expect("runs");
+    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut log = String::new();
+    while !log.contains("INITIAL TIMESTEP") {
+        assert!(stdout.read_line(&mut log).unwrap() > 0, "the run ended before its cycles: {log}");
+    }
+    (child, stdout)
+}
+
 #[cfg(unix)]
 fn interrupt_a_long_cycle(signal: &str) {
-    use std::io::BufRead;
     // A projectile bouncing off a wall for 10^8 cycles (hours): the signal, sent once the cycles
     // have started, ends the run at its next energy check (a multiple of 100 cycles), with the
     // state at that cycle saved for RESTART, a message naming the deck's CYCLE line, and the
@@ -166,18 +170,9 @@ fn interrupt_a_long_cycle(signal: &str) {
     let dir = temp(&format!("interrupt{signal}"));
     let deck = write_deck(&dir, "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 100000000\nSTOP\n");
     let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_blockdem"))
-        .args(["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap()])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("runs");
-    let mut stdout = std::io::BufReader::new(child.stdout.take().unwrap());
-    let mut log = String::new();
-    // The log is flushed before the cycles start: its time step line says they have.
-    while !log.contains("INITIAL TIMESTEP") {
-        assert!(stdout.read_line(&mut log).unwrap() > 0, "the run ended before its cycles: {log}");
-    }
+    let mut run = Command::new(env!("CARGO_BIN_EXE_blockdem"));
+    run.args(["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap()]);
+    let (child, mut stdout) = start_cycling(run);
     std::thread::sleep(std::time::Duration::from_millis(300));
     let sent = Command::new("kill").args([signal, &child.id().to_string()]).status().expect("kill runs");
     assert!(sent.success());
