@@ -9,13 +9,13 @@ use std::io::{self, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
-use serde::ser::{Serialize, SerializeSeq, Serializer};
+use serde::ser::{Serialize, Serializer};
 use serde_json::Value;
 
 use crate::model::timestep::Energies;
 use crate::model::{Block, Contact, Model};
 
-// The state is serialized from views of the model as it is written, never built as a
+// The state file is serialized from views of the model as it is written, never built as a
 // `serde_json::Value` tree first: that tree cost ~50 times the file's size in memory (5.5 GB for
 // a 10⁵-block wall; a 10⁶-block one did not fit). The fields of each view are in alphabetical
 // order, the order the JSON has always had (serde_json's maps are sorted).
@@ -147,36 +147,12 @@ pub fn energy_json(e: &Energies) -> Value {
     serde_json::to_value(energy_view(e)).expect("numbers and strings always convert")
 }
 
-/// A model's blocks, each viewed as it is written.
-struct Blocks<'a>(&'a Model);
-
-impl Serialize for Blocks<'_> {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let mut seq = s.serialize_seq(Some(self.0.blocks.len()))?;
-        for (b, blk) in self.0.blocks.iter().enumerate() {
-            seq.serialize_element(&block_json(self.0, b, blk))?;
-        }
-        seq.end()
-    }
-}
-
-/// A model's contacts, each viewed as it is written.
-struct Contacts<'a>(&'a Model);
-
-impl Serialize for Contacts<'_> {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let mut seq = s.serialize_seq(Some(self.0.contacts.len()))?;
-        for c in &self.0.contacts {
-            seq.serialize_element(&contact_json(self.0, c))?;
-        }
-        seq.end()
-    }
-}
-
+/// The whole state as one view, for [`state_json`]'s value (a test's or a check's model; the
+/// file is written list by list, [`write_state_json`]).
 #[derive(serde::Serialize)]
-struct StateJson<'a> {
-    blocks: Blocks<'a>,
-    contacts: Contacts<'a>,
+struct StateJson {
+    blocks: Vec<BlockJson>,
+    contacts: Vec<ContactJson>,
     #[serde(flatten)]
     scalars: Scalars,
 }
@@ -207,7 +183,11 @@ fn scalars(model: &Model) -> Scalars {
 /// ([`energy_json`]), `blocks` and `contacts` (see the module documentation for the rules on keys).
 /// For a large model write it with [`write_state_json`], which streams it.
 pub fn state_json(model: &Model) -> Value {
-    let state = StateJson { blocks: Blocks(model), contacts: Contacts(model), scalars: scalars(model) };
+    let state = StateJson {
+        blocks: model.blocks.iter().enumerate().map(|(b, blk)| block_json(model, b, blk)).collect(),
+        contacts: model.contacts.iter().map(|c| contact_json(model, c)).collect(),
+        scalars: scalars(model),
+    };
     serde_json::to_value(state).expect("numbers and strings always convert")
 }
 
