@@ -129,7 +129,7 @@ impl Viewport {
 }
 
 /// The box around `points`: [lower, upper] corners (NaN sides if a point is not finite).
-fn bounding_box(points: &[[f64; 2]]) -> [[f64; 2]; 2] {
+fn bounding_box<'a>(points: impl IntoIterator<Item = &'a [f64; 2]>) -> [[f64; 2]; 2] {
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
     for p in points {
@@ -290,8 +290,7 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
         let blk = &model.blocks[b];
         let start = blk.corner_start as usize;
         let corners = model.corners.get(start..start + blk.corner_count as usize).unwrap_or(&[]);
-        let positions: Vec<[f64; 2]> = corners.iter().map(|c| c.position).collect();
-        vp.shows(vp.box_to_px(bounding_box(&positions)))
+        vp.shows(vp.box_to_px(bounding_box(corners.iter().map(|c| &c.position))))
     };
     let min_chord = MIN_CHORD_PX / vp.scale;
 
