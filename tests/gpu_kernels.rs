@@ -140,10 +140,7 @@ fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 "#;
 
-fn track_feature_matches_rust<R: Real>(dev: &GpuDevice)
-where
-    GCorner<R>: bytemuck::Pod,
-{
+fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
     let f32_kernel = std::mem::size_of::<R>() == 4;
     let mut rng = Rng(0x5eed_1234_abcd_0001);
     let cases = 2000;
@@ -283,11 +280,7 @@ fn test_contact_force_law(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 "#;
 
-fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice)
-where
-    GContact<R>: bytemuck::Pod,
-    GMaterial<R>: bytemuck::Pod,
-{
+fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
     let f32_kernel = std::mem::size_of::<R>() == 4;
     let mut rng = Rng(0x5eed_0000_0000_0002);
     let cases = 4000;
@@ -595,12 +588,7 @@ fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
 /// old list, a random edit (a few dropped, new contacts between the kept ones, as runs) with
 /// random created contacts, and random patches of kept contacts (and one past the list): the
 /// kernels only copy and clear, so the lists agree bit for bit in both precisions.
-fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice)
-where
-    GContact<R>: bytemuck::Pod,
-    GForce<R>: bytemuck::Pod,
-    GSummary<R>: bytemuck::Pod,
-{
+fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_0004);
     let contact = |rng: &mut Rng| {
         let mut c: GContact<R> = bytemuck::Zeroable::zeroed();
@@ -769,13 +757,7 @@ fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
 /// within round-off of a threshold may be listed by one and not the other (the CPU applies its
 /// exact test to what is listed, and the lists are loosened by 1% for that): at most 1% of the
 /// cases; the fewest cycles to within 1 (⌊room / s⌋ at a rounding edge) and 1e-5 relative.
-fn update_lists_match_rust<R: Real>(dev: &GpuDevice)
-where
-    GBlock<R>: bytemuck::Pod,
-    GContact<R>: bytemuck::Pod,
-    GridReference<R>: bytemuck::Pod,
-    ListParams<R>: bytemuck::Pod,
-{
+fn update_lists_match_rust<R: Real>(dev: &GpuDevice) {
     let f32_kernel = std::mem::size_of::<R>() == 4;
     let mut rng = Rng(0x5eed_0000_0000_0005);
     let r = |x: f64| R::from_f64(x);

@@ -265,14 +265,7 @@ pub(crate) fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> R
 }
 
 impl Buffers {
-    pub fn new<R: Real>(dev: &GpuDevice, blocks: usize, corners: usize, contacts: usize) -> Result<Self, GpuError>
-    where
-        Block<R>: bytemuck::Pod,
-        Corner<R>: bytemuck::Pod,
-        Contact<R>: bytemuck::Pod,
-        Material<R>: bytemuck::Pod,
-        Params<R>: bytemuck::Pod,
-    {
+    pub fn new<R: Real>(dev: &GpuDevice, blocks: usize, corners: usize, contacts: usize) -> Result<Self, GpuError> {
         let params = uniform_buffer(dev, "params", std::mem::size_of::<Params<R>>());
         let flags = dev.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("flags"),
@@ -316,11 +309,7 @@ impl Buffers {
     }
 
     /// Makes sure the spare pair holds `count` contacts (its contents are not kept).
-    pub fn ensure_spare<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError>
-    where
-        Contact<R>: bytemuck::Pod,
-        ContactForce<R>: bytemuck::Pod,
-    {
+    pub fn ensure_spare<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
         if self.spare_contacts.as_ref().is_some_and(|(c, f)| c.capacity >= count && f.capacity >= count) {
             return Ok(());
         }
@@ -333,10 +322,7 @@ impl Buffers {
     }
 
     /// Makes sure the summaries buffer holds `count` contacts.
-    pub fn ensure_summaries<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError>
-    where
-        ContactSummary<R>: bytemuck::Pod,
-    {
+    pub fn ensure_summaries<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
         ensure_slot(dev, &mut self.summaries, "contact summaries", std::mem::size_of::<ContactSummary<R>>(), count)
     }
 

@@ -9,8 +9,16 @@
 //!
 //! Hot state only (STYLE.md item 5): names, ids and topology stay in the CPU `Model`.
 
-/// The kernel precision: the Rust twin of the WGSL `alias real = …;`.
-pub trait Real: bytemuck::Pod + Default + PartialEq + std::fmt::Debug + Send + Sync + 'static {
+mod sealed {
+    /// Only f32 and f64 are kernel precisions: the structs' Pod impls below hold for those two
+    /// alone (an 8-bit `real` would leave padding before the u32 words).
+    pub trait Sealed {}
+    impl Sealed for f32 {}
+    impl Sealed for f64 {}
+}
+
+/// The kernel precision: the Rust twin of the WGSL `alias real = …;`. Sealed: f32 or f64.
+pub trait Real: sealed::Sealed + bytemuck::Pod + Default + PartialEq + std::fmt::Debug + Send + Sync + 'static {
     /// The WGSL type name.
     const WGSL: &'static str;
     fn from_f64(x: f64) -> Self;
@@ -37,7 +45,7 @@ impl Real for f64 {
     }
 }
 
-/// Defines a GPU struct generic over `R` (written `R` here, `real` in WGSL), its Pod impls for both precisions, and the list of its
+/// Defines a GPU struct generic over `R` (written `R` here, `real` in WGSL), its Pod impl for every precision, and the list of its
 /// fields with their offsets (for the naga layout test).
 macro_rules! gpu_struct {
     ($(#[doc = $d:literal])* $name:ident { $($(#[doc = $fd:literal])* $f:ident : $t:ty),* $(,)? }) => {
@@ -47,12 +55,12 @@ macro_rules! gpu_struct {
         pub struct $name<R> {
             $($(#[doc = $fd])* pub $f: $t,)*
         }
-        // SAFETY: `repr(C)`, every field is f32/f64/u32, reals first and an even number of u32
-        // words after them, so there is no padding in either precision (checked by a test).
-        unsafe impl bytemuck::Zeroable for $name<f32> {}
-        unsafe impl bytemuck::Pod for $name<f32> {}
-        unsafe impl bytemuck::Zeroable for $name<f64> {}
-        unsafe impl bytemuck::Pod for $name<f64> {}
+        // SAFETY: `repr(C)`, every field is a `Real` (f32 or f64: the trait is sealed) or u32,
+        // reals first and an even number of u32 words after them, so there is no padding in
+        // either precision (checked by a test). One generic impl, so code generic over the
+        // precision needs no Pod bounds of its own.
+        unsafe impl<R: Real> bytemuck::Zeroable for $name<R> {}
+        unsafe impl<R: Real> bytemuck::Pod for $name<R> {}
         impl<R> $name<R> {
             /// The WGSL struct name and each field with its byte offset.
             pub fn layout() -> StructLayout {

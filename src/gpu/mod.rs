@@ -87,7 +87,7 @@ use rayon::prelude::*;
 pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 pub use targets::{find_target, scenario_backends, GpuTarget};
 use kernels::{Buffers, Grid, Pipelines};
-use layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, GridReference, ListParams, Material, Params, Real};
+use layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, ListParams, Material, Params, Real};
 
 /// How many more cycles, at the velocities now, until the first block passes its contact-update
 /// threshold (`Block::update_due`): the cycle that raises the flag, ⌊(threshold − moved)/s⌋ + 1 for
@@ -465,19 +465,7 @@ struct StateBuffers<'a> {
     counts: (usize, usize, usize),
 }
 
-impl<R: Real> Engine<R>
-where
-    Block<R>: bytemuck::Pod,
-    Corner<R>: bytemuck::Pod,
-    Contact<R>: bytemuck::Pod,
-    ContactForce<R>: bytemuck::Pod,
-    ContactSummary<R>: bytemuck::Pod,
-    EnergySum<R>: bytemuck::Pod,
-    Material<R>: bytemuck::Pod,
-    Params<R>: bytemuck::Pod,
-    GridReference<R>: bytemuck::Pod,
-    ListParams<R>: bytemuck::Pod,
-{
+impl<R: Real> Engine<R> {
     fn new(dev: GpuDevice, pipelines: Pipelines) -> Self {
         Engine {
             dev,

@@ -128,11 +128,7 @@ pub struct ListBuffers {
 }
 
 impl ListBuffers {
-    pub fn new<R: Real>(dev: &super::GpuDevice, blocks: usize, contacts: usize) -> Result<Self, GpuError>
-    where
-        GridReference<R>: bytemuck::Pod,
-        ListParams<R>: bytemuck::Pod,
-    {
+    pub fn new<R: Real>(dev: &super::GpuDevice, blocks: usize, contacts: usize) -> Result<Self, GpuError> {
         Ok(ListBuffers {
             params: uniform_buffer(dev, "list params", std::mem::size_of::<ListParams<R>>()),
             reference: slab(dev, "grid reference", std::mem::size_of::<GridReference<R>>(), blocks)?,

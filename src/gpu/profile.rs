@@ -18,7 +18,7 @@
 
 use std::time::Instant;
 
-use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Flags, GridReference, ListParams, Material, Params, Real};
+use super::layout::{Block, Contact, ContactForce, Corner, Flags, Material, Params, Real};
 use super::{Engine, EngineAny, GpuBackend, GpuDevice, GpuError};
 
 /// Per-stage device time of one cycle.
@@ -107,19 +107,7 @@ fn isolated_asked() -> bool {
     std::env::var("BLOCKDEM_STAGE_TIMING").is_ok_and(|v| v.eq_ignore_ascii_case("isolated"))
 }
 
-impl<R: Real> Engine<R>
-where
-    Block<R>: bytemuck::Pod,
-    Corner<R>: bytemuck::Pod,
-    Contact<R>: bytemuck::Pod,
-    ContactForce<R>: bytemuck::Pod,
-    super::layout::ContactSummary<R>: bytemuck::Pod,
-    EnergySum<R>: bytemuck::Pod,
-    Material<R>: bytemuck::Pod,
-    Params<R>: bytemuck::Pod,
-    GridReference<R>: bytemuck::Pod,
-    ListParams<R>: bytemuck::Pod,
-{
+impl<R: Real> Engine<R> {
     fn profile_stages(&mut self, cycles: u32) -> Result<DeviceProfile, GpuError> {
         // The profiled cycles move the device's state on: the next run must start from the model.
         self.resumable = false;

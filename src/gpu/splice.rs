@@ -41,11 +41,7 @@ pub fn splice_contacts<R: Real>(
     runs: &[[u32; 2]],
     created: &[Contact<R>],
     created_forces: &[ContactForce<R>],
-) -> (Vec<Contact<R>>, Vec<ContactForce<R>>)
-where
-    Contact<R>: bytemuck::Pod,
-    ContactForce<R>: bytemuck::Pod,
-{
+) -> (Vec<Contact<R>>, Vec<ContactForce<R>>) {
     let n = runs.last().map_or(0, |r| r[0]);
     (0..n)
         .map(|i| match source_in_runs(runs, i, NEW_CONTACT) {
