@@ -1,0 +1,323 @@
+//! A run on the GPU backend (`Backend::run`): set-up (detection, upload) or resumption, then
+//! batches of cycles, contact updates between them, the energy check and its checkpoint every
+//! 100 cycles, and the failure paths that hand back the last good state. See "How a run goes"
+//! in the module above.
+
+use crate::backend::{CycleError, CycleReport};
+use crate::cpu;
+use crate::model::Model;
+use crate::topology::Adjacency;
+use rayon::prelude::*;
+
+use super::kernels;
+use super::layout::{self, Block, Corner, Flags, Real};
+use super::partial::PartialUpdate;
+use super::{device_error, ContactIdentity, Engine};
+
+/// How many more cycles, at the velocities now, until the first block passes its contact-update
+/// threshold (`Block::update_due`): the cycle that raises the flag, ⌊(threshold − moved)/s⌋ + 1 for
+/// a block whose corners travel s a step. None when nothing moves.
+pub(super) fn cycles_to_next_update(model: &Model) -> Option<u64> {
+    model.blocks.iter().filter_map(|b| cycles_to_threshold(model, b)).min()
+}
+
+/// `cycles_to_next_update` for one block (None: fixed, or not moving).
+pub(super) fn cycles_to_threshold(model: &Model, b: &crate::model::Block) -> Option<u64> {
+    if b.fixed {
+        return None;
+    }
+    let s = b.travel_per_step(model.timestep);
+    let room = (b.update_threshold(&model.tol) - b.moved_since_update).max(0.0);
+    (s > 0.0 && s.is_finite()).then(|| (room / s).floor().min(1e9) as u64 + 1)
+}
+
+impl<R: Real> Engine<R> {
+    /// The CPU backend's error for the flags raised, from the read-back state (same priority as
+    /// the CPU's checks within a cycle: non-finite, too fast, overlap).
+    pub(super) fn error_from_flags(model: &Model, flags: &Flags) -> CycleError {
+        let cycle = model.cycle;
+        if flags.errors & layout::ERR_NONFINITE != 0 {
+            let block = model
+                .blocks
+                .iter()
+                .find(|b| !(b.centroid[0].is_finite() && b.centroid[1].is_finite() && b.velocity[0].is_finite() && b.velocity[1].is_finite() && b.angular_velocity.is_finite()))
+                .map_or(0, |b| b.id);
+            return CycleError::NonFinite { cycle, block, what: "a non-finite position or velocity".into() };
+        }
+        if flags.errors & layout::ERR_TOO_FAST != 0 {
+            let dt = model.timestep;
+            let mut fastest = (0.0f64, flags.toofast_block as usize);
+            for (i, b) in model.blocks.iter().enumerate() {
+                if b.fixed {
+                    continue;
+                }
+                let travel = b.travel_per_step(dt);
+                if travel > fastest.0 {
+                    fastest = (travel, i);
+                }
+            }
+            let limit = 0.5 * model.tol.atol - model.tol.etol;
+            let b = &model.blocks[fastest.1.min(model.blocks.len() - 1)];
+            return CycleError::TooFast { cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt };
+        }
+        let k = (flags.overlap_contact as usize).min(model.contacts.len().saturating_sub(1));
+        let c = &model.contacts[k];
+        CycleError::Overlap {
+            cycle,
+            block1: model.blocks[c.block1 as usize].id,
+            block2: model.blocks[c.block2 as usize].id,
+            overlap: -c.gap,
+            limit: 0.5 * model.tol.round,
+            x: c.point[0],
+            y: c.point[1],
+        }
+    }
+
+    pub(super) fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        if model.timestep <= 0.0 || !model.timestep.is_finite() {
+            return Err(CycleError::Setup("the time step is not set".into()));
+        }
+        // A model whose blocks or corners alone are past the adapter's binding limit is refused
+        // now, not after the full detection (seconds at 10⁶ blocks).
+        let cap = kernels::binding_cap(&self.dev);
+        kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, self.dev.precision)
+            .and_then(|()| kernels::check_fits("corners", std::mem::size_of::<Corner<R>>(), model.corners.len(), cap, self.dev.precision))
+            .map_err(device_error)?;
+        let mut report = CycleReport::default();
+        let mut adjacency = std::mem::take(&mut self.adjacency);
+        // As on the CPU: a full detection first (the executor may have changed the model), then
+        // the force sums the first step needs; unless the model is the very state the last run
+        // left (CYCLE after CYCLE), which the device still holds with its contacts, its force
+        // sums and the f32 digits the model does not keep: then the run goes on from there.
+        let resume = std::mem::take(&mut self.resumable) && self.buffers.is_some() && *model == self.last_good;
+        if resume {
+            self.write_params(model);
+        } else {
+            cpu::maybe_update_topology(model, &mut adjacency, &mut report, true);
+            self.list_in_order = true;
+            self.upload_all(model, &adjacency).map_err(device_error)?;
+            self.write_params(model);
+            self.run_batch(1, true).map_err(device_error)?;
+            self.readback(model).map_err(device_error)?;
+        }
+        let mut energy_check = cpu::EnergyCheck::new(model);
+        let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
+        // The last good state: this CPU copy holds its topology (and, until the first device
+        // checkpoint, its state); after a passed energy check the state is on the device
+        // (`take_checkpoint`) and the copy is re-taken only when the topology changed since.
+        if let Some(ck) = &mut self.checkpoint {
+            ck.valid = false;
+        }
+        let mut last_good = std::mem::take(&mut self.last_good);
+        self.last_good_contacts = None;
+        if !resume {
+            // (When resuming it is the model already.)
+            last_good.clone_from(model);
+        }
+        crate::profile::mark_cycles_start();
+        let mut last_good_generation = (self.generation, self.block_generation);
+        let mut done_total = 0u64;
+        // Cycles per submission: up to the next energy check, fewer while contact updates halt
+        // batches early. A halted batch still encodes and submits the dispatches of its remaining
+        // cycles (with zeroed grids: they launch nothing).
+        let mut batch_cap = cpu::CHECK_INTERVAL;
+        // The last batch stopped for a contact update: the next one brings the state back with
+        // its flags (`run_batch_with_state`).
+        let mut busy = false;
+        // Cycles until the next contact update is expected, from the velocities at the last one
+        // (`cycles_to_next_update`): a batch that would run past it is cut there, since the
+        // cycles after the halt are still encoded and submitted.
+        let mut expected_update: Option<u64> = None;
+        // Read-backs for a contact update bring the contacts' summaries only (`pack_contacts`),
+        // since the splice keeps the rest on the device; cracking reads everything.
+        let packed = self.splice && !cracking;
+        let result = (|| -> Result<(), CycleError> {
+            while done_total < cycles {
+                let left = cycles - done_total;
+                let mut batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left).min(batch_cap) };
+                if let Some(k) = expected_update {
+                    batch = batch.min(k.max(1));
+                }
+                self.write_params(model);
+                let partial_reads = self.splice && !cracking && self.partial_reads_pay();
+                let (flags, state_read) = if busy && !cracking && !partial_reads {
+                    self.run_batch_with_state(batch, model, packed).map_err(device_error)?
+                } else {
+                    (self.run_batch(batch, false).map_err(device_error)?, false)
+                };
+                busy = flags.update_due != 0;
+                let done = flags.cycles_done as u64;
+                batch_cap = if done < batch { (2 * done).max(1) } else { (2 * batch_cap).min(cpu::CHECK_INTERVAL) };
+                for _ in 0..done {
+                    model.time += model.timestep;
+                }
+                model.cycle += done;
+                done_total += done;
+                expected_update = expected_update.map(|k| k.saturating_sub(done)).filter(|&k| k > 0);
+                if flags.errors != 0 {
+                    self.readback(model).map_err(device_error)?;
+                    return Err(Self::error_from_flags(model, &flags));
+                }
+                if done == 0 {
+                    return Err(CycleError::Setup("GPU: a batch ran no cycle".into()));
+                }
+                report.cycles += done;
+                let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
+                let mut handled = false;
+                if partial_reads && flags.update_due != 0 {
+                    // Stage 7 on what it touches (`partial_contact_update`), unless it needs the
+                    // whole state.
+                    match self.partial_contact_update(model, &mut adjacency, &mut report).map_err(device_error)? {
+                        PartialUpdate::Declined => {}
+                        PartialUpdate::NotDue => handled = true,
+                        PartialUpdate::Updated(expected) => {
+                            self.list_in_order = true;
+                            expected_update = expected;
+                            handled = true;
+                        }
+                    }
+                }
+                if !handled && (cracking || flags.update_due != 0) {
+                    // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
+                    // The cracking criterion reads every block's forces, fixed ones too.
+                    if cracking {
+                        self.readback(model).map_err(device_error)?;
+                    } else if !state_read {
+                        self.read_live_state(model, packed).map_err(device_error)?;
+                    }
+                    // The model's state is read back only when the CPU needs it (here, the next
+                    // stage 7, an error, the end of the run): after a change the device holds it.
+                    if cracking && cpu::crack_step(model, &adjacency, &mut report) {
+                        adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                        if let Some(dt) = model.critical_timestep() {
+                            if dt < model.timestep {
+                                model.timestep = dt;
+                                report.timestep_changes.push((model.cycle, dt));
+                            }
+                        }
+                        self.upload_all(model, &adjacency).map_err(device_error)?;
+                        self.list_in_order = false;
+                        self.write_params(model);
+                        self.run_batch(1, true).map_err(device_error)?;
+                    }
+                    // After a packed read the update may go on only if the splice will follow
+                    // it, which needs the list in order (the whole upload would send stale
+                    // fields): otherwise the contacts are read whole first (the device has not
+                    // moved since).
+                    let splice_follows = self.splice && self.list_in_order;
+                    if packed && !splice_follows && cpu::topology_update_due(model) {
+                        self.read_live_state(model, false).map_err(device_error)?;
+                    }
+                    if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
+                        self.list_in_order = true;
+                        expected_update = cycles_to_next_update(model);
+                        self.upload_reset_distances(model);
+                        let edit = adjacency.take_edit().filter(|e| splice_follows && e.old_len as usize == self.counts.2);
+                        match edit {
+                            _ if model.contacts.is_empty() => self.upload_contacts(model, &adjacency),
+                            Some(edit) => {
+                                // Every kept contact was read: each is patched, and takes its
+                                // bases from the model.
+                                let mut created = edit.inserted_at.iter().peekable();
+                                let patches: Vec<[u32; 2]> = (0..model.contacts.len() as u32)
+                                    .filter(|&i| created.next_if_eq(&&i).is_none())
+                                    .map(|i| [i, model.contacts[i as usize].feature])
+                                    .collect();
+                                self.edit_contact_list(model, &edit, None);
+                                self.splice_contacts(model, &adjacency, &edit, &patches)
+                            }
+                            None if packed && splice_follows => {
+                                return Err(CycleError::Setup("GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()))
+                            }
+                            None => self.upload_contacts(model, &adjacency),
+                        }
+                        .map_err(device_error)?;
+                        self.write_params(model);
+                        self.run_batch(1, true).map_err(device_error)?;
+                    }
+                }
+                if at_check {
+                    // The energy check on device sums; the state stays on the device.
+                    let (kinetic, strain, external_work) = {
+                        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+                        self.energy_sums().map_err(device_error)?
+                    };
+                    if let Err(e) = energy_check.check_sums(model.cycle, kinetic + strain, external_work, model.frac) {
+                        self.readback(model).map_err(device_error)?;
+                        return Err(e);
+                    }
+                    // The caller may end the run here (an interrupt): as if `cycles` were done.
+                    let go_on = progress(done_total) && done_total < cycles;
+                    if !go_on {
+                        // The run's end: the state comes back to the model, which becomes the
+                        // last good state below. No device checkpoint or CPU copy of the
+                        // topology is taken for it (the next run starts by invalidating the
+                        // one, the other would be a copy of a copy); if the read-back fails,
+                        // the checkpoint before, with its topology, is what is restored.
+                        crate::profile::mark_cycles_end();
+                        self.readback(model).map_err(device_error)?;
+                    } else {
+                        self.take_checkpoint();
+                        let now = (self.generation, self.block_generation);
+                        if last_good_generation != now {
+                            let _p = crate::profile::scope(crate::profile::Stage::Checks);
+                            if last_good_generation.1 == now.1 {
+                                last_good.clone_settings_from(model);
+                                let identities = self.last_good_contacts.get_or_insert_with(Vec::new);
+                                model.contacts.par_iter().map(ContactIdentity::of).collect_into_vec(identities);
+                            } else {
+                                last_good.clone_from(model);
+                                self.last_good_contacts = None;
+                            }
+                            last_good_generation = now;
+                        }
+                        last_good.cycle = model.cycle;
+                        last_good.time = model.time;
+                        last_good.timestep = model.timestep;
+                    }
+                    if !go_on {
+                        break;
+                    }
+                }
+            }
+            Ok(())
+        })();
+        match result {
+            Ok(()) => {
+                // The state read back last, for the next run to compare with.
+                last_good.clone_from(model);
+                self.last_good_contacts = None;
+                self.last_good = last_good;
+                self.adjacency = adjacency;
+                self.resumable = true;
+                Ok(report)
+            }
+            Err(e) => {
+                if let Err(d) = self.restore_checkpoint(&mut last_good) {
+                    return Err(device_error(d));
+                }
+                Err(energy_check.roll_back(e, model, last_good))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_next_contact_update_is_expected_when_the_fastest_block_passes_its_threshold() {
+        let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 5,0 5,1 6,1 6,0\nVELOCITY 0 1 0 1 5 0\nCYCLE 0\n";
+        let mut m = crate::scenes::run_deck_on(deck, Box::new(cpu::CpuBackend::new())).expect("deck runs");
+        let s = 5.0 * m.timestep;
+        let threshold = m.blocks[0].update_threshold(&m.tol);
+        // The moving block raises the flag on the cycle its displacement first exceeds the
+        // threshold; the block at rest never does.
+        assert_eq!(cycles_to_next_update(&m), Some((threshold / s).floor() as u64 + 1));
+        m.blocks[0].moved_since_update = threshold - 2.5 * s;
+        assert_eq!(cycles_to_next_update(&m), Some(3));
+        m.blocks[0].velocity = [0.0, 0.0];
+        assert_eq!(cycles_to_next_update(&m), None);
+    }
+}
