@@ -298,8 +298,12 @@ impl<'a> Executor<'a> {
             Command::Gravity { g } => self.model.gravity = *g,
             Command::Link { flying, anchor } => {
                 let find = |p: [f64; 2]| (0..self.model.blocks.len()).find(|&b| crate::model::geometry::point_in_polygon(p, &self.model.corner_positions(b)));
-                let f = find(*flying).ok_or_else(|| self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the flying block", flying[0], flying[1])))?;
-                let a = find(*anchor).ok_or_else(|| self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the linking block", anchor[0], anchor[1])))?;
+                let f = find(*flying).ok_or_else(|| {
+                    self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the flying block", flying[0], flying[1]))
+                })?;
+                let a = find(*anchor).ok_or_else(|| {
+                    self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the linking block", anchor[0], anchor[1]))
+                })?;
                 if f == a {
                     return Err(self.command_error(cmd, "LINK: both points lie in the same block"));
                 }
@@ -315,7 +319,8 @@ impl<'a> Executor<'a> {
             }
             Command::Plot { options } => {
                 self.plot_count += 1;
-                std::fs::create_dir_all(&self.options.out_dir).map_err(|e| self.command_error(cmd, format!("PLOT: cannot create {}: {e}", self.options.out_dir.display())))?;
+                std::fs::create_dir_all(&self.options.out_dir)
+                    .map_err(|e| self.command_error(cmd, format!("PLOT: cannot create {}: {e}", self.options.out_dir.display())))?;
                 let files = output::plot::plot(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count)
                     .map_err(|e| self.command_error(cmd, format!("PLOT: {e}")))?;
                 self.echo(&format!("PLOT WRITTEN TO {} AND {}", files[0].display(), files[1].display()));
@@ -421,7 +426,10 @@ impl<'a> Executor<'a> {
         for b in &self.model.blocks {
             let mat = self.model.material(b.material);
             if !(b.mass > 0.0) {
-                return Err(self.command_error(cmd, format!("CYCLE: block {} has no mass: material {} has no density (PROPERTY MAT={} DENSITY=…)", b.id, b.material, b.material)));
+                return Err(self.command_error(
+                    cmd,
+                    format!("CYCLE: block {} has no mass: material {} has no density (PROPERTY MAT={} DENSITY=…)", b.id, b.material, b.material),
+                ));
             }
             if !(mat.kn > 0.0 && mat.ks > 0.0) {
                 return Err(self.command_error(cmd, format!("CYCLE: material {} of block {} needs contact stiffnesses KN and KS", b.material, b.id)));
@@ -431,7 +439,9 @@ impl<'a> Executor<'a> {
             if c.edge_material != 0 {
                 let mat = self.model.material(c.edge_material);
                 if !(mat.kn > 0.0 && mat.ks > 0.0) {
-                    return Err(self.command_error(cmd, format!("CYCLE: joint material {} (from SPLIT MAT=) needs contact stiffnesses KN and KS", c.edge_material)));
+                    return Err(
+                        self.command_error(cmd, format!("CYCLE: joint material {} (from SPLIT MAT=) needs contact stiffnesses KN and KS", c.edge_material))
+                    );
                 }
             }
         }
@@ -449,7 +459,8 @@ impl<'a> Executor<'a> {
             );
             return Err(self.unsupported(cmd, &what));
         }
-        let dt = self.model.critical_timestep().ok_or_else(|| self.command_error(cmd, "CYCLE: cannot compute a time step (no block mass or contact stiffness)"))?;
+        let dt =
+            self.model.critical_timestep().ok_or_else(|| self.command_error(cmd, "CYCLE: cannot compute a time step (no block mass or contact stiffness)"))?;
         if !(dt > 0.0 && dt.is_finite()) {
             // m_min/k_max under- or overflowed f64: no explicit run can follow such a model.
             let m_min = self.model.blocks.iter().map(|b| b.mass).fold(f64::INFINITY, f64::min);
@@ -470,7 +481,10 @@ impl<'a> Executor<'a> {
         let long = n >= 1000;
         let bar = (self.options.progress == Progress::Bar && long).then(|| {
             let pb = indicatif::ProgressBar::new(n);
-            pb.set_style(indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {per_sec} eta {eta}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()));
+            pb.set_style(
+                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {per_sec} eta {eta}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
             pb
         });
         let options = &self.options;

@@ -11,8 +11,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use blockdem::backend::{Backend, GpuOrCpu};
 use blockdem::cpu::CpuBackend;
-use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
 use blockdem::exec::{Executor, Progress, RunError, RunOptions};
+use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
 
 #[derive(Parser)]
 #[command(name = "blockdem", version, about = "Distinct element code for jointed rock (UDEC 1.2 / D3 after Cundall & Hart 1985)")]
@@ -392,7 +392,11 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e:#}");
             let interrupted = e.downcast_ref::<RunError>().is_some_and(RunError::is_interrupted);
-            if interrupted { ExitCode::from(INTERRUPTED_EXIT as u8) } else { ExitCode::FAILURE }
+            if interrupted {
+                ExitCode::from(INTERRUPTED_EXIT as u8)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

@@ -166,7 +166,12 @@ fn scaling_rounds_alternate_the_backends() {
         // The projectile in flight asks for contact updates; each costs the host something, and
         // the rounds' runs go on from the last (no full detection counted as an update).
         assert!(row.topology_updates > 0 && row.topology_updates < row.cycles, "{}: {} updates in {} cycles", row.backend, row.topology_updates, row.cycles);
-        assert!(row.host_s_per_update > 0.0 && row.host_s_per_update * row.topology_updates as f64 <= row.steady_s, "{}: {} s an update", row.backend, row.host_s_per_update);
+        assert!(
+            row.host_s_per_update > 0.0 && row.host_s_per_update * row.topology_updates as f64 <= row.steady_s,
+            "{}: {} s an update",
+            row.backend,
+            row.host_s_per_update
+        );
         // The wall's own build (deck, blocks, first detection), one figure for both rows.
         assert!(row.build_s > 0.0 && row.build_s == report.scaling[0].build_s, "{}: built in {} s", row.backend, row.build_s);
     }
@@ -194,7 +199,8 @@ fn profiling_between_runs_leaves_the_next_run_unchanged() {
     let Some(Target::Gpu(options)) = Target::gpu("vulkan", blockdem::gpu::Precision::F32) else {
         return;
     };
-    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1.2 1,2.2 2,2.2 2,1.2\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 0\n";
+    let deck =
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1.2 1,2.2 2,2.2 2,1.2\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 0\n";
     let model0 = blockdem::scenes::run_deck_on(deck, Target::Cpu.backend()).unwrap();
     let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
     let mut split = model0.clone();

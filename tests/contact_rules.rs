@@ -144,13 +144,17 @@ fn contact_updates_follow_displacement_not_every_cycle() {
     let margin = fast.tol.speed_margin(step);
     assert!(margin > 0.0 && (fast.blocks[0].update_margin - margin).abs() < 1e-12, "margin {} for {step} m a step", fast.blocks[0].update_margin);
     let per_update = 1000.0 / fewer.topology_updates as f64;
-    assert!(per_update * step <= fast.tol.etol + margin + step + 1e-12 && per_update * step >= fast.tol.etol + margin - step, "an update every {per_update} steps of {step} m, margin {margin}");
+    assert!(
+        per_update * step <= fast.tol.etol + margin + step + 1e-12 && per_update * step >= fast.tol.etol + margin - step,
+        "an update every {per_update} steps of {step} m, margin {margin}"
+    );
 }
 
 /// A 0.5 m projectile (density 8000) at 50 m/s into a small wall of 1 × 0.5 m bricks on a fixed
 /// base, gravity on: 7 mm a step against an update tolerance of 25 mm.
 fn projectile_into_bricks() -> Model {
-    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nPROP MAT=2 D=8000 KN=1E9 KS=1E9 F=0.6\nROUND 0.1\nBLOCK -1,-0.5 -1,0 6,0 6,-0.5\n");
+    let mut deck =
+        String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nPROP MAT=2 D=8000 KN=1E9 KS=1E9 F=0.6\nROUND 0.1\nBLOCK -1,-0.5 -1,0 6,0 6,-0.5\n");
     for row in 0..3 {
         let y = 0.5 * row as f64;
         for col in 0..4 {
@@ -209,7 +213,10 @@ fn gpu_run(t: &common::Target, mut m: Model, splice: bool, cycles: u64) -> (Mode
 /// A wall of `rows` × `cols` bricks on a fixed base, struck at its left end by a heavy block at
 /// 50 m/s: most of the wall is far from the blocks that contact updates re-examine.
 fn projectile_into_wall(rows: usize, cols: usize) -> Model {
-    let mut deck = format!("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nPROP MAT=2 D=8000 KN=1E9 KS=1E9 F=0.6\nROUND 0.1\nBLOCK -1,-0.5 -1,0 {w},0 {w},-0.5\n", w = cols + 1);
+    let mut deck = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nPROP MAT=2 D=8000 KN=1E9 KS=1E9 F=0.6\nROUND 0.1\nBLOCK -1,-0.5 -1,0 {w},0 {w},-0.5\n",
+        w = cols + 1
+    );
     for row in 0..rows {
         let y = 0.5 * row as f64;
         for col in 0..cols {
@@ -247,8 +254,15 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
         // The updates while a few blocks move (47 of 106 here); once the bricks fly, an update
         // re-examines more than an eighth of the blocks, sweeps the grid and reads everything.
         assert!(partial >= 20 && ra.contacts_created > 10 && ra.contacts_dropped > 10, "{partial} partial updates on {}: {ra:?}", t.name());
-        assert_eq!((ra.topology_updates, ra.contacts_created, ra.contacts_dropped), (rb.topology_updates, rb.contacts_created, rb.contacts_dropped), "updates on {}", t.name());
-        let bits = |b: &blockdem::model::Block| [b.centroid[0], b.centroid[1], b.rotation, b.velocity[0], b.velocity[1], b.angular_velocity, b.update_margin].map(f64::to_bits);
+        assert_eq!(
+            (ra.topology_updates, ra.contacts_created, ra.contacts_dropped),
+            (rb.topology_updates, rb.contacts_created, rb.contacts_dropped),
+            "updates on {}",
+            t.name()
+        );
+        let bits = |b: &blockdem::model::Block| {
+            [b.centroid[0], b.centroid[1], b.rotation, b.velocity[0], b.velocity[1], b.angular_velocity, b.update_margin].map(f64::to_bits)
+        };
         for (x, y) in a.blocks.iter().zip(&b.blocks) {
             assert_eq!(bits(x), bits(y), "block {} on {}", x.id, t.name());
         }
@@ -257,7 +271,13 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
         assert!(moving > 3, "the projectile set {moving} bricks moving on {}", t.name());
         for (x, y) in a.contacts.iter().zip(&b.contacts) {
             assert_eq!((x.id, x.block1, x.corner, x.block2, x.feature), (y.id, y.block1, y.corner, y.block2, y.feature), "contact on {}", t.name());
-            assert_eq!([x.normal_force, x.shear_force, x.gap, x.shear_displacement].map(f64::to_bits), [y.normal_force, y.shear_force, y.gap, y.shear_displacement].map(f64::to_bits), "contact {} on {}", x.id, t.name());
+            assert_eq!(
+                [x.normal_force, x.shear_force, x.gap, x.shear_displacement].map(f64::to_bits),
+                [y.normal_force, y.shear_force, y.gap, y.shear_displacement].map(f64::to_bits),
+                "contact {} on {}",
+                x.id,
+                t.name()
+            );
             let tol = if t.is_f32() { 1e-5 * (1.0 + x.slip_work.abs()) } else { 1e-9 * (1.0 + x.slip_work.abs()) };
             assert!((x.slip_work - y.slip_work).abs() <= tol, "contact {} on {}: slip work {} against {}", x.id, t.name(), x.slip_work, y.slip_work);
         }
@@ -267,7 +287,10 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
 /// Largest difference of block positions and of velocities between two runs of one model.
 fn largest_difference(a: &Model, b: &Model) -> (f64, f64) {
     a.blocks.iter().zip(&b.blocks).fold((0.0f64, 0.0f64), |(p, v), (x, y)| {
-        (p.max((x.centroid[0] - y.centroid[0]).hypot(x.centroid[1] - y.centroid[1])), v.max((x.velocity[0] - y.velocity[0]).hypot(x.velocity[1] - y.velocity[1])))
+        (
+            p.max((x.centroid[0] - y.centroid[0]).hypot(x.centroid[1] - y.centroid[1])),
+            v.max((x.velocity[0] - y.velocity[0]).hypot(x.velocity[1] - y.velocity[1])),
+        )
     })
 }
 
@@ -301,7 +324,16 @@ fn read_back_contacts_have_the_points_and_normals_of_the_read_back_state() {
                 }
                 let dp = (g.point[0] - c.point[0]).hypot(g.point[1] - c.point[1]);
                 let dn = (g.normal[0] - c.normal[0]).hypot(g.normal[1] - c.normal[1]);
-                assert!(dp <= tol && dn <= tol, "{} after {cycles} cycles: contact {} point {:?} vs {:?}, normal {:?} vs {:?}", t.name(), c.id, c.point, g.point, c.normal, g.normal);
+                assert!(
+                    dp <= tol && dn <= tol,
+                    "{} after {cycles} cycles: contact {} point {:?} vs {:?}, normal {:?} vs {:?}",
+                    t.name(),
+                    c.id,
+                    c.point,
+                    g.point,
+                    c.normal,
+                    g.normal
+                );
                 checked += 1;
             }
             let ties = if t.is_f32() { m.contacts.len() / 10 } else { 0 };
@@ -330,7 +362,12 @@ fn a_contact_splice_on_the_device_runs_as_a_whole_upload() {
         let (b, _, none) = gpu_run(&t, run(bounce), false, 600);
         assert_eq!(none, 0, "no splice when it is off");
         // The updates while the block is in touch (an empty list is simply uploaded).
-        assert!(splices > 0 && ra.contacts_created > 0 && ra.contacts_dropped > 0, "{splices} of {} contact updates spliced on {}: {ra:?}", ra.topology_updates, t.name());
+        assert!(
+            splices > 0 && ra.contacts_created > 0 && ra.contacts_dropped > 0,
+            "{splices} of {} contact updates spliced on {}: {ra:?}",
+            ra.topology_updates,
+            t.name()
+        );
         let (dx, dv) = largest_difference(&a, &b);
         eprintln!("bounce on {}: {splices} splices, {dx:.3e} m, {dv:.3e} m/s", t.name());
         let tol = if f32_kernels { 1e-5 } else { 1e-9 };
@@ -356,7 +393,8 @@ fn a_flying_block_finds_the_block_it_hits_and_bounces() {
     // tolerance at the start. It must be detected on arrival and bounce back (elastic contact, no
     // damping: |v| returns within 2%, the energy error of central differences over a contact of a
     // few tens of steps), never pass through.
-    let mut m = run("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 4,0 4,1 5,1 5,0\nFIX 3.5 6 0 1\nVELOCITY 0 1 0 1 5 0\nCYCLE 0\n");
+    let mut m =
+        run("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 4,0 4,1 5,1 5,0\nFIX 3.5 6 0 1\nVELOCITY 0 1 0 1 5 0\nCYCLE 0\n");
     assert!(m.contacts.is_empty(), "no contact at the start");
     // Arrival after 3 m / 5 m/s = 0.6 s = ~670 steps of 8.9e-4 s; 1000 steps see it back.
     cycle(&mut m, 1000);
@@ -448,7 +486,13 @@ fn contacts_form_within_one_tolerance_and_break_past_another() {
     // gap of its two corner–edge contacts is g (a rounded corner is tangent to its edges). A
     // contact forms when the gap is under the forming tolerance and is kept until the gap passes
     // the breaking one (ROUND 0.1: 0.1 and 0.15 m).
-    let at = |g: f64| run(&format!("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,{a} 1,{b} 2,{b} 2,{a}\nFIX 0 4 0 0.9\nCYCLE 0\n", a = 1.0 + g, b = 2.0 + g));
+    let at = |g: f64| {
+        run(&format!(
+            "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,{a} 1,{b} 2,{b} 2,{a}\nFIX 0 4 0 0.9\nCYCLE 0\n",
+            a = 1.0 + g,
+            b = 2.0 + g
+        ))
+    };
     let probe = at(0.5);
     let (atol, btol) = (probe.tol.atol, probe.tol.btol);
     assert!(atol > 0.0 && btol > atol, "{:?}", probe.tol);

@@ -115,12 +115,7 @@ fn change_all_forms() {
     );
     all_give(
         &["CHANGE 2 6 3 7 FDEF", "ch 2 6 3 7 f"],
-        Command::Change {
-            range: range(2.0, 6.0, 3.0, 7.0),
-            to: Some(Deformability::Fdef),
-            material: None,
-            constitutive: None,
-        },
+        Command::Change { range: range(2.0, 6.0, 3.0, 7.0), to: Some(Deformability::Fdef), material: None, constitutive: None },
     );
     all_give(
         &["CHANGE 4.5 5.5 7 8 MAT=2", "CH 4.5,5.5 7,8 M 2"],
@@ -144,14 +139,8 @@ fn damping_all_forms() {
         &["DAMP .1 15 (MASS)", "DAMPING 0.1 15 MASS", "D .1 15 M", "damping .1,15,mass", "DA .1 15 / Ma"],
         Command::Damping { fcrit: 0.1, freq: 15.0, mode: DampMode::Mass },
     );
-    all_give(
-        &["DAMP .5 16. INTERNAL", "D .5 16 I"],
-        Command::Damping { fcrit: 0.5, freq: 16.0, mode: DampMode::Internal },
-    );
-    all_give(
-        &["DAMP .5 16 STIFFNESS", "d .5 16 s"],
-        Command::Damping { fcrit: 0.5, freq: 16.0, mode: DampMode::Stiffness },
-    );
+    all_give(&["DAMP .5 16. INTERNAL", "D .5 16 I"], Command::Damping { fcrit: 0.5, freq: 16.0, mode: DampMode::Internal });
+    all_give(&["DAMP .5 16 STIFFNESS", "d .5 16 s"], Command::Damping { fcrit: 0.5, freq: 16.0, mode: DampMode::Stiffness });
     all_give(&["DAMP .5 16", "DAMPING=0.5=16"], Command::Damping { fcrit: 0.5, freq: 16.0, mode: DampMode::Full });
     all_give(&["DAMP 0 16"], Command::Damping { fcrit: 0.0, freq: 16.0, mode: DampMode::Full });
 }
@@ -186,10 +175,7 @@ fn generate_all_forms() {
     );
     let manual = Command::Generate {
         range: range(0.0, 10.0, 0.0, 10.0),
-        mesh: Mesh::Manual {
-            grid_points: vec![[1.0, 1.0], [1.0, 2.0], [2.0, 2.0], [2.0, 1.0]],
-            zones: vec![[4, 3, 2], [4, 2, 1]],
-        },
+        mesh: Mesh::Manual { grid_points: vec![[1.0, 1.0], [1.0, 2.0], [2.0, 2.0], [2.0, 1.0]], zones: vec![[4, 3, 2], [4, 2, 1]] },
     };
     all_give(
         &[
@@ -205,10 +191,7 @@ fn generate_all_forms() {
 #[test]
 fn gravity_link_pfix_pfree() {
     all_give(&["GRAV 0 -10", "GRAVITY 0. -10.", "G 0,-10", "gr (0,-10)"], Command::Gravity { g: [0.0, -10.0] });
-    all_give(
-        &["LINK 3,3 4,1.5", "LI 3 3 4 1.5", "link (3,3) (4,1.5)"],
-        Command::Link { flying: [3.0, 3.0], anchor: [4.0, 1.5] },
-    );
+    all_give(&["LINK 3,3 4,1.5", "LI 3 3 4 1.5", "link (3,3) (4,1.5)"], Command::Link { flying: [3.0, 3.0], anchor: [4.0, 1.5] });
     all_give(&["PFIX OUTER 0.0", "PF O 0", "pfix outer=0"], Command::PFix { domain: DomainRef::Outer, pressure: 0.0 });
     all_give(&["PFIX 3 1E6", "PF 3,1e6"], Command::PFix { domain: DomainRef::Number(3), pressure: 1e6 });
     all_give(&["PFREE OUTER", "PFR O", "pfree outer"], Command::PFree { domain: DomainRef::Outer });
@@ -242,19 +225,28 @@ fn property_all_forms() {
     use PropKey::*;
     assert_eq!(
         one("PROP MAT=1 DENS=2000 KN=1E8 KS=1E8 F=2 TF=2.5E4"),
-        Command::Property {
-            material: 1,
-            values: vec![(Density, 2000.0), (Kn, 1e8), (Ks, 1e8), (Friction, 2.0), (Tf, 2.5e4)]
-        }
+        Command::Property { material: 1, values: vec![(Density, 2000.0), (Kn, 1e8), (Ks, 1e8), (Friction, 2.0), (Tf, 2.5e4)] }
     );
     assert_eq!(
         one("PROPERTY MATERIAL 2 BULK 1 K 2 G 3 DENSITY 4 COHESION 5 FRICTION 6 JKN 7 JKS 8 JCOHESION 9 JFRICTION 10 TF 11 JPERM 12 CPERM 13 AZERO 14 ARES 15"),
         Command::Property {
             material: 2,
             values: vec![
-                (Bulk, 1.0), (Bulk, 2.0), (Shear, 3.0), (Density, 4.0), (Cohesion, 5.0), (Friction, 6.0), (Jkn, 7.0),
-                (Jks, 8.0), (Jcohesion, 9.0), (Jfriction, 10.0), (Tf, 11.0), (Jperm, 12.0), (Cperm, 13.0),
-                (Azero, 14.0), (Ares, 15.0),
+                (Bulk, 1.0),
+                (Bulk, 2.0),
+                (Shear, 3.0),
+                (Density, 4.0),
+                (Cohesion, 5.0),
+                (Friction, 6.0),
+                (Jkn, 7.0),
+                (Jks, 8.0),
+                (Jcohesion, 9.0),
+                (Jfriction, 10.0),
+                (Tf, 11.0),
+                (Jperm, 12.0),
+                (Cperm, 13.0),
+                (Azero, 14.0),
+                (Ares, 15.0),
             ],
         }
     );
@@ -266,16 +258,7 @@ fn property_all_forms() {
         one("PROP MAT=1 D=2000 KN=1E6 KS=1E8 FRIC=.1 C=1E6 BULK=2E6 JCOH=0 JFRIC=0"),
         Command::Property {
             material: 1,
-            values: vec![
-                (Density, 2000.0),
-                (Kn, 1e6),
-                (Ks, 1e8),
-                (Friction, 0.1),
-                (Cohesion, 1e6),
-                (Bulk, 2e6),
-                (Jcohesion, 0.0),
-                (Jfriction, 0.0)
-            ]
+            values: vec![(Density, 2000.0), (Kn, 1e6), (Ks, 1e8), (Friction, 0.1), (Cohesion, 1e6), (Bulk, 2e6), (Jcohesion, 0.0), (Jfriction, 0.0)]
         }
     );
     assert_eq!(one("Prop (Mat 1) (CPerm 1E-9)"), Command::Property { material: 1, values: vec![(Cperm, 1e-9)] });
@@ -295,22 +278,13 @@ fn split_all_forms() {
 
 #[test]
 fn view_window_velocity() {
-    all_give(
-        &["VIEW 0 700 700 1400", "V 0,700 700,1400", "view (0 700) (700 1400)"],
-        Command::View { ix1: 0, ix2: 700, iy1: 700, iy2: 1400 },
-    );
-    all_give(
-        &["WINDOW 0 50 0 50", "WIND 0 50 0 50", "w 0,50 0,50"],
-        Command::Window { x1: 0.0, x2: 50.0, y1: 0.0, y2: 50.0 },
-    );
+    all_give(&["VIEW 0 700 700 1400", "V 0,700 700,1400", "view (0 700) (700 1400)"], Command::View { ix1: 0, ix2: 700, iy1: 700, iy2: 1400 });
+    all_give(&["WINDOW 0 50 0 50", "WIND 0 50 0 50", "w 0,50 0,50"], Command::Window { x1: 0.0, x2: 50.0, y1: 0.0, y2: 50.0 });
     all_give(
         &["VELOCITY 0 1 0 1 2 -3", "VE 0 1 0 1 2 -3", "vel (0,1) (0,1) (2,-3)"],
         Command::Velocity { range: range(0.0, 1.0, 0.0, 1.0), velocity: [2.0, -3.0], angular: None },
     );
-    all_give(
-        &["VELOCITY 0 1 0 1 2 -3 0.5"],
-        Command::Velocity { range: range(0.0, 1.0, 0.0, 1.0), velocity: [2.0, -3.0], angular: Some(0.5) },
-    );
+    all_give(&["VELOCITY 0 1 0 1 2 -3 0.5"], Command::Velocity { range: range(0.0, 1.0, 0.0, 1.0), velocity: [2.0, -3.0], angular: Some(0.5) });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -335,24 +309,16 @@ fn sample_2_pressurized_cavity() {
     assert_eq!(v.len(), 24);
     assert!(v.iter().any(|l| l.command == Command::PFix { domain: DomainRef::Outer, pressure: 0.0 }));
     let split = v.iter().find(|l| l.source == "SPLIT 10.,20 41.,20 MAT=1, CONS=1").unwrap();
-    assert_eq!(
-        split.command,
-        Command::Split { from: [10.0, 20.0], to: [41.0, 20.0], material: Some(1), constitutive: Some(1) }
-    );
+    assert_eq!(split.command, Command::Split { from: [10.0, 20.0], to: [41.0, 20.0], material: Some(1), constitutive: Some(1) });
     assert_eq!(split.line, 21);
-    assert_eq!(
-        v[v.len() - 4].command,
-        Command::Print { items: vec![PrintItem::Flows, PrintItem::Domains, PrintItem::Blocks] }
-    );
+    assert_eq!(v[v.len() - 4].command, Command::Print { items: vec![PrintItem::Flows, PrintItem::Domains, PrintItem::Blocks] });
 }
 
 #[test]
 fn sample_3_deformable_block() {
     let v = parse(&sample("udec3_deformable_block.dat"));
     assert_eq!(v.len(), 23);
-    assert!(v.iter().any(
-        |l| l.command == Command::Generate { range: range(2.0, 6.0, 3.0, 7.0), mesh: Mesh::Auto { max_edge: 1.1 } }
-    ));
+    assert!(v.iter().any(|l| l.command == Command::Generate { range: range(2.0, 6.0, 3.0, 7.0), mesh: Mesh::Auto { max_edge: 1.1 } }));
     assert!(v.iter().any(|l| l.command == Command::Round { d: 0.2 }));
 }
 
@@ -362,11 +328,7 @@ fn sample_4_projectile_beam() {
     assert_eq!(v.len(), 42);
     assert_eq!(
         v.iter().find(|l| matches!(l.command, Command::Block { .. })).unwrap().command,
-        Command::Block {
-            material: Some(1),
-            constitutive: Some(4),
-            corners: vec![[1.0, 0.0], [1.0, 3.35], [5.0, 3.35], [5.0, 0.0]]
-        }
+        Command::Block { material: Some(1), constitutive: Some(4), corners: vec![[1.0, 0.0], [1.0, 3.35], [5.0, 3.35], [5.0, 0.0]] }
     );
     assert!(v.iter().any(|l| l.command == Command::Link { flying: [3.0, 3.0], anchor: [4.0, 1.5] }));
     use PrintItem::*;
@@ -394,14 +356,7 @@ fn continuation_comments_and_source() {
     assert_eq!(v[0].line, 4);
     assert_eq!(v[1].line, 5);
     assert_eq!(v[1].source, "BLOCK MAT=1 (0,0)   (0,30) (40,30) (40,0)");
-    assert_eq!(
-        v[1].command,
-        Command::Block {
-            material: Some(1),
-            constitutive: None,
-            corners: vec![[0.0, 0.0], [0.0, 30.0], [40.0, 30.0], [40.0, 0.0]]
-        }
-    );
+    assert_eq!(v[1].command, Command::Block { material: Some(1), constitutive: None, corners: vec![[0.0, 0.0], [0.0, 30.0], [40.0, 30.0], [40.0, 0.0]] });
     assert_eq!(v[2].line, 10);
     assert_eq!(v[2].source, "CYC 10");
 }
@@ -502,8 +457,7 @@ fn continuation_without_command() {
 
 #[test]
 fn unknown_command() {
-    let e =
-        assert_body_err("CYC 1\nXYZ 1 2\n", 3, &["unknown command 'XYZ'", "expected one of BLOCK, CHANGE", "WINDOW"]);
+    let e = assert_body_err("CYC 1\nXYZ 1 2\n", 3, &["unknown command 'XYZ'", "expected one of BLOCK, CHANGE", "WINDOW"]);
     assert_eq!(e.column, 1);
     // FRACTION needs FRA; PFREE needs PFR; STA is START but ST is STOP: all typed as shorter
     // prefixes they are other commands, and a too-short prefix of only one is unknown.
@@ -522,8 +476,7 @@ fn rset_is_refused() {
 
 #[test]
 fn block_errors() {
-    let e =
-        assert_body_err("BLOCK 0 0 1 abc 2 2", 2, &["expected a number for the y coordinate of corner 2, found 'abc'"]);
+    let e = assert_body_err("BLOCK 0 0 1 abc 2 2", 2, &["expected a number for the y coordinate of corner 2, found 'abc'"]);
     assert_eq!(e.column, 13);
     assert_body_err("BLOCK 0 0 abc 1 2 2", 2, &["expected a number for the x coordinate of corner 2, found 'abc'"]);
     assert_body_err("BLOCK 0 0 0 1", 2, &["BLOCK needs at least 3 corners (x y pairs), found 2"]);
@@ -531,32 +484,16 @@ fn block_errors() {
     let e = assert_body_err("BLOCK 0 0 0 1 1 1 7", 2, &["corner 4 has an x coordinate (7) but no y coordinate"]);
     assert_eq!(e.column, 19);
     // A pair split across a continuation line: reported at the y on the continuation line.
-    let e = assert_body_err(
-        "BLOCK 0 0 0 1 1\n+ 1 1 0\n",
-        3,
-        &["corner 3 is split across a continuation line", "x on line 2, y on line 3"],
-    );
+    let e = assert_body_err("BLOCK 0 0 0 1 1\n+ 1 1 0\n", 3, &["corner 3 is split across a continuation line", "x on line 2, y on line 3"]);
     assert_eq!(e.column, 3);
     // A bad number on a continuation line names that line.
-    let e = assert_body_err(
-        "BLOCK 0,0 0,1\n* comment\n+ 1,1 1.0x,0\n",
-        4,
-        &["expected a number for the x coordinate of corner 4, found '1.0x'"],
-    );
+    let e = assert_body_err("BLOCK 0,0 0,1\n* comment\n+ 1,1 1.0x,0\n", 4, &["expected a number for the x coordinate of corner 4, found '1.0x'"]);
     assert_eq!(e.column, 7);
     assert_body_err("BLOCK MAT=2.5 0 0 0 1 1 1", 2, &["expected an integer for the material number n, found '2.5'"]);
     assert_body_err("BLOCK MAT=0 0 0 0 1 1 1", 2, &["material number n must be a positive integer, found '0'"]);
     assert_body_err("BLOCK MAT=1 MAT=2 0 0 0 1 1 1", 2, &["'MAT' is given twice"]);
-    assert_body_err(
-        "BLOCK 0 0 0 1 1 1 MAT 2",
-        2,
-        &["MATERIAL and CONSTITUTIVE must come before the corner coordinates"],
-    );
-    assert_body_err(
-        "BLOCK FOO 0 0 0 1 1 1",
-        2,
-        &["expected MATERIAL, CONSTITUTIVE or the x coordinate of corner 1, found 'FOO'"],
-    );
+    assert_body_err("BLOCK 0 0 0 1 1 1 MAT 2", 2, &["MATERIAL and CONSTITUTIVE must come before the corner coordinates"]);
+    assert_body_err("BLOCK FOO 0 0 0 1 1 1", 2, &["expected MATERIAL, CONSTITUTIVE or the x coordinate of corner 1, found 'FOO'"]);
     assert_body_err("BLOCK MAT", 2, &["BLOCK needs the material number n"]);
 }
 
@@ -611,11 +548,7 @@ fn property_errors() {
     assert_body_err("PROP MAT=1 D=2000 MAT=2", 2, &["MATERIAL may be given only once"]);
     assert_body_err("PROP MAT=1 JK=1", 2, &["found 'JK'"]);
     // An error on a continuation line of PROP names that line and column.
-    let e = assert_body_err(
-        "PROP MAT=1 D=2000\n+ KN=1E8\n+ KS=abc\n",
-        4,
-        &["expected a number for a value after KS, found 'abc'"],
-    );
+    let e = assert_body_err("PROP MAT=1 D=2000\n+ KN=1E8\n+ KS=abc\n", 4, &["expected a number for a value after KS, found 'abc'"]);
     assert_eq!(e.column, 6);
 }
 
@@ -650,11 +583,7 @@ fn arity_errors() {
     assert_body_err("SPLIT 0 q 1 1", 2, &["expected a number for y1", "found 'q'"]);
     assert_body_err("CHANGE 0 1 0 1", 2, &["CHANGE needs something to change"]);
     assert_body_err("CHANGE 0 1 0 1 SDEF FDEF", 2, &["'FDEF' is given twice"]);
-    assert_body_err(
-        "CHANGE 0 1 0 1 RIGID",
-        2,
-        &["unknown keyword 'RIGID' for CHANGE; it takes SDEF, FDEF, MATERIAL, CONSTITUTIVE"],
-    );
+    assert_body_err("CHANGE 0 1 0 1 RIGID", 2, &["unknown keyword 'RIGID' for CHANGE; it takes SDEF, FDEF, MATERIAL, CONSTITUTIVE"]);
     assert_body_err("DAMP .1", 2, &["DAMPING needs 2 numbers"]);
     assert_body_err("DAMP .1 15 MASS STIFF", 2, &["'STIFF' is given twice"]);
     assert_body_err("DAMP .1 15 FULL", 2, &["unknown keyword 'FULL' for DAMPING; it takes MASS, STIFFNESS, INTERNAL"]);
@@ -665,11 +594,7 @@ fn arity_errors() {
     assert_body_err("PFREE OUTER 3", 2, &["too many values for PFREE"]);
     assert_body_err("PLOT BLOCKS", 2, &["unknown PLOT keyword 'BLOCKS'; PLOT takes NOFIX, ZONES, NC, VELOCITY"]);
     assert_body_err("PLOT 3", 2, &["unknown PLOT keyword '3'"]);
-    assert_body_err(
-        "PRINT",
-        2,
-        &["PRINT needs at least one of BLOCKS, CONTACTS, CORNERS, DOMAINS, LIST, DLIST, FLOWS, ENERGY"],
-    );
+    assert_body_err("PRINT", 2, &["PRINT needs at least one of BLOCKS, CONTACTS, CORNERS, DOMAINS, LIST, DLIST, FLOWS, ENERGY"]);
     assert_body_err("PRINT BLOCKS VEL", 2, &["unknown PRINT keyword 'VEL'"]);
     assert_body_err("VIEW 0 1 2", 2, &["VIEW needs 4 numbers"]);
     assert_body_err("WINDOW 0 1 2 3 4", 2, &["too many values for WINDOW"]);
@@ -684,41 +609,17 @@ fn generate_errors() {
     assert_body_err("GEN 2 6 3 AUTO 1", 2, &["expected a number for y2, found 'AUTO'"]);
     assert_body_err("GEN 2 6 3 7 SOMETIMES 1", 2, &["expected AUTOMATIC amax or MANUAL", "found 'SOMETIMES'"]);
     let g = "GEN 0 10 0 10 MANUAL GRID";
-    assert_body_err(
-        &format!("{g} 1 1 1 2 2 2 2 ZONES 1 2 3"),
-        2,
-        &["grid point 4 has an x coordinate (2) but no y coordinate"],
-    );
+    assert_body_err(&format!("{g} 1 1 1 2 2 2 2 ZONES 1 2 3"), 2, &["grid point 4 has an x coordinate (2) but no y coordinate"]);
     assert_body_err(&format!("{g} 1 1 1 2 ZONES 1 2 1"), 2, &["at least 3 grid points", "found 2"]);
     assert_body_err(&format!("{g} 1 1 1 2 2 2"), 2, &["GENERATE MANUAL needs ZONES"]);
     assert_body_err(&format!("{g} 1 1 1 2 2 2 ZONES"), 2, &["at least one zone"]);
     assert_body_err(&format!("{g} 1 1 1 2 2 2 ZONES 1 2"), 2, &["zone 1 is incomplete"]);
-    assert_body_err(
-        &format!("{g} 1 1 1 2 2 2 ZONES 1 2 0"),
-        2,
-        &["grid-point number must be a positive integer, found '0'"],
-    );
-    assert_body_err(
-        &format!("{g} 1 1 1 2 2 2 ZONES 1 2 4"),
-        2,
-        &["zone 1 refers to grid point 4, but only 3 grid points were given"],
-    );
-    assert_body_err(
-        &format!("{g} 1 1 1 2 2 2 ZONES 1 2 2.5"),
-        2,
-        &["expected an integer for a grid-point number of zone 1, found '2.5'"],
-    );
-    assert_body_err(
-        &format!("{g} 1 1 1 2 2 x"),
-        2,
-        &["expected a number for the y coordinate of grid point 3 (or ZONES), found 'x'"],
-    );
+    assert_body_err(&format!("{g} 1 1 1 2 2 2 ZONES 1 2 0"), 2, &["grid-point number must be a positive integer, found '0'"]);
+    assert_body_err(&format!("{g} 1 1 1 2 2 2 ZONES 1 2 4"), 2, &["zone 1 refers to grid point 4, but only 3 grid points were given"]);
+    assert_body_err(&format!("{g} 1 1 1 2 2 2 ZONES 1 2 2.5"), 2, &["expected an integer for a grid-point number of zone 1, found '2.5'"]);
+    assert_body_err(&format!("{g} 1 1 1 2 2 x"), 2, &["expected a number for the y coordinate of grid point 3 (or ZONES), found 'x'"]);
     // Doubles and triples must not be split over two lines.
-    let e = assert_body_err(
-        &format!("{g} 1 1 1 2 2\n+ 2 ZONES 1 2 3"),
-        3,
-        &["grid point 3 is split across a continuation line"],
-    );
+    let e = assert_body_err(&format!("{g} 1 1 1 2 2\n+ 2 ZONES 1 2 3"), 3, &["grid point 3 is split across a continuation line"]);
     assert_eq!(e.column, 3);
     assert_body_err(&format!("{g} 1 1 1 2 2 2 ZONES 1 2\n+ 3"), 3, &["zone 1 is split across a continuation line"]);
 }
@@ -744,10 +645,9 @@ fn error_tokens_are_shown_safely() {
 fn soup_piece() -> impl Strategy<Value = String> {
     prop_oneof![
         prop::sample::select(vec![
-            "START", "RESTART", "STOP", "END", "BLOCK", "B", "CHANGE", "CH", "CYCLE", "C", "DAMP", "DE", "DU", "F",
-            "FRA", "FL", "FR", "GE", "G", "LI", "L", "PF", "PFR", "PL", "P", "PRO", "R", "RS", "RO", "SA", "SP", "STA",
-            "S", "V", "W", "VE", "MAT", "CONS", "SDEF", "FDEF", "MASS", "INTERNAL", "AUTO", "MANUAL", "GRID", "ZONES",
-            "OUTER", "NOFIX", "NC", "VEL", "BLOCKS", "COR", "DL", "K", "KN", "JKS", "TF", "AZ", "XYZ",
+            "START", "RESTART", "STOP", "END", "BLOCK", "B", "CHANGE", "CH", "CYCLE", "C", "DAMP", "DE", "DU", "F", "FRA", "FL", "FR", "GE", "G", "LI", "L",
+            "PF", "PFR", "PL", "P", "PRO", "R", "RS", "RO", "SA", "SP", "STA", "S", "V", "W", "VE", "MAT", "CONS", "SDEF", "FDEF", "MASS", "INTERNAL", "AUTO",
+            "MANUAL", "GRID", "ZONES", "OUTER", "NOFIX", "NC", "VEL", "BLOCKS", "COR", "DL", "K", "KN", "JKS", "TF", "AZ", "XYZ",
         ])
         .prop_map(String::from),
         prop::sample::select(vec![
@@ -775,11 +675,8 @@ fn soup_piece() -> impl Strategy<Value = String> {
             "-9223372036854775808",
         ])
         .prop_map(String::from),
-        prop::sample::select(vec![
-            " ", "  ", "=", "(", ")", ",", "/", "\t", "\n", "\n+", "\n+ ", "\n*", "\r\n", "\n\n", "\u{0}", "é",
-            "\u{85}"
-        ])
-        .prop_map(String::from),
+        prop::sample::select(vec![" ", "  ", "=", "(", ")", ",", "/", "\t", "\n", "\n+", "\n+ ", "\n*", "\r\n", "\n\n", "\u{0}", "é", "\u{85}"])
+            .prop_map(String::from),
         any::<f64>().prop_map(|f| f.to_string()),
         any::<i64>().prop_map(|i| i.to_string()),
     ]

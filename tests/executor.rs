@@ -6,13 +6,12 @@
 
 mod common;
 
-use common::SharedLog;
 use blockdem::cpu::CpuBackend;
 use blockdem::exec::RunError;
 use blockdem::model::Model;
 use blockdem::scenes::run_deck_logged;
 use blockdem::verify::stability::{LIMITS_CPU_F64, LIMITS_GPU_F32};
-
+use common::SharedLog;
 
 /// Runs a deck on the CPU; returns the result and the run log.
 fn run_logged(deck: &str) -> (Result<Model, RunError>, String) {
@@ -71,13 +70,9 @@ fn damping_sets_rayleigh_coefficients_and_prints_the_reports_messages() {
 
 #[test]
 fn property_sets_every_keyword_of_the_table() {
-    let (m, _) = run_ok(
-        "START\nPROP MAT=2 BULK=1 G=2 DENS=3 KN=4 KS=5 COH=6 FRIC=7 JKN=8 JKS=9 JCOH=10 JFRIC=11 TF=12 JPERM=13 CPERM=14 AZERO=15 ARES=16\n",
-    );
+    let (m, _) = run_ok("START\nPROP MAT=2 BULK=1 G=2 DENS=3 KN=4 KS=5 COH=6 FRIC=7 JKN=8 JKS=9 JCOH=10 JFRIC=11 TF=12 JPERM=13 CPERM=14 AZERO=15 ARES=16\n");
     let p = &m.materials[1];
-    let got = [
-        p.bulk, p.shear, p.density, p.kn, p.ks, p.cohesion, p.friction, p.jkn, p.jks, p.jcohesion, p.jfriction, p.tf, p.jperm, p.cperm, p.azero, p.ares,
-    ];
+    let got = [p.bulk, p.shear, p.density, p.kn, p.ks, p.cohesion, p.friction, p.jkn, p.jks, p.jcohesion, p.jfriction, p.tf, p.jperm, p.cperm, p.azero, p.ares];
     let want: Vec<f64> = (1..=16).map(f64::from).collect();
     assert_eq!(got.to_vec(), want);
     assert_eq!(m.materials[0].density, 0.0, "material 1 untouched");

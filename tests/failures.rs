@@ -97,7 +97,13 @@ fn a_failure_after_a_checkpoint_restores_that_checkpoint(t: &Target) {
     for (g, c) in m.blocks.iter().zip(&reference.blocks) {
         for i in 0..2 {
             assert!((g.centroid[i] - c.centroid[i]).abs() < 1e-5, "centroid on {}: {:?} vs {:?}", t.name(), g.centroid, c.centroid);
-            assert!((g.velocity[i] - c.velocity[i]).abs() < 1e-5 * (1.0 + c.velocity[i].abs()), "velocity on {}: {:?} vs {:?}", t.name(), g.velocity, c.velocity);
+            assert!(
+                (g.velocity[i] - c.velocity[i]).abs() < 1e-5 * (1.0 + c.velocity[i].abs()),
+                "velocity on {}: {:?} vs {:?}",
+                t.name(),
+                g.velocity,
+                c.velocity
+            );
             assert!((g.force[i] - c.force[i]).abs() < 1e-4 * (1.0 + c.force[0].hypot(c.force[1])), "force on {}: {:?} vs {:?}", t.name(), g.force, c.force);
         }
     }
@@ -130,7 +136,13 @@ fn a_failure_in_a_later_run_restores_that_runs_start(t: &Target) {
     for (g, c) in m.blocks.iter().zip(&reference.blocks) {
         for i in 0..2 {
             assert!((g.centroid[i] - c.centroid[i]).abs() < 1e-5, "centroid on {}: {:?} vs {:?}", t.name(), g.centroid, c.centroid);
-            assert!((g.velocity[i] - c.velocity[i]).abs() < 1e-5 * (1.0 + c.velocity[i].abs()), "velocity on {}: {:?} vs {:?}", t.name(), g.velocity, c.velocity);
+            assert!(
+                (g.velocity[i] - c.velocity[i]).abs() < 1e-5 * (1.0 + c.velocity[i].abs()),
+                "velocity on {}: {:?} vs {:?}",
+                t.name(),
+                g.velocity,
+                c.velocity
+            );
         }
     }
 }

@@ -2,9 +2,7 @@
 
 use approx::assert_relative_eq;
 use blockdem::model::build::GeometryError;
-use blockdem::model::geometry::{
-    corner_rounding, is_simple_polygon, point_in_polygon, polygon_properties, rotate, signed_area,
-};
+use blockdem::model::geometry::{corner_rounding, is_simple_polygon, point_in_polygon, polygon_properties, rotate, signed_area};
 use blockdem::model::split::{split_block_along, split_line};
 use blockdem::model::{Contact, ContactKind, Link, Model};
 use proptest::prelude::*;
@@ -25,16 +23,7 @@ fn total_area(m: &Model) -> f64 {
 
 /// Bounding box (x0, y0, x1, y1) of block b's world corners.
 fn bbox(m: &Model, b: usize) -> [f64; 4] {
-    m.corner_positions(b)
-        .iter()
-        .fold([f64::MAX, f64::MAX, f64::MIN, f64::MIN], |a, p| {
-            [
-                a[0].min(p[0]),
-                a[1].min(p[1]),
-                a[2].max(p[0]),
-                a[3].max(p[1]),
-            ]
-        })
+    m.corner_positions(b).iter().fold([f64::MAX, f64::MAX, f64::MIN, f64::MIN], |a, p| [a[0].min(p[0]), a[1].min(p[1]), a[2].max(p[0]), a[3].max(p[1])])
 }
 
 /// Block from a single rectangle with material density 1 so mass = area.
@@ -81,11 +70,7 @@ fn rectangle_properties_near_and_far_from_origin() {
         assert_relative_eq!(p.area, a, max_relative = 1e-12);
         assert_relative_eq!(p.centroid[0], x0 + w / 2.0, max_relative = 1e-14);
         assert_relative_eq!(p.centroid[1], y0 + h / 2.0, max_relative = 1e-14);
-        assert_relative_eq!(
-            p.polar_moment,
-            a * (w * w + h * h) / 12.0,
-            max_relative = 1e-10
-        );
+        assert_relative_eq!(p.polar_moment, a * (w * w + h * h) / 12.0, max_relative = 1e-10);
     }
 }
 
@@ -99,11 +84,7 @@ fn triangle_properties() {
         assert_relative_eq!(p.area, area, max_relative = 1e-12);
         assert_relative_eq!(p.centroid[0], x0 + a / 3.0, max_relative = 1e-14);
         assert_relative_eq!(p.centroid[1], y0 + b / 3.0, max_relative = 1e-14);
-        assert_relative_eq!(
-            p.polar_moment,
-            area * (a * a + b * b) / 18.0,
-            max_relative = 1e-9
-        );
+        assert_relative_eq!(p.polar_moment, area * (a * a + b * b) / 18.0, max_relative = 1e-9);
     }
 }
 
@@ -111,14 +92,7 @@ fn triangle_properties() {
 fn l_shape_properties_by_composition() {
     // L = [0,4]×[0,1] ∪ [0,1]×[1,3]; combine the two rectangles with the parallel-axis theorem.
     let x0 = 1.0e4;
-    let l = [
-        [x0, 0.0],
-        [x0 + 4.0, 0.0],
-        [x0 + 4.0, 1.0],
-        [x0 + 1.0, 1.0],
-        [x0 + 1.0, 3.0],
-        [x0, 3.0],
-    ];
+    let l = [[x0, 0.0], [x0 + 4.0, 0.0], [x0 + 4.0, 1.0], [x0 + 1.0, 1.0], [x0 + 1.0, 3.0], [x0, 3.0]];
     let parts = [(4.0, 1.0, [x0 + 2.0, 0.5]), (1.0, 2.0, [x0 + 0.5, 2.0])];
     let area: f64 = parts.iter().map(|p| p.0 * p.1).sum();
     let cx = parts.iter().map(|p| p.0 * p.1 * p.2[0]).sum::<f64>() / area;
@@ -153,18 +127,8 @@ fn small_helpers() {
     assert_relative_eq!(r[0], 0.0, epsilon = 1e-15);
     assert_relative_eq!(r[1], 1.0);
     assert!(is_simple_polygon(&sq));
-    assert!(!is_simple_polygon(&[
-        [0.0, 0.0],
-        [1.0, 1.0],
-        [1.0, 0.0],
-        [0.0, 1.0]
-    ]));
-    assert!(!is_simple_polygon(&[
-        [0.0, 0.0],
-        [1.0, 0.0],
-        [1.0, 0.0],
-        [0.0, 1.0]
-    ]));
+    assert!(!is_simple_polygon(&[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]));
+    assert!(!is_simple_polygon(&[[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]]));
 }
 
 // ---------------------------------------------------------------- BLOCK
@@ -183,11 +147,7 @@ fn clockwise_deck_outline_is_stored_counter_clockwise_with_tags() {
     assert_eq!(m.next_block_id, 2);
     assert_relative_eq!(blk.area, 1200.0);
     assert_relative_eq!(blk.mass, 2000.0 * 1200.0);
-    assert_relative_eq!(
-        blk.inertia,
-        2000.0 * 1200.0 * (1600.0 + 900.0) / 12.0,
-        max_relative = 1e-12
-    );
+    assert_relative_eq!(blk.inertia, 2000.0 * 1200.0 * (1600.0 + 900.0) / 12.0, max_relative = 1e-12);
     assert_eq!(blk.centroid, [20.0, 15.0]);
     assert_relative_eq!(blk.radius, 25.0);
     let local: Vec<_> = m.block_corners(b).iter().map(|c| c.local).collect();
@@ -196,12 +156,7 @@ fn clockwise_deck_outline_is_stored_counter_clockwise_with_tags() {
     let pos = m.corner_positions(b);
     for (k, c) in m.block_corners(b).iter().enumerate() {
         let (p, q) = (pos[k], pos[(k + 1) % 4]);
-        let i = (0..4)
-            .find(|&i| {
-                (given[i] == q && given[(i + 1) % 4] == p)
-                    || (given[i] == p && given[(i + 1) % 4] == q)
-            })
-            .unwrap();
+        let i = (0..4).find(|&i| (given[i] == q && given[(i + 1) % 4] == p) || (given[i] == p && given[(i + 1) % 4] == q)).unwrap();
         assert_eq!((c.edge_material, c.edge_constitutive), tags[i]);
     }
 }
@@ -209,27 +164,15 @@ fn clockwise_deck_outline_is_stored_counter_clockwise_with_tags() {
 #[test]
 fn bad_outlines_are_rejected() {
     let mut m = Model::default();
-    assert!(matches!(
-        m.add_block(&[[0.0, 0.0], [1.0, 0.0]], 1, 1, None),
-        Err(GeometryError::TooFewCorners { count: 2 })
-    ));
+    assert!(matches!(m.add_block(&[[0.0, 0.0], [1.0, 0.0]], 1, 1, None), Err(GeometryError::TooFewCorners { count: 2 })));
     let bowtie = [[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]];
-    assert!(matches!(
-        m.add_block(&bowtie, 1, 1, None),
-        Err(GeometryError::SelfIntersecting)
-    ));
+    assert!(matches!(m.add_block(&bowtie, 1, 1, None), Err(GeometryError::SelfIntersecting)));
     let line = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]];
     assert!(m.add_block(&line, 1, 1, None).is_err());
     let nan = [[0.0, 0.0], [1.0, f64::NAN], [0.0, 1.0]];
-    assert!(matches!(
-        m.add_block(&nan, 1, 1, None),
-        Err(GeometryError::NonFinite { index: 1 })
-    ));
+    assert!(matches!(m.add_block(&nan, 1, 1, None), Err(GeometryError::NonFinite { index: 1 })));
     let rep = [[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
-    assert!(matches!(
-        m.add_block(&rep, 1, 1, None),
-        Err(GeometryError::RepeatedCorner { index: 1, .. })
-    ));
+    assert!(matches!(m.add_block(&rep, 1, 1, None), Err(GeometryError::RepeatedCorner { index: 1, .. })));
     let e = m.add_block(&bowtie, 1, 1, None).unwrap_err();
     assert!(e.to_string().contains("crosses"), "{e}");
     assert!(m.blocks.is_empty() && m.corners.is_empty());
@@ -251,21 +194,9 @@ fn rounding_of_right_and_sixty_degree_corners() {
     let tri = [[0.0, 0.0], [10.0, 0.0], [5.0, 10.0 * 3f64.sqrt() / 2.0]];
     let r = corner_rounding(&tri, d);
     let dist = d / (30f64).to_radians().cos();
-    assert_relative_eq!(
-        r[0].radius,
-        d * (30f64).to_radians().tan(),
-        max_relative = 1e-12
-    );
-    assert_relative_eq!(
-        r[0].circle[0],
-        dist * (30f64).to_radians().cos(),
-        max_relative = 1e-12
-    );
-    assert_relative_eq!(
-        r[0].circle[1],
-        dist * (30f64).to_radians().sin(),
-        max_relative = 1e-12
-    );
+    assert_relative_eq!(r[0].radius, d * (30f64).to_radians().tan(), max_relative = 1e-12);
+    assert_relative_eq!(r[0].circle[0], dist * (30f64).to_radians().cos(), max_relative = 1e-12);
+    assert_relative_eq!(r[0].circle[1], dist * (30f64).to_radians().sin(), max_relative = 1e-12);
     // The circle is tangent to both edges: its distance to each equals the radius.
     // Every circle is tangent to both adjoining edges, `round` away from the corner: the foot of the
     // perpendicular from the centre onto each edge line is at distance `round` from the corner, and
@@ -292,14 +223,7 @@ fn rounding_on_short_edge_reflex_and_straight_corners() {
         assert_relative_eq!(c.radius, 0.3, max_relative = 1e-12);
     }
     // L-shape: the re-entrant corner (1,1) has no rounding.
-    let l = [
-        [0.0, 0.0],
-        [4.0, 0.0],
-        [4.0, 1.0],
-        [1.0, 1.0],
-        [1.0, 3.0],
-        [0.0, 3.0],
-    ];
+    let l = [[0.0, 0.0], [4.0, 0.0], [4.0, 1.0], [1.0, 1.0], [1.0, 3.0], [0.0, 3.0]];
     let r = corner_rounding(&l, 0.2);
     assert_eq!(r[3].radius, 0.0);
     assert_eq!(r[3].round, 0.0);
@@ -307,12 +231,7 @@ fn rounding_on_short_edge_reflex_and_straight_corners() {
     // A 0.5° bend is treated as straight; a 5° one gets a large but finite arc.
     for (deg, straight) in [(0.5f64, true), (5.0, false)] {
         let t = deg.to_radians();
-        let poly = [
-            [0.0, 0.0],
-            [10.0, 0.0],
-            [20.0, 10.0 * t.tan()],
-            [10.0, 10.0],
-        ];
+        let poly = [[0.0, 0.0], [10.0, 0.0], [20.0, 10.0 * t.tan()], [10.0, 10.0]];
         let r = corner_rounding(&poly, 0.5);
         assert_eq!(r[1].radius == 0.0, straight, "{deg}°");
         if !straight {
@@ -327,10 +246,7 @@ fn model_rounding_follows_set_round_and_rotation() {
     assert_relative_eq!(m.corners[0].round, 0.5);
     m.set_round(0.2);
     assert_eq!(m.tol.round, 0.2);
-    assert!(m
-        .corners
-        .iter()
-        .all(|c| c.round == 0.2 && (c.radius - 0.2).abs() < 1e-12));
+    assert!(m.corners.iter().all(|c| c.round == 0.2 && (c.radius - 0.2).abs() < 1e-12));
     valid(&m);
     m.blocks[0].rotation = std::f64::consts::FRAC_PI_2;
     m.blocks[0].centroid = [10.0, 10.0];
@@ -351,11 +267,7 @@ fn mass_properties_follow_density_changes() {
     m.materials[2].density = 10.0;
     m.recompute_mass_properties();
     assert_relative_eq!(m.blocks[0].mass, 20.0);
-    assert_relative_eq!(
-        m.blocks[0].inertia,
-        10.0 * 2.0 * 5.0 / 12.0,
-        max_relative = 1e-12
-    );
+    assert_relative_eq!(m.blocks[0].inertia, 10.0 * 2.0 * 5.0 / 12.0, max_relative = 1e-12);
     valid(&m);
 }
 
@@ -388,9 +300,7 @@ fn crossing_near_a_corner_is_diverted_through_it() {
     for b in 0..2 {
         assert_eq!(m.blocks[b].corner_count, 3);
         assert_relative_eq!(m.blocks[b].area, 50.0, max_relative = 1e-12);
-        assert!(m.corner_positions(b).iter().all(|p| corners
-            .iter()
-            .any(|c| (p[0] - c[0]).abs() < 1e-9 && (p[1] - c[1]).abs() < 1e-9)));
+        assert!(m.corner_positions(b).iter().all(|p| corners.iter().any(|c| (p[0] - c[0]).abs() < 1e-9 && (p[1] - c[1]).abs() < 1e-9)));
     }
     // Beyond d the crossing makes a new corner.
     let mut m = model_with(&rect(0.0, 0.0, 10.0, 10.0));
@@ -407,19 +317,11 @@ fn split_along_an_existing_edge_is_rejected() {
     let out = split_line(&mut m, [-1.0, 0.0], [11.0, 0.0], None, None);
     assert!(out.split.is_empty());
     assert_eq!(out.rejected.len(), 1);
-    assert!(
-        out.rejected[0].1.contains("existing edge"),
-        "{}",
-        out.rejected[0].1
-    );
+    assert!(out.rejected[0].1.contains("existing edge"), "{}", out.rejected[0].1);
     // Within d of the left edge: both crossings are diverted onto the edge's corners.
     let out = split_line(&mut m, [0.3, -1.0], [0.3, 11.0], None, None);
     assert_eq!(out.rejected.len(), 1);
-    assert!(
-        out.rejected[0].1.contains("existing edge"),
-        "{}",
-        out.rejected[0].1
-    );
+    assert!(out.rejected[0].1.contains("existing edge"), "{}", out.rejected[0].1);
     assert_eq!(m.blocks.len(), 1);
     // Splitting twice along the same line: the second one lies on both pieces' common edge.
     split_line(&mut m, [-1.0, 5.0], [11.0, 5.0], None, None);
@@ -445,16 +347,7 @@ fn segment_ending_inside_a_block_does_not_split_it() {
 
 #[test]
 fn re_entrant_split_of_a_u_shape_gives_three_pieces() {
-    let u = [
-        [0.0, 0.0],
-        [30.0, 0.0],
-        [30.0, 20.0],
-        [20.0, 20.0],
-        [20.0, 10.0],
-        [10.0, 10.0],
-        [10.0, 20.0],
-        [0.0, 20.0],
-    ];
+    let u = [[0.0, 0.0], [30.0, 0.0], [30.0, 20.0], [20.0, 20.0], [20.0, 10.0], [10.0, 10.0], [10.0, 20.0], [0.0, 20.0]];
     let mut m = model_with(&u);
     let area = m.blocks[0].area;
     let out = split_line(&mut m, [31.0, 15.0], [-1.0, 15.0], Some(2), Some(3));
@@ -464,29 +357,14 @@ fn re_entrant_split_of_a_u_shape_gives_three_pieces() {
     assert_relative_eq!(total_area(&m), area, max_relative = 1e-12);
     let mut boxes: Vec<[f64; 4]> = (0..3).map(|b| bbox(&m, b)).collect();
     boxes.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    assert_eq!(
-        boxes,
-        vec![
-            [0.0, 0.0, 30.0, 15.0],
-            [0.0, 15.0, 10.0, 20.0],
-            [20.0, 15.0, 30.0, 20.0]
-        ]
-    );
+    assert_eq!(boxes, vec![[0.0, 0.0, 30.0, 15.0], [0.0, 15.0, 10.0, 20.0], [20.0, 15.0, 30.0, 20.0]]);
     // Ids: the first piece keeps the parent's.
     let mut ids: Vec<u32> = m.blocks.iter().map(|b| b.id).collect();
     ids.sort();
     assert_eq!(ids, vec![1, 2, 3]);
     // The four new joint edges (two per chord) carry MAT/CONS; all others keep tag 0.
-    let joints = m
-        .corners
-        .iter()
-        .filter(|c| (c.edge_material, c.edge_constitutive) == (2, 3))
-        .count();
-    let plain = m
-        .corners
-        .iter()
-        .filter(|c| (c.edge_material, c.edge_constitutive) == (0, 0))
-        .count();
+    let joints = m.corners.iter().filter(|c| (c.edge_material, c.edge_constitutive) == (2, 3)).count();
+    let plain = m.corners.iter().filter(|c| (c.edge_material, c.edge_constitutive) == (0, 0)).count();
     assert_eq!(joints, 4);
     assert_eq!(plain, m.corners.len() - 4);
     // Only part of the U in the segment's reach: the left arm alone is cut.
@@ -500,18 +378,8 @@ fn re_entrant_split_of_a_u_shape_gives_three_pieces() {
 #[test]
 fn udec_sample_1_carving() {
     let mut m = Model::default();
-    m.add_block(
-        &[[0.0, 0.0], [0.0, 30.0], [40.0, 30.0], [40.0, 0.0]],
-        1,
-        1,
-        None,
-    )
-    .unwrap();
-    for (a, b) in [
-        ([-1.0, 10.0], [41.0, 10.0]),
-        ([-1.0, 20.0], [41.0, 20.0]),
-        ([-1.0, 5.0], [41.0, 5.0]),
-    ] {
+    m.add_block(&[[0.0, 0.0], [0.0, 30.0], [40.0, 30.0], [40.0, 0.0]], 1, 1, None).unwrap();
+    for (a, b) in [([-1.0, 10.0], [41.0, 10.0]), ([-1.0, 20.0], [41.0, 20.0]), ([-1.0, 5.0], [41.0, 5.0])] {
         let out = split_line(&mut m, a, b, None, None);
         assert_eq!(out.split.len(), 1);
         valid(&m);
@@ -536,21 +404,9 @@ fn udec_sample_1_carving() {
     // Base, the support under the left part, the beam that will crack, and the weight on top.
     let mut boxes: Vec<[f64; 4]> = (0..m.blocks.len()).map(|b| bbox(&m, b)).collect();
     boxes.sort_by(|a, b| (a[1], a[0]).partial_cmp(&(b[1], b[0])).unwrap());
-    assert_eq!(
-        boxes,
-        vec![
-            [0.0, 0.0, 40.0, 5.0],
-            [0.0, 5.0, 25.0, 10.0],
-            [0.0, 10.0, 40.0, 20.0],
-            [0.0, 20.0, 30.0, 30.0]
-        ]
-    );
+    assert_eq!(boxes, vec![[0.0, 0.0, 40.0, 5.0], [0.0, 5.0, 25.0, 10.0], [0.0, 10.0, 40.0, 20.0], [0.0, 20.0, 30.0, 30.0]]);
     assert!(m.blocks.iter().all(|b| b.corner_count == 4));
-    assert_relative_eq!(
-        total_area(&m),
-        200.0 + 125.0 + 400.0 + 300.0,
-        max_relative = 1e-12
-    );
+    assert_relative_eq!(total_area(&m), 200.0 + 125.0 + 400.0 + 300.0, max_relative = 1e-12);
 }
 
 #[test]
@@ -560,12 +416,7 @@ fn delete_keeps_ids_and_remaps_contacts_and_links() {
     split_line(&mut m, [20.0, -1.0], [20.0, 11.0], None, None);
     valid(&m);
     assert_eq!(m.blocks.len(), 3);
-    let by_x = |m: &Model, x: f64| {
-        m.blocks
-            .iter()
-            .position(|b| (b.centroid[0] - x).abs() < 1e-9)
-            .unwrap()
-    };
+    let by_x = |m: &Model, x: f64| m.blocks.iter().position(|b| (b.centroid[0] - x).abs() < 1e-9).unwrap();
     let (left, mid, right) = (by_x(&m, 5.0), by_x(&m, 15.0), by_x(&m, 25.0));
     let (mid_id, right_id) = (m.blocks[mid].id, m.blocks[right].id);
     // A contact between the middle and right blocks (corner 2 of the middle block), one involving the
@@ -573,19 +424,9 @@ fn delete_keeps_ids_and_remaps_contacts_and_links() {
     let corner = m.blocks[mid].corner_start + 2;
     let corner_pos = m.corners[corner as usize].position;
     m.contacts.push(contact(mid as u32, corner, right as u32));
-    m.contacts.push(contact(
-        left as u32,
-        m.blocks[left].corner_start,
-        mid as u32,
-    ));
-    m.links.push(Link {
-        flying: right as u32,
-        anchor: mid as u32,
-    });
-    m.links.push(Link {
-        flying: left as u32,
-        anchor: right as u32,
-    });
+    m.contacts.push(contact(left as u32, m.blocks[left].corner_start, mid as u32));
+    m.links.push(Link { flying: right as u32, anchor: mid as u32 });
+    m.links.push(Link { flying: left as u32, anchor: right as u32 });
     valid(&m);
     let gone = m.blocks_in_range(0.0, 10.0, 0.0, 10.0);
     assert_eq!(gone, vec![left]);
@@ -649,16 +490,11 @@ fn rotated_block_is_split_in_world_coordinates() {
     let mut m = model_with(&rect(0.0, 0.0, 20.0, 10.0));
     m.blocks[0].rotation = std::f64::consts::FRAC_PI_2;
     m.update_corner_positions(0);
-    assert_eq!(
-        bbox(&m, 0).map(|v| (v * 1e9).round() / 1e9),
-        [5.0, -5.0, 15.0, 15.0]
-    );
+    assert_eq!(bbox(&m, 0).map(|v| (v * 1e9).round() / 1e9), [5.0, -5.0, 15.0, 15.0]);
     let out = split_line(&mut m, [0.0, 5.0], [20.0, 5.0], None, None);
     assert_eq!(out.split.len(), 1);
     valid(&m);
-    let mut boxes: Vec<[f64; 4]> = (0..2)
-        .map(|b| bbox(&m, b).map(|v| (v * 1e9).round() / 1e9))
-        .collect();
+    let mut boxes: Vec<[f64; 4]> = (0..2).map(|b| bbox(&m, b).map(|v| (v * 1e9).round() / 1e9)).collect();
     boxes.sort_by(|a, b| a.partial_cmp(b).unwrap());
     assert_eq!(boxes, vec![[5.0, -5.0, 15.0, 5.0], [5.0, 5.0, 15.0, 15.0]]);
 }
@@ -666,8 +502,7 @@ fn rotated_block_is_split_in_world_coordinates() {
 #[test]
 fn split_block_along_a_chord() {
     let mut m = model_with(&rect(0.0, 0.0, 10.0, 10.0));
-    m.add_block(&rect(20.0, 0.0, 30.0, 10.0), 1, 1, None)
-        .unwrap();
+    m.add_block(&rect(20.0, 0.0, 30.0, 10.0), 1, 1, None).unwrap();
     // Along an edge (rejected) and off the boundary (refused): nothing changes.
     assert!(split_block_along(&mut m, 0, [0.0, 0.0], [10.0, 0.0], 4, 5).is_none());
     assert!(split_block_along(&mut m, 0, [1.0, 1.0], [10.0, 5.0], 4, 5).is_none());
@@ -677,16 +512,8 @@ fn split_block_along_a_chord() {
     assert_eq!(pieces, vec![1, 2]);
     assert_eq!(m.blocks[0].id, 2); // the other block shifted down
     assert_eq!(m.blocks[1].id, 1);
-    assert_relative_eq!(
-        m.blocks[1].area + m.blocks[2].area,
-        100.0,
-        max_relative = 1e-12
-    );
-    let joints = m
-        .corners
-        .iter()
-        .filter(|c| (c.edge_material, c.edge_constitutive) == (4, 5))
-        .count();
+    assert_relative_eq!(m.blocks[1].area + m.blocks[2].area, 100.0, max_relative = 1e-12);
+    let joints = m.corners.iter().filter(|c| (c.edge_material, c.edge_constitutive) == (4, 5)).count();
     assert_eq!(joints, 2);
 }
 
@@ -694,23 +521,16 @@ fn split_block_along_a_chord() {
 
 /// A convex polygon: points on an ellipse at sorted angles at least ~2° apart.
 fn convex_polygon() -> impl Strategy<Value = Vec<[f64; 2]>> {
-    (
-        prop::collection::vec(0.0..1.0f64, 3..12),
-        1.0..50.0f64,
-        1.0..50.0f64,
-        -1.0e4..1.0e4f64,
-        -1.0e4..1.0e4f64,
-    )
-        .prop_map(|(fracs, a, b, cx, cy)| {
-            let n = fracs.len();
-            let step = std::f64::consts::TAU / n as f64;
-            (0..n)
-                .map(|i| {
-                    let t = step * (i as f64 + 0.8 * fracs[i]);
-                    [cx + a * t.cos(), cy + b * t.sin()]
-                })
-                .collect()
-        })
+    (prop::collection::vec(0.0..1.0f64, 3..12), 1.0..50.0f64, 1.0..50.0f64, -1.0e4..1.0e4f64, -1.0e4..1.0e4f64).prop_map(|(fracs, a, b, cx, cy)| {
+        let n = fracs.len();
+        let step = std::f64::consts::TAU / n as f64;
+        (0..n)
+            .map(|i| {
+                let t = step * (i as f64 + 0.8 * fracs[i]);
+                [cx + a * t.cos(), cy + b * t.sin()]
+            })
+            .collect()
+    })
 }
 
 proptest! {
@@ -753,23 +573,17 @@ proptest! {
 
 /// A star-shaped (generally re-entrant) simple polygon around (cx, cy).
 fn star_polygon() -> impl Strategy<Value = Vec<[f64; 2]>> {
-    (
-        prop::collection::vec((0.0..1.0f64, 0.25..1.0f64), 3..16),
-        1.0..50.0f64,
-        -1.0e4..1.0e4f64,
-        -1.0e4..1.0e4f64,
-    )
-        .prop_map(|(v, size, cx, cy)| {
-            let n = v.len();
-            let step = std::f64::consts::TAU / n as f64;
-            v.iter()
-                .enumerate()
-                .map(|(i, &(f, r))| {
-                    let t = step * (i as f64 + 0.8 * f);
-                    [cx + size * r * t.cos(), cy + size * r * t.sin()]
-                })
-                .collect()
-        })
+    (prop::collection::vec((0.0..1.0f64, 0.25..1.0f64), 3..16), 1.0..50.0f64, -1.0e4..1.0e4f64, -1.0e4..1.0e4f64).prop_map(|(v, size, cx, cy)| {
+        let n = v.len();
+        let step = std::f64::consts::TAU / n as f64;
+        v.iter()
+            .enumerate()
+            .map(|(i, &(f, r))| {
+                let t = step * (i as f64 + 0.8 * f);
+                [cx + size * r * t.cos(), cy + size * r * t.sin()]
+            })
+            .collect()
+    })
 }
 
 proptest! {

@@ -30,7 +30,15 @@ fn adapters_lists_backend_driver_limits_and_f64() {
     }
     let (code, stdout, stderr) = blockdem(&["adapters"], &[]);
     assert_eq!(code, 0, "{stderr}");
-    for key in ["Vulkan", "driver:", "max_storage_buffers_per_shader_stage", "max_storage_buffer_binding_size", "max_buffer_size", "max_compute_workgroup_size_x", "SHADER_F64"] {
+    for key in [
+        "Vulkan",
+        "driver:",
+        "max_storage_buffers_per_shader_stage",
+        "max_storage_buffer_binding_size",
+        "max_buffer_size",
+        "max_compute_workgroup_size_x",
+        "SHADER_F64",
+    ] {
         assert!(stdout.contains(key), "{key} missing:\n{stdout}");
     }
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "headless Mesa stays quiet: {stderr}");

@@ -23,12 +23,15 @@
 mod common;
 
 use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
-use blockdem::gpu::layout::{Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams, Material as GMaterial, Real};
+use blockdem::gpu::layout::{
+    Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
+    Material as GMaterial, Real,
+};
 use blockdem::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
-use blockdem::topology::adjacency::FROM_LISTS;
-use blockdem::topology::detect::ListEdit;
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
+use blockdem::topology::adjacency::FROM_LISTS;
+use blockdem::topology::detect::ListEdit;
 use common::Target;
 
 /// xorshift64*: deterministic random numbers without a dependency.
@@ -85,7 +88,8 @@ fn run_kernel(dev: &GpuDevice, kernel: &str, snippet: &str, entry: &str, cases: 
             buf
         })
         .collect();
-    let entries: Vec<wgpu::BindGroupEntry> = buffers.iter().zip(&bufs).map(|((b, _, _), buf)| wgpu::BindGroupEntry { binding: *b, resource: buf.as_entire_binding() }).collect();
+    let entries: Vec<wgpu::BindGroupEntry> =
+        buffers.iter().zip(&bufs).map(|((b, _, _), buf)| wgpu::BindGroupEntry { binding: *b, resource: buf.as_entire_binding() }).collect();
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(entry), layout: &pipeline.get_bind_group_layout(0), entries: &entries });
     let mut enc = device.create_command_encoder(&Default::default());
     {
@@ -392,12 +396,8 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
         // products of f32 inputs; f64: 1e-12).
         let scale = (kn * e.gap.abs()).max(e.shear_force.abs()).max(e.normal_force.abs()).max(1.0);
         let tol = if f32_kernel { 1e-5 } else { 1e-12 } * scale;
-        let pairs = [
-            (g.normal_force.to_f64(), e.normal_force),
-            (g.shear_force.to_f64(), e.shear_force),
-            (gf[0].to_f64(), e.force[0]),
-            (gf[1].to_f64(), e.force[1]),
-        ];
+        let pairs =
+            [(g.normal_force.to_f64(), e.normal_force), (g.shear_force.to_f64(), e.shear_force), (gf[0].to_f64(), e.force[0]), (gf[1].to_f64(), e.force[1])];
         if pairs.iter().any(|(a, b)| (a - b).abs() > tol) {
             branch_flips += 1;
             if !f32_kernel {
@@ -420,10 +420,9 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
             e.dashpot_velocity
         );
         let (rel, acc) = if f32_kernel { (1e-5, 6e-8) } else { (1e-12, 2.3e-16) };
-        for (what, got, want, before) in [
-            ("slip work", g.slip_work.to_f64(), e.slip_work, input.slip_work),
-            ("dashpot work", g.dashpot_work.to_f64(), e.dashpot_work, input.dashpot_work),
-        ] {
+        for (what, got, want, before) in
+            [("slip work", g.slip_work.to_f64(), e.slip_work, input.slip_work), ("dashpot work", g.dashpot_work.to_f64(), e.dashpot_work, input.dashpot_work)]
+        {
             let tol = rel * energy + acc * before.abs();
             assert!((got - want).abs() <= tol, "case {i}: {what} {got:e} vs {want:e} (from {before:e}; tol {tol:e})");
         }
@@ -476,7 +475,14 @@ fn mass_damping_work_matches_rust<R: Real>(dev: &GpuDevice) {
         input.extend([mass, inertia, v0[0], v0[1], v0[2], v1[0], v1[1], v1[2], alpha, dt]);
         expected.push(blockdem::cpu::law_of_motion::mass_damping_work(mass, inertia, v0, v1, alpha, dt));
     }
-    let out = run_kernel(dev, "law_of_motion", MASS_DAMPING, "test_mass_damping_work", cases, &[(20, reals::<R>(&input), false), (21, vec![0; cases * std::mem::size_of::<R>()], true)]);
+    let out = run_kernel(
+        dev,
+        "law_of_motion",
+        MASS_DAMPING,
+        "test_mass_damping_work",
+        cases,
+        &[(20, reals::<R>(&input), false), (21, vec![0; cases * std::mem::size_of::<R>()], true)],
+    );
     let got = back::<R>(&out[0]);
     for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
         // A sum of non-negative terms, each a product of a few rounded factors: relative error a
@@ -544,7 +550,16 @@ fn two_sum_is_exact<R: Real + std::ops::Add<Output = R> + std::ops::Sub<Output =
         // Exact: sum and error bit for bit, and together a + b (the error is not lost, as it was
         // when the compiler folded it to 0).
         let (s, e) = two_sum_rust(R::from_f64(input[2 * i]), R::from_f64(input[2 * i + 1]));
-        assert!(got[2 * i] == s.to_f64() && got[2 * i + 1] == e.to_f64(), "{} + {}: ({}, {}) vs ({:?}, {:?})", input[2 * i], input[2 * i + 1], got[2 * i], got[2 * i + 1], s, e);
+        assert!(
+            got[2 * i] == s.to_f64() && got[2 * i + 1] == e.to_f64(),
+            "{} + {}: ({}, {}) vs ({:?}, {:?})",
+            input[2 * i],
+            input[2 * i + 1],
+            got[2 * i],
+            got[2 * i + 1],
+            s,
+            e
+        );
     }
     assert!((0..cases).filter(|&i| got[2 * i + 1] != 0.0).count() > cases / 2, "most sums round");
 }
@@ -570,7 +585,14 @@ fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_0003);
     let cases = 4096;
     let thetas: Vec<f64> = (0..cases).map(|i| q::<R>(if i % 2 == 0 { rng.range(-0.5, 0.5) } else { rng.range(-100.0, 100.0) })).collect();
-    let out = run_kernel(dev, "contact_forces", SIN_COS, "test_sin_cos", cases, &[(20, reals::<R>(&thetas), false), (21, vec![0; cases * 2 * std::mem::size_of::<R>()], true)]);
+    let out = run_kernel(
+        dev,
+        "contact_forces",
+        SIN_COS,
+        "test_sin_cos",
+        cases,
+        &[(20, reals::<R>(&thetas), false), (21, vec![0; cases * 2 * std::mem::size_of::<R>()], true)],
+    );
     let got = back::<R>(&out[0]);
     for (i, &t) in thetas.iter().enumerate() {
         let (s, c) = t.sin_cos();
@@ -596,10 +618,15 @@ fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice) {
         for x in reals.iter_mut() {
             *x = R::from_f64(rng.range(-1e3, 1e3));
         }
-        (c.block1, c.corner, c.block2, c.feature, c.material, c.bonded) = (rng.below(1000), rng.below(4000), rng.below(1000), rng.below(8), rng.below(4), rng.below(2));
+        (c.block1, c.corner, c.block2, c.feature, c.material, c.bonded) =
+            (rng.below(1000), rng.below(4000), rng.below(1000), rng.below(8), rng.below(4), rng.below(2));
         c
     };
-    let force = |rng: &mut Rng| GForce::<R> { fx: R::from_f64(rng.range(-1e6, 1e6)), fy: R::from_f64(rng.range(-1e6, 1e6)), m: [R::from_f64(rng.next()), R::from_f64(-rng.next())] };
+    let force = |rng: &mut Rng| GForce::<R> {
+        fx: R::from_f64(rng.range(-1e6, 1e6)),
+        fy: R::from_f64(rng.range(-1e6, 1e6)),
+        m: [R::from_f64(rng.next()), R::from_f64(-rng.next())],
+    };
     let n_old = 3000u32;
     let old: Vec<GContact<R>> = (0..n_old).map(|_| contact(&mut rng)).collect();
     let old_forces: Vec<GForce<R>> = (0..n_old).map(|_| force(&mut rng)).collect();
@@ -785,7 +812,16 @@ fn update_lists_match_rust<R: Real>(dev: &GpuDevice) {
         let split = |v: f64| (r(v), r(v - r(v).to_f64()));
         let ((x_hi, x_lo), (y_hi, y_lo)) = (split(rx), split(ry));
         let margin = if rng.next() < 0.5 { b.update_margin } else { r(rng.range(0.0, 0.2)) };
-        reference.push(GridReference { x: x_hi, y: y_hi, x_lo, y_lo, rotation: r(b.rotation.to_f64() + rng.range(-0.02, 0.02)), reach: b.radius, margin, _r: R::default() });
+        reference.push(GridReference {
+            x: x_hi,
+            y: y_hi,
+            x_lo,
+            y_lo,
+            rotation: r(b.rotation.to_f64() + rng.range(-0.02, 0.02)),
+            reach: b.radius,
+            margin,
+            _r: R::default(),
+        });
         blocks.push(b);
     }
     let contacts: Vec<GContact<R>> = (0..nk)
@@ -796,7 +832,8 @@ fn update_lists_match_rust<R: Real>(dev: &GpuDevice) {
             c
         })
         .collect();
-    let lp = ListParams::<R> { dt: r(1e-4), etol: r(0.025), btol: r(0.15), stray_limit: r(0.05), n_blocks: nb as u32, n_contacts: nk as u32, grid_kept: 1, _pad: 0 };
+    let lp =
+        ListParams::<R> { dt: r(1e-4), etol: r(0.025), btol: r(0.15), stray_limit: r(0.05), n_blocks: nb as u32, n_contacts: nk as u32, grid_kept: 1, _pad: 0 };
     let header = bytemuck::cast_slice(&[0u32, 0, u32::MAX, 0]).to_vec();
     let out = run_kernel(
         dev,

@@ -8,9 +8,8 @@ use std::path::{Path, PathBuf};
 use blockdem::deck::{PlotOptions, PrintItem};
 use blockdem::model::{Block, BlockKind, Contact, ContactKind, Corner, Model};
 use blockdem::output::{
-    block_outline, dump, fmt_e, load, plot, print_block_lists, print_blocks, print_contacts,
-    print_corners, print_item, save, state_json, write_state_json, PlotSettings, RestartError,
-    SaveFile, FORMAT_VERSION, MAGIC,
+    block_outline, dump, fmt_e, load, plot, print_block_lists, print_blocks, print_contacts, print_corners, print_item, save, state_json, write_state_json,
+    PlotSettings, RestartError, SaveFile, FORMAT_VERSION, MAGIC,
 };
 use serde_json::Value;
 
@@ -20,13 +19,7 @@ use serde_json::Value;
 /// Appends an axis-aligned rectangle block with counter-clockwise corners, each rounded with
 /// length `round` (for a right angle the rounding circle has radius `round` and its centre lies
 /// `round` inward along both edges). Returns the block's index.
-fn add_rect(
-    model: &mut Model,
-    id: u32,
-    [x0, y0, x1, y1]: [f64; 4],
-    round: f64,
-    fixed: bool,
-) -> usize {
+fn add_rect(model: &mut Model, id: u32, [x0, y0, x1, y1]: [f64; 4], round: f64, fixed: bool) -> usize {
     let b = model.blocks.len();
     let start = model.corners.len() as u32;
     let c = [(x0 + x1) / 2.0, (y0 + y1) / 2.0];
@@ -84,13 +77,7 @@ fn add_rect(
 /// base's top edge (feature 5: the edge from corner 2 to corner 3). Ids differ from indices on
 /// purpose, so a table that prints indices fails.
 fn two_blocks() -> Model {
-    let mut m = Model {
-        cycle: 600,
-        time: 1.25,
-        timestep: 2.5e-4,
-        gravity: [0.0, -10.0],
-        ..Model::default()
-    };
+    let mut m = Model { cycle: 600, time: 1.25, timestep: 2.5e-4, gravity: [0.0, -10.0], ..Model::default() };
     add_rect(&mut m, 3, [0.0, 0.0, 6.0, 1.0], 0.1, true);
     let top = add_rect(&mut m, 5, [2.0, 1.0, 4.0, 2.0], 0.1, false);
     let b = &mut m.blocks[top];
@@ -126,9 +113,7 @@ fn two_blocks() -> Model {
 }
 
 fn out_dir(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("outputs")
-        .join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("outputs").join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -142,9 +127,7 @@ fn text(f: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>) -> Strin
 
 /// Four significant digits, as fmt_e prints them.
 fn close(printed: &str, expected: f64) -> bool {
-    let x: f64 = printed
-        .parse()
-        .unwrap_or_else(|_| panic!("not a number: {printed:?}"));
+    let x: f64 = printed.parse().unwrap_or_else(|_| panic!("not a number: {printed:?}"));
     (x - expected).abs() <= 5e-4 * expected.abs()
 }
 
@@ -215,44 +198,25 @@ fn print_blocks_table() {
     let t = text(|w| print_blocks(&m, w));
     assert_narrow(&t);
     assert!(t.starts_with("\nBLOCK DATA\n"), "{t}");
-    for heading in [
-        "BLOCK",
-        "MAT",
-        "CONST",
-        "CENTROID COORDS.",
-        "MASS",
-        "POL. MOM.",
-        "X,Y,THETA VELOCITIES",
-        "X,Y,THETA FORCES",
-    ] {
+    for heading in ["BLOCK", "MAT", "CONST", "CENTROID COORDS.", "MASS", "POL. MOM.", "X,Y,THETA VELOCITIES", "X,Y,THETA FORCES"] {
         assert!(t.contains(heading), "missing heading {heading}:\n{t}");
     }
     let r = row(&t, "5");
     assert_eq!(r.len(), 13, "{r:?}");
     assert_eq!(&r[1..3], ["2", "4"]);
     let b = &m.blocks[1];
-    let want = [
-        3.0, 1.5, b.mass, b.inertia, 0.5, -0.25, 0.01, 10.0, -2.0e4, 3.5,
-    ];
+    let want = [3.0, 1.5, b.mass, b.inertia, 0.5, -0.25, 0.01, 10.0, -2.0e4, 3.5];
     for (s, x) in r[3..].iter().zip(want) {
         assert!(close(s, x), "printed {s}, expected {x}");
     }
     // The type line follows each block's row; the fixed base says so.
     let lines: Vec<&str> = t.lines().collect();
-    let i = lines
-        .iter()
-        .position(|l| l.split_whitespace().next() == Some("3"))
-        .unwrap();
+    let i = lines.iter().position(|l| l.split_whitespace().next() == Some("3")).unwrap();
     assert_eq!(lines[i + 1].trim(), "(RIGID) FIXED");
-    let i = lines
-        .iter()
-        .position(|l| l.split_whitespace().next() == Some("5"))
-        .unwrap();
+    let i = lines.iter().position(|l| l.split_whitespace().next() == Some("5")).unwrap();
     assert_eq!(lines[i + 1].trim(), "(RIGID)");
     // No block is numbered by its index.
-    assert!(t
-        .lines()
-        .all(|l| !l.trim_start().starts_with("0 ") && !l.trim_start().starts_with("1 ")));
+    assert!(t.lines().all(|l| !l.trim_start().starts_with("0 ") && !l.trim_start().starts_with("1 ")));
 }
 
 #[test]
@@ -270,18 +234,7 @@ fn print_contacts_table() {
     let t = text(|w| print_contacts(&m, w));
     assert_narrow(&t);
     assert!(t.starts_with("\nCONTACT DATA\n"), "{t}");
-    for heading in [
-        "CONTACT",
-        "BLOCK1",
-        "BLOCK2",
-        "MAT",
-        "CONST",
-        "X,Y COORDS.",
-        "FORCE",
-        "DISPLACEMENT",
-        "NORMAL",
-        "SHEAR",
-    ] {
+    for heading in ["CONTACT", "BLOCK1", "BLOCK2", "MAT", "CONST", "X,Y COORDS.", "FORCE", "DISPLACEMENT", "NORMAL", "SHEAR"] {
         assert!(t.contains(heading), "missing heading {heading}:\n{t}");
     }
     let r = row(&t, "7");
@@ -301,10 +254,7 @@ fn print_contacts_leaves_unset_material_blank() {
     let t = text(|w| print_contacts(&m, w));
     let r = row(&t, "7");
     assert_eq!(&r[1..3], ["5", "3"]);
-    assert!(
-        close(r[3], 2.0),
-        "MAT and CONST columns should be blank: {r:?}"
-    );
+    assert!(close(r[3], 2.0), "MAT and CONST columns should be blank: {r:?}");
 }
 
 #[test]
@@ -371,17 +321,11 @@ fn print_corners_wraps_long_blocks() {
     });
     let t = text(|w| print_corners(&m, w));
     assert_narrow(&t);
-    let body: Vec<&str> = t
-        .lines()
-        .filter(|l| l.contains("E+") || l.contains("E-"))
-        .collect();
+    let body: Vec<&str> = t.lines().filter(|l| l.contains("E+") || l.contains("E-")).collect();
     assert_eq!(body.len(), 3, "{t}");
     assert!(body[0].starts_with("BLOCK     42"));
     assert!(body[1].starts_with("            ") && body[2].starts_with("            "));
-    let numbers: usize = body
-        .iter()
-        .map(|l| l.split_whitespace().filter(|f| f.contains('E')).count())
-        .sum();
+    let numbers: usize = body.iter().map(|l| l.split_whitespace().filter(|f| f.contains('E')).count()).sum();
     assert_eq!(numbers, 2 * n as usize);
 }
 
@@ -453,16 +397,9 @@ fn the_linked_lists_name_every_contact_under_both_its_blocks() {
 #[test]
 fn print_item_dispatches_and_survives_a_bad_index() {
     let mut m = two_blocks();
-    for item in [
-        PrintItem::Blocks,
-        PrintItem::Contacts,
-        PrintItem::Corners,
-        PrintItem::List,
-        PrintItem::Energy,
-        PrintItem::Domains,
-        PrintItem::DList,
-        PrintItem::Flows,
-    ] {
+    for item in
+        [PrintItem::Blocks, PrintItem::Contacts, PrintItem::Corners, PrintItem::List, PrintItem::Energy, PrintItem::Domains, PrintItem::DList, PrintItem::Flows]
+    {
         let t = text(|w| print_item(&m, item, w));
         assert!(t.starts_with('\n') && t.len() > 10, "{item:?}: {t}");
     }
@@ -472,10 +409,7 @@ fn print_item_dispatches_and_survives_a_bad_index() {
     let t = text(|w| print_contacts(&m, w));
     assert_eq!(&row(&t, "7")[1..3], ["5", "?"]);
     let t = text(|w| print_block_lists(&m, w));
-    assert!(
-        t.contains("CONTACT 7, BLOCK1 5, BLOCK2 ? CORNER/EDGE"),
-        "{t}"
-    );
+    assert!(t.contains("CONTACT 7, BLOCK1 5, BLOCK2 ? CORNER/EDGE"), "{t}");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -519,10 +453,7 @@ fn state_json_has_every_key() {
     assert_eq!(base["fixed"], true);
     assert_eq!(base["area"], 6.0);
     assert_eq!(base["mass"], 12000.0);
-    assert_eq!(
-        base["corners"],
-        serde_json::json!([[0.0, 0.0], [6.0, 0.0], [6.0, 1.0], [0.0, 1.0]])
-    );
+    assert_eq!(base["corners"], serde_json::json!([[0.0, 0.0], [6.0, 0.0], [6.0, 1.0], [0.0, 1.0]]));
 
     let top = &blocks[1];
     assert_eq!(top["id"], 5);
@@ -561,10 +492,7 @@ fn state_json_writes_null_for_non_finite_numbers() {
     write_state_json(&m, &path).unwrap();
     let back: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(back, state_json(&m));
-    assert_eq!(
-        back["blocks"][1]["velocity"],
-        serde_json::json!([null, 1.0])
-    );
+    assert_eq!(back["blocks"][1]["velocity"], serde_json::json!([null, 1.0]));
     assert!(back["blocks"][1]["moment"].is_null());
     assert!(back["time"].is_null());
     // Only the file itself is left: the temporary file was renamed into place.
@@ -603,14 +531,7 @@ fn the_streamed_state_file_is_the_state_value_pretty_printed() {
 // SAVE / RESTART
 
 fn save_file() -> SaveFile {
-    SaveFile {
-        model: two_blocks(),
-        plot: PlotSettings {
-            window: [0.0, 6.0, 0.0, 7.0],
-            view: [0, 700, 700, 1400],
-        },
-        plot_count: 3,
-    }
+    SaveFile { model: two_blocks(), plot: PlotSettings { window: [0.0, 6.0, 0.0, 7.0], view: [0, 700, 700, 1400] }, plot_count: 3 }
 }
 
 #[test]
@@ -625,16 +546,9 @@ fn save_and_load_round_trip_exactly() {
     save(&path, &file).unwrap();
     let back = load(&path).unwrap();
     assert_eq!(back, file);
-    assert_eq!(
-        back.model.blocks[1].centroid[0].to_bits(),
-        (0.1f64 + 0.2).to_bits()
-    );
+    assert_eq!(back.model.blocks[1].centroid[0].to_bits(), (0.1f64 + 0.2).to_bits());
     assert_eq!(back.model.blocks[1].rotation.to_bits(), (-0.0f64).to_bits());
-    assert_eq!(
-        std::fs::read_dir(&dir).unwrap().count(),
-        1,
-        "temporary file left behind"
-    );
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "temporary file left behind");
 
     // Saving again over the same file replaces it.
     file.plot_count = 4;
@@ -651,10 +565,7 @@ fn save_preserves_nan_bits() {
     file.model.blocks[0].velocity[0] = odd_nan;
     save(&path, &file).unwrap();
     let back = load(&path).unwrap();
-    assert_eq!(
-        back.model.blocks[0].velocity[0].to_bits(),
-        odd_nan.to_bits()
-    );
+    assert_eq!(back.model.blocks[0].velocity[0].to_bits(), odd_nan.to_bits());
 }
 
 #[test]
@@ -705,10 +616,7 @@ fn load_reports_bad_files_without_panicking() {
     let bad = dir.join("bad.sav");
 
     // Every truncation is an error: short of the magic it is not a save file, after it corrupt.
-    for cut in (0..bytes.len())
-        .step_by(7)
-        .chain([8, 12, 27, 28, bytes.len() - 1])
-    {
+    for cut in (0..bytes.len()).step_by(7).chain([8, 12, 27, 28, bytes.len() - 1]) {
         std::fs::write(&bad, &bytes[..cut]).unwrap();
         match load(&bad) {
             Err(RestartError::NotASaveFile { .. }) => assert!(cut < 8, "cut {cut}"),
@@ -725,19 +633,14 @@ fn load_reports_bad_files_without_panicking() {
     std::fs::write(&bad, "PROP MAT=1 DENS=2000\n").unwrap();
     let err = load(&bad).unwrap_err();
     assert!(matches!(err, RestartError::NotASaveFile { .. }));
-    assert!(
-        err.to_string().contains("not a blockdem save file"),
-        "{err}"
-    );
+    assert!(err.to_string().contains("not a blockdem save file"), "{err}");
 
     // Another version.
     let mut future = bytes.clone();
     future[8..12].copy_from_slice(&(FORMAT_VERSION + 98).to_le_bytes());
     std::fs::write(&bad, &future).unwrap();
     match load(&bad) {
-        Err(RestartError::UnsupportedVersion {
-            found, supported, ..
-        }) => {
+        Err(RestartError::UnsupportedVersion { found, supported, .. }) => {
             assert_eq!((found, supported), (FORMAT_VERSION + 98, FORMAT_VERSION))
         }
         other => panic!("{other:?}"),
@@ -755,10 +658,7 @@ fn load_reports_bad_files_without_panicking() {
     assert!(matches!(load(&bad), Err(RestartError::Corrupt { .. })));
 
     // A file that is not there.
-    assert!(matches!(
-        load(&dir.join("missing.sav")),
-        Err(RestartError::Io { .. })
-    ));
+    assert!(matches!(load(&dir.join("missing.sav")), Err(RestartError::Io { .. })));
 }
 
 #[test]
@@ -786,30 +686,15 @@ fn load_png(path: &Path) -> tiny_skia::Pixmap {
 fn plot_default_page() {
     let m = two_blocks();
     let dir = out_dir("plot_default");
-    let [png, svg] = plot(
-        &m,
-        &PlotSettings::default(),
-        &PlotOptions::default(),
-        &dir,
-        1,
-    )
-    .unwrap();
+    let [png, svg] = plot(&m, &PlotSettings::default(), &PlotOptions::default(), &dir, 1).unwrap();
     assert_eq!(png, dir.join("plot_001.png"));
     assert_eq!(svg, dir.join("plot_001.svg"));
     let p = load_png(&png);
     assert_eq!((p.width(), p.height()), (1000, 700));
     // WINDOW 0 10 0 7 fills the whole page at 100 px per unit: (x, y) → (100x, 700 − 100y).
-    assert_eq!(
-        rgba(&p, 100, 650),
-        [200, 200, 200, 255],
-        "fixed base interior is grey"
-    );
+    assert_eq!(rgba(&p, 100, 650), [200, 200, 200, 255], "fixed base interior is grey");
     assert_eq!(rgba(&p, 250, 550), WHITE, "free block interior is white");
-    assert_ne!(
-        rgba(&p, 300, 600),
-        WHITE,
-        "edge between the blocks is drawn"
-    );
+    assert_ne!(rgba(&p, 300, 600), WHITE, "edge between the blocks is drawn");
     assert_ne!(rgba(&p, 300, 550), WHITE, "centroid cross");
     assert_ne!(rgba(&p, 250, 500), WHITE, "top edge of the free block");
     // The rounded corner cuts the sharp corner: the corner pixel at (2, 2) → (200, 500) is outside
@@ -824,28 +709,12 @@ fn plot_in_a_view_quadrant_is_clipped_to_it() {
     let dir = out_dir("plot_quadrant");
     // Sample problem 4's first quadrant; the window is narrower than the base (0..6), so the base
     // runs out of the view on the right and must be cut at its edge.
-    let settings = PlotSettings {
-        window: [0.0, 4.0, 0.0, 3.0],
-        view: [0, 700, 700, 1400],
-    };
-    let [png, svg] = plot(
-        &m,
-        &settings,
-        &PlotOptions {
-            velocities: true,
-            ..Default::default()
-        },
-        &dir,
-        12,
-    )
-    .unwrap();
+    let settings = PlotSettings { window: [0.0, 4.0, 0.0, 3.0], view: [0, 700, 700, 1400] };
+    let [png, svg] = plot(&m, &settings, &PlotOptions { velocities: true, ..Default::default() }, &dir, 12).unwrap();
     assert!(png.ends_with("plot_012.png"));
     // The SVG is clipped to the same quadrant: the top-left 350 × 350 px of the 1000 × 700 page.
     let s = std::fs::read_to_string(&svg).unwrap();
-    assert!(
-        s.contains(r#"<clipPath id="view"><rect x="0.00" y="0.00" width="350.00" height="350.00"/></clipPath>"#),
-        "{s}"
-    );
+    assert!(s.contains(r#"<clipPath id="view"><rect x="0.00" y="0.00" width="350.00" height="350.00"/></clipPath>"#), "{s}");
     let p = load_png(&png);
     let mut inside = 0;
     for y in 0..p.height() {
@@ -860,11 +729,7 @@ fn plot_in_a_view_quadrant_is_clipped_to_it() {
     }
     assert!(inside > 1000, "only {inside} pixels drawn in the view");
     // 175 plotter units per problem unit, centred vertically: y = 0.5 → image row 262.
-    assert_eq!(
-        rgba(&p, 345, 262),
-        [200, 200, 200, 255],
-        "base shaded up to the view edge"
-    );
+    assert_eq!(rgba(&p, 345, 262), [200, 200, 200, 255], "base shaded up to the view edge");
 }
 
 #[test]
@@ -873,56 +738,29 @@ fn plot_options_change_the_picture() {
     m.blocks[0].velocity = [0.0, 0.0];
     let dir = out_dir("plot_options");
     let full = PlotOptions::default();
-    let nofix = PlotOptions {
-        nofix: true,
-        ..full
-    };
-    let nc = PlotOptions {
-        no_rounding: true,
-        velocities: true,
-        ..full
-    };
+    let nofix = PlotOptions { nofix: true, ..full };
+    let nc = PlotOptions { no_rounding: true, velocities: true, ..full };
     let [png1, svg1] = plot(&m, &PlotSettings::default(), &full, &dir, 1).unwrap();
     let [png2, svg2] = plot(&m, &PlotSettings::default(), &nofix, &dir, 2).unwrap();
     let [_, svg3] = plot(&m, &PlotSettings::default(), &nc, &dir, 3).unwrap();
-    let (s1, s2, s3) = [svg1, svg2, svg3]
-        .map(|p| std::fs::read_to_string(p).unwrap())
-        .into();
+    let (s1, s2, s3) = [svg1, svg2, svg3].map(|p| std::fs::read_to_string(p).unwrap()).into();
 
     // SVG: well-formed enough, one path per shown block, caption with cycle and time.
     for s in [&s1, &s2, &s3] {
         assert!(s.starts_with("<?xml") && s.trim_end().ends_with("</svg>"));
-        assert_eq!(
-            s.matches("<path").count(),
-            s.matches("/>").count() - 2,
-            "paths are self-closing (plus two rects)"
-        );
+        assert_eq!(s.matches("<path").count(), s.matches("/>").count() - 2, "paths are self-closing (plus two rects)");
         assert!(s.contains("CYCLE 600") && s.contains("TIME 1.250E+00"));
     }
     assert_eq!(s1.matches(r#"class="block""#).count(), 2);
     assert_eq!(s1.matches(r#"data-id="3""#).count(), 1);
-    assert_eq!(
-        s2.matches(r#"class="block""#).count(),
-        1,
-        "NOFIX leaves the fixed block out"
-    );
+    assert_eq!(s2.matches(r#"class="block""#).count(), 1, "NOFIX leaves the fixed block out");
     assert!(!s2.contains(r#"data-id="3""#));
     assert!(!s1.contains("velocity") && s3.contains(r#"class="velocity""#));
 
     // With NC a rectangle is its four corners; with rounding each corner is an arc.
     let block_points = |s: &str, id: u32| {
-        let line = s
-            .lines()
-            .find(|l| l.contains(&format!(r#"data-id="{id}""#)))
-            .unwrap();
-        line.split(" d=\"")
-            .nth(1)
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap()
-            .matches(',')
-            .count()
+        let line = s.lines().find(|l| l.contains(&format!(r#"data-id="{id}""#))).unwrap();
+        line.split(" d=\"").nth(1).unwrap().split('"').next().unwrap().matches(',').count()
     };
     assert_eq!(block_points(&s3, 5), 4);
     assert!(block_points(&s1, 5) > 4 * 10);
@@ -975,16 +813,10 @@ fn plot_draws_only_what_shows_in_the_view() {
 fn plot_rejects_an_empty_window() {
     let m = two_blocks();
     let dir = out_dir("plot_empty");
-    let settings = PlotSettings {
-        window: [5.0, 5.0, 0.0, 7.0],
-        ..Default::default()
-    };
+    let settings = PlotSettings { window: [5.0, 5.0, 0.0, 7.0], ..Default::default() };
     let err = plot(&m, &settings, &PlotOptions::default(), &dir, 1).unwrap_err();
     assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
-    let settings = PlotSettings {
-        view: [0, 2000, 700, 700],
-        ..Default::default()
-    };
+    let settings = PlotSettings { view: [0, 2000, 700, 700], ..Default::default() };
     assert!(plot(&m, &settings, &PlotOptions::default(), &dir, 1).is_err());
 }
 
@@ -995,38 +827,14 @@ fn block_outline_follows_the_rounding_arcs() {
     assert_eq!(sharp, vec![[2.0, 1.0], [4.0, 1.0], [4.0, 2.0], [2.0, 2.0]]);
     let round = block_outline(&m, 1, true);
     // Each corner contributes its two tangent points and the arc between them.
-    for t in [
-        [2.1, 1.0],
-        [3.9, 1.0],
-        [4.0, 1.1],
-        [4.0, 1.9],
-        [3.9, 2.0],
-        [2.1, 2.0],
-        [2.0, 1.9],
-        [2.0, 1.1],
-    ] {
-        assert!(
-            round
-                .iter()
-                .any(|p| (p[0] - t[0]).abs() < 1e-12 && (p[1] - t[1]).abs() < 1e-12),
-            "no tangent point {t:?}"
-        );
+    for t in [[2.1, 1.0], [3.9, 1.0], [4.0, 1.1], [4.0, 1.9], [3.9, 2.0], [2.1, 2.0], [2.0, 1.9], [2.0, 1.1]] {
+        assert!(round.iter().any(|p| (p[0] - t[0]).abs() < 1e-12 && (p[1] - t[1]).abs() < 1e-12), "no tangent point {t:?}");
     }
     for p in &round {
-        assert!(
-            p[0] >= 2.0 - 1e-12
-                && p[0] <= 4.0 + 1e-12
-                && p[1] >= 1.0 - 1e-12
-                && p[1] <= 2.0 + 1e-12
-        );
+        assert!(p[0] >= 2.0 - 1e-12 && p[0] <= 4.0 + 1e-12 && p[1] >= 1.0 - 1e-12 && p[1] <= 2.0 + 1e-12);
         // A point is on an edge or on an arc of radius 0.1 about one of the circle centres.
-        let on_edge = [p[0] - 2.0, 4.0 - p[0], p[1] - 1.0, 2.0 - p[1]]
-            .iter()
-            .any(|d| d.abs() < 1e-12);
-        let on_arc = m
-            .block_corners(1)
-            .iter()
-            .any(|c| ((p[0] - c.circle[0]).hypot(p[1] - c.circle[1]) - 0.1).abs() < 1e-12);
+        let on_edge = [p[0] - 2.0, 4.0 - p[0], p[1] - 1.0, 2.0 - p[1]].iter().any(|d| d.abs() < 1e-12);
+        let on_arc = m.block_corners(1).iter().any(|c| ((p[0] - c.circle[0]).hypot(p[1] - c.circle[1]) - 0.1).abs() < 1e-12);
         assert!(on_edge || on_arc, "{p:?}");
     }
     // Counter-clockwise: positive signed area, a little less than the sharp 2 × 1.
@@ -1037,10 +845,7 @@ fn block_outline_follows_the_rounding_arcs() {
         })
         .sum();
     let expected = 2.0 - 4.0 * (0.01 - std::f64::consts::PI * 0.01 / 4.0);
-    assert!(
-        area < 2.0 && (area - expected).abs() < 1e-4,
-        "area {area}, expected {expected}"
-    );
+    assert!(area < 2.0 && (area - expected).abs() < 1e-4, "area {area}, expected {expected}");
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -64,7 +64,10 @@ fn timestep_follows_the_udec_rule(t: &Target) {
     // Δt = FRAC · 2√(m_min / k_max): the lighter block is 0.5 × 1 m at 2000 kg/m³ = 1000 kg, and
     // k_max = 4e8 from the stiffer material. Computed by the executor in f64 on every backend:
     // exact to round-off.
-    let m = run(t, "START\nPROP MAT=1 D=2000 KN=1E8 KS=2E8\nPROP MAT=2 D=2000 KN=4E8 KS=1E8\nFRAC 0.2\nBLOCK 0,0 0,1 2,1 2,0\nBLOCK MAT=2 0,5 0,6 0.5,6 0.5,5\nCYCLE 0\n");
+    let m = run(
+        t,
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=2E8\nPROP MAT=2 D=2000 KN=4E8 KS=1E8\nFRAC 0.2\nBLOCK 0,0 0,1 2,1 2,0\nBLOCK MAT=2 0,5 0,6 0.5,6 0.5,5\nCYCLE 0\n",
+    );
     let expected = 0.2 * 2.0 * (1000.0f64 / 4e8).sqrt();
     assert!((m.timestep - expected).abs() < 1e-15, "{} vs {}", m.timestep, expected);
 }
@@ -201,7 +204,11 @@ fn energy_ledger_balances_with_every_dissipation_term(t: &Target) {
     let setup = damped_landing_deck(0.002, 30.0);
     let first = run(t, &format!("{setup}CYCLE 1\n")).energies();
     let e = run(t, &format!("{setup}CYCLE 3500\n")).energies();
-    assert!(e.mass_damping > 0.01 * e.scale() && e.contact_damping > 0.01 * e.scale() && e.friction > 0.01 * e.scale(), "every account fills on {}: {e:?}", t.name());
+    assert!(
+        e.mass_damping > 0.01 * e.scale() && e.contact_damping > 0.01 * e.scale() && e.friction > 0.01 * e.scale(),
+        "every account fills on {}: {e:?}",
+        t.name()
+    );
     // The balance `blockdem verify` checks, 1% of the largest term, on every backend (measured:
     // 2.8e-4 on the CPU and GPU f64, 5e-5 in f32). The bouncing landing is sensitive to
     // round-off, so the backends' terms differ by a few percent here; the next scene compares them.
@@ -276,13 +283,24 @@ fn a_slab_carrying_forty_blocks_carries_their_weight(t: &Target) {
     // sunk by the overlap total / 2kn = 4.56 mm; f32 keeps that to ~1e-7 m.
     let s = &m.blocks[m.block_index(2).unwrap()];
     let sunk = 1.25 - total / (2.0 * 1e8);
-    assert!(s.velocity[0].hypot(s.velocity[1]) < 1e-4 && (s.centroid[1] - sunk).abs() < 1e-5, "the slab rests: {:?} {:?} on {}", s.centroid, s.velocity, t.name());
+    assert!(
+        s.velocity[0].hypot(s.velocity[1]) < 1e-4 && (s.centroid[1] - sunk).abs() < 1e-5,
+        "the slab rests: {:?} {:?} on {}",
+        s.centroid,
+        s.velocity,
+        t.name()
+    );
     // The same slab fixed: a heavy block the cycle does not gather (fixed blocks move nothing),
     // summed only in the pass before a read-back. Its force is its weight and the forty blocks'.
     let fixed = deck.replace("FIX 0 40 0 0.9", "FIX 0 40 0 1.4");
     let m = run(t, &fixed);
     let s = &m.blocks[m.block_index(2).unwrap()];
-    assert!(s.fixed && (s.force[1] + total).abs() < 0.01 * total && s.force[0].abs() < 0.01 * total, "the fixed slab's force {:?}, weight carried {total} N on {}", s.force, t.name());
+    assert!(
+        s.fixed && (s.force[1] + total).abs() < 0.01 * total && s.force[0].abs() < 0.01 * total,
+        "the fixed slab's force {:?}, weight carried {total} N on {}",
+        s.force,
+        t.name()
+    );
 }
 
 fn a_projectile_bounces_off_a_wall_with_few_contact_updates(t: &Target) {
@@ -381,7 +399,12 @@ impl blockdem::backend::Backend for CountedRuns {
     fn describe(&self) -> String {
         self.0.describe()
     }
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<blockdem::backend::CycleReport, blockdem::backend::CycleError> {
+    fn run(
+        &mut self,
+        model: &mut Model,
+        cycles: u64,
+        progress: &mut dyn FnMut(u64) -> bool,
+    ) -> Result<blockdem::backend::CycleReport, blockdem::backend::CycleError> {
         self.1.set(self.1.get() + 1);
         self.0.run(model, cycles, progress)
     }

@@ -16,7 +16,6 @@ fn sample(name: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
-
 fn sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base(t: &Target) {
     let log = SharedLog::default();
     let deck = sample("udec1_point_load_cracking.dat");
@@ -36,7 +35,8 @@ fn sample_1_cracks_once_and_the_piece_comes_to_rest_on_the_base(t: &Target) {
     let piece = m.blocks.iter().filter(|b| !b.fixed).max_by(|a, b| a.centroid[0].partial_cmp(&b.centroid[0]).unwrap()).unwrap();
     let idx = m.block_index(piece.id).unwrap() as u32;
     assert!(piece.centroid[0] > 25.0, "the cracked-off piece lies right of the support: {:?}", piece.centroid);
-    let on_base: f64 = m.contacts.iter().filter(|c| (c.block1 == idx && c.block2 == base) || (c.block1 == base && c.block2 == idx)).map(|c| c.normal_force).sum();
+    let on_base: f64 =
+        m.contacts.iter().filter(|c| (c.block1 == idx && c.block2 == base) || (c.block1 == base && c.block2 == idx)).map(|c| c.normal_force).sum();
     // It fell from the beam's level (its bottom at y = 10) onto the base (top at y = 5) and
     // carries part of its own weight (2.5e5 kg · 10 m/s²) there.
     assert!(on_base > 0.1 * 2.5e6, "piece presses on the base with {on_base} N");

@@ -17,10 +17,20 @@ fn quick_suite_passes_every_check() {
     let backends = verify::backends();
     assert_eq!(suite.checks().count(), cases::all().len() * backends.len(), "one check per case and backend\n{table}");
     for r in suite.checks() {
-        assert!(r.passed, "{} on {} {} failed: error {:?} (tolerance {}), energy balance {:?}, {:?}\n{table}", r.case, r.backend, r.precision, r.error, r.tolerance, r.energy_balance, r.failure);
+        assert!(
+            r.passed,
+            "{} on {} {} failed: error {:?} (tolerance {}), energy balance {:?}, {:?}\n{table}",
+            r.case, r.backend, r.precision, r.error, r.tolerance, r.energy_balance, r.failure
+        );
         // The ledger balances on the GPU rows too: their kernels book every dissipation term.
         if LEDGER_CASES.contains(&r.case) {
-            assert!(r.energy_balance.is_some_and(|e| e < verify::ENERGY_TOLERANCE), "{} on {}: energy balance {:?}\n{table}", r.case, r.backend_name(), r.energy_balance);
+            assert!(
+                r.energy_balance.is_some_and(|e| e < verify::ENERGY_TOLERANCE),
+                "{} on {}: energy balance {:?}\n{table}",
+                r.case,
+                r.backend_name(),
+                r.energy_balance
+            );
         }
     }
     for t in &suite.stability {
@@ -84,7 +94,11 @@ fn a_deleted_loaded_contact_keeps_the_ledger_balanced() {
 
 #[test]
 fn energy_json_names_every_term() {
-    let m = blockdem::scenes::run_deck_on("START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -10\nCYCLE 10\n", Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let m = blockdem::scenes::run_deck_on(
+        "START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -10\nCYCLE 10\n",
+        Box::new(blockdem::cpu::CpuBackend::new()),
+    )
+    .unwrap();
     let j = blockdem::output::state_json::energy_json(&m.energies());
     for key in ["kinetic", "strain", "external_work", "mass_damping", "contact_damping", "friction", "released", "ledger"] {
         assert!(j[key].is_number(), "{key} missing in {j}");

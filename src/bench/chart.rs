@@ -113,7 +113,13 @@ fn throughput(area: &Panel, r: &BenchReport) -> Result<(), String> {
 
 fn per_block_cycle(area: &Panel, r: &BenchReport) -> Result<(), String> {
     let (x0, x1) = n_range(r);
-    let (y0, y1) = log_range(r.scaling.iter().filter(|x| x.error.is_none()).flat_map(|x| round_range(x).map(|(lo, hi)| [lo, hi]).unwrap_or([x.s_per_block_cycle; 2])).map(|t| 1e9 * t));
+    let (y0, y1) = log_range(
+        r.scaling
+            .iter()
+            .filter(|x| x.error.is_none())
+            .flat_map(|x| round_range(x).map(|(lo, hi)| [lo, hi]).unwrap_or([x.s_per_block_cycle; 2]))
+            .map(|t| 1e9 * t),
+    );
     let mut chart = ChartBuilder::on(area)
         .caption("(b) Time per block-cycle (flat = perfect scaling; bars: the rounds)", ("sans-serif", 18))
         .margin(10)
@@ -199,14 +205,7 @@ fn stages(area: &Panel, r: &BenchReport) -> Result<(), String> {
         .y_label_area_size(10)
         .build_cartesian_2d(0.0..xmax * 2.4, -0.5..(n as f64 - 0.5))
         .map_err(err)?;
-    chart
-        .configure_mesh()
-        .disable_y_mesh()
-        .disable_y_axis()
-        .x_desc("ns per block-cycle")
-        .label_style(("sans-serif", 12))
-        .draw()
-        .map_err(err)?;
+    chart.configure_mesh().disable_y_mesh().disable_y_axis().x_desc("ns per block-cycle").label_style(("sans-serif", 12)).draw().map_err(err)?;
     let colour = |s: &str| {
         let i = names.iter().position(|n| n == s).unwrap_or(0);
         let base = PALETTE[i % PALETTE.len()];
@@ -224,9 +223,7 @@ fn stages(area: &Panel, r: &BenchReport) -> Result<(), String> {
             chart.draw_series(std::iter::once(Rectangle::new([(x, y - 0.3), (x + w, y + 0.3)], c.filled()))).map_err(err)?;
             x += w;
         }
-        chart
-            .draw_series(std::iter::once(Text::new(labels[i].clone(), (x + 0.01 * xmax, y + 0.1), ("sans-serif", 12))))
-            .map_err(err)?;
+        chart.draw_series(std::iter::once(Text::new(labels[i].clone(), (x + 0.01 * xmax, y + 0.1), ("sans-serif", 12)))).map_err(err)?;
     }
     for s in &names {
         let c = colour(s);

@@ -329,7 +329,15 @@ fn short_adapter_name(name: &str) -> String {
 
 /// Opens a backend; its report entry either way.
 fn open(spec: &BackendSpec, opts: &BenchOptions) -> (BackendInfo, Option<Engine>) {
-    let default_max = |software: bool| opts.max_blocks.unwrap_or(if opts.quick { 10_000 } else if software { 100_000 } else { 1_000_000 });
+    let default_max = |software: bool| {
+        opts.max_blocks.unwrap_or(if opts.quick {
+            10_000
+        } else if software {
+            100_000
+        } else {
+            1_000_000
+        })
+    };
     match spec {
         BackendSpec::Cpu => (
             BackendInfo {
@@ -445,7 +453,12 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             let engines_here = engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks).count();
             if let Some(problem) = memory_problem(wall.brick_count() + 2, engines_here) {
                 for (i, _) in engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks) {
-                    report.scaling.push(ScalingRow { backend: report.backends[*i].label.clone(), nominal: n, error: Some(problem.clone()), ..Default::default() });
+                    report.scaling.push(ScalingRow {
+                        backend: report.backends[*i].label.clone(),
+                        nominal: n,
+                        error: Some(problem.clone()),
+                        ..Default::default()
+                    });
                 }
                 continue;
             }
@@ -466,7 +479,10 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
                 row.build_s = build_s;
                 match &row.error {
                     Some(e) => say(&format!("  {} failed: {e}", row.backend)),
-                    None => say(&format!("  {}: {} cycles a round, {:.3e} block-cycles/s, {:.3e} contact-cycles/s", row.backend, row.cycles, row.block_cycles_per_s, row.contact_cycles_per_s)),
+                    None => say(&format!(
+                        "  {}: {} cycles a round, {:.3e} block-cycles/s, {:.3e} contact-cycles/s",
+                        row.backend, row.cycles, row.block_cycles_per_s, row.contact_cycles_per_s
+                    )),
                 }
                 report.scaling.push(row);
             }
@@ -487,7 +503,8 @@ fn memory_problem(blocks: usize, engines: usize) -> Option<String> {
     let per_block = copies * (std::mem::size_of::<Block>() + 4 * std::mem::size_of::<Corner>() + 8 * std::mem::size_of::<Contact>()) + 64;
     let need = (blocks * per_block) as u64;
     let available = host::memory_available()?;
-    (need > available / 10 * 7).then(|| format!("not enough memory: a wall of {blocks} blocks needs about {} MiB, {} MiB available", need >> 20, available >> 20))
+    (need > available / 10 * 7)
+        .then(|| format!("not enough memory: a wall of {blocks} blocks needs about {} MiB, {} MiB available", need >> 20, available >> 20))
 }
 
 /// A backend that counts the contact updates of its runs.
@@ -607,14 +624,35 @@ fn measure_scaling(model0: &Model, nominal: usize, engines: &mut [(&mut Engine, 
             }
         }
     }
-    engines.iter_mut().zip(runs).map(|((engine, info), (model, cycles, timed, error))| finish_scaling(model0, nominal, engine, info, opts, &model, cycles, timed, error)).collect()
+    engines
+        .iter_mut()
+        .zip(runs)
+        .map(|((engine, info), (model, cycles, timed, error))| finish_scaling(model0, nominal, engine, info, opts, &model, cycles, timed, error))
+        .collect()
 }
 
 /// The row of one backend's rounds: the rates of its round of median time per cycle, then (GPU)
 /// the kernels timed per stage on the state the rounds left.
 #[allow(clippy::too_many_arguments)]
-fn finish_scaling(model0: &Model, nominal: usize, engine: &mut Engine, info: &BackendInfo, opts: &BenchOptions, model: &Model, cycles: u64, mut timed: Vec<Timed>, error: Option<String>) -> ScalingRow {
-    let mut row = ScalingRow { backend: info.label.clone(), nominal, blocks: model0.blocks.len(), corners: model0.corners.len(), contacts: model0.contacts.len(), ..Default::default() };
+fn finish_scaling(
+    model0: &Model,
+    nominal: usize,
+    engine: &mut Engine,
+    info: &BackendInfo,
+    opts: &BenchOptions,
+    model: &Model,
+    cycles: u64,
+    mut timed: Vec<Timed>,
+    error: Option<String>,
+) -> ScalingRow {
+    let mut row = ScalingRow {
+        backend: info.label.clone(),
+        nominal,
+        blocks: model0.blocks.len(),
+        corners: model0.corners.len(),
+        contacts: model0.contacts.len(),
+        ..Default::default()
+    };
     if let Some(e) = error {
         row.error = Some(e);
         return row;
@@ -645,7 +683,13 @@ fn finish_scaling(model0: &Model, nominal: usize, engine: &mut Engine, info: &Ba
                     for (name, s) in &p.stages {
                         kernels += s;
                         let b = bytes.iter().find(|b| b.stage == *name).map(|b| b.read + b.written);
-                        row.stages.push(StageRow { source: "device".into(), stage: name.to_string(), group: "kernel".into(), s_per_cycle: *s, bytes_per_cycle: b });
+                        row.stages.push(StageRow {
+                            source: "device".into(),
+                            stage: name.to_string(),
+                            group: "kernel".into(),
+                            s_per_cycle: *s,
+                            bytes_per_cycle: b,
+                        });
                     }
                     if kernels > 0.0 && row.bandwidth_bytes_per_s > 0.0 {
                         row.roofline_kernels = Some(row.bytes_per_cycle as f64 / kernels / row.bandwidth_bytes_per_s);
@@ -693,11 +737,23 @@ fn fill_timing(row: &mut ScalingRow, model: &Model, cycles: u64, run: &Timed, in
         }
         if d > 0.0 {
             accounted += d;
-            row.stages.push(StageRow { source: "host".into(), stage: s.name().into(), group: s.group().into(), s_per_cycle: d / cycles as f64, bytes_per_cycle: None });
+            row.stages.push(StageRow {
+                source: "host".into(),
+                stage: s.name().into(),
+                group: s.group().into(),
+                s_per_cycle: d / cycles as f64,
+                bytes_per_cycle: None,
+            });
         }
     }
     let other = (run.steady_s - accounted).max(0.0);
-    row.stages.push(StageRow { source: "host".into(), stage: "other".into(), group: "other".into(), s_per_cycle: other / cycles as f64, bytes_per_cycle: None });
+    row.stages.push(StageRow {
+        source: "host".into(),
+        stage: "other".into(),
+        group: "other".into(),
+        s_per_cycle: other / cycles as f64,
+        bytes_per_cycle: None,
+    });
     row.topology_share = topology / run.steady_s;
     row.transfer_share = transfer / run.steady_s;
     row.topology_updates = run.updates;

@@ -66,7 +66,14 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
     for label in &hw {
         let Some(row) = largest(r, label) else {
             for (target, goal) in hw_targets {
-                t.push(TargetRow { target: target.into(), backend: label.clone(), goal: goal.into(), measured: "-".into(), met: None, note: "no wall measured".into() });
+                t.push(TargetRow {
+                    target: target.into(),
+                    backend: label.clone(),
+                    goal: goal.into(),
+                    measured: "-".into(),
+                    met: None,
+                    note: "no wall measured".into(),
+                });
             }
             continue;
         };
@@ -118,7 +125,14 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
                     note: format!("{at}, {spread}"),
                 });
             }
-            None => t.push(TargetRow { target, backend: b.label.clone(), goal: "<= 2x".into(), measured: "-".into(), met: None, note: "no common wall with the CPU".into() }),
+            None => t.push(TargetRow {
+                target,
+                backend: b.label.clone(),
+                goal: "<= 2x".into(),
+                measured: "-".into(),
+                met: None,
+                note: "no common wall with the CPU".into(),
+            }),
         }
     }
     // Flat time per block-cycle over the sizes.
@@ -288,7 +302,20 @@ pub fn table(r: &BenchReport) -> String {
         let _ = writeln!(
             s,
             "{:<24} {:>8} {:>8} {:>6} {:>10} {:>11} {:>11} {:>10} {:>8} {:>9} {:>7} {:>7} {:>8} {:>8}",
-            "backend", "blocks", "contacts", "cycles", "s/cycle", "block-cyc/s", "contact-c/s", "MiB/cycle", "roofline", "(kernels)", "topo", "xfer", "setup(s)", "final(s)"
+            "backend",
+            "blocks",
+            "contacts",
+            "cycles",
+            "s/cycle",
+            "block-cyc/s",
+            "contact-c/s",
+            "MiB/cycle",
+            "roofline",
+            "(kernels)",
+            "topo",
+            "xfer",
+            "setup(s)",
+            "final(s)"
         );
         for x in &r.scaling {
             if let Some(e) = &x.error {
@@ -329,11 +356,26 @@ pub fn table(r: &BenchReport) -> String {
         }
         // What a contact update costs the host (topology work and transfers), per update.
         for x in r.scaling.iter().filter(|x| x.error.is_none() && x.topology_updates > 0) {
-            let _ = writeln!(s, "  {} at {} blocks: {} contact updates in {} cycles, {:.3} ms of host topology + transfers each", x.backend, x.blocks, x.topology_updates, x.cycles, 1e3 * x.host_s_per_update);
+            let _ = writeln!(
+                s,
+                "  {} at {} blocks: {} contact updates in {} cycles, {:.3} ms of host topology + transfers each",
+                x.backend,
+                x.blocks,
+                x.topology_updates,
+                x.cycles,
+                1e3 * x.host_s_per_update
+            );
         }
         let _ = writeln!(s, "\nTIME PER STAGE (microseconds per cycle; host: timed during the run; device: kernel times)");
         for x in r.scaling.iter().filter(|x| x.error.is_none()) {
-            let _ = writeln!(s, "  {} at {} blocks ({:.1} us/cycle){}", x.backend, x.blocks, 1e6 * x.s_per_cycle, x.device_timing.as_ref().map(|d| format!(", kernels by {d}")).unwrap_or_default());
+            let _ = writeln!(
+                s,
+                "  {} at {} blocks ({:.1} us/cycle){}",
+                x.backend,
+                x.blocks,
+                1e6 * x.s_per_cycle,
+                x.device_timing.as_ref().map(|d| format!(", kernels by {d}")).unwrap_or_default()
+            );
             for st in &x.stages {
                 let _ = writeln!(
                     s,
@@ -438,7 +480,9 @@ pub fn stages_csv(r: &BenchReport) -> String {
 
 /// bench_reference.csv: the reference scenes.
 pub fn reference_csv(r: &BenchReport) -> String {
-    let mut s = String::from("scene,backend,bricks,blocks,contacts,cycles,timestep,simulated_s,wall_s,cycles_per_s,drift_m,top_sink_m,elastic_estimate_m,moved,error\n");
+    let mut s = String::from(
+        "scene,backend,bricks,blocks,contacts,cycles,timestep,simulated_s,wall_s,cycles_per_s,drift_m,top_sink_m,elastic_estimate_m,moved,error\n",
+    );
     for x in &r.reference {
         let m = x.measures.unwrap_or_default();
         let _ = writeln!(
@@ -469,7 +513,8 @@ pub fn targets_csv(r: &BenchReport) -> String {
     let mut s = String::from("target,backend,goal,measured,met,note\n");
     for t in &r.targets {
         let met = t.met.map(|m| if m { "yes" } else { "no" }).unwrap_or("n/a");
-        let _ = writeln!(s, "{},{},{},{},{},{}", csv_field(&t.target), csv_field(&t.backend), csv_field(&t.goal), csv_field(&t.measured), met, csv_field(&t.note));
+        let _ =
+            writeln!(s, "{},{},{},{},{},{}", csv_field(&t.target), csv_field(&t.backend), csv_field(&t.goal), csv_field(&t.measured), met, csv_field(&t.note));
     }
     s
 }

@@ -355,7 +355,8 @@ mod tests {
         let settled_deck = format!("{body}DAMPING 0.5 35 MASS\nCYCLE 3000\n");
         let settled = run(&settled_deck);
         let still = run(&format!("{settled_deck}DAMPING 0 35 MASS\nCYCLE 3000\n"));
-        let moved = settled.blocks.iter().zip(&still.blocks).map(|(a, b)| (a.centroid[0] - b.centroid[0]).hypot(a.centroid[1] - b.centroid[1])).fold(0.0, f64::max);
+        let moved =
+            settled.blocks.iter().zip(&still.blocks).map(|(a, b)| (a.centroid[0] - b.centroid[0]).hypot(a.centroid[1] - b.centroid[1])).fold(0.0, f64::max);
         assert!(moved < 1e-9, "an equilibrated wall moved {moved} m in 3000 undamped cycles");
         let m = measure(&wall, &initial, &settled);
         assert!((m.top_sink - m.elastic_estimate).abs() < 0.02 * m.elastic_estimate, "{m:?}");

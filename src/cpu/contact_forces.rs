@@ -38,11 +38,19 @@ fn norm(a: [f64; 2]) -> f64 {
 /// i + 1 and i − 1 around a cycle of n (no integer division in the hot loop).
 #[inline]
 fn next(i: usize, n: usize) -> usize {
-    if i + 1 == n { 0 } else { i + 1 }
+    if i + 1 == n {
+        0
+    } else {
+        i + 1
+    }
 }
 #[inline]
 fn prev(i: usize, n: usize) -> usize {
-    if i == 0 { n - 1 } else { i - 1 }
+    if i == 0 {
+        n - 1
+    } else {
+        i - 1
+    }
 }
 
 /// A straight edge of a block, from corner k to corner k+1: its start, unit direction and length.
@@ -84,7 +92,11 @@ struct Measure {
 impl Measure {
     #[inline]
     fn normal(&self) -> [f64; 2] {
-        if self.len == 1.0 { self.dir } else { [self.dir[0] / self.len, self.dir[1] / self.len] }
+        if self.len == 1.0 {
+            self.dir
+        } else {
+            [self.dir[0] / self.len, self.dir[1] / self.len]
+        }
     }
 }
 

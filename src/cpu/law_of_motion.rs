@@ -35,7 +35,8 @@ pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) 
     let w = (block.angular_velocity * con1 + block.moment / block.inertia * dt) * con2;
     let (dx, dy, dtheta) = (vx * dt, vy * dt, w * dt);
     if alpha > 0.0 {
-        block.damping_work += mass_damping_work(block.mass, block.inertia, [block.velocity[0], block.velocity[1], block.angular_velocity], [vx, vy, w], alpha, dt);
+        block.damping_work +=
+            mass_damping_work(block.mass, block.inertia, [block.velocity[0], block.velocity[1], block.angular_velocity], [vx, vy, w], alpha, dt);
     }
     block.velocity = [vx, vy];
     block.angular_velocity = w;

@@ -323,7 +323,13 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         let block = model
             .blocks
             .iter()
-            .find(|b| !(b.centroid[0].is_finite() && b.centroid[1].is_finite() && b.velocity[0].is_finite() && b.velocity[1].is_finite() && b.angular_velocity.is_finite()))
+            .find(|b| {
+                !(b.centroid[0].is_finite()
+                    && b.centroid[1].is_finite()
+                    && b.velocity[0].is_finite()
+                    && b.velocity[1].is_finite()
+                    && b.angular_velocity.is_finite())
+            })
             .map_or(0, |b| b.id);
         return Err(CycleError::NonFinite { cycle: model.cycle, block, what: "a non-finite position or velocity".into() });
     }
@@ -538,4 +544,3 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
     }
     changed
 }
-

@@ -111,6 +111,8 @@ pub struct PlotOptions {
     pub velocities: bool,
 }
 
+// One line a command (rustfmt would spread every variant over lines once one has a field comment).
+#[rustfmt::skip]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
     Start,

@@ -151,11 +151,14 @@ fn split_in_pieces(text: &str, file: &str, piece_bytes: usize) -> Result<Vec<Sta
     let ends: Vec<usize> = starts.iter().skip(1).copied().chain([text.len()]).collect();
     // Each piece's first line number: 1 + the line ends before it.
     let breaks: Vec<usize> = starts.par_iter().zip(&ends).map(|(&a, &b)| text.as_bytes()[a..b].iter().filter(|&&c| c == b'\n').count()).collect();
-    let first_lines: Vec<usize> = breaks.iter().scan(1, |line, &n| {
-        let first = *line;
-        *line += n;
-        Some(first)
-    }).collect();
+    let first_lines: Vec<usize> = breaks
+        .iter()
+        .scan(1, |line, &n| {
+            let first = *line;
+            *line += n;
+            Some(first)
+        })
+        .collect();
     let pieces: Vec<Result<Vec<Statement>, DeckError>> =
         starts.par_iter().zip(&ends).zip(&first_lines).map(|((&a, &b), &line)| split_lines(&text[a..b], line, file)).collect();
     let mut statements = Vec::new();
@@ -199,23 +202,12 @@ fn split_lines(text: &str, first_line: usize, file: &str) -> Result<Vec<Statemen
     for (index, raw) in text.lines().enumerate() {
         let line = first_line + index;
         if let Some((col, c)) = raw.chars().enumerate().find(|&(_, c)| is_binary(c)) {
-            let what =
-                if c == '\0' { "a NUL byte".to_string() } else { format!("control character U+{:04X}", c as u32) };
-            return Err(DeckError::new(
-                file,
-                line,
-                col + 1,
-                format!("binary file: {what} at line {line}; a deck must be plain text"),
-            ));
+            let what = if c == '\0' { "a NUL byte".to_string() } else { format!("control character U+{:04X}", c as u32) };
+            return Err(DeckError::new(file, line, col + 1, format!("binary file: {what} at line {line}; a deck must be plain text")));
         }
         let chars = raw.chars().count();
         if chars > MAX_LINE_CHARS {
-            return Err(DeckError::new(
-                file,
-                line,
-                MAX_LINE_CHARS + 1,
-                format!("line too long ({chars} characters; at most {MAX_LINE_CHARS})"),
-            ));
+            return Err(DeckError::new(file, line, MAX_LINE_CHARS + 1, format!("line too long ({chars} characters; at most {MAX_LINE_CHARS})")));
         }
 
         // Leading blanks are allowed before `*` and `+`; columns stay those of the raw line.
@@ -227,12 +219,7 @@ fn split_lines(text: &str, first_line: usize, file: &str) -> Result<Vec<Statemen
             Some('+') => {
                 let rest = &body[1..];
                 let Some(st) = statements.last_mut() else {
-                    return Err(DeckError::new(
-                        file,
-                        line,
-                        lead + 1,
-                        "continuation line ('+') with no command before it to continue",
-                    ));
+                    return Err(DeckError::new(file, line, lead + 1, "continuation line ('+') with no command before it to continue"));
                 };
                 let before = st.tokens.len();
                 tokenize(rest, line, lead + 2, &mut groups, &mut st.tokens);
@@ -279,11 +266,7 @@ pub const fn name<T>(full: &'static str, min: &'static str, value: T) -> Name<T>
 /// FREE); if several still match, the one with the longest minimum wins, being the more specific.
 pub fn lookup<T: Copy>(word: &str, names: &[Name<T>]) -> Option<T> {
     let upper = word.to_ascii_uppercase();
-    names
-        .iter()
-        .filter(|n| upper.len() >= n.min && n.full.starts_with(upper.as_str()))
-        .max_by_key(|n| n.min)
-        .map(|n| n.value)
+    names.iter().filter(|n| upper.len() >= n.min && n.full.starts_with(upper.as_str())).max_by_key(|n| n.min).map(|n| n.value)
 }
 
 /// Why a token is not a number.
@@ -334,8 +317,7 @@ pub fn parse_real(s: &str) -> Result<f64, NumberError> {
         return Err(NumberError::Syntax);
     }
     // Everything checked is ASCII, so byte slicing is on char boundaries.
-    let normal =
-        format!("{}e{}", &s[..mantissa_end], if mantissa_end < s.len() { &s[mantissa_end + 1..] } else { "0" });
+    let normal = format!("{}e{}", &s[..mantissa_end], if mantissa_end < s.len() { &s[mantissa_end + 1..] } else { "0" });
     let v: f64 = normal.parse().map_err(|_| NumberError::Syntax)?;
     if v.is_finite() {
         Ok(v)
@@ -396,17 +378,9 @@ mod tests {
 
     #[test]
     fn reals() {
-        for (s, v) in [
-            ("1", 1.0),
-            ("-1.", -1.0),
-            (".1", 0.1),
-            ("1E8", 1e8),
-            ("1.0E-6", 1e-6),
-            ("1e+09", 1e9),
-            ("-0.95E4", -9500.0),
-            ("1D3", 1000.0),
-            ("+2", 2.0),
-        ] {
+        for (s, v) in
+            [("1", 1.0), ("-1.", -1.0), (".1", 0.1), ("1E8", 1e8), ("1.0E-6", 1e-6), ("1e+09", 1e9), ("-0.95E4", -9500.0), ("1D3", 1000.0), ("+2", 2.0)]
+        {
             assert_eq!(parse_real(s), Ok(v), "{s}");
         }
         for s in ["", ".", "-", "1.0x", "nan", "inf", "1E", "1E+", "1..2", "1e5.0", "--1", "0x10"] {

@@ -142,8 +142,7 @@ enum MatCons {
     Fdef,
 }
 
-const MAT_CONS: &[Name<MatCons>] =
-    &[name("MATERIAL", "M", MatCons::Material), name("CONSTITUTIVE", "CO", MatCons::Constitutive)];
+const MAT_CONS: &[Name<MatCons>] = &[name("MATERIAL", "M", MatCons::Material), name("CONSTITUTIVE", "CO", MatCons::Constitutive)];
 
 const CHANGE_KEYS: &[Name<MatCons>] = &[
     name("SDEF", "S", MatCons::Sdef),
@@ -152,11 +151,8 @@ const CHANGE_KEYS: &[Name<MatCons>] = &[
     name("CONSTITUTIVE", "CO", MatCons::Constitutive),
 ];
 
-const DAMP_KEYS: &[Name<DampMode>] = &[
-    name("MASS", "M", DampMode::Mass),
-    name("STIFFNESS", "S", DampMode::Stiffness),
-    name("INTERNAL", "I", DampMode::Internal),
-];
+const DAMP_KEYS: &[Name<DampMode>] =
+    &[name("MASS", "M", DampMode::Mass), name("STIFFNESS", "S", DampMode::Stiffness), name("INTERNAL", "I", DampMode::Internal)];
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum GenKey {
@@ -166,12 +162,8 @@ enum GenKey {
     Zones,
 }
 
-const GEN_KEYS: &[Name<GenKey>] = &[
-    name("AUTOMATIC", "A", GenKey::Auto),
-    name("MANUAL", "M", GenKey::Manual),
-    name("GRIDPOINTS", "GR", GenKey::Grid),
-    name("ZONES", "Z", GenKey::Zones),
-];
+const GEN_KEYS: &[Name<GenKey>] =
+    &[name("AUTOMATIC", "A", GenKey::Auto), name("MANUAL", "M", GenKey::Manual), name("GRIDPOINTS", "GR", GenKey::Grid), name("ZONES", "Z", GenKey::Zones)];
 
 const OUTER: &[Name<()>] = &[name("OUTER", "O", ())];
 
@@ -183,12 +175,8 @@ enum PlotKey {
     Vel,
 }
 
-const PLOT_KEYS: &[Name<PlotKey>] = &[
-    name("NOFIX", "N", PlotKey::NoFix),
-    name("ZONES", "Z", PlotKey::Zones),
-    name("NC", "NC", PlotKey::Nc),
-    name("VELOCITY", "V", PlotKey::Vel),
-];
+const PLOT_KEYS: &[Name<PlotKey>] =
+    &[name("NOFIX", "N", PlotKey::NoFix), name("ZONES", "Z", PlotKey::Zones), name("NC", "NC", PlotKey::Nc), name("VELOCITY", "V", PlotKey::Vel)];
 
 const PRINT_KEYS: &[Name<PrintItem>] = &[
     name("BLOCKS", "B", PrintItem::Blocks),
@@ -353,9 +341,7 @@ impl<'a> Args<'a> {
     /// Read a token as an integer (parameters named i..n in the manual).
     fn int_of(&self, t: &Token, what: &str) -> Result<i64> {
         lexer::parse_int(&t.text).map_err(|e| match e {
-            NumberError::TooLarge => {
-                self.at(t, format!("the integer '{}' given for {what} is out of range", t.shown()))
-            }
+            NumberError::TooLarge => self.at(t, format!("the integer '{}' given for {what} is out of range", t.shown())),
             _ => self.at(t, not_a_number(what, t, true)),
         })
     }
@@ -435,19 +421,11 @@ impl<'a> Args<'a> {
             } else if keywords.is_empty() {
                 return Err(self.too_many(t));
             } else {
-                return Err(self.at(
-                    t,
-                    format!("unknown keyword '{}' for {}; it takes {}", t.shown(), self.name(), names(keywords)),
-                ));
+                return Err(self.at(t, format!("unknown keyword '{}' for {}; it takes {}", t.shown(), self.name(), names(keywords))));
             }
         }
         if nums.len() < required {
-            return Err(self.at_end(format!(
-                "{} needs {required} numbers ({}), found {}",
-                self.name(),
-                usage(self.word),
-                nums.len()
-            )));
+            return Err(self.at_end(format!("{} needs {required} numbers ({}), found {}", self.name(), usage(self.word), nums.len())));
         }
         Ok(nums)
     }
@@ -467,15 +445,7 @@ impl<'a> Args<'a> {
         if a < b {
             Ok(())
         } else {
-            Err(self.at(
-                tb,
-                format!(
-                    "{} range is empty: {na} ({}) must be less than {nb} ({})",
-                    self.name(),
-                    ta.shown(),
-                    tb.shown()
-                ),
-            ))
+            Err(self.at(tb, format!("{} range is empty: {na} ({}) must be less than {nb} ({})", self.name(), ta.shown(), tb.shown())))
         }
     }
 
@@ -491,9 +461,9 @@ impl<'a> Args<'a> {
         let t = self.next().ok_or_else(|| self.missing(what))?;
         if t.is_numeric() {
             let v = self.int_of(t, "the domain number")?;
-            return u32::try_from(v).map(DomainRef::Number).map_err(|_| {
-                self.at(t, format!("the domain number must be a non-negative integer, found '{}'", t.shown()))
-            });
+            return u32::try_from(v)
+                .map(DomainRef::Number)
+                .map_err(|_| self.at(t, format!("the domain number must be a non-negative integer, found '{}'", t.shown())));
         }
         match lookup(&t.text, OUTER) {
             Some(()) => Ok(DomainRef::Outer),
@@ -509,12 +479,7 @@ impl<'a> Args<'a> {
 pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
     let statements = lexer::split(text, file)?;
     if statements.is_empty() {
-        return Err(DeckError::new(
-            file,
-            1,
-            1,
-            "empty deck: no commands (only blank or comment lines); expected START or RESTART as the first command",
-        ));
+        return Err(DeckError::new(file, 1, 1, "empty deck: no commands (only blank or comment lines); expected START or RESTART as the first command"));
     }
     // Each statement is read on its own, in parallel (a generated deck may hold 10⁶ BLOCKs),
     // then taken in order: the first error in the file is the one reported, and nothing after
@@ -538,22 +503,12 @@ pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
 /// One statement's command; `first`: the deck's first, which must be START or RESTART.
 fn statement(st: &lexer::Statement, first: bool, file: &str) -> Result<Command> {
     let head = &st.tokens[0];
-    let word = lookup(&head.text, COMMANDS).filter(|_| !head.is_numeric()).ok_or_else(|| {
-        DeckError::new(
-            file,
-            head.line,
-            head.column,
-            format!("unknown command '{}'; expected one of {}", head.shown(), names(COMMANDS)),
-        )
-    })?;
+    let word = lookup(&head.text, COMMANDS)
+        .filter(|_| !head.is_numeric())
+        .ok_or_else(|| DeckError::new(file, head.line, head.column, format!("unknown command '{}'; expected one of {}", head.shown(), names(COMMANDS))))?;
     // "The first command must be START or RESTART."
     if first && !matches!(word, Word::Start | Word::Restart) {
-        return Err(DeckError::new(
-            file,
-            head.line,
-            head.column,
-            format!("the first command must be START or RESTART, found {}", full_name(word)),
-        ));
+        return Err(DeckError::new(file, head.line, head.column, format!("the first command must be START or RESTART, found {}", full_name(word))));
     }
     let mut args = Args { file, word, head, toks: &st.tokens[1..], pos: 0, source: &st.source };
     parse_command(&mut args)
@@ -573,10 +528,7 @@ pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
                 file,
                 line,
                 column,
-                format!(
-                    "binary file: byte 0x{:02X} is not UTF-8 text (line {line}, column {column}); a deck must be plain text",
-                    bytes[e.valid_up_to()]
-                ),
+                format!("binary file: byte 0x{:02X} is not UTF-8 text (line {line}, column {column}); a deck must be plain text", bytes[e.valid_up_to()]),
             ))
         }
     }
@@ -623,8 +575,7 @@ fn parse_command(a: &mut Args) -> Result<Command> {
         Word::Change => change(a)?,
         Word::Cycle => {
             let (n, t) = a.int("the number of cycles n")?;
-            let n = u64::try_from(n)
-                .map_err(|_| a.at(t, format!("a negative cycle count is not allowed, found {}", t.shown())))?;
+            let n = u64::try_from(n).map_err(|_| a.at(t, format!("a negative cycle count is not allowed, found {}", t.shown())))?;
             Command::Cycle { n }
         }
         Word::Damping => damping(a)?,
@@ -691,11 +642,7 @@ fn parse_command(a: &mut Args) -> Result<Command> {
                     Some(PlotKey::Zones) => options.zones = true,
                     Some(PlotKey::Nc) => options.no_rounding = true,
                     Some(PlotKey::Vel) => options.velocities = true,
-                    None => {
-                        return Err(
-                            a.at(t, format!("unknown PLOT keyword '{}'; PLOT takes {}", t.shown(), names(PLOT_KEYS)))
-                        )
-                    }
+                    None => return Err(a.at(t, format!("unknown PLOT keyword '{}'; PLOT takes {}", t.shown(), names(PLOT_KEYS)))),
                 }
             }
             Command::Plot { options }
@@ -705,12 +652,7 @@ fn parse_command(a: &mut Args) -> Result<Command> {
             while let Some(t) = a.next() {
                 match lookup(&t.text, PRINT_KEYS).filter(|_| !t.is_numeric()) {
                     Some(item) => items.push(item),
-                    None => {
-                        return Err(a.at(
-                            t,
-                            format!("unknown PRINT keyword '{}'; PRINT takes {}", t.shown(), names(PRINT_KEYS)),
-                        ))
-                    }
+                    None => return Err(a.at(t, format!("unknown PRINT keyword '{}'; PRINT takes {}", t.shown(), names(PRINT_KEYS)))),
                 }
             }
             if items.is_empty() {
@@ -766,10 +708,7 @@ fn block(a: &mut Args) -> Result<Command> {
             let n = coords.len();
             let xy = if n % 2 == 0 { "x" } else { "y" };
             let msg = if key.is_some() {
-                format!(
-                    "BLOCK's MATERIAL and CONSTITUTIVE must come before the corner coordinates, found '{}'",
-                    t.shown()
-                )
+                format!("BLOCK's MATERIAL and CONSTITUTIVE must come before the corner coordinates, found '{}'", t.shown())
             } else {
                 not_a_number(&format!("the {xy} coordinate of corner {}", n / 2 + 1), t, false)
             };
@@ -784,12 +723,7 @@ fn block(a: &mut Args) -> Result<Command> {
                 let v = a.id("the constitutive number m")?;
                 a.once(&mut constitutive, v, t)?
             }
-            None => {
-                return Err(a.at(
-                    t,
-                    format!("expected MATERIAL, CONSTITUTIVE or the x coordinate of corner 1, found '{}'", t.shown()),
-                ))
-            }
+            None => return Err(a.at(t, format!("expected MATERIAL, CONSTITUTIVE or the x coordinate of corner 1, found '{}'", t.shown()))),
         }
     }
 
@@ -823,14 +757,7 @@ fn pairs(a: &Args, coords: &[&Token], what: &str) -> Result<Vec<[f64; 2]>> {
         let n = k + 1;
         let x = a.real_named(pair[0], || format!("the x coordinate of {what} {n}"))?;
         let Some(ty) = pair.get(1) else {
-            return Err(a.at(
-                pair[0],
-                format!(
-                    "{what} {n} has an x coordinate ({}) but no y coordinate: {} takes x y pairs",
-                    pair[0].shown(),
-                    a.name()
-                ),
-            ));
+            return Err(a.at(pair[0], format!("{what} {n} has an x coordinate ({}) but no y coordinate: {} takes x y pairs", pair[0].shown(), a.name())));
         };
         let y = a.real_named(ty, || format!("the y coordinate of {what} {n}"))?;
         if ty.line != pair[0].line {
@@ -908,10 +835,7 @@ fn damping(a: &mut Args) -> Result<Command> {
 fn property(a: &mut Args) -> Result<Command> {
     let first = a.next().ok_or_else(|| a.missing("MATERIAL n first"))?;
     if first.is_numeric() || lookup(&first.text, PROP_KEYS) != Some(None) {
-        return Err(a.at(
-            first,
-            format!("PROPERTY must begin with MATERIAL n (the material number), found '{}'", first.shown()),
-        ));
+        return Err(a.at(first, format!("PROPERTY must begin with MATERIAL n (the material number), found '{}'", first.shown())));
     }
     let material = a.id("the material number n")?;
     let mut values = Vec::new();
@@ -992,17 +916,13 @@ fn generate(a: &mut Args) -> Result<Command> {
                 } else {
                     let n = coords.len();
                     let xy = if n % 2 == 0 { "x" } else { "y" };
-                    let msg =
-                        not_a_number(&format!("the {xy} coordinate of grid point {} (or ZONES)", n / 2 + 1), t, false);
+                    let msg = not_a_number(&format!("the {xy} coordinate of grid point {} (or ZONES)", n / 2 + 1), t, false);
                     return Err(a.at(t, msg));
                 }
             }
             let grid_points = pairs(a, &coords, "grid point")?;
             if grid_points.len() < 3 {
-                return Err(a.at_end(format!(
-                    "GENERATE MANUAL needs at least 3 grid points (x y pairs), found {}",
-                    grid_points.len()
-                )));
+                return Err(a.at_end(format!("GENERATE MANUAL needs at least 3 grid points (x y pairs), found {}", grid_points.len())));
             }
             if !saw_zones {
                 return Err(a.at_end("GENERATE MANUAL needs ZONES and the zone list after the grid points"));
@@ -1017,27 +937,16 @@ fn generate(a: &mut Args) -> Result<Command> {
                 let n = k + 1;
                 if tri.len() < 3 {
                     let t = tri[tri.len() - 1].1;
-                    return Err(
-                        a.at(t, format!("zone {n} is incomplete: a zone needs three grid-point numbers (l m n)"))
-                    );
+                    return Err(a.at(t, format!("zone {n} is incomplete: a zone needs three grid-point numbers (l m n)")));
                 }
                 let mut z = [0u32; 3];
                 for (slot, &(v, t)) in z.iter_mut().zip(tri) {
                     if t.line != tri[0].1.line {
-                        return Err(a.at(
-                            t,
-                            format!("zone {n} is split across a continuation line; a triple must not be separated"),
-                        ));
+                        return Err(a.at(t, format!("zone {n} is split across a continuation line; a triple must not be separated")));
                     }
                     let id = a.id_of(v, t, "a grid-point number")?;
                     if id as usize > grid_points.len() {
-                        return Err(a.at(
-                            t,
-                            format!(
-                                "zone {n} refers to grid point {id}, but only {} grid points were given",
-                                grid_points.len()
-                            ),
-                        ));
+                        return Err(a.at(t, format!("zone {n} refers to grid point {id}, but only {} grid points were given", grid_points.len())));
                     }
                     *slot = id;
                 }

@@ -63,7 +63,11 @@ impl<R: Real> Engine<R> {
     /// Heavy blocks a pass gathers: the free ones in a cycle, all (fixed ones too) in the pass
     /// before a read-back.
     pub(super) fn heavy_blocks(&self, gather_only: bool) -> usize {
-        if gather_only { self.n_heavy } else { self.n_heavy_free }
+        if gather_only {
+            self.n_heavy
+        } else {
+            self.n_heavy_free
+        }
     }
 
     /// The run constants that differ between a cycle and the gather-only pass before a
@@ -97,10 +101,13 @@ impl<R: Real> Engine<R> {
         let q = &self.dev.queue;
         q.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
         // The grids of the indirect dispatches, which end_cycle zeroes when it halts the batch.
-        let args: Vec<u32> = Grid::ALL.iter().flat_map(|&g| {
-            let (x, y) = self.grid(g, gather_only);
-            [x, y, 1]
-        }).collect();
+        let args: Vec<u32> = Grid::ALL
+            .iter()
+            .flat_map(|&g| {
+                let (x, y) = self.grid(g, gather_only);
+                [x, y, 1]
+            })
+            .collect();
         q.write_buffer(&b.dispatch_args, 0, bytemuck::cast_slice(&args));
         self.write_pass_params(gather_only);
         let stages = self.stages(gather_only);

@@ -66,7 +66,10 @@ impl<R: Real> Engine<R> {
             (nk * std::mem::size_of::<Contact<R>>()) as u64,
             (nk * std::mem::size_of::<ContactForce<R>>()) as u64,
         ];
-        let fits = self.checkpoint.as_ref().is_some_and(|c| c.blocks.size() >= sizes[0] && c.corners.size() >= sizes[1] && c.contacts.size() >= sizes[2] && c.forces.size() >= sizes[3]);
+        let fits = self
+            .checkpoint
+            .as_ref()
+            .is_some_and(|c| c.blocks.size() >= sizes[0] && c.corners.size() >= sizes[1] && c.contacts.size() >= sizes[2] && c.forces.size() >= sizes[3]);
         if !fits {
             let make = |label: &str, size: u64| {
                 self.dev.device.create_buffer(&wgpu::BufferDescriptor {
@@ -94,7 +97,8 @@ impl<R: Real> Engine<R> {
         self.encode_contact_points(&mut enc);
         let b = self.buffers.as_ref().expect("buffers exist");
         let ck = self.checkpoint.as_ref().expect("made above");
-        let pairs = [(&b.blocks.buffer, &ck.blocks), (&b.corners.buffer, &ck.corners), (&b.contacts.buffer, &ck.contacts), (&b.contact_forces.buffer, &ck.forces)];
+        let pairs =
+            [(&b.blocks.buffer, &ck.blocks), (&b.corners.buffer, &ck.corners), (&b.contacts.buffer, &ck.contacts), (&b.contact_forces.buffer, &ck.forces)];
         for ((src, dst), size) in pairs.into_iter().zip(sizes) {
             if size > 0 {
                 enc.copy_buffer_to_buffer(src, 0, dst, 0, size);

@@ -171,7 +171,10 @@ impl GpuDevice {
     pub fn open(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
         let backends = backends_for(choice);
         if backends.is_empty() {
-            return Err(GpuError::NoAdapter(format!("no wgpu backend allowed for --adapter {choice:?} (WGPU_BACKEND={:?})", std::env::var("WGPU_BACKEND").unwrap_or_default())));
+            return Err(GpuError::NoAdapter(format!(
+                "no wgpu backend allowed for --adapter {choice:?} (WGPU_BACKEND={:?})",
+                std::env::var("WGPU_BACKEND").unwrap_or_default()
+            )));
         }
         let inst = instance(backends);
         let mut adapters: Vec<wgpu::Adapter> = pollster::block_on(inst.enumerate_adapters(backends))
@@ -210,7 +213,10 @@ impl GpuDevice {
         // The adapter's own limits: the 256 MiB default buffer cap is too small for big scenes.
         let limits = adapter.limits();
         if limits.max_storage_buffers_per_shader_stage < 7 {
-            return Err(GpuError::Setup(format!("adapter {} offers {} storage buffers per stage; the kernels need 7", summary.name, limits.max_storage_buffers_per_shader_stage)));
+            return Err(GpuError::Setup(format!(
+                "adapter {} offers {} storage buffers per stage; the kernels need 7",
+                summary.name, limits.max_storage_buffers_per_shader_stage
+            )));
         }
         // Some drivers refuse a device with everything the adapter advertises (NVIDIA's GL through
         // EGL has answered "device lost"): then without timestamps, then with the limits the
@@ -221,11 +227,17 @@ impl GpuDevice {
         needed.max_buffer_size = limits.max_buffer_size;
         needed.max_compute_workgroup_size_x = needed.max_compute_workgroup_size_x.max(256).min(limits.max_compute_workgroup_size_x);
         needed.max_compute_invocations_per_workgroup = needed.max_compute_invocations_per_workgroup.max(256).min(limits.max_compute_invocations_per_workgroup);
-        let attempts = [(features, limits.clone()), (features - wgpu::Features::TIMESTAMP_QUERY, limits.clone()), (features - wgpu::Features::TIMESTAMP_QUERY, needed)];
+        let attempts =
+            [(features, limits.clone()), (features - wgpu::Features::TIMESTAMP_QUERY, limits.clone()), (features - wgpu::Features::TIMESTAMP_QUERY, needed)];
         let mut refusals = Vec::new();
         let mut opened = None;
         for (f, l) in attempts {
-            match pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor { label: Some("blockdem"), required_features: f, required_limits: l, ..Default::default() })) {
+            match pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some("blockdem"),
+                required_features: f,
+                required_limits: l,
+                ..Default::default()
+            })) {
                 Ok(dq) => {
                     opened = Some(dq);
                     break;
@@ -248,9 +260,9 @@ impl GpuDevice {
 
     /// Waits for all submitted work, at most `WAIT_TIMEOUT`.
     pub fn wait(&self) -> Result<(), GpuError> {
-        self.device
-            .poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(WAIT_TIMEOUT) })
-            .map_err(|e| GpuError::Device(format!("waiting for the GPU: {e} (a kernel ran longer than {} s or the device was lost)", WAIT_TIMEOUT.as_secs())))?;
+        self.device.poll(wgpu::PollType::Wait { submission_index: None, timeout: Some(WAIT_TIMEOUT) }).map_err(|e| {
+            GpuError::Device(format!("waiting for the GPU: {e} (a kernel ran longer than {} s or the device was lost)", WAIT_TIMEOUT.as_secs()))
+        })?;
         if let Some(e) = self.uncaptured.lock().ok().and_then(|mut slot| slot.take()) {
             return Err(GpuError::Device(e));
         }

@@ -90,7 +90,16 @@ impl Pipelines {
         // records (read), the new list and records (written), the patches (read).
         let splice_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("blockdem splice"),
-            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, true), storage(5, false), storage(6, false), storage(7, true)],
+            entries: &[
+                storage(0, true),
+                storage(1, true),
+                storage(2, true),
+                storage(3, true),
+                storage(4, true),
+                storage(5, false),
+                storage(6, false),
+                storage(7, true),
+            ],
         });
         let splice_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("blockdem splice"),
@@ -103,23 +112,39 @@ impl Pipelines {
             label: Some("blockdem adjacency"),
             entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, true)],
         });
-        let adjacency_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem adjacency"), bind_group_layouts: &[Some(&adjacency_layout)], immediate_size: 0 });
-        let pack_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem pack"), entries: &[storage(0, true), storage(1, false)] });
-        let pack_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem pack"), bind_group_layouts: &[Some(&pack_layout)], immediate_size: 0 });
+        let adjacency_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("blockdem adjacency"),
+            bind_group_layouts: &[Some(&adjacency_layout)],
+            immediate_size: 0,
+        });
+        let pack_layout =
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem pack"), entries: &[storage(0, true), storage(1, false)] });
+        let pack_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("blockdem pack"),
+            bind_group_layouts: &[Some(&pack_layout)],
+            immediate_size: 0,
+        });
         // Stage 7's lists: the constants, blocks, contacts and grid reference (read), the header
         // and the two lists (written).
         let lists_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("blockdem update lists"),
             entries: &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, false)],
         });
-        let lists_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem update lists"), bind_group_layouts: &[Some(&lists_layout)], immediate_size: 0 });
+        let lists_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("blockdem update lists"),
+            bind_group_layouts: &[Some(&lists_layout)],
+            immediate_size: 0,
+        });
         // End of cycle: the flags (binding 7, as in common.wgsl) and the dispatch grids (10).
-        let end_cycle_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem end_cycle"), entries: &[storage(7, false), storage(10, false)] });
-        let end_cycle_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("blockdem end_cycle"), bind_group_layouts: &[Some(&end_cycle_layout)], immediate_size: 0 });
+        let end_cycle_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("blockdem end_cycle"),
+            entries: &[storage(7, false), storage(10, false)],
+        });
+        let end_cycle_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("blockdem end_cycle"),
+            bind_group_layouts: &[Some(&end_cycle_layout)],
+            immediate_size: 0,
+        });
         // `entry` in the kernel file `name`.wgsl, on `layout`.
         let make_on = |layout: &wgpu::PipelineLayout, name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
             let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
@@ -230,7 +255,12 @@ pub(crate) fn check_fits(label: &str, item: usize, count: usize, cap: u64, preci
 
 /// A uniform buffer of `size` bytes, written from the CPU.
 pub(crate) fn uniform_buffer(dev: &GpuDevice, label: &str, size: usize) -> wgpu::Buffer {
-    dev.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size as u64, usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST, mapped_at_creation: false })
+    dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
 }
 
 /// The bind group entries of `buffers`, each whole, at bindings 0, 1, 2, … in order.
@@ -399,13 +429,26 @@ impl Grid {
 
 /// One pass of a topology kernel (`shaders::TOPOLOGY_KERNELS`, bindings of its own) over `n`
 /// items, submitted with no wait; a binding the driver rejects is an error value.
-pub fn dispatch_items(dev: &GpuDevice, label: &str, pipeline: &wgpu::ComputePipeline, layout: &wgpu::BindGroupLayout, entries: &[wgpu::BindGroupEntry], n: usize) -> Result<(), GpuError> {
+pub fn dispatch_items(
+    dev: &GpuDevice,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    layout: &wgpu::BindGroupLayout,
+    entries: &[wgpu::BindGroupEntry],
+    n: usize,
+) -> Result<(), GpuError> {
     dispatch_passes(dev, label, &[(pipeline, n)], layout, entries)
 }
 
 /// `dispatch_items` for several passes on one bind group, one after the other in one submission
 /// (a pass of no items is left out).
-pub fn dispatch_passes(dev: &GpuDevice, label: &str, passes: &[(&wgpu::ComputePipeline, usize)], layout: &wgpu::BindGroupLayout, entries: &[wgpu::BindGroupEntry]) -> Result<(), GpuError> {
+pub fn dispatch_passes(
+    dev: &GpuDevice,
+    label: &str,
+    passes: &[(&wgpu::ComputePipeline, usize)],
+    layout: &wgpu::BindGroupLayout,
+    entries: &[wgpu::BindGroupEntry],
+) -> Result<(), GpuError> {
     let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries });
     let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
@@ -449,12 +492,14 @@ pub fn sin_cos(theta: f64) -> (f64, f64) {
             + r2 * (-1.0 / 6.0
                 + r2 * (1.0 / 120.0
                     + r2 * (-1.0 / 5040.0
-                        + r2 * (1.0 / 362880.0 + r2 * (-1.0 / 39916800.0 + r2 * (1.0 / 6227020800.0 + r2 * (-1.0 / 1307674368000.0 + r2 * (1.0 / 355687428096000.0)))))))));
+                        + r2 * (1.0 / 362880.0
+                            + r2 * (-1.0 / 39916800.0 + r2 * (1.0 / 6227020800.0 + r2 * (-1.0 / 1307674368000.0 + r2 * (1.0 / 355687428096000.0)))))))));
     let c = 1.0
         + r2 * (-0.5
             + r2 * (1.0 / 24.0
                 + r2 * (-1.0 / 720.0
-                    + r2 * (1.0 / 40320.0 + r2 * (-1.0 / 3628800.0 + r2 * (1.0 / 479001600.0 + r2 * (-1.0 / 87178291200.0 + r2 * (1.0 / 20922789888000.0))))))));
+                    + r2 * (1.0 / 40320.0
+                        + r2 * (-1.0 / 3628800.0 + r2 * (1.0 / 479001600.0 + r2 * (-1.0 / 87178291200.0 + r2 * (1.0 / 20922789888000.0))))))));
     match k & 3 {
         0 => (c, s),
         1 => (-s, c),

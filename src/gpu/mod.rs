@@ -95,12 +95,12 @@ use crate::backend::{Backend, CycleError, CycleReport};
 use crate::model::Model;
 use crate::topology::Adjacency;
 
-pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
-pub use partial::{PartialReads, PARTIAL_READ_MIN_BYTES};
-pub use targets::{find_target, scenario_backends, GpuTarget};
 use checkpoint::{Checkpoint, ContactIdentity};
+pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 use kernels::{Buffers, Pipelines};
 use layout::{Block, Real};
+pub use partial::{PartialReads, PARTIAL_READ_MIN_BYTES};
+pub use targets::{find_target, scenario_backends, GpuTarget};
 
 /// Kernel precision (`--precision`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

@@ -260,9 +260,11 @@ impl<R: Real> Engine<R> {
             if n_listed > nb / 8 || n_contacts > nk / 8 + 64 {
                 return Ok(PartialUpdate::Declined);
             }
-            let (mut listed, mut listed_contacts) = self.dev.read_parts(&[(&lists.listed_blocks.buffer, (n_listed * 4) as u64), (&lists.listed_contacts.buffer, (n_contacts * 4) as u64)], |bytes| {
-                (bytemuck::pod_collect_to_vec::<u8, u32>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, u32>(bytes[1]))
-            })?;
+            let (mut listed, mut listed_contacts) = self
+                .dev
+                .read_parts(&[(&lists.listed_blocks.buffer, (n_listed * 4) as u64), (&lists.listed_contacts.buffer, (n_contacts * 4) as u64)], |bytes| {
+                    (bytemuck::pod_collect_to_vec::<u8, u32>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, u32>(bytes[1]))
+                })?;
             listed.sort_unstable();
             listed_contacts.sort_unstable();
             (listed, listed_contacts, header[2])
@@ -335,11 +337,7 @@ impl<R: Real> Engine<R> {
         if model.contacts.is_empty() {
             self.upload_contacts(model, adjacency)?;
         } else {
-            let read: Vec<u32> = if read_all {
-                (0..edit.old_len).collect()
-            } else {
-                read_contacts.iter().flat_map(|&(s, e)| s..e).collect()
-            };
+            let read: Vec<u32> = if read_all { (0..edit.old_len).collect() } else { read_contacts.iter().flat_map(|&(s, e)| s..e).collect() };
             let patches: Vec<[u32; 2]> = read
                 .into_iter()
                 .filter(|k| edit.dropped.binary_search(k).is_err())
@@ -406,7 +404,15 @@ impl<R: Real> Engine<R> {
                 for k in s..e {
                     let g = &gathered[at];
                     at += 1;
-                    let summary = ContactSummary { gap: g.gap, normal_force: g.normal_force, shear_force: g.shear_force, slip_work: g.slip_work, dashpot_work: g.dashpot_work, feature: g.feature, bonded: g.bonded };
+                    let summary = ContactSummary {
+                        gap: g.gap,
+                        normal_force: g.normal_force,
+                        shear_force: g.shear_force,
+                        slip_work: g.slip_work,
+                        dashpot_work: g.dashpot_work,
+                        feature: g.feature,
+                        bonded: g.bonded,
+                    };
                     Self::convert_summary(&summary, up.contact_base[k as usize], &mut model.contacts[k as usize]);
                 }
             }

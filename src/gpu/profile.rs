@@ -72,7 +72,9 @@ pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usiz
 /// second. The copy is repeated in one submission until it takes at least 0.2 s.
 pub fn copy_bandwidth(dev: &GpuDevice) -> Result<f64, GpuError> {
     let size = (256u64 << 20).min(dev.summary.max_buffer_size / 2).min(dev.summary.max_storage_buffer_binding_size) & !3;
-    let make = |label: &str, usage: wgpu::BufferUsages| dev.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false });
+    let make = |label: &str, usage: wgpu::BufferUsages| {
+        dev.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+    };
     let src = make("bandwidth source", wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
     let dst = make("bandwidth destination", wgpu::BufferUsages::COPY_DST);
     let run = |reps: u32| -> Result<f64, GpuError> {
@@ -141,7 +143,8 @@ impl<R: Real> Engine<R> {
                 for c in 0..n {
                     for (i, d) in stages.iter().enumerate() {
                         let q = (c * stages.len() as u32 + i as u32) * 2;
-                        let writes = wgpu::ComputePassTimestampWrites { query_set: &set, beginning_of_pass_write_index: Some(q), end_of_pass_write_index: Some(q + 1) };
+                        let writes =
+                            wgpu::ComputePassTimestampWrites { query_set: &set, beginning_of_pass_write_index: Some(q), end_of_pass_write_index: Some(q + 1) };
                         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(d.label), timestamp_writes: Some(writes) });
                         pass.set_pipeline(d.pipeline);
                         pass.set_bind_group(0, d.bind_group, &[]);

@@ -43,7 +43,9 @@ impl<R: Real> Engine<R> {
             (true, Some(s)) => [(&s.buffer, (nk * std::mem::size_of::<ContactSummary<R>>()) as u64), (forces, 0)],
             // No contacts were ever packed (none live): nothing to read.
             (true, None) => [(&b.contacts.buffer, 0), (forces, 0)],
-            (false, _) => [(&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64), (forces, (nk * std::mem::size_of::<ContactForce<R>>()) as u64)],
+            (false, _) => {
+                [(&b.contacts.buffer, (nk * std::mem::size_of::<Contact<R>>()) as u64), (forces, (nk * std::mem::size_of::<ContactForce<R>>()) as u64)]
+            }
         }
     }
 
@@ -123,7 +125,13 @@ impl<R: Real> Engine<R> {
     /// their f64 bases. Converted in parallel (a 10⁶-block model is read back at every contact
     /// update); the external work is summed serially, so the result repeats bit for bit.
     pub(super) fn convert_blocks_and_corners(blocks: &[Block<R>], corners: &[Corner<R>], up: &Uploaded, model: &mut Model) {
-        model.blocks.par_iter_mut().zip(blocks.par_iter()).zip(up.damping_base.par_iter()).with_min_len(4096).for_each(|((m, g), &base)| Self::convert_block(g, base, up.origin, m));
+        model
+            .blocks
+            .par_iter_mut()
+            .zip(blocks.par_iter())
+            .zip(up.damping_base.par_iter())
+            .with_min_len(4096)
+            .for_each(|((m, g), &base)| Self::convert_block(g, base, up.origin, m));
         let work: f64 = blocks.iter().map(|g| g.work.to_f64()).sum();
         model.external_work = up.work_base + work;
         let Model { blocks: model_blocks, corners: model_corners, .. } = model;
@@ -166,7 +174,13 @@ impl<R: Real> Engine<R> {
     /// normal, shear displacement, force and dashpot velocities stay as they were (stale) until
     /// the next whole read-back; the splice keeps the device's.
     pub(super) fn convert_summaries(summaries: &[ContactSummary<R>], up: &Uploaded, model: &mut Model) {
-        model.contacts.par_iter_mut().zip(summaries.par_iter()).zip(up.contact_base.par_iter()).with_min_len(4096).for_each(|((m, g), &base)| Self::convert_summary(g, base, m));
+        model
+            .contacts
+            .par_iter_mut()
+            .zip(summaries.par_iter())
+            .zip(up.contact_base.par_iter())
+            .with_min_len(4096)
+            .for_each(|((m, g), &base)| Self::convert_summary(g, base, m));
     }
 
     /// One contact's summary into the model (`base`: its ledger bases).
@@ -223,7 +237,12 @@ impl<R: Real> Engine<R> {
         let (nb, nc, _) = self.counts;
         let b = self.buffers();
         let [contacts, forces] = self.contacts_parts(packed);
-        let parts = [(&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64), (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64), contacts, forces];
+        let parts = [
+            (&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64),
+            (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64),
+            contacts,
+            forces,
+        ];
         self.last_blocks = self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), &up, model);

@@ -40,7 +40,13 @@ impl<R: Real> Engine<R> {
             let block = model
                 .blocks
                 .iter()
-                .find(|b| !(b.centroid[0].is_finite() && b.centroid[1].is_finite() && b.velocity[0].is_finite() && b.velocity[1].is_finite() && b.angular_velocity.is_finite()))
+                .find(|b| {
+                    !(b.centroid[0].is_finite()
+                        && b.centroid[1].is_finite()
+                        && b.velocity[0].is_finite()
+                        && b.velocity[1].is_finite()
+                        && b.angular_velocity.is_finite())
+                })
                 .map_or(0, |b| b.id);
             return CycleError::NonFinite { cycle, block, what: "a non-finite position or velocity".into() };
         }
@@ -227,7 +233,9 @@ impl<R: Real> Engine<R> {
                                 self.splice_contacts(model, &adjacency, &edit, &patches)
                             }
                             None if packed && splice_follows => {
-                                return Err(CycleError::Setup("GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()))
+                                return Err(CycleError::Setup(
+                                    "GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into(),
+                                ))
                             }
                             None => self.upload_contacts(model, &adjacency),
                         }

@@ -51,13 +51,12 @@ pub const KERNELS: &[(&str, &str)] = &[
 
 /// Kernels of the topology changes between cycles, with bindings of their own (the state's bind
 /// group is at the eight storage buffers a stage may have); named like their Rust twins.
-pub const TOPOLOGY_KERNELS: &[(&str, &str)] =
-    &[
-        ("splice_contacts", include_str!("../../shaders/splice_contacts.wgsl")),
-        ("pack_contacts", include_str!("../../shaders/pack_contacts.wgsl")),
-        ("list_blocks", include_str!("../../shaders/list_blocks.wgsl")),
-        ("splice_adjacency", include_str!("../../shaders/splice_adjacency.wgsl")),
-    ];
+pub const TOPOLOGY_KERNELS: &[(&str, &str)] = &[
+    ("splice_contacts", include_str!("../../shaders/splice_contacts.wgsl")),
+    ("pack_contacts", include_str!("../../shaders/pack_contacts.wgsl")),
+    ("list_blocks", include_str!("../../shaders/list_blocks.wgsl")),
+    ("splice_adjacency", include_str!("../../shaders/splice_adjacency.wgsl")),
+];
 
 /// Every kernel file's name, the cycle's first.
 pub fn kernel_names() -> impl Iterator<Item = &'static str> {
@@ -106,9 +105,7 @@ pub fn validate(source: &str, precision: Precision) -> Result<(naga::Module, nag
     if precision == Precision::F64 {
         caps |= naga::valid::Capabilities::FLOAT64;
     }
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps)
-        .validate(&module)
-        .map_err(|e| e.emit_to_string(source))?;
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), caps).validate(&module).map_err(|e| e.emit_to_string(source))?;
     Ok((module, info))
 }
 

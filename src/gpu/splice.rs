@@ -199,7 +199,11 @@ mod tests {
         for w in runs.windows(2) {
             let source = w[0][1];
             for i in 0..(w[1][0] - w[0][0]) as usize {
-                rebuilt.push(if source & NEW_CONTACT != 0 { model.contacts[edit.inserted_at[(source & !NEW_CONTACT) as usize + i] as usize] } else { old[source as usize + i] });
+                rebuilt.push(if source & NEW_CONTACT != 0 {
+                    model.contacts[edit.inserted_at[(source & !NEW_CONTACT) as usize + i] as usize]
+                } else {
+                    old[source as usize + i]
+                });
             }
         }
         assert_eq!(rebuilt.len(), model.contacts.len());
@@ -264,7 +268,10 @@ mod tests {
         // Old 0, a created contact, old 2 and 3 (1 dropped).
         let (mut new, forces) = splice_contacts(&old, &old_f, &[[0, 0], [1, NEW_CONTACT], [2, 2], [4, 0]], &[c(5)], &[f(5)]);
         patch_contacts(&mut new, &[[2, 9], [7, 1]]);
-        assert_eq!(new.iter().map(|c| (c.block1, c.feature, c.slip_work, c.dashpot_work)).collect::<Vec<_>>(), [(0, 0, 1.0, 2.0), (5, 5, 1.0, 2.0), (2, 9, 0.0, 0.0), (3, 3, 1.0, 2.0)]);
+        assert_eq!(
+            new.iter().map(|c| (c.block1, c.feature, c.slip_work, c.dashpot_work)).collect::<Vec<_>>(),
+            [(0, 0, 1.0, 2.0), (5, 5, 1.0, 2.0), (2, 9, 0.0, 0.0), (3, 3, 1.0, 2.0)]
+        );
         assert_eq!(forces.iter().map(|f| f.fx).collect::<Vec<_>>(), [0.0, 5.0, 2.0, 3.0]);
     }
 }

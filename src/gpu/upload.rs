@@ -64,7 +64,8 @@ impl<R: Real> Engine<R> {
             origin = [(0.5 * (lo[0] + hi[0])).round(), (0.5 * (lo[1] + hi[1])).round()];
         }
         // The contact bases are set by `upload_contacts`, which follows.
-        let uploaded = Uploaded { origin, work_base: model.external_work, damping_base: model.blocks.iter().map(|b| b.damping_work).collect(), contact_base: Vec::new() };
+        let uploaded =
+            Uploaded { origin, work_base: model.external_work, damping_base: model.blocks.iter().map(|b| b.damping_work).collect(), contact_base: Vec::new() };
         let blocks: Vec<Block<R>> = model
             .blocks
             .par_iter()
@@ -229,7 +230,14 @@ impl<R: Real> Engine<R> {
         // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl): free ones first,
         // then fixed ones, which only the pass before a read-back sums (a base under a wall).
         let mut offsets = adjacency.offsets.clone();
-        let heavy = |fixed: bool| adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| w[1] - w[0] > shaders::HEAVY_DEGREE && blocks[*b].fixed == fixed).map(|(b, _)| b as u32);
+        let heavy = |fixed: bool| {
+            adjacency
+                .offsets
+                .windows(2)
+                .enumerate()
+                .filter(move |(b, w)| w[1] - w[0] > shaders::HEAVY_DEGREE && blocks[*b].fixed == fixed)
+                .map(|(b, _)| b as u32)
+        };
         let free: Vec<u32> = heavy(false).collect();
         self.n_heavy_free = free.len();
         offsets.extend(free);
@@ -272,7 +280,9 @@ impl<R: Real> Engine<R> {
         let dev = &self.dev;
         let b = self.buffers.as_mut().expect("buffers exist");
         b.ensure_spare::<R>(dev, n)?;
-        let init = |label: &str, contents: &[u8]| dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE });
+        let init = |label: &str, contents: &[u8]| {
+            dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE })
+        };
         let runs_buffer = init("contact runs", bytemuck::cast_slice(&runs));
         let created_buffer = init("created contacts", bytemuck::cast_slice(&created));
         let created_forces_buffer = init("created contact forces", bytemuck::cast_slice(&created_forces));
@@ -286,7 +296,13 @@ impl<R: Real> Engine<R> {
         let (old, old_forces, new, new_forces) = if moves { (live, live_forces, spare, spare_forces) } else { (spare, spare_forces, live, live_forces) };
         let entries = kernels::whole_bindings(&[old, old_forces, &runs_buffer, &created_buffer, &created_forces_buffer, new, new_forces, &patches_buffer]);
         let p = &self.pipelines;
-        kernels::dispatch_passes(dev, "splice_contacts", &[(&p.splice_contacts, if moves { n } else { 0 }), (&p.patch_contacts, patches.len())], &p.splice_layout, &entries)?;
+        kernels::dispatch_passes(
+            dev,
+            "splice_contacts",
+            &[(&p.splice_contacts, if moves { n } else { 0 }), (&p.patch_contacts, patches.len())],
+            &p.splice_layout,
+            &entries,
+        )?;
         self.splices += 1;
         if !moves {
             return Ok(());
@@ -322,7 +338,9 @@ impl<R: Real> Engine<R> {
             heavy(now) != heavy(now - change)
         });
         let heavy_list: Option<(Vec<u32>, usize)> = crossed.then(|| {
-            let list = |fixed: bool| adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| heavy((w[1] - w[0]) as i64) && blocks[*b].fixed == fixed).map(|(b, _)| b as u32);
+            let list = |fixed: bool| {
+                adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| heavy((w[1] - w[0]) as i64) && blocks[*b].fixed == fixed).map(|(b, _)| b as u32)
+            };
             let free: Vec<u32> = list(false).collect();
             let n_free = free.len();
             (free.into_iter().chain(list(true)).collect(), n_free)
@@ -333,8 +351,16 @@ impl<R: Real> Engine<R> {
         }
         let dev = &self.dev;
         b.ensure_spare_entries(dev, n_entries.max(1))?;
-        Buffers::ensure(dev, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(n_blocks, edit.new_len() as usize))?;
-        let init = |label: &str, contents: &[u8]| dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE });
+        Buffers::ensure(
+            dev,
+            &mut b.energy_sums,
+            "energy sums",
+            std::mem::size_of::<EnergySum<R>>(),
+            kernels::energy_groups(n_blocks, edit.new_len() as usize),
+        )?;
+        let init = |label: &str, contents: &[u8]| {
+            dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE })
+        };
         // (A binding holds at least one item.)
         let lists: &[u32] = if entries.lists.is_empty() { &[0] } else { &entries.lists };
         let touched = splice::touched_shifts(entries, n_blocks + 1);
@@ -343,9 +369,23 @@ impl<R: Real> Engine<R> {
         let renumber_buffer = init("contact renumbering", bytemuck::cast_slice(&splice::renumber_table(edit)));
         let touched_buffer = init("touched lists", bytemuck::cast_slice(&touched));
         let spare = b.spare_entries.as_ref().expect("made above");
-        let bindings = kernels::whole_bindings(&[&b.adj_entries.buffer, &runs_buffer, &lists_buffer, &renumber_buffer, &spare.buffer, &b.adj_offsets.buffer, &touched_buffer]);
+        let bindings = kernels::whole_bindings(&[
+            &b.adj_entries.buffer,
+            &runs_buffer,
+            &lists_buffer,
+            &renumber_buffer,
+            &spare.buffer,
+            &b.adj_offsets.buffer,
+            &touched_buffer,
+        ]);
         let p = &self.pipelines;
-        kernels::dispatch_passes(dev, "splice_adjacency", &[(&p.splice_adjacency, n_entries), (&p.shift_offsets, n_blocks + 1)], &p.adjacency_layout, &bindings)?;
+        kernels::dispatch_passes(
+            dev,
+            "splice_adjacency",
+            &[(&p.splice_adjacency, n_entries), (&p.shift_offsets, n_blocks + 1)],
+            &p.adjacency_layout,
+            &bindings,
+        )?;
         b.swap_entries();
         if let Some((list, n_free)) = heavy_list {
             dev.queue.write_buffer(&b.adj_offsets.buffer, ((n_blocks + 1) * 4) as u64, bytemuck::cast_slice(&list));
@@ -396,7 +436,11 @@ impl<R: Real> Engine<R> {
             .enumerate()
             .filter(|(_, (m, g))| {
                 m.moved_since_update == 0.0
-                    && (g.moved.to_f64() != 0.0 || g.update_cx != g.cx || g.update_cy != g.cy || g.update_rotation != g.rotation || g.update_margin != R::from_f64(m.update_margin))
+                    && (g.moved.to_f64() != 0.0
+                        || g.update_cx != g.cx
+                        || g.update_cy != g.cy
+                        || g.update_rotation != g.rotation
+                        || g.update_margin != R::from_f64(m.update_margin))
             })
             .map(|(i, _)| i)
             .collect();

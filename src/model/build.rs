@@ -15,17 +15,11 @@ pub enum GeometryError {
     TooFewCorners { count: usize },
     #[error("corner {index} of the block outline is not a finite number")]
     NonFinite { index: usize },
-    #[error(
-        "corners {index} and {next} of the block outline are at the same place (zero-length edge)"
-    )]
+    #[error("corners {index} and {next} of the block outline are at the same place (zero-length edge)")]
     RepeatedCorner { index: usize, next: usize },
-    #[error(
-        "the block outline crosses or touches itself; give the corners in order around the block"
-    )]
+    #[error("the block outline crosses or touches itself; give the corners in order around the block")]
     SelfIntersecting,
-    #[error(
-        "the block outline is too large to compute with (it spans {extent:e}; its area overflows f64); check the units of the coordinates"
-    )]
+    #[error("the block outline is too large to compute with (it spans {extent:e}; its area overflows f64); check the units of the coordinates")]
     TooLarge { extent: f64 },
     #[error("the block outline encloses no area (area {area:e}); are its corners collinear?")]
     Degenerate { area: f64 },
@@ -55,35 +49,20 @@ impl Model {
     /// "take the block's"). Mass and inertia use the material's current density (0 until PROPERTY
     /// sets it; see [`Model::recompute_mass_properties`]). Returns the new block's index, which is
     /// the last one.
-    pub fn add_block(
-        &mut self,
-        outline: &[[f64; 2]],
-        material: u32,
-        constitutive: u32,
-        edge_tags: Option<&[(u32, u32)]>,
-    ) -> Result<usize, GeometryError> {
+    pub fn add_block(&mut self, outline: &[[f64; 2]], material: u32, constitutive: u32, edge_tags: Option<&[(u32, u32)]>) -> Result<usize, GeometryError> {
         let n = outline.len();
         if n < 3 {
             return Err(GeometryError::TooFewCorners { count: n });
         }
-        if let Some(index) = outline
-            .iter()
-            .position(|p| !p[0].is_finite() || !p[1].is_finite())
-        {
+        if let Some(index) = outline.iter().position(|p| !p[0].is_finite() || !p[1].is_finite()) {
             return Err(GeometryError::NonFinite { index });
         }
         if let Some(index) = (0..n).find(|&i| outline[i] == outline[(i + 1) % n]) {
-            return Err(GeometryError::RepeatedCorner {
-                index,
-                next: (index + 1) % n,
-            });
+            return Err(GeometryError::RepeatedCorner { index, next: (index + 1) % n });
         }
         if let Some(tags) = edge_tags {
             if tags.len() != n {
-                return Err(GeometryError::EdgeTagCount {
-                    given: tags.len(),
-                    corners: n,
-                });
+                return Err(GeometryError::EdgeTagCount { given: tags.len(), corners: n });
             }
         }
         if !geometry::is_simple_polygon(outline) {
@@ -122,12 +101,7 @@ impl Model {
 
     /// Appends a block from a counter-clockwise, simple world outline and its edge tags (tag i for
     /// the edge from corner i to corner i + 1). Body frame: centroid origin, rotation 0.
-    pub(crate) fn push_block(
-        &mut self,
-        pts_ccw: &[[f64; 2]],
-        tags: &[(u32, u32)],
-        seed: BlockSeed,
-    ) -> usize {
+    pub(crate) fn push_block(&mut self, pts_ccw: &[[f64; 2]], tags: &[(u32, u32)], seed: BlockSeed) -> usize {
         debug_assert_eq!(pts_ccw.len(), tags.len());
         let props = polygon_properties(pts_ccw);
         let c = props.centroid;
@@ -136,25 +110,19 @@ impl Model {
         let density = self.material(seed.material).density;
         let b = self.blocks.len();
         let corner_start = self.corners.len() as u32;
-        self.corners.extend(
-            local
-                .iter()
-                .zip(&rounds)
-                .zip(tags)
-                .map(|((l, r), t)| Corner {
-                    block: b as u32,
-                    local: *l,
-                    circle_local: r.circle,
-                    radius: r.radius,
-                    round: r.round,
-                    position: geometry::add(c, *l),
-                    circle: geometry::add(c, r.circle),
-                    edge_dir: [0.0, 0.0],
-                    edge_length: 0.0,
-                    edge_material: t.0,
-                    edge_constitutive: t.1,
-                }),
-        );
+        self.corners.extend(local.iter().zip(&rounds).zip(tags).map(|((l, r), t)| Corner {
+            block: b as u32,
+            local: *l,
+            circle_local: r.circle,
+            radius: r.radius,
+            round: r.round,
+            position: geometry::add(c, *l),
+            circle: geometry::add(c, r.circle),
+            edge_dir: [0.0, 0.0],
+            edge_length: 0.0,
+            edge_material: t.0,
+            edge_constitutive: t.1,
+        }));
         self.blocks.push(Block {
             id: seed.id,
             kind: seed.kind,
@@ -229,20 +197,14 @@ impl Model {
             let nbk = block_map[corner.block as usize];
             if nbk != u32::MAX {
                 corner_map[ci] = kept_corners.len() as u32;
-                kept_corners.push(Corner {
-                    block: nbk,
-                    ..*corner
-                });
+                kept_corners.push(Corner { block: nbk, ..*corner });
             }
         }
         let mut new_blocks = Vec::with_capacity(next as usize);
         for (i, blk) in self.blocks.drain(..).enumerate() {
             if !removed[i] {
                 let corner_start = corner_map[blk.corner_start as usize];
-                new_blocks.push(Block {
-                    corner_start,
-                    ..blk
-                });
+                new_blocks.push(Block { corner_start, ..blk });
             }
         }
         self.blocks = new_blocks;
@@ -281,10 +243,7 @@ impl Model {
     /// (not from the cached `Corner::position`).
     pub fn world_outline(&self, b: usize) -> Vec<[f64; 2]> {
         let blk = &self.blocks[b];
-        self.block_corners(b)
-            .iter()
-            .map(|k| geometry::add(blk.centroid, geometry::rotate(k.local, blk.rotation)))
-            .collect()
+        self.block_corners(b).iter().map(|k| geometry::add(blk.centroid, geometry::rotate(k.local, blk.rotation))).collect()
     }
 
     /// ROUND d: sets the rounding length and the tolerances derived from it, and re-rounds every
@@ -294,14 +253,8 @@ impl Model {
         for b in 0..self.blocks.len() {
             let blk = &self.blocks[b];
             let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
-            let local: Vec<[f64; 2]> = self.corners[range.clone()]
-                .iter()
-                .map(|c| c.local)
-                .collect();
-            for (k, r) in self.corners[range]
-                .iter_mut()
-                .zip(corner_rounding(&local, d))
-            {
+            let local: Vec<[f64; 2]> = self.corners[range.clone()].iter().map(|c| c.local).collect();
+            for (k, r) in self.corners[range].iter_mut().zip(corner_rounding(&local, d)) {
                 k.circle_local = r.circle;
                 k.radius = r.radius;
                 k.round = r.round;
@@ -326,61 +279,33 @@ impl Model {
                 return Err(format!("block {b} (id {}) has {n} corners", blk.id));
             }
             if s + n > self.corners.len() {
-                return Err(format!(
-                    "block {b} (id {}) corner range {s}..{} out of bounds",
-                    blk.id,
-                    s + n
-                ));
+                return Err(format!("block {b} (id {}) corner range {s}..{} out of bounds", blk.id, s + n));
             }
             if !ids.insert(blk.id) || blk.id >= self.next_block_id {
-                return Err(format!(
-                    "block {b}: id {} repeated or not below next_block_id",
-                    blk.id
-                ));
+                return Err(format!("block {b}: id {} repeated or not below next_block_id", blk.id));
             }
-            let scalars = [
-                blk.area,
-                blk.mass,
-                blk.inertia,
-                blk.rotation,
-                blk.angular_velocity,
-                blk.moment,
-            ];
+            let scalars = [blk.area, blk.mass, blk.inertia, blk.rotation, blk.angular_velocity, blk.moment];
             let pairs = [blk.centroid, blk.velocity, blk.force, blk.load];
             if !finite(&scalars) || !pairs.iter().all(|p| finite(p)) || !blk.radius.is_finite() {
                 return Err(format!("block {b} (id {}) has a non-finite value", blk.id));
             }
             if blk.area <= 0.0 || blk.mass < 0.0 || blk.inertia < 0.0 {
-                return Err(format!(
-                    "block {b} (id {}): area {} mass {} inertia {}",
-                    blk.id, blk.area, blk.mass, blk.inertia
-                ));
+                return Err(format!("block {b} (id {}): area {} mass {} inertia {}", blk.id, blk.area, blk.mass, blk.inertia));
             }
             let corners = &self.corners[s..s + n];
             for (k, c) in corners.iter().enumerate() {
                 if c.block as usize != b {
-                    return Err(format!(
-                        "corner {} belongs to block {b} but says block {}",
-                        s + k,
-                        c.block
-                    ));
+                    return Err(format!("corner {} belongs to block {b} but says block {}", s + k, c.block));
                 }
                 let vals = [c.local, c.circle_local, c.position, c.circle];
-                if !vals.iter().all(|p| finite(p))
-                    || !c.radius.is_finite()
-                    || c.radius < 0.0
-                    || c.round < 0.0
-                {
+                if !vals.iter().all(|p| finite(p)) || !c.radius.is_finite() || c.radius < 0.0 || c.round < 0.0 {
                     return Err(format!("corner {} of block {b} has a bad value", s + k));
                 }
             }
             let local: Vec<[f64; 2]> = corners.iter().map(|c| c.local).collect();
             let area = geometry::signed_area(&local);
             if (area - blk.area).abs() > 1e-9 * blk.area.max(blk.radius * blk.radius) {
-                return Err(format!(
-                    "block {b} (id {}): outline area {area} (clockwise if negative) ≠ stored {}",
-                    blk.id, blk.area
-                ));
+                return Err(format!("block {b} (id {}): outline area {area} (clockwise if negative) ≠ stored {}", blk.id, blk.area));
             }
             ranges.push((s, n, b));
         }
@@ -398,26 +323,15 @@ impl Model {
         for (i, c) in self.contacts.iter().enumerate() {
             let (b1, b2) = (c.block1 as usize, c.block2 as usize);
             if b1 >= nb || b2 >= nb || b1 == b2 {
-                return Err(format!(
-                    "contact {i} (id {}) joins blocks {b1} and {b2} of {nb}",
-                    c.id
-                ));
+                return Err(format!("contact {i} (id {}) joins blocks {b1} and {b2} of {nb}", c.id));
             }
             let blk1 = &self.blocks[b1];
             let corner = c.corner as usize;
-            if corner < blk1.corner_start as usize
-                || corner >= (blk1.corner_start + blk1.corner_count) as usize
-            {
-                return Err(format!(
-                    "contact {i} (id {}): corner {corner} is not a corner of block {b1}",
-                    c.id
-                ));
+            if corner < blk1.corner_start as usize || corner >= (blk1.corner_start + blk1.corner_count) as usize {
+                return Err(format!("contact {i} (id {}): corner {corner} is not a corner of block {b1}", c.id));
             }
             if c.feature >= 2 * self.blocks[b2].corner_count {
-                return Err(format!(
-                    "contact {i} (id {}): feature {} beyond block {b2}",
-                    c.id, c.feature
-                ));
+                return Err(format!("contact {i} (id {}): feature {} beyond block {b2}", c.id, c.feature));
             }
             let vals = [c.gap, c.normal_force, c.shear_force, c.shear_displacement];
             if !finite(&vals) || !finite(&c.point) || !finite(&c.normal) || !finite(&c.force) {
@@ -426,10 +340,7 @@ impl Model {
         }
         for (i, l) in self.links.iter().enumerate() {
             if l.flying as usize >= nb || l.anchor as usize >= nb || l.flying == l.anchor {
-                return Err(format!(
-                    "link {i} joins blocks {} and {} of {nb}",
-                    l.flying, l.anchor
-                ));
+                return Err(format!("link {i} joins blocks {} and {} of {nb}", l.flying, l.anchor));
             }
         }
         Ok(())

@@ -95,11 +95,7 @@ pub fn signed_area(pts: &[[f64; 2]]) -> f64 {
 pub fn polygon_properties(pts: &[[f64; 2]]) -> PolygonProps {
     let n = pts.len();
     if n == 0 {
-        return PolygonProps {
-            area: 0.0,
-            centroid: [0.0, 0.0],
-            polar_moment: 0.0,
-        };
+        return PolygonProps { area: 0.0, centroid: [0.0, 0.0], polar_moment: 0.0 };
     }
     let o = pts[0];
     let (mut a2, mut sx, mut sy, mut io) = (0.0, 0.0, 0.0, 0.0);
@@ -110,53 +106,35 @@ pub fn polygon_properties(pts: &[[f64; 2]]) -> PolygonProps {
         a2 += c;
         sx += (p[0] + q[0]) * c;
         sy += (p[1] + q[1]) * c;
-        io +=
-            (p[0] * p[0] + p[0] * q[0] + q[0] * q[0] + p[1] * p[1] + p[1] * q[1] + q[1] * q[1]) * c;
+        io += (p[0] * p[0] + p[0] * q[0] + q[0] * q[0] + p[1] * p[1] + p[1] * q[1] + q[1] * q[1]) * c;
     }
     let area = 0.5 * a2;
     if area == 0.0 || !area.is_finite() {
         let mean = pts.iter().fold([0.0, 0.0], |s, p| add(s, sub(*p, o)));
-        return PolygonProps {
-            area,
-            centroid: add(o, scale(mean, 1.0 / n as f64)),
-            polar_moment: 0.0,
-        };
+        return PolygonProps { area, centroid: add(o, scale(mean, 1.0 / n as f64)), polar_moment: 0.0 };
     }
     let c = [sx / (6.0 * area), sy / (6.0 * area)];
     let j = io / 12.0 - area * dot(c, c);
-    PolygonProps {
-        area,
-        centroid: add(o, c),
-        polar_moment: j.abs(),
-    }
+    PolygonProps { area, centroid: add(o, c), polar_moment: j.abs() }
 }
 
 /// Distance from point `p` to the closed segment a–b.
 pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let ab = sub(b, a);
     let len2 = dot(ab, ab);
-    let t = if len2 > 0.0 {
-        (dot(sub(p, a), ab) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let t = if len2 > 0.0 { (dot(sub(p, a), ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
     distance(p, add(a, scale(ab, t)))
 }
 
 /// Distance from `p` to the nearest point of the polygon's boundary.
 pub fn boundary_distance(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
     let n = pts.len();
-    (0..n)
-        .map(|i| point_segment_distance(p, pts[i], pts[(i + 1) % n]))
-        .fold(f64::INFINITY, f64::min)
+    (0..n).map(|i| point_segment_distance(p, pts[i], pts[(i + 1) % n])).fold(f64::INFINITY, f64::min)
 }
 
 /// Whether `q` lies on the closed segment a–b, given that a, b, q are collinear.
 fn on_collinear_segment(a: [f64; 2], b: [f64; 2], q: [f64; 2]) -> bool {
-    q[0] >= a[0].min(b[0])
-        && q[0] <= a[0].max(b[0])
-        && q[1] >= a[1].min(b[1])
-        && q[1] <= a[1].max(b[1])
+    q[0] >= a[0].min(b[0]) && q[0] <= a[0].max(b[0]) && q[1] >= a[1].min(b[1]) && q[1] <= a[1].max(b[1])
 }
 
 /// Whether the closed segments p1–p2 and q1–q2 share at least one point (touching counts).
@@ -165,9 +143,7 @@ pub fn segments_intersect(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]
     let d2 = orient(q1, q2, p2);
     let d3 = orient(p1, p2, q1);
     let d4 = orient(p1, p2, q2);
-    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
-        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
-    {
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)) {
         return true;
     }
     (d1 == 0.0 && on_collinear_segment(q1, q2, p1))
@@ -178,12 +154,7 @@ pub fn segments_intersect(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]
 
 /// The point where segments p1–p2 and q1–q2 cross, with parameters (s, t) along each
 /// (point = p1 + s (p2 − p1) = q1 + t (q2 − q1)), or None when they do not meet or are parallel.
-pub fn segment_intersection(
-    p1: [f64; 2],
-    p2: [f64; 2],
-    q1: [f64; 2],
-    q2: [f64; 2],
-) -> Option<([f64; 2], f64, f64)> {
+pub fn segment_intersection(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]) -> Option<([f64; 2], f64, f64)> {
     let r = sub(p2, p1);
     let d = sub(q2, q1);
     let den = cross(r, d);
@@ -199,12 +170,7 @@ pub fn segment_intersection(
 /// Where the infinite line through a, b crosses the segment c–d: the parameter t along c–d
 /// (point = c + t (d − c), 0 ≤ t ≤ 1) and the parameter s along the line (point = a + s (b − a)).
 /// None when the segment misses the line or is parallel to it.
-pub fn line_segment_intersection(
-    a: [f64; 2],
-    b: [f64; 2],
-    c: [f64; 2],
-    d: [f64; 2],
-) -> Option<(f64, f64)> {
+pub fn line_segment_intersection(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> Option<(f64, f64)> {
     let sc = orient(a, b, c);
     let sd = orient(a, b, d);
     if sc == sd || (sc > 0.0 && sd > 0.0) || (sc < 0.0 && sd < 0.0) {
@@ -305,11 +271,7 @@ pub fn corner_rounding(pts_ccw: &[[f64; 2]], d: f64) -> Vec<CornerRound> {
             let p = pts_ccw[i];
             let a = pts_ccw[(i + n - 1) % n];
             let b = pts_ccw[(i + 1) % n];
-            let sharp = CornerRound {
-                circle: p,
-                radius: 0.0,
-                round: 0.0,
-            };
+            let sharp = CornerRound { circle: p, radius: 0.0, round: 0.0 };
             let (e1, e2) = (sub(p, a), sub(b, p));
             let (l1, l2) = (norm(e1), norm(e2));
             if l1 == 0.0 || l2 == 0.0 || d <= 0.0 {
@@ -324,11 +286,7 @@ pub fn corner_rounding(pts_ccw: &[[f64; 2]], d: f64) -> Vec<CornerRound> {
             // Inward bisector: the sum of the unit vectors from the corner along both edges.
             let bis = add(scale(e1, -1.0 / l1), scale(e2, 1.0 / l2));
             let bis = scale(bis, 1.0 / norm(bis));
-            CornerRound {
-                circle: add(p, scale(bis, round / half.sin())),
-                radius: round / half.tan(),
-                round,
-            }
+            CornerRound { circle: add(p, scale(bis, round / half.sin())), radius: round / half.tan(), round }
         })
         .collect()
 }

@@ -378,7 +378,24 @@ pub struct Model {
 /// destructuring is exhaustive, so a new field cannot be left out of either.
 impl Clone for Model {
     fn clone(&self) -> Self {
-        let Model { blocks, corners, contacts, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = self;
+        let Model {
+            blocks,
+            corners,
+            contacts,
+            materials,
+            links,
+            gravity,
+            damping,
+            frac,
+            tol,
+            timestep,
+            cycle,
+            time,
+            next_block_id,
+            next_contact_id,
+            external_work,
+            retired,
+        } = self;
         Model {
             blocks: cloned_list(blocks),
             corners: cloned_list(corners),
@@ -412,7 +429,24 @@ impl PartialEq for Model {
     /// (CYCLE after CYCLE) compares the model with the state the last run left, 1.7 GB at 10⁶
     /// blocks (~0.1 s on one core).
     fn eq(&self, other: &Self) -> bool {
-        let Model { blocks, corners, contacts, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = self;
+        let Model {
+            blocks,
+            corners,
+            contacts,
+            materials,
+            links,
+            gravity,
+            damping,
+            frac,
+            tol,
+            timestep,
+            cycle,
+            time,
+            next_block_id,
+            next_contact_id,
+            external_work,
+            retired,
+        } = self;
         materials == &other.materials
             && links == &other.links
             && gravity == &other.gravity
@@ -483,7 +517,24 @@ impl Model {
     /// backend's device checkpoint, and its own copy of the contacts' identities), refreshed
     /// after contact updates (a whole copy of the lists takes 90 ms at 10⁶ blocks here).
     pub fn clone_settings_from(&mut self, source: &Self) {
-        let Model { blocks: _, corners: _, contacts: _, materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired } = source;
+        let Model {
+            blocks: _,
+            corners: _,
+            contacts: _,
+            materials,
+            links,
+            gravity,
+            damping,
+            frac,
+            tol,
+            timestep,
+            cycle,
+            time,
+            next_block_id,
+            next_contact_id,
+            external_work,
+            retired,
+        } = source;
         self.materials.clone_from(materials);
         self.links.clone_from(links);
         self.gravity = *gravity;

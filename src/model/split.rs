@@ -12,9 +12,7 @@
 //! stable, and the first piece of each split block keeps its parent's id.
 
 use super::build::{bbox_extent, BlockSeed};
-use super::geometry::{
-    self, add, boundary_distance, cross, distance, dot, point_in_polygon, scale, sub,
-};
+use super::geometry::{self, add, boundary_distance, cross, distance, dot, point_in_polygon, scale, sub};
 use super::Model;
 
 /// What a SPLIT did.
@@ -87,18 +85,12 @@ fn check_chord(pts: &[[f64; 2]], a: OnBoundary, b: OnBoundary, eps: f64) -> Resu
         Edge(i, _) => e == i,
     };
     match (a, b) {
-        (Vertex(i), Vertex(j)) if i == j => {
-            return Err("the diverted split line degenerates to a point".into())
-        }
-        (Vertex(i), Vertex(j)) if adjacent(i, j) => {
-            return Err("the diverted split line coincides with an existing edge".into())
-        }
+        (Vertex(i), Vertex(j)) if i == j => return Err("the diverted split line degenerates to a point".into()),
+        (Vertex(i), Vertex(j)) if adjacent(i, j) => return Err("the diverted split line coincides with an existing edge".into()),
         (Vertex(v), Edge(e, _)) | (Edge(e, _), Vertex(v)) if e == v || (e + 1) % n == v => {
             return Err("the diverted split line coincides with an existing edge".into())
         }
-        (Edge(i, _), Edge(j, _)) if i == j => {
-            return Err("the split line runs along an existing edge".into())
-        }
+        (Edge(i, _), Edge(j, _)) if i == j => return Err("the split line runs along an existing edge".into()),
         _ => {}
     }
     let pa = match a {
@@ -115,11 +107,7 @@ fn check_chord(pts: &[[f64; 2]], a: OnBoundary, b: OnBoundary, eps: f64) -> Resu
     let mid = scale(add(pa, pb), 0.5);
     let leaves = !point_in_polygon(mid, pts)
         || boundary_distance(mid, pts) <= eps
-        || (0..n).any(|e| {
-            !incident(a, e)
-                && !incident(b, e)
-                && geometry::segments_intersect(pa, pb, pts[e], pts[(e + 1) % n])
-        });
+        || (0..n).any(|e| !incident(a, e) && !incident(b, e) && geometry::segments_intersect(pa, pb, pts[e], pts[(e + 1) % n]));
     if leaves {
         return Err("the diverted split line would leave the block".into());
     }
@@ -130,12 +118,7 @@ fn check_chord(pts: &[[f64; 2]], a: OnBoundary, b: OnBoundary, eps: f64) -> Resu
 /// of the line inside the polygon that lies entirely on the segment, with its ends diverted through
 /// nearby corners. Ok(empty) when the segment cuts nothing (it misses the block, or starts or ends
 /// inside it); Err(reason) when it would cut but the cut is refused.
-fn chords_along_segment(
-    pts: &[[f64; 2]],
-    from: [f64; 2],
-    to: [f64; 2],
-    d: f64,
-) -> Result<Vec<(OnBoundary, OnBoundary)>, String> {
+fn chords_along_segment(pts: &[[f64; 2]], from: [f64; 2], to: [f64; 2], d: f64) -> Result<Vec<(OnBoundary, OnBoundary)>, String> {
     let n = pts.len();
     let eps = round_off(pts);
     let len = distance(from, to);
@@ -186,11 +169,7 @@ fn chords_along_segment(
         }
     }
     if chords.is_empty() {
-        return if along_edge {
-            Err("the split line coincides with an existing edge".into())
-        } else {
-            Ok(chords)
-        };
+        return if along_edge { Err("the split line coincides with an existing edge".into()) } else { Ok(chords) };
     }
     for chord in &mut chords {
         *chord = (divert(pts, chord.0, d, eps), divert(pts, chord.1, d, eps));
@@ -201,16 +180,9 @@ fn chords_along_segment(
 
 /// Cuts an outline along chords between boundary points, one chord at a time on whichever piece
 /// holds it. The two new edges of each chord get the tag `joint`; split edges keep their tag.
-fn cut_outline(
-    outline: &Outline,
-    chords: &[(OnBoundary, OnBoundary)],
-    joint: (u32, u32),
-) -> Result<Vec<Outline>, String> {
+fn cut_outline(outline: &Outline, chords: &[(OnBoundary, OnBoundary)], joint: (u32, u32)) -> Result<Vec<Outline>, String> {
     let eps = round_off(&outline.pts);
-    let ends: Vec<([f64; 2], [f64; 2])> = chords
-        .iter()
-        .map(|c| (outline.point(c.0), outline.point(c.1)))
-        .collect();
+    let ends: Vec<([f64; 2], [f64; 2])> = chords.iter().map(|c| (outline.point(c.0), outline.point(c.1))).collect();
 
     // Make every chord end a vertex: insert points inside edges, the highest edge index first (and
     // on one edge the point farthest along it first) so that earlier indices stay valid.
@@ -236,43 +208,26 @@ fn cut_outline(
         let found = pieces.iter().enumerate().find_map(|(k, piece)| {
             let i = piece.pts.iter().position(|p| *p == pa)?;
             let j = piece.pts.iter().position(|p| *p == pb)?;
-            (point_in_polygon(mid, &piece.pts) && boundary_distance(mid, &piece.pts) > eps)
-                .then_some((k, i, j))
+            (point_in_polygon(mid, &piece.pts) && boundary_distance(mid, &piece.pts) > eps).then_some((k, i, j))
         });
         let Some((k, i, j)) = found else {
-            return Err(
-                "the split line's pieces inside the block interfere with each other".into(),
-            );
+            return Err("the split line's pieces inside the block interfere with each other".into());
         };
         let piece = pieces.swap_remove(k);
         let (i, j) = (i.min(j), i.max(j));
         // Vertices i..=j, closed by the chord j → i; and j..n, 0..=i, closed by the chord i → j.
-        let mut first = Outline {
-            pts: piece.pts[i..=j].to_vec(),
-            tags: piece.tags[i..j].to_vec(),
-        };
+        let mut first = Outline { pts: piece.pts[i..=j].to_vec(), tags: piece.tags[i..j].to_vec() };
         first.tags.push(joint);
         let mut second = Outline {
-            pts: piece.pts[j..]
-                .iter()
-                .chain(&piece.pts[..=i])
-                .copied()
-                .collect(),
-            tags: piece.tags[j..]
-                .iter()
-                .chain(&piece.tags[..i])
-                .copied()
-                .collect(),
+            pts: piece.pts[j..].iter().chain(&piece.pts[..=i]).copied().collect(),
+            tags: piece.tags[j..].iter().chain(&piece.tags[..i]).copied().collect(),
         };
         second.tags.push(joint);
         pieces.insert(k, second);
         pieces.insert(k, first);
     }
     let floor = 1e-12 * bbox_extent(&outline.pts).powi(2);
-    if pieces
-        .iter()
-        .any(|p| geometry::signed_area(&p.pts) <= floor)
-    {
+    if pieces.iter().any(|p| geometry::signed_area(&p.pts) <= floor) {
         return Err("the split would leave a piece without area".into());
     }
     Ok(pieces)
@@ -314,14 +269,7 @@ fn push_pieces(model: &mut Model, b: usize, pieces: &[Outline]) {
 
 /// The current world outline of block `b` with its edge tags.
 fn block_outline(model: &Model, b: usize) -> Outline {
-    Outline {
-        pts: model.world_outline(b),
-        tags: model
-            .block_corners(b)
-            .iter()
-            .map(|c| (c.edge_material, c.edge_constitutive))
-            .collect(),
-    }
+    Outline { pts: model.world_outline(b), tags: model.block_corners(b).iter().map(|c| (c.edge_material, c.edge_constitutive)).collect() }
 }
 
 /// SPLIT x1,y1 x2,y2 [MAT=n] [CONS=m] (¶13–14): splits every block that the segment from → to
@@ -334,13 +282,7 @@ fn block_outline(model: &Model, b: usize) -> Outline {
 ///
 /// Block indices: the split parents are removed and their pieces appended at the end, in the order of
 /// the parents; the other blocks keep their order but shift down past removed parents.
-pub fn split_line(
-    model: &mut Model,
-    from: [f64; 2],
-    to: [f64; 2],
-    material: Option<u32>,
-    constitutive: Option<u32>,
-) -> SplitOutcome {
+pub fn split_line(model: &mut Model, from: [f64; 2], to: [f64; 2], material: Option<u32>, constitutive: Option<u32>) -> SplitOutcome {
     let joint = (material.unwrap_or(0), constitutive.unwrap_or(0));
     let d = model.tol.round;
     let mut outcome = SplitOutcome::default();
@@ -348,13 +290,16 @@ pub fn split_line(
     for b in 0..model.blocks.len() {
         let outline = block_outline(model, b);
         let id = model.blocks[b].id;
-        let pieces = chords_along_segment(&outline.pts, from, to, d).and_then(|chords| {
-            if chords.is_empty() {
-                Ok(Vec::new())
-            } else {
-                cut_outline(&outline, &chords, joint)
-            }
-        });
+        let pieces =
+            chords_along_segment(&outline.pts, from, to, d).and_then(
+                |chords| {
+                    if chords.is_empty() {
+                        Ok(Vec::new())
+                    } else {
+                        cut_outline(&outline, &chords, joint)
+                    }
+                },
+            );
         match pieces {
             Ok(p) if p.is_empty() => {}
             Ok(p) => {
@@ -377,20 +322,11 @@ pub fn split_line(
 fn locate_on_boundary(pts: &[[f64; 2]], p: [f64; 2]) -> Option<OnBoundary> {
     let n = pts.len();
     let tol = 1e-7 * bbox_extent(pts);
-    let (v, dv) = (0..n)
-        .map(|i| (i, distance(p, pts[i])))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (v, dv) = (0..n).map(|i| (i, distance(p, pts[i]))).min_by(|a, b| a.1.total_cmp(&b.1))?;
     if dv <= tol {
         return Some(OnBoundary::Vertex(v));
     }
-    let (e, de) = (0..n)
-        .map(|i| {
-            (
-                i,
-                geometry::point_segment_distance(p, pts[i], pts[(i + 1) % n]),
-            )
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (e, de) = (0..n).map(|i| (i, geometry::point_segment_distance(p, pts[i], pts[(i + 1) % n]))).min_by(|a, b| a.1.total_cmp(&b.1))?;
     if de > tol {
         return None;
     }
@@ -407,14 +343,7 @@ fn locate_on_boundary(pts: &[[f64; 2]], p: [f64; 2]) -> Option<OnBoundary> {
 /// Returns the indices of the two pieces after compaction (they are the last two blocks; blocks
 /// after `b` shift down by one), or None, leaving the model untouched, when p or q is not on the
 /// boundary or the chord is rejected.
-pub fn split_block_along(
-    model: &mut Model,
-    b: usize,
-    p: [f64; 2],
-    q: [f64; 2],
-    material: u32,
-    constitutive: u32,
-) -> Option<Vec<usize>> {
+pub fn split_block_along(model: &mut Model, b: usize, p: [f64; 2], q: [f64; 2], material: u32, constitutive: u32) -> Option<Vec<usize>> {
     let outline = block_outline(model, b);
     let eps = round_off(&outline.pts);
     let d = model.tol.round;

@@ -12,12 +12,7 @@ use crate::model::Model;
 /// Writes the heading `FULL STATE DUMP (CYCLE n, TIME t)` and then the whole model as JSON.
 pub fn dump(model: &Model, out: &mut dyn Write) -> io::Result<()> {
     writeln!(out)?;
-    writeln!(
-        out,
-        "FULL STATE DUMP (CYCLE {}, TIME {})",
-        model.cycle,
-        fmt_e(model.time)
-    )?;
+    writeln!(out, "FULL STATE DUMP (CYCLE {}, TIME {})", model.cycle, fmt_e(model.time))?;
     writeln!(out)?;
     serde_json::to_writer_pretty(&mut *out, model)?;
     writeln!(out)

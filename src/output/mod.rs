@@ -34,10 +34,7 @@ use std::path::{Path, PathBuf};
 /// the content goes to a temporary file in the same directory (so the rename cannot cross file
 /// systems), is flushed to disk, and is then renamed over `path` in one step.
 /// The writer is buffered and seekable (SAVE fills in its header last).
-pub(crate) fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
-) -> io::Result<()> {
+pub(crate) fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>) -> io::Result<()> {
     let tmp = temp_path(path);
     let result = (|| {
         let mut w = BufWriter::new(File::create(&tmp)?);
@@ -56,9 +53,6 @@ pub(crate) fn write_atomically(
 
 /// `dir/.name.tmp.PID` beside `dir/name`.
 fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp.{}", std::process::id()))
 }

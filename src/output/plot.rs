@@ -53,10 +53,7 @@ pub struct PlotSettings {
 
 impl Default for PlotSettings {
     fn default() -> Self {
-        PlotSettings {
-            window: [0.0, 10.0, 0.0, 7.0],
-            view: [0, 2000, 0, 1400],
-        }
+        PlotSettings { window: [0.0, 10.0, 0.0, 7.0], view: [0, 2000, 0, 1400] }
     }
 }
 
@@ -78,14 +75,10 @@ impl Viewport {
         let (ww, wh) = (x2 - x1, y2 - y1);
         let (vw, vh) = (ix2 - ix1, iy2 - iy1);
         if !(ww > 0.0 && wh > 0.0 && ww.is_finite() && wh.is_finite()) {
-            return Err(invalid(format!(
-                "WINDOW {x1} {x2} {y1} {y2} is empty: need x1 < x2 and y1 < y2"
-            )));
+            return Err(invalid(format!("WINDOW {x1} {x2} {y1} {y2} is empty: need x1 < x2 and y1 < y2")));
         }
         if !(vw > 0.0 && vh > 0.0) {
-            return Err(invalid(format!(
-                "VIEW {ix1} {ix2} {iy1} {iy2} is empty: need ix1 < ix2 and iy1 < iy2"
-            )));
+            return Err(invalid(format!("VIEW {ix1} {ix2} {iy1} {iy2} is empty: need ix1 < ix2 and iy1 < iy2")));
         }
         // Plotter units per problem unit: the window fits the view in its tighter direction and
         // is centred in the other.
@@ -96,20 +89,12 @@ impl Viewport {
         Ok(Viewport {
             scale: s * PX_PER_UNIT,
             origin: [ux0 * PX_PER_UNIT, (PAGE_UNITS[1] - uy0) * PX_PER_UNIT],
-            clip: [
-                ix1 * PX_PER_UNIT,
-                (PAGE_UNITS[1] - iy2) * PX_PER_UNIT,
-                ix2 * PX_PER_UNIT,
-                (PAGE_UNITS[1] - iy1) * PX_PER_UNIT,
-            ],
+            clip: [ix1 * PX_PER_UNIT, (PAGE_UNITS[1] - iy2) * PX_PER_UNIT, ix2 * PX_PER_UNIT, (PAGE_UNITS[1] - iy1) * PX_PER_UNIT],
         })
     }
 
     fn to_px(self, p: [f64; 2]) -> [f64; 2] {
-        [
-            self.origin[0] + self.scale * p[0],
-            self.origin[1] - self.scale * p[1],
-        ]
+        [self.origin[0] + self.scale * p[0], self.origin[1] - self.scale * p[1]]
     }
 
     /// Whether a shape within the pixel box `lo`..`hi` can show in the VIEW (everything is
@@ -167,10 +152,7 @@ pub fn block_outline(model: &Model, b: usize, rounded: bool) -> Vec<[f64; 2]> {
 fn outline(model: &Model, b: usize, rounded: bool, min_chord: f64) -> Vec<[f64; 2]> {
     let blk = &model.blocks[b];
     let start = blk.corner_start as usize;
-    let corners = model
-        .corners
-        .get(start..start + blk.corner_count as usize)
-        .unwrap_or(&[]);
+    let corners = model.corners.get(start..start + blk.corner_count as usize).unwrap_or(&[]);
     let n = corners.len();
     if !rounded || n < 3 {
         return corners.iter().map(|c| c.position).collect();
@@ -279,9 +261,7 @@ struct Scene {
 
 fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) -> io::Result<Scene> {
     let vp = Viewport::new(settings)?;
-    let shown: Vec<usize> = (0..model.blocks.len())
-        .filter(|&b| !(options.nofix && model.blocks[b].fixed))
-        .collect();
+    let shown: Vec<usize> = (0..model.blocks.len()).filter(|&b| !(options.nofix && model.blocks[b].fixed)).collect();
     let mut shapes = Vec::new();
     // Only what shows in the VIEW is drawn: a plot of a 10x7 m window of a 10⁶-block wall draws
     // a few hundred blocks, not a million clipped away. A block's rounded outline lies within
@@ -297,19 +277,10 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
     // Outlines first so that crosses and arrows are drawn over the grey of fixed blocks.
     for &b in shown.iter().filter(|&&b| block_shows(b)) {
         let blk = &model.blocks[b];
-        let points: Vec<[f64; 2]> = outline(model, b, !options.no_rounding, min_chord)
-            .into_iter()
-            .map(|p| vp.to_px(p))
-            .collect();
+        let points: Vec<[f64; 2]> = outline(model, b, !options.no_rounding, min_chord).into_iter().map(|p| vp.to_px(p)).collect();
         if points.len() >= 2 && vp.shows(bounding_box(&points)) {
             let fill = blk.fixed.then_some(FIXED_GREY);
-            shapes.push(Shape {
-                kind: ShapeKind::Block(blk.id),
-                points,
-                closed: true,
-                fill,
-                stroke: BLACK,
-            });
+            shapes.push(Shape { kind: ShapeKind::Block(blk.id), points, closed: true, fill, stroke: BLACK });
         }
     }
     for &b in &shown {
@@ -319,23 +290,13 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
         }
         for (dx, dy) in [(CROSS_PX, 0.0), (0.0, CROSS_PX)] {
             let points = vec![[cx - dx, cy - dy], [cx + dx, cy + dy]];
-            shapes.push(Shape {
-                kind: ShapeKind::Centroid,
-                points,
-                closed: false,
-                fill: None,
-                stroke: BLACK,
-            });
+            shapes.push(Shape { kind: ShapeKind::Centroid, points, closed: false, fill: None, stroke: BLACK });
         }
     }
     if options.velocities {
         // Arrows scaled so the fastest block's arrow is 5% of the window width.
         let speed = |b: usize| len(model.blocks[b].velocity);
-        let vmax = shown
-            .iter()
-            .map(|&b| speed(b))
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max);
+        let vmax = shown.iter().map(|&b| speed(b)).filter(|v| v.is_finite()).fold(0.0, f64::max);
         if vmax > 0.0 {
             let k = ARROW_FRACTION * (settings.window[1] - settings.window[0]) / vmax;
             for &b in &shown {
@@ -350,43 +311,21 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
         }
     }
     let caption = format!("CYCLE {}   TIME {}", model.cycle, fmt_e(model.time));
-    Ok(Scene {
-        clip: vp.clip,
-        shapes,
-        caption,
-    })
+    Ok(Scene { clip: vp.clip, shapes, caption })
 }
 
 /// An arrow from `tail` to `head` (pixels): the shaft and a head of two 30° barbs.
 fn arrow(tail: [f64; 2], head: [f64; 2]) -> Vec<Shape> {
     let d = sub(head, tail);
     let l = len(d);
-    let mut shapes = vec![Shape {
-        kind: ShapeKind::Velocity,
-        points: vec![tail, head],
-        closed: false,
-        fill: None,
-        stroke: ARROW_BLUE,
-    }];
+    let mut shapes = vec![Shape { kind: ShapeKind::Velocity, points: vec![tail, head], closed: false, fill: None, stroke: ARROW_BLUE }];
     if let Some(u) = unit(d) {
         let barb = (0.3 * l).min(6.0);
-        let (c, s) = (
-            std::f64::consts::FRAC_PI_6.cos(),
-            std::f64::consts::FRAC_PI_6.sin(),
-        );
+        let (c, s) = (std::f64::consts::FRAC_PI_6.cos(), std::f64::consts::FRAC_PI_6.sin());
         let back = scale(u, -barb);
         let left = add(head, [c * back[0] - s * back[1], s * back[0] + c * back[1]]);
-        let right = add(
-            head,
-            [c * back[0] + s * back[1], -s * back[0] + c * back[1]],
-        );
-        shapes.push(Shape {
-            kind: ShapeKind::Velocity,
-            points: vec![left, head, right],
-            closed: false,
-            fill: None,
-            stroke: ARROW_BLUE,
-        });
+        let right = add(head, [c * back[0] + s * back[1], -s * back[0] + c * back[1]]);
+        shapes.push(Shape { kind: ShapeKind::Velocity, points: vec![left, head, right], closed: false, fill: None, stroke: ARROW_BLUE });
     }
     shapes
 }
@@ -399,20 +338,12 @@ fn arrow(tail: [f64; 2], head: [f64; 2]) -> Vec<Shape> {
 /// each centroid. The SVG carries a caption with the cycle number and time; the PNG has no text
 /// (tiny-skia renders no fonts). `zones` is accepted but draws nothing: the model has no zones
 /// yet. An empty WINDOW or VIEW is an `InvalidInput` error.
-pub fn plot(
-    model: &Model,
-    settings: &PlotSettings,
-    options: &PlotOptions,
-    out_dir: &Path,
-    number: usize,
-) -> io::Result<[PathBuf; 2]> {
+pub fn plot(model: &Model, settings: &PlotSettings, options: &PlotOptions, out_dir: &Path, number: usize) -> io::Result<[PathBuf; 2]> {
     let scene = build_scene(model, settings, options)?;
     let png = out_dir.join(format!("plot_{number:03}.png"));
     let svg = out_dir.join(format!("plot_{number:03}.svg"));
     let pixmap = render_png(&scene)?;
-    let bytes = pixmap
-        .encode_png()
-        .map_err(|e| io::Error::other(format!("PNG encoding failed: {e}")))?;
+    let bytes = pixmap.encode_png().map_err(|e| io::Error::other(format!("PNG encoding failed: {e}")))?;
     fs::write(&png, bytes)?;
     let mut w = io::BufWriter::new(fs::File::create(&svg)?);
     render_svg(&scene, &mut w)?;
@@ -429,20 +360,12 @@ fn render_png(scene: &Scene) -> io::Result<Pixmap> {
     let [l, t, r, b] = scene.clip.map(|v| v as f32);
     let mut mask = Mask::new(w, h).expect("the page size is nonzero");
     if let Some(rect) = Rect::from_ltrb(l.max(0.0), t.max(0.0), r.min(w as f32), b.min(h as f32)) {
-        mask.fill_path(
-            &PathBuilder::from_rect(rect),
-            FillRule::Winding,
-            false,
-            Transform::identity(),
-        );
+        mask.fill_path(&PathBuilder::from_rect(rect), FillRule::Winding, false, Transform::identity());
     } else {
         return Ok(pixmap); // the view lies off the page: nothing is visible
     }
 
-    let stroke = Stroke {
-        width: 1.0,
-        ..Stroke::default()
-    };
+    let stroke = Stroke { width: 1.0, ..Stroke::default() };
     for shape in &scene.shapes {
         let Some(path) = tiny_path(&shape.points, shape.closed) else {
             continue;
@@ -462,21 +385,14 @@ fn tiny_skia_fill(pixmap: &mut Pixmap, path: &tiny_skia::Path, rgb: Rgb, mask: &
     let mut paint = Paint::default();
     paint.set_color_rgba8(rgb[0], rgb[1], rgb[2], 255);
     paint.anti_alias = true;
-    pixmap.fill_path(
-        path,
-        &paint,
-        FillRule::Winding,
-        Transform::identity(),
-        Some(mask),
-    );
+    pixmap.fill_path(path, &paint, FillRule::Winding, Transform::identity(), Some(mask));
 }
 
 fn tiny_path(points: &[[f64; 2]], closed: bool) -> Option<tiny_skia::Path> {
     let (first, rest) = points.split_first()?;
     let mut pb = PathBuilder::new();
     pb.move_to(first[0] as f32, first[1] as f32);
-    rest.iter()
-        .for_each(|p| pb.line_to(p[0] as f32, p[1] as f32));
+    rest.iter().for_each(|p| pb.line_to(p[0] as f32, p[1] as f32));
     if closed {
         pb.close();
     }
@@ -488,34 +404,14 @@ fn render_svg(scene: &Scene, s: &mut impl io::Write) -> io::Result<()> {
     let [w, h] = IMAGE_SIZE;
     let [l, t, r, b] = scene.clip;
     writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#)?;
-    writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#
-    )?;
-    writeln!(
-        s,
-        r#"<rect x="0" y="0" width="{w}" height="{h}" fill="white"/>"#
-    )?;
-    writeln!(
-        s,
-        r#"<defs><clipPath id="view"><rect x="{l:.2}" y="{t:.2}" width="{:.2}" height="{:.2}"/></clipPath></defs>"#,
-        r - l,
-        b - t
-    )?;
-    writeln!(
-        s,
-        r#"<g clip-path="url(#view)" stroke-width="1" stroke-linejoin="round">"#
-    )?;
+    writeln!(s, r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}">"#)?;
+    writeln!(s, r#"<rect x="0" y="0" width="{w}" height="{h}" fill="white"/>"#)?;
+    writeln!(s, r#"<defs><clipPath id="view"><rect x="{l:.2}" y="{t:.2}" width="{:.2}" height="{:.2}"/></clipPath></defs>"#, r - l, b - t)?;
+    writeln!(s, r#"<g clip-path="url(#view)" stroke-width="1" stroke-linejoin="round">"#)?;
     for shape in &scene.shapes {
         let mut d = String::new();
         for (i, p) in shape.points.iter().enumerate() {
-            let _ = write!(
-                d,
-                "{}{:.2},{:.2} ",
-                if i == 0 { 'M' } else { 'L' },
-                p[0],
-                p[1]
-            );
+            let _ = write!(d, "{}{:.2},{:.2} ", if i == 0 { 'M' } else { 'L' }, p[0], p[1]);
         }
         if shape.closed {
             d.push('Z');
@@ -526,21 +422,10 @@ fn render_svg(scene: &Scene, s: &mut impl io::Write) -> io::Result<()> {
             ShapeKind::Velocity => r#"class="velocity""#.to_string(),
         };
         let fill = shape.fill.map_or_else(|| "none".to_string(), hex);
-        writeln!(
-            s,
-            r#"<path {class} d="{}" fill="{fill}" stroke="{}"/>"#,
-            d.trim_end(),
-            hex(shape.stroke)
-        )?;
+        writeln!(s, r#"<path {class} d="{}" fill="{fill}" stroke="{}"/>"#, d.trim_end(), hex(shape.stroke))?;
     }
     // The caption sits at the bottom left of the view, inside the clip like everything else.
-    writeln!(
-        s,
-        r#"<text x="{:.2}" y="{:.2}" font-family="monospace" font-size="12" fill="black">{}</text>"#,
-        l + 6.0,
-        b - 6.0,
-        xml_escape(&scene.caption)
-    )?;
+    writeln!(s, r#"<text x="{:.2}" y="{:.2}" font-family="monospace" font-size="12" fill="black">{}</text>"#, l + 6.0, b - 6.0, xml_escape(&scene.caption))?;
     writeln!(s, "</g>")?;
     writeln!(s, "</svg>")
 }
@@ -550,7 +435,5 @@ fn hex(c: Rgb) -> String {
 }
 
 fn xml_escape(text: &str) -> String {
-    text.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }

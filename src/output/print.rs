@@ -26,19 +26,11 @@ struct Group {
 }
 
 const fn single(title: &'static str, width: usize) -> Group {
-    Group {
-        title,
-        subs: &[""],
-        width,
-    }
+    Group { title, subs: &[""], width }
 }
 
 const fn numbers(title: &'static str, subs: &'static [&'static str]) -> Group {
-    Group {
-        title,
-        subs,
-        width: NUMBER_WIDTH,
-    }
+    Group { title, subs, width: NUMBER_WIDTH }
 }
 
 /// Writes the blank line, the title and the two heading lines of a table.
@@ -115,18 +107,7 @@ pub fn print_blocks(model: &Model, out: &mut dyn Write) -> io::Result<()> {
     write_headings(out, "BLOCK DATA", &BLOCK_GROUPS)?;
     let mut line = String::new();
     for b in &model.blocks {
-        let numbers = [
-            b.centroid[0],
-            b.centroid[1],
-            b.mass,
-            b.inertia,
-            b.velocity[0],
-            b.velocity[1],
-            b.angular_velocity,
-            b.force[0],
-            b.force[1],
-            b.moment,
-        ];
+        let numbers = [b.centroid[0], b.centroid[1], b.mass, b.inertia, b.velocity[0], b.velocity[1], b.angular_velocity, b.force[0], b.force[1], b.moment];
         line.clear();
         let _ = write!(line, "{:>8}{:>5}{:>6}", b.id, b.material, b.constitutive);
         numbers.iter().for_each(|&x| push_col_e(&mut line, x));
@@ -146,11 +127,7 @@ const CONTACT_GROUPS: [Group; 9] = [
     numbers("X,Y COORDS.", &["X", "Y"]),
     numbers("FORCE", &["NORMAL", "SHEAR"]),
     numbers("DISPLACEMENT", &["NORMAL", "SHEAR"]),
-    Group {
-        title: "  KIND",
-        subs: &[""],
-        width: 0,
-    },
+    Group { title: "  KIND", subs: &[""], width: 0 },
 ];
 
 /// A contact's kind as the linked lists name it, seen from the block that owns the corner.
@@ -182,14 +159,7 @@ pub fn print_contacts(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         let _ = write!(line, "{:>8}{:>7}{:>7}", c.id, block_id(model, c.block1), block_id(model, c.block2));
         push_blank_if_zero(&mut line, c.material, 5);
         push_blank_if_zero(&mut line, c.constitutive, 6);
-        for x in [
-            c.point[0],
-            c.point[1],
-            c.normal_force,
-            c.shear_force,
-            c.gap,
-            c.shear_displacement,
-        ] {
+        for x in [c.point[0], c.point[1], c.normal_force, c.shear_force, c.gap, c.shear_displacement] {
             push_col_e(&mut line, x);
         }
         line.push_str("  ");
@@ -277,11 +247,7 @@ pub fn print_block_lists(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         for &(_, i) in &by_block[first..end] {
             let c = &model.contacts[i as usize];
             if c.block1 as usize == b {
-                let entry = ListedContact {
-                    contact: c,
-                    label: kind_label(c.kind),
-                    along: 0.0,
-                };
+                let entry = ListedContact { contact: c, label: kind_label(c.kind), along: 0.0 };
                 let k = (c.corner as usize).wrapping_sub(block.corner_start as usize);
                 match at_corner.get_mut(k) {
                     Some(list) => list.push(entry),
@@ -294,26 +260,13 @@ pub fn print_block_lists(model: &Model, out: &mut dyn Write) -> io::Result<()> {
                 };
                 let k = (c.feature / 2) as usize;
                 if k >= n {
-                    unplaced.push(ListedContact {
-                        contact: c,
-                        label,
-                        along: 0.0,
-                    });
+                    unplaced.push(ListedContact { contact: c, label, along: 0.0 });
                 } else if c.feature % 2 == 0 {
-                    at_corner[k].push(ListedContact {
-                        contact: c,
-                        label,
-                        along: 0.0,
-                    });
+                    at_corner[k].push(ListedContact { contact: c, label, along: 0.0 });
                 } else {
                     let [p, q] = [corners[k].position, corners[(k + 1) % n].position];
-                    let along =
-                        (c.point[0] - p[0]) * (q[0] - p[0]) + (c.point[1] - p[1]) * (q[1] - p[1]);
-                    on_edge[k].push(ListedContact {
-                        contact: c,
-                        label,
-                        along,
-                    });
+                    let along = (c.point[0] - p[0]) * (q[0] - p[0]) + (c.point[1] - p[1]) * (q[1] - p[1]);
+                    on_edge[k].push(ListedContact { contact: c, label, along });
                 }
             }
         }
@@ -322,19 +275,9 @@ pub fn print_block_lists(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         for k in 0..n {
             // R-LINK: the next corner of the block's circular corner list (counter-clockwise),
             // as the 1985 list printed it.
-            writeln!(
-                out,
-                "   CORNER {}, BLOCK {}, R-LINK {}",
-                block.corner_start as usize + k + 1,
-                block.id,
-                block.corner_start as usize + (k + 1) % n + 1
-            )?;
+            writeln!(out, "   CORNER {}, BLOCK {}, R-LINK {}", block.corner_start as usize + k + 1, block.id, block.corner_start as usize + (k + 1) % n + 1)?;
             at_corner[k].sort_by_key(|e| e.contact.id);
-            on_edge[k].sort_by(|a, b| {
-                a.along
-                    .total_cmp(&b.along)
-                    .then(a.contact.id.cmp(&b.contact.id))
-            });
+            on_edge[k].sort_by(|a, b| a.along.total_cmp(&b.along).then(a.contact.id.cmp(&b.contact.id)));
             for e in at_corner[k].iter().chain(&on_edge[k]) {
                 write_list_contact(model, e, out)?;
             }
@@ -348,14 +291,7 @@ pub fn print_block_lists(model: &Model, out: &mut dyn Write) -> io::Result<()> {
 
 fn write_list_contact(model: &Model, e: &ListedContact, out: &mut dyn Write) -> io::Result<()> {
     let c = e.contact;
-    writeln!(
-        out,
-        "      CONTACT {}, BLOCK1 {}, BLOCK2 {} {}",
-        c.id,
-        block_id(model, c.block1),
-        block_id(model, c.block2),
-        e.label
-    )
+    writeln!(out, "      CONTACT {}, BLOCK1 {}, BLOCK2 {} {}", c.id, block_id(model, c.block1), block_id(model, c.block2), e.label)
 }
 
 /// PRINT ENERGY (an extension): kinetic energy of the blocks, ½ m |v|² + ½ I ω², and the work
@@ -366,8 +302,7 @@ pub fn print_energy(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         .iter()
         .map(|b| {
             let [vx, vy] = b.velocity;
-            0.5 * b.mass * (vx * vx + vy * vy)
-                + 0.5 * b.inertia * b.angular_velocity * b.angular_velocity
+            0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * b.angular_velocity * b.angular_velocity
         })
         .sum();
     writeln!(out)?;

@@ -60,20 +60,14 @@ pub enum RestartError {
     #[error("{path} is not a blockdem save file (it does not start with \"BLOCKDEM\")")]
     NotASaveFile { path: PathBuf },
     #[error("{path} is save format version {found}; this program reads version {supported}")]
-    UnsupportedVersion {
-        path: PathBuf,
-        found: u32,
-        supported: u32,
-    },
+    UnsupportedVersion { path: PathBuf, found: u32, supported: u32 },
     #[error("save file {path} is corrupt: {reason}")]
     Corrupt { path: PathBuf, reason: String },
 }
 
 /// FNV-1a, 64 bit: the checksum of version 2 files.
 fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
-    })
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3))
 }
 
 /// The checksum a file of format `version` carries for `payload`.
@@ -159,10 +153,7 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// is serialized, and then the two are written into the header.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
     let file = SaveView { model, plot, plot_count };
-    let io_err = |source| RestartError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
+    let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
         w.write_all(&MAGIC)?;
         w.write_all(&FORMAT_VERSION.to_le_bytes())?;
@@ -181,10 +172,7 @@ pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: u
 
 /// RESTART: reads a save file written by [`save`].
 pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
-    let bytes = fs::read(path).map_err(|source| RestartError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = fs::read(path).map_err(|source| RestartError::Io { path: path.to_path_buf(), source })?;
     decode(&bytes).map_err(|e| e.at(path))
 }
 
@@ -200,11 +188,7 @@ impl DecodeError {
         let path = path.to_path_buf();
         match self {
             DecodeError::NotASaveFile => RestartError::NotASaveFile { path },
-            DecodeError::UnsupportedVersion(found) => RestartError::UnsupportedVersion {
-                path,
-                found,
-                supported: FORMAT_VERSION,
-            },
+            DecodeError::UnsupportedVersion(found) => RestartError::UnsupportedVersion { path, found, supported: FORMAT_VERSION },
             DecodeError::Corrupt(reason) => RestartError::Corrupt { path, reason },
         }
     }
@@ -215,10 +199,7 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
         return Err(DecodeError::NotASaveFile);
     }
     if bytes.len() < HEADER_LEN {
-        return Err(DecodeError::Corrupt(format!(
-            "the header is truncated ({} of {HEADER_LEN} bytes)",
-            bytes.len()
-        )));
+        return Err(DecodeError::Corrupt(format!("the header is truncated ({} of {HEADER_LEN} bytes)", bytes.len())));
     }
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
@@ -235,17 +216,11 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
         )));
     }
     if checksum(version, payload) != expected {
-        return Err(DecodeError::Corrupt(
-            "the payload checksum does not match".to_string(),
-        ));
+        return Err(DecodeError::Corrupt("the payload checksum does not match".to_string()));
     }
-    let (file, rest) = postcard::take_from_bytes::<SaveFile>(payload)
-        .map_err(|e| DecodeError::Corrupt(format!("bad payload: {e}")))?;
+    let (file, rest) = postcard::take_from_bytes::<SaveFile>(payload).map_err(|e| DecodeError::Corrupt(format!("bad payload: {e}")))?;
     if !rest.is_empty() {
-        return Err(DecodeError::Corrupt(format!(
-            "{} unread bytes after the payload",
-            rest.len()
-        )));
+        return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));
     }
     Ok(file)
 }

@@ -254,11 +254,5 @@ fn corner_positions(model: &Model, b: usize) -> Vec<[f64; 2]> {
     let blk = &model.blocks[b];
     let start = blk.corner_start as usize;
     let end = start.saturating_add(blk.corner_count as usize);
-    model
-        .corners
-        .get(start..end)
-        .unwrap_or(&[])
-        .iter()
-        .map(|c| c.position)
-        .collect()
+    model.corners.get(start..end).unwrap_or(&[]).iter().map(|c| c.position).collect()
 }

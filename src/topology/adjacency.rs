@@ -181,7 +181,8 @@ impl Adjacency {
         let renumber = Renumber::new(self.entries.len() / 2, &removed_at, insert_before);
         let renumber_entry = |e: u32| renumber.of(e >> 1) << 1 | (e & 1);
         // Blocks whose lists change, with their new entries from inserted contacts.
-        let mut gained: Vec<(u32, u32)> = inserted.iter().flat_map(|&i| [(contacts[i as usize].block1, i << 1), (contacts[i as usize].block2, i << 1 | 1)]).collect();
+        let mut gained: Vec<(u32, u32)> =
+            inserted.iter().flat_map(|&i| [(contacts[i as usize].block1, i << 1), (contacts[i as usize].block2, i << 1 | 1)]).collect();
         gained.sort_unstable();
         let mut touched: Vec<u32> = removed.iter().flat_map(|r| [r.1, r.2]).chain(gained.iter().map(|g| g.0)).collect();
         touched.sort_unstable();

@@ -178,7 +178,12 @@ pub struct BlockGrid {
 
 impl std::fmt::Debug for BlockGrid {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BlockGrid").field("shape", &self.shape).field("cells", &self.cells).field("entries", &self.entries.len()).field("large", &self.large.len()).finish()
+        f.debug_struct("BlockGrid")
+            .field("shape", &self.shape)
+            .field("cells", &self.cells)
+            .field("entries", &self.entries.len())
+            .field("large", &self.large.len())
+            .finish()
     }
 }
 
@@ -199,7 +204,11 @@ impl BlockGrid {
         let margin = self.margin;
         let (blocks, corners) = (&model.blocks, &model.corners);
         let mut current = Vec::with_capacity(n);
-        (0..n).into_par_iter().with_min_len(PARALLEL_BLOCKS).map(|b| bounding_box(corners_of(blocks, corners, b), pad + blocks[b].update_margin)).collect_into_vec(&mut current);
+        (0..n)
+            .into_par_iter()
+            .with_min_len(PARALLEL_BLOCKS)
+            .map(|b| bounding_box(corners_of(blocks, corners, b), pad + blocks[b].update_margin))
+            .collect_into_vec(&mut current);
         self.stored.clear();
         self.stored.par_extend(current.par_iter().map(|bb| [bb[0] - margin, bb[1] - margin, bb[2] + margin, bb[3] + margin]));
         self.reference.clear();
@@ -212,11 +221,8 @@ impl BlockGrid {
         // Cell size: the mean stored extent, so a typical block spans about four cells. Summed in
         // fixed chunks so that it does not depend on the thread count (it only sets the speed).
         let extent = |bb: &[f64; 4]| (bb[2] - bb[0]).max(bb[3] - bb[1]);
-        let partial: Vec<(f64, usize)> = self
-            .stored
-            .par_chunks(4096)
-            .map(|ch| ch.iter().map(extent).filter(|e| e.is_finite()).fold((0.0, 0), |(s, k), e| (s + e, k + 1)))
-            .collect();
+        let partial: Vec<(f64, usize)> =
+            self.stored.par_chunks(4096).map(|ch| ch.iter().map(extent).filter(|e| e.is_finite()).fold((0.0, 0), |(s, k), e| (s + e, k + 1))).collect();
         let (sum, count) = partial.iter().fold((0.0, 0), |(s, k), &(ps, pk)| (s + ps, k + pk));
         let size = if count > 0 && sum > 0.0 { sum / count as f64 } else { 1.0 };
         let size = size.max(1e-12);
@@ -229,7 +235,11 @@ impl BlockGrid {
             let k = v.len() / 2;
             let median = *v.select_nth_unstable_by(k, f64::total_cmp).1;
             let o = lowest.max(median - 2f64.powi(31) * size);
-            if o.is_finite() { o } else { 0.0 }
+            if o.is_finite() {
+                o
+            } else {
+                0.0
+            }
         };
         self.cells = Cells { x0: origin(0), y0: origin(1), size };
         let cells = self.cells;
@@ -678,7 +688,13 @@ enum Pick {
     Neither,
 }
 
-fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<&mut Adjacency>, mut attention: Option<&mut Attention<'_>>) -> Result<(ContactChanges, Vec<u32>), String> {
+fn update(
+    model: &mut Model,
+    all: bool,
+    grid: &mut BlockGrid,
+    adjacency: Option<&mut Adjacency>,
+    mut attention: Option<&mut Attention<'_>>,
+) -> Result<(ContactChanges, Vec<u32>), String> {
     let n = model.blocks.len();
     let tol = model.tol;
     let btol = tol.btol;
@@ -913,11 +929,14 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     // serial sweep over the sorted pairs (i < j) creates them: pair by pair, block i's corners
     // against j first, then j's against i, corners ascending.
     let parts: Vec<Vec<NewContact>> = examined.into_iter().map(|e| e.created).collect();
-    let part_start: Vec<usize> = parts.iter().scan(0, |s, p| {
-        let at = *s;
-        *s += p.len();
-        Some(at)
-    }).collect();
+    let part_start: Vec<usize> = parts
+        .iter()
+        .scan(0, |s, p| {
+            let at = *s;
+            *s += p.len();
+            Some(at)
+        })
+        .collect();
     let n_created: usize = parts.iter().map(Vec::len).sum();
     let mut ids: Vec<u32> = Vec::new();
     if n_created > 0 {
@@ -941,7 +960,11 @@ fn update(model: &mut Model, all: bool, grid: &mut BlockGrid, adjacency: Option<
     if adjacency.is_some() && !dropped.is_empty() {
         retire(model, &dropped);
     }
-    let removed: Vec<(u32, u32, u32)> = if adjacency.is_some() { dropped.iter().map(|&k| (k, model.contacts[k as usize].block1, model.contacts[k as usize].block2)).collect() } else { Vec::new() };
+    let removed: Vec<(u32, u32, u32)> = if adjacency.is_some() {
+        dropped.iter().map(|&k| (k, model.contacts[k as usize].block1, model.contacts[k as usize].block2)).collect()
+    } else {
+        Vec::new()
+    };
     let old_len = model.contacts.len() as u32;
     let inserted_at = if dropped.len() == model.contacts.len() {
         // Nothing kept (the first detection of a model): the list is the new contacts.
@@ -1320,7 +1343,15 @@ mod tests {
     fn move_stretch_is_copy_within() {
         // Short stretches (one copy) and long ones (pieces in parallel), either way, shifts up to
         // a whole piece.
-        for (len, s, e, shift) in [(100, 5, 50, 3), (100, 5, 50, -5), (200_000, 10, 150_000, -7), (200_000, 1000, 190_000, 9), (200_000, 0, 199_990, 10), (200_000, 16384, 200_000, -16384), (200_000, 3, 170_000, 16384)] {
+        for (len, s, e, shift) in [
+            (100, 5, 50, 3),
+            (100, 5, 50, -5),
+            (200_000, 10, 150_000, -7),
+            (200_000, 1000, 190_000, 9),
+            (200_000, 0, 199_990, 10),
+            (200_000, 16384, 200_000, -16384),
+            (200_000, 3, 170_000, 16384),
+        ] {
             let mut a: Vec<u64> = (0..len as u64).collect();
             let mut b = a.clone();
             move_stretch(&mut a, s, e, shift);

@@ -159,7 +159,11 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
         .label_style(("sans-serif", 13))
         .draw()
         .map_err(|x| e(&x))?;
-    chart.draw_series(LineSeries::new(vec![(x0, 1.0), (x1, 1.0)], BLACK.stroke_width(1))).map_err(|x| e(&x))?.label("tolerance").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+    chart
+        .draw_series(LineSeries::new(vec![(x0, 1.0), (x1, 1.0)], BLACK.stroke_width(1)))
+        .map_err(|x| e(&x))?
+        .label("tolerance")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
     chart
         .draw_series(LineSeries::new(vec![(x0, FAILED_AT), (x1, FAILED_AT)], RED.mix(0.4).stroke_width(1)))
         .map_err(|x| e(&x))?
@@ -180,7 +184,11 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
         chart.draw_series(ok.iter().map(|&p| look.marker(p, color))).map_err(|x| e(&x))?;
         // The check FRACTION gets a ring, the numerical failures a cross on the failure line.
         chart
-            .draw_series(rows.iter().filter(|r| (r.frac - CHECK_FRAC).abs() < 1e-12).filter_map(|r| normalized(r).map(|y| Circle::new((x_of(r), y), 8, color.stroke_width(1)))))
+            .draw_series(
+                rows.iter()
+                    .filter(|r| (r.frac - CHECK_FRAC).abs() < 1e-12)
+                    .filter_map(|r| normalized(r).map(|y| Circle::new((x_of(r), y), 8, color.stroke_width(1)))),
+            )
             .map_err(|x| e(&x))?;
         chart
             .draw_series(rows.iter().filter(|r| r.error.is_none()).map(|r| Cross::new((x_of(r).max(x0 * 1.01), FAILED_AT), 6, color.stroke_width(2))))
@@ -201,7 +209,9 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
         chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(|x| e(&x))?.label(backend.as_str()).legend(move |(x, y)| {
             let line: DynElement<_, (i32, i32)> = match look.dash() {
                 None => PathElement::new(vec![(x, y), (x + 18, y)], grey.stroke_width(2)).into_dyn(),
-                Some((dash, gap)) => plotters::element::DashedPathElement::new(vec![(x, y), (x + 18, y)], dash as i32 / 2, gap as i32 / 2, grey.stroke_width(2)).into_dyn(),
+                Some((dash, gap)) => {
+                    plotters::element::DashedPathElement::new(vec![(x, y), (x + 18, y)], dash as i32 / 2, gap as i32 / 2, grey.stroke_width(2)).into_dyn()
+                }
             };
             EmptyElement::at((0, 0)) + line + look.marker((x + 9, y), grey)
         });

@@ -121,7 +121,11 @@ pub struct Cost {
 
 impl Cost {
     pub fn cycles_per_s(&self) -> f64 {
-        if self.wall_s > 0.0 { self.cycles as f64 / self.wall_s } else { f64::NAN }
+        if self.wall_s > 0.0 {
+            self.cycles as f64 / self.wall_s
+        } else {
+            f64::NAN
+        }
     }
     fn add(&mut self, o: Cost) {
         self.wall_s += o.wall_s;
@@ -314,7 +318,11 @@ impl Ctx<'_> {
 /// Energy balance of a run: |ledger(end) − ledger(start)| over the largest term.
 pub fn energy_balance(start: &Energies, end: &Energies) -> f64 {
     let scale = start.scale().max(end.scale());
-    if scale > 0.0 { (end.ledger() - start.ledger()).abs() / scale } else { 0.0 }
+    if scale > 0.0 {
+        (end.ledger() - start.ledger()).abs() / scale
+    } else {
+        0.0
+    }
 }
 
 fn fmt_err(e: Option<f64>) -> String {
@@ -332,7 +340,8 @@ impl Row {
 pub fn table(suite: &Suite) -> String {
     let mut s = String::new();
     // The backend column fits the longest name ("vulkan (lavapipe) f32").
-    let w = suite.rows.iter().map(|r| r.backend_name().chars().count()).chain(suite.stability.iter().map(|t| t.backend.chars().count())).max().unwrap_or(7).max(7);
+    let w =
+        suite.rows.iter().map(|r| r.backend_name().chars().count()).chain(suite.stability.iter().map(|t| t.backend.chars().count())).max().unwrap_or(7).max(7);
     let _ = writeln!(s, "CLOSED-FORM CHECKS (FRAC {CHECK_FRAC})");
     let _ = writeln!(
         s,
@@ -414,7 +423,9 @@ pub fn table(suite: &Suite) -> String {
 pub fn write_outputs(suite: &Suite, dir: &Path) -> std::io::Result<(Vec<PathBuf>, Option<String>)> {
     std::fs::create_dir_all(dir)?;
     let mut files = Vec::new();
-    let mut sweep = String::from("case,backend,precision,frac,error,tolerance,error_over_tolerance,failed,failure,energy_balance,wall_s,cycles,cycles_per_s,passed,is_check\n");
+    let mut sweep = String::from(
+        "case,backend,precision,frac,error,tolerance,error_over_tolerance,failed,failure,energy_balance,wall_s,cycles,cycles_per_s,passed,is_check\n",
+    );
     for r in &suite.rows {
         let _ = writeln!(
             sweep,
