@@ -70,6 +70,16 @@ pub enum CycleError {
     TooLarge(String),
 }
 
+impl CycleError {
+    /// The failure of a cycle whose step left a position or velocity non-finite, naming the first
+    /// block that holds one (the same on every backend).
+    pub fn non_finite_state(model: &Model) -> CycleError {
+        let block =
+            model.blocks.iter().find(|b| !(b.centroid.iter().chain(&b.velocity).all(|x| x.is_finite()) && b.angular_velocity.is_finite())).map_or(0, |b| b.id);
+        CycleError::NonFinite { cycle: model.cycle, block, what: "a non-finite position or velocity".into() }
+    }
+}
+
 /// `--backend auto` on a GPU: the GPU backend while the models fit it, the CPU backend (f64)
 /// from the first run whose model is past its limits (said once on stderr) to the end.
 pub struct GpuOrCpu {

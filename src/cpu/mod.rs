@@ -320,18 +320,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     model.cycle += 1;
     model.time += dt;
     if !work.is_finite() {
-        let block = model
-            .blocks
-            .iter()
-            .find(|b| {
-                !(b.centroid[0].is_finite()
-                    && b.centroid[1].is_finite()
-                    && b.velocity[0].is_finite()
-                    && b.velocity[1].is_finite()
-                    && b.angular_velocity.is_finite())
-            })
-            .map_or(0, |b| b.id);
-        return Err(CycleError::NonFinite { cycle: model.cycle, block, what: "a non-finite position or velocity".into() });
+        return Err(CycleError::non_finite_state(model));
     }
     // Between contact updates a block's corners move at most etol plus one step's travel s, so two
     // blocks approach by at most 2(etol + s); that must stay below atol for no touch to be missed.

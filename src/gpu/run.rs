@@ -37,18 +37,7 @@ impl<R: Real> Engine<R> {
     pub(super) fn error_from_flags(model: &Model, flags: &Flags) -> CycleError {
         let cycle = model.cycle;
         if flags.errors & layout::ERR_NONFINITE != 0 {
-            let block = model
-                .blocks
-                .iter()
-                .find(|b| {
-                    !(b.centroid[0].is_finite()
-                        && b.centroid[1].is_finite()
-                        && b.velocity[0].is_finite()
-                        && b.velocity[1].is_finite()
-                        && b.angular_velocity.is_finite())
-                })
-                .map_or(0, |b| b.id);
-            return CycleError::NonFinite { cycle, block, what: "a non-finite position or velocity".into() };
+            return CycleError::non_finite_state(model);
         }
         if flags.errors & layout::ERR_TOO_FAST != 0 {
             let dt = model.timestep;
