@@ -50,7 +50,7 @@ pub enum CycleError {
          lower FRACTION, the loads or velocities, or raise the contact stiffness or ROUND"
     )]
     Overlap { cycle: u64, block1: u32, block2: u32, overlap: f64, limit: f64, x: f64, y: f64 },
-    #[error("non-finite value at cycle {cycle}: block {block} has {what}; the run diverged — lower FRACTION")]
+    #[error("non-finite value at cycle {cycle}: block {block} has {what}; the run diverged — lower FRACTION, or check the loads and material properties")]
     NonFinite { cycle: u64, block: u32, what: String },
     #[error(
         "energy growing without a source at cycle {cycle}: kinetic + strain energy {energy:.4e} exceeds the energy put in ({budget:.4e}); \
@@ -71,12 +71,13 @@ pub enum CycleError {
 }
 
 impl CycleError {
-    /// The failure of a cycle whose step left a position or velocity non-finite, naming the first
-    /// block that holds one (the same on every backend).
-    pub fn non_finite_state(model: &Model) -> CycleError {
-        let block =
-            model.blocks.iter().find(|b| !(b.centroid.iter().chain(&b.velocity).all(|x| x.is_finite()) && b.angular_velocity.is_finite())).map_or(0, |b| b.id);
-        CycleError::NonFinite { cycle: model.cycle, block, what: "a non-finite position or velocity".into() }
+    /// The failure of a cycle in which the step of block `b` (an index; the lowest such on every
+    /// backend) was not finite: its work, force × displacement, overflowed, or its state did.
+    pub fn non_finite_step(model: &Model, b: usize) -> CycleError {
+        let block = &model.blocks[b.min(model.blocks.len().saturating_sub(1))];
+        let state_finite = block.centroid.iter().chain(&block.velocity).all(|x| x.is_finite()) && block.angular_velocity.is_finite();
+        let what = if state_finite { "a step whose work (force × displacement) is not finite" } else { "a non-finite position or velocity" };
+        CycleError::NonFinite { cycle: model.cycle, block: block.id, what: what.into() }
     }
 }
 

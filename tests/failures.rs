@@ -13,6 +13,7 @@ every_backend!(
     an_overlap_beyond_half_the_rounding_stops_at_the_last_good_state,
     an_unstable_fraction_is_caught_before_any_nan,
     a_projectile_that_would_tunnel_is_stopped,
+    a_step_that_overflows_names_its_block,
     a_failure_after_a_checkpoint_restores_that_checkpoint,
     a_failure_in_a_later_run_restores_that_runs_start,
     a_failure_after_contact_updates_restores_the_checkpoints_contacts,
@@ -59,6 +60,20 @@ fn an_unstable_fraction_is_caught_before_any_nan(t: &Target) {
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nFRAC 5\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 5000\n";
     let (e, m) = fail(t, deck);
     assert!(matches!(e, CycleError::EnergyGrowth { .. } | CycleError::Overlap { .. } | CycleError::TooFast { .. }), "{e} on {}", t.name());
+    assert_last_good(&m, t);
+}
+
+fn a_step_that_overflows_names_its_block(t: &Target) {
+    // A load of 1e300 N on the second block: its first step's work (force × displacement, ~1e300
+    // × 1e292 J) overflows f64, and in f32 the load itself is infinite. Every backend names that
+    // block (the CPU and f64 kernels by the step's work, f32 by its state), at cycle 1, and keeps
+    // the state the CYCLE started from.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 3,0 3,1 4,1 4,0\nLOAD 3 4 0 1 1E300 0\nCYCLE 10\n";
+    let (e, m) = fail(t, deck);
+    let loaded = m.blocks.iter().find(|b| b.load[0] > 0.0).expect("the loaded block").id;
+    assert_ne!(loaded, m.blocks[0].id);
+    assert!(matches!(e, CycleError::NonFinite { cycle: 1, block, .. } if block == loaded), "{e} on {}", t.name());
+    assert_eq!(m.cycle, 0, "on {}", t.name());
     assert_last_good(&m, t);
 }
 

@@ -320,7 +320,13 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     model.cycle += 1;
     model.time += dt;
     if !work.is_finite() {
-        return Err(CycleError::non_finite_state(model));
+        // The first block whose step is not finite (as the kernel's atomicMin picks), or, where
+        // only the sum overflowed, the one that added most.
+        let b = steps
+            .iter()
+            .position(|s| !s.external_work.is_finite())
+            .unwrap_or_else(|| steps.iter().enumerate().max_by(|x, y| x.1.external_work.abs().total_cmp(&y.1.external_work.abs())).map_or(0, |(b, _)| b));
+        return Err(CycleError::non_finite_step(model, b));
     }
     // Between contact updates a block's corners move at most etol plus one step's travel s, so two
     // blocks approach by at most 2(etol + s); that must stay below atol for no touch to be missed.

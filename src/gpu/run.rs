@@ -37,7 +37,7 @@ impl<R: Real> Engine<R> {
     pub(super) fn error_from_flags(model: &Model, flags: &Flags) -> CycleError {
         let cycle = model.cycle;
         if flags.errors & layout::ERR_NONFINITE != 0 {
-            return CycleError::non_finite_state(model);
+            return CycleError::non_finite_step(model, flags.nonfinite_block as usize);
         }
         if flags.errors & layout::ERR_TOO_FAST != 0 {
             let dt = model.timestep;
