@@ -65,9 +65,10 @@ pub enum CycleError {
     TooFast { cycle: u64, block: u32, travel: f64, limit: f64, speed: f64 },
     #[error("cannot cycle: {0}")]
     Setup(String),
-    /// The model does not fit the backend (a GPU adapter's binding limit); another may run it.
+    /// The model does not fit the backend (a GPU adapter's binding limit, a value outside the
+    /// kernel precision's range); another may run it.
     #[error("cannot cycle: {0}")]
-    TooLarge(String),
+    DoesNotFit(String),
 }
 
 impl CycleError {
@@ -108,7 +109,7 @@ impl Backend for GpuOrCpu {
         }
         match self.gpu.run(model, cycles, progress) {
             // Refused before any cycle, the model at its state before the run.
-            Err(CycleError::TooLarge(why)) => {
+            Err(CycleError::DoesNotFit(why)) => {
                 eprintln!("blockdem: {why}; --backend auto goes on on the CPU (f64)");
                 self.cpu.insert(crate::cpu::CpuBackend::new()).run(model, cycles, progress)
             }

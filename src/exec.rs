@@ -472,6 +472,18 @@ impl<'a> Executor<'a> {
                 ),
             ));
         }
+        // A block so fast that ½mv² overflows cannot be integrated (the energy check would call
+        // it an instability): name it.
+        let energy = |b: &crate::model::Block| 0.5 * (b.mass * (b.velocity[0].powi(2) + b.velocity[1].powi(2)) + b.inertia * b.angular_velocity.powi(2));
+        if let Some(b) = self.model.blocks.iter().find(|b| !energy(b).is_finite()) {
+            return Err(self.command_error(
+                cmd,
+                format!(
+                    "CYCLE: block {} moves so fast (velocity ({:e}, {:e}), angular {:e}) that its kinetic energy overflows f64; check VELOCITY and the units",
+                    b.id, b.velocity[0], b.velocity[1], b.angular_velocity
+                ),
+            ));
+        }
         self.model.timestep = dt;
         // Outside the ratios the suite has verified (blockdem verify): say so before cycling.
         for w in crate::verify::stability::warnings(&self.model, &self.limits) {
@@ -575,7 +587,7 @@ impl<'a> Executor<'a> {
     /// on the contacts the last good state has or would form at once). Empty otherwise: then the
     /// failure is not one of the time step.
     fn fraction_advice(&self, failure: &CycleError) -> String {
-        if matches!(failure, CycleError::EnergyGrowth { .. } | CycleError::Setup(_) | CycleError::TooLarge(_)) {
+        if matches!(failure, CycleError::EnergyGrowth { .. } | CycleError::Setup(_) | CycleError::DoesNotFit(_)) {
             return String::new();
         }
         let mut probe = self.model.clone();

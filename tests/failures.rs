@@ -14,6 +14,8 @@ every_backend!(
     an_unstable_fraction_is_caught_before_any_nan,
     a_projectile_that_would_tunnel_is_stopped,
     a_step_that_overflows_names_its_block,
+    a_value_f32_cannot_hold_is_refused_before_the_run,
+    a_block_too_fast_to_integrate_is_refused_at_its_cycle_command,
     a_failure_after_a_checkpoint_restores_that_checkpoint,
     a_failure_in_a_later_run_restores_that_runs_start,
     a_failure_after_contact_updates_restores_the_checkpoints_contacts,
@@ -64,17 +66,48 @@ fn an_unstable_fraction_is_caught_before_any_nan(t: &Target) {
 }
 
 fn a_step_that_overflows_names_its_block(t: &Target) {
-    // A load of 1e300 N on the second block: its first step's work (force × displacement, ~1e300
-    // × 1e292 J) overflows f64, and in f32 the load itself is infinite. Every backend names that
-    // block (the CPU and f64 kernels by the step's work, f32 by its state), at cycle 1, and keeps
-    // the state the CYCLE started from.
-    let deck = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 3,0 3,1 4,1 4,0\nLOAD 3 4 0 1 1E300 0\nCYCLE 10\n";
-    let (e, m) = fail(t, deck);
+    // A load on the second block whose first step's work (force × displacement) overflows: 1e300
+    // N in f64 (~1e300 × 1e292 J), 1e38 N in f32 (just below its largest value, which the f32
+    // kernels would refuse; ~1e38 × 1e30 J). Every backend names that block, at cycle 1, and
+    // keeps the state the CYCLE started from.
+    let load = if t.is_f32() { "1E38" } else { "1E300" };
+    let deck = format!("START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 3,0 3,1 4,1 4,0\nLOAD 3 4 0 1 {load} 0\nCYCLE 10\n");
+    let (e, m) = fail(t, &deck);
     let loaded = m.blocks.iter().find(|b| b.load[0] > 0.0).expect("the loaded block").id;
     assert_ne!(loaded, m.blocks[0].id);
     assert!(matches!(e, CycleError::NonFinite { cycle: 1, block, .. } if block == loaded), "{e} on {}", t.name());
     assert_eq!(m.cycle, 0, "on {}", t.name());
     assert_last_good(&m, t);
+}
+
+fn a_value_f32_cannot_hold_is_refused_before_the_run(t: &Target) {
+    // DENSITY 1e40 and KN 1e45 (a wall of 2000 kg/m³ and 2e9 N/m in other units): masses of
+    // 1e40 kg, infinite in f32. f64 runs it as the CPU does; the f32 kernels refuse it before any
+    // cycle, naming the value and the way out, as "does not fit" (so `--backend auto` goes on on
+    // the CPU).
+    let deck = "START\nPROP MAT=1 D=1E40 KN=1E45 KS=1E45\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 0.9\nGRAV 0 -10\nCYCLE 10\n";
+    if !t.is_f32() {
+        let m = blockdem::scenes::run_deck_on(deck, t.backend()).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+        assert_eq!(m.cycle, 10, "runs on {}", t.name());
+        return;
+    }
+    let (e, m) = fail(t, deck);
+    match e {
+        CycleError::DoesNotFit(why) => assert!(why.contains("block 1's mass is 1e40") && why.contains("--precision f64"), "{why}"),
+        other => panic!("expected the f32 kernels to refuse the model, got {other}"),
+    }
+    assert_eq!(m.cycle, 0);
+}
+
+fn a_block_too_fast_to_integrate_is_refused_at_its_cycle_command(t: &Target) {
+    // VELOCITY 1e300: ½mv² overflows f64 before any step; the energy check would call that an
+    // instability and advise a smaller FRACTION. The CYCLE command is refused instead, on every
+    // backend, naming the block and the command.
+    let deck =
+        "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 0.9\nVELOCITY 0 1 1 2 1E300 0\nCYCLE 10\n";
+    let err = blockdem::scenes::run_deck_on(deck, t.backend()).unwrap_err().to_string();
+    assert!(err.contains("line 8") || err.contains(":8"), "names the CYCLE line on {}: {err}", t.name());
+    assert!(err.contains("block 2 moves so fast") && err.contains("check VELOCITY"), "on {}: {err}", t.name());
 }
 
 fn a_projectile_that_would_tunnel_is_stopped(t: &Target) {
@@ -237,7 +270,7 @@ impl blockdem::backend::Backend for TooSmallAdapter {
     }
     fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<blockdem::backend::CycleReport, CycleError> {
         self.0.set(self.0.get() + 1);
-        Err(CycleError::TooLarge("GPU set-up: the corners buffer would need more than one binding may hold".into()))
+        Err(CycleError::DoesNotFit("GPU set-up: the corners buffer would need more than one binding may hold".into()))
     }
 }
 
@@ -254,5 +287,5 @@ fn auto_goes_on_on_the_cpu_when_the_model_is_past_the_gpus_limits() {
     assert!(m == cpu && m.cycle == 500, "the CPU's run");
     assert_eq!(asked.get(), 1, "the GPU is asked once");
     let err = blockdem::scenes::run_deck_on(deck, Box::new(TooSmallAdapter(asked.clone()))).unwrap_err();
-    assert!(matches!(err, RunError::Numerical { failure: CycleError::TooLarge(_), .. }), "{err:?}");
+    assert!(matches!(err, RunError::Numerical { failure: CycleError::DoesNotFit(_), .. }), "{err:?}");
 }

@@ -248,7 +248,7 @@ fn too_large(label: &str, need: u64, cap: u64, item: usize, precision: Precision
 pub(crate) fn check_fits(label: &str, item: usize, count: usize, cap: u64, precision: Precision) -> Result<(), GpuError> {
     let need = (count.max(1) * item) as u64;
     if need > cap {
-        return Err(GpuError::TooLarge(too_large(label, need, cap, item, precision)));
+        return Err(GpuError::DoesNotFit(too_large(label, need, cap, item, precision)));
     }
     Ok(())
 }
@@ -525,7 +525,7 @@ mod tests {
         // The check a run makes before its full detection gives the same refusal, and passes
         // what fits.
         match check_fits("corners", 40, 4_000_014, cap, Precision::F32) {
-            Err(GpuError::TooLarge(m)) => assert!(m.contains("160000560 bytes") && m.contains("at most 3355443 corners here"), "{m}"),
+            Err(GpuError::DoesNotFit(m)) => assert!(m.contains("160000560 bytes") && m.contains("at most 3355443 corners here"), "{m}"),
             other => panic!("{other:?}"),
         }
         assert!(check_fits("corners", 40, 3_355_443, cap, Precision::F32).is_ok());

@@ -128,9 +128,10 @@ pub enum GpuError {
     NoF64(String),
     #[error("GPU set-up: {0}")]
     Setup(String),
-    /// A buffer the model needs is past the adapter's binding limit (`kernels::check_fits`).
+    /// The model does not fit the adapter or the kernel precision: a buffer past the binding
+    /// limit (`kernels::check_fits`), a value outside f32's range (`run::representable`).
     #[error("GPU set-up: {0}")]
-    TooLarge(String),
+    DoesNotFit(String),
     #[error("GPU shader: {0}")]
     Shader(String),
     #[error("GPU device: {0}")]
@@ -271,7 +272,7 @@ impl Backend for GpuBackend {
 
 fn device_error(e: GpuError) -> CycleError {
     match e {
-        GpuError::TooLarge(_) => CycleError::TooLarge(e.to_string()),
+        GpuError::DoesNotFit(_) => CycleError::DoesNotFit(e.to_string()),
         _ => CycleError::Setup(e.to_string()),
     }
 }

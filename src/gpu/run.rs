@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::kernels;
 use super::layout::{self, Block, Corner, Flags, Real};
 use super::partial::PartialUpdate;
-use super::{device_error, ContactIdentity, Engine};
+use super::{device_error, ContactIdentity, Engine, GpuError};
 
 /// How many more cycles, at the velocities now, until the first block passes its contact-update
 /// threshold (`Block::update_due`): the cycle that raises the flag, ⌊(threshold − moved)/s⌋ + 1 for
@@ -29,6 +29,62 @@ pub(super) fn cycles_to_threshold(model: &Model, b: &crate::model::Block) -> Opt
     let s = b.travel_per_step(model.timestep);
     let room = (b.update_threshold(&model.tol) - b.moved_since_update).max(0.0);
     (s > 0.0 && s.is_finite()).then(|| (room / s).floor().min(1e9) as u64 + 1)
+}
+
+/// Refuses a model whose inputs the kernel precision cannot hold: in f32 a mass of 1e-300 kg
+/// is zero and a load of 1e300 N infinite, so the first step would divide by zero or overflow and
+/// stop as "non-finite" with no hint why. What a step divides by or scales with (masses,
+/// moments of inertia, stiffnesses, the time step) must lie in f32's normal range; the rest
+/// (loads, velocities, gravity, strengths) below its largest value, a tiny one being as good as
+/// zero. f64 holds whatever the CPU holds.
+pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
+    if R::WGSL != "f32" {
+        return Ok(());
+    }
+    let (tiny, huge) = (f32::MIN_POSITIVE as f64, f32::MAX as f64);
+    let normal = |x: f64| (tiny..=huge).contains(&x.abs());
+    let bounded = |x: f64| x.abs() <= huge;
+    let refuse = |what: String, x: f64| {
+        Err(GpuError::DoesNotFit(format!(
+            "{what} is {x:e}, outside the range of the f32 kernels ({tiny:.1e} to {huge:.1e}); run with --precision f64 or --backend cpu, or check the units"
+        )))
+    };
+    for b in &model.blocks {
+        let scales = [("mass", b.mass), ("moment of inertia", b.inertia)];
+        let values = [
+            ("x load", b.load[0]),
+            ("y load", b.load[1]),
+            ("x velocity", b.velocity[0]),
+            ("y velocity", b.velocity[1]),
+            ("angular velocity", b.angular_velocity),
+        ];
+        let bad = scales.into_iter().find(|&(_, x)| !normal(x)).or_else(|| values.into_iter().find(|&(_, x)| !bounded(x)));
+        if let Some((name, x)) = bad {
+            return refuse(format!("block {}'s {name}", b.id), x);
+        }
+    }
+    // The materials in use: the blocks' and the edges' set by SPLIT (0: the block's).
+    let mut used = [false; crate::model::MAX_MATERIALS + 1];
+    for m in model.blocks.iter().map(|b| b.material).chain(model.corners.iter().map(|c| c.edge_material)) {
+        used[(m as usize).min(crate::model::MAX_MATERIALS)] = true;
+    }
+    for m in (1..used.len()).filter(|&m| used[m]) {
+        let mat = model.material(m as u32);
+        let bad = [("KN", mat.kn), ("KS", mat.ks)]
+            .into_iter()
+            .find(|&(_, x)| !normal(x))
+            .or_else(|| [("cohesion", mat.cohesion), ("friction", mat.friction)].into_iter().find(|&(_, x)| !bounded(x)));
+        if let Some((name, x)) = bad {
+            return refuse(format!("material {m}'s {name}"), x);
+        }
+    }
+    if !normal(model.timestep) {
+        return refuse("the time step".into(), model.timestep);
+    }
+    match [("the gravity's x", model.gravity[0]), ("the gravity's y", model.gravity[1])].into_iter().find(|&(_, x)| !bounded(x)) {
+        Some((name, x)) => refuse(name.to_string(), x),
+        None => Ok(()),
+    }
 }
 
 impl<R: Real> Engine<R> {
@@ -78,6 +134,7 @@ impl<R: Real> Engine<R> {
         kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, self.dev.precision)
             .and_then(|()| kernels::check_fits("corners", std::mem::size_of::<Corner<R>>(), model.corners.len(), cap, self.dev.precision))
             .map_err(device_error)?;
+        representable::<R>(model).map_err(device_error)?;
         let mut report = CycleReport::default();
         let mut adjacency = std::mem::take(&mut self.adjacency);
         // As on the CPU: a full detection first (the executor may have changed the model), then
