@@ -69,14 +69,21 @@ pub struct RunOptions {
     /// check's budget starts again with each piece, as it does with each CYCLE command (an
     /// instability grows exponentially, within a piece of 100 cycles or more).
     pub checkpoint_every: Option<std::time::Duration>,
+    /// Write a VTK frame (`output::vtk`) into `VTK_DIR` in `out_dir` at the start of each CYCLE
+    /// and every this many cycles of it, rounded up to whole energy-check intervals (100 cycles)
+    /// so that the pieces the CYCLE then runs in are one run bit for bit, as above.
+    pub vtk_every: Option<u64>,
 }
+
+/// The folder, in the output folder, of the VTK frames (the VTK command, `--vtk-every`).
+pub const VTK_DIR: &str = "vtk";
 
 /// The running restart file of `RunOptions::checkpoint_every`, in the output folder.
 pub const CHECKPOINT_FILE: &str = "checkpoint.sav";
 
 impl Default for RunOptions {
     fn default() -> Self {
-        RunOptions { out_dir: PathBuf::from("."), progress: Progress::Off, interrupt: None, checkpoint_every: None }
+        RunOptions { out_dir: PathBuf::from("."), progress: Progress::Off, interrupt: None, checkpoint_every: None, vtk_every: None }
     }
 }
 
@@ -369,6 +376,11 @@ impl<'a> Executor<'a> {
                 self.model.recompute_mass_properties();
             }
             Command::Round { d } => self.model.set_round(*d),
+            Command::Vtk => {
+                let dir = self.options.out_dir.join(VTK_DIR);
+                let path = output::vtk::write_frame(&self.model, &dir).map_err(|e| self.command_error(cmd, format!("VTK: {e}")))?;
+                self.echo(&format!("VTK FRAME WRITTEN TO {} (AND ITS CONTACTS BESIDE IT)", path.display()));
+            }
             Command::Save { file } => {
                 let path = self.resolve(file);
                 if let Some(dir) = path.parent() {
@@ -518,15 +530,31 @@ impl<'a> Executor<'a> {
         };
         // The log up to here is seen while the cycles run.
         let _ = self.log.flush();
-        // In one run, or with running restart files in pieces of whole check intervals sized to
-        // last about `every`, each followed by the file when `every` has passed since the last.
+        // In one run, or in pieces of whole check intervals: with running restart files, pieces
+        // sized to last about `every`, each followed by the file when `every` has passed since
+        // the last; with VTK frames, pieces that end on the frames' cycles.
+        let interval = crate::cpu::CHECK_INTERVAL;
+        let frame_every = options.vtk_every.map(|f| f.max(1).div_ceil(interval) * interval);
+        let vtk_dir = options.out_dir.join(VTK_DIR);
+        let write_frame = |model: &Model| {
+            if let Err(e) = output::vtk::write_frame(model, &vtk_dir) {
+                eprintln!("blockdem: a VTK frame was not written ({e}); the run goes on");
+            }
+        };
+        if frame_every.is_some() {
+            write_frame(&self.model);
+        }
         let mut report = crate::backend::CycleReport::default();
         let mut result = Ok(());
-        let mut piece = if options.checkpoint_every.is_some() { crate::cpu::CHECK_INTERVAL } else { n };
+        let mut piece = if options.checkpoint_every.is_some() { interval } else { n };
         let mut last_checkpoint = std::time::Instant::now();
         // (At least one run: CYCLE 0 still detects the contacts.)
         loop {
-            let (base, k, t0) = (report.cycles, piece.min(n - report.cycles), std::time::Instant::now());
+            let (base, t0) = (report.cycles, std::time::Instant::now());
+            let mut k = piece.min(n - base);
+            if let Some(f) = frame_every {
+                k = k.min(f - base % f);
+            }
             match self.backend.run(&mut self.model, k, &mut |done| progress(base + done)) {
                 Ok(r) => report.extend(r),
                 Err(e) => {
@@ -534,21 +562,26 @@ impl<'a> Executor<'a> {
                     break;
                 }
             }
-            let Some(every) = options.checkpoint_every else { break };
-            if last_checkpoint.elapsed() >= every {
-                let path = options.out_dir.join(CHECKPOINT_FILE);
-                let _ = std::fs::create_dir_all(&options.out_dir);
-                if let Err(e) = output::restart::save_state(&path, &self.model, &self.plot, self.plot_count) {
-                    eprintln!("blockdem: the running restart file was not written ({e}); the run goes on");
+            if frame_every.is_some_and(|f| report.cycles > base && report.cycles % f == 0) {
+                write_frame(&self.model);
+            }
+            if let Some(every) = options.checkpoint_every {
+                if last_checkpoint.elapsed() >= every {
+                    let path = options.out_dir.join(CHECKPOINT_FILE);
+                    let _ = std::fs::create_dir_all(&options.out_dir);
+                    if let Err(e) = output::restart::save_state(&path, &self.model, &self.plot, self.plot_count) {
+                        eprintln!("blockdem: the running restart file was not written ({e}); the run goes on");
+                    }
+                    last_checkpoint = std::time::Instant::now();
                 }
-                last_checkpoint = std::time::Instant::now();
             }
             if report.cycles >= n || report.cycles == base || stopped.get() {
                 break;
             }
-            let per_cycle = t0.elapsed().as_secs_f64() / k as f64;
-            let interval = crate::cpu::CHECK_INTERVAL;
-            piece = ((every.as_secs_f64() / per_cycle.max(1e-12)) as u64).clamp(1, u64::MAX / 2).div_ceil(interval) * interval;
+            if let Some(every) = options.checkpoint_every {
+                let per_cycle = t0.elapsed().as_secs_f64() / (report.cycles - base) as f64;
+                piece = ((every.as_secs_f64() / per_cycle.max(1e-12)) as u64).clamp(1, u64::MAX / 2).div_ceil(interval) * interval;
+            }
         }
         let stopped = stopped.get();
         if let Some(pb) = bar {

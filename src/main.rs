@@ -39,32 +39,41 @@ enum PrecisionChoice {
     F64,
 }
 
+/// `blockdem run`'s arguments.
+#[derive(clap::Args)]
+struct RunArgs {
+    /// The deck file.
+    deck: PathBuf,
+    #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
+    backend: BackendChoice,
+    /// GPU adapter: vulkan, gl, any, or part of an adapter's name (see `blockdem adapters`).
+    /// WGPU_BACKEND and WGPU_ADAPTER_NAME are honoured too.
+    #[arg(long, default_value = "any")]
+    adapter: String,
+    /// Kernel precision on the GPU (the CPU is always f64).
+    #[arg(long, value_enum, default_value_t = PrecisionChoice::F32)]
+    precision: PrecisionChoice,
+    /// Folder for PLOT files and unnamed SAVE files.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Write the final state as JSON (also after a numerical failure: the last good state).
+    #[arg(long)]
+    state_json: Option<PathBuf>,
+    /// Write a running restart file, OUT/checkpoint.sav, about every SECONDS during long
+    /// CYCLE commands (a run killed outright loses at most that much; RESTART goes on).
+    #[arg(long, value_name = "SECONDS", value_parser = seconds)]
+    checkpoint_every: Option<f64>,
+    /// Write VTK frames for ParaView (blocks and contacts, OUT/vtk/, with .series files of
+    /// their times) at the start of each CYCLE and every CYCLES cycles of it (rounded up to
+    /// a multiple of 100).
+    #[arg(long, value_name = "CYCLES", value_parser = clap::value_parser!(u64).range(1..))]
+    vtk_every: Option<u64>,
+}
+
 #[derive(Subcommand)]
 enum Cmd {
     /// Run a command deck (START … STOP/END).
-    Run {
-        /// The deck file.
-        deck: PathBuf,
-        #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
-        backend: BackendChoice,
-        /// GPU adapter: vulkan, gl, any, or part of an adapter's name (see `blockdem adapters`).
-        /// WGPU_BACKEND and WGPU_ADAPTER_NAME are honoured too.
-        #[arg(long, default_value = "any")]
-        adapter: String,
-        /// Kernel precision on the GPU (the CPU is always f64).
-        #[arg(long, value_enum, default_value_t = PrecisionChoice::F32)]
-        precision: PrecisionChoice,
-        /// Folder for PLOT files and unnamed SAVE files.
-        #[arg(long, default_value = "out")]
-        out: PathBuf,
-        /// Write the final state as JSON (also after a numerical failure: the last good state).
-        #[arg(long)]
-        state_json: Option<PathBuf>,
-        /// Write a running restart file, OUT/checkpoint.sav, about every SECONDS during long
-        /// CYCLE commands (a run killed outright loses at most that much; RESTART goes on).
-        #[arg(long, value_name = "SECONDS", value_parser = seconds)]
-        checkpoint_every: Option<f64>,
-    },
+    Run(RunArgs),
     /// List the GPU adapters wgpu finds (Vulkan and GL/EGL, off-screen) with their limits.
     Adapters,
     /// Run the closed-form verification suite on every backend: a table of errors and costs, CSV
@@ -262,15 +271,8 @@ fn seconds(text: &str) -> Result<f64, String> {
     }
 }
 
-fn run(
-    deck: PathBuf,
-    backend: BackendChoice,
-    adapter: String,
-    precision: PrecisionChoice,
-    out: PathBuf,
-    state_json: Option<PathBuf>,
-    checkpoint_every: Option<f64>,
-) -> anyhow::Result<()> {
+fn run(args: RunArgs) -> anyhow::Result<()> {
+    let RunArgs { deck, backend, adapter, precision, out, state_json, checkpoint_every, vtk_every } = args;
     let name = deck.display().to_string();
     let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
@@ -322,7 +324,7 @@ fn run(
         Progress::Lines { every: std::time::Duration::from_secs_f64(seconds.unwrap_or(30.0)) }
     };
     let checkpoint_every = checkpoint_every.map(std::time::Duration::from_secs_f64);
-    let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt), checkpoint_every };
+    let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt), checkpoint_every, vtk_every };
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
@@ -378,9 +380,7 @@ const INTERRUPTED_EXIT: i32 = 130;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Cmd::Run { deck, backend, adapter, precision, out, state_json, checkpoint_every } => {
-            run(deck, backend, adapter, precision, out, state_json, checkpoint_every)
-        }
+        Cmd::Run(args) => run(args),
         Cmd::Adapters => adapters(),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
         Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds } => {

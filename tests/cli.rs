@@ -212,6 +212,32 @@ fn a_running_restart_file_is_written_with_checkpoint_every() {
 }
 
 #[test]
+fn vtk_frames_are_written_by_the_vtk_command_and_with_vtk_every() {
+    // --vtk-every 150 (rounded up to 200): frames at cycles 0, 200 and 400 of the CYCLE; the VTK
+    // command adds one of the state at 450. Each frame is a blocks and a contacts file, listed
+    // in the two series files. 0 cycles is an argument error.
+    let dir = temp("vtk");
+    let deck = write_deck(
+        &dir,
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 0.9\nGRAVITY 0 -10\nCYCLE 450\nVTK\nSTOP\n",
+    );
+    let out = dir.join("out");
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap(), "--vtk-every", "150"]);
+    assert_eq!(code, 0, "{stderr}");
+    let vtk = out.join("vtk");
+    assert!(stdout.contains(&format!("VTK FRAME WRITTEN TO {}", vtk.join("blocks_000000450.vtk").display())), "{stdout}");
+    for cycle in [0, 200, 400, 450] {
+        for kind in ["blocks", "contacts"] {
+            assert!(vtk.join(format!("{kind}_{cycle:09}.vtk")).is_file(), "{kind} frame of cycle {cycle}");
+        }
+    }
+    let series: blockdem::output::vtk::Series = serde_json::from_slice(&std::fs::read(vtk.join("contacts.vtk.series")).unwrap()).unwrap();
+    assert_eq!(series.files.len(), 4);
+    let (code, _, stderr) = blockdem(&["run", &deck, "--vtk-every", "0"]);
+    assert!(code != 0 && stderr.contains("--vtk-every"), "{stderr}");
+}
+
+#[test]
 fn an_unstable_fraction_is_caught_before_any_nan() {
     // FRAC 5 is far above the stable limit of the central-difference scheme (≈ 0.5 here).
     let dir = temp("unstable");

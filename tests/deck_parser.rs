@@ -285,6 +285,8 @@ fn view_window_velocity() {
         Command::Velocity { range: range(0.0, 1.0, 0.0, 1.0), velocity: [2.0, -3.0], angular: None },
     );
     all_give(&["VELOCITY 0 1 0 1 2 -3 0.5"], Command::Velocity { range: range(0.0, 1.0, 0.0, 1.0), velocity: [2.0, -3.0], angular: Some(0.5) });
+    // VTK (extension): a frame for ParaView; VT is its shortest form (V is VIEW, VE VELOCITY).
+    all_give(&["VTK", "VT", "vtk"], Command::Vtk);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -567,6 +569,7 @@ fn arity_errors() {
     assert_body_err("LINK 1 2 3", 2, &["LINK needs 4 numbers"]);
     assert_body_err("VELOCITY 0 1 0 1 2", 2, &["VELOCITY needs 6 numbers"]);
     assert_body_err("VELOCITY 0 1 0 1 2 3 4 5", 2, &["too many values for VELOCITY: unexpected '5'"]);
+    assert_body_err("VTK 100", 2, &["too many values for VTK: unexpected '100'"]);
     assert_body_err("START 1", 2, &["too many values for START: unexpected '1'"]);
     assert_body_err("STOP NOW", 2, &["too many values for STOP: unexpected 'NOW'"]);
     assert_body_err("END 1", 2, &["too many values for END"]);

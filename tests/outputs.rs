@@ -3,6 +3,8 @@
 //! The models are built by hand (two rectangles and one contact) so these tests do not depend on
 //! the geometry or topology code.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use blockdem::deck::{PlotOptions, PrintItem};
@@ -859,4 +861,66 @@ fn dump_writes_every_field() {
     assert_eq!(head, "FULL STATE DUMP (CYCLE 600, TIME 1.250E+00)");
     let back: Model = serde_json::from_str(body).unwrap();
     assert_eq!(back, m);
+}
+
+// ---------------------------------------------------------------------------------------------
+// VTK
+
+#[test]
+fn a_vtk_frame_holds_the_blocks_and_contacts() {
+    // The two blocks as polygons through their corners, with their state as cell data; the
+    // contact as a point at its contact point, with its forces as point data; read back with
+    // vtkio's own parser.
+    let m = two_blocks();
+    let dir = out_dir("vtk_frame");
+    let path = blockdem::output::vtk::write_frame(&m, &dir).unwrap();
+    assert_eq!(path, dir.join("blocks_000000600.vtk"));
+    let blocks = common::VtkFrame::read(&path);
+    let corners: Vec<f64> = (0..2).flat_map(|b| m.corner_positions(b)).flat_map(|p| [p[0], p[1], 0.0]).collect();
+    assert_eq!(blocks.points, corners);
+    assert_eq!(blocks.cells, [4, 0, 1, 2, 3, 4, 4, 5, 6, 7]);
+    assert_eq!(blocks.array("id"), [3.0, 5.0]);
+    assert_eq!(blocks.array("material"), [1.0, 2.0]);
+    assert_eq!(blocks.array("fixed"), [1.0, 0.0]);
+    assert_eq!(blocks.array("velocity"), [0.0, 0.0, 0.0, 0.5, -0.25, 0.0]);
+    // The data in f32 (positions in f64, above).
+    let f32s = |xs: &[f64]| xs.iter().map(|&x| x as f32 as f64).collect::<Vec<_>>();
+    assert_eq!(blocks.array("angular_velocity"), f32s(&[0.0, 0.01]));
+    assert_eq!(blocks.array("force")[3..5], [10.0, -2.0e4]);
+    assert_eq!(blocks.array("mass"), f32s(&[m.blocks[0].mass, m.blocks[1].mass]));
+    let contacts = common::VtkFrame::read(&dir.join("contacts_000000600.vtk"));
+    assert_eq!(contacts.points, [2.0, 1.0, 0.0]);
+    assert_eq!(contacts.cells, [1, 0]);
+    assert_eq!(contacts.array("normal_force"), [1.962e4]);
+    assert_eq!(contacts.array("shear_force"), [-12.5]);
+    assert_eq!(contacts.array("gap"), f32s(&[-1.5e-4]));
+    assert_eq!(contacts.array("normal"), [0.0, 1.0, 0.0]);
+    assert_eq!(contacts.array("force"), [-12.5, 1.962e4, 0.0]);
+    assert_eq!((contacts.array("block1"), contacts.array("block2")), (&[5.0][..], &[3.0][..]));
+    assert_eq!((contacts.array("corner_corner"), contacts.array("bonded")), (&[0.0][..], &[1.0][..]));
+}
+
+#[test]
+fn a_vtk_series_lists_its_frames_in_time_and_forgets_those_a_restart_goes_back_over() {
+    use blockdem::output::vtk::{add_to_series, Series, SeriesFrame, SERIES_FILE};
+    let dir = out_dir("vtk_series");
+    let path = dir.join(SERIES_FILE);
+    let frame = |cycle: u64, time: f64| SeriesFrame { name: format!("blocks_{cycle:09}.vtk"), time };
+    let read = || serde_json::from_slice::<Series>(&std::fs::read(&path).unwrap()).unwrap();
+    for (cycle, time) in [(0, 0.0), (100, 0.5), (200, 1.0), (300, 1.5)] {
+        add_to_series(&path, &frame(cycle, time).name, cycle, time).unwrap();
+    }
+    assert_eq!(read().files, [frame(0, 0.0), frame(100, 0.5), frame(200, 1.0), frame(300, 1.5)]);
+    // ParaView's keys.
+    let json: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    assert_eq!(json["file-series-version"], "1.0");
+    assert_eq!(json["files"][1]["name"], "blocks_000000100.vtk");
+    // A run restarted from cycle 100 writes its frame of cycle 200 again: the old frames of
+    // cycles 200 and 300 are not that run's.
+    add_to_series(&path, &frame(200, 1.01).name, 200, 1.01).unwrap();
+    assert_eq!(read().files, [frame(0, 0.0), frame(100, 0.5), frame(200, 1.01)]);
+    // A damaged series file is started again rather than stopping the run.
+    std::fs::write(&path, b"{ not json").unwrap();
+    add_to_series(&path, &frame(300, 1.5).name, 300, 1.5).unwrap();
+    assert_eq!(read().files, [frame(300, 1.5)]);
 }

@@ -167,6 +167,9 @@ pub enum Command {
     /// VELOCITY x1 x2 y1 y2 vx vy \[w\] (extension): blocks whose centroids lie in the range start
     /// with this velocity and angular velocity.
     Velocity { range: Range, velocity: [f64; 2], angular: Option<f64> },
+    /// VTK (extension): the blocks and contacts as a frame of VTK files for ParaView, in the
+    /// output folder's `vtk/` (`output::vtk`).
+    Vtk,
 }
 
 impl Command {
@@ -202,6 +205,7 @@ impl Command {
             Command::View { .. } => "VIEW",
             Command::Window { .. } => "WINDOW",
             Command::Velocity { .. } => "VELOCITY",
+            Command::Vtk => "VTK",
         }
     }
 }

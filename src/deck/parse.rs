@@ -27,6 +27,7 @@
 //! | FIX | `F` | | PLOT | `PL` | | STOP | `S` |
 //! | FRACTION | `FRA` | | PRINT | `P` | | VIEW | `V` |
 //! | FLUID | `FL` | | VELOCITY (extension) | `VE` | | WINDOW | `W` |
+//! | | | | VTK (extension) | `VT` | | | |
 //!
 //! Keywords:
 //!
@@ -97,6 +98,7 @@ enum Word {
     View,
     Window,
     Velocity,
+    Vtk,
 }
 
 /// Command names and their minimum abbreviations (see the table in the module docs).
@@ -130,6 +132,7 @@ const COMMANDS: &[Name<Word>] = &[
     name("STOP", "S", Word::Stop),
     name("VELOCITY", "VE", Word::Velocity),
     name("VIEW", "V", Word::View),
+    name("VTK", "VT", Word::Vtk),
     name("WINDOW", "W", Word::Window),
 ];
 
@@ -253,6 +256,7 @@ fn usage(w: Word) -> &'static str {
         Word::View => "VIEW ix1 ix2 iy1 iy2",
         Word::Window => "WINDOW x1 x2 y1 y2",
         Word::Velocity => "VELOCITY x1 x2 y1 y2 vx vy [w]",
+        Word::Vtk => "VTK",
     }
 }
 
@@ -561,6 +565,7 @@ fn parse_command(a: &mut Args) -> Result<Command> {
         Word::Start => Command::Start,
         Word::Stop => Command::Stop,
         Word::End => Command::End,
+        Word::Vtk => Command::Vtk,
         Word::Restart => Command::Restart { file: file_name(a) },
         Word::Save => Command::Save { file: file_name(a) },
         Word::RSet => {
@@ -1008,6 +1013,8 @@ mod tests {
             ("DE", Word::Delete),
             ("V", Word::View),
             ("VE", Word::Velocity),
+            ("VT", Word::Vtk),
+            ("VTK", Word::Vtk),
             ("R", Word::Restart),
             ("RS", Word::RSet),
             ("RO", Word::Round),

@@ -9,6 +9,7 @@
 //! | [`mod@state_json`] | `--state-json`: the observable state as JSON with fixed keys |
 //! | [`mod@dump`] | DUMP: every field of the model, readable |
 //! | [`restart`] | SAVE/RESTART: versioned binary files with a magic header |
+//! | [`vtk`] | VTK (extension) and `--vtk-every`: blocks and contacts for ParaView, a file series |
 //!
 //! Every writer takes the model read-only; none of them changes state.
 
@@ -18,6 +19,7 @@ pub mod plot;
 pub mod print;
 pub mod restart;
 pub mod state_json;
+pub mod vtk;
 
 pub use dump::dump;
 pub use format::fmt_e;

@@ -92,3 +92,39 @@ macro_rules! every_backend {
 }
 #[allow(unused_imports)]
 pub(crate) use every_backend;
+
+/// A legacy VTK file of `output::vtk` read back with vtkio: its points (x, y, z each), its
+/// cells' vertex lists (`n i1 … in` each) and its point or cell arrays by name, as f64.
+pub struct VtkFrame {
+    pub points: Vec<f64>,
+    pub cells: Vec<u32>,
+    pub arrays: Vec<(String, Vec<f64>)>,
+}
+
+impl VtkFrame {
+    pub fn read(path: &std::path::Path) -> VtkFrame {
+        use vtkio::model::{Attribute, DataSet, Piece, VertexNumbers};
+        let vtk = vtkio::Vtk::import(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let DataSet::PolyData { pieces, .. } = vtk.data else { panic!("{}: not poly data", path.display()) };
+        let Some(Piece::Inline(piece)) = pieces.into_iter().next() else { panic!("{}: no inline piece", path.display()) };
+        let cells = match piece.polys.or(piece.verts) {
+            Some(VertexNumbers::Legacy { vertices, .. }) => vertices,
+            other => panic!("{}: cells {other:?}", path.display()),
+        };
+        let arrays = piece
+            .data
+            .point
+            .into_iter()
+            .chain(piece.data.cell)
+            .filter_map(|a| match a {
+                Attribute::DataArray(d) => Some((d.name, d.data.cast_into::<f64>().expect("numbers"))),
+                Attribute::Field { .. } => None,
+            })
+            .collect();
+        VtkFrame { points: piece.points.cast_into::<f64>().expect("points"), cells, arrays }
+    }
+
+    pub fn array(&self, name: &str) -> &[f64] {
+        &self.arrays.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("no array {name}")).1
+    }
+}
