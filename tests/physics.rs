@@ -374,21 +374,33 @@ fn a_run_its_caller_stops_is_a_shorter_run_and_goes_on_as_one(t: &Target) {
     assert!(stopped == whole, "stopped and gone on is not the uninterrupted run on {}", t.name());
 }
 
+/// A 0.5 m block fired at 20 m/s into a fixed wall, for 1000 cycles (contact updates, a strike).
+const PROJECTILE_AT_A_WALL: &str =
+    "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\n\
+     VELOCITY 0 0.5 0 0.5 20 0\nCYCLE 1000\n";
+
+/// Runs `deck` with the run options `set` gives (their output folder a fresh one named after
+/// `what` and the target): the final model, the runs asked of the backend, the folder.
+fn run_with_options(t: &Target, deck: &str, what: &str, set: impl FnOnce(&mut blockdem::exec::RunOptions)) -> (Model, u32, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("blockdem-{what}-{}-{}", std::process::id(), t.name().replace(' ', "_")));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut options = blockdem::exec::RunOptions { out_dir: dir.clone(), ..Default::default() };
+    set(&mut options);
+    let runs = std::rc::Rc::new(std::cell::Cell::new(0));
+    let counted = Box::new(CountedRuns(t.backend(), runs.clone()));
+    let mut exec = blockdem::exec::Executor::new(counted, Box::new(std::io::sink()), options, what);
+    exec.run(&blockdem::deck::parse_deck(deck, what).unwrap()).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    (exec.model, runs.get(), dir)
+}
+
 fn a_cycle_with_running_restart_files_is_the_same_run(t: &Target) {
     // --checkpoint-every runs a CYCLE in pieces of whole check intervals and writes the state
     // between them: the pieces are one run bit for bit, and the last file holds the final state.
     // Every 0 s: a file after each piece of 100 cycles (ten of them, with contact updates).
-    let deck = "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 1000\n";
-    let whole = run(t, deck);
-    let dir = std::env::temp_dir().join(format!("blockdem-checkpoint-{}-{}", std::process::id(), t.name().replace(' ', "_")));
-    let _ = std::fs::remove_dir_all(&dir);
-    let options = blockdem::exec::RunOptions { out_dir: dir.clone(), checkpoint_every: Some(std::time::Duration::ZERO), ..Default::default() };
-    let runs = std::rc::Rc::new(std::cell::Cell::new(0));
-    let counted = Box::new(CountedRuns(t.backend(), runs.clone()));
-    let mut exec = blockdem::exec::Executor::new(counted, Box::new(std::io::sink()), options, "<checkpoints>");
-    exec.run(&blockdem::deck::parse_deck(deck, "<checkpoints>").unwrap()).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
-    assert_eq!(runs.get(), 10, "pieces of 100 cycles on {}", t.name());
-    assert!(exec.model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
+    let whole = run(t, PROJECTILE_AT_A_WALL);
+    let (model, runs, dir) = run_with_options(t, PROJECTILE_AT_A_WALL, "checkpoint", |o| o.checkpoint_every = Some(std::time::Duration::ZERO));
+    assert_eq!(runs, 10, "pieces of 100 cycles on {}", t.name());
+    assert!(model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
     let saved = blockdem::output::load(&dir.join(blockdem::exec::CHECKPOINT_FILE)).unwrap();
     assert!(saved.model == whole && saved.model.cycle == 1000, "the last running restart file is not the final state on {}", t.name());
 }
@@ -397,17 +409,10 @@ fn a_cycle_with_vtk_frames_is_the_same_run(t: &Target) {
     // --vtk-every 250 (rounded up to 300): a frame at the CYCLE's start and at cycles 300, 600
     // and 900, each piece a run of the backend (four: 300, 300, 300, 100), one run bit for bit;
     // the last frame holds the state of cycle 900 and the series lists the four with their times.
-    let deck = "START\nPROP MAT=1 D=8000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 0.5,0.5 0.5,0\nBLOCK 3,-1 3,1.5 4,1.5 4,-1\nFIX 2.5 4.5 -1.5 2\nVELOCITY 0 0.5 0 0.5 20 0\nCYCLE 1000\n";
-    let whole = run(t, deck);
-    let dir = std::env::temp_dir().join(format!("blockdem-vtk-{}-{}", std::process::id(), t.name().replace(' ', "_")));
-    let _ = std::fs::remove_dir_all(&dir);
-    let options = blockdem::exec::RunOptions { out_dir: dir.clone(), vtk_every: Some(250), ..Default::default() };
-    let runs = std::rc::Rc::new(std::cell::Cell::new(0));
-    let counted = Box::new(CountedRuns(t.backend(), runs.clone()));
-    let mut exec = blockdem::exec::Executor::new(counted, Box::new(std::io::sink()), options, "<vtk>");
-    exec.run(&blockdem::deck::parse_deck(deck, "<vtk>").unwrap()).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
-    assert_eq!(runs.get(), 4, "pieces ending on the frames on {}", t.name());
-    assert!(exec.model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
+    let whole = run(t, PROJECTILE_AT_A_WALL);
+    let (model, runs, dir) = run_with_options(t, PROJECTILE_AT_A_WALL, "vtk", |o| o.vtk_every = Some(250));
+    assert_eq!(runs, 4, "pieces ending on the frames on {}", t.name());
+    assert!(model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
     let vtk = dir.join(blockdem::exec::VTK_DIR);
     let series: blockdem::output::vtk::Series = serde_json::from_slice(&std::fs::read(vtk.join(blockdem::output::vtk::SERIES_FILE)).unwrap()).unwrap();
     let cycles: Vec<&str> = series.files.iter().map(|f| f.name.as_str()).collect();
@@ -415,7 +420,7 @@ fn a_cycle_with_vtk_frames_is_the_same_run(t: &Target) {
     assert_eq!(series.files[0].time, 0.0);
     assert!((series.files[3].time - 900.0 * whole.timestep).abs() < 1e-9 * whole.time, "frame times on {}", t.name());
     // The frame of cycle 900 is the state of a 900-cycle run: its corners to the bit.
-    let at_900 = run(t, &deck.replace("CYCLE 1000", "CYCLE 900"));
+    let at_900 = run(t, &PROJECTILE_AT_A_WALL.replace("CYCLE 1000", "CYCLE 900"));
     let frame = common::VtkFrame::read(&vtk.join("blocks_000000900.vtk"));
     let corners: Vec<f64> = (0..at_900.blocks.len()).flat_map(|b| at_900.corner_positions(b)).flat_map(|p| [p[0], p[1], 0.0]).collect();
     assert_eq!(frame.points, corners, "frame corners on {}", t.name());
