@@ -486,8 +486,7 @@ impl<'a> Executor<'a> {
         }
         // A block so fast that ½mv² overflows cannot be integrated (the energy check would call
         // it an instability): name it.
-        let energy = |b: &crate::model::Block| 0.5 * (b.mass * (b.velocity[0].powi(2) + b.velocity[1].powi(2)) + b.inertia * b.angular_velocity.powi(2));
-        if let Some(b) = self.model.blocks.iter().find(|b| !energy(b).is_finite()) {
+        if let Some(b) = self.model.blocks.iter().find(|b| !b.kinetic_energy().is_finite()) {
             return Err(self.command_error(
                 cmd,
                 format!(

@@ -121,6 +121,12 @@ pub struct Block {
 }
 
 impl Block {
+    /// Kinetic energy at the stored (half-step) velocities: ½ m |v|² + ½ I ω².
+    pub fn kinetic_energy(&self) -> f64 {
+        let [vx, vy] = self.velocity;
+        0.5 * self.mass * (vx * vx + vy * vy) + 0.5 * self.inertia * self.angular_velocity * self.angular_velocity
+    }
+
     /// How far this block may move from its last contact update before it needs the next one.
     #[inline]
     pub fn update_threshold(&self, tol: &Tolerances) -> f64 {

@@ -297,14 +297,7 @@ fn write_list_contact(model: &Model, e: &ListedContact, out: &mut dyn Write) -> 
 /// PRINT ENERGY (an extension): kinetic energy of the blocks, ½ m |v|² + ½ I ω², and the work
 /// done by gravity and loads since START.
 pub fn print_energy(model: &Model, out: &mut dyn Write) -> io::Result<()> {
-    let kinetic: f64 = model
-        .blocks
-        .iter()
-        .map(|b| {
-            let [vx, vy] = b.velocity;
-            0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * b.angular_velocity * b.angular_velocity
-        })
-        .sum();
+    let kinetic: f64 = model.blocks.iter().map(|b| b.kinetic_energy()).sum();
     writeln!(out)?;
     writeln!(out, "ENERGY")?;
     writeln!(out)?;
