@@ -61,16 +61,9 @@ fn flag(b: bool) -> i32 {
 
 /// The blocks as polygons, with their state as cell data.
 pub fn blocks_vtk(model: &Model) -> Vtk {
-    let mut points = Vec::with_capacity(3 * model.corners.len());
-    let mut vertices = Vec::with_capacity(model.corners.len() + model.blocks.len());
-    for (b, block) in model.blocks.iter().enumerate() {
-        let first = points.len() as u32 / 3;
-        vertices.push(block.corner_count);
-        for (i, p) in model.corner_positions(b).into_iter().enumerate() {
-            points.extend([p[0], p[1], 0.0]);
-            vertices.push(first + i as u32);
-        }
-    }
+    // Every corner a point (their positions are current), each block the polygon of its own.
+    let points: Vec<f64> = model.corners.iter().flat_map(|c| [c.position[0], c.position[1], 0.0]).collect();
+    let vertices: Vec<u32> = model.blocks.iter().flat_map(|b| std::iter::once(b.corner_count).chain(b.corner_start..b.corner_start + b.corner_count)).collect();
     let blocks = &model.blocks;
     let vector =
         |f: &dyn Fn(&crate::model::Block) -> [f64; 2]| blocks.iter().flat_map(|b| f(b).map(|x| x as f32).into_iter().chain([0.0])).collect::<Vec<f32>>();
