@@ -540,15 +540,24 @@ impl<'a> Executor<'a> {
                 eprintln!("blockdem: a VTK frame was not written ({e}); the run goes on");
             }
         };
-        if frame_every.is_some() {
-            write_frame(&self.model);
-        }
         let mut report = crate::backend::CycleReport::default();
         let mut result = Ok(());
+        if frame_every.is_some() {
+            // The frame of the CYCLE's start shows the contacts the CYCLE starts from: a run of no
+            // cycles detects them (the run that follows finds nothing changed and does not detect
+            // again, so the cycles are the same).
+            match self.backend.run(&mut self.model, 0, &mut |done| progress(done)) {
+                Ok(r) => {
+                    report.extend(r);
+                    write_frame(&self.model);
+                }
+                Err(e) => result = Err(e),
+            }
+        }
         let mut piece = if options.checkpoint_every.is_some() { interval } else { n };
         let mut last_checkpoint = std::time::Instant::now();
         // (At least one run: CYCLE 0 still detects the contacts.)
-        loop {
+        while result.is_ok() {
             let (base, t0) = (report.cycles, std::time::Instant::now());
             let mut k = piece.min(n - base);
             if let Some(f) = frame_every {

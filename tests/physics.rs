@@ -407,11 +407,13 @@ fn a_cycle_with_running_restart_files_is_the_same_run(t: &Target) {
 
 fn a_cycle_with_vtk_frames_is_the_same_run(t: &Target) {
     // --vtk-every 250 (rounded up to 300): a frame at the CYCLE's start and at cycles 300, 600
-    // and 900, each piece a run of the backend (four: 300, 300, 300, 100), one run bit for bit;
-    // the last frame holds the state of cycle 900 and the series lists the four with their times.
+    // and 900, each piece a run of the backend (a run of no cycles that detects the contacts for
+    // the first frame, then 300, 300, 300, 100), one run bit for bit; the first frame holds the
+    // contacts the CYCLE starts from, the last the state of cycle 900, and the series lists the
+    // four with their times.
     let whole = run(t, PROJECTILE_AT_A_WALL);
     let (model, runs, dir) = run_with_options(t, PROJECTILE_AT_A_WALL, "vtk", |o| o.vtk_every = Some(250));
-    assert_eq!(runs, 4, "pieces ending on the frames on {}", t.name());
+    assert_eq!(runs, 5, "pieces ending on the frames on {}", t.name());
     assert!(model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
     let vtk = dir.join(blockdem::exec::VTK_DIR);
     let series: blockdem::output::vtk::Series = serde_json::from_slice(&std::fs::read(vtk.join(blockdem::output::vtk::SERIES_FILE)).unwrap()).unwrap();
@@ -428,6 +430,16 @@ fn a_cycle_with_vtk_frames_is_the_same_run(t: &Target) {
     let velocities: Vec<f64> = at_900.blocks.iter().flat_map(|b| [b.velocity[0], b.velocity[1], 0.0]).map(|v| v as f32 as f64).collect();
     assert_eq!(frame.array("velocity"), velocities, "frame velocities on {}", t.name());
     assert!(velocities[0] < 19.0, "the projectile has struck by then on {}", t.name());
+    // The first frame's contacts are the ones the CYCLE starts from (those of a CYCLE 0), before
+    // any has been detected: a block resting on a base.
+    let resting = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nROUND 0.05\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,1.5 2,1.5 2,1\nFIX 0 4 0 1\n\
+                   GRAV 0 -10\nCYCLE 100\n";
+    let at_0 = run(t, &resting.replace("CYCLE 100", "CYCLE 0"));
+    let (_, _, dir) = run_with_options(t, resting, "vtk-first", |o| o.vtk_every = Some(100));
+    let first = common::VtkFrame::read(&dir.join(blockdem::exec::VTK_DIR).join("contacts_000000000.vtk"));
+    assert!(!at_0.contacts.is_empty(), "the block touches the base on {}", t.name());
+    let points: Vec<f64> = at_0.contacts.iter().flat_map(|c| [c.point[0], c.point[1], 0.0]).collect();
+    assert_eq!(first.points, points, "contacts of the first frame on {}", t.name());
 }
 
 /// A backend that counts the runs asked of it.
