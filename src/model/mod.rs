@@ -380,46 +380,14 @@ pub struct Model {
 /// Field by field, so that `clone_from` reuses the target's vectors: the backends keep a copy of
 /// the last good state and refresh it after every energy check (every 100 cycles), and the derived
 /// `clone_from` (a fresh clone dropped into place) allocated and first-touched the whole model each
-/// time: 80–330 ms at 10⁵ blocks where copying into the kept vectors takes ~16 ms. The
-/// destructuring is exhaustive, so a new field cannot be left out of either.
+/// time: 80–330 ms at 10⁵ blocks where copying into the kept vectors takes ~16 ms. The lists are
+/// copied on rayon's threads; `clone_settings_from` destructures the model exhaustively, so a new
+/// field cannot be left out.
 impl Clone for Model {
     fn clone(&self) -> Self {
-        let Model {
-            blocks,
-            corners,
-            contacts,
-            materials,
-            links,
-            gravity,
-            damping,
-            frac,
-            tol,
-            timestep,
-            cycle,
-            time,
-            next_block_id,
-            next_contact_id,
-            external_work,
-            retired,
-        } = self;
-        Model {
-            blocks: cloned_list(blocks),
-            corners: cloned_list(corners),
-            contacts: cloned_list(contacts),
-            materials: materials.clone(),
-            links: links.clone(),
-            gravity: *gravity,
-            damping: *damping,
-            frac: *frac,
-            tol: *tol,
-            timestep: *timestep,
-            cycle: *cycle,
-            time: *time,
-            next_block_id: *next_block_id,
-            next_contact_id: *next_contact_id,
-            external_work: *external_work,
-            retired: *retired,
-        }
+        let mut model = Model::default();
+        model.clone_from(self);
+        model
     }
 
     fn clone_from(&mut self, source: &Self) {
