@@ -54,7 +54,8 @@ pub enum CycleError {
     NonFinite { cycle: u64, block: u32, what: String },
     #[error(
         "energy growing without a source at cycle {cycle}: kinetic + strain energy {energy:.4e} exceeds the energy put in ({budget:.4e}); \
-         the explicit integration is unstable — lower FRACTION (now {frac}; the largest safe value is about {safe_frac:.2})"
+         the explicit integration is unstable — lower FRACTION (now {frac}{})",
+        safe_frac_note(*.safe_frac)
     )]
     EnergyGrowth { cycle: u64, energy: f64, budget: f64, frac: f64, safe_frac: f64 },
     #[error(
@@ -69,6 +70,17 @@ pub enum CycleError {
     /// kernel precision's range); another may run it.
     #[error("cannot cycle: {0}")]
     DoesNotFit(String),
+}
+
+/// The largest safe FRACTION for an energy growth's message, where the last good state gives an
+/// estimate (it has contacts carrying force; a state without them has no stiffness to estimate
+/// from, and the growth came with contacts made after it).
+fn safe_frac_note(safe_frac: f64) -> String {
+    if safe_frac.is_finite() && safe_frac > 0.0 {
+        format!("; the largest safe value is about {safe_frac:.2}")
+    } else {
+        String::new()
+    }
 }
 
 impl CycleError {

@@ -261,6 +261,19 @@ fn a_fraction_far_above_the_limit_names_the_largest_safe_fraction_whatever_fails
     assert!(err.contains("moves too fast") && !err.contains("largest safe"), "{err}");
 }
 
+/// An energy growth names the largest safe FRACTION where the last good state gives an estimate,
+/// and names none (not "about NaN") where it has no contact carrying force: the growth came with
+/// contacts made after it, found by the fuzzing of random decks.
+#[test]
+fn an_energy_growth_names_a_safe_fraction_only_where_one_was_estimated() {
+    let growth = |safe_frac: f64| CycleError::EnergyGrowth { cycle: 200, energy: 8.2e4, budget: 1.4e4, frac: 2.55, safe_frac }.to_string();
+    assert!(growth(0.3).ends_with("lower FRACTION (now 2.55; the largest safe value is about 0.30)"), "{}", growth(0.3));
+    for none in [f64::NAN, 0.0, f64::INFINITY] {
+        let text = growth(none);
+        assert!(text.ends_with("lower FRACTION (now 2.55)") && !text.contains("NaN") && !text.contains("largest safe"), "{text}");
+    }
+}
+
 /// A GPU backend whose adapter cannot hold the model: refuses every run before any cycle.
 struct TooSmallAdapter(std::rc::Rc<std::cell::Cell<u32>>);
 
