@@ -501,6 +501,7 @@ impl<'a> Executor<'a> {
             self.echo(&w);
         }
         self.echo(&format!("INITIAL TIMESTEP = {}", output::format::fmt_e(dt)));
+        let start_cycle = self.model.cycle;
         let long = n >= 1000;
         let bar = (self.options.progress == Progress::Bar && long).then(|| {
             let pb = indicatif::ProgressBar::new(n);
@@ -595,10 +596,14 @@ impl<'a> Executor<'a> {
         if let Some(pb) = bar {
             pb.finish_and_clear();
         }
-        let report = result.map(|()| report).map_err(|failure| {
+        if let Err(failure) = result {
+            // Blocks given overlapping are an input error, not a divergence: nothing has moved.
+            if let Some(what) = self.overlap_before_motion(&failure, start_cycle) {
+                return Err(self.command_error(cmd, what));
+            }
             let advice = self.fraction_advice(&failure);
-            RunError::Numerical { file: self.file.clone(), line: cmd.line, failure, advice }
-        })?;
+            return Err(RunError::Numerical { file: self.file.clone(), line: cmd.line, failure, advice });
+        }
         for c in &report.cracks {
             self.echo(&format!(
                 "BLOCK {} CRACKED AT CYCLE {} (POINT-LOAD VALUE {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
@@ -621,6 +626,30 @@ impl<'a> Executor<'a> {
             return Err(self.interrupted(cmd));
         }
         Ok(())
+    }
+
+    /// After an overlap failure in the first check interval of a CYCLE (the model rolled back to
+    /// the CYCLE's start): whether blocks already overlapped by more than the limit before any
+    /// motion. Then nothing was driven through anything and no FRACTION helps: the blocks were
+    /// given overlapping (BLOCK corners, a ROUND lowered under an overlap). The message names the
+    /// pair with the largest such overlap.
+    fn overlap_before_motion(&self, failure: &CycleError, start_cycle: u64) -> Option<String> {
+        if !matches!(failure, CycleError::Overlap { .. }) || self.model.cycle != start_cycle {
+            return None;
+        }
+        let mut probe = self.model.clone();
+        crate::topology::update_contacts(&mut probe, true);
+        let limit = 0.5 * probe.tol.round;
+        let c = probe.contacts.iter().filter(|c| -c.gap > limit && crate::topology::detect::counts_force(&probe, c)).max_by(|a, b| b.gap.total_cmp(&a.gap))?;
+        let (b1, b2) = (probe.blocks[c.block1 as usize].id, probe.blocks[c.block2 as usize].id);
+        Some(format!(
+            "CYCLE: blocks {b1} and {b2} overlap by {} near ({}, {}) before any motion, more than half the rounding length ({}): \
+             they were given overlapping (BLOCK corners, or a ROUND lowered under an overlap); blocks may touch but not overlap",
+            output::format::fmt_e(-c.gap),
+            output::format::fmt_e(c.point[0]),
+            output::format::fmt_e(c.point[1]),
+            output::format::fmt_e(limit)
+        ))
     }
 
     /// Names the largest safe FRACTION after a numerical failure whose message does not, when
