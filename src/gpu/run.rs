@@ -77,11 +77,25 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
         if let Some((name, x)) = bad {
             return refuse(format!("material {m}'s {name}"), x);
         }
+        // The contact dashpots' coefficients, β·k (stiffness-proportional Rayleigh damping).
+        let beta = model.damping.beta;
+        if let Some((name, x)) = [("β·KN", beta * mat.kn), ("β·KS", beta * mat.ks)].into_iter().find(|&(_, x)| !bounded(x)) {
+            return refuse(format!("material {m}'s stiffness damping {name} (DAMPING)"), x);
+        }
     }
     if !normal(model.timestep) {
         return refuse("the time step".into(), model.timestep);
     }
-    match [("the gravity's x", model.gravity[0]), ("the gravity's y", model.gravity[1])].into_iter().find(|&(_, x)| !bounded(x)) {
+    // The law of motion scales the velocities by (1 − αΔt/2)/(1 + αΔt/2) (eqs. 9–10, UDEC's CON1/CON2).
+    let (alpha, dt) = (model.damping.alpha, model.timestep);
+    let scalars = [
+        ("the gravity's x", model.gravity[0]),
+        ("the gravity's y", model.gravity[1]),
+        ("the mass damping α (DAMPING)", alpha),
+        ("the mass damping α·Δt (DAMPING)", alpha * dt),
+        ("the stiffness damping β (DAMPING)", model.damping.beta),
+    ];
+    match scalars.into_iter().find(|&(_, x)| !bounded(x)) {
         Some((name, x)) => refuse(name.to_string(), x),
         None => Ok(()),
     }
