@@ -137,3 +137,23 @@ fn an_unstable_fraction_stops_naming_the_cause_and_a_safe_fraction_and_never_nan
     let ok = blockdem::scenes::run_deck_on(&deck.replace("FRAC 1.3", &format!("FRAC {safe}")), Box::new(blockdem::cpu::CpuBackend::new()));
     assert!(ok.is_ok(), "the named FRAC {safe} fails too: {:?}", ok.err());
 }
+
+#[test]
+fn the_safe_fraction_named_accounts_for_contact_dashpots() {
+    // Stiffness-proportional damping (contact dashpots −β·k·v on the last half step's velocity)
+    // narrows the stable range of central differences to Δt ≤ (2/ω)(√(1+ξ²) − ξ), ξ = βω/2: the
+    // block on its base with DAMP 1 20 STIFF diverges at FRAC ≈ 0.26 and with DAMP 1 5 STIFF at
+    // ≈ 0.07, below the 0.38 the undamped estimate named. The estimate stays safe (at or below
+    // the measured threshold) and within a factor 4 of it (the Gershgorin bound on ω enters
+    // squared once ξ is large), and the message of the failure names it.
+    let entry = verify::BackendEntry::new("cpu", "f64", || Box::new(blockdem::cpu::CpuBackend::new()));
+    let base = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\n";
+    for damp in ["DAMP 1 20 STIFF", "DAMP 1 5 STIFF"] {
+        let deck = format!("{base}{damp}\n");
+        let t = verify::stability::threshold("dashpots", &deck, 2000, &entry, 9);
+        assert!(t.estimate <= t.measured && t.estimate > t.measured / 4.0, "{damp}: estimate {} against a measured threshold {}", t.estimate, t.measured);
+        let err = blockdem::scenes::run_deck_on(&format!("{deck}FRAC 0.5\nCYCLE 3000\n"), Box::new(blockdem::cpu::CpuBackend::new())).unwrap_err().to_string();
+        let named: f64 = err.split("largest safe value is about ").nth(1).unwrap_or_else(|| panic!("{damp}: {err}")).trim_end_matches(')').parse().unwrap();
+        assert!((named - t.estimate).abs() < 0.006, "{damp}: named {named}, estimate {}: {err}", t.estimate);
+    }
+}

@@ -152,7 +152,8 @@ impl Model {
     /// mass-normalised stiffness) by the largest per-block row sum: each force-carrying contact of
     /// stiffness k = max(kn, ks) adds k·(a_i + √(a_i a_j)) to block i, with a = 1/m + r²/I the
     /// block's compliance at the contact point (r from its centroid) and a_j = 0 for a fixed
-    /// neighbour. FRAC scales UDEC's 2√(m_min/k_max). Measured against the threshold of
+    /// neighbour; stiffness-proportional damping narrows the limit (below). FRAC scales UDEC's
+    /// 2√(m_min/k_max). Measured against the threshold of
     /// instability by `blockdem verify` (README): 0.6–1.0 of it on the scenes there.
     pub fn stable_frac_estimate(&self) -> f64 {
         let mut per_block = vec![0.0f64; self.blocks.len()];
@@ -189,6 +190,12 @@ impl Model {
         if lambda <= 0.0 {
             return f64::NAN;
         }
-        (2.0 / lambda.sqrt()) / base
+        // Stiffness-proportional damping: the contact dashpots −β·k·v act on the velocities of
+        // the last half step, which narrows the stable range of central differences to
+        // Δt ≤ (2/ω)(√(1+ξ²) − ξ) with ξ = βω/2 (written as 2/(ω(√(1+ξ²) + ξ)) to keep its
+        // digits for large ξ). Mass damping, centred in the law of motion (CON1/CON2), leaves it.
+        let omega = lambda.sqrt();
+        let xi = 0.5 * self.damping.beta * omega;
+        (2.0 / (omega * ((1.0 + xi * xi).sqrt() + xi))) / base
     }
 }

@@ -34,6 +34,8 @@ fn stability_scenes() -> Vec<(&'static str, String, u64)> {
     let base = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\n";
     vec![
         ("block_on_base", format!("{base}BLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\n"), 2000),
+        // Contact dashpots (stiffness-proportional damping) narrow the stable range: ξ = βω/2.
+        ("block_on_base_dashpots", format!("{base}BLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nDAMP 0.5 50 STIFF\n"), 2000),
         (
             "column_of_4",
             format!("{base}BLOCK 1,1 1,2 2,2 2,1\nBLOCK 1,2 1,3 2,3 2,2\nBLOCK 1,3 1,4 2,4 2,3\nBLOCK 1,4 1,5 2,5 2,4\nFIX 0 4 0 0.9\nGRAV 0 -10\n"),
