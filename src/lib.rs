@@ -14,6 +14,7 @@
 //! | [`topology`] | stage 7, CPU only: contact detection and update, point-load cracking |
 //! | [`backend`] | the `Backend` trait the executor drives |
 //! | [`exec`] | the command executor: runs a deck against a backend |
+//! | [`compare`] | `blockdem compare`: a deck on the CPU reference and a GPU backend, the largest differences |
 //! | [`output`] | PRINT tables, PLOT (PNG/SVG), state JSON, SAVE/RESTART files |
 //! | [`scenes`] | decks shared by the tests, benchmarks and verification |
 //! | [`verify`] | `blockdem verify`: closed-form cases on every backend, accuracy against speed, stability limits |
@@ -22,6 +23,7 @@
 
 pub mod backend;
 pub mod bench;
+pub mod compare;
 pub mod cpu;
 pub mod deck;
 pub mod exec;

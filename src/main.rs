@@ -76,6 +76,28 @@ enum Cmd {
     Run(RunArgs),
     /// List the GPU adapters wgpu finds (Vulkan and GL/EGL, off-screen) with their limits.
     Adapters,
+    /// Run a deck on the f64 CPU reference and on a GPU backend and report how far the GPU's final
+    /// state lies from the reference's (positions, rotations, velocities, energies), with the
+    /// wall times of both; each run's log and outputs go to OUT/cpu and OUT/gpu, the figures to
+    /// OUT/compare.json.
+    Compare {
+        /// The deck file.
+        deck: PathBuf,
+        /// GPU adapter: vulkan, gl, any, or part of an adapter's name (see `blockdem adapters`).
+        #[arg(long, default_value = "any")]
+        adapter: String,
+        /// Kernel precision on the GPU.
+        #[arg(long, value_enum, default_value_t = PrecisionChoice::F32)]
+        precision: PrecisionChoice,
+        /// Folder for the two runs' logs and outputs and compare.json.
+        #[arg(long, default_value = "compare-out")]
+        out: PathBuf,
+        /// Fail (non-zero exit) when a block's position differs by more than TOL rounding
+        /// lengths, its rotation by more than TOL radians or its velocity by more than TOL of
+        /// the reference's top speed, or the runs end on different blocks.
+        #[arg(long, value_name = "TOL")]
+        tolerance: Option<f64>,
+    },
     /// Run the closed-form verification suite on every backend: a table of errors and costs, CSV
     /// files and charts in --out. Exits non-zero when a check fails.
     Verify {
@@ -244,6 +266,53 @@ fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()>
     Ok(())
 }
 
+fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: PathBuf, tolerance: Option<f64>) -> anyhow::Result<()> {
+    use blockdem::compare;
+    if tolerance.is_some_and(|t| t.is_nan() || t < 0.0 || t.is_infinite()) {
+        bail!("--tolerance must be a number, zero or more");
+    }
+    let name = deck.display().to_string();
+    let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
+    let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    let precision = match precision {
+        PrecisionChoice::F32 => Precision::F32,
+        PrecisionChoice::F64 => Precision::F64,
+    };
+    let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
+    let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
+    eprintln!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
+    let reference = compare::run_on(Box::new(CpuBackend::new()), &commands, &name, &out.join("cpu"));
+    let on_gpu = compare::run_on(Box::new(gpu), &commands, &name, &out.join("gpu"));
+    let c = compare::compare(&reference, &on_gpu);
+    print!("{}", compare::table(&reference, &on_gpu, &c));
+    let json = serde_json::json!({
+        "deck": name,
+        "reference": { "backend": reference.backend, "wall_s": reference.wall_s, "error": reference.error },
+        "gpu": { "backend": on_gpu.backend, "wall_s": on_gpu.wall_s, "error": on_gpu.error },
+        "comparison": c,
+    });
+    let path = out.join("compare.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))?;
+    println!("wrote {}", path.display());
+    match (&reference.error, &on_gpu.error) {
+        (None, Some(e)) => bail!("the GPU run stopped where the reference did not: {e}"),
+        (Some(e), None) => bail!("the reference run stopped where the GPU's did not: {e}"),
+        (Some(e), Some(_)) => bail!("both runs stopped (the reference: {e})"),
+        (None, None) => {}
+    }
+    if let Some(tol) = tolerance {
+        if !c.same_blocks() {
+            bail!("the runs end on different blocks ({} and {})", c.blocks[0], c.blocks[1]);
+        }
+        for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
+            if l.relative.is_nan() || l.relative > tol {
+                bail!("block {}'s {what} differs by {:.3e} relative, more than the tolerance {tol:e}", l.block, l.relative);
+            }
+        }
+    }
+    Ok(())
+}
+
 fn adapters() -> anyhow::Result<()> {
     let list = list_adapters(&AdapterChoice::Any);
     if list.is_empty() {
@@ -382,6 +451,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Cmd::Run(args) => run(args),
         Cmd::Adapters => adapters(),
+        Cmd::Compare { deck, adapter, precision, out, tolerance } => compare(deck, adapter, precision, out, tolerance),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
         Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds } => {
             bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds)

@@ -111,3 +111,63 @@ fn f32_kernels_warn_against_their_own_extreme_ratio_limits() {
     assert_eq!(code, 0, "{stderr}");
     assert!(!stdout.contains("WARNING"), "{stdout}");
 }
+
+#[test]
+fn compare_reports_how_far_the_gpu_lies_from_the_cpu_reference() {
+    // Sample 1 (one crack, the piece falling onto the base): in f64 the GPU agrees with the CPU
+    // to round-off, block by block and term by term; in f32 to its own round-off, which a
+    // tolerance of 1e-12 rounding lengths refuses, naming the block. Each run's log and plots
+    // go to OUT/cpu and OUT/gpu, the figures to OUT/compare.json.
+    if Target::gpu("vulkan", Precision::F64).is_none() {
+        return;
+    }
+    let out = out_dir("compare");
+    let (code, stdout, stderr) = blockdem(&["compare", &sample_1(), "--adapter", "vulkan", "--precision", "f64", "--out", &out, "--tolerance", "1e-9"], &[]);
+    assert_eq!(code, 0, "{stdout}{stderr}");
+    for line in ["reference (cpu)", "gpu / cpu wall time", "position", "rotation", "velocity", "external work"] {
+        assert!(stdout.contains(line), "{line} missing:\n{stdout}");
+    }
+    let out = std::path::Path::new(&out);
+    for run in ["cpu", "gpu"] {
+        let log = std::fs::read_to_string(out.join(run).join("run.log")).unwrap();
+        assert_eq!(log.matches("CRACKED AT CYCLE").count(), 1, "{run}: {log}");
+        assert!(out.join(run).join("plot_002.png").is_file(), "{run}'s plot");
+    }
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("compare.json")).unwrap()).unwrap();
+    let c = &json["comparison"];
+    assert_eq!(c["cycles"], serde_json::json!([600, 600]));
+    assert_eq!(c["blocks"][0], c["blocks"][1]);
+    for q in ["position", "rotation", "velocity"] {
+        let r = c[q]["relative"].as_f64().unwrap();
+        assert!(r < 1e-9, "{q}: {r}");
+    }
+    assert!(c["energy"].as_array().unwrap().iter().all(|t| t[2].as_f64().unwrap() < 1e-12), "{}", c["energy"]);
+    // f32 against a tolerance below its round-off: refused, naming a block and the quantity.
+    let (code, stdout, stderr) =
+        blockdem(&["compare", &sample_1(), "--adapter", "vulkan", "--out", &out.join("f32").display().to_string(), "--tolerance", "1e-12"], &[]);
+    assert_ne!(code, 0, "{stdout}");
+    assert!(stderr.contains("differs by") && stderr.contains("more than the tolerance 1e-12"), "{stderr}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("f32").join("compare.json")).unwrap()).unwrap();
+    let r = json["comparison"]["position"]["relative"].as_f64().unwrap();
+    assert!(r > 1e-12 && r < 1e-3, "f32 position difference {r} of ROUND");
+}
+
+#[test]
+fn compare_fails_when_only_one_run_stops() {
+    // Masses of 1e40 kg run in f64 on the CPU; the f32 kernels refuse them: the comparison still
+    // reports both runs, and fails naming the GPU's stop.
+    if Target::gpu("vulkan", Precision::F32).is_none() {
+        return;
+    }
+    let out = out_dir("compare-stop");
+    let deck = std::path::Path::new(&out).with_extension("dat");
+    std::fs::write(
+        &deck,
+        "START\nPROP MAT=1 D=1E40 KN=1E45 KS=1E45\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 0.9\nGRAV 0 -10\nCYCLE 10\nSTOP\n",
+    )
+    .unwrap();
+    let (code, stdout, stderr) = blockdem(&["compare", &deck.display().to_string(), "--adapter", "vulkan", "--out", &out], &[]);
+    assert_ne!(code, 0, "{stdout}");
+    assert!(stdout.contains("stopped: ") && stdout.contains("outside the range of the f32 kernels"), "{stdout}");
+    assert!(stderr.contains("the GPU run stopped where the reference did not"), "{stderr}");
+}

@@ -1,0 +1,200 @@
+//! `blockdem compare`: one deck on the f64 CPU reference and on a GPU backend, and how far the
+//! GPU's final state lies from the reference's. For a user who checks the GPU against the CPU
+//! on their own model (the test suite does it on its scenes, tests/physics.rs): the largest
+//! difference in block position (against the rounding length, the scale contacts resolve
+//! overlaps on), rotation, velocity (against the fastest block) and the energy terms (against
+//! the largest), each naming its block, with the wall times of the two runs.
+//!
+//! A smooth scene (a settling stack, a sliding block) agrees to the kernel precision's round-off
+//! over many cycles; a chaotic one (an impact scattering blocks) diverges at the first touch that
+//! round-off tips the other way, as two CPU runs with a different FRACTION would: the comparison
+//! then says how far, and the energy terms are the better guide.
+
+use std::path::Path;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::backend::Backend;
+use crate::deck::Located;
+use crate::exec::{Executor, RunOptions};
+use crate::model::Model;
+
+/// One backend's run of the deck.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// The backend as it describes itself.
+    pub backend: String,
+    /// Wall time of the whole deck (s).
+    pub wall_s: f64,
+    /// The final model (after a numerical failure: the last good state).
+    pub model: Model,
+    /// The error that stopped the run, if any.
+    pub error: Option<String>,
+}
+
+/// The largest difference of one quantity over the blocks, and the block (its id) it is at.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Largest {
+    /// The difference in the quantity's own unit.
+    pub value: f64,
+    /// The difference over the quantity's scale (see [`Comparison`]).
+    pub relative: f64,
+    /// The block it is at (0 when no block differs).
+    pub block: u32,
+}
+
+/// The GPU run against the CPU reference.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Comparison {
+    /// Cycles each run reached (reference, GPU).
+    pub cycles: [u64; 2],
+    /// Blocks and contacts at the end (reference, GPU).
+    pub blocks: [usize; 2],
+    pub contacts: [usize; 2],
+    /// Centroid distance (m), relative to the rounding length.
+    pub position: Largest,
+    /// Rotation difference (rad), relative to one radian.
+    pub rotation: Largest,
+    /// Velocity difference (m/s), relative to the largest speed of the reference, or where larger
+    /// (a model come to rest) to √(2E/M), E the largest energy term and M the free blocks' mass.
+    pub velocity: Largest,
+    /// Kinetic, strain, external work, dissipated (damping + friction) and released energy:
+    /// difference (J) and relative to the largest term of the reference.
+    pub energy: Vec<(String, f64, f64)>,
+    /// Wall time of the GPU run over the reference's.
+    pub time_ratio: f64,
+}
+
+impl Comparison {
+    /// The largest of the relative differences in position, rotation and velocity.
+    pub fn worst_relative(&self) -> f64 {
+        self.position.relative.max(self.rotation.relative).max(self.velocity.relative)
+    }
+
+    /// Whether both runs end on the same blocks (the same ids in the same order: the same cracks
+    /// and deletions), without which blocks are not compared.
+    pub fn same_blocks(&self) -> bool {
+        self.blocks[0] == self.blocks[1]
+    }
+}
+
+/// Runs `commands` on `backend`, writing its outputs (plots, SAVE files) and its run log
+/// (`run.log`) into `out`.
+pub fn run_on(backend: Box<dyn Backend>, commands: &[Located], file: &str, out: &Path) -> Outcome {
+    let description = backend.describe();
+    let _ = std::fs::create_dir_all(out);
+    let log: Box<dyn std::io::Write> = match std::fs::File::create(out.join("run.log")) {
+        Ok(f) => Box::new(std::io::BufWriter::new(f)),
+        Err(_) => Box::new(std::io::sink()),
+    };
+    let options = RunOptions { out_dir: out.to_path_buf(), ..Default::default() };
+    let mut exec = Executor::new(backend, log, options, file);
+    let start = Instant::now();
+    let result = exec.run(commands);
+    let wall_s = start.elapsed().as_secs_f64();
+    Outcome { backend: description, wall_s, model: std::mem::take(&mut exec.model), error: result.err().map(|e| e.to_string()) }
+}
+
+/// The GPU's final state against the reference's.
+pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
+    let (a, b) = (&reference.model, &gpu.model);
+    let mut c = Comparison {
+        cycles: [a.cycle, b.cycle],
+        blocks: [a.blocks.len(), b.blocks.len()],
+        contacts: [a.contacts.len(), b.contacts.len()],
+        time_ratio: gpu.wall_s / reference.wall_s.max(1e-9),
+        ..Comparison::default()
+    };
+    let same = a.blocks.len() == b.blocks.len() && a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.id == y.id);
+    if same {
+        let round = a.tol.round.max(f64::MIN_POSITIVE);
+        // A model come to rest has a top speed of round-off: the speed its largest energy term
+        // would give the free mass, √(2E/M), is the scale then.
+        let top = a.blocks.iter().map(|x| x.velocity[0].hypot(x.velocity[1])).fold(0.0, f64::max);
+        let free_mass: f64 = a.blocks.iter().filter(|x| !x.fixed).map(|x| x.mass).sum();
+        let energy_speed = if free_mass > 0.0 { (2.0 * energy_scale(a) / free_mass).sqrt() } else { 0.0 };
+        let speed = top.max(energy_speed).max(f64::MIN_POSITIVE);
+        let larger = |l: &mut Largest, value: f64, scale: f64, block: u32| {
+            // A non-finite difference is the largest there is.
+            if value.is_nan() || value > l.value {
+                *l = Largest { value, relative: value / scale, block };
+            }
+        };
+        for (x, y) in a.blocks.iter().zip(&b.blocks) {
+            larger(&mut c.position, (x.centroid[0] - y.centroid[0]).hypot(x.centroid[1] - y.centroid[1]), round, x.id);
+            larger(&mut c.rotation, (x.rotation - y.rotation).abs(), 1.0, x.id);
+            larger(&mut c.velocity, (x.velocity[0] - y.velocity[0]).hypot(x.velocity[1] - y.velocity[1]), speed, x.id);
+        }
+    } else {
+        // Not the same blocks: no block-by-block comparison.
+        let nan = Largest { value: f64::NAN, relative: f64::NAN, block: 0 };
+        (c.position, c.rotation, c.velocity) = (nan, nan, nan);
+    }
+    let scale = energy_scale(a).max(f64::MIN_POSITIVE);
+    c.energy = energy_terms(a).iter().zip(energy_terms(b)).map(|((name, x), (_, y))| (name.to_string(), (x - y).abs(), (x - y).abs() / scale)).collect();
+    c
+}
+
+/// The energy ledger's terms that are compared.
+fn energy_terms(model: &Model) -> [(&'static str, f64); 5] {
+    let e = model.energies();
+    [
+        ("kinetic", e.kinetic),
+        ("strain", e.strain),
+        ("external work", e.external_work),
+        ("dissipated", e.mass_damping + e.contact_damping + e.friction),
+        ("released", e.released),
+    ]
+}
+
+/// The largest term of the ledger (J).
+fn energy_scale(model: &Model) -> f64 {
+    energy_terms(model).iter().map(|(_, v)| v.abs()).fold(0.0, f64::max)
+}
+
+/// The comparison as a table.
+pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let outcome = |o: &Outcome| o.error.as_deref().map_or_else(|| "ok".to_string(), |e| format!("stopped: {e}"));
+    let _ = writeln!(s, "run                 backend                                                          wall (s)   cycles  blocks contacts  outcome");
+    for (name, o, i) in [("reference (cpu)", reference, 0), ("gpu", gpu, 1)] {
+        let _ = writeln!(
+            s,
+            "{name:<19} {:<64} {:>8.3} {:>8} {:>7} {:>8}  {}",
+            truncate(&o.backend, 64),
+            o.wall_s,
+            c.cycles[i],
+            c.blocks[i],
+            c.contacts[i],
+            outcome(o)
+        );
+    }
+    let _ = writeln!(s, "gpu / cpu wall time: {:.2}x", c.time_ratio);
+    let _ = writeln!(s);
+    if c.same_blocks() && !c.position.value.is_nan() {
+        let _ = writeln!(s, "largest difference   value        relative    block");
+        for (name, l, unit, over) in
+            [("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")]
+        {
+            let _ = writeln!(s, "{name:<20} {:<12} {:<11} {}", format!("{:.3e} {unit}", l.value), format!("{:.2e} {over}", l.relative), l.block);
+        }
+    } else {
+        let _ = writeln!(s, "the runs end on different blocks ({} and {}): not compared block by block", c.blocks[0], c.blocks[1]);
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "energy               difference (J)  relative to the largest term");
+    for (name, d, r) in &c.energy {
+        let _ = writeln!(s, "{name:<20} {d:<15.3e} {r:.2e}");
+    }
+    s
+}
+
+fn truncate(text: &str, n: usize) -> String {
+    if text.chars().count() <= n {
+        text.to_string()
+    } else {
+        format!("{}…", text.chars().take(n - 1).collect::<String>())
+    }
+}
