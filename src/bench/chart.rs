@@ -67,6 +67,51 @@ fn n_range(r: &BenchReport) -> (f64, f64) {
     log_range(r.scaling.iter().filter(|x| x.error.is_none()).map(|x| x.blocks as f64))
 }
 
+type AgainstN<'a, 'b> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+
+/// A log-log panel of a quantity against the wall size N (the walls' range), with its mesh drawn.
+fn against_n<'a, 'b>(
+    area: &'a Panel<'b>,
+    r: &BenchReport,
+    caption: &str,
+    y: (f64, f64),
+    y_desc: &str,
+    y_ticks: &dyn Fn(&f64) -> String,
+) -> Result<AgainstN<'a, 'b>, String> {
+    let (x0, x1) = n_range(r);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(65)
+        .build_cartesian_2d((x0..x1).log_scale(), (y.0..y.1).log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("blocks N")
+        .y_desc(y_desc)
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(y_ticks)
+        .label_style(("sans-serif", 12))
+        .draw()
+        .map_err(err)?;
+    Ok(chart)
+}
+
+/// One backend's pair of series in colour `c`: a solid line with dots (labelled `name` in the
+/// legend) and a dashed line with triangles.
+fn solid_and_dashed(chart: &mut AgainstN, c: RGBColor, name: &str, solid: Vec<(f64, f64)>, dashed: Vec<(f64, f64)>) -> Result<(), String> {
+    chart
+        .draw_series(LineSeries::new(solid.clone(), c.stroke_width(2)))
+        .map_err(err)?
+        .label(name)
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
+    chart.draw_series(solid.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(err)?;
+    chart.draw_series(DashedLineSeries::new(dashed.clone(), 6, 4, c.stroke_width(2))).map_err(err)?;
+    chart.draw_series(dashed.iter().map(|&p| TriangleMarker::new(p, 5, c.filled()))).map_err(err)?;
+    Ok(())
+}
+
 macro_rules! legend {
     ($chart:expr, $pos:expr) => {
         $chart.configure_series_labels().position($pos).background_style(WHITE.mix(0.85)).border_style(BLACK).label_font(("sans-serif", 12)).draw().map_err(err)
@@ -74,68 +119,28 @@ macro_rules! legend {
 }
 
 fn throughput(area: &Panel, r: &BenchReport) -> Result<(), String> {
-    let (x0, x1) = n_range(r);
     let (y0, y1) = log_range(r.scaling.iter().filter(|x| x.error.is_none()).flat_map(|x| [x.block_cycles_per_s, x.contact_cycles_per_s]));
     // Room below the data for the legend.
-    let y0 = y0 / 30.0;
-    let mut chart = ChartBuilder::on(area)
-        .caption("(a) Throughput against wall size", ("sans-serif", 18))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(65)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("blocks N")
-        .y_desc("per second")
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .y_label_formatter(&|v| format!("{v:.0e}"))
-        .label_style(("sans-serif", 12))
-        .draw()
-        .map_err(err)?;
+    let mut chart = against_n(area, r, "(a) Throughput against wall size", (y0 / 30.0, y1), "per second", &|v| format!("{v:.0e}"))?;
     for (i, (name, rows)) in series(r).into_iter().enumerate() {
-        let c = PALETTE[i % PALETTE.len()];
-        let blocks: Vec<(f64, f64)> = rows.iter().map(|x| (x.blocks as f64, x.block_cycles_per_s)).collect();
-        let contacts: Vec<(f64, f64)> = rows.iter().map(|x| (x.blocks as f64, x.contact_cycles_per_s)).collect();
-        chart
-            .draw_series(LineSeries::new(blocks.clone(), c.stroke_width(2)))
-            .map_err(err)?
-            .label(name)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
-        chart.draw_series(blocks.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(err)?;
-        chart.draw_series(DashedLineSeries::new(contacts.clone(), 6, 4, c.stroke_width(2))).map_err(err)?;
-        chart.draw_series(contacts.iter().map(|&p| TriangleMarker::new(p, 5, c.filled()))).map_err(err)?;
+        let blocks = rows.iter().map(|x| (x.blocks as f64, x.block_cycles_per_s)).collect();
+        let contacts = rows.iter().map(|x| (x.blocks as f64, x.contact_cycles_per_s)).collect();
+        solid_and_dashed(&mut chart, PALETTE[i % PALETTE.len()], &name, blocks, contacts)?;
     }
     style_legend(&mut chart, "block-cycles/s", "contact-cycles/s")?;
     legend!(chart, SeriesLabelPosition::LowerRight)
 }
 
 fn per_block_cycle(area: &Panel, r: &BenchReport) -> Result<(), String> {
-    let (x0, x1) = n_range(r);
-    let (y0, y1) = log_range(
+    let y = log_range(
         r.scaling
             .iter()
             .filter(|x| x.error.is_none())
             .flat_map(|x| round_range(x).map(|(lo, hi)| [lo, hi]).unwrap_or([x.s_per_block_cycle; 2]))
             .map(|t| 1e9 * t),
     );
-    let mut chart = ChartBuilder::on(area)
-        .caption("(b) Time per block-cycle (flat = perfect scaling; bars: the rounds)", ("sans-serif", 18))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(65)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("blocks N")
-        .y_desc("ns per block-cycle")
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .y_label_formatter(&|v| format!("{v:.0}"))
-        .label_style(("sans-serif", 12))
-        .draw()
-        .map_err(err)?;
+    let caption = "(b) Time per block-cycle (flat = perfect scaling; bars: the rounds)";
+    let mut chart = against_n(area, r, caption, y, "ns per block-cycle", &|v| format!("{v:.0}"))?;
     for (i, (name, rows)) in series(r).into_iter().enumerate() {
         let c = PALETTE[i % PALETTE.len()];
         let pts: Vec<(f64, f64)> = rows.iter().map(|x| (x.blocks as f64, 1e9 * x.s_per_block_cycle)).collect();
@@ -237,40 +242,18 @@ fn stages(area: &Panel, r: &BenchReport) -> Result<(), String> {
 }
 
 fn shares(area: &Panel, r: &BenchReport) -> Result<(), String> {
-    let (x0, x1) = n_range(r);
     // Shares below 0.1% are drawn on 0.1%; the band below is left to the legend.
     let floor = 1e-3;
-    let mut chart = ChartBuilder::on(area)
-        .caption("(d) Roofline ratio and CPU topology + transfer share", ("sans-serif", 18))
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(65)
-        .build_cartesian_2d((x0..x1).log_scale(), (floor / 100.0..1.5).log_scale())
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("blocks N")
-        .y_desc("fraction")
-        .x_label_formatter(&|v| format!("{v:.0e}"))
-        .y_label_formatter(&|v| {
-            let p = format!("{:.4}", 100.0 * v);
-            format!("{}%", p.trim_end_matches('0').trim_end_matches('.'))
-        })
-        .label_style(("sans-serif", 12))
-        .draw()
-        .map_err(err)?;
+    let percent = |v: &f64| {
+        let p = format!("{:.4}", 100.0 * v);
+        format!("{}%", p.trim_end_matches('0').trim_end_matches('.'))
+    };
+    let (x0, x1) = n_range(r);
+    let mut chart = against_n(area, r, "(d) Roofline ratio and CPU topology + transfer share", (floor / 100.0, 1.5), "fraction", &percent)?;
     for (i, (name, rows)) in series(r).into_iter().enumerate() {
-        let c = PALETTE[i % PALETTE.len()];
-        let roof: Vec<(f64, f64)> = rows.iter().map(|x| (x.blocks as f64, x.roofline.max(floor))).collect();
-        let host: Vec<(f64, f64)> = rows.iter().map(|x| (x.blocks as f64, (x.topology_share + x.transfer_share).max(floor))).collect();
-        chart
-            .draw_series(LineSeries::new(roof.clone(), c.stroke_width(2)))
-            .map_err(err)?
-            .label(name)
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 14, y + 5)], c.filled()));
-        chart.draw_series(roof.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(err)?;
-        chart.draw_series(DashedLineSeries::new(host.clone(), 6, 4, c.stroke_width(2))).map_err(err)?;
-        chart.draw_series(host.iter().map(|&p| TriangleMarker::new(p, 5, c.filled()))).map_err(err)?;
+        let roof = rows.iter().map(|x| (x.blocks as f64, x.roofline.max(floor))).collect();
+        let host = rows.iter().map(|x| (x.blocks as f64, (x.topology_share + x.transfer_share).max(floor))).collect();
+        solid_and_dashed(&mut chart, PALETTE[i % PALETTE.len()], &name, roof, host)?;
     }
     style_legend(&mut chart, "roofline ratio", "topology + transfers (<= 0.1% drawn at 0.1%)")?;
     for (goal, label) in [(0.4, "roofline goal 40% (H100)"), (0.1, "topology+transfers limit 10% (H100)")] {
