@@ -66,9 +66,16 @@ impl Pipelines {
     pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
         let device = &dev.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("blockdem state"),
-            entries: &[
+        // A bind group layout of `entries` and the pipeline layout of it alone.
+        let layouts = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
+            let group = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
+            let pipeline =
+                device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: &[Some(&group)], immediate_size: 0 });
+            (group, pipeline)
+        };
+        let (bind_group_layout, layout) = layouts(
+            "blockdem state",
+            &[
                 uniform(0),
                 storage(1, false),
                 storage(2, false),
@@ -80,71 +87,28 @@ impl Pipelines {
                 storage(8, false),
                 storage(9, false),
             ],
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("blockdem"),
-            bind_group_layouts: &[Some(&bind_group_layout)],
-            immediate_size: 0,
-        });
+        );
         // The splice's bindings: the old list and records, the runs, the created contacts and
         // records (read), the new list and records (written), the patches (read).
-        let splice_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("blockdem splice"),
-            entries: &[
-                storage(0, true),
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, true),
-                storage(5, false),
-                storage(6, false),
-                storage(7, true),
-            ],
-        });
-        let splice_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("blockdem splice"),
-            bind_group_layouts: &[Some(&splice_layout)],
-            immediate_size: 0,
-        });
+        let (splice_layout, splice_pipeline_layout) = layouts(
+            "blockdem splice",
+            &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, true), storage(5, false), storage(6, false), storage(7, true)],
+        );
         // The adjacency's edit: the old entries, runs, new lists and renumbering (read), the new
         // entries and the offsets (written), the touched lists (read).
-        let adjacency_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("blockdem adjacency"),
-            entries: &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, true)],
-        });
-        let adjacency_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("blockdem adjacency"),
-            bind_group_layouts: &[Some(&adjacency_layout)],
-            immediate_size: 0,
-        });
-        let pack_layout =
-            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("blockdem pack"), entries: &[storage(0, true), storage(1, false)] });
-        let pack_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("blockdem pack"),
-            bind_group_layouts: &[Some(&pack_layout)],
-            immediate_size: 0,
-        });
+        let (adjacency_layout, adjacency_pipeline_layout) = layouts(
+            "blockdem adjacency",
+            &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, true)],
+        );
+        let (pack_layout, pack_pipeline_layout) = layouts("blockdem pack", &[storage(0, true), storage(1, false)]);
         // Stage 7's lists: the constants, blocks, contacts and grid reference (read), the header
         // and the two lists (written).
-        let lists_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("blockdem update lists"),
-            entries: &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, false)],
-        });
-        let lists_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("blockdem update lists"),
-            bind_group_layouts: &[Some(&lists_layout)],
-            immediate_size: 0,
-        });
+        let (lists_layout, lists_pipeline_layout) = layouts(
+            "blockdem update lists",
+            &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, false)],
+        );
         // End of cycle: the flags (binding 7, as in common.wgsl) and the dispatch grids (10).
-        let end_cycle_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("blockdem end_cycle"),
-            entries: &[storage(7, false), storage(10, false)],
-        });
-        let end_cycle_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("blockdem end_cycle"),
-            bind_group_layouts: &[Some(&end_cycle_layout)],
-            immediate_size: 0,
-        });
+        let (end_cycle_layout, end_cycle_pipeline_layout) = layouts("blockdem end_cycle", &[storage(7, false), storage(10, false)]);
         // `entry` in the kernel file `name`.wgsl, on `layout`.
         let make_on = |layout: &wgpu::PipelineLayout, name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
             let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
