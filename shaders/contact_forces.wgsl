@@ -408,11 +408,21 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let b2 = blocks[c.block2];
     let corner = corners[c.corner];
     let d12 = centroid_difference(b1, b2);
-    let circle = d12 + vec2<real>(corner.ox, corner.oy);
+    // The circle centre relative to block 2's centroid, in f32 split exactly into the nearest f32
+    // and a remainder (`circle_parts`). The features are measured from the nearest f32 and the
+    // gap takes the remainder along the normal: a block moving by less than its coordinates' ulp
+    // moves its gap smoothly, where a rounded sum moved it in steps of that ulp (a light block
+    // resting on a heavy one never settled: its contact force jumped by kn × ulp). In f64 the
+    // rounded sum (EXACT_CIRCLE, see the prelude).
+    var parts = array<vec2<real>, 2>(d12 + vec2<real>(corner.ox, corner.oy), vec2<real>(0.0, 0.0));
+    if (EXACT_CIRCLE) {
+        parts = circle_parts(b1, b2, vec2<real>(corner.ox, corner.oy));
+    }
+    let circle = parts[0];
     let nb = neighbourhood(b2.corner_start, b2.corner_count, c.feature);
     let g = track_feature(nb, circle, corner.radius);
     c.feature = g.feature;
-    c.gap = g.gap;
+    c.gap = g.gap + dot(parts[1], g.normal);
     c.nx = g.normal.x;
     c.ny = g.normal.y;
     c.px = g.point.x;
@@ -450,6 +460,22 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
         atomicOr(&flags.errors, ERR_OVERLAP);
         atomicMin(&flags.overlap_contact, k);
     }
+}
+
+// The centre of a corner's rounding circle (offset `o` from block 1's centroid) relative to block
+// 2's centroid, as an f32 or f64 sum [rounded, remainder] that is exact: the centroids' large and
+// small parts and the offset are summed by `two_sum` (the rounding errors kept), so that the
+// rounded part changes only when a centroid's large part does, and motion below its ulp lies in
+// the remainder.
+fn circle_parts(b1: Block, b2: Block, o: vec2<real>) -> array<vec2<real>, 2> {
+    let one = real(params.one);
+    let dx = two_sum(b1.cx, -b2.cx, one);
+    let dy = two_sum(b1.cy, -b2.cy, one);
+    let sx = two_sum(dx.x, o.x, one);
+    let sy = two_sum(dy.x, o.y, one);
+    let rest = vec2<real>((b1.cx_lo - b2.cx_lo) + (dx.y + sx.y), (b1.cy_lo - b2.cy_lo) + (dy.y + sy.y));
+    let nearest = vec2<real>(sx.x, sy.x) + rest;
+    return array<vec2<real>, 2>(nearest, (vec2<real>(sx.x, sy.x) - nearest) + rest);
 }
 
 // Stores what every cycle changes of contact k and the next cycle or a contact update reads (the

@@ -267,8 +267,10 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
             assert_eq!(bits(x), bits(y), "block {} on {}", x.id, t.name());
         }
         assert_eq!(a.contacts.len(), b.contacts.len(), "contacts on {}", t.name());
-        let moving = a.blocks.iter().filter(|b| b.velocity[0] > 1.0).count();
-        assert!(moving > 3, "the projectile set {moving} bricks moving on {}", t.name());
+        // (The scene is chaotic: 3 or 4 bricks faster than 1 m/s by backend and precision, 11 to
+        // 16 faster than 0.5 m/s after 1400–1600 cycles, the CPU's among them.)
+        let moving = a.blocks.iter().filter(|b| b.velocity[0].hypot(b.velocity[1]) > 0.5).count();
+        assert!(moving >= 10, "the projectile set {moving} bricks moving on {}", t.name());
         for (x, y) in a.contacts.iter().zip(&b.contacts) {
             assert_eq!((x.id, x.block1, x.corner, x.block2, x.feature), (y.id, y.block1, y.corner, y.block2, y.feature), "contact on {}", t.name());
             assert_eq!(
@@ -304,7 +306,8 @@ fn read_back_contacts_have_the_points_and_normals_of_the_read_back_state() {
     // (1e-9 m: f64 positions relative to a centroid, converted back); f32 to 1e-5 m and 1e-5 in
     // the normal (~100 f32 ulps of the metre-sized geometry). A contact whose tracked feature
     // differs is left out: none in f64; in f32 the aligned corners of the bricks tie within the
-    // wider f32 tie window (6 of 72 contacts after 37 cycles), at most a tenth.
+    // wider f32 tie window (TIE_TOL 1e-5, `gpu::shaders::prelude`; 6 to 10 of 72 contacts after
+    // 37 cycles), so the GPU's feature must then be as near as the CPU's within that window.
     for (adapter, precision) in common::GPU_TARGETS {
         let Some(t) = common::Target::gpu(adapter, precision) else { continue };
         let tol = if t.is_f32() { 1e-5 } else { 1e-9 };
@@ -319,6 +322,19 @@ fn read_back_contacts_have_the_points_and_normals_of_the_read_back_state() {
                 let own = &m.corners[c.corner as usize];
                 let g = blockdem::cpu::contact_forces::track_feature(corners2, c.feature, own.circle, own.radius);
                 if g.feature != c.feature {
+                    // A tie: the GPU's feature is as near as the CPU's choice, within the f32 tie
+                    // window and the read-back positions' round-off.
+                    assert!(t.is_f32(), "{} after {cycles} cycles: contact {} tracks feature {} where the CPU finds {}", t.name(), c.id, c.feature, g.feature);
+                    let d = blockdem::cpu::contact_forces::distance_to_feature(corners2, c.feature, own.circle);
+                    assert!(
+                        (d - g.distance).abs() <= 1e-5 * (1.0 + g.distance) + tol,
+                        "{} after {cycles} cycles: contact {} tracks feature {} at {d}, the CPU's {} is at {}: not a tie",
+                        t.name(),
+                        c.id,
+                        c.feature,
+                        g.feature,
+                        g.distance
+                    );
                     other_feature += 1;
                     continue;
                 }
@@ -336,8 +352,7 @@ fn read_back_contacts_have_the_points_and_normals_of_the_read_back_state() {
                 );
                 checked += 1;
             }
-            let ties = if t.is_f32() { m.contacts.len() / 10 } else { 0 };
-            assert!(checked > 20 && other_feature <= ties, "{} after {cycles} cycles: {checked} checked, {other_feature} tracked another feature", t.name());
+            assert!(checked > 20 && other_feature <= m.contacts.len() / 4, "{} after {cycles} cycles: {checked} checked, {other_feature} tied", t.name());
         }
     }
 }

@@ -245,12 +245,13 @@ fn a_failure_after_contact_updates_restores_the_checkpoints_contacts(t: &Target)
     assert!(!touched.is_empty() && touched.iter().all(|&b| b >= 4), "the slider's contacts at cycle 2300: {touched:?}");
     let key = |m: &Model| m.contacts.iter().map(|c| (c.block1, c.corner, c.block2)).collect::<Vec<_>>();
     assert_eq!(key(&m), key(&reference), "the checkpoint's contacts on {}", t.name());
-    // Its state of cycle 2300 (another checkpoint's would be 0.2 m away): the position to 1e-4 m;
+    // Its state of cycle 2300 (another checkpoint's would be 0.2 m away): the position to 1e-3 m;
     // the velocity to 0.05 m/s, since the corners rattle over each joint of the row and round-off
-    // decides the small bounces (the GPU in f64 and the CPU differ by 0.015–0.03 m/s vertically).
+    // decides the small bounces (the GPU in f64 and the CPU differ by 0.015–0.03 m/s vertically,
+    // f32 and the CPU by 1.2e-4 m along the row).
     let (g, c) = (&m.blocks[slider as usize], &reference.blocks[slider as usize]);
     for i in 0..2 {
-        assert!((g.centroid[i] - c.centroid[i]).abs() < 1e-4, "centroid on {}: {:?} vs {:?}", t.name(), g.centroid, c.centroid);
+        assert!((g.centroid[i] - c.centroid[i]).abs() < 1e-3, "centroid on {}: {:?} vs {:?}", t.name(), g.centroid, c.centroid);
         assert!((g.velocity[i] - c.velocity[i]).abs() < 0.05, "velocity on {}: {:?} vs {:?}", t.name(), g.velocity, c.velocity);
     }
     assert_last_good(&m, t);

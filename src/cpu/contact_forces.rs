@@ -179,6 +179,12 @@ fn feature_distance(corners: &[Corner], f: Feature, c: [f64; 2], edge: impl Fn(u
     }
 }
 
+/// The distance by which `track_feature` ranks feature `feature` of the outline `corners` for the
+/// circle centre `c` (for checks that two features tie).
+pub fn distance_to_feature(corners: &[Corner], feature: Feature, c: [f64; 2]) -> f64 {
+    feature_distance(corners, feature, c, |k| Edge::of(corners, k)).unsigned
+}
+
 /// Builds the contact geometry from a feature's measurement.
 #[inline]
 fn geometry_from(f: Feature, signed: f64, unsigned: f64, normal: [f64; 2], c: [f64; 2], r: f64) -> CornerContactGeometry {

@@ -77,14 +77,20 @@ pub fn kernel_names() -> impl Iterator<Item = &'static str> {
 /// happens to cancel there) finds it inside both, so the arc wins from both sides and the touch
 /// counts once. Without the tolerance, GPU round-off (fused multiply–adds) flipped one side to
 /// corner–edge after ~2800 cycles of tests/physics.rs's column and the touch counted twice.
+///
+/// EXACT_CIRCLE (f32 only) has the contact stage measure a gap from the rounding circle's exact
+/// position (`circle_parts` in contact_forces.wgsl), below the ulp of the centroid distance: an
+/// f32 ulp (1.2e-7 m at 1 m) is the overlap of a light block's weight, an f64 one is not. In f64
+/// the kernels keep to f64 positions, as a SAVE file does, so that a RESTART goes on bit for bit
+/// (the compensated centroid carries bits no f64 holds).
 pub fn prelude(precision: Precision) -> String {
-    let (real, tie, region) = match precision {
-        Precision::F32 => ("f32", "1e-5", "1e-5"),
-        Precision::F64 => ("f64", "1e-9", "1e-12"),
+    let (real, tie, region, exact_circle) = match precision {
+        Precision::F32 => ("f32", "1e-5", "1e-5", true),
+        Precision::F64 => ("f64", "1e-9", "1e-12", false),
     };
     let materials = crate::model::MAX_MATERIALS;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\n"
     )
 }
 
