@@ -157,3 +157,16 @@ fn the_safe_fraction_named_accounts_for_contact_dashpots() {
         assert!((named - t.estimate).abs() < 0.006, "{damp}: named {named}, estimate {}: {err}", t.estimate);
     }
 }
+
+#[test]
+fn the_f32_kernels_resolve_a_light_block_on_a_heavy_one() {
+    // The extreme-ratio column (a block 1/100 as heavy on a heavy one, on a fixed base): its
+    // interface forces are the weights above to f32 round-off on the f32 kernels, as on the CPU.
+    // They were 5% off while the contact stage measured gaps from a circle centre rounded to the
+    // f32 ulp of the centroid distance (the light block's force jumped by kn × ulp and never
+    // settled); `circle_parts` in contact_forces.wgsl keeps the exact position.
+    for b in verify::backends().iter().filter(|b| b.gpu && b.precision == "f32") {
+        let e = verify::stability::column_mass_ratio_error(b, 100.0).unwrap_or_else(|e| panic!("{}: {e}", b.name()));
+        assert!(e < 1e-5, "{}: interface forces {e:e} off at a mass ratio of 100", b.name());
+    }
+}
