@@ -154,7 +154,7 @@ impl Model {
     /// block's compliance at the contact point (r from its centroid) and a_j = 0 for a fixed
     /// neighbour; stiffness-proportional damping narrows the limit (below). FRAC scales UDEC's
     /// 2√(m_min/k_max). Measured against the threshold of
-    /// instability by `blockdem verify` (README): 0.6–1.0 of it on the scenes there.
+    /// instability by `blockdem verify` (README): 0.4–0.7 of it on the scenes there.
     pub fn stable_frac_estimate(&self) -> f64 {
         let mut per_block = vec![0.0f64; self.blocks.len()];
         let compliance = |b: usize, p: [f64; 2]| -> f64 {
