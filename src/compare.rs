@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use crate::backend::Backend;
 use crate::deck::Located;
-use crate::exec::{Executor, RunOptions};
+use crate::exec::{Executor, Progress, RunOptions};
 use crate::model::Model;
 
 /// One backend's run of the deck.
@@ -80,15 +80,15 @@ impl Comparison {
 }
 
 /// Runs `commands` on `backend`, writing its outputs (plots, SAVE files) and its run log
-/// (`run.log`) into `out`.
-pub fn run_on(backend: Box<dyn Backend>, commands: &[Located], file: &str, out: &Path) -> Outcome {
+/// (`run.log`) into `out`; long CYCLE commands say how far they are as `progress` sets.
+pub fn run_on(backend: Box<dyn Backend>, commands: &[Located], file: &str, out: &Path, progress: Progress) -> Outcome {
     let description = backend.describe();
     let _ = std::fs::create_dir_all(out);
     let log: Box<dyn std::io::Write> = match std::fs::File::create(out.join("run.log")) {
         Ok(f) => Box::new(std::io::BufWriter::new(f)),
         Err(_) => Box::new(std::io::sink()),
     };
-    let options = RunOptions { out_dir: out.to_path_buf(), ..Default::default() };
+    let options = RunOptions { out_dir: out.to_path_buf(), progress, ..Default::default() };
     let mut exec = Executor::new(backend, log, options, file);
     let start = Instant::now();
     let result = exec.run(commands);

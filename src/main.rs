@@ -281,8 +281,10 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
     eprintln!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
-    let reference = compare::run_on(Box::new(CpuBackend::new()), &commands, &name, &out.join("cpu"));
-    let on_gpu = compare::run_on(Box::new(gpu), &commands, &name, &out.join("gpu"));
+    // The logs go to files: long CYCLE commands say how far they are on stderr, as `run` does.
+    let progress = Progress::Lines { every: std::time::Duration::from_secs(30) };
+    let reference = compare::run_on(Box::new(CpuBackend::new()), &commands, &name, &out.join("cpu"), progress);
+    let on_gpu = compare::run_on(Box::new(gpu), &commands, &name, &out.join("gpu"), progress);
     let c = compare::compare(&reference, &on_gpu);
     print!("{}", compare::table(&reference, &on_gpu, &c));
     let json = serde_json::json!({
