@@ -1,8 +1,9 @@
 //! Random decks of valid-looking commands on every backend: nothing panics, every error names
 //! the deck's file and a line of it, and whatever stops a run leaves a finite model (the last
 //! good state after a numerical failure). The parser's own fuzzing (random text, token soup) is
-//! in tests/deck_parser.rs; these decks parse, and go on to build, split, delete, load, damp and
-//! cycle blocks with ordinary and extreme values (1e-300 … 1e300), which is where the executor
+//! in tests/deck_parser.rs; these decks parse, and go on to build, split, delete, load, damp,
+//! cycle, plot (any window and view) and write out blocks with ordinary and extreme values
+//! (1e-300 … 1e300), which is where the executor
 //! and the backends meet input nobody wrote a test for. Found this way and fixed: an energy
 //! growth that named "about NaN" as the safe FRACTION, blocks given overlapping reported as
 //! driven through each other, and damping the f32 kernels cannot hold going non-finite.
@@ -85,6 +86,9 @@ fn command() -> impl Strategy<Value = String> {
         1 => range().prop_map(|r| format!("LINK {r}")),
         1 => Just("SAVE".to_string()),
         1 => Just("RESTART".to_string()),
+        1 => prop_oneof![range(), Just("-1E30 1E30 -1E30 1E30".to_string()), Just("0 1E-9 0 1E-9".to_string())].prop_map(|r| format!("WINDOW {r}")),
+        1 => (0u32..2500, 1u32..2500, 0u32..2500, 1u32..2500).prop_map(|(x, w, y, h)| format!("VIEW {x} {} {y} {}", x + w, y + h)),
+        1 => prop_oneof![Just("PLOT"), Just("PLOT NOFIX VEL"), Just("PLOT NC"), Just("VTK"), Just("DUMP 0 5"), Just("PRINT LIST")].prop_map(String::from),
     ]
 }
 
