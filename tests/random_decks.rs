@@ -3,10 +3,10 @@
 //! good state after a numerical failure). The parser's own fuzzing (random text, token soup) is
 //! in tests/deck_parser.rs; these decks parse, and go on to build, split, delete, load, damp,
 //! cycle, plot (any window and view) and write out blocks with ordinary and extreme values
-//! (1e-300 … 1e300), which is where the executor
-//! and the backends meet input nobody wrote a test for. Found this way and fixed: an energy
-//! growth that named "about NaN" as the safe FRACTION, blocks given overlapping reported as
-//! driven through each other, and damping the f32 kernels cannot hold going non-finite.
+//! (1e-300 … 1e300), which is where the executor and the backends meet input nobody wrote a
+//! test for. Found this way and fixed: an energy growth that named "about NaN" as the safe
+//! FRACTION, blocks given overlapping reported as driven through each other, and damping the
+//! f32 kernels cannot hold going non-finite.
 
 mod common;
 
