@@ -49,6 +49,9 @@ pub struct Largest {
 pub struct Comparison {
     /// Cycles each run reached (reference, GPU).
     pub cycles: [u64; 2],
+    /// Whether both runs end on the same blocks (the same ids in the same order: the same cracks
+    /// and deletions); blocks are compared one by one only then.
+    pub same_blocks: bool,
     /// Blocks and contacts at the end (reference, GPU).
     pub blocks: [usize; 2],
     pub contacts: [usize; 2],
@@ -64,19 +67,6 @@ pub struct Comparison {
     pub energy: Vec<(String, f64, f64)>,
     /// Wall time of the GPU run over the reference's.
     pub time_ratio: f64,
-}
-
-impl Comparison {
-    /// The largest of the relative differences in position, rotation and velocity.
-    pub fn worst_relative(&self) -> f64 {
-        self.position.relative.max(self.rotation.relative).max(self.velocity.relative)
-    }
-
-    /// Whether both runs end on the same blocks (the same ids in the same order: the same cracks
-    /// and deletions), without which blocks are not compared.
-    pub fn same_blocks(&self) -> bool {
-        self.blocks[0] == self.blocks[1]
-    }
 }
 
 /// Runs `commands` on `backend`, writing its outputs (plots, SAVE files) and its run log
@@ -106,8 +96,8 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
         time_ratio: gpu.wall_s / reference.wall_s.max(1e-9),
         ..Comparison::default()
     };
-    let same = a.blocks.len() == b.blocks.len() && a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.id == y.id);
-    if same {
+    c.same_blocks = a.blocks.len() == b.blocks.len() && a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.id == y.id);
+    if c.same_blocks {
         let round = a.tol.round.max(f64::MIN_POSITIVE);
         // A model come to rest has a top speed of round-off: the speed its largest energy term
         // would give the free mass, √(2E/M), is the scale then.
@@ -173,7 +163,7 @@ pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
     }
     let _ = writeln!(s, "gpu / cpu wall time: {:.2}x", c.time_ratio);
     let _ = writeln!(s);
-    if c.same_blocks() && !c.position.value.is_nan() {
+    if c.same_blocks {
         let _ = writeln!(s, "largest difference   value        relative    block");
         for (name, l, unit, over) in
             [("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")]
@@ -181,7 +171,7 @@ pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
             let _ = writeln!(s, "{name:<20} {:<12} {:<11} {}", format!("{:.3e} {unit}", l.value), format!("{:.2e} {over}", l.relative), l.block);
         }
     } else {
-        let _ = writeln!(s, "the runs end on different blocks ({} and {}): not compared block by block", c.blocks[0], c.blocks[1]);
+        let _ = writeln!(s, "the runs end on different blocks ({} and {}, or other ids): not compared block by block", c.blocks[0], c.blocks[1]);
     }
     let _ = writeln!(s);
     let _ = writeln!(s, "energy               difference (J)  relative to the largest term");

@@ -303,8 +303,8 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
         (None, None) => {}
     }
     if let Some(tol) = tolerance {
-        if !c.same_blocks() {
-            bail!("the runs end on different blocks ({} and {})", c.blocks[0], c.blocks[1]);
+        if !c.same_blocks {
+            bail!("the runs end on different blocks ({} and {}, or other ids): a crack or deletion differs", c.blocks[0], c.blocks[1]);
         }
         for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
             if l.relative.is_nan() || l.relative > tol {

@@ -1,0 +1,38 @@
+//! `blockdem::compare` on outcomes made here: the same run compares as equal, a moved block is
+//! named with its difference, and runs that end on other blocks are not compared block by block.
+
+use blockdem::compare::{compare, table, Outcome};
+
+fn outcome(deck: &str) -> Outcome {
+    let model = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    Outcome { backend: "cpu (f64)".into(), wall_s: 1.0, model, error: None }
+}
+
+const DECK: &str = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nBLOCK 2.5,1 2.5,2 3.5,2 3.5,1\n\
+                    FIX 0 4 0 0.9\nGRAV 0 -10\nVELOCITY 1 2 1 2 0.5 0\nCYCLE 200\n";
+
+#[test]
+fn the_same_run_compares_equal_and_a_moved_block_is_named() {
+    let a = outcome(DECK);
+    let mut b = a.clone();
+    b.wall_s = 3.0;
+    let c = compare(&a, &b);
+    assert!(c.same_blocks && c.position.value == 0.0 && c.velocity.value == 0.0 && c.energy.iter().all(|e| e.1 == 0.0), "{c:?}");
+    assert_eq!(c.time_ratio, 3.0);
+    // Block 3 moved by 1 mm: 1e-2 of ROUND, named.
+    b.model.blocks[2].centroid[1] += 1e-3;
+    let c = compare(&a, &b);
+    assert_eq!(c.position.block, 3);
+    assert!((c.position.value - 1e-3).abs() < 1e-12 && (c.position.relative - 1e-2).abs() < 1e-9, "{:?}", c.position);
+    assert!(table(&a, &b, &c).contains("position             1.000e-3 m"), "{}", table(&a, &b, &c));
+}
+
+#[test]
+fn runs_ending_on_other_blocks_are_not_compared_block_by_block() {
+    let a = outcome(DECK);
+    let b = outcome(&DECK.replace("CYCLE 200", "DELETE 2.4 3.6 1 2\nCYCLE 200"));
+    let c = compare(&a, &b);
+    assert!(!c.same_blocks && c.position.value.is_nan(), "{c:?}");
+    assert_eq!(c.blocks, [3, 2]);
+    assert!(table(&a, &b, &c).contains("the runs end on different blocks (3 and 2"), "{}", table(&a, &b, &c));
+}
