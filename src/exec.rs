@@ -597,11 +597,20 @@ impl<'a> Executor<'a> {
             pb.finish_and_clear();
         }
         if let Err(failure) = result {
+            // The contacts of the last good state (the model rolled back), detected once for both
+            // questions below; an energy growth (which names its own safe FRACTION) and a failure
+            // outside the numerics (set-up, a model that does not fit) ask neither.
+            let (given_overlapping, advice) = if matches!(failure, CycleError::EnergyGrowth { .. } | CycleError::Setup(_) | CycleError::DoesNotFit(_)) {
+                (None, String::new())
+            } else {
+                let mut probe = self.model.clone();
+                crate::topology::update_contacts(&mut probe, true);
+                (self.overlap_before_motion(&failure, start_cycle, &probe), self.fraction_advice(&probe))
+            };
             // Blocks given overlapping are an input error, not a divergence: nothing has moved.
-            if let Some(what) = self.overlap_before_motion(&failure, start_cycle) {
+            if let Some(what) = given_overlapping {
                 return Err(self.command_error(cmd, what));
             }
-            let advice = self.fraction_advice(&failure);
             return Err(RunError::Numerical { file: self.file.clone(), line: cmd.line, failure, advice });
         }
         for c in &report.cracks {
@@ -632,15 +641,14 @@ impl<'a> Executor<'a> {
     /// the CYCLE's start): whether blocks already overlapped by more than the limit before any
     /// motion. Then nothing was driven through anything and no FRACTION helps: the blocks were
     /// given overlapping (BLOCK corners, a ROUND lowered under an overlap). The message names the
-    /// pair with the largest such overlap.
-    fn overlap_before_motion(&self, failure: &CycleError, start_cycle: u64) -> Option<String> {
+    /// pair with the largest such overlap. `probe`: the rolled-back model with its contacts
+    /// detected.
+    fn overlap_before_motion(&self, failure: &CycleError, start_cycle: u64, probe: &Model) -> Option<String> {
         if !matches!(failure, CycleError::Overlap { .. }) || self.model.cycle != start_cycle {
             return None;
         }
-        let mut probe = self.model.clone();
-        crate::topology::update_contacts(&mut probe, true);
         let limit = 0.5 * probe.tol.round;
-        let c = probe.contacts.iter().filter(|c| -c.gap > limit && crate::topology::detect::counts_force(&probe, c)).max_by(|a, b| b.gap.total_cmp(&a.gap))?;
+        let c = probe.contacts.iter().filter(|c| -c.gap > limit && crate::topology::detect::counts_force(probe, c)).max_by(|a, b| b.gap.total_cmp(&a.gap))?;
         let (b1, b2) = (probe.blocks[c.block1 as usize].id, probe.blocks[c.block2 as usize].id);
         Some(format!(
             "CYCLE: blocks {b1} and {b2} overlap by {} near ({}, {}) before any motion, more than half the rounding length ({}): \
@@ -654,14 +662,9 @@ impl<'a> Executor<'a> {
 
     /// Names the largest safe FRACTION after a numerical failure whose message does not, when
     /// FRACTION is above the stability estimate of the model (`Model::stable_frac_estimate`, taken
-    /// on the contacts the last good state has or would form at once). Empty otherwise: then the
-    /// failure is not one of the time step.
-    fn fraction_advice(&self, failure: &CycleError) -> String {
-        if matches!(failure, CycleError::EnergyGrowth { .. } | CycleError::Setup(_) | CycleError::DoesNotFit(_)) {
-            return String::new();
-        }
-        let mut probe = self.model.clone();
-        crate::topology::update_contacts(&mut probe, true);
+    /// on the contacts the last good state has or would form at once: `probe`). Empty otherwise:
+    /// then the failure is not one of the time step.
+    fn fraction_advice(&self, probe: &Model) -> String {
         let safe = probe.stable_frac_estimate();
         if safe.is_finite() && safe > 0.0 && self.model.frac > safe {
             format!(
