@@ -463,10 +463,10 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
 }
 
 // The centre of a corner's rounding circle (offset `o` from block 1's centroid) relative to block
-// 2's centroid, as an f32 or f64 sum [rounded, remainder] that is exact: the centroids' large and
-// small parts and the offset are summed by `two_sum` (the rounding errors kept), so that the
-// rounded part changes only when a centroid's large part does, and motion below its ulp lies in
-// the remainder.
+// 2's centroid, as an exact sum [nearest, remainder]: the centroids' large and small parts and the
+// offset are summed by `two_sum` (the rounding errors kept), `nearest` is the real nearest that
+// sum and `remainder` what it leaves, so motion below the nearest's ulp lies in the remainder.
+// Used by the f32 kernels (EXACT_CIRCLE).
 fn circle_parts(b1: Block, b2: Block, o: vec2<real>) -> array<vec2<real>, 2> {
     let one = real(params.one);
     let dx = two_sum(b1.cx, -b2.cx, one);

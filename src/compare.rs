@@ -2,8 +2,9 @@
 //! GPU's final state lies from the reference's. For a user who checks the GPU against the CPU
 //! on their own model (the test suite does it on its scenes, tests/physics.rs): the largest
 //! difference in block position (against the rounding length, the scale contacts resolve
-//! overlaps on), rotation, velocity (against the fastest block) and the energy terms (against
-//! the largest), each naming its block, with the wall times of the two runs.
+//! overlaps on), rotation, velocity (against the top speed, or √(2E/M) for a model at rest) and
+//! the energy terms (against the largest), each naming its block, with the wall times of the two
+//! runs.
 //!
 //! A smooth scene (a settling stack, a sliding block) agrees to the kernel precision's round-off
 //! over many cycles; a chaotic one (an impact scattering blocks) diverges at the first touch that

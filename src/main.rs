@@ -39,6 +39,15 @@ enum PrecisionChoice {
     F64,
 }
 
+impl From<PrecisionChoice> for Precision {
+    fn from(p: PrecisionChoice) -> Precision {
+        match p {
+            PrecisionChoice::F32 => Precision::F32,
+            PrecisionChoice::F64 => Precision::F64,
+        }
+    }
+}
+
 /// `blockdem run`'s arguments.
 #[derive(clap::Args)]
 struct RunArgs {
@@ -94,7 +103,8 @@ enum Cmd {
         out: PathBuf,
         /// Fail (non-zero exit) when a block's position differs by more than TOL rounding
         /// lengths, its rotation by more than TOL radians or its velocity by more than TOL of
-        /// the reference's top speed, or the runs end on different blocks.
+        /// the speed scale (the reference's top speed, or √(2E/M) for a model at rest), or the
+        /// runs end on different blocks.
         #[arg(long, value_name = "TOL")]
         tolerance: Option<f64>,
     },
@@ -193,10 +203,7 @@ fn bench(
     rounds: Option<u32>,
 ) -> anyhow::Result<()> {
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
-    let precision = precision.map(|p| match p {
-        PrecisionChoice::F32 => Precision::F32,
-        PrecisionChoice::F64 => Precision::F64,
-    });
+    let precision = precision.map(Precision::from);
     let specs = blockdem::bench::present_backends(backend != BenchBackends::Gpu, backend != BenchBackends::Cpu, &choice, precision);
     if specs.is_empty() {
         bail!("no backend to benchmark: no GPU adapter found for --adapter {adapter}");
@@ -274,12 +281,8 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     let name = deck.display().to_string();
     let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
-    let precision = match precision {
-        PrecisionChoice::F32 => Precision::F32,
-        PrecisionChoice::F64 => Precision::F64,
-    };
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
-    let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
+    let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision: precision.into() }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
     eprintln!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
     // The logs go to files: long CYCLE commands say how far they are on stderr, as `run` does.
     let progress = Progress::Lines { every: std::time::Duration::from_secs(30) };
@@ -352,10 +355,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let backend: Box<dyn blockdem::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(CpuBackend::new()),
         BackendChoice::Auto | BackendChoice::Gpu => {
-            let precision = match precision {
-                PrecisionChoice::F32 => Precision::F32,
-                PrecisionChoice::F64 => Precision::F64,
-            };
+            let precision = Precision::from(precision);
             let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
             // `auto` wants a real GPU: a software adapter (Mesa's lavapipe or llvmpipe) is slower
             // than the CPU backend and less precise, so it is used only when asked for.
