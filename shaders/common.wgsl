@@ -32,13 +32,14 @@ fn two_sum(a: real, b: real, one: real) -> vec2<real> {
 }
 
 // (cos θ, sin θ) with + − × only (f64 kernels have no sin/cos): θ is reduced by the nearest
-// multiple k of π/2 (k found in f32, any nearby integer works; π/2 split Cody–Waite style so
-// k·π/2 is subtracted almost exactly), then Taylor series to r¹⁷ / r¹⁶, whose truncation error on
-// |r| ≤ π/4 is below 1e-19, and the quadrant of k. Rust twin: `gpu::kernels::sin_cos`.
+// multiple k of π/2 (k found in f32, any nearby integer works; π/2 split Cody–Waite style into
+// PIO2_1 + PIO2_2 + PIO2_3 for the precision, see the prelude, so k·π/2 is subtracted almost
+// exactly), then Taylor series to r¹⁷ / r¹⁶, whose truncation error on |r| ≤ π/4 is below 1e-19,
+// and the quadrant of k. Rust twin: `gpu::kernels::sin_cos`.
 fn sin_cos(theta: real) -> vec2<real> {
     let k = i32(round(f32(theta) * 0.636619772367581343));
     let kr = real(k);
-    let r = (theta - kr * real(1.57079632673412561417e+00)) - kr * real(6.07710050650619224932e-11);
+    let r = ((theta - kr * PIO2_1) - kr * PIO2_2) - kr * PIO2_3;
     let r2 = r * r;
     let s = r * (1.0 + r2 * (-1.0 / 6.0 + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362880.0
         + r2 * (-1.0 / 39916800.0 + r2 * (1.0 / 6227020800.0 + r2 * (-1.0 / 1307674368000.0

@@ -466,16 +466,21 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
 // 2's centroid, as an exact sum [nearest, remainder]: the centroids' large and small parts and the
 // offset are summed by `two_sum` (the rounding errors kept), `nearest` is the real nearest that
 // sum and `remainder` what it leaves, so motion below the nearest's ulp lies in the remainder.
-// Used by the f32 kernels (EXACT_CIRCLE).
+// The rotations' small parts turn the circle to first order (R(δ)x ≈ x + δ·x⊥, the second order
+// δ²R/2 being below 1e-10 R): block 1's turns its offset by δ1, and block 2's turns block 2's
+// features, which is the circle turned by −δ2 about block 2's centroid. Used by the f32 kernels
+// (EXACT_CIRCLE).
 fn circle_parts(b1: Block, b2: Block, o: vec2<real>) -> array<vec2<real>, 2> {
     let one = real(params.one);
     let dx = two_sum(b1.cx, -b2.cx, one);
     let dy = two_sum(b1.cy, -b2.cy, one);
     let sx = two_sum(dx.x, o.x, one);
     let sy = two_sum(dy.x, o.y, one);
-    let rest = vec2<real>((b1.cx_lo - b2.cx_lo) + (dx.y + sx.y), (b1.cy_lo - b2.cy_lo) + (dy.y + sy.y));
-    let nearest = vec2<real>(sx.x, sy.x) + rest;
-    return array<vec2<real>, 2>(nearest, (vec2<real>(sx.x, sy.x) - nearest) + rest);
+    let s = vec2<real>(sx.x, sy.x);
+    let turn = b1.rotation_lo * vec2<real>(-o.y, o.x) - b2.rotation_lo * vec2<real>(-s.y, s.x);
+    let rest = vec2<real>((b1.cx_lo - b2.cx_lo) + (dx.y + sx.y), (b1.cy_lo - b2.cy_lo) + (dy.y + sy.y)) + turn;
+    let nearest = s + rest;
+    return array<vec2<real>, 2>(nearest, (s - nearest) + rest);
 }
 
 // Stores what every cycle changes of contact k and the next cycle or a contact update reads (the

@@ -51,7 +51,16 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     blk.cx_lo = sx.y;
     blk.cy = sy.x;
     blk.cy_lo = sy.y;
-    blk.rotation += dtheta;
+    // The rotation too, in f32 (EXACT_CIRCLE): a block that spun to θ = 20 rad in flight has an
+    // ulp of 1.9e-6 rad there, and a plain sum dropped every smaller turn, so once at rest its
+    // corners moved in steps of R × ulp(θ) and its contact forces never settled.
+    if (EXACT_CIRCLE) {
+        let sr = two_sum(blk.rotation, dtheta + blk.rotation_lo, one);
+        blk.rotation = sr.x;
+        blk.rotation_lo = sr.y;
+    } else {
+        blk.rotation += dtheta;
+    }
     // A corner moves at most |Δx| + |Δθ|·R in this step (the too-fast check).
     let travel = sqrt(dx * dx + dy * dy) + abs(dtheta) * blk.radius;
     // Net displacement since the last contact update, kept at its largest (report ¶26).
@@ -72,6 +81,9 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     blocks[b].cy = blk.cy;
     blocks[b].cy_lo = blk.cy_lo;
     blocks[b].rotation = blk.rotation;
+    if (EXACT_CIRCLE) {
+        blocks[b].rotation_lo = blk.rotation_lo;
+    }
     blocks[b].moved = blk.moved;
     blocks[b].work = blk.work;
     blocks[b].damping_work = blk.damping_work;

@@ -5,13 +5,14 @@
 // other constants. Storage structs hold reals first and then an even number of u32 words, so both
 // precisions have the same field order and no padding.
 
-// 116 / 216 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo);
+// 120 / 224 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo), and
+// the rotation as one too in f32 (rotation + rotation_lo; EXACT_CIRCLE, see the prelude);
 // `work`, `damping_work`: external work and mass-damping dissipation since the upload;
 // `moved` is the largest net displacement from the reference (update_*) of the last contact
 // update, due for the next one past etol + update_margin (the block's speed margin).
 struct Block {
     cx: real, cy: real, cx_lo: real, cy_lo: real,
-    rotation: real, vx: real, vy: real, w: real,
+    rotation: real, rotation_lo: real, vx: real, vy: real, w: real,
     fx: real, fy: real, moment: real, mass: real,
     inertia: real, load_x: real, load_y: real, radius: real,
     work: real, damping_work: real,

@@ -444,7 +444,8 @@ pub fn energy_groups(blocks: usize, contacts: usize) -> usize {
 }
 
 /// Rust twin of the WGSL `sin_cos` (common.wgsl), in f64: (cos θ, sin θ) by reduction to
-/// |r| ≤ π/4 and Taylor series, with + − × only.
+/// |r| ≤ π/4 and Taylor series, with + − × only. The f64 kernels' π/2 split (the prelude's
+/// PIO2_*; the f32 kernels split it in three parts of fewer bits).
 pub fn sin_cos(theta: f64) -> (f64, f64) {
     // 2/π in f32, as the WGSL literal rounds to: the quadrant k is found in f32 there too.
     let k = ((theta as f32) * std::f32::consts::FRAC_2_PI).round() as i32;

@@ -83,12 +83,14 @@ pub struct StructLayout {
 }
 
 gpu_struct! {
-    /// One rigid block: 112 bytes in f32, 208 in f64. The centroid is kept relative to the run's
+    /// One rigid block: 120 bytes in f32, 224 in f64. The centroid is kept relative to the run's
     /// origin as a compensated pair (`cx + cx_lo`), so that small increments added to a large
-    /// coordinate are not lost in f32 (Kahan summation, law_of_motion.wgsl).
+    /// coordinate are not lost in f32 (Kahan summation, law_of_motion.wgsl); so is the rotation
+    /// in f32 (`rotation + rotation_lo`: a block that spun to tens of radians in flight turns
+    /// by ulps of 1e-6 rad there, and its corners by R times that; 0 in f64).
     Block {
         cx: R, cy: R, cx_lo: R, cy_lo: R,
-        rotation: R, vx: R, vy: R, w: R,
+        rotation: R, rotation_lo: R, vx: R, vy: R, w: R,
         fx: R, fy: R, moment: R, mass: R,
         inertia: R, load_x: R, load_y: R, radius: R,
         /// Work of gravity and load on this block since the block buffer was uploaded.

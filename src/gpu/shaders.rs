@@ -83,14 +83,25 @@ pub fn kernel_names() -> impl Iterator<Item = &'static str> {
 /// f32 ulp (1.2e-7 m at 1 m) is the overlap of a light block's weight, an f64 one is not. In f64
 /// the kernels keep to f64 positions, as a SAVE file does, so that a RESTART goes on bit for bit
 /// (the compensated centroid carries bits no f64 holds).
+///
+/// PIO2_1 + PIO2_2 + PIO2_3 is π/2 split for `sin_cos`'s reduction θ − k·π/2 (Cody–Waite): each
+/// part has few enough bits that k times it is exact. In f32 the parts are 1.5703125 (8 bits),
+/// 4.8375e-4 (11 bits) and the rest: π/2 rounded to one f32 was off by 4.4e-8, and k·π/2 rounded
+/// by up to ulp(θ)/2 (7.6e-6 rad at θ = 200), a step in a spinning block's shape at every
+/// quarter turn. In f64 the two parts the kernels always had (the third is 0), so f64 runs are
+/// unchanged.
 pub fn prelude(precision: Precision) -> String {
     let (real, tie, region, exact_circle) = match precision {
         Precision::F32 => ("f32", "1e-5", "1e-5", true),
         Precision::F64 => ("f64", "1e-9", "1e-12", false),
     };
+    let (pio2_1, pio2_2, pio2_3) = match precision {
+        Precision::F32 => ("1.5703125", "4.837512969970703125e-4", "7.54978995489188216e-8"),
+        Precision::F64 => ("1.57079632673412561417e+00", "6.07710050650619224932e-11", "0.0"),
+    };
     let materials = crate::model::MAX_MATERIALS;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\n"
     )
 }
 

@@ -75,12 +75,14 @@ impl<R: Real> Engine<R> {
                 let (hx, hy) = (r::<R>(x), r::<R>(y));
                 let (x0, y0) = (b.update_centroid[0] - origin[0], b.update_centroid[1] - origin[1]);
                 let (ux, uy) = (r::<R>(x0), r::<R>(y0));
+                let rotation = r::<R>(b.rotation);
                 Block {
                     cx: hx,
                     cy: hy,
                     cx_lo: r(x - hx.to_f64()),
                     cy_lo: r(y - hy.to_f64()),
-                    rotation: r(b.rotation),
+                    rotation,
+                    rotation_lo: r(b.rotation - rotation.to_f64()),
                     vx: r(b.velocity[0]),
                     vy: r(b.velocity[1]),
                     w: r(b.angular_velocity),
