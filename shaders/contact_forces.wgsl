@@ -423,10 +423,14 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let g = track_feature(nb, circle, corner.radius);
     c.feature = g.feature;
     c.gap = g.gap + dot(parts[1], g.normal);
-    c.nx = g.normal.x;
-    c.ny = g.normal.y;
-    c.px = g.point.x;
-    c.py = g.point.y;
+    // The normal and point in the world, block 2's turn since its corners were placed applied
+    // (0 in f64).
+    let normal = g.normal + turned_by(g.normal, b2.rotation_lo);
+    let point = g.point + turned_by(g.point, b2.rotation_lo);
+    c.nx = normal.x;
+    c.ny = normal.y;
+    c.px = point.x;
+    c.py = point.y;
     let counted = counts_force(c.corner, circle, corner.radius, nb, c.feature);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
@@ -463,13 +467,14 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
 }
 
 // The centre of a corner's rounding circle (offset `o` from block 1's centroid) relative to block
-// 2's centroid, as an exact sum [nearest, remainder]: the centroids' large and small parts and the
-// offset are summed by `two_sum` (the rounding errors kept), `nearest` is the real nearest that
-// sum and `remainder` what it leaves, so motion below the nearest's ulp lies in the remainder.
-// The rotations' small parts turn the circle to first order (R(δ)x ≈ x + δ·x⊥, the second order
-// δ²R/2 being below 1e-10 R): block 1's turns its offset by δ1, and block 2's turns block 2's
-// features, which is the circle turned by −δ2 about block 2's centroid. Used by the f32 kernels
-// (EXACT_CIRCLE).
+// 2's centroid, in the frame block 2's corners are placed in, as an exact sum [nearest,
+// remainder]: the centroids' large and small parts and the offset are summed by `two_sum` (the
+// rounding errors kept), `nearest` is the real nearest that sum and `remainder` what it leaves,
+// so motion below the nearest's ulp lies in the remainder. The turns since the corners were
+// placed (`rotation_lo`, below ROTATION_STEP) enter to second order, R(δ)x ≈ x + δ·x⊥ − δ²x/2
+// (the third order, R·δ³/6, is below 3e-12 R): block 1's turns its offset by δ1, and block 2's
+// turns its features, which is the circle turned by −δ2 about block 2's centroid. Used by the
+// f32 kernels (EXACT_CIRCLE).
 fn circle_parts(b1: Block, b2: Block, o: vec2<real>) -> array<vec2<real>, 2> {
     let one = real(params.one);
     let dx = two_sum(b1.cx, -b2.cx, one);
@@ -477,10 +482,16 @@ fn circle_parts(b1: Block, b2: Block, o: vec2<real>) -> array<vec2<real>, 2> {
     let sx = two_sum(dx.x, o.x, one);
     let sy = two_sum(dy.x, o.y, one);
     let s = vec2<real>(sx.x, sy.x);
-    let turn = b1.rotation_lo * vec2<real>(-o.y, o.x) - b2.rotation_lo * vec2<real>(-s.y, s.x);
-    let rest = vec2<real>((b1.cx_lo - b2.cx_lo) + (dx.y + sx.y), (b1.cy_lo - b2.cy_lo) + (dy.y + sy.y)) + turn;
+    let turn1 = turned_by(o, b1.rotation_lo);
+    let turn2 = turned_by(s + turn1, -b2.rotation_lo);
+    let rest = vec2<real>((b1.cx_lo - b2.cx_lo) + (dx.y + sx.y), (b1.cy_lo - b2.cy_lo) + (dy.y + sy.y)) + (turn1 + turn2);
     let nearest = s + rest;
     return array<vec2<real>, 2>(nearest, (s - nearest) + rest);
+}
+
+// What turning x by the small angle δ adds to it, to second order: δ·x⊥ − δ²x/2.
+fn turned_by(x: vec2<real>, delta: real) -> vec2<real> {
+    return delta * vec2<real>(-x.y, x.x) - (0.5 * delta * delta) * x;
 }
 
 // Stores what every cycle changes of contact k and the next cycle or a contact update reads (the
@@ -518,11 +529,16 @@ fn contact_points(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let b1 = blocks[contacts[k].block1];
     let b2 = blocks[contacts[k].block2];
     let corner = corners[contacts[k].corner];
-    let circle = centroid_difference(b1, b2) + vec2<real>(corner.ox, corner.oy);
+    var circle = centroid_difference(b1, b2) + vec2<real>(corner.ox, corner.oy);
+    if (EXACT_CIRCLE) {
+        circle = circle_parts(b1, b2, vec2<real>(corner.ox, corner.oy))[0];
+    }
     let nb = neighbourhood(b2.corner_start, b2.corner_count, contacts[k].feature);
     let g = feature_geometry(nb, circle, corner.radius);
-    contacts[k].px = g.point.x;
-    contacts[k].py = g.point.y;
-    contacts[k].nx = g.normal.x;
-    contacts[k].ny = g.normal.y;
+    let normal = g.normal + turned_by(g.normal, b2.rotation_lo);
+    let point = g.point + turned_by(g.point, b2.rotation_lo);
+    contacts[k].px = point.x;
+    contacts[k].py = point.y;
+    contacts[k].nx = normal.x;
+    contacts[k].ny = normal.y;
 }

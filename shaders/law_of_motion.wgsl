@@ -51,13 +51,27 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     blk.cx_lo = sx.y;
     blk.cy = sy.x;
     blk.cy_lo = sy.y;
-    // The rotation too, in f32 (EXACT_CIRCLE): a block that spun to θ = 20 rad in flight has an
-    // ulp of 1.9e-6 rad there, and a plain sum dropped every smaller turn, so once at rest its
-    // corners moved in steps of R × ulp(θ) and its contact forces never settled.
+    // The rotation, in f32 (EXACT_CIRCLE), as the angle its corners are placed at, a multiple of
+    // ROTATION_STEP, and the turn since (`rotation_lo`), which the contact stage applies to second
+    // order (`circle_parts`). The corners are placed again only when that turn passes a step (and
+    // are then off by exactly whole steps, the sums exact), so a block at rest keeps them: a
+    // rotation kept in one f32 dropped every turn below its ulp (1.9e-6 rad at θ = 20 rad) and
+    // moved the corners in steps of R × ulp(θ), and corners placed at every step moved in steps
+    // of their own ulp; either way the contact forces of a small or a spun block never settled.
+    // In f64 the corners follow the rotation every step, as on the CPU.
+    var place = true;
     if (EXACT_CIRCLE) {
-        let sr = two_sum(blk.rotation, dtheta + blk.rotation_lo, one);
-        blk.rotation = sr.x;
-        blk.rotation_lo = sr.y;
+        blk.rotation_lo += dtheta;
+        place = abs(blk.rotation_lo) > ROTATION_STEP;
+        if (place) {
+            // The sum is exact to 4096 rad; past that (ulp(θ) > ROTATION_STEP) the turn kept is
+            // what the angle really moved by, so θ = rotation + rotation_lo holds at any angle
+            // (both differences exact: Sterbenz; `one` keeps the compiler from taking
+            // (a + t) − a for t, as in `two_sum`).
+            let placed = (blk.rotation + round(blk.rotation_lo / ROTATION_STEP) * ROTATION_STEP) * one;
+            blk.rotation_lo -= (placed - blk.rotation) * one;
+            blk.rotation = placed;
+        }
     } else {
         blk.rotation += dtheta;
     }
@@ -66,7 +80,7 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     // Net displacement since the last contact update, kept at its largest (report ¶26).
     let ux = (blk.cx - blk.update_cx) + (blk.cx_lo - blk.update_cx_lo);
     let uy = (blk.cy - blk.update_cy) + (blk.cy_lo - blk.update_cy_lo);
-    let net = sqrt(ux * ux + uy * uy) + abs(blk.rotation - blk.update_rotation) * blk.radius;
+    let net = sqrt(ux * ux + uy * uy) + abs((blk.rotation - blk.update_rotation) + blk.rotation_lo) * blk.radius;
     blk.moved = max(blk.moved, net);
     let fx = blk.mass * params.gx + blk.load_x;
     let fy = blk.mass * params.gy + blk.load_y;
@@ -80,14 +94,16 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     blocks[b].cx_lo = blk.cx_lo;
     blocks[b].cy = blk.cy;
     blocks[b].cy_lo = blk.cy_lo;
-    blocks[b].rotation = blk.rotation;
+    if (place) {
+        blocks[b].rotation = blk.rotation;
+        geometry_update(blk);
+    }
     if (EXACT_CIRCLE) {
         blocks[b].rotation_lo = blk.rotation_lo;
     }
     blocks[b].moved = blk.moved;
     blocks[b].work = blk.work;
     blocks[b].damping_work = blk.damping_work;
-    geometry_update(blk);
     if (blk.moved > params.etol + blk.update_margin) {
         atomicOr(&flags.update_due, 1u);
     }

@@ -43,7 +43,7 @@ fn list_blocks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
         let r = reference[b];
         let dx = (blk.cx - r.x) + (blk.cx_lo - r.x_lo);
         let dy = (blk.cy - r.y) + (blk.cy_lo - r.y_lo);
-        let moved = sqrt(dx * dx + dy * dy) + abs(blk.rotation - r.rotation) * r.reach;
+        let moved = sqrt(dx * dx + dy * dy) + abs((blk.rotation - r.rotation) + blk.rotation_lo) * r.reach;
         listed = moved > lp.stray_limit * (1.0 - LIST_SLACK) || (blk.update_margin > 0.0 && blk.update_margin >= r.margin);
     }
     if (listed) {

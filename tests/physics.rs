@@ -17,6 +17,7 @@ every_backend!(
     column_at_rest_carries_the_weight_above,
     columns_far_from_the_origin_keep_their_millimetres,
     a_block_that_has_spun_comes_to_rest_as_one_that_has_not,
+    a_spinning_blocks_corners_follow_its_rotation,
     undamped_bounce_keeps_its_energy,
     energy_ledger_balances_with_every_dissipation_term,
     a_wave_in_a_chain_keeps_its_energy,
@@ -181,23 +182,25 @@ fn turned(deck: &str, id: u32, theta: f64) -> Model {
 }
 
 fn a_block_that_has_spun_comes_to_rest_as_one_that_has_not(t: &Target) {
-    // A 0.1 m block on a fixed base under heavy mass damping, given the rotation of a block that
-    // spun in flight (20 and 200 rad) before the run: it must settle as the unturned one does,
-    // its contacts carrying its weight and its speed dying away. The f32 kernels once kept the
-    // rotation as one f32 (ulp 1.9e-6 rad at 20 rad, 1.5e-5 at 200): every smaller turn was
-    // lost, the corners moved in steps of R × ulp(θ), and the block never came to rest (its
-    // contact forces off by 75% and 370% of its weight, 4e-3 and 3e-2 m/s of jitter). They keep
-    // it as a compensated pair now. Tolerances: the weight within 1e-5 (f32 overlaps of ~2e-7 m
-    // to ~1e-13 m: 1e-6; CPU 3e-8), speeds (|v| + |ω|R) under 1e-7 m/s (f32 ~4e-10, CPU 6e-11).
+    // A 5 cm block on a fixed base under heavy mass damping, unturned and given the rotation of a
+    // block that spun in flight (20 and 200 rad) before the run: each must settle alike, its
+    // contacts carrying its weight and its speed dying away. The f32 kernels once kept the
+    // rotation as one f32 (ulp 1.9e-6 rad at 20 rad, 1.5e-5 at 200), dropping every smaller
+    // turn, and placed the corners at every step, rounding them to their own ulp (1.9e-9 m
+    // here); either way the corners moved in steps, and the block never came to rest: 5e-5 m/s
+    // of jitter unturned, 4e-3 and 3e-2 m/s and its weight 75% and 370% off when spun. They
+    // place the corners at a multiple of ROTATION_STEP now and apply the turn since to second
+    // order. Tolerances: the weight within 1e-5 (f32 overlaps of ~5e-8 m to ~1e-14 m: 2e-7; CPU
+    // 3e-8), speeds (|v| + |ω|R) under 1e-7 m/s (f32 4e-10 at every angle, CPU 6e-11).
     let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.005\nBLOCK 0,0 0,1 4,1 4,0\n\
-                BLOCK 1,1 1,1.1 1.1,1.1 1.1,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nDAMP 0.5 50 MASS\n";
-    for theta in [20.0, 200.0] {
+                BLOCK 1,1 1,1.05 1.05,1.05 1.05,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nDAMP 0.5 50 MASS\n";
+    for theta in [0.0, 20.0, 200.0] {
         let mut exec = blockdem::exec::Executor::new(t.backend(), Box::new(std::io::sink()), Default::default(), "spun.dat");
         exec.model = turned(deck, 2, theta);
         let weight = exec.model.blocks[1].mass * 10.0;
         let (mut force_error, mut speed) = (0.0f64, 0.0f64);
         let cycle = |n: u64| blockdem::deck::parse_deck(&format!("START\nCYCLE {n}\n"), "spun.dat").unwrap()[1..].to_vec();
-        exec.run(&cycle(10000)).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+        exec.run(&cycle(20000)).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
         for _ in 0..10 {
             exec.run(&cycle(50)).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
             let b = &exec.model.blocks[1];
@@ -205,6 +208,33 @@ fn a_block_that_has_spun_comes_to_rest_as_one_that_has_not(t: &Target) {
             speed = speed.max(b.velocity[0].hypot(b.velocity[1]) + b.angular_velocity.abs() * b.radius);
         }
         assert!(force_error < 1e-5 && speed < 1e-7, "turned {theta} rad: weight off by {force_error:e}, speed {speed:e} m/s on {}", t.name());
+    }
+}
+
+fn a_spinning_blocks_corners_follow_its_rotation(t: &Target) {
+    // A lone 1 × 1 m block spinning at 40 rad/s with no gravity, from 4094 rad through 4096,
+    // where an f32 no longer holds every multiple of the f32 kernels' ROTATION_STEP: its
+    // rotation must be θ0 + ωt and each corner read back where the rotation puts it. The f32
+    // kernels add each step's turn (0.011 rad) to a turn below a step, exactly, and place the
+    // corners at whole steps: their rotation is the CPU's to 1e-15 here (2e-10 from ωt, the f64
+    // sum of the steps). Tolerances: 1e-6 rad and m in f32 (corner offsets to 6e-8 m), 1e-9 for
+    // the CPU and f64. The f32 kernels were 0.13 rad off when the compiler took (a + t) − a for
+    // t past 4096 rad.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 1,1 1,0\nVELOCITY 0 1 0 1 0 0 40\n";
+    let theta0 = 4094.0;
+    let mut exec = blockdem::exec::Executor::new(t.backend(), Box::new(std::io::sink()), Default::default(), "spin.dat");
+    exec.model = turned(deck, 1, theta0);
+    let local: Vec<[f64; 2]> = exec.model.corners.iter().map(|c| c.local).collect();
+    let cycle = blockdem::deck::parse_deck("START\nCYCLE 2000\n", "spin.dat").unwrap()[1..].to_vec();
+    exec.run(&cycle).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    let (m, tol) = (&exec.model, if t.is_f32() { 1e-6 } else { 1e-9 });
+    let b = &m.blocks[0];
+    let expected = theta0 + 40.0 * m.time;
+    assert!(expected > 4096.5 && (b.rotation - expected).abs() < tol, "rotation {} against {expected} on {}", b.rotation, t.name());
+    let (sin, cos) = b.rotation.sin_cos();
+    for (c, l) in m.corners.iter().zip(&local) {
+        let at = [b.centroid[0] + cos * l[0] - sin * l[1], b.centroid[1] + sin * l[0] + cos * l[1]];
+        assert!((c.position[0] - at[0]).hypot(c.position[1] - at[1]) < tol, "corner at {:?}, its rotation puts it at {at:?} on {}", c.position, t.name());
     }
 }
 

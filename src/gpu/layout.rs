@@ -21,12 +21,15 @@ mod sealed {
 pub trait Real: sealed::Sealed + bytemuck::Pod + Default + PartialEq + std::fmt::Debug + Send + Sync + 'static {
     /// The WGSL type name.
     const WGSL: &'static str;
+    /// The precision it is.
+    const PRECISION: super::Precision;
     fn from_f64(x: f64) -> Self;
     fn to_f64(self) -> f64;
 }
 
 impl Real for f32 {
     const WGSL: &'static str = "f32";
+    const PRECISION: super::Precision = super::Precision::F32;
     fn from_f64(x: f64) -> Self {
         x as f32
     }
@@ -37,6 +40,7 @@ impl Real for f32 {
 
 impl Real for f64 {
     const WGSL: &'static str = "f64";
+    const PRECISION: super::Precision = super::Precision::F64;
     fn from_f64(x: f64) -> Self {
         x
     }
@@ -85,9 +89,10 @@ pub struct StructLayout {
 gpu_struct! {
     /// One rigid block: 120 bytes in f32, 224 in f64. The centroid is kept relative to the run's
     /// origin as a compensated pair (`cx + cx_lo`), so that small increments added to a large
-    /// coordinate are not lost in f32 (Kahan summation, law_of_motion.wgsl); so is the rotation
-    /// in f32 (`rotation + rotation_lo`: a block that spun to tens of radians in flight turns
-    /// by ulps of 1e-6 rad there, and its corners by R times that; 0 in f64).
+    /// coordinate are not lost in f32 (Kahan summation, law_of_motion.wgsl). In f32 the rotation
+    /// is the angle the corners are placed at, a multiple of `shaders::ROTATION_STEP`, plus the
+    /// turn since (`rotation_lo`), applied by the contact stage (`shaders::split_rotation`); in
+    /// f64 it is the rotation, and `rotation_lo` is 0.
     Block {
         cx: R, cy: R, cx_lo: R, cy_lo: R,
         rotation: R, rotation_lo: R, vx: R, vy: R, w: R,

@@ -42,7 +42,7 @@ pub fn list_blocks<R: Real>(blocks: &[Block<R>], reference: &[GridReference<R>],
             let r = &reference[b];
             let dx = (f(blk.cx) - f(r.x)) + (f(blk.cx_lo) - f(r.x_lo));
             let dy = (f(blk.cy) - f(r.y)) + (f(blk.cy_lo) - f(r.y_lo));
-            let moved = dx.hypot(dy) + (f(blk.rotation) - f(r.rotation)).abs() * f(r.reach);
+            let moved = dx.hypot(dy) + ((f(blk.rotation) - f(r.rotation)) + f(blk.rotation_lo)).abs() * f(r.reach);
             near = moved > f(lp.stray_limit) * (1.0 - LIST_SLACK) || (f(blk.update_margin) > 0.0 && f(blk.update_margin) >= f(r.margin));
         }
         if near {
@@ -321,7 +321,7 @@ impl<R: Real> Engine<R> {
                 let m = &mut model.blocks[b as usize];
                 let margin = R::from_f64(m.update_margin);
                 m.update_margin = margin.to_f64();
-                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, g.rotation, margin];
+                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, R::from_f64(g.rotation.to_f64() + g.rotation_lo.to_f64()), margin];
                 self.dev.queue.write_buffer(&self.buffers().blocks.buffer, b as u64 * size + offset, bytemuck::cast_slice(&fields));
             }
         }
@@ -386,17 +386,18 @@ impl<R: Real> Engine<R> {
                 first.push((s, e, at));
                 at += (e - s) as usize;
             }
-            for &k in blocks {
+            for (&k, record) in blocks.iter().zip(&records) {
                 let (centroid, s, count) = {
                     let blk = &model.blocks[k as usize];
                     (blk.centroid, blk.corner_start, blk.corner_count as usize)
                 };
+                let turn = record.rotation_lo.to_f64();
                 let start = s as usize;
                 let run = first.partition_point(|r| r.1 <= s);
                 let base = first[run].2 + (s - first[run].0) as usize;
                 for j in 0..count {
                     let next = if j + 1 == count { 0 } else { j + 1 };
-                    Self::convert_corner(&corners[base + j], &corners[base + next], centroid, &mut model.corners[start + j]);
+                    Self::convert_corner(&corners[base + j], &corners[base + next], centroid, turn, &mut model.corners[start + j]);
                 }
             }
             let mut at = 0usize;

@@ -138,7 +138,7 @@ impl<R: Real> Engine<R> {
         model_corners.par_iter_mut().enumerate().zip(corners.par_iter()).with_min_len(4096).for_each(|((i, m), g)| {
             let blk = &model_blocks[m.block as usize];
             let next = if i + 1 == (blk.corner_start + blk.corner_count) as usize { blk.corner_start as usize } else { i + 1 };
-            Self::convert_corner(g, &corners[next], blk.centroid, m);
+            Self::convert_corner(g, &corners[next], blk.centroid, blocks[m.block as usize].rotation_lo.to_f64(), m);
         });
     }
 
@@ -158,13 +158,23 @@ impl<R: Real> Engine<R> {
     }
 
     /// One corner of the device state into the model, its block's centroid already converted;
-    /// `next` is the block's next corner.
-    pub(super) fn convert_corner(g: &Corner<R>, next: &Corner<R>, centroid: [f64; 2], m: &mut crate::model::Corner) {
-        m.position = [centroid[0] + g.px.to_f64(), centroid[1] + g.py.to_f64()];
-        m.circle = [centroid[0] + g.ox.to_f64(), centroid[1] + g.oy.to_f64()];
+    /// `next` is the block's next corner, `turn` the block's turn since its corners were placed
+    /// (`Block::rotation_lo`, f32; 0 in f64), applied here in f64.
+    pub(super) fn convert_corner(g: &Corner<R>, next: &Corner<R>, centroid: [f64; 2], turn: f64, m: &mut crate::model::Corner) {
+        let (sin, cos) = if turn == 0.0 { (0.0, 1.0) } else { turn.sin_cos() };
+        let at = |x: R, y: R| {
+            let (x, y) = (x.to_f64(), y.to_f64());
+            if turn == 0.0 {
+                return [x, y];
+            }
+            [cos * x - sin * y, sin * x + cos * y]
+        };
+        let (p, o, q) = (at(g.px, g.py), at(g.ox, g.oy), at(next.px, next.py));
+        m.position = [centroid[0] + p[0], centroid[1] + p[1]];
+        m.circle = [centroid[0] + o[0], centroid[1] + o[1]];
         // The edge to the next corner of the block, measured as the contact stage measures it
         // (from the two corners relative to the centroid), in f64.
-        let e = [next.px.to_f64() - g.px.to_f64(), next.py.to_f64() - g.py.to_f64()];
+        let e = [q[0] - p[0], q[1] - p[1]];
         let len = e[0].hypot(e[1]);
         m.edge_dir = [e[0] / len, e[1] / len];
         m.edge_length = len;

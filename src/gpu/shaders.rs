@@ -90,6 +90,9 @@ pub fn kernel_names() -> impl Iterator<Item = &'static str> {
 /// by up to ulp(θ)/2 (7.6e-6 rad at θ = 200), a step in a spinning block's shape at every
 /// quarter turn. In f64 the two parts the kernels always had (the third is 0), so f64 runs are
 /// unchanged.
+///
+/// ROTATION_STEP (f32): the f32 kernels place a block's corners at a multiple of it and apply the
+/// turn since to second order (law_of_motion.wgsl, `circle_parts`); see `split_rotation`.
 pub fn prelude(precision: Precision) -> String {
     let (real, tie, region, exact_circle) = match precision {
         Precision::F32 => ("f32", "1e-5", "1e-5", true),
@@ -101,8 +104,26 @@ pub fn prelude(precision: Precision) -> String {
     };
     let materials = crate::model::MAX_MATERIALS;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\n"
     )
+}
+
+/// The step of the angles the f32 kernels place corners at, 2⁻¹² rad: small enough that the turn
+/// since, applied to second order, is exact to f32 round-off (R·δ³/6 < 3e-12 R), large enough that
+/// a block at rest or turning slowly keeps its corners for many steps, and a power of two so that
+/// every sum of steps is exact (to 4096 rad).
+pub const ROTATION_STEP: f64 = 1.0 / 4096.0;
+
+/// A rotation as the f32 kernels hold it: the angle the corners are placed at (a multiple of
+/// ROTATION_STEP, as an f32 holds it) and the turn since; in f64 the rotation itself and 0.
+pub fn split_rotation(theta: f64, precision: Precision) -> (f64, f64) {
+    match precision {
+        Precision::F32 => {
+            let placed = ((theta / ROTATION_STEP).round() * ROTATION_STEP) as f32 as f64;
+            (placed, theta - placed)
+        }
+        Precision::F64 => (theta, 0.0),
+    }
 }
 
 /// The full source of one kernel file in one precision.

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use super::kernels::{self, Buffers};
 use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Material, Params, Real};
+use super::shaders::split_rotation;
 use super::{r, shaders, splice, Engine, GpuError, Uploaded};
 
 impl<R: Real> Engine<R> {
@@ -75,14 +76,14 @@ impl<R: Real> Engine<R> {
                 let (hx, hy) = (r::<R>(x), r::<R>(y));
                 let (x0, y0) = (b.update_centroid[0] - origin[0], b.update_centroid[1] - origin[1]);
                 let (ux, uy) = (r::<R>(x0), r::<R>(y0));
-                let rotation = r::<R>(b.rotation);
+                let (placed, turn) = split_rotation(b.rotation, R::PRECISION);
                 Block {
                     cx: hx,
                     cy: hy,
                     cx_lo: r(x - hx.to_f64()),
                     cy_lo: r(y - hy.to_f64()),
-                    rotation,
-                    rotation_lo: r(b.rotation - rotation.to_f64()),
+                    rotation: r(placed),
+                    rotation_lo: r(turn),
                     vx: r(b.velocity[0]),
                     vy: r(b.velocity[1]),
                     w: r(b.angular_velocity),
@@ -115,7 +116,17 @@ impl<R: Real> Engine<R> {
             .par_iter()
             .with_min_len(4096)
             .map(|c| {
-                let cen = model.blocks[c.block as usize].centroid;
+                let blk = &model.blocks[c.block as usize];
+                let cen = blk.centroid;
+                // Placed at the block's placed angle (f32) or where the model has them (f64).
+                let (placed, turn) = split_rotation(blk.rotation, R::PRECISION);
+                let (p, o) = if turn == 0.0 && placed == blk.rotation {
+                    ([c.position[0] - cen[0], c.position[1] - cen[1]], [c.circle[0] - cen[0], c.circle[1] - cen[1]])
+                } else {
+                    let (sin, cos) = placed.sin_cos();
+                    let at = |x: [f64; 2]| [cos * x[0] - sin * x[1], sin * x[0] + cos * x[1]];
+                    (at(c.local), at(c.circle_local))
+                };
                 Corner {
                     lx: r(c.local[0]),
                     ly: r(c.local[1]),
@@ -123,10 +134,10 @@ impl<R: Real> Engine<R> {
                     qy: r(c.circle_local[1]),
                     radius: r(c.radius),
                     round: r(c.round),
-                    px: r(c.position[0] - cen[0]),
-                    py: r(c.position[1] - cen[1]),
-                    ox: r(c.circle[0] - cen[0]),
-                    oy: r(c.circle[1] - cen[1]),
+                    px: r(p[0]),
+                    py: r(p[1]),
+                    ox: r(o[0]),
+                    oy: r(o[1]),
                 }
             })
             .collect();
@@ -441,7 +452,7 @@ impl<R: Real> Engine<R> {
                     && (g.moved.to_f64() != 0.0
                         || g.update_cx != g.cx
                         || g.update_cy != g.cy
-                        || g.update_rotation != g.rotation
+                        || g.update_rotation != R::from_f64(g.rotation.to_f64() + g.rotation_lo.to_f64())
                         || g.update_margin != R::from_f64(m.update_margin))
             })
             .map(|(i, _)| i)
@@ -449,7 +460,8 @@ impl<R: Real> Engine<R> {
         let whole = reset.len() * 8 > self.last_blocks.len();
         for &i in &reset {
             let g = &mut self.last_blocks[i];
-            (g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation) = (R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, g.rotation);
+            let rotation = R::from_f64(g.rotation.to_f64() + g.rotation_lo.to_f64());
+            (g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation) = (R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, rotation);
             g.update_margin = R::from_f64(model.blocks[i].update_margin);
             if !whole {
                 let fields = [g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation, g.update_margin];
