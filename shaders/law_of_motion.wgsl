@@ -53,18 +53,19 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     blk.cy_lo = sy.y;
     // The rotation, in f32 (EXACT_CIRCLE), as the angle its corners are placed at, a multiple of
     // ROTATION_STEP, and the turn since (`rotation_lo`), which the contact stage applies to second
-    // order (`circle_parts`). The corners are placed again only when that turn passes a step (and
-    // are then off by exactly whole steps, the sums exact), so a block at rest keeps them: a
-    // rotation kept in one f32 dropped every turn below its ulp (1.9e-6 rad at θ = 20 rad) and
-    // moved the corners in steps of R × ulp(θ), and corners placed at every step moved in steps
-    // of their own ulp; either way the contact forces of a small or a spun block never settled.
-    // In f64 the corners follow the rotation every step, as on the CPU.
+    // order (`circle_parts`). The corners are placed again only when that turn passes half a step
+    // (the sums exact), so a block at rest keeps them, and the pair is the rotation rounded to the
+    // nearest step and the rest, as an upload splits it (`shaders::split_rotation`: a RESTART goes
+    // on bit for bit). A rotation kept in one f32 dropped every turn below its ulp (1.9e-6 rad
+    // at θ = 20 rad) and moved the corners in steps of R × ulp(θ), and corners placed at every
+    // step moved in steps of their own ulp; either way the contact forces of a small or a spun
+    // block never settled. In f64 the corners follow the rotation every step, as on the CPU.
     var place = true;
     if (EXACT_CIRCLE) {
         blk.rotation_lo += dtheta;
-        place = abs(blk.rotation_lo) > ROTATION_STEP;
+        place = abs(blk.rotation_lo) > 0.5 * ROTATION_STEP;
         if (place) {
-            // The sum is exact to 4096 rad; past that (ulp(θ) > ROTATION_STEP) the turn kept is
+            // The sum is exact to 4096 rad; past that (ulp(θ) > ROTATION_STEP) the turn left is
             // what the angle really moved by, so θ = rotation + rotation_lo holds at any angle
             // (both differences exact: Sterbenz; `one` keeps the compiler from taking
             // (a + t) − a for t, as in `two_sum`).

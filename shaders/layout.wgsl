@@ -5,8 +5,9 @@
 // other constants. Storage structs hold reals first and then an even number of u32 words, so both
 // precisions have the same field order and no padding.
 
-// 120 / 224 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo), and
-// the rotation as one too in f32 (rotation + rotation_lo; EXACT_CIRCLE, see the prelude);
+// 120 / 224 bytes. Centroid relative to the run's origin as a compensated pair (cx + cx_lo); in
+// f32 the rotation as the angle the corners are placed at plus the turn since (rotation +
+// rotation_lo; EXACT_CIRCLE, law_of_motion.wgsl), in f64 the rotation (rotation_lo 0);
 // `work`, `damping_work`: external work and mass-damping dissipation since the upload;
 // `moved` is the largest net displacement from the reference (update_*) of the last contact
 // update, due for the next one past etol + update_margin (the block's speed margin).

@@ -79,7 +79,8 @@ pub fn kernel_names() -> impl Iterator<Item = &'static str> {
 /// corner–edge after ~2800 cycles of tests/physics.rs's column and the touch counted twice.
 ///
 /// EXACT_CIRCLE (f32 only) has the contact stage measure a gap from the rounding circle's exact
-/// position (`circle_parts` in contact_forces.wgsl), below the ulp of the centroid distance: an
+/// position (`circle_parts` in contact_forces.wgsl), the blocks' turns since their corners were
+/// placed included (`split_rotation`), below the ulp of the centroid distance: an
 /// f32 ulp (1.2e-7 m at 1 m) is the overlap of a light block's weight, an f64 one is not. In f64
 /// the kernels keep to f64 positions, as a SAVE file does, so that a RESTART goes on bit for bit
 /// (the compensated centroid carries bits no f64 holds).
@@ -114,8 +115,9 @@ pub fn prelude(precision: Precision) -> String {
 /// every sum of steps is exact (to 4096 rad).
 pub const ROTATION_STEP: f64 = 1.0 / 4096.0;
 
-/// A rotation as the f32 kernels hold it: the angle the corners are placed at (a multiple of
-/// ROTATION_STEP, as an f32 holds it) and the turn since; in f64 the rotation itself and 0.
+/// A rotation as the f32 kernels hold it: the angle the corners are placed at (the nearest
+/// multiple of ROTATION_STEP, as an f32 holds it) and the turn since, which law_of_motion.wgsl
+/// keeps within half a step, so that it holds the pair this gives; in f64 the rotation and 0.
 pub fn split_rotation(theta: f64, precision: Precision) -> (f64, f64) {
     match precision {
         Precision::F32 => {
