@@ -111,6 +111,13 @@ gpu_struct! {
     }
 }
 
+impl<R: Real> Block<R> {
+    /// The block's rotation: the angle its corners are placed at plus the turn since.
+    pub fn whole_rotation(&self) -> f64 {
+        self.rotation.to_f64() + self.rotation_lo.to_f64()
+    }
+}
+
 gpu_struct! {
     /// One rounded corner: 40 bytes in f32, 80 in f64. `px, py` and `ox, oy` (corner and
     /// rounding-circle centre) are relative to the block's centroid, rotated: world = centroid + p.

@@ -321,7 +321,7 @@ impl<R: Real> Engine<R> {
                 let m = &mut model.blocks[b as usize];
                 let margin = R::from_f64(m.update_margin);
                 m.update_margin = margin.to_f64();
-                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, R::from_f64(g.rotation.to_f64() + g.rotation_lo.to_f64()), margin];
+                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, R::from_f64(g.whole_rotation()), margin];
                 self.dev.queue.write_buffer(&self.buffers().blocks.buffer, b as u64 * size + offset, bytemuck::cast_slice(&fields));
             }
         }

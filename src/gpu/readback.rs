@@ -145,7 +145,7 @@ impl<R: Real> Engine<R> {
     /// One block of the device state into the model (`damping_base`: its mass-damping base).
     pub(super) fn convert_block(g: &Block<R>, damping_base: f64, o: [f64; 2], m: &mut crate::model::Block) {
         m.centroid = [o[0] + (g.cx.to_f64() + g.cx_lo.to_f64()), o[1] + (g.cy.to_f64() + g.cy_lo.to_f64())];
-        m.rotation = g.rotation.to_f64() + g.rotation_lo.to_f64();
+        m.rotation = g.whole_rotation();
         m.velocity = [g.vx.to_f64(), g.vy.to_f64()];
         m.angular_velocity = g.w.to_f64();
         m.force = [g.fx.to_f64(), g.fy.to_f64()];

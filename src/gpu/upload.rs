@@ -452,7 +452,7 @@ impl<R: Real> Engine<R> {
                     && (g.moved.to_f64() != 0.0
                         || g.update_cx != g.cx
                         || g.update_cy != g.cy
-                        || g.update_rotation != R::from_f64(g.rotation.to_f64() + g.rotation_lo.to_f64())
+                        || g.update_rotation != R::from_f64(g.whole_rotation())
                         || g.update_margin != R::from_f64(m.update_margin))
             })
             .map(|(i, _)| i)
@@ -460,7 +460,7 @@ impl<R: Real> Engine<R> {
         let whole = reset.len() * 8 > self.last_blocks.len();
         for &i in &reset {
             let g = &mut self.last_blocks[i];
-            let rotation = R::from_f64(g.rotation.to_f64() + g.rotation_lo.to_f64());
+            let rotation = R::from_f64(g.whole_rotation());
             (g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation) = (R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, rotation);
             g.update_margin = R::from_f64(model.blocks[i].update_margin);
             if !whole {
