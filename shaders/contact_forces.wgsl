@@ -423,14 +423,11 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let g = track_feature(nb, circle, corner.radius);
     c.feature = g.feature;
     c.gap = g.gap + dot(parts[1], g.normal);
-    // The normal and point in the world, block 2's turn since its corners were placed applied
-    // (0 in f64).
-    let normal = g.normal + turned_by(g.normal, b2.rotation_lo);
-    let point = g.point + turned_by(g.point, b2.rotation_lo);
-    c.nx = normal.x;
-    c.ny = normal.y;
-    c.px = point.x;
-    c.py = point.y;
+    let world = in_world(g, b2);
+    c.nx = world.normal.x;
+    c.ny = world.normal.y;
+    c.px = world.point.x;
+    c.py = world.point.y;
     let counted = counts_force(c.corner, circle, corner.radius, nb, c.feature);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
@@ -494,6 +491,18 @@ fn turned_by(x: vec2<real>, delta: real) -> vec2<real> {
     return delta * vec2<real>(-x.y, x.x) - (0.5 * delta * delta) * x;
 }
 
+// A contact's geometry measured in the frame block 2's corners are placed in, with its normal and
+// point turned into the world by block 2's turn since (f32 only: in f64 the corners follow the
+// rotation every step and the geometry is the world's, so nothing is loaded or added).
+fn in_world(g: ContactGeometry, b2: Block) -> ContactGeometry {
+    var w = g;
+    if (EXACT_CIRCLE) {
+        w.normal += turned_by(g.normal, b2.rotation_lo);
+        w.point += turned_by(g.point, b2.rotation_lo);
+    }
+    return w;
+}
+
 // Stores what every cycle changes of contact k and the next cycle or a contact update reads (the
 // kernel stores the rest only when it changed). The point and normal are not stored: nothing on
 // the device reads them, and `contact_points` places them for a read-back.
@@ -535,10 +544,9 @@ fn contact_points(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     }
     let nb = neighbourhood(b2.corner_start, b2.corner_count, contacts[k].feature);
     let g = feature_geometry(nb, circle, corner.radius);
-    let normal = g.normal + turned_by(g.normal, b2.rotation_lo);
-    let point = g.point + turned_by(g.point, b2.rotation_lo);
-    contacts[k].px = point.x;
-    contacts[k].py = point.y;
-    contacts[k].nx = normal.x;
-    contacts[k].ny = normal.y;
+    let world = in_world(g, b2);
+    contacts[k].px = world.point.x;
+    contacts[k].py = world.point.y;
+    contacts[k].nx = world.normal.x;
+    contacts[k].ny = world.normal.y;
 }

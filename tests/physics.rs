@@ -181,6 +181,11 @@ fn turned(deck: &str, id: u32, theta: f64) -> Model {
     m
 }
 
+/// A CYCLE command alone, for an executor whose model a test set.
+fn cycle(n: u64) -> Vec<blockdem::deck::Located> {
+    blockdem::deck::parse_deck(&format!("START\nCYCLE {n}\n"), "cycle.dat").unwrap()[1..].to_vec()
+}
+
 fn a_block_that_has_spun_comes_to_rest_as_one_that_has_not(t: &Target) {
     // A 5 cm block on a fixed base under heavy mass damping, unturned and given the rotation of a
     // block that spun in flight (20 and 200 rad) before the run: each must settle alike, its
@@ -199,7 +204,6 @@ fn a_block_that_has_spun_comes_to_rest_as_one_that_has_not(t: &Target) {
         exec.model = turned(deck, 2, theta);
         let weight = exec.model.blocks[1].mass * 10.0;
         let (mut force_error, mut speed) = (0.0f64, 0.0f64);
-        let cycle = |n: u64| blockdem::deck::parse_deck(&format!("START\nCYCLE {n}\n"), "spun.dat").unwrap()[1..].to_vec();
         exec.run(&cycle(20000)).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
         for _ in 0..10 {
             exec.run(&cycle(50)).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
@@ -225,8 +229,7 @@ fn a_spinning_blocks_corners_follow_its_rotation(t: &Target) {
     let mut exec = blockdem::exec::Executor::new(t.backend(), Box::new(std::io::sink()), Default::default(), "spin.dat");
     exec.model = turned(deck, 1, theta0);
     let local: Vec<[f64; 2]> = exec.model.corners.iter().map(|c| c.local).collect();
-    let cycle = blockdem::deck::parse_deck("START\nCYCLE 2000\n", "spin.dat").unwrap()[1..].to_vec();
-    exec.run(&cycle).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    exec.run(&cycle(2000)).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
     let (m, tol) = (&exec.model, if t.is_f32() { 1e-6 } else { 1e-9 });
     let b = &m.blocks[0];
     let expected = theta0 + 40.0 * m.time;
