@@ -2,18 +2,24 @@
 // of its CSR adjacency list (entry = contact·2 + side), then gravity and load. Gathered, never
 // scattered, and no float atomics: a run repeats bit for bit. Twin of src/cpu/gather.rs.
 //
+// In a cycle the sums are taken by the invocation that moves the block, at the start of the next
+// cycle's law of motion (law_of_motion.wgsl, as the CPU's `block_piece` fuses stages 6, 1 and 2):
+// one dispatch and one pass over the blocks fewer, and the sums are never stored. The `gather`
+// kernel here stores them on the blocks for whoever reads them between cycles: a read-back, the
+// energy check (kinetic energy at time t), and, with `params.gather_fixed`, the fixed blocks
+// too (the cycle skips them: their force moves nothing).
+//
 // The contact stage has already put each contact's force and both moments into its compact
 // `ContactForce` slot, so a block reads 12 of 16 contiguous bytes per contact (in f32: the force
-// and its own side's moment) and never its neighbours. Fixed blocks are skipped in the cycle
-// (their force moves nothing); `params.gather_fixed` sums them too, in the pass before each
-// read-back.
+// and its own side's moment) and never its neighbours.
 //
 // A block with a long list (a base under a long wall carries tens of thousands of contacts) is
 // left to `gather_heavy`: one workgroup per such block, each invocation summing a strided share
 // and the shares added by a fixed binary tree, so its sum also repeats bit for bit (in another
 // order than the CPU's serial sum: the two agree to rounding). The CPU lists these blocks after
-// the offsets in `adj_offsets`, free ones first: a cycle dispatches only those (`params.n_heavy`;
-// a fixed base under a long wall is summed only in the pass before a read-back).
+// the offsets in `adj_offsets`, free ones first: a cycle dispatches only those (`params.n_heavy`),
+// before the law of motion, which then reads their stored sums; a fixed base under a long wall is
+// summed only in the pass before a read-back.
 
 // Force and moment on a block from one adjacency entry (contact·2 + side). Block 1 (side 0)
 // receives the contact force, block 2 its reaction (report ¶19); the side picks the moment, so
@@ -30,6 +36,21 @@ fn gathered(blk: Block) -> bool {
     return blk.fixed == 0u || params.gather_fixed != 0u;
 }
 
+// Whether block b's list is long enough for `gather_heavy` (its adjacency entries first .. end).
+fn is_heavy(first: u32, end: u32) -> bool {
+    return end - first > HEAVY_DEGREE;
+}
+
+// The force and moment on a block whose adjacency entries are first .. end: its contacts' in
+// list order, after gravity and its load.
+fn force_sum(blk: Block, first: u32, end: u32) -> vec3<real> {
+    var f = vec3<real>(blk.mass * params.gx + blk.load_x, blk.mass * params.gy + blk.load_y, 0.0);
+    for (var e = first; e < end; e += 1u) {
+        f += entry_force(adj_entries[e]);
+    }
+    return f;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);
@@ -39,13 +60,10 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     let blk = blocks[b];
     let first = adj_offsets[b];
     let end = adj_offsets[b + 1u];
-    if (!gathered(blk) || end - first > HEAVY_DEGREE) {
+    if (!gathered(blk) || is_heavy(first, end)) {
         return;
     }
-    var f = vec3<real>(blk.mass * params.gx + blk.load_x, blk.mass * params.gy + blk.load_y, 0.0);
-    for (var e = first; e < end; e += 1u) {
-        f += entry_force(adj_entries[e]);
-    }
+    let f = force_sum(blk, first, end);
     blocks[b].fx = f.x;
     blocks[b].fy = f.y;
     blocks[b].moment = f.z;

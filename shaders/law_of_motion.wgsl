@@ -1,10 +1,12 @@
 // Stage 1: the law of motion for rigid blocks (SL-85-1 eqs. 9–10), central differences with
 // mass-proportional Rayleigh damping (UDEC's CON1/CON2):
 //   v(t+Δt/2) = [v(t−Δt/2)·(1 − αΔt/2) + (ΣF/m)·Δt] / (1 + αΔt/2).
-// Twin of src/cpu/law_of_motion.rs. Also raises the flags the CPU checks after stage 1: a block
-// past the update tolerance, a non-finite step, a block too fast for the contact update; then
-// runs stage 2 for the block it moved (`geometry_update`, geometry_update.wgsl). A fixed block
-// neither moves nor turns: its corners stay as uploaded.
+// Twin of src/cpu/law_of_motion.rs. As on the CPU (`block_piece`), the invocation first sums the
+// block's forces from the last contact stage (stage 6, `force_sum`, gather.wgsl: a block with a
+// long list was summed by `gather_heavy` just before this dispatch); then moves it, raising the
+// flags the CPU checks after stage 1 (a block past the update tolerance, a non-finite step, a
+// block too fast for the contact update); then runs stage 2 for it (`geometry_update`,
+// geometry_update.wgsl). A fixed block neither moves nor turns: its corners stay as uploaded.
 
 // Energy the damping force −α·m·v takes in one step, from the velocities (vx, vy, ω) before (v0)
 // and after (v1): v⁺ − v⁻ = (F/m − α·v̄)Δt with v̄ = (v⁺ + v⁻)/2 gives ½m(v⁺² − v⁻²) = F·v̄Δt −
@@ -26,6 +28,20 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         blocks[b].vy = 0.0;
         blocks[b].w = 0.0;
         return;
+    }
+    // Stage 6 of the last cycle. The sums stay in this invocation: nothing reads a block's force
+    // in the cycle, and `gather` stores them before they are read between cycles.
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    if (is_heavy(first, end)) {
+        blk.fx = blocks[b].fx;
+        blk.fy = blocks[b].fy;
+        blk.moment = blocks[b].moment;
+    } else {
+        let f = force_sum(blk, first, end);
+        blk.fx = f.x;
+        blk.fy = f.y;
+        blk.moment = f.z;
     }
     let dt = params.dt;
     let con1 = 1.0 - 0.5 * params.alpha * dt;
@@ -81,7 +97,11 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     // Net displacement since the last contact update, kept at its largest (report ¶26).
     let ux = (blk.cx - blk.update_cx) + (blk.cx_lo - blk.update_cx_lo);
     let uy = (blk.cy - blk.update_cy) + (blk.cy_lo - blk.update_cy_lo);
-    let net = sqrt(ux * ux + uy * uy) + abs((blk.rotation - blk.update_rotation) + blk.rotation_lo) * blk.radius;
+    var turned = blk.rotation - blk.update_rotation;
+    if (EXACT_CIRCLE) {
+        turned += blk.rotation_lo;
+    }
+    let net = sqrt(ux * ux + uy * uy) + abs(turned) * blk.radius;
     blk.moved = max(blk.moved, net);
     let fx = blk.mass * params.gx + blk.load_x;
     let fy = blk.mass * params.gy + blk.load_y;

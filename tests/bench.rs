@@ -206,7 +206,12 @@ fn profiling_between_runs_leaves_the_next_run_unchanged() {
     let mut split = model0.clone();
     gpu.run(&mut split, 100, &mut |_| true).unwrap();
     let profile = gpu.profile_stages(20).unwrap();
-    assert!(!profile.stages.is_empty());
+    // A cycle is at most three dispatches: the block pass (stage 6 of the last cycle, then 1 and
+    // 2), the contact stage and the bookkeeping; no block has a list long enough for
+    // `gather_heavy`, and the falling block has not yet come near the base (no contact stage).
+    let labels: Vec<&str> = profile.stages.iter().map(|s| s.0).collect();
+    assert!(split.contacts.is_empty());
+    assert_eq!(labels, ["law_of_motion", "end_cycle"]);
     gpu.run(&mut split, 100, &mut |_| true).unwrap();
     let mut straight = model0.clone();
     blockdem::gpu::GpuBackend::new(&options).unwrap().run(&mut straight, 200, &mut |_| true).unwrap();
@@ -218,5 +223,32 @@ fn profiling_between_runs_leaves_the_next_run_unchanged() {
             assert!((a.centroid[i] - b.centroid[i]).abs() < 1e-5, "{:?} vs {:?}", a.centroid, b.centroid);
             assert!((a.velocity[i] - b.velocity[i]).abs() < 1e-4, "{:?} vs {:?}", a.velocity, b.velocity);
         }
+    }
+}
+
+/// A free block with more contacts than one invocation sums (`HEAVY_DEGREE`) is summed by
+/// `gather_heavy`, dispatched before the block pass that reads its sum; a fixed one is not
+/// summed in a cycle at all (physics.rs checks the forces both ways).
+#[test]
+fn a_cycle_dispatches_gather_heavy_only_for_free_heavy_blocks() {
+    use blockdem::backend::Backend;
+    let Some(Target::Gpu(options)) = Target::gpu("vulkan", blockdem::gpu::Precision::F32) else {
+        return;
+    };
+    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 40,1 40,0\nBLOCK 0,1 0,1.5 40,1.5 40,1\n");
+    for i in 0..40 {
+        let (x0, x1) = (i as f64 + 0.1, i as f64 + 0.9);
+        deck += &format!("BLOCK {x0},1.5 {x0},2.3 {x1},2.3 {x1},1.5\n");
+    }
+    for (fix, want) in [
+        ("FIX 0 40 0 0.9", vec!["gather_heavy", "law_of_motion", "contact_forces", "end_cycle"]),
+        ("FIX 0 40 0 1.4", vec!["law_of_motion", "contact_forces", "end_cycle"]),
+    ] {
+        let model0 = blockdem::scenes::run_deck_on(&format!("{deck}{fix}\nGRAV 0 -10\nCYCLE 0\n"), Target::Cpu.backend()).unwrap();
+        let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
+        let mut m = model0.clone();
+        gpu.run(&mut m, 10, &mut |_| true).unwrap();
+        let labels: Vec<&str> = gpu.profile_stages(1).unwrap().stages.iter().map(|s| s.0).collect();
+        assert_eq!(labels, want, "{fix}");
     }
 }

@@ -1,7 +1,9 @@
 //! Batches of cycles on the device with no round trip inside one: the dispatches of a cycle
-//! (`law_of_motion`, `contact_forces`, `gather`, `end_cycle`) over grids that follow the live
-//! counts, encoded ten cycles a submission; then the flags (and, when asked, the state) read back
-//! in one round trip. The energy check's sums are taken on the device too (`energy_sums.wgsl`).
+//! (`law_of_motion`, which sums the block forces of the last cycle first, `contact_forces`,
+//! `end_cycle`; `gather_heavy` first where a free block has a long list) over grids that follow
+//! the live counts, encoded ten cycles a submission; then the flags (and, when asked, the state)
+//! read back in one round trip. The energy check's sums are taken on the device too
+//! (`energy_sums.wgsl`).
 
 use crate::model::Model;
 
@@ -26,22 +28,26 @@ pub(crate) struct Dispatch<'a> {
 pub(super) const CYCLES_PER_SUBMIT: u64 = 10;
 
 impl<R: Real> Engine<R> {
-    /// The dispatches of one cycle over the live counts (stage 6 alone with `gather_only`).
-    /// Stages with nothing to do are left out.
+    /// The dispatches of one cycle over the live counts; with `gather_only`, stage 6 alone, its
+    /// sums stored on the blocks (fixed ones too). Stages with nothing to do are left out.
+    ///
+    /// A cycle runs stage 6 of the last cycle inside `law_of_motion`, as the CPU does (one pass
+    /// over the blocks, the sums never stored), after `gather_heavy` has summed and stored the
+    /// long lists of free blocks.
     pub(crate) fn stages(&self, gather_only: bool) -> Vec<Dispatch<'_>> {
         let p = &self.pipelines;
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
         let cycle = |label, pipeline, g: Grid| Dispatch { label, pipeline, bind_group: bg, grid: self.grid(g, gather_only), indirect: Some(g) };
-        let mut stages = Vec::with_capacity(6);
-        if !gather_only {
-            stages.push(cycle("law_of_motion", &p.law_of_motion, Grid::Blocks));
-            stages.push(cycle("contact_forces", &p.contact_forces, Grid::Contacts));
+        let mut stages = Vec::with_capacity(4);
+        if gather_only {
+            stages.push(cycle("gather", &p.gather, Grid::Blocks));
         }
-        stages.push(cycle("gather", &p.gather, Grid::Blocks));
         if self.heavy_blocks(gather_only) > 0 {
             stages.push(cycle("gather_heavy", &p.gather_heavy, Grid::HeavyBlocks));
         }
         if !gather_only {
+            stages.push(cycle("law_of_motion", &p.law_of_motion, Grid::Blocks));
+            stages.push(cycle("contact_forces", &p.contact_forces, Grid::Contacts));
             let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
             stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
         }
@@ -190,11 +196,14 @@ impl<R: Real> Engine<R> {
     }
 
     /// The energy check's sums on the device: (kinetic, strain, external work) of the state now,
-    /// the per-workgroup sums read back and added in order in f64.
+    /// the per-workgroup sums read back and added in order in f64. The kinetic energy at time t
+    /// takes half a step of the forces the contact stage left, which the cycle has not summed
+    /// yet: a gather pass stores them first.
     pub(super) fn energy_sums(&self) -> Result<(f64, f64, f64), GpuError> {
         let Some(b) = self.buffers.as_ref() else {
             return Err(GpuError::Setup("no state on the device: run some cycles first".into()));
         };
+        self.submit_batch(1, true)?;
         let bg = self.bind_group.as_ref().expect("bind group built on upload");
         let (x, y) = kernels::energy_grid(self.counts.0, self.counts.2);
         let groups = (x * y) as usize;

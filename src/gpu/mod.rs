@@ -24,9 +24,12 @@
 //!
 //! The model is uploaded once; then the GPU runs batches of cycles with no round trip inside a
 //! batch: one compute pass per ten cycles, each cycle the dispatches `law_of_motion` (whose
-//! invocations also run stage 2, `geometry_update`, for the block they moved), `contact_forces`,
-//! `gather` (and `gather_heavy` where a free block has more than `HEAVY_DEGREE` contacts),
-//! `end_cycle`, over two-dimensional grids that follow the live counts of blocks and contacts.
+//! invocations, as the CPU's block pass, first sum the forces the last contact stage left on
+//! their block, stage 6, and after moving it run stage 2, `geometry_update`), `contact_forces`
+//! and `end_cycle` (`gather_heavy` first where a free block has more than `HEAVY_DEGREE`
+//! contacts), over two-dimensional grids that follow the live counts of blocks and contacts.
+//! The `gather` kernel stores the sums on the blocks where they are read between cycles (a
+//! read-back, the energy check).
 //! Kernels raise flags (a block past the update tolerance, a non-finite step, a block too fast,
 //! an overlap too great); `end_cycle` then halts the rest of the
 //! batch, so the CPU sees exactly the state of the cycle that raised it, as the CPU backend would.

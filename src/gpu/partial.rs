@@ -351,7 +351,6 @@ impl<R: Real> Engine<R> {
             self.splice_contacts(model, adjacency, &edit, &patches)?;
         }
         self.write_params(model);
-        self.run_batch(1, true)?;
         Ok(PartialUpdate::Updated(expected))
     }
 

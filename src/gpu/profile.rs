@@ -51,19 +51,17 @@ pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usiz
     let params = std::mem::size_of::<Params<R>>() as u64;
     let flags = std::mem::size_of::<Flags>() as u64;
     vec![
-        // Each block read whole and its 11 changed fields stored (velocities, centroid pairs,
-        // rotation, update distance, works); with stage 2, each of its corners read whole and
-        // its placed corner and circle centre (4 fields) stored.
-        StageBytes { stage: "law_of_motion", read: b * nb + c * nc + params, written: 11 * r * nb + 4 * r * nc },
+        // With stage 6 first: each block read whole, its adjacency list (offsets, two entries per
+        // contact) and each contact's gather record (read by both its blocks, so fetched twice
+        // unless cached). Its 11 changed fields stored (velocities, centroid pairs, rotation,
+        // update distance, works; the force sums are not); with stage 2, each of its corners
+        // read whole and its placed corner and circle centre (4 fields) stored.
+        StageBytes { stage: "law_of_motion", read: b * nb + u * (nb + 1) + u * 2 * nk + f * nk + c * nc + params, written: 11 * r * nb + 4 * r * nc },
         // Each contact read whole, the 4 state fields every cycle changes stored (gap, normal and
         // shear force, shear displacement; the rest only on the rare cycle it changes) and its
         // gather record stored; both blocks, block 1's corner and block 2's corners read (every
         // corner and block once); the material table.
         StageBytes { stage: "contact_forces", read: k * nk + c * nc + b * nb + m * nm + params, written: 4 * r * nk + f * nk },
-        // Each block read, its force and moment stored; the adjacency lists (offsets, two
-        // entries per contact) and each contact's gather record (read by both its blocks, so
-        // fetched twice unless cached).
-        StageBytes { stage: "gather", read: b * nb + u * (nb + 1) + u * 2 * nk + f * nk + params, written: 3 * r * nb },
         StageBytes { stage: "end_cycle", read: flags, written: flags },
     ]
 }

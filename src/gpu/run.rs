@@ -152,9 +152,11 @@ impl<R: Real> Engine<R> {
         let mut report = CycleReport::default();
         let mut adjacency = std::mem::take(&mut self.adjacency);
         // As on the CPU: a full detection first (the executor may have changed the model), then
-        // the force sums the first step needs; unless the model is the very state the last run
-        // left (CYCLE after CYCLE), which the device still holds with its contacts, its force
-        // sums and the f32 digits the model does not keep: then the run goes on from there.
+        // the upload, read back so that the model holds what the device holds (its reals, the
+        // force sums); unless the model is the very state the last run left (CYCLE after CYCLE),
+        // which the device still holds with its contacts and the f32 digits the model does not
+        // keep: then the run goes on from there. (The first cycle sums the forces it moves by
+        // itself, as every cycle does: nothing else is summed after an upload or an update.)
         let resume = std::mem::take(&mut self.resumable) && self.buffers.is_some() && *model == self.last_good;
         if resume {
             self.write_params(model);
@@ -163,7 +165,6 @@ impl<R: Real> Engine<R> {
             self.list_in_order = true;
             self.upload_all(model, &adjacency).map_err(device_error)?;
             self.write_params(model);
-            self.run_batch(1, true).map_err(device_error)?;
             self.readback(model).map_err(device_error)?;
         }
         let mut energy_check = cpu::EnergyCheck::new(model);
@@ -264,7 +265,6 @@ impl<R: Real> Engine<R> {
                         self.upload_all(model, &adjacency).map_err(device_error)?;
                         self.list_in_order = false;
                         self.write_params(model);
-                        self.run_batch(1, true).map_err(device_error)?;
                     }
                     // After a packed read the update may go on only if the splice will follow
                     // it, which needs the list in order (the whole upload would send stale
@@ -301,7 +301,6 @@ impl<R: Real> Engine<R> {
                         }
                         .map_err(device_error)?;
                         self.write_params(model);
-                        self.run_batch(1, true).map_err(device_error)?;
                     }
                 }
                 if at_check {

@@ -39,10 +39,20 @@ pub const LAYOUT: &str = include_str!("../../shaders/layout.wgsl");
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The kernel files of the cycle, one per stage, each named like its CPU twin in `src/cpu/`;
-/// they share the bindings of common.wgsl (one bind group serves them all). Stage 2
-/// (`shaders/geometry_update.wgsl`, no entry point of its own) is run by stage 1's invocations.
+/// they share the bindings of common.wgsl (one bind group serves them all). As on the CPU, stage
+/// 1's invocations run stage 6 of the last cycle before it (`force_sum`, gather.wgsl) and stage 2
+/// after it (`shaders/geometry_update.wgsl`, no entry point of its own).
 pub const KERNELS: &[(&str, &str)] = &[
-    ("law_of_motion", concat!(include_str!("../../shaders/geometry_update.wgsl"), "\n", include_str!("../../shaders/law_of_motion.wgsl"))),
+    (
+        "law_of_motion",
+        concat!(
+            include_str!("../../shaders/gather.wgsl"),
+            "\n",
+            include_str!("../../shaders/geometry_update.wgsl"),
+            "\n",
+            include_str!("../../shaders/law_of_motion.wgsl")
+        ),
+    ),
     ("contact_forces", include_str!("../../shaders/contact_forces.wgsl")),
     ("gather", include_str!("../../shaders/gather.wgsl")),
     ("end_cycle", include_str!("../../shaders/end_cycle.wgsl")),
