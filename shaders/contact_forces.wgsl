@@ -351,14 +351,18 @@ fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, nb: N
     if (feature % 2u == 0u) {
         return own_corner < nb.start + k;
     }
-    // Edge k runs from corner k to corner j = k+1: j−1 → j, or j → j+1.
-    var ck = nb.m;
-    var cj = nb.c;
-    var j = nb.j;
-    if (k == nb.j) {
-        ck = nb.c;
-        cj = nb.p;
-        j = nb.jp;
+    // Edge k runs from corner k to corner j = k+1: j → j+1, or j−1 → j. Corner j−1's circle
+    // matters only here and only for edge j−1 (a contact on an arc that now finds the edge
+    // before it nearer, a rare cycle): loaded then, so that other contacts do not load it (a
+    // software adapter loads each field of each lane on its own, in a branch only when a lane of
+    // its SIMD slice takes it).
+    var ck = nb.c;
+    var cj = nb.p;
+    var j = nb.jp;
+    if (k != nb.j) {
+        ck = corner_view(nb.start + nb.jm);
+        cj = nb.c;
+        j = nb.j;
     }
     let rk = own_circle - ck.circle;
     let rj = own_circle - cj.circle;
