@@ -85,8 +85,8 @@ impl<R: Real> Engine<R> {
     }
 
     /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) with no round trip; returns the
-    /// flags. With `gather_only`, runs stage 6 alone over every block, fixed ones too (the force
-    /// sums after a topology change, and before a read-back). Each submission holds one compute
+    /// flags. With `gather_only`, runs stage 6 alone over every block, fixed ones too, and stores
+    /// the sums (before a read-back or the energy check). Each submission holds one compute
     /// pass of `CYCLES_PER_SUBMIT` cycles (wgpu orders the dispatches inside it), with a debug
     /// group per stage so that tools and errors name it.
     pub(super) fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
