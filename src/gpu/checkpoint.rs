@@ -108,7 +108,9 @@ impl<R: Real> Engine<R> {
     }
 
     /// Puts the device checkpoint's state into `model` (the CPU copy taken at that checkpoint),
-    /// and sums the fixed blocks' forces, which the cycle does not keep up to date.
+    /// and sums the fixed blocks' forces on the CPU. (The checkpoint is copied after the energy
+    /// check's gather pass, which stores every block's sums, fixed ones too; summing them here
+    /// keeps a restore right whatever pass ran before the copy: the cycle itself stores none.)
     pub(super) fn restore_checkpoint(&self, model: &mut Model) -> Result<(), GpuError> {
         let Some(ck) = self.checkpoint.as_ref().filter(|c| c.valid) else { return Ok(()) };
         if let Some(identities) = &self.last_good_contacts {
