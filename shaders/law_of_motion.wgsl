@@ -30,7 +30,8 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         return;
     }
     // Stage 6 of the last cycle. The sums stay in this invocation: nothing reads a block's force
-    // in the cycle, and `gather` stores them before they are read between cycles.
+    // in the cycle, and `gather` stores them before they are read between cycles. A heavy
+    // block's stored sums are read in its own (rare) branch, so that the others do not load them.
     let first = adj_offsets[b];
     let end = adj_offsets[b + 1u];
     if (is_heavy(first, end)) {
