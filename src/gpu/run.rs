@@ -101,6 +101,16 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
     }
 }
 
+/// How the state came back for stage 7: `cracking`, the scene has point-load candidates (the
+/// state is read whole every cycle); `packed`, contacts are read as summaries, for a splice;
+/// `state_read`, the batch brought the state back with its flags (`run_batch_with_state`).
+#[derive(Clone, Copy)]
+struct Stage7Read {
+    cracking: bool,
+    packed: bool,
+    state_read: bool,
+}
+
 impl<R: Real> Engine<R> {
     /// The CPU backend's error for the flags raised, from the read-back state (same priority as
     /// the CPU's checks within a cycle: non-finite, too fast, overlap).
@@ -136,6 +146,101 @@ impl<R: Real> Engine<R> {
             x: c.point[0],
             y: c.point[1],
         }
+    }
+
+    /// Stage 7 between batches on the state read back (whole, or packed for a splice): the
+    /// cracking check where the scene has point-load candidates (on every block's forces, read
+    /// whole), then the contact update, and what it changed sent to the device (the splice of
+    /// its edit, or the whole list). Returns the cycles until the next update is expected when
+    /// the contacts were updated (None: no update was due after all).
+    fn stage7_on_read_back(
+        &mut self,
+        model: &mut Model,
+        adjacency: &mut Adjacency,
+        report: &mut CycleReport,
+        read: Stage7Read,
+    ) -> Result<Option<Option<u64>>, CycleError> {
+        let Stage7Read { cracking, packed, state_read } = read;
+        // Stage 7 on the CPU, on the read-back state: cracking, then contact updates. The cracking
+        // criterion reads every block's forces, fixed ones too.
+        if cracking {
+            self.readback(model).map_err(device_error)?;
+        } else if !state_read {
+            self.read_live_state(model, packed).map_err(device_error)?;
+        }
+        // The model's state is read back only when the CPU needs it (here, the next stage 7, an
+        // error, the end of the run): after a change the device holds it.
+        if cracking && cpu::crack_step(model, adjacency, report) {
+            *adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+            if let Some(dt) = model.critical_timestep() {
+                if dt < model.timestep {
+                    model.timestep = dt;
+                    report.timestep_changes.push((model.cycle, dt));
+                }
+            }
+            self.upload_all(model, adjacency).map_err(device_error)?;
+            self.list_in_order = false;
+            self.write_params(model);
+        }
+        // After a packed read the update may go on only if the splice will follow it, which needs
+        // the list in order (the whole upload would send stale fields): otherwise the contacts are
+        // read whole first (the device has not moved since).
+        let splice_follows = self.splice && self.list_in_order;
+        if packed && !splice_follows && cpu::topology_update_due(model) {
+            self.read_live_state(model, false).map_err(device_error)?;
+        }
+        if cpu::maybe_update_topology(model, adjacency, report, false) {
+            self.list_in_order = true;
+            let expected = cycles_to_next_update(model);
+            self.upload_reset_distances(model);
+            let edit = adjacency.take_edit().filter(|e| splice_follows && e.old_len as usize == self.counts.2);
+            match edit {
+                _ if model.contacts.is_empty() => self.upload_contacts(model, adjacency),
+                Some(edit) => {
+                    // Every kept contact was read: each is patched, and takes its bases from the
+                    // model.
+                    let mut created = edit.inserted_at.iter().peekable();
+                    let patches: Vec<[u32; 2]> = (0..model.contacts.len() as u32)
+                        .filter(|&i| created.next_if_eq(&&i).is_none())
+                        .map(|i| [i, model.contacts[i as usize].feature])
+                        .collect();
+                    self.edit_contact_list(model, &edit, None);
+                    self.splice_contacts(model, adjacency, &edit, &patches)
+                }
+                None if packed && splice_follows => {
+                    return Err(CycleError::Setup("GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()))
+                }
+                None => self.upload_contacts(model, adjacency),
+            }
+            .map_err(device_error)?;
+            self.write_params(model);
+            return Ok(Some(expected));
+        }
+        Ok(None)
+    }
+
+    /// The last good state after a passed energy check: the device's copy of the state
+    /// (`take_checkpoint`), and on the CPU the model it belongs to, re-taken only where the
+    /// topology changed since `generation` (the contact list and blocks' generations): the
+    /// contacts' identities when only the contacts changed, the whole model when blocks did.
+    fn take_checkpoint_of(&mut self, model: &Model, last_good: &mut Model, generation: &mut (u64, u64)) {
+        self.take_checkpoint();
+        let now = (self.generation, self.block_generation);
+        if *generation != now {
+            let _p = crate::profile::scope(crate::profile::Stage::Checks);
+            if generation.1 == now.1 {
+                last_good.clone_settings_from(model);
+                let identities = self.last_good_contacts.get_or_insert_with(Vec::new);
+                model.contacts.par_iter().map(ContactIdentity::of).collect_into_vec(identities);
+            } else {
+                last_good.clone_from(model);
+                self.last_good_contacts = None;
+            }
+            *generation = now;
+        }
+        last_good.cycle = model.cycle;
+        last_good.time = model.time;
+        last_good.timestep = model.timestep;
     }
 
     pub(super) fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
@@ -245,62 +350,9 @@ impl<R: Real> Engine<R> {
                     }
                 }
                 if !handled && (cracking || flags.update_due != 0) {
-                    // Stage 7 on the CPU, on the read-back state: cracking, then contact updates.
-                    // The cracking criterion reads every block's forces, fixed ones too.
-                    if cracking {
-                        self.readback(model).map_err(device_error)?;
-                    } else if !state_read {
-                        self.read_live_state(model, packed).map_err(device_error)?;
-                    }
-                    // The model's state is read back only when the CPU needs it (here, the next
-                    // stage 7, an error, the end of the run): after a change the device holds it.
-                    if cracking && cpu::crack_step(model, &adjacency, &mut report) {
-                        adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
-                        if let Some(dt) = model.critical_timestep() {
-                            if dt < model.timestep {
-                                model.timestep = dt;
-                                report.timestep_changes.push((model.cycle, dt));
-                            }
-                        }
-                        self.upload_all(model, &adjacency).map_err(device_error)?;
-                        self.list_in_order = false;
-                        self.write_params(model);
-                    }
-                    // After a packed read the update may go on only if the splice will follow
-                    // it, which needs the list in order (the whole upload would send stale
-                    // fields): otherwise the contacts are read whole first (the device has not
-                    // moved since).
-                    let splice_follows = self.splice && self.list_in_order;
-                    if packed && !splice_follows && cpu::topology_update_due(model) {
-                        self.read_live_state(model, false).map_err(device_error)?;
-                    }
-                    if cpu::maybe_update_topology(model, &mut adjacency, &mut report, false) {
-                        self.list_in_order = true;
-                        expected_update = cycles_to_next_update(model);
-                        self.upload_reset_distances(model);
-                        let edit = adjacency.take_edit().filter(|e| splice_follows && e.old_len as usize == self.counts.2);
-                        match edit {
-                            _ if model.contacts.is_empty() => self.upload_contacts(model, &adjacency),
-                            Some(edit) => {
-                                // Every kept contact was read: each is patched, and takes its
-                                // bases from the model.
-                                let mut created = edit.inserted_at.iter().peekable();
-                                let patches: Vec<[u32; 2]> = (0..model.contacts.len() as u32)
-                                    .filter(|&i| created.next_if_eq(&&i).is_none())
-                                    .map(|i| [i, model.contacts[i as usize].feature])
-                                    .collect();
-                                self.edit_contact_list(model, &edit, None);
-                                self.splice_contacts(model, &adjacency, &edit, &patches)
-                            }
-                            None if packed && splice_follows => {
-                                return Err(CycleError::Setup(
-                                    "GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into(),
-                                ))
-                            }
-                            None => self.upload_contacts(model, &adjacency),
-                        }
-                        .map_err(device_error)?;
-                        self.write_params(model);
+                    let read = Stage7Read { cracking, packed, state_read };
+                    if let Some(expected) = self.stage7_on_read_back(model, &mut adjacency, &mut report, read)? {
+                        expected_update = expected;
                     }
                 }
                 if at_check {
@@ -324,23 +376,7 @@ impl<R: Real> Engine<R> {
                         crate::profile::mark_cycles_end();
                         self.readback(model).map_err(device_error)?;
                     } else {
-                        self.take_checkpoint();
-                        let now = (self.generation, self.block_generation);
-                        if last_good_generation != now {
-                            let _p = crate::profile::scope(crate::profile::Stage::Checks);
-                            if last_good_generation.1 == now.1 {
-                                last_good.clone_settings_from(model);
-                                let identities = self.last_good_contacts.get_or_insert_with(Vec::new);
-                                model.contacts.par_iter().map(ContactIdentity::of).collect_into_vec(identities);
-                            } else {
-                                last_good.clone_from(model);
-                                self.last_good_contacts = None;
-                            }
-                            last_good_generation = now;
-                        }
-                        last_good.cycle = model.cycle;
-                        last_good.time = model.time;
-                        last_good.timestep = model.timestep;
+                        self.take_checkpoint_of(model, &mut last_good, &mut last_good_generation);
                     }
                     if !go_on {
                         break;
