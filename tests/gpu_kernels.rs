@@ -7,6 +7,8 @@
 //! - `contact_force_law`: the force–displacement law (eqs. 13–20) with the energy it books
 //!   (slip work, dashpot work and the dashpot velocities it carries to the next step);
 //! - `mass_damping_work`: the energy the mass-proportional damping takes in a step (law_of_motion);
+//! - `force_sum`: stage 6, a block's sum of its contacts' gather records (run by law_of_motion and
+//!   gather), against the CPU's gather on the contacts' points and forces;
 //! - `sin_cos`: the rotation of the geometry update, with + − × only;
 //! - `splice_contacts`: the contact list built on the device after a contact update, and
 //!   `pack_contacts`, the summaries of the contacts a contact update reads back;
@@ -25,7 +27,7 @@ mod common;
 use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
 use blockdem::gpu::layout::{
     Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
-    Material as GMaterial, Real,
+    Material as GMaterial, Params as GParams, Real,
 };
 use blockdem::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
@@ -496,6 +498,112 @@ fn mass_damping_work_matches_rust<R: Real>(dev: &GpuDevice) {
     }
 }
 
+const FORCE_SUM: &str = r#"
+@group(0) @binding(21) var<storage, read_write> s_out: array<real>;
+
+@compute @workgroup_size(64)
+fn test_force_sum(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let b = gid.x;
+    if (b >= arrayLength(&s_out) / 3u) {
+        return;
+    }
+    let f = force_sum(blocks[b], adj_offsets[b], adj_offsets[b + 1u]);
+    s_out[3u * b] = f.x;
+    s_out[3u * b + 1u] = f.y;
+    s_out[3u * b + 2u] = f.z;
+}
+"#;
+
+/// Stage 6 on the device against the CPU's: the blocks and contacts of a small wall, with
+/// random masses, loads, contact points and forces. The device sums the gather records the
+/// contact stage writes (the force on block 1 and each side's moment about its own centroid,
+/// made here from the contacts as `contact_forces.wgsl` makes them: points relative to block
+/// 2's centroid), the CPU the contacts' points and forces; both in adjacency order. f64: the
+/// same sums to rounding (the moments are formed before the sum on the device, inside it on the
+/// CPU: a few ulps of the terms' magnitudes). f32: records and block fields rounded to f32, each
+/// of the n + 1 additions off by 2⁻²⁴ of the running magnitude, so 1e-6 × (n + 2) of the sum of
+/// the terms' magnitudes bounds it.
+fn force_sum_matches_rust<R: Real>(dev: &GpuDevice) {
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK -1,-1 -1,0 9,0 9,-1\n");
+    for row in 0..6 {
+        let shift = if row % 2 == 0 { 0.0 } else { 0.5 };
+        for i in 0..8 {
+            let (x0, y0) = (i as f64 + shift, row as f64 * 0.5);
+            deck += &format!("BLOCK {x0},{y0} {x0},{} {},{} {},{y0}\n", y0 + 0.5, x0 + 1.0, y0 + 0.5, x0 + 1.0);
+        }
+    }
+    deck += "FIX -1 9 -1 -0.1\nGRAV 0 -10\nCYCLE 1\n";
+    let mut model = blockdem::scenes::run_deck_on(&deck, Target::Cpu.backend()).unwrap();
+    assert!(model.contacts.len() > 100, "{} contacts", model.contacts.len());
+    let mut rng = Rng(0x5eed_0000_0000_0009);
+    for b in &mut model.blocks {
+        b.mass = q::<R>(10f64.powf(rng.range(1.0, 4.0)));
+        b.load = [q::<R>(rng.range(-1e3, 1e3)), q::<R>(rng.range(-1e3, 1e3))];
+    }
+    let gravity = [q::<R>(rng.range(-1.0, 1.0)), q::<R>(-10.0)];
+    let centroids: Vec<[f64; 2]> = model.blocks.iter().map(|b| b.centroid).collect();
+    let mut records = Vec::new();
+    for c in &mut model.contacts {
+        let c2 = centroids[c.block2 as usize];
+        let c1 = centroids[c.block1 as usize];
+        // A point within a metre of block 2's centroid, as the device holds it (relative to it,
+        // rounded), and a force of up to 1e5 N.
+        let rel = [q::<R>(rng.range(-1.0, 1.0)), q::<R>(rng.range(-1.0, 1.0))];
+        c.point = [c2[0] + rel[0], c2[1] + rel[1]];
+        c.force = [q::<R>(rng.range(-1e5, 1e5)), q::<R>(rng.range(-1e5, 1e5))];
+        let f = c.force;
+        let r1 = [rel[0] - (c1[0] - c2[0]), rel[1] - (c1[1] - c2[1])];
+        records.push(GForce::<R> {
+            fx: R::from_f64(f[0]),
+            fy: R::from_f64(f[1]),
+            m: [R::from_f64(r1[0] * f[1] - r1[1] * f[0]), R::from_f64(rel[1] * f[0] - rel[0] * f[1])],
+        });
+    }
+    let adjacency = blockdem::topology::Adjacency::build(model.blocks.len(), &model.contacts);
+    let forces: Vec<blockdem::cpu::gather::ContactForce> = model.contacts.iter().map(Into::into).collect();
+    let gblocks: Vec<GBlock<R>> = model
+        .blocks
+        .iter()
+        .map(|b| GBlock::<R> { mass: R::from_f64(b.mass), load_x: R::from_f64(b.load[0]), load_y: R::from_f64(b.load[1]), ..bytemuck::Zeroable::zeroed() })
+        .collect();
+    let params = GParams::<R> { gx: R::from_f64(gravity[0]), gy: R::from_f64(gravity[1]), one: 1, ..bytemuck::Zeroable::zeroed() };
+    let nb = model.blocks.len();
+    let out = run_kernel(
+        dev,
+        "gather",
+        FORCE_SUM,
+        "test_force_sum",
+        nb,
+        &[
+            (0, bytemuck::bytes_of(&params).to_vec(), false),
+            (1, bytemuck::cast_slice(&gblocks).to_vec(), false),
+            (5, bytemuck::cast_slice(&adjacency.offsets).to_vec(), false),
+            (6, bytemuck::cast_slice(&adjacency.entries).to_vec(), false),
+            (8, bytemuck::cast_slice(&records).to_vec(), false),
+            (21, vec![0; 3 * nb * std::mem::size_of::<R>()], true),
+        ],
+    );
+    let got = back::<R>(&out[0]);
+    for (b, block) in model.blocks.iter_mut().enumerate() {
+        blockdem::cpu::gather::gather(b, block, &forces, &adjacency, gravity);
+        let entries = adjacency.entries(b);
+        // The magnitudes summed: weight and load, then each contact's force and moment.
+        let base = (block.mass * gravity[0]).abs() + block.load[0].abs() + (block.mass * gravity[1]).abs() + block.load[1].abs();
+        let scale = base
+            + entries
+                .iter()
+                .map(|&e| records[(e >> 1) as usize])
+                .map(|r| r.fx.to_f64().abs() + r.fy.to_f64().abs() + r.m[0].to_f64().abs() + r.m[1].to_f64().abs())
+                .sum::<f64>();
+        let tol = if f32_kernel { 1e-6 * (entries.len() as f64 + 2.0) } else { 1e-14 } * scale;
+        let want = [block.force[0], block.force[1], block.moment];
+        for i in 0..3 {
+            assert!((got[3 * b + i] - want[i]).abs() <= tol, "block {b} ({} entries), component {i}: {:e} vs {:e}", entries.len(), got[3 * b + i], want[i]);
+        }
+    }
+}
+
 const TWO_SUM: &str = r#"
 @group(0) @binding(20) var<storage, read> t_in: array<real>;
 @group(0) @binding(21) var<storage, read_write> t_out: array<real>;
@@ -913,6 +1021,7 @@ on_adapters!(
     track_feature_and_counts_force => track_feature_matches_rust,
     contact_force_law => contact_force_law_matches_rust,
     mass_damping_work => mass_damping_work_matches_rust,
+    force_sum => force_sum_matches_rust,
     sin_cos => sin_cos_matches_rust,
     two_sum => two_sum_is_exact,
     splice => splice_contacts_matches_rust,
