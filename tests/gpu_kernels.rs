@@ -639,8 +639,6 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_000a);
     let ForceScene { mut model, adjacency, forces, records, gravity } = force_scene::<R>(&mut rng);
     let (dt, alpha) = (q::<R>(1e-4), q::<R>(rng.range(0.0, 50.0)));
-    // (placed angle, turn since) of each block as the device holds them.
-    let mut turns = Vec::new();
     for (i, b) in model.blocks.iter_mut().enumerate() {
         b.fixed |= i % 13 == 5;
         b.centroid = [q::<R>(b.centroid[0]), q::<R>(b.centroid[1])];
@@ -648,10 +646,9 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
         b.angular_velocity = q::<R>(rng.range(-20.0, 20.0));
         b.inertia = q::<R>(b.mass * 10f64.powf(rng.range(-2.0, 0.0)));
         b.radius = q::<R>(b.radius);
+        // An angle the device holds exactly: the placed angle and the turn since, each a real.
         let (placed, turn) = split_rotation(rng.range(-100.0, 100.0), precision);
-        let (placed, turn) = (q::<R>(placed), q::<R>(turn));
-        turns.push((placed, turn));
-        b.rotation = placed + turn;
+        b.rotation = q::<R>(placed) + q::<R>(turn);
         b.update_rotation = q::<R>(b.rotation + rng.range(-0.01, 0.01));
         b.update_centroid = [q::<R>(b.centroid[0] + rng.range(-0.01, 0.01)), q::<R>(b.centroid[1] + rng.range(-0.01, 0.01))];
         b.moved_since_update = q::<R>(rng.range(0.0, 0.01));
@@ -662,59 +659,18 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
         c.local = [q::<R>(c.local[0]), q::<R>(c.local[1])];
         c.circle_local = [q::<R>(c.circle_local[0]), q::<R>(c.circle_local[1])];
     }
+    // The corners where the blocks' rotations put them, then both as an upload converts them.
+    for b in 0..model.blocks.len() {
+        let (start, count) = (model.blocks[b].corner_start as usize, model.blocks[b].corner_count as usize);
+        blockdem::cpu::geometry_update::geometry_update(&model.blocks[b], &mut model.corners[start..start + count]);
+    }
+    let gblocks: Vec<GBlock<R>> = model.blocks.iter().map(|b| GBlock::<R>::from_model(b, [0.0, 0.0])).collect();
+    let gcorners: Vec<GCorner<R>> = model.corners.iter().map(|c| GCorner::<R>::from_model(&model.blocks, c)).collect();
     let r = R::from_f64;
     let turned = |x: [f64; 2], a: f64| {
         let (s, c) = a.sin_cos();
         [c * x[0] - s * x[1], s * x[0] + c * x[1]]
     };
-    let gblocks: Vec<GBlock<R>> = model
-        .blocks
-        .iter()
-        .zip(&turns)
-        .map(|(b, &(placed, turn))| GBlock::<R> {
-            cx: r(b.centroid[0]),
-            cy: r(b.centroid[1]),
-            rotation: r(placed),
-            rotation_lo: r(turn),
-            vx: r(b.velocity[0]),
-            vy: r(b.velocity[1]),
-            w: r(b.angular_velocity),
-            mass: r(b.mass),
-            inertia: r(b.inertia),
-            load_x: r(b.load[0]),
-            load_y: r(b.load[1]),
-            radius: r(b.radius),
-            moved: r(b.moved_since_update),
-            update_cx: r(b.update_centroid[0]),
-            update_cy: r(b.update_centroid[1]),
-            update_rotation: r(b.update_rotation),
-            update_margin: r(b.update_margin),
-            fixed: b.fixed as u32,
-            corner_start: b.corner_start,
-            corner_count: b.corner_count,
-            ..bytemuck::Zeroable::zeroed()
-        })
-        .collect();
-    let gcorners: Vec<GCorner<R>> = model
-        .corners
-        .iter()
-        .map(|c| {
-            let placed = turns[c.block as usize].0;
-            let (p, o) = (turned(c.local, placed), turned(c.circle_local, placed));
-            GCorner::<R> {
-                lx: r(c.local[0]),
-                ly: r(c.local[1]),
-                qx: r(c.circle_local[0]),
-                qy: r(c.circle_local[1]),
-                radius: r(c.radius),
-                round: r(c.round),
-                px: r(p[0]),
-                py: r(p[1]),
-                ox: r(o[0]),
-                oy: r(o[1]),
-            }
-        })
-        .collect();
     let params = GParams::<R> {
         dt: r(dt),
         alpha: r(alpha),

@@ -67,80 +67,8 @@ impl<R: Real> Engine<R> {
         // The contact bases are set by `upload_contacts`, which follows.
         let uploaded =
             Uploaded { origin, work_base: model.external_work, damping_base: model.blocks.iter().map(|b| b.damping_work).collect(), contact_base: Vec::new() };
-        let blocks: Vec<Block<R>> = model
-            .blocks
-            .par_iter()
-            .with_min_len(4096)
-            .map(|b| {
-                let (x, y) = (b.centroid[0] - origin[0], b.centroid[1] - origin[1]);
-                let (hx, hy) = (r::<R>(x), r::<R>(y));
-                let (x0, y0) = (b.update_centroid[0] - origin[0], b.update_centroid[1] - origin[1]);
-                let (ux, uy) = (r::<R>(x0), r::<R>(y0));
-                let (placed, turn) = split_rotation(b.rotation, R::PRECISION);
-                Block {
-                    cx: hx,
-                    cy: hy,
-                    cx_lo: r(x - hx.to_f64()),
-                    cy_lo: r(y - hy.to_f64()),
-                    rotation: r(placed),
-                    rotation_lo: r(turn),
-                    vx: r(b.velocity[0]),
-                    vy: r(b.velocity[1]),
-                    w: r(b.angular_velocity),
-                    fx: r(b.force[0]),
-                    fy: r(b.force[1]),
-                    moment: r(b.moment),
-                    mass: r(b.mass),
-                    inertia: r(b.inertia),
-                    load_x: r(b.load[0]),
-                    load_y: r(b.load[1]),
-                    radius: r(b.radius),
-                    work: R::default(),
-                    damping_work: R::default(),
-                    moved: r(b.moved_since_update),
-                    update_cx: ux,
-                    update_cy: uy,
-                    update_cx_lo: r(x0 - ux.to_f64()),
-                    update_cy_lo: r(y0 - uy.to_f64()),
-                    update_rotation: r(b.update_rotation),
-                    update_margin: r(b.update_margin),
-                    fixed: b.fixed as u32,
-                    corner_start: b.corner_start,
-                    corner_count: b.corner_count,
-                    _pad: 0,
-                }
-            })
-            .collect();
-        let corners: Vec<Corner<R>> = model
-            .corners
-            .par_iter()
-            .with_min_len(4096)
-            .map(|c| {
-                let blk = &model.blocks[c.block as usize];
-                let cen = blk.centroid;
-                // Placed at the block's placed angle (f32) or where the model has them (f64).
-                let (placed, turn) = split_rotation(blk.rotation, R::PRECISION);
-                let (p, o) = if turn == 0.0 && placed == blk.rotation {
-                    ([c.position[0] - cen[0], c.position[1] - cen[1]], [c.circle[0] - cen[0], c.circle[1] - cen[1]])
-                } else {
-                    let (sin, cos) = placed.sin_cos();
-                    let at = |x: [f64; 2]| [cos * x[0] - sin * x[1], sin * x[0] + cos * x[1]];
-                    (at(c.local), at(c.circle_local))
-                };
-                Corner {
-                    lx: r(c.local[0]),
-                    ly: r(c.local[1]),
-                    qx: r(c.circle_local[0]),
-                    qy: r(c.circle_local[1]),
-                    radius: r(c.radius),
-                    round: r(c.round),
-                    px: r(p[0]),
-                    py: r(p[1]),
-                    ox: r(o[0]),
-                    oy: r(o[1]),
-                }
-            })
-            .collect();
+        let blocks: Vec<Block<R>> = model.blocks.par_iter().with_min_len(4096).map(|b| Block::from_model(b, origin)).collect();
+        let corners: Vec<Corner<R>> = model.corners.par_iter().with_min_len(4096).map(|c| Corner::from_model(&model.blocks, c)).collect();
         let mut materials = vec![Material::<R>::default(); MAX_MATERIALS];
         for (g, m) in materials.iter_mut().zip(&model.materials) {
             *g = Material { kn: r(m.kn), ks: r(m.ks), cohesion: r(m.cohesion), friction: r(m.friction) };
@@ -470,6 +398,80 @@ impl<R: Real> Engine<R> {
         }
         if whole {
             self.dev.queue.write_buffer(&self.buffers().blocks.buffer, 0, bytemuck::cast_slice(&self.last_blocks));
+        }
+    }
+}
+
+impl<R: Real> Block<R> {
+    /// A model block as the device holds it: the centroid (and the update reference) relative to
+    /// the run's `origin` as compensated pairs, the rotation split as the kernels keep it
+    /// (`split_rotation`), the step's work accumulators from zero.
+    pub fn from_model(b: &crate::model::Block, origin: [f64; 2]) -> Self {
+        let (x, y) = (b.centroid[0] - origin[0], b.centroid[1] - origin[1]);
+        let (hx, hy) = (r::<R>(x), r::<R>(y));
+        let (x0, y0) = (b.update_centroid[0] - origin[0], b.update_centroid[1] - origin[1]);
+        let (ux, uy) = (r::<R>(x0), r::<R>(y0));
+        let (placed, turn) = split_rotation(b.rotation, R::PRECISION);
+        Block {
+            cx: hx,
+            cy: hy,
+            cx_lo: r(x - hx.to_f64()),
+            cy_lo: r(y - hy.to_f64()),
+            rotation: r(placed),
+            rotation_lo: r(turn),
+            vx: r(b.velocity[0]),
+            vy: r(b.velocity[1]),
+            w: r(b.angular_velocity),
+            fx: r(b.force[0]),
+            fy: r(b.force[1]),
+            moment: r(b.moment),
+            mass: r(b.mass),
+            inertia: r(b.inertia),
+            load_x: r(b.load[0]),
+            load_y: r(b.load[1]),
+            radius: r(b.radius),
+            work: R::default(),
+            damping_work: R::default(),
+            moved: r(b.moved_since_update),
+            update_cx: ux,
+            update_cy: uy,
+            update_cx_lo: r(x0 - ux.to_f64()),
+            update_cy_lo: r(y0 - uy.to_f64()),
+            update_rotation: r(b.update_rotation),
+            update_margin: r(b.update_margin),
+            fixed: b.fixed as u32,
+            corner_start: b.corner_start,
+            corner_count: b.corner_count,
+            _pad: 0,
+        }
+    }
+}
+
+impl<R: Real> Corner<R> {
+    /// A model corner as the device holds it, relative to its block's centroid: placed at the
+    /// block's placed angle (f32) or where the model has it (f64).
+    pub fn from_model(blocks: &[crate::model::Block], c: &crate::model::Corner) -> Self {
+        let blk = &blocks[c.block as usize];
+        let cen = blk.centroid;
+        let (placed, turn) = split_rotation(blk.rotation, R::PRECISION);
+        let (p, o) = if turn == 0.0 && placed == blk.rotation {
+            ([c.position[0] - cen[0], c.position[1] - cen[1]], [c.circle[0] - cen[0], c.circle[1] - cen[1]])
+        } else {
+            let (sin, cos) = placed.sin_cos();
+            let at = |x: [f64; 2]| [cos * x[0] - sin * x[1], sin * x[0] + cos * x[1]];
+            (at(c.local), at(c.circle_local))
+        };
+        Corner {
+            lx: r(c.local[0]),
+            ly: r(c.local[1]),
+            qx: r(c.circle_local[0]),
+            qy: r(c.circle_local[1]),
+            radius: r(c.radius),
+            round: r(c.round),
+            px: r(p[0]),
+            py: r(p[1]),
+            ox: r(o[0]),
+            oy: r(o[1]),
         }
     }
 }
