@@ -398,45 +398,37 @@ impl Clone for Model {
     }
 }
 
+/// Names the model's fields besides its three long lists for `$apply!(args; fields)`: the one list
+/// of them that `PartialEq` and `clone_settings_from` take, each destructuring the model
+/// exhaustively with it, so that a new field is a compile error until it is named here.
+macro_rules! with_settings {
+    ($apply:ident!($($args:tt)*)) => {
+        $apply!($($args)*; materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired)
+    };
+}
+
+/// `a == b` for two models: the settings, then the long lists (`lists_equal`).
+macro_rules! models_equal {
+    ($a:expr, $b:expr; $($field:ident),*) => {{
+        let Model { blocks, corners, contacts, $($field),* } = $a;
+        $($field == &$b.$field &&)* lists_equal(blocks, &$b.blocks) && lists_equal(corners, &$b.corners) && lists_equal(contacts, &$b.contacts)
+    }};
+}
+
+/// `dst.field.clone_from(&src.field)` for every setting.
+macro_rules! clone_settings {
+    ($dst:expr, $src:expr; $($field:ident),*) => {{
+        let Model { blocks: _, corners: _, contacts: _, $($field),* } = $src;
+        $($dst.$field.clone_from($field);)*
+    }};
+}
+
 impl PartialEq for Model {
     /// Field by field, the long lists on rayon's threads: a run that may go on from the last
     /// (CYCLE after CYCLE) compares the model with the state the last run left, 1.7 GB at 10⁶
     /// blocks (~0.1 s on one core).
     fn eq(&self, other: &Self) -> bool {
-        let Model {
-            blocks,
-            corners,
-            contacts,
-            materials,
-            links,
-            gravity,
-            damping,
-            frac,
-            tol,
-            timestep,
-            cycle,
-            time,
-            next_block_id,
-            next_contact_id,
-            external_work,
-            retired,
-        } = self;
-        materials == &other.materials
-            && links == &other.links
-            && gravity == &other.gravity
-            && damping == &other.damping
-            && frac == &other.frac
-            && tol == &other.tol
-            && timestep == &other.timestep
-            && cycle == &other.cycle
-            && time == &other.time
-            && next_block_id == &other.next_block_id
-            && next_contact_id == &other.next_contact_id
-            && external_work == &other.external_work
-            && retired == &other.retired
-            && lists_equal(blocks, &other.blocks)
-            && lists_equal(corners, &other.corners)
-            && lists_equal(contacts, &other.contacts)
+        with_settings!(models_equal!(self, other))
     }
 }
 
@@ -491,37 +483,7 @@ impl Model {
     /// backend's device checkpoint, and its own copy of the contacts' identities), refreshed
     /// after contact updates (a whole copy of the lists takes 90 ms at 10⁶ blocks here).
     pub fn clone_settings_from(&mut self, source: &Self) {
-        let Model {
-            blocks: _,
-            corners: _,
-            contacts: _,
-            materials,
-            links,
-            gravity,
-            damping,
-            frac,
-            tol,
-            timestep,
-            cycle,
-            time,
-            next_block_id,
-            next_contact_id,
-            external_work,
-            retired,
-        } = source;
-        self.materials.clone_from(materials);
-        self.links.clone_from(links);
-        self.gravity = *gravity;
-        self.damping = *damping;
-        self.frac = *frac;
-        self.tol = *tol;
-        self.timestep = *timestep;
-        self.cycle = *cycle;
-        self.time = *time;
-        self.next_block_id = *next_block_id;
-        self.next_contact_id = *next_contact_id;
-        self.external_work = *external_work;
-        self.retired = *retired;
+        with_settings!(clone_settings!(self, source));
     }
 }
 
