@@ -685,7 +685,7 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
         one: 1,
         ..bytemuck::Zeroable::zeroed()
     };
-    let flags = [0u32, 0, 0, 0, u32::MAX, u32::MAX, u32::MAX, 0];
+    let flags = blockdem::gpu::layout::Flags::cleared();
     let nb = model.blocks.len();
     let out = run_kernel(
         dev,
@@ -699,7 +699,7 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
             (2, bytemuck::cast_slice(&gcorners).to_vec(), true),
             (5, bytemuck::cast_slice(&adjacency.offsets).to_vec(), false),
             (6, bytemuck::cast_slice(&adjacency.entries).to_vec(), false),
-            (7, bytemuck::cast_slice(&flags).to_vec(), false),
+            (7, bytemuck::bytes_of(&flags).to_vec(), false),
             (8, bytemuck::cast_slice(&records).to_vec(), false),
         ],
     );
