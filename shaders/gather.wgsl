@@ -5,9 +5,9 @@
 // In a cycle the sums are taken by the invocation that moves the block, at the start of the next
 // cycle's law of motion (law_of_motion.wgsl, as the CPU's `block_piece` fuses stages 6, 1 and 2):
 // one dispatch and one pass over the blocks fewer, and the sums are never stored. The `gather`
-// kernel here stores them on the blocks for whoever reads them between cycles: a read-back, the
-// energy check (kinetic energy at time t), and, with `params.gather_fixed`, the fixed blocks
-// too (the cycle skips them: their force moves nothing).
+// kernel here stores them on the blocks for whoever reads them between cycles (a read-back, the
+// energy check: kinetic energy at time t), fixed blocks' too, which the cycle skips (their force
+// moves nothing, but it is printed, and a fixed base can carry a whole wall's contacts).
 //
 // The contact stage has already put each contact's force and both moments into its compact
 // `ContactForce` slot, so a block reads 12 of 16 contiguous bytes per contact (in f32: the force
@@ -29,11 +29,6 @@ fn entry_force(entry: u32) -> vec3<real> {
     let side = entry & 1u;
     let sign = select(real(1.0), real(-1.0), side == 1u);
     return vec3<real>(sign * contact_forces_out[k].fx, sign * contact_forces_out[k].fy, contact_forces_out[k].m[side]);
-}
-
-// Whether block b's forces are summed in this pass.
-fn gathered(blk: Block) -> bool {
-    return blk.fixed == 0u || params.gather_fixed != 0u;
 }
 
 // Whether block b's list is long enough for `gather_heavy` (its adjacency entries first .. end).
@@ -60,7 +55,7 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     let blk = blocks[b];
     let first = adj_offsets[b];
     let end = adj_offsets[b + 1u];
-    if (!gathered(blk) || is_heavy(first, end)) {
+    if (is_heavy(first, end)) {
         return;
     }
     let f = force_sum(blk, first, end);
@@ -78,12 +73,8 @@ fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
     let listed = h < params.n_heavy;
     var b = 0u;
     var f = vec3<real>(0.0, 0.0, 0.0);
-    var take = false;
     if (listed) {
         b = adj_offsets[params.n_blocks + 1u + h];
-        take = gathered(blocks[b]);
-    }
-    if (take) {
         for (var e = adj_offsets[b] + li; e < adj_offsets[b + 1u]; e += HEAVY_WORKGROUP_SIZE) {
             f += entry_force(adj_entries[e]);
         }
@@ -96,7 +87,7 @@ fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
         }
         workgroupBarrier();
     }
-    if (take && li == 0u) {
+    if (listed && li == 0u) {
         let blk = blocks[b];
         let t = shares[0] + vec3<real>(blk.mass * params.gx + blk.load_x, blk.mass * params.gy + blk.load_y, 0.0);
         blocks[b].fx = t.x;

@@ -58,16 +58,14 @@ struct Material { kn: real, ks: real, cohesion: real, friction: real }
 // 12 / 24 bytes: one workgroup's share of the energy check (energy_check.wgsl).
 struct EnergySum { kinetic: real, strain: real, work: real }
 
-// 64 / 96 bytes.
+// 56 / 88 bytes.
 struct Params {
     dt: real, alpha: real, beta: real, gx: real, gy: real,
     etol: real, fast_limit: real, overlap_limit: real,
     n_blocks: u32, n_corners: u32, n_contacts: u32,
     one: u32, // always 1 (see two_sum)
-    gather_fixed: u32, // 1: the gather also sums fixed blocks (before a read-back)
     n_heavy: u32, // blocks summed by gather_heavy, listed in adj_offsets after the offsets
     dashpots: u32, // 1: contact dashpots live (beta > 0 or velocities left to book); 0: untouched
-    _pad: u32,
 }
 
 // 32 / 64 bytes. Where a block stood when stage 7's broad-phase grid was built (the grid's

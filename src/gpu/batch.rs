@@ -76,11 +76,10 @@ impl<R: Real> Engine<R> {
         }
     }
 
-    /// The run constants that differ between a cycle and the gather-only pass before a
-    /// read-back (queued; the pass's dispatches follow).
+    /// The run constant that differs between a cycle and a gather-only pass: how many heavy
+    /// blocks `gather_heavy` sums, the free ones or all (queued; the pass's dispatches follow).
     pub(crate) fn write_pass_params(&self, gather_only: bool) {
         let (b, q) = (self.buffers(), &self.dev.queue);
-        q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, gather_fixed) as u64, bytemuck::bytes_of(&(gather_only as u32)));
         q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, n_heavy) as u64, bytemuck::bytes_of(&(self.heavy_blocks(gather_only) as u32)));
     }
 

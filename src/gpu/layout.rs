@@ -184,7 +184,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// Run constants and live counts (a uniform): 64 bytes in f32, 96 in f64.
+    /// Run constants and live counts (a uniform): 56 bytes in f32, 88 in f64.
     Params {
         dt: R, alpha: R, beta: R, gx: R, gy: R,
         /// The contact update tolerance.
@@ -196,16 +196,12 @@ gpu_struct! {
         n_blocks: u32, n_corners: u32, n_contacts: u32,
         /// Always 1: a one whose value the shader compiler cannot see, for `two_sum`.
         one: u32,
-        /// 1: the gather also sums the forces of fixed blocks (before a read-back; their forces
-        /// are printed but move nothing, and a fixed base can carry a whole wall's contacts).
-        gather_fixed: u32,
         /// Blocks `gather_heavy` sums in this pass (long contact lists), listed after the CSR
         /// offsets: the free ones in a cycle, fixed ones too in the pass before a read-back.
         n_heavy: u32,
         /// 1: the contacts' dashpots are live (β > 0, or velocities of an earlier run's dashpots
         /// still to be booked); 0: the contact stage neither reads nor writes dashpot fields.
         dashpots: u32,
-        _pad: u32,
     }
 }
 

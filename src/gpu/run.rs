@@ -151,15 +151,16 @@ impl<R: Real> Engine<R> {
     /// Stage 7 between batches on the state read back (whole, or packed for a splice): the
     /// cracking check where the scene has point-load candidates (on every block's forces, read
     /// whole), then the contact update, and what it changed sent to the device (the splice of
-    /// its edit, or the whole list). Returns the cycles until the next update is expected when
-    /// the contacts were updated (None: no update was due after all).
+    /// its edit, or the whole list). When the contacts were updated, `expected_update` takes the
+    /// cycles until the next update is expected.
     fn stage7_on_read_back(
         &mut self,
         model: &mut Model,
         adjacency: &mut Adjacency,
         report: &mut CycleReport,
         read: Stage7Read,
-    ) -> Result<Option<Option<u64>>, CycleError> {
+        expected_update: &mut Option<u64>,
+    ) -> Result<(), CycleError> {
         let Stage7Read { cracking, packed, state_read } = read;
         // Stage 7 on the CPU, on the read-back state: cracking, then contact updates. The cracking
         // criterion reads every block's forces, fixed ones too.
@@ -191,7 +192,7 @@ impl<R: Real> Engine<R> {
         }
         if cpu::maybe_update_topology(model, adjacency, report, false) {
             self.list_in_order = true;
-            let expected = cycles_to_next_update(model);
+            *expected_update = cycles_to_next_update(model);
             self.upload_reset_distances(model);
             let edit = adjacency.take_edit().filter(|e| splice_follows && e.old_len as usize == self.counts.2);
             match edit {
@@ -214,9 +215,8 @@ impl<R: Real> Engine<R> {
             }
             .map_err(device_error)?;
             self.write_params(model);
-            return Ok(Some(expected));
         }
-        Ok(None)
+        Ok(())
     }
 
     /// The last good state after a passed energy check: the device's copy of the state
@@ -351,9 +351,7 @@ impl<R: Real> Engine<R> {
                 }
                 if !handled && (cracking || flags.update_due != 0) {
                     let read = Stage7Read { cracking, packed, state_read };
-                    if let Some(expected) = self.stage7_on_read_back(model, &mut adjacency, &mut report, read)? {
-                        expected_update = expected;
-                    }
+                    self.stage7_on_read_back(model, &mut adjacency, &mut report, read, &mut expected_update)?;
                 }
                 if at_check {
                     // The energy check on device sums; the state stays on the device.

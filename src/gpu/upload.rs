@@ -351,10 +351,8 @@ impl<R: Real> Engine<R> {
             n_corners: self.counts.1 as u32,
             n_contacts: self.counts.2 as u32,
             one: 1,
-            gather_fixed: 0,
             n_heavy: self.heavy_blocks(false) as u32,
             dashpots: (model.damping.beta > 0.0 || self.dashpots_pending) as u32,
-            _pad: 0,
         };
         self.dev.queue.write_buffer(&self.buffers().params, 0, bytemuck::bytes_of(&params));
     }
