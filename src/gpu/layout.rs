@@ -116,7 +116,39 @@ impl<R: Real> Block<R> {
     pub fn whole_rotation(&self) -> f64 {
         self.rotation.to_f64() + self.rotation_lo.to_f64()
     }
+
+    /// Byte offset of the fields a contact update resets ([`Block::update_reset`]).
+    pub const UPDATE_RESET_OFFSET: usize = std::mem::offset_of!(Block<R>, moved);
+
+    /// What a contact update writes over the seven fields from `moved` on, in their order: the
+    /// distance moved since the update back to 0, the reference where the block is now (report
+    /// ¶26: the next update is due when it has moved past the tolerance from here) and its new
+    /// speed margin. The one definition for the host's copy and the device's few bytes.
+    pub fn update_reset(&self, margin: R) -> [R; 7] {
+        [R::default(), self.cx, self.cy, self.cx_lo, self.cy_lo, R::from_f64(self.whole_rotation()), margin]
+    }
+
+    /// The fields of [`Block::update_reset`] as they are.
+    pub fn update_fields(&self) -> [R; 7] {
+        [self.moved, self.update_cx, self.update_cy, self.update_cx_lo, self.update_cy_lo, self.update_rotation, self.update_margin]
+    }
+
+    /// Sets the fields of [`Block::update_reset`] to `fields`.
+    pub fn set_update_reset(&mut self, fields: [R; 7]) {
+        [self.moved, self.update_cx, self.update_cy, self.update_cx_lo, self.update_cy_lo, self.update_rotation, self.update_margin] = fields;
+    }
 }
+
+// The reset is written to the device as one run of seven reals from `moved`.
+const _: () = {
+    use std::mem::offset_of;
+    let r = std::mem::size_of::<f32>();
+    assert!(offset_of!(Block<f32>, update_margin) == offset_of!(Block<f32>, moved) + 6 * r);
+    assert!(offset_of!(Block<f32>, update_cx) == offset_of!(Block<f32>, moved) + r);
+    assert!(offset_of!(Block<f32>, update_rotation) == offset_of!(Block<f32>, moved) + 5 * r);
+    let r = std::mem::size_of::<f64>();
+    assert!(offset_of!(Block<f64>, update_margin) == offset_of!(Block<f64>, moved) + 6 * r);
+};
 
 gpu_struct! {
     /// One rounded corner: 40 bytes in f32, 80 in f64. `px, py` and `ox, oy` (corner and

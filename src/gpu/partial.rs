@@ -311,8 +311,6 @@ impl<R: Real> Engine<R> {
             // where they are now and their new speed margin (the model keeps it as the device
             // does, rounded to its precision, as a read-back would give it).
             let _p = crate::profile::scope(crate::profile::Stage::Upload);
-            let size = std::mem::size_of::<Block<R>>() as u64;
-            let offset = std::mem::offset_of!(Block<R>, moved) as u64;
             for &b in &flagged {
                 let Ok(i) = listed.binary_search(&b) else {
                     return Err(GpuError::Device(format!("GPU: block {b} was re-examined but not listed (a bug; run with BLOCKDEM_PARTIAL_READS=0)")));
@@ -321,8 +319,7 @@ impl<R: Real> Engine<R> {
                 let m = &mut model.blocks[b as usize];
                 let margin = R::from_f64(m.update_margin);
                 m.update_margin = margin.to_f64();
-                let fields = [R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, R::from_f64(g.whole_rotation()), margin];
-                self.dev.queue.write_buffer(&self.buffers().blocks.buffer, b as u64 * size + offset, bytemuck::cast_slice(&fields));
+                self.write_update_reset(b as usize, &g.update_reset(margin));
             }
         }
         // The next update expected: the device's figure for the blocks not listed, the CPU's for

@@ -357,6 +357,12 @@ impl<R: Real> Engine<R> {
         self.dev.queue.write_buffer(&self.buffers().params, 0, bytemuck::bytes_of(&params));
     }
 
+    /// Writes a contact update's reset of block `b` (`Block::update_reset`) to the device.
+    pub(super) fn write_update_reset(&self, b: usize, fields: &[R; 7]) {
+        let at = (b * std::mem::size_of::<Block<R>>() + Block::<R>::UPDATE_RESET_OFFSET) as u64;
+        self.dev.queue.write_buffer(&self.buffers().blocks.buffer, at, bytemuck::cast_slice(fields));
+    }
+
     /// After stage 7: the blocks it re-examined get their update distance reset, their
     /// reference set to where they are now and their new speed margin (one contiguous write of
     /// seven fields each, the reference copied from the GPU's own values so that it is exact).
@@ -366,32 +372,20 @@ impl<R: Real> Engine<R> {
     /// go with their fields reset, instead of one small write per block.
     pub(super) fn upload_reset_distances(&mut self, model: &Model) {
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
-        let size = std::mem::size_of::<Block<R>>() as u64;
-        let offset = std::mem::offset_of!(Block<R>, moved) as u64;
         let reset: Vec<usize> = model
             .blocks
             .iter()
             .zip(&self.last_blocks)
             .enumerate()
-            .filter(|(_, (m, g))| {
-                m.moved_since_update == 0.0
-                    && (g.moved.to_f64() != 0.0
-                        || g.update_cx != g.cx
-                        || g.update_cy != g.cy
-                        || g.update_rotation != R::from_f64(g.whole_rotation())
-                        || g.update_margin != R::from_f64(m.update_margin))
-            })
+            .filter(|(_, (m, g))| m.moved_since_update == 0.0 && g.update_fields() != g.update_reset(R::from_f64(m.update_margin)))
             .map(|(i, _)| i)
             .collect();
         let whole = reset.len() * 8 > self.last_blocks.len();
         for &i in &reset {
-            let g = &mut self.last_blocks[i];
-            let rotation = R::from_f64(g.whole_rotation());
-            (g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation) = (R::default(), g.cx, g.cy, g.cx_lo, g.cy_lo, rotation);
-            g.update_margin = R::from_f64(model.blocks[i].update_margin);
+            let fields = self.last_blocks[i].update_reset(R::from_f64(model.blocks[i].update_margin));
+            self.last_blocks[i].set_update_reset(fields);
             if !whole {
-                let fields = [g.moved, g.update_cx, g.update_cy, g.update_cx_lo, g.update_cy_lo, g.update_rotation, g.update_margin];
-                self.dev.queue.write_buffer(&self.buffers().blocks.buffer, i as u64 * size + offset, bytemuck::cast_slice(&fields));
+                self.write_update_reset(i, &fields);
             }
         }
         if whole {
