@@ -403,6 +403,37 @@ fn a_contact_splice_on_the_device_runs_as_a_whole_upload() {
 }
 
 #[test]
+fn an_adjacency_edit_on_the_device_runs_as_a_whole_upload() {
+    // After a contact update that made or dropped contacts, the adjacency lists on the device
+    // take the CPU's edit (`splice_adjacency.wgsl`) or are uploaded whole; `Auto` uploads them
+    // on a software adapter (a memcpy there, cheaper than the edit's kernels) and edits them on
+    // a hardware one. The lists are integers the CPU computes either way, so the runs are the
+    // same bit for bit. The projectile into a wall (~100 updates, contacts made and dropped; the
+    // fixed base has more than `HEAVY_DEGREE` contacts).
+    use blockdem::gpu::AdjacencyEdits;
+    for (adapter, precision) in common::GPU_TARGETS {
+        let Some(t) = common::Target::gpu(adapter, precision) else { continue };
+        let common::Target::Gpu(options) = &t else { unreachable!("a GPU target") };
+        let go = |edits: AdjacencyEdits| {
+            let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
+            gpu.set_adjacency_edits(edits);
+            let mut m = projectile_into_wall(3, 40);
+            let report = gpu.run(&mut m, 1200, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+            let software = gpu.adapter().device_type == "Cpu";
+            (m, report, gpu.adjacency_edit_count(), software)
+        };
+        let (edited, report, edits, software) = go(AdjacencyEdits::Always);
+        let (whole, _, none, _) = go(AdjacencyEdits::Never);
+        let (auto, _, auto_edits, _) = go(AdjacencyEdits::Auto);
+        assert!(edits > 10 && report.contacts_created > 10 && report.contacts_dropped > 10, "{edits} edits on {}: {report:?}", t.name());
+        assert_eq!(none, 0, "no edit when they are off");
+        assert_eq!(auto_edits == 0, software, "{auto_edits} edits on {} with Auto", t.name());
+        assert!(edited == whole, "edited and whole adjacency runs differ on {}: {:?}", t.name(), largest_difference(&edited, &whole));
+        assert!(auto == whole, "Auto differs from the whole upload on {}", t.name());
+    }
+}
+
+#[test]
 fn a_flying_block_finds_the_block_it_hits_and_bounces() {
     // No gravity: a block thrown at 5 m/s at a fixed block 3 m away, far beyond any contact
     // tolerance at the start. It must be detected on arrival and bounce back (elastic contact, no

@@ -104,6 +104,7 @@ use kernels::{Buffers, Pipelines};
 use layout::{Block, Real};
 pub use partial::{PartialReads, PARTIAL_READ_MIN_BYTES};
 pub use targets::{find_target, scenario_backends, GpuTarget};
+pub use upload::AdjacencyEdits;
 
 /// Kernel precision (`--precision`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -187,7 +188,31 @@ impl GpuBackend {
             Ok("1") => backend.set_partial_reads(PartialReads::Always),
             _ => {}
         }
+        // BLOCKDEM_ADJACENCY_EDIT=1: the adjacency lists edited on the device on any adapter;
+        // =0: uploaded whole at every structural update.
+        match std::env::var("BLOCKDEM_ADJACENCY_EDIT").as_deref() {
+            Ok("0") => backend.set_adjacency_edits(AdjacencyEdits::Never),
+            Ok("1") => backend.set_adjacency_edits(AdjacencyEdits::Always),
+            _ => {}
+        }
         Ok(backend)
+    }
+
+    /// Where structural contact updates change the adjacency lists (`AdjacencyEdits::Auto` by
+    /// default: on the device, but for a software adapter).
+    pub fn set_adjacency_edits(&mut self, on: AdjacencyEdits) {
+        match &mut self.engine {
+            EngineAny::F32(e) => e.adjacency_edits = on,
+            EngineAny::F64(e) => e.adjacency_edits = on,
+        }
+    }
+
+    /// How many structural contact updates edited the adjacency lists on the device so far.
+    pub fn adjacency_edit_count(&self) -> u64 {
+        match &self.engine {
+            EngineAny::F32(e) => e.adjacency_edit_count,
+            EngineAny::F64(e) => e.adjacency_edit_count,
+        }
     }
 
     /// When contact updates read back only the blocks, corners and contacts they touch
@@ -339,6 +364,10 @@ struct Engine<R: Real> {
     partial_reads: PartialReads,
     /// Contact updates made that way since the backend was made.
     partial_updates: u64,
+    /// Where structural contact updates change the adjacency lists.
+    adjacency_edits: AdjacencyEdits,
+    /// Structural contact updates that edited the adjacency lists on the device.
+    adjacency_edit_count: u64,
     /// The buffers of `list_blocks.wgsl` (made at the first partial update).
     lists: Option<partial::ListBuffers>,
     /// The uploaded contacts carry dashpot velocities whose work is still to be booked.
@@ -381,6 +410,8 @@ impl<R: Real> Engine<R> {
             list_in_order: false,
             partial_reads: PartialReads::default(),
             partial_updates: 0,
+            adjacency_edits: AdjacencyEdits::default(),
+            adjacency_edit_count: 0,
             lists: None,
             last_good: Model::default(),
             resumable: false,
