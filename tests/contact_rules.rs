@@ -202,12 +202,24 @@ fn speed_margins_change_the_update_count_not_the_motion() {
 
 /// `model` run on a GPU target, contact updates spliced on the device or the whole list
 /// uploaded; returns the model, the report and the number of splices.
-fn gpu_run(t: &common::Target, mut m: Model, splice: bool, cycles: u64) -> (Model, CycleReport, u64) {
+fn gpu_run(t: &common::Target, m: Model, splice: bool, cycles: u64) -> (Model, CycleReport, u64) {
+    let (m, report, gpu) = gpu_run_with(t, m, cycles, |gpu| gpu.set_contact_splice(splice));
+    (m, report, gpu.contact_splices())
+}
+
+/// `model` run on a GPU target whose backend `set_up` configured first; returns the model, the
+/// report and the backend.
+fn gpu_run_with(
+    t: &common::Target,
+    mut m: Model,
+    cycles: u64,
+    set_up: impl FnOnce(&mut blockdem::gpu::GpuBackend),
+) -> (Model, CycleReport, blockdem::gpu::GpuBackend) {
     let common::Target::Gpu(options) = t else { unreachable!("a GPU target") };
     let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
-    gpu.set_contact_splice(splice);
+    set_up(&mut gpu);
     let report = gpu.run(&mut m, cycles, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
-    (m, report, gpu.contact_splices())
+    (m, report, gpu)
 }
 
 /// A wall of `rows` × `cols` bricks on a fixed base, struck at its left end by a heavy block at
@@ -413,14 +425,9 @@ fn an_adjacency_edit_on_the_device_runs_as_a_whole_upload() {
     use blockdem::gpu::AdjacencyEdits;
     for (adapter, precision) in common::GPU_TARGETS {
         let Some(t) = common::Target::gpu(adapter, precision) else { continue };
-        let common::Target::Gpu(options) = &t else { unreachable!("a GPU target") };
         let go = |edits: AdjacencyEdits| {
-            let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
-            gpu.set_adjacency_edits(edits);
-            let mut m = projectile_into_wall(3, 40);
-            let report = gpu.run(&mut m, 1200, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
-            let software = gpu.adapter().device_type == "Cpu";
-            (m, report, gpu.adjacency_edit_count(), software)
+            let (m, report, gpu) = gpu_run_with(&t, projectile_into_wall(3, 40), 1200, |gpu| gpu.set_adjacency_edits(edits));
+            (m, report, gpu.adjacency_edit_count(), gpu.adapter().device_type == "Cpu")
         };
         let (edited, report, edits, software) = go(AdjacencyEdits::Always);
         let (whole, _, none, _) = go(AdjacencyEdits::Never);

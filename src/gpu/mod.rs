@@ -80,6 +80,17 @@
 //! rotation angle (the same state the CPU keeps) by range reduction and a Taylor polynomial
 //! (`sin_cos` in common.wgsl), not from a drifting product of rotation increments.
 
+/// `$body` on the engine of either precision, bound to `$e` (the two arms are the same code,
+/// compiled for each `Real`).
+macro_rules! on_engine {
+    ($engine:expr, $e:ident => $body:expr) => {
+        match $engine {
+            $crate::gpu::EngineAny::F32($e) => $body,
+            $crate::gpu::EngineAny::F64($e) => $body,
+        }
+    };
+}
+
 mod batch;
 mod checkpoint;
 pub mod device;
@@ -201,79 +212,52 @@ impl GpuBackend {
     /// Where structural contact updates change the adjacency lists (`AdjacencyEdits::Auto` by
     /// default: on the device, but for a software adapter).
     pub fn set_adjacency_edits(&mut self, on: AdjacencyEdits) {
-        match &mut self.engine {
-            EngineAny::F32(e) => e.adjacency_edits = on,
-            EngineAny::F64(e) => e.adjacency_edits = on,
-        }
+        on_engine!(&mut self.engine, e => e.adjacency_edits = on)
     }
 
     /// How many structural contact updates edited the adjacency lists on the device so far.
     pub fn adjacency_edit_count(&self) -> u64 {
-        match &self.engine {
-            EngineAny::F32(e) => e.adjacency_edit_count,
-            EngineAny::F64(e) => e.adjacency_edit_count,
-        }
+        on_engine!(&self.engine, e => e.adjacency_edit_count)
     }
 
     /// When contact updates read back only the blocks, corners and contacts they touch
     /// (`gpu::partial`; needs the splice) rather than the whole state (`PartialReads::Large` by
     /// default).
     pub fn set_partial_reads(&mut self, on: PartialReads) {
-        match &mut self.engine {
-            EngineAny::F32(e) => e.partial_reads = on,
-            EngineAny::F64(e) => e.partial_reads = on,
-        }
+        on_engine!(&mut self.engine, e => e.partial_reads = on)
     }
 
     /// Bytes read back from the device so far (whole and partial read-backs, lists, flags).
     pub fn bytes_read(&self) -> u64 {
-        match &self.engine {
-            EngineAny::F32(e) => e.dev.bytes_read(),
-            EngineAny::F64(e) => e.dev.bytes_read(),
-        }
+        on_engine!(&self.engine, e => e.dev.bytes_read())
     }
 
     /// How many contact updates read back only what they touched so far.
     pub fn partial_updates(&self) -> u64 {
-        match &self.engine {
-            EngineAny::F32(e) => e.partial_updates,
-            EngineAny::F64(e) => e.partial_updates,
-        }
+        on_engine!(&self.engine, e => e.partial_updates)
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
-        match &self.engine {
-            EngineAny::F32(e) => &e.dev.summary,
-            EngineAny::F64(e) => &e.dev.summary,
-        }
+        on_engine!(&self.engine, e => &e.dev.summary)
     }
 
     /// The energy check's sums of the state on the device, as `energy_sums.wgsl` takes them:
     /// (kinetic, strain, external work). After a `run` the device holds the state the model was
     /// given back, so these are the twin of `Model::energies` on it.
     pub fn energy_sums(&self) -> Result<(f64, f64, f64), GpuError> {
-        match &self.engine {
-            EngineAny::F32(e) => e.energy_sums(),
-            EngineAny::F64(e) => e.energy_sums(),
-        }
+        on_engine!(&self.engine, e => e.energy_sums())
     }
 
     /// Whether contact updates build the new list on the device from the old one (the default)
     /// or upload it whole, as before the splice (kept to measure the splice against, and to
     /// test that both give the same run).
     pub fn set_contact_splice(&mut self, on: bool) {
-        match &mut self.engine {
-            EngineAny::F32(e) => e.splice = on,
-            EngineAny::F64(e) => e.splice = on,
-        }
+        on_engine!(&mut self.engine, e => e.splice = on)
     }
 
     /// How many contact updates were spliced on the device so far (the others uploaded the list).
     pub fn contact_splices(&self) -> u64 {
-        match &self.engine {
-            EngineAny::F32(e) => e.splices,
-            EngineAny::F64(e) => e.splices,
-        }
+        on_engine!(&self.engine, e => e.splices)
     }
 
     pub fn precision(&self) -> Precision {
@@ -291,10 +275,7 @@ impl Backend for GpuBackend {
     }
 
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        match &mut self.engine {
-            EngineAny::F32(e) => e.run(model, cycles, progress),
-            EngineAny::F64(e) => e.run(model, cycles, progress),
-        }
+        on_engine!(&mut self.engine, e => e.run(model, cycles, progress))
     }
 }
 

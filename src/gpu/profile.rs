@@ -19,7 +19,7 @@
 use std::time::Instant;
 
 use super::layout::{Block, Contact, ContactForce, Corner, Flags, Material, Params, Real};
-use super::{Engine, EngineAny, GpuBackend, GpuDevice, GpuError};
+use super::{Engine, GpuBackend, GpuDevice, GpuError};
 
 /// Per-stage device time of one cycle.
 #[derive(Clone, Debug, PartialEq)]
@@ -189,10 +189,7 @@ impl<R: Real> Engine<R> {
 
 impl GpuBackend {
     fn device(&self) -> &GpuDevice {
-        match &self.engine {
-            EngineAny::F32(e) => &e.dev,
-            EngineAny::F64(e) => &e.dev,
-        }
+        on_engine!(&self.engine, e => &e.dev)
     }
 
     /// Whether the device writes pass timestamps (stage times are then measured inside cycles).
@@ -203,10 +200,7 @@ impl GpuBackend {
     /// The device time of each kernel stage over `cycles` cycles (or dispatches), on the state the
     /// last `run` left on the device (see the module doc; the next `run` re-uploads the model).
     pub fn profile_stages(&mut self, cycles: u32) -> Result<DeviceProfile, GpuError> {
-        match &mut self.engine {
-            EngineAny::F32(e) => e.profile_stages(cycles),
-            EngineAny::F64(e) => e.profile_stages(cycles),
-        }
+        on_engine!(&mut self.engine, e => e.profile_stages(cycles))
     }
 
     /// The adapter's `copy_buffer_to_buffer` bandwidth, bytes read + written per second.
