@@ -359,7 +359,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
             // `auto` wants a real GPU: a software adapter (Mesa's lavapipe or llvmpipe) is slower
             // than the CPU backend and less precise, so it is used only when asked for.
-            let hardware = list_adapters(&choice).into_iter().any(|a| a.compute && a.device_type != "Cpu");
+            let hardware = list_adapters(&choice).into_iter().any(|a| a.compute && !a.is_software());
             if backend == BackendChoice::Auto && !hardware {
                 eprintln!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
                 Box::new(CpuBackend::new())

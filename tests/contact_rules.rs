@@ -427,7 +427,7 @@ fn an_adjacency_edit_on_the_device_runs_as_a_whole_upload() {
         let Some(t) = common::Target::gpu(adapter, precision) else { continue };
         let go = |edits: AdjacencyEdits| {
             let (m, report, gpu) = gpu_run_with(&t, projectile_into_wall(3, 40), 1200, |gpu| gpu.set_adjacency_edits(edits));
-            (m, report, gpu.adjacency_edit_count(), gpu.adapter().device_type == "Cpu")
+            (m, report, gpu.adjacency_edit_count(), gpu.adapter().is_software())
         };
         let (edited, report, edits, software) = go(AdjacencyEdits::Always);
         let (whole, _, none, _) = go(AdjacencyEdits::Never);

@@ -357,7 +357,7 @@ fn open(spec: &BackendSpec, opts: &BenchOptions) -> (BackendInfo, Option<Engine>
         BackendSpec::Gpu(o) => match GpuBackend::new(o) {
             Ok(g) => {
                 let a = g.adapter().clone();
-                let software = a.device_type == "Cpu";
+                let software = a.is_software();
                 let info = BackendInfo {
                     label: format!("{} {} {}", a.backend.to_lowercase(), short_adapter_name(&a.name), g.precision()),
                     kind: "gpu".into(),

@@ -110,6 +110,12 @@ pub struct AdapterSummary {
 }
 
 impl AdapterSummary {
+    /// A software adapter (Mesa's lavapipe and llvmpipe): it runs on the host's cores, and its
+    /// device memory is the host's.
+    pub fn is_software(&self) -> bool {
+        self.device_type == "Cpu"
+    }
+
     fn of(adapter: &wgpu::Adapter) -> Self {
         let info = adapter.get_info();
         let limits = adapter.limits();

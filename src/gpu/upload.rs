@@ -267,7 +267,7 @@ impl<R: Real> Engine<R> {
         b.swap_contacts();
         self.counts.2 = n;
         let on_device = match self.adjacency_edits {
-            AdjacencyEdits::Auto => self.dev.summary.device_type != "Cpu",
+            AdjacencyEdits::Auto => !self.dev.summary.is_software(),
             AdjacencyEdits::Always => true,
             AdjacencyEdits::Never => false,
         };
