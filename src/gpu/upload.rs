@@ -19,8 +19,9 @@ pub enum AdjacencyEdits {
     /// On the device (`splice_adjacency.wgsl`, in proportion to the changes) unless the adapter
     /// is a software one, whose device memory is the host's: there the whole lists are copied up
     /// (a memcpy of 4 bytes an entry), which costs less than the edit's kernels (lavapipe, wall
-    /// of 10³ blocks struck by the projectile: 0.47 ms of kernels an update against ~0.02 ms;
-    /// at 10⁵ blocks ~15 ms against ~1 ms).
+    /// of 10³ blocks struck by the projectile: the edit's dispatches took 0.41–0.48 ms an
+    /// update, and with the whole copy instead an update's host upload time, contact splice
+    /// included, fell from 0.3–0.4 to ~0.1 ms; docs/BENCHMARKS.md).
     #[default]
     Auto,
     /// Always on the device (the tests' way to run the edit on a software adapter).
