@@ -46,8 +46,8 @@ use scene::RefScene;
 /// Nominal wall sizes of the scaling family (blocks).
 pub const SIZES: &[usize] = &[1_000, 10_000, 100_000, 1_000_000];
 
-/// Cycles a wall settles before it is timed.
-const SETTLE_CYCLES: u64 = 20;
+/// Cycles a wall settles before it is timed (here and in the criterion benches).
+pub const SETTLE_CYCLES: u64 = 20;
 
 /// Where a bench runs.
 #[derive(Clone, Debug, PartialEq)]
@@ -568,17 +568,32 @@ fn run_reference(scene: RefScene, time: f64, frac: f64, backend: &mut dyn Backen
     row
 }
 
-/// A run timed with the stage profiler on.
-struct Timed {
-    setup_s: f64,
-    teardown_s: f64,
-    steady_s: f64,
-    times: StageTimes,
+/// A run timed with the stage profiler on: how `blockdem bench` and the criterion benches
+/// (`benches/`) time the cycles apart from a run's set-up and final read-back.
+pub struct Timed {
+    /// Before the first cycle: the full detection and, on a GPU, the upload (none when the run
+    /// goes on from the state the last one left).
+    pub setup_s: f64,
+    /// After the last cycle: the GPU's final read-back.
+    pub teardown_s: f64,
+    /// The cycles.
+    pub steady_s: f64,
+    /// Self time of each host stage, per phase.
+    pub times: StageTimes,
     /// Contact updates the run made (its set-up's full detection not counted).
-    updates: u64,
+    pub updates: u64,
 }
 
-fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Result<Timed, CycleError> {
+impl Timed {
+    /// The cycles' CPU topology work (stage 7) and host ↔ device transfers, in seconds: the
+    /// numerator of the bench's topology and transfer shares.
+    pub fn topology_and_transfers_s(&self) -> f64 {
+        Stage::ALL.iter().filter(|s| matches!(s.group(), "topology" | "transfer")).map(|&s| self.times.cycles_of(s).as_secs_f64()).sum()
+    }
+}
+
+/// Runs `cycles` cycles of `model` on `backend` with the stage profiler on (`Timed`).
+pub fn timed_run(backend: &mut dyn Backend, model: &mut Model, cycles: u64) -> Result<Timed, CycleError> {
     profile::enable();
     let start = Instant::now();
     let result = backend.run(model, cycles, &mut |_| true);
