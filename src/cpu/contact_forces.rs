@@ -359,6 +359,25 @@ impl BlockMotion {
     }
 }
 
+/// Whether a contact whose spring would hold the normal force `fn_` (compression positive) opens:
+/// in tension, unless it is intact (bonded) and the tension is within its cohesion.
+#[inline]
+fn opens(fn_: f64, bonded: bool, cohesion: f64) -> bool {
+    fn_ < 0.0 && (!bonded || -fn_ > cohesion)
+}
+
+/// The normal force a contact of gap `gap` holds, eq. (16) in total form (kn times the overlap,
+/// compression positive), as the force law gives it: zero once it opens (`opens`), a tension up to
+/// `cohesion` while it is intact (pass 0 for a broken contact).
+pub fn normal_force(gap: f64, kn: f64, cohesion: f64) -> f64 {
+    let fn_ = -kn * gap;
+    if opens(fn_, cohesion > 0.0, cohesion) {
+        0.0
+    } else {
+        fn_
+    }
+}
+
 /// Force–displacement law for one contact whose geometry (gap, normal, point) is already current
 /// (eqs. 13–20). `active` is false for the mirror copy of a corner–corner contact, which carries
 /// no force so that the touch is counted once.
@@ -402,7 +421,7 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     let mut fn_ = -mat.kn * contact.gap;
     let cohesion = if contact.bonded { mat.cohesion } else { 0.0 };
     let fs_old = contact.shear_force;
-    if fn_ < 0.0 && (!contact.bonded || -fn_ > cohesion) {
+    if opens(fn_, contact.bonded, cohesion) {
         // Open: no tension beyond the cohesion; an intact contact that breaks loses it for good.
         // The shear spring's energy and any bond tension go to the slip work.
         contact.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, mat.ks);
