@@ -251,7 +251,7 @@ pub struct CornerRound {
 ///
 /// Each convex corner is replaced by a circular arc tangent to both adjoining edges at distance
 /// `round` = min(d, ½ prev edge, ½ next edge) from the corner, so that two arcs never overlap on a
-/// short edge. For interior angle α the circle centre lies on the bisector at round / cos(α/2) from
+/// short edge, and shorter still where that circle would leave the block (below). For interior angle α the circle centre lies on the bisector at round / cos(α/2) from
 /// the corner and the radius is round · tan(α/2). In terms of the turn θ = π − α of the boundary at
 /// the corner: distance = round / sin(θ/2), radius = round / tan(θ/2).
 ///
@@ -264,6 +264,16 @@ pub struct CornerRound {
 /// corner point) and changes the boundary by at most the arc's sag, round · tan(θ/4) < 0.005 d,
 /// far below the contact tolerance ATOL = d. Contact logic must already handle radius-0 corners
 /// for re-entrant corners, so this adds no new case.
+///
+/// The circle must also lie inside its own block. Contact detection measures a corner by its
+/// circle alone (gap = distance from the centre to the other block's boundary − radius; two corners
+/// whose circles overlap are a corner pair to `counts_force`), so a circle reaching through the
+/// block's far side "touches" whatever lies beyond it: a 162° corner rounded at d = 0.1 has radius
+/// 0.1 · tan 81° ≈ 0.63, which crosses a strip 1 m wide and made a SPLIT's pieces overlap their
+/// neighbours before any motion. Where the circle of `round` would cross another edge, `round` is
+/// lowered to the largest length whose circle stays inside (`fit_inside`); the arc then only sits
+/// closer to the corner. Blocks whose circles already fit (any rectangle, where round ≤ ½ edge) are
+/// rounded exactly as before.
 pub fn corner_rounding(pts_ccw: &[[f64; 2]], d: f64) -> Vec<CornerRound> {
     let n = pts_ccw.len();
     (0..n)
@@ -281,12 +291,72 @@ pub fn corner_rounding(pts_ccw: &[[f64; 2]], d: f64) -> Vec<CornerRound> {
             if turn < STRAIGHT_TURN {
                 return sharp;
             }
-            let round = d.min(0.5 * l1).min(0.5 * l2);
             let half = 0.5 * turn;
             // Inward bisector: the sum of the unit vectors from the corner along both edges.
             let bis = add(scale(e1, -1.0 / l1), scale(e2, 1.0 / l2));
             let bis = scale(bis, 1.0 / norm(bis));
+            let round = fit_inside(pts_ccw, i, scale(bis, 1.0 / half.sin()), 1.0 / half.tan(), d.min(0.5 * l1).min(0.5 * l2));
             CornerRound { circle: add(p, scale(bis, round / half.sin())), radius: round / half.tan(), round }
         })
         .collect()
+}
+
+/// Relative shortfall below which a rounding length is kept as it is: a circle that reaches past
+/// an edge by round-off only (the opposite side of a strip exactly 2·round wide) is not a
+/// circle that crosses it, and keeping its rounding leaves such blocks bit-identical.
+const FIT_SLACK: f64 = 1e-9;
+
+/// The rounding length, at most `round`, of corner `i` for which its circle lies inside the
+/// polygon (touching an edge at most). For rounding length t the circle has centre p + t·v and
+/// radius t·ρ (v = bisector / sin(θ/2), ρ = 1 / tan(θ/2); |v|² − ρ² = 1): the circles are the
+/// images of one circle under scalings about the corner p, and together they sweep the hull of p
+/// and the largest one, so a circle crosses no edge as long as none of the smaller ones has
+/// touched one (the polygon being simple). The corner's own two edges are tangent to every such circle (and the tangent
+/// points stay on them, round ≤ ½ edge); any other edge is measured as a segment, which is exact
+/// for re-entrant blocks too, where a supporting line would cut through the block. The result is
+/// the earliest touch of any other edge when it comes before `round` (by more than
+/// [`FIT_SLACK`]), `round` otherwise.
+fn fit_inside(pts: &[[f64; 2]], i: usize, v: [f64; 2], rho: f64, round: f64) -> f64 {
+    let n = pts.len();
+    let p = pts[i];
+    let touch = (0..n).filter(|&j| j != i && j != (i + n - 1) % n).map(|j| first_touch(p, v, rho, pts[j], pts[(j + 1) % n])).fold(f64::INFINITY, f64::min);
+    if touch < round * (1.0 - FIT_SLACK) {
+        touch
+    } else {
+        round
+    }
+}
+
+/// The least t > 0 at which the circle of centre p + t·v and radius t·ρ (|v|² − ρ² = 1) touches
+/// the segment q0 q1; infinity when it never does. The first touch is either at an end q, where
+/// |p + t v − q| = t ρ, i.e. t² − 2 t (q − p)·v + |q − p|² = 0 (the smaller root), or inside the
+/// segment, where the circle is tangent to its line, s0 + t (v·n) = ±t ρ for the signed distance
+/// s0 of p (n the unit normal), with the centre's foot on the segment. Every candidate is a real
+/// touch and the first touch is among them, so their least is it.
+fn first_touch(p: [f64; 2], v: [f64; 2], rho: f64, q0: [f64; 2], q1: [f64; 2]) -> f64 {
+    let mut t = f64::INFINITY;
+    for q in [q0, q1] {
+        let w = sub(q, p);
+        let (g, w2) = (dot(w, v), dot(w, w));
+        if g > 0.0 && g * g >= w2 {
+            // g − √(g² − |w|²), in the form that does not cancel.
+            t = t.min(w2 / (g + (g * g - w2).sqrt()));
+        }
+    }
+    let e = sub(q1, q0);
+    let len = norm(e);
+    if len == 0.0 {
+        return t;
+    }
+    let normal = [-e[1] / len, e[0] / len];
+    let (s0, vn) = (dot(sub(p, q0), normal), dot(v, normal));
+    for tangent in [s0 / (rho - vn), -s0 / (rho + vn)] {
+        if tangent > 0.0 && tangent < t {
+            let along = dot(sub(add(p, scale(v, tangent)), q0), e) / len;
+            if (0.0..=len).contains(&along) {
+                t = tangent;
+            }
+        }
+    }
+    t
 }
