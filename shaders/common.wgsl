@@ -15,7 +15,7 @@
 
 // Finite test without isnan/isinf (which compilers may fold away): false for NaN and ±inf.
 fn is_finite(x: real) -> bool {
-    return abs(x) <= real(1.0e38);
+    return abs(x) <= FINITE_MAX;
 }
 
 // Exact sum of two reals as (sum, rounding error): Knuth's TwoSum, six additions. Shader

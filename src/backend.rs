@@ -77,7 +77,9 @@ pub enum CycleError {
 /// from, and the growth came with contacts made after it).
 fn safe_frac_note(safe_frac: f64) -> String {
     if safe_frac.is_finite() && safe_frac > 0.0 {
-        format!("; the largest safe value is about {safe_frac:.2}")
+        // Two significant digits (a safe FRAC of 0.005 printed as 0.00 before).
+        let digits = (1 - safe_frac.log10().floor() as i32).max(2) as usize;
+        format!("; the largest safe value is about {safe_frac:.digits$}")
     } else {
         String::new()
     }

@@ -128,6 +128,8 @@ pub struct Executor<'a> {
     file: String,
     /// The verified ratios the model is checked against before CYCLE (the backend's precision).
     limits: Limits,
+    /// Commands executed so far (START is only the first).
+    executed: usize,
 }
 
 impl<'a> Executor<'a> {
@@ -141,6 +143,7 @@ impl<'a> Executor<'a> {
             plot_count: 0,
             file: file.to_string(),
             limits: LIMITS_CPU_F64,
+            executed: 0,
         }
     }
 
@@ -166,6 +169,7 @@ impl<'a> Executor<'a> {
             }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
+            self.executed += 1;
             if done {
                 break;
             }
@@ -194,6 +198,18 @@ impl<'a> Executor<'a> {
         RunError::Unsupported { file: self.file.clone(), line: cmd.line, what: what.to_string() }
     }
 
+    /// A material number a command names must be one PROPERTY can define (UDEC's NMAT slots):
+    /// a BLOCK, CHANGE or SPLIT of material 25 was taken, and CYCLE then asked for a PROPERTY
+    /// MAT=25 that PROPERTY refused.
+    fn check_material(&self, cmd: &Located, what: &str, material: Option<u32>) -> Result<(), RunError> {
+        match material {
+            Some(m) if m == 0 || m as usize > crate::model::MAX_MATERIALS => {
+                Err(self.command_error(cmd, format!("{what}: material number must be 1 to {}, found {m}", crate::model::MAX_MATERIALS)))
+            }
+            _ => Ok(()),
+        }
+    }
+
     fn resolve(&self, name: &Option<String>) -> PathBuf {
         let name = name.as_deref().unwrap_or(DEFAULT_SAVE_FILE);
         let p = Path::new(name);
@@ -212,6 +228,10 @@ impl<'a> Executor<'a> {
     fn execute(&mut self, cmd: &Located) -> Result<bool, RunError> {
         match &cmd.command {
             Command::Start => {
+                if self.executed > 0 {
+                    // It would claim a cold start and keep the model (UDEC read START first only).
+                    return Err(self.command_error(cmd, "START must be the first command of a run (a cold start); to begin again, start a new run"));
+                }
                 self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
                 self.echo("THIS IS A START RUN");
             }
@@ -226,11 +246,13 @@ impl<'a> Executor<'a> {
             }
             Command::Stop | Command::End => return Ok(true),
             Command::Block { material, constitutive, corners } => {
+                self.check_material(cmd, "BLOCK", *material)?;
                 self.model
                     .add_block(corners, material.unwrap_or(1), constitutive.unwrap_or(1), None)
                     .map_err(|e| self.command_error(cmd, format!("BLOCK: {e}")))?;
             }
             Command::Change { range, to, material, constitutive } => {
+                self.check_material(cmd, "CHANGE", *material)?;
                 if let Some(to) = to {
                     let what = match to {
                         crate::deck::Deformability::Sdef => "CHANGE SDEF (simply-deformable blocks)",
@@ -349,9 +371,7 @@ impl<'a> Executor<'a> {
             }
             Command::Property { material, values } => {
                 use crate::deck::PropKey::*;
-                if *material == 0 || *material as usize > crate::model::MAX_MATERIALS {
-                    return Err(self.command_error(cmd, format!("PROPERTY: material number must be 1 to {}, found {material}", crate::model::MAX_MATERIALS)));
-                }
+                self.check_material(cmd, "PROPERTY", Some(*material))?;
                 let m = &mut self.model.materials[*material as usize - 1];
                 for &(key, v) in values {
                     match key {
@@ -390,6 +410,7 @@ impl<'a> Executor<'a> {
                 self.echo(&format!("STATE SAVED TO {}", path.display()));
             }
             Command::Split { from, to, material, constitutive } => {
+                self.check_material(cmd, "SPLIT", *material)?;
                 let outcome = split_line(&mut self.model, *from, *to, *material, *constitutive);
                 for (id, why) in &outcome.rejected {
                     self.echo(&format!("SPLIT REJECTED FOR BLOCK {id}: {why}"));

@@ -255,6 +255,13 @@ fn bench(
 }
 
 fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()> {
+    // A misspelt case would run nothing and pass.
+    if let Some(o) = &only {
+        let names: Vec<&str> = blockdem::verify::cases::all().iter().map(|c| c.name).collect();
+        if !names.iter().any(|n| n.contains(o.as_str())) {
+            bail!("--only {o}: no case's name contains it; the cases are {}", names.join(", "));
+        }
+    }
     let options = blockdem::verify::VerifyOptions { quick, out: Some(out.clone()), only };
     let suite = blockdem::verify::run_suite(&options);
     print!("{}", blockdem::verify::table(&suite));
@@ -405,12 +412,20 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         blockdem::output::state_json::write_state_json(&exec.model, path).with_context(|| format!("cannot write {}", path.display()))?;
     }
     if let Err(e) = result {
-        if e.is_numerical() || e.is_interrupted() {
-            // Never lose work: the last good state (or the state an interrupt stopped at) goes
-            // to a restart file beside the plots.
+        // Never lose work: the last good state (or the state an interrupt stopped at, or, after
+        // an input error later in a deck that has cycled, the state before the failing
+        // command, which a command that fails leaves as it was) goes to a restart file beside
+        // the plots.
+        if e.is_numerical() || e.is_interrupted() || exec.model.cycle > 0 {
             let _ = std::fs::create_dir_all(&out);
             let path = out.join("last_good.sav");
-            let which = if e.is_interrupted() { "the state" } else { "the last good state" };
+            let which = if e.is_interrupted() {
+                "the state"
+            } else if e.is_numerical() {
+                "the last good state"
+            } else {
+                "the state before the failing command"
+            };
             if blockdem::output::restart::save_state(&path, &exec.model, &Default::default(), 0).is_ok() {
                 eprintln!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
             }

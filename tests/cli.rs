@@ -115,6 +115,37 @@ fn an_overlap_beyond_half_the_rounding_stops_and_keeps_the_last_good_state() {
     }
 }
 
+/// A misspelt `verify --only` case is an error naming the cases, not a run of nothing that passes.
+#[test]
+fn verify_only_a_case_that_does_not_exist_is_an_error() {
+    let dir = temp("verify-only");
+    let (code, _, stderr) = blockdem(&["verify", "--quick", "--only", "no_such_case", "--out", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("--only no_such_case") && stderr.contains("free_flight"), "{stderr}");
+}
+
+/// An input error after cycles have run keeps them: the state before the failing command goes to
+/// `last_good.sav`, and a RESTART of it goes on.
+#[test]
+fn an_input_error_after_cycles_keeps_the_state_before_it() {
+    let dir = temp("late-error");
+    let deck = write_deck(
+        &dir,
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nGRAV 0 -10\nROUND 0.05\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\n\
+         FIX 0 1 0 1\nCYCLE 300\nPROP MAT=25 D=1\nSTOP\n",
+    );
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("{deck}:9")), "{stderr}");
+    assert!(stderr.contains("the state before the failing command (cycle 300)"), "{stderr}");
+    let saved = blockdem::output::load(&dir.join("last_good.sav")).unwrap();
+    assert_eq!(saved.model.cycle, 300);
+    let again = write_deck(&dir, &format!("RESTART {}\nCYCLE 100\nSTOP\n", dir.join("last_good.sav").display()));
+    let (code, stdout, stderr) = blockdem(&["run", &again, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("CURRENT CYCLE COUNT = 400"), "{stdout}");
+}
+
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_a_long_cycle_at_an_energy_check_and_saves_its_state() {

@@ -83,6 +83,25 @@ fn property_sets_every_keyword_of_the_table() {
     let (r, _) = run_logged("START\nPROP MAT=99 D=1\n");
     let e = r.unwrap_err().to_string();
     assert!(e.starts_with("<scene>:2:") && e.contains("material number must be 1 to"), "{e}");
+    // So are the materials BLOCK, CHANGE and SPLIT name (a BLOCK of material 25 was taken, and
+    // CYCLE then asked for a PROPERTY MAT=25 that PROPERTY refuses).
+    for (line, deck) in [
+        (2, "START\nBLOCK MAT=25 0,0 0,1 1,1 1,0\n"),
+        (3, "START\nBLOCK 0,0 0,1 1,1 1,0\nCHANGE 0 1 0 1 MAT=21\n"),
+        (3, "START\nBLOCK 0,0 0,1 2,1 2,0\nSPLIT 1,-1 1,2 MAT=30\n"),
+    ] {
+        let (r, _) = run_logged(deck);
+        let e = r.unwrap_err().to_string();
+        assert!(e.starts_with(&format!("<scene>:{line}:")) && e.contains("material number must be 1 to 20"), "{e}");
+    }
+}
+
+/// START is a cold start, the first command only: later it claimed one and kept the model.
+#[test]
+fn a_second_start_is_an_error_with_its_line() {
+    let (r, _) = run_logged("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 10\nSTART\nCYCLE 10\n");
+    let e = r.unwrap_err().to_string();
+    assert!(e.starts_with("<scene>:5:") && e.contains("START must be the first command"), "{e}");
 }
 
 #[test]

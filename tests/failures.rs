@@ -99,6 +99,15 @@ fn a_step_that_overflows_names_its_block(t: &Target) {
     assert!(matches!(e, CycleError::NonFinite { cycle: 1, block, .. } if block == loaded), "{e} on {}", t.name());
     assert_eq!(m.cycle, 0, "on {}", t.name());
     assert_last_good(&m, t);
+    if t.is_f32() {
+        return;
+    }
+    // A step's work past f32's range but finite in f64 (1e40 N over ~1e32 m: 1e72 J) is finite
+    // on the f64 kernels as on the CPU (they held it to f32's range and called it not finite):
+    // the block is too fast, named as such.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 3,0 3,1 4,1 4,0\nLOAD 3 4 0 1 1E40 0\nCYCLE 10\n";
+    let (e, _) = fail(t, deck);
+    assert!(matches!(e, CycleError::TooFast { cycle: 1, block, .. } if block == loaded), "{e} on {}", t.name());
 }
 
 fn a_value_f32_cannot_hold_is_refused_before_the_run(t: &Target) {
