@@ -210,6 +210,31 @@ impl<'a> Executor<'a> {
         }
     }
 
+    /// A ROUND at or past half a block's shortest edge is cut to half each edge
+    /// (`model::geometry::corner_rounding`): the arcs then meet along whole edges and the block
+    /// touches as a disc would, through several corner–corner contacts at one point. Said once a
+    /// CYCLE, since the deck's ROUND is then not what runs.
+    fn round_warning(&self) -> Option<String> {
+        let round = self.model.tol.round;
+        let mut cut = 0usize;
+        let mut shortest = f64::INFINITY;
+        for b in 0..self.model.blocks.len() {
+            let edge = self.model.block_corners(b).iter().map(|c| c.edge_length).fold(f64::INFINITY, f64::min);
+            if round >= 0.5 * edge {
+                cut += 1;
+                shortest = shortest.min(edge);
+            }
+        }
+        (cut > 0).then(|| {
+            format!(
+                "WARNING: ROUND {} is half the shortest edge or more in {cut} block(s) (the shortest edge {}); their corners are \
+                 rounded at half each edge instead, so they touch as discs would: give ROUND under half the shortest edge",
+                output::format::fmt_e(round),
+                output::format::fmt_e(shortest)
+            )
+        })
+    }
+
     fn resolve(&self, name: &Option<String>) -> PathBuf {
         let name = name.as_deref().unwrap_or(DEFAULT_SAVE_FILE);
         let p = Path::new(name);
@@ -519,6 +544,9 @@ impl<'a> Executor<'a> {
         self.model.timestep = dt;
         // Outside the ratios the suite has verified (blockdem verify): say so before cycling.
         for w in crate::verify::stability::warnings(&self.model, &self.limits) {
+            self.echo(&w);
+        }
+        if let Some(w) = self.round_warning() {
             self.echo(&w);
         }
         self.echo(&format!("INITIAL TIMESTEP = {}", output::format::fmt_e(dt)));
