@@ -13,7 +13,9 @@
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
-//! a model with silently wrong numbers. The version must change whenever `SaveFile` or anything
+//! a model with silently wrong numbers; a file intact but holding a model no run could have
+//! made (an index past its list, a non-finite position: a writer's bug or a hand edit) is
+//! refused by [`Model::validate`], since the rest of the program trusts those indices. The version must change whenever `SaveFile` or anything
 //! in it (the `Model` types) changes shape: postcard is not self-describing.
 //!
 //! The payload is streamed to the file as it is serialized and the header's length and checksum
@@ -63,6 +65,11 @@ pub enum RestartError {
     UnsupportedVersion { path: PathBuf, found: u32, supported: u32 },
     #[error("save file {path} is corrupt: {reason}")]
     Corrupt { path: PathBuf, reason: String },
+    /// Intact as a file (its checksum matches) but holding a model no run could have made: an
+    /// index past its list, a corner range out of order, a non-finite position. The program
+    /// trusts these throughout, so such a model is refused rather than cycled.
+    #[error("the model saved in {path} is inconsistent: {reason}")]
+    Inconsistent { path: PathBuf, reason: String },
 }
 
 /// FNV-1a, 64 bit: the checksum of version 2 files.
@@ -181,6 +188,7 @@ enum DecodeError {
     NotASaveFile,
     UnsupportedVersion(u32),
     Corrupt(String),
+    Inconsistent(String),
 }
 
 impl DecodeError {
@@ -190,6 +198,7 @@ impl DecodeError {
             DecodeError::NotASaveFile => RestartError::NotASaveFile { path },
             DecodeError::UnsupportedVersion(found) => RestartError::UnsupportedVersion { path, found, supported: FORMAT_VERSION },
             DecodeError::Corrupt(reason) => RestartError::Corrupt { path, reason },
+            DecodeError::Inconsistent(reason) => RestartError::Inconsistent { path, reason },
         }
     }
 }
@@ -222,5 +231,20 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));
     }
+    check(&file).map_err(DecodeError::Inconsistent)?;
     Ok(file)
+}
+
+/// What a save file must hold beyond a readable payload: a model that passes
+/// [`Model::validate`], and plot settings that the WINDOW and VIEW commands could have set.
+fn check(file: &SaveFile) -> Result<(), String> {
+    let [x1, x2, y1, y2] = file.plot.window;
+    if !(x1.is_finite() && x2.is_finite() && y1.is_finite() && y2.is_finite()) {
+        return Err(format!("the plot window ({x1}, {x2}, {y1}, {y2}) is not finite"));
+    }
+    let [ix1, ix2, iy1, iy2] = file.plot.view;
+    if ix1 > ix2 || iy1 > iy2 {
+        return Err(format!("the plot view ({ix1}, {ix2}, {iy1}, {iy2}) is not in order"));
+    }
+    file.model.validate()
 }
