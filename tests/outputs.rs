@@ -671,6 +671,62 @@ fn load_reports_bad_files_without_panicking() {
     assert!(matches!(load(&dir.join("missing.sav")), Err(RestartError::Io { .. })));
 }
 
+/// SAVE through a symbolic link writes the file the link names, created where the link
+/// dangles, and leaves the link a link.
+#[cfg(unix)]
+#[test]
+fn save_through_a_symbolic_link_writes_the_file_it_names_and_keeps_the_link() {
+    let dir = out_dir("restart_symlink");
+    std::fs::create_dir(dir.join("runs")).unwrap();
+    let link = dir.join("latest.sav");
+    std::os::unix::fs::symlink("runs/first.sav", &link).unwrap();
+    let mut file = save_file();
+    for plot_count in [3, 4] {
+        file.plot_count = plot_count;
+        save(&link, &file).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
+        assert_eq!(load(&dir.join("runs/first.sav")).unwrap(), file);
+        assert_eq!(load(&link).unwrap().plot_count, plot_count);
+    }
+    assert_eq!(std::fs::read_dir(dir.join("runs")).unwrap().count(), 1, "temporary file left behind");
+}
+
+/// Runs `write` on a FIFO that `cat` reads (so that the pipe is not left waiting for a reader
+/// and the test cannot hang on it); returns what came through and checks the FIFO is still one.
+#[cfg(unix)]
+fn through_a_fifo(dir: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Vec<u8> {
+    use std::os::unix::fs::FileTypeExt;
+    let (fifo, out) = (dir.join("pipe"), dir.join("came_through"));
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let mut cat = std::process::Command::new("cat").arg(&fifo).stdout(std::fs::File::create(&out).unwrap()).spawn().unwrap();
+    let written = write(&fifo);
+    let start = std::time::Instant::now();
+    while written.is_ok() && cat.try_wait().unwrap().is_none() && start.elapsed().as_secs() < 20 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let _ = cat.kill();
+    let _ = cat.wait();
+    written.unwrap();
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the FIFO was replaced by a file");
+    std::fs::read(&out).unwrap()
+}
+
+/// A FIFO is written through, not replaced: SAVE writes the same bytes as to a file (its header
+/// first: a pipe cannot seek back to it), and the state file is the same text.
+#[cfg(unix)]
+#[test]
+fn save_and_the_state_file_write_through_a_fifo() {
+    let dir = out_dir("restart_fifo");
+    let file = save_file();
+    save(&dir.join("file.sav"), &file).unwrap();
+    let piped = through_a_fifo(&dir, |p| save(p, &file).map_err(|e| e.to_string()));
+    assert_eq!(piped, std::fs::read(dir.join("file.sav")).unwrap());
+    std::fs::remove_file(dir.join("pipe")).unwrap();
+    write_state_json(&file.model, &dir.join("state.json")).unwrap();
+    let piped = through_a_fifo(&dir, |p| write_state_json(&file.model, p).map_err(|e| e.to_string()));
+    assert_eq!(piped, std::fs::read(dir.join("state.json")).unwrap());
+}
+
 #[test]
 fn save_into_a_missing_directory_is_an_io_error() {
     let dir = out_dir("restart_no_dir");

@@ -157,24 +157,43 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// SAVE: writes the model and the plot state to `path` as a [`SaveFile`], atomically (a
 /// temporary file renamed into place), so an interrupted SAVE leaves the previous save file
 /// intact. The header goes first with its length and checksum zero, the payload after it as it
-/// is serialized, and then the two are written into the header.
+/// is serialized, and then the two are written into the header. A path that is not a regular
+/// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
+/// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
     let file = SaveView { model, plot, plot_count };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
-        w.write_all(&MAGIC)?;
-        w.write_all(&FORMAT_VERSION.to_le_bytes())?;
-        w.write_all(&[0; 16])?;
-        let mut payload = PayloadWriter::new(w);
-        if let Err(e) = postcard::to_io(&file, &mut payload) {
-            return Err(payload.error.take().unwrap_or_else(|| io::Error::other(e)));
+        let seekable = w.get_ref().metadata()?.is_file();
+        let header = |w: &mut dyn Write, length: u64, checksum: u64| {
+            w.write_all(&MAGIC)?;
+            w.write_all(&FORMAT_VERSION.to_le_bytes())?;
+            w.write_all(&length.to_le_bytes())?;
+            w.write_all(&checksum.to_le_bytes())
+        };
+        if seekable {
+            header(w, 0, 0)?;
+            let (length, checksum) = write_payload(&file, w)?;
+            w.seek(SeekFrom::Start((MAGIC.len() + 4) as u64))?;
+            w.write_all(&length.to_le_bytes())?;
+            w.write_all(&checksum.to_le_bytes())
+        } else {
+            let (length, checksum) = write_payload(&file, &mut io::sink())?;
+            header(w, length, checksum)?;
+            // postcard's encoding of the same borrowed state is the same bytes.
+            write_payload(&file, w).map(drop)
         }
-        let (length, checksum) = payload.finish()?;
-        w.seek(SeekFrom::Start((MAGIC.len() + 4) as u64))?;
-        w.write_all(&length.to_le_bytes())?;
-        w.write_all(&checksum.to_le_bytes())
     })
     .map_err(io_err)
+}
+
+/// Streams the payload of `file` to `w`; returns its length and checksum.
+fn write_payload(file: &SaveView, w: &mut impl Write) -> io::Result<(u64, u64)> {
+    let mut payload = PayloadWriter::new(w);
+    if let Err(e) = postcard::to_io(file, &mut payload) {
+        return Err(payload.error.take().unwrap_or_else(|| io::Error::other(e)));
+    }
+    payload.finish()
 }
 
 /// RESTART: reads a save file written by [`save`].
