@@ -727,6 +727,42 @@ fn save_and_the_state_file_write_through_a_fifo() {
     assert_eq!(piped, std::fs::read(dir.join("state.json")).unwrap());
 }
 
+/// RESTART from a FIFO (whose length is not known ahead) reads the payload only as far as the
+/// header announces: a whole file loads, a short one or one with more after it is corrupt.
+#[cfg(unix)]
+#[test]
+fn load_reads_a_fifo_as_far_as_the_header_announces() {
+    let dir = out_dir("restart_from_fifo");
+    let file = save_file();
+    save(&dir.join("file.sav"), &file).unwrap();
+    let bytes = std::fs::read(dir.join("file.sav")).unwrap();
+    let fifo = dir.join("pipe");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    // The writer ignores the reader going early (a broken pipe): what matters is what load says.
+    let feed = |b: Vec<u8>| {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || {
+            use std::io::Write;
+            let _ = std::fs::OpenOptions::new().write(true).open(&fifo).and_then(|mut w| w.write_all(&b));
+        })
+    };
+    let writer = feed(bytes.clone());
+    assert_eq!(load(&fifo).unwrap(), file);
+    writer.join().unwrap();
+    let n = bytes.len() as u64 - 28;
+    for (damaged, says) in [
+        ([&bytes[..], b"junk"].concat(), format!("announces {n} payload bytes but more follow")),
+        (bytes[..bytes.len() - 10].to_vec(), format!("announces {n} payload bytes but the file holds {}", n - 10)),
+    ] {
+        let writer = feed(damaged);
+        match load(&fifo) {
+            Err(RestartError::Corrupt { reason, .. }) => assert!(reason.contains(&says), "{reason}"),
+            other => panic!("{other:?}"),
+        }
+        writer.join().unwrap();
+    }
+}
+
 #[test]
 fn save_into_a_missing_directory_is_an_io_error() {
     let dir = out_dir("restart_no_dir");

@@ -24,7 +24,7 @@
 //! at memory speed). Version 2 files are still read.
 
 use std::fs;
-use std::io::{self, Seek, SeekFrom, Write};
+use std::io::{self, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -197,9 +197,33 @@ fn write_payload(file: &SaveView, w: &mut impl Write) -> io::Result<(u64, u64)> 
 }
 
 /// RESTART: reads a save file written by [`save`].
+///
+/// The header is read first, and the payload then only as far as the header announces: a path
+/// that is not a save file (`/dev/zero`, a FIFO fed for ever, a deck given by mistake) is
+/// refused at its first bytes instead of being read to an end it may not have.
 pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
-    let bytes = fs::read(path).map_err(|source| RestartError::Io { path: path.to_path_buf(), source })?;
-    decode(&bytes).map_err(|e| e.at(path))
+    let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
+    let mut file = fs::File::open(path).map_err(io_err)?;
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    (&mut file).take(HEADER_LEN as u64).read_to_end(&mut header).map_err(io_err)?;
+    let Header { version, length, checksum } = decode_header(&header).map_err(|e| e.at(path))?;
+    let short = |holds: u64| {
+        DecodeError::Corrupt(format!("the header announces {length} payload bytes but the file holds {holds} (truncated or appended to)")).at(path)
+    };
+    // A regular file's length is known: checked before anything is allocated for the payload.
+    let size = file.metadata().ok().filter(|m| m.is_file()).map(|m| m.len());
+    if let Some(holds) = size.map(|size| size.saturating_sub(HEADER_LEN as u64)).filter(|&holds| holds != length) {
+        return Err(short(holds));
+    }
+    let mut payload = Vec::with_capacity(size.map_or(0, |_| length as usize));
+    (&mut file).take(length).read_to_end(&mut payload).map_err(io_err)?;
+    if payload.len() as u64 != length {
+        return Err(short(payload.len() as u64));
+    }
+    if file.read(&mut [0u8]).map_err(io_err)? > 0 {
+        return Err(DecodeError::Corrupt(format!("the header announces {length} payload bytes but more follow (appended to)")).at(path));
+    }
+    decode_payload(version, checksum, &payload).map_err(|e| e.at(path))
 }
 
 /// A decoding failure before the path is attached.
@@ -222,7 +246,15 @@ impl DecodeError {
     }
 }
 
-fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
+/// What a save file's header says about its payload.
+struct Header {
+    version: u32,
+    length: u64,
+    checksum: u64,
+}
+
+/// Checks the first [`HEADER_LEN`] bytes of a file (fewer where the file is shorter).
+fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
     if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
         return Err(DecodeError::NotASaveFile);
     }
@@ -235,14 +267,11 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
     if version != FORMAT_VERSION && version != FNV_VERSION {
         return Err(DecodeError::UnsupportedVersion(version));
     }
-    let (length, expected) = (u64_at(12), u64_at(20));
-    let payload = &bytes[HEADER_LEN..];
-    if payload.len() as u64 != length {
-        return Err(DecodeError::Corrupt(format!(
-            "the header announces {length} payload bytes but the file holds {} (truncated or appended to)",
-            payload.len()
-        )));
-    }
+    Ok(Header { version, length: u64_at(12), checksum: u64_at(20) })
+}
+
+/// The payload of a file of format `version` whose header gives it checksum `expected`.
+fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFile, DecodeError> {
     if checksum(version, payload) != expected {
         return Err(DecodeError::Corrupt("the payload checksum does not match".to_string()));
     }
