@@ -284,6 +284,46 @@ fn an_empty_or_binary_deck_is_an_error_not_a_panic() {
     assert!(stderr.contains("cannot read"), "{stderr}");
 }
 
+/// A deck of NUL bytes is refused at its first bytes, with its line; so is a FIFO fed NULs for
+/// ever (read whole, it would never end and would fill the memory), and RESTART from a FIFO fed
+/// NULs is refused at its header.
+#[test]
+fn an_input_of_nul_bytes_is_refused_at_its_start_even_without_an_end() {
+    let dir = temp("nul");
+    let zeros = dir.join("zeros.dat");
+    std::fs::write(&zeros, vec![0u8; 1 << 20]).unwrap();
+    let (code, _, stderr) = blockdem(&["run", zeros.to_str().unwrap(), "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains(&format!("{}:1:1: binary file: a NUL byte at line 1", zeros.display())), "{stderr}");
+    #[cfg(unix)]
+    {
+        let fifo = dir.join("endless");
+        assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+        // NULs written until the reader goes (the write then fails: Rust ignores SIGPIPE). A
+        // writer left waiting for a reader that never came is a detached thread, ended with the
+        // test.
+        let feed = |fifo: std::path::PathBuf| {
+            std::thread::spawn(move || {
+                use std::io::Write;
+                let mut w = std::fs::OpenOptions::new().write(true).open(fifo).unwrap();
+                let zeros = vec![0u8; 1 << 16];
+                while w.write_all(&zeros).is_ok() {}
+            })
+        };
+        feed(fifo.clone());
+        let start = std::time::Instant::now();
+        let (code, _, stderr) = blockdem(&["run", fifo.to_str().unwrap(), "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+        assert_eq!(code, 1);
+        assert!(stderr.contains("binary file: a NUL byte at line 1"), "{stderr}");
+        assert!(start.elapsed().as_secs() < 20, "read on for {:?}", start.elapsed());
+        feed(fifo.clone());
+        let deck = write_deck(&dir, &format!("RESTART {}\n", fifo.display()));
+        let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+        assert_eq!(code, 1);
+        assert!(stderr.contains(&format!("{deck}:1: RESTART: {} is not a blockdem save file", fifo.display())), "{stderr}");
+    }
+}
+
 #[test]
 fn verify_quick_passes_and_writes_csv_and_charts() {
     let dir = temp("verify");
