@@ -262,7 +262,8 @@ impl<'a> Executor<'a> {
             }
             Command::Restart { file } => {
                 let path = self.resolve(file);
-                let saved = output::restart::load(&path).map_err(|e| self.command_error(cmd, format!("cannot restart from {}: {e}", path.display())))?;
+                // Every RestartError names the file.
+                let saved = output::restart::load(&path).map_err(|e| self.command_error(cmd, format!("RESTART: {e}")))?;
                 self.model = saved.model;
                 self.plot = saved.plot;
                 self.plot_count = saved.plot_count;

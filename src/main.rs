@@ -286,7 +286,7 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
         bail!("--tolerance must be a number, zero or more");
     }
     let name = deck.display().to_string();
-    let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
+    let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision: precision.into() }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
@@ -355,7 +355,7 @@ fn seconds(text: &str) -> Result<f64, String> {
 fn run(args: RunArgs) -> anyhow::Result<()> {
     let RunArgs { deck, backend, adapter, precision, out, state_json, checkpoint_every, vtk_every } = args;
     let name = deck.display().to_string();
-    let bytes = std::fs::read(&deck).with_context(|| format!("cannot read the deck {name}"))?;
+    let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
     // The precision the cycle runs in, for the extreme-ratio warnings (`verify::stability`).
     let mut runs_on = (false, "f64");

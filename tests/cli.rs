@@ -315,6 +315,46 @@ fn an_empty_or_binary_deck_is_an_error_not_a_panic() {
     assert!(stderr.contains("cannot read"), "{stderr}");
 }
 
+/// A deck of NUL bytes is refused at its first bytes, with its line; so is a FIFO fed NULs for
+/// ever (read whole, it would never end and would fill the memory), and RESTART from a FIFO fed
+/// NULs is refused at its header.
+#[test]
+fn an_input_of_nul_bytes_is_refused_at_its_start_even_without_an_end() {
+    let dir = temp("nul");
+    let zeros = dir.join("zeros.dat");
+    std::fs::write(&zeros, vec![0u8; 1 << 20]).unwrap();
+    let (code, _, stderr) = blockdem(&["run", zeros.to_str().unwrap(), "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains(&format!("{}:1:1: binary file: a NUL byte at line 1", zeros.display())), "{stderr}");
+    #[cfg(unix)]
+    {
+        let fifo = dir.join("endless");
+        assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+        // NULs written until the reader goes (the write then fails: Rust ignores SIGPIPE). A
+        // writer left waiting for a reader that never came is a detached thread, ended with the
+        // test.
+        let feed = |fifo: std::path::PathBuf| {
+            std::thread::spawn(move || {
+                use std::io::Write;
+                let mut w = std::fs::OpenOptions::new().write(true).open(fifo).unwrap();
+                let zeros = vec![0u8; 1 << 16];
+                while w.write_all(&zeros).is_ok() {}
+            })
+        };
+        feed(fifo.clone());
+        let start = std::time::Instant::now();
+        let (code, _, stderr) = blockdem(&["run", fifo.to_str().unwrap(), "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+        assert_eq!(code, 1);
+        assert!(stderr.contains("binary file: a NUL byte at line 1"), "{stderr}");
+        assert!(start.elapsed().as_secs() < 20, "read on for {:?}", start.elapsed());
+        feed(fifo.clone());
+        let deck = write_deck(&dir, &format!("RESTART {}\n", fifo.display()));
+        let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
+        assert_eq!(code, 1);
+        assert!(stderr.contains(&format!("{deck}:1: RESTART: {} is not a blockdem save file", fifo.display())), "{stderr}");
+    }
+}
+
 #[test]
 fn verify_quick_passes_and_writes_csv_and_charts() {
     let dir = temp("verify");
@@ -433,4 +473,38 @@ fn long_cycles_show_a_bar_on_a_terminal_and_progress_lines_otherwise() {
     assert!(out.status.success(), "{text}");
     assert!(text.contains("/2000000 cycles"), "no progress bar on a terminal:\n{text}");
     assert!(text.contains("CURRENT CYCLE COUNT = 2000000"), "{text}");
+}
+
+/// `--state-json` to a FIFO writes through it (a reader gets the JSON) and leaves it a FIFO;
+/// to a symbolic link, it writes the file the link names and leaves the link.
+#[cfg(unix)]
+#[test]
+fn the_state_file_writes_through_a_fifo_and_a_symbolic_link() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = temp("state_fifo");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAVITY 0 -10\nCYCLE 10\nSTOP\n");
+    let (fifo, came) = (dir.join("pipe"), dir.join("came_through.json"));
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    // `cat` reads the FIFO, so that neither side waits for ever on the other; killed if it is
+    // still waiting once the run is over.
+    let mut cat = Command::new("cat").arg(&fifo).stdout(std::fs::File::create(&came).unwrap()).spawn().unwrap();
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", fifo.to_str().unwrap()]);
+    let start = std::time::Instant::now();
+    while cat.try_wait().unwrap().is_none() && start.elapsed().as_secs() < 20 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let _ = cat.kill();
+    let _ = cat.wait();
+    assert_eq!(code, 0, "{stderr}");
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the FIFO was replaced by a file");
+    let state: serde_json::Value = serde_json::from_slice(&std::fs::read(&came).unwrap()).unwrap();
+    assert_eq!(state["cycle"], 10);
+
+    let link = dir.join("latest.json");
+    std::os::unix::fs::symlink("came_through.json", &link).unwrap();
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", link.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
+    let again: serde_json::Value = serde_json::from_slice(&std::fs::read(&came).unwrap()).unwrap();
+    assert_eq!(again, state);
 }

@@ -560,14 +560,22 @@ fn save_and_load_round_trip_exactly() {
 
 #[test]
 fn save_preserves_nan_bits() {
+    // The format keeps a NaN's payload; RESTART accepts one only where the model may hold it (the
+    // energy bookkeeping) and refuses a non-finite state (Model::validate), naming the block.
     let dir = out_dir("restart_nan");
     let path = dir.join("nan.sav");
     let mut file = save_file();
     let odd_nan = f64::from_bits(0x7ff8_dead_beef_0001);
-    file.model.blocks[0].velocity[0] = odd_nan;
+    file.model.blocks[0].damping_work = odd_nan;
     save(&path, &file).unwrap();
     let back = load(&path).unwrap();
-    assert_eq!(back.model.blocks[0].velocity[0].to_bits(), odd_nan.to_bits());
+    assert_eq!(back.model.blocks[0].damping_work.to_bits(), odd_nan.to_bits());
+    file.model.blocks[0].velocity[0] = odd_nan;
+    save(&path, &file).unwrap();
+    match load(&path) {
+        Err(e @ RestartError::Inconsistent { .. }) => assert!(e.to_string().ends_with("is inconsistent: block 0 (id 3) has a non-finite value"), "{e}"),
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]
@@ -661,6 +669,98 @@ fn load_reports_bad_files_without_panicking() {
 
     // A file that is not there.
     assert!(matches!(load(&dir.join("missing.sav")), Err(RestartError::Io { .. })));
+}
+
+/// SAVE through a symbolic link writes the file the link names, created where the link
+/// dangles, and leaves the link a link.
+#[cfg(unix)]
+#[test]
+fn save_through_a_symbolic_link_writes_the_file_it_names_and_keeps_the_link() {
+    let dir = out_dir("restart_symlink");
+    std::fs::create_dir(dir.join("runs")).unwrap();
+    let link = dir.join("latest.sav");
+    std::os::unix::fs::symlink("runs/first.sav", &link).unwrap();
+    let mut file = save_file();
+    for plot_count in [3, 4] {
+        file.plot_count = plot_count;
+        save(&link, &file).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
+        assert_eq!(load(&dir.join("runs/first.sav")).unwrap(), file);
+        assert_eq!(load(&link).unwrap().plot_count, plot_count);
+    }
+    assert_eq!(std::fs::read_dir(dir.join("runs")).unwrap().count(), 1, "temporary file left behind");
+}
+
+/// Runs `write` on a FIFO that `cat` reads (so that the pipe is not left waiting for a reader
+/// and the test cannot hang on it); returns what came through and checks the FIFO is still one.
+#[cfg(unix)]
+fn through_a_fifo(dir: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Vec<u8> {
+    use std::os::unix::fs::FileTypeExt;
+    let (fifo, out) = (dir.join("pipe"), dir.join("came_through"));
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let mut cat = std::process::Command::new("cat").arg(&fifo).stdout(std::fs::File::create(&out).unwrap()).spawn().unwrap();
+    let written = write(&fifo);
+    let start = std::time::Instant::now();
+    while written.is_ok() && cat.try_wait().unwrap().is_none() && start.elapsed().as_secs() < 20 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let _ = cat.kill();
+    let _ = cat.wait();
+    written.unwrap();
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo(), "the FIFO was replaced by a file");
+    std::fs::read(&out).unwrap()
+}
+
+/// A FIFO is written through, not replaced: SAVE writes the same bytes as to a file (its header
+/// first: a pipe cannot seek back to it), and the state file is the same text.
+#[cfg(unix)]
+#[test]
+fn save_and_the_state_file_write_through_a_fifo() {
+    let dir = out_dir("restart_fifo");
+    let file = save_file();
+    save(&dir.join("file.sav"), &file).unwrap();
+    let piped = through_a_fifo(&dir, |p| save(p, &file).map_err(|e| e.to_string()));
+    assert_eq!(piped, std::fs::read(dir.join("file.sav")).unwrap());
+    std::fs::remove_file(dir.join("pipe")).unwrap();
+    write_state_json(&file.model, &dir.join("state.json")).unwrap();
+    let piped = through_a_fifo(&dir, |p| write_state_json(&file.model, p).map_err(|e| e.to_string()));
+    assert_eq!(piped, std::fs::read(dir.join("state.json")).unwrap());
+}
+
+/// RESTART from a FIFO (whose length is not known ahead) reads the payload only as far as the
+/// header announces: a whole file loads, a short one or one with more after it is corrupt.
+#[cfg(unix)]
+#[test]
+fn load_reads_a_fifo_as_far_as_the_header_announces() {
+    let dir = out_dir("restart_from_fifo");
+    let file = save_file();
+    save(&dir.join("file.sav"), &file).unwrap();
+    let bytes = std::fs::read(dir.join("file.sav")).unwrap();
+    let fifo = dir.join("pipe");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    // The writer ignores the reader going early (a broken pipe): what matters is what load says.
+    let feed = |b: Vec<u8>| {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || {
+            use std::io::Write;
+            let _ = std::fs::OpenOptions::new().write(true).open(&fifo).and_then(|mut w| w.write_all(&b));
+        })
+    };
+    let writer = feed(bytes.clone());
+    assert_eq!(load(&fifo).unwrap(), file);
+    writer.join().unwrap();
+    let n = bytes.len() as u64 - 28;
+    for (damaged, says) in [
+        ([&bytes[..], b"junk"].concat(), format!("announces {n} payload bytes but more follow")),
+        (bytes[..bytes.len() - 10].to_vec(), format!("announces {n} payload bytes but the file holds {}", n - 10)),
+    ] {
+        let writer = feed(damaged);
+        match load(&fifo) {
+            Err(RestartError::Corrupt { reason, .. }) => assert!(reason.contains(&says), "{reason}"),
+            other => panic!("{other:?}"),
+        }
+        writer.join().unwrap();
+    }
 }
 
 #[test]

@@ -92,6 +92,24 @@ fn is_binary(c: char) -> bool {
     c.is_control() && !matches!(c, '\t' | '\r' | '\n' | '\u{0c}')
 }
 
+/// The `binary file` error for the first character of `raw` (line `line`) that has no business in
+/// a text deck.
+fn check_text_line(raw: &str, line: usize, file: &str) -> Result<(), DeckError> {
+    match raw.chars().enumerate().find(|&(_, c)| is_binary(c)) {
+        Some((col, c)) => {
+            let what = if c == '\0' { "a NUL byte".to_string() } else { format!("control character U+{:04X}", c as u32) };
+            Err(DeckError::new(file, line, col + 1, format!("binary file: {what} at line {line}; a deck must be plain text")))
+        }
+        None => Ok(()),
+    }
+}
+
+/// `split`'s `binary file` check alone, on the start of a deck (its last line may be cut short):
+/// a binary file is told from a deck by its first bytes, before the rest is read.
+pub(crate) fn check_text(text: &str, file: &str) -> Result<(), DeckError> {
+    text.lines().enumerate().try_for_each(|(index, raw)| check_text_line(raw, index + 1, file))
+}
+
 /// Split one physical line (without its `+`) into tokens. `col0` is the 1-based column of the
 /// first character of `text`; `group` carries the parenthesised-group counter through the
 /// statement. A token's text is a slice of the line, kept inline (`CompactString`) when short, as
@@ -201,10 +219,7 @@ fn split_lines(text: &str, first_line: usize, file: &str) -> Result<Vec<Statemen
     // `lines()` splits on `\n` and strips a `\r` before it, so DOS decks read the same.
     for (index, raw) in text.lines().enumerate() {
         let line = first_line + index;
-        if let Some((col, c)) = raw.chars().enumerate().find(|&(_, c)| is_binary(c)) {
-            let what = if c == '\0' { "a NUL byte".to_string() } else { format!("control character U+{:04X}", c as u32) };
-            return Err(DeckError::new(file, line, col + 1, format!("binary file: {what} at line {line}; a deck must be plain text")));
-        }
+        check_text_line(raw, line, file)?;
         let chars = raw.chars().count();
         if chars > MAX_LINE_CHARS {
             return Err(DeckError::new(file, line, MAX_LINE_CHARS + 1, format!("line too long ({chars} characters; at most {MAX_LINE_CHARS})")));

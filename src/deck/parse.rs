@@ -522,20 +522,77 @@ fn statement(st: &lexer::Statement, first: bool, file: &str) -> Result<Command> 
 pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
     match std::str::from_utf8(bytes) {
         Ok(text) => parse_deck(text, file),
-        Err(e) => {
-            let before = &bytes[..e.valid_up_to()];
-            let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
-            // The column of the first bad byte, in characters of the (valid) text before it.
-            let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-            let column = std::str::from_utf8(&before[line_start..]).map_or(0, |t| t.chars().count()) + 1;
-            Err(DeckError::new(
-                file,
-                line,
-                column,
-                format!("binary file: byte 0x{:02X} is not UTF-8 text (line {line}, column {column}); a deck must be plain text", bytes[e.valid_up_to()]),
-            ))
-        }
+        Err(e) => Err(not_utf8(bytes, e.valid_up_to(), file)),
     }
+}
+
+/// The `binary file` error for the byte at `bad`, the first that is not UTF-8.
+fn not_utf8(bytes: &[u8], bad: usize, file: &str) -> DeckError {
+    let before = &bytes[..bad];
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    // The column of the first bad byte, in characters of the (valid) text before it.
+    let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let column = std::str::from_utf8(&before[line_start..]).map_or(0, |t| t.chars().count()) + 1;
+    DeckError::new(
+        file,
+        line,
+        column,
+        format!("binary file: byte 0x{:02X} is not UTF-8 text (line {line}, column {column}); a deck must be plain text", bytes[bad]),
+    )
+}
+
+/// The largest deck read, in bytes: 1 GiB, some 2·10⁷ BLOCK commands (twenty times the
+/// 10⁶-block walls the benchmarks generate, 45 MB). Reading stops there, so that an input with
+/// no end (a FIFO fed for ever, `/dev/stdin` from `yes`) is an error, not all of the memory.
+pub const MAX_DECK_BYTES: usize = 1 << 30;
+
+/// The start of a deck, read and checked for binary bytes before the rest: `/dev/zero`, or a
+/// binary file given by mistake, is refused at once instead of being read to its end (if any).
+const FIRST_BYTES: usize = 1 << 16;
+
+/// Why a deck file could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    #[error("cannot read the deck {file}: {error}")]
+    Io { file: String, error: std::io::Error },
+    /// Not a deck: a binary file, or more than [`MAX_DECK_BYTES`].
+    #[error(transparent)]
+    Deck(#[from] DeckError),
+}
+
+/// Reads the deck at `path` (named `file` in errors) for [`parse_deck_bytes`]: a regular file,
+/// or a FIFO, `/dev/stdin` or any other stream. Its first [`FIRST_BYTES`] are checked as text
+/// (UTF-8 with no NUL or other control character) before the rest is read, and reading stops
+/// past [`MAX_DECK_BYTES`].
+pub fn read_deck(path: &std::path::Path, file: &str) -> std::result::Result<Vec<u8>, ReadError> {
+    let io = |error| ReadError::Io { file: file.to_string(), error };
+    let source = std::fs::File::open(path).map_err(io)?;
+    // A regular file's length is known: the bytes are read into one allocation, as fs::read does.
+    let size = source.metadata().ok().filter(|m| m.is_file()).map_or(0, |m| m.len());
+    read_deck_from(source, size.min(MAX_DECK_BYTES as u64 + 1) as usize, file, MAX_DECK_BYTES)
+}
+
+/// [`read_deck`] from any reader, with room for `size` bytes reserved and at most `limit` read.
+fn read_deck_from(mut source: impl std::io::Read, size: usize, file: &str, limit: usize) -> std::result::Result<Vec<u8>, ReadError> {
+    use std::io::Read;
+    let io = |error| ReadError::Io { file: file.to_string(), error };
+    let mut bytes = Vec::with_capacity(size);
+    (&mut source).take(FIRST_BYTES.min(limit + 1) as u64).read_to_end(&mut bytes).map_err(io)?;
+    let text = match std::str::from_utf8(&bytes) {
+        Ok(text) => text,
+        // A character cut at the end of the first bytes is whole in the deck.
+        Err(e) if e.error_len().is_none() => std::str::from_utf8(&bytes[..e.valid_up_to()]).expect("valid up to there"),
+        Err(e) => return Err(not_utf8(&bytes, e.valid_up_to(), file).into()),
+    };
+    lexer::check_text(text, file)?;
+    (&mut source).take((limit + 1).saturating_sub(bytes.len()) as u64).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() > limit {
+        let line = bytes[..limit].iter().filter(|&&b| b == b'\n').count() + 1;
+        let message =
+            format!("the deck goes on past {limit} bytes, the most a deck may hold (a wall of 10⁶ blocks is 45 MB): an input with no end, or not a deck");
+        return Err(DeckError::new(file, line, 0, message).into());
+    }
+    Ok(bytes)
 }
 
 /// The text after the command word, less blanks and the separators other than '/'.
@@ -970,6 +1027,23 @@ fn generate(a: &mut Args) -> Result<Command> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A deck is told from a binary input by its first bytes: endless NULs are refused without
+    /// reading on, endless text stops past the limit, a character cut at the end of the first
+    /// bytes is read whole, and bytes that are not UTF-8 are refused at their line and column.
+    #[test]
+    fn reading_a_deck_stops_at_binary_bytes_and_past_the_limit() {
+        let e = read_deck_from(std::io::repeat(0), 0, "zeros", MAX_DECK_BYTES).unwrap_err();
+        assert_eq!(e.to_string(), "zeros:1:1: binary file: a NUL byte at line 1; a deck must be plain text");
+        let e = read_deck_from(std::io::repeat(b'\n'), 0, "endless", 1000).unwrap_err();
+        assert!(e.to_string().starts_with("endless:1001: the deck goes on past 1000 bytes"), "{e}");
+        let mut deck = "*".repeat(FIRST_BYTES - 1).into_bytes();
+        deck.extend("é\nSTART\n".as_bytes());
+        assert_eq!(read_deck_from(&deck[..], 0, "cut", MAX_DECK_BYTES).unwrap(), deck);
+        assert_eq!(read_deck_from(&deck[..], 0, "at the limit", deck.len()).unwrap(), deck);
+        let e = read_deck_from(&b"START\nGRAV 0 \xff\n"[..], 0, "latin1", MAX_DECK_BYTES).unwrap_err();
+        assert!(e.to_string().starts_with("latin1:2:8: binary file: byte 0xFF is not UTF-8"), "{e}");
+    }
 
     /// Every name's full spelling and its minimum abbreviation (in either case) resolve to that
     /// name, so no minimum is shadowed by another entry.

@@ -263,31 +263,55 @@ impl Model {
         }
     }
 
-    /// Consistency check of the whole model (STYLE.md item 6): corner ranges in bounds, disjoint and
-    /// covering every corner; corners pointing back at their block; body-frame outlines
-    /// counter-clockwise with the stored area; finite state; unique block ids below
-    /// `next_block_id`; contact and link indices in range, between distinct blocks, with the contact
-    /// corner owned by block 1 and the feature on block 2. Returns the first problem found.
+    /// Consistency check of the whole model (STYLE.md item 6), and what RESTART asks of a save
+    /// file before it takes the model in (a file whose checksum is right may still have been
+    /// written wrong or edited): the settings finite and in the ranges their commands allow, all
+    /// [`MAX_MATERIALS`](super::MAX_MATERIALS) materials there; each block's corner range the one
+    /// after the previous block's (the CPU block pass and the GPU upload slice the corners so),
+    /// with at least 3 corners, the whole list covered; corners pointing back at their block;
+    /// body-frame outlines counter-clockwise with the stored area; finite state; unique block ids
+    /// below `next_block_id`; contact and link indices in range, between distinct blocks, with
+    /// the contact corner owned by block 1 and the feature on block 2. Returns the first problem
+    /// found, in words that name the entry by its index in its list.
     pub fn validate(&self) -> Result<(), String> {
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        let nb = self.blocks.len();
-        let mut ranges: Vec<(usize, usize, usize)> = Vec::with_capacity(nb);
+        self.validate_settings()?;
+        let (nb, nk) = (self.blocks.len(), self.corners.len());
+        // Corner indices are u32 everywhere (blocks, contacts, the GPU buffers).
+        if nk > u32::MAX as usize {
+            return Err(format!("{nk} corners, more than a u32 indexes"));
+        }
         let mut ids = std::collections::HashSet::with_capacity(nb);
+        let mut local: Vec<[f64; 2]> = Vec::new();
+        let mut next_corner = 0usize;
         for (b, blk) in self.blocks.iter().enumerate() {
             let (s, n) = (blk.corner_start as usize, blk.corner_count as usize);
             if n < 3 {
                 return Err(format!("block {b} (id {}) has {n} corners", blk.id));
             }
-            if s + n > self.corners.len() {
-                return Err(format!("block {b} (id {}) corner range {s}..{} out of bounds", blk.id, s + n));
+            if s != next_corner || s + n > nk {
+                return Err(format!(
+                    "block {b} (id {}) has corners {s}..{} of {nk}; its corners must follow the previous block's, from corner {next_corner}",
+                    blk.id,
+                    s + n
+                ));
             }
+            next_corner = s + n;
             if !ids.insert(blk.id) || blk.id >= self.next_block_id {
-                return Err(format!("block {b}: id {} repeated or not below next_block_id", blk.id));
+                return Err(format!("block {b}: id {} repeated or not below the next block id {}", blk.id, self.next_block_id));
             }
-            let scalars = [blk.area, blk.mass, blk.inertia, blk.rotation, blk.angular_velocity, blk.moment];
-            let pairs = [blk.centroid, blk.velocity, blk.force, blk.load];
-            if !finite(&scalars) || !pairs.iter().all(|p| finite(p)) || !blk.radius.is_finite() {
+            let scalars = [blk.area, blk.mass, blk.inertia, blk.rotation, blk.angular_velocity, blk.moment, blk.radius, blk.update_rotation];
+            let pairs = [blk.centroid, blk.velocity, blk.force, blk.load, blk.update_centroid];
+            if !finite(&scalars) || !pairs.iter().all(|p| finite(p)) {
                 return Err(format!("block {b} (id {}) has a non-finite value", blk.id));
+            }
+            // NaN fails these too. The distance moved may be infinite: cracking sets it so to ask
+            // for the pieces' contact update.
+            if !(blk.update_margin >= 0.0 && blk.update_margin.is_finite() && blk.moved_since_update >= 0.0 && blk.radius >= 0.0) {
+                return Err(format!(
+                    "block {b} (id {}): radius {}, update margin {} and distance moved {} must be finite and not negative",
+                    blk.id, blk.radius, blk.update_margin, blk.moved_since_update
+                ));
             }
             if blk.area <= 0.0 || blk.mass < 0.0 || blk.inertia < 0.0 {
                 return Err(format!("block {b} (id {}): area {} mass {} inertia {}", blk.id, blk.area, blk.mass, blk.inertia));
@@ -297,28 +321,21 @@ impl Model {
                 if c.block as usize != b {
                     return Err(format!("corner {} belongs to block {b} but says block {}", s + k, c.block));
                 }
-                let vals = [c.local, c.circle_local, c.position, c.circle];
-                if !vals.iter().all(|p| finite(p)) || !c.radius.is_finite() || c.radius < 0.0 || c.round < 0.0 {
+                let vals = [c.local, c.circle_local, c.position, c.circle, c.edge_dir];
+                let lengths = [c.radius, c.round, c.edge_length];
+                if !vals.iter().all(|p| finite(p)) || !finite(&lengths) || lengths.iter().any(|&x| x < 0.0) {
                     return Err(format!("corner {} of block {b} has a bad value", s + k));
                 }
             }
-            let local: Vec<[f64; 2]> = corners.iter().map(|c| c.local).collect();
+            local.clear();
+            local.extend(corners.iter().map(|c| c.local));
             let area = geometry::signed_area(&local);
             if (area - blk.area).abs() > 1e-9 * blk.area.max(blk.radius * blk.radius) {
                 return Err(format!("block {b} (id {}): outline area {area} (clockwise if negative) ≠ stored {}", blk.id, blk.area));
             }
-            ranges.push((s, n, b));
         }
-        ranges.sort_unstable();
-        let mut covered = 0;
-        for &(s, n, b) in &ranges {
-            if s != covered {
-                return Err(format!("corner ranges overlap or leave a gap at corner {covered} (block {b} starts at {s})"));
-            }
-            covered = s + n;
-        }
-        if covered != self.corners.len() {
-            return Err(format!("corners {covered}.. belong to no block"));
+        if next_corner != nk {
+            return Err(format!("corners {next_corner}..{nk} belong to no block"));
         }
         for (i, c) in self.contacts.iter().enumerate() {
             let (b1, b2) = (c.block1 as usize, c.block2 as usize);
@@ -327,14 +344,17 @@ impl Model {
             }
             let blk1 = &self.blocks[b1];
             let corner = c.corner as usize;
-            if corner < blk1.corner_start as usize || corner >= (blk1.corner_start + blk1.corner_count) as usize {
+            if corner >= nk {
+                return Err(format!("contact {i} (id {}) names corner {corner} of {nk}", c.id));
+            }
+            if corner < blk1.corner_start as usize || corner >= blk1.corner_start as usize + blk1.corner_count as usize {
                 return Err(format!("contact {i} (id {}): corner {corner} is not a corner of block {b1}", c.id));
             }
             if c.feature >= 2 * self.blocks[b2].corner_count {
                 return Err(format!("contact {i} (id {}): feature {} beyond block {b2}", c.id, c.feature));
             }
             let vals = [c.gap, c.normal_force, c.shear_force, c.shear_displacement];
-            if !finite(&vals) || !finite(&c.point) || !finite(&c.normal) || !finite(&c.force) {
+            if !finite(&vals) || !finite(&c.point) || !finite(&c.normal) || !finite(&c.force) || !finite(&c.dashpot_velocity) {
                 return Err(format!("contact {i} (id {}) has a non-finite value", c.id));
             }
         }
@@ -342,6 +362,59 @@ impl Model {
             if l.flying as usize >= nb || l.anchor as usize >= nb || l.flying == l.anchor {
                 return Err(format!("link {i} joins blocks {} and {} of {nb}", l.flying, l.anchor));
             }
+        }
+        Ok(())
+    }
+
+    /// The settings' part of [`Model::validate`]: each within what its command accepts (FRACTION
+    /// positive, the tolerances not negative, the others finite), so that a CYCLE never starts
+    /// from a fraction or a tolerance no deck could give. The material numbers that blocks,
+    /// edges and contacts hold are not checked: [`Model::material`] maps any number to a slot.
+    fn validate_settings(&self) -> Result<(), String> {
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if self.materials.len() != super::MAX_MATERIALS {
+            return Err(format!("{} materials, not {}", self.materials.len(), super::MAX_MATERIALS));
+        }
+        for (m, mat) in self.materials.iter().enumerate() {
+            let values = [
+                mat.density,
+                mat.bulk,
+                mat.shear,
+                mat.kn,
+                mat.ks,
+                mat.cohesion,
+                mat.friction,
+                mat.jkn,
+                mat.jks,
+                mat.jcohesion,
+                mat.jfriction,
+                mat.tf,
+                mat.jperm,
+                mat.cperm,
+                mat.azero,
+                mat.ares,
+            ];
+            if !finite(&values) {
+                return Err(format!("material {} has a non-finite property", m + 1));
+            }
+        }
+        // ROUND asks for a positive length, but a model built through the library may have sharp
+        // corners (rounding 0, and so tolerances 0).
+        let Tolerances { round, atol, btol, etol, margin_steps } = self.tol;
+        if !finite(&[round, atol, btol, etol, margin_steps]) || [round, atol, btol, etol, margin_steps].iter().any(|&x| x < 0.0) {
+            return Err(format!(
+                "the contact tolerances (rounding {round}, atol {atol}, btol {btol}, etol {etol}, margin steps {margin_steps}) must be finite and not negative"
+            ));
+        }
+        if !(self.frac > 0.0 && self.frac.is_finite()) {
+            return Err(format!("the time-step fraction {} is not a positive number", self.frac));
+        }
+        if !(self.timestep >= 0.0 && self.timestep.is_finite() && self.time.is_finite()) {
+            return Err(format!("the time step {} or the time {} is not a finite number (the step not negative)", self.timestep, self.time));
+        }
+        let d = &self.damping;
+        if !finite(&self.gravity) || !finite(&[d.alpha, d.beta, d.alpha_internal, self.external_work]) {
+            return Err("the gravity, the damping or the work done is not a finite number".to_string());
         }
         Ok(())
     }

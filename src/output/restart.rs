@@ -13,7 +13,9 @@
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
-//! a model with silently wrong numbers. The version must change whenever `SaveFile` or anything
+//! a model with silently wrong numbers; a file intact but holding a model no run could have
+//! made (an index past its list, a non-finite position: a writer's bug or a hand edit) is
+//! refused by [`Model::validate`], since the rest of the program trusts those indices. The version must change whenever `SaveFile` or anything
 //! in it (the `Model` types) changes shape: postcard is not self-describing.
 //!
 //! The payload is streamed to the file as it is serialized and the header's length and checksum
@@ -22,7 +24,7 @@
 //! at memory speed). Version 2 files are still read.
 
 use std::fs;
-use std::io::{self, Seek, SeekFrom, Write};
+use std::io::{self, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -63,6 +65,11 @@ pub enum RestartError {
     UnsupportedVersion { path: PathBuf, found: u32, supported: u32 },
     #[error("save file {path} is corrupt: {reason}")]
     Corrupt { path: PathBuf, reason: String },
+    /// Intact as a file (its checksum matches) but holding a model no run could have made: an
+    /// index past its list, a corner range out of order, a non-finite position. The program
+    /// trusts these throughout, so such a model is refused rather than cycled.
+    #[error("the model saved in {path} is inconsistent: {reason}")]
+    Inconsistent { path: PathBuf, reason: String },
 }
 
 /// FNV-1a, 64 bit: the checksum of version 2 files.
@@ -150,30 +157,73 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// SAVE: writes the model and the plot state to `path` as a [`SaveFile`], atomically (a
 /// temporary file renamed into place), so an interrupted SAVE leaves the previous save file
 /// intact. The header goes first with its length and checksum zero, the payload after it as it
-/// is serialized, and then the two are written into the header.
+/// is serialized, and then the two are written into the header. A path that is not a regular
+/// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
+/// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
     let file = SaveView { model, plot, plot_count };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
-        w.write_all(&MAGIC)?;
-        w.write_all(&FORMAT_VERSION.to_le_bytes())?;
-        w.write_all(&[0; 16])?;
-        let mut payload = PayloadWriter::new(w);
-        if let Err(e) = postcard::to_io(&file, &mut payload) {
-            return Err(payload.error.take().unwrap_or_else(|| io::Error::other(e)));
+        let seekable = w.get_ref().metadata()?.is_file();
+        let header = |w: &mut dyn Write, length: u64, checksum: u64| {
+            w.write_all(&MAGIC)?;
+            w.write_all(&FORMAT_VERSION.to_le_bytes())?;
+            w.write_all(&length.to_le_bytes())?;
+            w.write_all(&checksum.to_le_bytes())
+        };
+        if seekable {
+            header(w, 0, 0)?;
+            let (length, checksum) = write_payload(&file, w)?;
+            w.seek(SeekFrom::Start((MAGIC.len() + 4) as u64))?;
+            w.write_all(&length.to_le_bytes())?;
+            w.write_all(&checksum.to_le_bytes())
+        } else {
+            let (length, checksum) = write_payload(&file, &mut io::sink())?;
+            header(w, length, checksum)?;
+            // postcard's encoding of the same borrowed state is the same bytes.
+            write_payload(&file, w).map(drop)
         }
-        let (length, checksum) = payload.finish()?;
-        w.seek(SeekFrom::Start((MAGIC.len() + 4) as u64))?;
-        w.write_all(&length.to_le_bytes())?;
-        w.write_all(&checksum.to_le_bytes())
     })
     .map_err(io_err)
 }
 
+/// Streams the payload of `file` to `w`; returns its length and checksum.
+fn write_payload(file: &SaveView, w: &mut impl Write) -> io::Result<(u64, u64)> {
+    let mut payload = PayloadWriter::new(w);
+    if let Err(e) = postcard::to_io(file, &mut payload) {
+        return Err(payload.error.take().unwrap_or_else(|| io::Error::other(e)));
+    }
+    payload.finish()
+}
+
 /// RESTART: reads a save file written by [`save`].
+///
+/// The header is read first, and the payload then only as far as the header announces: a path
+/// that is not a save file (`/dev/zero`, a FIFO fed for ever, a deck given by mistake) is
+/// refused at its first bytes instead of being read to an end it may not have.
 pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
-    let bytes = fs::read(path).map_err(|source| RestartError::Io { path: path.to_path_buf(), source })?;
-    decode(&bytes).map_err(|e| e.at(path))
+    let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
+    let mut file = fs::File::open(path).map_err(io_err)?;
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    (&mut file).take(HEADER_LEN as u64).read_to_end(&mut header).map_err(io_err)?;
+    let Header { version, length, checksum } = decode_header(&header).map_err(|e| e.at(path))?;
+    let short = |holds: u64| {
+        DecodeError::Corrupt(format!("the header announces {length} payload bytes but the file holds {holds} (truncated or appended to)")).at(path)
+    };
+    // A regular file's length is known: checked before anything is allocated for the payload.
+    let size = file.metadata().ok().filter(|m| m.is_file()).map(|m| m.len());
+    if let Some(holds) = size.map(|size| size.saturating_sub(HEADER_LEN as u64)).filter(|&holds| holds != length) {
+        return Err(short(holds));
+    }
+    let mut payload = Vec::with_capacity(size.map_or(0, |_| length as usize));
+    (&mut file).take(length).read_to_end(&mut payload).map_err(io_err)?;
+    if payload.len() as u64 != length {
+        return Err(short(payload.len() as u64));
+    }
+    if file.read(&mut [0u8]).map_err(io_err)? > 0 {
+        return Err(DecodeError::Corrupt(format!("the header announces {length} payload bytes but more follow (appended to)")).at(path));
+    }
+    decode_payload(version, checksum, &payload).map_err(|e| e.at(path))
 }
 
 /// A decoding failure before the path is attached.
@@ -181,6 +231,7 @@ enum DecodeError {
     NotASaveFile,
     UnsupportedVersion(u32),
     Corrupt(String),
+    Inconsistent(String),
 }
 
 impl DecodeError {
@@ -190,11 +241,20 @@ impl DecodeError {
             DecodeError::NotASaveFile => RestartError::NotASaveFile { path },
             DecodeError::UnsupportedVersion(found) => RestartError::UnsupportedVersion { path, found, supported: FORMAT_VERSION },
             DecodeError::Corrupt(reason) => RestartError::Corrupt { path, reason },
+            DecodeError::Inconsistent(reason) => RestartError::Inconsistent { path, reason },
         }
     }
 }
 
-fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
+/// What a save file's header says about its payload.
+struct Header {
+    version: u32,
+    length: u64,
+    checksum: u64,
+}
+
+/// Checks the first [`HEADER_LEN`] bytes of a file (fewer where the file is shorter).
+fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
     if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
         return Err(DecodeError::NotASaveFile);
     }
@@ -207,14 +267,11 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
     if version != FORMAT_VERSION && version != FNV_VERSION {
         return Err(DecodeError::UnsupportedVersion(version));
     }
-    let (length, expected) = (u64_at(12), u64_at(20));
-    let payload = &bytes[HEADER_LEN..];
-    if payload.len() as u64 != length {
-        return Err(DecodeError::Corrupt(format!(
-            "the header announces {length} payload bytes but the file holds {} (truncated or appended to)",
-            payload.len()
-        )));
-    }
+    Ok(Header { version, length: u64_at(12), checksum: u64_at(20) })
+}
+
+/// The payload of a file of format `version` whose header gives it checksum `expected`.
+fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFile, DecodeError> {
     if checksum(version, payload) != expected {
         return Err(DecodeError::Corrupt("the payload checksum does not match".to_string()));
     }
@@ -222,5 +279,20 @@ fn decode(bytes: &[u8]) -> Result<SaveFile, DecodeError> {
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));
     }
+    check(&file).map_err(DecodeError::Inconsistent)?;
     Ok(file)
+}
+
+/// What a save file must hold beyond a readable payload: a model that passes
+/// [`Model::validate`], and plot settings that the WINDOW and VIEW commands could have set.
+fn check(file: &SaveFile) -> Result<(), String> {
+    let [x1, x2, y1, y2] = file.plot.window;
+    if !(x1.is_finite() && x2.is_finite() && y1.is_finite() && y2.is_finite()) {
+        return Err(format!("the plot window ({x1}, {x2}, {y1}, {y2}) is not finite"));
+    }
+    let [ix1, ix2, iy1, iy2] = file.plot.view;
+    if ix1 > ix2 || iy1 > iy2 {
+        return Err(format!("the plot view ({ix1}, {ix2}, {iy1}, {iy2}) is not in order"));
+    }
+    file.model.validate()
 }
