@@ -508,6 +508,21 @@ fn number_errors() {
     assert_body_err("FRAC 1.0x", 2, &["expected a number for the fraction f of the critical time-step, found '1.0x'"]);
     assert_body_err("FRAC 1..0", 2, &["found '1..0'"]);
     assert_body_err("CYCLE 99999999999999999999999", 2, &["out of range"]);
+    // Two numbers run together are named as such, not as one number too few.
+    let e = assert_body_err("GRAV 0-10", 2, &["expected a number for gx, found '0-10'; separate numbers with blanks or commas"]);
+    assert_eq!(e.column, 6);
+    assert_body_err("LOAD 0 1 0 1 5 1e5e3", 2, &["expected a number for fy, found '1e5e3'"]);
+}
+
+/// A UTF-8 byte-order mark (as some Windows editors write one) is not part of the first command,
+/// and columns count from the first visible character.
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    let v = parse("\u{feff}START\nGRAV 0 -10\n");
+    assert_eq!(v[0].command, Command::Start);
+    assert_eq!(v[1].command, Command::Gravity { g: [0.0, -10.0] });
+    let e = assert_err("\u{feff}STRAT\n", 1, &["unknown command 'STRAT'"]);
+    assert_eq!(e.column, 1);
 }
 
 #[test]

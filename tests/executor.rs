@@ -403,3 +403,14 @@ fn restart_refuses_a_saved_model_whose_contact_names_a_corner_past_the_list() {
     let expected = format!("<scene>:1: RESTART: the model saved in {} is inconsistent: contact 0 (id {id}) names corner 87 of {corners}", path.display());
     assert_eq!(e, expected);
 }
+
+/// A BLOCK outline's corners are named as the deck counts them, from 1.
+#[test]
+fn block_outline_errors_count_corners_from_one() {
+    let (r, _) = run_logged("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,1\n");
+    let e = r.unwrap_err().to_string();
+    assert!(e.contains(":3: BLOCK: corners 3 and 4 of the block outline are at the same place"), "{e}");
+    let (r, _) = run_logged("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 1,1 0,0 0,1 1,1\n");
+    let e = r.unwrap_err().to_string();
+    assert!(e.contains("corners 4 and 1 of the block outline are at the same place"), "{e}");
+}

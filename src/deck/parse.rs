@@ -429,6 +429,13 @@ impl<'a> Args<'a> {
             }
         }
         if nums.len() < required {
+            // Too few numbers with a malformed one among them is that number's error: `GRAVITY
+            // 0-10` is two numbers run together, not one number short.
+            if let Some((i, t)) = nums.iter().enumerate().find(|(_, t)| lexer::parse_real(&t.text) == Err(NumberError::Syntax)) {
+                let joined = t.text[1..].contains(['+', '-']) && !t.text[1..].to_ascii_lowercase().contains(['e', 'd']);
+                let hint = if joined { "; separate numbers with blanks or commas" } else { "" };
+                return Err(self.at(t, format!("{}{hint} ({})", not_a_number(slots[i], t, false), usage(self.word))));
+            }
             return Err(self.at_end(format!("{} needs {required} numbers ({}), found {}", self.name(), usage(self.word), nums.len())));
         }
         Ok(nums)
@@ -481,6 +488,8 @@ impl<'a> Args<'a> {
 /// Returns every command up to and including END (commands after END are ignored; END may be
 /// missing), or the first error.
 pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
+    // A byte-order mark, as some Windows editors write it, is not part of the first command.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let statements = lexer::split(text, file)?;
     if statements.is_empty() {
         return Err(DeckError::new(file, 1, 1, "empty deck: no commands (only blank or comment lines); expected START or RESTART as the first command"));

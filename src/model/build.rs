@@ -13,9 +13,11 @@ use super::{Block, BlockKind, Corner, Model, Tolerances};
 pub enum GeometryError {
     #[error("a block needs at least 3 corners, {count} given")]
     TooFewCorners { count: usize },
-    #[error("corner {index} of the block outline is not a finite number")]
+    /// `index` counts from 0; the message counts as the deck does, from 1.
+    #[error("corner {} of the block outline is not a finite number", .index + 1)]
     NonFinite { index: usize },
-    #[error("corners {index} and {next} of the block outline are at the same place (zero-length edge)")]
+    /// `index` and `next` count from 0; the message counts as the deck does, from 1.
+    #[error("corners {} and {} of the block outline are at the same place (zero-length edge)", .index + 1, .next + 1)]
     RepeatedCorner { index: usize, next: usize },
     #[error("the block outline crosses or touches itself; give the corners in order around the block")]
     SelfIntersecting,

@@ -4,8 +4,9 @@
 use std::fmt::Write as _;
 
 /// Width of one numeric column in the PRINT tables: room for `-1.234E+05` (10 characters) and one
-/// space of separation. Three-digit exponents (|exp| ≥ 100) take one more character and simply push
-/// the rest of the line right by one; they are rare enough in a PRINT table not to cost a column.
+/// space of separation. Three-digit exponents (|exp| ≥ 100) take one more character and push the
+/// rest of the line right (a column always keeps one space before its number); they are rare
+/// enough in a PRINT table not to cost a column.
 pub const NUMBER_WIDTH: usize = 11;
 
 /// Formats `x` as FORTRAN's `1PE10.3` would: one digit before the point, three after, an `E`, the
@@ -55,7 +56,26 @@ pub(crate) fn push_col_e(out: &mut String, x: f64) {
     let start = out.len();
     push_e(out, x);
     let written = out.len() - start;
-    if written < NUMBER_WIDTH {
-        out.insert_str(start, &"           "[..NUMBER_WIDTH - written]);
+    // At least one space of separation, even for `-1.000E+100` (11 characters), so columns
+    // never run together.
+    let pad = NUMBER_WIDTH.saturating_sub(written).max(1);
+    out.insert_str(start, &"           "[..pad]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Columns stay NUMBER_WIDTH wide and always keep a space before their number, so a row with
+    /// three-digit exponents still reads as separate numbers.
+    #[test]
+    fn columns_never_run_together() {
+        let mut row = String::new();
+        for x in [1.0, -2.5e-3, -1e100, -1e-100, 1e300] {
+            push_col_e(&mut row, x);
+        }
+        assert_eq!(row, "  1.000E+00 -2.500E-03 -1.000E+100 -1.000E-100 1.000E+300");
+        let parsed: Vec<f64> = row.split_whitespace().map(|t| t.parse().unwrap()).collect();
+        assert_eq!(parsed, [1.0, -2.5e-3, -1e100, -1e-100, 1e300]);
     }
 }
