@@ -1,7 +1,7 @@
 //! `blockdem`: run UDEC 1.2 command decks.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -202,6 +202,7 @@ fn bench(
     measure: Option<f64>,
     rounds: Option<u32>,
 ) -> anyhow::Result<()> {
+    check_out_dir(&out)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let precision = precision.map(Precision::from);
     let specs = blockdem::bench::present_backends(backend != BenchBackends::Gpu, backend != BenchBackends::Cpu, &choice, precision);
@@ -262,6 +263,7 @@ fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()>
             bail!("--only {o}: no case's name contains it; the cases are {}", names.join(", "));
         }
     }
+    check_out_dir(&out)?;
     let options = blockdem::verify::VerifyOptions { quick, out: Some(out.clone()), only };
     let suite = blockdem::verify::run_suite(&options);
     print!("{}", blockdem::verify::table(&suite));
@@ -288,6 +290,7 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     let name = deck.display().to_string();
     let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    check_out_dir(&out)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision: precision.into() }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
     eprintln!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
@@ -344,6 +347,33 @@ fn adapters() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Refuses an output folder that cannot be made or written before the work starts, not after
+/// hours of it: `--out` naming a file (or a folder under a file), or a place this user cannot
+/// write. The folder itself is made only when something is written to it.
+fn check_out_dir(out: &Path) -> anyhow::Result<()> {
+    for place in out.ancestors() {
+        let place = if place.as_os_str().is_empty() { Path::new(".") } else { place };
+        match std::fs::metadata(place) {
+            Ok(m) if m.is_dir() => {
+                // A probe file rather than the permission bits: those do not tell root, ACLs or a
+                // read-only mount apart.
+                let probe = place.join(format!(".blockdem-write-test-{}", std::process::id()));
+                return match std::fs::File::create(&probe) {
+                    Ok(_) => {
+                        let _ = std::fs::remove_file(&probe);
+                        Ok(())
+                    }
+                    Err(e) => bail!("--out {}: cannot write in {}: {e}", out.display(), place.display()),
+                };
+            }
+            Ok(_) => bail!("--out {}: {} is a file, not a folder", out.display(), place.display()),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory) => continue,
+            Err(e) => bail!("--out {}: {}: {e}", out.display(), place.display()),
+        }
+    }
+    Ok(())
+}
+
 /// A duration in seconds: a finite number, zero or more.
 fn seconds(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
@@ -357,6 +387,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let name = deck.display().to_string();
     let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    check_out_dir(&out)?;
     // The precision the cycle runs in, for the extreme-ratio warnings (`verify::stability`).
     let mut runs_on = (false, "f64");
     let backend: Box<dyn blockdem::backend::Backend> = match backend {

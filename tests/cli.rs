@@ -124,6 +124,36 @@ fn verify_only_a_case_that_does_not_exist_is_an_error() {
     assert!(stderr.contains("--only no_such_case") && stderr.contains("free_flight"), "{stderr}");
 }
 
+/// An output folder that cannot be one (a file, or under a file) is refused before any cycle runs,
+/// by `run`, `bench` and `verify` alike, and nothing is written.
+#[test]
+fn an_out_folder_that_is_a_file_is_refused_before_the_run() {
+    let dir = temp("out-file");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 2\nSAVE\n");
+    let file = dir.join("afile");
+    std::fs::write(&file, "").unwrap();
+    let file = file.to_str().unwrap();
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", file]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("--out {file}: {file} is a file, not a folder")), "{stderr}");
+    assert!(!stdout.contains("CYCLE"), "nothing runs: {stdout}");
+    let under = format!("{file}/sub");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", &under]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("--out {under}: {file} is a file, not a folder")), "{stderr}");
+    for args in [&["verify", "--quick", "--out", file][..], &["bench", "--quick", "--backend", "cpu", "--out", file][..]] {
+        let (code, _, stderr) = blockdem(args);
+        assert_ne!(code, 0, "{args:?}");
+        assert!(stderr.contains("is a file, not a folder"), "{args:?}: {stderr}");
+    }
+    // A folder not there yet is made, with its parents, when the run writes to it.
+    let fresh = dir.join("new/sub");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", fresh.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(fresh.join("blockdem.sav").exists());
+    assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains("write-test")), "the probe is removed");
+}
+
 /// An input error after cycles have run keeps them: the state before the failing command goes to
 /// `last_good.sav`, and a RESTART of it goes on.
 #[test]
