@@ -12,7 +12,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use blockdem::backend::{Backend, GpuOrCpu};
 use blockdem::cpu::CpuBackend;
 use blockdem::exec::{Executor, Progress, RunError, RunOptions};
-use blockdem::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use blockdem::gpu::{list_adapters, matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
 
 #[derive(Parser)]
 #[command(name = "blockdem", version, about = "Distinct element code for jointed rock (UDEC 1.2 / D3 after Cundall & Hart 1985)")]
@@ -206,8 +206,22 @@ fn bench(
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let precision = precision.map(Precision::from);
     let specs = blockdem::bench::present_backends(backend != BenchBackends::Gpu, backend != BenchBackends::Cpu, &choice, precision);
-    if specs.is_empty() {
-        bail!("no backend to benchmark: no GPU adapter found for --adapter {adapter}");
+    let gpu_specs = specs.iter().filter(|s| matches!(s, blockdem::bench::BackendSpec::Gpu(_))).count();
+    if backend != BenchBackends::Cpu && gpu_specs == 0 {
+        // Say why: no adapter at all, or adapters without the f64 asked of them.
+        let found: Vec<String> = matching_adapters(&choice).into_iter().filter(|a| a.compute).map(|a| format!("{} ({})", a.name, a.backend)).collect();
+        let why = if found.is_empty() {
+            format!("no GPU adapter found for --adapter {adapter}")
+        } else {
+            format!(
+                "--precision f64 needs SHADER_F64, which {} (found for --adapter {adapter}) lacks; use --precision f32 or a Vulkan adapter",
+                found.join(", ")
+            )
+        };
+        if specs.is_empty() {
+            bail!("no backend to benchmark: {why}");
+        }
+        eprintln!("blockdem: benchmarking the CPU only: {why}");
     }
     let mut options = blockdem::bench::BenchOptions::new(quick, specs);
     options.settle = matches!(scene, BenchScene::Settle | BenchScene::All);
@@ -397,7 +411,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
             // `auto` wants a real GPU: a software adapter (Mesa's lavapipe or llvmpipe) is slower
             // than the CPU backend and less precise, so it is used only when asked for.
-            let hardware = list_adapters(&choice).into_iter().any(|a| a.compute && !a.is_software());
+            let hardware = matching_adapters(&choice).into_iter().any(|a| a.compute && !a.is_software());
             if backend == BackendChoice::Auto && !hardware {
                 eprintln!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
                 Box::new(CpuBackend::new())

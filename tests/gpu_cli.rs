@@ -64,6 +64,15 @@ fn f64_on_an_adapter_without_it_is_a_clear_error() {
     let (code, _, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--adapter", "gl", "--precision", "f64", "--out", &out_dir("f64")], &[]);
     assert_ne!(code, 0);
     assert!(stderr.contains("SHADER_F64") && stderr.contains("--precision f32"), "{stderr}");
+    assert!(stderr.contains("--adapter gl finds only llvmpipe") && stderr.contains("(Gl)"), "names the adapter found: {stderr}");
+    // Chosen through WGPU_BACKEND, the adapter is named as found, not as the choice `Any`.
+    let (code, _, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--precision", "f64", "--out", &out_dir("f64env")], &[("WGPU_BACKEND", "gl")]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("--adapter any with WGPU_BACKEND=gl finds only") && stderr.contains("(Gl)") && !stderr.contains("(Any)"), "{stderr}");
+    // The benchmark says the same instead of "no GPU adapter found".
+    let (code, _, stderr) = blockdem(&["bench", "--quick", "--backend", "gpu", "--adapter", "gl", "--precision", "f64", "--out", &out_dir("f64bench")], &[]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("needs SHADER_F64") && stderr.contains("(Gl)") && !stderr.contains("no GPU adapter found"), "{stderr}");
 }
 
 #[test]

@@ -36,7 +36,7 @@ use std::time::Instant;
 
 use crate::backend::{Backend, CycleError, CycleReport};
 use crate::cpu::CpuBackend;
-use crate::gpu::{list_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use crate::gpu::{matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
 use crate::model::Model;
 use crate::profile::{self, Stage, StageTimes};
 
@@ -114,7 +114,7 @@ pub fn present_backends(cpu: bool, gpu: bool, adapter: &AdapterChoice, precision
     if !gpu {
         return out;
     }
-    let found: Vec<_> = list_adapters(adapter).into_iter().filter(|a| a.compute).collect();
+    let found: Vec<_> = matching_adapters(adapter).into_iter().filter(|a| a.compute).collect();
     let mut choices: Vec<(AdapterChoice, bool)> = Vec::new();
     match adapter {
         AdapterChoice::Any => {

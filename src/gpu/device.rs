@@ -43,6 +43,29 @@ impl std::str::FromStr for AdapterChoice {
     }
 }
 
+impl AdapterChoice {
+    /// The text an adapter's name must contain (lower case): the name asked for, or, for `Any`,
+    /// `WGPU_ADAPTER_NAME` when set.
+    pub fn wanted_name(&self) -> Option<String> {
+        match self {
+            AdapterChoice::Name(n) | AdapterChoice::OnApi(_, n) => Some(n.to_lowercase()),
+            AdapterChoice::Any => std::env::var("WGPU_ADAPTER_NAME").ok().map(|n| n.to_lowercase()),
+            _ => None,
+        }
+    }
+
+    /// The choice as `--adapter` spells it, for messages.
+    pub fn as_arg(&self) -> String {
+        match self {
+            AdapterChoice::Vulkan => "vulkan".into(),
+            AdapterChoice::Gl => "gl".into(),
+            AdapterChoice::Any => "any".into(),
+            AdapterChoice::Name(n) => n.clone(),
+            AdapterChoice::OnApi(api, n) => format!("{n} on {api:?}"),
+        }
+    }
+}
+
 /// Longest a single wait on the device may take before the run stops with an error: lavapipe
 /// has no watchdog, so a runaway kernel would otherwise hang the process.
 pub const WAIT_TIMEOUT: Duration = Duration::from_secs(120);
@@ -145,6 +168,15 @@ pub fn list_adapters(choice: &AdapterChoice) -> Vec<AdapterSummary> {
     pollster::block_on(inst.enumerate_adapters(backends)).iter().map(AdapterSummary::of).collect()
 }
 
+/// The adapters `choice` may open: on the backends it allows, with the name it asks for.
+pub fn matching_adapters(choice: &AdapterChoice) -> Vec<AdapterSummary> {
+    let mut found = list_adapters(choice);
+    if let Some(n) = choice.wanted_name() {
+        found.retain(|a| a.name.to_lowercase().contains(&n));
+    }
+    found
+}
+
 fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
     let kind = match info.device_type {
         wgpu::DeviceType::DiscreteGpu => 0,
@@ -187,19 +219,17 @@ impl GpuDevice {
             .into_iter()
             .filter(|a| a.get_downlevel_capabilities().flags.contains(wgpu::DownlevelFlags::COMPUTE_SHADERS | wgpu::DownlevelFlags::INDIRECT_EXECUTION))
             .collect();
-        let wanted_name = match choice {
-            AdapterChoice::Name(n) | AdapterChoice::OnApi(_, n) => Some(n.to_lowercase()),
-            AdapterChoice::Any => std::env::var("WGPU_ADAPTER_NAME").ok().map(|n| n.to_lowercase()),
-            _ => None,
-        };
+        let wanted_name = choice.wanted_name();
         if let Some(name) = &wanted_name {
             adapters.retain(|a| a.get_info().name.to_lowercase().contains(name.as_str()));
         }
         if precision == Precision::F64 {
-            let any = !adapters.is_empty();
+            // Named as found, with the API: `--adapter any` under WGPU_BACKEND=gl is GL's adapter.
+            let found: Vec<String> = adapters.iter().map(|a| a.get_info()).map(|i| format!("{} ({:?})", i.name, i.backend)).collect();
             adapters.retain(|a| a.features().contains(wgpu::Features::SHADER_F64));
-            if adapters.is_empty() && any {
-                return Err(GpuError::NoF64(format!("{choice:?}")));
+            if adapters.is_empty() && !found.is_empty() {
+                let env = std::env::var("WGPU_BACKEND").map(|v| format!(" with WGPU_BACKEND={v}")).unwrap_or_default();
+                return Err(GpuError::NoF64(format!("--adapter {}{env} finds only {}", choice.as_arg(), found.join(", "))));
             }
         }
         adapters.sort_by_key(|a| rank(&a.get_info()));

@@ -110,7 +110,7 @@ use crate::model::Model;
 use crate::topology::Adjacency;
 
 use checkpoint::{Checkpoint, ContactIdentity};
-pub use device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
+pub use device::{list_adapters, matching_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice};
 use kernels::{Buffers, Pipelines};
 use layout::{Block, Real};
 pub use partial::{PartialReads, PARTIAL_READ_MIN_BYTES};
@@ -139,7 +139,7 @@ impl std::fmt::Display for Precision {
 pub enum GpuError {
     #[error("no GPU adapter: {0}")]
     NoAdapter(String),
-    #[error("--precision f64 needs an adapter with SHADER_F64, and the adapter chosen ({0}) has none; use --precision f32 or a Vulkan adapter")]
+    #[error("--precision f64 needs an adapter with SHADER_F64, and {0}, without it; use --precision f32 or a Vulkan adapter")]
     NoF64(String),
     #[error("GPU set-up: {0}")]
     Setup(String),

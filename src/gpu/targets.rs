@@ -4,7 +4,7 @@
 //! with Mesa's software adapters only, that is Vulkan (lavapipe) f32 and f64 and GL (llvmpipe)
 //! f32.
 
-use super::device::{list_adapters, AdapterChoice, AdapterSummary, GpuApi};
+use super::device::{list_adapters, matching_adapters, AdapterChoice, AdapterSummary, GpuApi};
 use super::{GpuBackend, GpuError, GpuOptions, Precision};
 
 /// One adapter in one precision.
@@ -69,15 +69,7 @@ pub fn device_opens(options: &GpuOptions) -> Result<(), String> {
 /// The adapter `choice` opens in `precision`, when it is there: an adapter with compute shaders,
 /// `SHADER_F64` for f64, on which a device opens.
 pub fn find_target(choice: &AdapterChoice, precision: Precision) -> Option<GpuTarget> {
-    let mut found: Vec<AdapterSummary> = list_adapters(choice).into_iter().filter(|a| a.compute && (precision == Precision::F32 || a.shader_f64)).collect();
-    let wanted = match choice {
-        AdapterChoice::Name(n) | AdapterChoice::OnApi(_, n) => Some(n.to_lowercase()),
-        AdapterChoice::Any => std::env::var("WGPU_ADAPTER_NAME").ok().map(|n| n.to_lowercase()),
-        _ => None,
-    };
-    if let Some(n) = wanted {
-        found.retain(|a| a.name.to_lowercase().contains(&n));
-    }
+    let mut found: Vec<AdapterSummary> = matching_adapters(choice).into_iter().filter(|a| a.compute && (precision == Precision::F32 || a.shader_f64)).collect();
     found.sort_by_key(rank);
     let adapter = found.into_iter().next()?;
     opening(GpuTarget { options: GpuOptions { adapter: choice.clone(), precision }, adapter })
