@@ -17,6 +17,9 @@ use crate::output;
 use crate::output::plot::PlotSettings;
 use crate::verify::stability::{Limits, LIMITS_CPU_F64};
 
+/// The largest constitutive number (see `Executor::check_constitutive`).
+pub const MAX_CONSTITUTIVE: u32 = 5;
+
 /// The file a SAVE or RESTART without a name uses, in the output folder.
 pub const DEFAULT_SAVE_FILE: &str = "blockdem.sav";
 
@@ -210,6 +213,22 @@ impl<'a> Executor<'a> {
         }
     }
 
+    /// Constitutive numbers are those SL-85-1 defines: 1 to 4 of Table A1, and 5, which its
+    /// paragraphs 5 and 17 name for joint contacts with Griffith cracking (run as 4). Any other
+    /// number would run as one of these without saying so.
+    fn check_constitutive(&self, cmd: &Located, what: &str, constitutive: Option<u32>) -> Result<(), RunError> {
+        match constitutive {
+            Some(c) if !(1..=MAX_CONSTITUTIVE).contains(&c) => Err(self.command_error(
+                cmd,
+                format!(
+                    "{what}: constitutive number must be 1 to {MAX_CONSTITUTIVE} (SL-85-1 Table A1: 1 point-load cracking and point \
+                     contacts, 2 point-load and joints, 3 Griffith and point contacts, 4 and 5 Griffith and joints), found {c}"
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// A ROUND at or past half a block's shortest edge is cut to half each edge
     /// (`model::geometry::corner_rounding`): the arcs then meet along whole edges and the block
     /// touches as a disc would, through several corner–corner contacts at one point. Said once a
@@ -273,12 +292,14 @@ impl<'a> Executor<'a> {
             Command::Stop | Command::End => return Ok(true),
             Command::Block { material, constitutive, corners } => {
                 self.check_material(cmd, "BLOCK", *material)?;
+                self.check_constitutive(cmd, "BLOCK", *constitutive)?;
                 self.model
                     .add_block(corners, material.unwrap_or(1), constitutive.unwrap_or(1), None)
                     .map_err(|e| self.command_error(cmd, format!("BLOCK: {e}")))?;
             }
             Command::Change { range, to, material, constitutive } => {
                 self.check_material(cmd, "CHANGE", *material)?;
+                self.check_constitutive(cmd, "CHANGE", *constitutive)?;
                 if let Some(to) = to {
                     let what = match to {
                         crate::deck::Deformability::Sdef => "CHANGE SDEF (simply-deformable blocks)",
@@ -437,6 +458,7 @@ impl<'a> Executor<'a> {
             }
             Command::Split { from, to, material, constitutive } => {
                 self.check_material(cmd, "SPLIT", *material)?;
+                self.check_constitutive(cmd, "SPLIT", *constitutive)?;
                 let outcome = split_line(&mut self.model, *from, *to, *material, *constitutive);
                 for (id, why) in &outcome.rejected {
                     self.echo(&format!("SPLIT REJECTED FOR BLOCK {id}: {why}"));
@@ -504,10 +526,10 @@ impl<'a> Executor<'a> {
                 }
             }
         }
-        // Griffith cracking (constitutive numbers 3 and 4, SL-85-1 Table A1) acts on the internal
+        // Griffith cracking (constitutive numbers 3 and 4, SL-85-1 Table A1, and 5) acts on the internal
         // stresses of simply-deformable blocks, which come later: a block that asks for it (a
         // tensile strength factor set) must not run as if it could not crack.
-        if let Some(b) = self.model.blocks.iter().find(|b| matches!(b.constitutive, 3 | 4) && self.model.material(b.material).tf > 0.0) {
+        if let Some(b) = self.model.blocks.iter().find(|b| matches!(b.constitutive, 3..=5) && self.model.material(b.material).tf > 0.0) {
             let what = format!(
                 "Griffith cracking (block {} has constitutive number {} and material {} has TF = {}; the Griffith criterion \
                  needs the stresses of simply-deformable blocks; constitutive numbers 1 and 2 crack by the point-load criterion)",

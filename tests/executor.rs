@@ -94,6 +94,18 @@ fn property_sets_every_keyword_of_the_table() {
         let e = r.unwrap_err().to_string();
         assert!(e.starts_with(&format!("<scene>:{line}:")) && e.contains("material number must be 1 to 20"), "{e}");
     }
+    // Constitutive numbers are the report's, 1 to 5: another ran silently as one of them.
+    for (line, deck) in [
+        (2, "START\nBLOCK CONS 6 0,0 0,1 1,1 1,0\n"),
+        (3, "START\nBLOCK 0,0 0,1 1,1 1,0\nCHANGE 0 1 0 1 CONS=7\n"),
+        (3, "START\nBLOCK 0,0 0,1 2,1 2,0\nSPLIT 1,-1 1,2 CONS=9\n"),
+    ] {
+        let (r, _) = run_logged(deck);
+        let e = r.unwrap_err().to_string();
+        assert!(e.starts_with(&format!("<scene>:{line}:")) && e.contains("constitutive number must be 1 to 5"), "{e}");
+    }
+    let (m, _) = run_ok("START\nBLOCK CONS 5 0,0 0,1 2,1 2,0\nSPLIT 1,-1 1,2 CONS=2\n");
+    assert_eq!(m.blocks.iter().map(|b| b.constitutive).collect::<Vec<_>>(), [5, 5]);
 }
 
 /// START is a cold start, the first command only: later it claimed one and kept the model.
