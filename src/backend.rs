@@ -94,6 +94,29 @@ impl CycleError {
         let what = if state_finite { "a step whose work (force × displacement) is not finite" } else { "a non-finite position or velocity" };
         CycleError::NonFinite { cycle: model.cycle, block: block.id, what: what.into() }
     }
+
+    /// The failure of a cycle in which contact `flagged` (an index) overlapped by more than
+    /// `limit`: the message names the contact that overlaps most (ties: the lowest index, on every
+    /// backend), not merely the first past the limit, so it does not understate how far the blocks
+    /// went into each other.
+    pub fn overlap(model: &Model, flagged: usize, limit: f64) -> CycleError {
+        let mut worst = flagged.min(model.contacts.len().saturating_sub(1));
+        for (k, c) in model.contacts.iter().enumerate() {
+            if -c.gap > limit && -c.gap > -model.contacts[worst].gap {
+                worst = k;
+            }
+        }
+        let c = &model.contacts[worst];
+        CycleError::Overlap {
+            cycle: model.cycle,
+            block1: model.blocks[c.block1 as usize].id,
+            block2: model.blocks[c.block2 as usize].id,
+            overlap: -c.gap,
+            limit,
+            x: c.point[0],
+            y: c.point[1],
+        }
+    }
 }
 
 /// `--backend auto` on a GPU: the GPU backend while the models fit it, the CPU backend (f64)

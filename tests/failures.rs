@@ -347,3 +347,32 @@ fn auto_goes_on_on_the_cpu_when_the_model_is_past_the_gpus_limits() {
     let err = blockdem::scenes::run_deck_on(deck, Box::new(TooSmallAdapter(asked.clone()))).unwrap_err();
     assert!(matches!(err, RunError::Numerical { failure: CycleError::DoesNotFit(_), .. }), "{err:?}");
 }
+
+/// The overlap failure names the contact that overlaps most, not the first one past the limit
+/// (which may be barely past it while another is far in): the message must not understate how far
+/// the blocks went into each other. Both backends build their error with `CycleError::overlap`.
+#[test]
+fn an_overlap_failure_names_the_deepest_contact() {
+    // Three blocks in a row touching: contacts between 1–2 and 2–3.
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 1,0 1,1 2,1 2,0\n\
+                BLOCK 2,0 2,1 3,1 3,0\nFIX 0 3 0 1\nCYCLE 1\n";
+    let mut m = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    assert!(m.contacts.len() >= 2);
+    let last = m.contacts.len() - 1;
+    let pair = |m: &Model, k: usize| (m.blocks[m.contacts[k].block1 as usize].id, m.blocks[m.contacts[k].block2 as usize].id);
+    m.contacts[0].gap = -0.06;
+    m.contacts[last].gap = -0.09;
+    match CycleError::overlap(&m, 0, 0.05) {
+        CycleError::Overlap { overlap, limit, block1, block2, .. } => {
+            assert_eq!((overlap, limit), (0.09, 0.05));
+            assert_eq!((block1, block2), pair(&m, last));
+        }
+        e => panic!("{e}"),
+    }
+    // With one contact past the limit, that one.
+    m.contacts[last].gap = 0.0;
+    match CycleError::overlap(&m, 0, 0.05) {
+        CycleError::Overlap { overlap, .. } => assert_eq!(overlap, 0.06),
+        e => panic!("{e}"),
+    }
+}

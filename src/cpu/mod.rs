@@ -223,16 +223,7 @@ fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: f64, team: 
     if failure == usize::MAX {
         return Ok(());
     }
-    let c = &model.contacts[failure];
-    Err(CycleError::Overlap {
-        cycle: model.cycle,
-        block1: model.blocks[c.block1 as usize].id,
-        block2: model.blocks[c.block2 as usize].id,
-        overlap: -c.gap,
-        limit,
-        x: c.point[0],
-        y: c.point[1],
-    })
+    Err(CycleError::overlap(model, failure, limit))
 }
 
 /// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces

@@ -135,17 +135,7 @@ impl<R: Real> Engine<R> {
             let b = &model.blocks[fastest.1.min(model.blocks.len() - 1)];
             return CycleError::TooFast { cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt };
         }
-        let k = (flags.overlap_contact as usize).min(model.contacts.len().saturating_sub(1));
-        let c = &model.contacts[k];
-        CycleError::Overlap {
-            cycle,
-            block1: model.blocks[c.block1 as usize].id,
-            block2: model.blocks[c.block2 as usize].id,
-            overlap: -c.gap,
-            limit: 0.5 * model.tol.round,
-            x: c.point[0],
-            y: c.point[1],
-        }
+        CycleError::overlap(model, flags.overlap_contact as usize, 0.5 * model.tol.round)
     }
 
     /// Stage 7 between batches on the state read back (whole, or packed for a splice): the
