@@ -62,7 +62,7 @@ struct RunArgs {
     /// Kernel precision on the GPU (the CPU is always f64).
     #[arg(long, value_enum, default_value_t = PrecisionChoice::F32)]
     precision: PrecisionChoice,
-    /// Folder for PLOT files and unnamed SAVE files.
+    /// Folder for PLOT files and SAVE / RESTART files named without a folder.
     #[arg(long, default_value = "out")]
     out: PathBuf,
     /// Write the final state as JSON (also after a numerical failure: the last good state).
@@ -70,12 +70,12 @@ struct RunArgs {
     state_json: Option<PathBuf>,
     /// Write a running restart file, OUT/checkpoint.sav, about every SECONDS during long
     /// CYCLE commands (a run killed outright loses at most that much; RESTART goes on).
-    #[arg(long, value_name = "SECONDS", value_parser = seconds)]
+    #[arg(long, value_name = "SECONDS", value_parser = seconds, allow_negative_numbers = true)]
     checkpoint_every: Option<f64>,
     /// Write VTK frames for ParaView (blocks and contacts, OUT/vtk/, with .series files of
     /// their times) at the start of each CYCLE and every CYCLES cycles of it (rounded up to
     /// a multiple of 100).
-    #[arg(long, value_name = "CYCLES", value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, value_name = "CYCLES", value_parser = count::<u64>, allow_negative_numbers = true)]
     vtk_every: Option<u64>,
 }
 
@@ -105,7 +105,7 @@ enum Cmd {
         /// lengths, its rotation by more than TOL radians or its velocity by more than TOL of
         /// the speed scale (the reference's top speed, or √(2E/M) for a model at rest), or the
         /// runs end on different blocks.
-        #[arg(long, value_name = "TOL")]
+        #[arg(long, value_name = "TOL", allow_negative_numbers = true)]
         tolerance: Option<f64>,
     },
     /// Run the closed-form verification suite on every backend: a table of errors and costs, CSV
@@ -145,28 +145,28 @@ enum Cmd {
         precision: Option<PrecisionChoice>,
         /// Largest wall of the scaling family (blocks). Default: 10^5 on the CPU and software
         /// adapters, 10^6 on hardware GPUs, 10^4 with --quick.
-        #[arg(long)]
+        #[arg(long, value_parser = count::<usize>, allow_negative_numbers = true)]
         max_blocks: Option<usize>,
         /// Nominal sizes of the scaling family, comma-separated (default 1000,10000,100000,1000000;
         /// those above --max-blocks are left out).
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', value_parser = count::<usize>, allow_negative_numbers = true)]
         sizes: Option<Vec<usize>>,
         /// Simulated seconds of the settle scene (default 2, 0.1 with --quick).
-        #[arg(long)]
+        #[arg(long, value_parser = positive, allow_negative_numbers = true)]
         settle_time: Option<f64>,
         /// Simulated seconds of the impact scene (default 1, 0.1 with --quick).
-        #[arg(long)]
+        #[arg(long, value_parser = positive, allow_negative_numbers = true)]
         impact_time: Option<f64>,
         /// FRACTION of the time step for every scene (default UDEC's 0.1).
-        #[arg(long)]
+        #[arg(long, value_parser = positive, allow_negative_numbers = true)]
         frac: Option<f64>,
         /// Wall seconds each scaling measurement aims at (default 1.5, 0.25 with --quick);
         /// longer runs average out the noise of a shared machine.
-        #[arg(long)]
+        #[arg(long, value_parser = positive, allow_negative_numbers = true)]
         measure: Option<f64>,
         /// Rounds each scaling measurement is cut into, the backends taking turns, so that a
         /// ratio of two backends is taken from runs seconds apart (default 3, 1 with --quick).
-        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100), allow_negative_numbers = true)]
         rounds: Option<u32>,
     },
 }
@@ -238,16 +238,11 @@ fn bench(
     if let Some(t) = impact_time {
         options.impact_time = t;
     }
+    // Each checked above zero by its parser (`positive`).
     if let Some(f) = frac {
-        if !(f > 0.0 && f.is_finite()) {
-            bail!("--frac must be positive");
-        }
         options.frac = f;
     }
     if let Some(m) = measure {
-        if !(m > 0.0 && m.is_finite()) {
-            bail!("--measure must be a positive number of seconds");
-        }
         options.measure_s = m;
     }
     if let Some(r) = rounds {
@@ -386,6 +381,22 @@ fn check_out_dir(out: &Path) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// A whole number above zero (a count of blocks or cycles).
+fn count<T: std::str::FromStr + Default + PartialOrd>(text: &str) -> Result<T, String> {
+    match text.parse::<T>() {
+        Ok(n) if n > T::default() => Ok(n),
+        _ => Err(format!("expected a whole number above zero, found '{text}'")),
+    }
+}
+
+/// A finite number above zero (a time, a FRACTION).
+fn positive(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("expected a number above zero, found '{text}'")),
+    }
 }
 
 /// A duration in seconds: a finite number, zero or more.

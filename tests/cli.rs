@@ -124,6 +124,26 @@ fn verify_only_a_case_that_does_not_exist_is_an_error() {
     assert!(stderr.contains("--only no_such_case") && stderr.contains("free_flight"), "{stderr}");
 }
 
+/// A negative or zero number given to an option is refused with what the option expects (clap
+/// took '-1' for an unknown option: "unexpected argument '-1' found").
+#[test]
+fn negative_option_values_are_refused_saying_what_is_expected() {
+    for (args, want) in [
+        (&["bench", "--frac", "-1"][..], "invalid value '-1' for '--frac <FRAC>': expected a number above zero"),
+        (&["bench", "--settle-time", "-0.5"][..], "expected a number above zero, found '-0.5'"),
+        (&["bench", "--measure", "0"][..], "expected a number above zero, found '0'"),
+        (&["bench", "--max-blocks", "-2"][..], "expected a whole number above zero, found '-2'"),
+        (&["bench", "--sizes", "1000,-3"][..], "expected a whole number above zero, found '-3'"),
+        (&["run", "deck.dat", "--checkpoint-every", "-5"][..], "expected a number of seconds (0 or more), found '-5'"),
+        (&["run", "deck.dat", "--vtk-every", "-3"][..], "expected a whole number above zero, found '-3'"),
+        (&["compare", "deck.dat", "--tolerance", "-1"][..], "--tolerance must be a number, zero or more"),
+    ] {
+        let (code, _, stderr) = blockdem(args);
+        assert_ne!(code, 0, "{args:?}");
+        assert!(stderr.contains(want), "{args:?}: {stderr}");
+    }
+}
+
 /// An output folder that cannot be one (a file, or under a file) is refused before any cycle runs,
 /// by `run`, `bench` and `verify` alike, and nothing is written.
 #[test]
