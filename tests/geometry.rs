@@ -9,6 +9,9 @@ use blockdem::model::{Contact, ContactKind, Link, Model};
 use blockdem::scenes::run_deck_on;
 use proptest::prelude::*;
 
+mod common;
+use common::Rng;
+
 fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<[f64; 2]> {
     vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
 }
@@ -697,22 +700,6 @@ proptest! {
 }
 
 // ---------------------------------------------------------------- decks
-
-/// A tiny deterministic generator (xorshift), for a fixed set of random decks.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-}
 
 /// The blocks of `m` as given: every corner circle inside its own block, and no contact
 /// overlapping (pieces of one block touch along their cut, gap 0 up to round-off).

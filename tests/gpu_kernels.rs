@@ -37,24 +37,7 @@ use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
 use blockdem::topology::adjacency::FROM_LISTS;
 use blockdem::topology::detect::ListEdit;
-use common::Target;
-
-/// xorshift64*: deterministic random numbers without a dependency.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.next()
-    }
-    fn below(&mut self, n: u32) -> u32 {
-        ((self.next() * n as f64) as u32).min(n - 1)
-    }
-}
+use common::{Rng, Target};
 
 /// A device for the target, or None (skipped) when the adapter is absent.
 fn device(adapter: &str, precision: Precision) -> Option<GpuDevice> {

@@ -510,17 +510,6 @@ mod tests {
     use super::*;
     use crate::scenes::run_deck_on;
 
-    /// A tiny deterministic generator (xorshift), so the test needs no seed handling.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
-
     /// A view of a corner–corner touch that stops being the counted one lets its shear spring go:
     /// no force, no shear force left to print or to count as strain energy, its spring's energy
     /// booked as slip work (the ledger stays balanced); a view that never carried one is unchanged.
@@ -546,7 +535,8 @@ mod tests {
         let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 1,0.5 1,0\n\
                     BLOCK 3,0 4.2,0.7 3.9,1.9 2.7,2.6 1.5,1.9 1.8,0.7\nBLOCK 6,0 8,0 7,3\nBLOCK 20,20 20,20.5 20.5,20.5 20.5,20\nCYCLE 0\n";
         let model = run_deck_on(deck, Box::new(crate::cpu::CpuBackend::new())).unwrap();
-        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        let mut next = crate::topology::xorshift(0x9E37_79B9_7F4A_7C15);
+        let mut unit = || next(1 << 53) as f64 / (1u64 << 53) as f64;
         let mut fast_taken = 0;
         for b in 0..model.blocks.len() {
             let corners = model.block_corners(b);
@@ -557,8 +547,8 @@ mod tests {
                 for i in 0..400 {
                     // Along the edge from before its start to past its end; exactly at the
                     // tangent points every 10th sample.
-                    let t = if i % 10 == 0 { [corners[k].round, e.len - corners[(k + 1) % n].round][i / 10 % 2] } else { -0.2 + 1.4 * rng.next() * e.len };
-                    let h = 0.05 + 0.15 * rng.next();
+                    let t = if i % 10 == 0 { [corners[k].round, e.len - corners[(k + 1) % n].round][i / 10 % 2] } else { -0.2 + 1.4 * unit() * e.len };
+                    let h = 0.05 + 0.15 * unit();
                     let c = [e.p0[0] + e.u[0] * t + nrm[0] * h, e.p0[1] + e.u[1] * t + nrm[1] * h];
                     let r = 0.1;
                     let feature = (2 * k + 1) as Feature;
@@ -585,8 +575,8 @@ mod tests {
                 }
                 for i in 0..400 {
                     // Angles from before n0 to past n1; exactly along n0 or n1 every 10th sample.
-                    let a = if i % 10 == 0 { [a0, a0 + turn][i / 10 % 2] } else { a0 - 0.3 + (turn + 0.6) * rng.next() };
-                    let rho = corners[k].radius + 0.05 + 0.15 * rng.next();
+                    let a = if i % 10 == 0 { [a0, a0 + turn][i / 10 % 2] } else { a0 - 0.3 + (turn + 0.6) * unit() };
+                    let rho = corners[k].radius + 0.05 + 0.15 * unit();
                     let c = [corners[k].circle[0] + rho * a.cos(), corners[k].circle[1] + rho * a.sin()];
                     let feature = (2 * k) as Feature;
                     let fast = track_feature(corners, feature, c, 0.1);

@@ -10,7 +10,8 @@ pub use adjacency::Adjacency;
 pub use cracking::{apply_crack, find_point_load_crack, PointLoadCrack};
 pub use detect::{update_contacts, update_topology};
 
-/// The unit tests' random numbers: a xorshift64 stream from `seed`, each call a value below `m`.
+/// The unit tests' random numbers: a xorshift64 stream from `seed`, each call a value below `m`
+/// (`m` = 2⁵³ and a division by it give a uniform f64 in [0, 1)).
 #[cfg(test)]
 pub(crate) fn xorshift(mut seed: u64) -> impl FnMut(u64) -> u64 {
     move |m: u64| {

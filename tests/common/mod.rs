@@ -128,3 +128,20 @@ impl VtkFrame {
         &self.arrays.iter().find(|(n, _)| n == name).unwrap_or_else(|| panic!("no array {name}")).1
     }
 }
+
+/// xorshift64*: deterministic random numbers without a dependency.
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.next()
+    }
+    pub fn below(&mut self, n: u32) -> u32 {
+        ((self.next() * n as f64) as u32).min(n - 1)
+    }
+}
