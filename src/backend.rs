@@ -54,7 +54,8 @@ pub enum CycleError {
     NonFinite { cycle: u64, block: u32, what: String },
     #[error(
         "energy growing without a source at cycle {cycle}: kinetic + strain energy {energy:.4e} exceeds the energy put in ({budget:.4e}); \
-         the explicit integration is unstable — lower FRACTION (now {frac}{})",
+         the explicit integration is unstable — lower FRACTION (now {}{})",
+        crate::output::format::fmt_short(*.frac),
         safe_frac_note(*.safe_frac)
     )]
     EnergyGrowth { cycle: u64, energy: f64, budget: f64, frac: f64, safe_frac: f64 },
@@ -75,14 +76,18 @@ pub enum CycleError {
 /// The largest safe FRACTION for an energy growth's message, where the last good state gives an
 /// estimate (it has contacts carrying force; a state without them has no stiffness to estimate
 /// from, and the growth came with contacts made after it).
-fn safe_frac_note(safe_frac: f64) -> String {
+pub(crate) fn safe_frac_note(safe_frac: f64) -> String {
     if safe_frac.is_finite() && safe_frac > 0.0 {
-        // Two significant digits (a safe FRAC of 0.005 printed as 0.00 before).
-        let digits = (1 - safe_frac.log10().floor() as i32).max(2) as usize;
-        format!("; the largest safe value is about {safe_frac:.digits$}")
+        format!("; the largest safe value is about {}", safe_frac_text(safe_frac))
     } else {
         String::new()
     }
+}
+
+/// A safe FRACTION to two significant digits (a safe FRAC of 0.005 printed as 0.00 before).
+pub(crate) fn safe_frac_text(safe_frac: f64) -> String {
+    let digits = (1 - safe_frac.log10().floor() as i32).max(2) as usize;
+    format!("{safe_frac:.digits$}")
 }
 
 impl CycleError {

@@ -741,8 +741,9 @@ impl<'a> Executor<'a> {
         if safe.is_finite() && safe > 0.0 && self.model.frac > safe {
             format!(
                 " (FRACTION {} is above the stable limit of this model: the explicit integration diverges; the largest safe value \
-                 is about {safe:.2})",
-                self.model.frac
+                 is about {})",
+                output::format::fmt_short(self.model.frac),
+                crate::backend::safe_frac_text(safe)
             )
         } else {
             String::new()

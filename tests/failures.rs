@@ -376,3 +376,20 @@ fn an_overlap_failure_names_the_deepest_contact() {
         e => panic!("{e}"),
     }
 }
+
+/// A FRACTION far past the stable limit is named as typed (1e300, not 301 digits) with the safe
+/// value to two significant digits.
+#[test]
+fn a_huge_fraction_is_named_short_with_the_safe_value() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nFRAC 1e300\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\n\
+                FIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 50\n";
+    let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
+    let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), ..Default::default() };
+    let mut exec = Executor::new(Box::new(blockdem::cpu::CpuBackend::new()), Box::new(std::io::sink()), options, "<scene>");
+    let e = exec.run(&commands).unwrap_err().to_string();
+    assert!(e.contains("(FRACTION 1e300 is above the stable limit of this model") && e.contains("the largest safe value is about 0.38)"), "{e}");
+    assert!(e.len() < 400, "{e}");
+    assert_eq!(blockdem::output::format::fmt_short(0.1), "0.1");
+    assert_eq!(blockdem::output::format::fmt_short(5.0), "5");
+    assert_eq!(blockdem::output::format::fmt_short(1e-7), "1e-7");
+}

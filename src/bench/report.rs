@@ -236,7 +236,13 @@ pub fn table(r: &BenchReport) -> String {
         }
     }
     let o = &r.options;
-    let _ = writeln!(s, "scenes: {}; FRACTION {}, ROUND {}", o.scenes.join(", "), o.frac, o.round);
+    let _ = writeln!(
+        s,
+        "scenes: {}; FRACTION {}, ROUND {}",
+        o.scenes.join(", "),
+        crate::output::format::fmt_short(o.frac),
+        crate::output::format::fmt_short(o.round)
+    );
 
     if !r.reference.is_empty() {
         let _ = writeln!(s, "\nREFERENCE WALL (1012 bricks; settle: the wall alone; impact: 0.5 m projectile, density 8000, 50 m/s)");

@@ -28,6 +28,24 @@ pub fn fmt_e(x: f64) -> String {
     s
 }
 
+/// A number as a person typed it, for messages: Rust's shortest round-trip form (`0.1`, `1.5`,
+/// `25`) between 1e-4 and 1e6, exponent form (`1e300`, `2.5e-7`) outside, where the plain form
+/// would run to hundreds of digits.
+///
+/// ```
+/// use blockdem::output::format::fmt_short;
+/// assert_eq!(fmt_short(0.1), "0.1");
+/// assert_eq!(fmt_short(1e300), "1e300");
+/// assert_eq!(fmt_short(-2.5e-7), "-2.5e-7");
+/// ```
+pub fn fmt_short(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e6).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// Appends [`fmt_e`]`(x)` to `out` (a table of 10⁶ rows formats 10⁷ numbers: no string each).
 pub(crate) fn push_e(out: &mut String, x: f64) {
     if x.is_nan() {
