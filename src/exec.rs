@@ -375,10 +375,24 @@ impl<'a> Executor<'a> {
             Command::Link { flying, anchor } => {
                 let find = |p: [f64; 2]| (0..self.model.blocks.len()).find(|&b| crate::model::geometry::point_in_polygon(p, &self.model.corner_positions(b)));
                 let f = find(*flying).ok_or_else(|| {
-                    self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the flying block", flying[0], flying[1]))
+                    self.command_error(
+                        cmd,
+                        format!(
+                            "LINK: no block contains the point ({}, {}) given for the flying block",
+                            output::format::fmt_short(flying[0]),
+                            output::format::fmt_short(flying[1])
+                        ),
+                    )
                 })?;
                 let a = find(*anchor).ok_or_else(|| {
-                    self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the linking block", anchor[0], anchor[1]))
+                    self.command_error(
+                        cmd,
+                        format!(
+                            "LINK: no block contains the point ({}, {}) given for the linking block",
+                            output::format::fmt_short(anchor[0]),
+                            output::format::fmt_short(anchor[1])
+                        ),
+                    )
                 })?;
                 if f == a {
                     return Err(self.command_error(cmd, "LINK: both points lie in the same block"));
@@ -536,7 +550,7 @@ impl<'a> Executor<'a> {
                 b.id,
                 b.constitutive,
                 b.material,
-                self.model.material(b.material).tf
+                output::format::fmt_short(self.model.material(b.material).tf)
             );
             return Err(self.unsupported(cmd, &what));
         }
