@@ -557,7 +557,7 @@ pub const MAX_DECK_BYTES: usize = 1 << 30;
 
 /// The start of a deck, read and checked for binary bytes before the rest: `/dev/zero`, or a
 /// binary file given by mistake, is refused at once instead of being read to its end (if any).
-const FIRST_BYTES: usize = 1 << 16;
+pub const FIRST_BYTES: usize = 1 << 16;
 
 /// Why a deck file could not be read.
 #[derive(Debug, thiserror::Error)]
