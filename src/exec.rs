@@ -229,6 +229,23 @@ impl<'a> Executor<'a> {
         }
     }
 
+    /// The error for the first of `blocks` whose mass or moment of inertia (density × area, ×
+    /// polar moment) overflows f64: CYCLE took an infinite mass for "no time step", and a SAVE
+    /// wrote a model RESTART refuses. The caller undoes its command, which fails whole.
+    fn mass_overflow(&self, cmd: &Located, what: &str, mut blocks: impl Iterator<Item = usize>) -> Option<RunError> {
+        let b = blocks.find(|&b| !(self.model.blocks[b].mass.is_finite() && self.model.blocks[b].inertia.is_finite()))?;
+        let blk = &self.model.blocks[b];
+        let density = self.model.material(blk.material).density;
+        Some(self.command_error(
+            cmd,
+            format!(
+                "{what}: the mass of block {} (density {density:e} of material {} × area {:e}) or its moment of inertia overflows f64; \
+                 check DENSITY and the units of lengths",
+                blk.id, blk.material, blk.area
+            ),
+        ))
+    }
+
     /// A ROUND at or past half a block's shortest edge is cut to half each edge
     /// (`model::geometry::corner_rounding`): the arcs then meet along whole edges and the block
     /// touches as a disc would, through several corner–corner contacts at one point. Said once a
@@ -293,9 +310,17 @@ impl<'a> Executor<'a> {
             Command::Block { material, constitutive, corners } => {
                 self.check_material(cmd, "BLOCK", *material)?;
                 self.check_constitutive(cmd, "BLOCK", *constitutive)?;
-                self.model
+                let next_id = self.model.next_block_id;
+                let b = self
+                    .model
                     .add_block(corners, material.unwrap_or(1), constitutive.unwrap_or(1), None)
                     .map_err(|e| self.command_error(cmd, format!("BLOCK: {e}")))?;
+                if let Some(e) = self.mass_overflow(cmd, "BLOCK", [b].into_iter()) {
+                    // The command fails whole: the model is left as it was.
+                    self.model.remove_blocks(&[b]);
+                    self.model.next_block_id = next_id;
+                    return Err(e);
+                }
             }
             Command::Change { range, to, material, constitutive } => {
                 self.check_material(cmd, "CHANGE", *material)?;
@@ -307,7 +332,9 @@ impl<'a> Executor<'a> {
                     };
                     return Err(self.unsupported(cmd, what));
                 }
-                for b in self.in_range(range) {
+                let blocks = self.in_range(range);
+                let before: Vec<(u32, u32)> = blocks.iter().map(|&b| (self.model.blocks[b].material, self.model.blocks[b].constitutive)).collect();
+                for &b in &blocks {
                     if let Some(m) = material {
                         self.model.blocks[b].material = *m;
                     }
@@ -316,6 +343,13 @@ impl<'a> Executor<'a> {
                     }
                 }
                 self.model.recompute_mass_properties();
+                if let Some(e) = self.mass_overflow(cmd, "CHANGE", blocks.iter().copied()) {
+                    for (&b, &(m, c)) in blocks.iter().zip(&before) {
+                        (self.model.blocks[b].material, self.model.blocks[b].constitutive) = (m, c);
+                    }
+                    self.model.recompute_mass_properties();
+                    return Err(e);
+                }
             }
             Command::Cycle { n } => self.cycle(cmd, *n)?,
             Command::Damping { fcrit, freq, mode } => {
@@ -325,6 +359,22 @@ impl<'a> Executor<'a> {
                 // UDEC 1.2 did ("STIFFNESS-DAMPING TERM SET TO ZERO").
                 let omega = 2.0 * std::f64::consts::PI * freq;
                 let (alpha, beta) = (fcrit * omega, fcrit / omega);
+                // At the ends of f64 (DAMP 0 1E308: ω overflows and α = 0·∞) a constant is not a
+                // number: the run would diverge at once, and its saves could not be restarted.
+                let kept = match mode {
+                    DampMode::Full => [alpha, beta],
+                    DampMode::Mass | DampMode::Internal => [alpha, 0.0],
+                    DampMode::Stiffness => [0.0, beta],
+                };
+                if !kept.iter().all(|x| x.is_finite()) {
+                    return Err(self.command_error(
+                        cmd,
+                        format!(
+                            "DAMPING: fcrit {fcrit:e} at freq {freq:e} gives the damping constants α = ξω = {alpha:e} and β = ξ/ω = {beta:e}, \
+                             which are not finite numbers; give fcrit and freq in ordinary ranges (fcrit about 0 to 1, freq the model's frequency in Hz)"
+                        ),
+                    ));
+                }
                 match mode {
                     DampMode::Full => {
                         self.model.damping.alpha = alpha;
@@ -433,6 +483,7 @@ impl<'a> Executor<'a> {
             Command::Property { material, values } => {
                 use crate::deck::PropKey::*;
                 self.check_material(cmd, "PROPERTY", Some(*material))?;
+                let before = self.model.materials[*material as usize - 1];
                 let m = &mut self.model.materials[*material as usize - 1];
                 for &(key, v) in values {
                     match key {
@@ -455,6 +506,11 @@ impl<'a> Executor<'a> {
                     }
                 }
                 self.model.recompute_mass_properties();
+                if let Some(e) = self.mass_overflow(cmd, "PROPERTY", 0..self.model.blocks.len()) {
+                    self.model.materials[*material as usize - 1] = before;
+                    self.model.recompute_mass_properties();
+                    return Err(e);
+                }
             }
             Command::Round { d } => self.model.set_round(*d),
             Command::Vtk => {
@@ -481,7 +537,24 @@ impl<'a> Executor<'a> {
             Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
             Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],
             Command::Velocity { range, velocity, angular } => {
-                for b in self.in_range(range) {
+                let blocks = self.in_range(range);
+                // A velocity whose ½mv² overflows f64 is refused here, where it is given: CYCLE
+                // would refuse it too, but a DELETE or a contact update before that books the
+                // energy of what it removes, and ∞ − ∞ left the ledger NaN for good.
+                let w = angular.unwrap_or(0.0);
+                if let Some(&b) = blocks.iter().find(|&&b| {
+                    let blk = &self.model.blocks[b];
+                    !blk.fixed && !(0.5 * blk.mass * (velocity[0] * velocity[0] + velocity[1] * velocity[1]) + 0.5 * blk.inertia * w * w).is_finite()
+                }) {
+                    return Err(self.command_error(
+                        cmd,
+                        format!(
+                            "VELOCITY: block {} would move so fast (velocity ({:e}, {:e}), angular {w:e}) that its kinetic energy overflows f64; check the values and the units",
+                            self.model.blocks[b].id, velocity[0], velocity[1]
+                        ),
+                    ));
+                }
+                for b in blocks {
                     let blk = &mut self.model.blocks[b];
                     if !blk.fixed {
                         blk.velocity = *velocity;
@@ -575,6 +648,20 @@ impl<'a> Executor<'a> {
                 format!(
                     "CYCLE: block {} moves so fast (velocity ({:e}, {:e}), angular {:e}) that its kinetic energy overflows f64; check VELOCITY and the units",
                     b.id, b.velocity[0], b.velocity[1], b.angular_velocity
+                ),
+            ));
+        }
+        // Likewise a weight and load whose sum overflows (GRAVITY 0 -1E308 on a block of a few
+        // kilograms): the backend's first force sum would store it in the model, fixed blocks
+        // included, and a CYCLE 0, a SAVE after it and the last good state of a failing CYCLE
+        // would all hold a force RESTART refuses.
+        let g = self.model.gravity;
+        if let Some(b) = self.model.blocks.iter().find(|b| !(b.mass * g[0] + b.load[0]).is_finite() || !(b.mass * g[1] + b.load[1]).is_finite()) {
+            return Err(self.command_error(
+                cmd,
+                format!(
+                    "CYCLE: the weight and load of block {} (mass {:e} × gravity ({:e}, {:e}) + load ({:e}, {:e})) overflow f64; check GRAVITY, LOAD and the units",
+                    b.id, b.mass, g[0], g[1], b.load[0], b.load[1]
                 ),
             ));
         }

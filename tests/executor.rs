@@ -69,6 +69,22 @@ fn damping_sets_rayleigh_coefficients_and_prints_the_reports_messages() {
 }
 
 #[test]
+fn damping_constants_that_are_not_numbers_are_refused_at_their_line() {
+    // Found by tests/random_decks.rs: ω = 2π·1E308 overflows and α = 0·∞ is NaN; β = 1E300/ω at
+    // 1E-300 Hz is infinite. The run diverged at once and neither its SAVE nor its last good
+    // state could be restarted (RESTART refuses a model with damping that is not finite).
+    for damp in ["DAMP 0 1E308", "DAMP 1E300 1E-300", "DAMP 1E300 1E-300 STIFF", "DAMP 100 1E308 MASS"] {
+        let deck = format!("{ONE_BLOCK}{damp}\nCYCLE 10\n");
+        let (r, _) = run_logged(&deck);
+        let e = r.unwrap_err().to_string();
+        assert!(e.starts_with("<scene>:4: DAMPING: ") && e.contains("not finite"), "{damp}: {e}");
+    }
+    // The term a mode drops may overflow: only the kept one counts.
+    let (m, _) = run_ok(&format!("{ONE_BLOCK}DAMP 1E300 1E-300 MASS\n"));
+    assert!(m.damping.alpha.is_finite() && m.damping.beta == 0.0, "{:?}", m.damping);
+}
+
+#[test]
 fn property_sets_every_keyword_of_the_table() {
     let (m, _) = run_ok("START\nPROP MAT=2 BULK=1 G=2 DENS=3 KN=4 KS=5 COH=6 FRIC=7 JKN=8 JKS=9 JCOH=10 JFRIC=11 TF=12 JPERM=13 CPERM=14 AZERO=15 ARES=16\n");
     let p = &m.materials[1];
@@ -284,6 +300,11 @@ fn models_the_engine_cannot_run_are_refused_at_cycle_with_their_line() {
         ("PROP MAT=1 D=1000 KN=1E8 KS=1E8\nCYCLE 10\n", "there are no blocks"),
         // m_min/k_max underflows f64: Δt = 0 would hang or divide by zero.
         ("PROP MAT=1 D=1E-300 KN=1E300 KS=1E300\nROUND 0.01\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 10\n", "time step FRAC·2√(m_min/k_max) is 0e0"),
+        // A weight, or weight and load, that overflows f64 (found by tests/random_decks.rs): the
+        // first force sum stored it, and a CYCLE 0 or a failing CYCLE left a model holding an
+        // infinite force, which SAVE wrote and RESTART refused.
+        ("PROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -1E308\nCYCLE 0\n", "block 1 (mass 1e3 × gravity"),
+        ("PROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nFIX 0 1 0 1\nGRAV 0 -1E305\nLOAD 0 1 0 1 0 -1E308\nCYCLE 10\n", "overflow f64"),
     ] {
         let deck = format!("START\n{body}");
         let (r, log) = run_logged(&deck);
@@ -425,4 +446,38 @@ fn block_outline_errors_count_corners_from_one() {
     let (r, _) = run_logged("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 1,1 0,0 0,1 1,1\n");
     let e = r.unwrap_err().to_string();
     assert!(e.contains("corners 4 and 1 of the block outline are at the same place"), "{e}");
+}
+
+#[test]
+fn a_mass_that_overflows_f64_is_refused_at_the_command_that_makes_it() {
+    // Found by tests/random_decks.rs (a block 8 km wide, DENSITY 1E300): the mass stood at ∞,
+    // CYCLE said it could not compute a time step "(no block mass …)", and SAVE wrote a model
+    // RESTART refused. Each command now fails whole, naming the block, and leaves the model as
+    // it was (a restartable one: the driver saves it as the state before the failing command).
+    let big = "BLOCK 0,0 0,1E4 1E4,1E4 1E4,0";
+    for (body, what, blocks) in [
+        (format!("PROP MAT=1 D=1000 KN=1E8 KS=1E8\n{big}\nPROP MAT=1 D=1E300\n"), "PROPERTY", 1),
+        (format!("PROP MAT=1 D=1000 KN=1E8 KS=1E8\nPROP MAT=2 D=1E300 KN=1E8 KS=1E8\n{big}\nCHANGE -1 2E4 -1 2E4 MAT 2\n"), "CHANGE", 1),
+        (format!("PROP MAT=1 D=1E300 KN=1E8 KS=1E8\nBLOCK 0,-1 0,0 1,0 1,-1\n{big}\n"), "BLOCK", 1),
+    ] {
+        let deck = format!("START\n{body}CYCLE 10\n");
+        let commands = blockdem::deck::parse_deck(&deck, "<scene>").unwrap();
+        let mut exec = blockdem::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(std::io::sink()), Default::default(), "<scene>");
+        let e = exec.run(&commands).unwrap_err().to_string();
+        let line = deck.lines().count() - 1;
+        assert!(e.starts_with(&format!("<scene>:{line}: {what}: the mass of block ")) && e.contains("overflows f64"), "{e}");
+        assert_eq!(exec.model.blocks.len(), blocks, "{what}");
+        exec.model.validate().unwrap_or_else(|v| panic!("{what}: the model left is not restartable: {v}"));
+        assert!(exec.model.blocks.iter().all(|b| b.mass.is_finite() && b.material == 1), "{what}");
+    }
+}
+
+#[test]
+fn a_block_flung_so_far_that_its_edges_vanish_in_round_off_stays_restartable() {
+    // Found by tests/random_decks.rs: GRAVITY 1E154 flings a 5 cm block to 2.5e147 m, where its
+    // corners' world positions coincide; the edge directions measured from them were 0/0, and
+    // the model (SAVE, the state JSON) held NaN that RESTART refused.
+    let (m, _) = run_ok("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nBLOCK 0,1 0,1.05 0.05,1.05 0.05,1\nROUND 1E300\nGRAV 1E154 0\nCYCLE 50\n");
+    assert!(m.blocks[0].centroid[0] > 1e140, "{:?}", m.blocks[0].centroid);
+    m.validate().unwrap_or_else(|e| panic!("not restartable: {e}"));
 }

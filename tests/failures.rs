@@ -144,13 +144,16 @@ fn a_value_f32_cannot_hold_is_refused_before_the_run(t: &Target) {
 }
 
 fn a_block_too_fast_to_integrate_is_refused_at_its_cycle_command(t: &Target) {
-    // VELOCITY 1e300: ½mv² overflows f64 before any step; the energy check would call that an
-    // instability and advise a smaller FRACTION. The CYCLE command is refused instead, on every
-    // backend, naming the block and the command.
-    let deck =
-        "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 0.9\nVELOCITY 0 1 1 2 1E300 0\nCYCLE 10\n";
-    let err = blockdem::scenes::run_deck_on(deck, t.backend()).unwrap_err().to_string();
-    assert!(err.contains("line 8") || err.contains(":8"), "names the CYCLE line on {}: {err}", t.name());
+    // ½mv² overflows f64 before any step; the energy check would call that an instability and
+    // advise a smaller FRACTION. VELOCITY 1e300 is refused at its own line (a DELETE before the
+    // CYCLE booked ∞ − ∞ as released energy); a velocity that overflows only once PROPERTY makes
+    // the block heavier is refused by the CYCLE command, on every backend, naming the block.
+    let base = "START\nPROP MAT=1 D=2000 KN=1E6 KS=1E6\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 0.9\n";
+    let err = blockdem::scenes::run_deck_on(&format!("{base}VELOCITY 0 1 1 2 1E300 0\nDELETE 0 1 1 2\nCYCLE 10\n"), t.backend()).unwrap_err().to_string();
+    assert!(err.starts_with("<scene>:7: VELOCITY: block 2 would move so fast"), "on {}: {err}", t.name());
+    let deck = format!("{base}VELOCITY 0 1 1 2 1E152 0\nPROP MAT=1 D=2E9\nCYCLE 10\n");
+    let err = blockdem::scenes::run_deck_on(&deck, t.backend()).unwrap_err().to_string();
+    assert!(err.contains("line 9") || err.contains(":9"), "names the CYCLE line on {}: {err}", t.name());
     assert!(err.contains("block 2 moves so fast") && err.contains("check VELOCITY"), "on {}: {err}", t.name());
 }
 

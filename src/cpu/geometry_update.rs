@@ -21,7 +21,17 @@ pub fn geometry_update(block: &Block, corners: &mut [Corner]) {
         let (p0, p1) = (corners[k].position, corners[(k + 1) % n].position);
         let (ex, ey) = (p1[0] - p0[0], p1[1] - p0[1]);
         let len = (ex * ex + ey * ey).sqrt();
-        corners[k].edge_dir = [ex / len, ey / len];
+        corners[k].edge_dir = if len > 0.0 {
+            [ex / len, ey / len]
+        } else {
+            // The edge is lost in the round-off of its corners' positions (a 5 cm block flung to
+            // 1e147 m): its direction is the body frame's, turned, not 0/0, which left a model
+            // that RESTART refuses.
+            let (l0, l1) = (corners[k].local, corners[(k + 1) % n].local);
+            let (lx, ly) = (l1[0] - l0[0], l1[1] - l0[1]);
+            let l = (lx * lx + ly * ly).sqrt();
+            [(c * lx - s * ly) / l, (s * lx + c * ly) / l]
+        };
         corners[k].edge_length = len;
     }
 }
