@@ -570,7 +570,7 @@ pub enum ReadError {
 }
 
 /// Reads the deck at `path` (named `file` in errors) for [`parse_deck_bytes`]: a regular file,
-/// or a FIFO, `/dev/stdin` or any other stream. Its first `FIRST_BYTES` (64 KiB) are checked as text
+/// or a FIFO, `/dev/stdin` or any other stream. Its first [`FIRST_BYTES`] (64 KiB) are checked as text
 /// (UTF-8 with no NUL or other control character) before the rest is read, and reading stops
 /// past [`MAX_DECK_BYTES`].
 pub fn read_deck(path: &std::path::Path, file: &str) -> std::result::Result<Vec<u8>, ReadError> {
