@@ -17,6 +17,26 @@ use proptest::test_runner::{Config, TestRunner};
 
 every_backend!(random_decks_never_panic_and_stop_with_a_line_and_a_finite_model, decks_at_any_scale_between_cycles_stop_with_a_line_and_a_restartable_model);
 
+/// Runs `deck` (named `file`) on `t` with its outputs in `out`; a run that stops must say so with
+/// the file and a line of the deck. Returns the executor, whose model the caller checks.
+fn run_naming_its_line(t: &Target, deck: &str, file: &str, out: &std::path::Path) -> Result<Executor<'static>, TestCaseError> {
+    let lines = deck.lines().count();
+    let parsed = blockdem::deck::parse_deck(deck, file).map_err(|e| TestCaseError::fail(format!("the deck does not parse: {e}")))?;
+    let _ = std::fs::remove_dir_all(out);
+    let options = RunOptions { out_dir: out.to_path_buf(), ..Default::default() };
+    let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, file);
+    if let Err(e) = exec.run(&parsed) {
+        let text = e.to_string();
+        let line = match &e {
+            RunError::Input(d) => d.line,
+            RunError::Unsupported { line, .. } | RunError::Numerical { line, .. } | RunError::Command { line, .. } => *line,
+            RunError::Interrupted { .. } => return Err(TestCaseError::fail("interrupted without a signal")),
+        };
+        prop_assert!(text.starts_with(&format!("{file}:")) && (1..=lines).contains(&line), "{text}");
+    }
+    Ok(exec)
+}
+
 /// A positive value: mostly ordinary, sometimes at the ends of f64 and f32.
 fn positive() -> impl Strategy<Value = String> {
     prop_oneof![
@@ -111,20 +131,7 @@ fn random_decks_never_panic_and_stop_with_a_line_and_a_finite_model(t: &Target) 
             "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 8,1 8,0\nFIX 0 8 0 1\nGRAV 0 -10\n{}\nCYCLE 50\nSTOP\n",
             commands.join("\n")
         );
-        let lines = deck.lines().count();
-        let parsed = blockdem::deck::parse_deck(&deck, "random.dat").map_err(|e| TestCaseError::fail(format!("the deck does not parse: {e}")))?;
-        let _ = std::fs::remove_dir_all(&out);
-        let options = RunOptions { out_dir: out.clone(), ..Default::default() };
-        let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, "random.dat");
-        if let Err(e) = exec.run(&parsed) {
-            let text = e.to_string();
-            let line = match &e {
-                RunError::Input(d) => d.line,
-                RunError::Unsupported { line, .. } | RunError::Numerical { line, .. } | RunError::Command { line, .. } => *line,
-                RunError::Interrupted { .. } => return Err(TestCaseError::fail("interrupted without a signal")),
-            };
-            prop_assert!(text.starts_with("random.dat:") && (1..=lines).contains(&line), "{text}");
-        }
+        let exec = run_naming_its_line(t, &deck, "random.dat", &out)?;
         for b in &exec.model.blocks {
             let state = b.centroid.iter().chain(&b.velocity).chain([&b.angular_velocity, &b.rotation]);
             prop_assert!(state.into_iter().all(|x| x.is_finite()), "block {} not finite: {:?}", b.id, b);
@@ -266,21 +273,8 @@ fn decks_at_any_scale_between_cycles_stop_with_a_line_and_a_restartable_model(t:
     let out = std::env::temp_dir().join(format!("blockdem-scaled-decks-{}-{}", std::process::id(), t.name().replace(' ', "_")));
     let mut runner = TestRunner::new(Config { cases, failure_persistence: None, ..Config::default() });
     let result = runner.run(&scaled_deck(), |deck| {
-        let lines = deck.lines().count();
-        let parsed = blockdem::deck::parse_deck(&deck, "scaled.dat").map_err(|e| TestCaseError::fail(format!("the deck does not parse: {e}")))?;
-        let _ = std::fs::remove_dir_all(&out);
-        let options = RunOptions { out_dir: out.clone(), ..Default::default() };
-        let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, "scaled.dat");
         let started = std::time::Instant::now();
-        if let Err(e) = exec.run(&parsed) {
-            let text = e.to_string();
-            let line = match &e {
-                RunError::Input(d) => d.line,
-                RunError::Unsupported { line, .. } | RunError::Numerical { line, .. } | RunError::Command { line, .. } => *line,
-                RunError::Interrupted { .. } => return Err(TestCaseError::fail("interrupted without a signal")),
-            };
-            prop_assert!(text.starts_with("scaled.dat:") && (1..=lines).contains(&line), "{text}");
-        }
+        let exec = run_naming_its_line(t, &deck, "scaled.dat", &out)?;
         // Not a proof that no deck hangs, but a campaign's slowest decks are seen.
         if started.elapsed().as_secs() > 30 {
             eprintln!("slow deck ({:.0} s) on {}:\n{deck}", started.elapsed().as_secs_f64(), t.name());
