@@ -90,7 +90,11 @@ impl Model {
                 let vx = b.velocity[0] + b.force[0] / b.mass * h;
                 let vy = b.velocity[1] + b.force[1] / b.mass * h;
                 let w = b.angular_velocity + if b.inertia > 0.0 { b.moment / b.inertia * h } else { 0.0 };
-                e.kinetic += 0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * w * w;
+                let at_t = 0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * w * w;
+                // Where that half step overflows f64 (a FRACTION of 1e300, a load of 1e300: the
+                // run stops at its first step, or a block freed after a CYCLE 0 is deleted), the
+                // energy at t − Δt/2, which the state holds, keeps the ledger a number.
+                e.kinetic += if at_t.is_finite() { at_t } else { b.kinetic_energy() };
             }
             e.mass_damping += b.damping_work;
         }
