@@ -360,6 +360,24 @@ fn adapters() -> anyhow::Result<()> {
 /// hours of it: `--out` naming a file (or a folder under a file), or a place this user cannot
 /// write. The folder itself is made only when something is written to it.
 fn check_out_dir(out: &Path) -> anyhow::Result<()> {
+    check_writable_folder(out, "--out")
+}
+
+/// `check_out_dir` for a file an option names (`--state-json`): not a folder, and its folder one
+/// that can be made and written.
+fn check_out_file(path: &Path, option: &str) -> anyhow::Result<()> {
+    if path.is_dir() {
+        bail!("{option} {}: is a folder; give a file name", path.display());
+    }
+    match path.parent() {
+        Some(folder) => check_writable_folder(folder, &format!("{option} {}:", path.display())),
+        None => Ok(()),
+    }
+}
+
+/// The walk behind `check_out_dir` and `check_out_file`; `what` starts each message.
+fn check_writable_folder(out: &Path, what: &str) -> anyhow::Result<()> {
+    let what = if what == "--out" { format!("--out {}:", out.display()) } else { what.to_string() };
     for place in out.ancestors() {
         let place = if place.as_os_str().is_empty() { Path::new(".") } else { place };
         match std::fs::metadata(place) {
@@ -372,12 +390,12 @@ fn check_out_dir(out: &Path) -> anyhow::Result<()> {
                         let _ = std::fs::remove_file(&probe);
                         Ok(())
                     }
-                    Err(e) => bail!("--out {}: cannot write in {}: {e}", out.display(), place.display()),
+                    Err(e) => bail!("{what} cannot write in {}: {e}", place.display()),
                 };
             }
-            Ok(_) => bail!("--out {}: {} is a file, not a folder", out.display(), place.display()),
+            Ok(_) => bail!("{what} {} is a file, not a folder", place.display()),
             Err(e) if matches!(e.kind(), std::io::ErrorKind::NotFound | std::io::ErrorKind::NotADirectory) => continue,
-            Err(e) => bail!("--out {}: {}: {e}", out.display(), place.display()),
+            Err(e) => bail!("{what} {}: {e}", place.display()),
         }
     }
     Ok(())
@@ -413,6 +431,9 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
     check_out_dir(&out)?;
+    if let Some(path) = &state_json {
+        check_out_file(path, "--state-json")?;
+    }
     // The precision the cycle runs in, for the extreme-ratio warnings (`verify::stability`).
     let mut runs_on = (false, "f64");
     let backend: Box<dyn blockdem::backend::Backend> = match backend {
@@ -464,9 +485,18 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
     exec.set_limits(blockdem::verify::stability::limits_for(runs_on.0, runs_on.1));
     let result = exec.run(&commands);
-    if let Some(path) = &state_json {
-        blockdem::output::state_json::write_state_json(&exec.model, path).with_context(|| format!("cannot write {}", path.display()))?;
-    }
+    // Written first, reported last: a state JSON that cannot be written must not keep the
+    // restart file below from being written.
+    let json_written = match &state_json {
+        Some(path) => {
+            // Its folder is made as --out's is, when first written to.
+            if let Some(folder) = path.parent().filter(|f| !f.as_os_str().is_empty()) {
+                let _ = std::fs::create_dir_all(folder);
+            }
+            blockdem::output::state_json::write_state_json(&exec.model, path).with_context(|| format!("cannot write {}", path.display()))
+        }
+        None => Ok(()),
+    };
     if let Err(e) = result {
         // Never lose work: the last good state (or the state an interrupt stopped at, or, after
         // an input error later in a deck that has cycled, the state before the failing
@@ -486,9 +516,12 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                 eprintln!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
             }
         }
+        if let Err(json) = json_written {
+            eprintln!("blockdem: {json:#}");
+        }
         return Err(e.into());
     }
-    Ok(())
+    json_written
 }
 
 /// Ctrl-C (SIGINT) or SIGTERM (a batch system's time limit, `kill`) sets `flag`, which stops the

@@ -172,6 +172,22 @@ fn an_out_folder_that_is_a_file_is_refused_before_the_run() {
     assert_eq!(code, 0, "{stderr}");
     assert!(fresh.join("blockdem.sav").exists());
     assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains("write-test")), "the probe is removed");
+    // --state-json likewise: a folder, or a file under a file, is refused before the run; a
+    // folder not there yet is made.
+    let out = dir.join("out");
+    let out = out.to_str().unwrap();
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out, "--state-json", dir.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("--state-json") && stderr.contains("is a folder; give a file name"), "{stderr}");
+    assert!(!stdout.contains("CYCLE"), "nothing runs: {stdout}");
+    let under = format!("{file}/state.json");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out, "--state-json", &under]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains(&format!("--state-json {under}: {file} is a file, not a folder")), "{stderr}");
+    let json = dir.join("new/json/state.json");
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out, "--state-json", json.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(json.exists());
 }
 
 /// An input error after cycles have run keeps them: the state before the failing command goes to
