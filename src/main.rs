@@ -360,7 +360,7 @@ fn adapters() -> anyhow::Result<()> {
 /// hours of it: `--out` naming a file (or a folder under a file), or a place this user cannot
 /// write. The folder itself is made only when something is written to it.
 fn check_out_dir(out: &Path) -> anyhow::Result<()> {
-    check_writable_folder(out, "--out")
+    check_writable_folder(out, &format!("--out {}:", out.display()))
 }
 
 /// `check_out_dir` for a file an option names (`--state-json`): not a folder, and its folder one
@@ -377,7 +377,6 @@ fn check_out_file(path: &Path, option: &str) -> anyhow::Result<()> {
 
 /// The walk behind `check_out_dir` and `check_out_file`; `what` starts each message.
 fn check_writable_folder(out: &Path, what: &str) -> anyhow::Result<()> {
-    let what = if what == "--out" { format!("--out {}:", out.display()) } else { what.to_string() };
     for place in out.ancestors() {
         let place = if place.as_os_str().is_empty() { Path::new(".") } else { place };
         match std::fs::metadata(place) {

@@ -9,7 +9,7 @@
 //! the block's material and constitutive number; velocities carry over through the split, and the
 //! contacts of the old block are re-detected on the pieces with their shear history carried over.
 
-use crate::cpu::contact_forces::{counts_force, normal_force};
+use crate::cpu::contact_forces::normal_force;
 use crate::cpu::gather::{gather, ContactForce};
 use crate::model::split::split_block_along;
 use crate::model::{BlockKind, Model};
@@ -178,9 +178,7 @@ pub fn apply_crack(model: &mut Model, crack: &PointLoadCrack) -> Option<Vec<usiz
         if !touches_piece || c.normal_force != 0.0 {
             continue;
         }
-        let b2 = &model.blocks[c.block2 as usize];
-        let corners2 = &model.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
-        let active = counts_force(c.corner, &model.corners[c.corner as usize], corners2, b2.corner_start, c.feature);
+        let active = super::detect::counts_force(model, &c);
         let m = *model.material(c.material);
         let cohesion = if c.bonded { m.cohesion } else { 0.0 };
         let fn_ = if active { normal_force(c.gap, m.kn, cohesion) } else { 0.0 };
