@@ -252,3 +252,24 @@ fn a_cycle_dispatches_gather_heavy_only_for_free_heavy_blocks() {
         assert_eq!(labels, want, "{fix}");
     }
 }
+
+/// The bandwidth yardstick (`stream_copy.wgsl`) copies every word (it checks its first size
+/// against the source and fails otherwise), at sizes that grow, and reports a finite rate on each
+/// GPU target; `copy_buffer_to_buffer` is measured beside it. On a software adapter it stops at
+/// 128 MiB, a size past any CPU's cache.
+#[test]
+fn the_streaming_kernel_yardstick_copies_every_word_on_every_gpu_target() {
+    for (adapter, precision) in common::GPU_TARGETS {
+        let Some(Target::Gpu(options)) = Target::gpu(adapter, precision) else {
+            continue;
+        };
+        let gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
+        let stream = gpu.stream_bandwidth().unwrap_or_else(|e| panic!("{adapter} {precision}: {e}"));
+        assert!(!stream.sizes.is_empty());
+        assert!(stream.sizes.windows(2).all(|w| w[0].0 < w[1].0), "{:?}", stream.sizes);
+        assert!(stream.sizes.iter().all(|(n, bw)| *n >= 64 << 20 && *n <= 128 << 20 && bw.is_finite() && *bw > 0.0), "{:?}", stream.sizes);
+        assert_eq!(stream.best, stream.sizes.iter().map(|s| s.1).fold(0.0, f64::max));
+        let copy = gpu.copy_bandwidth().unwrap();
+        assert!(copy.is_finite() && copy > 0.0);
+    }
+}

@@ -5,6 +5,7 @@
 //! |---|---|
 //! | [`scene`] | the reference wall (settle, impact), the decks in `examples/`, the scaling family, what is measured on the wall |
 //! | [`host`] | machine info, the host's copy bandwidth, the byte model of the CPU cycle |
+//! | [`memory_spec`] | GPUs' memory bandwidth by their data sheets, for adapters whose name identifies them |
 //! | [`report`] | the targets, the table, CSV and JSON |
 //! | [`chart`] | the PNG chart |
 //!
@@ -29,6 +30,7 @@
 
 pub mod chart;
 pub mod host;
+pub mod memory_spec;
 pub mod report;
 pub mod scene;
 
@@ -151,6 +153,41 @@ pub fn present_backends(cpu: bool, gpu: bool, adapter: &AdapterChoice, precision
     out
 }
 
+/// The bandwidth figures of one backend: the yardstick the roofline divides by, and on a GPU each
+/// way of moving memory measured apart. The yardstick is the physical limit as best measured:
+/// the host memcpy on the CPU backend; on a GPU the faster of the streaming kernel and
+/// `copy_buffer_to_buffer`. On hardware GPUs the kernel wins by far (a copy engine reaches a
+/// quarter of the memory's bandwidth on an H100); on Mesa's software adapters the copy is a
+/// memcpy at the host's bandwidth while their generated code moves storage words a few lanes at a
+/// time, so the kernel would measure the compiler, not the memory.
+fn measure_bandwidth(info: &mut BackendInfo, e: &Engine, say: &dyn Fn(&str)) {
+    match e {
+        Engine::Cpu(_) => {
+            info.bandwidth_bytes_per_s = Some(host::host_copy_bandwidth());
+            info.yardstick = "host memcpy".into();
+        }
+        Engine::Gpu(g) => {
+            match g.stream_bandwidth() {
+                Ok(s) => {
+                    info.stream_bandwidth_bytes_per_s = Some(s.best);
+                    info.stream_sizes = s.sizes;
+                }
+                Err(err) => say(&format!("{}: the streaming kernel failed ({err})", info.label)),
+            }
+            info.copy_bandwidth_bytes_per_s = g.copy_bandwidth().ok();
+            let (stream, copy) = (info.stream_bandwidth_bytes_per_s.unwrap_or(0.0), info.copy_bandwidth_bytes_per_s.unwrap_or(0.0));
+            if stream.max(copy) > 0.0 {
+                info.bandwidth_bytes_per_s = Some(stream.max(copy));
+                info.yardstick = if stream >= copy { "streaming kernel" } else { "copy_buffer_to_buffer" }.into();
+            }
+            if let Some((bw, card)) = memory_spec::spec_bandwidth(&info.adapter) {
+                info.spec_bandwidth_bytes_per_s = Some(bw);
+                info.spec_card = Some(card.to_string());
+            }
+        }
+    }
+}
+
 /// One backend of the bench as the report names it.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BackendInfo {
@@ -164,9 +201,24 @@ pub struct BackendInfo {
     pub api: String,
     pub driver: String,
     pub precision: String,
-    /// Copy bandwidth, bytes read + written per second (memcpy on the host for the CPU backend,
-    /// `copy_buffer_to_buffer` on a GPU adapter).
+    /// The bandwidth yardstick the roofline divides by, bytes read + written per second: on the
+    /// CPU backend a memcpy over rayon's threads, on a GPU adapter the faster of a streaming copy
+    /// kernel (`gpu::profile::stream_bandwidth`) and `copy_buffer_to_buffer`
+    /// (`measure_bandwidth`; before 2026-11-26 it was `copy_buffer_to_buffer` alone).
     pub bandwidth_bytes_per_s: Option<f64>,
+    /// Which measurement the yardstick is: "host memcpy", "streaming kernel" or
+    /// "copy_buffer_to_buffer".
+    pub yardstick: String,
+    /// GPU: the streaming kernel's best over its sizes, bytes read + written per second.
+    pub stream_bandwidth_bytes_per_s: Option<f64>,
+    /// GPU: the streaming kernel's best at each buffer size, (bytes of one buffer, bytes/s).
+    pub stream_sizes: Vec<(u64, f64)>,
+    /// GPU: `copy_buffer_to_buffer`'s bandwidth, bytes read + written per second (the old yardstick).
+    pub copy_bandwidth_bytes_per_s: Option<f64>,
+    /// GPU: the card's memory bandwidth by its data sheet, where the adapter's name identifies it
+    /// (`memory_spec`), and the card as named there.
+    pub spec_bandwidth_bytes_per_s: Option<f64>,
+    pub spec_card: Option<String>,
     /// How stage times are measured.
     pub stage_timing: String,
     /// Largest nominal wall of the scaling family on this backend.
@@ -415,14 +467,11 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             continue;
         }
         seen.push(info.label.clone());
-        if let Some(mut e) = engine {
+        if let Some(e) = engine {
             if opts.scaling {
-                info.bandwidth_bytes_per_s = match &mut e {
-                    Engine::Cpu(_) => Some(host::host_copy_bandwidth()),
-                    Engine::Gpu(g) => g.copy_bandwidth().ok(),
-                };
+                measure_bandwidth(&mut info, &e, &say);
             }
-            say(&format!("{} opened ({}), copy bandwidth {:.1} GB/s", info.label, info.driver, info.bandwidth_bytes_per_s.unwrap_or(0.0) / 1e9));
+            say(&format!("{} opened ({}), {}", info.label, info.driver, report::bandwidth_summary(&info)));
             engines.push((report.backends.len(), e));
         } else {
             say(&format!("{} not available: {}", info.label, info.error.as_deref().unwrap_or("")));

@@ -20,6 +20,11 @@ pub const HEAVY_WORKGROUP_SIZE: u32 = 256;
 /// workgroup's reduction: fewer workgroups, fewer barriers and partial sums.
 pub const ENERGY_ITEMS: u32 = 16;
 
+/// Threads per workgroup of the bandwidth yardstick (`stream_copy`): 256, the size streaming
+/// kernels commonly run best at on NVIDIA and AMD hardware (enough warps a multiprocessor to hide
+/// memory latency).
+pub const STREAM_WORKGROUP_SIZE: u32 = 256;
+
 /// Most workgroups a dispatch may have in one dimension (WebGPU's default limit).
 pub const MAX_GROUPS_PER_DIMENSION: u32 = 65535;
 
@@ -68,9 +73,12 @@ pub const TOPOLOGY_KERNELS: &[(&str, &str)] = &[
     ("splice_adjacency", include_str!("../../shaders/splice_adjacency.wgsl")),
 ];
 
+/// Kernels of `blockdem bench` alone, with bindings of their own: the bandwidth yardstick.
+pub const BENCH_KERNELS: &[(&str, &str)] = &[("stream_copy", include_str!("../../shaders/stream_copy.wgsl"))];
+
 /// Every kernel file's name, the cycle's first.
 pub fn kernel_names() -> impl Iterator<Item = &'static str> {
-    KERNELS.iter().chain(TOPOLOGY_KERNELS).map(|(name, _)| *name)
+    KERNELS.iter().chain(TOPOLOGY_KERNELS).chain(BENCH_KERNELS).map(|(name, _)| *name)
 }
 
 /// The prelude: the one precision switch and the constants.
@@ -122,7 +130,7 @@ pub fn prelude(precision: Precision) -> String {
     };
     let materials = crate::model::MAX_MATERIALS;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst FINITE_MAX: real = {finite_max};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst STREAM_WORKGROUP_SIZE: u32 = {STREAM_WORKGROUP_SIZE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst FINITE_MAX: real = {finite_max};\n"
     )
 }
 
@@ -150,7 +158,7 @@ pub fn source(kernel: &str, precision: Precision) -> Option<String> {
     if let Some((_, body)) = KERNELS.iter().find(|(name, _)| *name == kernel) {
         return Some(format!("{}\n{LAYOUT}\n{COMMON}\n{body}", prelude(precision)));
     }
-    let body = TOPOLOGY_KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
+    let body = TOPOLOGY_KERNELS.iter().chain(BENCH_KERNELS).find(|(name, _)| *name == kernel)?.1;
     Some(format!("{}\n{LAYOUT}\n{body}", prelude(precision)))
 }
 
