@@ -46,7 +46,10 @@ const CARDS: &[Card] = &[
 /// The specified memory bandwidth (bytes per second) and the card's name, for an adapter name
 /// that identifies a card of the table; None for any other (software adapters included).
 pub fn spec_bandwidth(adapter: &str) -> Option<(f64, &'static str)> {
-    let words: Vec<String> = adapter.split(|c: char| !c.is_ascii_alphanumeric()).filter(|w| !w.is_empty()).map(|w| w.to_ascii_uppercase()).collect();
+    // A GL renderer string names the bus after the card ("NVIDIA H100 80GB HBM3/PCIe/SSE2"):
+    // only what comes before the first '/' names the card.
+    let card = adapter.split('/').next().unwrap_or("");
+    let words: Vec<String> = card.split(|c: char| !c.is_ascii_alphanumeric()).filter(|w| !w.is_empty()).map(|w| w.to_ascii_uppercase()).collect();
     CARDS.iter().find(|c| c.words.iter().all(|w| words.iter().any(|x| x == &w.to_ascii_uppercase()))).map(|c| (c.bytes_per_s, c.name))
 }
 
@@ -59,6 +62,8 @@ mod tests {
         let bw = |n: &str| spec_bandwidth(n).map(|x| x.0);
         assert_eq!(bw("NVIDIA H100 80GB HBM3"), Some(3.35e12));
         assert_eq!(bw("NVIDIA H100 PCIe"), Some(2.0e12));
+        // NVIDIA's GL renderer string of the same SXM card (H100 machine, 2026-11-26).
+        assert_eq!(bw("NVIDIA H100 80GB HBM3/PCIe/SSE2"), Some(3.35e12));
         assert_eq!(bw("NVIDIA H100 NVL"), Some(3.9e12));
         assert_eq!(bw("NVIDIA H200"), Some(4.8e12));
         assert_eq!(bw("NVIDIA GH200 480GB"), Some(4.0e12));

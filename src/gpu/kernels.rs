@@ -61,10 +61,14 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 }
 
 impl Pipelines {
-    /// Validates every kernel with naga first (clear errors), then builds the pipelines inside a
-    /// validation error scope, so a driver's rejection is an error value, not a panic.
+    /// Validates every kernel with naga first (clear errors), then builds the pipelines inside
+    /// validation and internal error scopes, so a driver's rejection is an error value at set-up,
+    /// not a panic or a failure at the first cycle. (NVIDIA's GL through EGL gives wgpu 30 a GL
+    /// 3.3 context that advertises compute shaders, and its shader translation then refuses every
+    /// kernel with an *internal* error: seen on an H100, 2026-11-26.)
     pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
         let device = &dev.device;
+        let internal = device.push_error_scope(wgpu::ErrorFilter::Internal);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         // A bind group layout of `entries` and the pipeline layout of it alone.
         let layouts = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
@@ -147,8 +151,12 @@ impl Pipelines {
             list_contacts: make_on(&lists_pipeline_layout, "list_blocks", "list_contacts")?,
             lists_layout,
         };
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Shader(format!("the driver rejected a kernel: {e}")));
+        let rejected = [pollster::block_on(scope.pop()), pollster::block_on(internal.pop())];
+        if let Some(e) = rejected.into_iter().flatten().next() {
+            return Err(GpuError::Shader(format!(
+                "the driver of {} ({} {}) rejected a kernel: {e}",
+                dev.summary.name, dev.summary.backend, dev.summary.driver_info
+            )));
         }
         Ok(pipelines)
     }
