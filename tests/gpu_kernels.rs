@@ -1196,7 +1196,7 @@ fn energy_sums_match_the_model(adapter: &str, precision: Precision) {
     let Some(common::Target::Gpu(options)) = Target::gpu(adapter, precision) else { return };
     let deck = format!("{}CYCLE 0\n", blockdem::scenes::brick_wall_deck(25, 45, 1.0, 0.5, 1e9, 0.6));
     let mut model = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
-    let per_workgroup = (shaders::WORKGROUP_SIZE * shaders::ENERGY_ITEMS) as usize;
+    let per_workgroup = (shaders::workgroup_size() * shaders::ENERGY_ITEMS) as usize;
     assert!(model.blocks.len() > per_workgroup && model.contacts.len() > 2 * per_workgroup, "blocks and contacts over several workgroups");
     let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
     use blockdem::backend::Backend;

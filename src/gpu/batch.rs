@@ -58,7 +58,7 @@ impl<R: Real> Engine<R> {
     /// The grid of `g` over the live counts: one invocation per block or contact, one workgroup
     /// per heavy block the pass gathers.
     pub(super) fn grid(&self, g: Grid, gather_only: bool) -> (u32, u32) {
-        let items = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::WORKGROUP_SIZE));
+        let items = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::workgroup_size()));
         match g {
             Grid::Blocks => items(self.counts.0),
             Grid::Contacts => items(self.counts.2),

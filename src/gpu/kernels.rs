@@ -428,7 +428,7 @@ pub fn dispatch_passes(
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
-        let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::WORKGROUP_SIZE as usize) as u32);
+        let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::workgroup_size() as usize) as u32);
         pass.dispatch_workgroups(x, y, 1);
     }
     dev.queue.submit([enc.finish()]);
@@ -441,7 +441,7 @@ pub fn dispatch_passes(
 /// The dispatch of the energy check: one invocation per `ENERGY_ITEMS` blocks and contacts,
 /// whichever are more.
 pub fn energy_grid(blocks: usize, contacts: usize) -> (u32, u32) {
-    let per_group = (shaders::WORKGROUP_SIZE * shaders::ENERGY_ITEMS) as usize;
+    let per_group = (shaders::workgroup_size() * shaders::ENERGY_ITEMS) as usize;
     shaders::dispatch_grid(blocks.max(contacts).div_ceil(per_group).max(1) as u32)
 }
 

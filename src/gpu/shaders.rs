@@ -5,8 +5,20 @@
 
 use super::Precision;
 
-/// Threads per workgroup of the per-item kernels.
+/// Threads per workgroup of the per-item kernels, unless `BLOCKDEM_WORKGROUP_SIZE` says otherwise
+/// ([`workgroup_size`]).
 pub const WORKGROUP_SIZE: u32 = 64;
+
+/// Threads per workgroup of the per-item kernels: [`WORKGROUP_SIZE`], or `BLOCKDEM_WORKGROUP_SIZE`
+/// (32, 64, 128 or 256; anything else is ignored) to measure another size on a GPU
+/// (docs/BENCHMARKS.md). Results do not depend on it, except the energy sums' reduction order
+/// (`energy_sums.wgsl`), which moves the ledger by round-off. Read once per process.
+pub fn workgroup_size() -> u32 {
+    static SIZE: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    *SIZE.get_or_init(|| {
+        std::env::var("BLOCKDEM_WORKGROUP_SIZE").ok().and_then(|v| v.trim().parse().ok()).filter(|n| [32, 64, 128, 256].contains(n)).unwrap_or(WORKGROUP_SIZE)
+    })
+}
 
 /// A block with more contacts than this is gathered by a whole workgroup (`gather_heavy`)
 /// rather than by one invocation: a fixed base under a long wall has tens of thousands, and one
@@ -129,8 +141,9 @@ pub fn prelude(precision: Precision) -> String {
         Precision::F64 => ("1.57079632673412561417e+00", "6.07710050650619224932e-11", "0.0"),
     };
     let materials = crate::model::MAX_MATERIALS;
+    let workgroup = workgroup_size();
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {WORKGROUP_SIZE}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst STREAM_WORKGROUP_SIZE: u32 = {STREAM_WORKGROUP_SIZE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst FINITE_MAX: real = {finite_max};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {workgroup}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst STREAM_WORKGROUP_SIZE: u32 = {STREAM_WORKGROUP_SIZE}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst FINITE_MAX: real = {finite_max};\n"
     )
 }
 
