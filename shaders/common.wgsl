@@ -1,7 +1,10 @@
 // Shared by the kernels of the cycle: the bindings and the precision-neutral helpers. The structs
 // they bind (and `item_index`) are in layout.wgsl, which comes before this file.
 
-// Eight storage buffers (DESIGN.md §3) and two uniforms: run constants and the material table.
+// The state's slots: eight storage buffers and two uniforms (run constants and the material
+// table), `gpu::kernels::StateSlot` in Rust. Each kernel binds only the slots its entry point
+// uses (`gpu::kernels::used_slots`, read off the module by naga), so the per-stage limit of
+// DESIGN.md §3 (8 storage buffers) counts one kernel's, and a new stage's arrays take new slots.
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read_write> blocks: array<Block>;
 @group(0) @binding(2) var<storage, read_write> corners: array<Corner>;

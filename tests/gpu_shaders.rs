@@ -62,3 +62,64 @@ fn every_gpu_struct_matches_its_rust_twin_in_f32() {
 fn every_gpu_struct_matches_its_rust_twin_in_f64() {
     check_layouts::<f64>(Precision::F64);
 }
+
+/// The state's slots in Rust (`gpu::kernels::StateSlot`) are common.wgsl's declarations: name,
+/// group 0, binding, and uniform / read-only storage / read-write storage.
+#[test]
+fn the_state_slots_are_common_wgsls_bindings() {
+    use blockdem::gpu::kernels::{SlotKind, StateSlot};
+    let src = shaders::source("contact_forces", Precision::F32).unwrap();
+    let (module, _) = shaders::validate(&src, Precision::F32).unwrap();
+    let declared: Vec<_> = module.global_variables.iter().filter(|(_, v)| v.binding.is_some()).map(|(_, v)| v).collect();
+    assert_eq!(declared.len(), StateSlot::ALL.len(), "common.wgsl declares one binding per slot");
+    for slot in StateSlot::ALL {
+        let var = declared.iter().find(|v| v.name.as_deref() == Some(slot.wgsl_name())).unwrap_or_else(|| panic!("no {} in common.wgsl", slot.wgsl_name()));
+        let b = var.binding.as_ref().unwrap();
+        assert_eq!((b.group, b.binding), (0, slot.binding()), "{slot:?}");
+        let kind = match var.space {
+            naga::AddressSpace::Uniform => SlotKind::Uniform,
+            naga::AddressSpace::Storage { access } if !access.contains(naga::StorageAccess::STORE) => SlotKind::StorageRead,
+            naga::AddressSpace::Storage { .. } => SlotKind::StorageReadWrite,
+            other => panic!("{slot:?} in {other:?}"),
+        };
+        assert_eq!(kind, slot.kind(), "{slot:?}");
+    }
+}
+
+/// Each cycle kernel binds only the state slots its entry point uses (found by naga, the
+/// functions it calls included), so the per-stage storage-buffer limit (8, DESIGN.md §3) counts
+/// one kernel's buffers: here each kernel's set, in every precision.
+#[test]
+fn each_cycle_kernel_binds_only_what_it_uses() {
+    use blockdem::gpu::kernels::{used_slots, SlotKind, StateSlot::*};
+    for precision in [Precision::F32, Precision::F64] {
+        let slots = |file: &str, entry: &str| {
+            let src = shaders::source(file, precision).unwrap();
+            let (module, info) = shaders::validate(&src, precision).unwrap();
+            used_slots(&module, &info, entry).unwrap()
+        };
+        // The block pass sums the contact forces over the adjacency (gather.wgsl's force_sum,
+        // called from law_of_motion), moves the block, places its corners and flags errors.
+        assert_eq!(slots("law_of_motion", "law_of_motion"), [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces]);
+        // The contact stage: no adjacency, no energy sums.
+        let contact = slots("contact_forces", "contact_forces");
+        assert!(!contact.contains(&AdjOffsets) && !contact.contains(&AdjEntries) && !contact.contains(&EnergySums), "{contact:?}");
+        assert!(contact.contains(&Contacts) && contact.contains(&ContactForces) && contact.contains(&Materials), "{contact:?}");
+        assert_eq!(slots("gather", "gather"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces]);
+        let energy = slots("energy_sums", "energy_sums");
+        assert!(energy.contains(&EnergySums) && !energy.contains(&AdjEntries), "{energy:?}");
+        for (file, entry) in [
+            ("law_of_motion", "law_of_motion"),
+            ("contact_forces", "contact_forces"),
+            ("contact_forces", "contact_points"),
+            ("gather", "gather"),
+            ("gather", "gather_heavy"),
+            ("energy_sums", "energy_sums"),
+        ] {
+            let s = slots(file, entry);
+            let storage = s.iter().filter(|x| x.kind() != SlotKind::Uniform).count();
+            assert!(storage <= 8, "{entry} ({precision}) binds {storage} storage buffers: {s:?}");
+            assert!(s.len() < blockdem::gpu::kernels::StateSlot::ALL.len(), "{entry} binds every slot: {s:?}");
+        }
+    }
+}

@@ -36,18 +36,18 @@ impl<R: Real> Engine<R> {
     /// long lists of free blocks.
     pub(crate) fn stages(&self, gather_only: bool) -> Vec<Dispatch<'_>> {
         let p = &self.pipelines;
-        let bg = self.bind_group.as_ref().expect("bind group built on upload");
-        let cycle = |label, pipeline, g: Grid| Dispatch { label, pipeline, bind_group: bg, grid: self.grid(g, gather_only), indirect: Some(g) };
+        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
+        let cycle = |label, pipeline, bind_group, g: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) };
         let mut stages = Vec::with_capacity(4);
         if gather_only {
-            stages.push(cycle("gather", &p.gather, Grid::Blocks));
+            stages.push(cycle("gather", &p.gather.pipeline, &bg.gather, Grid::Blocks));
         }
         if self.heavy_blocks(gather_only) > 0 {
-            stages.push(cycle("gather_heavy", &p.gather_heavy, Grid::HeavyBlocks));
+            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
         }
         if !gather_only {
-            stages.push(cycle("law_of_motion", &p.law_of_motion, Grid::Blocks));
-            stages.push(cycle("contact_forces", &p.contact_forces, Grid::Contacts));
+            stages.push(cycle("law_of_motion", &p.law_of_motion.pipeline, &bg.law_of_motion, Grid::Blocks));
+            stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
             let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
             stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
         }
@@ -203,13 +203,13 @@ impl<R: Real> Engine<R> {
             return Err(GpuError::Setup("no state on the device: run some cycles first".into()));
         };
         self.submit_batch(1, true)?;
-        let bg = self.bind_group.as_ref().expect("bind group built on upload");
+        let bg = &self.bind_groups.as_ref().expect("bind groups built on upload").energy_sums;
         let (x, y) = kernels::energy_grid(self.counts.0, self.counts.2);
         let groups = (x * y) as usize;
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy check") });
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("energy_sums"), timestamp_writes: None });
-            pass.set_pipeline(&self.pipelines.energy_sums);
+            pass.set_pipeline(&self.pipelines.energy_sums.pipeline);
             pass.set_bind_group(0, bg, &[]);
             pass.dispatch_workgroups(x, y, 1);
         }

@@ -1,29 +1,168 @@
 //! Kernels apart from state (STYLE.md item 3): `Pipelines` holds one compute pipeline per entry
-//! point, named after it; `Buffers` holds the storage buffers. Both share one bind group layout
-//! (group 0, bindings as in `shaders/common.wgsl`), so one bind group serves the four stages of
-//! the cycle; `end_cycle` (the flags and the grids of the indirect dispatches), `splice_contacts`
-//! and `pack_contacts` have layouts of their own.
+//! point, named after it; `Buffers` holds the storage buffers.
+//!
+//! The cycle's kernels declare the state's bindings once (`shaders/common.wgsl`, group 0, the
+//! slots of [`StateSlot`]), and each binds only the slots its entry point uses: naga reads them
+//! off the validated module when the pipeline is made ([`CycleKernel`]), and each kernel has a
+//! bind group layout and a bind group of its own ([`CycleBindGroups`]). So the per-stage
+//! storage-buffer limit (8 by DESIGN.md §3, 16 on GL) counts one kernel's buffers, not the
+//! union of every stage's: a new stage or array (a deformable block's stress, zones, fluid
+//! domains) adds slots that only its kernels bind, and a scene without it binds and dispatches
+//! nothing of it. `end_cycle` (the flags and the grids of the indirect dispatches),
+//! `splice_contacts` and `pack_contacts` have layouts of their own.
 
 use super::device::GpuDevice;
 use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
 use super::{shaders, GpuError, Precision};
 
+/// The state's bindings as `shaders/common.wgsl` declares them (group 0; binding = the
+/// discriminant). A test checks this table against the WGSL declarations through naga.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum StateSlot {
+    Params = 0,
+    Blocks = 1,
+    Corners = 2,
+    Contacts = 3,
+    Materials = 4,
+    AdjOffsets = 5,
+    AdjEntries = 6,
+    Flags = 7,
+    ContactForces = 8,
+    EnergySums = 9,
+}
+
+/// How a slot is bound: a uniform, or a storage buffer read only or read and written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotKind {
+    Uniform,
+    StorageRead,
+    StorageReadWrite,
+}
+
+impl StateSlot {
+    pub const ALL: [StateSlot; 10] = [
+        StateSlot::Params,
+        StateSlot::Blocks,
+        StateSlot::Corners,
+        StateSlot::Contacts,
+        StateSlot::Materials,
+        StateSlot::AdjOffsets,
+        StateSlot::AdjEntries,
+        StateSlot::Flags,
+        StateSlot::ContactForces,
+        StateSlot::EnergySums,
+    ];
+
+    pub fn binding(self) -> u32 {
+        self as u32
+    }
+
+    /// The slot of a binding number, if the state has one there.
+    pub fn of_binding(binding: u32) -> Option<StateSlot> {
+        Self::ALL.get(binding as usize).copied()
+    }
+
+    /// The WGSL variable of the slot in common.wgsl.
+    pub fn wgsl_name(self) -> &'static str {
+        match self {
+            StateSlot::Params => "params",
+            StateSlot::Blocks => "blocks",
+            StateSlot::Corners => "corners",
+            StateSlot::Contacts => "contacts",
+            StateSlot::Materials => "materials",
+            StateSlot::AdjOffsets => "adj_offsets",
+            StateSlot::AdjEntries => "adj_entries",
+            StateSlot::Flags => "flags",
+            StateSlot::ContactForces => "contact_forces_out",
+            StateSlot::EnergySums => "energy_sums_out",
+        }
+    }
+
+    pub fn kind(self) -> SlotKind {
+        match self {
+            StateSlot::Params | StateSlot::Materials => SlotKind::Uniform,
+            StateSlot::AdjOffsets | StateSlot::AdjEntries => SlotKind::StorageRead,
+            _ => SlotKind::StorageReadWrite,
+        }
+    }
+
+    fn layout_entry(self) -> wgpu::BindGroupLayoutEntry {
+        match self.kind() {
+            SlotKind::Uniform => uniform(self.binding()),
+            SlotKind::StorageRead => storage(self.binding(), true),
+            SlotKind::StorageReadWrite => storage(self.binding(), false),
+        }
+    }
+}
+
+/// The state slots the entry point `entry` of a validated cycle kernel uses (reads, writes or
+/// queries the length of), ascending: what its bind group must hold, and all it may hold. naga's
+/// analysis of an entry point includes the globals of the functions it calls.
+pub fn used_slots(module: &naga::Module, info: &naga::valid::ModuleInfo, entry: &str) -> Result<Vec<StateSlot>, String> {
+    let index = module.entry_points.iter().position(|e| e.name == entry).ok_or_else(|| format!("no entry point {entry}"))?;
+    let uses = info.get_entry_point(index);
+    let mut slots = Vec::new();
+    for (handle, var) in module.global_variables.iter() {
+        let Some(binding) = &var.binding else { continue };
+        if uses[handle].is_empty() {
+            continue;
+        }
+        let slot = StateSlot::of_binding(binding.binding).filter(|_| binding.group == 0).ok_or_else(|| {
+            format!("{entry} uses binding {}:{} ({}), which is no state slot", binding.group, binding.binding, var.name.as_deref().unwrap_or("?"))
+        })?;
+        slots.push(slot);
+    }
+    slots.sort();
+    Ok(slots)
+}
+
+/// A kernel of the cycle: its pipeline and the state slots it binds, with their layout.
+pub struct CycleKernel {
+    pub pipeline: wgpu::ComputePipeline,
+    pub slots: Vec<StateSlot>,
+    pub layout: wgpu::BindGroupLayout,
+}
+
+/// One bind group per cycle kernel, each of the buffers that kernel uses (made with the
+/// buffers, again whenever one is re-created or the contact pairs change places).
+pub struct CycleBindGroups {
+    pub law_of_motion: wgpu::BindGroup,
+    pub contact_forces: wgpu::BindGroup,
+    pub contact_points: wgpu::BindGroup,
+    pub gather: wgpu::BindGroup,
+    pub gather_heavy: wgpu::BindGroup,
+    pub energy_sums: wgpu::BindGroup,
+}
+
+impl CycleBindGroups {
+    pub fn new(dev: &GpuDevice, p: &Pipelines, b: &Buffers) -> Self {
+        let make = |k: &CycleKernel, label: &str| b.kernel_bind_group(dev, k, label);
+        CycleBindGroups {
+            law_of_motion: make(&p.law_of_motion, "law_of_motion"),
+            contact_forces: make(&p.contact_forces, "contact_forces"),
+            contact_points: make(&p.contact_points, "contact_points"),
+            gather: make(&p.gather, "gather"),
+            gather_heavy: make(&p.gather_heavy, "gather_heavy"),
+            energy_sums: make(&p.energy_sums, "energy_sums"),
+        }
+    }
+}
+
 /// One compute pipeline per entry point; each entry point is in the WGSL file of the same name.
 pub struct Pipelines {
     /// Stages 1 and 2 (the invocation that moves a block places its corners).
-    pub law_of_motion: wgpu::ComputePipeline,
-    pub contact_forces: wgpu::ComputePipeline,
+    pub law_of_motion: CycleKernel,
+    pub contact_forces: CycleKernel,
     /// `contact_points` in contact_forces.wgsl: the contacts' points and normals, which the
     /// cycle does not store, placed before a read-back or checkpoint of whole contacts.
-    pub contact_points: wgpu::ComputePipeline,
-    pub gather: wgpu::ComputePipeline,
+    pub contact_points: CycleKernel,
+    pub gather: CycleKernel,
     /// `end_cycle.wgsl`, with its own bindings (the flags and the dispatch grids it zeroes on a
     /// halt, `Buffers::end_cycle_bind_group`).
     pub end_cycle: wgpu::ComputePipeline,
     pub end_cycle_layout: wgpu::BindGroupLayout,
-    pub energy_sums: wgpu::ComputePipeline,
-    pub gather_heavy: wgpu::ComputePipeline,
-    pub bind_group_layout: wgpu::BindGroupLayout,
+    pub energy_sums: CycleKernel,
+    pub gather_heavy: CycleKernel,
     /// `splice_contacts.wgsl`, with its own bindings (`splice_bind_group`).
     pub splice_contacts: wgpu::ComputePipeline,
     /// Its second entry, `patch_contacts`, on the same bindings.
@@ -77,21 +216,6 @@ impl Pipelines {
                 device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: &[Some(&group)], immediate_size: 0 });
             (group, pipeline)
         };
-        let (bind_group_layout, layout) = layouts(
-            "blockdem state",
-            &[
-                uniform(0),
-                storage(1, false),
-                storage(2, false),
-                storage(3, false),
-                uniform(4),
-                storage(5, true),
-                storage(6, true),
-                storage(7, false),
-                storage(8, false),
-                storage(9, false),
-            ],
-        );
         // The splice's bindings: the old list and records, the runs, the created contacts and
         // records (read), the new list and records (written), the patches (read).
         let (splice_layout, splice_pipeline_layout) = layouts(
@@ -127,7 +251,15 @@ impl Pipelines {
                 cache: None,
             }))
         };
-        let make_entry = |name: &str, entry: &str| make_on(&layout, name, entry);
+        // A cycle kernel: `entry` in `name`.wgsl on a layout of the state slots it uses.
+        let make_entry = |name: &str, entry: &str| -> Result<CycleKernel, GpuError> {
+            let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+            let (module, info) = shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+            let slots = used_slots(&module, &info, entry).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+            let entries: Vec<wgpu::BindGroupLayoutEntry> = slots.iter().map(|s| s.layout_entry()).collect();
+            let (layout, pipeline_layout) = layouts(entry, &entries);
+            Ok(CycleKernel { pipeline: make_on(&pipeline_layout, name, entry)?, slots, layout })
+        };
         let make = |name: &str| make_entry(name, name);
         let pipelines = Pipelines {
             law_of_motion: make("law_of_motion")?,
@@ -138,7 +270,6 @@ impl Pipelines {
             end_cycle_layout,
             energy_sums: make("energy_sums")?,
             gather_heavy: make_entry("gather", "gather_heavy")?,
-            bind_group_layout,
             splice_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "splice_contacts")?,
             patch_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "patch_contacts")?,
             splice_adjacency: make_on(&adjacency_pipeline_layout, "splice_adjacency", "splice_adjacency")?,
@@ -359,26 +490,27 @@ impl Buffers {
         })
     }
 
-    pub fn bind_group(&self, dev: &GpuDevice, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
-        fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-            wgpu::BindGroupEntry { binding, resource: buffer.as_entire_binding() }
+    /// The buffer of a state slot.
+    pub fn slot(&self, slot: StateSlot) -> &wgpu::Buffer {
+        match slot {
+            StateSlot::Params => &self.params,
+            StateSlot::Blocks => &self.blocks.buffer,
+            StateSlot::Corners => &self.corners.buffer,
+            StateSlot::Contacts => &self.contacts.buffer,
+            StateSlot::Materials => &self.materials,
+            StateSlot::AdjOffsets => &self.adj_offsets.buffer,
+            StateSlot::AdjEntries => &self.adj_entries.buffer,
+            StateSlot::Flags => &self.flags,
+            StateSlot::ContactForces => &self.contact_forces.buffer,
+            StateSlot::EnergySums => &self.energy_sums.buffer,
         }
-        dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("blockdem state"),
-            layout,
-            entries: &[
-                entry(0, &self.params),
-                entry(1, &self.blocks.buffer),
-                entry(2, &self.corners.buffer),
-                entry(3, &self.contacts.buffer),
-                entry(4, &self.materials),
-                entry(5, &self.adj_offsets.buffer),
-                entry(6, &self.adj_entries.buffer),
-                entry(7, &self.flags),
-                entry(8, &self.contact_forces.buffer),
-                entry(9, &self.energy_sums.buffer),
-            ],
-        })
+    }
+
+    /// The bind group of one cycle kernel: the buffers of the slots it uses, nothing else.
+    pub fn kernel_bind_group(&self, dev: &GpuDevice, kernel: &CycleKernel, label: &str) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> =
+            kernel.slots.iter().map(|&s| wgpu::BindGroupEntry { binding: s.binding(), resource: self.slot(s).as_entire_binding() }).collect();
+        dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout: &kernel.layout, entries: &entries })
     }
 }
 

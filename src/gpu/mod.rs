@@ -309,7 +309,8 @@ struct Engine<R: Real> {
     dev: GpuDevice,
     pipelines: Pipelines,
     buffers: Option<Buffers>,
-    bind_group: Option<wgpu::BindGroup>,
+    /// Each cycle kernel's bindings (`kernels::CycleBindGroups`), made with the buffers.
+    bind_groups: Option<kernels::CycleBindGroups>,
     /// `end_cycle`'s bindings (`Buffers::end_cycle_bind_group`), made with the buffers.
     end_cycle_bind_group: Option<wgpu::BindGroup>,
     uploaded: std::rc::Rc<Uploaded>,
@@ -374,7 +375,7 @@ impl<R: Real> Engine<R> {
             dev,
             pipelines,
             buffers: None,
-            bind_group: None,
+            bind_groups: None,
             end_cycle_bind_group: None,
             uploaded: Default::default(),
             generation: 0,

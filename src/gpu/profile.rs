@@ -227,7 +227,7 @@ impl<R: Real> Engine<R> {
     fn profile_stages(&mut self, cycles: u32) -> Result<DeviceProfile, GpuError> {
         // The profiled cycles move the device's state on: the next run must start from the model.
         self.resumable = false;
-        let (Some(buffers), Some(_)) = (self.buffers.as_ref(), self.bind_group.as_ref()) else {
+        let (Some(buffers), Some(_)) = (self.buffers.as_ref(), self.bind_groups.as_ref()) else {
             return Err(GpuError::Setup("profile_stages needs a run first (no state on the device)".into()));
         };
         let cycles = cycles.max(1);

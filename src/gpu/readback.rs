@@ -62,10 +62,10 @@ impl<R: Real> Engine<R> {
     /// cycle does not store, for a read-back or checkpoint of whole contacts that follows.
     pub(super) fn encode_contact_points(&self, enc: &mut wgpu::CommandEncoder) {
         let n = self.counts.2;
-        let Some(bg) = self.bind_group.as_ref().filter(|_| n > 0) else { return };
+        let Some(bg) = self.bind_groups.as_ref().filter(|_| n > 0).map(|g| &g.contact_points) else { return };
         let (x, y) = shaders::dispatch_grid((n as u32).div_ceil(shaders::workgroup_size()));
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("contact_points"), timestamp_writes: None });
-        pass.set_pipeline(&self.pipelines.contact_points);
+        pass.set_pipeline(&self.pipelines.contact_points.pipeline);
         pass.set_bind_group(0, bg, &[]);
         pass.dispatch_workgroups(x, y, 1);
     }

@@ -56,7 +56,8 @@ pub const LAYOUT: &str = include_str!("../../shaders/layout.wgsl");
 pub const COMMON: &str = include_str!("../../shaders/common.wgsl");
 
 /// The kernel files of the cycle, one per stage, each named like its CPU twin in `src/cpu/`;
-/// they share the bindings of common.wgsl (one bind group serves them all). As on the CPU, stage
+/// they share the declarations of common.wgsl, and each binds the slots of them it uses
+/// (`kernels::CycleKernel`). As on the CPU, stage
 /// 1's invocations run stage 6 of the last cycle before it (`force_sum`, gather.wgsl) and stage 2
 /// after it (`shaders/geometry_update.wgsl`, no entry point of its own).
 pub const KERNELS: &[(&str, &str)] = &[
@@ -77,7 +78,7 @@ pub const KERNELS: &[(&str, &str)] = &[
 ];
 
 /// Kernels of the topology changes between cycles, with bindings of their own (the state's bind
-/// group is at the eight storage buffers a stage may have); named like their Rust twins.
+/// slots are the cycle's); named like their Rust twins.
 pub const TOPOLOGY_KERNELS: &[(&str, &str)] = &[
     ("splice_contacts", include_str!("../../shaders/splice_contacts.wgsl")),
     ("pack_contacts", include_str!("../../shaders/pack_contacts.wgsl")),

@@ -106,7 +106,7 @@ impl<R: Real> Engine<R> {
             }
         };
         if rebuild {
-            self.bind_group = None;
+            self.bind_groups = None;
         }
         let q = &self.dev.queue;
         let b = self.buffers();
@@ -135,15 +135,15 @@ impl<R: Real> Engine<R> {
         g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
         g |= self.upload_adjacency(&model.blocks, contacts.len(), adjacency)?;
         if g {
-            self.bind_group = None;
+            self.bind_groups = None;
         }
         let b = self.buffers();
         let q = &self.dev.queue;
         q.write_buffer(&b.contacts.buffer, 0, bytemuck::cast_slice(&contacts));
         q.write_buffer(&b.contact_forces.buffer, 0, bytemuck::cast_slice(&forces));
         self.counts.2 = contacts.len();
-        if self.bind_group.is_none() {
-            self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
+        if self.bind_groups.is_none() {
+            self.bind_groups = Some(kernels::CycleBindGroups::new(&self.dev, &self.pipelines, self.buffers()));
         }
         Ok(())
     }
@@ -280,7 +280,7 @@ impl<R: Real> Engine<R> {
         } else {
             self.upload_adjacency(&model.blocks, n, adjacency)?;
         }
-        self.bind_group = Some(self.buffers().bind_group(&self.dev, &self.pipelines.bind_group_layout));
+        self.bind_groups = Some(kernels::CycleBindGroups::new(&self.dev, &self.pipelines, self.buffers()));
         Ok(())
     }
 
