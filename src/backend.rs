@@ -125,15 +125,18 @@ impl CycleError {
 }
 
 /// `--backend auto` on a GPU: the GPU backend while the models fit it, the CPU backend (f64)
-/// from the first run whose model is past its limits (said once on stderr) to the end.
+/// from the first run whose model is past its limits (said once on stderr) to the end. The CPU
+/// backend comes from `make_cpu`, so that this trait's layer names no backend (no module cycle).
 pub struct GpuOrCpu {
     gpu: Box<dyn Backend>,
-    cpu: Option<crate::cpu::CpuBackend>,
+    cpu: Option<Box<dyn Backend>>,
+    make_cpu: fn() -> Box<dyn Backend>,
 }
 
 impl GpuOrCpu {
-    pub fn new(gpu: Box<dyn Backend>) -> Self {
-        GpuOrCpu { gpu, cpu: None }
+    /// `make_cpu` opens the CPU backend when the first model past the GPU's limits comes.
+    pub fn new(gpu: Box<dyn Backend>, make_cpu: fn() -> Box<dyn Backend>) -> Self {
+        GpuOrCpu { gpu, cpu: None, make_cpu }
     }
 }
 
@@ -153,7 +156,7 @@ impl Backend for GpuOrCpu {
             // Refused before any cycle, the model at its state before the run.
             Err(CycleError::DoesNotFit(why)) => {
                 eprintln!("blockdem: {why}; --backend auto goes on on the CPU (f64)");
-                self.cpu.insert(crate::cpu::CpuBackend::new()).run(model, cycles, progress)
+                self.cpu.insert((self.make_cpu)()).run(model, cycles, progress)
             }
             result => result,
         }

@@ -15,7 +15,7 @@ use crate::model::split::split_line;
 use crate::model::Model;
 use crate::output;
 use crate::output::plot::PlotSettings;
-use crate::verify::stability::{Limits, LIMITS_CPU_F64};
+use crate::model::limits::{Limits, LIMITS_CPU_F64};
 
 /// The largest constitutive number (see `Executor::check_constitutive`).
 pub const MAX_CONSTITUTIVE: u32 = 5;
@@ -152,7 +152,7 @@ impl<'a> Executor<'a> {
 
     /// The limits of extreme ratios measured on the backend that runs (`blockdem verify`): a model
     /// beyond them gets a WARNING before each CYCLE. The default is the CPU f64 backend's; a run on
-    /// f32 GPU kernels sets [`crate::verify::stability::LIMITS_GPU_F32`].
+    /// f32 GPU kernels sets [`crate::model::limits::LIMITS_GPU_F32`].
     pub fn set_limits(&mut self, limits: Limits) {
         self.limits = limits;
     }
@@ -667,7 +667,7 @@ impl<'a> Executor<'a> {
         }
         self.model.timestep = dt;
         // Outside the ratios the suite has verified (blockdem verify): say so before cycling.
-        for w in crate::verify::stability::warnings(&self.model, &self.limits) {
+        for w in crate::model::limits::warnings(&self.model, &self.limits) {
             self.echo(&w);
         }
         if let Some(w) = self.round_warning() {
@@ -821,7 +821,7 @@ impl<'a> Executor<'a> {
             return None;
         }
         let limit = 0.5 * probe.tol.round;
-        let c = probe.contacts.iter().filter(|c| -c.gap > limit && crate::topology::detect::counts_force(probe, c)).max_by(|a, b| b.gap.total_cmp(&a.gap))?;
+        let c = probe.contacts.iter().filter(|c| -c.gap > limit && probe.counts_force(c)).max_by(|a, b| b.gap.total_cmp(&a.gap))?;
         let (b1, b2) = (probe.blocks[c.block1 as usize].id, probe.blocks[c.block2 as usize].id);
         Some(format!(
             "CYCLE: blocks {b1} and {b2} overlap by {} near ({}, {}) before any motion, more than half the rounding length ({}): \

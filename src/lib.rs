@@ -24,6 +24,7 @@
 pub mod backend;
 pub mod bench;
 pub mod compare;
+pub mod contact;
 pub mod cpu;
 pub mod deck;
 pub mod exec;

@@ -453,7 +453,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                         runs_on = (true, if precision == Precision::F32 { "f32" } else { "f64" });
                         if backend == BackendChoice::Auto {
                             // A model past the adapter's limits runs on the CPU instead.
-                            Box::new(GpuOrCpu::new(Box::new(gpu)))
+                            Box::new(GpuOrCpu::new(Box::new(gpu), || Box::new(CpuBackend::new())))
                         } else {
                             Box::new(gpu)
                         }
@@ -482,7 +482,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
-    exec.set_limits(blockdem::verify::stability::limits_for(runs_on.0, runs_on.1));
+    exec.set_limits(blockdem::model::limits::limits_for(runs_on.0, runs_on.1));
     let result = exec.run(&commands);
     // Written first, reported last: a state JSON that cannot be written must not keep the
     // restart file below from being written.

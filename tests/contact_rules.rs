@@ -332,12 +332,12 @@ fn read_back_contacts_have_the_points_and_normals_of_the_read_back_state() {
                 let b2 = &m.blocks[c.block2 as usize];
                 let corners2 = &m.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
                 let own = &m.corners[c.corner as usize];
-                let g = blockdem::cpu::contact_forces::track_feature(corners2, c.feature, own.circle, own.radius);
+                let g = blockdem::contact::geometry::track_feature(corners2, c.feature, own.circle, own.radius);
                 if g.feature != c.feature {
                     // A tie: the GPU's feature is as near as the CPU's choice, within the f32 tie
                     // window and the read-back positions' round-off.
                     assert!(t.is_f32(), "{} after {cycles} cycles: contact {} tracks feature {} where the CPU finds {}", t.name(), c.id, c.feature, g.feature);
-                    let d = blockdem::cpu::contact_forces::distance_to_feature(corners2, c.feature, own.circle);
+                    let d = blockdem::contact::geometry::distance_to_feature(corners2, c.feature, own.circle);
                     assert!(
                         (d - g.distance).abs() <= 1e-5 * (1.0 + g.distance) + tol,
                         "{} after {cycles} cycles: contact {} tracks feature {} at {d}, the CPU's {} is at {}: not a tie",
@@ -599,6 +599,6 @@ fn corners_meeting_corners_make_one_force_carrying_corner_corner_contact() {
         let d = std::f64::consts::FRAC_1_SQRT_2;
         assert!((c.normal[0].abs() - d).abs() < 1e-9 && (c.normal[1].abs() - d).abs() < 1e-9, "diagonal normal {:?}", c.normal);
     }
-    let counted = m.contacts.iter().filter(|c| blockdem::topology::detect::counts_force(&m, c)).count();
+    let counted = m.contacts.iter().filter(|c| m.counts_force(c)).count();
     assert_eq!(counted, 1, "the touch counts once: {:?}", m.contacts);
 }

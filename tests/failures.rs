@@ -342,7 +342,7 @@ fn auto_goes_on_on_the_cpu_when_the_model_is_past_the_gpus_limits() {
     // asked again). Any other failure stays a failure.
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX -1 2 0 1\nGRAVITY 0 -10\nCYCLE 300\nCYCLE 200\n";
     let asked = std::rc::Rc::new(std::cell::Cell::new(0));
-    let auto = blockdem::backend::GpuOrCpu::new(Box::new(TooSmallAdapter(asked.clone())));
+    let auto = blockdem::backend::GpuOrCpu::new(Box::new(TooSmallAdapter(asked.clone())), || Box::new(blockdem::cpu::CpuBackend::new()));
     let m = blockdem::scenes::run_deck_on(deck, Box::new(auto)).unwrap();
     let cpu = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
     assert!(m == cpu && m.cycle == 500, "the CPU's run");

@@ -26,7 +26,9 @@
 
 mod common;
 
-use blockdem::cpu::contact_forces::{contact_force_law, counts_force, track_feature, BlockMotion};
+use blockdem::contact::geometry::track_feature;
+use blockdem::contact::law::{contact_force_law, BlockMotion};
+use blockdem::model::corners::counts_force;
 use blockdem::gpu::layout::{
     Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
     Material as GMaterial, Params as GParams, Real,
@@ -509,7 +511,7 @@ fn test_force_sum(@builtin(global_invocation_id) gid: vec3<u32>) {
 struct ForceScene<R: Real> {
     model: Model,
     adjacency: blockdem::topology::Adjacency,
-    forces: Vec<blockdem::cpu::gather::ContactForce>,
+    forces: Vec<blockdem::contact::gather::ContactForce>,
     records: Vec<GForce<R>>,
     gravity: [f64; 2],
 }

@@ -301,7 +301,7 @@ pub fn elastic_profile(wall: &BrickWall, model: &Model) -> Vec<f64> {
     let g = model.gravity[1].abs();
     let mut springs = vec![0usize; wall.rows];
     for c in &model.contacts {
-        if c.normal[1].abs() < 0.7 || !crate::topology::detect::counts_force(model, c) {
+        if c.normal[1].abs() < 0.7 || !model.counts_force(c) {
             continue;
         }
         let j = (c.point[1] / h).round();

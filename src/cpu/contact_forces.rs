@@ -1,593 +1,83 @@
-//! Stage 4: contact kinematics and the force–displacement law (SL-85-1 eqs. 13–20), and the
-//! geometry of a rounded corner against a rounded block boundary (DESIGN.md §4).
-//!
-//! A contact is a corner of block 1 (a circle of radius r about `circle`) against one *feature* of
-//! block 2's rounded boundary: the arc of corner k (feature 2k) or the straight part of the edge
-//! from corner k to k+1 (feature 2k+1). Because every convex corner is rounded, the normal turns
-//! smoothly as a contact point slides round a corner (report ¶20), and "edge-to-edge" contact is
-//! simply two corner–edge contacts, one at each end of the touching length.
+//! Stage 4 on the CPU: every contact follows its feature of block 2 (the rounded-boundary
+//! geometry of eqs. 13–15, [`crate::contact::geometry`]) and applies the force–displacement law
+//! (eqs. 16–20, [`crate::contact::law`]), shared out over the team of threads. The GPU's twin is
+//! `shaders/contact_forces.wgsl`.
 
-use crate::model::{Contact, ContactKind, Corner, Damping, Feature, Material};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// Where a corner circle meets a block boundary: the feature, the gap between the two rounded
-/// surfaces (overlap negative), the unit normal from block 2 into block 1 and the contact point,
-/// taken midway through the overlap.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CornerContactGeometry {
-    pub feature: Feature,
-    pub kind: ContactKind,
-    pub gap: f64,
-    pub normal: [f64; 2],
-    pub point: [f64; 2],
-    /// Unsigned distance from the circle centre to the feature's curve (the selection key).
-    pub distance: f64,
-}
+use super::team::Team;
+use super::{SharedMut, MIN_CHUNK, MIN_CONTACTS_PER_THREAD};
+use crate::backend::CycleError;
+use crate::contact::gather::ContactForce;
+use crate::contact::geometry::track_feature;
+use crate::contact::law::{contact_force_law, BlockMotion};
+use crate::model::corners::counts_force;
+use crate::model::{Block, Contact, Corner, Damping, Material, Model};
 
-#[inline]
-fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
-    [a[0] - b[0], a[1] - b[1]]
-}
-#[inline]
-fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
-    a[0] * b[0] + a[1] * b[1]
-}
-#[inline]
-fn norm(a: [f64; 2]) -> f64 {
-    dot(a, a).sqrt()
-}
-/// i + 1 and i − 1 around a cycle of n (no integer division in the hot loop).
-#[inline]
-fn next(i: usize, n: usize) -> usize {
-    if i + 1 == n {
-        0
-    } else {
-        i + 1
-    }
-}
-#[inline]
-fn prev(i: usize, n: usize) -> usize {
-    if i == 0 {
-        n - 1
-    } else {
-        i - 1
-    }
+/// What stage 4 reads: the blocks and corners as stages 1–2 left them, and the constants.
+struct ContactInputs<'a> {
+    blocks: &'a [Block],
+    corners: &'a [Corner],
+    materials: &'a [Material],
+    damping: Damping,
+    dt: f64,
+    /// Overlap beyond which the run stops (half the rounding length).
+    limit: f64,
 }
 
-/// A straight edge of a block, from corner k to corner k+1: its start, unit direction and length.
-#[derive(Clone, Copy, Debug)]
-struct Edge {
-    p0: [f64; 2],
-    u: [f64; 2],
-    len: f64,
-}
-
-impl Edge {
-    /// Edge k as the geometry stage left it.
-    #[inline]
-    fn of(corners: &[Corner], k: usize) -> Edge {
-        let c = &corners[k];
-        Edge { p0: c.position, u: c.edge_dir, len: c.edge_length }
-    }
-
-    /// Outward normal for a counter-clockwise outline.
-    #[inline]
-    fn normal(&self) -> [f64; 2] {
-        [self.u[1], -self.u[0]]
-    }
-}
-
-/// A feature's measurement: signed distance from its surface, the unsigned distance that ranks
-/// features, the outward direction *not yet normalised* (`dir / len` is the unit normal; the
-/// division is left to the feature that wins, see [`Best::geometry`]), and whether `c` lies in the
-/// feature's own region.
-#[derive(Clone, Copy)]
-struct Measure {
-    signed: f64,
-    unsigned: f64,
-    dir: [f64; 2],
-    len: f64,
-    inside: bool,
-}
-
-impl Measure {
-    #[inline]
-    fn normal(&self) -> [f64; 2] {
-        if self.len == 1.0 {
-            self.dir
-        } else {
-            [self.dir[0] / self.len, self.dir[1] / self.len]
+/// Stage 4 for the contacts `first .. first + contacts.len()`: each contact follows its feature
+/// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
+/// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
+/// limit.
+fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
+    let motion = |b: &Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
+    let mut failure = None;
+    for (k, (contact, force)) in contacts.iter_mut().zip(forces.iter_mut()).enumerate() {
+        let corner = &inp.corners[contact.corner as usize];
+        let (b1, b2) = (&inp.blocks[contact.block1 as usize], &inp.blocks[contact.block2 as usize]);
+        let corners2 = &inp.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
+        let g = track_feature(corners2, contact.feature, corner.circle, corner.radius);
+        contact.feature = g.feature;
+        contact.kind = g.kind;
+        contact.gap = g.gap;
+        contact.normal = g.normal;
+        contact.point = g.point;
+        // The other view of a corner-pair touch carries no force (the touch counts once).
+        let active = counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
+        let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
+        contact_force_law(contact, mat, &motion(b1), &motion(b2), &inp.damping, inp.dt, active);
+        *force = ContactForce::from(&*contact);
+        if failure.is_none() && active && -g.gap > inp.limit {
+            failure = Some(first + k);
         }
     }
+    failure
 }
 
-/// Straight part of edge k (between the tangent points of corners k and k+1). Its region is the
-/// slab over it; outside, it is measured from its nearer end.
-#[inline]
-fn edge_distance(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> Measure {
-    edge_measure(corners, k, e, c).0
-}
-
-/// [`edge_distance`], with the coordinate `s` of `c` along the straight part (from its start) and
-/// that part's length, which the fast path of [`track_feature`] tests.
-#[inline]
-fn edge_measure(corners: &[Corner], k: usize, e: &Edge, c: [f64; 2]) -> (Measure, f64, f64) {
-    let n = corners.len();
-    let normal = e.normal();
-    let r0 = corners[k].round;
-    let ta = [e.p0[0] + e.u[0] * r0, e.p0[1] + e.u[1] * r0];
-    let straight = e.len - r0 - corners[next(k, n)].round;
-    let rel = sub(c, ta);
-    let s = dot(rel, e.u);
-    let m = if s >= 0.0 && s <= straight {
-        let d = dot(rel, normal);
-        Measure { signed: d, unsigned: d.abs(), dir: normal, len: 1.0, inside: true }
-    } else {
-        let s = s.clamp(0.0, straight.max(0.0));
-        let r = sub(c, [ta[0] + e.u[0] * s, ta[1] + e.u[1] * s]);
-        let d = norm(r);
-        if d > 0.0 {
-            Measure { signed: d, unsigned: d, dir: r, len: d, inside: false }
-        } else {
-            Measure { signed: d, unsigned: d, dir: normal, len: 1.0, inside: false }
-        }
+/// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
+/// index, so the report repeats) whose overlap passes the limit, if any.
+pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: f64, team: &mut Team) -> Result<(), CycleError> {
+    let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
+    let limit = 0.5 * model.tol.round;
+    let failure = {
+        let Model { blocks, corners, contacts, materials, damping, .. } = &mut *model;
+        let inp = ContactInputs { blocks, corners, materials, damping: *damping, dt, limit };
+        let n = contacts.len();
+        assert_eq!(forces.len(), n, "one gather record per contact");
+        let first = AtomicUsize::new(usize::MAX);
+        let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
+        team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
+            // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` (as long),
+            // mutably borrowed here.
+            let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
+            if let Some(k) = contact_piece(r.start, piece, forces, &inp) {
+                first.fetch_min(k, Ordering::Relaxed);
+            }
+        });
+        first.into_inner()
     };
-    (m, s, straight)
-}
-
-/// Arc of corner k, between the edges `before` (k−1 → k) and `after` (k → k+1). Its region is the
-/// wedge between their outward normals; outside, it is measured from its nearer tangent point.
-/// The wedge test is a pair of cross products, which do not care about the length of `c −
-/// circle`, so only the distance that ranks the arc takes a square root.
-#[inline]
-fn arc_distance(corner: &Corner, before: &Edge, after: &Edge, c: [f64; 2]) -> Measure {
-    let (n0, n1) = (before.normal(), after.normal());
-    let r = sub(c, corner.circle);
-    // Inside the wedge turning counter-clockwise from n0 to n1 (less than π for a convex corner).
-    let convex = n0[0] * n1[1] - n0[1] * n1[0] > 0.0;
-    if convex && (n0[0] * r[1] - n0[1] * r[0]) >= 0.0 && (r[0] * n1[1] - r[1] * n1[0]) >= 0.0 {
-        let dist_c = norm(r);
-        let d = dist_c - corner.radius;
-        return if dist_c > 0.0 {
-            Measure { signed: d, unsigned: d.abs(), dir: r, len: dist_c, inside: true }
-        } else {
-            // The centres coincide: any direction in the wedge will do.
-            Measure { signed: d, unsigned: d.abs(), dir: [n0[0] + n1[0], n0[1] + n1[1]], len: 1.0, inside: true }
-        };
+    if failure == usize::MAX {
+        return Ok(());
     }
-    let t0 = [corner.circle[0] + n0[0] * corner.radius, corner.circle[1] + n0[1] * corner.radius];
-    let t1 = [corner.circle[0] + n1[0] * corner.radius, corner.circle[1] + n1[1] * corner.radius];
-    let (r0, r1) = (sub(c, t0), sub(c, t1));
-    // The nearer tangent point, by squared distance: one square root instead of two.
-    let (rr, fallback) = if dot(r0, r0) <= dot(r1, r1) { (r0, n0) } else { (r1, n1) };
-    let d = norm(rr);
-    if d > 0.0 {
-        Measure { signed: d, unsigned: d, dir: rr, len: d, inside: false }
-    } else {
-        Measure { signed: d, unsigned: d, dir: fallback, len: 1.0, inside: false }
-    }
-}
-
-/// Measures feature f with the edges supplied by `edge(k)`.
-#[inline]
-fn feature_distance(corners: &[Corner], f: Feature, c: [f64; 2], edge: impl Fn(usize) -> Edge) -> Measure {
-    let n = corners.len();
-    let k = (f / 2) as usize;
-    if f % 2 == 1 {
-        edge_distance(corners, k, &edge(k), c)
-    } else {
-        arc_distance(&corners[k], &edge(prev(k, n)), &edge(k), c)
-    }
-}
-
-/// The distance by which `track_feature` ranks feature `feature` of the outline `corners` for the
-/// circle centre `c` (for checks that two features tie).
-pub fn distance_to_feature(corners: &[Corner], feature: Feature, c: [f64; 2]) -> f64 {
-    feature_distance(corners, feature, c, |k| Edge::of(corners, k)).unsigned
-}
-
-/// Builds the contact geometry from a feature's measurement.
-#[inline]
-fn geometry_from(f: Feature, signed: f64, unsigned: f64, normal: [f64; 2], c: [f64; 2], r: f64) -> CornerContactGeometry {
-    let gap = signed - r;
-    // Midway between block 1's surface point (c − n r) and block 2's (c − n (r + gap)).
-    let depth = r + 0.5 * gap;
-    CornerContactGeometry {
-        feature: f,
-        kind: if f % 2 == 0 { ContactKind::CornerCorner } else { ContactKind::CornerEdge },
-        gap,
-        normal,
-        point: [c[0] - normal[0] * depth, c[1] - normal[1] * depth],
-        distance: unsigned,
-    }
-}
-
-/// Ranks two candidate features: nearer wins; on a tie (within round-off) an arc wins, so two
-/// aligned corners (a column of equal blocks) meet as one corner–corner contact.
-#[inline]
-fn better(candidate: (f64, bool, Feature), best: (f64, bool, Feature)) -> bool {
-    let tol = 1e-9 * (1.0 + best.0.abs());
-    if candidate.0 < best.0 - tol {
-        return true;
-    }
-    if candidate.0 <= best.0 + tol {
-        // Prefer a feature whose own region holds the centre, then an arc.
-        if candidate.1 != best.1 {
-            return candidate.1;
-        }
-        return candidate.2 % 2 == 0 && best.2 % 2 == 1;
-    }
-    false
-}
-
-/// Keeps the best-ranked feature seen so far.
-#[derive(Default)]
-struct Best(Option<((f64, bool, Feature), Measure)>);
-
-impl Best {
-    #[inline]
-    fn offer(&mut self, f: Feature, m: Measure) {
-        let key = (m.unsigned, m.inside, f);
-        if self.0.is_none_or(|(b, _)| better(key, b)) {
-            self.0 = Some((key, m));
-        }
-    }
-
-    #[inline]
-    fn geometry(self, c: [f64; 2], r: f64) -> CornerContactGeometry {
-        let ((_, _, f), m) = self.0.expect("at least one feature offered");
-        geometry_from(f, m.signed, m.unsigned, m.normal(), c, r)
-    }
-}
-
-/// Full search: the nearest feature of the whole boundary of a block (topology stage).
-pub fn nearest_feature(corners: &[Corner], c: [f64; 2], r: f64) -> CornerContactGeometry {
-    let mut best = Best::default();
-    for f in 0..2 * corners.len() as Feature {
-        best.offer(f, feature_distance(corners, f, c, |k| Edge::of(corners, k)));
-    }
-    best.geometry(c, r)
-}
-
-/// Local search: the nearest of `feature` and its two neighbours, the per-cycle update of a
-/// contact whose point slides along the boundary (stage 4). A contact point moves far less than a
-/// feature's length in one step, so it can only pass onto a neighbouring feature.
-#[inline]
-pub fn track_feature(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
-    let nf = 2 * corners.len() as Feature;
-    let edge = |j: usize| Edge::of(corners, j);
-    let feature = feature.min(nf - 1);
-    let f = feature as usize;
-    let n = corners.len();
-    let k = f / 2;
-    // The contact's own feature is measured first; where no fast path below settles the contact,
-    // the three-way comparison reuses this measurement.
-    let own = if f % 2 == 1 {
-        // Fast path, most contacts on most cycles: a corner circle over the straight part of an
-        // edge between two convex corners. Its centre lies strictly inside the edge's slab and
-        // outside the line, so it is outside both neighbouring arcs' wedges, and the nearer
-        // tangent point of each arc is the one on this edge: their distances are √(s² + d²) ≥ d,
-        // and an inside feature wins every tie with an outside one. The full three-way comparison
-        // would pick this edge, so skip it (same result bit for bit; checked by
-        // `track_feature_fast_path_agrees` in the unit tests).
-        let e = edge(k);
-        let (m, s, straight) = edge_measure(corners, k, &e, c);
-        if m.inside && m.signed > 0.0 {
-            let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
-            let turns_left = |a: &Edge, b: &Edge| cross(a.normal(), b.normal()) > 0.0;
-            // Clear of the slab's ends by more than round-off, which could otherwise put the
-            // centre in an arc's wedge too (aligned corners, where the full comparison prefers
-            // the arc).
-            let margin = 1e-6 * e.len + 1e-12 * (c[0].abs() + c[1].abs());
-            if s > margin && s < straight - margin && turns_left(&edge(prev(k, n)), &e) && turns_left(&e, &edge(next(k, n))) {
-                return geometry_from(feature, m.signed, m.unsigned, m.normal(), c, r);
-            }
-        }
-        m
-    } else {
-        // Fast path for a corner circle over the arc of a convex corner k (corner–corner
-        // touches): strictly inside the arc's wedge, the centre is outside both neighbouring
-        // edges' slabs, so each edge is measured from its tangent point T on this arc, and
-        // |c − T| ≥ |c − C| − r (the triangle inequality about the arc's centre C): the arc is
-        // nearest, or ties and wins as the inside feature. The wedge tests equal minus the slab
-        // coordinates, hence the same margin.
-        let (before, after) = (edge(prev(k, n)), edge(k));
-        let m = arc_distance(&corners[k], &before, &after, c);
-        if m.inside && m.signed > 0.0 {
-            let (n0, n1) = (before.normal(), after.normal());
-            let rel = sub(c, corners[k].circle);
-            let margin = 1e-6 * (before.len + after.len) + 1e-12 * (c[0].abs() + c[1].abs());
-            if n0[0] * rel[1] - n0[1] * rel[0] > margin && rel[0] * n1[1] - rel[1] * n1[0] > margin {
-                return geometry_from(feature, m.signed, m.unsigned, m.normal(), c, r);
-            }
-        }
-        m
-    };
-    three_way(corners, feature, own, c, r)
-}
-
-/// [`track_feature`] without its fast path: the three-way comparison.
-#[inline]
-pub fn track_feature_full(corners: &[Corner], feature: Feature, c: [f64; 2], r: f64) -> CornerContactGeometry {
-    let nf = 2 * corners.len() as Feature;
-    let feature = feature.min(nf - 1);
-    let own = feature_distance(corners, feature, c, |k| Edge::of(corners, k));
-    three_way(corners, feature, own, c, r)
-}
-
-/// The nearest of `feature` (already measured: `own`) and its two neighbours, offered in the
-/// order previous, own, next (the order decides exact ties). The neighbours of an edge are the
-/// arcs at its two ends, those of an arc the edges on either side of it: each is measured
-/// directly, with the edges loaded once.
-#[inline]
-fn three_way(corners: &[Corner], feature: Feature, own: Measure, c: [f64; 2], r: f64) -> CornerContactGeometry {
-    let n = corners.len();
-    let (nf, f) = (2 * n, feature as usize);
-    let (before, after) = (prev(f, nf) as Feature, next(f, nf) as Feature);
-    let k = f / 2;
-    let mut best = Best::default();
-    if f % 2 == 1 {
-        // Edge k: the arcs of corners k and k+1.
-        let (j, kn) = (prev(k, n), next(k, n));
-        let (ej, ek, en) = (Edge::of(corners, j), Edge::of(corners, k), Edge::of(corners, kn));
-        best.offer(before, arc_distance(&corners[k], &ej, &ek, c));
-        best.offer(feature, own);
-        best.offer(after, arc_distance(&corners[kn], &ek, &en, c));
-    } else {
-        // Arc k: the edges k−1 and k.
-        let j = prev(k, n);
-        best.offer(before, edge_distance(corners, j, &Edge::of(corners, j), c));
-        best.offer(feature, own);
-        best.offer(after, edge_distance(corners, k, &Edge::of(corners, k), c));
-    }
-    best.geometry(c, r)
-}
-
-/// Kinematic state of a block at the contact stage.
-#[derive(Clone, Copy, Debug)]
-pub struct BlockMotion {
-    pub centroid: [f64; 2],
-    pub velocity: [f64; 2],
-    pub angular_velocity: f64,
-}
-
-impl BlockMotion {
-    /// Velocity of the material point at `p` (eq. 11 in two dimensions: v + ω × r).
-    #[inline]
-    pub fn velocity_at(&self, p: [f64; 2]) -> [f64; 2] {
-        let r = sub(p, self.centroid);
-        [self.velocity[0] - self.angular_velocity * r[1], self.velocity[1] + self.angular_velocity * r[0]]
-    }
-}
-
-/// Whether a contact whose spring would hold the normal force `fn_` (compression positive) opens:
-/// in tension, unless it is intact (bonded) and the tension is within its cohesion.
-#[inline]
-fn opens(fn_: f64, bonded: bool, cohesion: f64) -> bool {
-    fn_ < 0.0 && (!bonded || -fn_ > cohesion)
-}
-
-/// The normal force a contact of gap `gap` holds, eq. (16) in total form (kn times the overlap,
-/// compression positive), as the force law gives it: zero once it opens (`opens`), a tension up to
-/// `cohesion` while it is intact (pass 0 for a broken contact).
-pub fn normal_force(gap: f64, kn: f64, cohesion: f64) -> f64 {
-    let fn_ = -kn * gap;
-    if opens(fn_, cohesion > 0.0, cohesion) {
-        0.0
-    } else {
-        fn_
-    }
-}
-
-/// Force–displacement law for one contact whose geometry (gap, normal, point) is already current
-/// (eqs. 13–20). `active` is false for the mirror copy of a corner–corner contact, which carries
-/// no force so that the touch is counted once.
-///
-/// - Normal: eq. (16) integrated exactly, Fn = −kn·gap, since the rounded geometry gives the gap
-///   itself; tension is allowed only on an intact (bonded) contact and only up to the cohesion.
-/// - Shear: eq. (17) incrementally, ΔFs = −ks·Δus with Δus = v_s Δt; in 2D the shear force is a
-///   scalar along the current tangent, so the rotation correction of eq. (17) is implicit.
-/// - Coulomb limit, eq. (20): |Fs| ≤ c + μ Fn; once a contact slips or opens in tension it has lost
-///   its cohesion for good (residual strength).
-/// - Stiffness-proportional Rayleigh damping adds β·k·(relative velocity) dashpots, not stored.
-#[inline]
-pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion, b: &BlockMotion, damping: &Damping, dt: f64, active: bool) {
-    let n = contact.normal;
-    let t = [-n[1], n[0]];
-    let va = a.velocity_at(contact.point);
-    let vb = b.velocity_at(contact.point);
-    let vrel = sub(va, vb); // eq. (13): block 1 relative to block 2
-    let vn = dot(vrel, n); // eq. (14)
-    let vs = dot(vrel, t); // eq. (15)
-    contact.shear_displacement += vs * dt;
-    // The dashpot force of the last step, −β·k·v(t−Δt/2), did work over that step's mean
-    // velocity ½(v(t−Δt/2) + v(t+Δt/2)), the velocity central differences move the blocks with;
-    // booking it so makes the ledger exact for the dashpots.
-    let [pvn, pvs] = contact.dashpot_velocity;
-    if pvn != 0.0 || pvs != 0.0 {
-        contact.dashpot_work += damping.beta * (mat.kn * pvn * 0.5 * (pvn + vn) + mat.ks * pvs * 0.5 * (pvs + vs)) * dt;
-        contact.dashpot_velocity = [0.0, 0.0];
-    }
-    if !active {
-        // The other view carries the touch. The normal force follows the shared gap, but the
-        // shear spring is this view's own (eq. 17 is incremental): if it held a force from when
-        // this view was the counted one, it lets go as on opening (its energy to the slip
-        // work), or it would stay in the ledger's strain energy and in a PRINT of the contact.
-        contact.slip_work += slip_dissipation(contact.shear_force, 0.0, vs * dt, mat.ks);
-        contact.normal_force = 0.0;
-        contact.shear_force = 0.0;
-        contact.force = [0.0, 0.0];
-        return;
-    }
-    let mut fn_ = -mat.kn * contact.gap;
-    let cohesion = if contact.bonded { mat.cohesion } else { 0.0 };
-    let fs_old = contact.shear_force;
-    if opens(fn_, contact.bonded, cohesion) {
-        // Open: no tension beyond the cohesion; an intact contact that breaks loses it for good.
-        // The shear spring's energy and any bond tension go to the slip work.
-        contact.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, mat.ks);
-        if contact.normal_force < 0.0 && mat.kn > 0.0 {
-            contact.slip_work += contact.normal_force * contact.normal_force / (2.0 * mat.kn);
-        }
-        contact.bonded = false;
-        contact.normal_force = 0.0;
-        contact.shear_force = 0.0;
-        contact.force = [0.0, 0.0];
-        return;
-    }
-    let mut fs = fs_old - mat.ks * vs * dt; // eqs. (17), (19)
-    let limit = cohesion + mat.friction * fn_.max(0.0);
-    if fs.abs() > limit {
-        fs = fs.signum() * limit; // eq. (20)
-        contact.slip_work += slip_dissipation(fs_old, fs, vs * dt, mat.ks);
-        if contact.bonded && mat.cohesion > 0.0 {
-            contact.bonded = false;
-        }
-    }
-    contact.normal_force = fn_;
-    contact.shear_force = fs;
-    let (mut dn, mut ds) = (0.0, 0.0);
-    if damping.beta > 0.0 && fn_ > 0.0 {
-        dn = -damping.beta * mat.kn * vn;
-        ds = -damping.beta * mat.ks * vs;
-        contact.dashpot_velocity = [vn, vs];
-    }
-    fn_ += dn;
-    let fs_total = fs + ds;
-    contact.force = [fn_ * n[0] + fs_total * t[0], fn_ * n[1] + fs_total * t[1]];
-}
-
-/// Energy dissipated in one step by a shear spring whose force went from `fs_old` to `fs_new`
-/// while the surfaces slid `dus` (block 1 relative to block 2): the trapezoidal work the blocks
-/// did on the contact, −½(fs_old + fs_new)·Δus, less what the spring stored,
-/// (fs_new² − fs_old²)/2ks. Exactly zero for an elastic step (fs_new = fs_old − ks·Δus); at the
-/// Coulomb limit it is the friction force times the slip, ≥ 0.
-#[inline]
-pub fn slip_dissipation(fs_old: f64, fs_new: f64, dus: f64, ks: f64) -> f64 {
-    if ks <= 0.0 {
-        return 0.0;
-    }
-    -0.5 * (fs_old + fs_new) * dus - (fs_new * fs_new - fs_old * fs_old) / (2.0 * ks)
-}
-
-/// Whether a corner–corner contact is the counted one of its mirrored pair: the corner with the
-/// lower global index owns the touch.
-#[inline]
-pub fn owns_corner_corner(own_corner_global: u32, other_corner_global: u32) -> bool {
-    own_corner_global < other_corner_global
-}
-
-/// Whether a contact carries the force of its touch. Two rounded corners that touch are seen from
-/// both blocks, and the two views need not agree on the kind: one may find the other's arc
-/// (corner–corner), the other the straight edge beside the first corner (corner–edge), or both
-/// may find edges. Counting every corner–edge view then counts such a touch twice. The rule:
-///
-/// - corner–corner (arc of corner b): counts when the own corner a owns it, a < b;
-/// - corner–edge: when the two rounding circles of a and of the edge's nearer end corner b
-///   overlap (the touch is a corner pair, and b sees a's block in touch too), it counts only when
-///   a < b; otherwise (a corner on an edge's straight part) it always counts.
-///
-/// So of the two views of one corner pair exactly one counts, whatever kinds they found.
-/// `corners2` are block 2's corners, `start2` the global index of its first corner.
-#[inline]
-pub fn counts_force(own_corner_global: u32, own: &Corner, corners2: &[Corner], start2: u32, feature: Feature) -> bool {
-    let n = corners2.len();
-    let k = (feature / 2) as usize % n;
-    if feature % 2 == 0 {
-        return owns_corner_corner(own_corner_global, start2 + k as u32);
-    }
-    let j = next(k, n);
-    let (rk, rj) = (sub(own.circle, corners2[k].circle), sub(own.circle, corners2[j].circle));
-    let (b, d2) = if dot(rk, rk) <= dot(rj, rj) { (k, dot(rk, rk)) } else { (j, dot(rj, rj)) };
-    let reach = own.radius + corners2[b].radius;
-    if d2 < reach * reach {
-        return owns_corner_corner(own_corner_global, start2 + b as u32);
-    }
-    true
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scenes::run_deck_on;
-
-    /// A view of a corner–corner touch that stops being the counted one lets its shear spring go:
-    /// no force, no shear force left to print or to count as strain energy, its spring's energy
-    /// booked as slip work (the ledger stays balanced); a view that never carried one is unchanged.
-    #[test]
-    fn an_uncounted_view_keeps_no_shear_force() {
-        let mat = Material { kn: 1e9, ks: 5e8, friction: 0.6, ..Default::default() };
-        let still = BlockMotion { centroid: [0.0, 0.0], velocity: [0.0, 0.0], angular_velocity: 0.0 };
-        let mut c = Contact { normal: [0.0, 1.0], gap: -1e-4, normal_force: 1e5, shear_force: 2e4, force: [-2e4, 1e5], ..Contact::unloaded(0, 0, 1) };
-        contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
-        assert_eq!((c.normal_force, c.shear_force, c.force), (0.0, 0.0, [0.0, 0.0]));
-        assert!((c.slip_work - 2e4f64.powi(2) / (2.0 * mat.ks)).abs() < 1e-9, "the spring's energy, {}", c.slip_work);
-        let before = c;
-        contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
-        assert_eq!(c, before, "nothing more to let go");
-    }
-
-    /// The fast path of `track_feature` gives what the three-way comparison gives, bit for bit:
-    /// on rectangles, a rotated hexagon and a triangle, with circle centres spread over and
-    /// beyond every edge, including the aligned-corner ties of a brick wall (centres exactly over
-    /// a slab's end).
-    #[test]
-    fn track_feature_fast_path_agrees() {
-        let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 1,0.5 1,0\n\
-                    BLOCK 3,0 4.2,0.7 3.9,1.9 2.7,2.6 1.5,1.9 1.8,0.7\nBLOCK 6,0 8,0 7,3\nBLOCK 20,20 20,20.5 20.5,20.5 20.5,20\nCYCLE 0\n";
-        let model = run_deck_on(deck, Box::new(crate::cpu::CpuBackend::new())).unwrap();
-        let mut next = crate::topology::xorshift(0x9E37_79B9_7F4A_7C15);
-        let mut unit = || next(1 << 53) as f64 / (1u64 << 53) as f64;
-        let mut fast_taken = 0;
-        for b in 0..model.blocks.len() {
-            let corners = model.block_corners(b);
-            let n = corners.len();
-            for k in 0..n {
-                let e = Edge::of(corners, k);
-                let nrm = e.normal();
-                for i in 0..400 {
-                    // Along the edge from before its start to past its end; exactly at the
-                    // tangent points every 10th sample.
-                    let t = if i % 10 == 0 { [corners[k].round, e.len - corners[(k + 1) % n].round][i / 10 % 2] } else { -0.2 + 1.4 * unit() * e.len };
-                    let h = 0.05 + 0.15 * unit();
-                    let c = [e.p0[0] + e.u[0] * t + nrm[0] * h, e.p0[1] + e.u[1] * t + nrm[1] * h];
-                    let r = 0.1;
-                    let feature = (2 * k + 1) as Feature;
-                    let fast = track_feature(corners, feature, c, r);
-                    let full = track_feature_full(corners, feature, c, r);
-                    assert_eq!(fast, full, "block {b} edge {k} at t={t} h={h}");
-                    if fast.feature == feature {
-                        fast_taken += 1;
-                    }
-                }
-            }
-        }
-        // Around every corner: the arc's wedge, its boundaries and both neighbouring slabs.
-        let mut arcs_taken = 0;
-        for b in 0..model.blocks.len() {
-            let corners = model.block_corners(b);
-            let n = corners.len();
-            for k in 0..n {
-                let (n0, n1) = (Edge::of(corners, (k + n - 1) % n).normal(), Edge::of(corners, k).normal());
-                let (a0, a1) = (n0[1].atan2(n0[0]), n1[1].atan2(n1[0]));
-                let mut turn = a1 - a0;
-                if turn < 0.0 {
-                    turn += std::f64::consts::TAU;
-                }
-                for i in 0..400 {
-                    // Angles from before n0 to past n1; exactly along n0 or n1 every 10th sample.
-                    let a = if i % 10 == 0 { [a0, a0 + turn][i / 10 % 2] } else { a0 - 0.3 + (turn + 0.6) * unit() };
-                    let rho = corners[k].radius + 0.05 + 0.15 * unit();
-                    let c = [corners[k].circle[0] + rho * a.cos(), corners[k].circle[1] + rho * a.sin()];
-                    let feature = (2 * k) as Feature;
-                    let fast = track_feature(corners, feature, c, 0.1);
-                    let full = track_feature_full(corners, feature, c, 0.1);
-                    assert_eq!(fast, full, "block {b} arc {k} at angle {a} radius {rho}");
-                    if fast.feature == feature {
-                        arcs_taken += 1;
-                    }
-                }
-            }
-        }
-        assert!(fast_taken > 1000 && arcs_taken > 1000, "the fast paths were exercised ({fast_taken} edge, {arcs_taken} arc results)");
-    }
+    Err(CycleError::overlap(model, failure, limit))
 }

@@ -1,44 +1,34 @@
-//! Stage 6: each block sums the forces and moments of its contacts (eq. 12 in two dimensions,
-//! M = r × F), in the fixed order of its adjacency list, then adds gravity and its load. Forces are
-//! gathered, not scattered (DESIGN.md §2), so the sum is the same on every run and every backend.
+//! Stage 6 on the CPU: each block sums the forces and moments of its contacts (eq. 12 in two
+//! dimensions, M = r × F) in the fixed order of its adjacency list, then adds gravity and its load
+//! ([`crate::contact::gather`]). Forces are gathered, not scattered (DESIGN.md §2), so the sum is
+//! the same on every run and every backend. The GPU's twin is `shaders/gather.wgsl`.
 
-use crate::model::{Block, Contact};
+use super::team::Team;
+use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK};
+use crate::contact::gather::ContactForce;
+use crate::model::{Block, Model};
 use crate::topology::Adjacency;
-
-/// What the gather reads of a contact: the point its force acts at and the force on block 1. The
-/// contact stage writes this copy beside each contact (32 bytes against the contact's 160), so
-/// that the gather's scattered reads, the memory-bound part of a cycle on large models, touch one
-/// cache line for every two contacts instead of two lines for each (hot and cold data, STYLE.md 5).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ContactForce {
-    pub point: [f64; 2],
-    pub force: [f64; 2],
-}
-
-impl From<&Contact> for ContactForce {
-    #[inline]
-    fn from(c: &Contact) -> Self {
-        ContactForce { point: c.point, force: c.force }
-    }
-}
 
 /// Sums the forces acting on block `b`; `forces[k]` is contact k's (see [`ContactForce`]).
 #[inline]
 pub fn gather(b: usize, block: &mut Block, forces: &[ContactForce], adjacency: &Adjacency, gravity: [f64; 2]) {
-    let mut fx = block.mass * gravity[0] + block.load[0];
-    let mut fy = block.mass * gravity[1] + block.load[1];
-    let mut m = 0.0;
-    let [cx, cy] = block.centroid;
-    for &entry in adjacency.entries(b) {
-        let contact = &forces[(entry >> 1) as usize];
-        // Block 1 receives the contact force, block 2 its reaction (report ¶19).
-        let sign = if entry & 1 == 0 { 1.0 } else { -1.0 };
-        let [px, py] = contact.point;
-        let (gx, gy) = (sign * contact.force[0], sign * contact.force[1]);
-        fx += gx;
-        fy += gy;
-        m += (px - cx) * gy - (py - cy) * gx;
-    }
-    block.force = [fx, fy];
-    block.moment = m;
+    crate::contact::gather::gather(block, forces, adjacency.entries(b), gravity);
+}
+
+/// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces
+/// must be current between cycles (energy check, checkpoint, end of a run).
+pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: &Adjacency, team: &mut Team) {
+    let _p = crate::profile::scope(crate::profile::Stage::Gather);
+    let gravity = model.gravity;
+    let blocks = &mut model.blocks;
+    debug_assert_eq!(forces.len(), model.contacts.len());
+    let n = blocks.len();
+    let shared = SharedMut::new(blocks);
+    team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
+        // SAFETY: the chunks are disjoint ranges of `blocks`, mutably borrowed here.
+        let piece = unsafe { shared.range(r.clone()) };
+        for (j, block) in piece.iter_mut().enumerate() {
+            gather(r.start + j, block, forces, adjacency, gravity);
+        }
+    });
 }

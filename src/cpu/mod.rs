@@ -17,12 +17,12 @@ pub mod law_of_motion;
 mod team;
 
 use crate::backend::{Backend, CrackEvent, CycleError, CycleReport};
-use crate::model::{Block, Contact, Corner, Damping, Material, Model};
+use crate::model::{Block, Corner, Model};
 use crate::topology::{self, Adjacency};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
-use contact_forces::{contact_force_law, track_feature, BlockMotion};
-use gather::ContactForce;
+use crate::contact::gather::ContactForce;
+use contact_forces::contact_stage;
+use gather::gather_all;
 use law_of_motion::StepOutcome;
 use team::Team;
 
@@ -156,92 +156,6 @@ fn update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut Cy
     report.topology_updates += 1;
     report.contacts_created += created as u64;
     report.contacts_dropped += dropped as u64;
-}
-
-/// What stage 4 reads: the blocks and corners as stages 1–2 left them, and the constants.
-struct ContactInputs<'a> {
-    blocks: &'a [Block],
-    corners: &'a [Corner],
-    materials: &'a [Material],
-    damping: Damping,
-    dt: f64,
-    /// Overlap beyond which the run stops (half the rounding length).
-    limit: f64,
-}
-
-/// Stage 4 for the contacts `first .. first + contacts.len()`: each contact follows its feature
-/// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
-/// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
-/// limit.
-fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
-    let motion = |b: &Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
-    let mut failure = None;
-    for (k, (contact, force)) in contacts.iter_mut().zip(forces.iter_mut()).enumerate() {
-        let corner = &inp.corners[contact.corner as usize];
-        let (b1, b2) = (&inp.blocks[contact.block1 as usize], &inp.blocks[contact.block2 as usize]);
-        let corners2 = &inp.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
-        let g = track_feature(corners2, contact.feature, corner.circle, corner.radius);
-        contact.feature = g.feature;
-        contact.kind = g.kind;
-        contact.gap = g.gap;
-        contact.normal = g.normal;
-        contact.point = g.point;
-        // The other view of a corner-pair touch carries no force (the touch counts once).
-        let active = contact_forces::counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
-        let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
-        contact_force_law(contact, mat, &motion(b1), &motion(b2), &inp.damping, inp.dt, active);
-        *force = ContactForce::from(&*contact);
-        if failure.is_none() && active && -g.gap > inp.limit {
-            failure = Some(first + k);
-        }
-    }
-    failure
-}
-
-/// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
-/// index, so the report repeats) whose overlap passes the limit, if any.
-fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: f64, team: &mut Team) -> Result<(), CycleError> {
-    let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
-    let limit = 0.5 * model.tol.round;
-    let failure = {
-        let Model { blocks, corners, contacts, materials, damping, .. } = &mut *model;
-        let inp = ContactInputs { blocks, corners, materials, damping: *damping, dt, limit };
-        let n = contacts.len();
-        assert_eq!(forces.len(), n, "one gather record per contact");
-        let first = AtomicUsize::new(usize::MAX);
-        let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
-        team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
-            // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` (as long),
-            // mutably borrowed here.
-            let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
-            if let Some(k) = contact_piece(r.start, piece, forces, &inp) {
-                first.fetch_min(k, Ordering::Relaxed);
-            }
-        });
-        first.into_inner()
-    };
-    if failure == usize::MAX {
-        return Ok(());
-    }
-    Err(CycleError::overlap(model, failure, limit))
-}
-
-/// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces
-/// must be current between cycles (energy check, checkpoint, end of a run).
-fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: &Adjacency, team: &mut Team) {
-    let _p = crate::profile::scope(crate::profile::Stage::Gather);
-    let gravity = model.gravity;
-    let blocks = &mut model.blocks;
-    debug_assert_eq!(forces.len(), model.contacts.len());
-    let n = blocks.len();
-    let shared = SharedMut::new(blocks);
-    team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
-        // SAFETY: the chunks are disjoint ranges of `blocks`, mutably borrowed here.
-        let piece = unsafe { shared.range(r.clone()) };
-        for (j, block) in piece.iter_mut().enumerate() {
-            gather::gather(r.start + j, block, forces, adjacency, gravity);
-        }
-    });
 }
 
 /// What stages 6, 1 and 2 read besides the blocks they move.

@@ -3,7 +3,7 @@
 //! update came after the last whole copy). Read back only when a run fails, so the caller gets
 //! the state of the last check (DESIGN.md: a numerical failure leaves the last good state).
 
-use crate::cpu;
+use crate::contact::gather;
 use crate::model::Model;
 use crate::topology::Adjacency;
 use rayon::prelude::*;
@@ -120,9 +120,9 @@ impl<R: Real> Engine<R> {
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
         let gravity = model.gravity;
-        let forces: Vec<cpu::gather::ContactForce> = model.contacts.iter().map(cpu::gather::ContactForce::from).collect();
+        let forces: Vec<gather::ContactForce> = model.contacts.iter().map(gather::ContactForce::from).collect();
         for (b, block) in model.blocks.iter_mut().enumerate().filter(|(_, blk)| blk.fixed) {
-            cpu::gather::gather(b, block, &forces, &adjacency, gravity);
+            gather::gather(block, &forces, adjacency.entries(b), gravity);
         }
         Ok(())
     }

@@ -150,7 +150,7 @@ mod tests {
         blk.moved_since_update = 1.0;
         let blk = blk.clone();
         let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
-        crate::cpu::geometry_update::geometry_update(&blk, &mut model.corners[range]);
+        crate::model::corners::place_corners(&blk, &mut model.corners[range]);
     }
 
     /// The contacts' gaps as the contact stage of a cycle would leave them (the update drops
@@ -161,7 +161,7 @@ mod tests {
             let b2 = &blocks[c.block2 as usize];
             let corners2 = &corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
             let corner = &corners[c.corner as usize];
-            c.gap = crate::cpu::contact_forces::track_feature(corners2, c.feature, corner.circle, corner.radius).gap;
+            c.gap = crate::contact::geometry::track_feature(corners2, c.feature, corner.circle, corner.radius).gap;
         }
     }
 

@@ -238,7 +238,7 @@ impl Model {
     pub fn update_corner_positions(&mut self, b: usize) {
         let blk = &self.blocks[b];
         let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
-        crate::cpu::geometry_update::geometry_update(blk, &mut self.corners[range]);
+        super::corners::place_corners(blk, &mut self.corners[range]);
     }
 
     /// The current world outline of block b, counter-clockwise, computed from centroid and rotation

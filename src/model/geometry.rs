@@ -40,6 +40,40 @@ pub fn norm(a: [f64; 2]) -> f64 {
     a[0].hypot(a[1])
 }
 
+/// The length of `a` as √(a·a): one rounding fewer than [`norm`]'s `hypot`, for the contact
+/// geometry of the cycle, whose distances are far from overflow (glam's `DVec2::length`).
+#[inline]
+pub fn length(a: [f64; 2]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// `a / |a|` ([`norm`]), or `None` for a zero or non-finite vector.
+#[inline]
+pub fn unit(a: [f64; 2]) -> Option<[f64; 2]> {
+    let l = norm(a);
+    (l > 0.0 && l.is_finite()).then(|| scale(a, 1.0 / l))
+}
+
+/// The index after `i` around a polygon of `n` corners (no integer division in the hot loop).
+#[inline]
+pub fn next(i: usize, n: usize) -> usize {
+    if i + 1 == n {
+        0
+    } else {
+        i + 1
+    }
+}
+
+/// The index before `i` around a polygon of `n` corners.
+#[inline]
+pub fn prev(i: usize, n: usize) -> usize {
+    if i == 0 {
+        n - 1
+    } else {
+        i - 1
+    }
+}
+
 #[inline]
 pub fn distance(a: [f64; 2], b: [f64; 2]) -> f64 {
     norm(sub(a, b))
@@ -118,12 +152,18 @@ pub fn polygon_properties(pts: &[[f64; 2]]) -> PolygonProps {
     PolygonProps { area, centroid: add(o, c), polar_moment: j.abs() }
 }
 
-/// Distance from point `p` to the closed segment a–b.
-pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+/// The point of the closed segment a–b nearest to `p` (`a` itself for a segment of no length).
+#[inline]
+pub fn closest_point_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     let ab = sub(b, a);
     let len2 = dot(ab, ab);
     let t = if len2 > 0.0 { (dot(sub(p, a), ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
-    distance(p, add(a, scale(ab, t)))
+    add(a, scale(ab, t))
+}
+
+/// Distance from point `p` to the closed segment a–b.
+pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    distance(p, closest_point_on_segment(p, a, b))
 }
 
 /// Distance from `p` to the nearest point of the polygon's boundary.

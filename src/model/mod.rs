@@ -11,7 +11,9 @@
 //! when other blocks are deleted.
 
 pub mod build;
+pub mod corners;
 pub mod geometry;
+pub mod limits;
 pub mod split;
 pub mod timestep;
 

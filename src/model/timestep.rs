@@ -171,7 +171,7 @@ impl Model {
         };
         for c in &self.contacts {
             // The mirror copy of a corner–corner touch carries no force.
-            if !crate::topology::detect::counts_force(self, c) {
+            if !self.counts_force(c) {
                 continue;
             }
             let m = self.material(c.material);

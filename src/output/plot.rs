@@ -18,6 +18,7 @@ use tiny_skia::{FillRule, Mask, Paint, PathBuilder, Pixmap, Rect, Stroke, Transf
 
 use super::format::fmt_e;
 use crate::deck::PlotOptions;
+use crate::model::geometry::{add, norm, scale, sub, unit};
 use crate::model::Model;
 
 /// Plotter page size in plotter units (VIEW defaults ix2 = 2000, iy2 = 1400).
@@ -187,7 +188,7 @@ fn outline(model: &Model, b: usize, rounded: bool, min_chord: f64) -> Vec<[f64; 
 /// rounding error. Steps of at most 5°, fewer where they would be shorter than `min_chord`.
 fn arc(centre: [f64; 2], a: [f64; 2], b: [f64; 2], min_chord: f64, out: &mut Vec<[f64; 2]>) {
     let (da, db) = (sub(a, centre), sub(b, centre));
-    let (ra, rb) = (len(da), len(db));
+    let (ra, rb) = (norm(da), norm(db));
     let a0 = da[1].atan2(da[0]);
     let mut sweep = db[1].atan2(db[0]) - a0;
     if sweep > std::f64::consts::PI {
@@ -207,23 +208,6 @@ fn arc(centre: [f64; 2], a: [f64; 2], b: [f64; 2], min_chord: f64, out: &mut Vec
         out.push([centre[0] + r * t.cos(), centre[1] + r * t.sin()]);
     }
     out.push(b);
-}
-
-fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
-    [a[0] - b[0], a[1] - b[1]]
-}
-fn add(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
-    [a[0] + b[0], a[1] + b[1]]
-}
-fn scale(a: [f64; 2], s: f64) -> [f64; 2] {
-    [a[0] * s, a[1] * s]
-}
-fn len(a: [f64; 2]) -> f64 {
-    a[0].hypot(a[1])
-}
-fn unit(a: [f64; 2]) -> Option<[f64; 2]> {
-    let l = len(a);
-    (l > 0.0 && l.is_finite()).then(|| scale(a, 1.0 / l))
 }
 
 /// An RGB colour.
@@ -295,7 +279,7 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
     }
     if options.velocities {
         // Arrows scaled so the fastest block's arrow is 5% of the window width.
-        let speed = |b: usize| len(model.blocks[b].velocity);
+        let speed = |b: usize| norm(model.blocks[b].velocity);
         let vmax = shown.iter().map(|&b| speed(b)).filter(|v| v.is_finite()).fold(0.0, f64::max);
         if vmax > 0.0 {
             let k = ARROW_FRACTION * (settings.window[1] - settings.window[0]) / vmax;
@@ -317,7 +301,7 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
 /// An arrow from `tail` to `head` (pixels): the shaft and a head of two 30° barbs.
 fn arrow(tail: [f64; 2], head: [f64; 2]) -> Vec<Shape> {
     let d = sub(head, tail);
-    let l = len(d);
+    let l = norm(d);
     let mut shapes = vec![Shape { kind: ShapeKind::Velocity, points: vec![tail, head], closed: false, fill: None, stroke: ARROW_BLUE }];
     if let Some(u) = unit(d) {
         let barb = (0.3 * l).min(6.0);

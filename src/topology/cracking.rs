@@ -9,8 +9,9 @@
 //! the block's material and constitutive number; velocities carry over through the split, and the
 //! contacts of the old block are re-detected on the pieces with their shear history carried over.
 
-use crate::cpu::contact_forces::normal_force;
-use crate::cpu::gather::{gather, ContactForce};
+use crate::contact::gather::{gather, ContactForce};
+use crate::contact::law::normal_force;
+use crate::model::geometry::closest_point_on_segment;
 use crate::model::split::split_block_along;
 use crate::model::{BlockKind, Model};
 use crate::topology::{update_contacts, Adjacency};
@@ -37,12 +38,7 @@ fn project_to_boundary(model: &Model, b: usize, p: [f64; 2]) -> ([f64; 2], f64) 
     let n = corners.len();
     let mut best = (f64::INFINITY, p);
     for k in 0..n {
-        let a = corners[k].position;
-        let c = corners[(k + 1) % n].position;
-        let e = [c[0] - a[0], c[1] - a[1]];
-        let len2 = e[0] * e[0] + e[1] * e[1];
-        let s = (((p[0] - a[0]) * e[0] + (p[1] - a[1]) * e[1]) / len2).clamp(0.0, 1.0);
-        let q = [a[0] + s * e[0], a[1] + s * e[1]];
+        let q = closest_point_on_segment(p, corners[k].position, corners[(k + 1) % n].position);
         let d2 = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
         if d2 < best.0 {
             best = (d2, q);
@@ -178,7 +174,7 @@ pub fn apply_crack(model: &mut Model, crack: &PointLoadCrack) -> Option<Vec<usiz
         if !touches_piece || c.normal_force != 0.0 {
             continue;
         }
-        let active = super::detect::counts_force(model, &c);
+        let active = model.counts_force(&c);
         let m = *model.material(c.material);
         let cohesion = if c.bonded { m.cohesion } else { 0.0 };
         let fn_ = if active { normal_force(c.gap, m.kn, cohesion) } else { 0.0 };
@@ -198,7 +194,7 @@ pub fn apply_crack(model: &mut Model, crack: &PointLoadCrack) -> Option<Vec<usiz
     let forces: Vec<ContactForce> = model.contacts.iter().map(ContactForce::from).collect();
     let gravity = model.gravity;
     for b in changed {
-        gather(b, &mut model.blocks[b], &forces, &adjacency, gravity);
+        gather(&mut model.blocks[b], &forces, adjacency.entries(b), gravity);
     }
     Some(pieces)
 }

@@ -36,7 +36,7 @@ use rayon::prelude::*;
 
 use super::adjacency::EntriesEdit;
 use super::Adjacency;
-use crate::cpu::contact_forces::nearest_feature;
+use crate::contact::geometry::nearest_feature;
 use crate::model::{Block, Contact, ContactKind, Corner, Feature, Model, Tolerances};
 
 /// Bounding boxes above this many grid cells are treated as "large" and tested against all.
@@ -1196,14 +1196,6 @@ fn move_stretch<T: Copy + Send + Sync>(v: &mut [T], s: usize, e: usize, shift: i
     }
 }
 
-/// True for a contact that carries the force of its touch; false for the other view of a touch
-/// of two corners (see `cpu::contact_forces::counts_force`).
-#[inline]
-pub fn counts_force(model: &Model, c: &Contact) -> bool {
-    let b2 = &model.blocks[c.block2 as usize];
-    crate::cpu::contact_forces::counts_force(c.corner, &model.corners[c.corner as usize], model.block_corners(c.block2 as usize), b2.corner_start, c.feature)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1224,7 +1216,7 @@ mod tests {
         blk.rotation += turn;
         let blk = blk.clone();
         let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
-        crate::cpu::geometry_update::geometry_update(&blk, &mut model.corners[range]);
+        crate::model::corners::place_corners(&blk, &mut model.corners[range]);
     }
 
     #[test]
