@@ -11,11 +11,11 @@ use std::sync::Arc;
 
 use crate::backend::{Backend, CycleError};
 use crate::deck::{Command, DampMode, DeckError, Located, PrintItem, Range};
+use crate::model::limits::{Limits, LIMITS_CPU_F64};
 use crate::model::split::split_line;
 use crate::model::Model;
 use crate::output;
 use crate::output::plot::PlotSettings;
-use crate::model::limits::{Limits, LIMITS_CPU_F64};
 
 /// The largest constitutive number (see `Executor::check_constitutive`).
 pub const MAX_CONSTITUTIVE: u32 = 5;
@@ -706,7 +706,7 @@ impl<'a> Executor<'a> {
         // In one run, or in pieces of whole check intervals: with running restart files, pieces
         // sized to last about `every`, each followed by the file when `every` has passed since
         // the last; with VTK frames, pieces that end on the frames' cycles.
-        let interval = crate::cpu::CHECK_INTERVAL;
+        let interval = crate::driver::CHECK_INTERVAL;
         let frame_every = options.vtk_every.map(|f| f.max(1).div_ceil(interval) * interval);
         let vtk_dir = options.out_dir.join(VTK_DIR);
         let write_frame = |model: &Model| {

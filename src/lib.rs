@@ -13,6 +13,7 @@
 //! | [`gpu`] | the wgpu backend: the same stages as WGSL kernels (`shaders/`, one file per stage, named like the CPU files), device set-up, Pod state structs |
 //! | [`topology`] | stage 7, CPU only: contact detection and update, point-load cracking |
 //! | [`backend`] | the `Backend` trait the executor drives |
+//! | [`driver`] | the run driver both backends run CYCLE through: resume or full detection, batches to the check interval, energy check, last good state and roll-back, progress and interruption |
 //! | [`exec`] | the command executor: runs a deck against a backend |
 //! | [`compare`] | `blockdem compare`: a deck on the CPU reference and a GPU backend, the largest differences |
 //! | [`output`] | PRINT tables, PLOT (PNG/SVG), state JSON, SAVE/RESTART files |
@@ -27,6 +28,7 @@ pub mod compare;
 pub mod contact;
 pub mod cpu;
 pub mod deck;
+pub mod driver;
 pub mod exec;
 pub mod gpu;
 pub mod model;

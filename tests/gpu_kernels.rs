@@ -28,7 +28,6 @@ mod common;
 
 use blockdem::contact::geometry::track_feature;
 use blockdem::contact::law::{contact_force_law, BlockMotion};
-use blockdem::model::corners::counts_force;
 use blockdem::gpu::layout::{
     Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
     Material as GMaterial, Params as GParams, Real,
@@ -36,6 +35,7 @@ use blockdem::gpu::layout::{
 use blockdem::gpu::shaders::split_rotation;
 use blockdem::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
+use blockdem::model::corners::counts_force;
 use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
 use blockdem::topology::adjacency::FROM_LISTS;
 use blockdem::topology::detect::ListEdit;

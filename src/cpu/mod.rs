@@ -8,7 +8,9 @@
 //!    motion), stage 2 (geometry update);
 //! 2. per contact — stage 4 (contact kinematics and force–displacement law);
 //!
-//! then, on the calling thread, stage 7 when a block has moved past the update tolerance.
+//! then, on the calling thread, stage 7 when a block has moved past the update tolerance. The run
+//! around the cycles (resume or full detection, energy check, last good state, roll-back,
+//! progress) is the run driver's (`driver`); this backend supplies its stages.
 
 pub mod contact_forces;
 pub mod gather;
@@ -17,6 +19,7 @@ pub mod law_of_motion;
 mod team;
 
 use crate::backend::{Backend, CrackEvent, CycleError, CycleReport};
+use crate::driver;
 use crate::model::{Block, Corner, Model};
 use crate::topology::{self, Adjacency};
 
@@ -35,14 +38,6 @@ const MIN_BLOCKS_PER_THREAD: usize = 256;
 const MIN_CONTACTS_PER_THREAD: usize = 512;
 /// Least elements in one chunk of work handed out to a thread.
 const MIN_CHUNK: usize = 64;
-
-/// Cycles between energy checks and checkpoints of the last good state.
-pub(crate) const CHECK_INTERVAL: u64 = 100;
-
-/// Energy may exceed what was put in by this factor (plus a floor) before the run is declared
-/// unstable: an unstable explicit scheme grows exponentially, far past any such margin, while a
-/// stable one stays within O(Δt) of its budget.
-const ENERGY_GROWTH_FACTOR: f64 = 2.0;
 
 #[derive(Default)]
 pub struct CpuBackend {
@@ -245,183 +240,164 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     contact_stage(model, forces, dt, team)
 }
 
-/// The energy check: kinetic + strain energy may not outgrow the energy put in. The budget is the
-/// largest seen so far (`peak`): in a stable run that rings (a block dropped onto its contacts)
-/// the budget falls to ~0 at each rebound apex while the half-step kinetic energy and the
-/// shadow-energy error of central differences do not, which is no instability; an unstable run
-/// grows exponentially past any such margin. Both backends use it between batches of cycles.
-pub(crate) struct EnergyCheck {
-    baseline: f64,
-    scale: f64,
-    peak: f64,
-}
-
-impl EnergyCheck {
-    /// Taken at the start of a CYCLE run, once contacts are detected and their gaps known.
-    pub(crate) fn new(model: &Model) -> Self {
-        let e0 = model.energies();
-        // Contacts that start overlapping (blocks built into each other, the stage not yet run)
-        // hold strain energy the first force computation will release: it is energy put in.
-        let overlap_strain: f64 = model.contacts.iter().map(|c| 0.5 * model.material(c.material).kn * c.gap.min(0.0).powi(2)).sum();
-        let baseline = e0.kinetic + e0.strain.max(overlap_strain) - e0.external_work;
-        // Energy scale for the floor of the growth test: potential energy of each block's weight
-        // and load over its own size.
-        let g = (model.gravity[0].powi(2) + model.gravity[1].powi(2)).sqrt();
-        // With no gravity, load or motion to drive it, that scale is zero, and the round-off
-        // energy of touching blocks (1e-21 J) failed the check; so each block also counts the
-        // strain energy of its contacts at an overlap of 1e-3 of its size, a floor of 1e-6 of
-        // that (an overlap of ~1e-6 of the size at the stiffest contact).
-        let kn = model.materials.iter().map(|m| m.kn).fold(0.0, f64::max);
-        let scale = model.blocks.iter().map(|b| (b.mass * g + b.load[0].hypot(b.load[1])) * b.radius + kn * (1e-3 * b.radius).powi(2)).sum::<f64>()
-            + (e0.kinetic + e0.strain).abs();
-        EnergyCheck { baseline, scale, peak: f64::NEG_INFINITY }
-    }
-
-    /// After a failure: names the cause (a block flying off may be the symptom of an unstable
-    /// step) and puts the last good state back in `model`.
-    pub(crate) fn roll_back(&mut self, mut e: CycleError, model: &mut Model, last_good: Model) -> CycleError {
-        if let CycleError::TooFast { .. } = e {
-            if let Err(energy) = self.check(model) {
-                e = energy;
-            }
-        }
-        // The stable-FRAC estimate needs the contact network of the last good state (the
-        // diverged one may have flung its blocks apart).
-        if let CycleError::EnergyGrowth { safe_frac, .. } = &mut e {
-            *safe_frac = last_good.stable_frac_estimate();
-        }
-        *model = last_good;
-        e
-    }
-
-    pub(crate) fn check(&mut self, model: &Model) -> Result<(), CycleError> {
-        let e = model.energies();
-        self.check_sums(model.cycle, e.kinetic + e.strain, e.external_work, model.frac)
-    }
-
-    /// The check on sums taken elsewhere (the GPU's `energy_sums`): kinetic + strain energy
-    /// against the external work done since the start. The largest safe FRAC in the error is
-    /// filled in by `roll_back`, from the last good state's contact network.
-    pub(crate) fn check_sums(&mut self, cycle: u64, energy: f64, external_work: f64, frac: f64) -> Result<(), CycleError> {
-        self.peak = self.peak.max(self.baseline + external_work);
-        let budget = self.peak;
-        if !energy.is_finite() || energy > ENERGY_GROWTH_FACTOR * budget.max(0.0) + 1e-6 * self.scale {
-            return Err(CycleError::EnergyGrowth { cycle, energy, budget, frac, safe_frac: f64::NAN });
-        }
-        Ok(())
-    }
-}
-
 impl Backend for CpuBackend {
     fn describe(&self) -> String {
         "cpu (f64)".to_string()
     }
 
+    /// A run through the run driver (`driver`): the CPU's stages are one cycle at a time on a
+    /// team of threads sized to the model the start's detection leaves.
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        if model.timestep <= 0.0 || !model.timestep.is_finite() {
-            return Err(CycleError::Setup("the time step is not set".into()));
-        }
+        let mut report = CycleReport::default();
+        let mut kept = std::mem::take(&mut self.last_good);
+        let mut adjacency = std::mem::take(&mut self.adjacency);
+        let resumable = std::mem::take(&mut self.resumable);
+        let mut start = CpuStart { adjacency: &mut adjacency, forces: &mut self.scratch.forces, resumable };
+        let resume = match driver::prepare(&mut start, model, &kept, &mut report) {
+            Ok(resume) => resume,
+            Err(e) => {
+                // Refused before it began (the time step): the backend is as it was.
+                self.resumable = start.resumable;
+                self.last_good = kept;
+                self.adjacency = adjacency;
+                return Err(e);
+            }
+        };
+        let scratch = &mut self.scratch;
+        let result = team::with_team(team_size(model), |team| {
+            let mut stages = CpuStages { adjacency: &mut adjacency, scratch, team, gathered: true };
+            driver::cycles(&mut stages, model, cycles, resume, &mut kept, &mut report, progress)
+        });
+        self.last_good = kept;
+        result?;
+        // The last check copied the final state (its cycle is the last).
+        self.resumable = cycles > 0;
+        self.adjacency = adjacency;
+        Ok(report)
+    }
+}
+
+/// The CPU's start of a run (before its team exists): the resume test's flag and the full
+/// detection.
+struct CpuStart<'a> {
+    adjacency: &'a mut Adjacency,
+    forces: &'a mut Vec<ContactForce>,
+    resumable: bool,
+}
+
+impl driver::Stages for CpuStart<'_> {
+    fn take_resumable(&mut self) -> bool {
+        std::mem::take(&mut self.resumable)
+    }
+
+    fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
         // The block pass relies on it (and the model always keeps it).
         assert!(corners_in_block_order(model), "corners are stored in block order");
-        let mut report = CycleReport::default();
-        let mut adjacency = std::mem::take(&mut self.adjacency);
-        // Between runs the executor may have split, deleted or moved blocks: start with a full
-        // detection, unless the model is the very state the last run left (no command changed
-        // it: CYCLE after CYCLE), whose contacts are current. Then two runs are one, bit for bit.
-        let resume = std::mem::take(&mut self.resumable) && *model == self.last_good;
+        Ok(())
+    }
+
+    /// Between runs the executor may have split, deleted or moved blocks: a full detection,
+    /// unless the model is the very state the last run left, whose contacts are current.
+    fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
         if !resume {
-            update_topology(model, &mut adjacency, &mut report, true);
+            update_topology(model, self.adjacency, report, true);
         }
-        let scratch = &mut self.scratch;
-        sync_forces(model, &mut scratch.forces);
-        let mut kept = std::mem::take(&mut self.last_good);
-        let result = team::with_team(team_size(model), |team| {
-            // Then the force sums the first step needs.
-            gather_all(model, &scratch.forces, &adjacency, team);
-            // Whether the block forces are the gather of the current contact forces. Stage 6
-            // runs fused into the next cycle's block pass; it runs on its own only where
-            // something reads the block forces between cycles: the energy terms (kinetic energy
-            // is taken at the whole step from the force, see `Model::energies`) that the energy
-            // check and every topology change book, and the state a run leaves.
-            let mut gathered = true;
-            let mut energy_check = EnergyCheck::new(model);
-            let cracking = (0..model.blocks.len()).any(|b| topology::cracking::is_point_load_candidate(model, b));
-            let last_good = &mut kept;
-            if !resume {
-                // (When resuming it is the model already.)
-                last_good.clone_from(model);
-            }
-            crate::profile::mark_cycles_start();
-            let mut result = Ok(());
-            for i in 0..cycles {
-                if let Err(e) = cycle_once(model, &adjacency, scratch, gathered, team) {
-                    result = Err(e);
-                    break;
-                }
-                gathered = false;
-                // Stage 7: cracking, then contact updates.
-                if cracking {
-                    gather_all(model, &scratch.forces, &adjacency, team);
-                    gathered = true;
-                    if crack_step(model, &adjacency, &mut report) {
-                        assert!(corners_in_block_order(model), "corners are stored in block order");
-                        adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
-                        sync_forces(model, &mut scratch.forces);
-                        gathered = false;
-                        if let Some(dt) = model.critical_timestep() {
-                            if dt < model.timestep {
-                                model.timestep = dt;
-                                report.timestep_changes.push((model.cycle, dt));
-                            }
+        sync_forces(model, self.forces);
+        Ok(())
+    }
+
+    fn advance(&mut self, _model: &mut Model, _max: u64, _cracking: bool, _report: &mut CycleReport) -> Result<u64, CycleError> {
+        unreachable!("the CPU's cycles run on its team (CpuStages)")
+    }
+
+    fn energy(&mut self, _model: &mut Model) -> Result<(f64, f64), CycleError> {
+        unreachable!("the CPU's cycles run on its team (CpuStages)")
+    }
+
+    fn keep(&mut self, _model: &Model, _last_good: &mut Model) {
+        unreachable!("the CPU's cycles run on its team (CpuStages)")
+    }
+}
+
+/// The CPU's stages inside its team's scope.
+struct CpuStages<'a, 't> {
+    adjacency: &'a mut Adjacency,
+    scratch: &'a mut Scratch,
+    team: &'a mut Team<'t>,
+    /// Whether the block forces are the gather of the current contact forces. Stage 6 runs
+    /// fused into the next cycle's block pass; it runs on its own only where something reads the
+    /// block forces between cycles: the energy terms (kinetic energy is taken at the whole step
+    /// from the force, see `Model::energies`) that the energy check and every topology change
+    /// book, and the state a run leaves.
+    gathered: bool,
+}
+
+impl CpuStages<'_, '_> {
+    fn gather(&mut self, model: &mut Model) {
+        if !self.gathered {
+            gather_all(model, &self.scratch.forces, self.adjacency, self.team);
+            self.gathered = true;
+        }
+    }
+}
+
+impl driver::Stages for CpuStages<'_, '_> {
+    fn take_resumable(&mut self) -> bool {
+        false
+    }
+
+    fn start(&mut self, _model: &mut Model, _resume: bool, _report: &mut CycleReport) -> Result<(), CycleError> {
+        unreachable!("the CPU starts before its team (CpuStart)")
+    }
+
+    /// The force sums the first step needs.
+    fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
+        gather_all(model, &self.scratch.forces, self.adjacency, self.team);
+        self.gathered = true;
+        Ok(())
+    }
+
+    /// One cycle at a time, each followed by stage 7: cracking, then contact updates.
+    fn advance(&mut self, model: &mut Model, max: u64, cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
+        for _ in 0..max {
+            cycle_once(model, self.adjacency, self.scratch, self.gathered, self.team)?;
+            self.gathered = false;
+            if cracking {
+                self.gather(model);
+                if crack_step(model, self.adjacency, report) {
+                    assert!(corners_in_block_order(model), "corners are stored in block order");
+                    *self.adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                    sync_forces(model, &mut self.scratch.forces);
+                    self.gathered = false;
+                    if let Some(dt) = model.critical_timestep() {
+                        if dt < model.timestep {
+                            model.timestep = dt;
+                            report.timestep_changes.push((model.cycle, dt));
                         }
                     }
                 }
-                let tol = model.tol;
-                if model.blocks.iter().any(|b| b.update_due(&tol)) {
-                    // The update books the energy of the contacts it drops, from the forces.
-                    if !gathered {
-                        gather_all(model, &scratch.forces, &adjacency, team);
-                    }
-                    update_topology(model, &mut adjacency, &mut report, false);
-                    sync_forces(model, &mut scratch.forces);
-                    gathered = false;
-                }
-                report.cycles += 1;
-                if (i + 1) % CHECK_INTERVAL == 0 || i + 1 == cycles {
-                    if !gathered {
-                        gather_all(model, &scratch.forces, &adjacency, team);
-                        gathered = true;
-                    }
-                    let _p = crate::profile::scope(crate::profile::Stage::Checks);
-                    if let Err(e) = energy_check.check(model) {
-                        result = Err(e);
-                        break;
-                    }
-                    // The caller may end the run here (an interrupt): as if `cycles` were i + 1.
-                    let go_on = progress(i + 1) && i + 1 < cycles;
-                    if !go_on {
-                        // What is left is the hand-back: the copy the next run resumes from
-                        // (the GPU charges its final read-back and copy to the tear-down too).
-                        crate::profile::mark_cycles_end();
-                    }
-                    last_good.clone_from(model);
-                    if !go_on {
-                        break;
-                    }
-                }
             }
-            result.map_err(|e| energy_check.roll_back(e, model, std::mem::take(last_good)))
-        });
-        self.last_good = kept;
-        match result {
-            Ok(()) => {
-                // The last check copied the final state (`i + 1 == cycles`).
-                self.resumable = cycles > 0;
-                self.adjacency = adjacency;
-                Ok(report)
+            let tol = model.tol;
+            if model.blocks.iter().any(|b| b.update_due(&tol)) {
+                // The update books the energy of the contacts it drops, from the forces.
+                self.gather(model);
+                update_topology(model, self.adjacency, report, false);
+                sync_forces(model, &mut self.scratch.forces);
+                self.gathered = false;
             }
-            Err(e) => Err(e),
         }
+        Ok(max)
+    }
+
+    fn energy(&mut self, model: &mut Model) -> Result<(f64, f64), CycleError> {
+        self.gather(model);
+        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+        let e = model.energies();
+        Ok((e.kinetic + e.strain, e.external_work))
+    }
+
+    fn keep(&mut self, model: &Model, last_good: &mut Model) {
+        last_good.clone_from(model);
     }
 }
 

@@ -1,10 +1,12 @@
-//! A run on the GPU backend (`Backend::run`): set-up (detection, upload) or resumption, then
-//! batches of cycles, contact updates between them, the energy check and its checkpoint every
-//! 100 cycles, and the failure paths that hand back the last good state. See "How a run goes"
-//! in the module above.
+//! A run on the GPU backend (`Backend::run`): the GPU's stages for the run driver (`driver`,
+//! which owns the loop, the checks and the roll-back): set-up (detection, upload) or resumption,
+//! batches of cycles sized to the expected contact updates, stage 7 between them, the energy
+//! sums on the device and its checkpoint, the state handed back. See "How a run goes" in the
+//! module above.
 
 use crate::backend::{CycleError, CycleReport};
 use crate::cpu;
+use crate::driver;
 use crate::model::Model;
 use crate::topology::Adjacency;
 use rayon::prelude::*;
@@ -233,163 +235,200 @@ impl<R: Real> Engine<R> {
         last_good.timestep = model.timestep;
     }
 
+    /// A run through the run driver (`driver`), the GPU supplying its stages in batches
+    /// (`GpuRun`).
     pub(super) fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        if model.timestep <= 0.0 || !model.timestep.is_finite() {
-            return Err(CycleError::Setup("the time step is not set".into()));
-        }
-        // A model whose blocks or corners alone are past the adapter's binding limit is refused
-        // now, not after the full detection (seconds at 10⁶ blocks).
-        let cap = kernels::binding_cap(&self.dev);
-        kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, self.dev.precision)
-            .and_then(|()| kernels::check_fits("corners", std::mem::size_of::<Corner<R>>(), model.corners.len(), cap, self.dev.precision))
-            .map_err(device_error)?;
-        representable::<R>(model).map_err(device_error)?;
         let mut report = CycleReport::default();
-        let mut adjacency = std::mem::take(&mut self.adjacency);
-        // As on the CPU: a full detection first (the executor may have changed the model), then
-        // the upload, read back so that the model holds what the device holds (its reals, the
-        // force sums); unless the model is the very state the last run left (CYCLE after CYCLE),
-        // which the device still holds with its contacts and the f32 digits the model does not
-        // keep: then the run goes on from there. (The first cycle sums the forces it moves by
-        // itself, as every cycle does: nothing else is summed after an upload or an update.)
-        let resume = std::mem::take(&mut self.resumable) && self.buffers.is_some() && *model == self.last_good;
+        let adjacency = std::mem::take(&mut self.adjacency);
+        let mut last_good = std::mem::take(&mut self.last_good);
+        let mut run = GpuRun {
+            engine: self,
+            adjacency,
+            batch_cap: driver::CHECK_INTERVAL,
+            busy: false,
+            expected_update: None,
+            last_good_generation: (0, 0),
+            started: false,
+        };
+        let resume = match driver::prepare(&mut run, model, &last_good, &mut report) {
+            Ok(resume) => resume,
+            Err(e) => {
+                // Refused before the start (the time step, a model past the binding limit or
+                // the precision's range): the backend is as it was. A start that failed (an
+                // upload) leaves no contact lists to go on from.
+                let GpuRun { adjacency, started, .. } = run;
+                self.last_good = last_good;
+                if !started {
+                    self.adjacency = adjacency;
+                }
+                return Err(e);
+            }
+        };
+        let result = driver::cycles(&mut run, model, cycles, resume, &mut last_good, &mut report, progress);
+        let GpuRun { adjacency, .. } = run;
+        // (On a failure the last good state went back into the model, and nothing is kept.)
+        result?;
+        self.last_good = last_good;
+        self.adjacency = adjacency;
+        self.resumable = true;
+        Ok(report)
+    }
+}
+
+/// The GPU's stages of a run (`driver::Stages`): the engine, the contact lists while the run
+/// holds them, and what the batches learn as they go.
+struct GpuRun<'a, R: Real> {
+    engine: &'a mut Engine<R>,
+    adjacency: Adjacency,
+    /// Cycles per submission: up to the next energy check, fewer while contact updates halt
+    /// batches early. A halted batch still encodes and submits the dispatches of its remaining
+    /// cycles (with zeroed grids: they launch nothing).
+    batch_cap: u64,
+    /// The last batch stopped for a contact update: the next one brings the state back with its
+    /// flags (`run_batch_with_state`).
+    busy: bool,
+    /// Cycles until the next contact update is expected, from the velocities at the last one
+    /// (`cycles_to_next_update`): a batch that would run past it is cut there, since the cycles
+    /// after the halt are still encoded and submitted.
+    expected_update: Option<u64>,
+    /// The topology's generations when the last good state's CPU copy was taken
+    /// (`take_checkpoint_of`).
+    last_good_generation: (u64, u64),
+    /// `start` was called (the contact lists are the run's from then on).
+    started: bool,
+}
+
+impl<R: Real> driver::Stages for GpuRun<'_, R> {
+    fn take_resumable(&mut self) -> bool {
+        std::mem::take(&mut self.engine.resumable) && self.engine.buffers.is_some()
+    }
+
+    /// A model whose blocks or corners alone are past the adapter's binding limit is refused
+    /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
+    /// kernel precision cannot hold (`representable`).
+    fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        let e = &self.engine;
+        let cap = kernels::binding_cap(&e.dev);
+        kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, e.dev.precision)
+            .and_then(|()| kernels::check_fits("corners", std::mem::size_of::<Corner<R>>(), model.corners.len(), cap, e.dev.precision))
+            .map_err(device_error)?;
+        representable::<R>(model).map_err(device_error)
+    }
+
+    /// As on the CPU: a full detection first (the executor may have changed the model), then
+    /// the upload, read back so that the model holds what the device holds (its reals, the force
+    /// sums); when resuming, the device still holds the state the last run left, with its
+    /// contacts and the f32 digits the model does not keep. (The first cycle sums the forces it
+    /// moves by itself, as every cycle does: nothing else is summed after an upload or an
+    /// update.) The device checkpoint of an earlier run is no longer this run's.
+    fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        self.started = true;
+        let e = &mut *self.engine;
         if resume {
-            self.write_params(model);
+            e.write_params(model);
         } else {
-            cpu::maybe_update_topology(model, &mut adjacency, &mut report, true);
-            self.list_in_order = true;
-            self.upload_all(model, &adjacency).map_err(device_error)?;
-            self.write_params(model);
-            self.readback(model).map_err(device_error)?;
+            cpu::maybe_update_topology(model, &mut self.adjacency, report, true);
+            e.list_in_order = true;
+            e.upload_all(model, &self.adjacency).map_err(device_error)?;
+            e.write_params(model);
+            e.readback(model).map_err(device_error)?;
         }
-        let mut energy_check = cpu::EnergyCheck::new(model);
-        let cracking = (0..model.blocks.len()).any(|b| crate::topology::cracking::is_point_load_candidate(model, b));
-        // The last good state: this CPU copy holds its topology (and, until the first device
-        // checkpoint, its state); after a passed energy check the state is on the device
+        // The last good state: the driver's CPU copy holds its topology (and, until the first
+        // device checkpoint, its state); after a passed energy check the state is on the device
         // (`take_checkpoint`) and the copy is re-taken only when the topology changed since.
-        if let Some(ck) = &mut self.checkpoint {
+        if let Some(ck) = &mut e.checkpoint {
             ck.valid = false;
         }
-        let mut last_good = std::mem::take(&mut self.last_good);
-        self.last_good_contacts = None;
-        if !resume {
-            // (When resuming it is the model already.)
-            last_good.clone_from(model);
-        }
-        crate::profile::mark_cycles_start();
-        let mut last_good_generation = (self.generation, self.block_generation);
-        let mut done_total = 0u64;
-        // Cycles per submission: up to the next energy check, fewer while contact updates halt
-        // batches early. A halted batch still encodes and submits the dispatches of its remaining
-        // cycles (with zeroed grids: they launch nothing).
-        let mut batch_cap = cpu::CHECK_INTERVAL;
-        // The last batch stopped for a contact update: the next one brings the state back with
-        // its flags (`run_batch_with_state`).
-        let mut busy = false;
-        // Cycles until the next contact update is expected, from the velocities at the last one
-        // (`cycles_to_next_update`): a batch that would run past it is cut there, since the
-        // cycles after the halt are still encoded and submitted.
-        let mut expected_update: Option<u64> = None;
+        e.last_good_contacts = None;
+        Ok(())
+    }
+
+    fn begin_cycles(&mut self, _model: &mut Model) -> Result<(), CycleError> {
+        self.last_good_generation = (self.engine.generation, self.engine.block_generation);
+        Ok(())
+    }
+
+    /// One batch of cycles on the device (one at a time with cracking, whose check reads every
+    /// cycle's state), then stage 7 on what the flags ask for.
+    fn advance(&mut self, model: &mut Model, max: u64, cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
         // Read-backs for a contact update bring the contacts' summaries only (`pack_contacts`),
         // since the splice keeps the rest on the device; cracking reads everything.
-        let packed = self.splice && !cracking;
-        let result = (|| -> Result<(), CycleError> {
-            while done_total < cycles {
-                let left = cycles - done_total;
-                let mut batch = if cracking { 1 } else { (cpu::CHECK_INTERVAL - done_total % cpu::CHECK_INTERVAL).min(left).min(batch_cap) };
-                if let Some(k) = expected_update {
-                    batch = batch.min(k.max(1));
+        let packed = self.engine.splice && !cracking;
+        let mut batch = if cracking { 1 } else { max.min(self.batch_cap) };
+        if let Some(k) = self.expected_update {
+            batch = batch.min(k.max(1));
+        }
+        let e = &mut *self.engine;
+        e.write_params(model);
+        let partial_reads = e.splice && !cracking && e.partial_reads_pay();
+        let (flags, state_read) = if self.busy && !cracking && !partial_reads {
+            e.run_batch_with_state(batch, model, packed).map_err(device_error)?
+        } else {
+            (e.run_batch(batch, false).map_err(device_error)?, false)
+        };
+        self.busy = flags.update_due != 0;
+        let done = flags.cycles_done as u64;
+        self.batch_cap = if done < batch { (2 * done).max(1) } else { (2 * self.batch_cap).min(driver::CHECK_INTERVAL) };
+        for _ in 0..done {
+            model.time += model.timestep;
+        }
+        model.cycle += done;
+        self.expected_update = self.expected_update.map(|k| k.saturating_sub(done)).filter(|&k| k > 0);
+        if flags.errors != 0 {
+            e.readback(model).map_err(device_error)?;
+            return Err(Engine::<R>::error_from_flags(model, &flags));
+        }
+        if done == 0 {
+            return Err(CycleError::Setup("GPU: a batch ran no cycle".into()));
+        }
+        let mut handled = false;
+        if partial_reads && flags.update_due != 0 {
+            // Stage 7 on what it touches (`partial_contact_update`), unless it needs the whole
+            // state.
+            match e.partial_contact_update(model, &mut self.adjacency, report).map_err(device_error)? {
+                PartialUpdate::Declined => {}
+                PartialUpdate::NotDue => handled = true,
+                PartialUpdate::Updated(expected) => {
+                    e.list_in_order = true;
+                    self.expected_update = expected;
+                    handled = true;
                 }
-                self.write_params(model);
-                let partial_reads = self.splice && !cracking && self.partial_reads_pay();
-                let (flags, state_read) = if busy && !cracking && !partial_reads {
-                    self.run_batch_with_state(batch, model, packed).map_err(device_error)?
-                } else {
-                    (self.run_batch(batch, false).map_err(device_error)?, false)
-                };
-                busy = flags.update_due != 0;
-                let done = flags.cycles_done as u64;
-                batch_cap = if done < batch { (2 * done).max(1) } else { (2 * batch_cap).min(cpu::CHECK_INTERVAL) };
-                for _ in 0..done {
-                    model.time += model.timestep;
-                }
-                model.cycle += done;
-                done_total += done;
-                expected_update = expected_update.map(|k| k.saturating_sub(done)).filter(|&k| k > 0);
-                if flags.errors != 0 {
-                    self.readback(model).map_err(device_error)?;
-                    return Err(Self::error_from_flags(model, &flags));
-                }
-                if done == 0 {
-                    return Err(CycleError::Setup("GPU: a batch ran no cycle".into()));
-                }
-                report.cycles += done;
-                let at_check = done_total % cpu::CHECK_INTERVAL == 0 || done_total == cycles;
-                let mut handled = false;
-                if partial_reads && flags.update_due != 0 {
-                    // Stage 7 on what it touches (`partial_contact_update`), unless it needs the
-                    // whole state.
-                    match self.partial_contact_update(model, &mut adjacency, &mut report).map_err(device_error)? {
-                        PartialUpdate::Declined => {}
-                        PartialUpdate::NotDue => handled = true,
-                        PartialUpdate::Updated(expected) => {
-                            self.list_in_order = true;
-                            expected_update = expected;
-                            handled = true;
-                        }
-                    }
-                }
-                if !handled && (cracking || flags.update_due != 0) {
-                    let read = Stage7Read { cracking, packed, state_read };
-                    self.stage7_on_read_back(model, &mut adjacency, &mut report, read, &mut expected_update)?;
-                }
-                if at_check {
-                    // The energy check on device sums; the state stays on the device.
-                    let (kinetic, strain, external_work) = {
-                        let _p = crate::profile::scope(crate::profile::Stage::Checks);
-                        self.energy_sums().map_err(device_error)?
-                    };
-                    if let Err(e) = energy_check.check_sums(model.cycle, kinetic + strain, external_work, model.frac) {
-                        self.readback(model).map_err(device_error)?;
-                        return Err(e);
-                    }
-                    // The caller may end the run here (an interrupt): as if `cycles` were done.
-                    let go_on = progress(done_total) && done_total < cycles;
-                    if !go_on {
-                        // The run's end: the state comes back to the model, which becomes the
-                        // last good state below. No device checkpoint or CPU copy of the
-                        // topology is taken for it (the next run starts by invalidating the
-                        // one, the other would be a copy of a copy); if the read-back fails,
-                        // the checkpoint before, with its topology, is what is restored.
-                        crate::profile::mark_cycles_end();
-                        self.readback(model).map_err(device_error)?;
-                    } else {
-                        self.take_checkpoint_of(model, &mut last_good, &mut last_good_generation);
-                    }
-                    if !go_on {
-                        break;
-                    }
-                }
-            }
-            Ok(())
-        })();
-        match result {
-            Ok(()) => {
-                // The state read back last, for the next run to compare with.
-                last_good.clone_from(model);
-                self.last_good_contacts = None;
-                self.last_good = last_good;
-                self.adjacency = adjacency;
-                self.resumable = true;
-                Ok(report)
-            }
-            Err(e) => {
-                if let Err(d) = self.restore_checkpoint(&mut last_good) {
-                    return Err(device_error(d));
-                }
-                Err(energy_check.roll_back(e, model, last_good))
             }
         }
+        if !handled && (cracking || flags.update_due != 0) {
+            let read = Stage7Read { cracking, packed, state_read };
+            e.stage7_on_read_back(model, &mut self.adjacency, report, read, &mut self.expected_update)?;
+        }
+        Ok(done)
+    }
+
+    /// The energy check's sums on the device; the state stays there.
+    fn energy(&mut self, _model: &mut Model) -> Result<(f64, f64), CycleError> {
+        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+        let (kinetic, strain, external_work) = self.engine.energy_sums().map_err(device_error)?;
+        Ok((kinetic + strain, external_work))
+    }
+
+    fn sync(&mut self, model: &mut Model) -> Result<(), CycleError> {
+        self.engine.readback(model).map_err(device_error)
+    }
+
+    fn keep(&mut self, model: &Model, last_good: &mut Model) {
+        self.engine.take_checkpoint_of(model, last_good, &mut self.last_good_generation);
+    }
+
+    /// The run's end: the state comes back to the model, which becomes the last good state. No
+    /// device checkpoint or CPU copy of the topology is taken for it (the next run starts by
+    /// invalidating the one, the other would be a copy of a copy); if the read-back fails, the
+    /// checkpoint before, with its topology, is what is restored.
+    fn finish(&mut self, model: &mut Model) -> Result<(), CycleError> {
+        self.engine.readback(model).map_err(device_error)?;
+        self.engine.last_good_contacts = None;
+        Ok(())
+    }
+
+    fn recover(&mut self, last_good: &mut Model) -> Result<(), CycleError> {
+        self.engine.restore_checkpoint(last_good).map_err(device_error)
     }
 }
 
