@@ -104,6 +104,11 @@ pub enum Progress {
 }
 
 /// The progress line of `Progress::Lines`: done of n cycles after `elapsed` seconds.
+/// A plot's title: the deck's file name without its folders (a deck given as text has none).
+fn deck_title(file: &str) -> &str {
+    std::path::Path::new(file).file_name().and_then(|n| n.to_str()).unwrap_or(file)
+}
+
 fn progress_line(done: u64, n: u64, elapsed: f64) -> String {
     let rate = done as f64 / elapsed.max(1e-9);
     let left = (n - done.min(n)) as f64 / rate.max(1e-9);
@@ -461,7 +466,7 @@ impl<'a> Executor<'a> {
                 self.plot_count += 1;
                 std::fs::create_dir_all(&self.options.out_dir)
                     .map_err(|e| self.command_error(cmd, format!("PLOT: cannot create {}: {e}", self.options.out_dir.display())))?;
-                let files = output::plot::plot(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count)
+                let files = output::plot::plot(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count, deck_title(&self.file))
                     .map_err(|e| self.command_error(cmd, format!("PLOT: {e}")))?;
                 self.echo(&format!("PLOT WRITTEN TO {} AND {}", files[0].display(), files[1].display()));
             }

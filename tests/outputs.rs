@@ -788,7 +788,7 @@ fn load_png(path: &Path) -> tiny_skia::Pixmap {
 fn plot_default_page() {
     let m = two_blocks();
     let dir = out_dir("plot_default");
-    let [png, svg] = plot(&m, &PlotSettings::default(), &PlotOptions::default(), &dir, 1).unwrap();
+    let [png, svg] = plot(&m, &PlotSettings::default(), &PlotOptions::default(), &dir, 1, "outputs.dat").unwrap();
     assert_eq!(png, dir.join("plot_001.png"));
     assert_eq!(svg, dir.join("plot_001.svg"));
     let p = load_png(&png);
@@ -812,7 +812,7 @@ fn plot_in_a_view_quadrant_is_clipped_to_it() {
     // Sample problem 4's first quadrant; the window is narrower than the base (0..6), so the base
     // runs out of the view on the right and must be cut at its edge.
     let settings = PlotSettings { window: [0.0, 4.0, 0.0, 3.0], view: [0, 700, 700, 1400] };
-    let [png, svg] = plot(&m, &settings, &PlotOptions { velocities: true, ..Default::default() }, &dir, 12).unwrap();
+    let [png, svg] = plot(&m, &settings, &PlotOptions { velocities: true, ..Default::default() }, &dir, 12, "outputs.dat").unwrap();
     assert!(png.ends_with("plot_012.png"));
     // The SVG is clipped to the same quadrant: the top-left 350 × 350 px of the 1000 × 700 page.
     let s = std::fs::read_to_string(&svg).unwrap();
@@ -842,9 +842,9 @@ fn plot_options_change_the_picture() {
     let full = PlotOptions::default();
     let nofix = PlotOptions { nofix: true, ..full };
     let nc = PlotOptions { no_rounding: true, velocities: true, ..full };
-    let [png1, svg1] = plot(&m, &PlotSettings::default(), &full, &dir, 1).unwrap();
-    let [png2, svg2] = plot(&m, &PlotSettings::default(), &nofix, &dir, 2).unwrap();
-    let [_, svg3] = plot(&m, &PlotSettings::default(), &nc, &dir, 3).unwrap();
+    let [png1, svg1] = plot(&m, &PlotSettings::default(), &full, &dir, 1, "outputs.dat").unwrap();
+    let [png2, svg2] = plot(&m, &PlotSettings::default(), &nofix, &dir, 2, "outputs.dat").unwrap();
+    let [_, svg3] = plot(&m, &PlotSettings::default(), &nc, &dir, 3, "outputs.dat").unwrap();
     let (s1, s2, s3) = [svg1, svg2, svg3].map(|p| std::fs::read_to_string(p).unwrap()).into();
 
     // SVG: well-formed enough, one path per shown block, caption with cycle and time.
@@ -890,9 +890,9 @@ fn plot_draws_only_what_shows_in_the_view() {
     let mut with_edge = with_far.clone();
     add_rect(&mut with_edge, 200, [9.5, 3.0, 11.0, 4.0], 0.1, false);
     let vel = PlotOptions { velocities: true, ..Default::default() };
-    let [png0, svg0] = plot(&m, &PlotSettings::default(), &vel, &dir, 1).unwrap();
-    let [png1, svg1] = plot(&with_far, &PlotSettings::default(), &vel, &dir, 2).unwrap();
-    let [png2, svg2] = plot(&with_edge, &PlotSettings::default(), &vel, &dir, 3).unwrap();
+    let [png0, svg0] = plot(&m, &PlotSettings::default(), &vel, &dir, 1, "outputs.dat").unwrap();
+    let [png1, svg1] = plot(&with_far, &PlotSettings::default(), &vel, &dir, 2, "outputs.dat").unwrap();
+    let [png2, svg2] = plot(&with_edge, &PlotSettings::default(), &vel, &dir, 3, "outputs.dat").unwrap();
     let (p0, p1, p2) = (load_png(&png0), load_png(&png1), load_png(&png2));
     assert!(p0.data() == p1.data(), "blocks outside the view changed the PNG");
     assert!(p0.data() != p2.data(), "a block across the view's edge is drawn");
@@ -905,7 +905,7 @@ fn plot_draws_only_what_shows_in_the_view() {
     // Zoomed out to the whole model, the outlines keep their shape but a rounding far under a
     // pixel is drawn as its corner: four points a rectangle, where 5-degree steps make 76.
     let far_view = PlotSettings { window: [-1.0e4, 1.0e4, -7.0e3, 7.0e3], ..Default::default() };
-    let [_, svg] = plot(&m, &far_view, &PlotOptions::default(), &dir, 4).unwrap();
+    let [_, svg] = plot(&m, &far_view, &PlotOptions::default(), &dir, 4, "outputs.dat").unwrap();
     let s = std::fs::read_to_string(svg).unwrap();
     let line = s.lines().find(|l| l.contains(r#"data-id="5""#)).unwrap();
     assert_eq!(line.matches(',').count(), 4, "{line}");
@@ -916,10 +916,10 @@ fn plot_rejects_an_empty_window() {
     let m = two_blocks();
     let dir = out_dir("plot_empty");
     let settings = PlotSettings { window: [5.0, 5.0, 0.0, 7.0], ..Default::default() };
-    let err = plot(&m, &settings, &PlotOptions::default(), &dir, 1).unwrap_err();
+    let err = plot(&m, &settings, &PlotOptions::default(), &dir, 1, "outputs.dat").unwrap_err();
     assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
     let settings = PlotSettings { view: [0, 2000, 700, 700], ..Default::default() };
-    assert!(plot(&m, &settings, &PlotOptions::default(), &dir, 1).is_err());
+    assert!(plot(&m, &settings, &PlotOptions::default(), &dir, 1, "outputs.dat").is_err());
 }
 
 #[test]
@@ -1023,4 +1023,47 @@ fn a_vtk_series_lists_its_frames_in_time_and_forgets_those_a_restart_goes_back_o
     std::fs::write(&path, b"{ not json").unwrap();
     add_to_series(&path, &frame(300, 1.5).name, 300, 1.5).unwrap();
     assert_eq!(read().files, [frame(300, 1.5)]);
+}
+
+/// A plot says what it shows (issue 27, item 7): a caption with the deck, the cycle and the time,
+/// axes in metres along the view's edges, the arrows' scale with the speed it stands for, and no
+/// arrows for blocks at rest to round-off (a stack at rest, 1e-13 m/s, showed full-length
+/// arrows, scaled to the largest of them). The PNG carries the same text where a font is found.
+#[test]
+fn a_plot_has_a_caption_axes_and_an_arrow_scale() {
+    let dir = out_dir("plot_caption");
+    let vel = PlotOptions { velocities: true, ..Default::default() };
+    let mut m = two_blocks();
+    m.blocks[1].velocity = [2.0, 0.0];
+    let [png, svg] = plot(&m, &PlotSettings::default(), &vel, &dir, 1, "slide.dat").unwrap();
+    let s = std::fs::read_to_string(&svg).unwrap();
+    assert!(s.contains(">slide.dat   CYCLE 600   TIME 1.250E+00 s</text>"), "{s}");
+    assert!(s.contains(">x (m)</text>") && s.contains(">y (m)</text>"), "{s}");
+    // WINDOW 0 10 0 7 on the whole page: ticks every 2 m along both axes, their values written
+    // (2, 4, 6 on both, 8 along x); those by the corners left out.
+    for (v, n) in [(">2</text>", 2), (">4</text>", 2), (">6</text>", 2), (">8</text>", 1), (">0</text>", 0)] {
+        assert_eq!(s.matches(v).count(), n, "tick value {v} in {s}");
+    }
+    assert_eq!(s.matches(r#"class="axis""#).count(), 7, "{s}");
+    assert!(s.contains(">2.000E+00 m/s</text>") && s.contains(r#"class="scale""#), "{s}");
+    assert!(s.contains(r#"class="velocity""#));
+
+    // At rest to round-off: no arrow, and the plot says so.
+    m.blocks[1].velocity = [1e-13, -3e-14];
+    let [_, svg] = plot(&m, &PlotSettings::default(), &vel, &dir, 2, "stack.dat").unwrap();
+    let s = std::fs::read_to_string(&svg).unwrap();
+    assert!(!s.contains(r#"class="velocity""#) && !s.contains(r#"class="scale""#), "{s}");
+    assert!(s.contains("VELOCITIES AT REST TO ROUND-OFF (LARGEST 1.044E-13 m/s)"), "{s}");
+    // A slow block well above round-off still has its arrow.
+    m.blocks[1].velocity = [1e-3, 0.0];
+    let [_, svg] = plot(&m, &PlotSettings::default(), &vel, &dir, 3, "creep.dat").unwrap();
+    assert!(std::fs::read_to_string(&svg).unwrap().contains(r#"class="velocity""#));
+
+    // The PNG's caption: dark pixels along its line at the view's top left, where the page
+    // without text is white.
+    if blockdem::output::font::font_bytes().is_ok() {
+        let p = load_png(&png);
+        let dark = (6..300).flat_map(|x| (6..24).map(move |y| (x, y))).filter(|&(x, y)| rgba(&p, x, y)[0] < 128).count();
+        assert!(dark > 100, "only {dark} dark pixels where the caption is");
+    }
 }

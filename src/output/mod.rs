@@ -14,6 +14,7 @@
 //! Every writer takes the model read-only; none of them changes state.
 
 pub mod dump;
+pub mod font;
 pub mod format;
 pub mod plot;
 pub mod print;

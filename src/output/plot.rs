@@ -5,8 +5,12 @@
 //! the page with equal scales in x and y, centred in the view, and everything is clipped to the
 //! view, so four VIEW quadrants give four plots on one page as in sample problem 4.
 //!
-//! The drawing is built once as a `Scene` of polylines in pixel coordinates, and the PNG and SVG
-//! writers only render that scene: both files always show the same picture.
+//! The drawing is built once as a `Scene` of polylines and labels in pixel coordinates, and the
+//! PNG and SVG writers only render that scene: both files always show the same picture. Each
+//! plot says what it is: a caption (the deck, the cycle and the time), axes along the view's
+//! bottom and left edges with their values in metres, and with velocities the scale of the
+//! arrows. The PNG's text needs a font (`output::font`); without one the PNG is drawn without
+//! text and the SVG still carries it.
 
 use std::fmt::Write as _;
 use std::fs;
@@ -42,6 +46,15 @@ const CULL_MARGIN_PX: f64 = 2.0;
 const CROSS_PX: f64 = 4.0;
 /// The largest velocity arrow is this fraction of the window width.
 const ARROW_FRACTION: f64 = 0.05;
+/// Text sizes, pixels: the caption, the axes' values and titles, the arrows' scale.
+const CAPTION_PX: f64 = 13.0;
+const LABEL_PX: f64 = 11.0;
+/// Length of an axis tick, pixels.
+const TICK_PX: f64 = 6.0;
+/// About this many ticks along an axis (the step is 1, 2 or 5 times a power of ten).
+const TICKS: f64 = 6.0;
+/// Axes and their text.
+const AXIS_GREY: Rgb = [90, 90, 90];
 
 /// WINDOW and VIEW, the plot state that SAVE keeps with the model.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -224,6 +237,25 @@ enum ShapeKind {
     Block(u32),
     Centroid,
     Velocity,
+    Axis,
+    Scale,
+}
+
+/// Which end of a label its position is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Anchor {
+    Start,
+    Middle,
+    End,
+}
+
+/// A line of text, pixels: `at` is the baseline's start, middle or end (`anchor`).
+struct Label {
+    at: [f64; 2],
+    text: String,
+    size: f64,
+    anchor: Anchor,
+    colour: Rgb,
 }
 
 /// One polyline in pixel coordinates.
@@ -240,10 +272,80 @@ struct Scene {
     /// The VIEW rectangle: left, top, right, bottom.
     clip: [f64; 4],
     shapes: Vec<Shape>,
-    caption: String,
+    /// The caption first, then the axes' and the scale's text.
+    labels: Vec<Label>,
 }
 
-fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) -> io::Result<Scene> {
+/// The tick step for a span of `range`: 1, 2 or 5 times a power of ten, about `TICKS` a span.
+fn tick_step(range: f64) -> f64 {
+    let raw = range / TICKS;
+    let mag = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].into_iter().map(|m| m * mag).find(|&s| s >= raw * (1.0 - 1e-9)).unwrap_or(10.0 * mag)
+}
+
+/// A tick's value as the axis writes it: the step's decimals (0.25 with a step of 0.05), and an
+/// exponent where the values are very large or very small.
+fn tick_text(v: f64, step: f64) -> String {
+    let v = if v.abs() < 1e-9 * step { 0.0 } else { v };
+    if step >= 1e5 || step < 1e-3 {
+        return format!("{v:.1E}");
+    }
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    format!("{v:.decimals$}")
+}
+
+/// The axes along the view's bottom and left edges: ticks inward at round values of the
+/// problem's coordinates, their values, and the axes' names with the unit.
+fn axes(vp: &Viewport, shapes: &mut Vec<Shape>, labels: &mut Vec<Label>) {
+    let [l, t, r, b] = vp.clip;
+    let world_x = |px: f64| (px - vp.origin[0]) / vp.scale;
+    let world_y = |py: f64| (vp.origin[1] - py) / vp.scale;
+    let label = |at, text, anchor| Label { at, text, size: LABEL_PX, anchor, colour: AXIS_GREY };
+    let tick = |points| Shape { kind: ShapeKind::Axis, points, closed: false, fill: None, stroke: AXIS_GREY };
+    // Values near the view's corners are left out (they would run into the other axis or the
+    // caption); so are ticks of a view too small to hold them.
+    let margin = 4.0 * LABEL_PX;
+    if r - l > 3.0 * margin {
+        let (x0, x1) = (world_x(l), world_x(r));
+        let step = tick_step(x1 - x0);
+        let mut k = (x0 / step).ceil();
+        while k * step <= x1 {
+            let px = vp.to_px([k * step, 0.0])[0];
+            if px > l + margin && px < r - margin {
+                shapes.push(tick(vec![[px, b], [px, b - TICK_PX]]));
+                labels.push(label([px, b - TICK_PX - 3.0], tick_text(k * step, step), Anchor::Middle));
+            }
+            k += 1.0;
+        }
+        labels.push(label([r - 6.0, b - TICK_PX - 3.0 - 1.4 * LABEL_PX], "x (m)".into(), Anchor::End));
+    }
+    if b - t > 3.0 * margin {
+        let (y0, y1) = (world_y(b), world_y(t));
+        let step = tick_step(y1 - y0);
+        let mut k = (y0 / step).ceil();
+        while k * step <= y1 {
+            let py = vp.to_px([0.0, k * step])[1];
+            if py > t + margin && py < b - margin {
+                shapes.push(tick(vec![[l, py], [l + TICK_PX, py]]));
+                labels.push(label([l + TICK_PX + 3.0, py + 0.35 * LABEL_PX], tick_text(k * step, step), Anchor::Start));
+            }
+            k += 1.0;
+        }
+        labels.push(label([l + TICK_PX + 3.0, t + 6.0 + CAPTION_PX + 1.4 * LABEL_PX], "y (m)".into(), Anchor::Start));
+    }
+}
+
+/// The speed under which a block is at rest to round-off, m/s: a millionth of the speed of a
+/// fall through the window's width, √(|g| w), plus a block that moves 10⁻¹² of the window a
+/// step. A stack at rest carries velocities of 1e-13 m/s from the round-off of its contact
+/// forces; scaled to the largest of them, they were drawn as full-length arrows.
+fn rest_speed(model: &Model, window_width: f64) -> f64 {
+    let g = norm(model.gravity);
+    let per_step = if model.timestep > 0.0 { 1e-12 * window_width / model.timestep } else { 0.0 };
+    1e-6 * (g * window_width).sqrt() + per_step
+}
+
+fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions, title: &str) -> io::Result<Scene> {
     let vp = Viewport::new(settings)?;
     let shown: Vec<usize> = (0..model.blocks.len()).filter(|&b| !(options.nofix && model.blocks[b].fixed)).collect();
     let mut shapes = Vec::new();
@@ -277,25 +379,47 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions) ->
             shapes.push(Shape { kind: ShapeKind::Centroid, points, closed: false, fill: None, stroke: BLACK });
         }
     }
+    let [l, t, r, b] = vp.clip;
+    let mut labels = vec![Label {
+        at: [l + 6.0, t + 6.0 + CAPTION_PX],
+        text: format!("{title}   CYCLE {}   TIME {} s", model.cycle, fmt_e(model.time)),
+        size: CAPTION_PX,
+        anchor: Anchor::Start,
+        colour: BLACK,
+    }];
+    axes(&vp, &mut shapes, &mut labels);
     if options.velocities {
-        // Arrows scaled so the fastest block's arrow is 5% of the window width.
+        // Arrows scaled so the fastest block's arrow is 5% of the window width; none for a
+        // block at rest to round-off.
+        let width = settings.window[1] - settings.window[0];
+        let rest = rest_speed(model, width);
         let speed = |b: usize| norm(model.blocks[b].velocity);
         let vmax = shown.iter().map(|&b| speed(b)).filter(|v| v.is_finite()).fold(0.0, f64::max);
-        if vmax > 0.0 {
-            let k = ARROW_FRACTION * (settings.window[1] - settings.window[0]) / vmax;
+        let scale_at = [r - 8.0, b - TICK_PX - 3.0 - 3.2 * LABEL_PX];
+        if vmax > rest {
+            let k = ARROW_FRACTION * width / vmax;
             for &b in &shown {
                 let blk = &model.blocks[b];
-                if !(speed(b) > 0.0 && speed(b).is_finite()) {
+                if !(speed(b) > rest && speed(b).is_finite()) {
                     continue;
                 }
                 let tail = vp.to_px(blk.centroid);
                 let head = vp.to_px(add(blk.centroid, scale(blk.velocity, k)));
                 shapes.extend(arrow(tail, head).into_iter().filter(|a| vp.shows(bounding_box(&a.points))));
             }
+            // The scale: the fastest block's arrow, with its speed.
+            let length = ARROW_FRACTION * width * vp.scale;
+            let head = [scale_at[0], scale_at[1] + 0.5 * LABEL_PX];
+            let tail = [head[0] - length, head[1]];
+            shapes.extend(arrow(tail, head).into_iter().map(|a| Shape { kind: ShapeKind::Scale, ..a }));
+            let text = format!("{} m/s", fmt_e(vmax));
+            labels.push(Label { at: [tail[0] - 6.0, head[1] + 0.35 * LABEL_PX], text, size: LABEL_PX, anchor: Anchor::End, colour: ARROW_BLUE });
+        } else {
+            let text = format!("VELOCITIES AT REST TO ROUND-OFF (LARGEST {} m/s)", fmt_e(vmax));
+            labels.push(Label { at: scale_at, text, size: LABEL_PX, anchor: Anchor::End, colour: ARROW_BLUE });
         }
     }
-    let caption = format!("CYCLE {}   TIME {}", model.cycle, fmt_e(model.time));
-    Ok(Scene { clip: vp.clip, shapes, caption })
+    Ok(Scene { clip: vp.clip, shapes, labels })
 }
 
 /// An arrow from `tail` to `head` (pixels): the shaft and a head of two 30° barbs.
@@ -319,11 +443,12 @@ fn arrow(tail: [f64; 2], head: [f64; 2]) -> Vec<Shape> {
 ///
 /// Draws every block's outline (rounded unless `no_rounding`), fixed blocks shaded light grey
 /// (left out entirely with `nofix`), a cross at each centroid, and with `velocities` an arrow at
-/// each centroid. The SVG carries a caption with the cycle number and time; the PNG has no text
-/// (tiny-skia renders no fonts). `zones` is accepted but draws nothing: the model has no zones
-/// yet. An empty WINDOW or VIEW is an `InvalidInput` error.
-pub fn plot(model: &Model, settings: &PlotSettings, options: &PlotOptions, out_dir: &Path, number: usize) -> io::Result<[PathBuf; 2]> {
-    let scene = build_scene(model, settings, options)?;
+/// each centroid moving faster than round-off, with the arrows' scale. Both files carry a
+/// caption (`title`, usually the deck's name, the cycle and the time) and axes in metres (the
+/// PNG's text where a font is found, `output::font`). `zones` is accepted but draws nothing: the
+/// model has no zones yet. An empty WINDOW or VIEW is an `InvalidInput` error.
+pub fn plot(model: &Model, settings: &PlotSettings, options: &PlotOptions, out_dir: &Path, number: usize, title: &str) -> io::Result<[PathBuf; 2]> {
+    let scene = build_scene(model, settings, options, title)?;
     let png = out_dir.join(format!("plot_{number:03}.png"));
     let svg = out_dir.join(format!("plot_{number:03}.svg"));
     let pixmap = render_png(&scene)?;
@@ -362,7 +487,76 @@ fn render_png(scene: &Scene) -> io::Result<Pixmap> {
         paint.anti_alias = true;
         pixmap.stroke_path(&path, &paint, &stroke, Transform::identity(), Some(&mask));
     }
+    if let Ok(bytes) = super::font::font_bytes() {
+        if let Ok(font) = ab_glyph::FontRef::try_from_slice(bytes) {
+            let clip = [l.max(0.0), t.max(0.0), r.min(w as f32), b.min(h as f32)].map(|v| v as f64);
+            for label in &scene.labels {
+                draw_text(&mut pixmap, &font, label, clip);
+            }
+        }
+    }
     Ok(pixmap)
+}
+
+/// The width of `text` at `size` pixels.
+fn text_width(font: &ab_glyph::FontRef, text: &str, size: f64) -> f64 {
+    use ab_glyph::{Font, ScaleFont};
+    let scaled = font.as_scaled(size as f32);
+    let mut width = 0.0f32;
+    let mut prev = None;
+    for ch in text.chars() {
+        let id = scaled.glyph_id(ch);
+        if let Some(p) = prev {
+            width += scaled.kern(p, id);
+        }
+        width += scaled.h_advance(id);
+        prev = Some(id);
+    }
+    width as f64
+}
+
+/// Draws `label` into the pixmap (anti-aliased coverage blended over what is there), clipped to
+/// `clip` (left, top, right, bottom) as the shapes are.
+fn draw_text(pixmap: &mut Pixmap, font: &ab_glyph::FontRef, label: &Label, clip: [f64; 4]) {
+    use ab_glyph::{Font, ScaleFont};
+    let width = text_width(font, &label.text, label.size);
+    let mut x = match label.anchor {
+        Anchor::Start => label.at[0],
+        Anchor::Middle => label.at[0] - 0.5 * width,
+        Anchor::End => label.at[0] - width,
+    } as f32;
+    let scaled = font.as_scaled(label.size as f32);
+    let (w, h) = (pixmap.width() as i64, pixmap.height() as i64);
+    let [cl, ct, cr, cb] = clip;
+    let colour = label.colour.map(f32::from);
+    let pixels = pixmap.pixels_mut();
+    let mut prev = None;
+    for ch in label.text.chars() {
+        let id = scaled.glyph_id(ch);
+        if let Some(p) = prev {
+            x += scaled.kern(p, id);
+        }
+        prev = Some(id);
+        let glyph = id.with_scale_and_position(label.size as f32, ab_glyph::point(x, label.at[1] as f32));
+        x += scaled.h_advance(id);
+        let Some(outline) = font.outline_glyph(glyph) else { continue };
+        let bounds = outline.px_bounds();
+        outline.draw(|gx, gy, coverage| {
+            let (px, py) = (bounds.min.x as i64 + gx as i64, bounds.min.y as i64 + gy as i64);
+            let inside = (px as f64) >= cl && (px as f64) < cr && (py as f64) >= ct && (py as f64) < cb;
+            if !(inside && px >= 0 && py >= 0 && px < w && py < h) {
+                return;
+            }
+            let c = coverage.clamp(0.0, 1.0);
+            let p = &mut pixels[(py * w + px) as usize];
+            // The page is opaque, so its premultiplied colour is its colour.
+            let mix = |old: u8, new: f32| (old as f32 * (1.0 - c) + new * c).round() as u8;
+            let (r, g, b) = (mix(p.red(), colour[0]), mix(p.green(), colour[1]), mix(p.blue(), colour[2]));
+            if let Some(v) = tiny_skia::PremultipliedColorU8::from_rgba(r, g, b, 255) {
+                *p = v;
+            }
+        });
+    }
 }
 
 fn tiny_skia_fill(pixmap: &mut Pixmap, path: &tiny_skia::Path, rgb: Rgb, mask: &Mask) {
@@ -404,12 +598,29 @@ fn render_svg(scene: &Scene, s: &mut impl io::Write) -> io::Result<()> {
             ShapeKind::Block(id) => format!(r#"class="block" data-id="{id}""#),
             ShapeKind::Centroid => r#"class="centroid""#.to_string(),
             ShapeKind::Velocity => r#"class="velocity""#.to_string(),
+            ShapeKind::Axis => r#"class="axis""#.to_string(),
+            ShapeKind::Scale => r#"class="scale""#.to_string(),
         };
         let fill = shape.fill.map_or_else(|| "none".to_string(), hex);
         writeln!(s, r#"<path {class} d="{}" fill="{fill}" stroke="{}"/>"#, d.trim_end(), hex(shape.stroke))?;
     }
-    // The caption sits at the bottom left of the view, inside the clip like everything else.
-    writeln!(s, r#"<text x="{:.2}" y="{:.2}" font-family="monospace" font-size="12" fill="black">{}</text>"#, l + 6.0, b - 6.0, xml_escape(&scene.caption))?;
+    // The caption, the axes' and the scale's text, inside the clip like everything else.
+    for label in &scene.labels {
+        let anchor = match label.anchor {
+            Anchor::Start => "start",
+            Anchor::Middle => "middle",
+            Anchor::End => "end",
+        };
+        writeln!(
+            s,
+            r#"<text x="{:.2}" y="{:.2}" font-family="DejaVu Sans, sans-serif" font-size="{}" text-anchor="{anchor}" fill="{}">{}</text>"#,
+            label.at[0],
+            label.at[1],
+            label.size,
+            hex(label.colour),
+            xml_escape(&label.text)
+        )?;
+    }
     writeln!(s, "</g>")?;
     writeln!(s, "</svg>")
 }

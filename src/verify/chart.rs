@@ -13,36 +13,17 @@ use plotters::prelude::*;
 
 use super::{Row, Suite, CHECK_FRAC};
 
-/// Where DejaVu Sans lives on Debian and other common layouts.
-const FONT_PATHS: &[&str] = &[
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
-];
-
 /// Error ratios below this are drawn on it (log axes cannot show 0).
 const FLOOR: f64 = 1e-4;
 /// Numerical failures are drawn on this line, above every finite point.
 const FAILED_AT: f64 = 1e3;
 
+/// Registers the font of `output::font` with plotters (once).
 pub(crate) fn ensure_font() -> Result<(), String> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
-        let mut candidates: Vec<String> = Vec::new();
-        if let Ok(p) = std::env::var("BLOCKDEM_FONT") {
-            candidates.push(p);
-        }
-        candidates.extend(FONT_PATHS.iter().map(|s| s.to_string()));
-        for p in &candidates {
-            if let Ok(bytes) = std::fs::read(p) {
-                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
-                    return Ok(());
-                }
-            }
-        }
-        Err("no font for the chart text: install fonts-dejavu-core (scripts/setup.sh does) or set BLOCKDEM_FONT to a .ttf file".to_string())
+        let bytes = crate::output::font::font_bytes()?;
+        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).map_err(|_| "the font file could not be read as a font".to_string())
     })
     .clone()
 }
