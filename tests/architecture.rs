@@ -256,11 +256,7 @@ fn roots_at(s: &[char], i: usize) -> Vec<String> {
 fn graph(src: &Path) -> Graph {
     let mut files = Vec::new();
     rust_files(src, &mut files);
-    let nodes: BTreeSet<String> = files
-        .iter()
-        .map(|f| module_path(f.strip_prefix(src).expect("under src")))
-        .filter_map(|p| p.first().cloned())
-        .collect();
+    let nodes: BTreeSet<String> = files.iter().map(|f| module_path(f.strip_prefix(src).expect("under src"))).filter_map(|p| p.first().cloned()).collect();
     let mut g: Graph = nodes.iter().map(|n| (n.clone(), BTreeMap::new())).collect();
     for file in &files {
         let rel = file.strip_prefix(src).expect("under src");

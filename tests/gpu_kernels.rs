@@ -28,7 +28,6 @@ mod common;
 
 use blockdem::contact::geometry::track_feature;
 use blockdem::contact::law::{contact_force_law, BlockMotion};
-use blockdem::model::corners::counts_force;
 use blockdem::gpu::layout::{
     Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
     Material as GMaterial, Params as GParams, Real,
@@ -36,7 +35,8 @@ use blockdem::gpu::layout::{
 use blockdem::gpu::shaders::split_rotation;
 use blockdem::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
-use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
+use blockdem::model::corners::counts_force;
+use blockdem::model::{Contact, ContactKind, ContactMaterial, Damping, Material, Model};
 use blockdem::topology::adjacency::FROM_LISTS;
 use blockdem::topology::detect::ListEdit;
 use common::{Rng, Target};
@@ -283,10 +283,12 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
         let a = rng.range(0.0, 6.3);
         let kn = q::<R>(10f64.powf(rng.range(6.0, 10.0)));
         let mat = Material {
-            kn,
-            ks: q::<R>(kn * rng.range(0.1, 1.0)),
-            cohesion: q::<R>(if rng.next() < 0.3 { rng.range(0.0, 1e5) } else { 0.0 }),
-            friction: q::<R>(rng.range(0.0, 1.0)),
+            contact: ContactMaterial {
+                kn,
+                ks: q::<R>(kn * rng.range(0.1, 1.0)),
+                cohesion: q::<R>(if rng.next() < 0.3 { rng.range(0.0, 1e5) } else { 0.0 }),
+                friction: q::<R>(rng.range(0.0, 1.0)),
+            },
             ..Default::default()
         };
         let gap = q::<R>(rng.range(-2e-3, 5e-4));
@@ -345,7 +347,7 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
             bonded: contact.bonded as u32,
             ..Default::default()
         });
-        gm.push(GMaterial { kn: r(mat.kn), ks: r(mat.ks), cohesion: r(mat.cohesion), friction: r(mat.friction) });
+        gm.push(GMaterial { kn: r(mat.contact.kn), ks: r(mat.contact.ks), cohesion: r(mat.contact.cohesion), friction: r(mat.contact.friction) });
         motion.extend([m1.centroid[0], m1.centroid[1], m1.velocity[0], m1.velocity[1], m1.angular_velocity]);
         motion.extend([m2.centroid[0], m2.centroid[1], m2.velocity[0], m2.velocity[1], m2.angular_velocity]);
         motion.extend([beta, dt, active as u32 as f64]);
@@ -357,7 +359,7 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
         };
         let force = (kn * gap.abs()).max(contact.shear_force.abs()).max(normal_force.abs()).max(1.0);
         let dash = beta * kn * (dashpot_velocity[0].abs() + dashpot_velocity[1].abs() + vrel).powi(2) * dt;
-        let energy = (force * force / mat.ks).max(force * vrel * dt).max(dash);
+        let energy = (force * force / mat.contact.ks).max(force * vrel * dt).max(dash);
         expected.push((out, kn, energy, contact));
     }
     let out = run_kernel(

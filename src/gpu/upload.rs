@@ -88,7 +88,7 @@ impl<R: Real> Engine<R> {
         let corners: Vec<Corner<R>> = model.corners.par_iter().with_min_len(4096).map(|c| Corner::from_model(&model.blocks, c)).collect();
         let mut materials = vec![Material::<R>::default(); MAX_MATERIALS];
         for (g, m) in materials.iter_mut().zip(&model.materials) {
-            *g = Material { kn: r(m.kn), ks: r(m.ks), cohesion: r(m.cohesion), friction: r(m.friction) };
+            *g = Material { kn: r(m.contact.kn), ks: r(m.contact.ks), cohesion: r(m.contact.cohesion), friction: r(m.contact.friction) };
         }
         let rebuild = match &mut self.buffers {
             None => {
