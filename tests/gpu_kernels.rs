@@ -26,6 +26,7 @@
 
 mod common;
 
+use blockdem::contact::gather::AdjacencyEntry;
 use blockdem::contact::geometry::track_feature;
 use blockdem::contact::law::{contact_force_law, BlockMotion};
 use blockdem::gpu::layout::{
@@ -597,7 +598,7 @@ fn force_sum_matches_rust<R: Real>(dev: &GpuDevice) {
         let scale = base
             + entries
                 .iter()
-                .map(|&e| records[(e >> 1) as usize])
+                .map(|&e| records[e.contact() as usize])
                 .map(|r| r.fx.to_f64().abs() + r.fy.to_f64().abs() + r.m[0].to_f64().abs() + r.m[1].to_f64().abs())
                 .sum::<f64>();
         let tol = if f32_kernel { 1e-6 * (entries.len() as f64 + 2.0) } else { 1e-14 } * scale;
@@ -712,8 +713,8 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
             entries
                 .iter()
                 .map(|&e| {
-                    let r = records[(e >> 1) as usize];
-                    [r.fx, r.fy, r.m[(e & 1) as usize]][i].to_f64().abs()
+                    let r = records[e.contact() as usize];
+                    [r.fx, r.fy, r.m[e.side() as usize]][i].to_f64().abs()
                 })
                 .sum::<f64>()
         };
@@ -976,7 +977,7 @@ fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice) {
 fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_0006);
     let n_old = 5000u32;
-    let old: Vec<u32> = (0..2 * n_old).map(|_| rng.below(n_old) << 1 | rng.below(2)).collect();
+    let old: Vec<AdjacencyEntry> = (0..2 * n_old).map(|_| AdjacencyEntry::new(rng.below(n_old), rng.below(2))).collect();
     let (mut dropped, mut insert_before) = (Vec::new(), Vec::new());
     for k in 0..=n_old {
         if rng.next() < 0.05 {
@@ -993,7 +994,7 @@ fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
         let len = 1 + rng.below(40);
         if rng.next() < 0.3 {
             runs.push([new_len, FROM_LISTS | lists.len() as u32]);
-            lists.extend((0..len).map(|_| rng.below(1 << 30)));
+            lists.extend((0..len).map(|_| AdjacencyEntry::from_raw(rng.below(1 << 30))));
         } else {
             let len = len.min(2 * n_old - at);
             runs.push([new_len, at]);
@@ -1020,7 +1021,7 @@ fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
         ],
     );
     assert!(renumber.len() > 300 && runs.len() > 200 && !lists.is_empty(), "the case renumbers and splices");
-    assert_eq!(bytemuck::cast_slice::<u32, u8>(&want), &out[0][..], "entries");
+    assert_eq!(bytemuck::cast_slice::<AdjacencyEntry, u8>(&want), &out[0][..], "entries");
     // Offsets after touched lists that grew and shrank; the blocks after the offsets stay.
     let n_blocks = 4000u32;
     let mut offsets: Vec<u32> = (0..=n_blocks).map(|b| 1_000_000 + 10 * b).chain([7, 8, 9]).collect();

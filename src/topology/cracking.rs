@@ -70,11 +70,11 @@ pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> 
         .entries(b)
         .iter()
         .filter_map(|&e| {
-            let c = &model.contacts[(e >> 1) as usize];
+            let c = &model.contacts[e.contact() as usize];
             if c.normal_force <= 0.0 {
                 return None;
             }
-            let sign = if e & 1 == 0 { 1.0 } else { -1.0 };
+            let sign = if e.side() == 0 { 1.0 } else { -1.0 };
             let f = [sign * c.normal_force * c.normal[0], sign * c.normal_force * c.normal[1]];
             Some((c.point, f, c.normal_force))
         })
