@@ -197,8 +197,7 @@ impl Adjacency {
         }
         let list_of = |t: u32| -> Vec<AdjacencyEntry> {
             let old = self.entries(t as usize);
-            let mut list: Vec<AdjacencyEntry> =
-                old.iter().filter(|&&e| removed_at.binary_search(&e.contact()).is_err()).map(|&e| renumber_entry(e)).collect();
+            let mut list: Vec<AdjacencyEntry> = old.iter().filter(|&&e| removed_at.binary_search(&e.contact()).is_err()).map(|&e| renumber_entry(e)).collect();
             let lo = gained.partition_point(|g| g.0 < t);
             list.extend(gained[lo..].iter().take_while(|g| g.0 == t).map(|g| g.1));
             list.sort_unstable();
