@@ -21,12 +21,12 @@
 // before the law of motion, which then reads their stored sums; a fixed base under a long wall is
 // summed only in the pass before a read-back.
 
-// Force and moment on a block from one adjacency entry (contact·2 + side). Block 1 (side 0)
+// Force and moment on a block from one adjacency entry (`entry_contact`, `entry_side`). Block 1 (side 0)
 // receives the contact force, block 2 its reaction (report ¶19); the side picks the moment, so
 // an entry loads three fields (a software adapter loads each field of each lane on its own).
 fn entry_force(entry: u32) -> vec3<real> {
-    let k = entry >> 1u;
-    let side = entry & 1u;
+    let k = entry_contact(entry);
+    let side = entry_side(entry);
     let sign = select(real(1.0), real(-1.0), side == 1u);
     return vec3<real>(sign * contact_forces_out[k].fx, sign * contact_forces_out[k].fy, contact_forces_out[k].m[side]);
 }

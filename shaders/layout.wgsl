@@ -109,3 +109,18 @@ fn workgroup_index(wg: vec3<u32>) -> u32 {
 fn item_index(wg: vec3<u32>, li: u32) -> u32 {
     return workgroup_index(wg) * WORKGROUP_SIZE + li;
 }
+
+// An adjacency entry (twin of `contact::gather::AdjacencyEntry`): contact index · 2 + side, side 0
+// when the block is the contact's block 1 (it receives the contact force), 1 when it is block 2
+// (the reaction, report ¶19).
+fn make_entry(contact: u32, side: u32) -> u32 {
+    return (contact << 1u) | side;
+}
+
+fn entry_contact(entry: u32) -> u32 {
+    return entry >> 1u;
+}
+
+fn entry_side(entry: u32) -> u32 {
+    return entry & 1u;
+}

@@ -65,7 +65,7 @@ fn splice_adjacency(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         return;
     }
     let e = old_entries[at];
-    new_entries[p] = (renumbered(e >> 1u) << 1u) | (e & 1u);
+    new_entries[p] = make_entry(renumbered(entry_contact(e)), entry_side(e));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

@@ -167,7 +167,7 @@ impl EnergyCheck {
         let e0 = model.energies();
         // Contacts that start overlapping (blocks built into each other, the stage not yet run)
         // hold strain energy the first force computation will release: it is energy put in.
-        let overlap_strain: f64 = model.contacts.iter().map(|c| 0.5 * model.material(c.material).kn * c.gap.min(0.0).powi(2)).sum();
+        let overlap_strain: f64 = model.contacts.iter().map(|c| 0.5 * model.material(c.material).contact.kn * c.gap.min(0.0).powi(2)).sum();
         let baseline = e0.kinetic + e0.strain.max(overlap_strain) - e0.external_work;
         // Energy scale for the floor of the growth test: potential energy of each block's weight
         // and load over its own size.
@@ -176,7 +176,7 @@ impl EnergyCheck {
         // energy of touching blocks (1e-21 J) failed the check; so each block also counts the
         // strain energy of its contacts at an overlap of 1e-3 of its size, a floor of 1e-6 of
         // that (an overlap of ~1e-6 of the size at the stiffest contact).
-        let kn = model.materials.iter().map(|m| m.kn).fold(0.0, f64::max);
+        let kn = model.materials.iter().map(|m| m.contact.kn).fold(0.0, f64::max);
         let scale = model.blocks.iter().map(|b| (b.mass * g + b.load[0].hypot(b.load[1])) * b.radius + kn * (1e-3 * b.radius).powi(2)).sum::<f64>()
             + (e0.kinetic + e0.strain).abs();
         EnergyCheck { baseline, scale, peak: f64::NEG_INFINITY }

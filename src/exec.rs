@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use crate::backend::{Backend, CycleError};
 use crate::deck::{Command, DampMode, DeckError, Located, PrintItem, Range};
+use crate::model::constitutive::{Constitutive, CrackingLaw};
 use crate::model::limits::{Limits, LIMITS_CPU_F64};
 use crate::model::split::split_line;
 use crate::model::Model;
@@ -18,7 +19,7 @@ use crate::output;
 use crate::output::plot::PlotSettings;
 
 /// The largest constitutive number (see `Executor::check_constitutive`).
-pub const MAX_CONSTITUTIVE: u32 = 5;
+pub const MAX_CONSTITUTIVE: u32 = Constitutive::MAX;
 
 /// The file a SAVE or RESTART without a name uses, in the output folder.
 pub const DEFAULT_SAVE_FILE: &str = "blockdem.sav";
@@ -223,7 +224,7 @@ impl<'a> Executor<'a> {
     /// number would run as one of these without saying so.
     fn check_constitutive(&self, cmd: &Located, what: &str, constitutive: Option<u32>) -> Result<(), RunError> {
         match constitutive {
-            Some(c) if !(1..=MAX_CONSTITUTIVE).contains(&c) => Err(self.command_error(
+            Some(c) if Constitutive::from_number(c).is_none() => Err(self.command_error(
                 cmd,
                 format!(
                     "{what}: constitutive number must be 1 to {MAX_CONSTITUTIVE} (SL-85-1 Table A1: 1 point-load cracking and point \
@@ -240,7 +241,7 @@ impl<'a> Executor<'a> {
     fn mass_overflow(&self, cmd: &Located, what: &str, mut blocks: impl Iterator<Item = usize>) -> Option<RunError> {
         let b = blocks.find(|&b| !(self.model.blocks[b].mass.is_finite() && self.model.blocks[b].inertia.is_finite()))?;
         let blk = &self.model.blocks[b];
-        let density = self.model.material(blk.material).density;
+        let density = self.model.material(blk.material).block.density;
         Some(self.command_error(
             cmd,
             format!(
@@ -492,22 +493,22 @@ impl<'a> Executor<'a> {
                 let m = &mut self.model.materials[*material as usize - 1];
                 for &(key, v) in values {
                     match key {
-                        Bulk => m.bulk = v,
-                        Shear => m.shear = v,
-                        Density => m.density = v,
-                        Kn => m.kn = v,
-                        Ks => m.ks = v,
-                        Cohesion => m.cohesion = v,
-                        Friction => m.friction = v,
-                        Jkn => m.jkn = v,
-                        Jks => m.jks = v,
-                        Jcohesion => m.jcohesion = v,
-                        Jfriction => m.jfriction = v,
-                        Tf => m.tf = v,
-                        Jperm => m.jperm = v,
-                        Cperm => m.cperm = v,
-                        Azero => m.azero = v,
-                        Ares => m.ares = v,
+                        Bulk => m.block.bulk = v,
+                        Shear => m.block.shear = v,
+                        Density => m.block.density = v,
+                        Kn => m.contact.kn = v,
+                        Ks => m.contact.ks = v,
+                        Cohesion => m.contact.cohesion = v,
+                        Friction => m.contact.friction = v,
+                        Jkn => m.joint.kn = v,
+                        Jks => m.joint.ks = v,
+                        Jcohesion => m.joint.cohesion = v,
+                        Jfriction => m.joint.friction = v,
+                        Tf => m.block.tf = v,
+                        Jperm => m.fluid.jperm = v,
+                        Cperm => m.fluid.cperm = v,
+                        Azero => m.fluid.azero = v,
+                        Ares => m.fluid.ares = v,
                     }
                 }
                 self.model.recompute_mass_properties();
@@ -604,14 +605,14 @@ impl<'a> Executor<'a> {
                     format!("CYCLE: block {} has no mass: material {} has no density (PROPERTY MAT={} DENSITY=…)", b.id, b.material, b.material),
                 ));
             }
-            if !(mat.kn > 0.0 && mat.ks > 0.0) {
+            if !(mat.contact.kn > 0.0 && mat.contact.ks > 0.0) {
                 return Err(self.command_error(cmd, format!("CYCLE: material {} of block {} needs contact stiffnesses KN and KS", b.material, b.id)));
             }
         }
         for c in &self.model.corners {
             if c.edge_material != 0 {
                 let mat = self.model.material(c.edge_material);
-                if !(mat.kn > 0.0 && mat.ks > 0.0) {
+                if !(mat.contact.kn > 0.0 && mat.contact.ks > 0.0) {
                     return Err(
                         self.command_error(cmd, format!("CYCLE: joint material {} (from SPLIT MAT=) needs contact stiffnesses KN and KS", c.edge_material))
                     );
@@ -621,14 +622,16 @@ impl<'a> Executor<'a> {
         // Griffith cracking (constitutive numbers 3 and 4, SL-85-1 Table A1, and 5) acts on the internal
         // stresses of simply-deformable blocks, which come later: a block that asks for it (a
         // tensile strength factor set) must not run as if it could not crack.
-        if let Some(b) = self.model.blocks.iter().find(|b| matches!(b.constitutive, 3..=5) && self.model.material(b.material).tf > 0.0) {
+        if let Some(b) = self.model.blocks.iter().find(|b| {
+            Constitutive::from_number(b.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith) && self.model.material(b.material).block.tf > 0.0
+        }) {
             let what = format!(
                 "Griffith cracking (block {} has constitutive number {} and material {} has TF = {}; the Griffith criterion \
                  needs the stresses of simply-deformable blocks; constitutive numbers 1 and 2 crack by the point-load criterion)",
                 b.id,
                 b.constitutive,
                 b.material,
-                output::format::fmt_short(self.model.material(b.material).tf)
+                output::format::fmt_short(self.model.material(b.material).block.tf)
             );
             return Err(self.unsupported(cmd, &what));
         }

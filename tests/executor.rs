@@ -88,13 +88,30 @@ fn damping_constants_that_are_not_numbers_are_refused_at_their_line() {
 fn property_sets_every_keyword_of_the_table() {
     let (m, _) = run_ok("START\nPROP MAT=2 BULK=1 G=2 DENS=3 KN=4 KS=5 COH=6 FRIC=7 JKN=8 JKS=9 JCOH=10 JFRIC=11 TF=12 JPERM=13 CPERM=14 AZERO=15 ARES=16\n");
     let p = &m.materials[1];
-    let got = [p.bulk, p.shear, p.density, p.kn, p.ks, p.cohesion, p.friction, p.jkn, p.jks, p.jcohesion, p.jfriction, p.tf, p.jperm, p.cperm, p.azero, p.ares];
+    let got = [
+        p.block.bulk,
+        p.block.shear,
+        p.block.density,
+        p.contact.kn,
+        p.contact.ks,
+        p.contact.cohesion,
+        p.contact.friction,
+        p.joint.kn,
+        p.joint.ks,
+        p.joint.cohesion,
+        p.joint.friction,
+        p.block.tf,
+        p.fluid.jperm,
+        p.fluid.cperm,
+        p.fluid.azero,
+        p.fluid.ares,
+    ];
     let want: Vec<f64> = (1..=16).map(f64::from).collect();
     assert_eq!(got.to_vec(), want);
-    assert_eq!(m.materials[0].density, 0.0, "material 1 untouched");
+    assert_eq!(m.materials[0].block.density, 0.0, "material 1 untouched");
     // K is BULK; a later PROPERTY changes one key and keeps the others.
     let (m, _) = run_ok("START\nPROP MAT=1 K=7 D=100\nPROP MAT=1 D=200\n");
-    assert_eq!((m.materials[0].bulk, m.materials[0].density), (7.0, 200.0));
+    assert_eq!((m.materials[0].block.bulk, m.materials[0].block.density), (7.0, 200.0));
     // Materials are numbered 1..=MAX_MATERIALS.
     let (r, _) = run_logged("START\nPROP MAT=99 D=1\n");
     let e = r.unwrap_err().to_string();

@@ -34,7 +34,7 @@ fn bbox(m: &Model, b: usize) -> [f64; 4] {
 /// Block from a single rectangle with material density 1 so mass = area.
 fn model_with(outline: &[[f64; 2]]) -> Model {
     let mut m = Model::default();
-    m.materials[0].density = 1.0;
+    m.materials[0].block.density = 1.0;
     m.add_block(outline, 1, 1, None).unwrap();
     valid(&m);
     m
@@ -141,7 +141,7 @@ fn small_helpers() {
 #[test]
 fn clockwise_deck_outline_is_stored_counter_clockwise_with_tags() {
     let mut m = Model::default();
-    m.materials[0].density = 2000.0;
+    m.materials[0].block.density = 2000.0;
     // The deck's clockwise order, tag i on the edge from corner i to corner i + 1 as given.
     let given = [[0.0, 0.0], [0.0, 30.0], [40.0, 30.0], [40.0, 0.0]];
     let tags = [(1, 11), (2, 12), (3, 13), (4, 14)];
@@ -311,7 +311,7 @@ fn mass_properties_follow_density_changes() {
     let mut m = Model::default();
     m.add_block(&rect(0.0, 0.0, 2.0, 1.0), 3, 1, None).unwrap();
     assert_eq!(m.blocks[0].mass, 0.0);
-    m.materials[2].density = 10.0;
+    m.materials[2].block.density = 10.0;
     m.recompute_mass_properties();
     assert_relative_eq!(m.blocks[0].mass, 20.0);
     assert_relative_eq!(m.blocks[0].inertia, 10.0 * 2.0 * 5.0 / 12.0, max_relative = 1e-12);
@@ -591,7 +591,7 @@ proptest! {
         d in prop_oneof![Just(0.0), 0.01..1.0f64],
     ) {
         let mut m = Model::default();
-        m.materials[0].density = 1.0;
+        m.materials[0].block.density = 1.0;
         m.add_block(&poly, 1, 1, None).unwrap();
         m.set_round(d);
         let c = m.blocks[0].centroid;
@@ -644,7 +644,7 @@ proptest! {
         d in prop_oneof![Just(0.0), 0.01..0.5f64],
     ) {
         let mut m = Model::default();
-        m.materials[0].density = 1.0;
+        m.materials[0].block.density = 1.0;
         m.set_round(d);
         m.add_block(&poly, 1, 1, None).unwrap();
         let c = m.blocks[0].centroid;

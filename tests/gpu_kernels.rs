@@ -26,6 +26,7 @@
 
 mod common;
 
+use blockdem::contact::gather::AdjacencyEntry;
 use blockdem::contact::geometry::track_feature;
 use blockdem::contact::law::{contact_force_law, BlockMotion};
 use blockdem::gpu::layout::{
@@ -36,7 +37,7 @@ use blockdem::gpu::shaders::split_rotation;
 use blockdem::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
 use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::model::corners::counts_force;
-use blockdem::model::{Contact, ContactKind, Damping, Material, Model};
+use blockdem::model::{Contact, ContactKind, ContactMaterial, Damping, Material, Model};
 use blockdem::topology::adjacency::FROM_LISTS;
 use blockdem::topology::detect::ListEdit;
 use common::{Rng, Target};
@@ -283,10 +284,12 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
         let a = rng.range(0.0, 6.3);
         let kn = q::<R>(10f64.powf(rng.range(6.0, 10.0)));
         let mat = Material {
-            kn,
-            ks: q::<R>(kn * rng.range(0.1, 1.0)),
-            cohesion: q::<R>(if rng.next() < 0.3 { rng.range(0.0, 1e5) } else { 0.0 }),
-            friction: q::<R>(rng.range(0.0, 1.0)),
+            contact: ContactMaterial {
+                kn,
+                ks: q::<R>(kn * rng.range(0.1, 1.0)),
+                cohesion: q::<R>(if rng.next() < 0.3 { rng.range(0.0, 1e5) } else { 0.0 }),
+                friction: q::<R>(rng.range(0.0, 1.0)),
+            },
             ..Default::default()
         };
         let gap = q::<R>(rng.range(-2e-3, 5e-4));
@@ -345,7 +348,7 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
             bonded: contact.bonded as u32,
             ..Default::default()
         });
-        gm.push(GMaterial { kn: r(mat.kn), ks: r(mat.ks), cohesion: r(mat.cohesion), friction: r(mat.friction) });
+        gm.push(GMaterial { kn: r(mat.contact.kn), ks: r(mat.contact.ks), cohesion: r(mat.contact.cohesion), friction: r(mat.contact.friction) });
         motion.extend([m1.centroid[0], m1.centroid[1], m1.velocity[0], m1.velocity[1], m1.angular_velocity]);
         motion.extend([m2.centroid[0], m2.centroid[1], m2.velocity[0], m2.velocity[1], m2.angular_velocity]);
         motion.extend([beta, dt, active as u32 as f64]);
@@ -357,7 +360,7 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
         };
         let force = (kn * gap.abs()).max(contact.shear_force.abs()).max(normal_force.abs()).max(1.0);
         let dash = beta * kn * (dashpot_velocity[0].abs() + dashpot_velocity[1].abs() + vrel).powi(2) * dt;
-        let energy = (force * force / mat.ks).max(force * vrel * dt).max(dash);
+        let energy = (force * force / mat.contact.ks).max(force * vrel * dt).max(dash);
         expected.push((out, kn, energy, contact));
     }
     let out = run_kernel(
@@ -595,7 +598,7 @@ fn force_sum_matches_rust<R: Real>(dev: &GpuDevice) {
         let scale = base
             + entries
                 .iter()
-                .map(|&e| records[(e >> 1) as usize])
+                .map(|&e| records[e.contact() as usize])
                 .map(|r| r.fx.to_f64().abs() + r.fy.to_f64().abs() + r.m[0].to_f64().abs() + r.m[1].to_f64().abs())
                 .sum::<f64>();
         let tol = if f32_kernel { 1e-6 * (entries.len() as f64 + 2.0) } else { 1e-14 } * scale;
@@ -710,8 +713,8 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
             entries
                 .iter()
                 .map(|&e| {
-                    let r = records[(e >> 1) as usize];
-                    [r.fx, r.fy, r.m[(e & 1) as usize]][i].to_f64().abs()
+                    let r = records[e.contact() as usize];
+                    [r.fx, r.fy, r.m[e.side() as usize]][i].to_f64().abs()
                 })
                 .sum::<f64>()
         };
@@ -974,7 +977,7 @@ fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice) {
 fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_0006);
     let n_old = 5000u32;
-    let old: Vec<u32> = (0..2 * n_old).map(|_| rng.below(n_old) << 1 | rng.below(2)).collect();
+    let old: Vec<AdjacencyEntry> = (0..2 * n_old).map(|_| AdjacencyEntry::new(rng.below(n_old), rng.below(2))).collect();
     let (mut dropped, mut insert_before) = (Vec::new(), Vec::new());
     for k in 0..=n_old {
         if rng.next() < 0.05 {
@@ -991,7 +994,7 @@ fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
         let len = 1 + rng.below(40);
         if rng.next() < 0.3 {
             runs.push([new_len, FROM_LISTS | lists.len() as u32]);
-            lists.extend((0..len).map(|_| rng.below(1 << 30)));
+            lists.extend((0..len).map(|_| AdjacencyEntry::from_raw(rng.below(1 << 30))));
         } else {
             let len = len.min(2 * n_old - at);
             runs.push([new_len, at]);
@@ -1018,7 +1021,7 @@ fn splice_adjacency_matches_rust<R: Real>(dev: &GpuDevice) {
         ],
     );
     assert!(renumber.len() > 300 && runs.len() > 200 && !lists.is_empty(), "the case renumbers and splices");
-    assert_eq!(bytemuck::cast_slice::<u32, u8>(&want), &out[0][..], "entries");
+    assert_eq!(bytemuck::cast_slice::<AdjacencyEntry, u8>(&want), &out[0][..], "entries");
     // Offsets after touched lists that grew and shrank; the blocks after the offsets stay.
     let n_blocks = 4000u32;
     let mut offsets: Vec<u32> = (0..=n_blocks).map(|b| 1_000_000 + 10 * b).chain([7, 8, 9]).collect();

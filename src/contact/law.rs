@@ -68,7 +68,7 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     // booking it so makes the ledger exact for the dashpots.
     let [pvn, pvs] = contact.dashpot_velocity;
     if pvn != 0.0 || pvs != 0.0 {
-        contact.dashpot_work += damping.beta * (mat.kn * pvn * 0.5 * (pvn + vn) + mat.ks * pvs * 0.5 * (pvs + vs)) * dt;
+        contact.dashpot_work += damping.beta * (mat.contact.kn * pvn * 0.5 * (pvn + vn) + mat.contact.ks * pvs * 0.5 * (pvs + vs)) * dt;
         contact.dashpot_velocity = [0.0, 0.0];
     }
     if !active {
@@ -76,21 +76,21 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
         // shear spring is this view's own (eq. 17 is incremental): if it held a force from when
         // this view was the counted one, it lets go as on opening (its energy to the slip
         // work), or it would stay in the ledger's strain energy and in a PRINT of the contact.
-        contact.slip_work += slip_dissipation(contact.shear_force, 0.0, vs * dt, mat.ks);
+        contact.slip_work += slip_dissipation(contact.shear_force, 0.0, vs * dt, mat.contact.ks);
         contact.normal_force = 0.0;
         contact.shear_force = 0.0;
         contact.force = [0.0, 0.0];
         return;
     }
-    let mut fn_ = -mat.kn * contact.gap;
-    let cohesion = if contact.bonded { mat.cohesion } else { 0.0 };
+    let mut fn_ = -mat.contact.kn * contact.gap;
+    let cohesion = if contact.bonded { mat.contact.cohesion } else { 0.0 };
     let fs_old = contact.shear_force;
     if opens(fn_, contact.bonded, cohesion) {
         // Open: no tension beyond the cohesion; an intact contact that breaks loses it for good.
         // The shear spring's energy and any bond tension go to the slip work.
-        contact.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, mat.ks);
-        if contact.normal_force < 0.0 && mat.kn > 0.0 {
-            contact.slip_work += contact.normal_force * contact.normal_force / (2.0 * mat.kn);
+        contact.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, mat.contact.ks);
+        if contact.normal_force < 0.0 && mat.contact.kn > 0.0 {
+            contact.slip_work += contact.normal_force * contact.normal_force / (2.0 * mat.contact.kn);
         }
         contact.bonded = false;
         contact.normal_force = 0.0;
@@ -98,12 +98,12 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
         contact.force = [0.0, 0.0];
         return;
     }
-    let mut fs = fs_old - mat.ks * vs * dt; // eqs. (17), (19)
-    let limit = cohesion + mat.friction * fn_.max(0.0);
+    let mut fs = fs_old - mat.contact.ks * vs * dt; // eqs. (17), (19)
+    let limit = cohesion + mat.contact.friction * fn_.max(0.0);
     if fs.abs() > limit {
         fs = fs.signum() * limit; // eq. (20)
-        contact.slip_work += slip_dissipation(fs_old, fs, vs * dt, mat.ks);
-        if contact.bonded && mat.cohesion > 0.0 {
+        contact.slip_work += slip_dissipation(fs_old, fs, vs * dt, mat.contact.ks);
+        if contact.bonded && mat.contact.cohesion > 0.0 {
             contact.bonded = false;
         }
     }
@@ -111,8 +111,8 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     contact.shear_force = fs;
     let (mut dn, mut ds) = (0.0, 0.0);
     if damping.beta > 0.0 && fn_ > 0.0 {
-        dn = -damping.beta * mat.kn * vn;
-        ds = -damping.beta * mat.ks * vs;
+        dn = -damping.beta * mat.contact.kn * vn;
+        ds = -damping.beta * mat.contact.ks * vs;
         contact.dashpot_velocity = [vn, vs];
     }
     fn_ += dn;
@@ -136,18 +136,19 @@ pub fn slip_dissipation(fs_old: f64, fs_new: f64, dus: f64, ks: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::ContactMaterial;
 
     /// A view of a corner–corner touch that stops being the counted one lets its shear spring go:
     /// no force, no shear force left to print or to count as strain energy, its spring's energy
     /// booked as slip work (the ledger stays balanced); a view that never carried one is unchanged.
     #[test]
     fn an_uncounted_view_keeps_no_shear_force() {
-        let mat = Material { kn: 1e9, ks: 5e8, friction: 0.6, ..Default::default() };
+        let mat = Material { contact: ContactMaterial { kn: 1e9, ks: 5e8, friction: 0.6, ..Default::default() }, ..Default::default() };
         let still = BlockMotion { centroid: [0.0, 0.0], velocity: [0.0, 0.0], angular_velocity: 0.0 };
         let mut c = Contact { normal: [0.0, 1.0], gap: -1e-4, normal_force: 1e5, shear_force: 2e4, force: [-2e4, 1e5], ..Contact::unloaded(0, 0, 1) };
         contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
         assert_eq!((c.normal_force, c.shear_force, c.force), (0.0, 0.0, [0.0, 0.0]));
-        assert!((c.slip_work - 2e4f64.powi(2) / (2.0 * mat.ks)).abs() < 1e-9, "the spring's energy, {}", c.slip_work);
+        assert!((c.slip_work - 2e4f64.powi(2) / (2.0 * mat.contact.ks)).abs() < 1e-9, "the spring's energy, {}", c.slip_work);
         let before = c;
         contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
         assert_eq!(c, before, "nothing more to let go");

@@ -72,16 +72,16 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
     }
     for m in (1..used.len()).filter(|&m| used[m]) {
         let mat = model.material(m as u32);
-        let bad = [("KN", mat.kn), ("KS", mat.ks)]
+        let bad = [("KN", mat.contact.kn), ("KS", mat.contact.ks)]
             .into_iter()
             .find(|&(_, x)| !normal(x))
-            .or_else(|| [("cohesion", mat.cohesion), ("friction", mat.friction)].into_iter().find(|&(_, x)| !bounded(x)));
+            .or_else(|| [("cohesion", mat.contact.cohesion), ("friction", mat.contact.friction)].into_iter().find(|&(_, x)| !bounded(x)));
         if let Some((name, x)) = bad {
             return refuse(format!("material {m}'s {name}"), x);
         }
         // The contact dashpots' coefficients, β·k (stiffness-proportional Rayleigh damping).
         let beta = model.damping.beta;
-        if let Some((name, x)) = [("β·KN", beta * mat.kn), ("β·KS", beta * mat.ks)].into_iter().find(|&(_, x)| !bounded(x)) {
+        if let Some((name, x)) = [("β·KN", beta * mat.contact.kn), ("β·KS", beta * mat.contact.ks)].into_iter().find(|&(_, x)| !bounded(x)) {
             return refuse(format!("material {m}'s stiffness damping {name} (DAMPING)"), x);
         }
     }

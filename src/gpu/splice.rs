@@ -19,6 +19,7 @@
 //! knows the list is in order beforehand, and so that the update will record its edit.
 
 use super::layout::{Contact, ContactForce, ContactSummary, Real};
+use crate::contact::gather::AdjacencyEntry;
 use crate::topology::adjacency::{EntriesEdit, FROM_LISTS};
 use crate::topology::detect::ListEdit;
 
@@ -89,7 +90,7 @@ pub fn touched_shifts(edit: &EntriesEdit, n_offsets: usize) -> Vec<[u32; 2]> {
 /// Rust twin of `splice_adjacency` (splice_adjacency.wgsl): the new adjacency entries from the
 /// old ones, the edit's runs (`EntriesEdit::runs`), the touched blocks' new lists and the
 /// contacts' renumbering (`renumber_table`).
-pub fn splice_adjacency(old: &[u32], runs: &[[u32; 2]], lists: &[u32], renumber: &[[u32; 2]]) -> Vec<u32> {
+pub fn splice_adjacency(old: &[AdjacencyEntry], runs: &[[u32; 2]], lists: &[AdjacencyEntry], renumber: &[[u32; 2]]) -> Vec<AdjacencyEntry> {
     let n = runs.last().map_or(0, |r| r[0]);
     (0..n)
         .map(|p| {
@@ -98,9 +99,9 @@ pub fn splice_adjacency(old: &[u32], runs: &[[u32; 2]], lists: &[u32], renumber:
                 return lists[at];
             }
             let e = old[at];
-            let k = e >> 1;
+            let k = e.contact();
             let shift = renumber[renumber.partition_point(|x| x[0] <= k) - 1][1] as i32;
-            ((k as i32 + shift) as u32) << 1 | (e & 1)
+            e.with_contact((k as i32 + shift) as u32)
         })
         .collect()
 }

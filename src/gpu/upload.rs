@@ -3,6 +3,7 @@
 //! list spliced on the device (`splice_contacts.wgsl`), the adjacency lists' edit, the reset
 //! update distances of the blocks it re-examined, and the run constants.
 
+use crate::contact::gather::AdjacencyEntry;
 use crate::model::{Model, MAX_MATERIALS};
 use crate::topology::detect::ListEdit;
 use crate::topology::Adjacency;
@@ -88,7 +89,7 @@ impl<R: Real> Engine<R> {
         let corners: Vec<Corner<R>> = model.corners.par_iter().with_min_len(4096).map(|c| Corner::from_model(&model.blocks, c)).collect();
         let mut materials = vec![Material::<R>::default(); MAX_MATERIALS];
         for (g, m) in materials.iter_mut().zip(&model.materials) {
-            *g = Material { kn: r(m.kn), ks: r(m.ks), cohesion: r(m.cohesion), friction: r(m.friction) };
+            *g = Material { kn: r(m.contact.kn), ks: r(m.contact.ks), cohesion: r(m.contact.cohesion), friction: r(m.contact.friction) };
         }
         let rebuild = match &mut self.buffers {
             None => {
@@ -330,7 +331,8 @@ impl<R: Real> Engine<R> {
             dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage: wgpu::BufferUsages::STORAGE })
         };
         // (A binding holds at least one item.)
-        let lists: &[u32] = if entries.lists.is_empty() { &[0] } else { &entries.lists };
+        let one = [AdjacencyEntry::default()];
+        let lists: &[AdjacencyEntry] = if entries.lists.is_empty() { &one } else { &entries.lists };
         let touched = splice::touched_shifts(entries, n_blocks + 1);
         let runs_buffer = init("adjacency runs", bytemuck::cast_slice(&entries.runs));
         let lists_buffer = init("adjacency lists", bytemuck::cast_slice(lists));

@@ -109,7 +109,7 @@ impl Model {
         let c = props.centroid;
         let local: Vec<[f64; 2]> = pts_ccw.iter().map(|p| geometry::sub(*p, c)).collect();
         let rounds = corner_rounding(&local, self.tol.round);
-        let density = self.material(seed.material).density;
+        let density = self.material(seed.material).block.density;
         let b = self.blocks.len();
         let corner_start = self.corners.len() as u32;
         self.corners.extend(local.iter().zip(&rounds).zip(tags).map(|((l, r), t)| Corner {
@@ -160,7 +160,7 @@ impl Model {
         for b in 0..self.blocks.len() {
             let local: Vec<[f64; 2]> = self.block_corners(b).iter().map(|c| c.local).collect();
             let props = polygon_properties(&local);
-            let density = self.material(self.blocks[b].material).density;
+            let density = self.material(self.blocks[b].material).block.density;
             let blk = &mut self.blocks[b];
             blk.area = props.area;
             blk.mass = density * props.area;
@@ -379,22 +379,22 @@ impl Model {
         }
         for (m, mat) in self.materials.iter().enumerate() {
             let values = [
-                mat.density,
-                mat.bulk,
-                mat.shear,
-                mat.kn,
-                mat.ks,
-                mat.cohesion,
-                mat.friction,
-                mat.jkn,
-                mat.jks,
-                mat.jcohesion,
-                mat.jfriction,
-                mat.tf,
-                mat.jperm,
-                mat.cperm,
-                mat.azero,
-                mat.ares,
+                mat.block.density,
+                mat.block.bulk,
+                mat.block.shear,
+                mat.contact.kn,
+                mat.contact.ks,
+                mat.contact.cohesion,
+                mat.contact.friction,
+                mat.joint.kn,
+                mat.joint.ks,
+                mat.joint.cohesion,
+                mat.joint.friction,
+                mat.block.tf,
+                mat.fluid.jperm,
+                mat.fluid.cperm,
+                mat.fluid.azero,
+                mat.fluid.ares,
             ];
             if !finite(&values) {
                 return Err(format!("material {} has a non-finite property", m + 1));

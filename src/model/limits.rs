@@ -83,13 +83,13 @@ pub fn warnings(model: &Model, limits: &Limits) -> Vec<String> {
     seen.dedup();
     for m in seen {
         let mat = model.material(m);
-        if mat.kn > 0.0 && mat.ks > 0.0 {
-            let r = (mat.kn / mat.ks).max(mat.ks / mat.kn);
+        if mat.contact.kn > 0.0 && mat.contact.ks > 0.0 {
+            let r = (mat.contact.kn / mat.contact.ks).max(mat.contact.ks / mat.contact.kn);
             if r > limits.stiffness_ratio {
                 w.push(format!(
                     "WARNING: material {m} has KN/KS = {:.1e} (a ratio beyond the {:.0e} verified); the softer direction responds \
                      slowly and may not reach its closed form in the cycles given",
-                    mat.kn / mat.ks,
+                    mat.contact.kn / mat.contact.ks,
                     limits.stiffness_ratio
                 ));
             }

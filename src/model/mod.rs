@@ -11,6 +11,7 @@
 //! when other blocks are deleted.
 
 pub mod build;
+pub mod constitutive;
 pub mod corners;
 pub mod geometry;
 pub mod limits;
@@ -26,31 +27,117 @@ pub const MAX_MATERIALS: usize = 20;
 /// Default rounding length DTOL when no ROUND command is given (problem units).
 pub const DEFAULT_ROUND: f64 = 0.5;
 
-/// Material properties (PROPERTY command; Appendix A "Property keywords").
-/// Units of joint normal and shear stiffness and joint cohesion are stress/displacement.
+/// Material properties (PROPERTY command; Appendix A "Property keywords"), in the groups that read
+/// them: the block's, a point contact's, a joint's and the fluid's. One material number carries
+/// all four (a block's material gives its contacts theirs). SAVE files keep the flat field order
+/// of [`MaterialRecord`], so files written before the split restart unchanged.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(from = "MaterialRecord", into = "MaterialRecord")]
 pub struct Material {
+    pub block: BlockMaterial,
+    pub contact: ContactMaterial,
+    pub joint: JointMaterial,
+    pub fluid: FluidMaterial,
+}
+
+/// What the block itself reads of its material.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BlockMaterial {
+    /// Mass density ρ (DENSITY).
     pub density: f64,
+    /// Bulk modulus K (BULK, B or K), for deformable blocks.
     pub bulk: f64,
+    /// Shear modulus (G), for deformable blocks.
     pub shear: f64,
-    /// contact normal stiffness kn (force/displacement)
-    pub kn: f64,
-    /// contact shear stiffness ks (force/displacement)
-    pub ks: f64,
-    /// contact cohesion c (force)
-    pub cohesion: f64,
-    /// contact friction coefficient μ
-    pub friction: f64,
-    pub jkn: f64,
-    pub jks: f64,
-    pub jcohesion: f64,
-    pub jfriction: f64,
-    /// tensile strength factor t_f (point-load or Griffith cracking, Appendix A ¶15–17)
+    /// Tensile strength factor t_f (TF): point-load or Griffith cracking of the block (Appendix A
+    /// ¶15–17; which one, the block's constitutive number says).
     pub tf: f64,
+}
+
+/// The law of a point contact (eqs. 16–20), in force/displacement units.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactMaterial {
+    /// Normal stiffness kn (KN, force/displacement).
+    pub kn: f64,
+    /// Shear stiffness ks (KS, force/displacement).
+    pub ks: f64,
+    /// Cohesion c (COHESION, force): shear strength at zero normal force, and the tension an intact
+    /// contact holds.
+    pub cohesion: f64,
+    /// Friction coefficient μ (FRICTION).
+    pub friction: f64,
+}
+
+/// The law of a joint (constitutive numbers 2, 4 and 5), in stress/displacement units.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JointMaterial {
+    /// Normal stiffness (JKN, stress/displacement).
+    pub kn: f64,
+    /// Shear stiffness (JKS, stress/displacement).
+    pub ks: f64,
+    /// Cohesion (JCOHESION, stress).
+    pub cohesion: f64,
+    /// Friction coefficient (JFRICTION).
+    pub friction: f64,
+}
+
+/// Flow along joints and contacts (Appendix A, fluid).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FluidMaterial {
+    /// Joint permeability factor (JPERM).
     pub jperm: f64,
+    /// Contact permeability factor (CPERM).
     pub cperm: f64,
+    /// Aperture at zero normal stress (AZERO).
     pub azero: f64,
+    /// Residual aperture (ARES).
     pub ares: f64,
+}
+
+/// A [`Material`] as SAVE files hold it: the flat field order of the format's first version
+/// (postcard writes fields in order, without names). Only serialization uses it.
+#[derive(Clone, Copy, Serialize, Deserialize)]
+pub struct MaterialRecord {
+    density: f64,
+    bulk: f64,
+    shear: f64,
+    kn: f64,
+    ks: f64,
+    cohesion: f64,
+    friction: f64,
+    jkn: f64,
+    jks: f64,
+    jcohesion: f64,
+    jfriction: f64,
+    tf: f64,
+    jperm: f64,
+    cperm: f64,
+    azero: f64,
+    ares: f64,
+}
+
+impl From<MaterialRecord> for Material {
+    fn from(r: MaterialRecord) -> Self {
+        let MaterialRecord { density, bulk, shear, kn, ks, cohesion, friction, jkn, jks, jcohesion, jfriction, tf, jperm, cperm, azero, ares } = r;
+        Material {
+            block: BlockMaterial { density, bulk, shear, tf },
+            contact: ContactMaterial { kn, ks, cohesion, friction },
+            joint: JointMaterial { kn: jkn, ks: jks, cohesion: jcohesion, friction: jfriction },
+            fluid: FluidMaterial { jperm, cperm, azero, ares },
+        }
+    }
+}
+
+impl From<Material> for MaterialRecord {
+    fn from(m: Material) -> Self {
+        let Material {
+            block: BlockMaterial { density, bulk, shear, tf },
+            contact: ContactMaterial { kn, ks, cohesion, friction },
+            joint: JointMaterial { kn: jkn, ks: jks, cohesion: jcohesion, friction: jfriction },
+            fluid: FluidMaterial { jperm, cperm, azero, ares },
+        } = m;
+        MaterialRecord { density, bulk, shear, kn, ks, cohesion, friction, jkn, jks, jcohesion, jfriction, tf, jperm, cperm, azero, ares }
+    }
 }
 
 /// How a block deforms (UDEC head codes MRIG, MSDEF, MFDEF).

@@ -100,11 +100,11 @@ impl Model {
         }
         for c in &self.contacts {
             let m = self.material(c.material);
-            if m.kn > 0.0 {
-                e.strain += c.normal_force.powi(2) / (2.0 * m.kn);
+            if m.contact.kn > 0.0 {
+                e.strain += c.normal_force.powi(2) / (2.0 * m.contact.kn);
             }
-            if m.ks > 0.0 {
-                e.strain += c.shear_force.powi(2) / (2.0 * m.ks);
+            if m.contact.ks > 0.0 {
+                e.strain += c.shear_force.powi(2) / (2.0 * m.contact.ks);
             }
             e.contact_damping += c.dashpot_work;
             e.friction += c.slip_work;
@@ -122,7 +122,7 @@ impl Model {
         let mut k_max: f64 = 0.0;
         let mut consider = |m: u32| {
             let mat = self.material(m);
-            k_max = k_max.max(mat.kn).max(mat.ks);
+            k_max = k_max.max(mat.contact.kn).max(mat.contact.ks);
         };
         for b in &self.blocks {
             consider(b.material);
@@ -175,7 +175,7 @@ impl Model {
                 continue;
             }
             let m = self.material(c.material);
-            let k = m.kn.max(m.ks);
+            let k = m.contact.kn.max(m.contact.ks);
             let (b1, b2) = (c.block1 as usize, c.block2 as usize);
             let (a1, a2) = (compliance(b1, c.point), compliance(b2, c.point));
             let shared = (a1 * a2).sqrt();

@@ -1,12 +1,13 @@
 //! Per-block contact lists in compressed-row form, built on the CPU after every topology change.
-//! Entry = contact index × 2 + side (0: the block is the contact's block 1, 1: block 2), so the
-//! same u32 array serves the GPU gather unchanged.
+//! Each entry is an [`AdjacencyEntry`] (a contact and the block's side of it, one u32), so the
+//! same array serves the GPU gather unchanged.
 
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 use rayon::prelude::*;
 
 use super::detect::{split_at_ends, BlockGrid, ListEdit};
+use crate::contact::gather::AdjacencyEntry;
 use crate::model::Contact;
 
 /// Smallest number of blocks one parallel task takes.
@@ -34,7 +35,7 @@ pub struct EntriesEdit {
     /// `FROM_LISTS`, a position in `lists`; ends with (new length, 0).
     pub runs: Vec<[u32; 2]>,
     /// The touched blocks' new lists, one after another.
-    pub lists: Vec<u32>,
+    pub lists: Vec<AdjacencyEntry>,
 }
 
 impl EntriesEdit {
@@ -49,14 +50,16 @@ impl EntriesEdit {
 pub struct Adjacency {
     /// `offsets[b] .. offsets[b+1]` indexes `entries` for block b.
     pub offsets: Vec<u32>,
-    pub entries: Vec<u32>,
+    pub entries: Vec<AdjacencyEntry>,
     /// The broad phase's grid, kept for the next contact update (`detect::update_topology`).
     pub(crate) grid: BlockGrid,
     /// The edit the last contact update made to the contact list (`detect::ListEdit`), or None
     /// when it had to sort the list first; taken by a backend that mirrors the list.
     pub(crate) edit: Option<ListEdit>,
     /// Room for the next `entries`, kept to spare a large allocation per update.
-    spare: Vec<u32>,
+    spare: Vec<AdjacencyEntry>,
+    /// The serial build's per-block fill cursors, kept likewise.
+    fill: Vec<u32>,
     /// Per-block cursors and the slots of a parallel build, kept likewise.
     cursors: Vec<AtomicU32>,
     slots: Vec<AtomicU32>,
@@ -106,15 +109,15 @@ impl Adjacency {
         for b in 0..block_count {
             counts[b + 1] += counts[b];
         }
-        let fill = &mut self.spare;
+        let fill = &mut self.fill;
         fill.clear();
         fill.extend_from_slice(&self.offsets[..block_count]);
         self.entries.clear();
-        self.entries.resize(2 * contacts.len(), 0);
+        self.entries.resize(2 * contacts.len(), AdjacencyEntry::default());
         for (i, c) in contacts.iter().enumerate() {
             for (block, side) in [(c.block1, 0u32), (c.block2, 1u32)] {
                 let slot = &mut fill[block as usize];
-                self.entries[*slot as usize] = (i as u32) << 1 | side;
+                self.entries[*slot as usize] = AdjacencyEntry::new(i as u32, side);
                 *slot += 1;
             }
         }
@@ -144,11 +147,11 @@ impl Adjacency {
         contacts.par_iter().enumerate().with_min_len(PARALLEL_BLOCKS).for_each(|(i, c)| {
             for (block, side) in [(c.block1, 0u32), (c.block2, 1u32)] {
                 let at = cursors[block as usize].fetch_add(1, Relaxed);
-                slots[at as usize].store((i as u32) << 1 | side, Relaxed);
+                slots[at as usize].store(AdjacencyEntry::new(i as u32, side).raw(), Relaxed);
             }
         });
         self.entries.clear();
-        self.entries.resize(2 * contacts.len(), 0);
+        self.entries.resize(2 * contacts.len(), AdjacencyEntry::default());
         let offsets = &self.offsets;
         let chunks = block_count.div_ceil(PARALLEL_BLOCKS);
         let ends = (1..=chunks).map(|c| offsets[(c * PARALLEL_BLOCKS).min(block_count)] as usize);
@@ -157,7 +160,7 @@ impl Adjacency {
         pieces.into_par_iter().enumerate().for_each(|(c, out)| {
             let base = offsets[c * PARALLEL_BLOCKS] as usize;
             for (o, slot) in out.iter_mut().zip(&slots[base..]) {
-                *o = slot.load(Relaxed);
+                *o = AdjacencyEntry::from_raw(slot.load(Relaxed));
             }
             for b in c * PARALLEL_BLOCKS..((c + 1) * PARALLEL_BLOCKS).min(block_count) {
                 out[offsets[b] as usize - base..offsets[b + 1] as usize - base].sort_unstable();
@@ -179,10 +182,12 @@ impl Adjacency {
     pub fn apply(&mut self, block_count: usize, contacts: &[Contact], removed: &[(u32, u32, u32)], insert_before: &[u32], inserted: &[u32]) -> EntriesEdit {
         let removed_at: Vec<u32> = removed.iter().map(|r| r.0).collect();
         let renumber = Renumber::new(self.entries.len() / 2, &removed_at, insert_before);
-        let renumber_entry = |e: u32| renumber.of(e >> 1) << 1 | (e & 1);
+        let renumber_entry = |e: AdjacencyEntry| e.with_contact(renumber.of(e.contact()));
         // Blocks whose lists change, with their new entries from inserted contacts.
-        let mut gained: Vec<(u32, u32)> =
-            inserted.iter().flat_map(|&i| [(contacts[i as usize].block1, i << 1), (contacts[i as usize].block2, i << 1 | 1)]).collect();
+        let mut gained: Vec<(u32, AdjacencyEntry)> = inserted
+            .iter()
+            .flat_map(|&i| [(contacts[i as usize].block1, AdjacencyEntry::new(i, 0)), (contacts[i as usize].block2, AdjacencyEntry::new(i, 1))])
+            .collect();
         gained.sort_unstable();
         let mut touched: Vec<u32> = removed.iter().flat_map(|r| [r.1, r.2]).chain(gained.iter().map(|g| g.0)).collect();
         touched.sort_unstable();
@@ -190,15 +195,15 @@ impl Adjacency {
         if touched.is_empty() {
             return EntriesEdit::unchanged(self.entries.len());
         }
-        let list_of = |t: u32| -> Vec<u32> {
+        let list_of = |t: u32| -> Vec<AdjacencyEntry> {
             let old = self.entries(t as usize);
-            let mut list: Vec<u32> = old.iter().filter(|&&e| removed_at.binary_search(&(e >> 1)).is_err()).map(|&e| renumber_entry(e)).collect();
+            let mut list: Vec<AdjacencyEntry> = old.iter().filter(|&&e| removed_at.binary_search(&e.contact()).is_err()).map(|&e| renumber_entry(e)).collect();
             let lo = gained.partition_point(|g| g.0 < t);
             list.extend(gained[lo..].iter().take_while(|g| g.0 == t).map(|g| g.1));
             list.sort_unstable();
             list
         };
-        let new_lists: Vec<Vec<u32>> = touched.par_iter().map(|&t| list_of(t)).collect();
+        let new_lists: Vec<Vec<AdjacencyEntry>> = touched.par_iter().map(|&t| list_of(t)).collect();
         // Each touched list moves the offsets after it by its change in length.
         let mut shift_after: Vec<i64> = Vec::with_capacity(touched.len());
         let mut shift = 0i64;
@@ -230,7 +235,7 @@ impl Adjacency {
         runs.push([2 * contacts.len() as u32, 0]);
         let mut entries = std::mem::take(&mut self.spare);
         entries.clear();
-        entries.resize(2 * contacts.len(), 0);
+        entries.resize(2 * contacts.len(), AdjacencyEntry::default());
         {
             let chunks = block_count.div_ceil(PARALLEL_BLOCKS);
             let ends = (1..=chunks).map(|c| new_offset((c * PARALLEL_BLOCKS).min(block_count)) as usize);
@@ -279,7 +284,7 @@ impl Adjacency {
 
     /// The entries of block `b`.
     #[inline]
-    pub fn entries(&self, b: usize) -> &[u32] {
+    pub fn entries(&self, b: usize) -> &[AdjacencyEntry] {
         &self.entries[self.offsets[b] as usize..self.offsets[b + 1] as usize]
     }
 }
@@ -404,7 +409,7 @@ mod tests {
                         edit.lists[(source & !FROM_LISTS) as usize + i]
                     } else {
                         let e = before.entries[source as usize + i];
-                        renumber.of(e >> 1) << 1 | (e & 1)
+                        e.with_contact(renumber.of(e.contact()))
                     });
                 }
             }

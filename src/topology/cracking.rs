@@ -11,6 +11,7 @@
 
 use crate::contact::gather::{gather, ContactForce};
 use crate::contact::law::normal_force;
+use crate::model::constitutive::{Constitutive, CrackingLaw};
 use crate::model::geometry::closest_point_on_segment;
 use crate::model::split::split_block_along;
 use crate::model::{BlockKind, Model};
@@ -28,7 +29,9 @@ pub struct PointLoadCrack {
 /// Whether block `b` is checked for point-load cracking at all.
 pub fn is_point_load_candidate(model: &Model, b: usize) -> bool {
     let blk = &model.blocks[b];
-    blk.kind != BlockKind::FullyDeformable && matches!(blk.constitutive, 1 | 2) && model.material(blk.material).tf > 0.0
+    blk.kind != BlockKind::FullyDeformable
+        && Constitutive::from_number(blk.constitutive).is_some_and(|c| c.cracking == CrackingLaw::PointLoad)
+        && model.material(blk.material).block.tf > 0.0
 }
 
 /// Closest point to `p` on the boundary of block `b`, and the distance from it to the nearest
@@ -52,7 +55,7 @@ fn project_to_boundary(model: &Model, b: usize, p: [f64; 2]) -> ([f64; 2], f64) 
 /// Searches block `b` for the pair of opposing contact forces with the largest point-load value;
 /// returns it if it reaches the block's t_f.
 pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> Option<PointLoadCrack> {
-    let tf = model.material(model.blocks[b].material).tf;
+    let tf = model.material(model.blocks[b].material).block.tf;
     let corners = model.block_corners(b);
     let n = corners.len();
     let smallest_edge = (0..n)
@@ -67,11 +70,11 @@ pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> 
         .entries(b)
         .iter()
         .filter_map(|&e| {
-            let c = &model.contacts[(e >> 1) as usize];
+            let c = &model.contacts[e.contact() as usize];
             if c.normal_force <= 0.0 {
                 return None;
             }
-            let sign = if e & 1 == 0 { 1.0 } else { -1.0 };
+            let sign = if e.side() == 0 { 1.0 } else { -1.0 };
             let f = [sign * c.normal_force * c.normal[0], sign * c.normal_force * c.normal[1]];
             Some((c.point, f, c.normal_force))
         })
@@ -176,9 +179,9 @@ pub fn apply_crack(model: &mut Model, crack: &PointLoadCrack) -> Option<Vec<usiz
         }
         let active = model.counts_force(&c);
         let m = *model.material(c.material);
-        let cohesion = if c.bonded { m.cohesion } else { 0.0 };
-        let fn_ = if active { normal_force(c.gap, m.kn, cohesion) } else { 0.0 };
-        let limit = if active { cohesion + m.friction * fn_.max(0.0) } else { 0.0 };
+        let cohesion = if c.bonded { m.contact.cohesion } else { 0.0 };
+        let fn_ = if active { normal_force(c.gap, m.contact.kn, cohesion) } else { 0.0 };
+        let limit = if active { cohesion + m.contact.friction * fn_.max(0.0) } else { 0.0 };
         let fs = c.shear_force.clamp(-limit, limit);
         let (n, t) = (c.normal, [-c.normal[1], c.normal[0]]);
         let contact = &mut model.contacts[k];

@@ -665,11 +665,11 @@ fn retire(model: &mut Model, dropped: &[u32]) {
     for &k in dropped {
         let c = &model.contacts[k as usize];
         let m = model.material(c.material);
-        if m.kn > 0.0 {
-            released += c.normal_force.powi(2) / (2.0 * m.kn);
+        if m.contact.kn > 0.0 {
+            released += c.normal_force.powi(2) / (2.0 * m.contact.kn);
         }
-        if m.ks > 0.0 {
-            released += c.shear_force.powi(2) / (2.0 * m.ks);
+        if m.contact.ks > 0.0 {
+            released += c.shear_force.powi(2) / (2.0 * m.contact.ks);
         }
         damping += c.dashpot_work;
         friction += c.slip_work;
