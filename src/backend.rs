@@ -152,7 +152,8 @@ impl Backend for GpuOrCpu {
         match self.gpu.run(model, cycles, progress) {
             // Refused before any cycle, the model at its state before the run.
             Err(CycleError::DoesNotFit(why)) => {
-                eprintln!("blockdem: {why}; --backend auto goes on on the CPU (f64)");
+                use std::io::Write as _;
+                let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
                 self.cpu.insert(crate::cpu::CpuBackend::new()).run(model, cycles, progress)
             }
             result => result,

@@ -695,7 +695,7 @@ impl<'a> Executor<'a> {
             if let (Progress::Lines { every }, true) = (options.progress, long && done < n) {
                 if last_line.elapsed() >= every {
                     last_line = std::time::Instant::now();
-                    eprintln!("{}", progress_line(done, n, started.elapsed().as_secs_f64()));
+                    let _ = writeln!(std::io::stderr(), "{}", progress_line(done, n, started.elapsed().as_secs_f64()));
                 }
             }
             stopped.set(options.interrupted());
@@ -711,7 +711,7 @@ impl<'a> Executor<'a> {
         let vtk_dir = options.out_dir.join(VTK_DIR);
         let write_frame = |model: &Model| {
             if let Err(e) = output::vtk::write_frame(model, &vtk_dir) {
-                eprintln!("blockdem: a VTK frame was not written ({e}); the run goes on");
+                let _ = writeln!(std::io::stderr(), "blockdem: a VTK frame was not written ({e}); the run goes on");
             }
         };
         let mut report = crate::backend::CycleReport::default();
@@ -752,7 +752,7 @@ impl<'a> Executor<'a> {
                     let path = options.out_dir.join(CHECKPOINT_FILE);
                     let _ = std::fs::create_dir_all(&options.out_dir);
                     if let Err(e) = output::restart::save_state(&path, &self.model, &self.plot, self.plot_count) {
-                        eprintln!("blockdem: the running restart file was not written ({e}); the run goes on");
+                        let _ = writeln!(std::io::stderr(), "blockdem: the running restart file was not written ({e}); the run goes on");
                     }
                     last_checkpoint = std::time::Instant::now();
                 }

@@ -1,10 +1,10 @@
 //! `blockdem`: run UDEC 1.2 command decks.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -13,6 +13,67 @@ use blockdem::backend::{Backend, GpuOrCpu};
 use blockdem::cpu::CpuBackend;
 use blockdem::exec::{Executor, Progress, RunError, RunOptions};
 use blockdem::gpu::{list_adapters, matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+
+/// Standard output, as every subcommand writes it (its tables, `wrote FILE` lines, the run log):
+/// a write that fails never panics, as `println!` does. A reader that leaves (`| head`, `| true`)
+/// ends the output quietly while the work goes on and writes its files, and the exit status is
+/// the work's own; any other failure (a full disk under `> run.log`) is kept and reported once
+/// at the end, with exit status 1. Output after a failure is dropped.
+struct Stdout;
+
+/// Set once a write to standard output has failed: nothing more is written.
+static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
+/// The first failure other than a closed pipe, reported when the command ends.
+static STDOUT_ERROR: Mutex<Option<std::io::Error>> = Mutex::new(None);
+
+impl Stdout {
+    fn failed(e: std::io::Error) {
+        if !STDOUT_FAILED.swap(true, Ordering::Relaxed) && e.kind() != std::io::ErrorKind::BrokenPipe {
+            if let Ok(mut first) = STDOUT_ERROR.lock() {
+                *first = Some(e);
+            }
+        }
+    }
+
+    /// The failure to report, if standard output failed other than by its reader leaving.
+    fn error() -> Option<std::io::Error> {
+        STDOUT_ERROR.lock().ok().and_then(|mut e| e.take())
+    }
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if !STDOUT_FAILED.load(Ordering::Relaxed) {
+            if let Err(e) = std::io::stdout().lock().write_all(buf) {
+                Stdout::failed(e);
+            }
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if !STDOUT_FAILED.load(Ordering::Relaxed) {
+            if let Err(e) = std::io::stdout().lock().flush() {
+                Stdout::failed(e);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `println!` through [`Stdout`].
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        let _ = writeln!(Stdout, $($arg)*);
+    }};
+}
+
+/// `eprintln!` that never panics: a message to a closed standard error is lost, not a crash.
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
 
 #[derive(Parser)]
 #[command(name = "blockdem", version, about = "Distinct element code for jointed rock (UDEC 1.2 / D3 after Cundall & Hart 1985)")]
@@ -221,7 +282,7 @@ fn bench(
         if specs.is_empty() {
             bail!("no backend to benchmark: {why}");
         }
-        eprintln!("blockdem: benchmarking the CPU only: {why}");
+        note!("blockdem: benchmarking the CPU only: {why}");
     }
     let mut options = blockdem::bench::BenchOptions::new(quick, specs);
     options.settle = matches!(scene, BenchScene::Settle | BenchScene::All);
@@ -249,13 +310,13 @@ fn bench(
         options.rounds = r;
     }
     let report = blockdem::bench::run(&options);
-    print!("{}", blockdem::bench::table(&report));
+    let _ = write!(Stdout, "{}", blockdem::bench::table(&report));
     let (files, chart_problem) = blockdem::bench::write_outputs(&report, &out).with_context(|| format!("cannot write into {}", out.display()))?;
     for f in files {
-        println!("wrote {}", f.display());
+        say!("wrote {}", f.display());
     }
     if let Some(p) = chart_problem {
-        eprintln!("blockdem: chart not drawn: {p}");
+        note!("blockdem: chart not drawn: {p}");
     }
     let failed: Vec<String> = report.reference.iter().filter_map(|r| r.error.as_ref().map(|e| format!("{} on {}: {e}", r.scene, r.backend))).collect();
     if !failed.is_empty() {
@@ -275,13 +336,13 @@ fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()>
     check_out_dir(&out)?;
     let options = blockdem::verify::VerifyOptions { quick, out: Some(out.clone()), only };
     let suite = blockdem::verify::run_suite(&options);
-    print!("{}", blockdem::verify::table(&suite));
+    let _ = write!(Stdout, "{}", blockdem::verify::table(&suite));
     let (files, chart_problem) = blockdem::verify::write_outputs(&suite, &out).with_context(|| format!("cannot write into {}", out.display()))?;
     for f in files {
-        println!("wrote {}", f.display());
+        say!("wrote {}", f.display());
     }
     if let Some(p) = chart_problem {
-        eprintln!("blockdem: charts not drawn: {p}");
+        note!("blockdem: charts not drawn: {p}");
     }
     let failed: Vec<String> = suite.failed_checks().iter().map(|r| format!("{} ({} {})", r.case, r.backend, r.precision)).collect();
     let unstable: Vec<&str> = suite.stability.iter().filter(|t| !t.passed).map(|t| t.scene).collect();
@@ -302,13 +363,13 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     check_out_dir(&out)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision: precision.into() }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
-    eprintln!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
+    note!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
     // The logs go to files: long CYCLE commands say how far they are on stderr, as `run` does.
     let progress = Progress::Lines { every: std::time::Duration::from_secs(30) };
     let reference = compare::run_on(Box::new(CpuBackend::new()), &commands, &name, &out.join("cpu"), progress);
     let on_gpu = compare::run_on(Box::new(gpu), &commands, &name, &out.join("gpu"), progress);
     let c = compare::compare(&reference, &on_gpu);
-    print!("{}", compare::table(&reference, &on_gpu, &c));
+    let _ = write!(Stdout, "{}", compare::table(&reference, &on_gpu, &c));
     let json = serde_json::json!({
         "deck": name,
         "reference": { "backend": reference.backend, "wall_s": reference.wall_s, "error": reference.error },
@@ -317,7 +378,7 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     });
     let path = out.join("compare.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))?;
-    println!("wrote {}", path.display());
+    say!("wrote {}", path.display());
     match (&reference.error, &on_gpu.error) {
         (None, Some(e)) => bail!("the GPU run stopped where the reference did not: {e}"),
         (Some(e), None) => bail!("the reference run stopped where the GPU's did not: {e}"),
@@ -340,18 +401,18 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
 fn adapters() -> anyhow::Result<()> {
     let list = list_adapters(&AdapterChoice::Any);
     if list.is_empty() {
-        println!("no GPU adapter found (Vulkan or GL); runs use the CPU backend");
+        say!("no GPU adapter found (Vulkan or GL); runs use the CPU backend");
         return Ok(());
     }
     for (i, a) in list.iter().enumerate() {
-        println!("[{i}] {} ({}, {})", a.name, a.backend, a.device_type);
-        println!("    driver: {} ({})", a.driver, a.driver_info);
-        println!("    max_storage_buffers_per_shader_stage: {}", a.max_storage_buffers_per_shader_stage);
-        println!("    max_storage_buffer_binding_size: {}", a.max_storage_buffer_binding_size);
-        println!("    max_buffer_size: {}", a.max_buffer_size);
-        println!("    max_compute_workgroup_size_x: {}", a.max_compute_workgroup_size_x);
-        println!("    SHADER_F64: {}", if a.shader_f64 { "yes" } else { "no" });
-        println!("    compute shaders: {}", if a.compute { "yes" } else { "no (unusable)" });
+        say!("[{i}] {} ({}, {})", a.name, a.backend, a.device_type);
+        say!("    driver: {} ({})", a.driver, a.driver_info);
+        say!("    max_storage_buffers_per_shader_stage: {}", a.max_storage_buffers_per_shader_stage);
+        say!("    max_storage_buffer_binding_size: {}", a.max_storage_buffer_binding_size);
+        say!("    max_buffer_size: {}", a.max_buffer_size);
+        say!("    max_compute_workgroup_size_x: {}", a.max_compute_workgroup_size_x);
+        say!("    SHADER_F64: {}", if a.shader_f64 { "yes" } else { "no" });
+        say!("    compute shaders: {}", if a.compute { "yes" } else { "no (unusable)" });
     }
     Ok(())
 }
@@ -444,12 +505,12 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             // than the CPU backend and less precise, so it is used only when asked for.
             let hardware = matching_adapters(&choice).into_iter().any(|a| a.compute && !a.is_software());
             if backend == BackendChoice::Auto && !hardware {
-                eprintln!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
+                note!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
                 Box::new(CpuBackend::new())
             } else {
                 match GpuBackend::new(&GpuOptions { adapter: choice, precision }) {
                     Ok(gpu) => {
-                        eprintln!("blockdem: running on {}", gpu.describe());
+                        note!("blockdem: running on {}", gpu.describe());
                         runs_on = (true, if precision == Precision::F32 { "f32" } else { "f64" });
                         if backend == BackendChoice::Auto {
                             // A model past the adapter's limits runs on the CPU instead.
@@ -459,7 +520,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                         }
                     }
                     Err(e) if backend == BackendChoice::Auto => {
-                        eprintln!("blockdem: {e}; running on the CPU (f64)");
+                        note!("blockdem: {e}; running on the CPU (f64)");
                         Box::new(CpuBackend::new())
                     }
                     Err(e) => bail!("--backend gpu: {e}"),
@@ -481,7 +542,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt), checkpoint_every, vtk_every };
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
-    let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
+    let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(Stdout)), options, &name);
     exec.set_limits(blockdem::verify::stability::limits_for(runs_on.0, runs_on.1));
     let result = exec.run(&commands);
     // Written first, reported last: a state JSON that cannot be written must not keep the
@@ -512,11 +573,11 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                 "the state before the failing command"
             };
             if blockdem::output::restart::save_state(&path, &exec.model, &Default::default(), 0).is_ok() {
-                eprintln!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
+                note!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
             }
         }
         if let Err(json) = json_written {
-            eprintln!("blockdem: {json:#}");
+            note!("blockdem: {json:#}");
         }
         return Err(e.into());
     }
@@ -535,11 +596,11 @@ fn watch_interrupts(flag: Arc<AtomicBool>) {
                     if flag.swap(true, Ordering::Relaxed) {
                         std::process::exit(INTERRUPTED_EXIT);
                     }
-                    eprintln!("\nblockdem: interrupted; stopping at the next energy check (within 100 cycles) to save the state (Ctrl-C again to quit now)");
+                    note!("\nblockdem: interrupted; stopping at the next energy check (within 100 cycles) to save the state (Ctrl-C again to quit now)");
                 }
             });
         }
-        Err(e) => eprintln!("blockdem: Ctrl-C will end the run without saving its state ({e})"),
+        Err(e) => note!("blockdem: Ctrl-C will end the run without saving its state ({e})"),
     }
 }
 
@@ -562,10 +623,20 @@ fn main() -> ExitCode {
             bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds)
         }
     };
+    let _ = Stdout.flush();
+    // A failure to write the output fails a command that did its work otherwise.
+    let result = match (result, Stdout::error()) {
+        (Ok(()), Some(e)) => Err(anyhow::anyhow!("cannot write to standard output: {e}")),
+        (Err(e), Some(out)) => {
+            note!("blockdem: cannot write to standard output: {out}");
+            Err(e)
+        }
+        (result, None) => result,
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            note!("error: {e:#}");
             let interrupted = e.downcast_ref::<RunError>().is_some_and(RunError::is_interrupted);
             if interrupted {
                 ExitCode::from(INTERRUPTED_EXIT as u8)

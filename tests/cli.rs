@@ -574,3 +574,68 @@ fn the_state_file_writes_through_a_fifo_and_a_symbolic_link() {
     let again: serde_json::Value = serde_json::from_slice(&std::fs::read(&came).unwrap()).unwrap();
     assert_eq!(again, state);
 }
+
+/// Runs blockdem with its standard output a pipe whose reader has gone before the first write
+/// (`blockdem … | true`); returns the exit status and stderr.
+fn with_stdout_closed(args: &[&str]) -> (i32, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_blockdem"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("runs");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("ends");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into())
+}
+
+/// Issue 27 item 2: no subcommand panics when its reader leaves (`| head`, `| true`); the work
+/// goes on and writes its files, and the exit status is the work's own.
+#[test]
+fn no_subcommand_panics_when_stdout_is_closed() {
+    let dir = temp("closed-stdout");
+    let out = |name: &str| dir.join(name).display().to_string();
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -10\nCYCLE 10\nPRINT BLOCKS\nEND\n");
+    let json = out("state.json");
+    let runs: Vec<Vec<String>> = vec![
+        vec!["adapters".into()],
+        vec!["run".into(), deck.clone(), "--backend".into(), "cpu".into(), "--out".into(), out("run"), "--state-json".into(), json.clone()],
+        vec!["verify".into(), "--quick".into(), "--only".into(), "free_flight".into(), "--out".into(), out("verify")],
+        vec!["compare".into(), deck.clone(), "--out".into(), out("compare")],
+        vec![
+            "bench".into(),
+            "--quick".into(),
+            "--scene".into(),
+            "scaling".into(),
+            "--backend".into(),
+            "cpu".into(),
+            "--sizes".into(),
+            "1000".into(),
+            "--measure".into(),
+            "0.05".into(),
+            "--rounds".into(),
+            "1".into(),
+            "--out".into(),
+            out("bench"),
+        ],
+    ];
+    for args in runs {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, stderr) = with_stdout_closed(&args);
+        assert!(!stderr.contains("panicked") && code != 101, "{args:?}: exit {code}\n{stderr}");
+        // `compare` needs a GPU adapter; without one it fails as it would with stdout open.
+        if args[0] != "compare" {
+            assert_eq!(code, 0, "{args:?}:\n{stderr}");
+        }
+    }
+    // The work went on after its reader left: the run's state and verify's tables are written.
+    assert!(std::path::Path::new(&json).exists() && dir.join("verify").join("sweep.csv").exists());
+    // A log that cannot be written (a full disk) is an error, not lost in silence.
+    if std::path::Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_blockdem")).args(["run", &deck, "--backend", "cpu", "--out", &out("full")]).stdout(full).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("cannot write to standard output") && !stderr.contains("panicked"), "{stderr}");
+    }
+}
