@@ -133,6 +133,8 @@ pub struct Executor<'a> {
     limits: Limits,
     /// Commands executed so far (START is only the first).
     executed: usize,
+    /// The line printed under the banner ([`Executor::set_provenance`]).
+    provenance: Option<String>,
 }
 
 impl<'a> Executor<'a> {
@@ -147,6 +149,20 @@ impl<'a> Executor<'a> {
             file: file.to_string(),
             limits: LIMITS_CPU_F64,
             executed: 0,
+            provenance: None,
+        }
+    }
+
+    /// What made the run (`output::provenance::Provenance::line`): printed under the banner of
+    /// START and RESTART, so that a log names its program, deck, backend and precision.
+    pub fn set_provenance(&mut self, line: String) {
+        self.provenance = Some(line);
+    }
+
+    fn banner(&mut self) {
+        self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+        if let Some(line) = self.provenance.clone() {
+            self.echo(&line);
         }
     }
 
@@ -293,7 +309,7 @@ impl<'a> Executor<'a> {
                     // It would claim a cold start and keep the model (UDEC read START first only).
                     return Err(self.command_error(cmd, "START must be the first command of a run (a cold start); to begin again, start a new run"));
                 }
-                self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+                self.banner();
                 self.echo("THIS IS A START RUN");
             }
             Command::Restart { file } => {
@@ -303,7 +319,7 @@ impl<'a> Executor<'a> {
                 self.model = saved.model;
                 self.plot = saved.plot;
                 self.plot_count = saved.plot_count;
-                self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+                self.banner();
                 self.echo(&format!("THIS IS A RESTART RUN (FROM {}, CYCLE {})", path.display(), self.model.cycle));
             }
             Command::Stop | Command::End => return Ok(true),

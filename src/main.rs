@@ -13,6 +13,7 @@ use blockdem::backend::{Backend, GpuOrCpu};
 use blockdem::cpu::CpuBackend;
 use blockdem::exec::{Executor, Progress, RunError, RunOptions};
 use blockdem::gpu::{list_adapters, matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use blockdem::output::provenance::Provenance;
 
 /// Standard output, as every subcommand writes it (its tables, `wrote FILE` lines, the run log):
 /// a write that fails never panics, as `println!` does. A reader that leaves (`| head`, `| true`)
@@ -496,6 +497,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     }
     // The precision the cycle runs in, for the extreme-ratio warnings (`verify::stability`).
     let mut runs_on = (false, "f64");
+    let mut adapter_name = None;
     let backend: Box<dyn blockdem::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(CpuBackend::new()),
         BackendChoice::Auto | BackendChoice::Gpu => {
@@ -512,6 +514,8 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                     Ok(gpu) => {
                         note!("blockdem: running on {}", gpu.describe());
                         runs_on = (true, if precision == Precision::F32 { "f32" } else { "f64" });
+                        let a = gpu.adapter();
+                        adapter_name = Some(format!("{} ({}, {})", a.name, a.backend, a.driver));
                         if backend == BackendChoice::Auto {
                             // A model past the adapter's limits runs on the CPU instead.
                             Box::new(GpuOrCpu::new(Box::new(gpu)))
@@ -544,6 +548,8 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(Stdout)), options, &name);
     exec.set_limits(blockdem::verify::stability::limits_for(runs_on.0, runs_on.1));
+    let provenance = Provenance::now(&name, if runs_on.0 { "gpu" } else { "cpu" }, adapter_name, runs_on.1);
+    exec.set_provenance(provenance.line());
     let result = exec.run(&commands);
     // Written first, reported last: a state JSON that cannot be written must not keep the
     // restart file below from being written.
@@ -553,7 +559,8 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             if let Some(folder) = path.parent().filter(|f| !f.as_os_str().is_empty()) {
                 let _ = std::fs::create_dir_all(folder);
             }
-            blockdem::output::state_json::write_state_json(&exec.model, path).with_context(|| format!("cannot write {}", path.display()))
+            blockdem::output::state_json::write_state_json_with(&exec.model, Some(&provenance), path)
+                .with_context(|| format!("cannot write {}", path.display()))
         }
         None => Ok(()),
     };

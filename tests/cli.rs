@@ -639,3 +639,35 @@ fn no_subcommand_panics_when_stdout_is_closed() {
         assert!(stderr.contains("cannot write to standard output") && !stderr.contains("panicked"), "{stderr}");
     }
 }
+
+/// Issue 27 item 8: the log says what made it — a provenance line under the banner (version,
+/// commit, deck, backend, adapter, precision, date UTC) — and the state JSON holds the same under
+/// `provenance`, its other keys kept.
+#[test]
+fn the_log_and_the_state_json_name_what_made_them() {
+    let dir = temp("provenance");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 1\n");
+    let json = dir.join("state.json");
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", json.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    let banner = lines.iter().position(|l| l.starts_with("PROGRAM UDEC")).expect("banner");
+    let line = lines[banner + 1];
+    let version = env!("CARGO_PKG_VERSION");
+    assert!(line.starts_with(&format!("BLOCKDEM {version} (COMMIT ")), "{line}");
+    assert!(line.contains(&format!("  DECK {deck}  BACKEND cpu  ADAPTER none  PRECISION f64  DATE ")), "{line}");
+    let date = line.rsplit(' ').next().unwrap();
+    assert!(date.len() == 20 && date.starts_with("20") && date.ends_with('Z') && date.as_bytes()[10] == b'T', "{date}");
+    let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let p = &state["provenance"];
+    assert_eq!(p["version"], version);
+    assert_eq!(p["deck"], deck.as_str());
+    assert_eq!(p["backend"], "cpu");
+    assert_eq!(p["adapter"], "none");
+    assert_eq!(p["precision"], "f64");
+    assert_eq!(p["date"], date);
+    assert!(p["commit"].is_string());
+    for key in ["blocks", "contacts", "cycle", "dim", "energy", "gravity", "time", "timestep"] {
+        assert!(state.get(key).is_some(), "{key} missing");
+    }
+}

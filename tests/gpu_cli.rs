@@ -54,6 +54,9 @@ fn sample_1_runs_on_the_gpu_backend_from_the_command_line() {
     assert_eq!(code, 0, "{stderr}");
     assert!(stderr.contains("running on gpu (Vulkan"), "{stderr}");
     assert_eq!(stdout.matches("CRACKED AT CYCLE").count(), 1, "{stdout}");
+    // The log itself says it came from the GPU in f32, and on which adapter (issue 27 item 8).
+    let provenance = stdout.lines().find(|l| l.starts_with("BLOCKDEM ")).unwrap_or_else(|| panic!("no provenance line:\n{stdout}"));
+    assert!(provenance.contains("  BACKEND gpu  ADAPTER ") && provenance.contains("(Vulkan, ") && provenance.contains("  PRECISION f32  "), "{provenance}");
 }
 
 #[test]
