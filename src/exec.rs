@@ -570,6 +570,11 @@ impl<'a> Executor<'a> {
                         ),
                     ));
                 }
+                // The kinetic energy VELOCITY gives (or takes, slowing a block) is input, booked
+                // with the work of gravity and loads: the balance is unchanged by the command, and
+                // what it shows later is the cycle's error alone. Measured as the ledger measures
+                // kinetic energy (at the whole step), so that the booking is exact.
+                let before = self.model.energies().kinetic;
                 for b in blocks {
                     let blk = &mut self.model.blocks[b];
                     if !blk.fixed {
@@ -577,6 +582,7 @@ impl<'a> Executor<'a> {
                         blk.angular_velocity = angular.unwrap_or(0.0);
                     }
                 }
+                self.model.external_work += self.model.energies().kinetic - before;
             }
         }
         Ok(false)
@@ -587,7 +593,7 @@ impl<'a> Executor<'a> {
         let f = output::format::fmt_e;
         writeln!(self.log)?;
         writeln!(self.log, "ENERGY")?;
-        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY AND LOADS {}", f(e.kinetic), f(e.strain), f(e.external_work))?;
+        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY, LOADS AND VELOCITY {}", f(e.kinetic), f(e.strain), f(e.external_work))?;
         writeln!(
             self.log,
             "  DISSIPATED: MASS DAMPING {}   CONTACT DASHPOTS {}   FRICTION {}   RELEASED (DELETED CONTACTS AND BLOCKS) {}",

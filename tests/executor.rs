@@ -201,7 +201,7 @@ fn print_energy_prints_every_term_and_the_balance() {
     for (label, want) in [
         ("KINETIC ", e.kinetic),
         ("STRAIN (CONTACTS) ", e.strain),
-        ("WORK OF GRAVITY AND LOADS ", e.external_work),
+        ("WORK OF GRAVITY, LOADS AND VELOCITY ", e.external_work),
         ("MASS DAMPING ", e.mass_damping),
         ("CONTACT DASHPOTS ", e.contact_damping),
         ("FRICTION ", e.friction),
@@ -480,4 +480,28 @@ fn a_block_flung_so_far_that_its_edges_vanish_in_round_off_stays_restartable() {
     let (m, _) = run_ok("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nBLOCK 0,1 0,1.05 0.05,1.05 0.05,1\nROUND 1E300\nGRAV 1E154 0\nCYCLE 50\n");
     assert!(m.blocks[0].centroid[0] > 1e140, "{:?}", m.blocks[0].centroid);
     m.validate().unwrap_or_else(|e| panic!("not restartable: {e}"));
+}
+
+/// Issue 27 item 3: the kinetic energy VELOCITY gives is input, booked with the work of gravity
+/// and loads, so that the balance stays at zero (it read 5.000E+04 for this block); a second
+/// VELOCITY on the moving block books its new less its old kinetic energy.
+#[test]
+fn the_kinetic_energy_velocity_gives_is_booked_as_input() {
+    let deck = "START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8 F=0.5\nBLOCK 0,0 0,1 1,1 1,0\nVELOCITY -1 2 -1 2 10 0\nCYCLE 100\nPRINT ENERGY\n";
+    let (m, log) = run_ok(deck);
+    let e = m.energies();
+    assert!((e.kinetic - 5e4).abs() < 1e-9 * 5e4 && (e.external_work - 5e4).abs() < 1e-9 * 5e4, "{e:?}");
+    assert!(e.ledger().abs() < 1e-9 * 5e4, "{e:?}");
+    let balance = log.lines().find(|l| l.contains("BALANCE")).expect("BALANCE line");
+    let value: f64 = balance.rsplit(' ').next().unwrap().parse().unwrap();
+    assert!(value.abs() < 1e-6, "{balance}");
+    // Slowed to 2 m/s (it is near x = 2 by now): 2000 J left, 48 000 J taken back out.
+    let (m, _) = run_ok(&format!("{deck}VELOCITY -10 10 -10 10 2 0\nCYCLE 100\n"));
+    let e = m.energies();
+    assert!((e.kinetic - 2e3).abs() < 1e-9 * 5e4 && e.ledger().abs() < 1e-9 * 5e4, "{e:?}");
+    // The brick wall struck at 50 m/s: the balance is a small part of the 2.5e6 J given (it was
+    // all of it), what the impact itself does to the ledger.
+    let (m, _) = run_ok(&sample("brick_wall_impact.dat"));
+    let e = m.energies();
+    assert!(e.external_work > 2.5e6 && e.ledger().abs() < 0.02 * e.scale(), "{e:?}");
 }

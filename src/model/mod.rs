@@ -370,7 +370,8 @@ pub struct Model {
     pub time: f64,
     pub next_block_id: u32,
     pub next_contact_id: u32,
-    /// Energy bookkeeping for the blow-up check: work done by gravity and loads since START.
+    /// Energy bookkeeping for the blow-up check and the ledger: work done by gravity and loads
+    /// since START, plus the kinetic energy VELOCITY commands gave.
     pub external_work: f64,
     /// Energy terms of blocks and contacts that no longer exist (see `timestep::RetiredEnergy`).
     #[serde(default)]
