@@ -297,8 +297,23 @@ impl<'a> Executor<'a> {
         }
     }
 
-    fn in_range(&self, r: &Range) -> Vec<usize> {
-        self.model.blocks_in_range(r.x1, r.x2, r.y1, r.y2)
+    /// The blocks whose centroids lie in `r`. A range that catches none makes `what` (FIX, LOAD,
+    /// …) a no-op, which the log says (issue 27 item 5): a range in the wrong units or with its
+    /// ends swapped would otherwise pass unseen.
+    fn in_range(&mut self, what: &str, r: &Range) -> Vec<usize> {
+        let blocks = self.model.blocks_in_range(r.x1, r.x2, r.y1, r.y2);
+        if blocks.is_empty() {
+            let f = output::format::fmt_short;
+            self.echo(&format!(
+                "WARNING: {what}: no block's centroid lies in x {} to {}, y {} to {} (of {} block(s)); nothing changed",
+                f(r.x1),
+                f(r.x2),
+                f(r.y1),
+                f(r.y2),
+                self.model.blocks.len()
+            ));
+        }
+        blocks
     }
 
     /// Executes one command; returns true when the run should stop (STOP, END).
@@ -348,7 +363,7 @@ impl<'a> Executor<'a> {
                     };
                     return Err(self.unsupported(cmd, what));
                 }
-                let blocks = self.in_range(range);
+                let blocks = self.in_range("CHANGE", range);
                 let before: Vec<(u32, u32)> = blocks.iter().map(|&b| (self.model.blocks[b].material, self.model.blocks[b].constitutive)).collect();
                 for &b in &blocks {
                     if let Some(m) = material {
@@ -413,14 +428,14 @@ impl<'a> Executor<'a> {
                 }
             }
             Command::Delete { range } => {
-                let gone = self.in_range(range);
+                let gone = self.in_range("DELETE", range);
                 self.model.retire_energy_around(|m| m.remove_blocks(&gone));
             }
             Command::Dump { .. } => {
                 output::dump::dump(&self.model, &mut self.log).map_err(|e| self.command_error(cmd, format!("DUMP: {e}")))?;
             }
             Command::Fix { range } => {
-                for b in self.in_range(range) {
+                for b in self.in_range("FIX", range) {
                     let blk = &mut self.model.blocks[b];
                     blk.fixed = true;
                     blk.velocity = [0.0, 0.0];
@@ -428,7 +443,7 @@ impl<'a> Executor<'a> {
                 }
             }
             Command::Free { range } => {
-                for b in self.in_range(range) {
+                for b in self.in_range("FREE", range) {
                     self.model.blocks[b].fixed = false;
                 }
             }
@@ -469,7 +484,7 @@ impl<'a> Executor<'a> {
                 self.model.links.push(crate::model::Link { flying: f as u32, anchor: a as u32 });
             }
             Command::Load { range, force } => {
-                for b in self.in_range(range) {
+                for b in self.in_range("LOAD", range) {
                     self.model.blocks[b].load = *force;
                 }
             }
@@ -480,6 +495,9 @@ impl<'a> Executor<'a> {
                 let files = output::plot::plot(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count)
                     .map_err(|e| self.command_error(cmd, format!("PLOT: {e}")))?;
                 self.echo(&format!("PLOT WRITTEN TO {} AND {}", files[0].display(), files[1].display()));
+                if let Ok(Some(why)) = output::plot::shows_nothing(&self.model, &self.plot, options) {
+                    self.echo(&format!("WARNING: PLOT shows no block: {why}"));
+                }
             }
             Command::Print { items } => {
                 for item in items {
@@ -549,11 +567,22 @@ impl<'a> Executor<'a> {
                 for (id, why) in &outcome.rejected {
                     self.echo(&format!("SPLIT REJECTED FOR BLOCK {id}: {why}"));
                 }
+                if outcome.split.is_empty() && outcome.rejected.is_empty() {
+                    let f = output::format::fmt_short;
+                    let why = if from == to { "has zero length" } else { "crosses no block from one side to the other" };
+                    self.echo(&format!(
+                        "WARNING: SPLIT ({}, {}) ({}, {}) {why}; nothing was split (a split line must run through a block, ending outside it or on its edges)",
+                        f(from[0]),
+                        f(from[1]),
+                        f(to[0]),
+                        f(to[1])
+                    ));
+                }
             }
             Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
             Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],
             Command::Velocity { range, velocity, angular } => {
-                let blocks = self.in_range(range);
+                let blocks = self.in_range("VELOCITY", range);
                 // A velocity whose ½mv² overflows f64 is refused here, where it is given: CYCLE
                 // would refuse it too, but a DELETE or a contact update before that books the
                 // energy of what it removes, and ∞ − ∞ left the ledger NaN for good.

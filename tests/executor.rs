@@ -505,3 +505,37 @@ fn the_kinetic_energy_velocity_gives_is_booked_as_input() {
     let e = m.energies();
     assert!(e.external_work > 2.5e6 && e.ledger().abs() < 0.02 * e.scale(), "{e:?}");
 }
+
+/// Issue 27 item 5: a command that would do nothing says so in the log and the run goes on — a
+/// range catching no centroid (FIX, FREE, DELETE, LOAD, VELOCITY, CHANGE), a SPLIT crossing no
+/// block or of zero length, a PLOT whose WINDOW or VIEW shows no block.
+#[test]
+fn silent_no_ops_are_warned_against_and_the_run_goes_on() {
+    for (cmd, warning) in [
+        ("FIX 5 6 5 6", "WARNING: FIX: no block's centroid lies in x 5 to 6, y 5 to 6 (of 1 block(s)); nothing changed"),
+        ("FREE 5 6 -3 -2", "WARNING: FREE: no block's centroid lies in x 5 to 6, y -3 to -2"),
+        ("DELETE 5 6 5 6", "WARNING: DELETE: no block's centroid"),
+        ("LOAD 5 6 5 6 0 -10", "WARNING: LOAD: no block's centroid"),
+        ("VELOCITY 5 6 5 6 1 0", "WARNING: VELOCITY: no block's centroid"),
+        ("CHANGE 5 6 5 6 MAT=1", "WARNING: CHANGE: no block's centroid"),
+        ("SPLIT 0.5,0.5 0.5,0.5", "WARNING: SPLIT (0.5, 0.5) (0.5, 0.5) has zero length; nothing was split"),
+        ("SPLIT 5,-1 5,2", "WARNING: SPLIT (5, -1) (5, 2) crosses no block from one side to the other; nothing was split"),
+        ("SPLIT 0.5,-1 0.5,0.5", "WARNING: SPLIT (0.5, -1) (0.5, 0.5) crosses no block"),
+        ("WINDOW 20 30 20 30\nPLOT", "WARNING: PLOT shows no block: none lies in WINDOW"),
+        ("VIEW 3000 4000 0 1400\nPLOT", "WARNING: PLOT shows no block: VIEW 3000 4000 0 1400 lies off the page"),
+    ] {
+        let dir = std::env::temp_dir().join(format!("blockdem-noop-{}", std::process::id()));
+        let commands = blockdem::deck::parse_deck(&format!("{ONE_BLOCK}{cmd}\nCYCLE 1\n"), "<scene>").unwrap();
+        let log = SharedLog::default();
+        let options = blockdem::exec::RunOptions { out_dir: dir, ..Default::default() };
+        let mut exec = blockdem::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(log.clone()), options, "<scene>");
+        let result = exec.run(&commands);
+        let log = String::from_utf8(log.0.borrow().clone()).unwrap();
+        assert!(result.is_ok() && log.contains(warning) && log.contains("CURRENT CYCLE COUNT = 1"), "{cmd}:\n{log}");
+    }
+    // Ranges that catch a block, a split across it and a plot that shows it say nothing.
+    let (_, log) = run_ok(&format!(
+        "{ONE_BLOCK}ROUND 0.01\nFIX -1 2 -1 2\nFREE -1 2 -1 2\nLOAD -1 2 -1 2 0 -10\nCHANGE -1 2 -1 2 MAT=1\nVELOCITY -1 2 -1 2 0 0\nSPLIT 0.5,-1 0.5,2\nPLOT\nCYCLE 1\n"
+    ));
+    assert!(!log.contains("WARNING"), "{log}");
+}
