@@ -539,3 +539,20 @@ fn silent_no_ops_are_warned_against_and_the_run_goes_on() {
     ));
     assert!(!log.contains("WARNING"), "{log}");
 }
+
+/// Issue 27 item 6: a command that cannot run found after a long CYCLE stops the run before it
+/// cycles, naming that command's line (a deck of CYCLE 100000 then FLUID cycled first, then
+/// failed); typing errors are the parser's, before anything runs.
+#[test]
+fn a_command_that_cannot_run_is_found_before_the_first_cycle() {
+    for (cmd, what) in [("FLUID 1000 2E9", "FLUID"), ("PRINT BLOCKS FLOWS", "PRINT FLOWS"), ("CHANGE 0 1 0 1 SDEF", "CHANGE SDEF")] {
+        let deck = format!("{ONE_BLOCK}GRAV 0 -10\nCYCLE 100000000\nCYCLE 10\n{cmd}\nSTOP\n");
+        let started = std::time::Instant::now();
+        let (r, log) = run_logged(&deck);
+        let e = r.unwrap_err();
+        assert!(matches!(e, RunError::Unsupported { line: 7, .. }), "{cmd}: {e}");
+        assert!(e.to_string().starts_with(&format!("<scene>:7: not supported yet: {what}")), "{cmd}: {e}");
+        assert!(log.contains(&format!("THE DECK CANNOT RUN TO ITS END: LINE 7 ({cmd}) IS NOT SUPPORTED YET; NOTHING IS CYCLED")), "{log}");
+        assert!(!log.contains("CURRENT CYCLE COUNT") && started.elapsed().as_secs() < 10, "{cmd}: it cycled first:\n{log}");
+    }
+}
