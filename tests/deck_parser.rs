@@ -440,6 +440,18 @@ fn whole_file_errors() {
     parse(&format!("START\nCYC 1{}\n", " ".repeat(4096 - 5)));
 }
 
+/// Issue 27 item 9: a Latin-1 byte in a comment line (an editor's '°') is read as Latin-1, not
+/// taken for a binary file; outside comments it is still refused at its line and column.
+#[test]
+fn latin1_in_a_comment_is_read_leniently() {
+    let deck = blockdem::deck::parse::parse_deck_bytes(b"START\n* a slope of 30\xb0, caf\xe9\n  * indented \xb0\nGRAV 0 -10\n", FILE).unwrap();
+    assert_eq!(deck.len(), 2);
+    assert_eq!(deck[1].line, 4);
+    let e = parse_deck_bytes_err(b"START\n* 30\xb0\nGRAV 0 -10 \xb0\n");
+    assert_eq!((e.line, e.column), (3, 12), "{e}");
+    assert!(e.message.contains("0xB0"), "{e}");
+}
+
 fn parse_deck_bytes_err(b: &[u8]) -> DeckError {
     blockdem::deck::parse::parse_deck_bytes(b, FILE).unwrap_err()
 }

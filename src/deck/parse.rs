@@ -527,11 +527,37 @@ fn statement(st: &lexer::Statement, first: bool, file: &str) -> Result<Command> 
     parse_command(&mut args)
 }
 
-/// Parse a deck read as raw bytes: text that is not valid UTF-8 is refused as a binary file.
+/// Parse a deck read as raw bytes: text that is not valid UTF-8 is refused as a binary file,
+/// except in comment lines, which are read as Latin-1 ([`lenient_text`]).
 pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
-    match std::str::from_utf8(bytes) {
-        Ok(text) => parse_deck(text, file),
-        Err(e) => Err(not_utf8(bytes, e.valid_up_to(), file)),
+    match lenient_text(bytes) {
+        Ok(text) => parse_deck(&text, file),
+        Err(bad) => Err(not_utf8(bytes, bad, file)),
+    }
+}
+
+/// The deck's bytes as text: UTF-8, except that a comment line (`*` its first non-blank
+/// character) that is not UTF-8 is read as Latin-1 — an editor's `°` or `é` (0xB0, 0xE9) in a
+/// comment does not make a deck binary (issue 27 item 9). Elsewhere a byte that is not UTF-8 is
+/// refused: its offset is the error.
+pub fn lenient_text(bytes: &[u8]) -> std::result::Result<std::borrow::Cow<'_, str>, usize> {
+    if let Ok(text) = std::str::from_utf8(bytes) {
+        return Ok(text.into());
+    }
+    let mut text = String::with_capacity(bytes.len() + 16);
+    let mut start = 0;
+    for line in bytes.split_inclusive(|&b| b == b'\n') {
+        match std::str::from_utf8(line) {
+            Ok(t) => text.push_str(t),
+            Err(e) => {
+                let comment = line.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'*');
+                if !comment {
+                    return Err(start + e.valid_up_to());
+                }
+                text.extend(line.iter().map(|&b| char::from(b)));
+            }
+        }
+        start += line.len();
     }
 }
 
@@ -587,11 +613,13 @@ fn read_deck_from(mut source: impl std::io::Read, size: usize, file: &str, limit
     let io = |error| ReadError::Io { file: file.to_string(), error };
     let mut bytes = Vec::with_capacity(size);
     (&mut source).take(FIRST_BYTES.min(limit + 1) as u64).read_to_end(&mut bytes).map_err(io)?;
-    let text = match std::str::from_utf8(&bytes) {
+    let text = match lenient_text(&bytes) {
         Ok(text) => text,
         // A character cut at the end of the first bytes is whole in the deck.
-        Err(e) if e.error_len().is_none() => std::str::from_utf8(&bytes[..e.valid_up_to()]).expect("valid up to there"),
-        Err(e) => return Err(not_utf8(&bytes, e.valid_up_to(), file).into()),
+        Err(bad) if std::str::from_utf8(&bytes[bad..]).is_err_and(|e| e.error_len().is_none() && e.valid_up_to() == 0) => {
+            lenient_text(&bytes[..bad]).map_err(|bad| not_utf8(&bytes, bad, file))?
+        }
+        Err(bad) => return Err(not_utf8(&bytes, bad, file).into()),
     };
     lexer::check_text(text, file)?;
     (&mut source).take((limit + 1).saturating_sub(bytes.len()) as u64).read_to_end(&mut bytes).map_err(io)?;
@@ -1052,6 +1080,14 @@ mod tests {
         assert_eq!(read_deck_from(&deck[..], 0, "at the limit", deck.len()).unwrap(), deck);
         let e = read_deck_from(&b"START\nGRAV 0 \xff\n"[..], 0, "latin1", MAX_DECK_BYTES).unwrap_err();
         assert!(e.to_string().starts_with("latin1:2:8: binary file: byte 0xFF is not UTF-8"), "{e}");
+        // In a comment line a Latin-1 byte is read as Latin-1 (issue 27 item 9), also where the
+        // first bytes end in a character cut in two.
+        let deck = b"START\n* a slope of 30\xb0\nGRAV 0 -10\n";
+        assert_eq!(read_deck_from(&deck[..], 0, "comment", MAX_DECK_BYTES).unwrap(), deck);
+        let mut deck = b"* 30\xb0\n".to_vec();
+        deck.extend("*".repeat(FIRST_BYTES - deck.len() - 1).into_bytes());
+        deck.extend("é\nSTART\n".as_bytes());
+        assert_eq!(read_deck_from(&deck[..], 0, "cut", MAX_DECK_BYTES).unwrap(), deck);
     }
 
     /// Every name's full spelling and its minimum abbreviation (in either case) resolve to that
