@@ -157,6 +157,8 @@ pub struct Executor<'a> {
     executed: usize,
     /// The line printed under the banner ([`Executor::set_provenance`]).
     provenance: Option<String>,
+    /// The ROUND (its bits) and the blocks it cuts that the ROUND warning last named.
+    round_warned: Option<(u64, Vec<u32>)>,
 }
 
 impl<'a> Executor<'a> {
@@ -172,6 +174,7 @@ impl<'a> Executor<'a> {
             limits: LIMITS_CPU_F64,
             executed: 0,
             provenance: None,
+            round_warned: None,
         }
     }
 
@@ -301,27 +304,37 @@ impl<'a> Executor<'a> {
 
     /// A ROUND at or past half a block's shortest edge is cut to half each edge
     /// (`model::geometry::corner_rounding`): the arcs then meet along whole edges and the block
-    /// touches as a disc would, through several corner–corner contacts at one point. Said once a
-    /// CYCLE, since the deck's ROUND is then not what runs.
-    fn round_warning(&self) -> Option<String> {
+    /// touches as a disc would, through several corner–corner contacts at one point. Said at the
+    /// first CYCLE it applies to, naming the blocks, and again only when ROUND or the blocks it
+    /// cuts change (issue 27 item 9: it was said at every CYCLE).
+    fn round_warning(&mut self) -> Option<String> {
         let round = self.model.tol.round;
-        let mut cut = 0usize;
+        let mut cut = Vec::new();
         let mut shortest = f64::INFINITY;
         for b in 0..self.model.blocks.len() {
             let edge = self.model.block_corners(b).iter().map(|c| c.edge_length).fold(f64::INFINITY, f64::min);
             if round >= 0.5 * edge {
-                cut += 1;
+                cut.push(self.model.blocks[b].id);
                 shortest = shortest.min(edge);
             }
         }
-        (cut > 0).then(|| {
-            format!(
-                "WARNING: ROUND {} is half the shortest edge or more in {cut} block(s) (the shortest edge {}); their corners are \
-                 rounded at half each edge instead, so they touch as discs would: give ROUND under half the shortest edge",
-                output::format::fmt_e(round),
-                output::format::fmt_e(shortest)
-            )
-        })
+        let said = (round.to_bits(), cut.clone());
+        if cut.is_empty() || self.round_warned.as_ref() == Some(&said) {
+            return None;
+        }
+        self.round_warned = Some(said);
+        const NAMED: usize = 20;
+        let mut ids = cut.iter().take(NAMED).map(u32::to_string).collect::<Vec<_>>().join(", ");
+        if cut.len() > NAMED {
+            ids.push_str(&format!(" and {} more", cut.len() - NAMED));
+        }
+        Some(format!(
+            "WARNING: ROUND {} is half the shortest edge or more in {} block(s) (block {ids}; the shortest edge {}); their corners are \
+             rounded at half each edge instead, so they touch as discs would: give ROUND under half the shortest edge",
+            output::format::fmt_e(round),
+            cut.len(),
+            output::format::fmt_e(shortest)
+        ))
     }
 
     fn resolve(&self, name: &Option<String>) -> PathBuf {

@@ -344,14 +344,19 @@ fn extreme_ratios_are_warned_against_the_limits_of_the_precision_that_runs() {
     assert!(!log.contains("WARNING"), "{log}");
 }
 
-/// A ROUND of half the shortest edge or more is said once a CYCLE (the corners are rounded less
-/// than the deck asks, and touch as discs); a ROUND under it is not.
+/// A ROUND of half the shortest edge or more is said once, naming the blocks, not at every CYCLE
+/// (issue 27 item 9; the corners are rounded less than the deck asks, and touch as discs); again
+/// when ROUND changes; a ROUND under it is not.
 #[test]
 fn a_round_past_half_an_edge_is_warned_against() {
-    let deck =
-        |round: &str| format!("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND {round}\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 1\nCYCLE 5\n");
+    let deck = |round: &str| {
+        format!("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND {round}\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX 0 1 0 1\nCYCLE 5\nCYCLE 5\nCYCLE 5\n")
+    };
     let (_, log) = run_ok(&deck("0.5"));
-    assert_eq!(log.matches("WARNING: ROUND 5.000E-01 is half the shortest edge or more in 2 block(s)").count(), 1, "{log}");
+    assert_eq!(log.matches("WARNING: ROUND 5.000E-01 is half the shortest edge or more in 2 block(s) (block 1, 2; ").count(), 1, "{log}");
+    assert_eq!(log.matches("WARNING: ROUND").count(), 1, "{log}");
+    let (_, log) = run_ok(&format!("{}ROUND 0.6\nCYCLE 5\n", deck("0.5")));
+    assert_eq!(log.matches("WARNING: ROUND").count(), 2, "{log}");
     let (_, log) = run_ok(&deck("0.1"));
     assert!(!log.contains("WARNING"), "{log}");
 }
