@@ -939,7 +939,7 @@ impl<'a> Executor<'a> {
             format!(
                 " (FRACTION {} is above the stable limit of this model: the explicit integration diverges; the largest safe value \
                  is about {})",
-                output::format::fmt_short(self.model.frac),
+                crate::backend::frac_text(self.model.frac),
                 crate::backend::safe_frac_text(safe)
             )
         } else {
