@@ -109,8 +109,9 @@ fn progress_line(done: u64, n: u64, elapsed: f64) -> String {
     let left = (n - done.min(n)) as f64 / rate.max(1e-9);
     let (m, sec) = ((left / 60.0).floor(), left % 60.0);
     format!(
-        "blockdem: cycle {done} of {n} ({:.1}%), {rate:.3e} cycles/s, about {}{sec:.0} s left",
+        "blockdem: cycle {done} of {n} ({:.1}%), {} cycles/s, about {}{sec:.0} s left",
         100.0 * done as f64 / n as f64,
+        rate_text(rate),
         if m > 0.0 { format!("{m:.0} min ") } else { String::new() }
     )
 }
@@ -134,6 +135,20 @@ fn not_supported_yet(command: &Command) -> Option<&'static str> {
             _ => None,
         }),
         _ => None,
+    }
+}
+
+/// A rate of cycles per second as a person reads it: whole numbers from 100 up (`6532`, not
+/// indicatif's `6,531.7848/s`), three significant digits below, exponent form past 10⁷.
+fn rate_text(rate: f64) -> String {
+    if !rate.is_finite() || rate >= 1e7 {
+        format!("{rate:.2e}")
+    } else if rate >= 100.0 {
+        format!("{rate:.0}")
+    } else if rate >= 10.0 {
+        format!("{rate:.1}")
+    } else {
+        format!("{rate:.2}")
     }
 }
 
@@ -775,7 +790,12 @@ impl<'a> Executor<'a> {
         let bar = (self.options.progress == Progress::Bar && long).then(|| {
             let pb = indicatif::ProgressBar::new(n);
             pb.set_style(
-                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {per_sec} eta {eta}")
+                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {rate} cycles/s eta {eta}")
+                    .map(|style| {
+                        style.with_key("rate", |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                            let _ = w.write_str(&rate_text(state.per_sec()));
+                        })
+                    })
                     .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
             );
             pb

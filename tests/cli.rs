@@ -538,6 +538,9 @@ fn long_cycles_show_a_bar_on_a_terminal_and_progress_lines_otherwise() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
     assert!(text.contains("/2000000 cycles"), "no progress bar on a terminal:\n{text}");
+    // Its rate reads as a number of cycles per second (it showed "6,531.7848/s").
+    let rate = text.split(" cycles/s").next().and_then(|t| t.split_whitespace().last()).unwrap_or_default();
+    assert!(text.contains(" cycles/s") && rate.parse::<f64>().is_ok() && !rate.contains(','), "rate '{rate}':\n{text}");
     assert!(text.contains("CURRENT CYCLE COUNT = 2000000"), "{text}");
 }
 
