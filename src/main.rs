@@ -407,7 +407,7 @@ fn adapters() -> anyhow::Result<()> {
     }
     for (i, a) in list.iter().enumerate() {
         say!("[{i}] {} ({}, {})", a.name, a.backend, a.device_type);
-        say!("    driver: {} ({})", a.driver, a.driver_info);
+        say!("    driver: {} ({})", a.driver_name(), if a.driver_info.trim().is_empty() { "no driver information" } else { &a.driver_info });
         say!("    max_storage_buffers_per_shader_stage: {}", a.max_storage_buffers_per_shader_stage);
         say!("    max_storage_buffer_binding_size: {}", a.max_storage_buffer_binding_size);
         say!("    max_buffer_size: {}", a.max_buffer_size);
@@ -515,7 +515,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                         note!("blockdem: running on {}", gpu.describe());
                         runs_on = (true, if precision == Precision::F32 { "f32" } else { "f64" });
                         let a = gpu.adapter();
-                        adapter_name = Some(format!("{} ({}, {})", a.name, a.backend, a.driver));
+                        adapter_name = Some(format!("{} ({}, {})", a.name, a.backend, a.driver_name()));
                         if backend == BackendChoice::Auto {
                             // A model past the adapter's limits runs on the CPU instead.
                             Box::new(GpuOrCpu::new(Box::new(gpu)))

@@ -42,6 +42,23 @@ fn adapters_lists_backend_driver_limits_and_f64() {
         assert!(stdout.contains(key), "{key} missing:\n{stdout}");
     }
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "headless Mesa stays quiet: {stderr}");
+    // A driver that gives no name (Mesa's GL adapter) is said to, not shown as nothing.
+    assert!(!stdout.contains("driver:  (") && !stdout.contains("driver: ()"), "{stdout}");
+}
+
+/// Issue 27 item 9: the GL adapter's empty driver name showed as `[]` in "running on".
+#[test]
+fn an_adapter_without_a_driver_name_is_described_sensibly() {
+    if Target::gpu("gl", Precision::F32).is_none() {
+        return;
+    }
+    let out = out_dir("gl-driver");
+    let (code, stdout, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--adapter", "gl", "--out", &out], &[]);
+    assert_eq!(code, 0, "{stderr}");
+    let running = stderr.lines().find(|l| l.contains("running on gpu (")).unwrap_or_else(|| panic!("{stderr}"));
+    assert!(!running.contains("[]"), "{running}");
+    let provenance = stdout.lines().find(|l| l.starts_with("BLOCKDEM ")).unwrap_or_else(|| panic!("{stdout}"));
+    assert!(!provenance.contains(", )") && provenance.contains("PRECISION f32"), "{provenance}");
 }
 
 #[test]
