@@ -51,11 +51,16 @@ pub struct Material {
     pub ares: f64,
 }
 
-/// How a block deforms (UDEC head codes MRIG, MSDEF, MFDEF).
+/// How a block deforms (UDEC head codes MRIG, MSDEF, MFDEF). Serialized under the words of
+/// [`BlockKind::name`], so that DUMP says what the state JSON does (save files keep the
+/// variant's index, not its name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum BlockKind {
+    #[serde(rename = "rigid")]
     Rigid,
+    #[serde(rename = "sdef")]
     SimplyDeformable,
+    #[serde(rename = "fdef")]
     FullyDeformable,
 }
 
@@ -176,12 +181,15 @@ pub struct Corner {
     pub edge_constitutive: u32,
 }
 
-/// Kind of a contact, as PRINT LIST names it.
+/// Kind of a contact, as PRINT LIST names it; serialized under the words of
+/// [`ContactKind::name`], as [`BlockKind`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ContactKind {
     /// A corner of block 1 against a straight edge of block 2.
+    #[serde(rename = "corner-edge")]
     CornerEdge,
     /// A corner of block 1 against a rounded corner of block 2.
+    #[serde(rename = "corner-corner")]
     CornerCorner,
 }
 
