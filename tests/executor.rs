@@ -560,4 +560,6 @@ fn a_command_that_cannot_run_is_found_before_the_first_cycle() {
         assert!(log.contains(&format!("THE DECK CANNOT RUN TO ITS END: LINE 7 ({cmd}) IS NOT SUPPORTED YET; NOTHING IS CYCLED")), "{log}");
         assert!(!log.contains("CURRENT CYCLE COUNT") && started.elapsed().as_secs() < 10, "{cmd}: it cycled first:\n{log}");
     }
+    let e = blockdem::deck::parse_deck(&format!("{ONE_BLOCK}CYCLE 100000000\nCYLCE 10\n"), "<scene>").unwrap_err();
+    assert!(e.to_string().starts_with("<scene>:5:1: unknown command 'CYLCE' (did you mean CYCLE?)"), "{e}");
 }
