@@ -118,12 +118,12 @@ struct RunArgs {
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     backend: BackendChoice,
     /// GPU adapter: vulkan, gl, any, or part of an adapter's name (see `blockdem adapters`).
-    /// WGPU_BACKEND and WGPU_ADAPTER_NAME are honoured too.
-    #[arg(long, default_value = "any")]
-    adapter: String,
-    /// Kernel precision on the GPU (the CPU is always f64).
-    #[arg(long, value_enum, default_value_t = PrecisionChoice::F32)]
-    precision: PrecisionChoice,
+    /// WGPU_BACKEND and WGPU_ADAPTER_NAME are honoured too. [default: any]
+    #[arg(long)]
+    adapter: Option<String>,
+    /// Kernel precision on the GPU (the CPU is always f64). [default: f32]
+    #[arg(long, value_enum)]
+    precision: Option<PrecisionChoice>,
     /// Folder for PLOT files and SAVE / RESTART files named without a folder.
     #[arg(long, default_value = "out")]
     out: PathBuf,
@@ -361,6 +361,7 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     let name = deck.display().to_string();
     let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision: precision.into() }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
@@ -416,6 +417,22 @@ fn adapters() -> anyhow::Result<()> {
         say!("    compute shaders: {}", if a.compute { "yes" } else { "no (unusable)" });
     }
     Ok(())
+}
+
+/// Commands after END are not run: says so, with the line of the first (issue 27 item 9).
+fn warn_after_end(bytes: &[u8], commands: &[blockdem::deck::Located], file: &str) {
+    let Some(end) = commands.last().filter(|c| c.command == blockdem::deck::Command::End) else {
+        return;
+    };
+    // Blank lines, comments and lines of separators only are not commands.
+    let ignored = |line: &[u8]| {
+        let text = String::from_utf8_lossy(line);
+        let t = text.trim_matches(|c: char| c.is_whitespace() || matches!(c, '=' | '(' | ')' | ',' | '/'));
+        t.is_empty() || t.starts_with('*')
+    };
+    if let Some(i) = bytes.split(|&b| b == b'\n').skip(end.line).position(|l| !ignored(l)) {
+        note!("blockdem: {file}:{}: text after END is ignored (from this line on)", end.line + 1 + i);
+    }
 }
 
 /// Refuses an output folder that cannot be made or written before the work starts, not after
@@ -488,9 +505,18 @@ fn seconds(text: &str) -> Result<f64, String> {
 
 fn run(args: RunArgs) -> anyhow::Result<()> {
     let RunArgs { deck, backend, adapter, precision, out, state_json, checkpoint_every, vtk_every } = args;
+    if backend == BackendChoice::Cpu {
+        let given: Vec<&str> = [adapter.as_ref().map(|_| "--adapter"), precision.map(|_| "--precision")].into_iter().flatten().collect();
+        if !given.is_empty() {
+            note!("blockdem: --backend cpu runs in f64 on the CPU; {} ignored", given.join(" and "));
+        }
+    }
+    let adapter = adapter.unwrap_or_else(|| "any".into());
+    let precision = precision.unwrap_or(PrecisionChoice::F32);
     let name = deck.display().to_string();
     let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
     if let Some(path) = &state_json {
         check_out_file(path, "--state-json")?;

@@ -674,3 +674,24 @@ fn the_log_and_the_state_json_name_what_made_them() {
         assert!(state.get(key).is_some(), "{key} missing");
     }
 }
+
+/// Issue 27 item 9: `--adapter` or `--precision` with `--backend cpu` is said to be ignored (it
+/// was accepted without a word), and so is text after END, naming its line.
+#[test]
+fn ignored_options_and_text_after_end_are_said_to_be_ignored() {
+    let dir = temp("ignored");
+    let out = dir.join("out");
+    let body = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 1\nEND\n";
+    let deck = write_deck(&dir, &format!("{body}\n* a comment\n  ,\nCYCLE 100\n"));
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--adapter", "gl", "--precision", "f64", "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("blockdem: --backend cpu runs in f64 on the CPU; --adapter and --precision ignored"), "{stderr}");
+    assert!(stderr.contains(&format!("blockdem: {deck}:9: text after END is ignored")), "{stderr}");
+    assert!(!stdout.contains("CYCLE 100"), "{stdout}");
+    let (_, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--precision", "f32", "--out", out.to_str().unwrap()]);
+    assert!(stderr.contains("; --precision ignored"), "{stderr}");
+    // Neither is said without cause.
+    let deck = write_deck(&dir, &format!("{body}\n* only a comment after END\n"));
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap()]);
+    assert!(code == 0 && !stderr.contains("ignored"), "{stderr}");
+}
