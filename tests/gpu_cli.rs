@@ -200,3 +200,30 @@ fn compare_fails_when_only_one_run_stops() {
     assert!(stdout.contains("stopped: ") && stdout.contains("outside the range of the f32 kernels"), "{stdout}");
     assert!(stderr.contains("the GPU run stopped where the reference did not"), "{stderr}");
 }
+
+/// Issue 27 item 3 on the GPU: the kinetic energy VELOCITY gives is booked on the model side, so
+/// the GPU's balance stays at zero too (a lone block given 10 m/s, then slowed to 2 m/s).
+#[test]
+fn velocity_is_booked_in_the_ledger_on_the_gpu() {
+    if Target::gpu("vulkan", Precision::F32).is_none() {
+        return;
+    }
+    let dir = out_dir("velocity-ledger");
+    std::fs::create_dir_all(&dir).unwrap();
+    let deck = format!("{dir}/deck.dat");
+    std::fs::write(
+        &deck,
+        "START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nVELOCITY -1 2 -1 2 10 0\nCYCLE 100\nPRINT ENERGY\n\
+         VELOCITY -10 10 -10 10 2 0\nCYCLE 100\nPRINT ENERGY\n",
+    )
+    .unwrap();
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "gpu", "--adapter", "vulkan", "--out", &dir], &[]);
+    assert_eq!(code, 0, "{stderr}");
+    let balances: Vec<&str> = stdout.lines().filter(|l| l.contains("BALANCE")).collect();
+    assert_eq!(balances.len(), 2, "{stdout}");
+    for b in balances {
+        let value: f64 = b.rsplit(' ').next().unwrap().parse().unwrap();
+        // f32 kinetic energy of 5e4 J: round-off of a few parts in 1e7.
+        assert!(value.abs() < 1e-3 * 5e4, "{b}");
+    }
+}
