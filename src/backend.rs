@@ -52,10 +52,17 @@ pub enum CycleError {
     Overlap { cycle: u64, block1: u32, block2: u32, overlap: f64, limit: f64, x: f64, y: f64 },
     #[error("non-finite value at cycle {cycle}: block {block} has {what}; the run diverged — lower FRACTION, or check the loads and material properties")]
     NonFinite { cycle: u64, block: u32, what: String },
+    /// `budget` is the energy the model started the CYCLE with plus the work gravity and loads
+    /// did since (the largest seen): negative where blocks rose against gravity, since the work
+    /// of gravity is then negative; the check counts it as zero.
     #[error(
-        "energy growing without a source at cycle {cycle}: kinetic + strain energy {energy:.4e} exceeds the energy put in ({budget:.4e}); \
+        "energy growing without a source at cycle {cycle}: kinetic + strain energy {} exceeds the energy put in, {} \
+         (the energy at the start of the CYCLE plus the work of gravity and loads since{}); \
          the explicit integration is unstable — lower FRACTION (now {}{})",
-        crate::output::format::fmt_short(*.frac),
+        crate::output::format::fmt_e(*.energy),
+        crate::output::format::fmt_e(f64::max(*.budget, 0.0)),
+        negative_budget_note(*.budget),
+        frac_text(*.frac),
         safe_frac_note(*.safe_frac)
     )]
     EnergyGrowth { cycle: u64, energy: f64, budget: f64, frac: f64, safe_frac: f64 },
@@ -82,6 +89,22 @@ pub(crate) fn safe_frac_note(safe_frac: f64) -> String {
     } else {
         String::new()
     }
+}
+
+/// Why the energy put in is counted as zero, where it is negative.
+fn negative_budget_note(budget: f64) -> String {
+    if budget < 0.0 {
+        format!(", counted as zero: it is {} because the blocks moved against gravity and their loads", crate::output::format::fmt_e(budget))
+    } else {
+        String::new()
+    }
+}
+
+/// A FRACTION for messages: as typed (`0.1`), or to four significant digits where it has more
+/// (the FRACTIONs `blockdem verify` bisects: `0.6298`, not `0.6297873064661311`).
+pub(crate) fn frac_text(frac: f64) -> String {
+    let rounded = format!("{frac:.3e}").parse::<f64>().unwrap_or(frac);
+    crate::output::format::fmt_short(rounded)
 }
 
 /// A safe FRACTION to two significant digits (a safe FRAC of 0.005 printed as 0.00 before).
@@ -155,7 +178,8 @@ impl Backend for GpuOrCpu {
         match self.gpu.run(model, cycles, progress) {
             // Refused before any cycle, the model at its state before the run.
             Err(CycleError::DoesNotFit(why)) => {
-                eprintln!("blockdem: {why}; --backend auto goes on on the CPU (f64)");
+                use std::io::Write as _;
+                let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
                 self.cpu.insert((self.make_cpu)()).run(model, cycles, progress)
             }
             result => result,

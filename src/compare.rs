@@ -165,11 +165,14 @@ pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
     let _ = writeln!(s, "gpu / cpu wall time: {:.2}x", c.time_ratio);
     let _ = writeln!(s);
     if c.same_blocks {
-        let _ = writeln!(s, "largest difference   value        relative    block");
-        for (name, l, unit, over) in
-            [("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")]
-        {
-            let _ = writeln!(s, "{name:<20} {:<12} {:<11} {}", format!("{:.3e} {unit}", l.value), format!("{:.2e} {over}", l.relative), l.block);
+        let rows = [("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")]
+            .map(|(name, l, unit, over)| (name, format!("{:.3e} {unit}", l.value), format!("{:.2e} {over}", l.relative), l.block));
+        // Columns as wide as their widest cell, so that every row's block lines up.
+        let wide = |cells: &mut dyn Iterator<Item = usize>, title: &str| cells.max().unwrap_or(0).max(title.len());
+        let (vw, rw) = (wide(&mut rows.iter().map(|r| r.1.chars().count()), "value"), wide(&mut rows.iter().map(|r| r.2.chars().count()), "relative"));
+        let _ = writeln!(s, "{:<20} {:<vw$} {:<rw$} block", "largest difference", "value", "relative");
+        for (name, value, relative, block) in rows {
+            let _ = writeln!(s, "{name:<20} {value:<vw$} {relative:<rw$} {block}");
         }
     } else {
         let _ = writeln!(s, "the runs end on different blocks ({} and {}, or other ids): not compared block by block", c.blocks[0], c.blocks[1]);

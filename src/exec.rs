@@ -115,10 +115,47 @@ fn progress_line(done: u64, n: u64, elapsed: f64) -> String {
     let left = (n - done.min(n)) as f64 / rate.max(1e-9);
     let (m, sec) = ((left / 60.0).floor(), left % 60.0);
     format!(
-        "blockdem: cycle {done} of {n} ({:.1}%), {rate:.3e} cycles/s, about {}{sec:.0} s left",
+        "blockdem: cycle {done} of {n} ({:.1}%), {} cycles/s, about {}{sec:.0} s left",
         100.0 * done as f64 / n as f64,
+        rate_text(rate),
         if m > 0.0 { format!("{m:.0} min ") } else { String::new() }
     )
+}
+
+/// What of `command` is not supported yet (its physics comes in a later version), if anything.
+/// The executor stops at such a command, and before the first CYCLE it looks ahead for one, so
+/// that a deck of long CYCLEs followed by FLUID fails before it cycles, not after (issue 27
+/// item 6).
+fn not_supported_yet(command: &Command) -> Option<&'static str> {
+    match command {
+        Command::Change { to: Some(crate::deck::Deformability::Sdef), .. } => Some("CHANGE SDEF (simply-deformable blocks)"),
+        Command::Change { to: Some(crate::deck::Deformability::Fdef), .. } => Some("CHANGE FDEF (fully-deformable blocks)"),
+        Command::Fluid { .. } => Some("FLUID (fluid flow in joints and domains)"),
+        Command::Generate { .. } => Some("GENERATE (zoning of fully-deformable blocks)"),
+        Command::PFix { .. } => Some("PFIX (domain pressures)"),
+        Command::PFree { .. } => Some("PFREE (domain pressures)"),
+        Command::Print { items } => items.iter().find_map(|item| match item {
+            PrintItem::Domains => Some("PRINT DOMAINS (fluid domains)"),
+            PrintItem::DList => Some("PRINT DLIST (domain linked lists)"),
+            PrintItem::Flows => Some("PRINT FLOWS (fluid flow)"),
+            _ => None,
+        }),
+        _ => None,
+    }
+}
+
+/// A rate of cycles per second as a person reads it: whole numbers from 100 up (`6532`, not
+/// indicatif's `6,531.7848/s`), three significant digits below, exponent form past 10⁷.
+fn rate_text(rate: f64) -> String {
+    if !rate.is_finite() || rate >= 1e7 {
+        format!("{rate:.2e}")
+    } else if rate >= 100.0 {
+        format!("{rate:.0}")
+    } else if rate >= 10.0 {
+        format!("{rate:.1}")
+    } else {
+        format!("{rate:.2}")
+    }
 }
 
 impl RunOptions {
@@ -139,6 +176,10 @@ pub struct Executor<'a> {
     limits: Limits,
     /// Commands executed so far (START is only the first).
     executed: usize,
+    /// The line printed under the banner ([`Executor::set_provenance`]).
+    provenance: Option<String>,
+    /// The ROUND (its bits) and the blocks it cuts that the ROUND warning last named.
+    round_warned: Option<(u64, Vec<u32>)>,
 }
 
 impl<'a> Executor<'a> {
@@ -153,6 +194,21 @@ impl<'a> Executor<'a> {
             file: file.to_string(),
             limits: LIMITS_CPU_F64,
             executed: 0,
+            provenance: None,
+            round_warned: None,
+        }
+    }
+
+    /// What made the run (`output::provenance::Provenance::line`): printed under the banner of
+    /// START and RESTART, so that a log names its program, deck, backend and precision.
+    pub fn set_provenance(&mut self, line: String) {
+        self.provenance = Some(line);
+    }
+
+    fn banner(&mut self) {
+        self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+        if let Some(line) = self.provenance.clone() {
+            self.echo(&line);
         }
     }
 
@@ -172,9 +228,24 @@ impl<'a> Executor<'a> {
     }
 
     fn run_commands(&mut self, commands: &[Located]) -> Result<(), RunError> {
-        for cmd in commands {
+        let mut looked_ahead = false;
+        for (i, cmd) in commands.iter().enumerate() {
             if self.options.interrupted() {
                 return Err(self.interrupted(cmd));
+            }
+            // Before the first CYCLE: a command further on that cannot run stops the run now,
+            // not after hours of cycling (the parser has read the whole deck, so typing errors
+            // are already reported).
+            if !looked_ahead && matches!(cmd.command, Command::Cycle { .. }) {
+                looked_ahead = true;
+                if let Some((later, what)) = commands[i..].iter().find_map(|c| not_supported_yet(&c.command).map(|w| (c, w))) {
+                    self.echo(&format!(
+                        "THE DECK CANNOT RUN TO ITS END: LINE {} ({}) IS NOT SUPPORTED YET; NOTHING IS CYCLED",
+                        later.line,
+                        later.source.trim()
+                    ));
+                    return Err(self.unsupported(later, what));
+                }
             }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
@@ -254,27 +325,37 @@ impl<'a> Executor<'a> {
 
     /// A ROUND at or past half a block's shortest edge is cut to half each edge
     /// (`model::geometry::corner_rounding`): the arcs then meet along whole edges and the block
-    /// touches as a disc would, through several corner–corner contacts at one point. Said once a
-    /// CYCLE, since the deck's ROUND is then not what runs.
-    fn round_warning(&self) -> Option<String> {
+    /// touches as a disc would, through several corner–corner contacts at one point. Said at the
+    /// first CYCLE it applies to, naming the blocks, and again only when ROUND or the blocks it
+    /// cuts change (issue 27 item 9: it was said at every CYCLE).
+    fn round_warning(&mut self) -> Option<String> {
         let round = self.model.tol.round;
-        let mut cut = 0usize;
+        let mut cut = Vec::new();
         let mut shortest = f64::INFINITY;
         for b in 0..self.model.blocks.len() {
             let edge = self.model.block_corners(b).iter().map(|c| c.edge_length).fold(f64::INFINITY, f64::min);
             if round >= 0.5 * edge {
-                cut += 1;
+                cut.push(self.model.blocks[b].id);
                 shortest = shortest.min(edge);
             }
         }
-        (cut > 0).then(|| {
-            format!(
-                "WARNING: ROUND {} is half the shortest edge or more in {cut} block(s) (the shortest edge {}); their corners are \
-                 rounded at half each edge instead, so they touch as discs would: give ROUND under half the shortest edge",
-                output::format::fmt_e(round),
-                output::format::fmt_e(shortest)
-            )
-        })
+        let said = (round.to_bits(), cut.clone());
+        if cut.is_empty() || self.round_warned.as_ref() == Some(&said) {
+            return None;
+        }
+        self.round_warned = Some(said);
+        const NAMED: usize = 20;
+        let mut ids = cut.iter().take(NAMED).map(u32::to_string).collect::<Vec<_>>().join(", ");
+        if cut.len() > NAMED {
+            ids.push_str(&format!(" and {} more", cut.len() - NAMED));
+        }
+        Some(format!(
+            "WARNING: ROUND {} is half the shortest edge or more in {} block(s) (block {ids}; the shortest edge {}); their corners are \
+             rounded at half each edge instead, so they touch as discs would: give ROUND under half the shortest edge",
+            output::format::fmt_e(round),
+            cut.len(),
+            output::format::fmt_e(shortest)
+        ))
     }
 
     fn resolve(&self, name: &Option<String>) -> PathBuf {
@@ -287,19 +368,37 @@ impl<'a> Executor<'a> {
         }
     }
 
-    fn in_range(&self, r: &Range) -> Vec<usize> {
-        self.model.blocks_in_range(r.x1, r.x2, r.y1, r.y2)
+    /// The blocks whose centroids lie in `r`. A range that catches none makes `what` (FIX, LOAD,
+    /// …) a no-op, which the log says (issue 27 item 5): a range in the wrong units or with its
+    /// ends swapped would otherwise pass unseen.
+    fn in_range(&mut self, what: &str, r: &Range) -> Vec<usize> {
+        let blocks = self.model.blocks_in_range(r.x1, r.x2, r.y1, r.y2);
+        if blocks.is_empty() {
+            let f = output::format::fmt_short;
+            self.echo(&format!(
+                "WARNING: {what}: no block's centroid lies in x {} to {}, y {} to {} (of {} block(s)); nothing changed",
+                f(r.x1),
+                f(r.x2),
+                f(r.y1),
+                f(r.y2),
+                self.model.blocks.len()
+            ));
+        }
+        blocks
     }
 
     /// Executes one command; returns true when the run should stop (STOP, END).
     fn execute(&mut self, cmd: &Located) -> Result<bool, RunError> {
+        if let Some(what) = not_supported_yet(&cmd.command) {
+            return Err(self.unsupported(cmd, what));
+        }
         match &cmd.command {
             Command::Start => {
                 if self.executed > 0 {
                     // It would claim a cold start and keep the model (UDEC read START first only).
                     return Err(self.command_error(cmd, "START must be the first command of a run (a cold start); to begin again, start a new run"));
                 }
-                self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+                self.banner();
                 self.echo("THIS IS A START RUN");
             }
             Command::Restart { file } => {
@@ -309,7 +408,7 @@ impl<'a> Executor<'a> {
                 self.model = saved.model;
                 self.plot = saved.plot;
                 self.plot_count = saved.plot_count;
-                self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+                self.banner();
                 self.echo(&format!("THIS IS A RESTART RUN (FROM {}, CYCLE {})", path.display(), self.model.cycle));
             }
             Command::Stop | Command::End => return Ok(true),
@@ -331,14 +430,9 @@ impl<'a> Executor<'a> {
             Command::Change { range, to, material, constitutive } => {
                 self.check_material(cmd, "CHANGE", *material)?;
                 self.check_constitutive(cmd, "CHANGE", *constitutive)?;
-                if let Some(to) = to {
-                    let what = match to {
-                        crate::deck::Deformability::Sdef => "CHANGE SDEF (simply-deformable blocks)",
-                        crate::deck::Deformability::Fdef => "CHANGE FDEF (fully-deformable blocks)",
-                    };
-                    return Err(self.unsupported(cmd, what));
-                }
-                let blocks = self.in_range(range);
+                // CHANGE SDEF / FDEF stopped above (`not_supported_yet`).
+                debug_assert!(to.is_none());
+                let blocks = self.in_range("CHANGE", range);
                 let before: Vec<(u32, u32)> = blocks.iter().map(|&b| (self.model.blocks[b].material, self.model.blocks[b].constitutive)).collect();
                 for &b in &blocks {
                     if let Some(m) = material {
@@ -403,14 +497,14 @@ impl<'a> Executor<'a> {
                 }
             }
             Command::Delete { range } => {
-                let gone = self.in_range(range);
+                let gone = self.in_range("DELETE", range);
                 self.model.retire_energy_around(|m| m.remove_blocks(&gone));
             }
             Command::Dump { .. } => {
                 output::dump::dump(&self.model, &mut self.log).map_err(|e| self.command_error(cmd, format!("DUMP: {e}")))?;
             }
             Command::Fix { range } => {
-                for b in self.in_range(range) {
+                for b in self.in_range("FIX", range) {
                     let blk = &mut self.model.blocks[b];
                     blk.fixed = true;
                     blk.velocity = [0.0, 0.0];
@@ -418,15 +512,13 @@ impl<'a> Executor<'a> {
                 }
             }
             Command::Free { range } => {
-                for b in self.in_range(range) {
+                for b in self.in_range("FREE", range) {
                     self.model.blocks[b].fixed = false;
                 }
             }
             Command::Fraction { f } => self.model.frac = *f,
-            Command::Fluid { .. } => return Err(self.unsupported(cmd, "FLUID (fluid flow in joints and domains)")),
-            Command::Generate { .. } => return Err(self.unsupported(cmd, "GENERATE (zoning of fully-deformable blocks)")),
-            Command::PFix { .. } => return Err(self.unsupported(cmd, "PFIX (domain pressures)")),
-            Command::PFree { .. } => return Err(self.unsupported(cmd, "PFREE (domain pressures)")),
+            // Stopped above (`not_supported_yet`).
+            Command::Fluid { .. } | Command::Generate { .. } | Command::PFix { .. } | Command::PFree { .. } => {}
             Command::Gravity { g } => self.model.gravity = *g,
             Command::Link { flying, anchor } => {
                 let find = |p: [f64; 2]| (0..self.model.blocks.len()).find(|&b| crate::model::geometry::point_in_polygon(p, &self.model.corner_positions(b)));
@@ -459,7 +551,7 @@ impl<'a> Executor<'a> {
                 self.model.links.push(crate::model::Link { flying: f as u32, anchor: a as u32 });
             }
             Command::Load { range, force } => {
-                for b in self.in_range(range) {
+                for b in self.in_range("LOAD", range) {
                     self.model.blocks[b].load = *force;
                 }
             }
@@ -470,6 +562,9 @@ impl<'a> Executor<'a> {
                 let files = output::plot::plot(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count, deck_title(&self.file))
                     .map_err(|e| self.command_error(cmd, format!("PLOT: {e}")))?;
                 self.echo(&format!("PLOT WRITTEN TO {} AND {}", files[0].display(), files[1].display()));
+                if let Ok(Some(why)) = output::plot::shows_nothing(&self.model, &self.plot, options) {
+                    self.echo(&format!("WARNING: PLOT shows no block: {why}"));
+                }
             }
             Command::Print { items } => {
                 for item in items {
@@ -479,9 +574,8 @@ impl<'a> Executor<'a> {
                         PrintItem::Corners => output::print::print_corners(&self.model, &mut self.log),
                         PrintItem::List => output::print::print_block_lists(&self.model, &mut self.log),
                         PrintItem::Energy => self.print_energy(),
-                        PrintItem::Domains => return Err(self.unsupported(cmd, "PRINT DOMAINS (fluid domains)")),
-                        PrintItem::DList => return Err(self.unsupported(cmd, "PRINT DLIST (domain linked lists)")),
-                        PrintItem::Flows => return Err(self.unsupported(cmd, "PRINT FLOWS (fluid flow)")),
+                        // Stopped above (`not_supported_yet`).
+                        PrintItem::Domains | PrintItem::DList | PrintItem::Flows => Ok(()),
                     };
                     r.map_err(|e| self.command_error(cmd, format!("PRINT: {e}")))?;
                 }
@@ -539,11 +633,22 @@ impl<'a> Executor<'a> {
                 for (id, why) in &outcome.rejected {
                     self.echo(&format!("SPLIT REJECTED FOR BLOCK {id}: {why}"));
                 }
+                if outcome.split.is_empty() && outcome.rejected.is_empty() {
+                    let f = output::format::fmt_short;
+                    let why = if from == to { "has zero length" } else { "crosses no block from one side to the other" };
+                    self.echo(&format!(
+                        "WARNING: SPLIT ({}, {}) ({}, {}) {why}; nothing was split (a split line must run through a block, ending outside it or on its edges)",
+                        f(from[0]),
+                        f(from[1]),
+                        f(to[0]),
+                        f(to[1])
+                    ));
+                }
             }
             Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
             Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],
             Command::Velocity { range, velocity, angular } => {
-                let blocks = self.in_range(range);
+                let blocks = self.in_range("VELOCITY", range);
                 // A velocity whose ½mv² overflows f64 is refused here, where it is given: CYCLE
                 // would refuse it too, but a DELETE or a contact update before that books the
                 // energy of what it removes, and ∞ − ∞ left the ledger NaN for good.
@@ -560,6 +665,11 @@ impl<'a> Executor<'a> {
                         ),
                     ));
                 }
+                // The kinetic energy VELOCITY gives (or takes, slowing a block) is input, booked
+                // with the work of gravity and loads: the balance is unchanged by the command, and
+                // what it shows later is the cycle's error alone. Measured as the ledger measures
+                // kinetic energy (at the whole step), so that the booking is exact.
+                let before = self.model.energies().kinetic;
                 for b in blocks {
                     let blk = &mut self.model.blocks[b];
                     if !blk.fixed {
@@ -567,6 +677,7 @@ impl<'a> Executor<'a> {
                         blk.angular_velocity = angular.unwrap_or(0.0);
                     }
                 }
+                self.model.external_work += self.model.energies().kinetic - before;
             }
         }
         Ok(false)
@@ -577,7 +688,7 @@ impl<'a> Executor<'a> {
         let f = output::format::fmt_e;
         writeln!(self.log)?;
         writeln!(self.log, "ENERGY")?;
-        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY AND LOADS {}", f(e.kinetic), f(e.strain), f(e.external_work))?;
+        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY, LOADS AND VELOCITY {}", f(e.kinetic), f(e.strain), f(e.external_work))?;
         writeln!(
             self.log,
             "  DISSIPATED: MASS DAMPING {}   CONTACT DASHPOTS {}   FRICTION {}   RELEASED (DELETED CONTACTS AND BLOCKS) {}",
@@ -687,7 +798,12 @@ impl<'a> Executor<'a> {
         let bar = (self.options.progress == Progress::Bar && long).then(|| {
             let pb = indicatif::ProgressBar::new(n);
             pb.set_style(
-                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {per_sec} eta {eta}")
+                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {rate} cycles/s eta {eta}")
+                    .map(|style| {
+                        style.with_key("rate", |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                            let _ = w.write_str(&rate_text(state.per_sec()));
+                        })
+                    })
                     .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
             );
             pb
@@ -703,7 +819,7 @@ impl<'a> Executor<'a> {
             if let (Progress::Lines { every }, true) = (options.progress, long && done < n) {
                 if last_line.elapsed() >= every {
                     last_line = std::time::Instant::now();
-                    eprintln!("{}", progress_line(done, n, started.elapsed().as_secs_f64()));
+                    let _ = writeln!(std::io::stderr(), "{}", progress_line(done, n, started.elapsed().as_secs_f64()));
                 }
             }
             stopped.set(options.interrupted());
@@ -719,7 +835,7 @@ impl<'a> Executor<'a> {
         let vtk_dir = options.out_dir.join(VTK_DIR);
         let write_frame = |model: &Model| {
             if let Err(e) = output::vtk::write_frame(model, &vtk_dir) {
-                eprintln!("blockdem: a VTK frame was not written ({e}); the run goes on");
+                let _ = writeln!(std::io::stderr(), "blockdem: a VTK frame was not written ({e}); the run goes on");
             }
         };
         let mut report = crate::backend::CycleReport::default();
@@ -760,7 +876,7 @@ impl<'a> Executor<'a> {
                     let path = options.out_dir.join(CHECKPOINT_FILE);
                     let _ = std::fs::create_dir_all(&options.out_dir);
                     if let Err(e) = output::restart::save_state(&path, &self.model, &self.plot, self.plot_count) {
-                        eprintln!("blockdem: the running restart file was not written ({e}); the run goes on");
+                        let _ = writeln!(std::io::stderr(), "blockdem: the running restart file was not written ({e}); the run goes on");
                     }
                     last_checkpoint = std::time::Instant::now();
                 }
@@ -851,7 +967,7 @@ impl<'a> Executor<'a> {
             format!(
                 " (FRACTION {} is above the stable limit of this model: the explicit integration diverges; the largest safe value \
                  is about {})",
-                output::format::fmt_short(self.model.frac),
+                crate::backend::frac_text(self.model.frac),
                 crate::backend::safe_frac_text(safe)
             )
         } else {

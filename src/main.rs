@@ -1,10 +1,10 @@
 //! `blockdem`: run UDEC 1.2 command decks.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -13,6 +13,68 @@ use blockdem::backend::{Backend, GpuOrCpu};
 use blockdem::cpu::CpuBackend;
 use blockdem::exec::{Executor, Progress, RunError, RunOptions};
 use blockdem::gpu::{list_adapters, matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use blockdem::output::provenance::Provenance;
+
+/// Standard output, as every subcommand writes it (its tables, `wrote FILE` lines, the run log):
+/// a write that fails never panics, as `println!` does. A reader that leaves (`| head`, `| true`)
+/// ends the output quietly while the work goes on and writes its files, and the exit status is
+/// the work's own; any other failure (a full disk under `> run.log`) is kept and reported once
+/// at the end, with exit status 1. Output after a failure is dropped.
+struct Stdout;
+
+/// Set once a write to standard output has failed: nothing more is written.
+static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
+/// The first failure other than a closed pipe, reported when the command ends.
+static STDOUT_ERROR: Mutex<Option<std::io::Error>> = Mutex::new(None);
+
+impl Stdout {
+    fn failed(e: std::io::Error) {
+        if !STDOUT_FAILED.swap(true, Ordering::Relaxed) && e.kind() != std::io::ErrorKind::BrokenPipe {
+            if let Ok(mut first) = STDOUT_ERROR.lock() {
+                *first = Some(e);
+            }
+        }
+    }
+
+    /// The failure to report, if standard output failed other than by its reader leaving.
+    fn error() -> Option<std::io::Error> {
+        STDOUT_ERROR.lock().ok().and_then(|mut e| e.take())
+    }
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if !STDOUT_FAILED.load(Ordering::Relaxed) {
+            if let Err(e) = std::io::stdout().lock().write_all(buf) {
+                Stdout::failed(e);
+            }
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if !STDOUT_FAILED.load(Ordering::Relaxed) {
+            if let Err(e) = std::io::stdout().lock().flush() {
+                Stdout::failed(e);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `println!` through [`Stdout`].
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        let _ = writeln!(Stdout, $($arg)*);
+    }};
+}
+
+/// `eprintln!` that never panics: a message to a closed standard error is lost, not a crash.
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
 
 #[derive(Parser)]
 #[command(name = "blockdem", version, about = "Distinct element code for jointed rock (UDEC 1.2 / D3 after Cundall & Hart 1985)")]
@@ -56,12 +118,12 @@ struct RunArgs {
     #[arg(long, value_enum, default_value_t = BackendChoice::Auto)]
     backend: BackendChoice,
     /// GPU adapter: vulkan, gl, any, or part of an adapter's name (see `blockdem adapters`).
-    /// WGPU_BACKEND and WGPU_ADAPTER_NAME are honoured too.
-    #[arg(long, default_value = "any")]
-    adapter: String,
-    /// Kernel precision on the GPU (the CPU is always f64).
-    #[arg(long, value_enum, default_value_t = PrecisionChoice::F32)]
-    precision: PrecisionChoice,
+    /// WGPU_BACKEND and WGPU_ADAPTER_NAME are honoured too. [default: any]
+    #[arg(long)]
+    adapter: Option<String>,
+    /// Kernel precision on the GPU (the CPU is always f64). [default: f32]
+    #[arg(long, value_enum)]
+    precision: Option<PrecisionChoice>,
     /// Folder for PLOT files and SAVE / RESTART files named without a folder.
     #[arg(long, default_value = "out")]
     out: PathBuf,
@@ -221,7 +283,7 @@ fn bench(
         if specs.is_empty() {
             bail!("no backend to benchmark: {why}");
         }
-        eprintln!("blockdem: benchmarking the CPU only: {why}");
+        note!("blockdem: benchmarking the CPU only: {why}");
     }
     let mut options = blockdem::bench::BenchOptions::new(quick, specs);
     options.settle = matches!(scene, BenchScene::Settle | BenchScene::All);
@@ -249,13 +311,13 @@ fn bench(
         options.rounds = r;
     }
     let report = blockdem::bench::run(&options);
-    print!("{}", blockdem::bench::table(&report));
+    let _ = write!(Stdout, "{}", blockdem::bench::table(&report));
     let (files, chart_problem) = blockdem::bench::write_outputs(&report, &out).with_context(|| format!("cannot write into {}", out.display()))?;
     for f in files {
-        println!("wrote {}", f.display());
+        say!("wrote {}", f.display());
     }
     if let Some(p) = chart_problem {
-        eprintln!("blockdem: chart not drawn: {p}");
+        note!("blockdem: chart not drawn: {p}");
     }
     let failed: Vec<String> = report.reference.iter().filter_map(|r| r.error.as_ref().map(|e| format!("{} on {}: {e}", r.scene, r.backend))).collect();
     if !failed.is_empty() {
@@ -275,13 +337,13 @@ fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()>
     check_out_dir(&out)?;
     let options = blockdem::verify::VerifyOptions { quick, out: Some(out.clone()), only };
     let suite = blockdem::verify::run_suite(&options);
-    print!("{}", blockdem::verify::table(&suite));
+    let _ = write!(Stdout, "{}", blockdem::verify::table(&suite));
     let (files, chart_problem) = blockdem::verify::write_outputs(&suite, &out).with_context(|| format!("cannot write into {}", out.display()))?;
     for f in files {
-        println!("wrote {}", f.display());
+        say!("wrote {}", f.display());
     }
     if let Some(p) = chart_problem {
-        eprintln!("blockdem: charts not drawn: {p}");
+        note!("blockdem: charts not drawn: {p}");
     }
     let failed: Vec<String> = suite.failed_checks().iter().map(|r| format!("{} ({} {})", r.case, r.backend, r.precision)).collect();
     let unstable: Vec<&str> = suite.stability.iter().filter(|t| !t.passed).map(|t| t.scene).collect();
@@ -299,16 +361,17 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     let name = deck.display().to_string();
     let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let gpu = GpuBackend::new(&GpuOptions { adapter: choice, precision: precision.into() }).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
-    eprintln!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
+    note!("blockdem: running {name} on the CPU (f64), then on {}", gpu.describe());
     // The logs go to files: long CYCLE commands say how far they are on stderr, as `run` does.
     let progress = Progress::Lines { every: std::time::Duration::from_secs(30) };
     let reference = compare::run_on(Box::new(CpuBackend::new()), &commands, &name, &out.join("cpu"), progress);
     let on_gpu = compare::run_on(Box::new(gpu), &commands, &name, &out.join("gpu"), progress);
     let c = compare::compare(&reference, &on_gpu);
-    print!("{}", compare::table(&reference, &on_gpu, &c));
+    let _ = write!(Stdout, "{}", compare::table(&reference, &on_gpu, &c));
     let json = serde_json::json!({
         "deck": name,
         "reference": { "backend": reference.backend, "wall_s": reference.wall_s, "error": reference.error },
@@ -317,7 +380,7 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     });
     let path = out.join("compare.json");
     std::fs::write(&path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))?;
-    println!("wrote {}", path.display());
+    say!("wrote {}", path.display());
     match (&reference.error, &on_gpu.error) {
         (None, Some(e)) => bail!("the GPU run stopped where the reference did not: {e}"),
         (Some(e), None) => bail!("the reference run stopped where the GPU's did not: {e}"),
@@ -340,20 +403,36 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
 fn adapters() -> anyhow::Result<()> {
     let list = list_adapters(&AdapterChoice::Any);
     if list.is_empty() {
-        println!("no GPU adapter found (Vulkan or GL); runs use the CPU backend");
+        say!("no GPU adapter found (Vulkan or GL); runs use the CPU backend");
         return Ok(());
     }
     for (i, a) in list.iter().enumerate() {
-        println!("[{i}] {} ({}, {})", a.name, a.backend, a.device_type);
-        println!("    driver: {} ({})", a.driver, a.driver_info);
-        println!("    max_storage_buffers_per_shader_stage: {}", a.max_storage_buffers_per_shader_stage);
-        println!("    max_storage_buffer_binding_size: {}", a.max_storage_buffer_binding_size);
-        println!("    max_buffer_size: {}", a.max_buffer_size);
-        println!("    max_compute_workgroup_size_x: {}", a.max_compute_workgroup_size_x);
-        println!("    SHADER_F64: {}", if a.shader_f64 { "yes" } else { "no" });
-        println!("    compute shaders: {}", if a.compute { "yes" } else { "no (unusable)" });
+        say!("[{i}] {} ({}, {})", a.name, a.backend, a.device_type);
+        say!("    driver: {} ({})", a.driver_name(), if a.driver_info.trim().is_empty() { "no driver information" } else { &a.driver_info });
+        say!("    max_storage_buffers_per_shader_stage: {}", a.max_storage_buffers_per_shader_stage);
+        say!("    max_storage_buffer_binding_size: {}", a.max_storage_buffer_binding_size);
+        say!("    max_buffer_size: {}", a.max_buffer_size);
+        say!("    max_compute_workgroup_size_x: {}", a.max_compute_workgroup_size_x);
+        say!("    SHADER_F64: {}", if a.shader_f64 { "yes" } else { "no" });
+        say!("    compute shaders: {}", if a.compute { "yes" } else { "no (unusable)" });
     }
     Ok(())
+}
+
+/// Commands after END are not run: says so, with the line of the first (issue 27 item 9).
+fn warn_after_end(bytes: &[u8], commands: &[blockdem::deck::Located], file: &str) {
+    let Some(end) = commands.last().filter(|c| c.command == blockdem::deck::Command::End) else {
+        return;
+    };
+    // Blank lines, comments and lines of separators only are not commands.
+    let ignored = |line: &[u8]| {
+        let text = String::from_utf8_lossy(line);
+        let t = text.trim_matches(|c: char| c.is_whitespace() || matches!(c, '=' | '(' | ')' | ',' | '/'));
+        t.is_empty() || t.starts_with('*')
+    };
+    if let Some(i) = bytes.split(|&b| b == b'\n').skip(end.line).position(|l| !ignored(l)) {
+        note!("blockdem: {file}:{}: text after END is ignored (from this line on)", end.line + 1 + i);
+    }
 }
 
 /// Refuses an output folder that cannot be made or written before the work starts, not after
@@ -426,15 +505,25 @@ fn seconds(text: &str) -> Result<f64, String> {
 
 fn run(args: RunArgs) -> anyhow::Result<()> {
     let RunArgs { deck, backend, adapter, precision, out, state_json, checkpoint_every, vtk_every } = args;
+    if backend == BackendChoice::Cpu {
+        let given: Vec<&str> = [adapter.as_ref().map(|_| "--adapter"), precision.map(|_| "--precision")].into_iter().flatten().collect();
+        if !given.is_empty() {
+            note!("blockdem: --backend cpu runs in f64 on the CPU; {} ignored", given.join(" and "));
+        }
+    }
+    let adapter = adapter.unwrap_or_else(|| "any".into());
+    let precision = precision.unwrap_or(PrecisionChoice::F32);
     let name = deck.display().to_string();
     let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
     let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
     if let Some(path) = &state_json {
         check_out_file(path, "--state-json")?;
     }
     // The precision the cycle runs in, for the extreme-ratio warnings (`verify::stability`).
     let mut runs_on = (false, "f64");
+    let mut adapter_name = None;
     let backend: Box<dyn blockdem::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(CpuBackend::new()),
         BackendChoice::Auto | BackendChoice::Gpu => {
@@ -444,13 +533,15 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             // than the CPU backend and less precise, so it is used only when asked for.
             let hardware = matching_adapters(&choice).into_iter().any(|a| a.compute && !a.is_software());
             if backend == BackendChoice::Auto && !hardware {
-                eprintln!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
+                note!("blockdem: no GPU adapter found (software adapters are used only with --backend gpu); running on the CPU (f64)");
                 Box::new(CpuBackend::new())
             } else {
                 match GpuBackend::new(&GpuOptions { adapter: choice, precision }) {
                     Ok(gpu) => {
-                        eprintln!("blockdem: running on {}", gpu.describe());
+                        note!("blockdem: running on {}", gpu.describe());
                         runs_on = (true, if precision == Precision::F32 { "f32" } else { "f64" });
+                        let a = gpu.adapter();
+                        adapter_name = Some(format!("{} ({}, {})", a.name, a.backend, a.driver_name()));
                         if backend == BackendChoice::Auto {
                             // A model past the adapter's limits runs on the CPU instead.
                             Box::new(GpuOrCpu::new(Box::new(gpu), || Box::new(CpuBackend::new())))
@@ -459,7 +550,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                         }
                     }
                     Err(e) if backend == BackendChoice::Auto => {
-                        eprintln!("blockdem: {e}; running on the CPU (f64)");
+                        note!("blockdem: {e}; running on the CPU (f64)");
                         Box::new(CpuBackend::new())
                     }
                     Err(e) => bail!("--backend gpu: {e}"),
@@ -481,8 +572,10 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt), checkpoint_every, vtk_every };
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
-    let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(std::io::stdout())), options, &name);
+    let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(Stdout)), options, &name);
     exec.set_limits(blockdem::model::limits::limits_for(runs_on.0, runs_on.1));
+    let provenance = Provenance::now(&name, if runs_on.0 { "gpu" } else { "cpu" }, adapter_name, runs_on.1);
+    exec.set_provenance(provenance.line());
     let result = exec.run(&commands);
     // Written first, reported last: a state JSON that cannot be written must not keep the
     // restart file below from being written.
@@ -492,7 +585,8 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             if let Some(folder) = path.parent().filter(|f| !f.as_os_str().is_empty()) {
                 let _ = std::fs::create_dir_all(folder);
             }
-            blockdem::output::state_json::write_state_json(&exec.model, path).with_context(|| format!("cannot write {}", path.display()))
+            blockdem::output::state_json::write_state_json_with(&exec.model, Some(&provenance), path)
+                .with_context(|| format!("cannot write {}", path.display()))
         }
         None => Ok(()),
     };
@@ -512,11 +606,11 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
                 "the state before the failing command"
             };
             if blockdem::output::restart::save_state(&path, &exec.model, &Default::default(), 0).is_ok() {
-                eprintln!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
+                note!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
             }
         }
         if let Err(json) = json_written {
-            eprintln!("blockdem: {json:#}");
+            note!("blockdem: {json:#}");
         }
         return Err(e.into());
     }
@@ -535,11 +629,11 @@ fn watch_interrupts(flag: Arc<AtomicBool>) {
                     if flag.swap(true, Ordering::Relaxed) {
                         std::process::exit(INTERRUPTED_EXIT);
                     }
-                    eprintln!("\nblockdem: interrupted; stopping at the next energy check (within 100 cycles) to save the state (Ctrl-C again to quit now)");
+                    note!("\nblockdem: interrupted; stopping at the next energy check (within 100 cycles) to save the state (Ctrl-C again to quit now)");
                 }
             });
         }
-        Err(e) => eprintln!("blockdem: Ctrl-C will end the run without saving its state ({e})"),
+        Err(e) => note!("blockdem: Ctrl-C will end the run without saving its state ({e})"),
     }
 }
 
@@ -562,10 +656,20 @@ fn main() -> ExitCode {
             bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds)
         }
     };
+    let _ = Stdout.flush();
+    // A failure to write the output fails a command that did its work otherwise.
+    let result = match (result, Stdout::error()) {
+        (Ok(()), Some(e)) => Err(anyhow::anyhow!("cannot write to standard output: {e}")),
+        (Err(e), Some(out)) => {
+            note!("blockdem: cannot write to standard output: {out}");
+            Err(e)
+        }
+        (result, None) => result,
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            note!("error: {e:#}");
             let interrupted = e.downcast_ref::<RunError>().is_some_and(RunError::is_interrupted);
             if interrupted {
                 ExitCode::from(INTERRUPTED_EXIT as u8)

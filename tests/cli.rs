@@ -538,6 +538,9 @@ fn long_cycles_show_a_bar_on_a_terminal_and_progress_lines_otherwise() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
     assert!(text.contains("/2000000 cycles"), "no progress bar on a terminal:\n{text}");
+    // Its rate reads as a number of cycles per second (it showed "6,531.7848/s").
+    let rate = text.split(" cycles/s").next().and_then(|t| t.split_whitespace().last()).unwrap_or_default();
+    assert!(text.contains(" cycles/s") && rate.parse::<f64>().is_ok() && !rate.contains(','), "rate '{rate}':\n{text}");
     assert!(text.contains("CURRENT CYCLE COUNT = 2000000"), "{text}");
 }
 
@@ -573,4 +576,122 @@ fn the_state_file_writes_through_a_fifo_and_a_symbolic_link() {
     assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
     let again: serde_json::Value = serde_json::from_slice(&std::fs::read(&came).unwrap()).unwrap();
     assert_eq!(again, state);
+}
+
+/// Runs blockdem with its standard output a pipe whose reader has gone before the first write
+/// (`blockdem … | true`); returns the exit status and stderr.
+fn with_stdout_closed(args: &[&str]) -> (i32, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_blockdem"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("runs");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("ends");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into())
+}
+
+/// Issue 27 item 2: no subcommand panics when its reader leaves (`| head`, `| true`); the work
+/// goes on and writes its files, and the exit status is the work's own.
+#[test]
+fn no_subcommand_panics_when_stdout_is_closed() {
+    let dir = temp("closed-stdout");
+    let out = |name: &str| dir.join(name).display().to_string();
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -10\nCYCLE 10\nPRINT BLOCKS\nEND\n");
+    let json = out("state.json");
+    let runs: Vec<Vec<String>> = vec![
+        vec!["adapters".into()],
+        vec!["run".into(), deck.clone(), "--backend".into(), "cpu".into(), "--out".into(), out("run"), "--state-json".into(), json.clone()],
+        vec!["verify".into(), "--quick".into(), "--only".into(), "free_flight".into(), "--out".into(), out("verify")],
+        vec!["compare".into(), deck.clone(), "--out".into(), out("compare")],
+        vec![
+            "bench".into(),
+            "--quick".into(),
+            "--scene".into(),
+            "scaling".into(),
+            "--backend".into(),
+            "cpu".into(),
+            "--sizes".into(),
+            "1000".into(),
+            "--measure".into(),
+            "0.05".into(),
+            "--rounds".into(),
+            "1".into(),
+            "--out".into(),
+            out("bench"),
+        ],
+    ];
+    for args in runs {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, stderr) = with_stdout_closed(&args);
+        assert!(!stderr.contains("panicked") && code != 101, "{args:?}: exit {code}\n{stderr}");
+        // `compare` needs a GPU adapter; without one it fails as it would with stdout open.
+        if args[0] != "compare" {
+            assert_eq!(code, 0, "{args:?}:\n{stderr}");
+        }
+    }
+    // The work went on after its reader left: the run's state and verify's tables are written.
+    assert!(std::path::Path::new(&json).exists() && dir.join("verify").join("sweep.csv").exists());
+    // A log that cannot be written (a full disk) is an error, not lost in silence.
+    if std::path::Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_blockdem")).args(["run", &deck, "--backend", "cpu", "--out", &out("full")]).stdout(full).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("cannot write to standard output") && !stderr.contains("panicked"), "{stderr}");
+    }
+}
+
+/// Issue 27 item 8: the log says what made it — a provenance line under the banner (version,
+/// commit, deck, backend, adapter, precision, date UTC) — and the state JSON holds the same under
+/// `provenance`, its other keys kept.
+#[test]
+fn the_log_and_the_state_json_name_what_made_them() {
+    let dir = temp("provenance");
+    let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 1\n");
+    let json = dir.join("state.json");
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", json.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    let banner = lines.iter().position(|l| l.starts_with("PROGRAM UDEC")).expect("banner");
+    let line = lines[banner + 1];
+    let version = env!("CARGO_PKG_VERSION");
+    assert!(line.starts_with(&format!("BLOCKDEM {version} (COMMIT ")), "{line}");
+    assert!(line.contains(&format!("  DECK {deck}  BACKEND cpu  ADAPTER none  PRECISION f64  DATE ")), "{line}");
+    let date = line.rsplit(' ').next().unwrap();
+    assert!(date.len() == 20 && date.starts_with("20") && date.ends_with('Z') && date.as_bytes()[10] == b'T', "{date}");
+    let state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let p = &state["provenance"];
+    assert_eq!(p["version"], version);
+    assert_eq!(p["deck"], deck.as_str());
+    assert_eq!(p["backend"], "cpu");
+    assert_eq!(p["adapter"], "none");
+    assert_eq!(p["precision"], "f64");
+    assert_eq!(p["date"], date);
+    assert!(p["commit"].is_string());
+    for key in ["blocks", "contacts", "cycle", "dim", "energy", "gravity", "time", "timestep"] {
+        assert!(state.get(key).is_some(), "{key} missing");
+    }
+}
+
+/// Issue 27 item 9: `--adapter` or `--precision` with `--backend cpu` is said to be ignored (it
+/// was accepted without a word), and so is text after END, naming its line.
+#[test]
+fn ignored_options_and_text_after_end_are_said_to_be_ignored() {
+    let dir = temp("ignored");
+    let out = dir.join("out");
+    let body = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 1\nEND\n";
+    let deck = write_deck(&dir, &format!("{body}\n* a comment\n  ,\nCYCLE 100\n"));
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--adapter", "gl", "--precision", "f64", "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("blockdem: --backend cpu runs in f64 on the CPU; --adapter and --precision ignored"), "{stderr}");
+    assert!(stderr.contains(&format!("blockdem: {deck}:9: text after END is ignored")), "{stderr}");
+    assert!(!stdout.contains("CYCLE 100"), "{stdout}");
+    let (_, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--precision", "f32", "--out", out.to_str().unwrap()]);
+    assert!(stderr.contains("; --precision ignored"), "{stderr}");
+    // Neither is said without cause.
+    let deck = write_deck(&dir, &format!("{body}\n* only a comment after END\n"));
+    let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap()]);
+    assert!(code == 0 && !stderr.contains("ignored"), "{stderr}");
 }

@@ -36,3 +36,23 @@ fn runs_ending_on_other_blocks_are_not_compared_block_by_block() {
     assert_eq!(c.blocks, [3, 2]);
     assert!(table(&a, &b, &c).contains("the runs end on different blocks (3 and 2"), "{}", table(&a, &b, &c));
 }
+
+/// Issue 27 item 9: the rows of the largest differences line up — each row's block id and
+/// relative figure start in the same column as the header's (the rotation row was shifted).
+#[test]
+fn the_rows_of_largest_differences_line_up() {
+    let a = outcome(DECK);
+    let mut b = a.clone();
+    b.model.blocks[2].centroid[1] += 1e-3;
+    b.model.blocks[1].rotation += 1e-4;
+    b.model.blocks[2].velocity[0] += 1e-2;
+    let text = table(&a, &b, &compare(&a, &b));
+    let lines: Vec<&str> = text.lines().skip_while(|l| !l.starts_with("largest difference")).take(4).collect();
+    let column = |l: &str, from: usize| l.char_indices().skip(from).find(|(_, c)| *c != ' ').map(|(i, _)| i);
+    let header = lines[0];
+    let (relative, block) = (header.find("relative").unwrap(), header.find("block").unwrap());
+    for row in &lines[1..] {
+        assert_eq!(column(row, relative), Some(relative), "{text}");
+        assert_eq!(row.rfind(' ').map(|i| i + 1), Some(block), "{text}");
+    }
+}

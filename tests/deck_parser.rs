@@ -440,6 +440,18 @@ fn whole_file_errors() {
     parse(&format!("START\nCYC 1{}\n", " ".repeat(4096 - 5)));
 }
 
+/// Issue 27 item 9: a Latin-1 byte in a comment line (an editor's '°') is read as Latin-1, not
+/// taken for a binary file; outside comments it is still refused at its line and column.
+#[test]
+fn latin1_in_a_comment_is_read_leniently() {
+    let deck = blockdem::deck::parse::parse_deck_bytes(b"START\n* a slope of 30\xb0, caf\xe9\n  * indented \xb0\nGRAV 0 -10\n", FILE).unwrap();
+    assert_eq!(deck.len(), 2);
+    assert_eq!(deck[1].line, 4);
+    let e = parse_deck_bytes_err(b"START\n* 30\xb0\nGRAV 0 -10 \xb0\n");
+    assert_eq!((e.line, e.column), (3, 12), "{e}");
+    assert!(e.message.contains("0xB0"), "{e}");
+}
+
 fn parse_deck_bytes_err(b: &[u8]) -> DeckError {
     blockdem::deck::parse::parse_deck_bytes(b, FILE).unwrap_err()
 }
@@ -739,4 +751,23 @@ proptest! {
 fn save_and_restart_take_paths_with_slashes_whole() {
     assert_eq!(parse("START\nSAVE /tmp/runs/a.sav")[1].command, Command::Save { file: Some("/tmp/runs/a.sav".into()) });
     assert_eq!(parse("RESTART runs/b.sav")[0].command, Command::Restart { file: Some("runs/b.sav".into()) });
+}
+
+/// Issue 27 item 9: an unknown command names the nearest command ("did you mean"), where one is
+/// near; units written after or onto a number are said to be units, not a number short.
+#[test]
+fn unknown_commands_suggest_the_nearest_and_units_are_named_as_such() {
+    for (typed, meant) in [("CYLCE 10", "CYCLE"), ("GRAVTY 0 -10", "GRAVITY"), ("PROPERTIES MAT=1 D=1", "PROPERTY"), ("VELOSITY 0 1 0 1 1 0", "VELOCITY")] {
+        assert_body_err(typed, 2, &[&format!("(did you mean {meant}?); expected one of BLOCK")]);
+    }
+    let e = assert_body_err("QQQQQQ 1", 2, &["unknown command 'QQQQQQ'; expected one of"]);
+    assert!(!e.message.contains("did you mean"), "{e}");
+    let e = assert_body_err("GRAV 0 -10m/s2", 2, &["expected a number for gy, found '-10m': units are not accepted ('m'); give numbers alone"]);
+    assert_eq!(e.column, 8);
+    let e = assert_body_err("GRAV 0 -10 m/s2", 2, &["units are not accepted: found 'm' after the numbers"]);
+    assert_eq!(e.column, 12);
+    assert_body_err("PROP MAT=1 D=2000kg/m3 KN=1E8", 2, &["found '2000kg': units are not accepted ('kg')"]);
+    // An exponent is not a unit.
+    let e = assert_body_err("LOAD 0 1 0 1 5 1e5e3", 2, &["expected a number for fy, found '1e5e3'"]);
+    assert!(!e.message.contains("units"), "{e}");
 }

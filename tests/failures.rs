@@ -396,3 +396,17 @@ fn a_huge_fraction_is_named_short_with_the_safe_value() {
     assert_eq!(blockdem::output::format::fmt_short(5.0), "5");
     assert_eq!(blockdem::output::format::fmt_short(1e-7), "1e-7");
 }
+
+/// Issue 27 item 9: the energy-growth failure prints its numbers as the log does and a bisected
+/// FRACTION to four digits (it printed "now 0.6297873064661311"), and a negative energy put in
+/// (blocks thrown up against gravity: its work is negative) is shown as the zero the check counts,
+/// with why.
+#[test]
+fn the_energy_growth_message_formats_its_numbers_and_explains_a_negative_budget() {
+    let e = CycleError::EnergyGrowth { cycle: 100, energy: 20.621, budget: -1127.7, frac: 0.6297873064661311, safe_frac: 0.38 }.to_string();
+    assert!(e.contains("kinetic + strain energy 2.062E+01 exceeds the energy put in, 0.000E+00"), "{e}");
+    assert!(e.contains("counted as zero: it is -1.128E+03 because the blocks moved against gravity"), "{e}");
+    assert!(e.contains("(now 0.6298; the largest safe value is about 0.38)"), "{e}");
+    let e = CycleError::EnergyGrowth { cycle: 100, energy: 20.621, budget: 3.5, frac: 0.1, safe_frac: f64::NAN }.to_string();
+    assert!(e.contains("exceeds the energy put in, 3.500E+00 (the energy at the start") && e.contains("(now 0.1)") && !e.contains("counted as zero"), "{e}");
+}

@@ -42,6 +42,23 @@ fn adapters_lists_backend_driver_limits_and_f64() {
         assert!(stdout.contains(key), "{key} missing:\n{stdout}");
     }
     assert!(!stderr.contains("XDG_RUNTIME_DIR"), "headless Mesa stays quiet: {stderr}");
+    // A driver that gives no name (Mesa's GL adapter) is said to, not shown as nothing.
+    assert!(!stdout.contains("driver:  (") && !stdout.contains("driver: ()"), "{stdout}");
+}
+
+/// Issue 27 item 9: the GL adapter's empty driver name showed as `[]` in "running on".
+#[test]
+fn an_adapter_without_a_driver_name_is_described_sensibly() {
+    if Target::gpu("gl", Precision::F32).is_none() {
+        return;
+    }
+    let out = out_dir("gl-driver");
+    let (code, stdout, stderr) = blockdem(&["run", &sample_1(), "--backend", "gpu", "--adapter", "gl", "--out", &out], &[]);
+    assert_eq!(code, 0, "{stderr}");
+    let running = stderr.lines().find(|l| l.contains("running on gpu (")).unwrap_or_else(|| panic!("{stderr}"));
+    assert!(!running.contains("[]"), "{running}");
+    let provenance = stdout.lines().find(|l| l.starts_with("BLOCKDEM ")).unwrap_or_else(|| panic!("{stdout}"));
+    assert!(!provenance.contains(", )") && provenance.contains("PRECISION f32"), "{provenance}");
 }
 
 #[test]
@@ -54,6 +71,9 @@ fn sample_1_runs_on_the_gpu_backend_from_the_command_line() {
     assert_eq!(code, 0, "{stderr}");
     assert!(stderr.contains("running on gpu (Vulkan"), "{stderr}");
     assert_eq!(stdout.matches("CRACKED AT CYCLE").count(), 1, "{stdout}");
+    // The log itself says it came from the GPU in f32, and on which adapter (issue 27 item 8).
+    let provenance = stdout.lines().find(|l| l.starts_with("BLOCKDEM ")).unwrap_or_else(|| panic!("no provenance line:\n{stdout}"));
+    assert!(provenance.contains("  BACKEND gpu  ADAPTER ") && provenance.contains("(Vulkan, ") && provenance.contains("  PRECISION f32  "), "{provenance}");
 }
 
 #[test]
@@ -179,4 +199,31 @@ fn compare_fails_when_only_one_run_stops() {
     assert_ne!(code, 0, "{stdout}");
     assert!(stdout.contains("stopped: ") && stdout.contains("outside the range of the f32 kernels"), "{stdout}");
     assert!(stderr.contains("the GPU run stopped where the reference did not"), "{stderr}");
+}
+
+/// Issue 27 item 3 on the GPU: the kinetic energy VELOCITY gives is booked on the model side, so
+/// the GPU's balance stays at zero too (a lone block given 10 m/s, then slowed to 2 m/s).
+#[test]
+fn velocity_is_booked_in_the_ledger_on_the_gpu() {
+    if Target::gpu("vulkan", Precision::F32).is_none() {
+        return;
+    }
+    let dir = out_dir("velocity-ledger");
+    std::fs::create_dir_all(&dir).unwrap();
+    let deck = format!("{dir}/deck.dat");
+    std::fs::write(
+        &deck,
+        "START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nVELOCITY -1 2 -1 2 10 0\nCYCLE 100\nPRINT ENERGY\n\
+         VELOCITY -10 10 -10 10 2 0\nCYCLE 100\nPRINT ENERGY\n",
+    )
+    .unwrap();
+    let (code, stdout, stderr) = blockdem(&["run", &deck, "--backend", "gpu", "--adapter", "vulkan", "--out", &dir], &[]);
+    assert_eq!(code, 0, "{stderr}");
+    let balances: Vec<&str> = stdout.lines().filter(|l| l.contains("BALANCE")).collect();
+    assert_eq!(balances.len(), 2, "{stdout}");
+    for b in balances {
+        let value: f64 = b.rsplit(' ').next().unwrap().parse().unwrap();
+        // f32 kinetic energy of 5e4 J: round-off of a few parts in 1e7.
+        assert!(value.abs() < 1e-3 * 5e4, "{b}");
+    }
 }

@@ -961,6 +961,11 @@ fn dump_writes_every_field() {
     assert_eq!(head, "FULL STATE DUMP (CYCLE 600, TIME 1.250E+00)");
     let back: Model = serde_json::from_str(body).unwrap();
     assert_eq!(back, m);
+    // Kinds in the words of the state JSON and PRINT (issue 27 item 9: DUMP said "Rigid").
+    assert!(body.contains("\"kind\": \"rigid\"") && !body.contains("\"Rigid\""), "{body}");
+    if !m.contacts.is_empty() {
+        assert!(body.contains("\"kind\": \"corner-") && !body.contains("\"Corner"), "{body}");
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -443,7 +443,8 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     let began = Instant::now();
     let say = |s: &str| {
         if opts.verbose {
-            eprintln!("bench [{:6.1} s]: {s}", began.elapsed().as_secs_f64());
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stderr(), "bench [{:6.1} s]: {s}", began.elapsed().as_secs_f64());
         }
     };
     let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };

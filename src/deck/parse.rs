@@ -219,6 +219,47 @@ fn names<T>(table: &[Name<T>]) -> String {
     table.iter().map(|n| n.full).collect::<Vec<_>>().join(", ")
 }
 
+/// The name of `table` nearest to a word that is none of them (issue 27 item 9: "did you
+/// mean"), by the edit distance with transpositions of the word against each full name and
+/// against each name cut to the word's length (an abbreviation typed wrong); None when even the
+/// nearest is more than a third of the word's letters (at least one) away.
+fn nearest_name<T>(word: &str, table: &[Name<T>]) -> Option<&'static str> {
+    let word: Vec<char> = word.to_ascii_uppercase().chars().collect();
+    let limit = (word.len() / 3).max(1);
+    table
+        .iter()
+        .map(|n| {
+            let full: Vec<char> = n.full.chars().collect();
+            let cut = &full[..full.len().min(word.len().max(n.min))];
+            (edit_distance(&word, &full).min(edit_distance(&word, cut)), n.full)
+        })
+        .filter(|&(d, _)| d <= limit)
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, name)| name)
+}
+
+/// Optimal string alignment distance: insertions, deletions, substitutions and swaps of two
+/// neighbours each count one.
+fn edit_distance(a: &[char], b: &[char]) -> usize {
+    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in d.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    for (j, cell) in d[0].iter_mut().enumerate() {
+        *cell = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            d[i][j] = (d[i - 1][j] + 1).min(d[i][j - 1] + 1).min(d[i - 1][j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                d[i][j] = d[i][j].min(d[i - 2][j - 2] + 1);
+            }
+        }
+    }
+    d[a.len()][b.len()]
+}
+
 fn full_name(w: Word) -> &'static str {
     COMMANDS.iter().find(|n| n.value == w).map_or("?", |n| n.full)
 }
@@ -270,7 +311,44 @@ fn not_a_number(what: &str, t: &Token, integer: bool) -> String {
     } else {
         "a number"
     };
-    format!("expected {kind} for {what}, found '{}'", t.shown())
+    match unit_after_number(&t.text) {
+        Some(unit) => format!("expected {kind} for {what}, found '{}': units are not accepted ('{unit}'); {UNITS_ADVICE}", t.shown()),
+        None => format!("expected {kind} for {what}, found '{}'", t.shown()),
+    }
+}
+
+/// What to do instead of writing units (issue 27 item 9: `GRAV 0 -10m/s2` read as a number short).
+const UNITS_ADVICE: &str = "give numbers alone, all in one consistent set of units (e.g. SI: m, kg, s, N, Pa)";
+
+/// The unit written straight after a number (`-10m` → `m`, `2.5E9Pa` → `Pa`), if the text is a
+/// number followed by letters that are not its exponent.
+fn unit_after_number(text: &str) -> Option<&str> {
+    let body = text.trim_start_matches(['+', '-']);
+    let digits = body.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(body.len());
+    if digits == 0 || !body[..digits].contains(|c: char| c.is_ascii_digit()) {
+        return None;
+    }
+    let mut rest = &body[digits..];
+    // An exponent (E5, D-3) is part of the number.
+    if let Some(exp) = rest.strip_prefix(['e', 'E', 'd', 'D']) {
+        let exp_body = exp.trim_start_matches(['+', '-']);
+        let n = exp_body.find(|c: char| !c.is_ascii_digit()).unwrap_or(exp_body.len());
+        if n > 0 {
+            rest = &exp_body[n..];
+        }
+    }
+    // A second exponent (`1e5e3`) is a malformed number, not a unit.
+    let exponent_like = rest.strip_prefix(['e', 'E', 'd', 'D']).is_some_and(|r| r.starts_with(|c: char| c.is_ascii_digit() || c == '+' || c == '-'));
+    (rest.starts_with(|c: char| c.is_alphabetic()) && !exponent_like).then_some(rest)
+}
+
+/// Whether a word standing where a number or keyword belongs is a unit (`GRAV 0 -10 m/s2`).
+fn is_unit_word(text: &str) -> bool {
+    const UNITS: &[&str] = &[
+        "m", "mm", "cm", "km", "s", "s2", "sec", "kg", "g", "t", "n", "kn", "mn", "pa", "kpa", "mpa", "gpa", "psi", "m2", "m3", "rad", "deg", "hz", "j", "kj",
+        "kg/m3",
+    ];
+    UNITS.contains(&text.to_ascii_lowercase().as_str())
 }
 
 /// The parameters of one command, read left to right.
@@ -412,6 +490,17 @@ impl<'a> Args<'a> {
     ) -> Result<Vec<&'a Token>> {
         let mut nums: Vec<&'a Token> = Vec::new();
         while let Some(t) = self.next() {
+            // A number with a unit stuck to it (`-10m/s2`: '-10m' then 's2') is that number's
+            // error, and a unit after a number (`-10 m/s2`) says that units are not accepted.
+            if !t.is_numeric() && lookup(&t.text, keywords).is_none() {
+                let slot = |t: &Token| nums.iter().position(|n| std::ptr::eq(*n, t)).map_or("a number", |i| slots[i.min(slots.len() - 1)]);
+                if let Some(n) = nums.iter().find(|n| unit_after_number(&n.text).is_some() && lexer::parse_real(&n.text).is_err()) {
+                    return Err(self.at(n, format!("{} ({})", not_a_number(slot(n), n, false), usage(self.word))));
+                }
+                if is_unit_word(&t.text) {
+                    return Err(self.at(t, format!("units are not accepted: found '{}' after the numbers; {UNITS_ADVICE} ({})", t.shown(), usage(self.word))));
+                }
+            }
             if t.is_numeric() {
                 if nums.len() >= slots.len() {
                     return Err(self.too_many(t));
@@ -516,9 +605,10 @@ pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
 /// One statement's command; `first`: the deck's first, which must be START or RESTART.
 fn statement(st: &lexer::Statement, first: bool, file: &str) -> Result<Command> {
     let head = &st.tokens[0];
-    let word = lookup(&head.text, COMMANDS)
-        .filter(|_| !head.is_numeric())
-        .ok_or_else(|| DeckError::new(file, head.line, head.column, format!("unknown command '{}'; expected one of {}", head.shown(), names(COMMANDS))))?;
+    let word = lookup(&head.text, COMMANDS).filter(|_| !head.is_numeric()).ok_or_else(|| {
+        let hint = nearest_name(&head.text, COMMANDS).map(|n| format!(" (did you mean {n}?)")).unwrap_or_default();
+        DeckError::new(file, head.line, head.column, format!("unknown command '{}'{hint}; expected one of {}", head.shown(), names(COMMANDS)))
+    })?;
     // "The first command must be START or RESTART."
     if first && !matches!(word, Word::Start | Word::Restart) {
         return Err(DeckError::new(file, head.line, head.column, format!("the first command must be START or RESTART, found {}", full_name(word))));
@@ -527,12 +617,39 @@ fn statement(st: &lexer::Statement, first: bool, file: &str) -> Result<Command> 
     parse_command(&mut args)
 }
 
-/// Parse a deck read as raw bytes: text that is not valid UTF-8 is refused as a binary file.
+/// Parse a deck read as raw bytes: text that is not valid UTF-8 is refused as a binary file,
+/// except in comment lines, which are read as Latin-1 ([`lenient_text`]).
 pub fn parse_deck_bytes(bytes: &[u8], file: &str) -> Result<Vec<Located>> {
-    match std::str::from_utf8(bytes) {
-        Ok(text) => parse_deck(text, file),
-        Err(e) => Err(not_utf8(bytes, e.valid_up_to(), file)),
+    match lenient_text(bytes) {
+        Ok(text) => parse_deck(&text, file),
+        Err(bad) => Err(not_utf8(bytes, bad, file)),
     }
+}
+
+/// The deck's bytes as text: UTF-8, except that a comment line (`*` its first non-blank
+/// character) that is not UTF-8 is read as Latin-1 — an editor's `°` or `é` (0xB0, 0xE9) in a
+/// comment does not make a deck binary (issue 27 item 9). Elsewhere a byte that is not UTF-8 is
+/// refused: its offset is the error.
+pub fn lenient_text(bytes: &[u8]) -> std::result::Result<std::borrow::Cow<'_, str>, usize> {
+    if let Ok(text) = std::str::from_utf8(bytes) {
+        return Ok(text.into());
+    }
+    let mut text = String::with_capacity(bytes.len() + 16);
+    let mut start = 0;
+    for line in bytes.split_inclusive(|&b| b == b'\n') {
+        match std::str::from_utf8(line) {
+            Ok(t) => text.push_str(t),
+            Err(e) => {
+                let comment = line.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'*');
+                if !comment {
+                    return Err(start + e.valid_up_to());
+                }
+                text.extend(line.iter().map(|&b| char::from(b)));
+            }
+        }
+        start += line.len();
+    }
+    Ok(text.into())
 }
 
 /// The `binary file` error for the byte at `bad`, the first that is not UTF-8.
@@ -587,13 +704,15 @@ fn read_deck_from(mut source: impl std::io::Read, size: usize, file: &str, limit
     let io = |error| ReadError::Io { file: file.to_string(), error };
     let mut bytes = Vec::with_capacity(size);
     (&mut source).take(FIRST_BYTES.min(limit + 1) as u64).read_to_end(&mut bytes).map_err(io)?;
-    let text = match std::str::from_utf8(&bytes) {
+    let text = match lenient_text(&bytes) {
         Ok(text) => text,
         // A character cut at the end of the first bytes is whole in the deck.
-        Err(e) if e.error_len().is_none() => std::str::from_utf8(&bytes[..e.valid_up_to()]).expect("valid up to there"),
-        Err(e) => return Err(not_utf8(&bytes, e.valid_up_to(), file).into()),
+        Err(bad) if std::str::from_utf8(&bytes[bad..]).is_err_and(|e| e.error_len().is_none() && e.valid_up_to() == 0) => {
+            lenient_text(&bytes[..bad]).map_err(|bad| not_utf8(&bytes, bad, file))?
+        }
+        Err(bad) => return Err(not_utf8(&bytes, bad, file).into()),
     };
-    lexer::check_text(text, file)?;
+    lexer::check_text(&text, file)?;
     (&mut source).take((limit + 1).saturating_sub(bytes.len()) as u64).read_to_end(&mut bytes).map_err(io)?;
     if bytes.len() > limit {
         let line = bytes[..limit].iter().filter(|&&b| b == b'\n').count() + 1;
@@ -1052,6 +1171,14 @@ mod tests {
         assert_eq!(read_deck_from(&deck[..], 0, "at the limit", deck.len()).unwrap(), deck);
         let e = read_deck_from(&b"START\nGRAV 0 \xff\n"[..], 0, "latin1", MAX_DECK_BYTES).unwrap_err();
         assert!(e.to_string().starts_with("latin1:2:8: binary file: byte 0xFF is not UTF-8"), "{e}");
+        // In a comment line a Latin-1 byte is read as Latin-1 (issue 27 item 9), also where the
+        // first bytes end in a character cut in two.
+        let deck = b"START\n* a slope of 30\xb0\nGRAV 0 -10\n";
+        assert_eq!(read_deck_from(&deck[..], 0, "comment", MAX_DECK_BYTES).unwrap(), deck);
+        let mut deck = b"* 30\xb0\n".to_vec();
+        deck.extend("*".repeat(FIRST_BYTES - deck.len() - 1).into_bytes());
+        deck.extend("é\nSTART\n".as_bytes());
+        assert_eq!(read_deck_from(&deck[..], 0, "cut", MAX_DECK_BYTES).unwrap(), deck);
     }
 
     /// Every name's full spelling and its minimum abbreviation (in either case) resolve to that

@@ -133,6 +133,16 @@ pub struct AdapterSummary {
 }
 
 impl AdapterSummary {
+    /// The driver's name, or "driver unnamed" where the driver gives none (Mesa's GL adapter,
+    /// which showed as `[]`).
+    pub fn driver_name(&self) -> &str {
+        if self.driver.trim().is_empty() {
+            "driver unnamed"
+        } else {
+            &self.driver
+        }
+    }
+
     /// A software adapter (Mesa's lavapipe and llvmpipe): it runs on the host's cores, and its
     /// device memory is the host's.
     pub fn is_software(&self) -> bool {

@@ -271,7 +271,7 @@ impl GpuBackend {
 impl Backend for GpuBackend {
     fn describe(&self) -> String {
         let a = self.adapter();
-        format!("gpu ({}, {} [{}], {})", a.backend, a.name, a.driver, self.precision())
+        format!("gpu ({}, {} [{}], {})", a.backend, a.name, a.driver_name(), self.precision())
     }
 
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {

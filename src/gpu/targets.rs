@@ -80,7 +80,8 @@ fn opening(target: GpuTarget) -> Option<GpuTarget> {
     match device_opens(&target.options) {
         Ok(()) => Some(target),
         Err(e) => {
-            eprintln!("blockdem: {} {} is listed but opens no device: {e}", target.label(), target.precision());
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stderr(), "blockdem: {} {} is listed but opens no device: {e}", target.label(), target.precision());
             None
         }
     }

@@ -140,11 +140,16 @@ impl From<Material> for MaterialRecord {
     }
 }
 
-/// How a block deforms (UDEC head codes MRIG, MSDEF, MFDEF).
+/// How a block deforms (UDEC head codes MRIG, MSDEF, MFDEF). Serialized under the words of
+/// [`BlockKind::name`], so that DUMP says what the state JSON does (save files keep the
+/// variant's index, not its name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum BlockKind {
+    #[serde(rename = "rigid")]
     Rigid,
+    #[serde(rename = "sdef")]
     SimplyDeformable,
+    #[serde(rename = "fdef")]
     FullyDeformable,
 }
 
@@ -265,12 +270,15 @@ pub struct Corner {
     pub edge_constitutive: u32,
 }
 
-/// Kind of a contact, as PRINT LIST names it.
+/// Kind of a contact, as PRINT LIST names it; serialized under the words of
+/// [`ContactKind::name`], as [`BlockKind`] is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ContactKind {
     /// A corner of block 1 against a straight edge of block 2.
+    #[serde(rename = "corner-edge")]
     CornerEdge,
     /// A corner of block 1 against a rounded corner of block 2.
+    #[serde(rename = "corner-corner")]
     CornerCorner,
 }
 
@@ -459,7 +467,8 @@ pub struct Model {
     pub time: f64,
     pub next_block_id: u32,
     pub next_contact_id: u32,
-    /// Energy bookkeeping for the blow-up check: work done by gravity and loads since START.
+    /// Energy bookkeeping for the blow-up check and the ledger: work done by gravity and loads
+    /// since START, plus the kinetic energy VELOCITY commands gave.
     pub external_work: f64,
     /// Energy terms of blocks and contacts that no longer exist (see `timestep::RetiredEnergy`).
     #[serde(default)]

@@ -16,7 +16,8 @@ pub struct Energies {
     pub kinetic: f64,
     /// Strain energy in the contact springs: Fn²/2kn + Fs²/2ks.
     pub strain: f64,
-    /// Work done on the blocks by gravity and loads since START.
+    /// Work done on the blocks by gravity and loads since START, plus the kinetic energy VELOCITY
+    /// commands gave (new minus old kinetic energy of the blocks they set): the energy put in.
     pub external_work: f64,
     /// Dissipated by the mass-proportional damping force −α·m·v (per block, `Block::damping_work`).
     pub mass_damping: f64,

@@ -7,6 +7,7 @@
 //! | [`mod@print`] | PRINT BLOCKS, CONTACTS, CORNERS, LIST tables (print-formats.md) |
 //! | [`mod@plot`] | PLOT: the plotter page as PNG (tiny-skia) and SVG, WINDOW/VIEW honoured |
 //! | [`mod@state_json`] | `--state-json`: the observable state as JSON with fixed keys |
+//! | [`provenance`] | what made a run (version, commit, deck, backend, adapter, precision, date): the log's line under the banner and the state JSON's `provenance` |
 //! | [`mod@dump`] | DUMP: every field of the model, readable |
 //! | [`restart`] | SAVE/RESTART: versioned binary files with a magic header |
 //! | [`vtk`] | VTK (extension) and `--vtk-every`: blocks and contacts for ParaView, a file series |
@@ -18,6 +19,7 @@ pub mod font;
 pub mod format;
 pub mod plot;
 pub mod print;
+pub mod provenance;
 pub mod restart;
 pub mod state_json;
 pub mod vtk;

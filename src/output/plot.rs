@@ -460,6 +460,27 @@ pub fn plot(model: &Model, settings: &PlotSettings, options: &PlotOptions, out_d
     Ok([png, svg])
 }
 
+/// Why a PLOT with these settings shows no block, or None when one shows: its VIEW lies off the
+/// page, or no block lies in its WINDOW (as fitted into the VIEW). PLOT warns with it (issue 27
+/// item 5), since an empty page is otherwise written without a word.
+pub fn shows_nothing(model: &Model, settings: &PlotSettings, options: &PlotOptions) -> io::Result<Option<String>> {
+    let scene = build_scene(model, settings, options, "")?;
+    let [l, t, r, b] = scene.clip;
+    let [w, h] = IMAGE_SIZE.map(f64::from);
+    let [x1, x2, y1, y2] = settings.window.map(fmt_e);
+    let [ix1, ix2, iy1, iy2] = settings.view;
+    Ok(if r <= 0.0 || b <= 0.0 || l >= w || t >= h {
+        Some(format!("VIEW {ix1} {ix2} {iy1} {iy2} lies off the page (0 to {} by 0 to {})", PAGE_UNITS[0], PAGE_UNITS[1]))
+    } else if model.blocks.is_empty() {
+        Some("there are no blocks".into())
+    } else if !scene.shapes.iter().any(|s| matches!(s.kind, ShapeKind::Block(_))) {
+        let hidden = if options.nofix { " (NOFIX hides the fixed ones)" } else { "" };
+        Some(format!("none lies in WINDOW {x1} {x2} {y1} {y2}{hidden}"))
+    } else {
+        None
+    })
+}
+
 fn render_png(scene: &Scene) -> io::Result<Pixmap> {
     let [w, h] = IMAGE_SIZE;
     let mut pixmap = Pixmap::new(w, h).expect("the page size is nonzero");

@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use serde::ser::{Serialize, Serializer};
 use serde_json::Value;
 
+use super::provenance::Provenance;
 use crate::model::timestep::Energies;
 use crate::model::{Block, Contact, Model};
 
@@ -164,16 +165,20 @@ struct Scalars {
     dim: u32,
     energy: EnergyJson,
     gravity: [Num; 2],
+    /// What made the run (`blockdem run` writes it; a state taken in a test has none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    provenance: Option<Provenance>,
     time: Num,
     timestep: Num,
 }
 
-fn scalars(model: &Model) -> Scalars {
+fn scalars(model: &Model, provenance: Option<&Provenance>) -> Scalars {
     Scalars {
         cycle: model.cycle,
         dim: 2,
         energy: energy_view(&model.energies()),
         gravity: pair(model.gravity),
+        provenance: provenance.cloned(),
         time: Num(model.time),
         timestep: Num(model.timestep),
     }
@@ -186,7 +191,7 @@ pub fn state_json(model: &Model) -> Value {
     let state = StateJson {
         blocks: model.blocks.iter().enumerate().map(|(b, blk)| block_json(model, b, blk)).collect(),
         contacts: model.contacts.iter().map(|c| contact_json(model, c)).collect(),
-        scalars: scalars(model),
+        scalars: scalars(model, None),
     };
     serde_json::to_value(state).expect("numbers and strings always convert")
 }
@@ -195,13 +200,19 @@ pub fn state_json(model: &Model) -> Value {
 /// are formatted in parallel pieces and written in order, the rest as serde_json prints it: the
 /// text is serde_json's pretty print of the value, byte for byte (4.7 GB for a 10⁶-block wall).
 pub fn write_state_json(model: &Model, path: &Path) -> io::Result<()> {
+    write_state_json_with(model, None, path)
+}
+
+/// [`write_state_json`] with a `provenance` object ([`Provenance`]: version, commit, deck,
+/// backend, adapter, precision, date), as `blockdem run --state-json` writes it.
+pub fn write_state_json_with(model: &Model, provenance: Option<&Provenance>, path: &Path) -> io::Result<()> {
     super::write_atomically(path, |w| {
         w.write_all(b"{\n  \"blocks\": ")?;
         write_list(w, model.blocks.len(), |b| block_json(model, b, &model.blocks[b]))?;
         w.write_all(b",\n  \"contacts\": ")?;
         write_list(w, model.contacts.len(), |k| contact_json(model, &model.contacts[k]))?;
         // The other members as serde_json prints them at the top level, less its opening brace.
-        let rest = serde_json::to_vec_pretty(&scalars(model))?;
+        let rest = serde_json::to_vec_pretty(&scalars(model, provenance))?;
         w.write_all(b",\n")?;
         w.write_all(&rest[2..])?;
         writeln!(w)
