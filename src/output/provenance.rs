@@ -50,7 +50,7 @@ impl Provenance {
 
 /// Seconds since 1970 as `YYYY-MM-DDThh:mm:ssZ`.
 pub fn utc_date(secs: u64) -> String {
-    let (y, m, d) = crate::bench::host::civil_from_days((secs / 86_400) as i64);
+    let (y, m, d) = super::format::civil_from_days((secs / 86_400) as i64);
     let s = secs % 86_400;
     format!("{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z", s / 3600, s / 60 % 60, s % 60)
 }
