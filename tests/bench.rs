@@ -273,3 +273,38 @@ fn the_streaming_kernel_yardstick_copies_every_word_on_every_gpu_target() {
         assert!(copy.is_finite() && copy > 0.0);
     }
 }
+
+/// The stage table's shares add up (issue 27 item 9: they summed to 116%): the host's stages
+/// are shares of the cycle and add to 100%; the device's kernels run inside the host's "GPU
+/// batches", so theirs are shares of the kernels' sum and add to 100% apart.
+#[test]
+fn the_stage_shares_add_up_to_the_whole() {
+    use blockdem::bench::{BenchReport, ScalingRow, StageRow};
+    let stage = |source: &str, stage: &str, s: f64| StageRow {
+        source: source.into(),
+        stage: stage.into(),
+        group: "cycle".into(),
+        s_per_cycle: s,
+        bytes_per_cycle: None,
+    };
+    let row = ScalingRow {
+        backend: "vulkan nvidia f32".into(),
+        blocks: 1000,
+        s_per_cycle: 100e-6,
+        stages: vec![
+            stage("host", "GPU batches (submit+wait)", 60e-6),
+            stage("host", "contact updates (7)", 40e-6),
+            stage("device", "law_of_motion", 10e-6),
+            stage("device", "contact_forces", 30e-6),
+        ],
+        ..Default::default()
+    };
+    let report = BenchReport { scaling: vec![row], ..Default::default() };
+    let table = blockdem::bench::table(&report);
+    let share = |name: &str| -> f64 {
+        let line = table.lines().find(|l| l.starts_with("    ") && l.contains(name)).unwrap_or_else(|| panic!("no {name} in {table}"));
+        line.split_whitespace().find(|w| w.ends_with('%')).unwrap().trim_end_matches('%').parse().unwrap()
+    };
+    assert_eq!(share("GPU batches") + share("contact updates"), 100.0, "{table}");
+    assert_eq!((share("law_of_motion"), share("contact_forces")), (25.0, 75.0), "{table}");
+}

@@ -394,8 +394,12 @@ pub fn table(r: &BenchReport) -> String {
                 1e3 * x.host_s_per_update
             );
         }
-        let _ = writeln!(s, "\nTIME PER STAGE (microseconds per cycle; host: timed during the run; device: kernel times)");
+        let _ = writeln!(
+            s,
+            "\nTIME PER STAGE (microseconds per cycle; host: timed during the run, shares of the cycle; device: kernel times, which run inside the host's GPU batches, shares of the kernels' sum)"
+        );
         for x in r.scaling.iter().filter(|x| x.error.is_none()) {
+            let kernels: f64 = x.stages.iter().filter(|st| st.source == "device").map(|st| st.s_per_cycle).sum();
             let _ = writeln!(
                 s,
                 "  {} at {} blocks ({:.1} us/cycle){}",
@@ -411,7 +415,7 @@ pub fn table(r: &BenchReport) -> String {
                     st.source,
                     st.stage,
                     1e6 * st.s_per_cycle,
-                    pct(st.s_per_cycle / x.s_per_cycle),
+                    if st.source == "device" { pct(st.s_per_cycle / kernels) } else { pct(st.s_per_cycle / x.s_per_cycle) },
                     st.bytes_per_cycle.map(|b| format!("  {} MiB", mib(b))).unwrap_or_default()
                 );
             }
