@@ -287,7 +287,7 @@ fn tick_step(range: f64) -> f64 {
 /// exponent where the values are very large or very small.
 fn tick_text(v: f64, step: f64) -> String {
     let v = if v.abs() < 1e-9 * step { 0.0 } else { v };
-    if step >= 1e5 || step < 1e-3 {
+    if !(1e-3..1e5).contains(&step) {
         return format!("{v:.1E}");
     }
     let decimals = (-step.log10().floor()).max(0.0) as usize;
