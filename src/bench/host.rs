@@ -34,19 +34,6 @@ pub fn memory_available() -> Option<u64> {
     meminfo("MemAvailable:")
 }
 
-/// Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
-pub(crate) fn civil_from_days(z: i64) -> (i64, u32, u32) {
-    let z = z + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
-    (yoe + era * 400 + i64::from(m <= 2), m, d)
-}
-
 pub fn machine_info() -> MachineInfo {
     let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
     let cpu_model = cpuinfo
@@ -60,7 +47,7 @@ pub fn machine_info() -> MachineInfo {
         .and_then(|t| t.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l["PRETTY_NAME=".len()..].trim_matches('"').to_string()))
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-    let (y, m, d) = civil_from_days((secs / 86_400) as i64);
+    let (y, m, d) = crate::output::provenance::civil_from_days((secs / 86_400) as i64);
     // The commit the binary was built from (build.rs), else what git says where it was built.
     let commit = option_env!("BLOCKDEM_COMMIT").map(str::to_string).or_else(|| {
         std::process::Command::new("git")
@@ -115,13 +102,4 @@ pub fn cpu_bytes_per_cycle(nb: usize, nc: usize, nk: usize) -> Vec<StageBytes> {
         StageBytes { stage: "gather+motion+geometry (6,1,2)", read: b * nb + c * nc + 4 * (nb + 1) + 8 * nk + 32 * nk, written: b * nb + c * nc },
         StageBytes { stage: "contact forces (4)", read: k * nk + c * nc + b * nb, written: k * nk + 32 * nk },
     ]
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn civil_dates() {
-        assert_eq!(super::civil_from_days(0), (1970, 1, 1));
-        assert_eq!(super::civil_from_days(20_779), (2026, 11, 22));
-    }
 }
