@@ -125,9 +125,9 @@ const STREAM_RUNS: usize = 3;
 const STREAM_RUN_S: f64 = 0.05;
 
 /// Measures the bandwidth a compute kernel reaches on `dev` (`stream_copy.wgsl`): bytes read +
-/// bytes written per second of a copy between two buffers, at each of [`STREAM_SIZES`] the
-/// adapter can bind, the best of [`STREAM_RUNS`] runs each. Host-timed: each run is one
-/// submission of enough copies to take [`STREAM_RUN_S`], so a launch's cost is spread thin.
+/// bytes written per second of a copy between two buffers, at each of `STREAM_SIZES` the
+/// adapter can bind, the best of `STREAM_RUNS` runs each. Host-timed: each run is one
+/// submission of enough copies to take `STREAM_RUN_S`, so a launch's cost is spread thin.
 pub fn stream_bandwidth(dev: &GpuDevice) -> Result<StreamBandwidth, GpuError> {
     let limit = dev.summary.max_storage_buffer_binding_size.min(dev.summary.max_buffer_size);
     let cap = if dev.summary.is_software() { 128 << 20 } else { u64::MAX };

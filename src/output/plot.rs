@@ -285,6 +285,9 @@ fn tick_step(range: f64) -> f64 {
 
 /// A tick's value as the axis writes it: the step's decimals (0.25 with a step of 0.05), and an
 /// exponent where the values are very large or very small.
+// Two comparisons on purpose, not `!(1e-3..1e5).contains(&step)`: a NaN step keeps the plain
+// decimals it had.
+#[allow(clippy::manual_range_contains)]
 fn tick_text(v: f64, step: f64) -> String {
     let v = if v.abs() < 1e-9 * step { 0.0 } else { v };
     if step >= 1e5 || step < 1e-3 {
