@@ -47,7 +47,7 @@ pub fn machine_info() -> MachineInfo {
         .and_then(|t| t.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l["PRETTY_NAME=".len()..].trim_matches('"').to_string()))
         .unwrap_or_else(|| std::env::consts::OS.to_string());
     let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-    let (y, m, d) = crate::output::format::civil_from_days((secs / 86_400) as i64);
+    let (y, m, d) = crate::output::provenance::civil_from_days((secs / 86_400) as i64);
     // The commit the binary was built from (build.rs), else what git says where it was built.
     let commit = option_env!("BLOCKDEM_COMMIT").map(str::to_string).or_else(|| {
         std::process::Command::new("git")
@@ -102,13 +102,4 @@ pub fn cpu_bytes_per_cycle(nb: usize, nc: usize, nk: usize) -> Vec<StageBytes> {
         StageBytes { stage: "gather+motion+geometry (6,1,2)", read: b * nb + c * nc + 4 * (nb + 1) + 8 * nk + 32 * nk, written: b * nb + c * nc },
         StageBytes { stage: "contact forces (4)", read: k * nk + c * nc + b * nb, written: k * nk + 32 * nk },
     ]
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn civil_dates() {
-        assert_eq!(crate::output::format::civil_from_days(0), (1970, 1, 1));
-        assert_eq!(crate::output::format::civil_from_days(20_779), (2026, 11, 22));
-    }
 }

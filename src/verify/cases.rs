@@ -2,7 +2,7 @@
 //! it through the executor on the backend it is given, and returns its error against the closed
 //! form. Every tolerance says why it is what it is.
 //!
-//! Damping conventions used below (UDEC 1.2's, kept in `exec.rs`): `DAMP ξ f` sets α = ξω and
+//! Damping conventions used below (UDEC 1.2's, kept in `exec/materials.rs`): `DAMP ξ f` sets α = ξω and
 //! β = ξ/ω with ω = 2πf, so that the Rayleigh ratio ξ(ω) = ½(α/ω + βω) has its minimum ξ at f.
 //! With `MASS` or `STIFFNESS` alone one term is dropped and the other kept, so the ratio at f is
 //! ξ/2. The cases ask for the ratio they want, ζ, by giving `DAMP 2ζ f …` at the oscillator's
