@@ -1072,3 +1072,30 @@ fn a_plot_has_a_caption_axes_and_an_arrow_scale() {
         assert!(dark > 100, "only {dark} dark pixels where the caption is");
     }
 }
+
+/// PRINT CONTACTS names, on the view of a corner–corner touch that does not carry its force,
+/// the contact that does (issue 27 item 9: both views were listed, one with zero force, with no
+/// word on which counts). A block on an equal one: each top corner of the lower block touches a
+/// corner of the upper, seen from both blocks.
+#[test]
+fn print_contacts_names_the_view_that_carries_a_corner_touch() {
+    let deck =
+        "START\nPROP MAT=1 DENS=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.1\nGRAV 0 -10\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX -1 2 -1 0.5\nCYCLE 50\n";
+    let m = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let t = text(|w| print_contacts(&m, w));
+    let corner_corner: Vec<&str> = t.lines().filter(|l| l.contains("CORNER/CORNER")).collect();
+    assert_eq!(corner_corner.len(), 4, "{t}");
+    // Of each pair exactly one view counts, and the other names it.
+    let others: Vec<&str> = corner_corner.iter().copied().filter(|l| l.contains("OTHER VIEW")).collect();
+    assert_eq!(others.len(), 2, "{t}");
+    for l in &others {
+        let named: u32 = l.rsplit("CONTACT ").next().unwrap().trim_end_matches(')').parse().unwrap();
+        let c = m.contacts.iter().find(|c| c.id == named).unwrap_or_else(|| panic!("no contact {named}: {t}"));
+        assert!(m.counts_force(c), "contact {named} is named as the one that counts: {t}");
+        let this: u32 = l.split_whitespace().next().unwrap().parse().unwrap();
+        let this = m.contacts.iter().find(|c| c.id == this).unwrap();
+        assert!(!m.counts_force(this));
+        assert_eq!((c.block1, c.block2), (this.block2, this.block1));
+        assert!((c.point[0] - this.point[0]).abs() < 1e-9, "the same corner: {t}");
+    }
+}

@@ -164,9 +164,39 @@ pub fn print_contacts(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         }
         line.push_str("  ");
         line.push_str(kind_label(c.kind));
+        if let Some(note) = other_view_note(model, c) {
+            line.push_str(&note);
+        }
         writeln!(out, "{line}")?;
     }
     Ok(())
+}
+
+/// For the view of a corner–corner touch that does not carry its force (`Model::counts_force`:
+/// each touch of two rounded corners is seen from both blocks, and only one view counts, so
+/// its force is not summed twice), a note naming the contact that does: the other row of the
+/// pair reads zero force and an overlap, which looked like a contact gone wrong.
+fn other_view_note(model: &Model, c: &crate::model::Contact) -> Option<String> {
+    let (n, nc) = (model.blocks.len(), model.corners.len());
+    if c.block1 as usize >= n || c.block2 as usize >= n || c.corner as usize >= nc || model.counts_force(c) {
+        return None;
+    }
+    // The other view: from block 2, at block 2's corner this view's feature names, facing this
+    // contact's corner.
+    let start1 = model.blocks[c.block1 as usize].corner_start;
+    let start2 = model.blocks[c.block2 as usize].corner_start;
+    let partner = model.contacts.iter().find(|d| {
+        d.block1 == c.block2
+            && d.block2 == c.block1
+            && d.corner == start2 + c.feature / 2
+            && d.feature / 2 == c.corner.wrapping_sub(start1)
+            && (d.corner as usize) < nc
+            && model.counts_force(d)
+    });
+    Some(match partner {
+        Some(d) => format!(" (OTHER VIEW: FORCE IN CONTACT {})", d.id),
+        None => " (OTHER VIEW: FORCE COUNTED ONCE)".to_string(),
+    })
 }
 
 /// Coordinate pairs per line of the corner table: 12 + 5 × 22 = 122 columns.
