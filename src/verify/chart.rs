@@ -28,6 +28,21 @@ pub(crate) fn ensure_font() -> Result<(), String> {
     .clone()
 }
 
+/// Pixels a legend entry takes (12-point text and its spacing), and the legend box's margins.
+const LEGEND_ENTRY_PX: f64 = 17.0;
+const LEGEND_MARGIN_PX: f64 = 24.0;
+
+/// The factor by which a log axis from FLOOR/2 to 3·FAILED_AT must reach higher for a legend of
+/// `entries` lines to fit above the failure line, on a plot `plot_px` pixels high: the band
+/// added, d decades, holds the legend's L pixels when d·H/(D + d) ≥ L, D the data's decades.
+fn legend_headroom(entries: usize, plot_px: f64) -> f64 {
+    let legend_px = entries as f64 * LEGEND_ENTRY_PX + LEGEND_MARGIN_PX;
+    let data_decades = (FAILED_AT * 3.0 / (FLOOR / 2.0)).log10();
+    // A plot too small for its legend above the data gets three decades and the overlap.
+    let decades = if plot_px > legend_px + 50.0 { legend_px * data_decades / (plot_px - legend_px) } else { 3.0 };
+    10f64.powf(decades)
+}
+
 /// Error over tolerance (a count-of-regimes case with tolerance 0 is measured against 0.01, so
 /// one misjudged regime plots far above 1).
 pub fn normalized(r: &Row) -> Option<f64> {
@@ -124,12 +139,21 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
         (x0, x1) = (1e-3, 1.0);
     }
     let (x0, x1) = (x0 / 2.0, x1 * 2.0);
+    let (cases, backends, lines) = series(suite);
+    // The panel with the legend reaches above the failure line far enough that the legend's
+    // box (upper left) covers no point: it covered the failures' crosses at 1e3.
+    let top = if legend {
+        let plot_px = area.dim_in_pixel().1 as f64 - (2.0 * 12.0 + 40.0 + 30.0);
+        FAILED_AT * 3.0 * legend_headroom(2 + cases.len() + backends.len(), plot_px)
+    } else {
+        FAILED_AT * 3.0
+    };
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d((x0..x1).log_scale(), (FLOOR / 2.0..FAILED_AT * 3.0).log_scale())
+        .build_cartesian_2d((x0..x1).log_scale(), (FLOOR / 2.0..top).log_scale())
         .map_err(|x| e(&x))?;
     chart
         .configure_mesh()
@@ -150,7 +174,6 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
         .map_err(|x| e(&x))?
         .label("numerical failure (x)")
         .legend(|(x, y)| Cross::new((x + 9, y), 5, RED.stroke_width(2)));
-    let (cases, backends, lines) = series(suite);
     for line in &lines {
         let color = PALETTE[line.case % PALETTE.len()];
         let look = LOOKS[line.backend % LOOKS.len()];
@@ -235,4 +258,20 @@ pub fn error_vs_frac(suite: &Suite, path: &Path) -> Result<PathBuf, String> {
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(path.to_path_buf())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The band the headroom adds above the failure line holds the legend's pixels.
+    #[test]
+    fn the_legend_fits_above_the_failures() {
+        for (entries, plot_px) in [(10, 550.0), (16, 550.0), (5, 300.0)] {
+            let h = legend_headroom(entries, plot_px);
+            let (lo, top) = ((FLOOR / 2.0).log10(), (FAILED_AT * 3.0 * h).log10());
+            let band_px = plot_px * h.log10() / (top - lo);
+            assert!(band_px + 1e-6 >= entries as f64 * LEGEND_ENTRY_PX + LEGEND_MARGIN_PX, "{entries} entries, {plot_px} px: band {band_px}");
+        }
+    }
 }
