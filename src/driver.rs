@@ -4,9 +4,9 @@
 //! batches it sizes itself); the driver owns everything around them, in this order:
 //!
 //! 1. [`prepare`]: the time step is checked, the backend's own preconditions
-//!    ([`Stages::preflight`]), then the resume test — a model equal to the state the backend's
+//!    ([`Start::preflight`]), then the resume test — a model equal to the state the backend's
 //!    last run left (no command changed it: CYCLE after CYCLE) goes on from there, bit for bit as
-//!    one run; any other starts with a full contact detection ([`Stages::start`]).
+//!    one run; any other starts with a full contact detection ([`Start::start`]).
 //! 2. [`cycles`]: the energy check's baseline, the scan for point-load cracking candidates
 //!    (stage 7 then runs every cycle), the last good state, then the cycles in pieces up to the
 //!    next check interval ([`CHECK_INTERVAL`]); at each check the energy test, the caller's
@@ -33,8 +33,8 @@ pub const CHECK_INTERVAL: u64 = 100;
 /// stable one stays within O(Δt) of its budget.
 const ENERGY_GROWTH_FACTOR: f64 = 2.0;
 
-/// What a backend does within a run; the driver calls these in the order of the module doc.
-pub trait Stages {
+/// What a backend does to begin a run (step 1, [`prepare`]).
+pub trait Start {
     /// Whether the state the last run left is still the backend's to go on from (it ended well
     /// and holds it); taken (reset) by the call.
     fn take_resumable(&mut self) -> bool;
@@ -47,7 +47,11 @@ pub trait Stages {
     /// Readies the run: with `resume`, goes on from the state the last run left; otherwise a full
     /// contact detection (stage 7) and whatever the backend needs of it (the GPU's upload).
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError>;
+}
 
+/// What a backend does within a run's cycles (step 2, [`cycles`]), in the order of the module
+/// doc.
+pub trait Stages {
     /// Before the first cycle, once the backend's workers are up: the force sums the first step
     /// and the energy check's baseline need.
     fn begin_cycles(&mut self, _model: &mut Model) -> Result<(), CycleError> {
@@ -83,7 +87,7 @@ pub trait Stages {
 }
 
 /// Step 1 of a run: the checks, the resume test and the start. Returns whether the run resumes.
-pub fn prepare<S: Stages + ?Sized>(stages: &mut S, model: &mut Model, last_good: &Model, report: &mut CycleReport) -> Result<bool, CycleError> {
+pub fn prepare<S: Start + ?Sized>(stages: &mut S, model: &mut Model, last_good: &Model, report: &mut CycleReport) -> Result<bool, CycleError> {
     if model.timestep <= 0.0 || !model.timestep.is_finite() {
         return Err(CycleError::Setup("the time step is not set".into()));
     }

@@ -285,7 +285,7 @@ struct CpuStart<'a> {
     resumable: bool,
 }
 
-impl driver::Stages for CpuStart<'_> {
+impl driver::Start for CpuStart<'_> {
     fn take_resumable(&mut self) -> bool {
         std::mem::take(&mut self.resumable)
     }
@@ -304,18 +304,6 @@ impl driver::Stages for CpuStart<'_> {
         }
         sync_forces(model, self.forces);
         Ok(())
-    }
-
-    fn advance(&mut self, _model: &mut Model, _max: u64, _cracking: bool, _report: &mut CycleReport) -> Result<u64, CycleError> {
-        unreachable!("the CPU's cycles run on its team (CpuStages)")
-    }
-
-    fn energy(&mut self, _model: &mut Model) -> Result<(f64, f64), CycleError> {
-        unreachable!("the CPU's cycles run on its team (CpuStages)")
-    }
-
-    fn keep(&mut self, _model: &Model, _last_good: &mut Model) {
-        unreachable!("the CPU's cycles run on its team (CpuStages)")
     }
 }
 
@@ -342,14 +330,6 @@ impl CpuStages<'_, '_> {
 }
 
 impl driver::Stages for CpuStages<'_, '_> {
-    fn take_resumable(&mut self) -> bool {
-        false
-    }
-
-    fn start(&mut self, _model: &mut Model, _resume: bool, _report: &mut CycleReport) -> Result<(), CycleError> {
-        unreachable!("the CPU starts before its team (CpuStart)")
-    }
-
     /// The force sums the first step needs.
     fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
         gather_all(model, &self.scratch.forces, self.adjacency, self.team);

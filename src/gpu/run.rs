@@ -298,7 +298,7 @@ struct GpuRun<'a, R: Real> {
     started: bool,
 }
 
-impl<R: Real> driver::Stages for GpuRun<'_, R> {
+impl<R: Real> driver::Start for GpuRun<'_, R> {
     fn take_resumable(&mut self) -> bool {
         std::mem::take(&mut self.engine.resumable) && self.engine.buffers.is_some()
     }
@@ -342,7 +342,9 @@ impl<R: Real> driver::Stages for GpuRun<'_, R> {
         e.last_good_contacts = None;
         Ok(())
     }
+}
 
+impl<R: Real> driver::Stages for GpuRun<'_, R> {
     fn begin_cycles(&mut self, _model: &mut Model) -> Result<(), CycleError> {
         self.last_good_generation = (self.engine.generation, self.engine.block_generation);
         Ok(())
