@@ -89,9 +89,9 @@ impl Measured for blockdem::gpu::GpuBackend {
             .map(|b| b.read + b.written)
             .sum()
     }
-    /// The bench's yardstick (`blockdem::bench`'s `measure_bandwidth`): the faster of the
-    /// streaming copy kernel, measured once per adapter and precision (it takes a second), and
-    /// `copy_buffer_to_buffer`, measured now.
+    /// The bench's yardstick (`blockdem::gpu::profile::yardstick`) of the streaming copy kernel,
+    /// measured once per adapter and precision (it takes a second), and `copy_buffer_to_buffer`,
+    /// measured now.
     fn copy_bandwidth(&mut self) -> f64 {
         use std::collections::HashMap;
         use std::sync::{Mutex, OnceLock};
@@ -104,7 +104,7 @@ impl Measured for blockdem::gpu::GpuBackend {
             .entry(key)
             .or_insert_with(|| self.stream_bandwidth().map(|s| s.best).unwrap_or(0.0));
         let copy = blockdem::gpu::GpuBackend::copy_bandwidth(self).expect("the adapter copies");
-        copy.max(stream)
+        blockdem::gpu::profile::yardstick(Some(stream), Some(copy)).expect("a bandwidth was measured").0
     }
     fn kernels(&mut self, cycles: u32) -> Vec<(&'static str, f64)> {
         self.profile_stages(cycles).expect("the kernels are timed").stages

@@ -155,11 +155,7 @@ pub fn present_backends(cpu: bool, gpu: bool, adapter: &AdapterChoice, precision
 
 /// The bandwidth figures of one backend: the yardstick the roofline divides by, and on a GPU each
 /// way of moving memory measured apart. The yardstick is the physical limit as best measured:
-/// the host memcpy on the CPU backend; on a GPU the faster of the streaming kernel and
-/// `copy_buffer_to_buffer`. On hardware GPUs the kernel wins by far (a copy engine reaches a
-/// quarter of the memory's bandwidth on an H100); on Mesa's software adapters the copy is a
-/// memcpy at the host's bandwidth while their generated code moves storage words a few lanes at a
-/// time, so the kernel would measure the compiler, not the memory.
+/// the host memcpy on the CPU backend; on a GPU `gpu::profile::yardstick`.
 fn measure_bandwidth(info: &mut BackendInfo, e: &Engine, say: &dyn Fn(&str)) {
     match e {
         Engine::Cpu(_) => {
@@ -175,10 +171,9 @@ fn measure_bandwidth(info: &mut BackendInfo, e: &Engine, say: &dyn Fn(&str)) {
                 Err(err) => say(&format!("{}: the streaming kernel failed ({err})", info.label)),
             }
             info.copy_bandwidth_bytes_per_s = g.copy_bandwidth().ok();
-            let (stream, copy) = (info.stream_bandwidth_bytes_per_s.unwrap_or(0.0), info.copy_bandwidth_bytes_per_s.unwrap_or(0.0));
-            if stream.max(copy) > 0.0 {
-                info.bandwidth_bytes_per_s = Some(stream.max(copy));
-                info.yardstick = if stream >= copy { "streaming kernel" } else { "copy_buffer_to_buffer" }.into();
+            if let Some((bw, which)) = crate::gpu::profile::yardstick(info.stream_bandwidth_bytes_per_s, info.copy_bandwidth_bytes_per_s) {
+                info.bandwidth_bytes_per_s = Some(bw);
+                info.yardstick = which.into();
             }
             if let Some((bw, card)) = memory_spec::spec_bandwidth(&info.adapter) {
                 info.spec_bandwidth_bytes_per_s = Some(bw);

@@ -190,13 +190,21 @@ fn uniform(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
         count: None,
     }
+}
+
+/// A bind group layout of `entries` and the pipeline layout of it alone.
+pub(crate) fn layouts(device: &wgpu::Device, label: &str, entries: &[wgpu::BindGroupLayoutEntry]) -> (wgpu::BindGroupLayout, wgpu::PipelineLayout) {
+    let group = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
+    let pipeline =
+        device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: &[Some(&group)], immediate_size: 0 });
+    (group, pipeline)
 }
 
 impl Pipelines {
@@ -209,13 +217,7 @@ impl Pipelines {
         let device = &dev.device;
         let internal = device.push_error_scope(wgpu::ErrorFilter::Internal);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        // A bind group layout of `entries` and the pipeline layout of it alone.
-        let layouts = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
-            let group = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some(label), entries });
-            let pipeline =
-                device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some(label), bind_group_layouts: &[Some(&group)], immediate_size: 0 });
-            (group, pipeline)
-        };
+        let layouts = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| layouts(device, label, entries);
         // The splice's bindings: the old list and records, the runs, the created contacts and
         // records (read), the new list and records (written), the patches (read).
         let (splice_layout, splice_pipeline_layout) = layouts(

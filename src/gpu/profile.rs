@@ -23,7 +23,7 @@
 use std::time::Instant;
 
 use super::layout::{Block, Contact, ContactForce, Corner, Flags, Material, Params, Real};
-use super::{shaders, Engine, GpuBackend, GpuDevice, GpuError};
+use super::{kernels, shaders, Engine, GpuBackend, GpuDevice, GpuError};
 
 /// Per-stage device time of one cycle.
 #[derive(Clone, Debug, PartialEq)]
@@ -114,6 +114,16 @@ pub struct StreamBandwidth {
     pub best: f64,
 }
 
+/// The bandwidth yardstick from its two measurements: the faster of the streaming kernel and
+/// `copy_buffer_to_buffer`, and which one it is. On hardware GPUs the kernel wins by far (a copy
+/// engine reaches a quarter of the memory's bandwidth on an H100); on Mesa's software adapters the
+/// copy is a memcpy at the host's bandwidth while their generated code moves storage words a few
+/// lanes at a time, so the kernel would measure the compiler, not the memory.
+pub fn yardstick(stream: Option<f64>, copy: Option<f64>) -> Option<(f64, &'static str)> {
+    let (stream, copy) = (stream.unwrap_or(0.0), copy.unwrap_or(0.0));
+    (stream.max(copy) > 0.0).then_some(if stream >= copy { (stream, "streaming kernel") } else { (copy, "copy_buffer_to_buffer") })
+}
+
 /// Buffer sizes the yardstick streams: all far past the last-level caches of GPUs (50 MiB on an
 /// H100) and of the CPUs a software adapter runs on, so each word comes from memory. The largest
 /// are left out where the adapter cannot bind them, and on a software adapter (whose "device
@@ -136,16 +146,7 @@ pub fn stream_bandwidth(dev: &GpuDevice) -> Result<StreamBandwidth, GpuError> {
     let device = &dev.device;
     let src = shaders::source("stream_copy", dev.precision).ok_or_else(|| GpuError::Shader("no kernel stream_copy".into()))?;
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("stream_copy"), source: wgpu::ShaderSource::Wgsl(src.into()) });
-    let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Storage { read_only }, has_dynamic_offset: false, min_binding_size: None },
-        count: None,
-    };
-    let layout =
-        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: Some("stream_copy"), entries: &[storage(0, true), storage(1, false)] });
-    let pipeline_layout =
-        device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("stream_copy"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+    let (layout, pipeline_layout) = kernels::layouts(device, "stream_copy", &[kernels::storage(0, true), kernels::storage(1, false)]);
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some("stream_copy"),
         layout: Some(&pipeline_layout),
