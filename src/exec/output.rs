@@ -69,10 +69,10 @@ impl Executor<'_> {
         self.plot_count += 1;
         std::fs::create_dir_all(&self.options.out_dir)
             .map_err(|e| self.command_error(cmd, format!("PLOT: cannot create {}: {e}", self.options.out_dir.display())))?;
-        let files = output::plot::plot(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count, deck_title(&self.file))
+        let (files, empty) = output::plot::plot_noting_empty(&self.model, &self.plot, options, &self.options.out_dir, self.plot_count, deck_title(&self.file))
             .map_err(|e| self.command_error(cmd, format!("PLOT: {e}")))?;
         self.echo(&format!("PLOT WRITTEN TO {} AND {}", files[0].display(), files[1].display()));
-        if let Ok(Some(why)) = output::plot::shows_nothing(&self.model, &self.plot, options) {
+        if let Some(why) = empty {
             self.echo(&format!("WARNING: PLOT shows no block: {why}"));
         }
         Ok(())

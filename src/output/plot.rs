@@ -448,7 +448,21 @@ fn arrow(tail: [f64; 2], head: [f64; 2]) -> Vec<Shape> {
 /// PNG's text where a font is found, `output::font`). `zones` is accepted but draws nothing: the
 /// model has no zones yet. An empty WINDOW or VIEW is an `InvalidInput` error.
 pub fn plot(model: &Model, settings: &PlotSettings, options: &PlotOptions, out_dir: &Path, number: usize, title: &str) -> io::Result<[PathBuf; 2]> {
+    plot_noting_empty(model, settings, options, out_dir, number, title).map(|(files, _)| files)
+}
+
+/// [`plot`], and why the plot shows no block where it shows none (`shows_nothing`), from the one
+/// scene both files are drawn from.
+pub fn plot_noting_empty(
+    model: &Model,
+    settings: &PlotSettings,
+    options: &PlotOptions,
+    out_dir: &Path,
+    number: usize,
+    title: &str,
+) -> io::Result<([PathBuf; 2], Option<String>)> {
     let scene = build_scene(model, settings, options, title)?;
+    let empty = shows_nothing(&scene, model, settings, options);
     let png = out_dir.join(format!("plot_{number:03}.png"));
     let svg = out_dir.join(format!("plot_{number:03}.svg"));
     let pixmap = render_png(&scene)?;
@@ -457,19 +471,18 @@ pub fn plot(model: &Model, settings: &PlotSettings, options: &PlotOptions, out_d
     let mut w = io::BufWriter::new(fs::File::create(&svg)?);
     render_svg(&scene, &mut w)?;
     io::Write::flush(&mut w)?;
-    Ok([png, svg])
+    Ok(([png, svg], empty))
 }
 
 /// Why a PLOT with these settings shows no block, or None when one shows: its VIEW lies off the
 /// page, or no block lies in its WINDOW (as fitted into the VIEW). PLOT warns with it (issue 27
 /// item 5), since an empty page is otherwise written without a word.
-pub fn shows_nothing(model: &Model, settings: &PlotSettings, options: &PlotOptions) -> io::Result<Option<String>> {
-    let scene = build_scene(model, settings, options, "")?;
+fn shows_nothing(scene: &Scene, model: &Model, settings: &PlotSettings, options: &PlotOptions) -> Option<String> {
     let [l, t, r, b] = scene.clip;
     let [w, h] = IMAGE_SIZE.map(f64::from);
     let [x1, x2, y1, y2] = settings.window.map(fmt_e);
     let [ix1, ix2, iy1, iy2] = settings.view;
-    Ok(if r <= 0.0 || b <= 0.0 || l >= w || t >= h {
+    if r <= 0.0 || b <= 0.0 || l >= w || t >= h {
         Some(format!("VIEW {ix1} {ix2} {iy1} {iy2} lies off the page (0 to {} by 0 to {})", PAGE_UNITS[0], PAGE_UNITS[1]))
     } else if model.blocks.is_empty() {
         Some("there are no blocks".into())
@@ -478,7 +491,7 @@ pub fn shows_nothing(model: &Model, settings: &PlotSettings, options: &PlotOptio
         Some(format!("none lies in WINDOW {x1} {x2} {y1} {y2}{hidden}"))
     } else {
         None
-    })
+    }
 }
 
 fn render_png(scene: &Scene) -> io::Result<Pixmap> {
