@@ -6,7 +6,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 
-use blockdem::cpu::CpuBackend;
+use blockdem::udec::cpu::CpuBackend;
 
 mod common;
 

@@ -9,7 +9,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 
 use blockdem::bench::{present_backends, BackendSpec};
-use blockdem::gpu::{AdapterChoice, GpuBackend};
+use blockdem::udec::gpu::{AdapterChoice, GpuBackend};
 
 mod common;
 

@@ -16,10 +16,10 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::backend::Backend;
-use crate::deck::Located;
-use crate::exec::{Executor, Progress, RunOptions};
-use crate::model::Model;
+use crate::udec::backend::Backend;
+use crate::udec::deck::Located;
+use crate::udec::exec::{Executor, Progress, RunOptions};
+use crate::udec::model::Model;
 
 /// One backend's run of the deck.
 #[derive(Clone, Debug)]

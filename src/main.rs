@@ -9,11 +9,11 @@ use std::sync::{Arc, Mutex};
 use anyhow::{bail, Context};
 use clap::{Parser, Subcommand, ValueEnum};
 
-use blockdem::backend::{Backend, GpuOrCpu};
-use blockdem::cpu::CpuBackend;
-use blockdem::exec::{Executor, Progress, RunError, RunOptions};
-use blockdem::gpu::{list_adapters, matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
-use blockdem::output::provenance::Provenance;
+use blockdem::udec::backend::{Backend, GpuOrCpu};
+use blockdem::udec::cpu::CpuBackend;
+use blockdem::udec::exec::{Executor, Progress, RunError, RunOptions};
+use blockdem::udec::gpu::{list_adapters, matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use blockdem::udec::output::provenance::Provenance;
 
 /// Standard output, as every subcommand writes it (its tables, `wrote FILE` lines, the run log):
 /// a write that fails never panics, as `println!` does. A reader that leaves (`| head`, `| true`)
@@ -359,8 +359,8 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
         bail!("--tolerance must be a number, zero or more");
     }
     let name = deck.display().to_string();
-    let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
-    let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    let bytes = blockdem::udec::deck::parse::read_deck(&deck, &name)?;
+    let commands = blockdem::udec::deck::parse::parse_deck_bytes(&bytes, &name)?;
     warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
@@ -420,8 +420,8 @@ fn adapters() -> anyhow::Result<()> {
 }
 
 /// Commands after END are not run: says so, with the line of the first (issue 27 item 9).
-fn warn_after_end(bytes: &[u8], commands: &[blockdem::deck::Located], file: &str) {
-    let Some(end) = commands.last().filter(|c| c.command == blockdem::deck::Command::End) else {
+fn warn_after_end(bytes: &[u8], commands: &[blockdem::udec::deck::Located], file: &str) {
+    let Some(end) = commands.last().filter(|c| c.command == blockdem::udec::deck::Command::End) else {
         return;
     };
     // Blank lines, comments and lines of separators only are not commands.
@@ -514,8 +514,8 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let adapter = adapter.unwrap_or_else(|| "any".into());
     let precision = precision.unwrap_or(PrecisionChoice::F32);
     let name = deck.display().to_string();
-    let bytes = blockdem::deck::parse::read_deck(&deck, &name)?;
-    let commands = blockdem::deck::parse::parse_deck_bytes(&bytes, &name)?;
+    let bytes = blockdem::udec::deck::parse::read_deck(&deck, &name)?;
+    let commands = blockdem::udec::deck::parse::parse_deck_bytes(&bytes, &name)?;
     warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
     if let Some(path) = &state_json {
@@ -524,7 +524,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     // The precision the cycle runs in, for the extreme-ratio warnings (`verify::stability`).
     let mut runs_on = (false, "f64");
     let mut adapter_name = None;
-    let backend: Box<dyn blockdem::backend::Backend> = match backend {
+    let backend: Box<dyn blockdem::udec::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(CpuBackend::new()),
         BackendChoice::Auto | BackendChoice::Gpu => {
             let precision = Precision::from(precision);
@@ -573,7 +573,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(Stdout)), options, &name);
-    exec.set_limits(blockdem::model::limits::limits_for(runs_on.0, runs_on.1));
+    exec.set_limits(blockdem::udec::model::limits::limits_for(runs_on.0, runs_on.1));
     let provenance = Provenance::now(&name, if runs_on.0 { "gpu" } else { "cpu" }, adapter_name, runs_on.1);
     exec.set_provenance(provenance.line());
     let result = exec.run(&commands);
@@ -585,7 +585,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             if let Some(folder) = path.parent().filter(|f| !f.as_os_str().is_empty()) {
                 let _ = std::fs::create_dir_all(folder);
             }
-            blockdem::output::state_json::write_state_json_with(&exec.model, Some(&provenance), path)
+            blockdem::udec::output::state_json::write_state_json_with(&exec.model, Some(&provenance), path)
                 .with_context(|| format!("cannot write {}", path.display()))
         }
         None => Ok(()),
@@ -605,7 +605,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             } else {
                 "the state before the failing command"
             };
-            if blockdem::output::restart::save_state(&path, &exec.model, &Default::default(), 0).is_ok() {
+            if blockdem::udec::output::restart::save_state(&path, &exec.model, &Default::default(), 0).is_ok() {
                 note!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
             }
         }

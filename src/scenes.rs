@@ -4,9 +4,9 @@
 
 use std::fmt::Write;
 
-use crate::backend::Backend;
-use crate::exec::{Executor, RunError, RunOptions};
-use crate::model::Model;
+use crate::udec::backend::Backend;
+use crate::udec::exec::{Executor, RunError, RunOptions};
+use crate::udec::model::Model;
 
 /// Runs deck text on a backend with the log discarded; returns the final model.
 pub fn run_deck_on(text: &str, backend: Box<dyn Backend>) -> Result<Model, RunError> {
@@ -15,7 +15,7 @@ pub fn run_deck_on(text: &str, backend: Box<dyn Backend>) -> Result<Model, RunEr
 
 /// Runs deck text on a backend writing the run log to `log`.
 pub fn run_deck_logged<'a>(text: &str, backend: Box<dyn Backend + 'a>, log: Box<dyn std::io::Write + 'a>) -> Result<Model, RunError> {
-    let commands = crate::deck::parse_deck(text, "<scene>")?;
+    let commands = crate::udec::deck::parse_deck(text, "<scene>")?;
     let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-scenes"), ..Default::default() };
     let mut exec = Executor::new(backend, log, options, "<scene>");
     exec.run(&commands)?;

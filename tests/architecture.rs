@@ -1,8 +1,9 @@
 //! The module graph has no cycle (issue 26, item 1; docs/ARCHITECTURE.md's layers).
 //!
-//! Each folder under `src/` and each top-level file is a node; an edge A → B is a `crate::B…`
-//! path (or a `super::…` path that resolves into B, or `blockdem::B…` in `main.rs`) written in
-//! A's code. Comments, doc comments, string and character literals and `#[cfg(test)]` items
+//! Each folder under `src/` and each top-level file is a node, except an engine's folder
+//! (`src/udec/`), whose folders and files are the nodes (`udec::model`, `udec::gpu`, …); an edge
+//! A → B is a `crate::B…` path (or a `super::…` path that resolves into B, or `blockdem::B…` in
+//! `main.rs`) written in A's code. Comments, doc comments, string and character literals and `#[cfg(test)]` items
 //! are left out: a unit test may reach across layers, the library may not. The test reads the
 //! source text, not the compiler's view, so it needs no extra dependency and names the file and
 //! line of each edge that closes a cycle.
@@ -192,6 +193,25 @@ fn module_path(rel: &Path) -> Vec<String> {
     parts
 }
 
+/// The folders under `src/` that hold an engine: their modules are nodes of their own.
+const ENGINES: [&str; 1] = ["udec"];
+
+/// The modules of the chassis, dimension-free (issue 26, item 7): none of them may name an
+/// engine's module.
+const CHASSIS: [&str; 5] = ["deck", "driver", "gpu", "output", "profile"];
+
+/// The node a module path belongs to: its first part, or an engine's module.
+fn node_of(path: &[String]) -> Option<String> {
+    let first = path.first()?;
+    if ENGINES.contains(&first.as_str()) {
+        return Some(match path.get(1) {
+            Some(m) => format!("{first}::{m}"),
+            None => first.clone(),
+        });
+    }
+    Some(first.clone())
+}
+
 /// The first identifier at `s[i..]` (after spaces), and where it ends.
 fn ident_at(s: &[char], mut i: usize) -> Option<(String, usize)> {
     while i < s.len() && s[i].is_whitespace() {
@@ -240,32 +260,46 @@ fn group_heads(s: &[char], i: usize) -> Vec<String> {
     heads
 }
 
-/// The top-level modules a path that starts at the crate root names at `s[i..]` (after `crate::`).
-fn roots_at(s: &[char], i: usize) -> Vec<String> {
+/// The module paths, one or two parts long, that a path starting at `base` names at `s[i..]`
+/// (after `crate::` or `super::`): one part, or two where the first is an engine's folder.
+fn roots_at(s: &[char], i: usize, base: &[String]) -> Vec<Vec<String>> {
     let mut j = i;
     while j < s.len() && s[j].is_whitespace() {
         j += 1;
     }
+    let with = |id: String| {
+        let mut p = base.to_vec();
+        p.push(id);
+        p
+    };
     if s.get(j) == Some(&'{') {
-        group_heads(s, j)
-    } else {
-        ident_at(s, j).map(|(id, _)| vec![id]).unwrap_or_default()
+        return group_heads(s, j).into_iter().map(with).collect();
     }
+    let Some((id, end)) = ident_at(s, j) else { return Vec::new() };
+    let path = with(id);
+    if path.len() == 1 && ENGINES.contains(&path[0].as_str()) && s[end..].iter().take(2).copied().eq("::".chars()) {
+        let deeper = roots_at(s, end + 2, &path);
+        if !deeper.is_empty() {
+            return deeper;
+        }
+    }
+    vec![path]
 }
 
 fn graph(src: &Path) -> Graph {
     let mut files = Vec::new();
     rust_files(src, &mut files);
-    let nodes: BTreeSet<String> = files.iter().map(|f| module_path(f.strip_prefix(src).expect("under src"))).filter_map(|p| p.first().cloned()).collect();
+    let nodes: BTreeSet<String> = files.iter().filter_map(|f| node_of(&module_path(f.strip_prefix(src).expect("under src")))).collect();
     let mut g: Graph = nodes.iter().map(|n| (n.clone(), BTreeMap::new())).collect();
     for file in &files {
         let rel = file.strip_prefix(src).expect("under src");
         let here = module_path(rel);
-        let Some(node) = here.first().cloned() else { continue }; // lib.rs only declares the modules
+        let Some(node) = node_of(&here) else { continue }; // lib.rs only declares the modules
         let code = without_test_items(&code_only(&fs::read_to_string(file).expect("readable")));
         let s: Vec<char> = code.chars().collect();
         let line_of = |i: usize| s[..i].iter().filter(|&&c| c == '\n').count() + 1;
-        let mut add = |target: String, i: usize| {
+        let mut add = |path: Vec<String>, i: usize| {
+            let Some(target) = node_of(&path) else { return };
             if target != node && nodes.contains(&target) {
                 g.get_mut(&node).expect("node").entry(target).or_insert(Site { file: file.clone(), line: line_of(i) });
             }
@@ -276,7 +310,7 @@ fn graph(src: &Path) -> Graph {
             let at = |w: &str| s[i..].iter().take(w.chars().count()).copied().eq(w.chars());
             if !preceded_by_ident && (at("crate::") || (node == "main" && at("blockdem::"))) {
                 let len = if at("crate::") { 7 } else { 10 };
-                for t in roots_at(&s, i + len) {
+                for t in roots_at(&s, i + len, &[]) {
                     add(t, i);
                 }
                 i += len;
@@ -289,12 +323,8 @@ fn graph(src: &Path) -> Graph {
                     j += 7;
                 }
                 let base = here.len().saturating_sub(up);
-                if base > 0 {
-                    add(here[0].clone(), i);
-                } else {
-                    for t in roots_at(&s, j) {
-                        add(t, i);
-                    }
+                for t in roots_at(&s, j, &here[..base]) {
+                    add(t, i);
                 }
                 i = j;
             } else {
@@ -374,6 +404,26 @@ fn modules_form_no_cycle() {
         }
     }
     assert!(report.is_empty(), "the module graph must have no cycle (docs/ARCHITECTURE.md):\n{report}");
+}
+
+/// The chassis stands apart from the engines (docs/ARCHITECTURE.md): a sibling engine (D3)
+/// can take the deck lexer, the run driver, the GPU device and precision and the output
+/// machinery as they are.
+#[test]
+fn the_chassis_names_no_engine() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let g = graph(&src);
+    let mut report = String::new();
+    for chassis in CHASSIS {
+        assert!(g.contains_key(chassis), "no module {chassis} under src/");
+        for (b, site) in &g[chassis] {
+            if ENGINES.iter().any(|e| b == e || b.starts_with(&format!("{e}::"))) {
+                let file = site.file.strip_prefix(&src).unwrap_or(&site.file).display();
+                report.push_str(&format!("  {chassis} -> {b}  (src/{file}:{})\n", site.line));
+            }
+        }
+    }
+    assert!(report.is_empty(), "the chassis must not use an engine's modules:\n{report}");
 }
 
 /// The scanner itself: comments, strings, test items and `super::` are read as the compiler would.

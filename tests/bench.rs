@@ -18,11 +18,13 @@ fn temp(name: &str) -> std::path::PathBuf {
 fn the_reference_wall_has_1012_bricks_on_a_ground_block() {
     let wall = scene::reference_wall(scene::FRAC);
     assert_eq!(wall.brick_count(), 1012, "13 even rows of 40 + 12 odd rows of 41");
-    let settle = blockdem::scenes::run_deck_on(&scene::reference_body(RefScene::Settle, scene::FRAC), Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let settle =
+        blockdem::scenes::run_deck_on(&scene::reference_body(RefScene::Settle, scene::FRAC), Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     assert_eq!(settle.blocks.len(), 1013);
     assert_eq!(settle.blocks.iter().filter(|b| b.fixed).count(), 1, "the ground block alone is fixed");
     assert_eq!(settle.tol.round, 0.1);
-    let impact = blockdem::scenes::run_deck_on(&scene::reference_body(RefScene::Impact, scene::FRAC), Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let impact =
+        blockdem::scenes::run_deck_on(&scene::reference_body(RefScene::Impact, scene::FRAC), Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     assert_eq!(impact.blocks.len(), 1014);
     let p = impact.blocks.last().unwrap();
     assert_eq!(p.centroid, [-2.0, 11.0]);
@@ -146,7 +148,7 @@ common::every_backend!(quick_bench);
 /// the CPU is the median of the ratios within the rounds.
 #[test]
 fn scaling_rounds_alternate_the_backends() {
-    let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::gpu::Precision::F32) else {
+    let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
         return;
     };
     let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
@@ -195,14 +197,14 @@ fn scaling_rounds_alternate_the_backends() {
 /// 100 cycles, profiling, and 100 more give what 200 cycles give.
 #[test]
 fn profiling_between_runs_leaves_the_next_run_unchanged() {
-    use blockdem::backend::Backend;
-    let Some(Target::Gpu(options)) = Target::gpu("vulkan", blockdem::gpu::Precision::F32) else {
+    use blockdem::udec::backend::Backend;
+    let Some(Target::Gpu(options)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
         return;
     };
     let deck =
         "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1.2 1,2.2 2,2.2 2,1.2\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 0\n";
     let model0 = blockdem::scenes::run_deck_on(deck, Target::Cpu.backend()).unwrap();
-    let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
+    let mut gpu = blockdem::udec::gpu::GpuBackend::new(&options).unwrap();
     let mut split = model0.clone();
     gpu.run(&mut split, 100, &mut |_| true).unwrap();
     let profile = gpu.profile_stages(20).unwrap();
@@ -214,7 +216,7 @@ fn profiling_between_runs_leaves_the_next_run_unchanged() {
     assert_eq!(labels, ["law_of_motion", "end_cycle"]);
     gpu.run(&mut split, 100, &mut |_| true).unwrap();
     let mut straight = model0.clone();
-    blockdem::gpu::GpuBackend::new(&options).unwrap().run(&mut straight, 200, &mut |_| true).unwrap();
+    blockdem::udec::gpu::GpuBackend::new(&options).unwrap().run(&mut straight, 200, &mut |_| true).unwrap();
     assert_eq!(split.cycle, 200);
     // The split run re-uploads at its second start (f32 state through the model's f64): the
     // same trajectory to f32 round-off (the block falls 0.2 m onto the base and rests).
@@ -231,8 +233,8 @@ fn profiling_between_runs_leaves_the_next_run_unchanged() {
 /// summed in a cycle at all (physics.rs checks the forces both ways).
 #[test]
 fn a_cycle_dispatches_gather_heavy_only_for_free_heavy_blocks() {
-    use blockdem::backend::Backend;
-    let Some(Target::Gpu(options)) = Target::gpu("vulkan", blockdem::gpu::Precision::F32) else {
+    use blockdem::udec::backend::Backend;
+    let Some(Target::Gpu(options)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
         return;
     };
     let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 40,1 40,0\nBLOCK 0,1 0,1.5 40,1.5 40,1\n");
@@ -245,7 +247,7 @@ fn a_cycle_dispatches_gather_heavy_only_for_free_heavy_blocks() {
         ("FIX 0 40 0 1.4", vec!["law_of_motion", "contact_forces", "end_cycle"]),
     ] {
         let model0 = blockdem::scenes::run_deck_on(&format!("{deck}{fix}\nGRAV 0 -10\nCYCLE 0\n"), Target::Cpu.backend()).unwrap();
-        let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
+        let mut gpu = blockdem::udec::gpu::GpuBackend::new(&options).unwrap();
         let mut m = model0.clone();
         gpu.run(&mut m, 10, &mut |_| true).unwrap();
         let labels: Vec<&str> = gpu.profile_stages(1).unwrap().stages.iter().map(|s| s.0).collect();
@@ -263,7 +265,7 @@ fn the_streaming_kernel_yardstick_copies_every_word_on_every_gpu_target() {
         let Some(Target::Gpu(options)) = Target::gpu(adapter, precision) else {
             continue;
         };
-        let gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
+        let gpu = blockdem::udec::gpu::GpuBackend::new(&options).unwrap();
         let stream = gpu.stream_bandwidth().unwrap_or_else(|e| panic!("{adapter} {precision}: {e}"));
         assert!(!stream.sizes.is_empty());
         assert!(stream.sizes.windows(2).all(|w| w[0].0 < w[1].0), "{:?}", stream.sizes);

@@ -204,7 +204,7 @@ fn an_input_error_after_cycles_keeps_the_state_before_it() {
     assert_ne!(code, 0);
     assert!(stderr.contains(&format!("{deck}:9")), "{stderr}");
     assert!(stderr.contains("the state before the failing command (cycle 300)"), "{stderr}");
-    let saved = blockdem::output::load(&dir.join("last_good.sav")).unwrap();
+    let saved = blockdem::udec::output::load(&dir.join("last_good.sav")).unwrap();
     assert_eq!(saved.model.cycle, 300);
     let again = write_deck(&dir, &format!("RESTART {}\nCYCLE 100\nSTOP\n", dir.join("last_good.sav").display()));
     let (code, stdout, stderr) = blockdem(&["run", &again, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
@@ -279,7 +279,7 @@ fn interrupt_a_long_cycle(signal: &str) {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(130), "stderr: {stderr}");
     assert!(stderr.contains("deck.dat:8: interrupted at cycle"), "{stderr}");
-    let saved = blockdem::output::load(&out.join("last_good.sav")).unwrap();
+    let saved = blockdem::udec::output::load(&out.join("last_good.sav")).unwrap();
     let cycle = saved.model.cycle;
     assert!(cycle > 0 && cycle % 100 == 0 && cycle < 100_000_000, "saved at cycle {cycle}");
     assert!(stderr.contains(&format!("the state (cycle {cycle}) is saved")), "{stderr}");
@@ -299,7 +299,7 @@ fn a_running_restart_file_is_written_with_checkpoint_every() {
     let out = dir.join("out");
     let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap(), "--checkpoint-every", "0"]);
     assert_eq!(code, 0, "{stderr}");
-    let saved = blockdem::output::load(&out.join("checkpoint.sav")).unwrap();
+    let saved = blockdem::udec::output::load(&out.join("checkpoint.sav")).unwrap();
     assert_eq!(saved.model.cycle, 450);
     let again = write_deck(&dir, &format!("RESTART {}\nCYCLE 50\nSTOP\n", out.join("checkpoint.sav").display()));
     let (code, stdout, stderr) = blockdem(&["run", &again, "--backend", "cpu", "--out", out.to_str().unwrap()]);
@@ -328,7 +328,7 @@ fn vtk_frames_are_written_by_the_vtk_command_and_with_vtk_every() {
             assert!(vtk.join(format!("{kind}_{cycle:09}.vtk")).is_file(), "{kind} frame of cycle {cycle}");
         }
     }
-    let series: blockdem::output::vtk::Series = serde_json::from_slice(&std::fs::read(vtk.join("contacts.vtk.series")).unwrap()).unwrap();
+    let series: blockdem::udec::output::vtk::Series = serde_json::from_slice(&std::fs::read(vtk.join("contacts.vtk.series")).unwrap()).unwrap();
     assert_eq!(series.files.len(), 4);
     let (code, _, stderr) = blockdem(&["run", &deck, "--vtk-every", "0"]);
     assert!(code != 0 && stderr.contains("--vtk-every"), "{stderr}");

@@ -4,7 +4,7 @@
 use blockdem::compare::{compare, table, Outcome};
 
 fn outcome(deck: &str) -> Outcome {
-    let model = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let model = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     Outcome { backend: "cpu (f64)".into(), wall_s: 1.0, model, error: None }
 }
 

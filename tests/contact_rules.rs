@@ -5,10 +5,10 @@
 
 mod common;
 
-use blockdem::backend::{Backend, CycleReport};
-use blockdem::cpu::CpuBackend;
-use blockdem::model::Model;
 use blockdem::scenes::run_deck_on;
+use blockdem::udec::backend::{Backend, CycleReport};
+use blockdem::udec::cpu::CpuBackend;
+use blockdem::udec::model::Model;
 
 fn run(deck: &str) -> Model {
     run_deck_on(deck, Box::new(CpuBackend::new())).unwrap_or_else(|e| panic!("{e}\n{deck}"))
@@ -48,7 +48,7 @@ fn squeezed_beam(a: f64, tf: f64) -> String {
 
 /// The point-load value (f1 + f2)/(2d²) of the two force-carrying contacts on the beam (block 1).
 fn point_load_value(m: &Model) -> f64 {
-    let loads: Vec<&blockdem::model::Contact> = m.contacts.iter().filter(|c| (c.block1 == 0 || c.block2 == 0) && c.normal_force > 0.0).collect();
+    let loads: Vec<&blockdem::udec::model::Contact> = m.contacts.iter().filter(|c| (c.block1 == 0 || c.block2 == 0) && c.normal_force > 0.0).collect();
     assert_eq!(loads.len(), 2, "one contact per wedge: {:?}", m.contacts);
     let (p, q) = (loads[0].point, loads[1].point);
     let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
@@ -81,7 +81,7 @@ fn the_beam_cracks_when_the_point_load_value_reaches_tf_and_not_below() {
     }
     assert_eq!(m.blocks.len(), 4);
     // Both pieces keep the beam's material and constitutive number, and the area is conserved.
-    let pieces: Vec<&blockdem::model::Block> = m.blocks.iter().filter(|b| b.material == 3).collect();
+    let pieces: Vec<&blockdem::udec::model::Block> = m.blocks.iter().filter(|b| b.material == 3).collect();
     assert_eq!(pieces.len(), 2);
     assert!(pieces.iter().all(|b| b.constitutive == 2));
     assert!((pieces.iter().map(|b| b.area).sum::<f64>() - 10.0).abs() < 1e-9);
@@ -139,7 +139,7 @@ fn contact_updates_follow_displacement_not_every_cycle() {
     assert!(per_update * step <= m.tol.etol + step + 1e-12, "an update every {per_update} steps of {step} m; tolerance {}", m.tol.etol);
     // With speed margins (the default) the block is searched farther around and may move the
     // tolerance plus its margin, about `margin_steps` of its steps, between updates.
-    fast.tol.margin_steps = blockdem::model::DEFAULT_MARGIN_STEPS;
+    fast.tol.margin_steps = blockdem::udec::model::DEFAULT_MARGIN_STEPS;
     let fewer = cycle(&mut fast, 1000);
     let margin = fast.tol.speed_margin(step);
     assert!(margin > 0.0 && (fast.blocks[0].update_margin - margin).abs() < 1e-12, "margin {} for {step} m a step", fast.blocks[0].update_margin);
@@ -177,7 +177,8 @@ fn speed_margins_change_the_update_count_not_the_motion() {
     assert!(speedy.tol.margin_steps > 0.0, "margins are on by default");
     let (a, b) = (cycle(&mut fixed, 1500), cycle(&mut speedy, 1500));
     for (x, y) in fixed.blocks.iter().zip(&speedy.blocks) {
-        let bits = |b: &blockdem::model::Block| [b.centroid[0], b.centroid[1], b.rotation, b.velocity[0], b.velocity[1], b.angular_velocity].map(f64::to_bits);
+        let bits =
+            |b: &blockdem::udec::model::Block| [b.centroid[0], b.centroid[1], b.rotation, b.velocity[0], b.velocity[1], b.angular_velocity].map(f64::to_bits);
         assert_eq!(bits(x), bits(y), "block {} moved differently with speed margins", x.id);
     }
     // The projectile hit the wall and moved bricks (the scene tests something).
@@ -213,10 +214,10 @@ fn gpu_run_with(
     t: &common::Target,
     mut m: Model,
     cycles: u64,
-    set_up: impl FnOnce(&mut blockdem::gpu::GpuBackend),
-) -> (Model, CycleReport, blockdem::gpu::GpuBackend) {
+    set_up: impl FnOnce(&mut blockdem::udec::gpu::GpuBackend),
+) -> (Model, CycleReport, blockdem::udec::gpu::GpuBackend) {
     let common::Target::Gpu(options) = t else { unreachable!("a GPU target") };
-    let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
+    let mut gpu = blockdem::udec::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
     set_up(&mut gpu);
     let report = gpu.run(&mut m, cycles, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
     (m, report, gpu)
@@ -255,8 +256,8 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
         let common::Target::Gpu(options) = &t else { unreachable!("a GPU target") };
         let go = |partial: bool| {
             let mut m = projectile_into_wall(8, 24);
-            let mut gpu = blockdem::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
-            gpu.set_partial_reads(if partial { blockdem::gpu::PartialReads::Always } else { blockdem::gpu::PartialReads::Never });
+            let mut gpu = blockdem::udec::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
+            gpu.set_partial_reads(if partial { blockdem::udec::gpu::PartialReads::Always } else { blockdem::udec::gpu::PartialReads::Never });
             let report = gpu.run(&mut m, 1500, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
             (m, report, gpu.partial_updates())
         };
@@ -272,7 +273,7 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
             "updates on {}",
             t.name()
         );
-        let bits = |b: &blockdem::model::Block| {
+        let bits = |b: &blockdem::udec::model::Block| {
             [b.centroid[0], b.centroid[1], b.rotation, b.velocity[0], b.velocity[1], b.angular_velocity, b.update_margin].map(f64::to_bits)
         };
         for (x, y) in a.blocks.iter().zip(&b.blocks) {
@@ -332,12 +333,12 @@ fn read_back_contacts_have_the_points_and_normals_of_the_read_back_state() {
                 let b2 = &m.blocks[c.block2 as usize];
                 let corners2 = &m.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
                 let own = &m.corners[c.corner as usize];
-                let g = blockdem::contact::geometry::track_feature(corners2, c.feature, own.circle, own.radius);
+                let g = blockdem::udec::contact::geometry::track_feature(corners2, c.feature, own.circle, own.radius);
                 if g.feature != c.feature {
                     // A tie: the GPU's feature is as near as the CPU's choice, within the f32 tie
                     // window and the read-back positions' round-off.
                     assert!(t.is_f32(), "{} after {cycles} cycles: contact {} tracks feature {} where the CPU finds {}", t.name(), c.id, c.feature, g.feature);
-                    let d = blockdem::contact::geometry::distance_to_feature(corners2, c.feature, own.circle);
+                    let d = blockdem::udec::contact::geometry::distance_to_feature(corners2, c.feature, own.circle);
                     assert!(
                         (d - g.distance).abs() <= 1e-5 * (1.0 + g.distance) + tol,
                         "{} after {cycles} cycles: contact {} tracks feature {} at {d}, the CPU's {} is at {}: not a tie",
@@ -422,7 +423,7 @@ fn an_adjacency_edit_on_the_device_runs_as_a_whole_upload() {
     // a hardware one. The lists are integers the CPU computes either way, so the runs are the
     // same bit for bit. The projectile into a wall (~100 updates, contacts made and dropped; the
     // fixed base has more than `HEAVY_DEGREE` contacts).
-    use blockdem::gpu::AdjacencyEdits;
+    use blockdem::udec::gpu::AdjacencyEdits;
     for (adapter, precision) in common::GPU_TARGETS {
         let Some(t) = common::Target::gpu(adapter, precision) else { continue };
         let go = |edits: AdjacencyEdits| {
@@ -476,7 +477,7 @@ fn shear_history_survives_a_contact_update() {
     assert!((shear - want).abs() < 0.01 * want, "shear {shear} N, m g sin ψ = {want} N");
     let before: Vec<(u32, u32, u32, u64, u64)> =
         m.contacts.iter().map(|c| (c.corner, c.block2, c.feature, c.shear_force.to_bits(), c.shear_displacement.to_bits())).collect();
-    blockdem::topology::update_contacts(&mut m, true);
+    blockdem::udec::topology::update_contacts(&mut m, true);
     let after: Vec<(u32, u32, u32, u64, u64)> =
         m.contacts.iter().map(|c| (c.corner, c.block2, c.feature, c.shear_force.to_bits(), c.shear_displacement.to_bits())).collect();
     let mut b = before.clone();
@@ -552,7 +553,7 @@ fn contacts_form_within_one_tolerance_and_break_past_another() {
     let near = at(0.5 * atol);
     assert_eq!(near.contacts.len(), 2, "two corner–edge contacts: {:?}", near.contacts);
     for c in &near.contacts {
-        assert_eq!(c.kind, blockdem::model::ContactKind::CornerEdge);
+        assert_eq!(c.kind, blockdem::udec::model::ContactKind::CornerEdge);
         assert_eq!((c.block1, c.block2), (1, 0));
         assert!((c.gap - 0.5 * atol).abs() < 1e-9 && (c.normal[1] - 1.0).abs() < 1e-12, "{c:?}");
     }
@@ -594,7 +595,7 @@ fn corners_meeting_corners_make_one_force_carrying_corner_corner_contact() {
     ));
     assert!(!m.contacts.is_empty());
     for c in &m.contacts {
-        assert_eq!(c.kind, blockdem::model::ContactKind::CornerCorner, "{c:?}");
+        assert_eq!(c.kind, blockdem::udec::model::ContactKind::CornerCorner, "{c:?}");
         assert!((c.gap - 0.02).abs() < 1e-9, "gap {} along the diagonal", c.gap);
         let d = std::f64::consts::FRAC_1_SQRT_2;
         assert!((c.normal[0].abs() - d).abs() < 1e-9 && (c.normal[1].abs() - d).abs() < 1e-9, "diagonal normal {:?}", c.normal);

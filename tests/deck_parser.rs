@@ -2,7 +2,7 @@
 //! full, abbreviated, mixed-case and with each separator; the sample decks; the error cases with
 //! their line numbers and messages; continuation and comment handling; and a no-panic proptest.
 
-use blockdem::deck::*;
+use blockdem::udec::deck::*;
 use proptest::prelude::*;
 
 const FILE: &str = "t.dat";
@@ -444,7 +444,7 @@ fn whole_file_errors() {
 /// taken for a binary file; outside comments it is still refused at its line and column.
 #[test]
 fn latin1_in_a_comment_is_read_leniently() {
-    let deck = blockdem::deck::parse::parse_deck_bytes(b"START\n* a slope of 30\xb0, caf\xe9\n  * indented \xb0\nGRAV 0 -10\n", FILE).unwrap();
+    let deck = blockdem::udec::deck::parse::parse_deck_bytes(b"START\n* a slope of 30\xb0, caf\xe9\n  * indented \xb0\nGRAV 0 -10\n", FILE).unwrap();
     assert_eq!(deck.len(), 2);
     assert_eq!(deck[1].line, 4);
     let e = parse_deck_bytes_err(b"START\n* 30\xb0\nGRAV 0 -10 \xb0\n");
@@ -453,7 +453,7 @@ fn latin1_in_a_comment_is_read_leniently() {
 }
 
 fn parse_deck_bytes_err(b: &[u8]) -> DeckError {
-    blockdem::deck::parse::parse_deck_bytes(b, FILE).unwrap_err()
+    blockdem::udec::deck::parse::parse_deck_bytes(b, FILE).unwrap_err()
 }
 
 #[test]
@@ -743,7 +743,7 @@ proptest! {
 
     #[test]
     fn random_bytes_never_panic(b in prop::collection::vec(any::<u8>(), 0..300)) {
-        let _ = blockdem::deck::parse::parse_deck_bytes(&b, FILE);
+        let _ = blockdem::udec::deck::parse::parse_deck_bytes(&b, FILE);
     }
 }
 

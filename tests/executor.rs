@@ -6,10 +6,10 @@
 
 mod common;
 
-use blockdem::cpu::CpuBackend;
-use blockdem::exec::RunError;
-use blockdem::model::Model;
 use blockdem::scenes::run_deck_logged;
+use blockdem::udec::cpu::CpuBackend;
+use blockdem::udec::exec::RunError;
+use blockdem::udec::model::Model;
 use blockdem::verify::stability::{LIMITS_CPU_F64, LIMITS_GPU_F32};
 use common::SharedLog;
 
@@ -183,7 +183,7 @@ fn delete_fix_free_and_load_select_blocks_by_centroid() {
     assert!(fixed.fixed && loaded_but_fixed.fixed && !free.fixed);
     // 1000 kg: a = (1000, 4000 − 10 000) / 1000 = (1, −6) m/s².
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1.0);
-    let at = |b: &blockdem::model::Block, c: [f64; 2]| close(b.centroid[0], c[0]) && close(b.centroid[1], c[1]) && b.velocity == [0.0, 0.0];
+    let at = |b: &blockdem::udec::model::Block, c: [f64; 2]| close(b.centroid[0], c[0]) && close(b.centroid[1], c[1]) && b.velocity == [0.0, 0.0];
     assert!(at(fixed, [0.5, 0.5]), "{:?}", fixed.centroid);
     assert!(at(loaded_but_fixed, [2.7, 1.0]), "a fixed block ignores its load: {:?}", loaded_but_fixed.centroid);
     assert!(close(free.velocity[0], 1.0 * t) && close(free.velocity[1], -6.0 * t), "{:?} at t = {t}", free.velocity);
@@ -270,8 +270,8 @@ fn samples_2_to_4_parse_whole_and_stop_at_their_first_later_command() {
         ("udec4_projectile_beam.dat", "CHANGE 1,5 1,2 SDEF", "not supported yet: CHANGE SDEF"),
     ] {
         let deck = sample(name);
-        let commands = blockdem::deck::parse_deck(&deck, name).unwrap_or_else(|e| panic!("{name} does not parse: {e}"));
-        assert!(matches!(commands.last().unwrap().command, blockdem::deck::Command::End), "{name}: parsed to its END");
+        let commands = blockdem::udec::deck::parse_deck(&deck, name).unwrap_or_else(|e| panic!("{name} does not parse: {e}"));
+        assert!(matches!(commands.last().unwrap().command, blockdem::udec::deck::Command::End), "{name}: parsed to its END");
         let (r, log) = run_logged(&deck);
         let e = r.unwrap_err();
         let line = line_of(&deck, prefix);
@@ -302,7 +302,7 @@ fn griffith_cracking_is_not_supported_yet() {
 #[test]
 fn d3_deck_stops_as_not_supported_yet_at_its_first_3d_command() {
     let deck = sample("d3_two_tetrahedra.dat");
-    let e = blockdem::deck::parse_deck(&deck, "d3.dat").unwrap_err();
+    let e = blockdem::udec::deck::parse_deck(&deck, "d3.dat").unwrap_err();
     let line = line_of(&deck, "BLOCK");
     assert_eq!(e.line, line);
     assert!(e.to_string().starts_with(&format!("d3.dat:{line}:14: not supported yet: BLOCK with (x,y,z) corners")), "{e}");
@@ -343,9 +343,9 @@ fn extreme_ratios_are_warned_against_the_limits_of_the_precision_that_runs() {
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nPROP MAT=2 D=0.02 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 4,1 4,0\n\
                 BLOCK 1,1 1,2 2,2 2,1\nBLOCK MAT=2 1,2 1,3 2,3 2,2\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 1\n";
     let run_with = |limits| {
-        let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
+        let commands = blockdem::udec::deck::parse_deck(deck, "<scene>").unwrap();
         let log = SharedLog::default();
-        let mut exec = blockdem::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(log.clone()), Default::default(), "<scene>");
+        let mut exec = blockdem::udec::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(log.clone()), Default::default(), "<scene>");
         exec.set_limits(limits);
         exec.run(&commands).unwrap();
         let text = String::from_utf8(log.0.borrow().clone()).unwrap();
@@ -449,10 +449,10 @@ fn restart_refuses_a_saved_model_whose_contact_names_a_corner_past_the_list() {
     let path = dir.join("x.sav");
     let (m, _) = run_ok(&format!("{ONE_BLOCK}BLOCK 0,1 0,2 1,2 1,1\nGRAV 0 -10\nCYCLE 10\nSAVE {}\n", path.display()));
     assert!(!m.contacts.is_empty());
-    let mut file = blockdem::output::load(&path).unwrap();
+    let mut file = blockdem::udec::output::load(&path).unwrap();
     let (id, corners) = (file.model.contacts[0].id, file.model.corners.len());
     file.model.contacts[0].corner = 87;
-    blockdem::output::save(&path, &file).unwrap();
+    blockdem::udec::output::save(&path, &file).unwrap();
     let (r, _) = run_logged(&format!("RESTART {}\nCYCLE 10\n", path.display()));
     let e = r.unwrap_err().to_string();
     let expected = format!("<scene>:1: RESTART: the model saved in {} is inconsistent: contact 0 (id {id}) names corner 87 of {corners}", path.display());
@@ -483,8 +483,8 @@ fn a_mass_that_overflows_f64_is_refused_at_the_command_that_makes_it() {
         (format!("PROP MAT=1 D=1E300 KN=1E8 KS=1E8\nBLOCK 0,-1 0,0 1,0 1,-1\n{big}\n"), "BLOCK", 1),
     ] {
         let deck = format!("START\n{body}CYCLE 10\n");
-        let commands = blockdem::deck::parse_deck(&deck, "<scene>").unwrap();
-        let mut exec = blockdem::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(std::io::sink()), Default::default(), "<scene>");
+        let commands = blockdem::udec::deck::parse_deck(&deck, "<scene>").unwrap();
+        let mut exec = blockdem::udec::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(std::io::sink()), Default::default(), "<scene>");
         let e = exec.run(&commands).unwrap_err().to_string();
         let line = deck.lines().count() - 1;
         assert!(e.starts_with(&format!("<scene>:{line}: {what}: the mass of block ")) && e.contains("overflows f64"), "{e}");
@@ -547,10 +547,10 @@ fn silent_no_ops_are_warned_against_and_the_run_goes_on() {
         ("VIEW 3000 4000 0 1400\nPLOT", "WARNING: PLOT shows no block: VIEW 3000 4000 0 1400 lies off the page"),
     ] {
         let dir = std::env::temp_dir().join(format!("blockdem-noop-{}", std::process::id()));
-        let commands = blockdem::deck::parse_deck(&format!("{ONE_BLOCK}{cmd}\nCYCLE 1\n"), "<scene>").unwrap();
+        let commands = blockdem::udec::deck::parse_deck(&format!("{ONE_BLOCK}{cmd}\nCYCLE 1\n"), "<scene>").unwrap();
         let log = SharedLog::default();
-        let options = blockdem::exec::RunOptions { out_dir: dir, ..Default::default() };
-        let mut exec = blockdem::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(log.clone()), options, "<scene>");
+        let options = blockdem::udec::exec::RunOptions { out_dir: dir, ..Default::default() };
+        let mut exec = blockdem::udec::exec::Executor::new(Box::new(CpuBackend::new()), Box::new(log.clone()), options, "<scene>");
         let result = exec.run(&commands);
         let log = String::from_utf8(log.0.borrow().clone()).unwrap();
         assert!(result.is_ok() && log.contains(warning) && log.contains("CURRENT CYCLE COUNT = 1"), "{cmd}:\n{log}");
@@ -577,6 +577,6 @@ fn a_command_that_cannot_run_is_found_before_the_first_cycle() {
         assert!(log.contains(&format!("THE DECK CANNOT RUN TO ITS END: LINE 7 ({cmd}) IS NOT SUPPORTED YET; NOTHING IS CYCLED")), "{log}");
         assert!(!log.contains("CURRENT CYCLE COUNT") && started.elapsed().as_secs() < 10, "{cmd}: it cycled first:\n{log}");
     }
-    let e = blockdem::deck::parse_deck(&format!("{ONE_BLOCK}CYCLE 100000000\nCYLCE 10\n"), "<scene>").unwrap_err();
+    let e = blockdem::udec::deck::parse_deck(&format!("{ONE_BLOCK}CYCLE 100000000\nCYLCE 10\n"), "<scene>").unwrap_err();
     assert!(e.to_string().starts_with("<scene>:5:1: unknown command 'CYLCE' (did you mean CYCLE?)"), "{e}");
 }

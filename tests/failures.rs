@@ -4,9 +4,9 @@
 
 mod common;
 
-use blockdem::backend::CycleError;
-use blockdem::exec::{Executor, RunError, RunOptions};
-use blockdem::model::Model;
+use blockdem::udec::backend::CycleError;
+use blockdem::udec::exec::{Executor, RunError, RunOptions};
+use blockdem::udec::model::Model;
 use common::{every_backend, Target};
 
 every_backend!(
@@ -24,7 +24,7 @@ every_backend!(
 
 /// Runs a deck that must fail; returns the failure and the model the executor kept.
 fn fail(t: &Target, deck: &str) -> (CycleError, Model) {
-    let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
+    let commands = blockdem::udec::deck::parse_deck(deck, "<scene>").unwrap();
     let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), ..Default::default() };
     let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, "<scene>");
     match exec.run(&commands) {
@@ -65,7 +65,7 @@ fn blocks_given_overlapping_are_an_input_error_naming_them(t: &Target) {
     // driven into its neighbour above stays a numerical failure.)
     let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 8,1 8,0\nFIX 0 8 0 1\nGRAV 0 -10\n\
                 BLOCK 2,0.7 2,1.7 3,1.7 3,0.7\nCYCLE 100\n";
-    let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
+    let commands = blockdem::udec::deck::parse_deck(deck, "<scene>").unwrap();
     let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), ..Default::default() };
     let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, "<scene>");
     match exec.run(&commands) {
@@ -295,7 +295,7 @@ fn a_fraction_far_above_the_limit_names_the_largest_safe_fraction_whatever_fails
             .unwrap();
         assert!(safe > 0.05 && safe < 1.0, "FRAC {frac}: {err}");
         blockdem::scenes::run_deck_on(&deck(safe), Target::Cpu.backend()).unwrap_or_else(|e| panic!("the named FRACTION {safe} fails too: {e}"));
-        let json = blockdem::output::state_json::state_json(&m).to_string();
+        let json = blockdem::udec::output::state_json::state_json(&m).to_string();
         assert!(!json.contains("null") && !json.contains("NaN"), "FRAC {frac}: non-finite state kept");
     }
     // A failure that is not the time step's (a projectile too fast at the default FRACTION, no
@@ -325,11 +325,11 @@ fn an_energy_growth_names_a_safe_fraction_only_where_one_was_estimated() {
 /// A GPU backend whose adapter cannot hold the model: refuses every run before any cycle.
 struct TooSmallAdapter(std::rc::Rc<std::cell::Cell<u32>>);
 
-impl blockdem::backend::Backend for TooSmallAdapter {
+impl blockdem::udec::backend::Backend for TooSmallAdapter {
     fn describe(&self) -> String {
         "gpu (a small adapter)".into()
     }
-    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<blockdem::backend::CycleReport, CycleError> {
+    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<blockdem::udec::backend::CycleReport, CycleError> {
         self.0.set(self.0.get() + 1);
         Err(CycleError::DoesNotFit("GPU set-up: the corners buffer would need more than one binding may hold".into()))
     }
@@ -342,9 +342,9 @@ fn auto_goes_on_on_the_cpu_when_the_model_is_past_the_gpus_limits() {
     // asked again). Any other failure stays a failure.
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX -1 2 0 1\nGRAVITY 0 -10\nCYCLE 300\nCYCLE 200\n";
     let asked = std::rc::Rc::new(std::cell::Cell::new(0));
-    let auto = blockdem::backend::GpuOrCpu::new(Box::new(TooSmallAdapter(asked.clone())), || Box::new(blockdem::cpu::CpuBackend::new()));
+    let auto = blockdem::udec::backend::GpuOrCpu::new(Box::new(TooSmallAdapter(asked.clone())), || Box::new(blockdem::udec::cpu::CpuBackend::new()));
     let m = blockdem::scenes::run_deck_on(deck, Box::new(auto)).unwrap();
-    let cpu = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let cpu = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     assert!(m == cpu && m.cycle == 500, "the CPU's run");
     assert_eq!(asked.get(), 1, "the GPU is asked once");
     let err = blockdem::scenes::run_deck_on(deck, Box::new(TooSmallAdapter(asked.clone()))).unwrap_err();
@@ -359,7 +359,7 @@ fn an_overlap_failure_names_the_deepest_contact() {
     // Three blocks in a row touching: contacts between 1–2 and 2–3.
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nROUND 0.1\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 1,0 1,1 2,1 2,0\n\
                 BLOCK 2,0 2,1 3,1 3,0\nFIX 0 3 0 1\nCYCLE 1\n";
-    let mut m = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let mut m = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     assert!(m.contacts.len() >= 2);
     let last = m.contacts.len() - 1;
     let pair = |m: &Model, k: usize| (m.blocks[m.contacts[k].block1 as usize].id, m.blocks[m.contacts[k].block2 as usize].id);
@@ -386,15 +386,15 @@ fn an_overlap_failure_names_the_deepest_contact() {
 fn a_huge_fraction_is_named_short_with_the_safe_value() {
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nFRAC 1e300\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\n\
                 FIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 50\n";
-    let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
+    let commands = blockdem::udec::deck::parse_deck(deck, "<scene>").unwrap();
     let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), ..Default::default() };
-    let mut exec = Executor::new(Box::new(blockdem::cpu::CpuBackend::new()), Box::new(std::io::sink()), options, "<scene>");
+    let mut exec = Executor::new(Box::new(blockdem::udec::cpu::CpuBackend::new()), Box::new(std::io::sink()), options, "<scene>");
     let e = exec.run(&commands).unwrap_err().to_string();
     assert!(e.contains("(FRACTION 1e300 is above the stable limit of this model") && e.contains("the largest safe value is about 0.38)"), "{e}");
     assert!(e.len() < 400, "{e}");
-    assert_eq!(blockdem::output::format::fmt_short(0.1), "0.1");
-    assert_eq!(blockdem::output::format::fmt_short(5.0), "5");
-    assert_eq!(blockdem::output::format::fmt_short(1e-7), "1e-7");
+    assert_eq!(blockdem::udec::output::format::fmt_short(0.1), "0.1");
+    assert_eq!(blockdem::udec::output::format::fmt_short(5.0), "5");
+    assert_eq!(blockdem::udec::output::format::fmt_short(1e-7), "1e-7");
 }
 
 /// Issue 27 item 9: the energy-growth failure prints its numbers as the log does and a bisected

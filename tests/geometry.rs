@@ -1,12 +1,12 @@
 //! Block geometry: mass properties, rounding, BLOCK/DELETE, and SPLIT (SL-85-1 Appendix A ¶13–14).
 
 use approx::assert_relative_eq;
-use blockdem::cpu::CpuBackend;
-use blockdem::model::build::GeometryError;
-use blockdem::model::geometry::{corner_rounding, is_simple_polygon, point_in_polygon, point_segment_distance, polygon_properties, rotate, signed_area};
-use blockdem::model::split::{split_block_along, split_line};
-use blockdem::model::{Contact, ContactKind, Link, Model};
 use blockdem::scenes::run_deck_on;
+use blockdem::udec::cpu::CpuBackend;
+use blockdem::udec::model::build::GeometryError;
+use blockdem::udec::model::geometry::{corner_rounding, is_simple_polygon, point_in_polygon, point_segment_distance, polygon_properties, rotate, signed_area};
+use blockdem::udec::model::split::{split_block_along, split_line};
+use blockdem::udec::model::{Contact, ContactKind, Link, Model};
 use proptest::prelude::*;
 
 mod common;
@@ -714,7 +714,7 @@ fn given_touching_not_overlapping(m: &mut Model, deck: &str) {
             }
         }
     }
-    blockdem::topology::update_contacts(m, true);
+    blockdem::udec::topology::update_contacts(m, true);
     for c in &m.contacts {
         assert!(c.gap >= -1e-9, "blocks {} and {} given overlapping by {:e}\n{deck}", m.blocks[c.block1 as usize].id, m.blocks[c.block2 as usize].id, -c.gap);
     }

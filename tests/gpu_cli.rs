@@ -5,7 +5,7 @@ mod common;
 
 use std::process::Command;
 
-use blockdem::gpu::Precision;
+use blockdem::udec::gpu::Precision;
 use common::Target;
 
 fn blockdem(args: &[&str], env: &[(&str, &str)]) -> (i32, String, String) {

@@ -26,20 +26,20 @@
 
 mod common;
 
-use blockdem::contact::gather::AdjacencyEntry;
-use blockdem::contact::geometry::track_feature;
-use blockdem::contact::law::{contact_force_law, BlockMotion};
-use blockdem::gpu::layout::{
+use blockdem::udec::contact::gather::AdjacencyEntry;
+use blockdem::udec::contact::geometry::track_feature;
+use blockdem::udec::contact::law::{contact_force_law, BlockMotion};
+use blockdem::udec::gpu::layout::{
     Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
     Material as GMaterial, Params as GParams, Real,
 };
-use blockdem::gpu::shaders::split_rotation;
-use blockdem::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
-use blockdem::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
-use blockdem::model::corners::counts_force;
-use blockdem::model::{Contact, ContactKind, ContactMaterial, Damping, Material, Model};
-use blockdem::topology::adjacency::FROM_LISTS;
-use blockdem::topology::detect::ListEdit;
+use blockdem::udec::gpu::shaders::split_rotation;
+use blockdem::udec::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
+use blockdem::udec::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
+use blockdem::udec::model::corners::counts_force;
+use blockdem::udec::model::{Contact, ContactKind, ContactMaterial, Damping, Material, Model};
+use blockdem::udec::topology::adjacency::FROM_LISTS;
+use blockdem::udec::topology::detect::ListEdit;
 use common::{Rng, Target};
 
 /// A device for the target, or None (skipped) when the adapter is absent.
@@ -171,7 +171,7 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
             c.radius = q::<R>(c.radius);
             c.round = q::<R>(c.round);
         }
-        let rel = |c: &blockdem::model::Corner| [c.position[0] - cen[0], c.position[1] - cen[1]];
+        let rel = |c: &blockdem::udec::model::Corner| [c.position[0] - cen[0], c.position[1] - cen[1]];
         for k in 0..n {
             let (a, b) = (rel(&ref_corners[k]), rel(&ref_corners[(k + 1) % n]));
             let e = [b[0] - a[0], b[1] - a[1]];
@@ -466,7 +466,7 @@ fn mass_damping_work_matches_rust<R: Real>(dev: &GpuDevice) {
         let alpha = q::<R>(rng.range(0.0, 100.0));
         let dt = q::<R>(10f64.powf(rng.range(-6.0, -2.0)));
         input.extend([mass, inertia, v0[0], v0[1], v0[2], v1[0], v1[1], v1[2], alpha, dt]);
-        expected.push(blockdem::cpu::law_of_motion::mass_damping_work(mass, inertia, v0, v1, alpha, dt));
+        expected.push(blockdem::udec::cpu::law_of_motion::mass_damping_work(mass, inertia, v0, v1, alpha, dt));
     }
     let out = run_kernel(
         dev,
@@ -513,8 +513,8 @@ fn test_force_sum(@builtin(global_invocation_id) gid: vec3<u32>) {
 /// and the gravity.
 struct ForceScene<R: Real> {
     model: Model,
-    adjacency: blockdem::topology::Adjacency,
-    forces: Vec<blockdem::contact::gather::ContactForce>,
+    adjacency: blockdem::udec::topology::Adjacency,
+    forces: Vec<blockdem::udec::contact::gather::ContactForce>,
     records: Vec<GForce<R>>,
     gravity: [f64; 2],
 }
@@ -552,7 +552,7 @@ fn force_scene<R: Real>(rng: &mut Rng) -> ForceScene<R> {
             m: [R::from_f64(r1[0] * f[1] - r1[1] * f[0]), R::from_f64(rel[1] * f[0] - rel[0] * f[1])],
         });
     }
-    let adjacency = blockdem::topology::Adjacency::build(model.blocks.len(), &model.contacts);
+    let adjacency = blockdem::udec::topology::Adjacency::build(model.blocks.len(), &model.contacts);
     let forces = model.contacts.iter().map(Into::into).collect();
     ForceScene { model, adjacency, forces, records, gravity }
 }
@@ -591,7 +591,7 @@ fn force_sum_matches_rust<R: Real>(dev: &GpuDevice) {
     );
     let got = back::<R>(&out[0]);
     for (b, block) in model.blocks.iter_mut().enumerate() {
-        blockdem::cpu::gather::gather(b, block, &forces, &adjacency, gravity);
+        blockdem::udec::cpu::gather::gather(b, block, &forces, &adjacency, gravity);
         let entries = adjacency.entries(b);
         // The magnitudes summed: weight and load, then each contact's force and moment.
         let base = (block.mass * gravity[0]).abs() + block.load[0].abs() + (block.mass * gravity[1]).abs() + block.load[1].abs();
@@ -650,7 +650,7 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
     // The corners where the blocks' rotations put them, then both as an upload converts them.
     for b in 0..model.blocks.len() {
         let (start, count) = (model.blocks[b].corner_start as usize, model.blocks[b].corner_count as usize);
-        blockdem::cpu::geometry_update::geometry_update(&model.blocks[b], &mut model.corners[start..start + count]);
+        blockdem::udec::cpu::geometry_update::geometry_update(&model.blocks[b], &mut model.corners[start..start + count]);
     }
     let gblocks: Vec<GBlock<R>> = model.blocks.iter().map(|b| GBlock::<R>::from_model(b, [0.0, 0.0])).collect();
     let gcorners: Vec<GCorner<R>> = model.corners.iter().map(|c| GCorner::<R>::from_model(&model.blocks, c)).collect();
@@ -673,7 +673,7 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
         one: 1,
         ..bytemuck::Zeroable::zeroed()
     };
-    let flags = blockdem::gpu::layout::Flags::cleared();
+    let flags = blockdem::udec::gpu::layout::Flags::cleared();
     let nb = model.blocks.len();
     let out = run_kernel(
         dev,
@@ -699,11 +699,11 @@ fn law_of_motion_matches_rust<R: Real>(dev: &GpuDevice) {
         let entries = adjacency.entries(b);
         let block = &mut model.blocks[b];
         if !block.fixed {
-            blockdem::cpu::gather::gather(b, block, &forces, &adjacency, gravity);
+            blockdem::udec::cpu::gather::gather(b, block, &forces, &adjacency, gravity);
         }
-        let step = blockdem::cpu::law_of_motion::law_of_motion(block, gravity, alpha, dt);
+        let step = blockdem::udec::cpu::law_of_motion::law_of_motion(block, gravity, alpha, dt);
         let range = block.corner_start as usize..(block.corner_start + block.corner_count) as usize;
-        blockdem::cpu::geometry_update::geometry_update(block, &mut model.corners[range.clone()]);
+        blockdem::udec::cpu::geometry_update::geometry_update(block, &mut model.corners[range.clone()]);
         let block = &model.blocks[b];
         let g = &got_blocks[b];
         let f = |x: R| x.to_f64();
@@ -864,7 +864,7 @@ fn sin_cos_matches_rust<R: Real>(dev: &GpuDevice) {
     let got = back::<R>(&out[0]);
     for (i, &t) in thetas.iter().enumerate() {
         let (s, c) = t.sin_cos();
-        let rust_twin = blockdem::gpu::kernels::sin_cos(t);
+        let rust_twin = blockdem::udec::gpu::kernels::sin_cos(t);
         // f64: a few ulps (the Cody–Waite reduction by k·π/2 is exact for |θ| ≤ 100). f32: π/2
         // in three parts of few bits (the prelude's PIO2_*), so the reduction is exact but for the
         // rounding of r itself, whatever |θ|: the f32 polynomial's few ulps (it was 1e-6 +
@@ -911,7 +911,7 @@ fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice) {
     let created: Vec<GContact<R>> = insert_before.iter().map(|_| contact(&mut rng)).collect();
     let created_forces: Vec<GForce<R>> = insert_before.iter().map(|_| force(&mut rng)).collect();
     let mut positions: Vec<u32> = (0..n_old).collect();
-    let inserted_at = blockdem::topology::detect::splice(&mut positions, &dropped, &insert_before, std::iter::repeat_n(u32::MAX, insert_before.len()));
+    let inserted_at = blockdem::udec::topology::detect::splice(&mut positions, &dropped, &insert_before, std::iter::repeat_n(u32::MAX, insert_before.len()));
     let edit = ListEdit { old_len: n_old, dropped, insert_before, inserted_at, entries: None };
     let runs = edit.runs(NEW_CONTACT);
     let n = edit.new_len() as usize;
@@ -1118,7 +1118,7 @@ fn update_lists_match_rust<R: Real>(dev: &GpuDevice) {
             (5, vec![0; nb * 4], true),
         ],
     );
-    let (want, want_fewest) = blockdem::gpu::partial::list_blocks(&blocks, &reference, &lp);
+    let (want, want_fewest) = blockdem::udec::gpu::partial::list_blocks(&blocks, &reference, &lp);
     let head: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
     let mut got: Vec<u32> = bytemuck::pod_collect_to_vec::<u8, u32>(&out[1])[..head[0] as usize].to_vec();
     got.sort_unstable();
@@ -1147,7 +1147,7 @@ fn update_lists_match_rust<R: Real>(dev: &GpuDevice) {
             (6, vec![0; nk * 4], true),
         ],
     );
-    let want = blockdem::gpu::partial::list_contacts(&blocks, &contacts, &lp);
+    let want = blockdem::udec::gpu::partial::list_contacts(&blocks, &contacts, &lp);
     let head: Vec<u32> = bytemuck::pod_collect_to_vec(&out[0]);
     let mut got: Vec<u32> = bytemuck::pod_collect_to_vec::<u8, u32>(&out[1])[..head[1] as usize].to_vec();
     got.sort_unstable();
@@ -1162,15 +1162,15 @@ macro_rules! on_adapters {
             mod $name {
                 #[test]
                 fn vulkan_f32() {
-                    if let Some(d) = super::device("vulkan", blockdem::gpu::Precision::F32) { super::$check::<f32>(&d) }
+                    if let Some(d) = super::device("vulkan", blockdem::udec::gpu::Precision::F32) { super::$check::<f32>(&d) }
                 }
                 #[test]
                 fn vulkan_f64() {
-                    if let Some(d) = super::device("vulkan", blockdem::gpu::Precision::F64) { super::$check::<f64>(&d) }
+                    if let Some(d) = super::device("vulkan", blockdem::udec::gpu::Precision::F64) { super::$check::<f64>(&d) }
                 }
                 #[test]
                 fn gl_f32() {
-                    if let Some(d) = super::device("gl", blockdem::gpu::Precision::F32) { super::$check::<f32>(&d) }
+                    if let Some(d) = super::device("gl", blockdem::udec::gpu::Precision::F32) { super::$check::<f32>(&d) }
                 }
             }
         )*
@@ -1200,11 +1200,11 @@ on_adapters!(
 fn energy_sums_match_the_model(adapter: &str, precision: Precision) {
     let Some(common::Target::Gpu(options)) = Target::gpu(adapter, precision) else { return };
     let deck = format!("{}CYCLE 0\n", blockdem::scenes::brick_wall_deck(25, 45, 1.0, 0.5, 1e9, 0.6));
-    let mut model = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let mut model = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     let per_workgroup = (shaders::workgroup_size() * shaders::ENERGY_ITEMS) as usize;
     assert!(model.blocks.len() > per_workgroup && model.contacts.len() > 2 * per_workgroup, "blocks and contacts over several workgroups");
-    let mut gpu = blockdem::gpu::GpuBackend::new(&options).unwrap();
-    use blockdem::backend::Backend;
+    let mut gpu = blockdem::udec::gpu::GpuBackend::new(&options).unwrap();
+    use blockdem::udec::backend::Backend;
     gpu.run(&mut model, 150, &mut |_| true).unwrap();
     let (kinetic, strain, work) = gpu.energy_sums().unwrap();
     let e = model.energies();

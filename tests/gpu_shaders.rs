@@ -1,10 +1,10 @@
 //! Shaders are checked without a GPU (STYLE.md item 9): every kernel file in every precision
 //! parses and validates with naga, and every GPU struct's size and field offsets, read through
-//! naga's type layouter, equal its Rust twin in src/gpu/layout.rs.
+//! naga's type layouter, equal its Rust twin in src/udec/gpu/layout.rs.
 
-use blockdem::gpu::layout::{self, Real, StructLayout};
-use blockdem::gpu::shaders;
-use blockdem::gpu::Precision;
+use blockdem::udec::gpu::layout::{self, Real, StructLayout};
+use blockdem::udec::gpu::shaders;
+use blockdem::udec::gpu::Precision;
 
 #[test]
 fn every_kernel_parses_and_validates_in_every_precision() {
@@ -67,7 +67,7 @@ fn every_gpu_struct_matches_its_rust_twin_in_f64() {
 /// group 0, binding, and uniform / read-only storage / read-write storage.
 #[test]
 fn the_state_slots_are_common_wgsls_bindings() {
-    use blockdem::gpu::kernels::{SlotKind, StateSlot};
+    use blockdem::udec::gpu::kernels::{SlotKind, StateSlot};
     let src = shaders::source("contact_forces", Precision::F32).unwrap();
     let (module, _) = shaders::validate(&src, Precision::F32).unwrap();
     let declared: Vec<_> = module.global_variables.iter().filter(|(_, v)| v.binding.is_some()).map(|(_, v)| v).collect();
@@ -91,7 +91,7 @@ fn the_state_slots_are_common_wgsls_bindings() {
 /// one kernel's buffers: here each kernel's set, in every precision.
 #[test]
 fn each_cycle_kernel_binds_only_what_it_uses() {
-    use blockdem::gpu::kernels::{used_slots, SlotKind, StateSlot::*};
+    use blockdem::udec::gpu::kernels::{used_slots, SlotKind, StateSlot::*};
     for precision in [Precision::F32, Precision::F64] {
         let slots = |file: &str, entry: &str| {
             let src = shaders::source(file, precision).unwrap();
@@ -119,7 +119,7 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             let s = slots(file, entry);
             let storage = s.iter().filter(|x| x.kind() != SlotKind::Uniform).count();
             assert!(storage <= 8, "{entry} ({precision}) binds {storage} storage buffers: {s:?}");
-            assert!(s.len() < blockdem::gpu::kernels::StateSlot::ALL.len(), "{entry} binds every slot: {s:?}");
+            assert!(s.len() < blockdem::udec::gpu::kernels::StateSlot::ALL.len(), "{entry} binds every slot: {s:?}");
         }
     }
 }

@@ -7,9 +7,9 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use blockdem::deck::{PlotOptions, PrintItem};
-use blockdem::model::{Block, BlockKind, Contact, ContactKind, Corner, Model};
-use blockdem::output::{
+use blockdem::udec::deck::{PlotOptions, PrintItem};
+use blockdem::udec::model::{Block, BlockKind, Contact, ContactKind, Corner, Model};
+use blockdem::udec::output::{
     block_outline, dump, fmt_e, load, plot, print_block_lists, print_blocks, print_contacts, print_corners, print_item, save, state_json, write_state_json,
     PlotSettings, RestartError, SaveFile, FORMAT_VERSION, MAGIC,
 };
@@ -373,7 +373,7 @@ fn the_linked_lists_name_every_contact_under_both_its_blocks() {
     // block 1 and once under its block 2 (the lists are grouped by one sort of the contacts, not
     // a scan of them per block).
     let deck = format!("{}CYCLE 1\n", blockdem::bench::scene::scaling_body(200, 0.1));
-    let m = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let m = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     assert!(m.contacts.len() > 1000);
     let t = text(|w| print_block_lists(&m, w));
     let mut seen: std::collections::HashMap<u32, Vec<u32>> = Default::default();
@@ -518,7 +518,7 @@ fn the_streamed_state_file_is_the_state_value_pretty_printed() {
     // The lists are formatted in parallel pieces of 2048: a wall of 400 bricks has ~3000
     // contacts, so its contact list spans two pieces; a model with no contacts writes `[]`.
     let deck = format!("{}CYCLE 1\n", blockdem::bench::scene::scaling_body(400, 0.1));
-    let wall = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let wall = blockdem::scenes::run_deck_on(&deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     assert!(wall.contacts.len() > 2048);
     let mut bare = two_blocks();
     bare.contacts.clear();
@@ -978,7 +978,7 @@ fn a_vtk_frame_holds_the_blocks_and_contacts() {
     // vtkio's own parser.
     let m = two_blocks();
     let dir = out_dir("vtk_frame");
-    let path = blockdem::output::vtk::write_frame(&m, &dir).unwrap();
+    let path = blockdem::udec::output::vtk::write_frame(&m, &dir).unwrap();
     assert_eq!(path, dir.join("blocks_000000600.vtk"));
     let blocks = common::VtkFrame::read(&path);
     let corners: Vec<f64> = (0..2).flat_map(|b| m.corner_positions(b)).flat_map(|p| [p[0], p[1], 0.0]).collect();
@@ -1007,7 +1007,7 @@ fn a_vtk_frame_holds_the_blocks_and_contacts() {
 
 #[test]
 fn a_vtk_series_lists_its_frames_in_time_and_forgets_those_a_restart_goes_back_over() {
-    use blockdem::output::vtk::{add_to_series, Series, SeriesFrame, SERIES_FILE};
+    use blockdem::udec::output::vtk::{add_to_series, Series, SeriesFrame, SERIES_FILE};
     let dir = out_dir("vtk_series");
     let path = dir.join(SERIES_FILE);
     let frame = |cycle: u64, time: f64| SeriesFrame { name: format!("blocks_{cycle:09}.vtk"), time };
@@ -1066,7 +1066,7 @@ fn a_plot_has_a_caption_axes_and_an_arrow_scale() {
 
     // The PNG's caption: dark pixels along its line at the view's top left, where the page
     // without text is white.
-    if blockdem::output::font::font_bytes().is_ok() {
+    if blockdem::udec::output::font::font_bytes().is_ok() {
         let p = load_png(&png);
         let dark = (6..300).flat_map(|x| (6..24).map(move |y| (x, y))).filter(|&(x, y)| rgba(&p, x, y)[0] < 128).count();
         assert!(dark > 100, "only {dark} dark pixels where the caption is");
@@ -1081,7 +1081,7 @@ fn a_plot_has_a_caption_axes_and_an_arrow_scale() {
 fn print_contacts_names_the_view_that_carries_a_corner_touch() {
     let deck =
         "START\nPROP MAT=1 DENS=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.1\nGRAV 0 -10\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0,1 0,2 1,2 1,1\nFIX -1 2 -1 0.5\nCYCLE 50\n";
-    let m = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let m = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     let t = text(|w| print_contacts(&m, w));
     let corner_corner: Vec<&str> = t.lines().filter(|l| l.contains("CORNER/CORNER")).collect();
     assert_eq!(corner_corner.len(), 4, "{t}");

@@ -5,8 +5,8 @@
 
 mod common;
 
-use blockdem::model::Model;
 use blockdem::scenes::run_deck_on;
+use blockdem::udec::model::Model;
 use common::{every_backend, Target};
 
 every_backend!(
@@ -203,8 +203,8 @@ fn turned(deck: &str, id: u32, theta: f64) -> Model {
 }
 
 /// A CYCLE command alone, for an executor whose model a test set.
-fn cycle(n: u64) -> Vec<blockdem::deck::Located> {
-    blockdem::deck::parse_deck(&format!("START\nCYCLE {n}\n"), "cycle.dat").unwrap()[1..].to_vec()
+fn cycle(n: u64) -> Vec<blockdem::udec::deck::Located> {
+    blockdem::udec::deck::parse_deck(&format!("START\nCYCLE {n}\n"), "cycle.dat").unwrap()[1..].to_vec()
 }
 
 fn a_block_that_has_spun_comes_to_rest_as_one_that_has_not(t: &Target) {
@@ -221,7 +221,7 @@ fn a_block_that_has_spun_comes_to_rest_as_one_that_has_not(t: &Target) {
     let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.005\nBLOCK 0,0 0,1 4,1 4,0\n\
                 BLOCK 1,1 1,1.05 1.05,1.05 1.05,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nDAMP 0.5 50 MASS\n";
     for theta in [0.0, 20.0, 200.0] {
-        let mut exec = blockdem::exec::Executor::new(t.backend(), Box::new(std::io::sink()), Default::default(), "spun.dat");
+        let mut exec = blockdem::udec::exec::Executor::new(t.backend(), Box::new(std::io::sink()), Default::default(), "spun.dat");
         exec.model = turned(deck, 2, theta);
         let weight = exec.model.blocks[1].mass * 10.0;
         let (mut force_error, mut speed) = (0.0f64, 0.0f64);
@@ -247,7 +247,7 @@ fn a_spinning_blocks_corners_follow_its_rotation(t: &Target) {
     // t past 4096 rad.
     let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 1,1 1,0\nVELOCITY 0 1 0 1 0 0 40\n";
     let theta0 = 4094.0;
-    let mut exec = blockdem::exec::Executor::new(t.backend(), Box::new(std::io::sink()), Default::default(), "spin.dat");
+    let mut exec = blockdem::udec::exec::Executor::new(t.backend(), Box::new(std::io::sink()), Default::default(), "spin.dat");
     exec.model = turned(deck, 1, theta0);
     let local: Vec<[f64; 2]> = exec.model.corners.iter().map(|c| c.local).collect();
     exec.run(&cycle(2000)).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
@@ -479,15 +479,15 @@ const PROJECTILE_AT_A_WALL: &str =
 
 /// Runs `deck` with the run options `set` gives (their output folder a fresh one named after
 /// `what` and the target): the final model, the runs asked of the backend, the folder.
-fn run_with_options(t: &Target, deck: &str, what: &str, set: impl FnOnce(&mut blockdem::exec::RunOptions)) -> (Model, u32, std::path::PathBuf) {
+fn run_with_options(t: &Target, deck: &str, what: &str, set: impl FnOnce(&mut blockdem::udec::exec::RunOptions)) -> (Model, u32, std::path::PathBuf) {
     let dir = std::env::temp_dir().join(format!("blockdem-{what}-{}-{}", std::process::id(), t.name().replace(' ', "_")));
     let _ = std::fs::remove_dir_all(&dir);
-    let mut options = blockdem::exec::RunOptions { out_dir: dir.clone(), ..Default::default() };
+    let mut options = blockdem::udec::exec::RunOptions { out_dir: dir.clone(), ..Default::default() };
     set(&mut options);
     let runs = std::rc::Rc::new(std::cell::Cell::new(0));
     let counted = Box::new(CountedRuns(t.backend(), runs.clone()));
-    let mut exec = blockdem::exec::Executor::new(counted, Box::new(std::io::sink()), options, what);
-    exec.run(&blockdem::deck::parse_deck(deck, what).unwrap()).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
+    let mut exec = blockdem::udec::exec::Executor::new(counted, Box::new(std::io::sink()), options, what);
+    exec.run(&blockdem::udec::deck::parse_deck(deck, what).unwrap()).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
     (exec.model, runs.get(), dir)
 }
 
@@ -499,7 +499,7 @@ fn a_cycle_with_running_restart_files_is_the_same_run(t: &Target) {
     let (model, runs, dir) = run_with_options(t, PROJECTILE_AT_A_WALL, "checkpoint", |o| o.checkpoint_every = Some(std::time::Duration::ZERO));
     assert_eq!(runs, 10, "pieces of 100 cycles on {}", t.name());
     assert!(model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
-    let saved = blockdem::output::load(&dir.join(blockdem::exec::CHECKPOINT_FILE)).unwrap();
+    let saved = blockdem::udec::output::load(&dir.join(blockdem::udec::exec::CHECKPOINT_FILE)).unwrap();
     assert!(saved.model == whole && saved.model.cycle == 1000, "the last running restart file is not the final state on {}", t.name());
 }
 
@@ -513,8 +513,9 @@ fn a_cycle_with_vtk_frames_is_the_same_run(t: &Target) {
     let (model, runs, dir) = run_with_options(t, PROJECTILE_AT_A_WALL, "vtk", |o| o.vtk_every = Some(250));
     assert_eq!(runs, 5, "pieces ending on the frames on {}", t.name());
     assert!(model == whole, "the CYCLE in pieces is not the CYCLE on {}", t.name());
-    let vtk = dir.join(blockdem::exec::VTK_DIR);
-    let series: blockdem::output::vtk::Series = serde_json::from_slice(&std::fs::read(vtk.join(blockdem::output::vtk::SERIES_FILE)).unwrap()).unwrap();
+    let vtk = dir.join(blockdem::udec::exec::VTK_DIR);
+    let series: blockdem::udec::output::vtk::Series =
+        serde_json::from_slice(&std::fs::read(vtk.join(blockdem::udec::output::vtk::SERIES_FILE)).unwrap()).unwrap();
     let cycles: Vec<&str> = series.files.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(cycles, ["blocks_000000000.vtk", "blocks_000000300.vtk", "blocks_000000600.vtk", "blocks_000000900.vtk"]);
     assert_eq!(series.files[0].time, 0.0);
@@ -534,16 +535,16 @@ fn a_cycle_with_vtk_frames_is_the_same_run(t: &Target) {
                    GRAV 0 -10\nCYCLE 100\n";
     let at_0 = run(t, &resting.replace("CYCLE 100", "CYCLE 0"));
     let (_, _, dir) = run_with_options(t, resting, "vtk-first", |o| o.vtk_every = Some(100));
-    let first = common::VtkFrame::read(&dir.join(blockdem::exec::VTK_DIR).join("contacts_000000000.vtk"));
+    let first = common::VtkFrame::read(&dir.join(blockdem::udec::exec::VTK_DIR).join("contacts_000000000.vtk"));
     assert!(!at_0.contacts.is_empty(), "the block touches the base on {}", t.name());
     let points: Vec<f64> = at_0.contacts.iter().flat_map(|c| [c.point[0], c.point[1], 0.0]).collect();
     assert_eq!(first.points, points, "contacts of the first frame on {}", t.name());
 }
 
 /// A backend that counts the runs asked of it.
-struct CountedRuns(Box<dyn blockdem::backend::Backend>, std::rc::Rc<std::cell::Cell<u32>>);
+struct CountedRuns(Box<dyn blockdem::udec::backend::Backend>, std::rc::Rc<std::cell::Cell<u32>>);
 
-impl blockdem::backend::Backend for CountedRuns {
+impl blockdem::udec::backend::Backend for CountedRuns {
     fn describe(&self) -> String {
         self.0.describe()
     }
@@ -552,7 +553,7 @@ impl blockdem::backend::Backend for CountedRuns {
         model: &mut Model,
         cycles: u64,
         progress: &mut dyn FnMut(u64) -> bool,
-    ) -> Result<blockdem::backend::CycleReport, blockdem::backend::CycleError> {
+    ) -> Result<blockdem::udec::backend::CycleReport, blockdem::udec::backend::CycleError> {
         self.1.set(self.1.get() + 1);
         self.0.run(model, cycles, progress)
     }

@@ -10,7 +10,7 @@
 
 mod common;
 
-use blockdem::exec::{Executor, RunError, RunOptions};
+use blockdem::udec::exec::{Executor, RunError, RunOptions};
 use common::{every_backend, Target};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
@@ -21,7 +21,7 @@ every_backend!(random_decks_never_panic_and_stop_with_a_line_and_a_finite_model,
 /// the file and a line of the deck. Returns the executor, whose model the caller checks.
 fn run_naming_its_line(t: &Target, deck: &str, file: &str, out: &std::path::Path) -> Result<Executor<'static>, TestCaseError> {
     let lines = deck.lines().count();
-    let parsed = blockdem::deck::parse_deck(deck, file).map_err(|e| TestCaseError::fail(format!("the deck does not parse: {e}")))?;
+    let parsed = blockdem::udec::deck::parse_deck(deck, file).map_err(|e| TestCaseError::fail(format!("the deck does not parse: {e}")))?;
     let _ = std::fs::remove_dir_all(out);
     let options = RunOptions { out_dir: out.to_path_buf(), ..Default::default() };
     let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, file);
@@ -282,11 +282,11 @@ fn decks_at_any_scale_between_cycles_stop_with_a_line_and_a_restartable_model(t:
         prop_assert!(exec.model.validate().is_ok(), "the model cannot be restarted: {:?}", exec.model.validate());
         let path = out.join("end.sav");
         std::fs::create_dir_all(&out).unwrap();
-        blockdem::output::restart::save_state(&path, &exec.model, &Default::default(), 0).map_err(|e| TestCaseError::fail(e.to_string()))?;
-        blockdem::output::restart::load(&path).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        blockdem::udec::output::restart::save_state(&path, &exec.model, &Default::default(), 0).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        blockdem::udec::output::restart::load(&path).map_err(|e| TestCaseError::fail(e.to_string()))?;
         // Every term, the kinetic energy included: where its half step to the whole step
         // overflows (a load or a FRACTION of 1e300), the ledger takes it at the half step.
-        let json = blockdem::output::state_json::state_json(&exec.model);
+        let json = blockdem::udec::output::state_json::state_json(&exec.model);
         let json = json.to_string();
         prop_assert!(!json.contains("null"), "a non-finite value in the state JSON: {json}");
         Ok(())

@@ -66,7 +66,7 @@ fn the_same_deck_twice_gives_bit_identical_state(t: &Target) {
 }
 
 /// The model as SAVE serializes it: every f64 as its IEEE bytes.
-fn bits(m: &blockdem::model::Model) -> Vec<u8> {
+fn bits(m: &blockdem::udec::model::Model) -> Vec<u8> {
     postcard::to_stdvec(m).expect("serializes")
 }
 

@@ -84,8 +84,9 @@ fn a_deleted_loaded_contact_keeps_the_ledger_balanced() {
     // weight: the strain and kinetic energy leave through `released`, the ledger stays put.
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 4,1 4,0\n\
          BLOCK 1,1 1,2 2,2 2,1\nBLOCK 1,2 1,3 2,3 2,2\nFIX 0 4 0 0.9\nGRAV 0 -10\nDAMP 0.5 50 MASS\nCYCLE 1\n";
-    let first = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap().energies();
-    let m = blockdem::scenes::run_deck_on(&format!("{deck}CYCLE 1500\nDELETE 0 4 2 3\nCYCLE 1500\n"), Box::new(blockdem::cpu::CpuBackend::new())).unwrap();
+    let first = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap().energies();
+    let m =
+        blockdem::scenes::run_deck_on(&format!("{deck}CYCLE 1500\nDELETE 0 4 2 3\nCYCLE 1500\n"), Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
     let end = m.energies();
     assert!(end.released > 0.0, "the deleted block's contacts carried strain energy");
     let drift = (end.ledger() - first.ledger()).abs() / end.scale();
@@ -96,15 +97,15 @@ fn a_deleted_loaded_contact_keeps_the_ledger_balanced() {
 fn energy_json_names_every_term() {
     let m = blockdem::scenes::run_deck_on(
         "START\nPROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -10\nCYCLE 10\n",
-        Box::new(blockdem::cpu::CpuBackend::new()),
+        Box::new(blockdem::udec::cpu::CpuBackend::new()),
     )
     .unwrap();
-    let j = blockdem::output::state_json::energy_json(&m.energies());
+    let j = blockdem::udec::output::state_json::energy_json(&m.energies());
     for key in ["kinetic", "strain", "external_work", "mass_damping", "contact_damping", "friction", "released", "ledger"] {
         assert!(j[key].is_number(), "{key} missing in {j}");
     }
     // The state file carries the same terms under `energy`.
-    let state = blockdem::output::state_json::state_json(&m);
+    let state = blockdem::udec::output::state_json::state_json(&m);
     assert_eq!(state["energy"], j);
     assert!(state["energy"]["external_work"].as_f64().unwrap() > 0.0, "gravity did work on the falling block");
 }
@@ -114,7 +115,7 @@ fn a_model_beyond_the_verified_ratios_is_warned_before_cycle() {
     let mut log = Vec::new();
     let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E5 F=0.5\nPROP MAT=2 D=1E-4 KN=1E9 KS=1E5\nROUND 0.05\nBLOCK 1E11,1E11 1E11,100000000001 100000000001,100000000001 100000000001,1E11\n\
          BLOCK MAT=2 0,0 0,1 1,1 1,0\nCYCLE 1\n";
-    let r = blockdem::scenes::run_deck_logged(deck, Box::new(blockdem::cpu::CpuBackend::new()), Box::new(&mut log));
+    let r = blockdem::scenes::run_deck_logged(deck, Box::new(blockdem::udec::cpu::CpuBackend::new()), Box::new(&mut log));
     assert!(r.is_ok(), "{:?}", r.err());
     let text = String::from_utf8(log).unwrap();
     assert!(text.contains("WARNING: block masses range"), "{text}");
@@ -128,13 +129,13 @@ fn a_model_beyond_the_verified_ratios_is_warned_before_cycle() {
 fn an_unstable_fraction_stops_naming_the_cause_and_a_safe_fraction_and_never_nan() {
     // FRAC twice the measured threshold on the block-on-base scene.
     let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\nFRAC 1.3\nCYCLE 3000\n";
-    let err = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::cpu::CpuBackend::new())).unwrap_err();
+    let err = blockdem::scenes::run_deck_on(deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap_err();
     let msg = err.to_string();
     assert!(err.is_numerical() && msg.contains("FRACTION") && msg.contains("largest safe value"), "{msg}");
     // The safe value named must itself run clean.
     let safe: f64 = msg.split("largest safe value is about ").nth(1).unwrap().trim_end_matches(')').parse().unwrap();
     assert!(safe > 0.05 && safe < 1.3, "{msg}");
-    let ok = blockdem::scenes::run_deck_on(&deck.replace("FRAC 1.3", &format!("FRAC {safe}")), Box::new(blockdem::cpu::CpuBackend::new()));
+    let ok = blockdem::scenes::run_deck_on(&deck.replace("FRAC 1.3", &format!("FRAC {safe}")), Box::new(blockdem::udec::cpu::CpuBackend::new()));
     assert!(ok.is_ok(), "the named FRAC {safe} fails too: {:?}", ok.err());
 }
 
@@ -146,13 +147,14 @@ fn the_safe_fraction_named_accounts_for_contact_dashpots() {
     // ≈ 0.07, below the 0.38 the undamped estimate named. The estimate stays safe (at or below
     // the measured threshold) and within a factor 4 of it (the Gershgorin bound on ω enters
     // squared once ξ is large), and the message of the failure names it.
-    let entry = verify::BackendEntry::new("cpu", "f64", || Box::new(blockdem::cpu::CpuBackend::new()));
+    let entry = verify::BackendEntry::new("cpu", "f64", || Box::new(blockdem::udec::cpu::CpuBackend::new()));
     let base = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.1\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nFIX 0 4 0 0.9\nGRAV 0 -10\n";
     for damp in ["DAMP 1 20 STIFF", "DAMP 1 5 STIFF"] {
         let deck = format!("{base}{damp}\n");
         let t = verify::stability::threshold("dashpots", &deck, 2000, &entry, 9);
         assert!(t.estimate <= t.measured && t.estimate > t.measured / 4.0, "{damp}: estimate {} against a measured threshold {}", t.estimate, t.measured);
-        let err = blockdem::scenes::run_deck_on(&format!("{deck}FRAC 0.5\nCYCLE 3000\n"), Box::new(blockdem::cpu::CpuBackend::new())).unwrap_err().to_string();
+        let err =
+            blockdem::scenes::run_deck_on(&format!("{deck}FRAC 0.5\nCYCLE 3000\n"), Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap_err().to_string();
         let named: f64 = err.split("largest safe value is about ").nth(1).unwrap_or_else(|| panic!("{damp}: {err}")).trim_end_matches(')').parse().unwrap();
         assert!((named - t.estimate).abs() < 0.006, "{damp}: named {named}, estimate {}: {err}", t.estimate);
     }

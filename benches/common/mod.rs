@@ -21,13 +21,13 @@ use std::time::Duration;
 
 use criterion::{Criterion, SamplingMode, Throughput};
 
-use blockdem::backend::Backend;
 use blockdem::bench::scene::{scaling_body, FRAC};
 use blockdem::bench::{timed_run, Timed, SETTLE_CYCLES};
-use blockdem::cpu::CpuBackend;
-use blockdem::model::Model;
 use blockdem::profile::Stage;
 use blockdem::scenes::run_deck_on;
+use blockdem::udec::backend::Backend;
+use blockdem::udec::cpu::CpuBackend;
+use blockdem::udec::model::Model;
 
 /// Cycles of one iteration.
 pub const CYCLES: u64 = 50;
@@ -79,32 +79,32 @@ impl Measured for CpuBackend {
     }
 }
 
-impl Measured for blockdem::gpu::GpuBackend {
+impl Measured for blockdem::udec::gpu::GpuBackend {
     fn backend(&mut self) -> &mut dyn Backend {
         self
     }
     fn bytes_per_cycle(&self, m: &Model) -> u64 {
-        blockdem::gpu::GpuBackend::bytes_per_cycle(self, m.blocks.len(), m.corners.len(), m.contacts.len(), m.materials.len())
+        blockdem::udec::gpu::GpuBackend::bytes_per_cycle(self, m.blocks.len(), m.corners.len(), m.contacts.len(), m.materials.len())
             .iter()
             .map(|b| b.read + b.written)
             .sum()
     }
-    /// The bench's yardstick (`blockdem::gpu::profile::yardstick`) of the streaming copy kernel,
+    /// The bench's yardstick (`blockdem::gpu::stream::yardstick`) of the streaming copy kernel,
     /// measured once per adapter and precision (it takes a second), and `copy_buffer_to_buffer`,
     /// measured now.
     fn copy_bandwidth(&mut self) -> f64 {
         use std::collections::HashMap;
         use std::sync::{Mutex, OnceLock};
         static STREAM: OnceLock<Mutex<HashMap<String, f64>>> = OnceLock::new();
-        let key = blockdem::backend::Backend::describe(self);
+        let key = blockdem::udec::backend::Backend::describe(self);
         let stream = *STREAM
             .get_or_init(Default::default)
             .lock()
             .expect("the yardstick's cache")
             .entry(key)
             .or_insert_with(|| self.stream_bandwidth().map(|s| s.best).unwrap_or(0.0));
-        let copy = blockdem::gpu::GpuBackend::copy_bandwidth(self).expect("the adapter copies");
-        blockdem::gpu::profile::yardstick(Some(stream), Some(copy)).expect("a bandwidth was measured").0
+        let copy = blockdem::udec::gpu::GpuBackend::copy_bandwidth(self).expect("the adapter copies");
+        blockdem::gpu::stream::yardstick(Some(stream), Some(copy)).expect("a bandwidth was measured").0
     }
     fn kernels(&mut self, cycles: u32) -> Vec<(&'static str, f64)> {
         self.profile_stages(cycles).expect("the kernels are timed").stages

@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 use std::time::Instant;
 
-use crate::gpu::profile::StageBytes;
+use crate::udec::gpu::profile::StageBytes;
 
 /// What the table header and the JSON say about the machine.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -92,7 +92,7 @@ pub fn host_copy_bandwidth() -> f64 {
 /// The CPU structs are larger than the GPU's (f64, plus bookkeeping the cycle does not touch but
 /// that shares its cache lines).
 pub fn cpu_bytes_per_cycle(nb: usize, nc: usize, nk: usize) -> Vec<StageBytes> {
-    use crate::model::{Block, Contact, Corner};
+    use crate::udec::model::{Block, Contact, Corner};
     let (b, c, k) = (std::mem::size_of::<Block>() as u64, std::mem::size_of::<Corner>() as u64, std::mem::size_of::<Contact>() as u64);
     let (nb, nc, nk) = (nb as u64, nc as u64, nk as u64);
     vec![

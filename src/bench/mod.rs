@@ -36,11 +36,11 @@ pub mod scene;
 
 use std::time::Instant;
 
-use crate::backend::{Backend, CycleError, CycleReport};
-use crate::cpu::CpuBackend;
-use crate::gpu::{matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
-use crate::model::Model;
 use crate::profile::{self, Stage, StageTimes};
+use crate::udec::backend::{Backend, CycleError, CycleReport};
+use crate::udec::cpu::CpuBackend;
+use crate::udec::gpu::{matching_adapters, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use crate::udec::model::Model;
 
 pub use report::{table, write_outputs};
 use scene::RefScene;
@@ -171,7 +171,7 @@ fn measure_bandwidth(info: &mut BackendInfo, e: &Engine, say: &dyn Fn(&str)) {
                 Err(err) => say(&format!("{}: the streaming kernel failed ({err})", info.label)),
             }
             info.copy_bandwidth_bytes_per_s = g.copy_bandwidth().ok();
-            if let Some((bw, which)) = crate::gpu::profile::yardstick(info.stream_bandwidth_bytes_per_s, info.copy_bandwidth_bytes_per_s) {
+            if let Some((bw, which)) = crate::gpu::stream::yardstick(info.stream_bandwidth_bytes_per_s, info.copy_bandwidth_bytes_per_s) {
                 info.bandwidth_bytes_per_s = Some(bw);
                 info.yardstick = which.into();
             }
@@ -540,7 +540,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
 /// Why a wall of `blocks` blocks should not be built here, if it should not: the host model (and
 /// the checkpoint copy each backend keeps) must fit in the memory available.
 fn memory_problem(blocks: usize, engines: usize) -> Option<String> {
-    use crate::model::{Block, Contact, Corner};
+    use crate::udec::model::{Block, Contact, Corner};
     // Per block: the block, 4 corners, about 8 contacts, for the bench's pristine copy and, on
     // each backend measured in turn, the model and the backend's last good state; plus the deck
     // line.

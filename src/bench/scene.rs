@@ -11,8 +11,8 @@
 //! to it). The scaling family keeps the 25 rows, makes the wall longer ([`scaling_wall`]) and
 //! fires the same projectile at its left end ([`scaling_body`]).
 
-use crate::model::Model;
 use crate::scenes::BrickWall;
+use crate::udec::model::Model;
 
 /// ROUND of the reference scene. Not the 0.02·h = 0.01 of `brick_wall_deck`: at 50 m/s the
 /// projectile travels 7 mm per step (Δt = 1.4e-4 s), more than the contact update can follow
@@ -124,8 +124,8 @@ pub fn reference_body(scene: RefScene, frac: f64) -> String {
 
 /// The cycles that cover `time` at the time step the deck gets (UDEC's Δt = FRAC·2√(m_min/k_max)),
 /// and that time step.
-pub fn cycles_for(body: &str, time: f64) -> Result<(u64, f64), crate::exec::RunError> {
-    let model = crate::scenes::run_deck_on(&format!("{body}CYCLE 0\n"), Box::new(crate::cpu::CpuBackend::new()))?;
+pub fn cycles_for(body: &str, time: f64) -> Result<(u64, f64), crate::udec::exec::RunError> {
+    let model = crate::scenes::run_deck_on(&format!("{body}CYCLE 0\n"), Box::new(crate::udec::cpu::CpuBackend::new()))?;
     Ok(((time / model.timestep - 1e-9).ceil() as u64, model.timestep))
 }
 
@@ -334,7 +334,7 @@ mod tests {
     use crate::scenes::run_deck_on;
 
     fn run(deck: &str) -> Model {
-        run_deck_on(deck, Box::new(crate::cpu::CpuBackend::new())).expect("the wall deck runs")
+        run_deck_on(deck, Box::new(crate::udec::cpu::CpuBackend::new())).expect("the wall deck runs")
     }
 
     /// The engine keeps a wall at rest where it is: a wall of the reference bricks, materials and

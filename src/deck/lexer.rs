@@ -15,10 +15,10 @@
 //! Whole-file checks done here, before any command is looked at: NUL bytes or other control
 //! characters (a binary file fed by mistake), and lines longer than [`MAX_LINE_CHARS`].
 //!
-//! The second half, [`super::parse`], turns each [`Statement`] into a
-//! [`Command`](super::Command). The abbreviation rule ("upper-case letters of a command or
-//! keyword must be typed, the rest are optional") is implemented here by [`lookup`] so both
-//! command words and keywords share it; the name tables themselves live in `parse.rs`.
+//! The second half is an engine's: the 2D engine's `udec::deck::parse` turns each [`Statement`]
+//! into a `udec::deck::Command`. The abbreviation rule ("upper-case letters of a command or
+//! keyword must be typed, the rest are optional") is implemented here by [`lookup`] so that every
+//! engine's command words and keywords share it; the name tables themselves are the engine's.
 
 use super::DeckError;
 use compact_str::CompactString;

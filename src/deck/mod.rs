@@ -1,16 +1,10 @@
-//! The command language of UDEC 1.2 (SL-85-1, Appendix A, "Input Commands"): free format with the
-//! separators `= ( ) , /`, `*` comment lines, `+` continuation lines, commands and keywords
-//! abbreviated to their upper-case prefix.
-//!
-//! `parse_deck` reads a whole deck into located commands before anything runs, so a typing error on
-//! line 200 is reported before hours of cycling on lines 1–199.
+//! The deck language every engine's commands are written in (SL-85-1, Appendix A, "Input
+//! Commands", and D3's Appendix B share it): free format with the separators `= ( ) , /`, `*`
+//! comment lines, `+` continuation lines, commands and keywords abbreviated to their upper-case
+//! prefix. Here the lexer (lines → located tokens, numbers, name tables) and the input error;
+//! the 2D engine's commands are `udec::deck`.
 
-pub mod command;
 pub mod lexer;
-pub mod parse;
-
-pub use command::*;
-pub use parse::parse_deck;
 
 /// An input error: the file, line and column, and what was expected there.
 ///

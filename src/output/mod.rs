@@ -1,35 +1,21 @@
-//! Outputs: PRINT tables, PLOT files (PNG and SVG), the state JSON, the full DUMP, and SAVE/RESTART
-//! files (DESIGN.md §5).
+//! Output machinery every engine shares (DESIGN.md §5): numbers in the 1985 form, the plot
+//! font, the provenance of a run, and files written so that a crash never leaves half of one.
+//! The 2D engine's writers (PRINT, PLOT, state JSON, VTK, DUMP, SAVE/RESTART) are in
+//! `udec::output`.
 //!
 //! | file | what |
 //! |---|---|
 //! | [`mod@format`] | numbers in the 1985 `1.234E+05` form |
-//! | [`mod@print`] | PRINT BLOCKS, CONTACTS, CORNERS, LIST tables (print-formats.md) |
-//! | [`mod@plot`] | PLOT: the plotter page as PNG (tiny-skia) and SVG, WINDOW/VIEW honoured |
-//! | [`mod@state_json`] | `--state-json`: the observable state as JSON with fixed keys |
+//! | [`mod@font`] | the font plots caption with |
 //! | [`provenance`] | what made a run (version, commit, deck, backend, adapter, precision, date): the log's line under the banner and the state JSON's `provenance` |
-//! | [`mod@dump`] | DUMP: every field of the model, readable |
-//! | [`restart`] | SAVE/RESTART: versioned binary files with a magic header |
-//! | [`vtk`] | VTK (extension) and `--vtk-every`: blocks and contacts for ParaView, a file series |
 //!
-//! Every writer takes the model read-only; none of them changes state.
+//! Nothing here reads a model.
 
-pub mod dump;
 pub mod font;
 pub mod format;
-pub mod plot;
-pub mod print;
 pub mod provenance;
-pub mod restart;
-pub mod state_json;
-pub mod vtk;
 
-pub use dump::dump;
 pub use format::fmt_e;
-pub use plot::{block_outline, plot, PlotSettings};
-pub use print::{print_block_lists, print_blocks, print_contacts, print_corners, print_item};
-pub use restart::{load, save, RestartError, SaveFile, FORMAT_VERSION, MAGIC};
-pub use state_json::{state_json, write_state_json};
 
 use std::fs::{self, File};
 use std::io::{self, BufWriter};

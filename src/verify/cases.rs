@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 use std::fmt::Write as _;
 
 use super::{energy_balance, Ctx, Failure, Measured};
-use crate::model::Model;
+use crate::udec::model::Model;
 
 /// One closed-form problem.
 pub struct Case {

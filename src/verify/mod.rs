@@ -20,10 +20,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::backend::Backend;
-use crate::cpu::CpuBackend;
-use crate::model::timestep::Energies;
-use crate::model::Model;
+use crate::udec::backend::Backend;
+use crate::udec::cpu::CpuBackend;
+use crate::udec::model::timestep::Energies;
+use crate::udec::model::Model;
 
 /// The FRACTION the checks run at: the model's default (UDEC's 0.1).
 pub const CHECK_FRAC: f64 = 0.1;
@@ -67,7 +67,7 @@ impl BackendEntry {
 /// software adapters, "vulkan (lavapipe)" f32 and f64 and "gl (llvmpipe)" f32.
 pub fn backends() -> Vec<BackendEntry> {
     let mut v = vec![BackendEntry::new("cpu", "f64", || Box::new(CpuBackend::new()))];
-    for target in crate::gpu::scenario_backends() {
+    for target in crate::udec::gpu::scenario_backends() {
         let (label, precision) = (target.label(), target.precision().to_string());
         let mut entry = BackendEntry::new(&label, &precision, move || -> Box<dyn Backend> {
             match target.backend() {
@@ -90,8 +90,8 @@ impl Backend for Unavailable {
         format!("unavailable ({})", self.0)
     }
 
-    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<crate::backend::CycleReport, crate::backend::CycleError> {
-        Err(crate::backend::CycleError::Setup(self.0.clone()))
+    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<crate::udec::backend::CycleReport, crate::udec::backend::CycleError> {
+        Err(crate::udec::backend::CycleError::Setup(self.0.clone()))
     }
 }
 
@@ -277,9 +277,9 @@ impl Ctx<'_> {
     /// Runs deck text to its end on a fresh backend, timing it.
     pub fn run(&self, deck: &str) -> Result<(Model, Cost), Failure> {
         let t = Instant::now();
-        let commands = crate::deck::parse_deck(deck, "<verify>").map_err(|e| Failure { message: e.to_string(), cost: Cost::default() })?;
-        let options = crate::exec::RunOptions { out_dir: std::env::temp_dir().join("blockdem-verify"), ..Default::default() };
-        let mut exec = crate::exec::Executor::new((self.backend.make)(), Box::new(std::io::sink()), options, "<verify>");
+        let commands = crate::udec::deck::parse_deck(deck, "<verify>").map_err(|e| Failure { message: e.to_string(), cost: Cost::default() })?;
+        let options = crate::udec::exec::RunOptions { out_dir: std::env::temp_dir().join("blockdem-verify"), ..Default::default() };
+        let mut exec = crate::udec::exec::Executor::new((self.backend.make)(), Box::new(std::io::sink()), options, "<verify>");
         exec.set_limits(stability::limits_for(self.backend.gpu, &self.backend.precision));
         let r = exec.run(&commands);
         let cost = Cost { wall_s: t.elapsed().as_secs_f64(), cycles: exec.model.cycle };

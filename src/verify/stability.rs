@@ -6,12 +6,12 @@
 //! `blockdem verify` (the full suite, [`extreme_limits`]) on the CPU and on Mesa's lavapipe in
 //! both precisions (see README, "Accuracy against speed"); [`limits_for`] picks the set of the
 //! backend that runs, and the executor warns before CYCLE against it. They live in
-//! [`crate::model::limits`], below the executor, and are re-exported here beside the measurements.
+//! [`crate::udec::model::limits`], below the executor, and are re-exported here beside the measurements.
 
 use std::fmt::Write as _;
 
 use super::{BackendEntry, Ctx};
-pub use crate::model::limits::{limits_for, warnings, Limits, LIMITS_CPU_F64, LIMITS_GPU_F32, LIMITS_GPU_F64};
+pub use crate::udec::model::limits::{limits_for, warnings, Limits, LIMITS_CPU_F64, LIMITS_GPU_F32, LIMITS_GPU_F64};
 
 /// A measured threshold of instability.
 #[derive(Clone, Debug)]

@@ -7,9 +7,9 @@
 //! it fails instead.
 #![allow(dead_code)]
 
-use blockdem::backend::Backend;
-use blockdem::cpu::CpuBackend;
-use blockdem::gpu::{find_target, AdapterChoice, GpuBackend, GpuOptions, Precision};
+use blockdem::udec::backend::Backend;
+use blockdem::udec::cpu::CpuBackend;
+use blockdem::udec::gpu::{find_target, AdapterChoice, GpuBackend, GpuOptions, Precision};
 
 /// A `Write` that appends to a shared buffer, to read the run log back.
 #[derive(Clone, Default)]
@@ -80,13 +80,13 @@ macro_rules! every_backend {
             $( #[test] fn $scene() { super::$scene(&crate::common::Target::Cpu) } )*
         }
         mod vulkan_f32 {
-            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("vulkan", blockdem::gpu::Precision::F32) { super::$scene(&t) } } )*
+            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) { super::$scene(&t) } } )*
         }
         mod vulkan_f64 {
-            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("vulkan", blockdem::gpu::Precision::F64) { super::$scene(&t) } } )*
+            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("vulkan", blockdem::udec::gpu::Precision::F64) { super::$scene(&t) } } )*
         }
         mod gl_f32 {
-            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("gl", blockdem::gpu::Precision::F32) { super::$scene(&t) } } )*
+            $( #[test] fn $scene() { if let Some(t) = crate::common::Target::gpu("gl", blockdem::udec::gpu::Precision::F32) { super::$scene(&t) } } )*
         }
     };
 }

@@ -1,0 +1,83 @@
+//! Stage 4 on the CPU: every contact follows its feature of block 2 (the rounded-boundary
+//! geometry of eqs. 13–15, [`crate::udec::contact::geometry`]) and applies the force–displacement law
+//! (eqs. 16–20, [`crate::udec::contact::law`]), shared out over the team of threads. The GPU's twin is
+//! `shaders/udec/contact_forces.wgsl`.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use super::team::Team;
+use super::{SharedMut, MIN_CHUNK, MIN_CONTACTS_PER_THREAD};
+use crate::udec::backend::CycleError;
+use crate::udec::contact::gather::ContactForce;
+use crate::udec::contact::geometry::track_feature;
+use crate::udec::contact::law::{contact_force_law, BlockMotion};
+use crate::udec::model::corners::counts_force;
+use crate::udec::model::{Block, Contact, Corner, Damping, Material, Model};
+
+/// What stage 4 reads: the blocks and corners as stages 1–2 left them, and the constants.
+struct ContactInputs<'a> {
+    blocks: &'a [Block],
+    corners: &'a [Corner],
+    materials: &'a [Material],
+    damping: Damping,
+    dt: f64,
+    /// Overlap beyond which the run stops (half the rounding length).
+    limit: f64,
+}
+
+/// Stage 4 for the contacts `first .. first + contacts.len()`: each contact follows its feature
+/// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
+/// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
+/// limit.
+fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
+    let motion = |b: &Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
+    let mut failure = None;
+    for (k, (contact, force)) in contacts.iter_mut().zip(forces.iter_mut()).enumerate() {
+        let corner = &inp.corners[contact.corner as usize];
+        let (b1, b2) = (&inp.blocks[contact.block1 as usize], &inp.blocks[contact.block2 as usize]);
+        let corners2 = &inp.corners[b2.corner_start as usize..(b2.corner_start + b2.corner_count) as usize];
+        let g = track_feature(corners2, contact.feature, corner.circle, corner.radius);
+        contact.feature = g.feature;
+        contact.kind = g.kind;
+        contact.gap = g.gap;
+        contact.normal = g.normal;
+        contact.point = g.point;
+        // The other view of a corner-pair touch carries no force (the touch counts once).
+        let active = counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
+        let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
+        contact_force_law(contact, mat, &motion(b1), &motion(b2), &inp.damping, inp.dt, active);
+        *force = ContactForce::from(&*contact);
+        if failure.is_none() && active && -g.gap > inp.limit {
+            failure = Some(first + k);
+        }
+    }
+    failure
+}
+
+/// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
+/// index, so the report repeats) whose overlap passes the limit, if any.
+pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: f64, team: &mut Team) -> Result<(), CycleError> {
+    let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
+    let limit = 0.5 * model.tol.round;
+    let failure = {
+        let Model { blocks, corners, contacts, materials, damping, .. } = &mut *model;
+        let inp = ContactInputs { blocks, corners, materials, damping: *damping, dt, limit };
+        let n = contacts.len();
+        assert_eq!(forces.len(), n, "one gather record per contact");
+        let first = AtomicUsize::new(usize::MAX);
+        let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
+        team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
+            // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` (as long),
+            // mutably borrowed here.
+            let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
+            if let Some(k) = contact_piece(r.start, piece, forces, &inp) {
+                first.fetch_min(k, Ordering::Relaxed);
+            }
+        });
+        first.into_inner()
+    };
+    if failure == usize::MAX {
+        return Ok(());
+    }
+    Err(CycleError::overlap(model, failure, limit))
+}

@@ -1,0 +1,408 @@
+//! The CPU backend: the explicit cycle in f64, the accuracy reference (DESIGN.md §1–3).
+//!
+//! Each stage lives in its own file, named like its WGSL kernel twin:
+//! `law_of_motion`, `geometry_update`, `contact_forces`, `gather`. A cycle makes two passes over
+//! the model, each shared out over a team of threads (`team`):
+//!
+//! 1. per block — stage 6 of the previous cycle (gather the contact forces), stage 1 (law of
+//!    motion), stage 2 (geometry update);
+//! 2. per contact — stage 4 (contact kinematics and force–displacement law);
+//!
+//! then, on the calling thread, stage 7 when a block has moved past the update tolerance. The run
+//! around the cycles (resume or full detection, energy check, last good state, roll-back,
+//! progress) is the run driver's (`driver`); this backend supplies its stages.
+
+pub mod contact_forces;
+pub mod gather;
+pub mod geometry_update;
+pub mod law_of_motion;
+mod team;
+
+use crate::driver;
+use crate::udec::backend::{Backend, CrackEvent, CycleError, CycleReport};
+use crate::udec::model::{Block, Corner, Model};
+use crate::udec::topology::{self, Adjacency};
+
+use crate::udec::contact::gather::ContactForce;
+use contact_forces::contact_stage;
+use gather::gather_all;
+use law_of_motion::StepOutcome;
+use team::Team;
+
+/// Least work a thread takes in a stage, in blocks (stages 6+1+2, some 50 ns a block) or
+/// contacts (stage 4, some 20 ns a contact): over 10 µs, several times what it costs to hand a
+/// stage to the waiting helpers of the team (see `team`). A stage runs on at most
+/// `items / MIN_…_PER_THREAD` threads, so a small model runs on the calling thread alone and a
+/// large one on all.
+const MIN_BLOCKS_PER_THREAD: usize = 256;
+const MIN_CONTACTS_PER_THREAD: usize = 512;
+/// Least elements in one chunk of work handed out to a thread.
+const MIN_CHUNK: usize = 64;
+
+#[derive(Default)]
+pub struct CpuBackend {
+    /// Per-block contact lists, rebuilt after every topology change.
+    adjacency: Adjacency,
+    scratch: Scratch,
+    /// The last good state of the previous run, kept so that the next run copies into its
+    /// storage rather than allocating a second model (hundreds of megabytes at 10⁶ blocks).
+    last_good: Model,
+    /// The previous run ended well, so `last_good` is the state it left and `adjacency` its
+    /// contact lists: a run on a model still equal to it goes on without a full detection.
+    resumable: bool,
+}
+
+/// Per-cycle working arrays, kept between cycles so that a cycle allocates nothing.
+#[derive(Default)]
+struct Scratch {
+    /// What each block's step did in the current cycle.
+    steps: Vec<StepOutcome>,
+    /// What the gather reads of each contact, in contact order: written by stage 4, and copied
+    /// from the contacts after anything else changes them (`sync_forces`).
+    forces: Vec<ContactForce>,
+}
+
+/// Copies the gather's view of every contact after a topology change (stage 7, a crack).
+fn sync_forces(model: &Model, forces: &mut Vec<ContactForce>) {
+    use rayon::prelude::*;
+    if model.contacts.len() < PARALLEL_SYNC {
+        forces.clear();
+        forces.extend(model.contacts.iter().map(ContactForce::from));
+    } else {
+        model.contacts.par_iter().with_min_len(PARALLEL_SYNC / 4).map(ContactForce::from).collect_into_vec(forces);
+    }
+}
+
+/// Contacts from which `sync_forces` runs on rayon's threads (a topology change of a small model
+/// would pay more to hand the copy over than it saves).
+const PARALLEL_SYNC: usize = 1 << 16;
+
+impl CpuBackend {
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+/// How many threads the team of a run gets: as many as its largest stage can use (counting four
+/// contacts a block, as contacts may form during the run), at most rayon's thread count (which
+/// `RAYON_NUM_THREADS` sets).
+fn team_size(model: &Model) -> usize {
+    let (blocks, contacts) = (model.blocks.len(), model.contacts.len());
+    let want = (blocks / MIN_BLOCKS_PER_THREAD).max(contacts.max(4 * blocks) / MIN_CONTACTS_PER_THREAD);
+    want.clamp(1, rayon::current_num_threads())
+}
+
+/// A slice that the threads of a stage share, each taking its own elements from it.
+struct SharedMut<T>(*mut T);
+// SAFETY: the stages hand every thread disjoint ranges of the slice (see `range`).
+unsafe impl<T: Send> Sync for SharedMut<T> {}
+
+impl<T> SharedMut<T> {
+    fn new(s: &mut [T]) -> Self {
+        SharedMut(s.as_mut_ptr())
+    }
+
+    /// The elements `r` of the slice.
+    ///
+    /// # Safety
+    /// `r` lies within the slice, the slice stays mutably borrowed by the caller of `new` while
+    /// the result lives, and no other thread touches these elements meanwhile.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn range(&self, r: std::ops::Range<usize>) -> &mut [T] {
+        std::slice::from_raw_parts_mut(self.0.add(r.start), r.len())
+    }
+}
+
+/// Whether each block's corners are the contiguous range that follows the previous block's, as
+/// `Model` keeps them: the block pass hands each thread the corners of its blocks.
+fn corners_in_block_order(model: &Model) -> bool {
+    let mut next = 0usize;
+    for b in &model.blocks {
+        if b.corner_start as usize != next {
+            return false;
+        }
+        next += b.corner_count as usize;
+    }
+    next == model.corners.len()
+}
+
+/// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
+pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
+    if !force && !topology_update_due(model) {
+        return false;
+    }
+    update_topology(model, adjacency, report, force);
+    true
+}
+
+/// Whether a block has passed its contact-update threshold (`Block::update_due`).
+pub(crate) fn topology_update_due(model: &Model) -> bool {
+    let tol = model.tol;
+    model.blocks.iter().any(|b| b.update_due(&tol))
+}
+
+/// Stage 7: contact detection (all pairs when `full`, else around the blocks past the update
+/// tolerance) and the adjacency lists.
+fn update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, full: bool) {
+    let _p = crate::profile::scope(if full { crate::profile::Stage::DetectFull } else { crate::profile::Stage::DetectUpdate });
+    // Also keeps the adjacency lists, and moves the energy terms of contacts dropped while
+    // loaded to the ledger's retired account.
+    let (created, dropped) = topology::update_topology(model, full, adjacency);
+    report.topology_updates += 1;
+    report.contacts_created += created as u64;
+    report.contacts_dropped += dropped as u64;
+}
+
+/// What stages 6, 1 and 2 read besides the blocks they move.
+struct BlockInputs<'a> {
+    /// The contact forces and adjacency to gather from; `None` when the block forces are current.
+    gather: Option<(&'a [ContactForce], &'a Adjacency)>,
+    gravity: [f64; 2],
+    alpha: f64,
+    dt: f64,
+}
+
+/// Stages 6, 1 and 2 for the blocks `first .. first + blocks.len()`, whose corners are `corners`
+/// (each block's contiguous range, in block order): each block sums its contact forces, takes its
+/// step and places its corners — one pass over the blocks instead of three.
+fn block_piece(first: usize, blocks: &mut [Block], mut corners: &mut [Corner], steps: &mut [StepOutcome], inp: &BlockInputs) {
+    for (j, (block, step)) in blocks.iter_mut().zip(steps.iter_mut()).enumerate() {
+        let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
+        corners = rest;
+        if let Some((forces, adjacency)) = inp.gather {
+            gather::gather(first + j, block, forces, adjacency, inp.gravity);
+        }
+        *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
+        geometry_update::geometry_update(block, mine);
+    }
+}
+
+/// One cycle of stages 6, 1, 2 and 4 (the scene has no zones or fluid yet). Stage 6 of the
+/// previous cycle — the force sums stage 1 needs — runs here, fused with stages 1 and 2, unless
+/// `gathered` says the block forces are current already; on return they are not (stage 4 has
+/// changed the contact forces). The corners must be in block order (`corners_in_block_order`).
+fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, gathered: bool, team: &mut Team) -> Result<(), CycleError> {
+    let Scratch { steps, forces } = scratch;
+    let dt = model.timestep;
+    let (gravity, alpha) = (model.gravity, model.damping.alpha);
+    // Stages 6, 1 and 2, block by block: a block's corners are its own contiguous slice and its
+    // force sum reads only the contacts, so the blocks run on any thread and each result is what
+    // a serial loop would give; the sums below are taken serially, so runs repeat bit for bit
+    // whatever the number of threads.
+    {
+        let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
+        let Model { blocks, corners, .. } = &mut *model;
+        steps.resize(blocks.len(), StepOutcome::default());
+        let inp = BlockInputs { gather: (!gathered).then_some((&forces[..], adjacency)), gravity, alpha, dt };
+        let n = blocks.len();
+        let (shared_blocks, shared_corners, shared_steps) = (SharedMut::new(blocks), SharedMut::new(corners), SharedMut::new(steps));
+        team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
+            // SAFETY: the chunks are disjoint ranges of blocks; their corners, the contiguous
+            // range from the first block's first corner to the last block's last (corners in
+            // block order), are then disjoint too; `steps` has one slot per block.
+            let (blocks, steps) = unsafe { (shared_blocks.range(r.clone()), shared_steps.range(r.clone())) };
+            let (first, last) = (&blocks[0], &blocks[blocks.len() - 1]);
+            let corner_range = first.corner_start as usize..(last.corner_start + last.corner_count) as usize;
+            // SAFETY: as above.
+            let corners = unsafe { shared_corners.range(corner_range) };
+            block_piece(r.start, blocks, corners, steps, &inp);
+        });
+    }
+    let mut work = 0.0;
+    let mut fastest = (0.0f64, 0usize);
+    for (b, step) in steps.iter().enumerate() {
+        work += step.external_work;
+        if step.corner_travel > fastest.0 {
+            fastest = (step.corner_travel, b);
+        }
+    }
+    model.external_work += work;
+    model.cycle += 1;
+    model.time += dt;
+    if !work.is_finite() {
+        // The first block whose step is not finite (as the kernel's atomicMin picks), or, where
+        // only the sum overflowed, the one that added most.
+        let b = steps
+            .iter()
+            .position(|s| !s.external_work.is_finite())
+            .unwrap_or_else(|| steps.iter().enumerate().max_by(|x, y| x.1.external_work.abs().total_cmp(&y.1.external_work.abs())).map_or(0, |(b, _)| b));
+        return Err(CycleError::non_finite_step(model, b));
+    }
+    // Between contact updates a block's corners move at most etol plus one step's travel s, so two
+    // blocks approach by at most 2(etol + s); that must stay below atol for no touch to be missed.
+    // A faster block could cross a thin neighbour unseen: stop rather than let it tunnel.
+    let limit = 0.5 * model.tol.atol - model.tol.etol;
+    if fastest.0 > limit {
+        let b = &model.blocks[fastest.1];
+        return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
+    }
+    // Stage 4.
+    contact_stage(model, forces, dt, team)
+}
+
+impl Backend for CpuBackend {
+    fn describe(&self) -> String {
+        "cpu (f64)".to_string()
+    }
+
+    /// A run through the run driver (`driver`): the CPU's stages are one cycle at a time on a
+    /// team of threads sized to the model the start's detection leaves.
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        let mut report = CycleReport::default();
+        let mut kept = std::mem::take(&mut self.last_good);
+        let mut adjacency = std::mem::take(&mut self.adjacency);
+        let resumable = std::mem::take(&mut self.resumable);
+        let mut start = CpuStart { adjacency: &mut adjacency, forces: &mut self.scratch.forces, resumable };
+        let resume = match driver::prepare(&mut start, model, &kept, &mut report) {
+            Ok(resume) => resume,
+            Err(e) => {
+                // Refused before it began (the time step): the backend is as it was.
+                self.resumable = start.resumable;
+                self.last_good = kept;
+                self.adjacency = adjacency;
+                return Err(e);
+            }
+        };
+        let scratch = &mut self.scratch;
+        let result = team::with_team(team_size(model), |team| {
+            let mut stages = CpuStages { adjacency: &mut adjacency, scratch, team, gathered: true };
+            driver::cycles(&mut stages, model, cycles, resume, &mut kept, &mut report, progress)
+        });
+        self.last_good = kept;
+        result?;
+        // The last check copied the final state (its cycle is the last).
+        self.resumable = cycles > 0;
+        self.adjacency = adjacency;
+        Ok(report)
+    }
+}
+
+/// The CPU's start of a run (before its team exists): the resume test's flag and the full
+/// detection.
+struct CpuStart<'a> {
+    adjacency: &'a mut Adjacency,
+    forces: &'a mut Vec<ContactForce>,
+    resumable: bool,
+}
+
+impl driver::Start<Model> for CpuStart<'_> {
+    fn take_resumable(&mut self) -> bool {
+        std::mem::take(&mut self.resumable)
+    }
+
+    fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        // The block pass relies on it (and the model always keeps it).
+        assert!(corners_in_block_order(model), "corners are stored in block order");
+        Ok(())
+    }
+
+    /// Between runs the executor may have split, deleted or moved blocks: a full detection,
+    /// unless the model is the very state the last run left, whose contacts are current.
+    fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        if !resume {
+            update_topology(model, self.adjacency, report, true);
+        }
+        sync_forces(model, self.forces);
+        Ok(())
+    }
+}
+
+/// The CPU's stages inside its team's scope.
+struct CpuStages<'a, 't> {
+    adjacency: &'a mut Adjacency,
+    scratch: &'a mut Scratch,
+    team: &'a mut Team<'t>,
+    /// Whether the block forces are the gather of the current contact forces. Stage 6 runs
+    /// fused into the next cycle's block pass; it runs on its own only where something reads the
+    /// block forces between cycles: the energy terms (kinetic energy is taken at the whole step
+    /// from the force, see `Model::energies`) that the energy check and every topology change
+    /// book, and the state a run leaves.
+    gathered: bool,
+}
+
+impl CpuStages<'_, '_> {
+    fn gather(&mut self, model: &mut Model) {
+        if !self.gathered {
+            gather_all(model, &self.scratch.forces, self.adjacency, self.team);
+            self.gathered = true;
+        }
+    }
+}
+
+impl driver::Stages<Model> for CpuStages<'_, '_> {
+    /// The force sums the first step needs.
+    fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
+        gather_all(model, &self.scratch.forces, self.adjacency, self.team);
+        self.gathered = true;
+        Ok(())
+    }
+
+    /// One cycle at a time, each followed by stage 7: cracking, then contact updates.
+    fn advance(&mut self, model: &mut Model, max: u64, cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
+        for _ in 0..max {
+            cycle_once(model, self.adjacency, self.scratch, self.gathered, self.team)?;
+            self.gathered = false;
+            if cracking {
+                self.gather(model);
+                if crack_step(model, self.adjacency, report) {
+                    assert!(corners_in_block_order(model), "corners are stored in block order");
+                    *self.adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                    sync_forces(model, &mut self.scratch.forces);
+                    self.gathered = false;
+                    if let Some(dt) = model.critical_timestep() {
+                        if dt < model.timestep {
+                            model.timestep = dt;
+                            report.timestep_changes.push((model.cycle, dt));
+                        }
+                    }
+                }
+            }
+            let tol = model.tol;
+            if model.blocks.iter().any(|b| b.update_due(&tol)) {
+                // The update books the energy of the contacts it drops, from the forces.
+                self.gather(model);
+                update_topology(model, self.adjacency, report, false);
+                sync_forces(model, &mut self.scratch.forces);
+                self.gathered = false;
+            }
+        }
+        Ok(max)
+    }
+
+    fn energy(&mut self, model: &mut Model) -> Result<(f64, f64), CycleError> {
+        self.gather(model);
+        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+        let e = model.energies();
+        Ok((e.kinetic + e.strain, e.external_work))
+    }
+
+    fn keep(&mut self, model: &Model, last_good: &mut Model) {
+        last_good.clone_from(model);
+    }
+}
+
+/// Checks every cracking candidate once and applies the cracks found. Returns whether any block
+/// cracked.
+pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut CycleReport) -> bool {
+    let _p = crate::profile::scope(crate::profile::Stage::Cracking);
+    let mut found = Vec::new();
+    for b in 0..model.blocks.len() {
+        if topology::cracking::is_point_load_candidate(model, b) {
+            if let Some(c) = topology::find_point_load_crack(model, adjacency, b) {
+                found.push((model.blocks[b].id, c));
+            }
+        }
+    }
+    let mut changed = false;
+    // Apply one crack per block; indices shift after each split, so look blocks up by id.
+    for (id, mut crack) in found {
+        let Some(b) = model.block_index(id) else { continue };
+        crack.block = b;
+        let before = model.next_block_id;
+        if model.retire_energy_around(|m| topology::apply_crack(m, &crack)).is_some() {
+            changed = true;
+            report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, value: crack.value, from: crack.from, to: crack.to });
+        }
+    }
+    changed
+}

@@ -1,0 +1,100 @@
+//! Loads and boundary conditions: LOAD, FIX, FREE, VELOCITY, LINK (GRAVITY is set in the
+//! dispatch, `Executor::execute`).
+
+use super::{Executor, RunError};
+use crate::udec::deck::{Located, Range};
+use crate::udec::output;
+
+impl Executor<'_> {
+    /// FIX: the blocks in `range` held still.
+    pub(super) fn fix(&mut self, range: &Range) {
+        for b in self.in_range("FIX", range) {
+            let blk = &mut self.model.blocks[b];
+            blk.fixed = true;
+            blk.velocity = [0.0, 0.0];
+            blk.angular_velocity = 0.0;
+        }
+    }
+
+    /// FREE: the blocks in `range` free to move again.
+    pub(super) fn free(&mut self, range: &Range) {
+        for b in self.in_range("FREE", range) {
+            self.model.blocks[b].fixed = false;
+        }
+    }
+
+    /// LOAD: a constant force on each block in `range`.
+    pub(super) fn load(&mut self, range: &Range, force: [f64; 2]) {
+        for b in self.in_range("LOAD", range) {
+            self.model.blocks[b].load = force;
+        }
+    }
+
+    /// VELOCITY (extension): the velocity and angular velocity of the free blocks in `range`.
+    pub(super) fn velocity(&mut self, cmd: &Located, range: &Range, velocity: [f64; 2], angular: Option<f64>) -> Result<(), RunError> {
+        let blocks = self.in_range("VELOCITY", range);
+        // A velocity whose ½mv² overflows f64 is refused here, where it is given: CYCLE
+        // would refuse it too, but a DELETE or a contact update before that books the
+        // energy of what it removes, and ∞ − ∞ left the ledger NaN for good.
+        let w = angular.unwrap_or(0.0);
+        if let Some(&b) = blocks.iter().find(|&&b| {
+            let blk = &self.model.blocks[b];
+            !blk.fixed && !(0.5 * blk.mass * (velocity[0] * velocity[0] + velocity[1] * velocity[1]) + 0.5 * blk.inertia * w * w).is_finite()
+        }) {
+            return Err(self.command_error(
+                cmd,
+                format!(
+                    "VELOCITY: block {} would move so fast (velocity ({:e}, {:e}), angular {w:e}) that its kinetic energy overflows f64; check the values and the units",
+                    self.model.blocks[b].id, velocity[0], velocity[1]
+                ),
+            ));
+        }
+        // The kinetic energy VELOCITY gives (or takes, slowing a block) is input, booked
+        // with the work of gravity and loads: the balance is unchanged by the command, and
+        // what it shows later is the cycle's error alone. Measured as the ledger measures
+        // kinetic energy (at the whole step), so that the booking is exact.
+        let before = self.model.energies().kinetic;
+        for b in blocks {
+            let blk = &mut self.model.blocks[b];
+            if !blk.fixed {
+                blk.velocity = velocity;
+                blk.angular_velocity = angular.unwrap_or(0.0);
+            }
+        }
+        self.model.external_work += self.model.energies().kinetic - before;
+        Ok(())
+    }
+
+    /// LINK: the block containing `flying` linked to the block containing `anchor`.
+    pub(super) fn link(&mut self, cmd: &Located, flying: [f64; 2], anchor: [f64; 2]) -> Result<(), RunError> {
+        let find = |p: [f64; 2]| (0..self.model.blocks.len()).find(|&b| crate::udec::model::geometry::point_in_polygon(p, &self.model.corner_positions(b)));
+        let f = find(flying).ok_or_else(|| {
+            self.command_error(
+                cmd,
+                format!(
+                    "LINK: no block contains the point ({}, {}) given for the flying block",
+                    output::format::fmt_short(flying[0]),
+                    output::format::fmt_short(flying[1])
+                ),
+            )
+        })?;
+        let a = find(anchor).ok_or_else(|| {
+            self.command_error(
+                cmd,
+                format!(
+                    "LINK: no block contains the point ({}, {}) given for the linking block",
+                    output::format::fmt_short(anchor[0]),
+                    output::format::fmt_short(anchor[1])
+                ),
+            )
+        })?;
+        if f == a {
+            return Err(self.command_error(cmd, "LINK: both points lie in the same block"));
+        }
+        // Contact detection here searches every block's neighbourhood each update, so a
+        // flying block is never lost; the link is kept and printed (PRINT LIST), as the
+        // virtual contact of UDEC 1.2 was.
+        self.model.links.push(crate::udec::model::Link { flying: f as u32, anchor: a as u32 });
+        Ok(())
+    }
+}

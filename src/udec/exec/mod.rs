@@ -1,0 +1,339 @@
+//! The command executor: runs a parsed deck against a backend, printing the run log in the layout
+//! of UDEC 1.2 (`)` echo, "INITIAL TIMESTEP", "CURRENT CYCLE COUNT", PRINT tables).
+//!
+//! The executor owns the model and all topology commands (BLOCK, SPLIT, DELETE, …); the backend
+//! only cycles. It does not know which backend runs.
+//!
+//! This file holds the executor itself, the run of a deck and the dispatch of each command; the
+//! commands are carried out by command group, one file each (issue 26 item 8):
+//! - `blocks`: BLOCK, CHANGE, DELETE, SPLIT (and ROUND, set in the dispatch);
+//! - `materials`: PROPERTY, DAMPING, and the checks of material and constitutive numbers;
+//! - `loads`: LOAD, FIX, FREE, VELOCITY, LINK (and GRAVITY, set in the dispatch);
+//! - `output`: PRINT, PLOT, DUMP, VTK, SAVE, RESTART (and WINDOW, VIEW, set in the dispatch);
+//! - `cycling`: CYCLE (the checks before it, the run through the backend in pieces, progress,
+//!   running restart files and VTK frames, what a failure means), and FRACTION, set in the dispatch.
+
+mod blocks;
+mod cycling;
+mod loads;
+mod materials;
+mod output;
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use crate::udec::backend::{Backend, CycleError};
+use crate::udec::deck::{Command, DeckError, Located, PrintItem, Range};
+use crate::udec::model::constitutive::Constitutive;
+use crate::udec::model::limits::{Limits, LIMITS_CPU_F64};
+use crate::udec::model::Model;
+use crate::udec::output::plot::PlotSettings;
+
+/// The largest constitutive number (see `Executor::check_constitutive`).
+pub const MAX_CONSTITUTIVE: u32 = Constitutive::MAX;
+
+/// The file a SAVE or RESTART without a name uses, in the output folder.
+pub const DEFAULT_SAVE_FILE: &str = "blockdem.sav";
+
+/// Why a run stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Input(#[from] DeckError),
+    #[error("{file}:{line}: not supported yet: {what}")]
+    Unsupported { file: String, line: usize, what: String },
+    /// `advice` is empty, or names the largest safe FRACTION when FRACTION is above the stable
+    /// limit of the model and the failure's own message does not (an overlap, a block too fast or
+    /// a non-finite value can be the first sign of an unstable time step).
+    #[error("{file}:{line}: {failure}{advice}")]
+    Numerical { file: String, line: usize, failure: CycleError, advice: String },
+    #[error("{file}:{line}: {message}")]
+    Command { file: String, line: usize, message: String },
+    /// The run was interrupted (`RunOptions::interrupt`): during a CYCLE, at its next energy
+    /// check, with the model at that cycle; otherwise before the command at `line`.
+    #[error("{file}:{line}: interrupted at cycle {cycle}")]
+    Interrupted { file: String, line: usize, cycle: u64 },
+}
+
+impl RunError {
+    /// True when the run failed in the numerics (the model then holds the last good state).
+    pub fn is_numerical(&self) -> bool {
+        matches!(self, RunError::Numerical { .. })
+    }
+
+    /// True when the run was interrupted (the model then holds the state it was stopped at).
+    pub fn is_interrupted(&self) -> bool {
+        matches!(self, RunError::Interrupted { .. })
+    }
+}
+
+/// Settings of a run that do not come from the deck.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Folder for PLOT files and SAVE files named without a folder.
+    pub out_dir: PathBuf,
+    /// How long CYCLE commands show their progress.
+    pub progress: Progress,
+    /// Set (by a Ctrl-C handler) to stop the run: a CYCLE ends at its next energy check (every
+    /// 100 cycles) with its state intact, and no further command runs.
+    pub interrupt: Option<Arc<AtomicBool>>,
+    /// Write the state to `CHECKPOINT_FILE` in `out_dir` about this often during a CYCLE (a
+    /// running restart file: a run killed outright, by the system or a power cut, loses at most
+    /// this much). The CYCLE then runs in pieces of whole energy-check intervals, which are one
+    /// run bit for bit (a CYCLE after a CYCLE goes on from the backend's state); only the energy
+    /// check's budget starts again with each piece, as it does with each CYCLE command (an
+    /// instability grows exponentially, within a piece of 100 cycles or more).
+    pub checkpoint_every: Option<std::time::Duration>,
+    /// Write a VTK frame (`output::vtk`) into `VTK_DIR` in `out_dir` at the start of each CYCLE
+    /// and every this many cycles of it, rounded up to whole energy-check intervals (100 cycles)
+    /// so that the pieces the CYCLE then runs in are one run bit for bit, as above.
+    pub vtk_every: Option<u64>,
+}
+
+/// The folder, in the output folder, of the VTK frames (the VTK command, `--vtk-every`).
+pub const VTK_DIR: &str = "vtk";
+
+/// The running restart file of `RunOptions::checkpoint_every`, in the output folder.
+pub const CHECKPOINT_FILE: &str = "checkpoint.sav";
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions { out_dir: PathBuf::from("."), progress: Progress::Off, interrupt: None, checkpoint_every: None, vtk_every: None }
+    }
+}
+
+/// How a CYCLE of 1000 cycles or more shows its progress.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Progress {
+    /// Not at all (tests, the library's scenes).
+    #[default]
+    Off,
+    /// A progress bar (the run's log goes to a terminal).
+    Bar,
+    /// A line on stderr at most every `every` of wall time (the log goes to a file or a pipe:
+    /// a batch run still says how far it is and how long it has left).
+    Lines { every: std::time::Duration },
+}
+
+/// What of `command` is not supported yet (its physics comes in a later version), if anything.
+/// The executor stops at such a command, and before the first CYCLE it looks ahead for one, so
+/// that a deck of long CYCLEs followed by FLUID fails before it cycles, not after (issue 27
+/// item 6).
+fn not_supported_yet(command: &Command) -> Option<&'static str> {
+    match command {
+        Command::Change { to: Some(crate::udec::deck::Deformability::Sdef), .. } => Some("CHANGE SDEF (simply-deformable blocks)"),
+        Command::Change { to: Some(crate::udec::deck::Deformability::Fdef), .. } => Some("CHANGE FDEF (fully-deformable blocks)"),
+        Command::Fluid { .. } => Some("FLUID (fluid flow in joints and domains)"),
+        Command::Generate { .. } => Some("GENERATE (zoning of fully-deformable blocks)"),
+        Command::PFix { .. } => Some("PFIX (domain pressures)"),
+        Command::PFree { .. } => Some("PFREE (domain pressures)"),
+        Command::Print { items } => items.iter().find_map(|item| match item {
+            PrintItem::Domains => Some("PRINT DOMAINS (fluid domains)"),
+            PrintItem::DList => Some("PRINT DLIST (domain linked lists)"),
+            PrintItem::Flows => Some("PRINT FLOWS (fluid flow)"),
+            _ => None,
+        }),
+        _ => None,
+    }
+}
+
+impl RunOptions {
+    fn interrupted(&self) -> bool {
+        self.interrupt.as_ref().is_some_and(|flag| flag.load(Ordering::Relaxed))
+    }
+}
+
+pub struct Executor<'a> {
+    pub model: Model,
+    backend: Box<dyn Backend + 'a>,
+    log: Box<dyn Write + 'a>,
+    options: RunOptions,
+    plot: PlotSettings,
+    plot_count: usize,
+    file: String,
+    /// The verified ratios the model is checked against before CYCLE (the backend's precision).
+    limits: Limits,
+    /// Commands executed so far (START is only the first).
+    executed: usize,
+    /// The line printed under the banner ([`Executor::set_provenance`]).
+    provenance: Option<String>,
+    /// The ROUND (its bits) and the blocks it cuts that the ROUND warning last named.
+    round_warned: Option<(u64, Vec<u32>)>,
+}
+
+impl<'a> Executor<'a> {
+    pub fn new(backend: Box<dyn Backend + 'a>, log: Box<dyn Write + 'a>, options: RunOptions, file: &str) -> Self {
+        Executor {
+            model: Model::default(),
+            backend,
+            log,
+            options,
+            plot: PlotSettings::default(),
+            plot_count: 0,
+            file: file.to_string(),
+            limits: LIMITS_CPU_F64,
+            executed: 0,
+            provenance: None,
+            round_warned: None,
+        }
+    }
+
+    /// What made the run (`output::provenance::Provenance::line`): printed under the banner of
+    /// START and RESTART, so that a log names its program, deck, backend and precision.
+    pub fn set_provenance(&mut self, line: String) {
+        self.provenance = Some(line);
+    }
+
+    fn banner(&mut self) {
+        self.echo("PROGRAM UDEC: UNIVERSAL DISTINCT ELEMENT CODE (VERSION 1.2)");
+        if let Some(line) = self.provenance.clone() {
+            self.echo(&line);
+        }
+    }
+
+    /// The limits of extreme ratios measured on the backend that runs (`blockdem verify`): a model
+    /// beyond them gets a WARNING before each CYCLE. The default is the CPU f64 backend's; a run on
+    /// f32 GPU kernels sets [`crate::udec::model::limits::LIMITS_GPU_F32`].
+    pub fn set_limits(&mut self, limits: Limits) {
+        self.limits = limits;
+    }
+
+    /// Runs the commands in order until STOP, END or an error.
+    pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
+        let result = self.run_commands(commands);
+        // Also on an error, before the caller reports it.
+        let _ = self.log.flush();
+        result
+    }
+
+    fn run_commands(&mut self, commands: &[Located]) -> Result<(), RunError> {
+        let mut looked_ahead = false;
+        for (i, cmd) in commands.iter().enumerate() {
+            if self.options.interrupted() {
+                return Err(self.interrupted(cmd));
+            }
+            if !looked_ahead && matches!(cmd.command, Command::Cycle { .. }) {
+                looked_ahead = true;
+                self.look_ahead(&commands[i..])?;
+            }
+            self.echo(&format!("){}", cmd.source));
+            let done = self.execute(cmd)?;
+            self.executed += 1;
+            if done {
+                break;
+            }
+            // What a command printed is seen when it ends; BLOCK commands, which print only their
+            // echo, are left to the log's buffer (a generated deck has 10⁶ of them).
+            if !matches!(cmd.command, Command::Block { .. }) {
+                let _ = self.log.flush();
+            }
+        }
+        Ok(())
+    }
+
+    /// Before the first CYCLE (`rest` starts with it): a command further on that cannot run stops
+    /// the run now, not after hours of cycling (the parser has read the whole deck, so typing
+    /// errors are already reported).
+    fn look_ahead(&mut self, rest: &[Located]) -> Result<(), RunError> {
+        if let Some((later, what)) = rest.iter().find_map(|c| not_supported_yet(&c.command).map(|w| (c, w))) {
+            self.echo(&format!("THE DECK CANNOT RUN TO ITS END: LINE {} ({}) IS NOT SUPPORTED YET; NOTHING IS CYCLED", later.line, later.source.trim()));
+            return Err(self.unsupported(later, what));
+        }
+        Ok(())
+    }
+
+    fn echo(&mut self, line: &str) {
+        let _ = writeln!(self.log, "{line}");
+    }
+
+    fn interrupted(&self, cmd: &Located) -> RunError {
+        RunError::Interrupted { file: self.file.clone(), line: cmd.line, cycle: self.model.cycle }
+    }
+
+    fn command_error(&self, cmd: &Located, message: impl Into<String>) -> RunError {
+        RunError::Command { file: self.file.clone(), line: cmd.line, message: message.into() }
+    }
+
+    fn unsupported(&self, cmd: &Located, what: &str) -> RunError {
+        RunError::Unsupported { file: self.file.clone(), line: cmd.line, what: what.to_string() }
+    }
+
+    /// The blocks whose centroids lie in `r`. A range that catches none makes `what` (FIX, LOAD,
+    /// …) a no-op, which the log says (issue 27 item 5): a range in the wrong units or with its
+    /// ends swapped would otherwise pass unseen.
+    fn in_range(&mut self, what: &str, r: &Range) -> Vec<usize> {
+        let blocks = self.model.blocks_in_range(r.x1, r.x2, r.y1, r.y2);
+        if blocks.is_empty() {
+            let f = crate::output::format::fmt_short;
+            self.echo(&format!(
+                "WARNING: {what}: no block's centroid lies in x {} to {}, y {} to {} (of {} block(s)); nothing changed",
+                f(r.x1),
+                f(r.x2),
+                f(r.y1),
+                f(r.y2),
+                self.model.blocks.len()
+            ));
+        }
+        blocks
+    }
+
+    /// START: the banner of a cold start.
+    fn start(&mut self, cmd: &Located) -> Result<(), RunError> {
+        if self.executed > 0 {
+            // It would claim a cold start and keep the model (UDEC read START first only).
+            return Err(self.command_error(cmd, "START must be the first command of a run (a cold start); to begin again, start a new run"));
+        }
+        self.banner();
+        self.echo("THIS IS A START RUN");
+        Ok(())
+    }
+
+    /// Executes one command; returns true when the run should stop (STOP, END). Each command
+    /// group's handlers live in their own file; settings of one value are set here.
+    fn execute(&mut self, cmd: &Located) -> Result<bool, RunError> {
+        if let Some(what) = not_supported_yet(&cmd.command) {
+            return Err(self.unsupported(cmd, what));
+        }
+        match &cmd.command {
+            Command::Start => self.start(cmd)?,
+            Command::Restart { file } => self.restart(cmd, file)?,
+            Command::Stop | Command::End => return Ok(true),
+            Command::Block { material, constitutive, corners } => self.block(cmd, *material, *constitutive, corners)?,
+            Command::Change { range, to, material, constitutive } => {
+                // CHANGE SDEF / FDEF stopped above (`not_supported_yet`).
+                debug_assert!(to.is_none());
+                self.change(cmd, range, *material, *constitutive)?
+            }
+            Command::Cycle { n } => self.cycle(cmd, *n)?,
+            Command::Damping { fcrit, freq, mode } => self.damping(cmd, *fcrit, *freq, *mode)?,
+            Command::Delete { range } => self.delete(range),
+            Command::Dump { .. } => self.dump(cmd)?,
+            Command::Fix { range } => self.fix(range),
+            Command::Free { range } => self.free(range),
+            Command::Fraction { f } => self.model.frac = *f,
+            // Stopped above (`not_supported_yet`).
+            Command::Fluid { .. } | Command::Generate { .. } | Command::PFix { .. } | Command::PFree { .. } => {}
+            Command::Gravity { g } => self.model.gravity = *g,
+            Command::Link { flying, anchor } => self.link(cmd, *flying, *anchor)?,
+            Command::Load { range, force } => self.load(range, *force),
+            Command::Plot { options } => self.plot_files(cmd, options)?,
+            Command::Print { items } => self.print(cmd, items)?,
+            Command::Property { material, values } => self.property(cmd, *material, values)?,
+            Command::Round { d } => self.model.set_round(*d),
+            Command::Vtk => self.vtk(cmd)?,
+            Command::Save { file } => self.save(cmd, file)?,
+            Command::Split { from, to, material, constitutive } => self.split(cmd, *from, *to, *material, *constitutive)?,
+            Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
+            Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],
+            Command::Velocity { range, velocity, angular } => self.velocity(cmd, range, *velocity, *angular)?,
+        }
+        Ok(false)
+    }
+
+    /// The backend's description, for the run log.
+    pub fn backend_description(&self) -> String {
+        self.backend.describe()
+    }
+}

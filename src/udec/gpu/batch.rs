@@ -1,0 +1,226 @@
+//! Batches of cycles on the device with no round trip inside one: the dispatches of a cycle
+//! (`law_of_motion`, which sums the block forces of the last cycle first, `contact_forces`,
+//! `end_cycle`; `gather_heavy` first where a free block has a long list) over grids that follow
+//! the live counts, encoded ten cycles a submission; then the flags (and, when asked, the state)
+//! read back in one round trip. The energy check's sums are taken on the device too
+//! (`energy_sums.wgsl`).
+
+use crate::udec::model::Model;
+
+use super::kernels::{self, Grid};
+use super::layout::{Block, Corner, EnergySum, Flags, Params, Real};
+use super::readback::pod_view;
+use super::{shaders, Engine, GpuError};
+
+/// One dispatch of a cycle: the stage's label, its pipeline, its bind group and its
+/// two-dimensional grid over the live counts; `indirect`: the grid in `Buffers::dispatch_args`
+/// that a batch launches it with (None for `end_cycle`, launched directly).
+pub(crate) struct Dispatch<'a> {
+    pub label: &'static str,
+    pub pipeline: &'a wgpu::ComputePipeline,
+    pub bind_group: &'a wgpu::BindGroup,
+    pub grid: (u32, u32),
+    pub indirect: Option<Grid>,
+}
+
+/// Cycles encoded per submission inside a batch: the GPU starts on the first ones while the CPU
+/// encodes the rest.
+pub(super) const CYCLES_PER_SUBMIT: u64 = 10;
+
+impl<R: Real> Engine<R> {
+    /// The dispatches of one cycle over the live counts; with `gather_only`, stage 6 alone, its
+    /// sums stored on the blocks (fixed ones too). Stages with nothing to do are left out.
+    ///
+    /// A cycle runs stage 6 of the last cycle inside `law_of_motion`, as the CPU does (one pass
+    /// over the blocks, the sums never stored), after `gather_heavy` has summed and stored the
+    /// long lists of free blocks.
+    pub(crate) fn stages(&self, gather_only: bool) -> Vec<Dispatch<'_>> {
+        let p = &self.pipelines;
+        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
+        let cycle = |label, pipeline, bind_group, g: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) };
+        let mut stages = Vec::with_capacity(4);
+        if gather_only {
+            stages.push(cycle("gather", &p.gather.pipeline, &bg.gather, Grid::Blocks));
+        }
+        if self.heavy_blocks(gather_only) > 0 {
+            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
+        }
+        if !gather_only {
+            stages.push(cycle("law_of_motion", &p.law_of_motion.pipeline, &bg.law_of_motion, Grid::Blocks));
+            stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
+            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
+            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+        }
+        stages.retain(|d| d.grid.0 > 0);
+        stages
+    }
+
+    /// The grid of `g` over the live counts: one invocation per block or contact, one workgroup
+    /// per heavy block the pass gathers.
+    pub(super) fn grid(&self, g: Grid, gather_only: bool) -> (u32, u32) {
+        let items = |n: usize| shaders::dispatch_grid((n as u32).div_ceil(shaders::workgroup_size()));
+        match g {
+            Grid::Blocks => items(self.counts.0),
+            Grid::Contacts => items(self.counts.2),
+            Grid::HeavyBlocks => shaders::dispatch_grid(self.heavy_blocks(gather_only) as u32),
+        }
+    }
+
+    /// Heavy blocks a pass gathers: the free ones in a cycle, all (fixed ones too) in the pass
+    /// before a read-back.
+    pub(super) fn heavy_blocks(&self, gather_only: bool) -> usize {
+        if gather_only {
+            self.n_heavy
+        } else {
+            self.n_heavy_free
+        }
+    }
+
+    /// The run constant that differs between a cycle and a gather-only pass: how many heavy
+    /// blocks `gather_heavy` sums, the free ones or all (queued; the pass's dispatches follow).
+    pub(crate) fn write_pass_params(&self, gather_only: bool) {
+        let (b, q) = (self.buffers(), &self.dev.queue);
+        q.write_buffer(&b.params, std::mem::offset_of!(Params<R>, n_heavy) as u64, bytemuck::bytes_of(&(self.heavy_blocks(gather_only) as u32)));
+    }
+
+    /// Runs `cycles` cycles (or fewer, if a kernel raises a flag) with no round trip; returns the
+    /// flags. With `gather_only`, runs stage 6 alone over every block, fixed ones too, and stores
+    /// the sums (before a read-back or the energy check). Each submission holds one compute
+    /// pass of `CYCLES_PER_SUBMIT` cycles (wgpu orders the dispatches inside it), with a debug
+    /// group per stage so that tools and errors name it.
+    pub(super) fn run_batch(&self, cycles: u64, gather_only: bool) -> Result<Flags, GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
+        self.submit_batch(cycles, gather_only)?;
+        if gather_only {
+            // Nothing raises a flag in a gather; the next wait covers it.
+            return Ok(Flags::cleared());
+        }
+        let b = self.buffers();
+        let bytes = self.dev.read_buffer(&b.flags, std::mem::size_of::<Flags>() as u64)?;
+        Ok(bytemuck::pod_read_unaligned(&bytes))
+    }
+
+    /// Submits the passes of `run_batch` without waiting for them.
+    pub(super) fn submit_batch(&self, cycles: u64, gather_only: bool) -> Result<(), GpuError> {
+        let b = self.buffers();
+        let q = &self.dev.queue;
+        q.write_buffer(&b.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
+        // The grids of the indirect dispatches, which end_cycle zeroes when it halts the batch.
+        let args: Vec<u32> = Grid::ALL
+            .iter()
+            .flat_map(|&g| {
+                let (x, y) = self.grid(g, gather_only);
+                [x, y, 1]
+            })
+            .collect();
+        q.write_buffer(&b.dispatch_args, 0, bytemuck::cast_slice(&args));
+        self.write_pass_params(gather_only);
+        let stages = self.stages(gather_only);
+        let scope = self.dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut left = cycles.max(1);
+        while left > 0 {
+            let n = left.min(CYCLES_PER_SUBMIT);
+            left -= n;
+            let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("cycles") });
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("cycles"), timestamp_writes: None });
+                // The bind group changes only around end_cycle's own: set it when it changes.
+                let mut bound: Option<&wgpu::BindGroup> = None;
+                for _ in 0..n {
+                    for d in &stages {
+                        pass.push_debug_group(d.label);
+                        pass.set_pipeline(d.pipeline);
+                        if !bound.is_some_and(|g| std::ptr::eq(g, d.bind_group)) {
+                            pass.set_bind_group(0, d.bind_group, &[]);
+                            bound = Some(d.bind_group);
+                        }
+                        match d.indirect {
+                            Some(g) => pass.dispatch_workgroups_indirect(&b.dispatch_args, g.offset()),
+                            None => pass.dispatch_workgroups(d.grid.0, d.grid.1, 1),
+                        }
+                        pass.pop_debug_group();
+                    }
+                }
+            }
+            q.submit([enc.finish()]);
+        }
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Device(format!("a cycle was rejected: {e}")));
+        }
+        Ok(())
+    }
+
+    /// Runs a batch and reads back its flags together with the whole state, in one round trip;
+    /// the state goes into the model only when stage 7 is due. For runs whose contacts change
+    /// every few cycles (a projectile), where a batch that stops for a contact update would
+    /// otherwise cost a second round trip for the state. Returns the flags and whether the model
+    /// now holds the state.
+    ///
+    /// `packed`: the contacts come back as `ContactSummary` records (`pack_contacts`), not whole.
+    pub(super) fn run_batch_with_state(&mut self, cycles: u64, model: &mut Model, packed: bool) -> Result<(Flags, bool), GpuError> {
+        let _p = crate::profile::scope(crate::profile::Stage::GpuBatches);
+        self.submit_batch(cycles, false)?;
+        if packed {
+            self.pack_contacts()?;
+        } else {
+            self.place_contact_points()?;
+        }
+        let (nb, nc, _) = self.counts;
+        let b = self.buffers();
+        let [contacts, forces] = self.contacts_parts(packed);
+        let parts = [
+            (&b.flags, std::mem::size_of::<Flags>() as u64),
+            (&b.blocks.buffer, (nb * std::mem::size_of::<Block<R>>()) as u64),
+            (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64),
+            contacts,
+            forces,
+        ];
+        let up = self.uploaded.clone();
+        let (flags, blocks) = self.dev.read_parts(&parts, |bytes| {
+            let flags: Flags = bytemuck::pod_read_unaligned(bytes[0]);
+            if flags.update_due == 0 || flags.errors != 0 {
+                return (flags, None);
+            }
+            let _p = crate::profile::scope(crate::profile::Stage::Download);
+            let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[1]);
+            Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[2]), &up, model);
+            Self::convert_contacts_read(&bytes[3..], packed, &up, model);
+            (flags, Some(blocks))
+        })?;
+        let read = blocks.is_some();
+        if let Some(blocks) = blocks {
+            self.last_blocks = blocks;
+        }
+        Ok((flags, read))
+    }
+
+    /// The energy check's sums on the device: (kinetic, strain, external work) of the state now,
+    /// the per-workgroup sums read back and added in order in f64. The kinetic energy at time t
+    /// takes half a step of the forces the contact stage left, which the cycle has not summed
+    /// yet: a gather pass stores them first.
+    pub(super) fn energy_sums(&self) -> Result<(f64, f64, f64), GpuError> {
+        let Some(b) = self.buffers.as_ref() else {
+            return Err(GpuError::Setup("no state on the device: run some cycles first".into()));
+        };
+        self.submit_batch(1, true)?;
+        let bg = &self.bind_groups.as_ref().expect("bind groups built on upload").energy_sums;
+        let (x, y) = kernels::energy_grid(self.counts.0, self.counts.2);
+        let groups = (x * y) as usize;
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy check") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("energy_sums"), timestamp_writes: None });
+            pass.set_pipeline(&self.pipelines.energy_sums.pipeline);
+            pass.set_bind_group(0, bg, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        self.dev.queue.submit([enc.finish()]);
+        let sums: Vec<EnergySum<R>> = self.read(&b.energy_sums.buffer, groups)?;
+        let (mut kinetic, mut strain, mut work) = (0.0, 0.0, 0.0);
+        for s in &sums {
+            kinetic += s.kinetic.to_f64();
+            strain += s.strain.to_f64();
+            work += s.work.to_f64();
+        }
+        Ok((kinetic, strain, self.uploaded.work_base + work))
+    }
+}

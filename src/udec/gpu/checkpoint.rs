@@ -1,0 +1,129 @@
+//! The last good state: a device-side copy of the state buffers taken when an energy check
+//! passes, and on the CPU the model it belongs to (its contacts as identities only when a contact
+//! update came after the last whole copy). Read back only when a run fails, so the caller gets
+//! the state of the last check (DESIGN.md: a numerical failure leaves the last good state).
+
+use crate::udec::contact::gather;
+use crate::udec::model::Model;
+use crate::udec::topology::Adjacency;
+use rayon::prelude::*;
+
+use super::layout::{Block, Contact, ContactForce, Corner, Real};
+use super::readback::StateBuffers;
+use super::{Engine, GpuError, Uploaded};
+
+/// What the device does not hold of a contact: its identity, material and constitutive model.
+/// Between whole copies, the last good state keeps its contact list as these (24 bytes a contact
+/// where a model contact takes 144); a restore rebuilds the contacts from them and fills in their
+/// state from the device checkpoint (`Engine::restore_checkpoint`).
+#[derive(Clone, Copy)]
+pub(super) struct ContactIdentity {
+    pub(super) id: u32,
+    pub(super) block1: u32,
+    pub(super) corner: u32,
+    pub(super) block2: u32,
+    pub(super) material: u32,
+    pub(super) constitutive: u32,
+}
+
+impl ContactIdentity {
+    pub(super) fn of(c: &crate::udec::model::Contact) -> Self {
+        ContactIdentity { id: c.id, block1: c.block1, corner: c.corner, block2: c.block2, material: c.material, constitutive: c.constitutive }
+    }
+
+    /// The contact with this identity, its state zero until a read-back fills it.
+    pub(super) fn contact(self) -> crate::udec::model::Contact {
+        let ContactIdentity { id, block1, corner, block2, material, constitutive } = self;
+        crate::udec::model::Contact::identity(id, block1, corner, block2, material, constitutive)
+    }
+}
+
+/// The last good state on the device: copies of the state buffers taken right after an energy
+/// check passed (device-to-device, no read-back), with the counts and bases they were taken
+/// under. The CPU side of the checkpoint (topology, ids) is the `Model` the run keeps.
+pub(super) struct Checkpoint {
+    pub(super) blocks: wgpu::Buffer,
+    pub(super) corners: wgpu::Buffer,
+    pub(super) contacts: wgpu::Buffer,
+    /// The contacts' gather records (their forces).
+    pub(super) forces: wgpu::Buffer,
+    pub(super) counts: (usize, usize, usize),
+    pub(super) uploaded: std::rc::Rc<Uploaded>,
+    /// Whether it holds a state of the current run (the buffers are kept from run to run: a
+    /// 10⁶-block model's copy is a gigabyte to allocate).
+    pub(super) valid: bool,
+}
+
+impl<R: Real> Engine<R> {
+    /// Copies the live state into the checkpoint buffers on the device (queued; no wait).
+    pub(super) fn take_checkpoint(&mut self) {
+        let _p = crate::profile::scope(crate::profile::Stage::Checks);
+        let b = self.buffers.as_ref().expect("buffers exist");
+        let (nb, nc, nk) = self.counts;
+        let sizes = [
+            (nb * std::mem::size_of::<Block<R>>()) as u64,
+            (nc * std::mem::size_of::<Corner<R>>()) as u64,
+            (nk * std::mem::size_of::<Contact<R>>()) as u64,
+            (nk * std::mem::size_of::<ContactForce<R>>()) as u64,
+        ];
+        let fits = self
+            .checkpoint
+            .as_ref()
+            .is_some_and(|c| c.blocks.size() >= sizes[0] && c.corners.size() >= sizes[1] && c.contacts.size() >= sizes[2] && c.forces.size() >= sizes[3]);
+        if !fits {
+            let make = |label: &str, size: u64| {
+                self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: size.max(16),
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                })
+            };
+            self.checkpoint = Some(Checkpoint {
+                blocks: make("checkpoint blocks", b.blocks.buffer.size()),
+                corners: make("checkpoint corners", b.corners.buffer.size()),
+                contacts: make("checkpoint contacts", b.contacts.buffer.size()),
+                forces: make("checkpoint contact forces", b.contact_forces.buffer.size()),
+                counts: self.counts,
+                uploaded: self.uploaded.clone(),
+                valid: false,
+            });
+        }
+        let ck = self.checkpoint.as_mut().expect("made above");
+        ck.valid = true;
+        ck.counts = self.counts;
+        ck.uploaded = self.uploaded.clone();
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("checkpoint") });
+        self.encode_contact_points(&mut enc);
+        let b = self.buffers.as_ref().expect("buffers exist");
+        let ck = self.checkpoint.as_ref().expect("made above");
+        let pairs =
+            [(&b.blocks.buffer, &ck.blocks), (&b.corners.buffer, &ck.corners), (&b.contacts.buffer, &ck.contacts), (&b.contact_forces.buffer, &ck.forces)];
+        for ((src, dst), size) in pairs.into_iter().zip(sizes) {
+            if size > 0 {
+                enc.copy_buffer_to_buffer(src, 0, dst, 0, size);
+            }
+        }
+        self.dev.queue.submit([enc.finish()]);
+    }
+
+    /// Puts the device checkpoint's state into `model` (the CPU copy taken at that checkpoint),
+    /// and sums the fixed blocks' forces on the CPU. (The checkpoint is copied after the energy
+    /// check's gather pass, which stores every block's sums, fixed ones too; summing them here
+    /// keeps a restore right whatever pass ran before the copy: the cycle itself stores none.)
+    pub(super) fn restore_checkpoint(&self, model: &mut Model) -> Result<(), GpuError> {
+        let Some(ck) = self.checkpoint.as_ref().filter(|c| c.valid) else { return Ok(()) };
+        if let Some(identities) = &self.last_good_contacts {
+            model.contacts = identities.par_iter().map(|c| c.contact()).collect();
+        }
+        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, counts: ck.counts };
+        self.read_state(&src, &ck.uploaded, model)?;
+        let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+        let gravity = model.gravity;
+        let forces: Vec<gather::ContactForce> = model.contacts.iter().map(gather::ContactForce::from).collect();
+        for (b, block) in model.blocks.iter_mut().enumerate().filter(|(_, blk)| blk.fixed) {
+            gather::gather(block, &forces, adjacency.entries(b), gravity);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,616 @@
+//! Kernels apart from state (STYLE.md item 3): `Pipelines` holds one compute pipeline per entry
+//! point, named after it; `Buffers` holds the storage buffers.
+//!
+//! The cycle's kernels declare the state's bindings once (`shaders/udec/common.wgsl`, group 0, the
+//! slots of [`StateSlot`]), and each binds only the slots its entry point uses: naga reads them
+//! off the validated module when the pipeline is made ([`CycleKernel`]), and each kernel has a
+//! bind group layout and a bind group of its own ([`CycleBindGroups`]). So the per-stage
+//! storage-buffer limit (8 by DESIGN.md §3, 16 on GL) counts one kernel's buffers, not the
+//! union of every stage's: a new stage or array (a deformable block's stress, zones, fluid
+//! domains) adds slots that only its kernels bind, and a scene without it binds and dispatches
+//! nothing of it. `end_cycle` (the flags and the grids of the indirect dispatches),
+//! `splice_contacts` and `pack_contacts` have layouts of their own.
+
+use super::device::GpuDevice;
+use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
+use super::shaders;
+use crate::gpu::wgsl::{layouts, storage, uniform};
+use crate::gpu::{GpuError, Precision};
+
+/// The state's bindings as `shaders/udec/common.wgsl` declares them (group 0; binding = the
+/// discriminant). A test checks this table against the WGSL declarations through naga.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum StateSlot {
+    Params = 0,
+    Blocks = 1,
+    Corners = 2,
+    Contacts = 3,
+    Materials = 4,
+    AdjOffsets = 5,
+    AdjEntries = 6,
+    Flags = 7,
+    ContactForces = 8,
+    EnergySums = 9,
+}
+
+/// How a slot is bound: a uniform, or a storage buffer read only or read and written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotKind {
+    Uniform,
+    StorageRead,
+    StorageReadWrite,
+}
+
+impl StateSlot {
+    pub const ALL: [StateSlot; 10] = [
+        StateSlot::Params,
+        StateSlot::Blocks,
+        StateSlot::Corners,
+        StateSlot::Contacts,
+        StateSlot::Materials,
+        StateSlot::AdjOffsets,
+        StateSlot::AdjEntries,
+        StateSlot::Flags,
+        StateSlot::ContactForces,
+        StateSlot::EnergySums,
+    ];
+
+    pub fn binding(self) -> u32 {
+        self as u32
+    }
+
+    /// The slot of a binding number, if the state has one there.
+    pub fn of_binding(binding: u32) -> Option<StateSlot> {
+        Self::ALL.get(binding as usize).copied()
+    }
+
+    /// The WGSL variable of the slot in common.wgsl.
+    pub fn wgsl_name(self) -> &'static str {
+        match self {
+            StateSlot::Params => "params",
+            StateSlot::Blocks => "blocks",
+            StateSlot::Corners => "corners",
+            StateSlot::Contacts => "contacts",
+            StateSlot::Materials => "materials",
+            StateSlot::AdjOffsets => "adj_offsets",
+            StateSlot::AdjEntries => "adj_entries",
+            StateSlot::Flags => "flags",
+            StateSlot::ContactForces => "contact_forces_out",
+            StateSlot::EnergySums => "energy_sums_out",
+        }
+    }
+
+    pub fn kind(self) -> SlotKind {
+        match self {
+            StateSlot::Params | StateSlot::Materials => SlotKind::Uniform,
+            StateSlot::AdjOffsets | StateSlot::AdjEntries => SlotKind::StorageRead,
+            _ => SlotKind::StorageReadWrite,
+        }
+    }
+
+    fn layout_entry(self) -> wgpu::BindGroupLayoutEntry {
+        match self.kind() {
+            SlotKind::Uniform => uniform(self.binding()),
+            SlotKind::StorageRead => storage(self.binding(), true),
+            SlotKind::StorageReadWrite => storage(self.binding(), false),
+        }
+    }
+}
+
+/// The state slots the entry point `entry` of a validated cycle kernel uses (reads, writes or
+/// queries the length of), ascending: what its bind group must hold, and all it may hold. naga's
+/// analysis of an entry point includes the globals of the functions it calls.
+pub fn used_slots(module: &naga::Module, info: &naga::valid::ModuleInfo, entry: &str) -> Result<Vec<StateSlot>, String> {
+    let index = module.entry_points.iter().position(|e| e.name == entry).ok_or_else(|| format!("no entry point {entry}"))?;
+    let uses = info.get_entry_point(index);
+    let mut slots = Vec::new();
+    for (handle, var) in module.global_variables.iter() {
+        let Some(binding) = &var.binding else { continue };
+        if uses[handle].is_empty() {
+            continue;
+        }
+        let slot = StateSlot::of_binding(binding.binding).filter(|_| binding.group == 0).ok_or_else(|| {
+            format!("{entry} uses binding {}:{} ({}), which is no state slot", binding.group, binding.binding, var.name.as_deref().unwrap_or("?"))
+        })?;
+        slots.push(slot);
+    }
+    slots.sort();
+    Ok(slots)
+}
+
+/// A kernel of the cycle: its pipeline and the state slots it binds, with their layout.
+pub struct CycleKernel {
+    pub pipeline: wgpu::ComputePipeline,
+    pub slots: Vec<StateSlot>,
+    pub layout: wgpu::BindGroupLayout,
+}
+
+/// One bind group per cycle kernel, each of the buffers that kernel uses (made with the
+/// buffers, again whenever one is re-created or the contact pairs change places).
+pub struct CycleBindGroups {
+    pub law_of_motion: wgpu::BindGroup,
+    pub contact_forces: wgpu::BindGroup,
+    pub contact_points: wgpu::BindGroup,
+    pub gather: wgpu::BindGroup,
+    pub gather_heavy: wgpu::BindGroup,
+    pub energy_sums: wgpu::BindGroup,
+}
+
+impl CycleBindGroups {
+    pub fn new(dev: &GpuDevice, p: &Pipelines, b: &Buffers) -> Self {
+        let make = |k: &CycleKernel, label: &str| b.kernel_bind_group(dev, k, label);
+        CycleBindGroups {
+            law_of_motion: make(&p.law_of_motion, "law_of_motion"),
+            contact_forces: make(&p.contact_forces, "contact_forces"),
+            contact_points: make(&p.contact_points, "contact_points"),
+            gather: make(&p.gather, "gather"),
+            gather_heavy: make(&p.gather_heavy, "gather_heavy"),
+            energy_sums: make(&p.energy_sums, "energy_sums"),
+        }
+    }
+}
+
+/// One compute pipeline per entry point; each entry point is in the WGSL file of the same name.
+pub struct Pipelines {
+    /// Stages 1 and 2 (the invocation that moves a block places its corners).
+    pub law_of_motion: CycleKernel,
+    pub contact_forces: CycleKernel,
+    /// `contact_points` in contact_forces.wgsl: the contacts' points and normals, which the
+    /// cycle does not store, placed before a read-back or checkpoint of whole contacts.
+    pub contact_points: CycleKernel,
+    pub gather: CycleKernel,
+    /// `end_cycle.wgsl`, with its own bindings (the flags and the dispatch grids it zeroes on a
+    /// halt, `Buffers::end_cycle_bind_group`).
+    pub end_cycle: wgpu::ComputePipeline,
+    pub end_cycle_layout: wgpu::BindGroupLayout,
+    pub energy_sums: CycleKernel,
+    pub gather_heavy: CycleKernel,
+    /// `splice_contacts.wgsl`, with its own bindings (`splice_bind_group`).
+    pub splice_contacts: wgpu::ComputePipeline,
+    /// Its second entry, `patch_contacts`, on the same bindings.
+    pub patch_contacts: wgpu::ComputePipeline,
+    /// `splice_adjacency.wgsl`'s two entries, on bindings of their own (`adjacency_layout`).
+    pub splice_adjacency: wgpu::ComputePipeline,
+    pub shift_offsets: wgpu::ComputePipeline,
+    pub adjacency_layout: wgpu::BindGroupLayout,
+    pub splice_layout: wgpu::BindGroupLayout,
+    /// `pack_contacts.wgsl`, with its own bindings (the contacts, the summaries).
+    pub pack_contacts: wgpu::ComputePipeline,
+    pub pack_layout: wgpu::BindGroupLayout,
+    /// `list_blocks.wgsl` (`list_blocks`, `list_contacts`), with their own bindings (`ListBuffers`).
+    pub list_blocks: wgpu::ComputePipeline,
+    pub list_contacts: wgpu::ComputePipeline,
+    pub lists_layout: wgpu::BindGroupLayout,
+}
+
+impl Pipelines {
+    /// Validates every kernel with naga first (clear errors), then builds the pipelines inside
+    /// validation and internal error scopes, so a driver's rejection is an error value at set-up,
+    /// not a panic or a failure at the first cycle. (NVIDIA's GL through EGL gives wgpu 30 a GL
+    /// 3.3 context that advertises compute shaders, and its shader translation then refuses every
+    /// kernel with an *internal* error: seen on an H100, 2026-11-26.)
+    pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        let device = &dev.device;
+        let internal = device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let layouts = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| layouts(device, label, entries);
+        // The splice's bindings: the old list and records, the runs, the created contacts and
+        // records (read), the new list and records (written), the patches (read).
+        let (splice_layout, splice_pipeline_layout) = layouts(
+            "blockdem splice",
+            &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, true), storage(5, false), storage(6, false), storage(7, true)],
+        );
+        // The adjacency's edit: the old entries, runs, new lists and renumbering (read), the new
+        // entries and the offsets (written), the touched lists (read).
+        let (adjacency_layout, adjacency_pipeline_layout) = layouts(
+            "blockdem adjacency",
+            &[storage(0, true), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, true)],
+        );
+        let (pack_layout, pack_pipeline_layout) = layouts("blockdem pack", &[storage(0, true), storage(1, false)]);
+        // Stage 7's lists: the constants, blocks, contacts and grid reference (read), the header
+        // and the two lists (written).
+        let (lists_layout, lists_pipeline_layout) = layouts(
+            "blockdem update lists",
+            &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, false)],
+        );
+        // End of cycle: the flags (binding 7, as in common.wgsl) and the dispatch grids (10).
+        let (end_cycle_layout, end_cycle_pipeline_layout) = layouts("blockdem end_cycle", &[storage(7, false), storage(10, false)]);
+        // `entry` in the kernel file `name`.wgsl, on `layout`.
+        let make_on = |layout: &wgpu::PipelineLayout, name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
+            let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+            shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
+            Ok(device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            }))
+        };
+        // A cycle kernel: `entry` in `name`.wgsl on a layout of the state slots it uses.
+        let make_entry = |name: &str, entry: &str| -> Result<CycleKernel, GpuError> {
+            let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+            let (module, info) = shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+            let slots = used_slots(&module, &info, entry).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+            let entries: Vec<wgpu::BindGroupLayoutEntry> = slots.iter().map(|s| s.layout_entry()).collect();
+            let (layout, pipeline_layout) = layouts(entry, &entries);
+            Ok(CycleKernel { pipeline: make_on(&pipeline_layout, name, entry)?, slots, layout })
+        };
+        let make = |name: &str| make_entry(name, name);
+        let pipelines = Pipelines {
+            law_of_motion: make("law_of_motion")?,
+            contact_forces: make("contact_forces")?,
+            contact_points: make_entry("contact_forces", "contact_points")?,
+            gather: make("gather")?,
+            end_cycle: make_on(&end_cycle_pipeline_layout, "end_cycle", "end_cycle")?,
+            end_cycle_layout,
+            energy_sums: make("energy_sums")?,
+            gather_heavy: make_entry("gather", "gather_heavy")?,
+            splice_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "splice_contacts")?,
+            patch_contacts: make_on(&splice_pipeline_layout, "splice_contacts", "patch_contacts")?,
+            splice_adjacency: make_on(&adjacency_pipeline_layout, "splice_adjacency", "splice_adjacency")?,
+            shift_offsets: make_on(&adjacency_pipeline_layout, "splice_adjacency", "shift_offsets")?,
+            adjacency_layout,
+            splice_layout,
+            pack_contacts: make_on(&pack_pipeline_layout, "pack_contacts", "pack_contacts")?,
+            pack_layout,
+            list_blocks: make_on(&lists_pipeline_layout, "list_blocks", "list_blocks")?,
+            list_contacts: make_on(&lists_pipeline_layout, "list_blocks", "list_contacts")?,
+            lists_layout,
+        };
+        let rejected = [pollster::block_on(scope.pop()), pollster::block_on(internal.pop())];
+        if let Some(e) = rejected.into_iter().flatten().next() {
+            return Err(GpuError::Shader(format!(
+                "the driver of {} ({} {}) rejected a kernel: {e}",
+                dev.summary.name, dev.summary.backend, dev.summary.driver_info
+            )));
+        }
+        Ok(pipelines)
+    }
+}
+
+/// A storage buffer with room for `capacity` items.
+pub struct Slab {
+    pub buffer: wgpu::Buffer,
+    pub capacity: usize,
+}
+
+/// The GPU state of a run.
+pub struct Buffers {
+    pub params: wgpu::Buffer,
+    pub blocks: Slab,
+    pub corners: Slab,
+    pub contacts: Slab,
+    /// `ContactForce` per contact: what the gather sums.
+    pub contact_forces: Slab,
+    /// The material table, a uniform of `MAX_MATERIALS` entries.
+    pub materials: wgpu::Buffer,
+    pub adj_offsets: Slab,
+    pub adj_entries: Slab,
+    pub flags: wgpu::Buffer,
+    /// The grids of the cycle's indirect dispatches, (x, y, z) for each of `Grid`; written at the
+    /// start of each batch, zeroed by `end_cycle` when it halts the batch.
+    pub dispatch_args: wgpu::Buffer,
+    /// One `EnergySum` per workgroup of the energy check.
+    pub energy_sums: Slab,
+    /// The other pair of contact and gather-record buffers, which `splice_contacts` writes the
+    /// new list into before the two pairs change places (made at the first splice).
+    pub spare_contacts: Option<(Slab, Slab)>,
+    /// Likewise the adjacency entries' other buffer, which `splice_adjacency` writes.
+    pub spare_entries: Option<Slab>,
+    /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
+    pub summaries: Option<Slab>,
+}
+
+/// The largest storage binding this device may hold: the adapter's own limit (128 MiB on Mesa's
+/// software adapters, 2 GiB on NVIDIA's Vulkan driver), within its largest buffer.
+pub fn binding_cap(dev: &GpuDevice) -> u64 {
+    dev.summary.max_storage_buffer_binding_size.min(dev.summary.max_buffer_size)
+}
+
+/// Why a buffer cannot be made, with advice that fits the run: f32 halves most buffers; in f32
+/// only a smaller model (at most cap / item of these items), an adapter with larger bindings or
+/// the CPU backend helps.
+fn too_large(label: &str, need: u64, cap: u64, item: usize, precision: Precision) -> String {
+    let advice = match precision {
+        Precision::F64 => "use a smaller model or --precision f32 (about half the bytes)".to_string(),
+        Precision::F32 => format!(
+            "use a smaller model (at most {} {label} here), an adapter with larger bindings (hardware GPUs allow 2 GiB and more) or --backend cpu (no such limit)",
+            cap / item as u64
+        ),
+    };
+    format!("the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); {advice}")
+}
+
+/// Whether `count` items of `item` bytes fit one binding of `cap` bytes; if not, the error that
+/// making their buffer would give.
+pub(crate) fn check_fits(label: &str, item: usize, count: usize, cap: u64, precision: Precision) -> Result<(), GpuError> {
+    let need = (count.max(1) * item) as u64;
+    if need > cap {
+        return Err(GpuError::DoesNotFit(too_large(label, need, cap, item, precision)));
+    }
+    Ok(())
+}
+
+/// A uniform buffer of `size` bytes, written from the CPU.
+pub(crate) fn uniform_buffer(dev: &GpuDevice, label: &str, size: usize) -> wgpu::Buffer {
+    dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// The bind group entries of `buffers`, each whole, at bindings 0, 1, 2, … in order.
+pub(crate) fn whole_bindings<'a>(buffers: &[&'a wgpu::Buffer]) -> Vec<wgpu::BindGroupEntry<'a>> {
+    buffers.iter().enumerate().map(|(i, buffer)| wgpu::BindGroupEntry { binding: i as u32, resource: buffer.as_entire_binding() }).collect()
+}
+
+/// Makes sure the optional buffer `slot` holds `count` items of `item` bytes (its contents are
+/// not kept: the old buffer goes first, so that the two are never held at once).
+fn ensure_slot(dev: &GpuDevice, slot: &mut Option<Slab>, label: &str, item: usize, count: usize) -> Result<(), GpuError> {
+    if slot.as_ref().is_none_or(|s| s.capacity < count) {
+        *slot = None;
+        *slot = Some(slab(dev, label, item, count)?);
+    }
+    Ok(())
+}
+
+pub(crate) fn slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
+    let cap = binding_cap(dev);
+    check_fits(label, item, count, cap, dev.precision)?;
+    // Room to grow (contacts come and go) without re-creating the buffer every update: a quarter
+    // more, within the cap.
+    let capacity = ((count.max(1) as u64 * 5 / 4).min(cap / item as u64) as usize).max(count.max(1));
+    let size = (capacity * item) as u64;
+    let buffer = dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    Ok(Slab { buffer, capacity })
+}
+
+impl Buffers {
+    pub fn new<R: Real>(dev: &GpuDevice, blocks: usize, corners: usize, contacts: usize) -> Result<Self, GpuError> {
+        let params = uniform_buffer(dev, "params", std::mem::size_of::<Params<R>>());
+        let flags = dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("flags"),
+            size: std::mem::size_of::<Flags>() as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let dispatch_args = dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("dispatch grids"),
+            size: (Grid::ALL.len() * 12) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let materials = uniform_buffer(dev, "materials", crate::udec::model::MAX_MATERIALS * std::mem::size_of::<Material<R>>());
+        Ok(Buffers {
+            params,
+            blocks: slab(dev, "blocks", std::mem::size_of::<Block<R>>(), blocks)?,
+            corners: slab(dev, "corners", std::mem::size_of::<Corner<R>>(), corners)?,
+            contacts: slab(dev, "contacts", std::mem::size_of::<Contact<R>>(), contacts)?,
+            contact_forces: slab(dev, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts)?,
+            materials,
+            adj_offsets: slab(dev, "adjacency offsets", 4, blocks + 1)?,
+            adj_entries: slab(dev, "adjacency entries", 4, 2 * contacts)?,
+            flags,
+            dispatch_args,
+            energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
+            spare_contacts: None,
+            spare_entries: None,
+            summaries: None,
+        })
+    }
+
+    /// Grows `which` to hold `count` items of `item` bytes; returns whether it was re-created
+    /// (the bind group must then be rebuilt).
+    pub fn ensure(dev: &GpuDevice, which: &mut Slab, label: &str, item: usize, count: usize) -> Result<bool, GpuError> {
+        if count <= which.capacity {
+            return Ok(false);
+        }
+        *which = slab(dev, label, item, count)?;
+        Ok(true)
+    }
+
+    /// Makes sure the spare pair holds `count` contacts (its contents are not kept).
+    pub fn ensure_spare<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
+        if self.spare_contacts.as_ref().is_some_and(|(c, f)| c.capacity >= count && f.capacity >= count) {
+            return Ok(());
+        }
+        // The old spare goes first, so the two are never held at once.
+        self.spare_contacts = None;
+        let contacts = slab(dev, "contacts (spare)", std::mem::size_of::<Contact<R>>(), count)?;
+        let forces = slab(dev, "contact forces (spare)", std::mem::size_of::<ContactForce<R>>(), count)?;
+        self.spare_contacts = Some((contacts, forces));
+        Ok(())
+    }
+
+    /// Makes sure the summaries buffer holds `count` contacts.
+    pub fn ensure_summaries<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
+        ensure_slot(dev, &mut self.summaries, "contact summaries", std::mem::size_of::<ContactSummary<R>>(), count)
+    }
+
+    /// Makes sure the spare adjacency entries hold `count` (its contents are not kept).
+    pub fn ensure_spare_entries(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
+        ensure_slot(dev, &mut self.spare_entries, "adjacency entries (spare)", 4, count)
+    }
+
+    /// The spare entries become the live ones (after `splice_adjacency` wrote into them).
+    pub fn swap_entries(&mut self) {
+        let entries = self.spare_entries.take().expect("spare entries to swap in");
+        self.spare_entries = Some(std::mem::replace(&mut self.adj_entries, entries));
+    }
+
+    /// The spare pair becomes the live contacts and records (after a splice wrote into it).
+    pub fn swap_contacts(&mut self) {
+        let (contacts, forces) = self.spare_contacts.take().expect("a spare pair to swap in");
+        let old_contacts = std::mem::replace(&mut self.contacts, contacts);
+        let old_forces = std::mem::replace(&mut self.contact_forces, forces);
+        self.spare_contacts = Some((old_contacts, old_forces));
+    }
+
+    /// `end_cycle`'s bindings: the flags and the dispatch grids (neither is ever re-created).
+    pub fn end_cycle_bind_group(&self, dev: &GpuDevice, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
+        dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("blockdem end_cycle"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 7, resource: self.flags.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 10, resource: self.dispatch_args.as_entire_binding() },
+            ],
+        })
+    }
+
+    /// The buffer of a state slot.
+    pub fn slot(&self, slot: StateSlot) -> &wgpu::Buffer {
+        match slot {
+            StateSlot::Params => &self.params,
+            StateSlot::Blocks => &self.blocks.buffer,
+            StateSlot::Corners => &self.corners.buffer,
+            StateSlot::Contacts => &self.contacts.buffer,
+            StateSlot::Materials => &self.materials,
+            StateSlot::AdjOffsets => &self.adj_offsets.buffer,
+            StateSlot::AdjEntries => &self.adj_entries.buffer,
+            StateSlot::Flags => &self.flags,
+            StateSlot::ContactForces => &self.contact_forces.buffer,
+            StateSlot::EnergySums => &self.energy_sums.buffer,
+        }
+    }
+
+    /// The bind group of one cycle kernel: the buffers of the slots it uses, nothing else.
+    pub fn kernel_bind_group(&self, dev: &GpuDevice, kernel: &CycleKernel, label: &str) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> =
+            kernel.slots.iter().map(|&s| wgpu::BindGroupEntry { binding: s.binding(), resource: self.slot(s).as_entire_binding() }).collect();
+        dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout: &kernel.layout, entries: &entries })
+    }
+}
+
+/// The grids of the cycle's indirect dispatches, in the order of `Buffers::dispatch_args`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Grid {
+    Blocks,
+    Contacts,
+    HeavyBlocks,
+}
+
+impl Grid {
+    pub const ALL: [Grid; 3] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks];
+
+    /// Byte offset of this grid's (x, y, z) in `Buffers::dispatch_args`.
+    pub fn offset(self) -> u64 {
+        self as u64 * 12
+    }
+}
+
+/// One pass of a topology kernel (`shaders::TOPOLOGY_KERNELS`, bindings of its own) over `n`
+/// items, submitted with no wait; a binding the driver rejects is an error value.
+pub fn dispatch_items(
+    dev: &GpuDevice,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    layout: &wgpu::BindGroupLayout,
+    entries: &[wgpu::BindGroupEntry],
+    n: usize,
+) -> Result<(), GpuError> {
+    dispatch_passes(dev, label, &[(pipeline, n)], layout, entries)
+}
+
+/// `dispatch_items` for several passes on one bind group, one after the other in one submission
+/// (a pass of no items is left out).
+pub fn dispatch_passes(
+    dev: &GpuDevice,
+    label: &str,
+    passes: &[(&wgpu::ComputePipeline, usize)],
+    layout: &wgpu::BindGroupLayout,
+    entries: &[wgpu::BindGroupEntry],
+) -> Result<(), GpuError> {
+    let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let bind_group = dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(label), layout, entries });
+    let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    for &(pipeline, n) in passes.iter().filter(|p| p.1 > 0) {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        let (x, y) = shaders::dispatch_grid(n.div_ceil(shaders::workgroup_size() as usize) as u32);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+    dev.queue.submit([enc.finish()]);
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(GpuError::Device(format!("{label} was rejected: {e}")));
+    }
+    Ok(())
+}
+
+/// The dispatch of the energy check: one invocation per `ENERGY_ITEMS` blocks and contacts,
+/// whichever are more.
+pub fn energy_grid(blocks: usize, contacts: usize) -> (u32, u32) {
+    let per_group = (shaders::workgroup_size() * shaders::ENERGY_ITEMS) as usize;
+    shaders::dispatch_grid(blocks.max(contacts).div_ceil(per_group).max(1) as u32)
+}
+
+/// Workgroups of the energy check, whole rows of its grid (each workgroup writes one sum).
+pub fn energy_groups(blocks: usize, contacts: usize) -> usize {
+    let (x, y) = energy_grid(blocks, contacts);
+    (x * y) as usize
+}
+
+/// Rust twin of the WGSL `sin_cos` (common.wgsl), in f64: (cos θ, sin θ) by reduction to
+/// |r| ≤ π/4 and Taylor series, with + − × only. The f64 kernels' π/2 split (the prelude's
+/// PIO2_*; the f32 kernels split it in three parts of fewer bits).
+pub fn sin_cos(theta: f64) -> (f64, f64) {
+    // 2/π in f32, as the WGSL literal rounds to: the quadrant k is found in f32 there too.
+    let k = ((theta as f32) * std::f32::consts::FRAC_2_PI).round() as i32;
+    let kr = k as f64;
+    let r = (theta - kr * 1.570_796_326_734_125_6) - kr * 6.077_100_506_506_192e-11;
+    let r2 = r * r;
+    let s = r
+        * (1.0
+            + r2 * (-1.0 / 6.0
+                + r2 * (1.0 / 120.0
+                    + r2 * (-1.0 / 5040.0
+                        + r2 * (1.0 / 362880.0
+                            + r2 * (-1.0 / 39916800.0 + r2 * (1.0 / 6227020800.0 + r2 * (-1.0 / 1307674368000.0 + r2 * (1.0 / 355687428096000.0)))))))));
+    let c = 1.0
+        + r2 * (-0.5
+            + r2 * (1.0 / 24.0
+                + r2 * (-1.0 / 720.0
+                    + r2 * (1.0 / 40320.0
+                        + r2 * (-1.0 / 3628800.0 + r2 * (1.0 / 479001600.0 + r2 * (-1.0 / 87178291200.0 + r2 * (1.0 / 20922789888000.0))))))));
+    match k & 3 {
+        0 => (c, s),
+        1 => (-s, c),
+        2 => (-c, -s),
+        _ => (s, -c),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A model too large for one binding is refused with advice that fits the run: f32 only where
+    /// the run is in f64, and in f32 how many items the adapter's binding holds.
+    #[test]
+    fn a_buffer_past_the_binding_limit_gets_advice_for_its_precision() {
+        let cap = 134_217_728;
+        let f32_msg = too_large("corners", 160_000_560, cap, 40, Precision::F32);
+        assert!(f32_msg.contains("160000560 bytes") && f32_msg.contains("(134217728 bytes)"), "{f32_msg}");
+        assert!(f32_msg.contains("at most 3355443 corners here") && !f32_msg.contains("--precision f32"), "{f32_msg}");
+        let f64_msg = too_large("contacts", 960_000_000, cap, 120, Precision::F64);
+        assert!(f64_msg.contains("--precision f32"), "{f64_msg}");
+        // The check a run makes before its full detection gives the same refusal, and passes
+        // what fits.
+        match check_fits("corners", 40, 4_000_014, cap, Precision::F32) {
+            Err(GpuError::DoesNotFit(m)) => assert!(m.contains("160000560 bytes") && m.contains("at most 3355443 corners here"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+        assert!(check_fits("corners", 40, 3_355_443, cap, Precision::F32).is_ok());
+    }
+}

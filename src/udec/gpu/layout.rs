@@ -1,0 +1,248 @@
+//! GPU state: flat storage buffers of `#[repr(C)]` Pod structs, defined once here and mirrored in
+//! `shaders/udec/layout.wgsl` (DESIGN.md §2). A test reads the WGSL structs through naga's layouter and
+//! checks every size and offset against these.
+//!
+//! Each struct is generic over the kernel precision `R` (f32 or f64, the WGSL `real` alias) and is
+//! laid out as all `real` fields first, then an even number of `u32` words. That rule gives the
+//! same layout in WGSL and Rust with no implicit padding in either precision (no vectors in
+//! storage, so no vec2/vec3 alignment surprises).
+//!
+//! Hot state only (STYLE.md item 5): names, ids and topology stay in the CPU `Model`.
+
+pub use crate::gpu::real::{Real, StructLayout};
+use crate::gpu_struct;
+
+gpu_struct! {
+    /// One rigid block: 120 bytes in f32, 224 in f64. The centroid is kept relative to the run's
+    /// origin as a compensated pair (`cx + cx_lo`), so that small increments added to a large
+    /// coordinate are not lost in f32 (Kahan summation, law_of_motion.wgsl). In f32 the rotation
+    /// is the angle the corners are placed at, a multiple of `shaders::ROTATION_STEP`, plus the
+    /// turn since (`rotation_lo`), applied by the contact stage (`shaders::split_rotation`); in
+    /// f64 it is the rotation, and `rotation_lo` is 0.
+    Block {
+        cx: R, cy: R, cx_lo: R, cy_lo: R,
+        rotation: R, rotation_lo: R, vx: R, vy: R, w: R,
+        fx: R, fy: R, moment: R, mass: R,
+        inertia: R, load_x: R, load_y: R, radius: R,
+        /// Work of gravity and load on this block since the block buffer was uploaded.
+        work: R,
+        /// Energy taken by the mass-proportional damping since the block buffer was uploaded
+        /// (`Block::damping_work` counts from its value then; summed in f64 on the CPU).
+        damping_work: R,
+        /// Largest net displacement since the last contact update (`Block::moved_since_update`),
+        /// then the reference centroid (compensated pair) and rotation it is measured from, and
+        /// the block's speed margin (`Block::update_margin`: it is due past etol + margin).
+        moved: R, update_cx: R, update_cy: R, update_cx_lo: R, update_cy_lo: R, update_rotation: R, update_margin: R,
+        fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
+    }
+}
+
+impl<R: Real> Block<R> {
+    /// The block's rotation: the angle its corners are placed at plus the turn since.
+    pub fn whole_rotation(&self) -> f64 {
+        self.rotation.to_f64() + self.rotation_lo.to_f64()
+    }
+
+    /// Byte offset of the fields a contact update resets ([`Block::update_reset`]).
+    pub const UPDATE_RESET_OFFSET: usize = std::mem::offset_of!(Block<R>, moved);
+
+    /// What a contact update writes over the seven fields from `moved` on, in their order: the
+    /// distance moved since the update back to 0, the reference where the block is now (report
+    /// ¶26: the next update is due when it has moved past the tolerance from here) and its new
+    /// speed margin. The one definition for the host's copy and the device's few bytes.
+    pub fn update_reset(&self, margin: R) -> [R; 7] {
+        [R::default(), self.cx, self.cy, self.cx_lo, self.cy_lo, R::from_f64(self.whole_rotation()), margin]
+    }
+
+    /// The fields of [`Block::update_reset`] as they are.
+    pub fn update_fields(&self) -> [R; 7] {
+        [self.moved, self.update_cx, self.update_cy, self.update_cx_lo, self.update_cy_lo, self.update_rotation, self.update_margin]
+    }
+
+    /// Sets the fields of [`Block::update_reset`] to `fields`.
+    pub fn set_update_reset(&mut self, fields: [R; 7]) {
+        [self.moved, self.update_cx, self.update_cy, self.update_cx_lo, self.update_cy_lo, self.update_rotation, self.update_margin] = fields;
+    }
+}
+
+// The reset is written to the device as one run of seven reals from `moved`: the seven are
+// declared in that order, all reals, so in `repr(C)` the span from `moved` to `update_margin` is
+// six reals in either precision.
+const _: () = {
+    use std::mem::{offset_of, size_of};
+    assert!(offset_of!(Block<f32>, update_margin) == offset_of!(Block<f32>, moved) + 6 * size_of::<f32>());
+    assert!(offset_of!(Block<f64>, update_margin) == offset_of!(Block<f64>, moved) + 6 * size_of::<f64>());
+};
+
+gpu_struct! {
+    /// One rounded corner: 40 bytes in f32, 80 in f64. `px, py` and `ox, oy` (corner and
+    /// rounding-circle centre) are relative to the block's centroid, rotated: world = centroid + p.
+    /// The edge to the next corner (`edge_dir`, `edge_length` on the CPU) is not stored: the
+    /// contact stage measures it from the two corners it loads anyway. Nor is the corner's
+    /// block: every reader comes from it (a block's `corner_start`, a contact's `block1`).
+    Corner {
+        lx: R, ly: R, qx: R, qy: R, radius: R, round: R,
+        px: R, py: R, ox: R, oy: R,
+    }
+}
+
+gpu_struct! {
+    /// One contact: 72 bytes in f32, 120 in f64. The point is relative to block 2's centroid.
+    /// Its force on block 1 is kept once, in its `ContactForce` record.
+    Contact {
+        px: R, py: R, nx: R, ny: R, gap: R,
+        normal_force: R, shear_force: R, shear_displacement: R,
+        /// Friction and dashpot dissipation since the contact buffer was uploaded
+        /// (`Contact::slip_work`, `Contact::dashpot_work` count from their values then).
+        slip_work: R, dashpot_work: R,
+        /// `Contact::dashpot_velocity`: the normal and shear velocities the dashpots acted on in
+        /// the last step (state, uploaded and read back as is).
+        dashpot_vn: R, dashpot_vs: R,
+        block1: u32, corner: u32, block2: u32, feature: u32,
+        /// Index into the material table (0-based, as `Model::material` maps it).
+        material: u32,
+        bonded: u32,
+    }
+}
+
+gpu_struct! {
+    /// What a contact update reads back of one contact (`pack_contacts.wgsl`): 28 bytes in f32,
+    /// 48 in f64, against 72 / 120 for the whole contact. The gap decides drops, the forces and
+    /// the dissipation go to the ledger (and to its retired account when the contact is
+    /// dropped), the feature is the one the contact follows, `bonded` whether it is still intact.
+    ContactSummary {
+        gap: R, normal_force: R, shear_force: R, slip_work: R, dashpot_work: R,
+        feature: u32, bonded: u32,
+    }
+}
+
+gpu_struct! {
+    /// What the gather needs of one contact, written by `contact_forces` into its own compact
+    /// slot: 16 bytes in f32, 32 in f64. The force on block 1 (block 2 gets its reaction) and
+    /// the moment of each about its block's centroid (eq. 12, M = r × F), so that the gather
+    /// reads 12 of these 16 contiguous bytes per contact instead of the whole contact and block
+    /// 2. `m[0]` is block 1's moment, `m[1]` block 2's: an adjacency entry's side indexes it, so
+    /// the gather loads three fields an entry, not four.
+    ContactForce { fx: R, fy: R, m: [R; 2] }
+}
+
+gpu_struct! {
+    /// Contact properties of one material: 16 bytes in f32, 32 in f64. A uniform array of
+    /// `MAX_MATERIALS` (16-byte stride in both precisions, as uniform arrays require).
+    Material { kn: R, ks: R, cohesion: R, friction: R }
+}
+
+gpu_struct! {
+    /// One workgroup's share of the energy check (`energy_sums`): 12 bytes in f32, 24 in f64.
+    /// Kinetic energy of its blocks (at time t, as `Model::energies` takes it), strain energy of
+    /// its contacts, and its blocks' external work since the upload.
+    EnergySum { kinetic: R, strain: R, work: R }
+}
+
+gpu_struct! {
+    /// Run constants and live counts (a uniform): 56 bytes in f32, 88 in f64.
+    Params {
+        dt: R, alpha: R, beta: R, gx: R, gy: R,
+        /// The contact update tolerance.
+        etol: R,
+        /// Largest corner travel per step (½ atol − etol), beyond which a block is too fast.
+        fast_limit: R,
+        /// Overlap beyond which the run stops (½ ROUND).
+        overlap_limit: R,
+        n_blocks: u32, n_corners: u32, n_contacts: u32,
+        /// Always 1: a one whose value the shader compiler cannot see, for `two_sum`.
+        one: u32,
+        /// Blocks `gather_heavy` sums in this pass (long contact lists), listed after the CSR
+        /// offsets: the free ones in a cycle, fixed ones too in the pass before a read-back.
+        n_heavy: u32,
+        /// 1: the contacts' dashpots are live (β > 0, or velocities of an earlier run's dashpots
+        /// still to be booked); 0: the contact stage neither reads nor writes dashpot fields.
+        dashpots: u32,
+    }
+}
+
+gpu_struct! {
+    /// Where a block stood when stage 7's broad-phase grid was last built (`BlockGrid`'s
+    /// reference): 32 bytes in f32, 64 in f64. Centroid relative to the run's origin as a
+    /// compensated pair, rotation, reach (farthest corner from the centroid), speed margin then.
+    /// `list_blocks.wgsl` lists the blocks that may have left their boxes in the grid from it.
+    GridReference { x: R, y: R, x_lo: R, y_lo: R, rotation: R, reach: R, margin: R, _r: R }
+}
+
+gpu_struct! {
+    /// The constants of `list_blocks.wgsl` (a uniform): 32 bytes in f32, 48 in f64.
+    ListParams {
+        dt: R, etol: R, btol: R,
+        /// Half the grid's margin: a block whose corners moved farther since the grid was built
+        /// may have left its box in it.
+        stray_limit: R,
+        n_blocks: u32, n_contacts: u32,
+        /// 1: the grid is kept from an earlier update (its reference is on the device).
+        grid_kept: u32,
+        _pad: u32,
+    }
+}
+
+/// Bits of `Flags::errors`.
+pub const ERR_NONFINITE: u32 = 1;
+pub const ERR_TOO_FAST: u32 = 2;
+pub const ERR_OVERLAP: u32 = 4;
+/// "No index" in the atomic-min index slots.
+pub const NO_INDEX: u32 = u32::MAX;
+
+/// Flags and counters the kernels raise (atomics in WGSL): 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Flags {
+    /// Set at the end of a cycle that needs the CPU: later cycles of the batch do nothing.
+    pub halted: u32,
+    pub cycles_done: u32,
+    /// A block moved past the update tolerance (stage 7 is due).
+    pub update_due: u32,
+    pub errors: u32,
+    /// Lowest index of a block with a non-finite state, of a too-fast block, of an overlapping
+    /// contact (`NO_INDEX` when none).
+    pub nonfinite_block: u32,
+    pub toofast_block: u32,
+    pub overlap_contact: u32,
+    pub _pad: u32,
+}
+
+impl Flags {
+    pub fn cleared() -> Self {
+        Flags { halted: 0, cycles_done: 0, update_due: 0, errors: 0, nonfinite_block: NO_INDEX, toofast_block: NO_INDEX, overlap_contact: NO_INDEX, _pad: 0 }
+    }
+    pub fn layout() -> StructLayout {
+        StructLayout {
+            name: "Flags",
+            size: std::mem::size_of::<Self>(),
+            fields: vec![
+                ("halted", std::mem::offset_of!(Self, halted)),
+                ("cycles_done", std::mem::offset_of!(Self, cycles_done)),
+                ("update_due", std::mem::offset_of!(Self, update_due)),
+                ("errors", std::mem::offset_of!(Self, errors)),
+                ("nonfinite_block", std::mem::offset_of!(Self, nonfinite_block)),
+                ("toofast_block", std::mem::offset_of!(Self, toofast_block)),
+                ("overlap_contact", std::mem::offset_of!(Self, overlap_contact)),
+                ("_pad", std::mem::offset_of!(Self, _pad)),
+            ],
+        }
+    }
+}
+
+/// Every GPU struct's Rust layout in precision `R`.
+pub fn layouts<R: Real>() -> Vec<StructLayout> {
+    vec![
+        Block::<R>::layout(),
+        Corner::<R>::layout(),
+        Contact::<R>::layout(),
+        ContactForce::<R>::layout(),
+        ContactSummary::<R>::layout(),
+        Material::<R>::layout(),
+        EnergySum::<R>::layout(),
+        Params::<R>::layout(),
+        GridReference::<R>::layout(),
+        ListParams::<R>::layout(),
+        Flags::layout(),
+    ]
+}
