@@ -10,8 +10,9 @@
 //! - `materials`: PROPERTY, DAMPING, and the checks of material and constitutive numbers;
 //! - `loads`: LOAD, FIX, FREE, VELOCITY, LINK (and GRAVITY, set in the dispatch);
 //! - `output`: PRINT, PLOT, DUMP, VTK, SAVE, RESTART (and WINDOW, VIEW, set in the dispatch);
-//! - `cycling`: CYCLE (the checks before it, the run through the backend in pieces, progress,
-//!   running restart files and VTK frames, what a failure means), and FRACTION, set in the dispatch.
+//! - `cycling`: CYCLE (the checks before it, blocks built overlapping, the run through the
+//!   backend in pieces, progress, running restart files and VTK frames, what a failure means, the
+//!   energy-balance warning), and FRACTION and SET OVERLAP, set in the dispatch.
 
 mod blocks;
 mod cycling;
