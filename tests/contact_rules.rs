@@ -28,11 +28,11 @@ fn cycle(m: &mut Model, cycles: u64) -> CycleReport {
 /// opposite, collinear forces, so the beam stays put and the forces stay constant. Rounding 0.1:
 /// a 90° tip's rounded surface lies 0.1(√2 − 1) = 0.0414 m inside its sharp tip, so the sharp
 /// tips sit 0.0464 m inside the beam (under the overlap limit, half the rounding length, even
-/// unrounded).
+/// unrounded). The wedges are built pressing in on purpose: SET OVERLAP ACCEPT.
 fn squeezed_beam(a: f64, tf: f64) -> String {
     let s = 0.005 + 0.1 * (2f64.sqrt() - 1.0);
     format!(
-        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nPROP MAT=3 D=2000 KN=1E8 KS=1E8 F=0.5 TF={tf:e}\nROUND 0.1\n\
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nPROP MAT=3 D=2000 KN=1E8 KS=1E8 F=0.5 TF={tf:e}\nROUND 0.1\nSET OVERLAP ACCEPT\n\
          BLOCK MAT=3 CONS=2 0,0 0,1 10,1 10,0\n\
          BLOCK {a},{top} {l},{up} {r},{up}\n\
          BLOCK {a},{bot} {r},{down} {l},{down}\n\

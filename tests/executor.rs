@@ -504,6 +504,26 @@ fn a_block_flung_so_far_that_its_edges_vanish_in_round_off_stays_restartable() {
     m.validate().unwrap_or_else(|e| panic!("not restartable: {e}"));
 }
 
+/// Issue 27 item 1: SET OVERLAP ACCEPT|REFUSE, and decks built touching run as before.
+#[test]
+fn set_overlap_is_parsed_and_blocks_built_touching_are_not_refused() {
+    use blockdem::deck::{Command, OverlapPolicy, Setting};
+    let parsed = blockdem::deck::parse_deck("START\nSET OVERLAP ACCEPT\nSE OV REF\n", "d").unwrap();
+    assert_eq!(parsed[1].command, Command::Set { setting: Setting::Overlap(OverlapPolicy::Accept) });
+    assert_eq!(parsed[2].command, Command::Set { setting: Setting::Overlap(OverlapPolicy::Refuse) });
+    for bad in ["SET", "SET OVERLAP", "SET OVERLAP MAYBE", "SET ROUND 1", "SET OVERLAP ACCEPT 2"] {
+        let e = blockdem::deck::parse_deck(&format!("START\n{bad}\n"), "d").unwrap_err();
+        assert_eq!(e.line, 2, "{bad}: {e}");
+    }
+    // Blocks built touching (shared edges, a SPLIT) and a block settled on its base: no overlap
+    // beyond round-off and the settlement mg/kn, so no warning, and the ledger within 1 %.
+    let (_, log) = run_ok(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\nBLOCK 2,1 2,2 3,2 3,1\n\
+         SPLIT 2.5 0.5 2.5 3\nFIX 0 4 0 0.9\nGRAV 0 -10\nCYCLE 500\nBLOCK 1,2 1,3 2,3 2,2\nCYCLE 500\n",
+    );
+    assert!(!log.contains("WARNING"), "{log}");
+}
+
 /// Issue 27 item 3: the kinetic energy VELOCITY gives is input, booked with the work of gravity
 /// and loads, so that the balance stays at zero (it read 5.000E+04 for this block); a second
 /// VELOCITY on the moving block books its new less its old kinetic energy.

@@ -29,6 +29,7 @@ every_backend!(
     a_run_its_caller_stops_is_a_shorter_run_and_goes_on_as_one,
     a_cycle_with_running_restart_files_is_the_same_run,
     a_cycle_with_vtk_frames_is_the_same_run,
+    colliding_squares_keep_their_energy_wherever_the_touch_falls_in_a_step,
 );
 
 fn run(t: &Target, deck: &str) -> Model {
@@ -417,6 +418,79 @@ fn a_projectile_bounces_off_a_wall_with_few_contact_updates(t: &Target) {
     assert!(b.centroid[0] < 2.5, "passed into the wall: {:?} on {}", b.centroid, t.name());
     assert!((b.velocity[0] + 20.0).abs() < 0.4 && b.velocity[1].abs() < 0.1, "bounced back at {:?} on {}", b.velocity, t.name());
     assert!(report.topology_updates >= 20 && report.topology_updates <= 50, "{} contact updates in 600 cycles on {}", report.topology_updates, t.name());
+}
+
+/// Two 1 m squares (2000 kg, kn = 1e9) facing each other `gap` apart, the left one at rest and
+/// the right one at `v` towards it, `vy` across, offset by `offset` upwards, under `frac`: the
+/// deck runs until they have parted.
+fn colliding_squares(gap: f64, frac: f64, v: f64, vy: f64, offset: f64, friction: f64) -> String {
+    let dt = frac * 2.0 * (2000.0f64 / 1e9).sqrt();
+    let cycles = ((gap + 0.01) / v / dt) as u64 + (2e-3 / dt) as u64 + 100;
+    let (x, y) = (1.0 + gap, offset);
+    format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F={friction}\nROUND 0.05\nFRAC {frac}\nBLOCK 0,0 0,1 1,1 1,0\n\
+         BLOCK {x},{y} {x},{} {},{} {},{y}\nVELOCITY 1.5 2.5 -1 2 {} {vy}\nCYCLE {cycles}\n",
+        y + 1.0,
+        x + 1.0,
+        y + 1.0,
+        x + 1.0,
+        -v
+    )
+}
+
+/// The energy ledger's balance after the collision of `colliding_squares`, against the energy
+/// put in (the moving square's kinetic energy).
+fn collision_balance(m: &Model) -> f64 {
+    let e = m.energies();
+    e.ledger() / e.external_work
+}
+
+fn colliding_squares_keep_their_energy_wherever_the_touch_falls_in_a_step(t: &Target) {
+    // Issue 27 item 4: two squares meet head-on at 5 m/s. Momentum is exact; the kinetic energy
+    // after they part is off by where in its step the touch (and the parting) fell: central
+    // differences sample the normal spring's kink there once a step (eq. 16 in total form). At
+    // FRAC 0.1 (ωΔt = 0.4) that is +1.18 %, −1.27 %, +0.36 %, −0.46 % at the four phases below:
+    // within 1.5 %, and no gain on average (−0.05 %). The shear spring and the hand-over of a
+    // corner pair between its views add nothing measurable (docs/BENCHMARKS.md, "Energy of an
+    // impact"). The squares trade their speeds to 1 %.
+    let v = 5.0;
+    let step = v * 0.1 * 2.0 * (2000.0f64 / 1e9).sqrt();
+    let mut sum = 0.0;
+    for phase in [0.0, 0.25, 0.5, 0.75] {
+        let m = run(t, &colliding_squares(0.001 + phase * step, 0.1, v, 0.0, 0.0, 0.5));
+        let balance = collision_balance(&m);
+        sum += balance;
+        assert!(balance.abs() < 0.015, "energy balance {balance:e} of the impact energy at touch phase {phase} on {}", t.name());
+        let (left, right) = (m.blocks[0].velocity[0], m.blocks[1].velocity[0]);
+        assert!((left + v).abs() < 0.05 && right.abs() < 0.05, "speeds after the collision {left}, {right} at touch phase {phase} on {}", t.name());
+        let momentum = 2000.0 * (left + right);
+        assert!((momentum + 2000.0 * v).abs() < 1e-6 * 2000.0 * v, "momentum {momentum} on {}", t.name());
+    }
+    assert!((sum / 4.0).abs() < 3e-3, "the energy error averaged over touch phases, {:e}, is a bias on {}", sum / 4.0, t.name());
+}
+
+/// A collision's energy error is the method's order: it falls with FRACTION, about as FRAC²
+/// (the largest over four touch phases: head-on 1.27 %, 0.33 %, 0.11 % at FRAC 0.1, 0.05,
+/// 0.025; squares meeting off-centre and sliding across each other under friction, which turn
+/// and slip, 1.8 %, 0.16 %, 0.057 %). (CPU only: the figures are the scheme's, not a backend's.)
+#[test]
+fn a_collisions_energy_error_converges_with_fraction() {
+    let mut last: Option<(f64, f64)> = None;
+    for frac in [0.1, 0.05, 0.025] {
+        let step = 5.0 * frac * 2.0 * (2000.0f64 / 1e9).sqrt();
+        let mut oblique = 0.0f64;
+        let mut head_on = 0.0f64;
+        for phase in [0.0, 0.25, 0.5, 0.75] {
+            let gap = 0.001 + phase * step;
+            oblique = oblique.max(collision_balance(&run(&Target::Cpu, &colliding_squares(gap, frac, 5.0, 1.0, 0.3, 0.5))).abs());
+            head_on = head_on.max(collision_balance(&run(&Target::Cpu, &colliding_squares(gap, frac, 5.0, 0.0, 0.0, 0.5))).abs());
+        }
+        assert!(oblique < 0.02 && head_on < 0.015, "balance {oblique:e} (off-centre), {head_on:e} (head-on) at FRAC {frac}");
+        if let Some((o, h)) = last {
+            assert!(oblique < o / 2.5 && head_on < h / 2.5, "FRAC {frac}: {oblique:e} after {o:e} (off-centre), {head_on:e} after {h:e} (head-on)");
+        }
+        last = Some((oblique, head_on));
+    }
 }
 
 fn cycle_commands_in_a_row_run_as_one(t: &Target) {

@@ -24,6 +24,25 @@ pub struct Range {
     pub y2: f64,
 }
 
+/// SET OVERLAP's choice (an extension): what a CYCLE does with blocks found overlapping before
+/// any motion (given so by BLOCK corners, or by a ROUND lowered under an overlap).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OverlapPolicy {
+    /// REFUSE (the default): the CYCLE stops with an error naming the pairs.
+    #[default]
+    Refuse,
+    /// ACCEPT: the CYCLE runs with the overlaps' strain energy, which the first step releases;
+    /// it is booked in the energy ledger as energy put in.
+    Accept,
+}
+
+/// SET's settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Setting {
+    /// SET OVERLAP ACCEPT|REFUSE
+    Overlap(OverlapPolicy),
+}
+
 /// DAMPING's third parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DampMode {
@@ -158,6 +177,8 @@ pub enum Command {
     Round { d: f64 },
     /// SAVE [file]
     Save { file: Option<String> },
+    /// SET setting value: an extension (run settings, for the rest of the run).
+    Set { setting: Setting },
     /// SPLIT x1 y1 x2 y2 [MAT n] [CONS m]
     Split { from: [f64; 2], to: [f64; 2], material: Option<u32>, constitutive: Option<u32> },
     /// VIEW ix1 ix2 iy1 iy2
@@ -201,6 +222,7 @@ impl Command {
             Command::Property { .. } => "PROPERTY",
             Command::Round { .. } => "ROUND",
             Command::Save { .. } => "SAVE",
+            Command::Set { .. } => "SET",
             Command::Split { .. } => "SPLIT",
             Command::View { .. } => "VIEW",
             Command::Window { .. } => "WINDOW",

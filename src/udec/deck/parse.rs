@@ -92,6 +92,7 @@ enum Word {
     RSet,
     Round,
     Save,
+    Set,
     Split,
     Start,
     Stop,
@@ -127,6 +128,7 @@ const COMMANDS: &[Name<Word>] = &[
     name("ROUND", "RO", Word::Round),
     name("RSET", "RS", Word::RSet),
     name("SAVE", "SA", Word::Save),
+    name("SET", "SE", Word::Set),
     name("SPLIT", "SP", Word::Split),
     name("START", "STA", Word::Start),
     name("STOP", "S", Word::Stop),
@@ -164,6 +166,15 @@ enum GenKey {
     Grid,
     Zones,
 }
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum SetKey {
+    Overlap,
+}
+
+const SET_KEYS: &[Name<SetKey>] = &[name("OVERLAP", "O", SetKey::Overlap)];
+
+const OVERLAP_KEYS: &[Name<OverlapPolicy>] = &[name("ACCEPT", "A", OverlapPolicy::Accept), name("REFUSE", "R", OverlapPolicy::Refuse)];
 
 const GEN_KEYS: &[Name<GenKey>] =
     &[name("AUTOMATIC", "A", GenKey::Auto), name("MANUAL", "M", GenKey::Manual), name("GRIDPOINTS", "GR", GenKey::Grid), name("ZONES", "Z", GenKey::Zones)];
@@ -291,6 +302,7 @@ fn usage(w: Word) -> &'static str {
         Word::RSet => "RSET v ia ioff",
         Word::Round => "ROUND d",
         Word::Save => "SAVE [file]",
+        Word::Set => "SET OVERLAP ACCEPT|REFUSE",
         Word::Split => "SPLIT x1 y1 x2 y2 [MATERIAL n] [CONSTITUTIVE m]",
         Word::Start => "START",
         Word::Stop => "STOP",
@@ -753,6 +765,7 @@ fn parse_command(a: &mut Args) -> Result<Command> {
         Word::Vtk => Command::Vtk,
         Word::Restart => Command::Restart { file: file_name(a) },
         Word::Save => Command::Save { file: file_name(a) },
+        Word::Set => set(a)?,
         Word::RSet => {
             return Err(a.at(
                 a.head,
@@ -1020,6 +1033,21 @@ fn damping(a: &mut Args) -> Result<Command> {
     Ok(Command::Damping { fcrit, freq, mode: mode.unwrap_or(DampMode::Full) })
 }
 
+/// SET OVERLAP ACCEPT|REFUSE (an extension): what a CYCLE does with blocks found overlapping
+/// before any motion.
+fn set(a: &mut Args) -> Result<Command> {
+    let t = a.next().ok_or_else(|| a.missing(&format!("a setting ({})", names(SET_KEYS))))?;
+    match lookup(&t.text, SET_KEYS).filter(|_| !t.is_numeric()) {
+        Some(SetKey::Overlap) => {}
+        None => return Err(a.at(t, format!("unknown SET setting '{}'; SET takes {}", t.shown(), names(SET_KEYS)))),
+    }
+    let t = a.next().ok_or_else(|| a.missing(&format!("what OVERLAP does ({})", names(OVERLAP_KEYS))))?;
+    match lookup(&t.text, OVERLAP_KEYS).filter(|_| !t.is_numeric()) {
+        Some(policy) => Ok(Command::Set { setting: Setting::Overlap(policy) }),
+        None => Err(a.at(t, format!("unknown SET OVERLAP choice '{}'; OVERLAP takes {}", t.shown(), names(OVERLAP_KEYS)))),
+    }
+}
+
 /// PROPERTY MATERIAL n keyword value ... ("The first parameter must be the specification of the
 /// material number").
 fn property(a: &mut Args) -> Result<Command> {
@@ -1199,6 +1227,8 @@ mod tests {
         resolves(CHANGE_KEYS);
         resolves(DAMP_KEYS);
         resolves(GEN_KEYS);
+        resolves(SET_KEYS);
+        resolves(OVERLAP_KEYS);
         resolves(PLOT_KEYS);
         resolves(PRINT_KEYS);
         resolves(PROP_KEYS);
@@ -1228,6 +1258,8 @@ mod tests {
             ("R", Word::Restart),
             ("RS", Word::RSet),
             ("RO", Word::Round),
+            ("SE", Word::Set),
+            ("SA", Word::Save),
         ] {
             assert_eq!(lookup(typed, COMMANDS), Some(want), "{typed}");
         }

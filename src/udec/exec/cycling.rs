@@ -111,6 +111,7 @@ impl Executor<'_> {
         if let Some(w) = self.round_warning() {
             self.echo(&w);
         }
+        self.initial_overlaps(cmd)?;
         self.echo(&format!("INITIAL TIMESTEP = {}", output::format::fmt_e(dt)));
         let start_cycle = self.model.cycle;
         let mut ticker = Ticker::new(&self.options, n);
@@ -122,6 +123,10 @@ impl Executor<'_> {
             return Err(self.cycle_failure(cmd, failure, start_cycle));
         }
         self.echo_report(&report);
+        self.overlaps_checked = Some(ShapeMark::of(&self.model));
+        if let Some(w) = self.ledger_warning() {
+            self.echo(&w);
+        }
         self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle));
         if stopped && report.cycles < n {
             self.echo(&format!("CYCLE INTERRUPTED AFTER {} OF {n} CYCLES", report.cycles));
@@ -386,6 +391,114 @@ impl Executor<'_> {
         ))
     }
 
+    /// Before a CYCLE whose blocks or ROUND changed since the last look (issue 27 item 1): block
+    /// pairs given overlapping ([`initial_overlaps`], on a copy of the model with its contacts
+    /// detected). Their contacts would start at the force kn·δ and release ½kn·δ² at the first
+    /// step, launching the blocks. Each pair is named (up to ten) with its overlap, its strain
+    /// energy and the speed that gives the lighter block; then the CYCLE stops (SET OVERLAP
+    /// REFUSE, the default) or runs with that energy booked in the ledger as energy put in (SET
+    /// OVERLAP ACCEPT), so that the balance stays near zero. Overlaps past half the rounding
+    /// length are left to the backend's overlap check (`overlap_before_motion`): no choice runs
+    /// them.
+    fn initial_overlaps(&mut self, cmd: &Located) -> Result<(), RunError> {
+        let mark = ShapeMark::of(&self.model);
+        if self.overlaps_checked == Some(mark) {
+            return Ok(());
+        }
+        let mut probe = self.model.clone();
+        crate::topology::update_contacts(&mut probe, true);
+        let pairs = initial_overlaps(&probe);
+        drop(probe);
+        if pairs.is_empty() || pairs.iter().any(|p| p.overlap > 0.5 * self.model.tol.round) {
+            self.overlaps_checked = Some(mark);
+            return Ok(());
+        }
+        let f = output::format::fmt_e;
+        let total: f64 = pairs.iter().map(|p| p.energy).sum();
+        const NAMED: usize = 10;
+        for p in pairs.iter().take(NAMED) {
+            self.echo(&format!(
+                "WARNING: BLOCKS {} AND {} OVERLAP BY {} NEAR ({}, {}) BEFORE ANY MOTION ({} CONTACT(S)): STRAIN ENERGY 1/2 KN D^2 = {} J/M, \
+                ENOUGH TO LAUNCH BLOCK {} AT {} M/S",
+                p.blocks[0],
+                p.blocks[1],
+                f(p.overlap),
+                f(p.point[0]),
+                f(p.point[1]),
+                p.contacts,
+                f(p.energy),
+                p.launched,
+                f(p.speed)
+            ));
+        }
+        if pairs.len() > NAMED {
+            self.echo(&format!("WARNING: AND {} MORE OVERLAPPING PAIR(S)", pairs.len() - NAMED));
+        }
+        match self.overlap_policy {
+            crate::deck::OverlapPolicy::Accept => {
+                self.echo(&format!("SET OVERLAP ACCEPT: CYCLING WITH {} J/M OF INITIAL STRAIN ENERGY, BOOKED AS ENERGY PUT IN", f(total)));
+                self.model.external_work += total;
+                self.overlaps_checked = Some(mark);
+                Ok(())
+            }
+            crate::deck::OverlapPolicy::Refuse => {
+                let p = &pairs[0];
+                Err(self.command_error(
+                    cmd,
+                    format!(
+                        "CYCLE: blocks {} and {} overlap by {} near ({}, {}) before any motion ({} overlapping pair(s) in all, more than {} of the \
+                        rounding length and than their weight settles them; the log names them): their contacts would start at the force kn·δ and release {} J/m, \
+                        ½kn·δ², at the first step, enough to launch block {} at {} m/s. Move the blocks apart, or give SET OVERLAP ACCEPT \
+                        before the CYCLE to run with that energy (booked in the energy ledger as energy put in)",
+                        p.blocks[0],
+                        p.blocks[1],
+                        f(p.overlap),
+                        f(p.point[0]),
+                        f(p.point[1]),
+                        pairs.len(),
+                        INITIAL_OVERLAP_TOLERANCE,
+                        f(total),
+                        p.launched,
+                        f(p.speed)
+                    ),
+                ))
+            }
+        }
+    }
+
+    /// After a CYCLE, once a run: a warning when the energy ledger has moved by more than
+    /// [`LEDGER_WARNING_FRACTION`] of the energy in play, with the figures (issue 27 item 4).
+    fn ledger_warning(&mut self) -> Option<String> {
+        // From the first energy check on: over the first steps the ledger carries the O(Δt)
+        // start of central differences (the half-step velocity of a block set moving: 11 % after
+        // one cycle of a block under a load), which falls as 1/n.
+        if self.ledger_warned || self.model.cycle < crate::driver::CHECK_INTERVAL {
+            return None;
+        }
+        let e = self.model.energies();
+        let in_play = (e.kinetic + e.strain).max(e.external_work.abs()).max(e.dissipated() + e.released);
+        let balance = e.ledger();
+        if !(in_play > 0.0 && balance.abs() > LEDGER_WARNING_FRACTION * in_play) {
+            return None;
+        }
+        self.ledger_warned = true;
+        let f = output::format::fmt_e;
+        Some(format!(
+            "WARNING: THE ENERGY BALANCE IS {} AT CYCLE {}, {:.1}% OF THE ENERGY IN PLAY ({}; KINETIC {}, STRAIN {}, WORK PUT IN {}, \
+            DISSIPATED AND RELEASED {}), MORE THAN {}%: A TIME STEP TOO COARSE FOR THE CONTACTS (TRY A SMALLER FRACTION) OR ENERGY MADE \
+            WHERE NONE SHOULD BE (SAID ONCE A RUN)",
+            f(balance),
+            self.model.cycle,
+            100.0 * balance.abs() / in_play,
+            f(in_play),
+            f(e.kinetic),
+            f(e.strain),
+            f(e.external_work),
+            f(e.dissipated() + e.released),
+            100.0 * LEDGER_WARNING_FRACTION
+        ))
+    }
+
     /// After an overlap failure in the first check interval of a CYCLE (the model rolled back to
     /// the CYCLE's start): whether blocks already overlapped by more than the limit before any
     /// motion. Then nothing was driven through anything and no FRACTION helps: the blocks were
@@ -426,6 +539,104 @@ impl Executor<'_> {
             String::new()
         }
     }
+}
+
+/// A contact found overlapping by more than this fraction of the rounding length before any
+/// motion, while it carries no force yet, and by more than twice what the weight and load of its
+/// blocks would press one contact in (2·|m·g + load|/kn: a block built in the static equilibrium
+/// of its contacts, as a verification scene starts one, is not refused) makes its block pair an
+/// initial overlap (`Executor::initial_overlaps`). Round-off of blocks built touching (SPLIT,
+/// shared corners) is ~1e-16 of the coordinates, far below it; the overlap it allows (1e-4 m at
+/// ROUND 0.1) stores ½kn·δ² = 5 J/m at kn = 1e9, a launch speed of cm/s.
+pub const INITIAL_OVERLAP_TOLERANCE: f64 = 1e-3;
+
+/// The energy ledger (`Energies::ledger`, PRINT ENERGY's BALANCE) may move by this fraction of
+/// the energy in play (the largest of kinetic + strain energy, the work put in, and the energy
+/// dissipated and released) before a CYCLE warns, once a run, from cycle 100 on. Central
+/// differences keep the ledger to O((ωΔt)²) of the energy that rings in the contacts, which at
+/// FRACTION 0.1 reaches 1–3 % (a block settling undamped on its base: 1.4 %; a collision: up to
+/// 1.3 %, by where the touch falls in its step); 5 % is past the scheme's own error at the
+/// default step: a time step too coarse for the contacts, or energy made where none should be
+/// (a 0.1 m overlap released in two steps at FRACTION 0.2: 6 %).
+pub const LEDGER_WARNING_FRACTION: f64 = 0.05;
+
+/// What a CYCLE's look for initial overlaps depends on: a CYCLE after no change of blocks, corners
+/// or ROUND does not look again (the contacts of the last run carry their force).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct ShapeMark {
+    blocks: usize,
+    corners: usize,
+    next_block_id: u32,
+    round: u64,
+}
+
+impl ShapeMark {
+    pub(super) fn of(model: &Model) -> Self {
+        ShapeMark { blocks: model.blocks.len(), corners: model.corners.len(), next_block_id: model.next_block_id, round: model.tol.round.to_bits() }
+    }
+}
+
+/// A pair of blocks found overlapping before any motion (`initial_overlaps`).
+#[derive(Clone, Debug)]
+pub struct InitialOverlap {
+    /// The blocks' ids, corner owner first (as PRINT CONTACTS gives them).
+    pub blocks: [u32; 2],
+    /// The largest overlap of its contacts, and where.
+    pub overlap: f64,
+    pub point: [f64; 2],
+    /// Its contacts that start overlapping.
+    pub contacts: usize,
+    /// The strain energy their springs take at the first step, ½kn·δ² summed (J per metre).
+    pub energy: f64,
+    /// The lighter free block of the pair and the speed that energy would give it alone, √(2E/m).
+    pub launched: u32,
+    pub speed: f64,
+}
+
+/// The block pairs of `model` (its contacts just detected) that overlap before any motion: the
+/// contacts that carry no force yet (new ones; a contact that has been through the force law
+/// carries its overlap's force) and overlap by more than [`INITIAL_OVERLAP_TOLERANCE`] of the
+/// rounding length and twice their blocks' weight and load over kn, counted once a touch (`Model::counts_force`), between blocks not both fixed.
+/// Largest energy first.
+pub fn initial_overlaps(model: &Model) -> Vec<InitialOverlap> {
+    let tol = INITIAL_OVERLAP_TOLERANCE * model.tol.round;
+    let mut pairs: Vec<InitialOverlap> = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    for c in &model.contacts {
+        let (b1, b2) = (&model.blocks[c.block1 as usize], &model.blocks[c.block2 as usize]);
+        if c.normal_force != 0.0 || -c.gap <= tol || (b1.fixed && b2.fixed) || !model.counts_force(c) {
+            continue;
+        }
+        let kn = model.material(c.material).contact.kn;
+        let weight = [b1, b2]
+            .into_iter()
+            .filter(|b| !b.fixed)
+            .map(|b| (b.mass * model.gravity[0] + b.load[0]).hypot(b.mass * model.gravity[1] + b.load[1]))
+            .fold(0.0, f64::max);
+        if kn > 0.0 && -c.gap <= 2.0 * weight / kn {
+            continue;
+        }
+        let energy = 0.5 * kn * c.gap * c.gap;
+        let key = (c.block1.min(c.block2), c.block1.max(c.block2));
+        let k = *index.entry(key).or_insert_with(|| {
+            let free = [b1, b2].into_iter().filter(|b| !b.fixed).min_by(|x, y| x.mass.total_cmp(&y.mass)).unwrap_or(b1);
+            pairs.push(InitialOverlap { blocks: [b1.id, b2.id], overlap: 0.0, point: c.point, contacts: 0, energy: 0.0, launched: free.id, speed: 0.0 });
+            pairs.len() - 1
+        });
+        let p = &mut pairs[k];
+        p.contacts += 1;
+        p.energy += energy;
+        if -c.gap > p.overlap {
+            p.overlap = -c.gap;
+            p.point = c.point;
+        }
+    }
+    for p in &mut pairs {
+        let m = model.block_index(p.launched).map_or(0.0, |b| model.blocks[b].mass);
+        p.speed = if m > 0.0 { (2.0 * p.energy / m).sqrt() } else { f64::NAN };
+    }
+    pairs.sort_by(|a, b| b.energy.total_cmp(&a.energy));
+    pairs
 }
 
 /// The size of the next piece of a CYCLE with running restart files: about `every` of wall

@@ -10,8 +10,9 @@
 //! - `materials`: PROPERTY, DAMPING, and the checks of material and constitutive numbers;
 //! - `loads`: LOAD, FIX, FREE, VELOCITY, LINK (and GRAVITY, set in the dispatch);
 //! - `output`: PRINT, PLOT, DUMP, VTK, SAVE, RESTART (and WINDOW, VIEW, set in the dispatch);
-//! - `cycling`: CYCLE (the checks before it, the run through the backend in pieces, progress,
-//!   running restart files and VTK frames, what a failure means), and FRACTION, set in the dispatch.
+//! - `cycling`: CYCLE (the checks before it, blocks built overlapping, the run through the
+//!   backend in pieces, progress, running restart files and VTK frames, what a failure means, the
+//!   energy-balance warning), and FRACTION and SET OVERLAP, set in the dispatch.
 
 mod blocks;
 mod cycling;
@@ -161,6 +162,13 @@ pub struct Executor<'a> {
     provenance: Option<String>,
     /// The ROUND (its bits) and the blocks it cuts that the ROUND warning last named.
     round_warned: Option<(u64, Vec<u32>)>,
+    /// SET OVERLAP: what a CYCLE does with blocks found overlapping before any motion.
+    overlap_policy: crate::deck::OverlapPolicy,
+    /// The model's shape (`cycling::ShapeMark`) when a CYCLE last looked for initial overlaps:
+    /// only a CYCLE after a change of blocks or ROUND looks again.
+    overlaps_checked: Option<cycling::ShapeMark>,
+    /// The energy-balance warning was given (once a run).
+    ledger_warned: bool,
 }
 
 impl<'a> Executor<'a> {
@@ -177,6 +185,9 @@ impl<'a> Executor<'a> {
             executed: 0,
             provenance: None,
             round_warned: None,
+            overlap_policy: crate::deck::OverlapPolicy::default(),
+            overlaps_checked: None,
+            ledger_warned: false,
         }
     }
 
@@ -324,6 +335,7 @@ impl<'a> Executor<'a> {
             Command::Round { d } => self.model.set_round(*d),
             Command::Vtk => self.vtk(cmd)?,
             Command::Save { file } => self.save(cmd, file)?,
+            Command::Set { setting: crate::deck::Setting::Overlap(policy) } => self.overlap_policy = *policy,
             Command::Split { from, to, material, constitutive } => self.split(cmd, *from, *to, *material, *constitutive)?,
             Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
             Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],

@@ -32,6 +32,7 @@ impl Executor<'_> {
         // Every RestartError names the file.
         let saved = output::restart::load(&path).map_err(|e| self.command_error(cmd, format!("RESTART: {e}")))?;
         self.model = saved.model;
+        self.overlaps_checked = None;
         self.plot = saved.plot;
         self.plot_count = saved.plot_count;
         self.banner();
