@@ -8,7 +8,7 @@ use super::{Executor, Progress, RunError, RunOptions, CHECKPOINT_FILE, VTK_DIR};
 use crate::udec::backend::{CycleError, CycleReport};
 use crate::udec::deck::Located;
 use crate::udec::model::constitutive::{Constitutive, CrackingLaw};
-use crate::udec::model::Model;
+use crate::udec::model::{BlockKind, Model};
 use crate::udec::output;
 
 /// The progress line of `Progress::Lines`: done of n cycles after `elapsed` seconds.
@@ -160,6 +160,12 @@ impl Executor<'_> {
             if !(mat.contact.kn > 0.0 && mat.contact.ks > 0.0) {
                 return Err(self.command_error(cmd, format!("CYCLE: material {} of block {} needs contact stiffnesses KN and KS", b.material, b.id)));
             }
+            if b.kind == BlockKind::SimplyDeformable && !(mat.block.bulk > 0.0 && mat.block.shear > 0.0) {
+                return Err(self.command_error(
+                    cmd,
+                    format!("CYCLE: block {} is simply deformable, and its material {} needs a bulk modulus K and a shear modulus G (> 0)", b.id, b.material),
+                ));
+            }
         }
         for c in &self.model.corners {
             if c.edge_material != 0 {
@@ -175,21 +181,26 @@ impl Executor<'_> {
     }
 
     /// Griffith cracking (constitutive numbers 3 and 4, SL-85-1 Table A1, and 5) acts on the
-    /// internal stresses of simply-deformable blocks, which come later: a block that asks for it
-    /// (a tensile strength factor set) must not run as if it could not crack.
+    /// internal stresses of simply-deformable blocks (Appendix A ¶17): a rigid block that asks for
+    /// it (a tensile strength factor set) has none, and must not run as if it could not crack.
     fn check_cracking(&self, cmd: &Located) -> Result<(), RunError> {
         if let Some(b) = self.model.blocks.iter().find(|b| {
-            Constitutive::from_number(b.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith) && self.model.material(b.material).block.tf > 0.0
+            b.kind == BlockKind::Rigid
+                && Constitutive::from_number(b.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith)
+                && self.model.material(b.material).block.tf > 0.0
         }) {
-            let what = format!(
-                "Griffith cracking (block {} has constitutive number {} and material {} has TF = {}; the Griffith criterion \
-                 needs the stresses of simply-deformable blocks; constitutive numbers 1 and 2 crack by the point-load criterion)",
-                b.id,
-                b.constitutive,
-                b.material,
-                output::format::fmt_short(self.model.material(b.material).block.tf)
-            );
-            return Err(self.unsupported(cmd, &what));
+            return Err(self.command_error(
+                cmd,
+                format!(
+                    "CYCLE: block {} is rigid, but its constitutive number {} cracks it by Griffith's criterion (material {} has TF = {}), \
+                     which reads the internal stress only a simply-deformable block has; make it simply deformable \
+                     (CHANGE x1 x2 y1 y2 SDEF over its centroid) or give it constitutive number 1 or 2 (point-load cracking)",
+                    b.id,
+                    b.constitutive,
+                    b.material,
+                    output::format::fmt_short(self.model.material(b.material).block.tf)
+                ),
+            ));
         }
         Ok(())
     }

@@ -123,7 +123,6 @@ pub enum Progress {
 /// item 6).
 fn not_supported_yet(command: &Command) -> Option<&'static str> {
     match command {
-        Command::Change { to: Some(crate::udec::deck::Deformability::Sdef), .. } => Some("CHANGE SDEF (simply-deformable blocks)"),
         Command::Change { to: Some(crate::udec::deck::Deformability::Fdef), .. } => Some("CHANGE FDEF (fully-deformable blocks)"),
         Command::Fluid { .. } => Some("FLUID (fluid flow in joints and domains)"),
         Command::Generate { .. } => Some("GENERATE (zoning of fully-deformable blocks)"),
@@ -302,9 +301,9 @@ impl<'a> Executor<'a> {
             Command::Stop | Command::End => return Ok(true),
             Command::Block { material, constitutive, corners } => self.block(cmd, *material, *constitutive, corners)?,
             Command::Change { range, to, material, constitutive } => {
-                // CHANGE SDEF / FDEF stopped above (`not_supported_yet`).
-                debug_assert!(to.is_none());
-                self.change(cmd, range, *material, *constitutive)?
+                // CHANGE FDEF stopped above (`not_supported_yet`).
+                let sdef = *to == Some(crate::udec::deck::Deformability::Sdef);
+                self.change(cmd, range, sdef, *material, *constitutive)?
             }
             Command::Cycle { n } => self.cycle(cmd, *n)?,
             Command::Damping { fcrit, freq, mode } => self.damping(cmd, *fcrit, *freq, *mode)?,

@@ -41,6 +41,38 @@ pub fn place_corners(block: &Block, corners: &mut [Corner]) {
     }
 }
 
+/// A point `r` from a block's centroid stretched by the block's strain `e` (11, 12, 22): (I + ε)·r.
+/// The identity for a rigid block's zero strain (bit for bit: `r + 0·r`).
+#[inline]
+pub fn strained(e: [f64; 3], r: [f64; 2]) -> [f64; 2] {
+    [r[0] + e[0] * r[0] + e[1] * r[1], r[1] + e[1] * r[0] + e[2] * r[1]]
+}
+
+/// Places the corners of a simply-deformable block: x = c + (I + ε)·R(θ)·x_local, the rigid
+/// placement stretched by the block's uniform strain (`sdef`). The rounding circles' centres
+/// move with the body; their radii stay (the rounding length is a property of the contact).
+#[inline]
+pub fn place_corners_strained(block: &Block, strain: [f64; 3], corners: &mut [Corner]) {
+    place_corners(block, corners);
+    let c = block.centroid;
+    for corner in corners.iter_mut() {
+        let r = strained(strain, sub(corner.position, c));
+        corner.position = [c[0] + r[0], c[1] + r[1]];
+        let q = strained(strain, sub(corner.circle, c));
+        corner.circle = [c[0] + q[0], c[1] + q[1]];
+    }
+    let n = corners.len();
+    for k in 0..n {
+        let (p0, p1) = (corners[k].position, corners[(k + 1) % n].position);
+        let e = sub(p1, p0);
+        let len = dot(e, e).sqrt();
+        if len > 0.0 {
+            corners[k].edge_dir = [e[0] / len, e[1] / len];
+            corners[k].edge_length = len;
+        }
+    }
+}
+
 /// Whether a corner–corner contact is the counted one of its mirrored pair: the corner with the
 /// lower global index owns the touch.
 #[inline]
