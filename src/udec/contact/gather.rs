@@ -94,17 +94,16 @@ pub fn gather(block: &mut Block, forces: &[ContactForce], entries: &[AdjacencyEn
 
 /// The applied stress times area of a simply-deformable block (`model::sdef`, the report's KSA):
 /// Σ r_i f_j over its adjacency entries, in their fixed order, f the force on the block and r
-/// from its centroid to the lever point: on the corner's side (entry side 0) the rounding
-/// circle's centre of the block's own corner, `circle(contact)`, on the other the contact point
-/// (see `sdef::applied_stress`). Gravity and the load act at the centroid and add nothing.
+/// from its centroid to the contact point. Gravity and the load act at the centroid and add
+/// nothing.
 #[inline]
-pub fn gather_applied_stress(block: &Block, forces: &[ContactForce], entries: &[AdjacencyEntry], circle: impl Fn(u32) -> [f64; 2]) -> [f64; 4] {
+pub fn gather_applied_stress(block: &Block, forces: &[ContactForce], entries: &[AdjacencyEntry]) -> [f64; 4] {
     let mut a = [0.0; 4];
     for &entry in entries {
         let contact = &forces[entry.contact() as usize];
-        let (sign, lever) = if entry.side() == 0 { (1.0, circle(entry.contact())) } else { (-1.0, contact.point) };
+        let sign = if entry.side() == 0 { 1.0 } else { -1.0 };
         let g = [sign * contact.force[0], sign * contact.force[1]];
-        let da = crate::udec::model::sdef::applied_stress(lever, block.centroid, g);
+        let da = crate::udec::model::sdef::applied_stress(contact.point, block.centroid, g);
         for k in 0..4 {
             a[k] += da[k];
         }

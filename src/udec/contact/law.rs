@@ -12,11 +12,10 @@ pub struct BlockMotion {
     pub centroid: [f64; 2],
     pub velocity: [f64; 2],
     pub angular_velocity: f64,
-    /// The velocity the strain of a simply-deformable block (`model::sdef`) gives the contact,
-    /// ε̇·r with r from the centroid to the point whose motion sets the gap: the rounding circle's
-    /// centre on the corner's side (block 1), the contact point on the other; zero for a rigid
-    /// block. The applied stress the gather sums takes the same lever arms, so that the contact
-    /// force's work on the strain is what its spring stores.
+    /// The velocity the strain of a simply-deformable block (`model::sdef`) gives the contact
+    /// point, ε̇·r with r from the centroid; zero for a rigid block. The applied stress the gather
+    /// sums takes the same lever arm (`model::corners::place_corners_strained` says why the two
+    /// agree with the gap).
     pub strain_velocity: [f64; 2],
 }
 

@@ -58,7 +58,7 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
         // The other view of a corner-pair touch carries no force (the touch counts once).
         let active = counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
         let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
-        contact_force_law(contact, mat, &motion(contact.block1, b1, corner.circle), &motion(contact.block2, b2, g.point), &inp.damping, inp.dt, active);
+        contact_force_law(contact, mat, &motion(contact.block1, b1, g.point), &motion(contact.block2, b2, g.point), &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
         if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);

@@ -7,7 +7,7 @@ use super::team::Team;
 use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK};
 use crate::udec::contact::gather::ContactForce;
 use crate::udec::model::sdef::Sdef;
-use crate::udec::model::{Block, BlockKind, Contact, Corner, Model};
+use crate::udec::model::{Block, BlockKind, Model};
 use crate::udec::topology::Adjacency;
 
 /// Sums the forces acting on block `b`; `forces[k]` is contact k's (see [`ContactForce`]).
@@ -16,15 +16,11 @@ pub fn gather(b: usize, block: &mut Block, forces: &[ContactForce], adjacency: &
     crate::udec::contact::gather::gather(block, forces, adjacency.entries(b), gravity);
 }
 
-/// Stage 6 of a simply-deformable block: its force and moment, then its applied stress, whose
-/// lever arms on its own corners' side are their rounding circles' centres (`own_corners`, the
-/// block's corners as stage 2 left them, `contacts` for which corner a contact is at).
+/// Stage 6 of a simply-deformable block: its force and moment, then its applied stress.
 #[inline]
-pub fn gather_sdef(b: usize, block: &mut Block, sdef: &mut Sdef, forces: &[ContactForce], adjacency: &Adjacency, gravity: [f64; 2], contacts: &[Contact], own_corners: &[Corner]) {
+pub fn gather_sdef(b: usize, block: &mut Block, sdef: &mut Sdef, forces: &[ContactForce], adjacency: &Adjacency, gravity: [f64; 2]) {
     gather(b, block, forces, adjacency, gravity);
-    let start = block.corner_start;
-    let circle = |k: u32| own_corners[(contacts[k as usize].corner - start) as usize].circle;
-    sdef.applied = crate::udec::contact::gather::gather_applied_stress(block, forces, adjacency.entries(b), circle);
+    sdef.applied = crate::udec::contact::gather::gather_applied_stress(block, forces, adjacency.entries(b));
 }
 
 /// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces
@@ -33,8 +29,7 @@ pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: 
     let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
     debug_assert_eq!(forces.len(), model.contacts.len());
-    let Model { blocks, sdef, contacts, corners, .. } = model;
-    let (contacts, corners) = (&contacts[..], &corners[..]);
+    let Model { blocks, sdef, .. } = model;
     let n = blocks.len();
     let shared = SharedMut::new(blocks);
     // The simply-deformable extension, indexed like the blocks, where the scene has one.
@@ -46,10 +41,7 @@ pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: 
         let mut sdef = shared_sdef.as_ref().map(|s| unsafe { s.range(r.clone()) });
         for (j, block) in piece.iter_mut().enumerate() {
             match &mut sdef {
-                Some(sdef) if block.kind == BlockKind::SimplyDeformable => {
-                    let own = &corners[block.corner_start as usize..(block.corner_start + block.corner_count) as usize];
-                    gather_sdef(r.start + j, block, &mut sdef[j], forces, adjacency, gravity, contacts, own)
-                }
+                Some(sdef) if block.kind == BlockKind::SimplyDeformable => gather_sdef(r.start + j, block, &mut sdef[j], forces, adjacency, gravity),
                 _ => gather(r.start + j, block, forces, adjacency, gravity),
             }
         }

@@ -21,7 +21,7 @@ mod team;
 use crate::driver;
 use crate::udec::backend::{Backend, CrackEvent, CycleError, CycleReport};
 use crate::udec::model::sdef::Sdef;
-use crate::udec::model::{Block, BlockKind, Contact, Corner, Material, Model};
+use crate::udec::model::{Block, BlockKind, Corner, Material, Model};
 use crate::udec::topology::{self, Adjacency};
 
 use crate::udec::contact::gather::ContactForce;
@@ -163,8 +163,6 @@ struct BlockInputs<'a> {
     /// Internal mass damping of simply-deformable blocks (DAMP … INTERNAL, ALPB).
     alpha_internal: f64,
     materials: &'a [Material],
-    /// The contacts (read only in this pass), for the corner each one is at.
-    contacts: &'a [Contact],
     dt: f64,
 }
 
@@ -199,12 +197,12 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
             continue;
         }
         if let Some((forces, adjacency)) = inp.gather {
-            gather::gather_sdef(first + j, block, s, forces, adjacency, inp.gravity, inp.contacts, mine);
+            gather::gather_sdef(first + j, block, s, forces, adjacency, inp.gravity);
         }
         *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
         if !block.fixed {
             let mat = &inp.materials[(block.material.max(1) as usize - 1).min(inp.materials.len() - 1)].block;
-            crate::udec::model::sdef::internal_step(s, mat, block.area, block.inertia, inp.alpha_internal, inp.dt);
+            crate::udec::model::sdef::internal_step(s, mat, block.area, block.rotation, inp.alpha_internal, inp.dt);
             // The strain moves the corners too: at most |ε̇|·R a step past the rigid travel.
             let rate = s.strain_rate[0].abs().max(s.strain_rate[1].abs()).max(s.strain_rate[2].abs());
             step.corner_travel += 2.0 * rate * inp.dt * block.radius;
@@ -229,7 +227,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     // whatever the number of threads.
     {
         let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
-        let Model { blocks, corners, sdef, materials, damping, contacts, .. } = &mut *model;
+        let Model { blocks, corners, sdef, materials, damping, .. } = &mut *model;
         steps.resize(blocks.len(), StepOutcome::default());
         let inp = BlockInputs {
             gather: (!gathered).then_some((&forces[..], adjacency)),
@@ -237,7 +235,6 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             alpha,
             alpha_internal: damping.alpha_internal,
             materials,
-            contacts,
             dt,
         };
         let n = blocks.len();
@@ -457,7 +454,11 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
         let before = model.next_block_id;
         if model.retire_energy_around(|m| topology::apply_crack(m, &crack)).is_some() {
             changed = true;
-            report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, value: crack.value, from: crack.from, to: crack.to });
+            let criterion = match crack.law {
+                crate::udec::model::constitutive::CrackingLaw::PointLoad => "POINT-LOAD VALUE",
+                crate::udec::model::constitutive::CrackingLaw::Griffith => "GRIFFITH STRESS",
+            };
+            report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, criterion, value: crack.value, from: crack.from, to: crack.to });
         }
     }
     changed

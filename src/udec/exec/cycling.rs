@@ -181,26 +181,44 @@ impl Executor<'_> {
     }
 
     /// Griffith cracking (constitutive numbers 3 and 4, SL-85-1 Table A1, and 5) acts on the
-    /// internal stresses of simply-deformable blocks (Appendix A ¶17): a rigid block that asks for
-    /// it (a tensile strength factor set) has none, and must not run as if it could not crack.
-    fn check_cracking(&self, cmd: &Located) -> Result<(), RunError> {
-        if let Some(b) = self.model.blocks.iter().find(|b| {
-            b.kind == BlockKind::Rigid
-                && Constitutive::from_number(b.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith)
-                && self.model.material(b.material).block.tf > 0.0
-        }) {
+    /// internal stresses of simply-deformable blocks (Appendix A ¶17); a rigid block has none.
+    /// Where no simply-deformable block could crack by it, a rigid block that asks for it (a
+    /// tensile strength factor set) is an input error: the deck expects cracks that cannot come.
+    /// Where some can (sample 4: the beam is SDEF, the projectile and the supports, rigid,
+    /// inherit the one BLOCK command's CONS=4), the rigid ones are named in a warning once and
+    /// run uncracked, as UDEC 1.2 ran them.
+    fn check_cracking(&mut self, cmd: &Located) -> Result<(), RunError> {
+        let griffith = |b: &crate::udec::model::Block| {
+            Constitutive::from_number(b.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith) && self.model.material(b.material).block.tf > 0.0
+        };
+        let rigid: Vec<&crate::udec::model::Block> = self.model.blocks.iter().filter(|b| b.kind == BlockKind::Rigid && griffith(b)).collect();
+        let Some(first) = rigid.first() else { return Ok(()) };
+        let any_sdef = self.model.blocks.iter().any(|b| b.kind == BlockKind::SimplyDeformable && griffith(b));
+        if !any_sdef {
             return Err(self.command_error(
                 cmd,
                 format!(
                     "CYCLE: block {} is rigid, but its constitutive number {} cracks it by Griffith's criterion (material {} has TF = {}), \
                      which reads the internal stress only a simply-deformable block has; make it simply deformable \
                      (CHANGE x1 x2 y1 y2 SDEF over its centroid) or give it constitutive number 1 or 2 (point-load cracking)",
-                    b.id,
-                    b.constitutive,
-                    b.material,
-                    output::format::fmt_short(self.model.material(b.material).block.tf)
+                    first.id,
+                    first.constitutive,
+                    first.material,
+                    output::format::fmt_short(self.model.material(first.material).block.tf)
                 ),
             ));
+        }
+        if !self.griffith_rigid_warned {
+            let ids: Vec<String> = rigid.iter().take(8).map(|b| b.id.to_string()).collect();
+            let more = if rigid.len() > 8 { format!(" and {} more", rigid.len() - 8) } else { String::new() };
+            let text = format!(
+                "WARNING: {} rigid block(s) ({}{more}) have a Griffith constitutive number and a TF, but no internal stress: they will not crack \
+                 (CHANGE … SDEF makes a block simply deformable)",
+                rigid.len(),
+                ids.join(", ")
+            );
+            self.griffith_rigid_warned = true;
+            self.echo(&text);
         }
         Ok(())
     }
@@ -346,9 +364,10 @@ impl Executor<'_> {
     fn echo_report(&mut self, report: &CycleReport) {
         for c in &report.cracks {
             self.echo(&format!(
-                "BLOCK {} CRACKED AT CYCLE {} (POINT-LOAD VALUE {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
+                "BLOCK {} CRACKED AT CYCLE {} ({} {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
                 c.block,
                 c.cycle,
+                c.criterion,
                 output::format::fmt_e(c.value),
                 c.new_block,
                 output::format::fmt_e(c.from[0]),

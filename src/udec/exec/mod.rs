@@ -160,6 +160,8 @@ pub struct Executor<'a> {
     provenance: Option<String>,
     /// The ROUND (its bits) and the blocks it cuts that the ROUND warning last named.
     round_warned: Option<(u64, Vec<u32>)>,
+    /// Whether the rigid blocks with a Griffith constitutive number were named once.
+    griffith_rigid_warned: bool,
 }
 
 impl<'a> Executor<'a> {
@@ -176,6 +178,7 @@ impl<'a> Executor<'a> {
             executed: 0,
             provenance: None,
             round_warned: None,
+            griffith_rigid_warned: false,
         }
     }
 

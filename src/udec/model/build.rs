@@ -154,6 +154,7 @@ impl Model {
         // an SDEF block starts unstrained, ¶17: "the block stresses are set to zero").
         if seed.kind == BlockKind::SimplyDeformable || !self.sdef.is_empty() {
             self.sdef.resize(self.blocks.len(), super::sdef::Sdef::default());
+            self.refresh_sdef_moments(b);
         }
         self.update_corner_positions(b);
         b
@@ -170,6 +171,7 @@ impl Model {
             blk.area = props.area;
             blk.mass = density * props.area;
             blk.inertia = density * props.polar_moment;
+            self.refresh_sdef_moments(b);
         }
     }
 
@@ -295,6 +297,17 @@ impl Model {
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         self.validate_settings()?;
         let (nb, nk) = (self.blocks.len(), self.corners.len());
+        if !self.sdef.is_empty() && self.sdef.len() != nb {
+            return Err(format!("{} simply-deformable extensions for {nb} blocks", self.sdef.len()));
+        }
+        if let Some(k) = self.sdef.iter().position(|s| !(s.strain.iter().chain(&s.strain_rate).chain(&s.stress).all(|x| x.is_finite()))) {
+            return Err(format!("block {k}'s strain, strain rate or stress is not finite"));
+        }
+        if self.sdef.is_empty() {
+            if let Some(b) = self.blocks.iter().find(|b| b.kind == super::BlockKind::SimplyDeformable) {
+                return Err(format!("block {} is simply deformable but has no extension", b.id));
+            }
+        }
         // Corner indices are u32 everywhere (blocks, contacts, the GPU buffers).
         if nk > u32::MAX as usize {
             return Err(format!("{nk} corners, more than a u32 indexes"));

@@ -640,6 +640,18 @@ impl Model {
             self.blocks[b].kind = BlockKind::SimplyDeformable;
             self.sdef[b] = sdef::Sdef::default();
         }
+        self.refresh_sdef_moments(b);
+    }
+
+    /// The second moments of block `b`'s mass (`Sdef::moments`), from its body-frame corners and
+    /// its material's density, if it is simply deformable.
+    pub fn refresh_sdef_moments(&mut self, b: usize) {
+        if self.blocks[b].kind != BlockKind::SimplyDeformable || b >= self.sdef.len() {
+            return;
+        }
+        let local: Vec<[f64; 2]> = self.block_corners(b).iter().map(|c| c.local).collect();
+        let density = self.material(self.blocks[b].material).block.density;
+        self.sdef[b].moments = sdef::polygon_moments(&local).map(|x| density * x);
     }
 
     /// The corners of block `b`, counter-clockwise.

@@ -15,11 +15,13 @@
 //! A_ij = Σ r_i f_j is the *applied stress times area* (KSA; loads and gravity act at the
 //! centroid, r = 0, and add nothing). The internal stress σ (KSI, tension positive) resists with
 //! the block's area a: a generalised force −a·σ. The strain's inertia is the second moment of the
-//! block's mass; blockdem lumps it to the scalar J = I/2 (half the polar moment, the mean of the
-//! two principal second moments: exact for a square or a regular polygon, whose tensor is
-//! isotropic). With ε12 = ε21 one degree of freedom of mass 2J:
+//! block's mass, M_kl = ∫ρ x_k x_l da about the centroid (`Sdef::moments`, in the body frame,
+//! turned to world axes with the block): the kinetic energy of the motion ε̇·x is
+//! ½ ε̇_ik ε̇_il M_kl. blockdem keeps its diagonal in world axes, J11 = M11 and J22 = M22 (exact
+//! for a block whose principal axes are the world's, a rectangle at rest), and gives the shear
+//! strain, ε12 = ε21 one degree of freedom, the mean J12 = ½(M11 + M22) = I/2:
 //!
-//!   J ε̈11 = A11 − a σ11,   J ε̈22 = A22 − a σ22,   J ε̈12 = ½(A12 + A21) − a σ12,
+//!   J11 ε̈11 = A11 − a σ11,   J22 ε̈22 = A22 − a σ22,   J12 ε̈12 = ½(A12 + A21) − a σ12,
 //!
 //! integrated by central differences as the rigid motion is (the strain rate at half steps, the
 //! strain and stress at whole steps), with the internal mass damping of DAMP … INTERNAL (UDEC's
@@ -29,13 +31,14 @@
 //!
 //!   σ11 = (λ + 2G) ε11 + λ ε22,   σ22 = λ ε11 + (λ + 2G) ε22,   σ12 = 2G ε12.
 //!
-//! **Energy.** The internal kinetic energy is ½J(ε̇11² + ε̇22² + 2ε̇12²), the block's strain energy
+//! **Energy.** The internal kinetic energy is ½(J11 ε̇11² + J22 ε̇22² + 2 J12 ε̇12²), the block's strain energy
 //! ½a(σ11ε11 + σ22ε22 + 2σ12ε12); both enter the ledger (`Model::energies`), as does the work of
 //! the internal damping.
 //!
 //! **Time step.** The internal modes' stiffness, volumetric 2a(λ + G) = 2a(K + G/3) per unit
-//! strain against the inertia J, bounds the step as the contacts' do: the critical step is the
-//! smaller of UDEC's 2√(m_min/k_max) and 2√(J/(2a(K + G/3))) over the SDEF blocks
+//! strain against the smaller principal second moment M_min (whatever the block's turn, J11
+//! and J22 are no smaller), bounds the step as the contacts' do: the critical step is the
+//! smaller of UDEC's 2√(m_min/k_max) and 2√(M_min/(2a(K + G/3))) over the SDEF blocks
 //! (`Model::critical_timestep`).
 //!
 //! The CPU's stage 1 calls [`internal_step`] for an SDEF block after its rigid step, stage 6
@@ -62,6 +65,10 @@ pub struct Sdef {
     pub applied: [f64; 4],
     /// Energy the internal mass damping took since START (J).
     pub damping_work: f64,
+    /// The second moments of the block's mass about its centroid in its body frame, ∫ρ x_k x_l da
+    /// as (11, 12, 22): the strain's inertia (`strain_inertia`). Set when the block becomes
+    /// simply deformable and with its mass (`Model::recompute_mass_properties`).
+    pub moments: [f64; 3],
 }
 
 /// Lamé's λ in plane strain from the bulk and shear moduli.
@@ -77,10 +84,38 @@ pub fn elastic_stress(mat: &BlockMaterial, e: [f64; 3]) -> [f64; 3] {
     [(l + 2.0 * g) * e[0] + l * e[2], 2.0 * g * e[1], l * e[0] + (l + 2.0 * g) * e[2]]
 }
 
-/// The lumped inertia of the strain modes, J = I/2 (see the module doc).
+/// The inertia of the strain modes (11, 12, 22) of a block whose body-frame second moments are
+/// `m` and whose rotation is `theta`: the diagonal of R M Rᵀ, and their mean for the shear (see
+/// the module doc).
 #[inline]
-pub fn strain_inertia(inertia: f64) -> f64 {
-    0.5 * inertia
+pub fn strain_inertia(m: [f64; 3], theta: f64) -> [f64; 3] {
+    let (s, c) = theta.sin_cos();
+    let j11 = c * c * m[0] - 2.0 * c * s * m[1] + s * s * m[2];
+    let j22 = s * s * m[0] + 2.0 * c * s * m[1] + c * c * m[2];
+    [j11, 0.5 * (m[0] + m[2]), j22]
+}
+
+/// The smaller principal second moment of `m` (11, 12, 22): the least inertia a strain mode has
+/// at any turn of the block.
+#[inline]
+pub fn least_moment(m: [f64; 3]) -> f64 {
+    let mean = 0.5 * (m[0] + m[2]);
+    mean - (0.5 * (m[0] - m[2])).hypot(m[1])
+}
+
+/// The second moments ∫x_k x_l da (11, 12, 22) of the polygon `pts` about the origin (its
+/// centroid, for a block's body-frame corners); times the density, `Sdef::moments`.
+pub fn polygon_moments(pts: &[[f64; 2]]) -> [f64; 3] {
+    let n = pts.len();
+    let (mut xx, mut xy, mut yy) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let (p, q) = (pts[i], pts[(i + 1) % n]);
+        let c = p[0] * q[1] - q[0] * p[1];
+        xx += (p[0] * p[0] + p[0] * q[0] + q[0] * q[0]) * c;
+        yy += (p[1] * p[1] + p[1] * q[1] + q[1] * q[1]) * c;
+        xy += (p[0] * q[1] + 2.0 * p[0] * p[1] + 2.0 * q[0] * q[1] + q[0] * p[1]) * c;
+    }
+    [(xx / 12.0).abs(), xy / 24.0, (yy / 12.0).abs()]
 }
 
 /// The stiffness of the block's stiffest internal mode per unit strain, the volumetric one:
@@ -108,12 +143,12 @@ pub fn applied_stress(p: [f64; 2], c: [f64; 2], f: [f64; 2]) -> [f64; 4] {
 }
 
 /// One step of the strain (see the module doc): the strain rate from the applied and internal
-/// stresses with the internal damping `alpha` (ALPB), then the strain and its stress. `inertia`
-/// is the block's polar moment, `area` its area.
+/// stresses with the internal damping `alpha` (ALPB), then the strain and its stress. `area` is
+/// the block's area, `theta` its rotation.
 #[inline]
-pub fn internal_step(s: &mut Sdef, mat: &BlockMaterial, area: f64, inertia: f64, alpha: f64, dt: f64) {
-    let j = strain_inertia(inertia);
-    if j <= 0.0 {
+pub fn internal_step(s: &mut Sdef, mat: &BlockMaterial, area: f64, theta: f64, alpha: f64, dt: f64) {
+    let j = strain_inertia(s.moments, theta);
+    if !(j[0] > 0.0 && j[2] > 0.0) {
         return;
     }
     let c1 = 1.0 - 0.5 * alpha * dt;
@@ -123,13 +158,13 @@ pub fn internal_step(s: &mut Sdef, mat: &BlockMaterial, area: f64, inertia: f64,
     let old = s.strain_rate;
     let mut rate = [0.0; 3];
     for k in 0..3 {
-        rate[k] = (old[k] * c1 + q[k] / j * dt) * c2;
+        rate[k] = (old[k] * c1 + q[k] / j[k] * dt) * c2;
     }
     if alpha > 0.0 {
         // As for the rigid motion (`law_of_motion::mass_damping_work`): the damping force
         // −α·J·ε̇ over the step's mean rate, ε12 counted twice (it is ε12 and ε21).
         let m = [0.5 * (old[0] + rate[0]), 0.5 * (old[1] + rate[1]), 0.5 * (old[2] + rate[2])];
-        s.damping_work += alpha * dt * j * (m[0] * m[0] + 2.0 * m[1] * m[1] + m[2] * m[2]);
+        s.damping_work += alpha * dt * (j[0] * m[0] * m[0] + 2.0 * j[1] * m[1] * m[1] + j[2] * m[2] * m[2]);
     }
     s.strain_rate = rate;
     for k in 0..3 {
@@ -144,24 +179,24 @@ pub fn strain_energy(s: &Sdef, area: f64) -> f64 {
     0.5 * area * (s.stress[0] * s.strain[0] + 2.0 * s.stress[1] * s.strain[1] + s.stress[2] * s.strain[2])
 }
 
-/// The kinetic energy of the strain modes at the rate `rate`: ½J(ε̇11² + 2ε̇12² + ε̇22²).
+/// The kinetic energy of the strain modes at the rate `rate` with the inertia `j`
+/// ([`strain_inertia`]): ½(J11 ε̇11² + 2 J12 ε̇12² + J22 ε̇22²).
 #[inline]
-pub fn internal_kinetic_energy(rate: [f64; 3], inertia: f64) -> f64 {
-    0.5 * strain_inertia(inertia) * (rate[0] * rate[0] + 2.0 * rate[1] * rate[1] + rate[2] * rate[2])
+pub fn internal_kinetic_energy(rate: [f64; 3], j: [f64; 3]) -> f64 {
+    0.5 * (j[0] * rate[0] * rate[0] + 2.0 * j[1] * rate[1] * rate[1] + j[2] * rate[2] * rate[2])
 }
 
 /// The strain rate brought from the half step to the whole step by half a step of the current
 /// generalised force (as `Model::energies` does for the rigid velocities).
 #[inline]
-pub fn rate_at_whole_step(s: &Sdef, area: f64, inertia: f64, dt: f64) -> [f64; 3] {
-    let j = strain_inertia(inertia);
-    if j <= 0.0 {
+pub fn rate_at_whole_step(s: &Sdef, area: f64, j: [f64; 3], dt: f64) -> [f64; 3] {
+    if !(j[0] > 0.0 && j[2] > 0.0) {
         return s.strain_rate;
     }
     let a = s.applied;
     let q = [a[0] - area * s.stress[0], 0.5 * (a[1] + a[2]) - area * s.stress[1], a[3] - area * s.stress[2]];
-    let h = 0.5 * dt / j;
-    [s.strain_rate[0] + q[0] * h, s.strain_rate[1] + q[1] * h, s.strain_rate[2] + q[2] * h]
+    let h = 0.5 * dt;
+    [s.strain_rate[0] + q[0] / j[0] * h, s.strain_rate[1] + q[1] / j[1] * h, s.strain_rate[2] + q[2] / j[2] * h]
 }
 
 /// Principal stresses of (s11, s12, s22): (largest, smallest, the angle of the largest's
@@ -227,20 +262,37 @@ mod tests {
         assert!((p1 - 5.0).abs() < 1e-12 && p2.abs() < 1e-12 && (angle - t).abs() < 1e-12);
     }
 
+    /// A rectangle's second moments: b·h³/12 about its axes, no product; and turned, the same
+    /// diagonal as R M Rᵀ.
+    #[test]
+    fn second_moments_of_a_rectangle() {
+        let (b, h) = (2.0, 0.5);
+        let pts = [[-b / 2.0, -h / 2.0], [b / 2.0, -h / 2.0], [b / 2.0, h / 2.0], [-b / 2.0, h / 2.0]];
+        let m = polygon_moments(&pts);
+        assert!((m[0] - h * b.powi(3) / 12.0).abs() < 1e-12 && m[1].abs() < 1e-12 && (m[2] - b * h.powi(3) / 12.0).abs() < 1e-12, "{m:?}");
+        let j = strain_inertia(m, std::f64::consts::FRAC_PI_2);
+        assert!((j[0] - m[2]).abs() < 1e-12 && (j[2] - m[0]).abs() < 1e-12 && (j[1] - 0.5 * (m[0] + m[2])).abs() < 1e-12);
+        assert!((least_moment(m) - m[2]).abs() < 1e-12);
+    }
+
     /// Undamped free vibration of the strain: energy ½J ε̇² + ½aσε is kept to O(Δt²).
     #[test]
     fn a_free_strain_oscillation_keeps_its_energy() {
-        let (m, area, inertia) = (mat(), 1.0, 2000.0 / 6.0);
-        let mut s = Sdef { strain: [1e-4, 0.0, -5e-5], ..Sdef::default() };
+        // A unit square of density 2000, turned by 0.3 rad.
+        let (m, area, theta) = (mat(), 1.0, 0.3);
+        let unit = [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]];
+        let moments = polygon_moments(&unit).map(|x| 2000.0 * x);
+        let mut s = Sdef { strain: [1e-4, 0.0, -5e-5], moments, ..Sdef::default() };
         s.stress = elastic_stress(&m, s.strain);
-        let w2 = internal_stiffness(&m, area) / strain_inertia(inertia);
+        let j = strain_inertia(moments, theta);
+        let w2 = internal_stiffness(&m, area) / least_moment(moments);
         let dt = 0.05 * 2.0 / w2.sqrt();
         let e0 = strain_energy(&s, area);
         let mut worst: f64 = 0.0;
         for _ in 0..2000 {
             s.applied = [0.0; 4];
-            internal_step(&mut s, &m, area, inertia, 0.0, dt);
-            let e = strain_energy(&s, area) + internal_kinetic_energy(rate_at_whole_step(&s, area, inertia, dt), inertia);
+            internal_step(&mut s, &m, area, theta, 0.0, dt);
+            let e = strain_energy(&s, area) + internal_kinetic_energy(rate_at_whole_step(&s, area, j, dt), j);
             worst = worst.max((e - e0).abs() / e0);
         }
         assert!(worst < 1e-2, "energy drift {worst}");

@@ -109,9 +109,10 @@ impl Model {
                 continue;
             }
             if !b.fixed {
-                let rate = super::sdef::rate_at_whole_step(s, b.area, b.inertia, self.timestep);
-                let at_t = super::sdef::internal_kinetic_energy(rate, b.inertia);
-                e.kinetic += if at_t.is_finite() { at_t } else { super::sdef::internal_kinetic_energy(s.strain_rate, b.inertia) };
+                let j = super::sdef::strain_inertia(s.moments, b.rotation);
+                let rate = super::sdef::rate_at_whole_step(s, b.area, j, self.timestep);
+                let at_t = super::sdef::internal_kinetic_energy(rate, j);
+                e.kinetic += if at_t.is_finite() { at_t } else { super::sdef::internal_kinetic_energy(s.strain_rate, j) };
             }
             e.strain += super::sdef::strain_energy(s, b.area);
             e.mass_damping += s.damping_work;
@@ -131,20 +132,28 @@ impl Model {
     }
 }
 
+/// The share of a simply-deformable block's own critical step its time step may take
+/// (`Model::critical_timestep`).
+pub const SDEF_STEP_SAFETY: f64 = 0.5;
+
 impl Model {
     /// UDEC 1.2's time step: Δt = FRAC · 2√(m_min / k_max), m_min the smallest block mass and k_max
     /// the largest contact stiffness of the materials in use (blocks and joint tags); with
-    /// simply-deformable blocks, no more than FRAC · 2√(J / k_int) of any of them, its strain
-    /// modes' inertia J = I/2 against their stiffest, volumetric stiffness k_int = 2a(K + G/3)
-    /// (`model::sdef`). Returns None when no block has mass or no stiffness is defined.
+    /// simply-deformable blocks, no more than ½ · 2√(M_min / k_int) of any of them, its strain
+    /// modes' least inertia M_min against their stiffest, volumetric stiffness k_int =
+    /// 2a(K + G/3) (`model::sdef`). As UDEC's Δt_b of deformable blocks, FRAC does not scale the
+    /// block's own limit (it is that mode's exact one); the half is the margin for the contacts,
+    /// whose springs act on the strain modes too. Returns None when no block has mass or no
+    /// stiffness is defined.
     pub fn critical_timestep(&self) -> Option<f64> {
         let rigid = self.contact_timestep();
         let mut internal = f64::INFINITY;
         for (k, b) in self.blocks.iter().enumerate() {
-            if self.sdef_of(k).is_some() && b.inertia > 0.0 {
+            if let Some(s) = self.sdef_of(k) {
                 let stiffness = super::sdef::internal_stiffness(&self.material(b.material).block, b.area);
-                if stiffness > 0.0 {
-                    internal = internal.min(self.frac * 2.0 * (super::sdef::strain_inertia(b.inertia) / stiffness).sqrt());
+                let least = super::sdef::least_moment(s.moments);
+                if stiffness > 0.0 && least > 0.0 {
+                    internal = internal.min(SDEF_STEP_SAFETY * 2.0 * (least / stiffness).sqrt());
                 }
             }
         }
@@ -206,8 +215,11 @@ impl Model {
             }
             let r2 = (p[0] - blk.centroid[0]).powi(2) + (p[1] - blk.centroid[1]).powi(2);
             // A simply-deformable block gives at a point r from its centroid through its strain
-            // modes too: r²/J with J = I/2 (`model::sdef`).
-            let strain = if self.sdef_of(b).is_some() && blk.inertia > 0.0 { r2 / super::sdef::strain_inertia(blk.inertia) } else { 0.0 };
+            // modes too: at most r²/M_min, M_min its smaller principal second moment (`model::sdef`).
+            let strain = match self.sdef_of(b) {
+                Some(s) if super::sdef::least_moment(s.moments) > 0.0 => r2 / super::sdef::least_moment(s.moments),
+                _ => 0.0,
+            };
             1.0 / blk.mass + if blk.inertia > 0.0 { r2 / blk.inertia } else { 0.0 } + strain
         };
         for c in &self.contacts {
@@ -229,8 +241,8 @@ impl Model {
         }
         // The strain modes' own stiffness, k_int/J, on the row of each free SDEF block.
         for (b, blk) in self.blocks.iter().enumerate() {
-            if self.sdef_of(b).is_some() && !blk.fixed && blk.inertia > 0.0 {
-                per_block[b] += super::sdef::internal_stiffness(&self.material(blk.material).block, blk.area) / super::sdef::strain_inertia(blk.inertia);
+            if let Some(s) = self.sdef_of(b).filter(|s| !blk.fixed && super::sdef::least_moment(s.moments) > 0.0) {
+                per_block[b] += super::sdef::internal_stiffness(&self.material(blk.material).block, blk.area) / super::sdef::least_moment(s.moments);
             }
         }
         let lambda = per_block.iter().cloned().fold(0.0, f64::max);

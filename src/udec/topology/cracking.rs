@@ -22,10 +22,13 @@ use crate::udec::model::split::split_block_along;
 use crate::udec::model::{BlockKind, Model};
 use crate::udec::topology::{update_contacts, Adjacency};
 
-/// A crack found in a block: its end points (on the block boundary) and the criterion's value.
+/// A crack found in a block (by either criterion): its end points (on the block boundary) and the
+/// criterion's value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointLoadCrack {
     pub block: usize,
+    /// The criterion that found it.
+    pub law: CrackingLaw,
     pub from: [f64; 2],
     pub to: [f64; 2],
     pub value: f64,
@@ -71,7 +74,7 @@ pub fn find_griffith_crack(model: &Model, b: usize) -> Option<PointLoadCrack> {
     let c = model.blocks[b].centroid;
     let outline = model.world_outline(b);
     let (from, to) = line_through(&outline, c, d)?;
-    Some(PointLoadCrack { block: b, from, to, value })
+    Some(PointLoadCrack { block: b, law: CrackingLaw::Griffith, from, to, value })
 }
 
 /// Where the line through `c` (inside the polygon `pts`) along `d` leaves it on either side: the
@@ -169,7 +172,7 @@ pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> 
             if c1 < clearance || c2 < clearance {
                 continue;
             }
-            best = Some(PointLoadCrack { block: b, from: q1, to: q2, value });
+            best = Some(PointLoadCrack { block: b, law: CrackingLaw::PointLoad, from: q1, to: q2, value });
         }
     }
     best
