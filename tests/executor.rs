@@ -507,12 +507,12 @@ fn a_block_flung_so_far_that_its_edges_vanish_in_round_off_stays_restartable() {
 /// Issue 27 item 1: SET OVERLAP ACCEPT|REFUSE, and decks built touching run as before.
 #[test]
 fn set_overlap_is_parsed_and_blocks_built_touching_are_not_refused() {
-    use blockdem::deck::{Command, OverlapPolicy, Setting};
-    let parsed = blockdem::deck::parse_deck("START\nSET OVERLAP ACCEPT\nSE OV REF\n", "d").unwrap();
+    use blockdem::udec::deck::{Command, OverlapPolicy, Setting};
+    let parsed = blockdem::udec::deck::parse_deck("START\nSET OVERLAP ACCEPT\nSE OV REF\n", "d").unwrap();
     assert_eq!(parsed[1].command, Command::Set { setting: Setting::Overlap(OverlapPolicy::Accept) });
     assert_eq!(parsed[2].command, Command::Set { setting: Setting::Overlap(OverlapPolicy::Refuse) });
     for bad in ["SET", "SET OVERLAP", "SET OVERLAP MAYBE", "SET ROUND 1", "SET OVERLAP ACCEPT 2"] {
-        let e = blockdem::deck::parse_deck(&format!("START\n{bad}\n"), "d").unwrap_err();
+        let e = blockdem::udec::deck::parse_deck(&format!("START\n{bad}\n"), "d").unwrap_err();
         assert_eq!(e.line, 2, "{bad}: {e}");
     }
     // Blocks built touching (shared edges, a SPLIT) and a block settled on its base: no overlap

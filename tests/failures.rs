@@ -94,7 +94,7 @@ fn blocks_built_overlapping_are_named_and_refused_unless_accepted(t: &Target) {
     // overlap, the energy ½kn·δ² (2 × 5e6 J/m) and the speed it gives the block (100 m/s), and
     // refuses, before any cycle, at its own line.
     let run = |deck: &str| {
-        let commands = blockdem::deck::parse_deck(deck, "<scene>").unwrap();
+        let commands = blockdem::udec::deck::parse_deck(deck, "<scene>").unwrap();
         let options = RunOptions { out_dir: std::env::temp_dir().join("blockdem-failures"), ..Default::default() };
         let log = common::SharedLog::default();
         let mut exec = Executor::new(t.backend(), Box::new(log.clone()), options, "<scene>");

@@ -324,8 +324,8 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
             dashpot_velocity,
         };
         let mut v = || q::<R>(rng.range(-1.0, 1.0));
-        let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v() };
-        let m2 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v() };
+        let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v(), strain_velocity: [0.0; 2] };
+        let m2 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v(), strain_velocity: [0.0; 2] };
         let beta = q::<R>(if rng.next() < 0.5 { rng.range(0.0, 1e-3) } else { 0.0 });
         let dt = q::<R>(rng.range(1e-5, 1e-3));
         let active = rng.next() < 0.9;

@@ -588,10 +588,30 @@ fn a_save_header_is_filled_in_after_its_streamed_payload() {
     save(&path, &file).unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let payload = &bytes[28..];
-    assert_eq!(payload, postcard::to_stdvec(&file).unwrap().as_slice());
+    // Version 4: the save file, then the simply-deformable extension array.
+    let mut expected = postcard::to_stdvec(&file).unwrap();
+    expected.extend(postcard::to_stdvec(&file.model.sdef).unwrap());
+    assert_eq!(payload, expected.as_slice());
     assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), FORMAT_VERSION);
     assert_eq!(u64::from_le_bytes(bytes[12..20].try_into().unwrap()), payload.len() as u64);
     assert_eq!(u64::from_le_bytes(bytes[20..28].try_into().unwrap()), crc32fast::hash(payload) as u64);
+}
+
+#[test]
+fn a_save_file_of_format_3_still_loads() {
+    // Version 3 files (before simply-deformable blocks) hold the same payload without the
+    // extension array, under a CRC-32.
+    let dir = out_dir("restart_v3");
+    let file = save_file();
+    let payload = postcard::to_stdvec(&file).unwrap();
+    let mut bytes = MAGIC.to_vec();
+    bytes.extend_from_slice(&3u32.to_le_bytes());
+    bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&(crc32fast::hash(&payload) as u64).to_le_bytes());
+    bytes.extend_from_slice(&payload);
+    let path = dir.join("v3.sav");
+    std::fs::write(&path, &bytes).unwrap();
+    assert_eq!(load(&path).unwrap(), file);
 }
 
 #[test]

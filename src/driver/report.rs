@@ -30,11 +30,14 @@ impl CycleReport {
     }
 }
 
+/// A crack formed during a run: the block cracked, the piece it gave, and the criterion's value
+/// (`criterion` names it, as the log prints it: "POINT-LOAD VALUE", "GRIFFITH STRESS").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CrackEvent {
     pub cycle: u64,
     pub block: u32,
     pub new_block: u32,
+    pub criterion: &'static str,
     pub value: f64,
     pub from: [f64; 2],
     pub to: [f64; 2],

@@ -50,7 +50,7 @@ impl crate::driver::RunModel for Model {
     }
 
     fn has_crack_candidates(&self) -> bool {
-        (0..self.blocks.len()).any(|b| crate::udec::topology::cracking::is_point_load_candidate(self, b))
+        (0..self.blocks.len()).any(|b| crate::udec::topology::cracking::is_crack_candidate(self, b))
     }
 }
 

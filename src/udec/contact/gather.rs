@@ -91,3 +91,22 @@ pub fn gather(block: &mut Block, forces: &[ContactForce], entries: &[AdjacencyEn
     block.force = [fx, fy];
     block.moment = m;
 }
+
+/// The applied stress times area of a simply-deformable block (`model::sdef`, the report's KSA):
+/// Σ r_i f_j over its adjacency entries, in their fixed order, f the force on the block and r
+/// from its centroid to the contact point. Gravity and the load act at the centroid and add
+/// nothing.
+#[inline]
+pub fn gather_applied_stress(block: &Block, forces: &[ContactForce], entries: &[AdjacencyEntry]) -> [f64; 4] {
+    let mut a = [0.0; 4];
+    for &entry in entries {
+        let contact = &forces[entry.contact() as usize];
+        let sign = if entry.side() == 0 { 1.0 } else { -1.0 };
+        let g = [sign * contact.force[0], sign * contact.force[1]];
+        let da = crate::udec::model::sdef::applied_stress(contact.point, block.centroid, g);
+        for k in 0..4 {
+            a[k] += da[k];
+        }
+    }
+    a
+}

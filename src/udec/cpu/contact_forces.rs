@@ -12,12 +12,16 @@ use crate::udec::contact::gather::ContactForce;
 use crate::udec::contact::geometry::track_feature;
 use crate::udec::contact::law::{contact_force_law, BlockMotion};
 use crate::udec::model::corners::counts_force;
-use crate::udec::model::{Block, Contact, Corner, Damping, Material, Model};
+use crate::udec::model::geometry::sub;
+use crate::udec::model::sdef::{strain_velocity, Sdef};
+use crate::udec::model::{Block, BlockKind, Contact, Corner, Damping, Material, Model};
 
 /// What stage 4 reads: the blocks and corners as stages 1–2 left them, and the constants.
 struct ContactInputs<'a> {
     blocks: &'a [Block],
     corners: &'a [Corner],
+    /// The simply-deformable extension of the blocks (empty in a rigid scene).
+    sdef: &'a [Sdef],
     materials: &'a [Material],
     damping: Damping,
     dt: f64,
@@ -30,7 +34,16 @@ struct ContactInputs<'a> {
 /// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
 /// limit.
 fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
-    let motion = |b: &Block| BlockMotion { centroid: b.centroid, velocity: b.velocity, angular_velocity: b.angular_velocity };
+    // A simply-deformable block's strain moves the point `at` (`BlockMotion::strain_velocity`).
+    let motion = |k: u32, b: &Block, at: [f64; 2]| BlockMotion {
+        centroid: b.centroid,
+        velocity: b.velocity,
+        angular_velocity: b.angular_velocity,
+        strain_velocity: match inp.sdef.get(k as usize) {
+            Some(s) if b.kind == BlockKind::SimplyDeformable => strain_velocity(s.strain_rate, sub(at, b.centroid)),
+            _ => [0.0; 2],
+        },
+    };
     let mut failure = None;
     for (k, (contact, force)) in contacts.iter_mut().zip(forces.iter_mut()).enumerate() {
         let corner = &inp.corners[contact.corner as usize];
@@ -45,7 +58,7 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
         // The other view of a corner-pair touch carries no force (the touch counts once).
         let active = counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
         let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
-        contact_force_law(contact, mat, &motion(b1), &motion(b2), &inp.damping, inp.dt, active);
+        contact_force_law(contact, mat, &motion(contact.block1, b1, g.point), &motion(contact.block2, b2, g.point), &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
         if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);
@@ -60,8 +73,8 @@ pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: 
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let failure = {
-        let Model { blocks, corners, contacts, materials, damping, .. } = &mut *model;
-        let inp = ContactInputs { blocks, corners, materials, damping: *damping, dt, limit };
+        let Model { blocks, corners, contacts, materials, damping, sdef, .. } = &mut *model;
+        let inp = ContactInputs { blocks, corners, sdef, materials, damping: *damping, dt, limit };
         let n = contacts.len();
         assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);

@@ -6,7 +6,8 @@
 use super::team::Team;
 use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK};
 use crate::udec::contact::gather::ContactForce;
-use crate::udec::model::{Block, Model};
+use crate::udec::model::sdef::Sdef;
+use crate::udec::model::{Block, BlockKind, Model};
 use crate::udec::topology::Adjacency;
 
 /// Sums the forces acting on block `b`; `forces[k]` is contact k's (see [`ContactForce`]).
@@ -15,20 +16,34 @@ pub fn gather(b: usize, block: &mut Block, forces: &[ContactForce], adjacency: &
     crate::udec::contact::gather::gather(block, forces, adjacency.entries(b), gravity);
 }
 
+/// Stage 6 of a simply-deformable block: its force and moment, then its applied stress.
+#[inline]
+pub fn gather_sdef(b: usize, block: &mut Block, sdef: &mut Sdef, forces: &[ContactForce], adjacency: &Adjacency, gravity: [f64; 2]) {
+    gather(b, block, forces, adjacency, gravity);
+    sdef.applied = crate::udec::contact::gather::gather_applied_stress(block, forces, adjacency.entries(b));
+}
+
 /// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces
 /// must be current between cycles (energy check, checkpoint, end of a run).
 pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: &Adjacency, team: &mut Team) {
     let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
-    let blocks = &mut model.blocks;
     debug_assert_eq!(forces.len(), model.contacts.len());
+    let Model { blocks, sdef, .. } = model;
     let n = blocks.len();
     let shared = SharedMut::new(blocks);
+    // The simply-deformable extension, indexed like the blocks, where the scene has one.
+    let shared_sdef = (!sdef.is_empty()).then(|| SharedMut::new(sdef));
     team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
-        // SAFETY: the chunks are disjoint ranges of `blocks`, mutably borrowed here.
+        // SAFETY: the chunks are disjoint ranges of `blocks` (and of `sdef`, as long), mutably
+        // borrowed here.
         let piece = unsafe { shared.range(r.clone()) };
+        let mut sdef = shared_sdef.as_ref().map(|s| unsafe { s.range(r.clone()) });
         for (j, block) in piece.iter_mut().enumerate() {
-            gather(r.start + j, block, forces, adjacency, gravity);
+            match &mut sdef {
+                Some(sdef) if block.kind == BlockKind::SimplyDeformable => gather_sdef(r.start + j, block, &mut sdef[j], forces, adjacency, gravity),
+                _ => gather(r.start + j, block, forces, adjacency, gravity),
+            }
         }
     });
 }

@@ -20,7 +20,8 @@ mod team;
 
 use crate::driver;
 use crate::udec::backend::{Backend, CrackEvent, CycleError, CycleReport};
-use crate::udec::model::{Block, Corner, Model};
+use crate::udec::model::sdef::Sdef;
+use crate::udec::model::{Block, BlockKind, Corner, Material, Model};
 use crate::udec::topology::{self, Adjacency};
 
 use crate::udec::contact::gather::ContactForce;
@@ -159,6 +160,9 @@ struct BlockInputs<'a> {
     gather: Option<(&'a [ContactForce], &'a Adjacency)>,
     gravity: [f64; 2],
     alpha: f64,
+    /// Internal mass damping of simply-deformable blocks (DAMP … INTERNAL, ALPB).
+    alpha_internal: f64,
+    materials: &'a [Material],
     dt: f64,
 }
 
@@ -177,6 +181,38 @@ fn block_piece(first: usize, blocks: &mut [Block], mut corners: &mut [Corner], s
     }
 }
 
+/// [`block_piece`] in a scene with simply-deformable blocks: `sdef` is the extension of `blocks`
+/// (as long); an SDEF block also sums its applied stress (stage 6), steps its strain after its
+/// rigid motion (stage 1, `model::sdef::internal_step`) and places its corners strained.
+fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut corners: &mut [Corner], steps: &mut [StepOutcome], inp: &BlockInputs) {
+    for (j, ((block, s), step)) in blocks.iter_mut().zip(sdef.iter_mut()).zip(steps.iter_mut()).enumerate() {
+        let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
+        corners = rest;
+        if block.kind != BlockKind::SimplyDeformable {
+            if let Some((forces, adjacency)) = inp.gather {
+                gather::gather(first + j, block, forces, adjacency, inp.gravity);
+            }
+            *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
+            geometry_update::geometry_update(block, mine);
+            continue;
+        }
+        if let Some((forces, adjacency)) = inp.gather {
+            gather::gather_sdef(first + j, block, s, forces, adjacency, inp.gravity);
+        }
+        *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
+        if !block.fixed {
+            let mat = &inp.materials[(block.material.max(1) as usize - 1).min(inp.materials.len() - 1)].block;
+            crate::udec::model::sdef::internal_step(s, mat, block.area, block.rotation, inp.alpha_internal, inp.dt);
+            // The strain moves the corners too: at most |ε̇|·R a step past the rigid travel.
+            let rate = s.strain_rate[0].abs().max(s.strain_rate[1].abs()).max(s.strain_rate[2].abs());
+            step.corner_travel += 2.0 * rate * inp.dt * block.radius;
+        } else {
+            s.strain_rate = [0.0; 3];
+        }
+        geometry_update::geometry_update_strained(block, s.strain, mine);
+    }
+}
+
 /// One cycle of stages 6, 1, 2 and 4 (the scene has no zones or fluid yet). Stage 6 of the
 /// previous cycle — the force sums stage 1 needs — runs here, fused with stages 1 and 2, unless
 /// `gathered` says the block forces are current already; on return they are not (stage 4 has
@@ -191,11 +227,20 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     // whatever the number of threads.
     {
         let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
-        let Model { blocks, corners, .. } = &mut *model;
+        let Model { blocks, corners, sdef, materials, damping, .. } = &mut *model;
         steps.resize(blocks.len(), StepOutcome::default());
-        let inp = BlockInputs { gather: (!gathered).then_some((&forces[..], adjacency)), gravity, alpha, dt };
+        let inp = BlockInputs {
+            gather: (!gathered).then_some((&forces[..], adjacency)),
+            gravity,
+            alpha,
+            alpha_internal: damping.alpha_internal,
+            materials,
+            dt,
+        };
         let n = blocks.len();
         let (shared_blocks, shared_corners, shared_steps) = (SharedMut::new(blocks), SharedMut::new(corners), SharedMut::new(steps));
+        // The simply-deformable extension, where the scene has one (indexed like the blocks).
+        let shared_sdef = (!sdef.is_empty()).then(|| SharedMut::new(sdef));
         team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
             // SAFETY: the chunks are disjoint ranges of blocks; their corners, the contiguous
             // range from the first block's first corner to the last block's last (corners in
@@ -205,7 +250,11 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             let corner_range = first.corner_start as usize..(last.corner_start + last.corner_count) as usize;
             // SAFETY: as above.
             let corners = unsafe { shared_corners.range(corner_range) };
-            block_piece(r.start, blocks, corners, steps, &inp);
+            match &shared_sdef {
+                // SAFETY: `sdef` is as long as `blocks`; the chunk's range of it is disjoint too.
+                Some(sdef) => block_piece_sdef(r.start, blocks, unsafe { sdef.range(r.clone()) }, corners, steps, &inp),
+                None => block_piece(r.start, blocks, corners, steps, &inp),
+            }
         });
     }
     let mut work = 0.0;
@@ -391,6 +440,10 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
             if let Some(c) = topology::find_point_load_crack(model, adjacency, b) {
                 found.push((model.blocks[b].id, c));
             }
+        } else if topology::cracking::is_griffith_candidate(model, b) {
+            if let Some(c) = topology::find_griffith_crack(model, b) {
+                found.push((model.blocks[b].id, c));
+            }
         }
     }
     let mut changed = false;
@@ -401,7 +454,11 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
         let before = model.next_block_id;
         if model.retire_energy_around(|m| topology::apply_crack(m, &crack)).is_some() {
             changed = true;
-            report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, value: crack.value, from: crack.from, to: crack.to });
+            let criterion = match crack.law {
+                crate::udec::model::constitutive::CrackingLaw::PointLoad => "POINT-LOAD VALUE",
+                crate::udec::model::constitutive::CrackingLaw::Griffith => "GRIFFITH STRESS",
+            };
+            report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, criterion, value: crack.value, from: crack.from, to: crack.to });
         }
     }
     changed

@@ -25,12 +25,34 @@ impl Executor<'_> {
         Ok(())
     }
 
-    /// CHANGE: the material and constitutive numbers of the blocks in `range` (SDEF and FDEF are
-    /// refused before, `not_supported_yet`).
-    pub(super) fn change(&mut self, cmd: &Located, range: &Range, material: Option<u32>, constitutive: Option<u32>) -> Result<(), RunError> {
+    /// CHANGE: the material and constitutive numbers of the blocks in `range`, and with `sdef`
+    /// (CHANGE … SDEF) their kind: simply deformable, unstrained, which needs the (new) material's
+    /// bulk and shear moduli (FDEF is refused before, `not_supported_yet`). A simply-deformable
+    /// block stays so: the report has no way back to rigid.
+    pub(super) fn change(&mut self, cmd: &Located, range: &Range, sdef: bool, material: Option<u32>, constitutive: Option<u32>) -> Result<(), RunError> {
         self.check_material(cmd, "CHANGE", material)?;
         self.check_constitutive(cmd, "CHANGE", constitutive)?;
         let blocks = self.in_range("CHANGE", range);
+        if sdef {
+            for &b in &blocks {
+                let m = material.unwrap_or(self.model.blocks[b].material);
+                let props = self.model.material(m).block;
+                // `!(x > 0.0)`: a NaN modulus fails too.
+                #[allow(clippy::neg_cmp_op_on_partial_ord)]
+                if !(props.bulk > 0.0 && props.shear > 0.0) {
+                    return Err(self.command_error(
+                        cmd,
+                        format!(
+                            "CHANGE SDEF: block {} would be simply deformable in material {m}, which has no elastic moduli (K = {}, G = {}); \
+                             give PROPERTY MAT={m} K=… G=… (bulk and shear modulus, > 0) before the CHANGE",
+                            self.model.blocks[b].id,
+                            output::format::fmt_short(props.bulk),
+                            output::format::fmt_short(props.shear)
+                        ),
+                    ));
+                }
+            }
+        }
         let before: Vec<(u32, u32)> = blocks.iter().map(|&b| (self.model.blocks[b].material, self.model.blocks[b].constitutive)).collect();
         for &b in &blocks {
             if let Some(m) = material {
@@ -47,6 +69,11 @@ impl Executor<'_> {
             }
             self.model.recompute_mass_properties();
             return Err(e);
+        }
+        if sdef {
+            for &b in &blocks {
+                self.model.make_sdef(b);
+            }
         }
         Ok(())
     }

@@ -8,7 +8,7 @@ use super::{Executor, Progress, RunError, RunOptions, CHECKPOINT_FILE, VTK_DIR};
 use crate::udec::backend::{CycleError, CycleReport};
 use crate::udec::deck::Located;
 use crate::udec::model::constitutive::{Constitutive, CrackingLaw};
-use crate::udec::model::Model;
+use crate::udec::model::{BlockKind, Model};
 use crate::udec::output;
 
 /// The progress line of `Progress::Lines`: done of n cycles after `elapsed` seconds.
@@ -165,6 +165,12 @@ impl Executor<'_> {
             if !(mat.contact.kn > 0.0 && mat.contact.ks > 0.0) {
                 return Err(self.command_error(cmd, format!("CYCLE: material {} of block {} needs contact stiffnesses KN and KS", b.material, b.id)));
             }
+            if b.kind == BlockKind::SimplyDeformable && !(mat.block.bulk > 0.0 && mat.block.shear > 0.0) {
+                return Err(self.command_error(
+                    cmd,
+                    format!("CYCLE: block {} is simply deformable, and its material {} needs a bulk modulus K and a shear modulus G (> 0)", b.id, b.material),
+                ));
+            }
         }
         for c in &self.model.corners {
             if c.edge_material != 0 {
@@ -180,21 +186,44 @@ impl Executor<'_> {
     }
 
     /// Griffith cracking (constitutive numbers 3 and 4, SL-85-1 Table A1, and 5) acts on the
-    /// internal stresses of simply-deformable blocks, which come later: a block that asks for it
-    /// (a tensile strength factor set) must not run as if it could not crack.
-    fn check_cracking(&self, cmd: &Located) -> Result<(), RunError> {
-        if let Some(b) = self.model.blocks.iter().find(|b| {
+    /// internal stresses of simply-deformable blocks (Appendix A ¶17); a rigid block has none.
+    /// Where no simply-deformable block could crack by it, a rigid block that asks for it (a
+    /// tensile strength factor set) is an input error: the deck expects cracks that cannot come.
+    /// Where some can (sample 4: the beam is SDEF, the projectile and the supports, rigid,
+    /// inherit the one BLOCK command's CONS=4), the rigid ones are named in a warning once and
+    /// run uncracked, as UDEC 1.2 ran them.
+    fn check_cracking(&mut self, cmd: &Located) -> Result<(), RunError> {
+        let griffith = |b: &crate::udec::model::Block| {
             Constitutive::from_number(b.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith) && self.model.material(b.material).block.tf > 0.0
-        }) {
-            let what = format!(
-                "Griffith cracking (block {} has constitutive number {} and material {} has TF = {}; the Griffith criterion \
-                 needs the stresses of simply-deformable blocks; constitutive numbers 1 and 2 crack by the point-load criterion)",
-                b.id,
-                b.constitutive,
-                b.material,
-                output::format::fmt_short(self.model.material(b.material).block.tf)
+        };
+        let rigid: Vec<&crate::udec::model::Block> = self.model.blocks.iter().filter(|b| b.kind == BlockKind::Rigid && griffith(b)).collect();
+        let Some(first) = rigid.first() else { return Ok(()) };
+        let any_sdef = self.model.blocks.iter().any(|b| b.kind == BlockKind::SimplyDeformable && griffith(b));
+        if !any_sdef {
+            return Err(self.command_error(
+                cmd,
+                format!(
+                    "CYCLE: block {} is rigid, but its constitutive number {} cracks it by Griffith's criterion (material {} has TF = {}), \
+                     which reads the internal stress only a simply-deformable block has; make it simply deformable \
+                     (CHANGE x1 x2 y1 y2 SDEF over its centroid) or give it constitutive number 1 or 2 (point-load cracking)",
+                    first.id,
+                    first.constitutive,
+                    first.material,
+                    output::format::fmt_short(self.model.material(first.material).block.tf)
+                ),
+            ));
+        }
+        if !self.griffith_rigid_warned {
+            let ids: Vec<String> = rigid.iter().take(8).map(|b| b.id.to_string()).collect();
+            let more = if rigid.len() > 8 { format!(" and {} more", rigid.len() - 8) } else { String::new() };
+            let text = format!(
+                "WARNING: {} rigid block(s) ({}{more}) have a Griffith constitutive number and a TF, but no internal stress: they will not crack \
+                 (CHANGE … SDEF makes a block simply deformable)",
+                rigid.len(),
+                ids.join(", ")
             );
-            return Err(self.unsupported(cmd, &what));
+            self.griffith_rigid_warned = true;
+            self.echo(&text);
         }
         Ok(())
     }
@@ -340,9 +369,10 @@ impl Executor<'_> {
     fn echo_report(&mut self, report: &CycleReport) {
         for c in &report.cracks {
             self.echo(&format!(
-                "BLOCK {} CRACKED AT CYCLE {} (POINT-LOAD VALUE {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
+                "BLOCK {} CRACKED AT CYCLE {} ({} {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
                 c.block,
                 c.cycle,
+                c.criterion,
                 output::format::fmt_e(c.value),
                 c.new_block,
                 output::format::fmt_e(c.from[0]),
@@ -406,7 +436,7 @@ impl Executor<'_> {
             return Ok(());
         }
         let mut probe = self.model.clone();
-        crate::topology::update_contacts(&mut probe, true);
+        crate::udec::topology::update_contacts(&mut probe, true);
         let pairs = initial_overlaps(&probe);
         drop(probe);
         if pairs.is_empty() || pairs.iter().any(|p| p.overlap > 0.5 * self.model.tol.round) {
@@ -435,13 +465,13 @@ impl Executor<'_> {
             self.echo(&format!("WARNING: AND {} MORE OVERLAPPING PAIR(S)", pairs.len() - NAMED));
         }
         match self.overlap_policy {
-            crate::deck::OverlapPolicy::Accept => {
+            crate::udec::deck::OverlapPolicy::Accept => {
                 self.echo(&format!("SET OVERLAP ACCEPT: CYCLING WITH {} J/M OF INITIAL STRAIN ENERGY, BOOKED AS ENERGY PUT IN", f(total)));
                 self.model.external_work += total;
                 self.overlaps_checked = Some(mark);
                 Ok(())
             }
-            crate::deck::OverlapPolicy::Refuse => {
+            crate::udec::deck::OverlapPolicy::Refuse => {
                 let p = &pairs[0];
                 Err(self.command_error(
                     cmd,

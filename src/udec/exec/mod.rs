@@ -124,7 +124,6 @@ pub enum Progress {
 /// item 6).
 fn not_supported_yet(command: &Command) -> Option<&'static str> {
     match command {
-        Command::Change { to: Some(crate::udec::deck::Deformability::Sdef), .. } => Some("CHANGE SDEF (simply-deformable blocks)"),
         Command::Change { to: Some(crate::udec::deck::Deformability::Fdef), .. } => Some("CHANGE FDEF (fully-deformable blocks)"),
         Command::Fluid { .. } => Some("FLUID (fluid flow in joints and domains)"),
         Command::Generate { .. } => Some("GENERATE (zoning of fully-deformable blocks)"),
@@ -163,12 +162,14 @@ pub struct Executor<'a> {
     /// The ROUND (its bits) and the blocks it cuts that the ROUND warning last named.
     round_warned: Option<(u64, Vec<u32>)>,
     /// SET OVERLAP: what a CYCLE does with blocks found overlapping before any motion.
-    overlap_policy: crate::deck::OverlapPolicy,
+    overlap_policy: crate::udec::deck::OverlapPolicy,
     /// The model's shape (`cycling::ShapeMark`) when a CYCLE last looked for initial overlaps:
     /// only a CYCLE after a change of blocks or ROUND looks again.
     overlaps_checked: Option<cycling::ShapeMark>,
     /// The energy-balance warning was given (once a run).
     ledger_warned: bool,
+    /// Whether the rigid blocks with a Griffith constitutive number were named once.
+    griffith_rigid_warned: bool,
 }
 
 impl<'a> Executor<'a> {
@@ -185,9 +186,10 @@ impl<'a> Executor<'a> {
             executed: 0,
             provenance: None,
             round_warned: None,
-            overlap_policy: crate::deck::OverlapPolicy::default(),
+            overlap_policy: crate::udec::deck::OverlapPolicy::default(),
             overlaps_checked: None,
             ledger_warned: false,
+            griffith_rigid_warned: false,
         }
     }
 
@@ -313,9 +315,9 @@ impl<'a> Executor<'a> {
             Command::Stop | Command::End => return Ok(true),
             Command::Block { material, constitutive, corners } => self.block(cmd, *material, *constitutive, corners)?,
             Command::Change { range, to, material, constitutive } => {
-                // CHANGE SDEF / FDEF stopped above (`not_supported_yet`).
-                debug_assert!(to.is_none());
-                self.change(cmd, range, *material, *constitutive)?
+                // CHANGE FDEF stopped above (`not_supported_yet`).
+                let sdef = *to == Some(crate::udec::deck::Deformability::Sdef);
+                self.change(cmd, range, sdef, *material, *constitutive)?
             }
             Command::Cycle { n } => self.cycle(cmd, *n)?,
             Command::Damping { fcrit, freq, mode } => self.damping(cmd, *fcrit, *freq, *mode)?,
@@ -335,7 +337,7 @@ impl<'a> Executor<'a> {
             Command::Round { d } => self.model.set_round(*d),
             Command::Vtk => self.vtk(cmd)?,
             Command::Save { file } => self.save(cmd, file)?,
-            Command::Set { setting: crate::deck::Setting::Overlap(policy) } => self.overlap_policy = *policy,
+            Command::Set { setting: crate::udec::deck::Setting::Overlap(policy) } => self.overlap_policy = *policy,
             Command::Split { from, to, material, constitutive } => self.split(cmd, *from, *to, *material, *constitutive)?,
             Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
             Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],

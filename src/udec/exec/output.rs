@@ -101,7 +101,8 @@ impl Executor<'_> {
         let f = output::format::fmt_e;
         writeln!(self.log)?;
         writeln!(self.log, "ENERGY")?;
-        writeln!(self.log, "  KINETIC {}   STRAIN (CONTACTS) {}   WORK OF GRAVITY, LOADS AND VELOCITY {}", f(e.kinetic), f(e.strain), f(e.external_work))?;
+        let strain = if self.model.has_sdef() { "STRAIN (CONTACTS AND SDEF BLOCKS)" } else { "STRAIN (CONTACTS)" };
+        writeln!(self.log, "  KINETIC {}   {strain} {}   WORK OF GRAVITY, LOADS AND VELOCITY {}", f(e.kinetic), f(e.strain), f(e.external_work))?;
         writeln!(
             self.log,
             "  DISSIPATED: MASS DAMPING {}   CONTACT DASHPOTS {}   FRICTION {}   RELEASED (DELETED CONTACTS AND BLOCKS) {}",

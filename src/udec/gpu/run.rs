@@ -307,6 +307,13 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
     /// kernel precision cannot hold (`representable`).
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        if model.has_sdef() {
+            // The strain's kernels are not written yet (issue 28): `--backend auto` goes on on
+            // the CPU, `--backend gpu` says so.
+            return Err(CycleError::DoesNotFit(
+                "simply-deformable blocks (CHANGE … SDEF) run on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
+            ));
+        }
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
         kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, e.dev.precision)

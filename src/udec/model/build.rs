@@ -150,6 +150,12 @@ impl Model {
             update_margin: 0.0,
             damping_work: 0.0,
         });
+        // The extension array follows the blocks once one is simply deformable (a new piece of
+        // an SDEF block starts unstrained, ¶17: "the block stresses are set to zero").
+        if seed.kind == BlockKind::SimplyDeformable || !self.sdef.is_empty() {
+            self.sdef.resize(self.blocks.len(), super::sdef::Sdef::default());
+            self.refresh_sdef_moments(b);
+        }
         self.update_corner_positions(b);
         b
     }
@@ -165,6 +171,7 @@ impl Model {
             blk.area = props.area;
             blk.mass = density * props.area;
             blk.inertia = density * props.polar_moment;
+            self.refresh_sdef_moments(b);
         }
     }
 
@@ -202,6 +209,13 @@ impl Model {
                 kept_corners.push(Corner { block: nbk, ..*corner });
             }
         }
+        if !self.sdef.is_empty() {
+            let mut k = 0;
+            self.sdef.retain(|_| {
+                k += 1;
+                !removed.get(k - 1).copied().unwrap_or(true)
+            });
+        }
         let mut new_blocks = Vec::with_capacity(next as usize);
         for (i, blk) in self.blocks.drain(..).enumerate() {
             if !removed[i] {
@@ -238,14 +252,18 @@ impl Model {
     pub fn update_corner_positions(&mut self, b: usize) {
         let blk = &self.blocks[b];
         let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
-        super::corners::place_corners(blk, &mut self.corners[range]);
+        match self.sdef_of(b) {
+            Some(s) => super::corners::place_corners_strained(blk, s.strain, &mut self.corners[range]),
+            None => super::corners::place_corners(blk, &mut self.corners[range]),
+        }
     }
 
     /// The current world outline of block b, counter-clockwise, computed from centroid and rotation
-    /// (not from the cached `Corner::position`).
+    /// (and the strain of a simply-deformable block; not from the cached `Corner::position`).
     pub fn world_outline(&self, b: usize) -> Vec<[f64; 2]> {
         let blk = &self.blocks[b];
-        self.block_corners(b).iter().map(|k| geometry::add(blk.centroid, geometry::rotate(k.local, blk.rotation))).collect()
+        let strain = self.sdef_of(b).map_or([0.0; 3], |s| s.strain);
+        self.block_corners(b).iter().map(|k| geometry::add(blk.centroid, super::corners::strained(strain, geometry::rotate(k.local, blk.rotation)))).collect()
     }
 
     /// ROUND d: sets the rounding length and the tolerances derived from it, and re-rounds every
@@ -279,6 +297,17 @@ impl Model {
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         self.validate_settings()?;
         let (nb, nk) = (self.blocks.len(), self.corners.len());
+        if !self.sdef.is_empty() && self.sdef.len() != nb {
+            return Err(format!("{} simply-deformable extensions for {nb} blocks", self.sdef.len()));
+        }
+        if let Some(k) = self.sdef.iter().position(|s| !(s.strain.iter().chain(&s.strain_rate).chain(&s.stress).all(|x| x.is_finite()))) {
+            return Err(format!("block {k}'s strain, strain rate or stress is not finite"));
+        }
+        if self.sdef.is_empty() {
+            if let Some(b) = self.blocks.iter().find(|b| b.kind == super::BlockKind::SimplyDeformable) {
+                return Err(format!("block {} is simply deformable but has no extension", b.id));
+            }
+        }
         // Corner indices are u32 everywhere (blocks, contacts, the GPU buffers).
         if nk > u32::MAX as usize {
             return Err(format!("{nk} corners, more than a u32 indexes"));

@@ -41,6 +41,49 @@ pub fn place_corners(block: &Block, corners: &mut [Corner]) {
     }
 }
 
+/// A point `r` from a block's centroid stretched by the block's strain `e` (11, 12, 22): (I + ε)·r.
+/// The identity for a rigid block's zero strain (bit for bit: `r + 0·r`).
+#[inline]
+pub fn strained(e: [f64; 3], r: [f64; 2]) -> [f64; 2] {
+    [r[0] + e[0] * r[0] + e[1] * r[1], r[1] + e[1] * r[0] + e[2] * r[1]]
+}
+
+/// Places the corners of a simply-deformable block: x = c + (I + ε)·R(θ)·x_local, the rigid
+/// placement stretched by the block's uniform strain (`sdef`). Each rounding circle keeps its
+/// radius and is fitted again tangent to its corner's two strained edges (its centre on the
+/// bisector, radius / cos(½ turn) from the corner, as `geometry::corner_rounding` placed it), so
+/// that the rounded boundary's straight parts move with the strained edges: a contact on them
+/// then moves at ε̇·r, r from the centroid to the contact point, the lever arm of the applied
+/// stress (`sdef`), and the contact force's work on the strain is what its spring stores.
+#[inline]
+pub fn place_corners_strained(block: &Block, strain: [f64; 3], corners: &mut [Corner]) {
+    place_corners(block, corners);
+    let c = block.centroid;
+    for corner in corners.iter_mut() {
+        let r = strained(strain, sub(corner.position, c));
+        corner.position = [c[0] + r[0], c[1] + r[1]];
+    }
+    let n = corners.len();
+    for k in 0..n {
+        let (prev, p, next) = (corners[(k + n - 1) % n].position, corners[k].position, corners[(k + 1) % n].position);
+        let (e1, e2) = (sub(p, prev), sub(next, p));
+        let (l1, l2) = (dot(e1, e1).sqrt(), dot(e2, e2).sqrt());
+        if corners[k].radius > 0.0 && l1 > 0.0 && l2 > 0.0 {
+            let turn = (e1[0] * e2[1] - e1[1] * e2[0]).atan2(dot(e1, e2));
+            let bis = [-e1[0] / l1 + e2[0] / l2, -e1[1] / l1 + e2[1] / l2];
+            let lb = dot(bis, bis).sqrt();
+            let offset = corners[k].radius / (0.5 * turn).cos();
+            corners[k].circle = if lb > 0.0 && offset.is_finite() { [p[0] + bis[0] / lb * offset, p[1] + bis[1] / lb * offset] } else { p };
+        } else {
+            corners[k].circle = p;
+        }
+        if l2 > 0.0 {
+            corners[k].edge_dir = [e2[0] / l2, e2[1] / l2];
+            corners[k].edge_length = l2;
+        }
+    }
+}
+
 /// Whether a corner–corner contact is the counted one of its mirrored pair: the corner with the
 /// lower global index owns the touch.
 #[inline]

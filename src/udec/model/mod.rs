@@ -15,6 +15,7 @@ pub mod constitutive;
 pub mod corners;
 pub mod geometry;
 pub mod limits;
+pub mod sdef;
 pub mod split;
 pub mod timestep;
 
@@ -473,6 +474,12 @@ pub struct Model {
     /// Energy terms of blocks and contacts that no longer exist (see `timestep::RetiredEnergy`).
     #[serde(default)]
     pub retired: timestep::RetiredEnergy,
+    /// The simply-deformable extension of each block (the report's KBEX array, `sdef::Sdef`),
+    /// indexed like `blocks`: empty while no block is simply deformable (a rigid scene carries
+    /// none of it), one entry a block from the first CHANGE … SDEF on (a rigid block's stays
+    /// zero). Saved after the model (save format 4).
+    #[serde(skip)]
+    pub sdef: Vec<sdef::Sdef>,
 }
 
 /// Field by field, so that `clone_from` reuses the target's vectors: the backends keep a copy of
@@ -501,7 +508,7 @@ impl Clone for Model {
 /// exhaustively with it, so that a new field is a compile error until it is named here.
 macro_rules! with_settings {
     ($apply:ident!($($args:tt)*)) => {
-        $apply!($($args)*; materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired)
+        $apply!($($args)*; materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired, sdef)
     };
 }
 
@@ -604,6 +611,7 @@ impl Default for Model {
             next_contact_id: 1,
             external_work: 0.0,
             retired: timestep::RetiredEnergy::default(),
+            sdef: Vec::new(),
         }
     }
 }
@@ -611,6 +619,39 @@ impl Default for Model {
 impl Model {
     pub fn material(&self, n: u32) -> &Material {
         &self.materials[(n.max(1) as usize - 1).min(MAX_MATERIALS - 1)]
+    }
+
+    /// The simply-deformable state of block `b`, if it is simply deformable.
+    #[inline]
+    pub fn sdef_of(&self, b: usize) -> Option<&sdef::Sdef> {
+        (self.blocks[b].kind == BlockKind::SimplyDeformable).then(|| self.sdef.get(b)).flatten()
+    }
+
+    /// Whether any block is simply deformable (the scene then runs the strain's stages).
+    pub fn has_sdef(&self) -> bool {
+        !self.sdef.is_empty() && self.blocks.iter().any(|b| b.kind == BlockKind::SimplyDeformable)
+    }
+
+    /// Makes block `b` simply deformable (CHANGE … SDEF) with no strain, or keeps its strain if
+    /// it is already.
+    pub fn make_sdef(&mut self, b: usize) {
+        self.sdef.resize(self.blocks.len(), sdef::Sdef::default());
+        if self.blocks[b].kind != BlockKind::SimplyDeformable {
+            self.blocks[b].kind = BlockKind::SimplyDeformable;
+            self.sdef[b] = sdef::Sdef::default();
+        }
+        self.refresh_sdef_moments(b);
+    }
+
+    /// The second moments of block `b`'s mass (`Sdef::moments`), from its body-frame corners and
+    /// its material's density, if it is simply deformable.
+    pub fn refresh_sdef_moments(&mut self, b: usize) {
+        if self.blocks[b].kind != BlockKind::SimplyDeformable || b >= self.sdef.len() {
+            return;
+        }
+        let local: Vec<[f64; 2]> = self.block_corners(b).iter().map(|c| c.local).collect();
+        let density = self.material(self.blocks[b].material).block.density;
+        self.sdef[b].moments = sdef::polygon_moments(&local).map(|x| density * x);
     }
 
     /// The corners of block `b`, counter-clockwise.

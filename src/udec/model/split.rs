@@ -240,6 +240,9 @@ fn cut_outline(outline: &Outline, chords: &[(OnBoundary, OnBoundary)], joint: (u
 /// Does not remove the parent.
 fn push_pieces(model: &mut Model, b: usize, pieces: &[Outline]) {
     let parent = model.blocks[b].clone();
+    // A simply-deformable parent's points also moved at ε̇·r: its pieces take that velocity at
+    // their centroids (momentum is kept, Σ m·r = 0 about the parent's centroid).
+    let rate = model.sdef_of(b).map_or([0.0; 3], |s| s.strain_rate);
     let total: f64 = pieces.iter().map(|p| geometry::signed_area(&p.pts)).sum();
     for (k, piece) in pieces.iter().enumerate() {
         let props = geometry::polygon_properties(&piece.pts);
@@ -257,7 +260,11 @@ fn push_pieces(model: &mut Model, b: usize, pieces: &[Outline]) {
             material: parent.material,
             constitutive: parent.constitutive,
             fixed: parent.fixed,
-            velocity: [parent.velocity[0] - w * r[1], parent.velocity[1] + w * r[0]],
+            velocity: if rate == [0.0; 3] {
+                [parent.velocity[0] - w * r[1], parent.velocity[1] + w * r[0]]
+            } else {
+                [parent.velocity[0] - w * r[1] + rate[0] * r[0] + rate[1] * r[1], parent.velocity[1] + w * r[0] + rate[1] * r[0] + rate[2] * r[1]]
+            },
             angular_velocity: w,
             load: scale(parent.load, props.area / total),
             // New pieces have no contacts yet: due for detection at the next update.

@@ -14,12 +14,14 @@ use super::Model;
 pub struct Energies {
     /// ½mv² + ½Iω² of the free blocks, velocities brought to the whole step.
     pub kinetic: f64,
-    /// Strain energy in the contact springs: Fn²/2kn + Fs²/2ks.
+    /// Strain energy in the contact springs, Fn²/2kn + Fs²/2ks, and in the simply-deformable
+    /// blocks, ½a σ:ε (`model::sdef`).
     pub strain: f64,
     /// Work done on the blocks by gravity and loads since START, plus the kinetic energy VELOCITY
     /// commands gave (new minus old kinetic energy of the blocks they set): the energy put in.
     pub external_work: f64,
-    /// Dissipated by the mass-proportional damping force −α·m·v (per block, `Block::damping_work`).
+    /// Dissipated by the mass-proportional damping force −α·m·v (per block, `Block::damping_work`),
+    /// and on the strain of simply-deformable blocks by DAMP … INTERNAL (`Sdef::damping_work`).
     pub mass_damping: f64,
     /// Dissipated by the stiffness-proportional contact dashpots β·kn·vn, β·ks·vs
     /// (per contact, `Contact::dashpot_work`).
@@ -99,6 +101,22 @@ impl Model {
             }
             e.mass_damping += b.damping_work;
         }
+        // Simply-deformable blocks: the strain modes' kinetic energy (the rate brought to the
+        // whole step as the velocities are) and strain energy, and their internal damping.
+        for (k, s) in self.sdef.iter().enumerate() {
+            let b = &self.blocks[k];
+            if b.kind != super::BlockKind::SimplyDeformable {
+                continue;
+            }
+            if !b.fixed {
+                let j = super::sdef::strain_inertia(s.moments, b.rotation);
+                let rate = super::sdef::rate_at_whole_step(s, b.area, j, self.timestep);
+                let at_t = super::sdef::internal_kinetic_energy(rate, j);
+                e.kinetic += if at_t.is_finite() { at_t } else { super::sdef::internal_kinetic_energy(s.strain_rate, j) };
+            }
+            e.strain += super::sdef::strain_energy(s, b.area);
+            e.mass_damping += s.damping_work;
+        }
         for c in &self.contacts {
             let m = self.material(c.material);
             if m.contact.kn > 0.0 {
@@ -114,11 +132,39 @@ impl Model {
     }
 }
 
+/// The share of a simply-deformable block's own critical step its time step may take
+/// (`Model::critical_timestep`).
+pub const SDEF_STEP_SAFETY: f64 = 0.5;
+
 impl Model {
     /// UDEC 1.2's time step: Δt = FRAC · 2√(m_min / k_max), m_min the smallest block mass and k_max
-    /// the largest contact stiffness of the materials in use (blocks and joint tags). Returns None
-    /// when no block has mass or no stiffness is defined.
+    /// the largest contact stiffness of the materials in use (blocks and joint tags); with
+    /// simply-deformable blocks, no more than ½ · 2√(M_min / k_int) of any of them, its strain
+    /// modes' least inertia M_min against their stiffest, volumetric stiffness k_int =
+    /// 2a(K + G/3) (`model::sdef`). As UDEC's Δt_b of deformable blocks, FRAC does not scale the
+    /// block's own limit (it is that mode's exact one); the half is the margin for the contacts,
+    /// whose springs act on the strain modes too. Returns None when no block has mass or no
+    /// stiffness is defined.
     pub fn critical_timestep(&self) -> Option<f64> {
+        let rigid = self.contact_timestep();
+        let mut internal = f64::INFINITY;
+        for (k, b) in self.blocks.iter().enumerate() {
+            if let Some(s) = self.sdef_of(k) {
+                let stiffness = super::sdef::internal_stiffness(&self.material(b.material).block, b.area);
+                let least = super::sdef::least_moment(s.moments);
+                if stiffness > 0.0 && least > 0.0 {
+                    internal = internal.min(SDEF_STEP_SAFETY * 2.0 * (least / stiffness).sqrt());
+                }
+            }
+        }
+        match rigid {
+            Some(dt) => Some(dt.min(internal)),
+            None => internal.is_finite().then_some(internal),
+        }
+    }
+
+    /// UDEC 1.2's contact time step alone (see [`Model::critical_timestep`]).
+    fn contact_timestep(&self) -> Option<f64> {
         let m_min = self.blocks.iter().map(|b| b.mass).filter(|&m| m > 0.0).fold(f64::INFINITY, f64::min);
         let mut k_max: f64 = 0.0;
         let mut consider = |m: u32| {
@@ -168,7 +214,13 @@ impl Model {
                 return 0.0;
             }
             let r2 = (p[0] - blk.centroid[0]).powi(2) + (p[1] - blk.centroid[1]).powi(2);
-            1.0 / blk.mass + if blk.inertia > 0.0 { r2 / blk.inertia } else { 0.0 }
+            // A simply-deformable block gives at a point r from its centroid through its strain
+            // modes too: at most r²/M_min, M_min its smaller principal second moment (`model::sdef`).
+            let strain = match self.sdef_of(b) {
+                Some(s) if super::sdef::least_moment(s.moments) > 0.0 => r2 / super::sdef::least_moment(s.moments),
+                _ => 0.0,
+            };
+            1.0 / blk.mass + if blk.inertia > 0.0 { r2 / blk.inertia } else { 0.0 } + strain
         };
         for c in &self.contacts {
             // The mirror copy of a corner–corner touch carries no force.
@@ -185,6 +237,12 @@ impl Model {
             }
             if a2 > 0.0 {
                 per_block[b2] += k * (a2 + shared);
+            }
+        }
+        // The strain modes' own stiffness, k_int/J, on the row of each free SDEF block.
+        for (b, blk) in self.blocks.iter().enumerate() {
+            if let Some(s) = self.sdef_of(b).filter(|s| !blk.fixed && super::sdef::least_moment(s.moments) > 0.0) {
+                per_block[b] += super::sdef::internal_stiffness(&self.material(blk.material).block, blk.area) / super::sdef::least_moment(s.moments);
             }
         }
         let lambda = per_block.iter().cloned().fold(0.0, f64::max);

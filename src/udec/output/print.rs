@@ -99,14 +99,17 @@ const BLOCK_GROUPS: [Group; 8] = [
 ];
 
 /// PRINT BLOCKS: one row per block (centroid, mass, polar moment, velocities, forces), and under
-/// it the block's type in brackets, followed by `FIXED` for a fixed block.
+/// it the block's type in brackets, followed by `FIXED` for a fixed block. Under a
+/// simply-deformable block, the three tensors of its extension array (print-formats.md), each as
+/// 11 12 21 22: `ED` the strain rate, `SI` the internal stress, `SA` the applied stress times the
+/// block's area.
 ///
-/// The SDEF strain-rate/stress line and the FDEF zone and grid-point tables of the 1985 listing
-/// need zone and block-strain data that the model does not carry yet.
+/// The FDEF zone and grid-point tables of the 1985 listing need zone data that the model does not
+/// carry yet.
 pub fn print_blocks(model: &Model, out: &mut dyn Write) -> io::Result<()> {
     write_headings(out, "BLOCK DATA", &BLOCK_GROUPS)?;
     let mut line = String::new();
-    for b in &model.blocks {
+    for (k, b) in model.blocks.iter().enumerate() {
         let numbers = [b.centroid[0], b.centroid[1], b.mass, b.inertia, b.velocity[0], b.velocity[1], b.angular_velocity, b.force[0], b.force[1], b.moment];
         line.clear();
         let _ = write!(line, "{:>8}{:>5}{:>6}", b.id, b.material, b.constitutive);
@@ -114,6 +117,15 @@ pub fn print_blocks(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         writeln!(out, "{line}")?;
         let fixed = if b.fixed { " FIXED" } else { "" };
         writeln!(out, "{:>8}{fixed}", type_label(b.kind))?;
+        if let Some(s) = model.sdef_of(k) {
+            let (e, t, a) = (s.strain_rate, s.stress, s.applied);
+            for (label, row) in [("ED11 ED12 ED21 ED22", [e[0], e[1], e[1], e[2]]), ("SI11 SI12 SI21 SI22", [t[0], t[1], t[1], t[2]]), ("SA11 SA12 SA21 SA22", a)] {
+                line.clear();
+                let _ = write!(line, "{:>27}", label);
+                row.iter().for_each(|&x| push_col_e(&mut line, x));
+                writeln!(out, "{line}")?;
+            }
+        }
     }
     Ok(())
 }

@@ -8,8 +8,8 @@
 //! | 8 | magic `BLOCKDEM` |
 //! | 4 | format version (u32), [`FORMAT_VERSION`] |
 //! | 8 | payload length in bytes (u64) |
-//! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in version 3, FNV-1a 64 in version 2 |
-//! | n | payload: [`SaveFile`] serialized with postcard |
+//! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in versions 3 and 4, FNV-1a 64 in version 2 |
+//! | n | payload: [`SaveFile`] serialized with postcard; in version 4 followed by the model's simply-deformable extension array (`Model::sdef`, a list) |
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
@@ -34,8 +34,13 @@ use crate::udec::model::Model;
 
 /// The first eight bytes of every save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKDEM";
-/// The save format this program writes (and reads, with version 2).
-pub const FORMAT_VERSION: u32 = 3;
+/// The save format this program writes (and reads, with versions 2 and 3, which have no
+/// simply-deformable blocks).
+pub const FORMAT_VERSION: u32 = 4;
+
+/// The format before the simply-deformable extension array: the same payload without it, under
+/// a CRC-32.
+const CRC_VERSION: u32 = 3;
 /// The older format still read: the same payload under an FNV-1a 64 checksum.
 const FNV_VERSION: u32 = 2;
 /// Bytes before the payload: magic, version, length, checksum.
@@ -147,6 +152,8 @@ struct SaveView<'a> {
     model: &'a Model,
     plot: &'a PlotSettings,
     plot_count: usize,
+    /// Version 4's trailer: the model's simply-deformable extension.
+    sdef: &'a [crate::udec::model::sdef::Sdef],
 }
 
 /// SAVE: writes `file` to `path` (see [`save_state`]).
@@ -161,7 +168,7 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
 /// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
-    let file = SaveView { model, plot, plot_count };
+    let file = SaveView { model, plot, plot_count, sdef: &model.sdef };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
         let seekable = w.get_ref().metadata()?.is_file();
@@ -264,7 +271,7 @@ fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
-    if version != FORMAT_VERSION && version != FNV_VERSION {
+    if version != FORMAT_VERSION && version != CRC_VERSION && version != FNV_VERSION {
         return Err(DecodeError::UnsupportedVersion(version));
     }
     Ok(Header { version, length: u64_at(12), checksum: u64_at(20) })
@@ -275,7 +282,11 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
     if checksum(version, payload) != expected {
         return Err(DecodeError::Corrupt("the payload checksum does not match".to_string()));
     }
-    let (file, rest) = postcard::take_from_bytes::<SaveFile>(payload).map_err(|e| DecodeError::Corrupt(format!("bad payload: {e}")))?;
+    let bad = |e: postcard::Error| DecodeError::Corrupt(format!("bad payload: {e}"));
+    let (mut file, mut rest) = postcard::take_from_bytes::<SaveFile>(payload).map_err(bad)?;
+    if version == FORMAT_VERSION {
+        (file.model.sdef, rest) = postcard::take_from_bytes(rest).map_err(bad)?;
+    }
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));
     }

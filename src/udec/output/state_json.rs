@@ -55,6 +55,14 @@ struct BlockJson {
     material: u32,
     moment: Num,
     rotation: Num,
+    /// A simply-deformable block's internal stress (s11, s12, s22; Pa, tension positive), its
+    /// strain (e11, e12, e22) and strain rate; absent for a rigid block.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stress: Option<[Num; 3]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    strain: Option<[Num; 3]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    strain_rate: Option<[Num; 3]>,
     velocity: [Num; 2],
 }
 
@@ -75,6 +83,9 @@ fn block_json(model: &Model, b: usize, blk: &Block) -> BlockJson {
         material: blk.material,
         moment: Num(blk.moment),
         rotation: Num(blk.rotation),
+        stress: model.sdef_of(b).map(|s| s.stress.map(Num)),
+        strain: model.sdef_of(b).map(|s| s.strain.map(Num)),
+        strain_rate: model.sdef_of(b).map(|s| s.strain_rate.map(Num)),
         velocity: pair(blk.velocity),
     }
 }

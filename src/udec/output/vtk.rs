@@ -68,7 +68,7 @@ pub fn blocks_vtk(model: &Model) -> Vtk {
     let vector =
         |f: &dyn Fn(&crate::udec::model::Block) -> [f64; 2]| blocks.iter().flat_map(|b| f(b).map(|x| x as f32).into_iter().chain([0.0])).collect::<Vec<f32>>();
     let scalars = |f: &dyn Fn(&crate::udec::model::Block) -> f64| blocks.iter().map(|b| f(b) as f32).collect::<Vec<f32>>();
-    let cell = vec![
+    let mut cell = vec![
         Attribute::scalars("id", 1).with_data(blocks.iter().map(|b| b.id as i32).collect::<Vec<_>>()),
         Attribute::scalars("material", 1).with_data(blocks.iter().map(|b| b.material as i32).collect::<Vec<_>>()),
         Attribute::scalars("fixed", 1).with_data(blocks.iter().map(|b| flag(b.fixed)).collect::<Vec<_>>()),
@@ -78,6 +78,18 @@ pub fn blocks_vtk(model: &Model) -> Vtk {
         Attribute::scalars("mass", 1).with_data(scalars(&|b| b.mass)),
         Attribute::vectors("force").with_data(vector(&|b| b.force)),
     ];
+    if model.has_sdef() {
+        // Simply-deformable blocks: their internal stress as a 3×3 tensor (σ33 left 0, rigid
+        // blocks all 0), and which blocks they are.
+        let stress: Vec<f32> = (0..blocks.len())
+            .flat_map(|k| {
+                let s = model.sdef_of(k).map_or([0.0; 3], |s| s.stress).map(|x| x as f32);
+                [s[0], s[1], 0.0, s[1], s[2], 0.0, 0.0, 0.0, 0.0]
+            })
+            .collect();
+        cell.push(Attribute::scalars("sdef", 1).with_data((0..blocks.len()).map(|k| flag(model.sdef_of(k).is_some())).collect::<Vec<_>>()));
+        cell.push(Attribute::tensors("stress").with_data(stress));
+    }
     let piece = PolyDataPiece {
         points: points.into(),
         polys: Some(VertexNumbers::Legacy { num_cells: blocks.len() as u32, vertices }),

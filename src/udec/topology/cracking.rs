@@ -1,5 +1,10 @@
-//! Dynamic cracking by the point-load criterion (SL-85-1, Appendix A ¶15–16; constitutive numbers
-//! 1 and 2). A block with a tensile strength factor t_f is split between two opposing contact
+//! Dynamic cracking (SL-85-1, Appendix A ¶15–17): by Griffith's criterion on the internal stress
+//! of a simply-deformable block (constitutive numbers 3, 4 and 5, [`find_griffith_crack`]: a
+//! crack through the centroid parallel to the minimum principal stress; the pieces stay simply
+//! deformable with their stresses set to zero), and by the point-load criterion (constitutive
+//! numbers 1 and 2), below.
+//!
+//! The point-load criterion: A block with a tensile strength factor t_f is split between two opposing contact
 //! forces f1, f2 a distance d apart when
 //!
 //!   (f1 + f2) / (2 d²) ≥ t_f,
@@ -17,10 +22,13 @@ use crate::udec::model::split::split_block_along;
 use crate::udec::model::{BlockKind, Model};
 use crate::udec::topology::{update_contacts, Adjacency};
 
-/// A crack found in a block: its end points (on the block boundary) and the criterion's value.
+/// A crack found in a block (by either criterion): its end points (on the block boundary) and the
+/// criterion's value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointLoadCrack {
     pub block: usize,
+    /// The criterion that found it.
+    pub law: CrackingLaw,
     pub from: [f64; 2],
     pub to: [f64; 2],
     pub value: f64,
@@ -32,6 +40,68 @@ pub fn is_point_load_candidate(model: &Model, b: usize) -> bool {
     blk.kind != BlockKind::FullyDeformable
         && Constitutive::from_number(blk.constitutive).is_some_and(|c| c.cracking == CrackingLaw::PointLoad)
         && model.material(blk.material).block.tf > 0.0
+}
+
+/// Whether block `b` is checked for Griffith cracking (Appendix A ¶17; constitutive numbers 3, 4
+/// and 5): a simply-deformable block, whose internal stress the criterion reads, with a tensile
+/// strength factor.
+pub fn is_griffith_candidate(model: &Model, b: usize) -> bool {
+    let blk = &model.blocks[b];
+    model.sdef_of(b).is_some()
+        && Constitutive::from_number(blk.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith)
+        && model.material(blk.material).block.tf > 0.0
+}
+
+/// Whether block `b` is checked for cracking by either criterion (stage 7 then runs every cycle).
+pub fn is_crack_candidate(model: &Model, b: usize) -> bool {
+    is_point_load_candidate(model, b) || is_griffith_candidate(model, b)
+}
+
+/// The crack Griffith's criterion finds in block `b` (Appendix A ¶17), if its internal stress
+/// reaches the tensile strength t_f: through the centroid, parallel to the minimum principal
+/// stress s_p2, from boundary to boundary. Its value is the criterion's equivalent tensile stress
+/// (`sdef::griffith_stress`).
+pub fn find_griffith_crack(model: &Model, b: usize) -> Option<PointLoadCrack> {
+    let s = model.sdef_of(b)?;
+    let tf = model.material(model.blocks[b].material).block.tf;
+    let (s1, s2, angle) = crate::udec::model::sdef::principal_stresses(s.stress);
+    let value = crate::udec::model::sdef::griffith_stress(s1, s2);
+    if !(value >= tf) {
+        return None;
+    }
+    // s_p2 is perpendicular to s_p1, whose direction is `angle`.
+    let d = [-angle.sin(), angle.cos()];
+    let c = model.blocks[b].centroid;
+    let outline = model.world_outline(b);
+    let (from, to) = line_through(&outline, c, d)?;
+    Some(PointLoadCrack { block: b, law: CrackingLaw::Griffith, from, to, value })
+}
+
+/// Where the line through `c` (inside the polygon `pts`) along `d` leaves it on either side: the
+/// nearest crossing of the boundary in each direction.
+fn line_through(pts: &[[f64; 2]], c: [f64; 2], d: [f64; 2]) -> Option<([f64; 2], [f64; 2])> {
+    let n = pts.len();
+    let (mut ahead, mut behind) = (f64::INFINITY, f64::NEG_INFINITY);
+    for k in 0..n {
+        let (a, e) = (pts[k], pts[(k + 1) % n]);
+        let edge = [e[0] - a[0], e[1] - a[1]];
+        // c + t·d = a + u·edge, solved for t and u.
+        let den = d[0] * edge[1] - d[1] * edge[0];
+        if den.abs() <= f64::EPSILON * (edge[0].abs() + edge[1].abs()) {
+            continue;
+        }
+        let w = [a[0] - c[0], a[1] - c[1]];
+        let t = (w[0] * edge[1] - w[1] * edge[0]) / den;
+        let u = (w[0] * d[1] - w[1] * d[0]) / den;
+        if (0.0..=1.0).contains(&u) {
+            if t > 0.0 {
+                ahead = ahead.min(t);
+            } else {
+                behind = behind.max(t);
+            }
+        }
+    }
+    (ahead.is_finite() && behind.is_finite()).then(|| ([c[0] + behind * d[0], c[1] + behind * d[1]], [c[0] + ahead * d[0], c[1] + ahead * d[1]]))
 }
 
 /// Closest point to `p` on the boundary of block `b`, and the distance from it to the nearest
@@ -102,7 +172,7 @@ pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> 
             if c1 < clearance || c2 < clearance {
                 continue;
             }
-            best = Some(PointLoadCrack { block: b, from: q1, to: q2, value });
+            best = Some(PointLoadCrack { block: b, law: CrackingLaw::PointLoad, from: q1, to: q2, value });
         }
     }
     best

@@ -7,7 +7,7 @@ pub mod cracking;
 pub mod detect;
 
 pub use adjacency::Adjacency;
-pub use cracking::{apply_crack, find_point_load_crack, PointLoadCrack};
+pub use cracking::{apply_crack, find_griffith_crack, find_point_load_crack, PointLoadCrack};
 pub use detect::{update_contacts, update_topology};
 
 /// The unit tests' random numbers: a xorshift64 stream from `seed`, each call a value below `m`

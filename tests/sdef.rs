@@ -1,0 +1,234 @@
+//! Simply-deformable blocks (issue 28; SL-85-1 Appendix A, CHANGE … SDEF, DAMP … INTERNAL,
+//! ¶17 Griffith cracking): closed forms of the strain, the internal vibration, the Griffith
+//! threshold, the ledger, the outputs and the input errors. On the CPU backend (the GPU backend
+//! refuses SDEF blocks until its kernels have them: `gpu_refuses_sdef_with_a_message`).
+
+use blockdem::scenes::run_deck_on;
+use blockdem::udec::backend::Backend;
+use blockdem::udec::cpu::CpuBackend;
+use blockdem::udec::model::sdef::{elastic_stress, least_moment, strain_inertia};
+use blockdem::udec::model::{BlockKind, Model};
+
+fn cpu() -> Box<dyn Backend> {
+    Box::new(CpuBackend::new())
+}
+
+const K: f64 = 1e8;
+const G: f64 = 6e7;
+
+/// A 1 m square SDEF block on a fixed base with a rigid platen on top loaded by `load` (N,
+/// downwards positive), no gravity, damped to rest; `extra` goes before the CYCLE. Pulled
+/// (`load` < 0), the contacts are bonded with a cohesion and friction, which restrain the
+/// block's sides; pushed, they are frictionless, so that its sides are free (uniaxial stress).
+fn platen_deck(load: f64, tf: f64, cons: u32, cycles: u32, extra: &str) -> String {
+    let glue = if load < 0.0 { "F=0.5 COH=1E9" } else { "F=0" };
+    format!(
+        "START\nPROP MAT=1 DENS=2000 K={K:e} G={G:e} KN=1E11 KS=1E11 {glue}\nPROP MAT=1 TF={tf:e}\nROUND 0.01\n\
+         BLOCK CONS={cons} (0,-1) (0,0) (3,0) (3,-1)\nBLOCK CONS={cons} (1,0) (1,1) (2,1) (2,0)\nBLOCK CONS={cons} (0.5,1) (0.5,1.5) (2.5,1.5) (2.5,1)\n\
+         CHANGE 0 3 0 1 SDEF\nFIX -1 4 -2 -0.2\nLOAD 0 3 1 1.5 0 {}\nDAMP 1 90 MASS\nDAMP 1 90 INTERNAL\n{extra}CYCLE {cycles}\n",
+        -load
+    )
+}
+
+fn sdef_block(m: &Model) -> usize {
+    m.blocks.iter().position(|b| b.kind == BlockKind::SimplyDeformable).expect("an SDEF block")
+}
+
+/// Uniaxial stress between rigid blocks: at rest the SDEF block's mean stress is the platen's
+/// −F/a vertically and 0 across (free sides), and its strain the plane-strain compliance's:
+/// ε22 = σ22 (λ+2G)/((λ+2G)² − λ²), ε11 = −λ/(λ+2G) ε22.
+#[test]
+fn uniaxial_stress_and_strain_match_plane_strain() {
+    let f = 2e5;
+    let m = run_deck_on(&platen_deck(f, 0.0, 1, 6000, ""), cpu()).unwrap();
+    let b = sdef_block(&m);
+    let s = m.sdef[b];
+    let sigma = -f / 1.0;
+    // (Second order in the strain: the lever arms are the strained block's, ε22 = −1.2e-3.)
+    assert!((s.stress[2] - sigma).abs() < 2e-3 * f, "σ22 {} against {sigma}", s.stress[2]);
+    assert!(s.stress[0].abs() < 1e-3 * f && s.stress[1].abs() < 1e-3 * f, "σ11, σ12 {:?}", s.stress);
+    let l = K - 2.0 * G / 3.0;
+    let e22 = sigma * (l + 2.0 * G) / ((l + 2.0 * G).powi(2) - l * l);
+    let e11 = -l / (l + 2.0 * G) * e22;
+    assert!((s.strain[2] - e22).abs() < 3e-3 * e22.abs(), "ε22 {} against {e22}", s.strain[2]);
+    assert!((s.strain[0] - e11).abs() < 3e-3 * e22.abs(), "ε11 {} against {e11}", s.strain[0]);
+    // The stress follows the strain by the elastic law exactly.
+    let mat = m.material(1).block;
+    let again = elastic_stress(&mat, s.strain);
+    assert!(again.iter().zip(&s.stress).all(|(a, b)| (a - b).abs() <= 1e-9 * f));
+    // The block's corners are where the strain puts them: its height shortened by ε22.
+    let ys: Vec<f64> = m.block_corners(b).iter().map(|c| c.position[1]).collect();
+    let height = ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
+    assert!((height - (1.0 + s.strain[2])).abs() < 1e-12, "height {height} against {}", 1.0 + s.strain[2]);
+}
+
+/// The internal vibration of a free SDEF square: a volumetric strain ε11 = ε22 = e0 rings at
+/// ω² = 2a(λ + G)/J, J = ∫ρx² da (the square's second moment, ρa²·a²/12).
+#[test]
+fn a_free_square_rings_at_its_volumetric_frequency() {
+    let deck = format!(
+        "START\nPROP MAT=1 DENS=2000 K={K:e} G={G:e} KN=1E9 KS=1E9\nROUND 0.01\nBLOCK (0,0) (0,1) (1,1) (1,0)\nCHANGE -1 2 -1 2 SDEF\nCYCLE 0\n"
+    );
+    let mut m = run_deck_on(&deck, cpu()).unwrap();
+    let b = 0;
+    let mat = m.material(1).block;
+    let e0 = 1e-4;
+    m.sdef[b].strain = [e0, 0.0, e0];
+    m.sdef[b].stress = elastic_stress(&mat, m.sdef[b].strain);
+    let j = strain_inertia(m.sdef[b].moments, 0.0)[0];
+    assert!((j - 2000.0 / 12.0).abs() < 1e-9, "J {j}");
+    assert!((least_moment(m.sdef[b].moments) - j).abs() < 1e-9);
+    let omega = (2.0 * 1.0 * (K + G / 3.0) / j).sqrt();
+    m.timestep = 0.02 * 2.0 / omega;
+    let e0 = m.energies().ledger();
+    let mut backend = CpuBackend::new();
+    // Count the upward zero crossings of ε11 over many periods.
+    let steps = (20.0 * 2.0 * std::f64::consts::PI / omega / m.timestep) as u64;
+    let mut crossings = Vec::new();
+    let mut last = m.sdef[b].strain[0];
+    for _ in 0..steps {
+        backend.run(&mut m, 1, &mut |_| true).unwrap();
+        let now = m.sdef[b].strain[0];
+        if last < 0.0 && now >= 0.0 {
+            crossings.push(m.time - m.timestep * now / (now - last));
+        }
+        last = now;
+    }
+    assert!(crossings.len() >= 10, "{} crossings", crossings.len());
+    let period = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+    let measured = 2.0 * std::f64::consts::PI / period;
+    assert!((measured - omega).abs() < 2e-3 * omega, "ω {measured} against {omega}");
+    // Undamped: the strain keeps its amplitude and the ledger its balance.
+    let e = m.energies();
+    assert!((e.ledger() - e0).abs() < 1e-3 * e.scale(), "ledger {} from {e0}, of {}", e.ledger(), e.scale());
+}
+
+/// Griffith's threshold in compression (¶17): the platen's uniaxial stress s2 = −F/a with s1 = 0
+/// gives the criterion's −s2/8, so F = 8·a·TF is the threshold. Just below, no crack; just
+/// above, the block cracks through its centroid parallel to s2 (vertically).
+#[test]
+fn griffith_threshold_in_compression() {
+    let tf = 5e4;
+    let threshold = 8.0 * tf;
+    // Loaded in two steps (the second small), so the damped overshoot stays far below 2%.
+    let deck = |f: f64| {
+        let first = platen_deck(0.9 * threshold, tf, 3, 4000, "");
+        format!("{first}LOAD 0 3 1 1.5 0 {}\nCYCLE 4000\n", -f)
+    };
+    let below = run_deck_on(&deck(0.98 * threshold), cpu()).unwrap();
+    assert_eq!(below.blocks.len(), 3, "no crack below the threshold");
+    let above = run_deck_on(&deck(1.02 * threshold), cpu()).unwrap();
+    let pieces: Vec<usize> = (0..above.blocks.len()).filter(|&k| above.blocks[k].kind == BlockKind::SimplyDeformable).collect();
+    assert!(pieces.len() >= 2, "cracked above the threshold: {} SDEF blocks", pieces.len());
+    // The first crack is vertical: the pieces sit side by side, each with a fresh, small stress.
+    let (a, b) = (above.blocks[pieces[0]].centroid, above.blocks[pieces[1]].centroid);
+    assert!((a[0] - b[0]).abs() > 0.2 && (a[1] - b[1]).abs() < 0.05, "pieces at {a:?} and {b:?}");
+}
+
+/// Griffith's threshold in tension: a block glued (cohesion) between the base and a platen pulled
+/// up carries s1 = σ22 = F/a (the glued sides restrain it, so s2 = σ11 = λ/(λ + 2G)·s1, and
+/// 3s1 + s2 > 0); it cracks at s1 = TF, parallel to s2 (horizontally).
+#[test]
+fn griffith_threshold_in_tension() {
+    let tf = 5e4;
+    let deck = |f: f64| {
+        let first = platen_deck(-0.9 * tf, tf, 3, 4000, "");
+        format!("{first}LOAD 0 3 1 1.5 0 {f}\nCYCLE 4000\n")
+    };
+    let below = run_deck_on(&deck(0.98 * tf), cpu()).unwrap();
+    assert_eq!(below.blocks.len(), 3, "no crack below the threshold");
+    let s = below.sdef[sdef_block(&below)];
+    assert!((s.stress[2] - 0.98 * tf).abs() < 0.01 * tf, "σ22 {}", s.stress[2]);
+    let above = run_deck_on(&deck(1.02 * tf), cpu()).unwrap();
+    let pieces: Vec<usize> = (0..above.blocks.len()).filter(|&k| above.blocks[k].kind == BlockKind::SimplyDeformable).collect();
+    assert!(pieces.len() >= 2, "cracked above the threshold");
+    let (a, b) = (above.blocks[pieces[0]].centroid, above.blocks[pieces[1]].centroid);
+    assert!((a[1] - b[1]).abs() > 0.2 && (a[0] - b[0]).abs() < 0.05, "pieces at {a:?} and {b:?}");
+}
+
+/// The ledger with SDEF strain energy and internal damping: a block built on a base, left to
+/// ring under gravity (no damping) and to settle (mass and internal damping), balances. (A
+/// block dropped from a height meets the contact-onset error of issue 27 item 4 instead.)
+#[test]
+fn the_ledger_balances_with_sdef_blocks() {
+    for damp in ["", "DAMP 0.5 100 MASS\nDAMP 0.5 100 INTERNAL\n"] {
+        let deck = format!(
+            "START\nPROP MAT=1 DENS=2000 K=1E8 G=1E8 KN=1E10 KS=1E10 F=0.5\nROUND 0.01\nGRAV 0 -10\n\
+             BLOCK (0,-1) (0,0) (4,0) (4,-1)\nBLOCK (1,0) (1,1) (2,1) (2,0)\nCHANGE 0 4 0 2 SDEF\nFIX -1 5 -2 -0.2\n{damp}CYCLE 5000\n"
+        );
+        let m = run_deck_on(&deck, cpu()).unwrap();
+        let e = m.energies();
+        assert!(e.strain > 0.0 && e.external_work > 0.0);
+        assert!(e.ledger().abs() < 1e-3 * e.scale(), "{damp:?}: ledger {} of {}", e.ledger(), e.scale());
+        if !damp.is_empty() {
+            assert!(m.sdef[1].damping_work > 0.0, "the internal damping took energy");
+        }
+    }
+}
+
+/// PRINT BLOCKS shows an SDEF block's type line and its strain-rate, internal- and applied-stress
+/// rows; the state JSON its kind, stress and strain.
+#[test]
+fn outputs_show_sdef_blocks() {
+    let deck = format!("{}PRINT BLOCKS\n", platen_deck(1e5, 0.0, 1, 200, ""));
+    let mut log = Vec::new();
+    let m = blockdem::scenes::run_deck_logged(&deck, cpu(), Box::new(&mut log)).unwrap();
+    let text = String::from_utf8(log).unwrap();
+    assert!(text.contains("  (SDEF)"), "{text}");
+    for row in ["ED11 ED12 ED21 ED22", "SI11 SI12 SI21 SI22", "SA11 SA12 SA21 SA22"] {
+        assert_eq!(text.matches(row).count(), 1, "{row} once: {text}");
+    }
+    let json: serde_json::Value = blockdem::udec::output::state_json(&m);
+    let blocks = json["blocks"].as_array().unwrap();
+    let sdef: Vec<&serde_json::Value> = blocks.iter().filter(|b| b["kind"] == "sdef").collect();
+    assert_eq!(sdef.len(), 1);
+    assert_eq!(sdef[0]["stress"].as_array().unwrap().len(), 3);
+    assert_eq!(sdef[0]["strain"].as_array().unwrap().len(), 3);
+    assert!(blocks.iter().filter(|b| b["kind"] == "rigid").all(|b| b.get("stress").is_none()));
+}
+
+/// SAVE and RESTART keep an SDEF block's state bit for bit, and the run goes on as one run.
+#[test]
+fn save_and_restart_keep_the_strain() {
+    let dir = std::env::temp_dir().join(format!("blockdem-sdef-save-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("s.sav");
+    let whole = run_deck_on(&format!("{}CYCLE 300\n", platen_deck(1e5, 0.0, 1, 300, "")), cpu()).unwrap();
+    let first = run_deck_on(&format!("{}SAVE {}\n", platen_deck(1e5, 0.0, 1, 300, ""), file.display()), cpu()).unwrap();
+    let loaded = blockdem::udec::output::load(&file).unwrap();
+    assert!(loaded.model == first, "the saved model is the model");
+    let resumed = run_deck_on(&format!("RESTART {}\nCYCLE 300\n", file.display()), cpu()).unwrap();
+    for (k, (a, b)) in resumed.sdef.iter().zip(&whole.sdef).enumerate() {
+        assert_eq!(a, b, "block {k}'s extension");
+    }
+    // (The restart's full detection resets each block's contact-update reference; the state is
+    // the same.)
+    for (k, (a, b)) in resumed.blocks.iter().zip(&whole.blocks).enumerate() {
+        assert_eq!((a.centroid, a.velocity, a.rotation, a.angular_velocity, a.force), (b.centroid, b.velocity, b.rotation, b.angular_velocity, b.force), "block {k}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Bad input: CHANGE SDEF into a material without K and G names the line; Griffith on rigid
+/// blocks alone names the block and CHANGE SDEF; an explicit GPU backend says SDEF is CPU-only.
+#[test]
+fn bad_sdef_input_is_named() {
+    let no_moduli = "START\nPROP MAT=1 DENS=2000 KN=1E9 KS=1E9\nBLOCK (0,0) (0,1) (1,1) (1,0)\nCHANGE -1 2 -1 2 SDEF\nCYCLE 1\n";
+    let e = run_deck_on(no_moduli, cpu()).unwrap_err().to_string();
+    assert!(e.contains(":4:") && e.contains("CHANGE SDEF") && e.contains("K=") && e.contains("G="), "{e}");
+    let rigid = "START\nPROP MAT=1 DENS=2000 KN=1E9 KS=1E9 TF=100\nBLOCK CONS=3 (0,0) (0,1) (1,1) (1,0)\nCYCLE 1\n";
+    let e = run_deck_on(rigid, cpu()).unwrap_err().to_string();
+    assert!(e.contains(":4:") && e.contains("block 1 is rigid") && e.contains("CHANGE"), "{e}");
+}
+
+/// A deck with SDEF blocks on an explicit GPU backend stops with a message naming the CPU
+/// backend, before any cycle (`--backend auto` goes on on the CPU).
+#[test]
+fn gpu_refuses_sdef_with_a_message() {
+    let Some(t) = blockdem::udec::gpu::device::matching_adapters(&blockdem::udec::gpu::AdapterChoice::Any).into_iter().next() else { return };
+    let _ = t;
+    let Some(target) = blockdem::udec::gpu::find_target(&blockdem::udec::gpu::AdapterChoice::Any, blockdem::udec::gpu::Precision::F32) else { return };
+    let backend = Box::new(blockdem::udec::gpu::GpuBackend::new(&target.options).unwrap());
+    let e = run_deck_on(&platen_deck(1e5, 0.0, 1, 10, ""), backend).unwrap_err().to_string();
+    assert!(e.contains("simply-deformable") && e.contains("--backend cpu"), "{e}");
+}
