@@ -161,6 +161,8 @@ pub struct Executor<'a> {
     provenance: Option<String>,
     /// The ROUND (its bits) and the blocks it cuts that the ROUND warning last named.
     round_warned: Option<(u64, Vec<u32>)>,
+    /// Materials whose joints CYCLE said follow the point-contact law (no JKN, JKS; ¶5).
+    joint_fallback_noted: Vec<u32>,
 }
 
 impl<'a> Executor<'a> {
@@ -177,6 +179,7 @@ impl<'a> Executor<'a> {
             executed: 0,
             provenance: None,
             round_warned: None,
+            joint_fallback_noted: Vec::new(),
         }
     }
 

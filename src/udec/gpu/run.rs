@@ -12,7 +12,7 @@ use crate::udec::topology::Adjacency;
 use rayon::prelude::*;
 
 use super::kernels;
-use super::layout::{self, Block, Corner, Flags, Real};
+use super::layout::{self, Block, ContactPatch, Corner, Flags, Real};
 use super::partial::PartialUpdate;
 use super::{device_error, ContactIdentity, Engine, GpuError};
 
@@ -193,10 +193,8 @@ impl<R: Real> Engine<R> {
                     // Every kept contact was read: each is patched, and takes its bases from the
                     // model.
                     let mut created = edit.inserted_at.iter().peekable();
-                    let patches: Vec<[u32; 2]> = (0..model.contacts.len() as u32)
-                        .filter(|&i| created.next_if_eq(&&i).is_none())
-                        .map(|i| [i, model.contacts[i as usize].feature])
-                        .collect();
+                    let patches: Vec<ContactPatch<R>> =
+                        (0..model.contacts.len() as u32).filter(|&i| created.next_if_eq(&&i).is_none()).map(|i| ContactPatch::of(model, i)).collect();
                     self.edit_contact_list(model, &edit, None);
                     self.splice_contacts(model, adjacency, &edit, &patches)
                 }

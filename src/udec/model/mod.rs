@@ -18,6 +18,7 @@ pub mod limits;
 pub mod split;
 pub mod timestep;
 
+use constitutive::ContactLaw;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -338,9 +339,27 @@ pub struct Contact {
     /// did not act): their work is booked a step late, over the mean velocity of that step.
     #[serde(default)]
     pub dashpot_velocity: [f64; 2],
+    /// The length of joint this contact carries, l_c (problem units), when it follows the joint
+    /// law (Appendix A ¶5: an edge-to-edge contact between planar faces in opposition, with a
+    /// joint constitutive number); 0 for a point contact. As in UDEC, the edge-to-edge contact is
+    /// the two corner contacts at the ends of the faces' common length l_j, each carrying half of
+    /// it: l_c = l_j/2 (`contact::joint`). Decided at each contact update (stage 7). SAVE files
+    /// keep it beside the model (`output::restart`), not in the contact's own record.
+    #[serde(skip)]
+    pub joint_length: f64,
 }
 
 impl Contact {
+    /// The law this contact follows now: the joint law while it carries a length of joint.
+    #[inline]
+    pub fn law(&self) -> ContactLaw {
+        if self.joint_length > 0.0 {
+            ContactLaw::Joint
+        } else {
+            ContactLaw::Point
+        }
+    }
+
     /// A contact of `corner` of `block1` against `block2` with no state yet (no feature, gap,
     /// force or history): what a read-back of its state fills in (the GPU backend's restore).
     pub fn identity(id: u32, block1: u32, corner: u32, block2: u32, material: u32, constitutive: u32) -> Contact {
@@ -364,6 +383,7 @@ impl Contact {
             slip_work: 0.0,
             dashpot_work: 0.0,
             dashpot_velocity: [0.0; 2],
+            joint_length: 0.0,
         }
     }
 
