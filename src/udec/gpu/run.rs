@@ -79,6 +79,11 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
         if let Some((name, x)) = bad {
             return refuse(format!("material {m}'s {name}"), x);
         }
+        // The joint group (¶5), uploaded with the material whether or not a contact uses it.
+        let joint = [("JKN", mat.joint.kn), ("JKS", mat.joint.ks), ("JCOH", mat.joint.cohesion), ("JFRIC", mat.joint.friction)];
+        if let Some((name, x)) = joint.into_iter().find(|&(_, x)| !bounded(x)) {
+            return refuse(format!("material {m}'s {name}"), x);
+        }
         // The contact dashpots' coefficients, β·k (stiffness-proportional Rayleigh damping).
         let beta = model.damping.beta;
         if let Some((name, x)) = [("β·KN", beta * mat.contact.kn), ("β·KS", beta * mat.contact.ks)].into_iter().find(|&(_, x)| !bounded(x)) {
