@@ -30,8 +30,8 @@ use blockdem::udec::contact::gather::AdjacencyEntry;
 use blockdem::udec::contact::geometry::track_feature;
 use blockdem::udec::contact::law::{contact_force_law, BlockMotion};
 use blockdem::udec::gpu::layout::{
-    Block as GBlock, Contact as GContact, ContactForce as GForce, ContactPatch as GPatch, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
-    Material as GMaterial, Params as GParams, Real,
+    Block as GBlock, Contact as GContact, ContactForce as GForce, ContactPatch as GPatch, ContactSummary as GSummary, Corner as GCorner, GridReference,
+    ListParams, Material as GMaterial, Params as GParams, Real,
 };
 use blockdem::udec::gpu::shaders::split_rotation;
 use blockdem::udec::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};

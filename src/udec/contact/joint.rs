@@ -85,7 +85,7 @@ pub fn has_joint_law(mat: &Material) -> bool {
 /// direction than the point contact).
 pub fn joint_share(constitutive: u32, mat: &Material, opposed: f64) -> f64 {
     let joint = Constitutive::from_number(constitutive).is_some_and(|c| c.contact == ContactLaw::Joint);
-    if !joint || !(opposed > 0.0) || !has_joint_law(mat) || mat.joint.kn * opposed < mat.contact.kn {
+    if !joint || opposed.is_nan() || opposed <= 0.0 || !has_joint_law(mat) || mat.joint.kn * opposed < mat.contact.kn {
         return 0.0;
     }
     0.5 * opposed

@@ -12,6 +12,8 @@ impl Executor<'_> {
     /// COHESION and FRICTION ("UDEC will still refer to contact parameters"; sample 4 gives
     /// CONS=4 and no JKN): said once per material. With neither and no KN either, an error that
     /// names JKN. Only CYCLE can tell: PROPERTY may come after BLOCK, CHANGE or SPLIT.
+    // `!(x > 0.0)` on purpose: a NaN stiffness fails the check too.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub(super) fn check_joints(&mut self, cmd: &Located) -> Result<(), RunError> {
         let joint_number = |c: u32| Constitutive::from_number(c).is_some_and(|k| k.contact == ContactLaw::Joint);
         let mut users: Vec<(u32, u32, String)> = Vec::new();

@@ -335,11 +335,8 @@ impl<R: Real> Engine<R> {
             self.upload_contacts(model, adjacency)?;
         } else {
             let read: Vec<u32> = if read_all { (0..edit.old_len).collect() } else { read_contacts.iter().flat_map(|&(s, e)| s..e).collect() };
-            let patches: Vec<ContactPatch<R>> = read
-                .into_iter()
-                .filter(|k| edit.dropped.binary_search(k).is_err())
-                .map(|k| ContactPatch::of(model, edit.new_index(k)))
-                .collect();
+            let patches: Vec<ContactPatch<R>> =
+                read.into_iter().filter(|k| edit.dropped.binary_search(k).is_err()).map(|k| ContactPatch::of(model, edit.new_index(k))).collect();
             let patched: Vec<u32> = patches.iter().map(|p| p.index).collect();
             self.edit_contact_list(model, &edit, Some(&patched));
             self.splice_contacts(model, adjacency, &edit, &patches)?;

@@ -13,8 +13,8 @@ use serde::ser::{Serialize, Serializer};
 use serde_json::Value;
 
 use super::provenance::Provenance;
-use crate::udec::model::timestep::Energies;
 use crate::udec::model::constitutive::ContactLaw;
+use crate::udec::model::timestep::Energies;
 use crate::udec::model::{Block, Contact, Model};
 
 // The state file is serialized from views of the model as it is written, never built as a

@@ -568,7 +568,16 @@ impl NewContact {
 /// has no contact with a candidate and comes within atol of it makes a new one. Both distances
 /// grow by the speed margins of the two blocks (`Tolerances::speed_margin`).
 #[allow(clippy::too_many_arguments)]
-fn examine(a: usize, cands: &[u64], run: &mut [Contact], run_start: usize, blocks: &[Block], corners: &[Corner], materials: &[Material], tol: &Tolerances) -> Examined {
+fn examine(
+    a: usize,
+    cands: &[u64],
+    run: &mut [Contact],
+    run_start: usize,
+    blocks: &[Block],
+    corners: &[Corner],
+    materials: &[Material],
+    tol: &Tolerances,
+) -> Examined {
     let mut out = Examined::default();
     let blk = &blocks[a];
     for corner in blk.corner_start..blk.corner_start + blk.corner_count {
