@@ -344,9 +344,35 @@ pub struct Contact {
     /// joint constitutive number); 0 for a point contact. As in UDEC, the edge-to-edge contact is
     /// the two corner contacts at the ends of the faces' common length l_j, each carrying half of
     /// it: l_c = l_j/2 (`contact::joint`). Decided at each contact update (stage 7). SAVE files
-    /// keep it beside the model (`output::restart`), not in the contact's own record.
-    #[serde(skip)]
+    /// keep it beside the model (`output::restart`), not in the contact's own record, whose
+    /// binary layout is that of the files written before joints (`readable_only`); DUMP and
+    /// other readable forms show it.
+    #[serde(default, with = "readable_only")]
     pub joint_length: f64,
+}
+
+/// A field that readable formats (DUMP's JSON) write and read as a number and binary ones
+/// (postcard, SAVE files) as nothing at all (a unit, no bytes), so that a field added to a saved
+/// struct leaves the binary layout as it was; a SAVE file that needs the value keeps it beside
+/// the model (`output::restart`). Read from a binary form it is 0.
+mod readable_only {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if s.is_human_readable() {
+            x.serialize(s)
+        } else {
+            s.serialize_unit()
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        if d.is_human_readable() {
+            f64::deserialize(d)
+        } else {
+            <()>::deserialize(d).map(|()| 0.0)
+        }
+    }
 }
 
 impl Contact {
