@@ -61,6 +61,7 @@ fn contact(block1: u32, corner: u32, block2: u32) -> Contact {
         slip_work: 0.0,
         dashpot_work: 0.0,
         dashpot_velocity: [0.0, 0.0],
+        joint_length: 0.0,
     }
 }
 

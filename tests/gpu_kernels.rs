@@ -30,14 +30,14 @@ use blockdem::udec::contact::gather::AdjacencyEntry;
 use blockdem::udec::contact::geometry::track_feature;
 use blockdem::udec::contact::law::{contact_force_law, BlockMotion};
 use blockdem::udec::gpu::layout::{
-    Block as GBlock, Contact as GContact, ContactForce as GForce, ContactSummary as GSummary, Corner as GCorner, GridReference, ListParams,
-    Material as GMaterial, Params as GParams, Real,
+    Block as GBlock, Contact as GContact, ContactForce as GForce, ContactPatch as GPatch, ContactSummary as GSummary, Corner as GCorner, GridReference,
+    ListParams, Material as GMaterial, Params as GParams, Real,
 };
 use blockdem::udec::gpu::shaders::split_rotation;
 use blockdem::udec::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
 use blockdem::udec::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
 use blockdem::udec::model::corners::counts_force;
-use blockdem::udec::model::{Contact, ContactKind, ContactMaterial, Damping, Material, Model};
+use blockdem::udec::model::{Contact, ContactKind, ContactMaterial, Damping, JointMaterial, Material, Model};
 use blockdem::udec::topology::adjacency::FROM_LISTS;
 use blockdem::udec::topology::detect::ListEdit;
 use common::{Rng, Target};
@@ -269,7 +269,7 @@ fn test_contact_force_law(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = 13u * i;
     let a = Motion(vec2<real>(l_motion[m], l_motion[m + 1u]), vec2<real>(l_motion[m + 2u], l_motion[m + 3u]), l_motion[m + 4u]);
     let b = Motion(vec2<real>(l_motion[m + 5u], l_motion[m + 6u]), vec2<real>(l_motion[m + 7u], l_motion[m + 8u]), l_motion[m + 9u]);
-    let law = contact_force_law(l_contacts[i], l_materials[i], a, b, l_motion[m + 10u], l_motion[m + 11u], l_motion[m + 12u] != 0.0);
+    let law = contact_force_law(l_contacts[i], contact_law(l_materials[i], l_contacts[i].length), a, b, l_motion[m + 10u], l_motion[m + 11u], l_motion[m + 12u] != 0.0);
     l_out[i] = law.contact;
     l_force[i] = law.force;
 }
@@ -290,8 +290,16 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
                 cohesion: q::<R>(if rng.next() < 0.3 { rng.range(0.0, 1e5) } else { 0.0 }),
                 friction: q::<R>(rng.range(0.0, 1.0)),
             },
+            // A third of the cases are joints (¶5): stresses over a length, same scales.
+            joint: JointMaterial {
+                kn: q::<R>(kn * 2.0),
+                ks: q::<R>(kn * rng.range(0.2, 2.0)),
+                cohesion: q::<R>(if rng.next() < 0.3 { rng.range(0.0, 2e5) } else { 0.0 }),
+                friction: q::<R>(rng.range(0.0, 1.0)),
+            },
             ..Default::default()
         };
+        let joint_length = if rng.next() < 0.33 { q::<R>(rng.range(0.5, 1.0)) } else { 0.0 };
         let gap = q::<R>(rng.range(-2e-3, 5e-4));
         let bonded = rng.next() < 0.5;
         // Ledger inputs: the accumulated works so far, the dashpot velocities of the last step
@@ -322,6 +330,7 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
             slip_work,
             dashpot_work,
             dashpot_velocity,
+            joint_length,
         };
         let mut v = || q::<R>(rng.range(-1.0, 1.0));
         let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v(), strain_velocity: [0.0; 2] };
@@ -345,10 +354,20 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
             dashpot_work: r(dashpot_work),
             dashpot_vn: r(dashpot_velocity[0]),
             dashpot_vs: r(dashpot_velocity[1]),
+            length: r(joint_length),
             bonded: contact.bonded as u32,
             ..Default::default()
         });
-        gm.push(GMaterial { kn: r(mat.contact.kn), ks: r(mat.contact.ks), cohesion: r(mat.contact.cohesion), friction: r(mat.contact.friction) });
+        gm.push(GMaterial {
+            kn: r(mat.contact.kn),
+            ks: r(mat.contact.ks),
+            cohesion: r(mat.contact.cohesion),
+            friction: r(mat.contact.friction),
+            jkn: r(mat.joint.kn),
+            jks: r(mat.joint.ks),
+            jcohesion: r(mat.joint.cohesion),
+            jfriction: r(mat.joint.friction),
+        });
         motion.extend([m1.centroid[0], m1.centroid[1], m1.velocity[0], m1.velocity[1], m1.angular_velocity]);
         motion.extend([m2.centroid[0], m2.centroid[1], m2.velocity[0], m2.velocity[1], m2.angular_velocity]);
         motion.extend([beta, dt, active as u32 as f64]);
@@ -883,7 +902,7 @@ fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice) {
     let mut rng = Rng(0x5eed_0000_0000_0004);
     let contact = |rng: &mut Rng| {
         let mut c: GContact<R> = bytemuck::Zeroable::zeroed();
-        let reals: &mut [R] = bytemuck::cast_slice_mut(&mut bytemuck::bytes_of_mut(&mut c)[..14 * std::mem::size_of::<R>()]);
+        let reals: &mut [R] = bytemuck::cast_slice_mut(&mut bytemuck::bytes_of_mut(&mut c)[..15 * std::mem::size_of::<R>()]);
         for x in reals.iter_mut() {
             *x = R::from_f64(rng.range(-1e3, 1e3));
         }
@@ -916,13 +935,14 @@ fn splice_contacts_matches_rust<R: Real>(dev: &GpuDevice) {
     let runs = edit.runs(NEW_CONTACT);
     let n = edit.new_len() as usize;
     // A fifth of the kept contacts patched, as a partial read-back gives them.
-    let mut patches: Vec<[u32; 2]> = Vec::new();
+    let mut patches: Vec<GPatch<R>> = Vec::new();
     for k in (0..n_old).filter(|k| edit.dropped.binary_search(k).is_err()) {
         if rng.next() < 0.2 {
-            patches.push([edit.new_index(k), rng.below(8)]);
+            let length = if rng.next() < 0.5 { 0.0 } else { rng.range(0.0, 2.0) };
+            patches.push(GPatch { length: R::from_f64(length), index: edit.new_index(k), feature: rng.below(8) });
         }
     }
-    patches.push([n as u32 + 5, 3]);
+    patches.push(GPatch { length: R::from_f64(1.0), index: n as u32 + 5, feature: 3 });
     let (mut want, want_forces) = splice_contacts(&old, &old_forces, &runs, &created, &created_forces);
     let out = run_kernel(
         dev,

@@ -109,6 +109,8 @@ fn two_blocks() -> Model {
         slip_work: 0.0,
         dashpot_work: 0.0,
         dashpot_velocity: [0.0; 2],
+        // A joint (constitutive 2) carrying half of a joint of length 1 (¶5).
+        joint_length: 0.5,
     });
     m.next_contact_id = 8;
     m
@@ -588,8 +590,10 @@ fn a_save_header_is_filled_in_after_its_streamed_payload() {
     save(&path, &file).unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let payload = &bytes[28..];
-    // Version 4: the save file, then the simply-deformable extension array.
+    // Version 4: the save file's fields, then the joints (index, length of joint) of ¶5, then the
+    // simply-deformable extension array.
     let mut expected = postcard::to_stdvec(&file).unwrap();
+    expected.extend(postcard::to_stdvec(&vec![(0u32, 0.5f64)]).unwrap());
     expected.extend(postcard::to_stdvec(&file.model.sdef).unwrap());
     assert_eq!(payload, expected.as_slice());
     assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), FORMAT_VERSION);
@@ -628,7 +632,10 @@ fn a_save_file_of_format_2_still_loads() {
     bytes.extend_from_slice(&payload);
     let path = dir.join("v2.sav");
     std::fs::write(&path, &bytes).unwrap();
-    assert_eq!(load(&path).unwrap(), file);
+    // Written before joints: every contact loads as a point contact.
+    let mut points = file.clone();
+    points.model.contacts.iter_mut().for_each(|c| c.joint_length = 0.0);
+    assert_eq!(load(&path).unwrap(), points);
     // Its checksum is checked as FNV: a damaged byte is still found.
     let last = bytes.len() - 1;
     bytes[last] ^= 1;

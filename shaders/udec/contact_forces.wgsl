@@ -435,7 +435,7 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let counted = counts_force(c.corner, circle, corner.radius, nb, c.feature);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
-    let law = contact_force_law(c, materials[c.material], m1, m2, params.beta, params.dt, counted);
+    let law = contact_force_law(c, contact_law(materials[c.material], c.length), m1, m2, params.beta, params.dt, counted);
     c = law.contact;
     let f = law.force;
     store_contact_state(k, c);

@@ -40,7 +40,7 @@ fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
             e.z += blocks[i].work;
         }
         if (i < params.n_contacts) {
-            let mat = materials[contacts[i].material];
+            let mat = contact_law(materials[contacts[i].material], contacts[i].length);
             if (mat.kn > 0.0) {
                 let fn_ = contacts[i].normal_force;
                 e.y += fn_ * fn_ / (2.0 * mat.kn);

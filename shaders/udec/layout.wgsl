@@ -30,14 +30,16 @@ struct Corner {
     px: real, py: real, ox: real, oy: real,
 }
 
-// 72 / 120 bytes. The point (px, py) is relative to block 2's centroid. slip_work, dashpot_work:
+// 76 / 128 bytes. The point (px, py) is relative to block 2's centroid. slip_work, dashpot_work:
 // dissipation since the upload; (dashpot_vn, dashpot_vs): the velocities the dashpots acted on in
-// the last step, whose work is booked a step late. The contact's force is kept once, in its
+// the last step, whose work is booked a step late; length: the length of joint the contact
+// carries (¶5), 0 for a point contact (`contact_law`). The contact's force is kept once, in its
 // `ContactForce` record (the gather's, read back with the contacts).
 struct Contact {
     px: real, py: real, nx: real, ny: real, gap: real,
     normal_force: real, shear_force: real, shear_displacement: real,
     slip_work: real, dashpot_work: real, dashpot_vn: real, dashpot_vs: real,
+    length: real,
     block1: u32, corner: u32, block2: u32, feature: u32,
     material: u32, bonded: u32,
 }
@@ -52,8 +54,27 @@ struct ContactSummary {
     feature: u32, bonded: u32,
 }
 
-// 16 / 32 bytes (the 16-byte stride a uniform array needs, in both precisions).
-struct Material { kn: real, ks: real, cohesion: real, friction: real }
+// 12 / 16 bytes. A kept contact the CPU read for a contact update: its law's length of joint,
+// its index in the new list, the feature the update found (`patch_contacts`).
+struct ContactPatch { length: real, index: u32, feature: u32 }
+
+// 32 / 64 bytes (a multiple of the 16-byte stride a uniform array needs, in both precisions):
+// the point contact's KN, KS, COHESION, FRICTION, then the joint's JKN, JKS, JCOH, JFRIC.
+struct Material {
+    kn: real, ks: real, cohesion: real, friction: real,
+    jkn: real, jks: real, jcohesion: real, jfriction: real,
+}
+
+// The force–displacement law's parameters of a contact carrying `length` of joint (twin of
+// `model::constitutive::law_parameters`, SL-85-1 Appendix A ¶5): a joint's JKN·l, JKS·l, JCOH·l
+// and JFRIC (stresses over its share of the joint) in the point fields; a point contact's
+// material as it is.
+fn contact_law(m: Material, length: real) -> Material {
+    if (length > 0.0) {
+        return Material(m.jkn * length, m.jks * length, m.jcohesion * length, m.jfriction, m.jkn, m.jks, m.jcohesion, m.jfriction);
+    }
+    return m;
+}
 
 // 12 / 24 bytes: one workgroup's share of the energy check (energy_check.wgsl).
 struct EnergySum { kinetic: real, strain: real, work: real }

@@ -10,9 +10,11 @@
 // state of its source: a kept contact's shear force and displacement (eq. 18 is incremental), its
 // dashpot velocities, its feature and dissipation, and its gather record.
 //
-// `patch_contacts`, after it on the new list: each patch (index, feature) is a kept contact the
-// CPU read back for the update. It takes the feature the update found nearest (the contact stage
-// measures the geometry from it each cycle), and its slip and dashpot work restart from zero,
+// `patch_contacts`, after it on the new list: each patch (length, index, feature) is a kept
+// contact the CPU read back for the update. It takes the feature the update found nearest (the
+// contact stage measures the geometry from it each cycle) and the law the update decided (its
+// length of joint, ¶5; the shear force stays, the history carries over), and its slip and
+// dashpot work restart from zero,
 // since the CPU has moved what they held onto the f64 bases of the ledger. A kept contact the CPU
 // did not read keeps the device's feature and work (its bases stay as they were).
 //
@@ -28,7 +30,7 @@ const NEW_CONTACT: u32 = 0x80000000u;
 @group(0) @binding(4) var<storage, read> created_forces: array<ContactForce>;
 @group(0) @binding(5) var<storage, read_write> new_contacts: array<Contact>;
 @group(0) @binding(6) var<storage, read_write> new_forces: array<ContactForce>;
-@group(0) @binding(7) var<storage, read> patches: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read> patches: array<ContactPatch>;
 
 // The length of the new list: the start of the closing run.
 fn new_length() -> u32 {
@@ -70,11 +72,12 @@ fn patch_contacts(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     if (p >= arrayLength(&patches)) {
         return;
     }
-    let k = patches[p].x;
+    let k = patches[p].index;
     if (k >= new_length()) {
         return;
     }
-    new_contacts[k].feature = patches[p].y;
+    new_contacts[k].feature = patches[p].feature;
+    new_contacts[k].length = patches[p].length;
     new_contacts[k].slip_work = real(0.0);
     new_contacts[k].dashpot_work = real(0.0);
 }

@@ -103,6 +103,15 @@ pub fn all() -> Vec<Case> {
                   (1.27% for this touch, mid-step), zero on average over touch phases, falling as FRAC² (issue 27 item 4)",
             run: impact,
         },
+        Case {
+            name: "joint_shear",
+            closed_form: "direct shear of a joint (¶5): τ = JKS·u below the peak τp = JCOH + σn·JFRIC, slip above it (relative \
+                          error of u at τ = τp/2 and 0.9τp; a wrong regime at 0.9τp or 1.1τp counts 1)",
+            tolerance: 0.01,
+            why: "critically damped loading settles to e^(−ωt) ≈ 1e-4 of the load in the time given; the block's tilt under \
+                  the load's moment changes neither the shear sum nor the shear displacement; f32 round-off is ~1e-6",
+            run: joint_shear,
+        },
     ]
 }
 
@@ -445,4 +454,66 @@ fn pwave_joint(ctx: &Ctx) -> Result<Measured, Failure> {
         cost,
         energy_balance: None,
     })
+}
+
+/// Direct shear of a joint (Appendix A ¶5): a 2 × 0.2 m block (constitutive 2) on a fixed base,
+/// pressed by a normal load P and pushed by a shear load F at its centroid, under critical mass
+/// damping (no gravity). Its bottom face and the base's top face are a joint of length L = 2:
+/// two corner contacts, each carrying L/2 with stiffnesses JKS·L/2 and JKN·L/2. With σn = P/L
+/// and τ = F/L, statics gives the joint's shear displacement u = τ/JKS while τ is below the peak
+/// τp = JCOH + σn·JFRIC (eq. 20 over the joint: the contacts' caps JCOH·L/2 + JFRIC·Fn sum to
+/// τp·L whatever the load's moment does to the two normal forces); above it the block slides.
+pub fn joint_shear_deck(f_over_peak: f64, frac: &str) -> (String, f64) {
+    let (l, p, jks, jcoh, jfric) = (2.0f64, 2e5f64, 1e9f64, 5e4f64, 0.5f64);
+    let peak = (jcoh + p / l * jfric) * l;
+    // Shear ω = √(JKS·L/m) = 1581 rad/s (m = 800 kg): DAMP 2 f MASS at f = ω/2π gives α = 2ω,
+    // critical damping of the shear mode (the normal mode, √2 stiffer, at ζ = 0.71).
+    let omega = (jks * l / 800.0f64).sqrt();
+    let deck = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 JKN=2E9 JKS={jks:e} JCOH={jcoh:e} JFRIC={jfric}\nROUND 0.05\n\
+         BLOCK CONS=2 0,-1 0,0 4,0 4,-1\nBLOCK CONS=2 1,0 1,0.2 3,0.2 3,0\nFIX 0 4 -1 -0.1\nDAMP 2 {} MASS\n{frac}\
+         LOAD 0 4 0 0.2 0 {}\nCYCLE 400\nLOAD 0 4 0 0.2 {} {}\nCYCLE 600\n",
+        omega / (2.0 * PI),
+        -p,
+        f_over_peak * peak,
+        -p
+    );
+    (deck, peak)
+}
+
+fn joint_shear(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (l, jks) = (2.0f64, 1e9f64);
+    let mut worst: f64 = 0.0;
+    let mut detail = String::new();
+    let mut cost = super::Cost::default();
+    for ratio in [0.5, 0.9, 1.1] {
+        let (deck, peak) = joint_shear_deck(ratio, &ctx.frac_line());
+        let (m, c) = ctx.run(&deck)?;
+        cost.wall_s += c.wall_s;
+        cost.cycles += c.cycles;
+        let top = m.block_index(2).expect("the sheared block") as u32;
+        let joints: Vec<_> = m.contacts.iter().filter(|c| c.block1 == top || c.block2 == top).filter(|c| m.counts_force(c)).collect();
+        if joints.len() != 2 || joints.iter().any(|c| (c.joint_length - 0.5 * l).abs() > 1e-9) {
+            let lengths: Vec<f64> = joints.iter().map(|c| c.joint_length).collect();
+            let _ = write!(detail, "{ratio}τp: not one joint of length {l} ({lengths:?}); ");
+            worst = worst.max(1.0);
+            continue;
+        }
+        let u = joints.iter().map(|c| c.shear_displacement.abs()).sum::<f64>() / 2.0;
+        let tau = ratio * peak / l;
+        let elastic = tau / jks;
+        if ratio < 1.0 {
+            let e = (u - elastic).abs() / elastic;
+            worst = worst.max(e);
+            let _ = write!(detail, "{ratio}τp: u = {u:.4e} m vs τ/JKS = {elastic:.4e}; ");
+        } else {
+            // Sliding: far past the elastic displacement the peak would allow.
+            let slid = u > 10.0 * peak / l / jks;
+            if !slid {
+                worst = worst.max(1.0);
+            }
+            let _ = write!(detail, "{ratio}τp: u = {u:.3e} m ({}); ", if slid { "slides" } else { "STICKS" });
+        }
+    }
+    Ok(Measured { error: worst, detail, cost, energy_balance: None })
 }

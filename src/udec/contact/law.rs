@@ -3,6 +3,7 @@
 //! applies it to every contact; topology uses its normal part for the contacts a crack re-makes;
 //! the GPU's twin is `shaders/udec/contact_forces.wgsl`, checked against it in `tests/gpu_kernels.rs`.
 
+use super::joint::law_parameters;
 use crate::udec::model::geometry::{dot, sub};
 use crate::udec::model::{Contact, Damping, Material};
 
@@ -63,8 +64,14 @@ pub fn normal_force(gap: f64, kn: f64, cohesion: f64) -> f64 {
 /// - Coulomb limit, eq. (20): |Fs| ≤ c + μ Fn; once a contact slips or opens in tension it has lost
 ///   its cohesion for good (residual strength).
 /// - Stiffness-proportional Rayleigh damping adds β·k·(relative velocity) dashpots, not stored.
+///
+/// The parameters are the contact's law's (`joint::law_parameters`): a joint (¶5) reads JKN·l_c,
+/// JKS·l_c, JCOH·l_c and JFRIC, a point contact KN, KS, COHESION and FRICTION. A contact whose law
+/// changed at the last contact update keeps its shear force and displacement: the increments of
+/// eq. (17) take the new stiffness and the cap of eq. (20) the new strength from here on.
 #[inline]
 pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion, b: &BlockMotion, damping: &Damping, dt: f64, active: bool) {
+    let law = law_parameters(contact.joint_length, mat);
     let n = contact.normal;
     let t = [-n[1], n[0]];
     let va = a.velocity_at(contact.point);
@@ -78,7 +85,7 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     // booking it so makes the ledger exact for the dashpots.
     let [pvn, pvs] = contact.dashpot_velocity;
     if pvn != 0.0 || pvs != 0.0 {
-        contact.dashpot_work += damping.beta * (mat.contact.kn * pvn * 0.5 * (pvn + vn) + mat.contact.ks * pvs * 0.5 * (pvs + vs)) * dt;
+        contact.dashpot_work += damping.beta * (law.kn * pvn * 0.5 * (pvn + vn) + law.ks * pvs * 0.5 * (pvs + vs)) * dt;
         contact.dashpot_velocity = [0.0, 0.0];
     }
     if !active {
@@ -86,21 +93,21 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
         // shear spring is this view's own (eq. 17 is incremental): if it held a force from when
         // this view was the counted one, it lets go as on opening (its energy to the slip
         // work), or it would stay in the ledger's strain energy and in a PRINT of the contact.
-        contact.slip_work += slip_dissipation(contact.shear_force, 0.0, vs * dt, mat.contact.ks);
+        contact.slip_work += slip_dissipation(contact.shear_force, 0.0, vs * dt, law.ks);
         contact.normal_force = 0.0;
         contact.shear_force = 0.0;
         contact.force = [0.0, 0.0];
         return;
     }
-    let mut fn_ = -mat.contact.kn * contact.gap;
-    let cohesion = if contact.bonded { mat.contact.cohesion } else { 0.0 };
+    let mut fn_ = -law.kn * contact.gap;
+    let cohesion = if contact.bonded { law.cohesion } else { 0.0 };
     let fs_old = contact.shear_force;
     if opens(fn_, contact.bonded, cohesion) {
         // Open: no tension beyond the cohesion; an intact contact that breaks loses it for good.
         // The shear spring's energy and any bond tension go to the slip work.
-        contact.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, mat.contact.ks);
-        if contact.normal_force < 0.0 && mat.contact.kn > 0.0 {
-            contact.slip_work += contact.normal_force * contact.normal_force / (2.0 * mat.contact.kn);
+        contact.slip_work += slip_dissipation(fs_old, 0.0, vs * dt, law.ks);
+        if contact.normal_force < 0.0 && law.kn > 0.0 {
+            contact.slip_work += contact.normal_force * contact.normal_force / (2.0 * law.kn);
         }
         contact.bonded = false;
         contact.normal_force = 0.0;
@@ -108,12 +115,12 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
         contact.force = [0.0, 0.0];
         return;
     }
-    let mut fs = fs_old - mat.contact.ks * vs * dt; // eqs. (17), (19)
-    let limit = cohesion + mat.contact.friction * fn_.max(0.0);
+    let mut fs = fs_old - law.ks * vs * dt; // eqs. (17), (19)
+    let limit = cohesion + law.friction * fn_.max(0.0);
     if fs.abs() > limit {
         fs = fs.signum() * limit; // eq. (20)
-        contact.slip_work += slip_dissipation(fs_old, fs, vs * dt, mat.contact.ks);
-        if contact.bonded && mat.contact.cohesion > 0.0 {
+        contact.slip_work += slip_dissipation(fs_old, fs, vs * dt, law.ks);
+        if contact.bonded && law.cohesion > 0.0 {
             contact.bonded = false;
         }
     }
@@ -121,8 +128,8 @@ pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion,
     contact.shear_force = fs;
     let (mut dn, mut ds) = (0.0, 0.0);
     if damping.beta > 0.0 && fn_ > 0.0 {
-        dn = -damping.beta * mat.contact.kn * vn;
-        ds = -damping.beta * mat.contact.ks * vs;
+        dn = -damping.beta * law.kn * vn;
+        ds = -damping.beta * law.ks * vs;
         contact.dashpot_velocity = [vn, vs];
     }
     fn_ += dn;

@@ -142,6 +142,7 @@ impl Executor<'_> {
             return Err(self.command_error(cmd, "CYCLE: there are no blocks (give a BLOCK command first)"));
         }
         self.model.recompute_mass_properties();
+        self.check_joints(cmd)?;
         self.check_masses_and_stiffnesses(cmd)?;
         self.check_cracking(cmd)?;
         let dt = self.critical_timestep(cmd)?;

@@ -3,9 +3,64 @@
 
 use super::{Executor, RunError, MAX_CONSTITUTIVE};
 use crate::udec::deck::{DampMode, Located, PropKey};
-use crate::udec::model::constitutive::Constitutive;
+use crate::udec::model::constitutive::{Constitutive, ContactLaw};
 
 impl Executor<'_> {
+    /// The joints' properties before a CYCLE (Appendix A ¶5): a block or a SPLIT tag whose
+    /// constitutive number gives joints (2, 4, 5) needs its material's joint stiffnesses JKN and
+    /// JKS, both or neither. With neither, its joints follow the point-contact law on KN, KS,
+    /// COHESION and FRICTION ("UDEC will still refer to contact parameters"; sample 4 gives
+    /// CONS=4 and no JKN): said once per material. With neither and no KN either, an error that
+    /// names JKN. Only CYCLE can tell: PROPERTY may come after BLOCK, CHANGE or SPLIT.
+    // `!(x > 0.0)` on purpose: a NaN stiffness fails the check too.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    pub(super) fn check_joints(&mut self, cmd: &Located) -> Result<(), RunError> {
+        let joint_number = |c: u32| Constitutive::from_number(c).is_some_and(|k| k.contact == ContactLaw::Joint);
+        let mut users: Vec<(u32, u32, String)> = Vec::new();
+        for b in self.model.blocks.iter().filter(|b| joint_number(b.constitutive)) {
+            if !users.iter().any(|u| u.0 == b.material) {
+                users.push((b.material, b.constitutive, format!("block {}", b.id)));
+            }
+        }
+        for c in self.model.corners.iter().filter(|c| c.edge_material != 0 && joint_number(c.edge_constitutive.max(1))) {
+            if !users.iter().any(|u| u.0 == c.edge_material) {
+                users.push((c.edge_material, c.edge_constitutive, "a joint of SPLIT MAT= CONS=".to_string()));
+            }
+        }
+        for (m, cons, what) in users {
+            let mat = *self.model.material(m);
+            let (jkn, jks) = (mat.joint.kn > 0.0, mat.joint.ks > 0.0);
+            let whose = format!("material {m} of {what} (constitutive number {cons}: joints, SL-85-1 Appendix A paragraph 5)");
+            if jkn != jks {
+                let (given, missing) = if jkn { ("JKN", "JKS") } else { ("JKS", "JKN") };
+                return Err(self.command_error(
+                    cmd,
+                    format!("CYCLE: {whose} gives {given} but not {missing}: a joint needs both joint stiffnesses JKN and JKS (stress/displacement)"),
+                ));
+            }
+            if jkn {
+                continue;
+            }
+            if !(mat.contact.kn > 0.0) {
+                return Err(self.command_error(
+                    cmd,
+                    format!(
+                        "CYCLE: JKN missing: {whose} needs the joint stiffnesses JKN and JKS (stress/displacement, PROPERTY MAT={m} JKN=… JKS=…), \
+                         and the contact stiffnesses KN and KS, which a joint falls back on"
+                    ),
+                ));
+            }
+            if !self.joint_fallback_noted.contains(&m) {
+                self.joint_fallback_noted.push(m);
+                self.echo(&format!(
+                    "NOTE: {whose} has no joint stiffnesses JKN, JKS: its joints follow the point-contact law (KN, KS, COHESION, FRICTION), \
+                     as UDEC did (\"UDEC will still refer to contact parameters\")"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// A material number a command names must be one PROPERTY can define (UDEC's NMAT slots):
     /// a BLOCK, CHANGE or SPLIT of material 25 was taken, and CYCLE then asked for a PROPERTY
     /// MAT=25 that PROPERTY refused.

@@ -170,6 +170,8 @@ pub struct Executor<'a> {
     ledger_warned: bool,
     /// Whether the rigid blocks with a Griffith constitutive number were named once.
     griffith_rigid_warned: bool,
+    /// Materials whose joints CYCLE said follow the point-contact law (no JKN, JKS; ¶5).
+    joint_fallback_noted: Vec<u32>,
 }
 
 impl<'a> Executor<'a> {
@@ -190,6 +192,7 @@ impl<'a> Executor<'a> {
             overlaps_checked: None,
             ledger_warned: false,
             griffith_rigid_warned: false,
+            joint_fallback_noted: Vec::new(),
         }
     }
 

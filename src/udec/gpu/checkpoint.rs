@@ -13,8 +13,8 @@ use super::readback::StateBuffers;
 use super::{Engine, GpuError, Uploaded};
 
 /// What the device does not hold of a contact: its identity, material and constitutive model.
-/// Between whole copies, the last good state keeps its contact list as these (24 bytes a contact
-/// where a model contact takes 144); a restore rebuilds the contacts from them and fills in their
+/// Between whole copies, the last good state keeps its contact list as these (32 bytes a contact
+/// where a model contact takes 152); a restore rebuilds the contacts from them and fills in their
 /// state from the device checkpoint (`Engine::restore_checkpoint`).
 #[derive(Clone, Copy)]
 pub(super) struct ContactIdentity {
@@ -24,17 +24,27 @@ pub(super) struct ContactIdentity {
     pub(super) block2: u32,
     pub(super) material: u32,
     pub(super) constitutive: u32,
+    /// Its law (`Contact::joint_length`), which the device holds only in its precision.
+    pub(super) joint_length: f64,
 }
 
 impl ContactIdentity {
     pub(super) fn of(c: &crate::udec::model::Contact) -> Self {
-        ContactIdentity { id: c.id, block1: c.block1, corner: c.corner, block2: c.block2, material: c.material, constitutive: c.constitutive }
+        ContactIdentity {
+            id: c.id,
+            block1: c.block1,
+            corner: c.corner,
+            block2: c.block2,
+            material: c.material,
+            constitutive: c.constitutive,
+            joint_length: c.joint_length,
+        }
     }
 
     /// The contact with this identity, its state zero until a read-back fills it.
     pub(super) fn contact(self) -> crate::udec::model::Contact {
-        let ContactIdentity { id, block1, corner, block2, material, constitutive } = self;
-        crate::udec::model::Contact::identity(id, block1, corner, block2, material, constitutive)
+        let ContactIdentity { id, block1, corner, block2, material, constitutive, joint_length } = self;
+        crate::udec::model::Contact { joint_length, ..crate::udec::model::Contact::identity(id, block1, corner, block2, material, constitutive) }
     }
 }
 

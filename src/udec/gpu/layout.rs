@@ -87,7 +87,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One contact: 72 bytes in f32, 120 in f64. The point is relative to block 2's centroid.
+    /// One contact: 76 bytes in f32, 128 in f64. The point is relative to block 2's centroid.
     /// Its force on block 1 is kept once, in its `ContactForce` record.
     Contact {
         px: R, py: R, nx: R, ny: R, gap: R,
@@ -98,6 +98,9 @@ gpu_struct! {
         /// `Contact::dashpot_velocity`: the normal and shear velocities the dashpots acted on in
         /// the last step (state, uploaded and read back as is).
         dashpot_vn: R, dashpot_vs: R,
+        /// `Contact::joint_length`: the length of joint it carries (¶5), 0 for a point contact;
+        /// set by the CPU at creation and at each contact update that re-examines it.
+        length: R,
         block1: u32, corner: u32, block2: u32, feature: u32,
         /// Index into the material table (0-based, as `Model::material` maps it).
         material: u32,
@@ -127,9 +130,26 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// Contact properties of one material: 16 bytes in f32, 32 in f64. A uniform array of
-    /// `MAX_MATERIALS` (16-byte stride in both precisions, as uniform arrays require).
-    Material { kn: R, ks: R, cohesion: R, friction: R }
+    /// A kept contact the CPU read for a contact update (`patch_contacts`): 12 bytes in f32, 16
+    /// in f64. The length of joint it carries now (its law, ¶5), its index in the new list and
+    /// the feature the update found.
+    ContactPatch { length: R, index: u32, feature: u32 }
+}
+
+impl<R: Real> ContactPatch<R> {
+    /// The patch of contact `index` of the model's list: its feature and its law.
+    pub fn of(model: &crate::udec::model::Model, index: u32) -> Self {
+        let c = &model.contacts[index as usize];
+        ContactPatch { length: R::from_f64(c.joint_length), index, feature: c.feature }
+    }
+}
+
+gpu_struct! {
+    /// Contact properties of one material: 32 bytes in f32, 64 in f64, the point contact's
+    /// (KN, KS, COHESION, FRICTION) and the joint's (JKN, JKS, JCOH, JFRIC, ¶5). A uniform array
+    /// of `MAX_MATERIALS` (a stride of a multiple of 16 bytes in both precisions, as uniform
+    /// arrays require).
+    Material { kn: R, ks: R, cohesion: R, friction: R, jkn: R, jks: R, jcohesion: R, jfriction: R }
 }
 
 gpu_struct! {
@@ -238,6 +258,7 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         Contact::<R>::layout(),
         ContactForce::<R>::layout(),
         ContactSummary::<R>::layout(),
+        ContactPatch::<R>::layout(),
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),

@@ -15,7 +15,7 @@ use crate::udec::model::Model;
 use crate::udec::topology::Adjacency;
 
 use super::kernels::{self, slab, uniform_buffer, Slab};
-use super::layout::{Block, Contact, ContactSummary, Corner, GridReference, ListParams, Real};
+use super::layout::{Block, Contact, ContactPatch, ContactSummary, Corner, GridReference, ListParams, Real};
 use super::readback::pod_view;
 use super::run::cycles_to_threshold;
 use super::{r, Engine, GpuError};
@@ -335,15 +335,9 @@ impl<R: Real> Engine<R> {
             self.upload_contacts(model, adjacency)?;
         } else {
             let read: Vec<u32> = if read_all { (0..edit.old_len).collect() } else { read_contacts.iter().flat_map(|&(s, e)| s..e).collect() };
-            let patches: Vec<[u32; 2]> = read
-                .into_iter()
-                .filter(|k| edit.dropped.binary_search(k).is_err())
-                .map(|k| {
-                    let i = edit.new_index(k);
-                    [i, model.contacts[i as usize].feature]
-                })
-                .collect();
-            let patched: Vec<u32> = patches.iter().map(|p| p[0]).collect();
+            let patches: Vec<ContactPatch<R>> =
+                read.into_iter().filter(|k| edit.dropped.binary_search(k).is_err()).map(|k| ContactPatch::of(model, edit.new_index(k))).collect();
+            let patched: Vec<u32> = patches.iter().map(|p| p.index).collect();
             self.edit_contact_list(model, &edit, Some(&patched));
             self.splice_contacts(model, adjacency, &edit, &patches)?;
         }

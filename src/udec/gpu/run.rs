@@ -12,7 +12,7 @@ use crate::udec::topology::Adjacency;
 use rayon::prelude::*;
 
 use super::kernels;
-use super::layout::{self, Block, Corner, Flags, Real};
+use super::layout::{self, Block, ContactPatch, Corner, Flags, Real};
 use super::partial::PartialUpdate;
 use super::{device_error, ContactIdentity, Engine, GpuError};
 
@@ -77,6 +77,11 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
             .find(|&(_, x)| !normal(x))
             .or_else(|| [("cohesion", mat.contact.cohesion), ("friction", mat.contact.friction)].into_iter().find(|&(_, x)| !bounded(x)));
         if let Some((name, x)) = bad {
+            return refuse(format!("material {m}'s {name}"), x);
+        }
+        // The joint group (¶5), uploaded with the material whether or not a contact uses it.
+        let joint = [("JKN", mat.joint.kn), ("JKS", mat.joint.ks), ("JCOH", mat.joint.cohesion), ("JFRIC", mat.joint.friction)];
+        if let Some((name, x)) = joint.into_iter().find(|&(_, x)| !bounded(x)) {
             return refuse(format!("material {m}'s {name}"), x);
         }
         // The contact dashpots' coefficients, β·k (stiffness-proportional Rayleigh damping).
@@ -193,10 +198,8 @@ impl<R: Real> Engine<R> {
                     // Every kept contact was read: each is patched, and takes its bases from the
                     // model.
                     let mut created = edit.inserted_at.iter().peekable();
-                    let patches: Vec<[u32; 2]> = (0..model.contacts.len() as u32)
-                        .filter(|&i| created.next_if_eq(&&i).is_none())
-                        .map(|i| [i, model.contacts[i as usize].feature])
-                        .collect();
+                    let patches: Vec<ContactPatch<R>> =
+                        (0..model.contacts.len() as u32).filter(|&i| created.next_if_eq(&&i).is_none()).map(|i| ContactPatch::of(model, i)).collect();
                     self.edit_contact_list(model, &edit, None);
                     self.splice_contacts(model, adjacency, &edit, &patches)
                 }

@@ -8,9 +8,9 @@
 //! then a few runs, each a stretch of the old list or of the created contacts
 //! (`ListEdit::runs`); the kernel finds each new contact's run by a binary search. What moves to
 //! the device is in proportion to the changes: 8 bytes a run, the created contacts whole, and
-//! 8 bytes a *patch*, a kept contact the CPU read and may have given a new feature
-//! (`patch_contacts`: the feature, and a fresh start of its slip and dashpot work, which the
-//! CPU's ledger bases now hold). A kept contact the CPU did not read keeps the device's state.
+//! 12 (f32) or 16 (f64) bytes a *patch*, a kept contact the CPU read and may have given a new
+//! feature or law (`patch_contacts`: the feature, the length of joint, and a fresh start of its
+//! slip and dashpot work, which the CPU's ledger bases now hold). A kept contact the CPU did not read keeps the device's state.
 //!
 //! The read-back before the update is packed (`pack_contacts`): detection and the energy ledger
 //! need a contact's gap, forces, dissipation and feature, not its point, normal or dashpot
@@ -18,7 +18,7 @@
 //! next whole read-back, so the whole-list upload must never follow a packed read: the caller
 //! knows the list is in order beforehand, and so that the update will record its edit.
 
-use super::layout::{Contact, ContactForce, ContactSummary, Real};
+use super::layout::{Contact, ContactForce, ContactPatch, ContactSummary, Real};
 use crate::udec::contact::gather::AdjacencyEntry;
 use crate::udec::topology::adjacency::{EntriesEdit, FROM_LISTS};
 use crate::udec::topology::detect::ListEdit;
@@ -52,12 +52,14 @@ pub fn splice_contacts<R: Real>(
         .unzip()
 }
 
-/// Rust twin of `patch_contacts` (splice_contacts.wgsl): each patch (index, feature) gives a
-/// kept contact the feature the CPU's update found and restarts its slip and dashpot work.
-pub fn patch_contacts<R: Real>(contacts: &mut [Contact<R>], patches: &[[u32; 2]]) {
-    for &[k, feature] in patches {
-        if let Some(c) = contacts.get_mut(k as usize) {
-            c.feature = feature;
+/// Rust twin of `patch_contacts` (splice_contacts.wgsl): each patch gives a kept contact the
+/// feature and the law (length of joint) the CPU's update found and restarts its slip and
+/// dashpot work.
+pub fn patch_contacts<R: Real>(contacts: &mut [Contact<R>], patches: &[ContactPatch<R>]) {
+    for p in patches {
+        if let Some(c) = contacts.get_mut(p.index as usize) {
+            c.feature = p.feature;
+            c.length = p.length;
             c.slip_work = R::default();
             c.dashpot_work = R::default();
         }
@@ -268,7 +270,8 @@ mod tests {
         let old_f = [f(0), f(1), f(2), f(3)];
         // Old 0, a created contact, old 2 and 3 (1 dropped).
         let (mut new, forces) = splice_contacts(&old, &old_f, &[[0, 0], [1, NEW_CONTACT], [2, 2], [4, 0]], &[c(5)], &[f(5)]);
-        patch_contacts(&mut new, &[[2, 9], [7, 1]]);
+        let patch = |index, feature| ContactPatch::<f64> { length: 0.0, index, feature };
+        patch_contacts(&mut new, &[patch(2, 9), patch(7, 1)]);
         assert_eq!(
             new.iter().map(|c| (c.block1, c.feature, c.slip_work, c.dashpot_work)).collect::<Vec<_>>(),
             [(0, 0, 1.0, 2.0), (5, 5, 1.0, 2.0), (2, 9, 0.0, 0.0), (3, 3, 1.0, 2.0)]

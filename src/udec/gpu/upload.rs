@@ -10,7 +10,7 @@ use crate::udec::topology::Adjacency;
 use rayon::prelude::*;
 
 use super::kernels::{self, Buffers};
-use super::layout::{Block, Contact, ContactForce, Corner, EnergySum, Material, Params, Real};
+use super::layout::{Block, Contact, ContactForce, ContactPatch, Corner, EnergySum, Material, Params, Real};
 use super::shaders::split_rotation;
 use super::{r, shaders, splice, Engine, GpuError, Uploaded};
 
@@ -47,6 +47,7 @@ impl<R: Real> Engine<R> {
             dashpot_work: R::default(),
             dashpot_vn: r(c.dashpot_velocity[0]),
             dashpot_vs: r(c.dashpot_velocity[1]),
+            length: r(c.joint_length),
             block1: c.block1,
             corner: c.corner,
             block2: c.block2,
@@ -89,7 +90,17 @@ impl<R: Real> Engine<R> {
         let corners: Vec<Corner<R>> = model.corners.par_iter().with_min_len(4096).map(|c| Corner::from_model(&model.blocks, c)).collect();
         let mut materials = vec![Material::<R>::default(); MAX_MATERIALS];
         for (g, m) in materials.iter_mut().zip(&model.materials) {
-            *g = Material { kn: r(m.contact.kn), ks: r(m.contact.ks), cohesion: r(m.contact.cohesion), friction: r(m.contact.friction) };
+            let (c, j) = (&m.contact, &m.joint);
+            *g = Material {
+                kn: r(c.kn),
+                ks: r(c.ks),
+                cohesion: r(c.cohesion),
+                friction: r(c.friction),
+                jkn: r(j.kn),
+                jks: r(j.ks),
+                jcohesion: r(j.cohesion),
+                jfriction: r(j.friction),
+            };
         }
         let rebuild = match &mut self.buffers {
             None => {
@@ -223,7 +234,7 @@ impl<R: Real> Engine<R> {
     /// device's own state (no round trip through f64). The caller has brought the ledger bases
     /// up to date for the patches (`edit_contact_list`). An edit that changed no contact only
     /// patches the live list: nothing moves, and the adjacency stays as it is on the device.
-    pub(super) fn splice_contacts(&mut self, model: &Model, adjacency: &Adjacency, edit: &ListEdit, patches: &[[u32; 2]]) -> Result<(), GpuError> {
+    pub(super) fn splice_contacts(&mut self, model: &Model, adjacency: &Adjacency, edit: &ListEdit, patches: &[ContactPatch<R>]) -> Result<(), GpuError> {
         use wgpu::util::DeviceExt;
         let _p = crate::profile::scope(crate::profile::Stage::Upload);
         let n = model.contacts.len();
@@ -237,7 +248,7 @@ impl<R: Real> Engine<R> {
         }
         let runs = edit.runs(splice::NEW_CONTACT);
         // (An index past the list patches nothing: the binding's one item when there are none.)
-        let no_patch = [[u32::MAX, 0]];
+        let no_patch = [ContactPatch { length: R::default(), index: u32::MAX, feature: 0 }];
         let patches = if patches.is_empty() { &no_patch[..] } else { patches };
         let dev = &self.dev;
         let b = self.buffers.as_mut().expect("buffers exist");

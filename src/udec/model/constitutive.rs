@@ -64,6 +64,23 @@ impl Constitutive {
     }
 }
 
+use super::{ContactMaterial, Material};
+
+/// The force–displacement law's parameters of a contact carrying `joint_length` of joint
+/// (`Contact::joint_length`): for a joint JKN·l_c, JKS·l_c, JCOH·l_c and JFRIC (the stresses of
+/// ¶5 over its share of the joint), for a point contact the material's KN, KS, COHESION and
+/// FRICTION, as they are. The model's energies, the time step and
+/// the force law (`contact::law`) read it; the GPU's twin is `contact_law` in `shaders/udec/layout.wgsl`.
+#[inline]
+pub fn law_parameters(joint_length: f64, mat: &Material) -> ContactMaterial {
+    if joint_length > 0.0 {
+        let j = &mat.joint;
+        ContactMaterial { kn: j.kn * joint_length, ks: j.ks * joint_length, cohesion: j.cohesion * joint_length, friction: j.friction }
+    } else {
+        mat.contact
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

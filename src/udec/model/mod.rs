@@ -19,6 +19,7 @@ pub mod sdef;
 pub mod split;
 pub mod timestep;
 
+use constitutive::ContactLaw;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -339,9 +340,53 @@ pub struct Contact {
     /// did not act): their work is booked a step late, over the mean velocity of that step.
     #[serde(default)]
     pub dashpot_velocity: [f64; 2],
+    /// The length of joint this contact carries, l_c (problem units), when it follows the joint
+    /// law (Appendix A ¶5: an edge-to-edge contact between planar faces in opposition, with a
+    /// joint constitutive number); 0 for a point contact. As in UDEC, the edge-to-edge contact is
+    /// the two corner contacts at the ends of the faces' common length l_j, each carrying half of
+    /// it: l_c = l_j/2 (`contact::joint`). Decided at each contact update (stage 7). SAVE files
+    /// keep it beside the model (`output::restart`), not in the contact's own record, whose
+    /// binary layout is that of the files written before joints (`readable_only`); DUMP and
+    /// other readable forms show it.
+    #[serde(default, with = "readable_only")]
+    pub joint_length: f64,
+}
+
+/// A field that readable formats (DUMP's JSON) write and read as a number and binary ones
+/// (postcard, SAVE files) as nothing at all (a unit, no bytes), so that a field added to a saved
+/// struct leaves the binary layout as it was; a SAVE file that needs the value keeps it beside
+/// the model (`output::restart`). Read from a binary form it is 0.
+mod readable_only {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if s.is_human_readable() {
+            x.serialize(s)
+        } else {
+            s.serialize_unit()
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        if d.is_human_readable() {
+            f64::deserialize(d)
+        } else {
+            <()>::deserialize(d).map(|()| 0.0)
+        }
+    }
 }
 
 impl Contact {
+    /// The law this contact follows now: the joint law while it carries a length of joint.
+    #[inline]
+    pub fn law(&self) -> ContactLaw {
+        if self.joint_length > 0.0 {
+            ContactLaw::Joint
+        } else {
+            ContactLaw::Point
+        }
+    }
+
     /// A contact of `corner` of `block1` against `block2` with no state yet (no feature, gap,
     /// force or history): what a read-back of its state fills in (the GPU backend's restore).
     pub fn identity(id: u32, block1: u32, corner: u32, block2: u32, material: u32, constitutive: u32) -> Contact {
@@ -365,6 +410,7 @@ impl Contact {
             slip_work: 0.0,
             dashpot_work: 0.0,
             dashpot_velocity: [0.0; 2],
+            joint_length: 0.0,
         }
     }
 

@@ -118,12 +118,13 @@ impl Model {
             e.mass_damping += s.damping_work;
         }
         for c in &self.contacts {
-            let m = self.material(c.material);
-            if m.contact.kn > 0.0 {
-                e.strain += c.normal_force.powi(2) / (2.0 * m.contact.kn);
+            // The springs of the contact's law: a joint's are JKN·l_c, JKS·l_c (¶5).
+            let m = super::constitutive::law_parameters(c.joint_length, self.material(c.material));
+            if m.kn > 0.0 {
+                e.strain += c.normal_force.powi(2) / (2.0 * m.kn);
             }
-            if m.contact.ks > 0.0 {
-                e.strain += c.shear_force.powi(2) / (2.0 * m.contact.ks);
+            if m.ks > 0.0 {
+                e.strain += c.shear_force.powi(2) / (2.0 * m.ks);
             }
             e.contact_damping += c.dashpot_work;
             e.friction += c.slip_work;
@@ -182,7 +183,51 @@ impl Model {
         for c in &self.contacts {
             consider(c.material);
         }
+        // Joints (¶5): JKN·l_c and JKS·l_c, which may exceed KN and KS. Before the first
+        // detection the contacts are not known: bounded by the longest edge of a block whose
+        // number gives joints, halved (a joint's share); nothing changes for a model without
+        // joint stiffnesses.
+        k_max = k_max.max(self.joint_stiffness_bound());
         (m_min.is_finite() && k_max > 0.0).then(|| self.frac * 2.0 * (m_min / k_max).sqrt())
+    }
+
+    /// The largest stiffness a joint of this model may have (¶5: JKN·l_c, JKS·l_c): over the
+    /// contacts that are joints now, and over the materials and joint constitutive numbers of
+    /// blocks and SPLIT tags, with l_c at most half the longest edge of the model. 0 for a model
+    /// with no joint stiffnesses.
+    pub fn joint_stiffness_bound(&self) -> f64 {
+        use super::constitutive::{Constitutive, ContactLaw};
+        let joint_number = |m: u32| Constitutive::from_number(m).is_some_and(|c| c.contact == ContactLaw::Joint);
+        let stiffness = |m: u32| {
+            let j = &self.material(m).joint;
+            if j.kn > 0.0 && j.ks > 0.0 {
+                j.kn.max(j.ks)
+            } else {
+                0.0
+            }
+        };
+        let mut k_per_length: f64 = 0.0;
+        for b in &self.blocks {
+            if joint_number(b.constitutive) {
+                k_per_length = k_per_length.max(stiffness(b.material));
+            }
+        }
+        for c in &self.corners {
+            if c.edge_material != 0 && joint_number(c.edge_constitutive.max(1)) {
+                k_per_length = k_per_length.max(stiffness(c.edge_material));
+            }
+        }
+        let mut k: f64 = 0.0;
+        for c in &self.contacts {
+            if c.joint_length > 0.0 {
+                k = k.max(stiffness(c.material) * c.joint_length);
+            }
+        }
+        if k_per_length > 0.0 {
+            let longest = self.corners.iter().map(|c| c.edge_length).fold(0.0, f64::max);
+            k = k.max(k_per_length * 0.5 * longest);
+        }
+        k
     }
 
     /// Every term of the energy ledger now (see [`Energies`]): per-element accumulators summed
@@ -227,8 +272,8 @@ impl Model {
             if !self.counts_force(c) {
                 continue;
             }
-            let m = self.material(c.material);
-            let k = m.contact.kn.max(m.contact.ks);
+            let m = super::constitutive::law_parameters(c.joint_length, self.material(c.material));
+            let k = m.kn.max(m.ks);
             let (b1, b2) = (c.block1 as usize, c.block2 as usize);
             let (a1, a2) = (compliance(b1, c.point), compliance(b2, c.point));
             let shared = (a1 * a2).sqrt();

@@ -162,7 +162,9 @@ fn push_blank_if_zero(line: &mut String, n: u32, width: usize) {
 
 /// PRINT CONTACTS: one row per contact with the two block ids (block 1 owns the corner), the
 /// contact point, normal force (compression positive), shear force, normal displacement (the
-/// gap; overlap negative, as UDEC printed it), accumulated shear displacement and the kind.
+/// gap; overlap negative, as UDEC printed it), accumulated shear displacement and the kind; a
+/// joint (Appendix A ¶5) is marked `JOINT L=` with the length of joint it carries (half the
+/// common length of the faces in opposition) after the kind.
 pub fn print_contacts(model: &Model, out: &mut dyn Write) -> io::Result<()> {
     write_headings(out, "CONTACT DATA", &CONTACT_GROUPS)?;
     let mut line = String::new();
@@ -176,6 +178,10 @@ pub fn print_contacts(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         }
         line.push_str("  ");
         line.push_str(kind_label(c.kind));
+        if c.joint_length > 0.0 {
+            // After the 1985 row, as its notes are: a joint (¶5) and the length it carries.
+            let _ = write!(line, " JOINT L={}", fmt_e(c.joint_length));
+        }
         if let Some(note) = other_view_note(model, c) {
             line.push_str(&note);
         }

@@ -9,7 +9,7 @@
 //! | 4 | format version (u32), [`FORMAT_VERSION`] |
 //! | 8 | payload length in bytes (u64) |
 //! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in versions 3 and 4, FNV-1a 64 in version 2 |
-//! | n | payload: [`SaveFile`] serialized with postcard; in version 4 followed by the model's simply-deformable extension array (`Model::sdef`, a list) |
+//! | n | payload: [`SaveFile`] serialized with postcard, then (version 4) the contacts' laws and the model's simply-deformable extension array (`Model::sdef`, a list) |
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
@@ -22,6 +22,12 @@
 //! written last: a 10⁶-block model's 1.6 GB payload is never held in memory, twice, as it was
 //! up to version 2, whose byte-at-a-time FNV checksum also cost a second a gigabyte (CRC-32 runs
 //! at memory speed). Version 2 files are still read.
+//!
+//! Version 4 appends to the version 3 payload the joints (Appendix A ¶5): the index and
+//! `Contact::joint_length` of each contact that follows the joint law, as one postcard list
+//! (empty for a model without joints), which the contact's own record does not hold; then the
+//! simply-deformable extension (`Model::sdef`, empty for a rigid model). Version 2 and 3 files,
+//! written before both, read with every contact a point contact and every block rigid.
 
 use std::fs;
 use std::io::{self, Read, Seek, SeekFrom, Write};
@@ -34,13 +40,12 @@ use crate::udec::model::Model;
 
 /// The first eight bytes of every save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKDEM";
-/// The save format this program writes (and reads, with versions 2 and 3, which have no
-/// simply-deformable blocks).
+/// The save format this program writes (and reads, with versions 2 and 3, which have no joints
+/// and no simply-deformable blocks).
 pub const FORMAT_VERSION: u32 = 4;
-
-/// The format before the simply-deformable extension array: the same payload without it, under
-/// a CRC-32.
-const CRC_VERSION: u32 = 3;
+/// The format before the joints' list and the simply-deformable extension (the same payload
+/// without them, under CRC-32).
+const POINT_VERSION: u32 = 3;
 /// The older format still read: the same payload under an FNV-1a 64 checksum.
 const FNV_VERSION: u32 = 2;
 /// Bytes before the payload: magic, version, length, checksum.
@@ -152,8 +157,15 @@ struct SaveView<'a> {
     model: &'a Model,
     plot: &'a PlotSettings,
     plot_count: usize,
-    /// Version 4's trailer: the model's simply-deformable extension.
+    /// The contacts that are joints: (index, `Contact::joint_length`), ascending (version 4).
+    joints: Vec<(u32, f64)>,
+    /// Version 4's last trailer: the model's simply-deformable extension.
     sdef: &'a [crate::udec::model::sdef::Sdef],
+}
+
+/// The contacts of `model` that follow the joint law, as version 4 files list them.
+fn joints_of(model: &Model) -> Vec<(u32, f64)> {
+    model.contacts.iter().enumerate().filter(|(_, c)| c.joint_length != 0.0).map(|(k, c)| (k as u32, c.joint_length)).collect()
 }
 
 /// SAVE: writes `file` to `path` (see [`save_state`]).
@@ -168,7 +180,7 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
 /// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
-    let file = SaveView { model, plot, plot_count, sdef: &model.sdef };
+    let file = SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
         let seekable = w.get_ref().metadata()?.is_file();
@@ -271,7 +283,7 @@ fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
-    if version != FORMAT_VERSION && version != CRC_VERSION && version != FNV_VERSION {
+    if version != FORMAT_VERSION && version != POINT_VERSION && version != FNV_VERSION {
         return Err(DecodeError::UnsupportedVersion(version));
     }
     Ok(Header { version, length: u64_at(12), checksum: u64_at(20) })
@@ -282,10 +294,21 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
     if checksum(version, payload) != expected {
         return Err(DecodeError::Corrupt("the payload checksum does not match".to_string()));
     }
-    let bad = |e: postcard::Error| DecodeError::Corrupt(format!("bad payload: {e}"));
-    let (mut file, mut rest) = postcard::take_from_bytes::<SaveFile>(payload).map_err(bad)?;
+    let (mut file, mut rest) = postcard::take_from_bytes::<SaveFile>(payload).map_err(|e| DecodeError::Corrupt(format!("bad payload: {e}")))?;
     if version == FORMAT_VERSION {
-        (file.model.sdef, rest) = postcard::take_from_bytes(rest).map_err(bad)?;
+        let joints;
+        (joints, rest) = postcard::take_from_bytes::<Vec<(u32, f64)>>(rest).map_err(|e| DecodeError::Corrupt(format!("bad list of joints: {e}")))?;
+        for (k, length) in joints {
+            let Some(c) = file.model.contacts.get_mut(k as usize) else {
+                return Err(DecodeError::Inconsistent(format!("a joint names contact index {k}, past the {} contacts", file.model.contacts.len())));
+            };
+            if !(length.is_finite() && length > 0.0) {
+                return Err(DecodeError::Inconsistent(format!("contact {} has a joint length of {length}", c.id)));
+            }
+            c.joint_length = length;
+        }
+        (file.model.sdef, rest) =
+            postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad simply-deformable extension: {e}")))?;
     }
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));

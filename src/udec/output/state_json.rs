@@ -13,6 +13,7 @@ use serde::ser::{Serialize, Serializer};
 use serde_json::Value;
 
 use super::provenance::Provenance;
+use crate::udec::model::constitutive::ContactLaw;
 use crate::udec::model::timestep::Energies;
 use crate::udec::model::{Block, Contact, Model};
 
@@ -99,6 +100,12 @@ struct ContactJson {
     feature: u32,
     id: u32,
     kind: &'static str,
+    /// "point" or "joint" (Appendix A ¶5).
+    law: &'static str,
+    /// For a joint, the length of joint this contact carries (half the common length of the
+    /// faces in opposition, `Contact::joint_length`); absent for a point contact.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    length: Option<Num>,
     material: u32,
     normal: [Num; 2],
     normal_displacement: Num,
@@ -119,6 +126,11 @@ fn contact_json(model: &Model, c: &Contact) -> ContactJson {
         feature: c.feature,
         id: c.id,
         kind: c.kind.name(),
+        law: match c.law() {
+            ContactLaw::Point => "point",
+            ContactLaw::Joint => "joint",
+        },
+        length: (c.law() == ContactLaw::Joint).then_some(Num(c.joint_length)),
         material: c.material,
         normal: pair(c.normal),
         normal_displacement: Num(c.gap),

@@ -12,7 +12,10 @@
 //! - `contacts_<cycle>.vtk`: one point a contact, at its contact point. Point data: `normal_force`
 //!   and `shear_force` (N, compression positive), `gap` (m, overlap negative), `normal` (unit,
 //!   from block 2 into block 1), `force` (on block 1, N, vector: glyph it), `block1`, `block2`
-//!   (ids), `corner_corner` (1 for a corner–corner contact) and `bonded` (1 while intact).
+//!   (ids), `corner_corner` (1 for a corner–corner contact), `bonded` (1 while intact), `joint`
+//!   (1 for a contact that follows the joint law, Appendix A ¶5, 0 for a point contact) and
+//!   `joint_length` (m: the length of joint it carries, half the faces' common length; 0 for a
+//!   point contact).
 //!
 //! Frames are named by cycle, so a RESTART that goes on writes new ones beside the old, and one
 //! that goes back replaces the frames after it (the series keeps the frames before its cycle).
@@ -121,6 +124,8 @@ pub fn contacts_vtk(model: &Model) -> Vtk {
         Attribute::scalars("block2", 1).with_data(contacts.iter().map(|c| id(c.block2)).collect::<Vec<_>>()),
         Attribute::scalars("corner_corner", 1).with_data(contacts.iter().map(|c| flag(c.kind == ContactKind::CornerCorner)).collect::<Vec<_>>()),
         Attribute::scalars("bonded", 1).with_data(contacts.iter().map(|c| flag(c.bonded)).collect::<Vec<_>>()),
+        Attribute::scalars("joint", 1).with_data(contacts.iter().map(|c| flag(c.joint_length > 0.0)).collect::<Vec<_>>()),
+        Attribute::scalars("joint_length", 1).with_data(scalars(&|c| c.joint_length)),
     ];
     let piece = PolyDataPiece {
         points: points.into(),

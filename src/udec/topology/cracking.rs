@@ -248,10 +248,10 @@ pub fn apply_crack(model: &mut Model, crack: &PointLoadCrack) -> Option<Vec<usiz
             continue;
         }
         let active = model.counts_force(&c);
-        let m = *model.material(c.material);
-        let cohesion = if c.bonded { m.contact.cohesion } else { 0.0 };
-        let fn_ = if active { normal_force(c.gap, m.contact.kn, cohesion) } else { 0.0 };
-        let limit = if active { cohesion + m.contact.friction * fn_.max(0.0) } else { 0.0 };
+        let m = crate::udec::model::constitutive::law_parameters(c.joint_length, model.material(c.material));
+        let cohesion = if c.bonded { m.cohesion } else { 0.0 };
+        let fn_ = if active { normal_force(c.gap, m.kn, cohesion) } else { 0.0 };
+        let limit = if active { cohesion + m.friction * fn_.max(0.0) } else { 0.0 };
         let fs = c.shear_force.clamp(-limit, limit);
         let (n, t) = (c.normal, [-c.normal[1], c.normal[0]]);
         let contact = &mut model.contacts[k];

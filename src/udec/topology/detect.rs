@@ -37,7 +37,8 @@ use rayon::prelude::*;
 use super::adjacency::EntriesEdit;
 use super::Adjacency;
 use crate::udec::contact::geometry::nearest_feature;
-use crate::udec::model::{Block, Contact, ContactKind, Corner, Feature, Model, Tolerances};
+use crate::udec::contact::joint::{joint_share, law_parameters, opposed_length};
+use crate::udec::model::{Block, Contact, ContactKind, Corner, Feature, Material, Model, Tolerances};
 
 /// Bounding boxes above this many grid cells are treated as "large" and tested against all.
 const MAX_CELLS_PER_BLOCK: u64 = 64;
@@ -486,9 +487,46 @@ fn contact_material(blocks: &[Block], corners: &[Corner], corner: u32, block2: u
     (b2.material, b2.constitutive)
 }
 
+/// The length of joint contact `c` carries now (`contact::joint`): half the common length of its
+/// faces in opposition when its constitutive number and material give the joint law, else 0.
+/// The numbers and the material are looked at first: a model without joints measures no faces.
+fn joint_length_of(c: &Contact, blocks: &[Block], corners: &[Corner], materials: &[Material]) -> f64 {
+    use crate::udec::contact::joint::has_joint_law;
+    use crate::udec::model::constitutive::{Constitutive, ContactLaw};
+    let mat = &materials[(c.material.max(1) as usize - 1).min(materials.len() - 1)];
+    if !Constitutive::from_number(c.constitutive).is_some_and(|k| k.contact == ContactLaw::Joint) || !has_joint_law(mat) {
+        return 0.0;
+    }
+    let b1 = &blocks[c.block1 as usize];
+    let corners1 = corners_of(blocks, corners, c.block1 as usize);
+    let i = c.corner.wrapping_sub(b1.corner_start) as usize;
+    if i >= corners1.len() {
+        return 0.0;
+    }
+    joint_share(c.constitutive, mat, opposed_length(corners1, i, corners_of(blocks, corners, c.block2 as usize), c.feature))
+}
+
+/// The strain energy a contact's springs give up when its law changes from `old` to `new` (the
+/// parameters of `law_parameters`) at a contact update: the shear force stays (eq. 17 is
+/// incremental), so its spring holds Fs²/2ks under the new stiffness; the normal force, eq. (16)
+/// in total form, becomes kn_new/kn_old times as large at the next cycle. Booked as released, so
+/// the ledger stays balanced across the change.
+fn law_change_release(c: &Contact, old: &crate::udec::model::ContactMaterial, new: &crate::udec::model::ContactMaterial) -> f64 {
+    let mut e = 0.0;
+    if old.kn > 0.0 && new.kn > 0.0 {
+        e += c.normal_force.powi(2) / (2.0 * old.kn) * (1.0 - new.kn / old.kn);
+    }
+    if old.ks > 0.0 && new.ks > 0.0 {
+        e += c.shear_force.powi(2) * 0.5 * (1.0 / old.ks - 1.0 / new.ks);
+    }
+    e
+}
+
 /// What examining one block's corners against its candidates decided.
 #[derive(Default)]
 struct Examined {
+    /// Strain energy the kept contacts whose law changed gave up (`law_change_release`).
+    released: f64,
     /// Contacts (indices into the contact list) whose gap now exceeds btol.
     dropped: Vec<u32>,
     /// New contacts, sorted by (corner, block 2).
@@ -497,7 +535,7 @@ struct Examined {
 
 /// A contact that `examine` found, before it has an id: what it sets of the `Contact` it
 /// becomes (the rest starts at zero) and the index of the first contact after it in the current
-/// list. 72 bytes where a (position, Contact) pair takes 152: a first detection holds 8·10⁶ of
+/// list. 72 bytes where a (position, Contact) pair takes 160: a first detection holds 8·10⁶ of
 /// them at 10⁶ blocks.
 #[derive(Clone, Copy)]
 struct NewContact {
@@ -515,7 +553,7 @@ struct NewContact {
     gap: f64,
 }
 
-const _: () = assert!(std::mem::size_of::<NewContact>() == 72 && std::mem::size_of::<(u32, Contact)>() == 152);
+const _: () = assert!(std::mem::size_of::<NewContact>() == 72 && std::mem::size_of::<(u32, Contact)>() == 160);
 
 impl NewContact {
     fn contact(&self, id: u32) -> Contact {
@@ -529,7 +567,17 @@ impl NewContact {
 /// those that stay in touch get the new geometry, the others are reported dropped; a corner that
 /// has no contact with a candidate and comes within atol of it makes a new one. Both distances
 /// grow by the speed margins of the two blocks (`Tolerances::speed_margin`).
-fn examine(a: usize, cands: &[u64], run: &mut [Contact], run_start: usize, blocks: &[Block], corners: &[Corner], tol: &Tolerances) -> Examined {
+#[allow(clippy::too_many_arguments)]
+fn examine(
+    a: usize,
+    cands: &[u64],
+    run: &mut [Contact],
+    run_start: usize,
+    blocks: &[Block],
+    corners: &[Corner],
+    materials: &[Material],
+    tol: &Tolerances,
+) -> Examined {
     let mut out = Examined::default();
     let blk = &blocks[a];
     for corner in blk.corner_start..blk.corner_start + blk.corner_count {
@@ -551,6 +599,14 @@ fn examine(a: usize, cands: &[u64], run: &mut [Contact], run_start: usize, block
                         contact.gap = g.gap;
                         contact.normal = g.normal;
                         contact.point = g.point;
+                        // Joint or point contact (¶5), from the faces as they are now; the shear
+                        // force and displacement stay (the history carries over).
+                        let length = joint_length_of(contact, blocks, corners, materials);
+                        if length != contact.joint_length {
+                            let mat = &materials[(contact.material.max(1) as usize - 1).min(materials.len() - 1)];
+                            out.released += law_change_release(contact, &law_parameters(contact.joint_length, mat), &law_parameters(length, mat));
+                            contact.joint_length = length;
+                        }
                     }
                 }
                 None if g.gap < tol.atol + extra => {
@@ -664,12 +720,12 @@ fn retire(model: &mut Model, dropped: &[u32]) {
     let (mut released, mut damping, mut friction) = (0.0, 0.0, 0.0);
     for &k in dropped {
         let c = &model.contacts[k as usize];
-        let m = model.material(c.material);
-        if m.contact.kn > 0.0 {
-            released += c.normal_force.powi(2) / (2.0 * m.contact.kn);
+        let m = law_parameters(c.joint_length, model.material(c.material));
+        if m.kn > 0.0 {
+            released += c.normal_force.powi(2) / (2.0 * m.kn);
         }
-        if m.contact.ks > 0.0 {
-            released += c.shear_force.powi(2) / (2.0 * m.contact.ks);
+        if m.ks > 0.0 {
+            released += c.shear_force.powi(2) / (2.0 * m.ks);
         }
         damping += c.dashpot_work;
         friction += c.slip_work;
@@ -892,7 +948,7 @@ fn update(
         })
         .collect();
     let examined: Vec<Examined> = {
-        let Model { blocks, corners, contacts, tol, .. } = &mut *model;
+        let Model { blocks, corners, contacts, materials, tol, .. } = &mut *model;
         let mut slices = Vec::with_capacity(runs.len());
         let mut rest: &mut [Contact] = contacts;
         let mut at = 0;
@@ -903,7 +959,7 @@ fn update(
             rest = tail;
             at = hi;
         }
-        let (blocks, corners, tol) = (&*blocks, &*corners, &*tol);
+        let (blocks, corners, materials, tol) = (&*blocks, &*corners, &*materials, &*tol);
         let starts: Vec<usize> = std::iter::once(0).chain(owner_ends.iter().copied()).collect();
         slices
             .into_par_iter()
@@ -911,7 +967,7 @@ fn update(
             .enumerate()
             .map(|(o, (run, &(lo, _)))| {
                 let cands = &pairs[starts[o]..starts[o + 1]];
-                examine(owner_of(starts[o + 1]) as usize, cands, run, lo, blocks, corners, tol)
+                examine(owner_of(starts[o + 1]) as usize, cands, run, lo, blocks, corners, materials, tol)
             })
             .collect()
     };
@@ -928,6 +984,7 @@ fn update(
     // New contacts: where each goes (before the contact it names) and its id, in the order a
     // serial sweep over the sorted pairs (i < j) creates them: pair by pair, block i's corners
     // against j first, then j's against i, corners ascending.
+    let law_released: f64 = examined.iter().map(|e| e.released).sum();
     let parts: Vec<Vec<NewContact>> = examined.into_iter().map(|e| e.created).collect();
     let part_start: Vec<usize> = parts
         .iter()
@@ -960,6 +1017,9 @@ fn update(
     if adjacency.is_some() && !dropped.is_empty() {
         retire(model, &dropped);
     }
+    if adjacency.is_some() {
+        model.retired.released += law_released;
+    }
     let removed: Vec<(u32, u32, u32)> = if adjacency.is_some() {
         dropped.iter().map(|&k| (k, model.contacts[k as usize].block1, model.contacts[k as usize].block2)).collect()
     } else {
@@ -973,6 +1033,19 @@ fn update(
     } else {
         splice(&mut model.contacts, &dropped, &insert_before, new_contacts)
     };
+    // The new contacts' law (¶5): joints where their faces are in opposition.
+    {
+        let Model { blocks, corners, contacts, materials, .. } = &mut *model;
+        let decide = |k: &u32| (*k, joint_length_of(&contacts[*k as usize], blocks, corners, materials));
+        let lengths: Vec<(u32, f64)> = if inserted_at.len() >= PARALLEL_CONTACTS {
+            inserted_at.par_iter().map(decide).filter(|&(_, l)| l > 0.0).collect()
+        } else {
+            inserted_at.iter().map(decide).filter(|&(_, l)| l > 0.0).collect()
+        };
+        for (k, l) in lengths {
+            contacts[k as usize].joint_length = l;
+        }
+    }
     if let Some(adjacency) = adjacency {
         let entries = if all || !sorted || !adjacency.fits(n, model.contacts.len() + dropped.len() - n_created) {
             adjacency.rebuild(n, &model.contacts);
