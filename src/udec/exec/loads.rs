@@ -68,26 +68,12 @@ impl Executor<'_> {
     /// LINK: the block containing `flying` linked to the block containing `anchor`.
     pub(super) fn link(&mut self, cmd: &Located, flying: [f64; 2], anchor: [f64; 2]) -> Result<(), RunError> {
         let find = |p: [f64; 2]| (0..self.model.blocks.len()).find(|&b| crate::udec::model::geometry::point_in_polygon(p, &self.model.corner_positions(b)));
-        let f = find(flying).ok_or_else(|| {
-            self.command_error(
-                cmd,
-                format!(
-                    "LINK: no block contains the point ({}, {}) given for the flying block",
-                    output::format::fmt_short(flying[0]),
-                    output::format::fmt_short(flying[1])
-                ),
-            )
-        })?;
-        let a = find(anchor).ok_or_else(|| {
-            self.command_error(
-                cmd,
-                format!(
-                    "LINK: no block contains the point ({}, {}) given for the linking block",
-                    output::format::fmt_short(anchor[0]),
-                    output::format::fmt_short(anchor[1])
-                ),
-            )
-        })?;
+        let not_found = |p: [f64; 2], which: &str| {
+            let f = output::format::fmt_short;
+            self.command_error(cmd, format!("LINK: no block contains the point ({}, {}) given for the {which} block", f(p[0]), f(p[1])))
+        };
+        let f = find(flying).ok_or_else(|| not_found(flying, "flying"))?;
+        let a = find(anchor).ok_or_else(|| not_found(anchor, "linking"))?;
         if f == a {
             return Err(self.command_error(cmd, "LINK: both points lie in the same block"));
         }
