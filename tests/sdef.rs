@@ -66,9 +66,8 @@ fn uniaxial_stress_and_strain_match_plane_strain() {
 /// ω² = 2a(λ + G)/J, J = ∫ρx² da (the square's second moment, ρa²·a²/12).
 #[test]
 fn a_free_square_rings_at_its_volumetric_frequency() {
-    let deck = format!(
-        "START\nPROP MAT=1 DENS=2000 K={K:e} G={G:e} KN=1E9 KS=1E9\nROUND 0.01\nBLOCK (0,0) (0,1) (1,1) (1,0)\nCHANGE -1 2 -1 2 SDEF\nCYCLE 0\n"
-    );
+    let deck =
+        format!("START\nPROP MAT=1 DENS=2000 K={K:e} G={G:e} KN=1E9 KS=1E9\nROUND 0.01\nBLOCK (0,0) (0,1) (1,1) (1,0)\nCHANGE -1 2 -1 2 SDEF\nCYCLE 0\n");
     let mut m = run_deck_on(&deck, cpu()).unwrap();
     let b = 0;
     let mat = m.material(1).block;
@@ -204,7 +203,11 @@ fn save_and_restart_keep_the_strain() {
     // (The restart's full detection resets each block's contact-update reference; the state is
     // the same.)
     for (k, (a, b)) in resumed.blocks.iter().zip(&whole.blocks).enumerate() {
-        assert_eq!((a.centroid, a.velocity, a.rotation, a.angular_velocity, a.force), (b.centroid, b.velocity, b.rotation, b.angular_velocity, b.force), "block {k}");
+        assert_eq!(
+            (a.centroid, a.velocity, a.rotation, a.angular_velocity, a.force),
+            (b.centroid, b.velocity, b.rotation, b.angular_velocity, b.force),
+            "block {k}"
+        );
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -104,8 +104,8 @@ pub fn gather_applied_stress(block: &Block, forces: &[ContactForce], entries: &[
         let sign = if entry.side() == 0 { 1.0 } else { -1.0 };
         let g = [sign * contact.force[0], sign * contact.force[1]];
         let da = crate::udec::model::sdef::applied_stress(contact.point, block.centroid, g);
-        for k in 0..4 {
-            a[k] += da[k];
+        for (a, d) in a.iter_mut().zip(da) {
+            *a += d;
         }
     }
     a

@@ -229,14 +229,8 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
         let Model { blocks, corners, sdef, materials, damping, .. } = &mut *model;
         steps.resize(blocks.len(), StepOutcome::default());
-        let inp = BlockInputs {
-            gather: (!gathered).then_some((&forces[..], adjacency)),
-            gravity,
-            alpha,
-            alpha_internal: damping.alpha_internal,
-            materials,
-            dt,
-        };
+        let inp =
+            BlockInputs { gather: (!gathered).then_some((&forces[..], adjacency)), gravity, alpha, alpha_internal: damping.alpha_internal, materials, dt };
         let n = blocks.len();
         let (shared_blocks, shared_corners, shared_steps) = (SharedMut::new(blocks), SharedMut::new(corners), SharedMut::new(steps));
         // The simply-deformable extension, where the scene has one (indexed like the blocks).

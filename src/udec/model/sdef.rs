@@ -156,10 +156,7 @@ pub fn internal_step(s: &mut Sdef, mat: &BlockMaterial, area: f64, theta: f64, a
     let a = s.applied;
     let q = [a[0] - area * s.stress[0], 0.5 * (a[1] + a[2]) - area * s.stress[1], a[3] - area * s.stress[2]];
     let old = s.strain_rate;
-    let mut rate = [0.0; 3];
-    for k in 0..3 {
-        rate[k] = (old[k] * c1 + q[k] / j[k] * dt) * c2;
-    }
+    let rate: [f64; 3] = std::array::from_fn(|k| (old[k] * c1 + q[k] / j[k] * dt) * c2);
     if alpha > 0.0 {
         // As for the rigid motion (`law_of_motion::mass_damping_work`): the damping force
         // −α·J·ε̇ over the step's mean rate, ε12 counted twice (it is ε12 and ε21).
@@ -167,8 +164,8 @@ pub fn internal_step(s: &mut Sdef, mat: &BlockMaterial, area: f64, theta: f64, a
         s.damping_work += alpha * dt * (j[0] * m[0] * m[0] + 2.0 * j[1] * m[1] * m[1] + j[2] * m[2] * m[2]);
     }
     s.strain_rate = rate;
-    for k in 0..3 {
-        s.strain[k] += rate[k] * dt;
+    for (e, r) in s.strain.iter_mut().zip(rate) {
+        *e += r * dt;
     }
     s.stress = elastic_stress(mat, s.strain);
 }

@@ -119,7 +119,9 @@ pub fn print_blocks(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         writeln!(out, "{:>8}{fixed}", type_label(b.kind))?;
         if let Some(s) = model.sdef_of(k) {
             let (e, t, a) = (s.strain_rate, s.stress, s.applied);
-            for (label, row) in [("ED11 ED12 ED21 ED22", [e[0], e[1], e[1], e[2]]), ("SI11 SI12 SI21 SI22", [t[0], t[1], t[1], t[2]]), ("SA11 SA12 SA21 SA22", a)] {
+            for (label, row) in
+                [("ED11 ED12 ED21 ED22", [e[0], e[1], e[1], e[2]]), ("SI11 SI12 SI21 SI22", [t[0], t[1], t[1], t[2]]), ("SA11 SA12 SA21 SA22", a)]
+            {
                 line.clear();
                 let _ = write!(line, "{:>27}", label);
                 row.iter().for_each(|&x| push_col_e(&mut line, x));

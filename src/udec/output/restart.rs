@@ -307,8 +307,7 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
             }
             c.joint_length = length;
         }
-        (file.model.sdef, rest) =
-            postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad simply-deformable extension: {e}")))?;
+        (file.model.sdef, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad simply-deformable extension: {e}")))?;
     }
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));

@@ -66,7 +66,8 @@ pub fn find_griffith_crack(model: &Model, b: usize) -> Option<PointLoadCrack> {
     let tf = model.material(model.blocks[b].material).block.tf;
     let (s1, s2, angle) = crate::udec::model::sdef::principal_stresses(s.stress);
     let value = crate::udec::model::sdef::griffith_stress(s1, s2);
-    if !(value >= tf) {
+    // A NaN stress never cracks a block.
+    if value.is_nan() || value < tf {
         return None;
     }
     // s_p2 is perpendicular to s_p1, whose direction is `angle`.
