@@ -20,10 +20,7 @@ every_backend!(
 );
 
 fn run(t: &Target, deck: &str) -> Model {
-    match run_deck_on(deck, t.backend()) {
-        Ok(m) => m,
-        Err(e) => panic!("deck failed on {}: {e}", t.name()),
-    }
+    t.run(deck)
 }
 
 /// The force-carrying contacts between blocks with ids a and b.

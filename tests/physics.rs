@@ -5,7 +5,6 @@
 
 mod common;
 
-use blockdem::scenes::run_deck_on;
 use blockdem::udec::model::Model;
 use common::{every_backend, Target};
 
@@ -33,10 +32,7 @@ every_backend!(
 );
 
 fn run(t: &Target, deck: &str) -> Model {
-    match run_deck_on(deck, t.backend()) {
-        Ok(m) => m,
-        Err(e) => panic!("deck failed on {}: {e}", t.name()),
-    }
+    t.run(deck)
 }
 
 /// Sum of the normal forces of all contacts between the blocks with ids a and b.

@@ -58,6 +58,11 @@ impl Target {
         }
     }
 
+    /// Runs a deck to its end on this target; a failure names the target.
+    pub fn run(&self, deck: &str) -> blockdem::udec::model::Model {
+        blockdem::scenes::run_deck_on(deck, self.backend()).unwrap_or_else(|e| panic!("deck failed on {}: {e}", self.name()))
+    }
+
     /// True for single-precision kernels (tolerances widen to f32 round-off).
     pub fn is_f32(&self) -> bool {
         matches!(self, Target::Gpu(GpuOptions { precision: Precision::F32, .. }))
