@@ -203,9 +203,15 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
         if !block.fixed {
             let mat = &inp.materials[(block.material.max(1) as usize - 1).min(inp.materials.len() - 1)].block;
             crate::udec::model::sdef::internal_step(s, mat, block.area, block.rotation, inp.alpha_internal, inp.dt);
-            // The strain moves the corners too: at most |ε̇|·R a step past the rigid travel.
-            let rate = s.strain_rate[0].abs().max(s.strain_rate[1].abs()).max(s.strain_rate[2].abs());
-            step.corner_travel += 2.0 * rate * inp.dt * block.radius;
+            // The strain moves the corners too: this step's share past the rigid travel, and
+            // since the last contact update past the rigid net displacement (report ¶26's
+            // tolerance covers every motion of a corner).
+            use crate::udec::model::sdef::strain_travel;
+            step.corner_travel += strain_travel(s.strain_rate.map(|e| e * inp.dt), block.radius);
+            let since = [s.strain[0] - s.update_strain[0], s.strain[1] - s.update_strain[1], s.strain[2] - s.update_strain[2]];
+            let (ux, uy) = (block.centroid[0] - block.update_centroid[0], block.centroid[1] - block.update_centroid[1]);
+            let net = (ux * ux + uy * uy).sqrt() + (block.rotation - block.update_rotation).abs() * block.radius;
+            block.moved_since_update = block.moved_since_update.max(net + strain_travel(since, block.radius));
         } else {
             s.strain_rate = [0.0; 3];
         }

@@ -69,6 +69,19 @@ pub struct Sdef {
     /// as (11, 12, 22): the strain's inertia (`strain_inertia`). Set when the block becomes
     /// simply deformable and with its mass (`Model::recompute_mass_properties`).
     pub moments: [f64; 3],
+    /// The strain at the block's last contact update: its corners have moved by the strain since
+    /// (at most [`strain_travel`]), which counts towards the update tolerance as the rigid
+    /// motion does (`Block::moved_since_update`).
+    pub update_strain: [f64; 3],
+}
+
+/// How far the strain change `d` (11, 12, 22) moves a point within `radius` of the centroid at
+/// most: the largest singular value of the symmetric d, |mean| + √(half-difference² + d12²),
+/// times the radius.
+#[inline]
+pub fn strain_travel(d: [f64; 3], radius: f64) -> f64 {
+    let mean = 0.5 * (d[0] + d[2]);
+    (mean.abs() + (0.5 * (d[0] - d[2])).hypot(d[1])) * radius
 }
 
 /// Lamé's λ in plane strain from the bulk and shear moduli.

@@ -1071,6 +1071,14 @@ fn update(
             reset(&mut model.blocks[b as usize]);
         }
     }
+    // A simply-deformable block's strain is measured from here too (`Sdef::update_strain`).
+    if !model.sdef.is_empty() {
+        let Model { blocks, sdef, .. } = &mut *model;
+        let flagged: Box<dyn Iterator<Item = usize>> = if all { Box::new(0..blocks.len()) } else { Box::new(flagged_list.iter().map(|&b| b as usize)) };
+        for b in flagged {
+            sdef[b].update_strain = sdef[b].strain;
+        }
+    }
     Ok((changes, flagged_list))
 }
 
