@@ -333,8 +333,8 @@ fn contact_force_law_matches_rust<R: Real>(dev: &GpuDevice) {
             joint_length,
         };
         let mut v = || q::<R>(rng.range(-1.0, 1.0));
-        let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v(), strain_velocity: [0.0; 2] };
-        let m2 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v(), strain_velocity: [0.0; 2] };
+        let m1 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v(), strain_rate: [0.0; 3] };
+        let m2 = BlockMotion { centroid: [v(), v()], velocity: [v(), v()], angular_velocity: v(), strain_rate: [0.0; 3] };
         let beta = q::<R>(if rng.next() < 0.5 { rng.range(0.0, 1e-3) } else { 0.0 });
         let dt = q::<R>(rng.range(1e-5, 1e-3));
         let active = rng.next() < 0.9;

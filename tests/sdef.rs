@@ -3,6 +3,8 @@
 //! threshold, the ledger, the outputs and the input errors. On the CPU backend (the GPU backend
 //! refuses SDEF blocks until its kernels have them: `gpu_refuses_sdef_with_a_message`).
 
+mod common;
+
 use blockdem::scenes::run_deck_on;
 use blockdem::udec::backend::Backend;
 use blockdem::udec::cpu::CpuBackend;
@@ -241,10 +243,9 @@ fn bad_sdef_input_is_named() {
 /// backend, before any cycle (`--backend auto` goes on on the CPU).
 #[test]
 fn gpu_refuses_sdef_with_a_message() {
-    let Some(t) = blockdem::udec::gpu::device::matching_adapters(&blockdem::udec::gpu::AdapterChoice::Any).into_iter().next() else { return };
-    let _ = t;
-    let Some(target) = blockdem::udec::gpu::find_target(&blockdem::udec::gpu::AdapterChoice::Any, blockdem::udec::gpu::Precision::F32) else { return };
-    let backend = Box::new(blockdem::udec::gpu::GpuBackend::new(&target.options).unwrap());
+    // No adapter: skipped, or (BLOCKDEM_REQUIRE_GPU, as CI sets) a failure (`common::Target::gpu`).
+    let Some(target) = common::Target::gpu("vulkan", blockdem::gpu::Precision::F32) else { return };
+    let backend = target.backend();
     let e = run_deck_on(&platen_deck(1e5, 0.0, 1, 10, ""), backend).unwrap_err().to_string();
     assert!(e.contains("simply-deformable") && e.contains("--backend cpu"), "{e}");
 }

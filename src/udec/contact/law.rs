@@ -13,11 +13,11 @@ pub struct BlockMotion {
     pub centroid: [f64; 2],
     pub velocity: [f64; 2],
     pub angular_velocity: f64,
-    /// The velocity the strain of a simply-deformable block (`model::sdef`) gives the contact
-    /// point, ε̇·r with r from the centroid; zero for a rigid block. The applied stress the gather
-    /// sums takes the same lever arm (`model::corners::place_corners_strained` says why the two
-    /// agree with the gap).
-    pub strain_velocity: [f64; 2],
+    /// The strain rate (11, 12, 22) of a simply-deformable block (`model::sdef`), which moves a
+    /// point r from the centroid at ε̇·r more; zero for a rigid block. The applied stress the
+    /// gather sums takes the same lever arm (`model::corners::place_corners_strained` says why the
+    /// two agree with the gap).
+    pub strain_rate: [f64; 3],
 }
 
 impl BlockMotion {
@@ -27,10 +27,11 @@ impl BlockMotion {
     pub fn velocity_at(&self, p: [f64; 2]) -> [f64; 2] {
         let r = sub(p, self.centroid);
         let v = [self.velocity[0] - self.angular_velocity * r[1], self.velocity[1] + self.angular_velocity * r[0]];
-        if self.strain_velocity == [0.0; 2] {
+        if self.strain_rate == [0.0; 3] {
             return v;
         }
-        [v[0] + self.strain_velocity[0], v[1] + self.strain_velocity[1]]
+        let e = crate::udec::model::sdef::strain_velocity(self.strain_rate, r);
+        [v[0] + e[0], v[1] + e[1]]
     }
 }
 
@@ -161,7 +162,7 @@ mod tests {
     #[test]
     fn an_uncounted_view_keeps_no_shear_force() {
         let mat = Material { contact: ContactMaterial { kn: 1e9, ks: 5e8, friction: 0.6, ..Default::default() }, ..Default::default() };
-        let still = BlockMotion { centroid: [0.0, 0.0], velocity: [0.0, 0.0], angular_velocity: 0.0, strain_velocity: [0.0; 2] };
+        let still = BlockMotion { centroid: [0.0, 0.0], velocity: [0.0, 0.0], angular_velocity: 0.0, strain_rate: [0.0; 3] };
         let mut c = Contact { normal: [0.0, 1.0], gap: -1e-4, normal_force: 1e5, shear_force: 2e4, force: [-2e4, 1e5], ..Contact::unloaded(0, 0, 1) };
         contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
         assert_eq!((c.normal_force, c.shear_force, c.force), (0.0, 0.0, [0.0, 0.0]));

@@ -12,9 +12,8 @@ use crate::udec::contact::gather::ContactForce;
 use crate::udec::contact::geometry::track_feature;
 use crate::udec::contact::law::{contact_force_law, BlockMotion};
 use crate::udec::model::corners::counts_force;
-use crate::udec::model::geometry::sub;
-use crate::udec::model::sdef::{strain_velocity, Sdef};
-use crate::udec::model::{Block, BlockKind, Contact, Corner, Damping, Material, Model};
+use crate::udec::model::sdef::Sdef;
+use crate::udec::model::{material_slot, Block, BlockKind, Contact, Corner, Damping, Material, Model};
 
 /// What stage 4 reads: the blocks and corners as stages 1–2 left them, and the constants.
 struct ContactInputs<'a> {
@@ -34,14 +33,13 @@ struct ContactInputs<'a> {
 /// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
 /// limit.
 fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
-    // A simply-deformable block's strain moves the point `at` (`BlockMotion::strain_velocity`).
-    let motion = |k: u32, b: &Block, at: [f64; 2]| BlockMotion {
+    let motion = |k: u32, b: &Block| BlockMotion {
         centroid: b.centroid,
         velocity: b.velocity,
         angular_velocity: b.angular_velocity,
-        strain_velocity: match inp.sdef.get(k as usize) {
-            Some(s) if b.kind == BlockKind::SimplyDeformable => strain_velocity(s.strain_rate, sub(at, b.centroid)),
-            _ => [0.0; 2],
+        strain_rate: match inp.sdef.get(k as usize) {
+            Some(s) if b.kind == BlockKind::SimplyDeformable => s.strain_rate,
+            _ => [0.0; 3],
         },
     };
     let mut failure = None;
@@ -57,8 +55,8 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
         contact.point = g.point;
         // The other view of a corner-pair touch carries no force (the touch counts once).
         let active = counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
-        let mat = &inp.materials[(contact.material.max(1) as usize - 1).min(inp.materials.len() - 1)];
-        contact_force_law(contact, mat, &motion(contact.block1, b1, g.point), &motion(contact.block2, b2, g.point), &inp.damping, inp.dt, active);
+        let mat = &inp.materials[material_slot(contact.material, inp.materials.len())];
+        contact_force_law(contact, mat, &motion(contact.block1, b1), &motion(contact.block2, b2), &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
         if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);

@@ -46,9 +46,7 @@ pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) 
     // A corner moves at most |Δx| + |Δθ|·R: the displacement the update tolerance watches.
     let corner_travel = (dx * dx + dy * dy).sqrt() + dtheta.abs() * block.radius;
     // Net displacement since the last contact update, kept at its largest (report ¶26).
-    let (ux, uy) = (block.centroid[0] - block.update_centroid[0], block.centroid[1] - block.update_centroid[1]);
-    let net = (ux * ux + uy * uy).sqrt() + (block.rotation - block.update_rotation).abs() * block.radius;
-    block.moved_since_update = block.moved_since_update.max(net);
+    block.moved_since_update = block.moved_since_update.max(block.net_since_update());
     let fx = block.mass * gravity[0] + block.load[0];
     let fy = block.mass * gravity[1] + block.load[1];
     StepOutcome { external_work: fx * dx + fy * dy, corner_travel }

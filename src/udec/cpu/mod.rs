@@ -201,7 +201,7 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
         }
         *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
         if !block.fixed {
-            let mat = &inp.materials[(block.material.max(1) as usize - 1).min(inp.materials.len() - 1)].block;
+            let mat = &inp.materials[crate::udec::model::material_slot(block.material, inp.materials.len())].block;
             crate::udec::model::sdef::internal_step(s, mat, block.area, block.rotation, inp.alpha_internal, inp.dt);
             // The strain moves the corners too: this step's share past the rigid travel, and
             // since the last contact update past the rigid net displacement (report ¶26's
@@ -209,9 +209,7 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
             use crate::udec::model::sdef::strain_travel;
             step.corner_travel += strain_travel(s.strain_rate.map(|e| e * inp.dt), block.radius);
             let since = [s.strain[0] - s.update_strain[0], s.strain[1] - s.update_strain[1], s.strain[2] - s.update_strain[2]];
-            let (ux, uy) = (block.centroid[0] - block.update_centroid[0], block.centroid[1] - block.update_centroid[1]);
-            let net = (ux * ux + uy * uy).sqrt() + (block.rotation - block.update_rotation).abs() * block.radius;
-            block.moved_since_update = block.moved_since_update.max(net + strain_travel(since, block.radius));
+            block.moved_since_update = block.moved_since_update.max(block.net_since_update() + strain_travel(since, block.radius));
         } else {
             s.strain_rate = [0.0; 3];
         }

@@ -52,7 +52,7 @@ impl<R: Real> Engine<R> {
             corner: c.corner,
             block2: c.block2,
             feature: c.feature,
-            material: (c.material.max(1) as usize - 1).min(MAX_MATERIALS - 1) as u32,
+            material: crate::udec::model::material_slot(c.material, MAX_MATERIALS) as u32,
             bonded: c.bonded as u32,
         }
     }

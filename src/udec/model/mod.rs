@@ -26,6 +26,13 @@ use serde::{Deserialize, Serialize};
 /// Number of material slots (UDEC's NMAT); materials are numbered 1..=MAX_MATERIALS.
 pub const MAX_MATERIALS: usize = 20;
 
+/// Where material `n` is stored in a table of `count` materials: at n − 1, 0 read as 1 (no
+/// material given), past the table as its last.
+#[inline]
+pub fn material_slot(n: u32, count: usize) -> usize {
+    (n.max(1) as usize - 1).min(count - 1)
+}
+
 /// Default rounding length DTOL when no ROUND command is given (problem units).
 pub const DEFAULT_ROUND: f64 = 0.5;
 
@@ -221,6 +228,14 @@ impl Block {
     pub fn kinetic_energy(&self) -> f64 {
         let [vx, vy] = self.velocity;
         0.5 * self.mass * (vx * vx + vy * vy) + 0.5 * self.inertia * self.angular_velocity * self.angular_velocity
+    }
+
+    /// How far the block's corners are from where its rigid motion put them at its last contact
+    /// update at most: |c − c_ref| + |θ − θ_ref|·radius (see `moved_since_update`).
+    #[inline]
+    pub fn net_since_update(&self) -> f64 {
+        let (ux, uy) = (self.centroid[0] - self.update_centroid[0], self.centroid[1] - self.update_centroid[1]);
+        (ux * ux + uy * uy).sqrt() + (self.rotation - self.update_rotation).abs() * self.radius
     }
 
     /// How far this block may move from its last contact update before it needs the next one.
@@ -664,7 +679,7 @@ impl Default for Model {
 
 impl Model {
     pub fn material(&self, n: u32) -> &Material {
-        &self.materials[(n.max(1) as usize - 1).min(MAX_MATERIALS - 1)]
+        &self.materials[material_slot(n, MAX_MATERIALS)]
     }
 
     /// The simply-deformable state of block `b`, if it is simply deformable.

@@ -37,9 +37,9 @@
 //!
 //! **Time step.** The internal modes' stiffness, volumetric 2a(λ + G) = 2a(K + G/3) per unit
 //! strain against the smaller principal second moment M_min (whatever the block's turn, J11
-//! and J22 are no smaller), bounds the step as the contacts' do: the critical step is the
-//! smaller of UDEC's 2√(m_min/k_max) and 2√(M_min/(2a(K + G/3))) over the SDEF blocks
-//! (`Model::critical_timestep`).
+//! and J22 are no smaller), bounds the step: it is the smaller of UDEC's FRAC·2√(m_min/k_max)
+//! and ½·2√(M_min/(2a(K + G/3))) over the SDEF blocks, FRACTION not scaling the block's own
+//! limit (`Model::critical_timestep`).
 //!
 //! The CPU's stage 1 calls [`internal_step`] for an SDEF block after its rigid step, stage 6
 //! sums [`applied_stress`] beside the force and moment, and stage 2 places its corners with
@@ -80,8 +80,8 @@ pub struct Sdef {
 /// times the radius.
 #[inline]
 pub fn strain_travel(d: [f64; 3], radius: f64) -> f64 {
-    let mean = 0.5 * (d[0] + d[2]);
-    (mean.abs() + (0.5 * (d[0] - d[2])).hypot(d[1])) * radius
+    let (largest, smallest, _) = principal_values(d);
+    largest.abs().max(smallest.abs()) * radius
 }
 
 /// Lamé's λ in plane strain from the bulk and shear moduli.
@@ -112,8 +112,7 @@ pub fn strain_inertia(m: [f64; 3], theta: f64) -> [f64; 3] {
 /// at any turn of the block.
 #[inline]
 pub fn least_moment(m: [f64; 3]) -> f64 {
-    let mean = 0.5 * (m[0] + m[2]);
-    mean - (0.5 * (m[0] - m[2])).hypot(m[1])
+    principal_values(m).1
 }
 
 /// The second moments ∫x_k x_l da (11, 12, 22) of the polygon `pts` about the origin (its
@@ -155,6 +154,14 @@ pub fn applied_stress(p: [f64; 2], c: [f64; 2], f: [f64; 2]) -> [f64; 4] {
     [rx * f[0], rx * f[1], ry * f[0], ry * f[1]]
 }
 
+/// The generalised force on the strain modes (11, 12, 22): the applied stress times area less
+/// the internal stress times area, A11 − aσ11, ½(A12 + A21) − aσ12, A22 − aσ22 (module doc).
+#[inline]
+fn generalised_force(s: &Sdef, area: f64) -> [f64; 3] {
+    let a = s.applied;
+    [a[0] - area * s.stress[0], 0.5 * (a[1] + a[2]) - area * s.stress[1], a[3] - area * s.stress[2]]
+}
+
 /// One step of the strain (see the module doc): the strain rate from the applied and internal
 /// stresses with the internal damping `alpha` (ALPB), then the strain and its stress. `area` is
 /// the block's area, `theta` its rotation.
@@ -166,8 +173,7 @@ pub fn internal_step(s: &mut Sdef, mat: &BlockMaterial, area: f64, theta: f64, a
     }
     let c1 = 1.0 - 0.5 * alpha * dt;
     let c2 = 1.0 / (1.0 + 0.5 * alpha * dt);
-    let a = s.applied;
-    let q = [a[0] - area * s.stress[0], 0.5 * (a[1] + a[2]) - area * s.stress[1], a[3] - area * s.stress[2]];
+    let q = generalised_force(s, area);
     let old = s.strain_rate;
     let rate: [f64; 3] = std::array::from_fn(|k| (old[k] * c1 + q[k] / j[k] * dt) * c2);
     if alpha > 0.0 {
@@ -203,15 +209,14 @@ pub fn rate_at_whole_step(s: &Sdef, area: f64, j: [f64; 3], dt: f64) -> [f64; 3]
     if !(j[0] > 0.0 && j[2] > 0.0) {
         return s.strain_rate;
     }
-    let a = s.applied;
-    let q = [a[0] - area * s.stress[0], 0.5 * (a[1] + a[2]) - area * s.stress[1], a[3] - area * s.stress[2]];
+    let q = generalised_force(s, area);
     let h = 0.5 * dt;
     [s.strain_rate[0] + q[0] / j[0] * h, s.strain_rate[1] + q[1] / j[1] * h, s.strain_rate[2] + q[2] / j[2] * h]
 }
 
-/// Principal stresses of (s11, s12, s22): (largest, smallest, the angle of the largest's
-/// direction from the x axis).
-pub fn principal_stresses(s: [f64; 3]) -> (f64, f64, f64) {
+/// The principal values of a symmetric tensor (s11, s12, s22) (principal stresses, strains,
+/// second moments): (largest, smallest, the angle of the largest's direction from the x axis).
+pub fn principal_values(s: [f64; 3]) -> (f64, f64, f64) {
     let mean = 0.5 * (s[0] + s[2]);
     let half_diff = 0.5 * (s[0] - s[2]);
     let radius = half_diff.hypot(s[1]);
@@ -265,10 +270,10 @@ mod tests {
 
     /// The principal stresses of a rotated uniaxial stress and its direction.
     #[test]
-    fn principal_stresses_of_a_turned_tension() {
+    fn principal_values_of_a_turned_tension() {
         let t: f64 = 0.3;
         let (c, s) = (t.cos(), t.sin());
-        let (p1, p2, angle) = principal_stresses([5.0 * c * c, 5.0 * c * s, 5.0 * s * s]);
+        let (p1, p2, angle) = principal_values([5.0 * c * c, 5.0 * c * s, 5.0 * s * s]);
         assert!((p1 - 5.0).abs() < 1e-12 && p2.abs() < 1e-12 && (angle - t).abs() < 1e-12);
     }
 

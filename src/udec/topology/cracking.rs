@@ -64,7 +64,7 @@ pub fn is_crack_candidate(model: &Model, b: usize) -> bool {
 pub fn find_griffith_crack(model: &Model, b: usize) -> Option<PointLoadCrack> {
     let s = model.sdef_of(b)?;
     let tf = model.material(model.blocks[b].material).block.tf;
-    let (s1, s2, angle) = crate::udec::model::sdef::principal_stresses(s.stress);
+    let (s1, s2, angle) = crate::udec::model::sdef::principal_values(s.stress);
     let value = crate::udec::model::sdef::griffith_stress(s1, s2);
     // A NaN stress never cracks a block.
     if value.is_nan() || value < tf {

@@ -493,7 +493,7 @@ fn contact_material(blocks: &[Block], corners: &[Corner], corner: u32, block2: u
 fn joint_length_of(c: &Contact, blocks: &[Block], corners: &[Corner], materials: &[Material]) -> f64 {
     use crate::udec::contact::joint::has_joint_law;
     use crate::udec::model::constitutive::{Constitutive, ContactLaw};
-    let mat = &materials[(c.material.max(1) as usize - 1).min(materials.len() - 1)];
+    let mat = &materials[crate::udec::model::material_slot(c.material, materials.len())];
     if !Constitutive::from_number(c.constitutive).is_some_and(|k| k.contact == ContactLaw::Joint) || !has_joint_law(mat) {
         return 0.0;
     }
@@ -603,7 +603,7 @@ fn examine(
                         // force and displacement stay (the history carries over).
                         let length = joint_length_of(contact, blocks, corners, materials);
                         if length != contact.joint_length {
-                            let mat = &materials[(contact.material.max(1) as usize - 1).min(materials.len() - 1)];
+                            let mat = &materials[crate::udec::model::material_slot(contact.material, materials.len())];
                             out.released += law_change_release(contact, &law_parameters(contact.joint_length, mat), &law_parameters(length, mat));
                             contact.joint_length = length;
                         }
