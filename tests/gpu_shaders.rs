@@ -106,6 +106,14 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         assert!(!contact.contains(&AdjOffsets) && !contact.contains(&AdjEntries) && !contact.contains(&EnergySums), "{contact:?}");
         assert!(contact.contains(&Contacts) && contact.contains(&ContactForces) && contact.contains(&Materials), "{contact:?}");
         assert_eq!(slots("gather", "gather"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces]);
+        // Only the SDEF entry points bind the SDEF slots (a rigid scene binds nothing of them).
+        assert_eq!(slots("law_of_motion", "law_of_motion_sdef"), [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces, Sdefs, ContactLevers]);
+        for (file, entry) in [("contact_forces", "contact_forces"), ("gather", "gather"), ("gather", "gather_heavy"), ("energy_sums", "energy_sums")] {
+            let s = slots(file, entry);
+            assert!(!s.contains(&Sdefs) && !s.contains(&ContactLevers), "{entry} binds an SDEF slot: {s:?}");
+        }
+        assert!(slots("contact_forces", "contact_forces_sdef").contains(&ContactLevers));
+        assert!(slots("energy_sums", "energy_sums_sdef").contains(&Sdefs));
         let energy = slots("energy_sums", "energy_sums");
         assert!(energy.contains(&EnergySums) && !energy.contains(&AdjEntries), "{energy:?}");
         for (file, entry) in [
@@ -115,6 +123,10 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             ("gather", "gather"),
             ("gather", "gather_heavy"),
             ("energy_sums", "energy_sums"),
+            ("law_of_motion", "law_of_motion_sdef"),
+            ("contact_forces", "contact_forces_sdef"),
+            ("gather", "gather_sdef"),
+            ("energy_sums", "energy_sums_sdef"),
         ] {
             let s = slots(file, entry);
             let storage = s.iter().filter(|x| x.kind() != SlotKind::Uniform).count();

@@ -1,7 +1,7 @@
 //! Simply-deformable blocks (issue 28; SL-85-1 Appendix A, CHANGE … SDEF, DAMP … INTERNAL,
 //! ¶17 Griffith cracking): closed forms of the strain, the internal vibration, the Griffith
-//! threshold, the ledger, the outputs and the input errors. On the CPU backend (the GPU backend
-//! refuses SDEF blocks until its kernels have them: `gpu_refuses_sdef_with_a_message`).
+//! threshold, the ledger, the outputs and the input errors, on every backend (`every_backend!`)
+//! where a deck runs them; the free vibration and SAVE/RESTART drive the CPU backend directly.
 
 mod common;
 
@@ -10,6 +10,7 @@ use blockdem::udec::backend::Backend;
 use blockdem::udec::cpu::CpuBackend;
 use blockdem::udec::model::sdef::{elastic_stress, least_moment, strain_inertia};
 use blockdem::udec::model::{BlockKind, Model};
+use common::{every_backend, Target};
 
 fn cpu() -> Box<dyn Backend> {
     Box::new(CpuBackend::new())
@@ -39,29 +40,31 @@ fn sdef_block(m: &Model) -> usize {
 /// Uniaxial stress between rigid blocks: at rest the SDEF block's mean stress is the platen's
 /// −F/a vertically and 0 across (free sides), and its strain the plane-strain compliance's:
 /// ε22 = σ22 (λ+2G)/((λ+2G)² − λ²), ε11 = −λ/(λ+2G) ε22.
-#[test]
-fn uniaxial_stress_and_strain_match_plane_strain() {
+fn uniaxial_stress_and_strain_match_plane_strain(t: &Target) {
     let f = 2e5;
-    let m = run_deck_on(&platen_deck(f, 0.0, 1, 6000, ""), cpu()).unwrap();
+    let m = t.run(&platen_deck(f, 0.0, 1, 6000, ""));
     let b = sdef_block(&m);
     let s = m.sdef[b];
     let sigma = -f / 1.0;
-    // (Second order in the strain: the lever arms are the strained block's, ε22 = −1.2e-3.)
-    assert!((s.stress[2] - sigma).abs() < 2e-3 * f, "σ22 {} against {sigma}", s.stress[2]);
-    assert!(s.stress[0].abs() < 1e-3 * f && s.stress[1].abs() < 1e-3 * f, "σ11, σ12 {:?}", s.stress);
+    // (Second order in the strain: the lever arms are the strained block's, ε22 = −1.2e-3. In
+    // f32 the stiff contacts' forces carry the round-off of the corners' positions, 1e-7 m of
+    // 1e11 N/m, which the damped strain averages out to a few parts in 10⁴.)
+    let (tol, place) = if t.is_f32() { (5e-3, 1e-6) } else { (2e-3, 1e-12) };
+    assert!((s.stress[2] - sigma).abs() < tol * f, "{}: σ22 {} against {sigma}", t.name(), s.stress[2]);
+    assert!(s.stress[0].abs() < 1e-3 * f && s.stress[1].abs() < 1e-3 * f, "{}: σ11, σ12 {:?}", t.name(), s.stress);
     let l = K - 2.0 * G / 3.0;
     let e22 = sigma * (l + 2.0 * G) / ((l + 2.0 * G).powi(2) - l * l);
     let e11 = -l / (l + 2.0 * G) * e22;
-    assert!((s.strain[2] - e22).abs() < 3e-3 * e22.abs(), "ε22 {} against {e22}", s.strain[2]);
-    assert!((s.strain[0] - e11).abs() < 3e-3 * e22.abs(), "ε11 {} against {e11}", s.strain[0]);
-    // The stress follows the strain by the elastic law exactly.
+    assert!((s.strain[2] - e22).abs() < 1.5 * tol * e22.abs(), "{}: ε22 {} against {e22}", t.name(), s.strain[2]);
+    assert!((s.strain[0] - e11).abs() < 1.5 * tol * e22.abs(), "{}: ε11 {} against {e11}", t.name(), s.strain[0]);
+    // The stress follows the strain by the elastic law exactly (to the kernel's precision).
     let mat = m.material(1).block;
     let again = elastic_stress(&mat, s.strain);
-    assert!(again.iter().zip(&s.stress).all(|(a, b)| (a - b).abs() <= 1e-9 * f));
+    assert!(again.iter().zip(&s.stress).all(|(a, b)| (a - b).abs() <= place * f), "{}: {again:?} against {:?}", t.name(), s.stress);
     // The block's corners are where the strain puts them: its height shortened by ε22.
     let ys: Vec<f64> = m.block_corners(b).iter().map(|c| c.position[1]).collect();
     let height = ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
-    assert!((height - (1.0 + s.strain[2])).abs() < 1e-12, "height {height} against {}", 1.0 + s.strain[2]);
+    assert!((height - (1.0 + s.strain[2])).abs() < place, "{}: height {height} against {}", t.name(), 1.0 + s.strain[2]);
 }
 
 /// The internal vibration of a free SDEF square: a volumetric strain ε11 = ε22 = e0 rings at
@@ -114,8 +117,7 @@ fn a_free_square_rings_at_its_volumetric_frequency() {
 /// Griffith's threshold in compression (¶17): the platen's uniaxial stress s2 = −F/a with s1 = 0
 /// gives the criterion's −s2/8, so F = 8·a·TF is the threshold. Just below, no crack; just
 /// above, the block cracks through its centroid parallel to s2 (vertically).
-#[test]
-fn griffith_threshold_in_compression() {
+fn griffith_threshold_in_compression(t: &Target) {
     let tf = 5e4;
     let threshold = 8.0 * tf;
     // Loaded in two steps (the second small), so the damped overshoot stays far below 2%.
@@ -123,11 +125,11 @@ fn griffith_threshold_in_compression() {
         let first = platen_deck(0.9 * threshold, tf, 3, 4000, "");
         format!("{first}LOAD 0 3 1 1.5 0 {}\nCYCLE 4000\n", -f)
     };
-    let below = run_deck_on(&deck(0.98 * threshold), cpu()).unwrap();
-    assert_eq!(below.blocks.len(), 3, "no crack below the threshold");
-    let above = run_deck_on(&deck(1.02 * threshold), cpu()).unwrap();
+    let below = t.run(&deck(0.98 * threshold));
+    assert_eq!(below.blocks.len(), 3, "{}: no crack below the threshold", t.name());
+    let above = t.run(&deck(1.02 * threshold));
     let pieces: Vec<usize> = (0..above.blocks.len()).filter(|&k| above.blocks[k].kind == BlockKind::SimplyDeformable).collect();
-    assert!(pieces.len() >= 2, "cracked above the threshold: {} SDEF blocks", pieces.len());
+    assert!(pieces.len() >= 2, "{}: cracked above the threshold: {} SDEF blocks", t.name(), pieces.len());
     // The first crack is vertical: the pieces sit side by side, each with a fresh, small stress.
     let (a, b) = (above.blocks[pieces[0]].centroid, above.blocks[pieces[1]].centroid);
     assert!((a[0] - b[0]).abs() > 0.2 && (a[1] - b[1]).abs() < 0.05, "pieces at {a:?} and {b:?}");
@@ -136,20 +138,19 @@ fn griffith_threshold_in_compression() {
 /// Griffith's threshold in tension: a block glued (cohesion) between the base and a platen pulled
 /// up carries s1 = σ22 = F/a (the glued sides restrain it, so s2 = σ11 = λ/(λ + 2G)·s1, and
 /// 3s1 + s2 > 0); it cracks at s1 = TF, parallel to s2 (horizontally).
-#[test]
-fn griffith_threshold_in_tension() {
+fn griffith_threshold_in_tension(t: &Target) {
     let tf = 5e4;
     let deck = |f: f64| {
         let first = platen_deck(-0.9 * tf, tf, 3, 4000, "");
         format!("{first}LOAD 0 3 1 1.5 0 {f}\nCYCLE 4000\n")
     };
-    let below = run_deck_on(&deck(0.98 * tf), cpu()).unwrap();
-    assert_eq!(below.blocks.len(), 3, "no crack below the threshold");
+    let below = t.run(&deck(0.98 * tf));
+    assert_eq!(below.blocks.len(), 3, "{}: no crack below the threshold", t.name());
     let s = below.sdef[sdef_block(&below)];
-    assert!((s.stress[2] - 0.98 * tf).abs() < 0.01 * tf, "σ22 {}", s.stress[2]);
-    let above = run_deck_on(&deck(1.02 * tf), cpu()).unwrap();
+    assert!((s.stress[2] - 0.98 * tf).abs() < 0.01 * tf, "{}: σ22 {}", t.name(), s.stress[2]);
+    let above = t.run(&deck(1.02 * tf));
     let pieces: Vec<usize> = (0..above.blocks.len()).filter(|&k| above.blocks[k].kind == BlockKind::SimplyDeformable).collect();
-    assert!(pieces.len() >= 2, "cracked above the threshold");
+    assert!(pieces.len() >= 2, "{}: cracked above the threshold", t.name());
     let (a, b) = (above.blocks[pieces[0]].centroid, above.blocks[pieces[1]].centroid);
     assert!((a[1] - b[1]).abs() > 0.2 && (a[0] - b[0]).abs() < 0.05, "pieces at {a:?} and {b:?}");
 }
@@ -157,17 +158,18 @@ fn griffith_threshold_in_tension() {
 /// The ledger with SDEF strain energy and internal damping: a block built on a base, left to
 /// ring under gravity (no damping) and to settle (mass and internal damping), balances. (A
 /// block dropped from a height meets the contact-onset error of issue 27 item 4 instead.)
-#[test]
-fn the_ledger_balances_with_sdef_blocks() {
+fn the_ledger_balances_with_sdef_blocks(t: &Target) {
     for damp in ["", "DAMP 0.5 100 MASS\nDAMP 0.5 100 INTERNAL\n"] {
         let deck = format!(
             "START\nPROP MAT=1 DENS=2000 K=1E8 G=1E8 KN=1E10 KS=1E10 F=0.5\nROUND 0.01\nGRAV 0 -10\n\
              BLOCK (0,-1) (0,0) (4,0) (4,-1)\nBLOCK (1,0) (1,1) (2,1) (2,0)\nCHANGE 0 4 0 2 SDEF\nFIX -1 5 -2 -0.2\n{damp}CYCLE 5000\n"
         );
-        let m = run_deck_on(&deck, cpu()).unwrap();
+        let m = t.run(&deck);
         let e = m.energies();
         assert!(e.strain > 0.0 && e.external_work > 0.0);
-        assert!(e.ledger().abs() < 1e-3 * e.scale(), "{damp:?}: ledger {} of {}", e.ledger(), e.scale());
+        // (f32: the ledger's terms carry the kernels' round-off.)
+        let tol = if t.is_f32() { 1e-2 } else { 1e-3 };
+        assert!(e.ledger().abs() < tol * e.scale(), "{} {damp:?}: ledger {} of {}", t.name(), e.ledger(), e.scale());
         if !damp.is_empty() {
             assert!(m.sdef[1].damping_work > 0.0, "the internal damping took energy");
         }
@@ -176,11 +178,10 @@ fn the_ledger_balances_with_sdef_blocks() {
 
 /// PRINT BLOCKS shows an SDEF block's type line and its strain-rate, internal- and applied-stress
 /// rows; the state JSON its kind, stress and strain.
-#[test]
-fn outputs_show_sdef_blocks() {
+fn outputs_show_sdef_blocks(t: &Target) {
     let deck = format!("{}PRINT BLOCKS\n", platen_deck(1e5, 0.0, 1, 200, ""));
     let mut log = Vec::new();
-    let m = blockdem::scenes::run_deck_logged(&deck, cpu(), Box::new(&mut log)).unwrap();
+    let m = blockdem::scenes::run_deck_logged(&deck, t.backend(), Box::new(&mut log)).unwrap();
     let text = String::from_utf8(log).unwrap();
     assert!(text.contains("  (SDEF)"), "{text}");
     for row in ["ED11 ED12 ED21 ED22", "SI11 SI12 SI21 SI22", "SA11 SA12 SA21 SA22"] {
@@ -228,7 +229,7 @@ fn save_and_restart_keep_the_strain() {
 }
 
 /// Bad input: CHANGE SDEF into a material without K and G names the line; Griffith on rigid
-/// blocks alone names the block and CHANGE SDEF; an explicit GPU backend says SDEF is CPU-only.
+/// blocks alone names the block and CHANGE SDEF.
 #[test]
 fn bad_sdef_input_is_named() {
     let no_moduli = "START\nPROP MAT=1 DENS=2000 KN=1E9 KS=1E9\nBLOCK (0,0) (0,1) (1,1) (1,0)\nCHANGE -1 2 -1 2 SDEF\nCYCLE 1\n";
@@ -239,13 +240,10 @@ fn bad_sdef_input_is_named() {
     assert!(e.contains(":4:") && e.contains("block 1 is rigid") && e.contains("CHANGE"), "{e}");
 }
 
-/// A deck with SDEF blocks on an explicit GPU backend stops with a message naming the CPU
-/// backend, before any cycle (`--backend auto` goes on on the CPU).
-#[test]
-fn gpu_refuses_sdef_with_a_message() {
-    // No adapter: skipped, or (BLOCKDEM_REQUIRE_GPU, as CI sets) a failure (`common::Target::gpu`).
-    let Some(target) = common::Target::gpu("vulkan", blockdem::gpu::Precision::F32) else { return };
-    let backend = target.backend();
-    let e = run_deck_on(&platen_deck(1e5, 0.0, 1, 10, ""), backend).unwrap_err().to_string();
-    assert!(e.contains("simply-deformable") && e.contains("--backend cpu"), "{e}");
-}
+every_backend!(
+    uniaxial_stress_and_strain_match_plane_strain,
+    griffith_threshold_in_compression,
+    griffith_threshold_in_tension,
+    the_ledger_balances_with_sdef_blocks,
+    outputs_show_sdef_blocks,
+);

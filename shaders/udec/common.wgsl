@@ -1,7 +1,7 @@
 // Shared by the kernels of the cycle: the bindings and the precision-neutral helpers. The structs
 // they bind (and `item_index`) are in layout.wgsl, which comes before this file.
 
-// The state's slots: eight storage buffers and two uniforms (run constants and the material
+// The state's slots: ten storage buffers and two uniforms (run constants and the material
 // table), `gpu::kernels::StateSlot` in Rust. Each kernel binds only the slots its entry point
 // uses (`gpu::kernels::used_slots`, read off the module by naga), so the per-stage limit of
 // DESIGN.md §3 (8 storage buffers) counts one kernel's, and a new stage's arrays take new slots.
@@ -15,6 +15,10 @@
 @group(0) @binding(7) var<storage, read_write> flags: Flags;
 @group(0) @binding(8) var<storage, read_write> contact_forces_out: array<ContactForce>;
 @group(0) @binding(9) var<storage, read_write> energy_sums_out: array<EnergySum>;
+// Scenes with simply-deformable blocks only (the `_sdef` entry points): each block's extension,
+// at the block's index, and each contact's lever arms.
+@group(0) @binding(10) var<storage, read_write> sdefs: array<Sdef>;
+@group(0) @binding(11) var<storage, read_write> contact_levers: array<ContactLever>;
 
 // Finite test without isnan/isinf (which compilers may fold away): false for NaN and ±inf.
 fn is_finite(x: real) -> bool {
@@ -63,4 +67,22 @@ fn sin_cos(theta: real) -> vec2<real> {
 // precision however far the model lies from the origin.
 fn centroid_difference(a: Block, b: Block) -> vec2<real> {
     return vec2<real>((a.cx - b.cx) + (a.cx_lo - b.cx_lo), (a.cy - b.cy) + (a.cy_lo - b.cy_lo));
+}
+
+// The inertia of the strain modes (11, 12, 22) of a block whose body-frame second moments are m
+// and whose rotation is θ: the diagonal of R M Rᵀ, their mean for the shear. Twin of
+// `sdef::strain_inertia`.
+fn strain_inertia(m: array<real, 3>, cs: vec2<real>) -> vec3<real> {
+    let c = cs.x;
+    let s = cs.y;
+    let j11 = c * c * m[0] - 2.0 * c * s * m[1] + s * s * m[2];
+    let j22 = s * s * m[0] + 2.0 * c * s * m[1] + c * c * m[2];
+    return vec3<real>(j11, 0.5 * (m[0] + m[2]), j22);
+}
+
+// The generalised force on an SDEF block's strain modes (11, 12, 22): its applied stress times
+// area less its internal stress times area (twin of `sdef::generalised_force`).
+fn generalised_force(x: Sdef) -> vec3<real> {
+    let a = x.applied;
+    return vec3<real>(a[0] - x.area * x.stress[0], 0.5 * (a[1] + a[2]) - x.area * x.stress[1], a[3] - x.area * x.stress[2]);
 }

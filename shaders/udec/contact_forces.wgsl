@@ -262,14 +262,13 @@ fn velocity_at(m: Motion, p: vec2<real>) -> vec2<real> {
 }
 
 // The force–displacement law, eqs. 13–20 (see the Rust twin for the physics), and the energy it
-// dissipates: slip work at the Coulomb limit and on opening, dashpot work a step late. `counted`
-// is false for the mirror copy of a corner–corner contact, which carries no force.
-fn contact_force_law(contact: Contact, mat: Material, a: Motion, b: Motion, beta: real, dt: real, counted: bool) -> ForceLaw {
+// dissipates: slip work at the Coulomb limit and on opening, dashpot work a step late. `vrel` is
+// block 1's velocity relative to block 2's at the contact point (eq. 13). `counted` is false for
+// the mirror copy of a corner–corner contact, which carries no force.
+fn contact_force_law(contact: Contact, mat: Material, vrel: vec2<real>, beta: real, dt: real, counted: bool) -> ForceLaw {
     var c = contact;
     let n = vec2<real>(c.nx, c.ny);
     let t = vec2<real>(-n.y, n.x);
-    let p = vec2<real>(c.px, c.py);
-    let vrel = velocity_at(a, p) - velocity_at(b, p); // eq. (13)
     let vn = dot(vrel, n); // eq. (14)
     let vs = dot(vrel, t); // eq. (15)
     c.shear_displacement += vs * dt;
@@ -382,12 +381,17 @@ fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, nb: N
     return true;
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let k = item_index(wg, li);
-    if (k >= params.n_contacts) {
-        return;
-    }
+// The velocity the strain rate e (11, 12, 22) of a simply-deformable block gives a point r from
+// its centroid: ε̇·r (twin of `sdef::strain_velocity`).
+fn strain_velocity(e: vec3<real>, r: vec2<real>) -> vec2<real> {
+    return vec2<real>(e.x * r.x + e.y * r.y, e.y * r.x + e.z * r.y);
+}
+
+// Stage 4 for contact k: its geometry, its force law, the gather's record, the overlap flag.
+// `strained`: the blocks' strain rates e1, e2 (simply-deformable blocks; zero for rigid ones)
+// move the contact point too (`contact_forces_sdef`); a rigid scene passes false and computes
+// nothing of them. Returns the lever arms from block 1's and block 2's centroids to the point.
+fn contact_stage(k: u32, strained: bool, e1: vec3<real>, e2: vec3<real>) -> vec4<real> {
     var c = contacts[k];
     let feature_before = c.feature;
     let bonded_before = c.bonded;
@@ -435,7 +439,12 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
     let counted = counts_force(c.corner, circle, corner.radius, nb, c.feature);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
-    let law = contact_force_law(c, contact_law(materials[c.material], c.length), m1, m2, params.beta, params.dt, counted);
+    let at = vec2<real>(c.px, c.py);
+    var vrel = velocity_at(m1, at) - velocity_at(m2, at); // eq. (13)
+    if (strained) {
+        vrel = (velocity_at(m1, at) + strain_velocity(e1, at - d12)) - (velocity_at(m2, at) + strain_velocity(e2, at));
+    }
+    let law = contact_force_law(c, contact_law(materials[c.material], c.length), vrel, params.beta, params.dt, counted);
     c = law.contact;
     let f = law.force;
     store_contact_state(k, c);
@@ -465,7 +474,44 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
         atomicOr(&flags.errors, ERR_OVERLAP);
         atomicMin(&flags.overlap_contact, k);
     }
+    return vec4<real>(r1, p);
 }
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
+        return;
+    }
+    let zero = vec3<real>(0.0, 0.0, 0.0);
+    _ = contact_stage(k, false, zero, zero);
+}
+
+// The strain rate of block b where it is simply deformable, else zero.
+fn strain_rate_of(b: u32) -> vec3<real> {
+    if (blocks[b].kind != BLOCK_SDEF) {
+        return vec3<real>(0.0, 0.0, 0.0);
+    }
+    let e = sdefs[b].strain_rate;
+    return vec3<real>(e[0], e[1], e[2]);
+}
+
+// Stage 4 in a scene with simply-deformable blocks: the blocks' strain rates move the contact
+// point (`contact::law::BlockMotion::velocity_at`), and the lever arms go to `contact_levers`
+// for the gather's applied stress.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn contact_forces_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
+        return;
+    }
+    let e1 = strain_rate_of(contacts[k].block1);
+    let e2 = strain_rate_of(contacts[k].block2);
+    let r = contact_stage(k, true, e1, e2);
+    contact_levers[k] = ContactLever(r.x, r.y, r.z, r.w);
+}
+
+
 
 // The centre of a corner's rounding circle (offset `o` from block 1's centroid) relative to block
 // 2's centroid, in the frame block 2's corners are placed in, as an exact sum [nearest,

@@ -1,5 +1,5 @@
 // Bookkeeping at the end of each cycle (one invocation): counts the cycle and, when a kernel raised
-// a flag the CPU must act on (stage 7 due, an error), halts the rest of the batch so that the CPU
+// a flag the CPU must act on (stage 7 due, a Griffith crack due, an error), halts the rest of the batch so that the CPU
 // reads back the state of exactly this cycle, as the CPU backend would see it.
 //
 // The other kernels of the cycle are dispatched indirectly, their grids read from
@@ -10,7 +10,7 @@
 // of its own (the flags and the grids): a buffer an indirect dispatch reads may not be bound for
 // writing to the kernel it launches.
 
-@group(0) @binding(10) var<storage, read_write> dispatch_args: array<u32>;
+@group(0) @binding(15) var<storage, read_write> dispatch_args: array<u32>;
 
 @compute @workgroup_size(1)
 fn end_cycle() {
@@ -18,7 +18,7 @@ fn end_cycle() {
         return;
     }
     atomicAdd(&flags.cycles_done, 1u);
-    if (atomicLoad(&flags.update_due) != 0u || atomicLoad(&flags.errors) != 0u) {
+    if (atomicLoad(&flags.update_due) != 0u || atomicLoad(&flags.errors) != 0u || atomicLoad(&flags.crack_due) != 0u) {
         atomicStore(&flags.halted, 1u);
         for (var i = 0u; i < arrayLength(&dispatch_args); i += 1u) {
             dispatch_args[i] = 0u;

@@ -64,3 +64,46 @@ fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
         energy_sums_out[workgroup_index(wg)] = EnergySum(t.x, t.y, t.z);
     }
 }
+
+// The energy check's share of simply-deformable blocks, dispatched after `energy_sums` on the
+// same grid in a scene that has them: each workgroup adds its SDEF blocks' strain modes to the
+// sum `energy_sums` wrote, their kinetic energy at time t (the rate brought to the whole step by
+// half a step of the generalised force the gather pass left, `sdef::rate_at_whole_step`) and
+// their strain energy ½a σ:ε (twins of `Model::energies`' SDEF terms).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn energy_sums_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let first = workgroup_index(wg) * (WORKGROUP_SIZE * ENERGY_ITEMS) + li;
+    let h = 0.5 * params.dt;
+    var e = vec3<real>(0.0, 0.0, 0.0);
+    for (var k = 0u; k < ENERGY_ITEMS; k++) {
+        let i = first + k * WORKGROUP_SIZE;
+        if (i < params.n_blocks && blocks[i].kind == BLOCK_SDEF) {
+            let x = sdefs[i];
+            if (blocks[i].fixed == 0u) {
+                var theta = blocks[i].rotation;
+                if (EXACT_CIRCLE) {
+                    theta += blocks[i].rotation_lo;
+                }
+                let j = strain_inertia(x.moments, sin_cos(theta));
+                if (j.x > 0.0 && j.z > 0.0) {
+                    let r = vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]) + generalised_force(x) / j * h;
+                    e.x += 0.5 * (j.x * r.x * r.x + 2.0 * j.y * r.y * r.y + j.z * r.z * r.z);
+                }
+            }
+            e.y += 0.5 * x.area * (x.stress[0] * x.strain[0] + 2.0 * x.stress[1] * x.strain[1] + x.stress[2] * x.strain[2]);
+        }
+    }
+    partial[li] = e;
+    workgroupBarrier();
+    for (var s = WORKGROUP_SIZE / 2u; s > 0u; s = s >> 1u) {
+        if (li < s) {
+            partial[li] += partial[li + s];
+        }
+        workgroupBarrier();
+    }
+    if (li == 0u) {
+        let w = workgroup_index(wg);
+        energy_sums_out[w].kinetic += partial[0].x;
+        energy_sums_out[w].strain += partial[0].y;
+    }
+}

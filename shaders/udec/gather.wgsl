@@ -95,3 +95,51 @@ fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
         blocks[b].moment = t.z;
     }
 }
+
+// The applied stress times area of a simply-deformable block whose adjacency entries are
+// first .. end (`model::sdef`, the report's KSA): Σ r_i f_j as (11, 12, 21, 22), f the force on
+// the block and r its lever arm from the contact stage (`contact_levers`), in list order. Twin of
+// `contact::gather::gather_applied_stress`. Gravity and the load act at the centroid: nothing.
+fn applied_stress_sum(first: u32, end: u32) -> array<real, 4> {
+    var a = array<real, 4>(0.0, 0.0, 0.0, 0.0);
+    for (var e = first; e < end; e += 1u) {
+        let entry = adj_entries[e];
+        let k = entry_contact(entry);
+        let side = entry_side(entry);
+        let sign = select(real(1.0), real(-1.0), side == 1u);
+        let f = sign * vec2<real>(contact_forces_out[k].fx, contact_forces_out[k].fy);
+        var r = vec2<real>(contact_levers[k].r1x, contact_levers[k].r1y);
+        if (side == 1u) {
+            r = vec2<real>(contact_levers[k].r2x, contact_levers[k].r2y);
+        }
+        a[0] += r.x * f.x;
+        a[1] += r.x * f.y;
+        a[2] += r.y * f.x;
+        a[3] += r.y * f.y;
+    }
+    return a;
+}
+
+// `gather` in a scene with simply-deformable blocks: an SDEF block's force and moment summed in
+// list order whatever its list's length (`gather_heavy` may have summed a long one too: the two
+// agree to rounding), and its applied stress stored with them.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    if (blk.kind != BLOCK_SDEF && is_heavy(first, end)) {
+        return;
+    }
+    let f = force_sum(blk, first, end);
+    blocks[b].fx = f.x;
+    blocks[b].fy = f.y;
+    blocks[b].moment = f.z;
+    if (blk.kind == BLOCK_SDEF) {
+        sdefs[b].applied = applied_stress_sum(first, end);
+    }
+}

@@ -26,3 +26,49 @@ fn geometry_update(blk: Block) {
         corners[i].oy = o.y;
     }
 }
+
+// A point r from the centroid stretched by the strain e (11, 12, 22): (I + ε)·r. Twin of
+// `model::corners::strained`.
+fn strained(e: array<real, 3>, r: vec2<real>) -> vec2<real> {
+    return vec2<real>(r.x + e[0] * r.x + e[1] * r.y, r.y + e[1] * r.x + e[2] * r.y);
+}
+
+// Stage 2 of a simply-deformable block (twin of `model::corners::place_corners_strained`): its
+// corners at (I + ε)·R(θ)·x_local, then each rounding circle fitted again tangent to its corner's
+// two strained edges, its centre on the bisector at radius / cos(½ turn) from the corner, so
+// that a contact on the straight parts moves with the strained edges (the lever arm of the
+// applied stress is the contact point). cos(½ turn) = √((1 + cos turn)/2), turn ∈ (−π, π): no
+// inverse trigonometry, which the f64 kernels do not have.
+fn geometry_update_strained(blk: Block, e: array<real, 3>) {
+    let cs = sin_cos(blk.rotation);
+    let start = blk.corner_start;
+    let n = blk.corner_count;
+    for (var i = start; i < start + n; i += 1u) {
+        let p = strained(e, rotate(cs, corners[i].lx, corners[i].ly));
+        corners[i].px = p.x;
+        corners[i].py = p.y;
+    }
+    for (var k = 0u; k < n; k += 1u) {
+        let i = start + k;
+        let ip = start + select(k - 1u, n - 1u, k == 0u);
+        let inx = start + select(k + 1u, 0u, k + 1u == n);
+        let p = vec2<real>(corners[i].px, corners[i].py);
+        let e1 = p - vec2<real>(corners[ip].px, corners[ip].py);
+        let e2 = vec2<real>(corners[inx].px, corners[inx].py) - p;
+        let l1 = sqrt(dot(e1, e1));
+        let l2 = sqrt(dot(e2, e2));
+        let radius = corners[i].radius;
+        var o = p;
+        if (radius > 0.0 && l1 > 0.0 && l2 > 0.0) {
+            let cos_turn = dot(e1, e2) / (l1 * l2);
+            let half = sqrt(max(0.5 * (1.0 + cos_turn), 0.0));
+            let bis = e2 / l2 - e1 / l1;
+            let lb = sqrt(dot(bis, bis));
+            if (lb > 0.0 && half > 0.0) {
+                o = p + bis / lb * (radius / half);
+            }
+        }
+        corners[i].ox = o.x;
+        corners[i].oy = o.y;
+    }
+}

@@ -16,34 +16,23 @@ fn mass_damping_work(mass: real, inertia: real, v0: vec3<real>, v1: vec3<real>, 
     return alpha * dt * (mass * (m.x * m.x + m.y * m.y) + inertia * m.z * m.z);
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let b = item_index(wg, li);
-    if (b >= params.n_blocks) {
-        return;
-    }
-    var blk = blocks[b];
-    if (blk.fixed != 0u) {
-        blocks[b].vx = 0.0;
-        blocks[b].vy = 0.0;
-        blocks[b].w = 0.0;
-        return;
-    }
-    // Stage 6 of the last cycle. The sums stay in this invocation: nothing reads a block's force
-    // in the cycle, and `gather` stores them before they are read between cycles. A heavy
-    // block's stored sums are read in its own (rare) branch, so that the others do not load them.
-    let first = adj_offsets[b];
-    let end = adj_offsets[b + 1u];
-    if (is_heavy(first, end)) {
-        blk.fx = blocks[b].fx;
-        blk.fy = blocks[b].fy;
-        blk.moment = blocks[b].moment;
-    } else {
-        let f = force_sum(blk, first, end);
-        blk.fx = f.x;
-        blk.fy = f.y;
-        blk.moment = f.z;
-    }
+// What stage 1 did to a block (`rigid_step`), before it is stored (`store_step`): the block,
+// whether its corners must be placed again (f32: its placed angle moved), how far a corner moved
+// in the step (the too-fast check) and the work of gravity and load (the non-finite check).
+struct Step {
+    blk: Block,
+    place: bool,
+    travel: real,
+    work: real,
+}
+
+// Stage 1 for a free block whose forces of the last cycle are `f` (force, moment): the rigid
+// motion, not stored. Twin of `cpu::law_of_motion::law_of_motion`.
+fn rigid_step(blk_in: Block, f: vec3<real>) -> Step {
+    var blk = blk_in;
+    blk.fx = f.x;
+    blk.fy = f.y;
+    blk.moment = f.z;
     let dt = params.dt;
     let con1 = 1.0 - 0.5 * params.alpha * dt;
     let con2 = 1.0 / (1.0 + 0.5 * params.alpha * dt);
@@ -96,19 +85,30 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     // A corner moves at most |Δx| + |Δθ|·R in this step (the too-fast check).
     let travel = sqrt(dx * dx + dy * dy) + abs(dtheta) * blk.radius;
     // Net displacement since the last contact update, kept at its largest (report ¶26).
+    blk.moved = max(blk.moved, net_since_update(blk));
+    let fx = blk.mass * params.gx + blk.load_x;
+    let fy = blk.mass * params.gy + blk.load_y;
+    let work = fx * dx + fy * dy;
+    blk.work += work;
+    return Step(blk, place, travel, work);
+}
+
+// How far the block's corners are from where they were at the last contact update, at most:
+// |Δc| + |Δθ|·R (twin of `Block::net_since_update`).
+fn net_since_update(blk: Block) -> real {
     let ux = (blk.cx - blk.update_cx) + (blk.cx_lo - blk.update_cx_lo);
     let uy = (blk.cy - blk.update_cy) + (blk.cy_lo - blk.update_cy_lo);
     var turned = blk.rotation - blk.update_rotation;
     if (EXACT_CIRCLE) {
         turned += blk.rotation_lo;
     }
-    let net = sqrt(ux * ux + uy * uy) + abs(turned) * blk.radius;
-    blk.moved = max(blk.moved, net);
-    let fx = blk.mass * params.gx + blk.load_x;
-    let fy = blk.mass * params.gy + blk.load_y;
-    let work = fx * dx + fy * dy;
-    blk.work += work;
-    // Only the fields this stage changes go back (a third of the block).
+    return sqrt(ux * ux + uy * uy) + abs(turned) * blk.radius;
+}
+
+// Stores what stage 1 changed of block b (a third of the block; the corners are the caller's)
+// and raises the flags the CPU checks after it.
+fn store_step(b: u32, s: Step) {
+    let blk = s.blk;
     blocks[b].vx = blk.vx;
     blocks[b].vy = blk.vy;
     blocks[b].w = blk.w;
@@ -116,9 +116,8 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     blocks[b].cx_lo = blk.cx_lo;
     blocks[b].cy = blk.cy;
     blocks[b].cy_lo = blk.cy_lo;
-    if (place) {
+    if (s.place) {
         blocks[b].rotation = blk.rotation;
-        geometry_update(blk);
     }
     if (EXACT_CIRCLE) {
         blocks[b].rotation_lo = blk.rotation_lo;
@@ -129,12 +128,150 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     if (blk.moved > params.etol + blk.update_margin) {
         atomicOr(&flags.update_due, 1u);
     }
-    if (!is_finite(work)) {
+    if (!is_finite(s.work)) {
         atomicOr(&flags.errors, ERR_NONFINITE);
         atomicMin(&flags.nonfinite_block, b);
     }
-    if (travel > params.fast_limit) {
+    if (s.travel > params.fast_limit) {
         atomicOr(&flags.errors, ERR_TOO_FAST);
         atomicMin(&flags.toofast_block, b);
+    }
+}
+
+// Stage 1 (with stage 6 of the last cycle before it and stage 2 after it) for the rigid block b.
+fn rigid_block(b: u32, blk: Block) {
+    if (blk.fixed != 0u) {
+        blocks[b].vx = 0.0;
+        blocks[b].vy = 0.0;
+        blocks[b].w = 0.0;
+        return;
+    }
+    // Stage 6 of the last cycle. The sums stay in this invocation: nothing reads a block's force
+    // in the cycle, and `gather` stores them before they are read between cycles. A heavy
+    // block's stored sums are read in its own (rare) branch, so that the others do not load them.
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    var f = vec3<real>(0.0, 0.0, 0.0);
+    if (is_heavy(first, end)) {
+        f = vec3<real>(blocks[b].fx, blocks[b].fy, blocks[b].moment);
+    } else {
+        f = force_sum(blk, first, end);
+    }
+    let s = rigid_step(blk, f);
+    store_step(b, s);
+    if (s.place) {
+        geometry_update(s.blk);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    rigid_block(b, blocks[b]);
+}
+
+// The largest stretch a strain change d (11, 12, 22) gives a point within `radius` of the
+// centroid: its largest principal value in magnitude times the radius. Twin of
+// `sdef::strain_travel`.
+fn strain_travel(d: vec3<real>, radius: real) -> real {
+    let mean = 0.5 * (d.x + d.z);
+    let half_diff = 0.5 * (d.x - d.z);
+    let rad = sqrt(half_diff * half_diff + d.y * d.y);
+    return max(abs(mean + rad), abs(mean - rad)) * radius;
+}
+
+// Griffith's equivalent tensile stress of the stress s (11, 12, 22), tension positive (¶17; twin
+// of `sdef::griffith_stress` on `sdef::principal_values`).
+fn griffith_stress(s: array<real, 3>) -> real {
+    let mean = 0.5 * (s[0] + s[2]);
+    let half_diff = 0.5 * (s[0] - s[2]);
+    let rad = sqrt(half_diff * half_diff + s[1] * s[1]);
+    let s1 = mean + rad;
+    let s2 = mean - rad;
+    if (3.0 * s1 + s2 >= 0.0) {
+        return s1;
+    }
+    return -(s1 - s2) * (s1 - s2) / (8.0 * (s1 + s2));
+}
+
+// One step of an SDEF block's strain (twin of `sdef::internal_step`, see there for the
+// physics): the generalised force (applied less internal stress times area) over the strain's
+// inertia, central differences with the internal mass damping (ALPB), then the strain and its
+// plane-strain stress. Returns the block's extension as it now is.
+fn internal_step(x_in: Sdef, theta: real) -> Sdef {
+    var x = x_in;
+    let j = strain_inertia(x.moments, sin_cos(theta));
+    if (!(j.x > 0.0 && j.z > 0.0)) {
+        return x;
+    }
+    let dt = params.dt;
+    let alpha = params.alpha_internal;
+    let c1 = 1.0 - 0.5 * alpha * dt;
+    let c2 = 1.0 / (1.0 + 0.5 * alpha * dt);
+    let q = generalised_force(x);
+    let old = vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]);
+    let rate = (old * c1 + q / j * dt) * c2;
+    if (alpha > 0.0) {
+        let m = 0.5 * (old + rate);
+        x.damping_work += alpha * dt * (j.x * m.x * m.x + 2.0 * j.y * m.y * m.y + j.z * m.z * m.z);
+    }
+    x.strain_rate = array<real, 3>(rate.x, rate.y, rate.z);
+    x.strain = array<real, 3>(x.strain[0] + rate.x * dt, x.strain[1] + rate.y * dt, x.strain[2] + rate.z * dt);
+    let l = x.lambda;
+    let g = x.shear;
+    x.stress = array<real, 3>((l + 2.0 * g) * x.strain[0] + l * x.strain[2], 2.0 * g * x.strain[1], l * x.strain[0] + (l + 2.0 * g) * x.strain[2]);
+    return x;
+}
+
+// Stage 1 in a scene with simply-deformable blocks (twin of the CPU's `block_piece_sdef`): a
+// rigid block as `law_of_motion` moves it; an SDEF block sums its force and applied stress in
+// list order (whatever its list's length), takes the rigid step, then its strain's step, counts
+// the strain's motion of its corners towards the too-fast check and the update tolerance,
+// places its corners strained (every step: the strain moves them), and raises `crack_due` where
+// its stress reaches its Griffith strength.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    if (blk.kind != BLOCK_SDEF) {
+        rigid_block(b, blk);
+        return;
+    }
+    if (blk.fixed != 0u) {
+        blocks[b].vx = 0.0;
+        blocks[b].vy = 0.0;
+        blocks[b].w = 0.0;
+        sdefs[b].strain_rate = array<real, 3>(0.0, 0.0, 0.0);
+        return;
+    }
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    var x = sdefs[b];
+    x.applied = applied_stress_sum(first, end);
+    var s = rigid_step(blk, force_sum(blk, first, end));
+    var theta = s.blk.rotation;
+    if (EXACT_CIRCLE) {
+        theta += s.blk.rotation_lo;
+    }
+    x = internal_step(x, theta);
+    let dt = params.dt;
+    s.travel += strain_travel(vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]) * dt, s.blk.radius);
+    let since = vec3<real>(x.strain[0] - x.update_strain[0], x.strain[1] - x.update_strain[1], x.strain[2] - x.update_strain[2]);
+    s.blk.moved = max(s.blk.moved, net_since_update(s.blk) + strain_travel(since, s.blk.radius));
+    store_step(b, s);
+    geometry_update_strained(s.blk, x.strain);
+    sdefs[b].strain = x.strain;
+    sdefs[b].strain_rate = x.strain_rate;
+    sdefs[b].stress = x.stress;
+    sdefs[b].applied = x.applied;
+    sdefs[b].damping_work = x.damping_work;
+    if (x.griffith_tf > 0.0 && griffith_stress(x.stress) >= x.griffith_tf) {
+        atomicOr(&flags.crack_due, 1u);
     }
 }

@@ -18,8 +18,12 @@ struct Block {
     inertia: real, load_x: real, load_y: real, radius: real,
     work: real, damping_work: real,
     moved: real, update_cx: real, update_cy: real, update_cx_lo: real, update_cy_lo: real, update_rotation: real, update_margin: real,
-    fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
+    fixed: u32, corner_start: u32, corner_count: u32,
+    kind: u32, // BLOCK_RIGID or BLOCK_SDEF (its strain in `sdefs` at the block's index)
 }
+
+const BLOCK_RIGID: u32 = 0u;
+const BLOCK_SDEF: u32 = 1u;
 
 // 40 / 80 bytes. (px, py) corner and (ox, oy) circle centre relative to the block centroid. The
 // edge to the next corner is measured where it is used (contact_forces.wgsl, `edge_from`); the
@@ -58,6 +62,27 @@ struct ContactSummary {
 // its index in the new list, the feature the update found (`patch_contacts`).
 struct ContactPatch { length: real, index: u32, feature: u32 }
 
+// 96 / 192 bytes. The simply-deformable extension of a block (twin of `layout::Sdef`, the model's
+// `sdef::Sdef`): strain, strain rate and internal stress (11, 12, 22), applied stress times area
+// (11, 12, 21, 22), the second moments of mass in the body frame, the strain at the last contact
+// update, the internal damping's work since the upload, the area, Lamé's λ and G, and the
+// Griffith strength (0: no candidate).
+struct Sdef {
+    strain: array<real, 3>,
+    strain_rate: array<real, 3>,
+    stress: array<real, 3>,
+    applied: array<real, 4>,
+    moments: array<real, 3>,
+    update_strain: array<real, 3>,
+    damping_work: real,
+    area: real, lambda: real, shear: real,
+    griffith_tf: real,
+}
+
+// 16 / 32 bytes. A contact's lever arms from block 1's and block 2's centroids to its point, for
+// the applied stress of SDEF blocks (written by contact_forces_sdef).
+struct ContactLever { r1x: real, r1y: real, r2x: real, r2y: real }
+
 // 32 / 64 bytes (a multiple of the 16-byte stride a uniform array needs, in both precisions):
 // the point contact's KN, KS, COHESION, FRICTION, then the joint's JKN, JKS, JCOH, JFRIC.
 struct Material {
@@ -79,10 +104,11 @@ fn contact_law(m: Material, length: real) -> Material {
 // 12 / 24 bytes: one workgroup's share of the energy check (energy_check.wgsl).
 struct EnergySum { kinetic: real, strain: real, work: real }
 
-// 56 / 88 bytes.
+// 60 / 96 bytes.
 struct Params {
     dt: real, alpha: real, beta: real, gx: real, gy: real,
     etol: real, fast_limit: real, overlap_limit: real,
+    alpha_internal: real, // DAMP ... INTERNAL: the SDEF strain's mass damping
     n_blocks: u32, n_corners: u32, n_contacts: u32,
     one: u32, // always 1 (see two_sum)
     n_heavy: u32, // blocks summed by gather_heavy, listed in adj_offsets after the offsets
@@ -112,7 +138,7 @@ struct Flags {
     nonfinite_block: atomic<u32>,
     toofast_block: atomic<u32>,
     overlap_contact: atomic<u32>,
-    _pad: atomic<u32>,
+    crack_due: atomic<u32>, // an SDEF block reached its Griffith strength: cracking is due
 }
 
 const ERR_NONFINITE: u32 = 1u;

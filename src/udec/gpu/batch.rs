@@ -8,7 +8,7 @@
 use crate::udec::model::Model;
 
 use super::kernels::{self, Grid};
-use super::layout::{Block, Corner, EnergySum, Flags, Params, Real};
+use super::layout::{Block, Corner, EnergySum, Flags, Params, Real, Sdef};
 use super::readback::pod_view;
 use super::{shaders, Engine, GpuError};
 
@@ -40,14 +40,25 @@ impl<R: Real> Engine<R> {
         let cycle = |label, pipeline, bind_group, g: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) };
         let mut stages = Vec::with_capacity(4);
         if gather_only {
-            stages.push(cycle("gather", &p.gather.pipeline, &bg.gather, Grid::Blocks));
+            match (&p.sdef, &bg.sdef) {
+                (Some(k), Some(g)) if self.sdef_scene => stages.push(cycle("gather_sdef", &k.gather.pipeline, &g.gather, Grid::Blocks)),
+                _ => stages.push(cycle("gather", &p.gather.pipeline, &bg.gather, Grid::Blocks)),
+            }
         }
         if self.heavy_blocks(gather_only) > 0 {
             stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
         }
         if !gather_only {
-            stages.push(cycle("law_of_motion", &p.law_of_motion.pipeline, &bg.law_of_motion, Grid::Blocks));
-            stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
+            match (&p.sdef, &bg.sdef) {
+                (Some(k), Some(g)) if self.sdef_scene => {
+                    stages.push(cycle("law_of_motion_sdef", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
+                    stages.push(cycle("contact_forces_sdef", &k.contact_forces.pipeline, &g.contact_forces, Grid::Contacts));
+                }
+                _ => {
+                    stages.push(cycle("law_of_motion", &p.law_of_motion.pipeline, &bg.law_of_motion, Grid::Blocks));
+                    stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
+                }
+            }
             let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
             stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
         }
@@ -174,6 +185,7 @@ impl<R: Real> Engine<R> {
             (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64),
             contacts,
             forces,
+            self.sdef_part(),
         ];
         let up = self.uploaded.clone();
         let (flags, blocks) = self.dev.read_parts(&parts, |bytes| {
@@ -184,12 +196,15 @@ impl<R: Real> Engine<R> {
             let _p = crate::profile::scope(crate::profile::Stage::Download);
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[1]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[2]), &up, model);
-            Self::convert_contacts_read(&bytes[3..], packed, &up, model);
-            (flags, Some(blocks))
+            Self::convert_contacts_read(&bytes[3..5], packed, &up, model);
+            let sdefs: Vec<Sdef<R>> = bytemuck::pod_collect_to_vec(bytes[5]);
+            Self::convert_sdefs(&sdefs, &up, model);
+            (flags, Some((blocks, sdefs)))
         })?;
         let read = blocks.is_some();
-        if let Some(blocks) = blocks {
+        if let Some((blocks, sdefs)) = blocks {
             self.last_blocks = blocks;
+            self.last_sdefs = sdefs;
         }
         Ok((flags, read))
     }
@@ -212,6 +227,13 @@ impl<R: Real> Engine<R> {
             pass.set_pipeline(&self.pipelines.energy_sums.pipeline);
             pass.set_bind_group(0, bg, &[]);
             pass.dispatch_workgroups(x, y, 1);
+            // Simply-deformable blocks add their strain modes to each workgroup's sum.
+            let groups = self.bind_groups.as_ref().and_then(|g| g.sdef.as_ref());
+            if let (Some(k), Some(g), true) = (&self.pipelines.sdef, groups, self.sdef_scene) {
+                pass.set_pipeline(&k.energy_sums.pipeline);
+                pass.set_bind_group(0, &g.energy_sums, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
         }
         self.dev.queue.submit([enc.finish()]);
         let sums: Vec<EnergySum<R>> = self.read(&b.energy_sums.buffer, groups)?;

@@ -57,6 +57,10 @@ pub(super) struct Checkpoint {
     pub(super) contacts: wgpu::Buffer,
     /// The contacts' gather records (their forces).
     pub(super) forces: wgpu::Buffer,
+    /// The SDEF slot, in a scene with simply-deformable blocks (made at its first checkpoint).
+    pub(super) sdefs: Option<wgpu::Buffer>,
+    /// The SDEF slot's bytes copied (0 in a rigid scene).
+    pub(super) sdef_bytes: u64,
     pub(super) counts: (usize, usize, usize),
     pub(super) uploaded: std::rc::Rc<Uploaded>,
     /// Whether it holds a state of the current run (the buffers are kept from run to run: a
@@ -94,12 +98,30 @@ impl<R: Real> Engine<R> {
                 corners: make("checkpoint corners", b.corners.buffer.size()),
                 contacts: make("checkpoint contacts", b.contacts.buffer.size()),
                 forces: make("checkpoint contact forces", b.contact_forces.buffer.size()),
+                sdefs: None,
+                sdef_bytes: 0,
                 counts: self.counts,
                 uploaded: self.uploaded.clone(),
                 valid: false,
             });
         }
         let ck = self.checkpoint.as_mut().expect("made above");
+        // The SDEF slot: copied where the scene has one (its buffer made or grown here).
+        let (sdef_src, sdef_bytes) = {
+            let (src, n) = (b.sdefs.as_ref().filter(|_| self.sdef_scene), self.counts.0 * std::mem::size_of::<super::layout::Sdef<R>>());
+            (src, if src.is_some() { n as u64 } else { 0 })
+        };
+        if let Some(src) = sdef_src {
+            if ck.sdefs.as_ref().is_none_or(|d| d.size() < src.buffer.size()) {
+                ck.sdefs = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("checkpoint simply-deformable blocks"),
+                    size: src.buffer.size(),
+                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }));
+            }
+        }
+        ck.sdef_bytes = sdef_bytes;
         ck.valid = true;
         ck.counts = self.counts;
         ck.uploaded = self.uploaded.clone();
@@ -114,6 +136,11 @@ impl<R: Real> Engine<R> {
                 enc.copy_buffer_to_buffer(src, 0, dst, 0, size);
             }
         }
+        if let (Some(src), Some(dst)) = (b.sdefs.as_ref(), ck.sdefs.as_ref()) {
+            if ck.sdef_bytes > 0 {
+                enc.copy_buffer_to_buffer(&src.buffer, 0, dst, 0, ck.sdef_bytes);
+            }
+        }
         self.dev.queue.submit([enc.finish()]);
     }
 
@@ -126,7 +153,11 @@ impl<R: Real> Engine<R> {
         if let Some(identities) = &self.last_good_contacts {
             model.contacts = identities.par_iter().map(|c| c.contact()).collect();
         }
-        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, counts: ck.counts };
+        let sdefs = match &ck.sdefs {
+            Some(s) => (s, ck.sdef_bytes),
+            None => (&ck.blocks, 0),
+        };
+        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, sdefs, counts: ck.counts };
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
         let gravity = model.gravity;

@@ -12,7 +12,7 @@
 //! `splice_contacts` and `pack_contacts` have layouts of their own.
 
 use super::device::GpuDevice;
-use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real};
+use super::layout::{Block, Contact, ContactForce, ContactLever, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real, Sdef};
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};
 use crate::gpu::{GpuError, Precision};
@@ -31,6 +31,10 @@ pub enum StateSlot {
     Flags = 7,
     ContactForces = 8,
     EnergySums = 9,
+    /// Scenes with simply-deformable blocks only: each block's extension (`layout::Sdef`).
+    Sdefs = 10,
+    /// Scenes with simply-deformable blocks only: each contact's lever arms.
+    ContactLevers = 11,
 }
 
 /// How a slot is bound: a uniform, or a storage buffer read only or read and written.
@@ -42,7 +46,7 @@ pub enum SlotKind {
 }
 
 impl StateSlot {
-    pub const ALL: [StateSlot; 10] = [
+    pub const ALL: [StateSlot; 12] = [
         StateSlot::Params,
         StateSlot::Blocks,
         StateSlot::Corners,
@@ -53,6 +57,8 @@ impl StateSlot {
         StateSlot::Flags,
         StateSlot::ContactForces,
         StateSlot::EnergySums,
+        StateSlot::Sdefs,
+        StateSlot::ContactLevers,
     ];
 
     pub fn binding(self) -> u32 {
@@ -77,6 +83,8 @@ impl StateSlot {
             StateSlot::Flags => "flags",
             StateSlot::ContactForces => "contact_forces_out",
             StateSlot::EnergySums => "energy_sums_out",
+            StateSlot::Sdefs => "sdefs",
+            StateSlot::ContactLevers => "contact_levers",
         }
     }
 
@@ -134,12 +142,29 @@ pub struct CycleBindGroups {
     pub gather: wgpu::BindGroup,
     pub gather_heavy: wgpu::BindGroup,
     pub energy_sums: wgpu::BindGroup,
+    /// The SDEF kernels' (`SdefKernels`), in a scene with simply-deformable blocks.
+    pub sdef: Option<SdefBindGroups>,
+}
+
+/// The bind groups of `SdefKernels`.
+pub struct SdefBindGroups {
+    pub law_of_motion: wgpu::BindGroup,
+    pub contact_forces: wgpu::BindGroup,
+    pub gather: wgpu::BindGroup,
+    pub energy_sums: wgpu::BindGroup,
 }
 
 impl CycleBindGroups {
     pub fn new(dev: &GpuDevice, p: &Pipelines, b: &Buffers) -> Self {
         let make = |k: &CycleKernel, label: &str| b.kernel_bind_group(dev, k, label);
+        let sdef = p.sdef.as_ref().filter(|_| b.sdefs.is_some()).map(|k| SdefBindGroups {
+            law_of_motion: make(&k.law_of_motion, "law_of_motion_sdef"),
+            contact_forces: make(&k.contact_forces, "contact_forces_sdef"),
+            gather: make(&k.gather, "gather_sdef"),
+            energy_sums: make(&k.energy_sums, "energy_sums_sdef"),
+        });
         CycleBindGroups {
+            sdef,
             law_of_motion: make(&p.law_of_motion, "law_of_motion"),
             contact_forces: make(&p.contact_forces, "contact_forces"),
             contact_points: make(&p.contact_points, "contact_points"),
@@ -181,18 +206,93 @@ pub struct Pipelines {
     pub list_blocks: wgpu::ComputePipeline,
     pub list_contacts: wgpu::ComputePipeline,
     pub lists_layout: wgpu::BindGroupLayout,
+    /// The cycle's kernels for simply-deformable blocks, made at the first upload of a scene
+    /// that has them (`Pipelines::with_sdef`): a rigid scene never compiles them.
+    pub sdef: Option<SdefKernels>,
+}
+
+/// The entry points a scene with simply-deformable blocks runs in place of the rigid ones, each
+/// in the file of its rigid twin: `law_of_motion_sdef`, `contact_forces_sdef`, `gather_sdef`,
+/// and `energy_sums_sdef` after `energy_sums`. Only they bind the `Sdefs` and `ContactLevers`
+/// slots.
+pub struct SdefKernels {
+    pub law_of_motion: CycleKernel,
+    pub contact_forces: CycleKernel,
+    pub gather: CycleKernel,
+    pub energy_sums: CycleKernel,
+}
+
+/// A cycle kernel: `entry` in `name`.wgsl, validated by naga first, on a layout of the state
+/// slots it uses.
+fn cycle_kernel(dev: &GpuDevice, name: &str, entry: &str) -> Result<CycleKernel, GpuError> {
+    let device = &dev.device;
+    let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+    let (module, info) = shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+    let slots = used_slots(&module, &info, entry).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = slots.iter().map(|s| s.layout_entry()).collect();
+    let (layout, pipeline_layout) = layouts(device, entry, &entries);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    Ok(CycleKernel { pipeline, slots, layout })
+}
+
+/// Runs `make` inside validation and internal error scopes: a kernel the driver rejects is an
+/// error value naming the adapter, not a panic or a failure at the first cycle.
+fn in_error_scopes<T>(dev: &GpuDevice, make: impl FnOnce() -> Result<T, GpuError>) -> Result<T, GpuError> {
+    let internal = dev.device.push_error_scope(wgpu::ErrorFilter::Internal);
+    let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let made = make();
+    let rejected = [pollster::block_on(scope.pop()), pollster::block_on(internal.pop())];
+    let made = made?;
+    if let Some(e) = rejected.into_iter().flatten().next() {
+        return Err(GpuError::Shader(format!(
+            "the driver of {} ({} {}) rejected a kernel: {e}",
+            dev.summary.name, dev.summary.backend, dev.summary.driver_info
+        )));
+    }
+    Ok(made)
+}
+
+impl SdefKernels {
+    pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        in_error_scopes(dev, || {
+            Ok(SdefKernels {
+                law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_sdef")?,
+                contact_forces: cycle_kernel(dev, "contact_forces", "contact_forces_sdef")?,
+                gather: cycle_kernel(dev, "gather", "gather_sdef")?,
+                energy_sums: cycle_kernel(dev, "energy_sums", "energy_sums_sdef")?,
+            })
+        })
+    }
 }
 
 impl Pipelines {
+    /// Makes the SDEF kernels if they are not made yet.
+    pub fn with_sdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
+        if self.sdef.is_none() {
+            self.sdef = Some(SdefKernels::new(dev)?);
+        }
+        Ok(())
+    }
+
     /// Validates every kernel with naga first (clear errors), then builds the pipelines inside
     /// validation and internal error scopes, so a driver's rejection is an error value at set-up,
     /// not a panic or a failure at the first cycle. (NVIDIA's GL through EGL gives wgpu 30 a GL
     /// 3.3 context that advertises compute shaders, and its shader translation then refuses every
     /// kernel with an *internal* error: seen on an H100, 2026-11-26.)
     pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        in_error_scopes(dev, || Self::make(dev))
+    }
+
+    fn make(dev: &GpuDevice) -> Result<Self, GpuError> {
         let device = &dev.device;
-        let internal = device.push_error_scope(wgpu::ErrorFilter::Internal);
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let layouts = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| layouts(device, label, entries);
         // The splice's bindings: the old list and records, the runs, the created contacts and
         // records (read), the new list and records (written), the patches (read).
@@ -213,8 +313,9 @@ impl Pipelines {
             "blockdem update lists",
             &[uniform(0), storage(1, true), storage(2, true), storage(3, true), storage(4, false), storage(5, false), storage(6, false)],
         );
-        // End of cycle: the flags (binding 7, as in common.wgsl) and the dispatch grids (10).
-        let (end_cycle_layout, end_cycle_pipeline_layout) = layouts("blockdem end_cycle", &[storage(7, false), storage(10, false)]);
+        // End of cycle: the flags (binding 7, as in common.wgsl) and the dispatch grids (15, past
+        // the state's slots).
+        let (end_cycle_layout, end_cycle_pipeline_layout) = layouts("blockdem end_cycle", &[storage(7, false), storage(15, false)]);
         // `entry` in the kernel file `name`.wgsl, on `layout`.
         let make_on = |layout: &wgpu::PipelineLayout, name: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
             let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
@@ -229,15 +330,7 @@ impl Pipelines {
                 cache: None,
             }))
         };
-        // A cycle kernel: `entry` in `name`.wgsl on a layout of the state slots it uses.
-        let make_entry = |name: &str, entry: &str| -> Result<CycleKernel, GpuError> {
-            let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
-            let (module, info) = shaders::validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
-            let slots = used_slots(&module, &info, entry).map_err(|e| GpuError::Shader(format!("{name}.wgsl: {e}")))?;
-            let entries: Vec<wgpu::BindGroupLayoutEntry> = slots.iter().map(|s| s.layout_entry()).collect();
-            let (layout, pipeline_layout) = layouts(entry, &entries);
-            Ok(CycleKernel { pipeline: make_on(&pipeline_layout, name, entry)?, slots, layout })
-        };
+        let make_entry = |name: &str, entry: &str| cycle_kernel(dev, name, entry);
         let make = |name: &str| make_entry(name, name);
         let pipelines = Pipelines {
             law_of_motion: make("law_of_motion")?,
@@ -259,14 +352,8 @@ impl Pipelines {
             list_blocks: make_on(&lists_pipeline_layout, "list_blocks", "list_blocks")?,
             list_contacts: make_on(&lists_pipeline_layout, "list_blocks", "list_contacts")?,
             lists_layout,
+            sdef: None,
         };
-        let rejected = [pollster::block_on(scope.pop()), pollster::block_on(internal.pop())];
-        if let Some(e) = rejected.into_iter().flatten().next() {
-            return Err(GpuError::Shader(format!(
-                "the driver of {} ({} {}) rejected a kernel: {e}",
-                dev.summary.name, dev.summary.backend, dev.summary.driver_info
-            )));
-        }
         Ok(pipelines)
     }
 }
@@ -300,6 +387,10 @@ pub struct Buffers {
     pub spare_contacts: Option<(Slab, Slab)>,
     /// Likewise the adjacency entries' other buffer, which `splice_adjacency` writes.
     pub spare_entries: Option<Slab>,
+    /// `layout::Sdef` per block and `ContactLever` per contact, in a scene with simply-deformable
+    /// blocks (`Buffers::ensure_sdef`); None in a rigid one.
+    pub sdefs: Option<Slab>,
+    pub contact_levers: Option<Slab>,
     /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
     pub summaries: Option<Slab>,
 }
@@ -405,6 +496,8 @@ impl Buffers {
             energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
             spare_contacts: None,
             spare_entries: None,
+            sdefs: None,
+            contact_levers: None,
             summaries: None,
         })
     }
@@ -430,6 +523,22 @@ impl Buffers {
         let forces = slab(dev, "contact forces (spare)", std::mem::size_of::<ContactForce<R>>(), count)?;
         self.spare_contacts = Some((contacts, forces));
         Ok(())
+    }
+
+    /// Makes sure the SDEF slots hold `blocks` extensions and `contacts` lever records; returns
+    /// whether one was re-created (the bind groups must then be rebuilt).
+    pub fn ensure_sdef<R: Real>(&mut self, dev: &GpuDevice, blocks: usize, contacts: usize) -> Result<bool, GpuError> {
+        let mut made = false;
+        for (slot, label, item, count) in [
+            (&mut self.sdefs, "simply-deformable blocks", std::mem::size_of::<Sdef<R>>(), blocks),
+            (&mut self.contact_levers, "contact levers", std::mem::size_of::<ContactLever<R>>(), contacts),
+        ] {
+            if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
+                ensure_slot(dev, slot, label, item, count)?;
+                made = true;
+            }
+        }
+        Ok(made)
     }
 
     /// Makes sure the summaries buffer holds `count` contacts.
@@ -463,7 +572,7 @@ impl Buffers {
             layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 7, resource: self.flags.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 10, resource: self.dispatch_args.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 15, resource: self.dispatch_args.as_entire_binding() },
             ],
         })
     }
@@ -481,6 +590,8 @@ impl Buffers {
             StateSlot::Flags => &self.flags,
             StateSlot::ContactForces => &self.contact_forces.buffer,
             StateSlot::EnergySums => &self.energy_sums.buffer,
+            StateSlot::Sdefs => &self.sdefs.as_ref().expect("the SDEF kernels are bound only in a scene with SDEF blocks").buffer,
+            StateSlot::ContactLevers => &self.contact_levers.as_ref().expect("the SDEF kernels are bound only in a scene with SDEF blocks").buffer,
         }
     }
 

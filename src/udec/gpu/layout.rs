@@ -33,9 +33,17 @@ gpu_struct! {
         /// then the reference centroid (compensated pair) and rotation it is measured from, and
         /// the block's speed margin (`Block::update_margin`: it is due past etol + margin).
         moved: R, update_cx: R, update_cy: R, update_cx_lo: R, update_cy_lo: R, update_rotation: R, update_margin: R,
-        fixed: u32, corner_start: u32, corner_count: u32, _pad: u32,
+        fixed: u32, corner_start: u32, corner_count: u32,
+        /// The block's kind: `BLOCK_RIGID`, or `BLOCK_SDEF` (its strain is in the scene's `Sdef`
+        /// slot at the block's index).
+        kind: u32,
     }
 }
+
+/// `Block::kind` of a rigid block.
+pub const BLOCK_RIGID: u32 = 0;
+/// `Block::kind` of a simply-deformable block (`model::sdef`).
+pub const BLOCK_SDEF: u32 = 1;
 
 impl<R: Real> Block<R> {
     /// The block's rotation: the angle its corners are placed at plus the turn since.
@@ -145,6 +153,42 @@ impl<R: Real> ContactPatch<R> {
 }
 
 gpu_struct! {
+    /// The simply-deformable extension of one block (`model::sdef::Sdef`, the report's KBEX
+    /// array): 96 bytes in f32, 192 in f64, one per block in a scene with SDEF blocks (a rigid
+    /// block's stays zero), bound only by the SDEF kernels. Tensors in world axes; symmetric ones
+    /// as (11, 12, 22), the applied stress times area as (11, 12, 21, 22).
+    Sdef {
+        strain: [R; 3],
+        /// The strain rate at the half step (KED).
+        strain_rate: [R; 3],
+        /// The internal stress (KSI), tension positive.
+        stress: [R; 3],
+        /// The applied stress times area (KSA), as the last gather summed it.
+        applied: [R; 4],
+        /// The second moments of the block's mass in its body frame (the strain's inertia).
+        moments: [R; 3],
+        /// The strain at the block's last contact update (`Sdef::update_strain`).
+        update_strain: [R; 3],
+        /// Energy the internal damping took since the upload (`Sdef::damping_work` counts from
+        /// its value then).
+        damping_work: R,
+        /// The block's area, and its material's Lamé λ and shear modulus G (plane strain).
+        area: R, lambda: R, shear: R,
+        /// The tensile strength t_f Griffith's criterion tests against (¶17); 0 where the block
+        /// is no Griffith candidate.
+        griffith_tf: R,
+    }
+}
+
+gpu_struct! {
+    /// The lever arms of one contact in a scene with SDEF blocks: from block 1's centroid and
+    /// from block 2's to the contact point, r1 and r2, written by `contact_forces_sdef` with the
+    /// force: 16 bytes in f32, 32 in f64. The gather of an SDEF block sums r_i f_j over them (its
+    /// applied stress times area).
+    ContactLever { r1x: R, r1y: R, r2x: R, r2y: R }
+}
+
+gpu_struct! {
     /// Contact properties of one material: 32 bytes in f32, 64 in f64, the point contact's
     /// (KN, KS, COHESION, FRICTION) and the joint's (JKN, JKS, JCOH, JFRIC, ¶5). A uniform array
     /// of `MAX_MATERIALS` (a stride of a multiple of 16 bytes in both precisions, as uniform
@@ -160,7 +204,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// Run constants and live counts (a uniform): 56 bytes in f32, 88 in f64.
+    /// Run constants and live counts (a uniform): 60 bytes in f32, 96 in f64.
     Params {
         dt: R, alpha: R, beta: R, gx: R, gy: R,
         /// The contact update tolerance.
@@ -169,6 +213,8 @@ gpu_struct! {
         fast_limit: R,
         /// Overlap beyond which the run stops (½ ROUND).
         overlap_limit: R,
+        /// The internal damping of SDEF blocks' strain (DAMP … INTERNAL, ALPB).
+        alpha_internal: R,
         n_blocks: u32, n_corners: u32, n_contacts: u32,
         /// Always 1: a one whose value the shader compiler cannot see, for `two_sum`.
         one: u32,
@@ -225,12 +271,23 @@ pub struct Flags {
     pub nonfinite_block: u32,
     pub toofast_block: u32,
     pub overlap_contact: u32,
-    pub _pad: u32,
+    /// An SDEF block's stress reached its Griffith strength (`law_of_motion_sdef`): the CPU's
+    /// cracking stage is due.
+    pub crack_due: u32,
 }
 
 impl Flags {
     pub fn cleared() -> Self {
-        Flags { halted: 0, cycles_done: 0, update_due: 0, errors: 0, nonfinite_block: NO_INDEX, toofast_block: NO_INDEX, overlap_contact: NO_INDEX, _pad: 0 }
+        Flags {
+            halted: 0,
+            cycles_done: 0,
+            update_due: 0,
+            errors: 0,
+            nonfinite_block: NO_INDEX,
+            toofast_block: NO_INDEX,
+            overlap_contact: NO_INDEX,
+            crack_due: 0,
+        }
     }
     pub fn layout() -> StructLayout {
         StructLayout {
@@ -244,7 +301,7 @@ impl Flags {
                 ("nonfinite_block", std::mem::offset_of!(Self, nonfinite_block)),
                 ("toofast_block", std::mem::offset_of!(Self, toofast_block)),
                 ("overlap_contact", std::mem::offset_of!(Self, overlap_contact)),
-                ("_pad", std::mem::offset_of!(Self, _pad)),
+                ("crack_due", std::mem::offset_of!(Self, crack_due)),
             ],
         }
     }
@@ -259,6 +316,8 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         ContactForce::<R>::layout(),
         ContactSummary::<R>::layout(),
         ContactPatch::<R>::layout(),
+        Sdef::<R>::layout(),
+        ContactLever::<R>::layout(),
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),

@@ -99,6 +99,7 @@ pub mod partial;
 pub mod profile;
 mod readback;
 mod run;
+mod sdef;
 pub mod shaders;
 pub mod splice;
 pub mod targets;
@@ -265,6 +266,9 @@ struct Uploaded {
     /// f64 bases back on read-back.
     damping_base: Vec<f64>,
     contact_base: Vec<[f64; 2]>,
+    /// Each simply-deformable block's internal damping work (`Sdef::damping_work`) at the
+    /// upload of the SDEF slot (0 for the others; empty in a rigid scene).
+    sdef_damping_base: Vec<f64>,
 }
 
 /// The GPU state of one precision and the code that drives it.
@@ -291,6 +295,10 @@ struct Engine<R: Real> {
     checkpoint: Option<Checkpoint>,
     /// The block buffer as last read back (to see which update distances stage 7 reset).
     last_blocks: Vec<Block<R>>,
+    /// The scene has simply-deformable blocks: the cycle runs the SDEF kernels (`sdef`).
+    sdef_scene: bool,
+    /// The SDEF slot as last uploaded or read back (to reset the update strains).
+    last_sdefs: Vec<layout::Sdef<R>>,
     counts: (usize, usize, usize),
     /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts), and how many of
     /// them (listed first) are free: a cycle skips fixed blocks, so it dispatches only those.
@@ -346,6 +354,8 @@ impl<R: Real> Engine<R> {
             last_good_contacts: None,
             checkpoint: None,
             last_blocks: Vec::new(),
+            sdef_scene: false,
+            last_sdefs: Vec::new(),
             counts: (0, 0, 0),
             n_heavy: 0,
             n_heavy_free: 0,

@@ -6,7 +6,7 @@ use crate::udec::model::{ContactKind, Model};
 use rayon::prelude::*;
 
 use super::kernels;
-use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, Real};
+use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, Real, Sdef};
 use super::{shaders, Engine, GpuError, Uploaded};
 
 /// Mapped bytes as GPU structs: in place when aligned (parts of a read-back start 16-byte
@@ -26,6 +26,8 @@ pub(super) struct StateBuffers<'a> {
     pub(super) contacts: &'a wgpu::Buffer,
     /// The contacts' gather records, which hold their forces.
     pub(super) forces: &'a wgpu::Buffer,
+    /// The SDEF slot and the bytes of it to read (0 in a rigid scene).
+    pub(super) sdefs: (&'a wgpu::Buffer, u64),
     pub(super) counts: (usize, usize, usize),
 }
 
@@ -112,11 +114,13 @@ impl<R: Real> Engine<R> {
             (src.corners, (nc * std::mem::size_of::<Corner<R>>()) as u64),
             (src.contacts, (nk * std::mem::size_of::<Contact<R>>()) as u64),
             (src.forces, (nk * std::mem::size_of::<ContactForce<R>>()) as u64),
+            src.sdefs,
         ];
         self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), up, model);
             Self::convert_contacts(&pod_view(bytes[2]), &pod_view(bytes[3]), up, model);
+            Self::convert_sdefs(&pod_view(bytes[4]), up, model);
             blocks
         })
     }
@@ -252,13 +256,18 @@ impl<R: Real> Engine<R> {
             (&b.corners.buffer, (nc * std::mem::size_of::<Corner<R>>()) as u64),
             contacts,
             forces,
+            self.sdef_part(),
         ];
-        self.last_blocks = self.dev.read_parts(&parts, |bytes| {
+        let (blocks, sdefs) = self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), &up, model);
-            Self::convert_contacts_read(&bytes[2..], packed, &up, model);
-            blocks
+            Self::convert_contacts_read(&bytes[2..4], packed, &up, model);
+            let sdefs: Vec<Sdef<R>> = bytemuck::pod_collect_to_vec(bytes[4]);
+            Self::convert_sdefs(&sdefs, &up, model);
+            (blocks, sdefs)
         })?;
+        self.last_blocks = blocks;
+        self.last_sdefs = sdefs;
         Ok(())
     }
 }

@@ -183,7 +183,7 @@ impl<R: Real> Engine<R> {
         // After a packed read the update may go on only if the splice will follow it, which needs
         // the list in order (the whole upload would send stale fields): otherwise the contacts are
         // read whole first (the device has not moved since).
-        let splice_follows = self.splice && self.list_in_order;
+        let splice_follows = self.splices_on_device() && self.list_in_order;
         if packed && !splice_follows && cpu::topology_update_due(model) {
             self.read_live_state(model, false).map_err(device_error)?;
         }
@@ -252,6 +252,7 @@ impl<R: Real> Engine<R> {
             expected_update: None,
             last_good_generation: (0, 0),
             started: false,
+            point_load: None,
         };
         let resume = match driver::prepare(&mut run, model, &last_good, &mut report) {
             Ok(resume) => resume,
@@ -299,6 +300,16 @@ struct GpuRun<'a, R: Real> {
     last_good_generation: (u64, u64),
     /// `start` was called (the contact lists are the run's from then on).
     started: bool,
+    /// Whether the model has point-load cracking candidates (found at the first batch of the
+    /// run; a crack's pieces inherit their parent's constitutive number, so they stay).
+    point_load: Option<bool>,
+}
+
+impl<R: Real> GpuRun<'_, R> {
+    /// Whether any block of `model` is a point-load cracking candidate (`point_load`).
+    fn point_load_candidates(&mut self, model: &Model) -> bool {
+        *self.point_load.get_or_insert_with(|| (0..model.blocks.len()).any(|b| crate::udec::topology::cracking::is_point_load_candidate(model, b)))
+    }
 }
 
 impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
@@ -310,17 +321,12 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
     /// kernel precision cannot hold (`representable`).
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        if model.has_sdef() {
-            // The strain's kernels are not written yet (issue 28): `--backend auto` goes on on
-            // the CPU, `--backend gpu` says so.
-            return Err(CycleError::DoesNotFit(
-                "simply-deformable blocks (CHANGE … SDEF) run on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
-            ));
-        }
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
+        let sdef_blocks = if model.has_sdef() { model.blocks.len() } else { 0 };
         kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, e.dev.precision)
             .and_then(|()| kernels::check_fits("corners", std::mem::size_of::<Corner<R>>(), model.corners.len(), cap, e.dev.precision))
+            .and_then(|()| super::sdef::check_fits::<R>(cap, sdef_blocks, e.dev.precision))
             .map_err(device_error)?;
         representable::<R>(model).map_err(device_error)
     }
@@ -357,22 +363,28 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
 impl<R: Real> driver::Stages<Model> for GpuRun<'_, R> {
     fn begin_cycles(&mut self, _model: &mut Model) -> Result<(), CycleError> {
         self.last_good_generation = (self.engine.generation, self.engine.block_generation);
+        self.point_load = None;
         Ok(())
     }
 
     /// One batch of cycles on the device (one at a time with cracking, whose check reads every
     /// cycle's state), then stage 7 on what the flags ask for.
     fn advance(&mut self, model: &mut Model, max: u64, cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
+        // The point-load criterion reads every block's contact forces each cycle: such a scene
+        // runs one cycle a batch, the state read whole. Griffith's criterion is tested on the
+        // device (`law_of_motion_sdef` raises `crack_due`), so a scene with Griffith candidates
+        // alone runs in batches and reads the state when a block reaches its strength.
+        let cracking = cracking && self.point_load_candidates(model);
         // Read-backs for a contact update bring the contacts' summaries only (`pack_contacts`),
         // since the splice keeps the rest on the device; cracking reads everything.
-        let packed = self.engine.splice && !cracking;
+        let packed = self.engine.splices_on_device() && !cracking;
         let mut batch = if cracking { 1 } else { max.min(self.batch_cap) };
         if let Some(k) = self.expected_update {
             batch = batch.min(k.max(1));
         }
         let e = &mut *self.engine;
         e.write_params(model);
-        let partial_reads = e.splice && !cracking && e.partial_reads_pay();
+        let partial_reads = e.splices_on_device() && !cracking && e.partial_reads_pay();
         let (flags, state_read) = if self.busy && !cracking && !partial_reads {
             e.run_batch_with_state(batch, model, packed).map_err(device_error)?
         } else {
@@ -407,6 +419,8 @@ impl<R: Real> driver::Stages<Model> for GpuRun<'_, R> {
                 }
             }
         }
+        // A Griffith crack is due: the cracking stage on the whole state read back.
+        let cracking = cracking || flags.crack_due != 0;
         if !handled && (cracking || flags.update_due != 0) {
             let read = Stage7Read { cracking, packed, state_read };
             e.stage7_on_read_back(model, &mut self.adjacency, report, read, &mut self.expected_update)?;

@@ -84,8 +84,13 @@ impl<R: Real> Engine<R> {
             origin = [(0.5 * (lo[0] + hi[0])).round(), (0.5 * (lo[1] + hi[1])).round()];
         }
         // The contact bases are set by `upload_contacts`, which follows.
-        let uploaded =
-            Uploaded { origin, work_base: model.external_work, damping_base: model.blocks.iter().map(|b| b.damping_work).collect(), contact_base: Vec::new() };
+        let uploaded = Uploaded {
+            origin,
+            work_base: model.external_work,
+            damping_base: model.blocks.iter().map(|b| b.damping_work).collect(),
+            contact_base: Vec::new(),
+            sdef_damping_base: Vec::new(),
+        };
         let blocks: Vec<Block<R>> = model.blocks.par_iter().with_min_len(4096).map(|b| Block::from_model(b, origin)).collect();
         let corners: Vec<Corner<R>> = model.corners.par_iter().with_min_len(4096).map(|c| Corner::from_model(&model.blocks, c)).collect();
         let mut materials = vec![Material::<R>::default(); MAX_MATERIALS];
@@ -129,6 +134,9 @@ impl<R: Real> Engine<R> {
         self.counts.0 = model.blocks.len();
         self.counts.1 = model.corners.len();
         self.uploaded = std::rc::Rc::new(uploaded);
+        if self.upload_sdef(model)? {
+            self.bind_groups = None;
+        }
         self.upload_contacts(model, adjacency)
     }
 
@@ -146,6 +154,7 @@ impl<R: Real> Engine<R> {
         let mut g = Buffers::ensure(d, &mut b.contacts, "contacts", std::mem::size_of::<Contact<R>>(), contacts.len())?;
         g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
         g |= self.upload_adjacency(&model.blocks, contacts.len(), adjacency)?;
+        g |= self.upload_levers(model)?;
         if g {
             self.bind_groups = None;
         }
@@ -387,6 +396,7 @@ impl<R: Real> Engine<R> {
             etol: r(t.etol),
             fast_limit: r(0.5 * t.atol - t.etol),
             overlap_limit: r(0.5 * t.round),
+            alpha_internal: r(model.damping.alpha_internal),
             n_blocks: self.counts.0 as u32,
             n_corners: self.counts.1 as u32,
             n_contacts: self.counts.2 as u32,
@@ -431,6 +441,7 @@ impl<R: Real> Engine<R> {
         if whole {
             self.dev.queue.write_buffer(&self.buffers().blocks.buffer, 0, bytemuck::cast_slice(&self.last_blocks));
         }
+        self.reset_update_strains(&reset);
     }
 }
 
@@ -474,20 +485,30 @@ impl<R: Real> Block<R> {
             fixed: b.fixed as u32,
             corner_start: b.corner_start,
             corner_count: b.corner_count,
-            _pad: 0,
+            kind: if b.kind == crate::udec::model::BlockKind::SimplyDeformable { super::layout::BLOCK_SDEF } else { super::layout::BLOCK_RIGID },
         }
     }
 }
 
 impl<R: Real> Corner<R> {
     /// A model corner as the device holds it, relative to its block's centroid: placed at the
-    /// block's placed angle (f32) or where the model has it (f64).
+    /// block's placed angle (f32; a simply-deformable block's strained) or where the model has it
+    /// (f64).
     pub fn from_model(blocks: &[crate::udec::model::Block], c: &crate::udec::model::Corner) -> Self {
         let blk = &blocks[c.block as usize];
         let cen = blk.centroid;
         let (placed, turn) = split_rotation(blk.rotation, R::PRECISION);
         let (p, o) = if turn == 0.0 && placed == blk.rotation {
             ([c.position[0] - cen[0], c.position[1] - cen[1]], [c.circle[0] - cen[0], c.circle[1] - cen[1]])
+        } else if blk.kind == crate::udec::model::BlockKind::SimplyDeformable {
+            // Strained: the model's corners turned back by the turn since the placed angle
+            // (the kernel places them again, strained, at every step).
+            let (sin, cos) = (-turn).sin_cos();
+            let at = |x: [f64; 2]| {
+                let d = [x[0] - cen[0], x[1] - cen[1]];
+                [cos * d[0] - sin * d[1], sin * d[0] + cos * d[1]]
+            };
+            (at(c.position), at(c.circle))
         } else {
             let (sin, cos) = placed.sin_cos();
             let at = |x: [f64; 2]| [cos * x[0] - sin * x[1], sin * x[0] + cos * x[1]];

@@ -55,32 +55,36 @@ pub fn strained(e: [f64; 3], r: [f64; 2]) -> [f64; 2] {
 /// that the rounded boundary's straight parts move with the strained edges: a contact on them
 /// then moves at ε̇·r, r from the centroid to the contact point, the lever arm of the applied
 /// stress (`sdef`), and the contact force's work on the strain is what its spring stores.
+/// cos(½ turn) is √((1 + cos turn)/2) (the turn lies in (−π, π)), as the GPU's twin
+/// (`geometry_update_strained`, which has no inverse trigonometry in f64) takes it.
 #[inline]
 pub fn place_corners_strained(block: &Block, strain: [f64; 3], corners: &mut [Corner]) {
-    place_corners(block, corners);
-    let c = block.centroid;
+    let (s, c) = block.rotation.sin_cos();
+    let [cx, cy] = block.centroid;
     for corner in corners.iter_mut() {
-        let r = strained(strain, sub(corner.position, c));
-        corner.position = [c[0] + r[0], c[1] + r[1]];
+        let [lx, ly] = corner.local;
+        let r = strained(strain, [c * lx - s * ly, s * lx + c * ly]);
+        corner.position = [cx + r[0], cy + r[1]];
     }
     let n = corners.len();
     for k in 0..n {
         let (prev, p, next) = (corners[(k + n - 1) % n].position, corners[k].position, corners[(k + 1) % n].position);
         let (e1, e2) = (sub(p, prev), sub(next, p));
         let (l1, l2) = (dot(e1, e1).sqrt(), dot(e2, e2).sqrt());
+        corners[k].circle = p;
         if corners[k].radius > 0.0 && l1 > 0.0 && l2 > 0.0 {
-            let turn = (e1[0] * e2[1] - e1[1] * e2[0]).atan2(dot(e1, e2));
-            let bis = [-e1[0] / l1 + e2[0] / l2, -e1[1] / l1 + e2[1] / l2];
+            let half = (0.5 * (1.0 + dot(e1, e2) / (l1 * l2))).max(0.0).sqrt();
+            let bis = [e2[0] / l2 - e1[0] / l1, e2[1] / l2 - e1[1] / l1];
             let lb = dot(bis, bis).sqrt();
-            let offset = corners[k].radius / (0.5 * turn).cos();
-            corners[k].circle = if lb > 0.0 && offset.is_finite() { [p[0] + bis[0] / lb * offset, p[1] + bis[1] / lb * offset] } else { p };
-        } else {
-            corners[k].circle = p;
+            if lb > 0.0 && half > 0.0 {
+                let offset = corners[k].radius / half;
+                corners[k].circle = [p[0] + bis[0] / lb * offset, p[1] + bis[1] / lb * offset];
+            }
         }
         if l2 > 0.0 {
             corners[k].edge_dir = [e2[0] / l2, e2[1] / l2];
-            corners[k].edge_length = l2;
         }
+        corners[k].edge_length = l2;
     }
 }
 
