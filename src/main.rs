@@ -193,7 +193,8 @@ enum Cmd {
         /// Folder for the CSV, JSON and PNG files.
         #[arg(long, default_value = "bench-out")]
         out: PathBuf,
-        /// Which scenes: the reference settle or impact, the scaling family, or all.
+        /// Which scenes: the reference settle or impact, the settle with simply-deformable bricks
+        /// (sdef), the scaling family, or all.
         #[arg(long, value_enum, default_value_t = BenchScene::All)]
         scene: BenchScene,
         /// Which backends: all present, the CPU, or the GPU adapters.
@@ -237,6 +238,8 @@ enum Cmd {
 enum BenchScene {
     Settle,
     Impact,
+    /// The settle scene with simply-deformable bricks (its cost per cycle against settle's).
+    Sdef,
     Scaling,
     All,
 }
@@ -288,6 +291,7 @@ fn bench(
     let mut options = blockdem::bench::BenchOptions::new(quick, specs);
     options.settle = matches!(scene, BenchScene::Settle | BenchScene::All);
     options.impact = matches!(scene, BenchScene::Impact | BenchScene::All);
+    options.sdef = matches!(scene, BenchScene::Sdef | BenchScene::All);
     options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
     options.max_blocks = max_blocks;
     if let Some(sizes) = sizes {

@@ -64,6 +64,8 @@ pub struct BenchOptions {
     pub quick: bool,
     pub settle: bool,
     pub impact: bool,
+    /// The settle scene with simply-deformable bricks (`RefScene::Sdef`).
+    pub sdef: bool,
     pub scaling: bool,
     pub backends: Vec<BackendSpec>,
     /// Largest wall of the scaling family; None: 10⁴ with `quick`, else 10⁵ on the CPU and
@@ -91,6 +93,7 @@ impl BenchOptions {
         BenchOptions {
             quick,
             settle: true,
+            sdef: true,
             impact: true,
             scaling: true,
             backends,
@@ -445,7 +448,11 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };
     report.options = OptionsEcho {
         quick: opts.quick,
-        scenes: [("settle", opts.settle), ("impact", opts.impact), ("scaling", opts.scaling)].iter().filter(|s| s.1).map(|s| s.0.to_string()).collect(),
+        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("scaling", opts.scaling)]
+            .iter()
+            .filter(|s| s.1)
+            .map(|s| s.0.to_string())
+            .collect(),
         sizes: opts.sizes.clone(),
         max_blocks: opts.max_blocks,
         settle_time: opts.settle_time,
@@ -475,7 +482,9 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         report.backends.push(info);
     }
 
-    for (scene, wanted, time) in [(RefScene::Settle, opts.settle, opts.settle_time), (RefScene::Impact, opts.impact, opts.impact_time)] {
+    for (scene, wanted, time) in
+        [(RefScene::Settle, opts.settle, opts.settle_time), (RefScene::Impact, opts.impact, opts.impact_time), (RefScene::Sdef, opts.sdef, opts.settle_time)]
+    {
         if !wanted {
             continue;
         }

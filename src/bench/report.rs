@@ -128,6 +128,21 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
             note: note(&format!("; with the set-up of the run {}", pct(row.run_topology_transfer_share))),
         });
     }
+    // Simply-deformable bricks against rigid ones, per cycle on each backend (issue 28).
+    for b in r.backends.iter().filter(|b| b.error.is_none()) {
+        let row = |scene: &str| r.reference.iter().find(|x| x.scene == scene && x.backend == b.label && x.error.is_none() && x.cycles_per_s > 0.0);
+        if let (Some(rigid), Some(sdef)) = (row("settle"), row("sdef")) {
+            let ratio = rigid.cycles_per_s / sdef.cycles_per_s;
+            t.push(TargetRow {
+                target: "SDEF wall vs rigid wall, time per cycle".into(),
+                backend: b.label.clone(),
+                goal: "<= 1.5x".into(),
+                measured: format!("{ratio:.2}x"),
+                met: Some(ratio <= 1.5),
+                note: format!("reference wall, {} cycles each, set-up included", sdef.cycles),
+            });
+        }
+    }
     // Software adapters against the CPU at 10^5 blocks (or the largest wall both reached).
     for b in r.backends.iter().filter(|b| b.kind == "gpu" && b.software && b.error.is_none()) {
         let cpu: Vec<&ScalingRow> = ok_rows(r, "cpu f64").collect();

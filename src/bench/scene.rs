@@ -40,12 +40,21 @@ pub const PROJECTILE_DENSITY: f64 = 8000.0;
 pub const PROJECTILE_AT: [f64; 2] = [-2.0, 11.0];
 pub const PROJECTILE_VELOCITY: [f64; 2] = [50.0, 0.0];
 
-/// The two reference scenes.
+/// The moduli of the bricks of the `Sdef` scene (Pa): a soft brick (E ≈ 0.75 GPa), soft enough
+/// that the bricks' own limit on the time step (`Model::critical_timestep`, ½·2√(M_min/k_int) =
+/// 1.9e-4 s for a half brick) stays above the contacts' (1.4e-4 s): the scene runs the settle's
+/// cycles at the settle's time step, and its cost per cycle is the SDEF blocks' alone.
+pub const SDEF_BULK: f64 = 5e8;
+pub const SDEF_SHEAR: f64 = 3e8;
+
+/// The reference scenes: the wall settling and struck, and the settling wall of
+/// simply-deformable bricks (`Sdef`, issue 28: its cost per cycle against `Settle`'s).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RefScene {
     Settle,
     Impact,
+    Sdef,
 }
 
 impl RefScene {
@@ -53,13 +62,14 @@ impl RefScene {
         match self {
             RefScene::Settle => "settle",
             RefScene::Impact => "impact",
+            RefScene::Sdef => "sdef",
         }
     }
 
     /// Simulated time of the reference.
     pub fn time(self) -> f64 {
         match self {
-            RefScene::Settle => SETTLE_TIME,
+            RefScene::Settle | RefScene::Sdef => SETTLE_TIME,
             RefScene::Impact => IMPACT_TIME,
         }
     }
@@ -116,8 +126,15 @@ fn projectile_lines(wall: &BrickWall) -> String {
 pub fn reference_body(scene: RefScene, frac: f64) -> String {
     let wall = reference_wall(frac);
     let mut deck = wall.deck();
-    if scene == RefScene::Impact {
-        deck += &projectile_lines(&wall);
+    match scene {
+        RefScene::Settle => {}
+        RefScene::Impact => deck += &projectile_lines(&wall),
+        RefScene::Sdef => {
+            // Every brick (centroids above the ground's top, y = 0) simply deformable.
+            let top = wall.rows as f64 * wall.brick[1];
+            let right = wall.bricks as f64 * wall.brick[0];
+            deck += &format!("PROP MAT=1 K={SDEF_BULK:e} G={SDEF_SHEAR:e}\nCHANGE -1 {} 0 {} SDEF\n", right + 1.0, top + 1.0);
+        }
     }
     deck
 }
@@ -141,6 +158,11 @@ pub fn example_deck(scene: RefScene) -> String {
             "* SETTLE: the wall alone for {SETTLE_TIME} s of simulated time. `blockdem bench --scene settle`\n\
              * reports the largest displacement of any brick from where it started (the drift), the\n\
              * largest sink of the top row, and the elastic settlement expected under self-weight.\n"
+        ),
+        RefScene::Sdef => format!(
+            "* SDEF: the settle scene with every brick simply deformable (K = {SDEF_BULK:e}, G = {SDEF_SHEAR:e},\n\
+             * CHANGE ... SDEF): `blockdem bench --scene sdef` reports its cost per cycle against the\n\
+             * settle scene's on each backend (issue 28: at most 1.5 times).\n"
         ),
         RefScene::Impact => format!(
             "* IMPACT: a {PROJECTILE_SIDE} m square projectile of density {PROJECTILE_DENSITY} (material 2) fired\n\
@@ -185,6 +207,7 @@ pub fn example_path(scene: RefScene) -> &'static str {
     match scene {
         RefScene::Settle => "examples/brick_wall_settle.dat",
         RefScene::Impact => "examples/brick_wall_impact.dat",
+        RefScene::Sdef => "examples/brick_wall_sdef.dat",
     }
 }
 

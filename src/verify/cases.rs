@@ -24,9 +24,6 @@ pub struct Case {
     /// Why that tolerance.
     pub why: &'static str,
     pub run: fn(&Ctx) -> Result<Measured, Failure>,
-    /// Why the case runs on the CPU backend only, where it does (a GPU backend refuses its
-    /// scene); None for a case of every backend.
-    pub cpu_only: Option<&'static str>,
 }
 
 /// Every case, in the order the table prints them.
@@ -39,7 +36,6 @@ pub fn all() -> Vec<Case> {
             why: "central differences integrate constant acceleration exactly except for the half-step offset ½gtΔt of the \
                   starting velocity: 0.1% of the flight at FRAC 0.1, 1% at FRAC 1",
             run: free_flight,
-            cpu_only: None,
         },
         Case {
             name: "slide",
@@ -48,7 +44,6 @@ pub fn all() -> Vec<Case> {
             why: "the block lands on unstressed springs and the normal force rings undamped at the contact frequency, so \
                   friction is briefly below μ m g cos ψ; that transient is under 2% of a metre-scale slide",
             run: slide,
-            cpu_only: None,
         },
         Case {
             name: "stick",
@@ -57,7 +52,6 @@ pub fn all() -> Vec<Case> {
             why: "the block moves only by the elastic shear of its contacts and creep while the undamped normal force rings \
                   (~1e-4 of the frictionless slide)",
             run: stick,
-            cpu_only: None,
         },
         Case {
             name: "topple_vs_slide",
@@ -66,7 +60,6 @@ pub fn all() -> Vec<Case> {
             why: "each scene sits 20% from its regime boundary, far more than the rounding (2% of the width) and contact \
                   deflection shift it: every regime must be right",
             run: topple_vs_slide,
-            cpu_only: None,
         },
         Case {
             name: "column",
@@ -75,7 +68,6 @@ pub fn all() -> Vec<Case> {
             why: "heavily mass-damped settling for 2.7 s leaves a residual vibration of e^(−αt) ≈ 0; 1% covers round-off \
                   and the contact points' lever arms",
             run: column,
-            cpu_only: None,
         },
         Case {
             name: "bounce_dashpot",
@@ -84,7 +76,6 @@ pub fn all() -> Vec<Case> {
             why: "the contact lasts ~11 steps at FRAC 0.1; central differences shift the frequency by (ωΔt)²/24 ≈ 0.3% and \
                   the dashpot uses half-step velocities, an O(ωΔt·ζ) error in e of ~2%",
             run: bounce_dashpot,
-            cpu_only: None,
         },
         Case {
             name: "vibration_mass",
@@ -93,7 +84,6 @@ pub fn all() -> Vec<Case> {
             why: "22 steps a period at FRAC 0.1: the scheme's own damping error is O((ωΔt)²) ≈ 1%; peaks are found by \
                   parabolic interpolation (< 0.1%)",
             run: vibration_mass,
-            cpu_only: None,
         },
         Case {
             name: "pwave_joint",
@@ -102,7 +92,6 @@ pub fn all() -> Vec<Case> {
             why: "20 blocks a wavelength: the chain's dispersion is (kL)²/24 ≈ 0.4% and a discrete joint differs from the \
                   continuum one by O(kL/2)² ≈ 2.5%",
             run: pwave_joint,
-            cpu_only: None,
         },
         Case {
             name: "impact",
@@ -113,7 +102,6 @@ pub fn all() -> Vec<Case> {
                   the touch and at the parting once a step: the error depends on where in its step each falls, up to ±1.3% \
                   (1.27% for this touch, mid-step), zero on average over touch phases, falling as FRAC² (issue 27 item 4)",
             run: impact,
-            cpu_only: None,
         },
         Case {
             name: "joint_shear",
@@ -123,7 +111,6 @@ pub fn all() -> Vec<Case> {
             why: "critically damped loading settles to e^(−ωt) ≈ 1e-4 of the load in the time given; the block's tilt under \
                   the load's moment changes neither the shear sum nor the shear displacement; f32 round-off is ~1e-6",
             run: joint_shear,
-            cpu_only: None,
         },
         Case {
             name: "sdef_uniaxial",
@@ -133,7 +120,6 @@ pub fn all() -> Vec<Case> {
             why: "the lever arms of the applied stress are the strained block's, a second-order term of ε22 = −1.2e-3; the \
                   critically damped loading settles to ~1e-4 in the time given",
             run: sdef_uniaxial,
-            cpu_only: Some(SDEF_CPU_ONLY),
         },
         Case {
             name: "griffith_threshold",
@@ -143,7 +129,6 @@ pub fn all() -> Vec<Case> {
             tolerance: 0.0,
             why: "the loads sit 2% from the threshold, and critically damped loading overshoots by far less",
             run: griffith_threshold,
-            cpu_only: Some(SDEF_CPU_ONLY),
         },
     ]
 }
@@ -550,9 +535,6 @@ fn joint_shear(ctx: &Ctx) -> Result<Measured, Failure> {
     }
     Ok(Measured { error: worst, detail, cost, energy_balance: None })
 }
-
-/// Why the simply-deformable cases run on the CPU only (for now).
-const SDEF_CPU_ONLY: &str = "simply-deformable blocks run on the CPU backend until the GPU kernels have them (issue 28)";
 
 /// The moduli of the simply-deformable cases.
 const SDEF_K: f64 = 1e8;

@@ -212,11 +212,6 @@ pub fn run_suite(options: &VerifyOptions) -> Suite {
             if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
                 continue;
             }
-            // A case whose scene a GPU backend refuses is run on the CPU only (the table's note
-            // names it and why: `cpu_only_note`).
-            if backend.gpu && case.cpu_only.is_some() {
-                continue;
-            }
             for &frac in fracs_for(&backend, options.quick) {
                 suite.rows.push(run_case(&case, &backend, frac));
             }
@@ -368,14 +363,6 @@ pub fn table(suite: &Suite) -> String {
             if r.passed { "ok" } else { "FAIL" },
             r.failure.as_deref().unwrap_or(&r.detail)
         );
-    }
-    // The cases a GPU backend does not run yet, and why, where the suite had a GPU backend.
-    if suite.rows.iter().any(|r| r.backend != "cpu") {
-        for case in cases::all() {
-            if let Some(why) = case.cpu_only.filter(|_| suite.rows.iter().any(|r| r.case == case.name)) {
-                let _ = writeln!(s, "{:<16} {:<w$} CPU only: {why}", case.name, "(GPU)");
-            }
-        }
     }
     let _ = writeln!(
         s,
