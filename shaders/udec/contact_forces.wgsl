@@ -387,12 +387,13 @@ fn strain_velocity(e: vec3<real>, r: vec2<real>) -> vec2<real> {
     return vec2<real>(e.x * r.x + e.y * r.y, e.y * r.x + e.z * r.y);
 }
 
-// Stage 4 for contact k: its geometry, its force law, the gather's record, the overlap flag.
+// Stage 4 for contact k (`contact`, as loaded): its geometry, its force law, the gather's record,
+// the overlap flag.
 // `strained`: the blocks' strain rates e1, e2 (simply-deformable blocks; zero for rigid ones)
 // move the contact point too (`contact_forces_sdef`); a rigid scene passes false and computes
 // nothing of them. Returns the lever arms from block 1's and block 2's centroids to the point.
-fn contact_stage(k: u32, strained: bool, e1: vec3<real>, e2: vec3<real>) -> vec4<real> {
-    var c = contacts[k];
+fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: vec3<real>) -> vec4<real> {
+    var c = contact;
     let feature_before = c.feature;
     let bonded_before = c.bonded;
     // Fields most contacts need on no cycle are read only where they matter (a software adapter
@@ -484,14 +485,11 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
         return;
     }
     let zero = vec3<real>(0.0, 0.0, 0.0);
-    _ = contact_stage(k, false, zero, zero);
+    _ = contact_stage(k, contacts[k], false, zero, zero);
 }
 
-// The strain rate of block b where it is simply deformable, else zero.
+// The strain rate of block b (zero for a rigid block, whose extension stays zero).
 fn strain_rate_of(b: u32) -> vec3<real> {
-    if (blocks[b].kind != BLOCK_SDEF) {
-        return vec3<real>(0.0, 0.0, 0.0);
-    }
     let e = sdefs[b].strain_rate;
     return vec3<real>(e[0], e[1], e[2]);
 }
@@ -505,9 +503,8 @@ fn contact_forces_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invo
     if (k >= params.n_contacts) {
         return;
     }
-    let e1 = strain_rate_of(contacts[k].block1);
-    let e2 = strain_rate_of(contacts[k].block2);
-    let r = contact_stage(k, true, e1, e2);
+    let c = contacts[k];
+    let r = contact_stage(k, c, true, strain_rate_of(c.block1), strain_rate_of(c.block2));
     contact_levers[k] = ContactLever(r.x, r.y, r.z, r.w);
 }
 

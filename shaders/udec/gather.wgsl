@@ -96,28 +96,36 @@ fn gather_heavy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
     }
 }
 
-// The applied stress times area of a simply-deformable block whose adjacency entries are
-// first .. end (`model::sdef`, the report's KSA): Σ r_i f_j as (11, 12, 21, 22), f the force on
-// the block and r its lever arm from the contact stage (`contact_levers`), in list order. Twin of
-// `contact::gather::gather_applied_stress`. Gravity and the load act at the centroid: nothing.
-fn applied_stress_sum(first: u32, end: u32) -> array<real, 4> {
+// Stage 6 of a simply-deformable block whose adjacency entries are first .. end: its force and
+// moment as `force_sum` gives them, and its applied stress times area (`model::sdef`, the
+// report's KSA), Σ r_i f_j as (11, 12, 21, 22), f the force on the block and r its lever arm from
+// the contact stage (`contact_levers`), in list order, in one pass over the entries. Twin of
+// `cpu::gather::gather_sdef`. Gravity and the load act at the centroid: no applied stress.
+struct SdefForces {
+    force: vec3<real>,
+    applied: array<real, 4>,
+}
+
+fn force_sum_sdef(blk: Block, first: u32, end: u32) -> SdefForces {
+    var f = vec3<real>(blk.mass * params.gx + blk.load_x, blk.mass * params.gy + blk.load_y, 0.0);
     var a = array<real, 4>(0.0, 0.0, 0.0, 0.0);
     for (var e = first; e < end; e += 1u) {
         let entry = adj_entries[e];
         let k = entry_contact(entry);
         let side = entry_side(entry);
         let sign = select(real(1.0), real(-1.0), side == 1u);
-        let f = sign * vec2<real>(contact_forces_out[k].fx, contact_forces_out[k].fy);
+        let g = vec3<real>(sign * contact_forces_out[k].fx, sign * contact_forces_out[k].fy, contact_forces_out[k].m[side]);
+        f += g;
         var r = vec2<real>(contact_levers[k].r1x, contact_levers[k].r1y);
         if (side == 1u) {
             r = vec2<real>(contact_levers[k].r2x, contact_levers[k].r2y);
         }
-        a[0] += r.x * f.x;
-        a[1] += r.x * f.y;
-        a[2] += r.y * f.x;
-        a[3] += r.y * f.y;
+        a[0] += r.x * g.x;
+        a[1] += r.x * g.y;
+        a[2] += r.y * g.x;
+        a[3] += r.y * g.y;
     }
-    return a;
+    return SdefForces(f, a);
 }
 
 // `gather` in a scene with simply-deformable blocks: an SDEF block's force and moment summed in
@@ -135,11 +143,16 @@ fn gather_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
     if (blk.kind != BLOCK_SDEF && is_heavy(first, end)) {
         return;
     }
-    let f = force_sum(blk, first, end);
-    blocks[b].fx = f.x;
-    blocks[b].fy = f.y;
-    blocks[b].moment = f.z;
-    if (blk.kind == BLOCK_SDEF) {
-        sdefs[b].applied = applied_stress_sum(first, end);
+    if (blk.kind != BLOCK_SDEF) {
+        let f = force_sum(blk, first, end);
+        blocks[b].fx = f.x;
+        blocks[b].fy = f.y;
+        blocks[b].moment = f.z;
+        return;
     }
+    let s = force_sum_sdef(blk, first, end);
+    blocks[b].fx = s.force.x;
+    blocks[b].fy = s.force.y;
+    blocks[b].moment = s.force.z;
+    sdefs[b].applied = s.applied;
 }

@@ -38,37 +38,42 @@ fn strained(e: array<real, 3>, r: vec2<real>) -> vec2<real> {
 // two strained edges, its centre on the bisector at radius / cos(½ turn) from the corner, so
 // that a contact on the straight parts moves with the strained edges (the lever arm of the
 // applied stress is the contact point). cos(½ turn) = √((1 + cos turn)/2), turn ∈ (−π, π): no
-// inverse trigonometry, which the f64 kernels do not have.
+// inverse trigonometry, which the f64 kernels do not have. One pass round the block with the
+// previous, current and next corner in registers: each corner's body-frame position is loaded
+// once (a software adapter loads each field of each lane on its own).
 fn geometry_update_strained(blk: Block, e: array<real, 3>) {
     let cs = sin_cos(blk.rotation);
     let start = blk.corner_start;
     let n = blk.corner_count;
-    for (var i = start; i < start + n; i += 1u) {
-        let p = strained(e, rotate(cs, corners[i].lx, corners[i].ly));
-        corners[i].px = p.x;
-        corners[i].py = p.y;
-    }
+    let first = strained(e, rotate(cs, corners[start].lx, corners[start].ly));
+    let last = start + n - 1u;
+    var prev = strained(e, rotate(cs, corners[last].lx, corners[last].ly));
+    var p = first;
     for (var k = 0u; k < n; k += 1u) {
         let i = start + k;
-        let ip = start + select(k - 1u, n - 1u, k == 0u);
-        let inx = start + select(k + 1u, 0u, k + 1u == n);
-        let p = vec2<real>(corners[i].px, corners[i].py);
-        let e1 = p - vec2<real>(corners[ip].px, corners[ip].py);
-        let e2 = vec2<real>(corners[inx].px, corners[inx].py) - p;
+        var next = first;
+        if (k + 1u < n) {
+            next = strained(e, rotate(cs, corners[i + 1u].lx, corners[i + 1u].ly));
+        }
+        let e1 = p - prev;
+        let e2 = next - p;
         let l1 = sqrt(dot(e1, e1));
         let l2 = sqrt(dot(e2, e2));
         let radius = corners[i].radius;
         var o = p;
         if (radius > 0.0 && l1 > 0.0 && l2 > 0.0) {
-            let cos_turn = dot(e1, e2) / (l1 * l2);
-            let half = sqrt(max(0.5 * (1.0 + cos_turn), 0.0));
+            let half = sqrt(max(0.5 * (1.0 + dot(e1, e2) / (l1 * l2)), 0.0));
             let bis = e2 / l2 - e1 / l1;
             let lb = sqrt(dot(bis, bis));
             if (lb > 0.0 && half > 0.0) {
                 o = p + bis / lb * (radius / half);
             }
         }
+        corners[i].px = p.x;
+        corners[i].py = p.y;
         corners[i].ox = o.x;
         corners[i].oy = o.y;
+        prev = p;
+        p = next;
     }
 }

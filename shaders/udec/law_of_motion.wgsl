@@ -253,8 +253,9 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
     let first = adj_offsets[b];
     let end = adj_offsets[b + 1u];
     var x = sdefs[b];
-    x.applied = applied_stress_sum(first, end);
-    var s = rigid_step(blk, force_sum(blk, first, end));
+    let sums = force_sum_sdef(blk, first, end);
+    x.applied = sums.applied;
+    var s = rigid_step(blk, sums.force);
     var theta = s.blk.rotation;
     if (EXACT_CIRCLE) {
         theta += s.blk.rotation_lo;

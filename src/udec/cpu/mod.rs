@@ -166,6 +166,18 @@ struct BlockInputs<'a> {
     dt: f64,
 }
 
+/// Stages 6, 1 and 2 of one rigid block, whose corners are `corners`: it sums its contact forces
+/// (unless they are current), takes its step and places its corners.
+#[inline]
+fn rigid_block(b: usize, block: &mut Block, corners: &mut [Corner], inp: &BlockInputs) -> StepOutcome {
+    if let Some((forces, adjacency)) = inp.gather {
+        gather::gather(b, block, forces, adjacency, inp.gravity);
+    }
+    let step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
+    geometry_update::geometry_update(block, corners);
+    step
+}
+
 /// Stages 6, 1 and 2 for the blocks `first .. first + blocks.len()`, whose corners are `corners`
 /// (each block's contiguous range, in block order): each block sums its contact forces, takes its
 /// step and places its corners — one pass over the blocks instead of three.
@@ -173,27 +185,21 @@ fn block_piece(first: usize, blocks: &mut [Block], mut corners: &mut [Corner], s
     for (j, (block, step)) in blocks.iter_mut().zip(steps.iter_mut()).enumerate() {
         let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
         corners = rest;
-        if let Some((forces, adjacency)) = inp.gather {
-            gather::gather(first + j, block, forces, adjacency, inp.gravity);
-        }
-        *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
-        geometry_update::geometry_update(block, mine);
+        *step = rigid_block(first + j, block, mine, inp);
     }
 }
 
 /// [`block_piece`] in a scene with simply-deformable blocks: `sdef` is the extension of `blocks`
 /// (as long); an SDEF block also sums its applied stress (stage 6), steps its strain after its
-/// rigid motion (stage 1, `model::sdef::internal_step`) and places its corners strained.
+/// rigid motion (stage 1, `model::sdef::internal_step`, the strain's motion of its corners
+/// counted by `model::sdef::count_strain_travel`) and places its corners strained. The GPU's twin
+/// is `law_of_motion_sdef`.
 fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut corners: &mut [Corner], steps: &mut [StepOutcome], inp: &BlockInputs) {
     for (j, ((block, s), step)) in blocks.iter_mut().zip(sdef.iter_mut()).zip(steps.iter_mut()).enumerate() {
         let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
         corners = rest;
         if block.kind != BlockKind::SimplyDeformable {
-            if let Some((forces, adjacency)) = inp.gather {
-                gather::gather(first + j, block, forces, adjacency, inp.gravity);
-            }
-            *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
-            geometry_update::geometry_update(block, mine);
+            *step = rigid_block(first + j, block, mine, inp);
             continue;
         }
         if let Some((forces, adjacency)) = inp.gather {
@@ -203,13 +209,7 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
         if !block.fixed {
             let mat = &inp.materials[crate::udec::model::material_slot(block.material, inp.materials.len())].block;
             crate::udec::model::sdef::internal_step(s, mat, block.area, block.rotation, inp.alpha_internal, inp.dt);
-            // The strain moves the corners too: this step's share past the rigid travel, and
-            // since the last contact update past the rigid net displacement (report ¶26's
-            // tolerance covers every motion of a corner).
-            use crate::udec::model::sdef::strain_travel;
-            step.corner_travel += strain_travel(s.strain_rate.map(|e| e * inp.dt), block.radius);
-            let since = [s.strain[0] - s.update_strain[0], s.strain[1] - s.update_strain[1], s.strain[2] - s.update_strain[2]];
-            block.moved_since_update = block.moved_since_update.max(block.net_since_update() + strain_travel(since, block.radius));
+            crate::udec::model::sdef::count_strain_travel(s, block, &mut step.corner_travel, inp.dt);
         } else {
             s.strain_rate = [0.0; 3];
         }

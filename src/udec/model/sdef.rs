@@ -84,6 +84,18 @@ pub fn strain_travel(d: [f64; 3], radius: f64) -> f64 {
     largest.abs().max(smallest.abs()) * radius
 }
 
+/// The strain's motion of a block's corners after its step (the report's ¶26 tolerance covers
+/// every motion of a corner): this step's share is added to `corner_travel` (the too-fast
+/// check), and the strain since the block's last contact update, past its rigid net
+/// displacement, to its `moved_since_update`. Twin of the lines of `law_of_motion_sdef` that
+/// follow `internal_step`.
+#[inline]
+pub fn count_strain_travel(s: &Sdef, block: &mut super::Block, corner_travel: &mut f64, dt: f64) {
+    *corner_travel += strain_travel(s.strain_rate.map(|e| e * dt), block.radius);
+    let since = [s.strain[0] - s.update_strain[0], s.strain[1] - s.update_strain[1], s.strain[2] - s.update_strain[2]];
+    block.moved_since_update = block.moved_since_update.max(block.net_since_update() + strain_travel(since, block.radius));
+}
+
 /// Lamé's λ in plane strain from the bulk and shear moduli.
 #[inline]
 pub fn lame_lambda(bulk: f64, shear: f64) -> f64 {
