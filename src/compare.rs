@@ -63,6 +63,9 @@ pub struct Comparison {
     /// Velocity difference (m/s), relative to the largest speed of the reference, or where larger
     /// (a model come to rest) to √(2E/M), E the largest energy term and M the free blocks' mass.
     pub velocity: Largest,
+    /// Internal stress of the simply-deformable blocks (Pa; the largest component difference),
+    /// relative to the largest stress component of the reference; None without SDEF blocks.
+    pub stress: Option<Largest>,
     /// Kinetic, strain, external work, dissipated (damping + friction) and released energy:
     /// difference (J) and relative to the largest term of the reference.
     pub energy: Vec<(String, f64, f64)>,
@@ -117,6 +120,17 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
             larger(&mut c.rotation, (x.rotation - y.rotation).abs(), 1.0, x.id);
             larger(&mut c.velocity, (x.velocity[0] - y.velocity[0]).hypot(x.velocity[1] - y.velocity[1]), speed, x.id);
         }
+        if a.has_sdef() {
+            let stresses = |m: &Model| (0..m.blocks.len()).map(|k| m.sdef_of(k).map_or([0.0; 3], |s| s.stress)).collect::<Vec<_>>();
+            let (sa, sb) = (stresses(a), stresses(b));
+            let top = sa.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+            let mut l = Largest::default();
+            for ((x, y), blk) in sa.iter().zip(&sb).zip(&a.blocks) {
+                let d = x.iter().zip(y).fold(0.0f64, |m, (p, q)| if (p - q).is_nan() { f64::NAN } else { m.max((p - q).abs()) });
+                larger(&mut l, d, top, blk.id);
+            }
+            c.stress = Some(l);
+        }
     } else {
         // Not the same blocks: no block-by-block comparison.
         let nan = Largest { value: f64::NAN, relative: f64::NAN, block: 0 };
@@ -165,13 +179,16 @@ pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
     let _ = writeln!(s, "gpu / cpu wall time: {:.2}x", c.time_ratio);
     let _ = writeln!(s);
     if c.same_blocks {
-        let rows = [("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")]
-            .map(|(name, l, unit, over)| (name, format!("{:.3e} {unit}", l.value), format!("{:.2e} {over}", l.relative), l.block));
+        let mut rows =
+            vec![("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")];
+        rows.extend(c.stress.map(|l| ("stress (SDEF)", l, "Pa", "of the largest stress")));
+        let rows: Vec<_> =
+            rows.into_iter().map(|(name, l, unit, over)| (name, format!("{:.3e} {unit}", l.value), format!("{:.2e} {over}", l.relative), l.block)).collect();
         // Columns as wide as their widest cell, so that every row's block lines up.
         let wide = |cells: &mut dyn Iterator<Item = usize>, title: &str| cells.max().unwrap_or(0).max(title.len());
         let (vw, rw) = (wide(&mut rows.iter().map(|r| r.1.chars().count()), "value"), wide(&mut rows.iter().map(|r| r.2.chars().count()), "relative"));
         let _ = writeln!(s, "{:<20} {:<vw$} {:<rw$} block", "largest difference", "value", "relative");
-        for (name, value, relative, block) in rows {
+        for (name, value, relative, block) in &rows {
             let _ = writeln!(s, "{name:<20} {value:<vw$} {relative:<rw$} {block}");
         }
     } else {

@@ -56,3 +56,24 @@ fn the_rows_of_largest_differences_line_up() {
         assert_eq!(row.rfind(' ').map(|i| i + 1), Some(block), "{text}");
     }
 }
+
+/// With simply-deformable blocks the internal stresses are compared too (issue 28 item 7): the
+/// largest component difference, relative to the largest stress of the reference, and its block.
+#[test]
+fn sdef_stresses_are_compared() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 K=1E8 G=6E7 F=0.5\nROUND 0.05\nGRAV 0 -10\nBLOCK 0,0 0,1 4,1 4,0\nBLOCK 1,1 1,2 2,2 2,1\n\
+                FIX 0 4 0 0.9\nCHANGE 0 4 1 2 SDEF\nCYCLE 300\n";
+    let a = outcome(deck);
+    assert!(compare(&a, &a).stress.is_some_and(|l| l.value == 0.0), "{:?}", compare(&a, &a).stress);
+    let mut b = a.clone();
+    let top = a.model.sdef[1].stress.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert!(top > 0.0);
+    b.model.sdef[1].stress[2] += 0.5 * top;
+    let c = compare(&a, &b);
+    let l = c.stress.expect("a stress row");
+    assert_eq!(l.block, 2);
+    assert!((l.relative - 0.5).abs() < 1e-12, "{l:?}");
+    assert!(table(&a, &b, &c).contains("stress (SDEF)"), "{}", table(&a, &b, &c));
+    // A rigid scene has no stress row.
+    assert!(compare(&outcome(DECK), &outcome(DECK)).stress.is_none());
+}
