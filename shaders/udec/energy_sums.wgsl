@@ -51,6 +51,15 @@ fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
             }
         }
     }
+    let t = workgroup_sum(li, e);
+    if (li == 0u) {
+        energy_sums_out[workgroup_index(wg)] = EnergySum(t.x, t.y, t.z);
+    }
+}
+
+// The sum of every invocation's `e` in the workgroup, by a fixed binary tree (so it repeats bit
+// for bit); called by every invocation (it holds barriers), meaningful in invocation 0.
+fn workgroup_sum(li: u32, e: vec3<real>) -> vec3<real> {
     partial[li] = e;
     workgroupBarrier();
     for (var s = WORKGROUP_SIZE / 2u; s > 0u; s = s >> 1u) {
@@ -59,10 +68,7 @@ fn energy_sums(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
         }
         workgroupBarrier();
     }
-    if (li == 0u) {
-        let t = partial[0];
-        energy_sums_out[workgroup_index(wg)] = EnergySum(t.x, t.y, t.z);
-    }
+    return partial[0];
 }
 
 // The energy check's share of simply-deformable blocks, dispatched after `energy_sums` on the
@@ -93,17 +99,10 @@ fn energy_sums_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
             e.y += 0.5 * x.area * (x.stress[0] * x.strain[0] + 2.0 * x.stress[1] * x.strain[1] + x.stress[2] * x.strain[2]);
         }
     }
-    partial[li] = e;
-    workgroupBarrier();
-    for (var s = WORKGROUP_SIZE / 2u; s > 0u; s = s >> 1u) {
-        if (li < s) {
-            partial[li] += partial[li + s];
-        }
-        workgroupBarrier();
-    }
+    let t = workgroup_sum(li, e);
     if (li == 0u) {
         let w = workgroup_index(wg);
-        energy_sums_out[w].kinetic += partial[0].x;
-        energy_sums_out[w].strain += partial[0].y;
+        energy_sums_out[w].kinetic += t.x;
+        energy_sums_out[w].strain += t.y;
     }
 }

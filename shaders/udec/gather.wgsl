@@ -46,12 +46,8 @@ fn force_sum(blk: Block, first: u32, end: u32) -> vec3<real> {
     return f;
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let b = item_index(wg, li);
-    if (b >= params.n_blocks) {
-        return;
-    }
+// Stage 6 of block b, its sums stored (a block with a long list is `gather_heavy`'s).
+fn gather_block(b: u32) {
     let blk = blocks[b];
     let first = adj_offsets[b];
     let end = adj_offsets[b + 1u];
@@ -62,6 +58,15 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     blocks[b].fx = f.x;
     blocks[b].fy = f.y;
     blocks[b].moment = f.z;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    gather_block(b);
 }
 
 var<workgroup> shares: array<vec3<real>, HEAVY_WORKGROUP_SIZE>;
@@ -128,9 +133,9 @@ fn force_sum_sdef(blk: Block, first: u32, end: u32) -> SdefForces {
     return SdefForces(f, a);
 }
 
-// `gather` in a scene with simply-deformable blocks: an SDEF block's force and moment summed in
-// list order whatever its list's length (`gather_heavy` may have summed a long one too: the two
-// agree to rounding), and its applied stress stored with them.
+// `gather` in a scene with simply-deformable blocks: a rigid block as `gather` sums it; an SDEF
+// block's force and moment in list order whatever its list's length (`gather_heavy` may have
+// summed a long one too: the two agree to rounding), its applied stress stored with them.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gather_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);
@@ -138,19 +143,11 @@ fn gather_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
         return;
     }
     let blk = blocks[b];
-    let first = adj_offsets[b];
-    let end = adj_offsets[b + 1u];
-    if (blk.kind != BLOCK_SDEF && is_heavy(first, end)) {
-        return;
-    }
     if (blk.kind != BLOCK_SDEF) {
-        let f = force_sum(blk, first, end);
-        blocks[b].fx = f.x;
-        blocks[b].fy = f.y;
-        blocks[b].moment = f.z;
+        gather_block(b);
         return;
     }
-    let s = force_sum_sdef(blk, first, end);
+    let s = force_sum_sdef(blk, adj_offsets[b], adj_offsets[b + 1u]);
     blocks[b].fx = s.force.x;
     blocks[b].fy = s.force.y;
     blocks[b].moment = s.force.z;
