@@ -435,14 +435,8 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
     let _p = crate::profile::scope(crate::profile::Stage::Cracking);
     let mut found = Vec::new();
     for b in 0..model.blocks.len() {
-        if topology::cracking::is_point_load_candidate(model, b) {
-            if let Some(c) = topology::find_point_load_crack(model, adjacency, b) {
-                found.push((model.blocks[b].id, c));
-            }
-        } else if topology::cracking::is_griffith_candidate(model, b) {
-            if let Some(c) = topology::find_griffith_crack(model, b) {
-                found.push((model.blocks[b].id, c));
-            }
+        if let Some(c) = topology::find_crack(model, adjacency, b) {
+            found.push((model.blocks[b].id, c));
         }
     }
     let mut changed = false;
@@ -453,10 +447,7 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
         let before = model.next_block_id;
         if model.retire_energy_around(|m| topology::apply_crack(m, &crack)).is_some() {
             changed = true;
-            let criterion = match crack.law {
-                crate::udec::model::constitutive::CrackingLaw::PointLoad => "POINT-LOAD VALUE",
-                crate::udec::model::constitutive::CrackingLaw::Griffith => "GRIFFITH STRESS",
-            };
+            let criterion = crack.law.label();
             report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, criterion, value: crack.value, from: crack.from, to: crack.to });
         }
     }

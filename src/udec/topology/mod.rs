@@ -7,7 +7,7 @@ pub mod cracking;
 pub mod detect;
 
 pub use adjacency::Adjacency;
-pub use cracking::{apply_crack, find_griffith_crack, find_point_load_crack, PointLoadCrack};
+pub use cracking::{apply_crack, find_crack, Crack};
 pub use detect::{update_contacts, update_topology, BlockGrid, ListEdit};
 
 /// What stage 7 keeps between contact updates, three things apart: the per-block contact lists
