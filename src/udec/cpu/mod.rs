@@ -297,20 +297,10 @@ impl Backend for CpuBackend {
     /// team of threads sized to the model the start's detection leaves.
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let mut report = CycleReport::default();
+        let mut start = CpuStart { topology: &mut self.topology, forces: &mut self.scratch.forces, last_good: &self.last_good, resumable: &mut self.resumable };
+        let resume = driver::prepare(&mut start, model, &mut report)?;
         let mut kept = std::mem::take(&mut self.last_good);
         let mut topology = std::mem::take(&mut self.topology);
-        let resumable = std::mem::take(&mut self.resumable);
-        let mut start = CpuStart { topology: &mut topology, forces: &mut self.scratch.forces, resumable };
-        let resume = match driver::prepare(&mut start, model, &kept, &mut report) {
-            Ok(resume) => resume,
-            Err(e) => {
-                // Refused before it began (the time step): the backend is as it was.
-                self.resumable = start.resumable;
-                self.last_good = kept;
-                self.topology = topology;
-                return Err(e);
-            }
-        };
         let scratch = &mut self.scratch;
         let result = team::with_team(team_size(model), |team| {
             let mut stages = CpuStages { topology: &mut topology, scratch, team, gathered: true };
@@ -325,17 +315,18 @@ impl Backend for CpuBackend {
     }
 }
 
-/// The CPU's start of a run (before its team exists): the resume test's flag and the full
-/// detection.
+/// The CPU's start of a run (before its team exists): the resume test's flag and state, and the
+/// full detection.
 struct CpuStart<'a> {
     topology: &'a mut Topology,
     forces: &'a mut Vec<ContactForce>,
-    resumable: bool,
+    last_good: &'a Model,
+    resumable: &'a mut bool,
 }
 
 impl driver::Start<Model> for CpuStart<'_> {
-    fn take_resumable(&mut self) -> bool {
-        std::mem::take(&mut self.resumable)
+    fn take_resumable(&mut self) -> Option<&Model> {
+        std::mem::take(self.resumable).then_some(self.last_good)
     }
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {

@@ -242,31 +242,19 @@ impl<R: Real> Engine<R> {
     /// (`GpuRun`).
     pub(super) fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let mut report = CycleReport::default();
-        let topology = std::mem::take(&mut self.topology);
-        let mut last_good = std::mem::take(&mut self.last_good);
         let mut run = GpuRun {
             engine: self,
-            topology,
+            topology: Topology::default(),
             batch_cap: driver::CHECK_INTERVAL,
             busy: false,
             expected_update: None,
             last_good_generation: (0, 0),
-            started: false,
         };
-        let resume = match driver::prepare(&mut run, model, &last_good, &mut report) {
-            Ok(resume) => resume,
-            Err(e) => {
-                // Refused before the start (the time step, a model past the binding limit or
-                // the precision's range): the backend is as it was. A start that failed (an
-                // upload) leaves no contact lists to go on from.
-                let GpuRun { topology, started, .. } = run;
-                self.last_good = last_good;
-                if !started {
-                    self.topology = topology;
-                }
-                return Err(e);
-            }
-        };
+        // Refused before the start (the time step, a model past the binding limit or the
+        // precision's range), the backend is as it was; a start that failed (an upload) leaves
+        // no contact lists to go on from.
+        let resume = driver::prepare(&mut run, model, &mut report)?;
+        let mut last_good = std::mem::take(&mut run.engine.last_good);
         let result = driver::cycles(&mut run, model, cycles, resume, &mut last_good, &mut report, progress);
         let GpuRun { topology, .. } = run;
         // (On a failure the last good state went back into the model, and nothing is kept.)
@@ -297,13 +285,12 @@ struct GpuRun<'a, R: Real> {
     /// The topology's generations when the last good state's CPU copy was taken
     /// (`take_checkpoint_of`).
     last_good_generation: (u64, u64),
-    /// `start` was called (the contact lists are the run's from then on).
-    started: bool,
 }
 
 impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
-    fn take_resumable(&mut self) -> bool {
-        std::mem::take(&mut self.engine.resumable) && self.engine.buffers.is_some()
+    fn take_resumable(&mut self) -> Option<&Model> {
+        let e = &mut *self.engine;
+        (std::mem::take(&mut e.resumable) && e.buffers.is_some()).then_some(&e.last_good)
     }
 
     /// A model whose blocks or corners alone are past the adapter's binding limit is refused
@@ -332,7 +319,8 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// moves by itself, as every cycle does: nothing else is summed after an upload or an
     /// update.) The device checkpoint of an earlier run is no longer this run's.
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
-        self.started = true;
+        // The contact lists are the run's from here on.
+        self.topology = std::mem::take(&mut self.engine.topology);
         let e = &mut *self.engine;
         if resume {
             e.write_params(model);
