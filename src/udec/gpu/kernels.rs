@@ -185,14 +185,11 @@ pub struct Pipelines {
 
 impl Pipelines {
     /// Validates every kernel with naga first (clear errors), then builds the pipelines inside
-    /// validation and internal error scopes, so a driver's rejection is an error value at set-up,
-    /// not a panic or a failure at the first cycle. (NVIDIA's GL through EGL gives wgpu 30 a GL
-    /// 3.3 context that advertises compute shaders, and its shader translation then refuses every
-    /// kernel with an *internal* error: seen on an H100, 2026-11-26.)
+    /// error scopes (`GpuDevice::creation_scopes`), so a driver's rejection is an error value at
+    /// set-up, not a panic or a failure at the first cycle.
     pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
         let device = &dev.device;
-        let internal = device.push_error_scope(wgpu::ErrorFilter::Internal);
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let scopes = dev.creation_scopes();
         let layouts = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| layouts(device, label, entries);
         // The splice's bindings: the old list and records, the runs, the created contacts and
         // records (read), the new list and records (written), the patches (read).
@@ -260,13 +257,7 @@ impl Pipelines {
             list_contacts: make_on(&lists_pipeline_layout, "list_blocks", "list_contacts")?,
             lists_layout,
         };
-        let rejected = [pollster::block_on(scope.pop()), pollster::block_on(internal.pop())];
-        if let Some(e) = rejected.into_iter().flatten().next() {
-            return Err(GpuError::Shader(format!(
-                "the driver of {} ({} {}) rejected a kernel: {e}",
-                dev.summary.name, dev.summary.backend, dev.summary.driver_info
-            )));
-        }
+        scopes.check(dev)?;
         Ok(pipelines)
     }
 }
