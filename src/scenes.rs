@@ -30,6 +30,26 @@ pub fn brick_wall_deck(rows: usize, bricks: usize, w: f64, h: f64, kn: f64, fric
     BrickWall { rows, bricks, brick: [w, h], kn, friction, ..BrickWall::default() }.deck()
 }
 
+/// The bulk and shear moduli (Pa) of the simply-deformable scenes' material.
+pub const SDEF_K: f64 = 1e8;
+pub const SDEF_G: f64 = 6e7;
+
+/// A 1 m square simply-deformable block on a fixed base under a rigid platen loaded by `load`
+/// (N, downwards positive), no gravity, critically damped (mass and internal damping); pulled
+/// (`load` < 0) the contacts are glued (cohesion, friction), which restrain the block's sides,
+/// pushed they are frictionless, so that its sides are free (uniaxial stress). Every block has
+/// constitutive number `cons`, the material TF = `tf` (SDEF_K, SDEF_G). `settings` are deck
+/// lines placed before the blocks (a FRACTION); the deck stops before any CYCLE.
+pub fn sdef_platen_deck(load: f64, tf: f64, cons: u32, settings: &str) -> String {
+    let glue = if load < 0.0 { "F=0.5 COH=1E9" } else { "F=0" };
+    format!(
+        "START\nPROP MAT=1 DENS=2000 K={SDEF_K:e} G={SDEF_G:e} KN=1E11 KS=1E11 {glue}\nPROP MAT=1 TF={tf:e}\nROUND 0.01\n{settings}\
+         BLOCK CONS={cons} (0,-1) (0,0) (3,0) (3,-1)\nBLOCK CONS={cons} (1,0) (1,1) (2,1) (2,0)\nBLOCK CONS={cons} (0.5,1) (0.5,1.5) (2.5,1.5) (2.5,1)\n\
+         CHANGE 0 3 0 1 SDEF\nFIX -1 4 -2 -0.2\nLOAD 0 3 1 1.5 0 {}\nDAMP 1 90 MASS\nDAMP 1 90 INTERNAL\n",
+        -load
+    )
+}
+
 /// A brick wall in running bond on a fixed ground block (the scene of `brick_wall_deck`, the
 /// verification suite and `blockdem bench`): `rows` rows of bricks `brick` = [w, h]; even rows
 /// (counting from 0 at the bottom) hold `bricks` whole bricks, odd rows a half brick, `bricks − 1`

@@ -5,7 +5,7 @@
 
 mod common;
 
-use blockdem::scenes::run_deck_on;
+use blockdem::scenes::{run_deck_on, sdef_platen_deck, SDEF_G as G, SDEF_K as K};
 use blockdem::udec::backend::Backend;
 use blockdem::udec::cpu::CpuBackend;
 use blockdem::udec::model::sdef::{elastic_stress, least_moment, strain_inertia};
@@ -16,21 +16,10 @@ fn cpu() -> Box<dyn Backend> {
     Box::new(CpuBackend::new())
 }
 
-const K: f64 = 1e8;
-const G: f64 = 6e7;
-
-/// A 1 m square SDEF block on a fixed base with a rigid platen on top loaded by `load` (N,
-/// downwards positive), no gravity, damped to rest; `extra` goes before the CYCLE. Pulled
-/// (`load` < 0), the contacts are bonded with a cohesion and friction, which restrain the
-/// block's sides; pushed, they are frictionless, so that its sides are free (uniaxial stress).
-fn platen_deck(load: f64, tf: f64, cons: u32, cycles: u32, extra: &str) -> String {
-    let glue = if load < 0.0 { "F=0.5 COH=1E9" } else { "F=0" };
-    format!(
-        "START\nPROP MAT=1 DENS=2000 K={K:e} G={G:e} KN=1E11 KS=1E11 {glue}\nPROP MAT=1 TF={tf:e}\nROUND 0.01\n\
-         BLOCK CONS={cons} (0,-1) (0,0) (3,0) (3,-1)\nBLOCK CONS={cons} (1,0) (1,1) (2,1) (2,0)\nBLOCK CONS={cons} (0.5,1) (0.5,1.5) (2.5,1.5) (2.5,1)\n\
-         CHANGE 0 3 0 1 SDEF\nFIX -1 4 -2 -0.2\nLOAD 0 3 1 1.5 0 {}\nDAMP 1 90 MASS\nDAMP 1 90 INTERNAL\n{extra}CYCLE {cycles}\n",
-        -load
-    )
+/// The platen scene (`scenes::sdef_platen_deck`: a 1 m square SDEF block between a fixed base
+/// and a rigid platen loaded by `load`, damped to rest), then `cycles` cycles.
+fn platen_deck(load: f64, tf: f64, cons: u32, cycles: u32) -> String {
+    format!("{}CYCLE {cycles}\n", sdef_platen_deck(load, tf, cons, ""))
 }
 
 fn sdef_block(m: &Model) -> usize {
@@ -42,7 +31,7 @@ fn sdef_block(m: &Model) -> usize {
 /// ε22 = σ22 (λ+2G)/((λ+2G)² − λ²), ε11 = −λ/(λ+2G) ε22.
 fn uniaxial_stress_and_strain_match_plane_strain(t: &Target) {
     let f = 2e5;
-    let m = t.run(&platen_deck(f, 0.0, 1, 6000, ""));
+    let m = t.run(&platen_deck(f, 0.0, 1, 6000));
     let b = sdef_block(&m);
     let s = m.sdef[b];
     let sigma = -f / 1.0;
@@ -122,7 +111,7 @@ fn griffith_threshold_in_compression(t: &Target) {
     let threshold = 8.0 * tf;
     // Loaded in two steps (the second small), so the damped overshoot stays far below 2%.
     let deck = |f: f64| {
-        let first = platen_deck(0.9 * threshold, tf, 3, 4000, "");
+        let first = platen_deck(0.9 * threshold, tf, 3, 4000);
         format!("{first}LOAD 0 3 1 1.5 0 {}\nCYCLE 4000\n", -f)
     };
     let below = t.run(&deck(0.98 * threshold));
@@ -141,7 +130,7 @@ fn griffith_threshold_in_compression(t: &Target) {
 fn griffith_threshold_in_tension(t: &Target) {
     let tf = 5e4;
     let deck = |f: f64| {
-        let first = platen_deck(-0.9 * tf, tf, 3, 4000, "");
+        let first = platen_deck(-0.9 * tf, tf, 3, 4000);
         format!("{first}LOAD 0 3 1 1.5 0 {f}\nCYCLE 4000\n")
     };
     let below = t.run(&deck(0.98 * tf));
@@ -179,7 +168,7 @@ fn the_ledger_balances_with_sdef_blocks(t: &Target) {
 /// PRINT BLOCKS shows an SDEF block's type line and its strain-rate, internal- and applied-stress
 /// rows; the state JSON its kind, stress and strain.
 fn outputs_show_sdef_blocks(t: &Target) {
-    let deck = format!("{}PRINT BLOCKS\n", platen_deck(1e5, 0.0, 1, 200, ""));
+    let deck = format!("{}PRINT BLOCKS\n", platen_deck(1e5, 0.0, 1, 200));
     let mut log = Vec::new();
     let m = blockdem::scenes::run_deck_logged(&deck, t.backend(), Box::new(&mut log)).unwrap();
     let text = String::from_utf8(log).unwrap();
@@ -202,8 +191,8 @@ fn save_and_restart_keep_the_strain() {
     let dir = std::env::temp_dir().join(format!("blockdem-sdef-save-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("s.sav");
-    let whole = run_deck_on(&format!("{}CYCLE 300\n", platen_deck(1e5, 0.0, 1, 300, "")), cpu()).unwrap();
-    let first = run_deck_on(&format!("{}SAVE {}\n", platen_deck(1e5, 0.0, 1, 300, ""), file.display()), cpu()).unwrap();
+    let whole = run_deck_on(&format!("{}CYCLE 300\n", platen_deck(1e5, 0.0, 1, 300)), cpu()).unwrap();
+    let first = run_deck_on(&format!("{}SAVE {}\n", platen_deck(1e5, 0.0, 1, 300), file.display()), cpu()).unwrap();
     let loaded = blockdem::udec::output::load(&file).unwrap();
     assert!(loaded.model == first, "the saved model is the model");
     let resumed = run_deck_on(&format!("RESTART {}\nCYCLE 300\n", file.display()), cpu()).unwrap();

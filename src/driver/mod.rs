@@ -17,7 +17,10 @@
 //!    the error naming the cause ([`EnergyCheck::roll_back`]).
 //!
 //! `prepare` and `cycles` are two calls because the CPU backend sizes its team of threads on the
-//! model the full detection leaves, and runs the cycles inside that team's scope.
+//! model the full detection leaves, and runs the cycles inside that team's scope. `prepare` only
+//! borrows what the backend keeps from run to run (its last good state, through
+//! [`Start::take_resumable`]), so a run refused there leaves the backend as it was with nothing
+//! to restore; a backend takes its last good state for `cycles` once `prepare` has passed.
 //!
 //! The driver sits below the backends (they call it from `Backend::run`) and below the engines:
 //! it knows the stages' contract and what it asks of a model ([`RunModel`]: the cycle, the time
@@ -63,9 +66,9 @@ const ENERGY_GROWTH_FACTOR: f64 = 2.0;
 
 /// What a backend does to begin a run (step 1, [`prepare`]).
 pub trait Start<M: RunModel> {
-    /// Whether the state the last run left is still the backend's to go on from (it ended well
-    /// and holds it); taken (reset) by the call.
-    fn take_resumable(&mut self) -> bool;
+    /// The state the last run left, when it is still the backend's to go on from (that run
+    /// ended well and the backend holds it): its last good state. Taken (reset) by the call.
+    fn take_resumable(&mut self) -> Option<&M>;
 
     /// The backend's own preconditions on the model, after the time step's.
     fn preflight(&mut self, _model: &M) -> Result<(), CycleError> {
@@ -115,12 +118,12 @@ pub trait Stages<M: RunModel> {
 }
 
 /// Step 1 of a run: the checks, the resume test and the start. Returns whether the run resumes.
-pub fn prepare<M: RunModel, S: Start<M> + ?Sized>(stages: &mut S, model: &mut M, last_good: &M, report: &mut CycleReport) -> Result<bool, CycleError> {
+pub fn prepare<M: RunModel, S: Start<M> + ?Sized>(stages: &mut S, model: &mut M, report: &mut CycleReport) -> Result<bool, CycleError> {
     if model.timestep() <= 0.0 || !model.timestep().is_finite() {
         return Err(CycleError::Setup("the time step is not set".into()));
     }
     stages.preflight(model)?;
-    let resume = stages.take_resumable() && *model == *last_good;
+    let resume = stages.take_resumable().is_some_and(|last| *model == *last);
     stages.start(model, resume, report)?;
     Ok(resume)
 }

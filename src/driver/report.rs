@@ -31,7 +31,8 @@ impl CycleReport {
 }
 
 /// A crack formed during a run: the block cracked, the piece it gave, and the criterion's value
-/// (`criterion` names it, as the log prints it: "POINT-LOAD VALUE", "GRIFFITH STRESS").
+/// (`criterion` names it, as the log prints it: the cracking law's label, "POINT-LOAD VALUE" or
+/// "GRIFFITH STRESS").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CrackEvent {
     pub cycle: u64,

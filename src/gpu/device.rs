@@ -199,6 +199,30 @@ fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
     (kind, backend)
 }
 
+/// The error scopes of [`GpuDevice::creation_scopes`], the innermost first (so that, dropped
+/// unchecked on an early return, they close in order).
+#[must_use = "the scopes are checked with `check`"]
+pub struct CreationScopes {
+    validation: wgpu::ErrorScopeGuard,
+    internal: wgpu::ErrorScopeGuard,
+}
+
+impl CreationScopes {
+    /// Closes the scopes: what the driver rejected within them, as `GpuError::Shader` naming the
+    /// adapter.
+    pub fn check(self, dev: &GpuDevice) -> Result<(), GpuError> {
+        let CreationScopes { validation, internal } = self;
+        let rejected = [pollster::block_on(validation.pop()), pollster::block_on(internal.pop())];
+        match rejected.into_iter().flatten().next() {
+            Some(e) => Err(GpuError::Shader(format!(
+                "the driver of {} ({} {}) rejected a kernel: {e}",
+                dev.summary.name, dev.summary.backend, dev.summary.driver_info
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
 /// A device ready for the kernels.
 pub struct GpuDevice {
     pub device: wgpu::Device,
@@ -302,6 +326,17 @@ impl GpuDevice {
             }
         }));
         Ok(GpuDevice { device, queue, summary, precision, uncaptured, staging: std::sync::Mutex::new(None), read_bytes: Default::default() })
+    }
+
+    /// Opens validation and internal error scopes for the creation of shader modules and
+    /// pipelines: [`CreationScopes::check`] then turns a driver's rejection into an error value
+    /// at set-up, not a panic or a failure at the first dispatch. (NVIDIA's GL through EGL gives
+    /// wgpu 30 a GL 3.3 context that advertises compute shaders, and its shader translation then
+    /// refuses every kernel with an *internal* error: seen on an H100, 2026-11-26.)
+    pub fn creation_scopes(&self) -> CreationScopes {
+        let internal = self.device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        CreationScopes { validation, internal }
     }
 
     /// Waits for all submitted work, at most `WAIT_TIMEOUT`.

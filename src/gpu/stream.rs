@@ -84,6 +84,8 @@ pub fn stream_bandwidth(dev: &GpuDevice) -> Result<StreamBandwidth, GpuError> {
     let sizes = if sizes.is_empty() { vec![(limit.min(64 << 20)) & !15] } else { sizes };
     let device = &dev.device;
     let src = wgsl::stream_copy_source();
+    // In error scopes like every kernel's (a driver that refuses it gives an error, not a panic).
+    let scopes = dev.creation_scopes();
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("stream_copy"), source: wgpu::ShaderSource::Wgsl(src.into()) });
     let (layout, pipeline_layout) = wgsl::layouts(device, "stream_copy", &[wgsl::storage(0, true), wgsl::storage(1, false)]);
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -94,6 +96,7 @@ pub fn stream_bandwidth(dev: &GpuDevice) -> Result<StreamBandwidth, GpuError> {
         compilation_options: Default::default(),
         cache: None,
     });
+    scopes.check(dev)?;
     let mut out = StreamBandwidth::default();
     for size in sizes {
         let make = |label: &str, usage: wgpu::BufferUsages| {

@@ -12,6 +12,7 @@ use std::f64::consts::PI;
 use std::fmt::Write as _;
 
 use super::{energy_balance, Ctx, Failure, Measured};
+use crate::scenes::{SDEF_G, SDEF_K};
 use crate::udec::model::Model;
 
 /// One closed-form problem.
@@ -536,22 +537,10 @@ fn joint_shear(ctx: &Ctx) -> Result<Measured, Failure> {
     Ok(Measured { error: worst, detail, cost, energy_balance: None })
 }
 
-/// The moduli of the simply-deformable cases.
-const SDEF_K: f64 = 1e8;
-const SDEF_G: f64 = 6e7;
-
-/// A 1 m square simply-deformable block on a fixed base under a rigid platen loaded by `load`
-/// (N, downwards positive), no gravity, critically damped; pulled (`load` < 0) the contacts are
-/// glued (cohesion, friction), pushed they are frictionless so that the block's sides are free.
+/// The platen scene (`scenes::sdef_platen_deck`, Griffith's constitutive number 3) at this
+/// FRACTION.
 fn sdef_platen_deck(ctx: &Ctx, load: f64, tf: f64) -> String {
-    let glue = if load < 0.0 { "F=0.5 COH=1E9" } else { "F=0" };
-    format!(
-        "START\nPROP MAT=1 DENS=2000 K={SDEF_K:e} G={SDEF_G:e} KN=1E11 KS=1E11 {glue}\nPROP MAT=1 TF={tf:e}\nROUND 0.01\n{}\
-         BLOCK CONS=3 (0,-1) (0,0) (3,0) (3,-1)\nBLOCK CONS=3 (1,0) (1,1) (2,1) (2,0)\nBLOCK CONS=3 (0.5,1) (0.5,1.5) (2.5,1.5) (2.5,1)\n\
-         CHANGE 0 3 0 1 SDEF\nFIX -1 4 -2 -0.2\nLOAD 0 3 1 1.5 0 {}\nDAMP 1 90 MASS\nDAMP 1 90 INTERNAL\n",
-        ctx.frac_line(),
-        -load
-    )
+    crate::scenes::sdef_platen_deck(load, tf, 3, &ctx.frac_line())
 }
 
 /// Cycles of the simply-deformable cases: 0.2 s of the UDEC time step at this FRACTION.

@@ -70,20 +70,28 @@ impl From<&Contact> for ContactForce {
     }
 }
 
-/// Sums the forces acting on `block` from its adjacency entries (`topology::Adjacency::entries`);
-/// `forces[k]` is contact k's (see [`ContactForce`]).
+/// The forces acting on a block from its adjacency entries (`topology::Adjacency::entries`), in
+/// the entries' fixed order: each contact's point and its force on this block, the contact force
+/// on block 1 and its reaction on block 2 (report ¶19). `forces[k]` is contact k's (see
+/// [`ContactForce`]).
+#[inline]
+pub fn forces_on<'a>(forces: &'a [ContactForce], entries: &'a [AdjacencyEntry]) -> impl Iterator<Item = ContactForce> + 'a {
+    entries.iter().map(|&entry| {
+        let contact = &forces[entry.contact() as usize];
+        let sign = if entry.side() == 0 { 1.0 } else { -1.0 };
+        ContactForce { point: contact.point, force: [sign * contact.force[0], sign * contact.force[1]] }
+    })
+}
+
+/// Sums the forces acting on `block` from its adjacency entries ([`forces_on`]), with gravity
+/// and its load.
 #[inline]
 pub fn gather(block: &mut Block, forces: &[ContactForce], entries: &[AdjacencyEntry], gravity: [f64; 2]) {
     let mut fx = block.mass * gravity[0] + block.load[0];
     let mut fy = block.mass * gravity[1] + block.load[1];
     let mut m = 0.0;
     let [cx, cy] = block.centroid;
-    for &entry in entries {
-        let contact = &forces[entry.contact() as usize];
-        // Block 1 receives the contact force, block 2 its reaction (report ¶19).
-        let sign = if entry.side() == 0 { 1.0 } else { -1.0 };
-        let [px, py] = contact.point;
-        let (gx, gy) = (sign * contact.force[0], sign * contact.force[1]);
+    for ContactForce { point: [px, py], force: [gx, gy] } in forces_on(forces, entries) {
         fx += gx;
         fy += gy;
         m += (px - cx) * gy - (py - cy) * gx;
@@ -93,17 +101,13 @@ pub fn gather(block: &mut Block, forces: &[ContactForce], entries: &[AdjacencyEn
 }
 
 /// The applied stress times area of a simply-deformable block (`model::sdef`, the report's KSA):
-/// Σ r_i f_j over its adjacency entries, in their fixed order, f the force on the block and r
-/// from its centroid to the contact point. Gravity and the load act at the centroid and add
-/// nothing.
+/// Σ r_i f_j over its adjacency entries ([`forces_on`]), f the force on the block and r from its
+/// centroid to the contact point. Gravity and the load act at the centroid and add nothing.
 #[inline]
 pub fn gather_applied_stress(block: &Block, forces: &[ContactForce], entries: &[AdjacencyEntry]) -> [f64; 4] {
     let mut a = [0.0; 4];
-    for &entry in entries {
-        let contact = &forces[entry.contact() as usize];
-        let sign = if entry.side() == 0 { 1.0 } else { -1.0 };
-        let g = [sign * contact.force[0], sign * contact.force[1]];
-        let da = crate::udec::model::sdef::applied_stress(contact.point, block.centroid, g);
+    for f in forces_on(forces, entries) {
+        let da = crate::udec::model::sdef::applied_stress(f.point, block.centroid, f.force);
         for (a, d) in a.iter_mut().zip(da) {
             *a += d;
         }

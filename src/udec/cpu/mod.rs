@@ -22,7 +22,7 @@ use crate::driver;
 use crate::udec::backend::{Backend, CrackEvent, CycleError, CycleReport};
 use crate::udec::model::sdef::Sdef;
 use crate::udec::model::{Block, BlockKind, Corner, Material, Model};
-use crate::udec::topology::{self, Adjacency};
+use crate::udec::topology::{self, Adjacency, Topology};
 
 use crate::udec::contact::gather::ContactForce;
 use contact_forces::contact_stage;
@@ -42,13 +42,14 @@ const MIN_CHUNK: usize = 64;
 
 #[derive(Default)]
 pub struct CpuBackend {
-    /// Per-block contact lists, rebuilt after every topology change.
-    adjacency: Adjacency,
+    /// Per-block contact lists, rebuilt after every topology change, and what stage 7 keeps with
+    /// them.
+    topology: Topology,
     scratch: Scratch,
     /// The last good state of the previous run, kept so that the next run copies into its
     /// storage rather than allocating a second model (hundreds of megabytes at 10⁶ blocks).
     last_good: Model,
-    /// The previous run ended well, so `last_good` is the state it left and `adjacency` its
+    /// The previous run ended well, so `last_good` is the state it left and `topology` its
     /// contact lists: a run on a model still equal to it goes on without a full detection.
     resumable: bool,
 }
@@ -128,11 +129,11 @@ fn corners_in_block_order(model: &Model) -> bool {
 }
 
 /// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
-pub(crate) fn maybe_update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, force: bool) -> bool {
+pub(crate) fn maybe_update_topology(model: &mut Model, topology: &mut Topology, report: &mut CycleReport, force: bool) -> bool {
     if !force && !topology_update_due(model) {
         return false;
     }
-    update_topology(model, adjacency, report, force);
+    update_topology(model, topology, report, force);
     true
 }
 
@@ -144,11 +145,11 @@ pub(crate) fn topology_update_due(model: &Model) -> bool {
 
 /// Stage 7: contact detection (all pairs when `full`, else around the blocks past the update
 /// tolerance) and the adjacency lists.
-fn update_topology(model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport, full: bool) {
+fn update_topology(model: &mut Model, topology: &mut Topology, report: &mut CycleReport, full: bool) {
     let _p = crate::profile::scope(if full { crate::profile::Stage::DetectFull } else { crate::profile::Stage::DetectUpdate });
     // Also keeps the adjacency lists, and moves the energy terms of contacts dropped while
     // loaded to the ledger's retired account.
-    let (created, dropped) = topology::update_topology(model, full, adjacency);
+    let (created, dropped) = topology::update_topology(model, full, topology);
     report.topology_updates += 1;
     report.contacts_created += created as u64;
     report.contacts_dropped += dropped as u64;
@@ -296,45 +297,36 @@ impl Backend for CpuBackend {
     /// team of threads sized to the model the start's detection leaves.
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let mut report = CycleReport::default();
+        let mut start = CpuStart { topology: &mut self.topology, forces: &mut self.scratch.forces, last_good: &self.last_good, resumable: &mut self.resumable };
+        let resume = driver::prepare(&mut start, model, &mut report)?;
         let mut kept = std::mem::take(&mut self.last_good);
-        let mut adjacency = std::mem::take(&mut self.adjacency);
-        let resumable = std::mem::take(&mut self.resumable);
-        let mut start = CpuStart { adjacency: &mut adjacency, forces: &mut self.scratch.forces, resumable };
-        let resume = match driver::prepare(&mut start, model, &kept, &mut report) {
-            Ok(resume) => resume,
-            Err(e) => {
-                // Refused before it began (the time step): the backend is as it was.
-                self.resumable = start.resumable;
-                self.last_good = kept;
-                self.adjacency = adjacency;
-                return Err(e);
-            }
-        };
+        let mut topology = std::mem::take(&mut self.topology);
         let scratch = &mut self.scratch;
         let result = team::with_team(team_size(model), |team| {
-            let mut stages = CpuStages { adjacency: &mut adjacency, scratch, team, gathered: true };
+            let mut stages = CpuStages { topology: &mut topology, scratch, team, gathered: true };
             driver::cycles(&mut stages, model, cycles, resume, &mut kept, &mut report, progress)
         });
         self.last_good = kept;
         result?;
         // The last check copied the final state (its cycle is the last).
         self.resumable = cycles > 0;
-        self.adjacency = adjacency;
+        self.topology = topology;
         Ok(report)
     }
 }
 
-/// The CPU's start of a run (before its team exists): the resume test's flag and the full
-/// detection.
+/// The CPU's start of a run (before its team exists): the resume test's flag and state, and the
+/// full detection.
 struct CpuStart<'a> {
-    adjacency: &'a mut Adjacency,
+    topology: &'a mut Topology,
     forces: &'a mut Vec<ContactForce>,
-    resumable: bool,
+    last_good: &'a Model,
+    resumable: &'a mut bool,
 }
 
 impl driver::Start<Model> for CpuStart<'_> {
-    fn take_resumable(&mut self) -> bool {
-        std::mem::take(&mut self.resumable)
+    fn take_resumable(&mut self) -> Option<&Model> {
+        std::mem::take(self.resumable).then_some(self.last_good)
     }
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
@@ -347,7 +339,7 @@ impl driver::Start<Model> for CpuStart<'_> {
     /// unless the model is the very state the last run left, whose contacts are current.
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
         if !resume {
-            update_topology(model, self.adjacency, report, true);
+            update_topology(model, self.topology, report, true);
         }
         sync_forces(model, self.forces);
         Ok(())
@@ -356,7 +348,7 @@ impl driver::Start<Model> for CpuStart<'_> {
 
 /// The CPU's stages inside its team's scope.
 struct CpuStages<'a, 't> {
-    adjacency: &'a mut Adjacency,
+    topology: &'a mut Topology,
     scratch: &'a mut Scratch,
     team: &'a mut Team<'t>,
     /// Whether the block forces are the gather of the current contact forces. Stage 6 runs
@@ -370,7 +362,7 @@ struct CpuStages<'a, 't> {
 impl CpuStages<'_, '_> {
     fn gather(&mut self, model: &mut Model) {
         if !self.gathered {
-            gather_all(model, &self.scratch.forces, self.adjacency, self.team);
+            gather_all(model, &self.scratch.forces, &self.topology.lists, self.team);
             self.gathered = true;
         }
     }
@@ -379,7 +371,7 @@ impl CpuStages<'_, '_> {
 impl driver::Stages<Model> for CpuStages<'_, '_> {
     /// The force sums the first step needs.
     fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
-        gather_all(model, &self.scratch.forces, self.adjacency, self.team);
+        gather_all(model, &self.scratch.forces, &self.topology.lists, self.team);
         self.gathered = true;
         Ok(())
     }
@@ -387,13 +379,13 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
     /// One cycle at a time, each followed by stage 7: cracking, then contact updates.
     fn advance(&mut self, model: &mut Model, max: u64, cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
         for _ in 0..max {
-            cycle_once(model, self.adjacency, self.scratch, self.gathered, self.team)?;
+            cycle_once(model, &self.topology.lists, self.scratch, self.gathered, self.team)?;
             self.gathered = false;
             if cracking {
                 self.gather(model);
-                if crack_step(model, self.adjacency, report) {
+                if crack_step(model, &self.topology.lists, report) {
                     assert!(corners_in_block_order(model), "corners are stored in block order");
-                    *self.adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+                    *self.topology = Topology::build(model.blocks.len(), &model.contacts);
                     sync_forces(model, &mut self.scratch.forces);
                     self.gathered = false;
                     if let Some(dt) = model.critical_timestep() {
@@ -408,7 +400,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
             if model.blocks.iter().any(|b| b.update_due(&tol)) {
                 // The update books the energy of the contacts it drops, from the forces.
                 self.gather(model);
-                update_topology(model, self.adjacency, report, false);
+                update_topology(model, self.topology, report, false);
                 sync_forces(model, &mut self.scratch.forces);
                 self.gathered = false;
             }
@@ -434,14 +426,8 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
     let _p = crate::profile::scope(crate::profile::Stage::Cracking);
     let mut found = Vec::new();
     for b in 0..model.blocks.len() {
-        if topology::cracking::is_point_load_candidate(model, b) {
-            if let Some(c) = topology::find_point_load_crack(model, adjacency, b) {
-                found.push((model.blocks[b].id, c));
-            }
-        } else if topology::cracking::is_griffith_candidate(model, b) {
-            if let Some(c) = topology::find_griffith_crack(model, b) {
-                found.push((model.blocks[b].id, c));
-            }
+        if let Some(c) = topology::find_crack(model, adjacency, b) {
+            found.push((model.blocks[b].id, c));
         }
     }
     let mut changed = false;
@@ -452,10 +438,7 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
         let before = model.next_block_id;
         if model.retire_energy_around(|m| topology::apply_crack(m, &crack)).is_some() {
             changed = true;
-            let criterion = match crack.law {
-                crate::udec::model::constitutive::CrackingLaw::PointLoad => "POINT-LOAD VALUE",
-                crate::udec::model::constitutive::CrackingLaw::Griffith => "GRIFFITH STRESS",
-            };
+            let criterion = crack.law.label();
             report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, criterion, value: crack.value, from: crack.from, to: crack.to });
         }
     }

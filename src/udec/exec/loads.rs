@@ -53,15 +53,7 @@ impl Executor<'_> {
         // with the work of gravity and loads: the balance is unchanged by the command, and
         // what it shows later is the cycle's error alone. Measured as the ledger measures
         // kinetic energy (at the whole step), so that the booking is exact.
-        let before = self.model.energies().kinetic;
-        for b in blocks {
-            let blk = &mut self.model.blocks[b];
-            if !blk.fixed {
-                blk.velocity = velocity;
-                blk.angular_velocity = angular.unwrap_or(0.0);
-            }
-        }
-        self.model.external_work += self.model.energies().kinetic - before;
+        self.model.external_work += self.model.set_velocities(&blocks, velocity, w);
         Ok(())
     }
 

@@ -243,21 +243,16 @@ fn cycle_kernel(dev: &GpuDevice, name: &str, entry: &str) -> Result<CycleKernel,
     Ok(CycleKernel { pipeline, slots, layout })
 }
 
-/// Runs `make` inside validation and internal error scopes: a kernel the driver rejects is an
-/// error value naming the adapter, not a panic or a failure at the first cycle.
+/// Runs `make` inside the device's creation scopes (`GpuDevice::creation_scopes`): a kernel the
+/// driver rejects is an error value naming the adapter, not a panic or a failure at the first
+/// cycle. (NVIDIA's GL through EGL gives wgpu 30 a GL 3.3 context that advertises compute
+/// shaders, and its shader translation then refuses every kernel with an *internal* error: seen
+/// on an H100, 2026-11-26.)
 fn in_error_scopes<T>(dev: &GpuDevice, make: impl FnOnce() -> Result<T, GpuError>) -> Result<T, GpuError> {
-    let internal = dev.device.push_error_scope(wgpu::ErrorFilter::Internal);
-    let scope = dev.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let scopes = dev.creation_scopes();
     let made = make();
-    let rejected = [pollster::block_on(scope.pop()), pollster::block_on(internal.pop())];
-    let made = made?;
-    if let Some(e) = rejected.into_iter().flatten().next() {
-        return Err(GpuError::Shader(format!(
-            "the driver of {} ({} {}) rejected a kernel: {e}",
-            dev.summary.name, dev.summary.backend, dev.summary.driver_info
-        )));
-    }
-    Ok(made)
+    scopes.check(dev)?;
+    made
 }
 
 impl SdefKernels {
@@ -283,10 +278,8 @@ impl Pipelines {
     }
 
     /// Validates every kernel with naga first (clear errors), then builds the pipelines inside
-    /// validation and internal error scopes, so a driver's rejection is an error value at set-up,
-    /// not a panic or a failure at the first cycle. (NVIDIA's GL through EGL gives wgpu 30 a GL
-    /// 3.3 context that advertises compute shaders, and its shader translation then refuses every
-    /// kernel with an *internal* error: seen on an H100, 2026-11-26.)
+    /// error scopes (`GpuDevice::creation_scopes`), so a driver's rejection is an error value at
+    /// set-up, not a panic or a failure at the first cycle.
     pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
         in_error_scopes(dev, || Self::make(dev))
     }

@@ -107,7 +107,7 @@ mod upload;
 
 use crate::udec::backend::{Backend, CycleError, CycleReport};
 use crate::udec::model::Model;
-use crate::udec::topology::Adjacency;
+use crate::udec::topology::Topology;
 
 pub use crate::gpu::{device, list_adapters, matching_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice, GpuError, Precision};
 use checkpoint::{Checkpoint, ContactIdentity};
@@ -328,11 +328,11 @@ struct Engine<R: Real> {
     /// The CPU copy of the last good state, kept from run to run so that a run copies into its
     /// storage instead of allocating a second model.
     last_good: Model,
-    /// The previous run ended well: `last_good` is the state it read back last, `adjacency` its
+    /// The previous run ended well: `last_good` is the state it read back last, `topology` its
     /// contact lists, and the device holds that state. A run on a model still equal to it goes
     /// on from the device without detection, upload or read-back.
     resumable: bool,
-    adjacency: Adjacency,
+    topology: Topology,
 }
 
 /// An f64 value in the kernel precision.
@@ -370,7 +370,7 @@ impl<R: Real> Engine<R> {
             lists: None,
             last_good: Model::default(),
             resumable: false,
-            adjacency: Adjacency::default(),
+            topology: Topology::default(),
         }
     }
 

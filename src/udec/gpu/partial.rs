@@ -12,7 +12,7 @@
 
 use crate::udec::backend::CycleReport;
 use crate::udec::model::Model;
-use crate::udec::topology::Adjacency;
+use crate::udec::topology::Topology;
 
 use super::kernels::{self, slab, uniform_buffer, Slab};
 use super::layout::{Block, Contact, ContactPatch, ContactSummary, Corner, GridReference, ListParams, Real};
@@ -201,10 +201,10 @@ impl<R: Real> Engine<R> {
     /// distances on the device and splices the contact list there, leaving every contact it did
     /// not read as the device holds it. The model is current only where it was read until the
     /// next whole read-back. Declines, changing nothing, when the update needs the whole state.
-    pub(super) fn partial_contact_update(&mut self, model: &mut Model, adjacency: &mut Adjacency, report: &mut CycleReport) -> Result<PartialUpdate, GpuError> {
+    pub(super) fn partial_contact_update(&mut self, model: &mut Model, topology: &mut Topology, report: &mut CycleReport) -> Result<PartialUpdate, GpuError> {
         let (nb, _, nk) = self.counts;
         // (The attention's contact indices and the splice need the list in the update's order.)
-        if nb < 2 || !self.list_in_order || !adjacency.grid.valid_for(model) {
+        if nb < 2 || !self.list_in_order || !topology.grid.valid_for(model) {
             return Ok(PartialUpdate::Declined);
         }
         // The lists, on the device.
@@ -215,7 +215,7 @@ impl<R: Real> Engine<R> {
                 self.lists = Some(ListBuffers::new::<R>(&self.dev, nb, nk)?);
             }
             let origin = self.uploaded.origin;
-            let grid = &adjacency.grid;
+            let grid = &topology.grid;
             let lists = self.lists.as_mut().expect("made above");
             let key = (grid.builds(), origin, nb);
             if lists.reference_of != Some(key) {
@@ -299,7 +299,7 @@ impl<R: Real> Engine<R> {
                 Ok(())
             };
             let mut attention = crate::udec::topology::detect::Attention { blocks: listed.clone(), contacts: listed_contacts, fetch: &mut fetch };
-            crate::udec::topology::detect::update_topology_with(model, adjacency, &mut attention)
+            crate::udec::topology::detect::update_topology_with(model, topology, &mut attention)
         };
         let (created, dropped, flagged) = outcome.map_err(GpuError::Device)?;
         report.topology_updates += 1;
@@ -328,18 +328,18 @@ impl<R: Real> Engine<R> {
         let from_device = (fewest != u32::MAX).then_some(fewest as u64);
         let expected = from_listed.into_iter().chain(from_device).min();
         // The splice: the kept contacts read are patched, the others keep the device's state.
-        let Some(edit) = adjacency.take_edit().filter(|e| e.old_len as usize == nk) else {
+        let Some(edit) = topology.take_edit().filter(|e| e.old_len as usize == nk) else {
             return Err(GpuError::Device("GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_PARTIAL_READS=0)".into()));
         };
         if model.contacts.is_empty() {
-            self.upload_contacts(model, adjacency)?;
+            self.upload_contacts(model, &topology.lists)?;
         } else {
             let read: Vec<u32> = if read_all { (0..edit.old_len).collect() } else { read_contacts.iter().flat_map(|&(s, e)| s..e).collect() };
             let patches: Vec<ContactPatch<R>> =
                 read.into_iter().filter(|k| edit.dropped.binary_search(k).is_err()).map(|k| ContactPatch::of(model, edit.new_index(k))).collect();
             let patched: Vec<u32> = patches.iter().map(|p| p.index).collect();
             self.edit_contact_list(model, &edit, Some(&patched));
-            self.splice_contacts(model, adjacency, &edit, &patches)?;
+            self.splice_contacts(model, &topology.lists, &edit, &patches)?;
         }
         self.write_params(model);
         Ok(PartialUpdate::Updated(expected))

@@ -8,7 +8,7 @@ use crate::driver;
 use crate::udec::backend::{CycleError, CycleReport};
 use crate::udec::cpu;
 use crate::udec::model::Model;
-use crate::udec::topology::Adjacency;
+use crate::udec::topology::Topology;
 use rayon::prelude::*;
 
 use super::kernels;
@@ -153,7 +153,7 @@ impl<R: Real> Engine<R> {
     fn stage7_on_read_back(
         &mut self,
         model: &mut Model,
-        adjacency: &mut Adjacency,
+        topology: &mut Topology,
         report: &mut CycleReport,
         read: Stage7Read,
         expected_update: &mut Option<u64>,
@@ -168,15 +168,15 @@ impl<R: Real> Engine<R> {
         }
         // The model's state is read back only when the CPU needs it (here, the next stage 7, an
         // error, the end of the run): after a change the device holds it.
-        if cracking && cpu::crack_step(model, adjacency, report) {
-            *adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
+        if cracking && cpu::crack_step(model, &topology.lists, report) {
+            *topology = Topology::build(model.blocks.len(), &model.contacts);
             if let Some(dt) = model.critical_timestep() {
                 if dt < model.timestep {
                     model.timestep = dt;
                     report.timestep_changes.push((model.cycle, dt));
                 }
             }
-            self.upload_all(model, adjacency).map_err(device_error)?;
+            self.upload_all(model, &topology.lists).map_err(device_error)?;
             self.list_in_order = false;
             self.write_params(model);
         }
@@ -187,13 +187,13 @@ impl<R: Real> Engine<R> {
         if packed && !splice_follows && cpu::topology_update_due(model) {
             self.read_live_state(model, false).map_err(device_error)?;
         }
-        if cpu::maybe_update_topology(model, adjacency, report, false) {
+        if cpu::maybe_update_topology(model, topology, report, false) {
             self.list_in_order = true;
             *expected_update = cycles_to_next_update(model);
             self.upload_reset_distances(model);
-            let edit = adjacency.take_edit().filter(|e| splice_follows && e.old_len as usize == self.counts.2);
+            let edit = topology.take_edit().filter(|e| splice_follows && e.old_len as usize == self.counts.2);
             match edit {
-                _ if model.contacts.is_empty() => self.upload_contacts(model, adjacency),
+                _ if model.contacts.is_empty() => self.upload_contacts(model, &topology.lists),
                 Some(edit) => {
                     // Every kept contact was read: each is patched, and takes its bases from the
                     // model.
@@ -201,12 +201,12 @@ impl<R: Real> Engine<R> {
                     let patches: Vec<ContactPatch<R>> =
                         (0..model.contacts.len() as u32).filter(|&i| created.next_if_eq(&&i).is_none()).map(|i| ContactPatch::of(model, i)).collect();
                     self.edit_contact_list(model, &edit, None);
-                    self.splice_contacts(model, adjacency, &edit, &patches)
+                    self.splice_contacts(model, &topology.lists, &edit, &patches)
                 }
                 None if packed && splice_follows => {
                     return Err(CycleError::Setup("GPU: the contact update sorted a list kept in order (a bug; run with BLOCKDEM_CONTACT_SPLICE=0)".into()))
                 }
-                None => self.upload_contacts(model, adjacency),
+                None => self.upload_contacts(model, &topology.lists),
             }
             .map_err(device_error)?;
             self.write_params(model);
@@ -242,48 +242,36 @@ impl<R: Real> Engine<R> {
     /// (`GpuRun`).
     pub(super) fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let mut report = CycleReport::default();
-        let adjacency = std::mem::take(&mut self.adjacency);
-        let mut last_good = std::mem::take(&mut self.last_good);
         let mut run = GpuRun {
             engine: self,
-            adjacency,
+            topology: Topology::default(),
             batch_cap: driver::CHECK_INTERVAL,
             busy: false,
             expected_update: None,
             last_good_generation: (0, 0),
-            started: false,
             point_load: None,
         };
-        let resume = match driver::prepare(&mut run, model, &last_good, &mut report) {
-            Ok(resume) => resume,
-            Err(e) => {
-                // Refused before the start (the time step, a model past the binding limit or
-                // the precision's range): the backend is as it was. A start that failed (an
-                // upload) leaves no contact lists to go on from.
-                let GpuRun { adjacency, started, .. } = run;
-                self.last_good = last_good;
-                if !started {
-                    self.adjacency = adjacency;
-                }
-                return Err(e);
-            }
-        };
+        // Refused before the start (the time step, a model past the binding limit or the
+        // precision's range), the backend is as it was; a start that failed (an upload) leaves
+        // no contact lists to go on from.
+        let resume = driver::prepare(&mut run, model, &mut report)?;
+        let mut last_good = std::mem::take(&mut run.engine.last_good);
         let result = driver::cycles(&mut run, model, cycles, resume, &mut last_good, &mut report, progress);
-        let GpuRun { adjacency, .. } = run;
+        let GpuRun { topology, .. } = run;
         // (On a failure the last good state went back into the model, and nothing is kept.)
         result?;
         self.last_good = last_good;
-        self.adjacency = adjacency;
+        self.topology = topology;
         self.resumable = true;
         Ok(report)
     }
 }
 
-/// The GPU's stages of a run (`driver::Stages`): the engine, the contact lists while the run
-/// holds them, and what the batches learn as they go.
+/// The GPU's stages of a run (`driver::Stages`): the engine, stage 7's lists, grid and edit while
+/// the run holds them, and what the batches learn as they go.
 struct GpuRun<'a, R: Real> {
     engine: &'a mut Engine<R>,
-    adjacency: Adjacency,
+    topology: Topology,
     /// Cycles per submission: up to the next energy check, fewer while contact updates halt
     /// batches early. A halted batch still encodes and submits the dispatches of its remaining
     /// cycles (with zeroed grids: they launch nothing).
@@ -298,8 +286,6 @@ struct GpuRun<'a, R: Real> {
     /// The topology's generations when the last good state's CPU copy was taken
     /// (`take_checkpoint_of`).
     last_good_generation: (u64, u64),
-    /// `start` was called (the contact lists are the run's from then on).
-    started: bool,
     /// Whether the model has point-load cracking candidates (found at the first batch of the
     /// run; a crack's pieces inherit their parent's constitutive number, so they stay).
     point_load: Option<bool>,
@@ -313,8 +299,9 @@ impl<R: Real> GpuRun<'_, R> {
 }
 
 impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
-    fn take_resumable(&mut self) -> bool {
-        std::mem::take(&mut self.engine.resumable) && self.engine.buffers.is_some()
+    fn take_resumable(&mut self) -> Option<&Model> {
+        let e = &mut *self.engine;
+        (std::mem::take(&mut e.resumable) && e.buffers.is_some()).then_some(&e.last_good)
     }
 
     /// A model whose blocks or corners alone are past the adapter's binding limit is refused
@@ -338,14 +325,15 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// moves by itself, as every cycle does: nothing else is summed after an upload or an
     /// update.) The device checkpoint of an earlier run is no longer this run's.
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
-        self.started = true;
+        // The contact lists are the run's from here on.
+        self.topology = std::mem::take(&mut self.engine.topology);
         let e = &mut *self.engine;
         if resume {
             e.write_params(model);
         } else {
-            cpu::maybe_update_topology(model, &mut self.adjacency, report, true);
+            cpu::maybe_update_topology(model, &mut self.topology, report, true);
             e.list_in_order = true;
-            e.upload_all(model, &self.adjacency).map_err(device_error)?;
+            e.upload_all(model, &self.topology.lists).map_err(device_error)?;
             e.write_params(model);
             e.readback(model).map_err(device_error)?;
         }
@@ -409,7 +397,7 @@ impl<R: Real> driver::Stages<Model> for GpuRun<'_, R> {
         if partial_reads && flags.update_due != 0 {
             // Stage 7 on what it touches (`partial_contact_update`), unless it needs the whole
             // state.
-            match e.partial_contact_update(model, &mut self.adjacency, report).map_err(device_error)? {
+            match e.partial_contact_update(model, &mut self.topology, report).map_err(device_error)? {
                 PartialUpdate::Declined => {}
                 PartialUpdate::NotDue => handled = true,
                 PartialUpdate::Updated(expected) => {
@@ -423,7 +411,7 @@ impl<R: Real> driver::Stages<Model> for GpuRun<'_, R> {
         let cracking = cracking || flags.crack_due != 0;
         if !handled && (cracking || flags.update_due != 0) {
             let read = Stage7Read { cracking, packed, state_read };
-            e.stage7_on_read_back(model, &mut self.adjacency, report, read, &mut self.expected_update)?;
+            e.stage7_on_read_back(model, &mut self.topology, report, read, &mut self.expected_update)?;
         }
         Ok(done)
     }

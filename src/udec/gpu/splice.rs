@@ -175,14 +175,14 @@ mod tests {
     #[test]
     fn the_edit_rebuilds_the_list_a_contact_update_makes() {
         let mut model = wall(1000);
-        let mut adjacency = crate::udec::topology::Adjacency::default();
-        crate::udec::topology::update_topology(&mut model, true, &mut adjacency);
+        let mut topology = crate::udec::topology::Topology::default();
+        crate::udec::topology::update_topology(&mut model, true, &mut topology);
         // Push a few blocks into their neighbours and lift others away, then update.
         for (k, b) in movable(&model).into_iter().step_by(37).enumerate() {
             shift(&mut model, b, [if k % 2 == 0 { 0.004 } else { -0.3 }, 0.0]);
         }
         measure_gaps(&mut model);
-        crate::udec::topology::update_topology(&mut model, false, &mut adjacency);
+        crate::udec::topology::update_topology(&mut model, false, &mut topology);
         let old = model.contacts.clone();
         for (k, b) in movable(&model).into_iter().step_by(23).enumerate() {
             let by = match k % 3 {
@@ -193,9 +193,9 @@ mod tests {
             shift(&mut model, b, by);
         }
         measure_gaps(&mut model);
-        let (created, dropped) = crate::udec::topology::update_topology(&mut model, false, &mut adjacency);
+        let (created, dropped) = crate::udec::topology::update_topology(&mut model, false, &mut topology);
         assert!(created > 0 && dropped > 0, "the update both creates and drops ({created}, {dropped})");
-        let edit = adjacency.take_edit().expect("a list in order records its edit");
+        let edit = topology.take_edit().expect("a list in order records its edit");
         assert_eq!((edit.inserted_at.len(), edit.dropped.len(), edit.new_len() as usize), (created, dropped, model.contacts.len()));
         let runs = edit.runs(NEW_CONTACT);
         let mut rebuilt = Vec::new();
@@ -224,25 +224,25 @@ mod tests {
     #[test]
     fn the_twins_edit_the_adjacency_as_the_update_does() {
         let mut model = wall(1000);
-        let mut adjacency = crate::udec::topology::Adjacency::default();
-        crate::udec::topology::update_topology(&mut model, true, &mut adjacency);
+        let mut topology = crate::udec::topology::Topology::default();
+        crate::udec::topology::update_topology(&mut model, true, &mut topology);
         measure_gaps(&mut model);
-        crate::udec::topology::update_topology(&mut model, false, &mut adjacency);
-        let before = adjacency.clone();
+        crate::udec::topology::update_topology(&mut model, false, &mut topology);
+        let before = topology.lists.clone();
         for (k, b) in movable(&model).into_iter().step_by(19).enumerate() {
             shift(&mut model, b, if k % 2 == 0 { [0.0, 30.0] } else { [0.35, 0.0] });
         }
         measure_gaps(&mut model);
-        let (created, dropped) = crate::udec::topology::update_topology(&mut model, false, &mut adjacency);
+        let (created, dropped) = crate::udec::topology::update_topology(&mut model, false, &mut topology);
         assert!(created > 0 && dropped > 0);
-        let edit = adjacency.take_edit().expect("an edit");
+        let edit = topology.take_edit().expect("an edit");
         let entries = edit.entries.as_ref().expect("the lists were edited, not rebuilt");
         let renumber = renumber_table(&edit);
-        assert_eq!(splice_adjacency(&before.entries, &entries.runs, &entries.lists, &renumber), adjacency.entries);
+        assert_eq!(splice_adjacency(&before.entries, &entries.runs, &entries.lists, &renumber), topology.lists.entries);
         let mut offsets = before.offsets.clone();
         let touched = touched_shifts(entries, offsets.len());
         shift_offsets(&mut offsets, &touched);
-        assert_eq!(offsets, adjacency.offsets);
+        assert_eq!(offsets, topology.lists.offsets);
         for k in (0..edit.old_len).step_by(7).filter(|k| edit.dropped.binary_search(k).is_err()) {
             let shift = renumber[renumber.partition_point(|x| x[0] <= k) - 1][1] as i32;
             assert_eq!((k as i32 + shift) as u32, edit.new_index(k));
@@ -252,14 +252,14 @@ mod tests {
     #[test]
     fn a_list_out_of_order_records_no_edit() {
         let mut model = wall(1000);
-        let mut adjacency = crate::udec::topology::Adjacency::default();
-        crate::udec::topology::update_topology(&mut model, true, &mut adjacency);
-        crate::udec::topology::update_topology(&mut model, false, &mut adjacency);
-        assert_eq!(adjacency.take_edit().map(|e| (e.dropped.len(), e.inserted_at.len())), Some((0, 0)), "nothing changed");
+        let mut topology = crate::udec::topology::Topology::default();
+        crate::udec::topology::update_topology(&mut model, true, &mut topology);
+        crate::udec::topology::update_topology(&mut model, false, &mut topology);
+        assert_eq!(topology.take_edit().map(|e| (e.dropped.len(), e.inserted_at.len())), Some((0, 0)), "nothing changed");
         model.contacts.swap(3, 10);
-        crate::udec::topology::update_topology(&mut model, false, &mut adjacency);
-        assert_eq!(adjacency.take_edit(), None, "the list was sorted first");
-        assert_eq!(adjacency.take_edit(), None, "taken once");
+        crate::udec::topology::update_topology(&mut model, false, &mut topology);
+        assert_eq!(topology.take_edit(), None, "the list was sorted first");
+        assert_eq!(topology.take_edit(), None, "taken once");
     }
 
     #[test]

@@ -210,11 +210,8 @@ impl Model {
             }
         }
         if !self.sdef.is_empty() {
-            let mut k = 0;
-            self.sdef.retain(|_| {
-                k += 1;
-                !removed.get(k - 1).copied().unwrap_or(true)
-            });
+            let sdef = std::mem::take(&mut self.sdef);
+            self.sdef = sdef.into_iter().zip(&removed).filter(|&(_, &gone)| !gone).map(|(s, _)| s).collect();
         }
         let mut new_blocks = Vec::with_capacity(next as usize);
         for (i, blk) in self.blocks.drain(..).enumerate() {

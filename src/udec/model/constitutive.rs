@@ -24,6 +24,16 @@ pub enum CrackingLaw {
     Griffith,
 }
 
+impl CrackingLaw {
+    /// The name of the criterion's value, as the cycle log prints it beside a crack.
+    pub fn label(self) -> &'static str {
+        match self {
+            CrackingLaw::PointLoad => "POINT-LOAD VALUE",
+            CrackingLaw::Griffith => "GRIFFITH STRESS",
+        }
+    }
+}
+
 /// The force–displacement law of a contact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ContactLaw {

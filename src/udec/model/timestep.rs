@@ -1,6 +1,6 @@
 //! The time step and the energy bookkeeping of a model.
 
-use super::Model;
+use super::{Block, Model};
 
 /// The energy ledger of the model (issue 4, item 3). With E₀ the kinetic + strain energy at START
 /// (what VELOCITY gave the blocks), the explicit cycle keeps
@@ -84,35 +84,20 @@ impl Model {
     fn live_energies(&self) -> Energies {
         let mut e = Energies { external_work: self.external_work, ..Energies::default() };
         for b in &self.blocks {
-            if !b.fixed && b.mass > 0.0 {
-                // Velocities live at t − Δt/2, positions and forces at t: half a step of the
-                // current force brings the velocity to t, so that kinetic and strain energy are
-                // taken at the same instant (otherwise an oscillation shows an O(ωΔt) swing in
-                // the ledger; free flight becomes exact).
-                let h = 0.5 * self.timestep;
-                let vx = b.velocity[0] + b.force[0] / b.mass * h;
-                let vy = b.velocity[1] + b.force[1] / b.mass * h;
-                let w = b.angular_velocity + if b.inertia > 0.0 { b.moment / b.inertia * h } else { 0.0 };
-                let at_t = 0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * w * w;
-                // Where that half step overflows f64 (a FRACTION of 1e300, a load of 1e300: the
-                // run stops at its first step, or a block freed after a CYCLE 0 is deleted), the
-                // energy at t − Δt/2, which the state holds, keeps the ledger a number.
-                e.kinetic += if at_t.is_finite() { at_t } else { b.kinetic_energy() };
+            if let Some(k) = kinetic_at_t(b, self.timestep) {
+                e.kinetic += k;
             }
             e.mass_damping += b.damping_work;
         }
-        // Simply-deformable blocks: the strain modes' kinetic energy (the rate brought to the
-        // whole step as the velocities are) and strain energy, and their internal damping.
+        // Simply-deformable blocks: the strain modes' kinetic energy and strain energy, and
+        // their internal damping.
         for (k, s) in self.sdef.iter().enumerate() {
             let b = &self.blocks[k];
             if b.kind != super::BlockKind::SimplyDeformable {
                 continue;
             }
-            if !b.fixed {
-                let j = super::sdef::strain_inertia(s.moments, b.rotation);
-                let rate = super::sdef::rate_at_whole_step(s, b.area, j, self.timestep);
-                let at_t = super::sdef::internal_kinetic_energy(rate, j);
-                e.kinetic += if at_t.is_finite() { at_t } else { super::sdef::internal_kinetic_energy(s.strain_rate, j) };
+            if let Some(k) = strain_kinetic_at_t(b, s, self.timestep) {
+                e.kinetic += k;
             }
             e.strain += super::sdef::strain_energy(s, b.area);
             e.mass_damping += s.damping_work;
@@ -240,6 +225,71 @@ impl Model {
         e.released += self.retired.released;
         e
     }
+
+    /// VELOCITY: gives the free blocks `blocks` the velocity `velocity` and the angular velocity
+    /// `angular`, and returns the change this makes in the ledger's kinetic energy (the input it
+    /// books as external work): the kinetic sums of `energies` after and before, both taken in
+    /// one pass over the blocks, in the ledger's order (so the difference is bit for bit theirs).
+    pub fn set_velocities(&mut self, blocks: &[usize], velocity: [f64; 2], angular: f64) -> f64 {
+        let dt = self.timestep;
+        let mut given = vec![false; self.blocks.len()];
+        for &b in blocks {
+            given[b] = true;
+        }
+        let (mut before, mut after) = (0.0, 0.0);
+        for (b, given) in self.blocks.iter_mut().zip(given) {
+            if let Some(k) = kinetic_at_t(b, dt) {
+                before += k;
+            }
+            if given && !b.fixed {
+                b.velocity = velocity;
+                b.angular_velocity = angular;
+            }
+            if let Some(k) = kinetic_at_t(b, dt) {
+                after += k;
+            }
+        }
+        // The strain modes' share, which the command leaves as it was.
+        for (b, s) in self.blocks.iter().zip(&self.sdef).filter(|(b, _)| b.kind == super::BlockKind::SimplyDeformable) {
+            if let Some(k) = strain_kinetic_at_t(b, s, dt) {
+                before += k;
+                after += k;
+            }
+        }
+        after - before
+    }
+}
+
+/// A free block's kinetic energy at t, as the ledger takes it (None for a fixed or massless
+/// block). Velocities live at t − Δt/2, positions and forces at t: half a step of the current
+/// force brings the velocity to t, so that kinetic and strain energy are taken at the same
+/// instant (otherwise an oscillation shows an O(ωΔt) swing in the ledger; free flight becomes
+/// exact).
+fn kinetic_at_t(b: &Block, dt: f64) -> Option<f64> {
+    if b.fixed || b.mass <= 0.0 {
+        return None;
+    }
+    let h = 0.5 * dt;
+    let vx = b.velocity[0] + b.force[0] / b.mass * h;
+    let vy = b.velocity[1] + b.force[1] / b.mass * h;
+    let w = b.angular_velocity + if b.inertia > 0.0 { b.moment / b.inertia * h } else { 0.0 };
+    let at_t = 0.5 * b.mass * (vx * vx + vy * vy) + 0.5 * b.inertia * w * w;
+    // Where that half step overflows f64 (a FRACTION of 1e300, a load of 1e300: the run stops
+    // at its first step, or a block freed after a CYCLE 0 is deleted), the energy at t − Δt/2,
+    // which the state holds, keeps the ledger a number.
+    Some(if at_t.is_finite() { at_t } else { b.kinetic_energy() })
+}
+
+/// The kinetic energy at t of a free simply-deformable block's strain modes (None for a fixed
+/// one): the strain rate brought to the whole step as the velocities are.
+fn strain_kinetic_at_t(b: &Block, s: &super::sdef::Sdef, dt: f64) -> Option<f64> {
+    if b.fixed {
+        return None;
+    }
+    let j = super::sdef::strain_inertia(s.moments, b.rotation);
+    let rate = super::sdef::rate_at_whole_step(s, b.area, j, dt);
+    let at_t = super::sdef::internal_kinetic_energy(rate, j);
+    Some(if at_t.is_finite() { at_t } else { super::sdef::internal_kinetic_energy(s.strain_rate, j) })
 }
 
 impl Model {

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
 use rayon::prelude::*;
 
-use super::detect::{split_at_ends, BlockGrid, ListEdit};
+use super::detect::split_at_ends;
 use crate::udec::contact::gather::AdjacencyEntry;
 use crate::udec::model::Contact;
 
@@ -51,11 +51,6 @@ pub struct Adjacency {
     /// `offsets[b] .. offsets[b+1]` indexes `entries` for block b.
     pub offsets: Vec<u32>,
     pub entries: Vec<AdjacencyEntry>,
-    /// The broad phase's grid, kept for the next contact update (`detect::update_topology`).
-    pub(crate) grid: BlockGrid,
-    /// The edit the last contact update made to the contact list (`detect::ListEdit`), or None
-    /// when it had to sort the list first; taken by a backend that mirrors the list.
-    pub(crate) edit: Option<ListEdit>,
     /// Room for the next `entries`, kept to spare a large allocation per update.
     spare: Vec<AdjacencyEntry>,
     /// The serial build's per-block fill cursors, kept likewise.
@@ -65,10 +60,10 @@ pub struct Adjacency {
     slots: Vec<AtomicU32>,
 }
 
-/// A copy of the lists and the grid (not of the work space).
+/// A copy of the lists (not of the work space).
 impl Clone for Adjacency {
     fn clone(&self) -> Self {
-        Adjacency { offsets: self.offsets.clone(), entries: self.entries.clone(), grid: self.grid.clone(), ..Adjacency::default() }
+        Adjacency { offsets: self.offsets.clone(), entries: self.entries.clone(), ..Adjacency::default() }
     }
 }
 
@@ -274,12 +269,6 @@ impl Adjacency {
             }
         }
         EntriesEdit { touched, shift_after, runs, lists: new_lists.concat() }
-    }
-
-    /// Takes the edit the last contact update made to the contact list (None: none recorded,
-    /// or that update sorted the list first).
-    pub fn take_edit(&mut self) -> Option<ListEdit> {
-        self.edit.take()
     }
 
     /// The entries of block `b`.

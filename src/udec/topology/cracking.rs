@@ -1,8 +1,8 @@
-//! Dynamic cracking (SL-85-1, Appendix A ¶15–17): by Griffith's criterion on the internal stress
-//! of a simply-deformable block (constitutive numbers 3, 4 and 5, [`find_griffith_crack`]: a
-//! crack through the centroid parallel to the minimum principal stress; the pieces stay simply
-//! deformable with their stresses set to zero), and by the point-load criterion (constitutive
-//! numbers 1 and 2), below.
+//! Dynamic cracking (SL-85-1, Appendix A ¶15–17), each block by its cracking law ([`find_crack`]):
+//! by Griffith's criterion on the internal stress of a simply-deformable block (constitutive
+//! numbers 3, 4 and 5: a crack through the centroid parallel to the minimum principal stress; the
+//! pieces stay simply deformable with their stresses set to zero), and by the point-load
+//! criterion (constitutive numbers 1 and 2), below.
 //!
 //! The point-load criterion: A block with a tensile strength factor t_f is split between two opposing contact
 //! forces f1, f2 a distance d apart when
@@ -25,7 +25,7 @@ use crate::udec::topology::{update_contacts, Adjacency};
 /// A crack found in a block (by either criterion): its end points (on the block boundary) and the
 /// criterion's value.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointLoadCrack {
+pub struct Crack {
     pub block: usize,
     /// The criterion that found it.
     pub law: CrackingLaw,
@@ -57,11 +57,24 @@ pub fn is_crack_candidate(model: &Model, b: usize) -> bool {
     is_point_load_candidate(model, b) || is_griffith_candidate(model, b)
 }
 
+/// The crack block `b`'s cracking law finds in it, if the block is a candidate for either
+/// criterion and its value reaches the tensile strength t_f; `adjacency` gives the contacts the
+/// point-load criterion reads.
+pub fn find_crack(model: &Model, adjacency: &Adjacency, b: usize) -> Option<Crack> {
+    if is_point_load_candidate(model, b) {
+        find_point_load_crack(model, adjacency, b)
+    } else if is_griffith_candidate(model, b) {
+        find_griffith_crack(model, b)
+    } else {
+        None
+    }
+}
+
 /// The crack Griffith's criterion finds in block `b` (Appendix A ¶17), if its internal stress
 /// reaches the tensile strength t_f: through the centroid, parallel to the minimum principal
 /// stress s_p2, from boundary to boundary. Its value is the criterion's equivalent tensile stress
 /// (`sdef::griffith_stress`).
-pub fn find_griffith_crack(model: &Model, b: usize) -> Option<PointLoadCrack> {
+fn find_griffith_crack(model: &Model, b: usize) -> Option<Crack> {
     let s = model.sdef_of(b)?;
     let tf = model.material(model.blocks[b].material).block.tf;
     let (s1, s2, angle) = crate::udec::model::sdef::principal_values(s.stress);
@@ -75,7 +88,7 @@ pub fn find_griffith_crack(model: &Model, b: usize) -> Option<PointLoadCrack> {
     let c = model.blocks[b].centroid;
     let outline = model.world_outline(b);
     let (from, to) = line_through(&outline, c, d)?;
-    Some(PointLoadCrack { block: b, law: CrackingLaw::Griffith, from, to, value })
+    Some(Crack { block: b, law: CrackingLaw::Griffith, from, to, value })
 }
 
 /// Where the line through `c` (inside the polygon `pts`) along `d` leaves it on either side: the
@@ -125,7 +138,7 @@ fn project_to_boundary(model: &Model, b: usize, p: [f64; 2]) -> ([f64; 2], f64) 
 
 /// Searches block `b` for the pair of opposing contact forces with the largest point-load value;
 /// returns it if it reaches the block's t_f.
-pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> Option<PointLoadCrack> {
+fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> Option<Crack> {
     let tf = model.material(model.blocks[b].material).block.tf;
     let corners = model.block_corners(b);
     let n = corners.len();
@@ -150,7 +163,7 @@ pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> 
             Some((c.point, f, c.normal_force))
         })
         .collect();
-    let mut best: Option<PointLoadCrack> = None;
+    let mut best: Option<Crack> = None;
     for i in 0..loads.len() {
         for j in i + 1..loads.len() {
             let (p1, f1, m1) = loads[i];
@@ -173,7 +186,7 @@ pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> 
             if c1 < clearance || c2 < clearance {
                 continue;
             }
-            best = Some(PointLoadCrack { block: b, law: CrackingLaw::PointLoad, from: q1, to: q2, value });
+            best = Some(Crack { block: b, law: CrackingLaw::PointLoad, from: q1, to: q2, value });
         }
     }
     best
@@ -182,7 +195,7 @@ pub fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> 
 /// Splits the block along the crack, re-detects the contacts of the pieces and carries over the
 /// shear history of the old contacts whose corner and far block are unchanged. Returns the block
 /// indices of the pieces, or None if the split was rejected (the model is then unchanged).
-pub fn apply_crack(model: &mut Model, crack: &PointLoadCrack) -> Option<Vec<usize>> {
+pub fn apply_crack(model: &mut Model, crack: &Crack) -> Option<Vec<usize>> {
     let b = crack.block;
     let (material, constitutive) = (model.blocks[b].material, model.blocks[b].constitutive);
     let cracked_id = model.blocks[b].id;

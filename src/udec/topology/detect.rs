@@ -35,7 +35,7 @@
 use rayon::prelude::*;
 
 use super::adjacency::EntriesEdit;
-use super::Adjacency;
+use super::{Adjacency, Topology};
 use crate::udec::contact::geometry::nearest_feature;
 use crate::udec::contact::joint::{joint_share, law_parameters, opposed_length};
 use crate::udec::model::{Block, Contact, ContactKind, Corner, Feature, Material, Model, Tolerances};
@@ -152,8 +152,8 @@ pub(super) fn split_at_ends<T>(mut buf: &mut [T], ends: impl Iterator<Item = usi
     pieces
 }
 
-/// The broad phase's grid, kept between contact updates (it travels with the adjacency lists, the
-/// other index stage 7 keeps). Built from every block's box inflated by `margin`; a block's stored
+/// The broad phase's grid, kept between contact updates (in `Topology`, beside the adjacency
+/// lists, the other index stage 7 keeps). Built from every block's box inflated by `margin`; a block's stored
 /// box holds its current box as long as its corners stay within the margin of where they were
 /// when the grid was built.
 #[derive(Clone, Default)]
@@ -646,6 +646,8 @@ pub struct ContactChanges {
     pub dropped: usize,
     /// The list was out of order on entry and has been sorted: the adjacency lists are stale.
     pub reordered: bool,
+    /// What changed in the list (given lists to keep, and the list in order on entry).
+    pub edit: Option<ListEdit>,
 }
 
 /// Re-examines the neighbourhood of every flagged block (all blocks when `all` is true), creates
@@ -657,12 +659,12 @@ pub fn update_contacts(model: &mut Model, all: bool) -> (usize, usize) {
 }
 
 /// Stage 7's contact update as the backends run it: `update_contacts` with the broad phase's grid
-/// kept in `adjacency` between calls, the adjacency lists brought up to date, and the energy terms
-/// of the contacts dropped moved to the ledger's retired account.
-pub fn update_topology(model: &mut Model, all: bool, adjacency: &mut Adjacency) -> (usize, usize) {
-    let mut grid = std::mem::take(&mut adjacency.grid);
-    let ch = in_pool(|| update_here(model, all, &mut grid, Some(adjacency)));
-    adjacency.grid = grid;
+/// kept in `topology` between calls, the adjacency lists brought up to date, the list's edit
+/// recorded, and the energy terms of the contacts dropped moved to the ledger's retired account.
+pub fn update_topology(model: &mut Model, all: bool, topology: &mut Topology) -> (usize, usize) {
+    let Topology { lists, grid, edit } = topology;
+    let ch = in_pool(|| update_here(model, all, grid, Some(lists)));
+    *edit = ch.edit;
     (ch.created, ch.dropped)
 }
 
@@ -687,15 +689,15 @@ pub struct Attention<'a> {
 
 /// `update_topology` on a model that is current only where `attention` says (and where its
 /// `fetch` brings it): the contact list must be in the update's order (block 1, corner, block 2)
-/// and the grid kept in `adjacency` built for this model. The blocks re-examined and the
+/// and the grid kept in `topology` built for this model. The blocks re-examined and the
 /// contacts dropped are exactly those `update_topology` would find on the whole current model.
 /// Returns the contacts created and dropped and the blocks re-examined (ascending).
-pub fn update_topology_with(model: &mut Model, adjacency: &mut Adjacency, attention: &mut Attention<'_>) -> Result<(usize, usize, Vec<u32>), String> {
-    let mut grid = std::mem::take(&mut adjacency.grid);
+pub fn update_topology_with(model: &mut Model, topology: &mut Topology, attention: &mut Attention<'_>) -> Result<(usize, usize, Vec<u32>), String> {
+    let Topology { lists, grid, edit } = topology;
     // Not in rayon's pool: the fetch may hold the device, which stays on this thread.
-    let result = update(model, false, &mut grid, Some(adjacency), Some(attention));
-    adjacency.grid = grid;
-    result.map(|(ch, flagged)| (ch.created, ch.dropped, flagged))
+    let (ch, flagged) = update(model, false, grid, Some(lists), Some(attention))?;
+    *edit = ch.edit;
+    Ok((ch.created, ch.dropped, flagged))
 }
 
 /// `update` where nothing is fetched (no attention), so nothing can fail.
@@ -1013,7 +1015,7 @@ fn update(
     let insert_before: Vec<u32> = parts.iter().flat_map(|p| p.iter().map(|c| c.before)).collect();
     let new_contacts = parts.iter().flatten().zip(&ids).map(|(c, &id)| c.contact(id));
 
-    let changes = ContactChanges { created: n_created, dropped: dropped.len(), reordered: !sorted };
+    let mut changes = ContactChanges { created: n_created, dropped: dropped.len(), reordered: !sorted, edit: None };
     if adjacency.is_some() && !dropped.is_empty() {
         retire(model, &dropped);
     }
@@ -1056,7 +1058,7 @@ fn update(
             Some(EntriesEdit::unchanged(adjacency.entries.len()))
         };
         // What changed in the list, for a backend that keeps a copy of it (the GPU's).
-        adjacency.edit = sorted.then_some(ListEdit { old_len, dropped, insert_before, inserted_at, entries });
+        changes.edit = sorted.then_some(ListEdit { old_len, dropped, insert_before, inserted_at, entries });
     }
 
     let reset = |b: &mut Block| {
@@ -1282,12 +1284,12 @@ mod tests {
     use super::*;
 
     /// A wall after a full detection, its adjacency kept as a backend keeps it.
-    fn wall(bricks: usize) -> (Model, Adjacency) {
+    fn wall(bricks: usize) -> (Model, Topology) {
         let deck = format!("{}CYCLE 0\n", crate::bench::scene::scaling_wall(bricks, 0.1).deck());
         let mut model = crate::scenes::run_deck_on(&deck, Box::new(crate::udec::cpu::CpuBackend::new())).expect("the wall builds");
-        let mut adjacency = Adjacency::default();
-        update_topology(&mut model, true, &mut adjacency);
-        (model, adjacency)
+        let mut topology = Topology::default();
+        update_topology(&mut model, true, &mut topology);
+        (model, topology)
     }
 
     /// Moves block b rigidly (its corners follow, as after a cycle).
@@ -1304,7 +1306,7 @@ mod tests {
     fn kept_grid_and_lists_match_a_fresh_detection() {
         // Updates through the kept grid (flagged blocks queried, strayed ones boxed afresh) and
         // the renumbered adjacency lists against a detection from scratch and a rebuilt list.
-        let (mut model, mut adjacency) = wall(1000);
+        let (mut model, mut topology) = wall(1000);
         let etol = model.tol.etol;
         for round in 0..6usize {
             for k in 0..40 {
@@ -1319,10 +1321,10 @@ mod tests {
             }
             let mut fresh = model.clone();
             let expected = update_contacts(&mut fresh, false);
-            let got = update_topology(&mut model, false, &mut adjacency);
+            let got = update_topology(&mut model, false, &mut topology);
             assert_eq!(got, expected, "round {round}");
             assert!(model.contacts == fresh.contacts && model.blocks == fresh.blocks, "round {round}: contacts differ");
-            assert!(adjacency == Adjacency::build(model.blocks.len(), &model.contacts), "round {round}: adjacency");
+            assert!(topology.lists == Adjacency::build(model.blocks.len(), &model.contacts), "round {round}: adjacency");
         }
     }
 
@@ -1335,9 +1337,9 @@ mod tests {
         // contacts created, dropped and re-featured, the same blocks re-examined. Each round also
         // moves the flagged blocks' right-hand neighbours by 3 cm, unflagged and within the grid's
         // margin, so a fetch that missed a neighbourhood would measure gaps from stale corners.
-        let (mut truth, mut adjacency) = wall(1000);
+        let (mut truth, mut topology) = wall(1000);
         let mut stale = truth.clone();
-        let mut stale_adjacency = adjacency.clone();
+        let mut stale_topology = topology.clone();
         let etol = truth.tol.etol;
         let mut changed = 0;
         for round in 0..6usize {
@@ -1354,7 +1356,7 @@ mod tests {
             }
             // The lists, loosened as the device's are: blocks near their update or strayed,
             // contacts opened near btol or of such a block.
-            let grid = &stale_adjacency.grid;
+            let grid = &stale_topology.grid;
             let near = |m: &Model, b: usize| !m.blocks[b].fixed && m.blocks[b].moved_since_update > 0.45 * m.blocks[b].update_threshold(&m.tol);
             let blocks: Vec<u32> = (0..truth.blocks.len()).filter(|&b| near(&truth, b) || grid.strayed(b, &truth.blocks[b])).map(|b| b as u32).collect();
             let contacts: Vec<u32> = (0..truth.contacts.len())
@@ -1396,8 +1398,8 @@ mod tests {
                 Ok(())
             };
             let mut attention = Attention { blocks, contacts, fetch: &mut fetch };
-            let (created, dropped, flagged) = update_topology_with(&mut stale, &mut stale_adjacency, &mut attention).expect("fetched");
-            let expected = update_topology(&mut truth, false, &mut adjacency);
+            let (created, dropped, flagged) = update_topology_with(&mut stale, &mut stale_topology, &mut attention).expect("fetched");
+            let expected = update_topology(&mut truth, false, &mut topology);
             assert_eq!((created, dropped), expected, "round {round}");
             assert!(!flagged.is_empty(), "round {round}: nothing re-examined");
             changed += created + dropped;
@@ -1407,7 +1409,7 @@ mod tests {
             for &b in &flagged {
                 assert_eq!(stale.blocks[b as usize], truth.blocks[b as usize], "round {round}: block {b}");
             }
-            assert!(stale_adjacency == adjacency, "round {round}: adjacency");
+            assert!(stale_topology.lists == topology.lists, "round {round}: adjacency");
         }
         assert!(changed > 50, "the moves created and dropped {changed} contacts");
     }
