@@ -269,7 +269,9 @@ fn test_contact_force_law(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = 13u * i;
     let a = Motion(vec2<real>(l_motion[m], l_motion[m + 1u]), vec2<real>(l_motion[m + 2u], l_motion[m + 3u]), l_motion[m + 4u]);
     let b = Motion(vec2<real>(l_motion[m + 5u], l_motion[m + 6u]), vec2<real>(l_motion[m + 7u], l_motion[m + 8u]), l_motion[m + 9u]);
-    let law = contact_force_law(l_contacts[i], contact_law(l_materials[i], l_contacts[i].length), a, b, l_motion[m + 10u], l_motion[m + 11u], l_motion[m + 12u] != 0.0);
+    let at = vec2<real>(l_contacts[i].px, l_contacts[i].py);
+    let vrel = velocity_at(a, at) - velocity_at(b, at);
+    let law = contact_force_law(l_contacts[i], contact_law(l_materials[i], l_contacts[i].length), vrel, l_motion[m + 10u], l_motion[m + 11u], l_motion[m + 12u] != 0.0);
     l_out[i] = law.contact;
     l_force[i] = law.force;
 }
@@ -1259,7 +1261,7 @@ fn end_cycle_halts_by_zeroing_the_grids(adapter: &str) {
     let grids: Vec<u32> = vec![3, 1, 1, 7, 1, 1, 65535, 2, 1, 0, 1, 1];
     let words = |w: &[u32]| bytemuck::cast_slice::<u32, u8>(w).to_vec();
     let run = |flags: [u32; 8]| {
-        let out = run_kernel(&dev, "end_cycle", "", "end_cycle", 1, &[(7, words(&flags), true), (10, words(&grids), true)]);
+        let out = run_kernel(&dev, "end_cycle", "", "end_cycle", 1, &[(7, words(&flags), true), (15, words(&grids), true)]);
         (bytemuck::pod_collect_to_vec::<u8, u32>(&out[0]), bytemuck::pod_collect_to_vec::<u8, u32>(&out[1]))
     };
     let none = u32::MAX;
