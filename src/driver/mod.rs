@@ -29,7 +29,7 @@
 
 pub mod report;
 
-pub use report::{CrackEvent, CycleError, CycleReport};
+pub use report::{CrackEvent, CycleError, CycleReport, Position};
 
 /// What the driver asks of an engine's model: the clock, the energy terms of the check (eq. 9's
 /// kinetic and strain energy and the work of the loads), and the engine's knowledge of what

@@ -1,8 +1,8 @@
 //! What a run reports: what it did besides moving blocks ([`CycleReport`]) and why it stopped
 //! ([`CycleError`]). Every engine's run speaks these; the 2D engine's constructors of an error
 //! from its model (`CycleError::overlap`, `CycleError::non_finite_step`) are beside its model,
-//! in `udec::backend`. (Positions are the 2D engine's `x, y` and a crack's two ends; D3 will add
-//! its third coordinate here.)
+//! in `udec::backend`. Positions in them are [`Position`]s, of two coordinates or three, so the
+//! same report serves the 2D engine and D3.
 
 /// What a run of cycles did besides moving blocks.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -30,6 +30,46 @@ impl CycleReport {
     }
 }
 
+/// A point in a report, of the engine's dimension: two coordinates (the 2D engine) or three (D3).
+/// Indexing gives a coordinate; `Display` writes `(x, y)` or `(x, y, z)` each to four decimals in
+/// exponent form, as the error messages print positions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Position {
+    coords: [f64; 3],
+    dim: usize,
+}
+
+impl Position {
+    /// A point of the plane.
+    pub fn xy([x, y]: [f64; 2]) -> Self {
+        Position { coords: [x, y, 0.0], dim: 2 }
+    }
+
+    /// A point of space.
+    pub fn xyz(coords: [f64; 3]) -> Self {
+        Position { coords, dim: 3 }
+    }
+
+    /// Its coordinates.
+    pub fn coords(&self) -> &[f64] {
+        &self.coords[..self.dim]
+    }
+}
+
+impl std::ops::Index<usize> for Position {
+    type Output = f64;
+    fn index(&self, i: usize) -> &f64 {
+        &self.coords()[i]
+    }
+}
+
+impl std::fmt::Display for Position {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let parts: Vec<String> = self.coords().iter().map(|c| format!("{c:.4e}")).collect();
+        write!(f, "({})", parts.join(", "))
+    }
+}
+
 /// A crack formed during a run: the block cracked, the piece it gave, and the criterion's value
 /// (`criterion` names it, as the log prints it: the cracking law's label, "POINT-LOAD VALUE" or
 /// "GRIFFITH STRESS").
@@ -40,8 +80,9 @@ pub struct CrackEvent {
     pub new_block: u32,
     pub criterion: &'static str,
     pub value: f64,
-    pub from: [f64; 2],
-    pub to: [f64; 2],
+    /// Its ends.
+    pub from: Position,
+    pub to: Position,
 }
 
 /// A numerical failure. When a backend returns one, the model it was given holds the last good
@@ -49,11 +90,11 @@ pub struct CrackEvent {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum CycleError {
     #[error(
-        "contact overlap too great at cycle {cycle}: blocks {block1} and {block2} overlap by {overlap:.4e} near ({x:.4e}, {y:.4e}), \
+        "contact overlap too great at cycle {cycle}: blocks {block1} and {block2} overlap by {overlap:.4e} near {at}, \
          more than half the rounding length ({limit:.4e}); the blocks are being driven through each other — \
          lower FRACTION, the loads or velocities, or raise the contact stiffness or ROUND"
     )]
-    Overlap { cycle: u64, block1: u32, block2: u32, overlap: f64, limit: f64, x: f64, y: f64 },
+    Overlap { cycle: u64, block1: u32, block2: u32, overlap: f64, limit: f64, at: Position },
     #[error("non-finite value at cycle {cycle}: block {block} has {what}; the run diverged — lower FRACTION, or check the loads and material properties")]
     NonFinite { cycle: u64, block: u32, what: String },
     /// `budget` is the energy the model started the CYCLE with plus the work gravity and loads

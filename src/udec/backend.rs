@@ -82,8 +82,7 @@ impl CycleError {
             block2: model.blocks[c.block2 as usize].id,
             overlap: -c.gap,
             limit,
-            x: c.point[0],
-            y: c.point[1],
+            at: crate::driver::report::Position::xy(c.point),
         }
     }
 }

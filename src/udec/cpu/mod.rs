@@ -18,7 +18,7 @@ pub mod geometry_update;
 pub mod law_of_motion;
 mod team;
 
-use crate::driver;
+use crate::driver::{self, Position};
 use crate::udec::backend::{Backend, CrackEvent, CycleError, CycleReport};
 use crate::udec::model::sdef::Sdef;
 use crate::udec::model::{Block, BlockKind, Corner, Material, Model};
@@ -439,7 +439,15 @@ pub(crate) fn crack_step(model: &mut Model, adjacency: &Adjacency, report: &mut 
         if model.retire_energy_around(|m| topology::apply_crack(m, &crack)).is_some() {
             changed = true;
             let criterion = crack.law.label();
-            report.cracks.push(CrackEvent { cycle: model.cycle, block: id, new_block: before, criterion, value: crack.value, from: crack.from, to: crack.to });
+            report.cracks.push(CrackEvent {
+                cycle: model.cycle,
+                block: id,
+                new_block: before,
+                criterion,
+                value: crack.value,
+                from: Position::xy(crack.from),
+                to: Position::xy(crack.to),
+            });
         }
     }
     changed

@@ -368,18 +368,18 @@ impl Executor<'_> {
 
     /// The log's lines of what happened during the cycles: cracks and smaller time steps.
     fn echo_report(&mut self, report: &CycleReport) {
+        // A position as the log prints numbers: (x, y) in the report's E format.
+        let point = |p: &crate::driver::Position| format!("({})", p.coords().iter().map(|&x| output::format::fmt_e(x)).collect::<Vec<_>>().join(", "));
         for c in &report.cracks {
             self.echo(&format!(
-                "BLOCK {} CRACKED AT CYCLE {} ({} {}): NEW BLOCK {} ALONG ({}, {}) - ({}, {})",
+                "BLOCK {} CRACKED AT CYCLE {} ({} {}): NEW BLOCK {} ALONG {} - {}",
                 c.block,
                 c.cycle,
                 c.criterion,
                 output::format::fmt_e(c.value),
                 c.new_block,
-                output::format::fmt_e(c.from[0]),
-                output::format::fmt_e(c.from[1]),
-                output::format::fmt_e(c.to[0]),
-                output::format::fmt_e(c.to[1])
+                point(&c.from),
+                point(&c.to)
             ));
         }
         for (cycle, dt) in &report.timestep_changes {
