@@ -130,13 +130,17 @@ fn not_supported_yet(command: &Command) -> Option<&'static str> {
         Command::PFix { .. } => Some("PFIX (domain pressures)"),
         Command::PFree { .. } => Some("PFREE (domain pressures)"),
         Command::Print { items } => items.iter().find_map(|item| match item {
-            PrintItem::Domains => Some("PRINT DOMAINS (fluid domains)"),
-            PrintItem::DList => Some("PRINT DLIST (domain linked lists)"),
             PrintItem::Flows => Some("PRINT FLOWS (fluid flow)"),
             _ => None,
         }),
         _ => None,
     }
+}
+
+/// Whether `command` can change the blocks, their positions or the contacts, after which a scene
+/// with domains rebuilds them (RESTART's model has none; `Executor::restart` rebuilds them).
+fn changes_topology(command: &Command) -> bool {
+    matches!(command, Command::Block { .. } | Command::Split { .. } | Command::Delete { .. } | Command::Cycle { .. } | Command::Change { .. })
 }
 
 impl RunOptions {
@@ -219,6 +223,9 @@ impl<'a> Executor<'a> {
     /// Runs the commands in order until STOP, END or an error.
     pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
         let result = self.run_commands(commands);
+        // The state a caller reads (the state JSON) has its domains right, also when a command
+        // failed and the model went back to its last good state.
+        self.refresh_domains_if_kept();
         // Also on an error, before the caller reports it.
         let _ = self.log.flush();
         result
@@ -236,6 +243,9 @@ impl<'a> Executor<'a> {
             }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
+            if changes_topology(&cmd.command) {
+                self.refresh_domains_if_kept();
+            }
             self.executed += 1;
             if done {
                 break;
