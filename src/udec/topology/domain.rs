@@ -557,3 +557,167 @@ pub fn refresh_domains(model: &mut Model) {
     let previous = model.domains.take();
     model.domains = Some(build_domains(model, previous.as_ref()));
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The model a deck leaves after `CYCLE 0` (a full contact detection, no motion).
+    fn detected(blocks: &str) -> Model {
+        let deck = format!("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\n{blocks}CYCLE 0\n");
+        crate::scenes::run_deck_on(&deck, Box::new(crate::udec::cpu::CpuBackend::new())).expect("the scene builds")
+    }
+
+    /// Four blocks around a 1 × 1 hole, each in face contact with the next along 1 m.
+    const PINWHEEL: &str = "BLOCK 0,0 2,0 2,1 0,1\nBLOCK 2,0 3,0 3,2 2,2\nBLOCK 1,2 3,2 3,3 1,3\nBLOCK 0,1 1,1 1,3 0,3\n";
+
+    fn kinds(d: &Domains) -> Vec<DomainKind> {
+        d.list.iter().map(|x| x.kind).collect()
+    }
+
+    /// Every linking contact is crossed twice in all (once by the circuit on each of its sides),
+    /// the sides name the domains that list it, and every corner of a block is passed once.
+    fn assert_consistent(model: &Model, d: &Domains) {
+        let mut crossings = vec![Vec::new(); model.contacts.len()];
+        let mut corners = vec![0; model.corners.len()];
+        for (k, dom) in d.list.iter().enumerate() {
+            for l in d.links_of(dom) {
+                match *l {
+                    DomainLink::Contact { index, id } => {
+                        assert_eq!(model.contacts[index as usize].id, id);
+                        crossings[index as usize].push(k as u32);
+                    }
+                    DomainLink::Corner { corner } => corners[corner as usize] += 1,
+                }
+            }
+        }
+        for (i, side) in d.sides.iter().enumerate() {
+            if side[0] == NO_DOMAIN {
+                assert!(crossings[i].is_empty(), "contact {i} is not a link but is crossed");
+                continue;
+            }
+            let mut listed = crossings[i].clone();
+            let mut expected = side.to_vec();
+            listed.sort_unstable();
+            expected.sort_unstable();
+            assert_eq!(listed, expected, "contact {}", model.contacts[i].id);
+        }
+        // A corner is passed once, by the domain it faces, unless a contact sits at it (the
+        // contact stands for it there).
+        let mut at_contact = vec![false; model.corners.len()];
+        for (i, c) in model.contacts.iter().enumerate() {
+            if d.sides[i][0] != NO_DOMAIN {
+                at_contact[c.corner as usize] = true;
+                if c.feature % 2 == 0 {
+                    at_contact[(model.blocks[c.block2 as usize].corner_start + c.feature / 2) as usize] = true;
+                }
+            }
+        }
+        for (k, &n) in corners.iter().enumerate() {
+            assert_eq!(n, usize::from(!at_contact[k]), "corner {k}: {corners:?}");
+        }
+        assert_eq!(d.list.iter().filter(|x| x.kind == DomainKind::Outer).count(), 1);
+        assert!(d.list.windows(2).all(|w| w[0].id < w[1].id), "ordered by id");
+    }
+
+    #[test]
+    fn corners_between_walks_counter_clockwise_and_wraps() {
+        let v = |from, to, wrap| corners_between(from, to, wrap, 4).collect::<Vec<_>>();
+        // From corner 1 to corner 3: corner 2 between; from edge 1 to edge 2: corner 2.
+        assert_eq!(v(2, 6, false), [2]);
+        assert_eq!(v(3, 5, false), [2]);
+        // Two darts on one edge, or at one corner: none.
+        assert_eq!(v(3, 3, false), Vec::<u32>::new());
+        // From edge 2 round past corner 0 to edge 0: corners 3 and 0.
+        assert_eq!(v(5, 1, true), [3, 0]);
+        // The only dart of a block, at corner 1: all the others.
+        assert_eq!(v(2, 2, true), [2, 3, 0]);
+    }
+
+    #[test]
+    fn a_closed_void_between_four_blocks_is_one_regular_domain_of_its_area() {
+        let model = detected(PINWHEEL);
+        let d = build_domains(&model, None);
+        assert_consistent(&model, &d);
+        let regular: Vec<&Domain> = d.list.iter().filter(|x| x.kind == DomainKind::Regular).collect();
+        assert_eq!(regular.len(), 1, "{:?}", kinds(&d));
+        // The hole is 1 × 1; the traced boundary runs through the sharp corners and the corners'
+        // feet on the edges, so the area is exact to round-off.
+        assert!((regular[0].area - 1.0).abs() < 1e-12, "{}", regular[0].area);
+        assert!((regular[0].void_area - 1.0).abs() < 1e-12);
+        // Four contacts bound it, one from each block.
+        let around: Vec<u32> =
+            d.links_of(regular[0]).iter().filter_map(|l| if let DomainLink::Contact { index, .. } = *l { Some(index) } else { None }).collect();
+        assert_eq!(around.len(), 4);
+        let mut blocks: Vec<u32> = around.iter().map(|&i| model.contacts[i as usize].block1).collect();
+        blocks.sort_unstable();
+        assert_eq!(blocks, [0, 1, 2, 3]);
+        // And four joint domains of length 1 at the minimum area, and the outer domain, id 1.
+        let joints: Vec<&Domain> = d.list.iter().filter(|x| x.kind == DomainKind::Joint).collect();
+        assert_eq!(joints.len(), 4);
+        let average = model.blocks.iter().map(|b| b.area).sum::<f64>() / 4.0;
+        for j in joints {
+            assert!((j.length - 1.0).abs() < 1e-12, "{}", j.length);
+            assert_eq!(j.area, MIN_AREA_FRACTION * average);
+        }
+        assert_eq!(d.outer().map(|o| (o.id, o.area)), Some((1, 0.0)));
+    }
+
+    #[test]
+    fn a_block_floating_in_a_void_is_an_island_of_it() {
+        // The pinwheel's hole made 2 × 2, a 0.5 × 0.5 block in it touching nothing.
+        let ring =
+            "BLOCK 0,0 3,0 3,1 0,1\nBLOCK 3,0 4,0 4,3 3,3\nBLOCK 1,3 4,3 4,4 1,4\nBLOCK 0,1 1,1 1,4 0,4\nBLOCK 1.75,1.75 2.25,1.75 2.25,2.25 1.75,2.25\n";
+        let model = detected(ring);
+        let d = build_domains(&model, None);
+        assert_consistent(&model, &d);
+        let void = d.list.iter().find(|x| x.kind == DomainKind::Regular).expect("the hole");
+        assert!((void.area - (4.0 - 0.25)).abs() < 1e-12, "{}", void.area);
+        let island = &model.blocks[4];
+        let corners: Vec<u32> = d.links_of(void).iter().filter_map(|l| if let DomainLink::Corner { corner } = *l { Some(corner) } else { None }).collect();
+        assert!((island.corner_start..island.corner_start + 4).all(|c| corners.contains(&c)), "{corners:?}");
+        // The outer domain does not see it.
+        let outer = d.outer().unwrap();
+        assert!(!d.links_of(outer).iter().any(|l| matches!(*l, DomainLink::Corner { corner } if corner >= island.corner_start)));
+    }
+
+    #[test]
+    fn lone_blocks_and_an_empty_model_have_only_the_outer_domain() {
+        let d = build_domains(&Model::default(), None);
+        assert_eq!(kinds(&d), [DomainKind::Outer]);
+        assert!(d.links.is_empty() && d.min_area == 0.0);
+        // Two blocks 1 m apart: no contact, both on the outer domain's list.
+        let model = detected("BLOCK 0,0 1,0 1,1 0,1\nBLOCK 2,0 3,0 3,1 2,1\n");
+        assert!(model.contacts.is_empty());
+        let d = build_domains(&model, None);
+        assert_consistent(&model, &d);
+        assert_eq!(kinds(&d), [DomainKind::Outer]);
+        assert_eq!(d.links.len(), 8);
+    }
+
+    #[test]
+    fn a_rebuild_keeps_the_ids_pressures_and_pfix_of_the_domains_found_again() {
+        let mut model = detected(PINWHEEL);
+        let mut first = build_domains(&model, None);
+        // Fluid would have set these: a rebuild on the same lists keeps them all.
+        for (k, d) in first.list.iter_mut().enumerate() {
+            d.pressure = 100.0 * k as f64;
+            d.fixed = k % 2 == 0;
+        }
+        let again = build_domains(&model, Some(&first));
+        let summary = |d: &Domains| d.list.iter().map(|x| (x.id, x.kind, x.pressure, x.fixed)).collect::<Vec<_>>();
+        assert_eq!(summary(&again), summary(&first));
+        assert_eq!(again.next_id, first.next_id);
+        // Without block 3 (index 2) the hole opens into the outer domain: the two joints it had
+        // go, the two others keep their ids and pressures, and no id is reused.
+        model.remove_blocks(&[2]);
+        let after = build_domains(&model, Some(&first));
+        assert_consistent(&model, &after);
+        let joints = |d: &Domains| d.list.iter().filter(|x| x.kind == DomainKind::Joint).map(|x| (x.id, x.pressure)).collect::<Vec<_>>();
+        let kept: Vec<(u32, f64)> = joints(&first).into_iter().filter(|j| joints(&after).contains(j)).collect();
+        assert_eq!(kept.len(), 2, "{:?} then {:?}", joints(&first), joints(&after));
+        assert_eq!(joints(&after).len(), 2);
+        assert_eq!(kinds(&after), [DomainKind::Outer, DomainKind::Joint, DomainKind::Joint]);
+        assert_eq!(after.outer().unwrap().id, first.outer().unwrap().id);
+    }
+}
