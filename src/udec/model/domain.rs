@@ -61,7 +61,10 @@ pub struct Domain {
     /// domain, which has none.
     pub area: f64,
     /// The area enclosed by the traced boundary (less the blocks of any group that floats inside
-    /// it): what `area` is for a regular domain before the minimum; the sliver's for a joint.
+    /// it): what `area` is for a regular domain before the minimum; the sliver's for a joint;
+    /// for the outer domain, minus the area inside its circuits (the assembly's outline). Over
+    /// all domains these add up to minus the blocks' area: each piece of block boundary bounds
+    /// exactly one domain.
     pub void_area: f64,
     /// A joint domain's length l_j: the distance between its two contacts; 0 for other kinds.
     pub length: f64,

@@ -346,17 +346,24 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>) -> Domains {
             trace_piece(model, &darts, &positions, d, next[d as usize], wraps[d as usize], |_| {}, |corner| links.push(DomainLink::Corner { corner }));
         }
     };
-    // A lone block's boundary: its corners.
-    let push_lone = |b: u32, links: &mut Vec<DomainLink>, blocks_seen: &mut Vec<u32>| {
+    // A lone block's boundary: its corners; returns the area they enclose.
+    let push_lone = |b: u32, links: &mut Vec<DomainLink>, blocks_seen: &mut Vec<u32>| -> f64 {
         let blk = &model.blocks[b as usize];
         blocks_seen.push(b);
-        if (blk.corner_start + blk.corner_count) as usize <= model.corners.len() {
-            links.extend((blk.corner_start..blk.corner_start + blk.corner_count).map(|corner| DomainLink::Corner { corner }));
+        let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
+        match positions.get(range.clone()) {
+            Some(pts) => {
+                links.extend(range.map(|corner| DomainLink::Corner { corner: corner as u32 }));
+                signed_area(pts)
+            }
+            None => 0.0,
         }
     };
     let max_moved = |blocks: &[u32]| blocks.iter().map(|&b| model.blocks[b as usize].moved_since_update).fold(0.0, f64::max);
 
-    // The outer domain: every island not in a void.
+    // The outer domain: every island not in a void. Its void area is minus the area its
+    // circuits enclose, so that the void areas of all domains add up to minus the blocks' area
+    // (each piece of block boundary bounds one domain).
     let mut outer = blank(DomainKind::Outer);
     blocks_seen.clear();
     for (i, &(_, b, outside)) in islands.iter().enumerate() {
@@ -364,9 +371,10 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>) -> Domains {
             match outside {
                 Some(k) => {
                     domain_of_circuit[k as usize] = 0;
+                    outer.void_area -= circuits[k as usize].signed_area;
                     push_circuit(k as usize, &mut links, &mut blocks_seen)
                 }
-                None => push_lone(b, &mut links, &mut blocks_seen),
+                None => outer.void_area -= push_lone(b, &mut links, &mut blocks_seen),
             }
         }
     }
@@ -390,10 +398,7 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>) -> Domains {
                         domain.void_area -= circuits[o as usize].signed_area;
                         push_circuit(o as usize, &mut links, &mut blocks_seen)
                     }
-                    None => {
-                        domain.void_area -= model.blocks[b as usize].area.abs();
-                        push_lone(b, &mut links, &mut blocks_seen)
-                    }
+                    None => domain.void_area -= push_lone(b, &mut links, &mut blocks_seen),
                 }
             }
         }
@@ -618,6 +623,9 @@ mod tests {
         }
         assert_eq!(d.list.iter().filter(|x| x.kind == DomainKind::Outer).count(), 1);
         assert!(d.list.windows(2).all(|w| w[0].id < w[1].id), "ordered by id");
+        let blocks: f64 = (0..model.blocks.len()).map(|b| signed_area(&model.corner_positions(b))).sum();
+        let voids: f64 = d.list.iter().map(|x| x.void_area).sum();
+        assert!((blocks + voids).abs() <= 1e-12 * blocks.max(1.0), "blocks {blocks}, voids {voids}");
     }
 
     #[test]
