@@ -63,7 +63,7 @@ fn domain_tables(log: &str) -> Vec<Vec<Row>> {
         assert!(h2.contains("PRESSURE") && h2.contains("DISPLACEMENT"), "{h2}");
         let mut rows = Vec::new();
         for row in lines.by_ref() {
-            if row.starts_with("   MINIMUM DOMAIN AREA ") {
+            if row.starts_with("   MINIMUM DOMAIN AREA ") && row.ends_with(')') {
                 break;
             }
             let f: Vec<&str> = row.split_whitespace().collect();
@@ -411,5 +411,35 @@ proptest::proptest! {
         let d = model.domains.as_ref().expect("asked for");
         assert_consistent(&model, d);
         proptest::prop_assert_eq!(domain_tables(&log)[0].len(), d.list.len());
+    }
+}
+
+#[test]
+fn set_damin_gives_the_minimum_area_and_bad_values_name_their_line() {
+    // The pinwheel's joints take the minimum; its 1 m² hole keeps its area above it and is
+    // raised to it below.
+    for (a, hole) in [(0.25, 1.0), (2.0, 2.0)] {
+        let (model, log) = run_ok(&format!("{HEAD}{PINWHEEL}SET DAMIN {a}\nCYCLE 1\nPRINT DOMAINS\nSTOP\n"));
+        let rows = &domain_tables(&log)[0];
+        assert!(log.contains(&format!("   MINIMUM DOMAIN AREA {} (SET DAMIN)", blockdem::output::format::fmt_e(a))), "{log}");
+        assert!(rows.iter().filter(|r| r.note.starts_with("JOINT")).all(|r| r.volume == a), "{rows:?}");
+        let void = rows.iter().find(|r| r.note.is_empty()).unwrap();
+        assert!((void.volume - hole).abs() < 1e-9, "{a}: {}", void.volume);
+        let d = model.domains.as_ref().unwrap();
+        assert_eq!((d.min_area, d.given_min_area), (a, Some(a)));
+        assert_consistent(&model, d);
+    }
+    // Given after the domains exist, it applies at once; the rebuilds keep it.
+    let (model, log) = run_ok(&format!("{HEAD}{PINWHEEL}CYCLE 1\nPRINT DOMAINS\nSET DAMIN 0.5\nCYCLE 1\nSTOP\n"));
+    assert!(log.contains("(1.000E-03 OF THE AVERAGE BLOCK AREA)"), "{log}");
+    assert_eq!(model.domains.as_ref().unwrap().min_area, 0.5);
+    for (bad, needle) in [
+        ("SET DAMIN 0", "must be positive"),
+        ("SET DAMIN -1", "must be positive"),
+        ("SET DAMIN", "minimum domain area"),
+        ("SET DAMIN X", "minimum domain area"),
+    ] {
+        let e = blockdem::udec::deck::parse_deck(&format!("START\n{bad}\n"), "d").unwrap_err();
+        assert!(e.to_string().starts_with("d:2:") && e.to_string().contains(needle), "{bad}: {e}");
     }
 }

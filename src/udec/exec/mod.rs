@@ -176,6 +176,8 @@ pub struct Executor<'a> {
     griffith_rigid_warned: bool,
     /// Materials whose joints CYCLE said follow the point-contact law (no JKN, JKS; ¶5).
     joint_fallback_noted: Vec<u32>,
+    /// SET DAMIN: the minimum domain area, for the domains built from then on.
+    domain_min_area: Option<f64>,
 }
 
 impl<'a> Executor<'a> {
@@ -197,6 +199,7 @@ impl<'a> Executor<'a> {
             ledger_warned: false,
             griffith_rigid_warned: false,
             joint_fallback_noted: Vec::new(),
+            domain_min_area: None,
         }
     }
 
@@ -351,6 +354,10 @@ impl<'a> Executor<'a> {
             Command::Vtk => self.vtk(cmd)?,
             Command::Save { file } => self.save(cmd, file)?,
             Command::Set { setting: crate::udec::deck::Setting::Overlap(policy) } => self.overlap_policy = *policy,
+            Command::Set { setting: crate::udec::deck::Setting::Damin(a) } => {
+                self.domain_min_area = Some(*a);
+                self.refresh_domains_if_kept();
+            }
             Command::Split { from, to, material, constitutive } => self.split(cmd, *from, *to, *material, *constitutive)?,
             Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
             Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],

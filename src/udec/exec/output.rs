@@ -35,7 +35,7 @@ impl Executor<'_> {
         let had_domains = self.model.domains.is_some();
         self.model = saved.model;
         if had_domains {
-            crate::udec::topology::refresh_domains(&mut self.model);
+            crate::udec::topology::refresh_domains_with(&mut self.model, self.domain_min_area);
         }
         self.overlaps_checked = None;
         self.plot = saved.plot;
@@ -114,7 +114,7 @@ impl Executor<'_> {
     /// ([`Executor::refresh_domains_if_kept`]). A scene that never asks never builds them.
     fn keep_domains(&mut self) {
         if self.model.domains.is_none() {
-            crate::udec::topology::refresh_domains(&mut self.model);
+            crate::udec::topology::refresh_domains_with(&mut self.model, self.domain_min_area);
         }
     }
 
@@ -122,7 +122,7 @@ impl Executor<'_> {
     /// the voids found again); nothing in a scene without them.
     pub(super) fn refresh_domains_if_kept(&mut self) {
         if self.model.domains.is_some() {
-            crate::udec::topology::refresh_domains(&mut self.model);
+            crate::udec::topology::refresh_domains_with(&mut self.model, self.domain_min_area);
         }
     }
 

@@ -101,8 +101,11 @@ pub struct Domains {
     /// block 2 (both the same for a contact with one void around it). A flow across the contact
     /// goes between them. [`NO_DOMAIN`] twice for the second view of a corner pair.
     pub sides: Vec<[u32; 2]>,
-    /// A_d(min), the smallest area a domain is given (DAMIN).
+    /// A_d(min), the smallest area a domain is given (DAMIN): `given_min_area` when SET DAMIN
+    /// gave one, otherwise [`MIN_AREA_FRACTION`] of the average block area.
     pub min_area: f64,
+    /// The minimum area SET DAMIN gave, kept by every rebuild.
+    pub given_min_area: Option<f64>,
     /// The id the next new domain gets.
     pub next_id: u32,
 }

@@ -14,7 +14,7 @@ use std::io::{self, Write};
 
 use super::format::{fmt_e, push_col_e, NUMBER_WIDTH};
 use crate::udec::deck::PrintItem;
-use crate::udec::model::domain::{Domain, DomainKind, DomainLink, Domains};
+use crate::udec::model::domain::{Domain, DomainKind, DomainLink, Domains, MIN_AREA_FRACTION};
 use crate::udec::model::{Block, BlockKind, Contact, ContactKind, Model};
 
 /// One heading group: a title over one or more sub-columns of equal width. A single-column
@@ -409,7 +409,11 @@ pub fn print_domains(model: &Model, out: &mut dyn Write) -> io::Result<()> {
         }
         writeln!(out, "{line}")?;
     }
-    writeln!(out, "   MINIMUM DOMAIN AREA {}", fmt_e(domains.min_area))
+    let why = match domains.given_min_area {
+        Some(_) => "SET DAMIN".to_string(),
+        None => format!("{} OF THE AVERAGE BLOCK AREA", fmt_e(MIN_AREA_FRACTION)),
+    };
+    writeln!(out, "   MINIMUM DOMAIN AREA {} ({why})", fmt_e(domains.min_area))
 }
 
 /// PRINT DLIST: for each domain, going round its void, each contact it crosses from one block to

@@ -190,7 +190,9 @@ fn root(parent: &mut [u32], mut x: u32) -> u32 {
 /// The domains of `model`, from its blocks, corners and contacts. `previous` (the set built
 /// before the last change of topology) gives its ids, pressures and PFIX to the domains found
 /// again; without it the outer domain is 1 and the others follow in the order they are traced.
-pub fn build_domains(model: &Model, previous: Option<&Domains>) -> Domains {
+/// `min_area` is SET DAMIN's minimum area, if given now; otherwise `previous`'s, if it had one,
+/// or [`MIN_AREA_FRACTION`] of the average block area.
+pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option<f64>) -> Domains {
     let positions: Vec<[f64; 2]> = model.corners.iter().map(|c| c.position).collect();
     let linking = linking_contacts(model);
 
@@ -329,7 +331,8 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>) -> Domains {
 
     // The domains: the outer one first, then the voids in tracing order.
     let average_block_area = if model.blocks.is_empty() { 0.0 } else { model.blocks.iter().map(|b| b.area.abs()).sum::<f64>() / model.blocks.len() as f64 };
-    let min_area = MIN_AREA_FRACTION * average_block_area;
+    let given_min_area = min_area.or(previous.and_then(|p| p.given_min_area));
+    let min_area = given_min_area.unwrap_or(MIN_AREA_FRACTION * average_block_area);
     let mut list: Vec<Domain> = Vec::with_capacity(voids.len() + 1);
     let mut links: Vec<DomainLink> = Vec::new();
     let mut domain_of_circuit = vec![0u32; circuits.len()];
@@ -424,7 +427,7 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>) -> Domains {
         }
     }
 
-    let mut domains = Domains { list, links, sides, min_area, next_id: 1 };
+    let mut domains = Domains { list, links, sides, min_area, given_min_area, next_id: 1 };
     assign_ids(&mut domains, previous);
     domains
 }
@@ -556,11 +559,16 @@ fn assign_ids(domains: &mut Domains, previous: Option<&Domains>) {
 }
 
 /// Builds the model's domains afresh from its lists, keeping the ids, pressures and PFIX of the
-/// domains found again in the set it had: after every change of topology in a scene that has
-/// domains, and when a scene first asks for them.
+/// domains found again in the set it had (and its SET DAMIN): after every change of topology in
+/// a scene that has domains, and when a scene first asks for them.
 pub fn refresh_domains(model: &mut Model) {
+    refresh_domains_with(model, None);
+}
+
+/// [`refresh_domains`] with SET DAMIN's minimum area, when one was given.
+pub fn refresh_domains_with(model: &mut Model, min_area: Option<f64>) {
     let previous = model.domains.take();
-    model.domains = Some(build_domains(model, previous.as_ref()));
+    model.domains = Some(build_domains(model, previous.as_ref(), min_area));
 }
 
 #[cfg(test)]
@@ -645,7 +653,7 @@ mod tests {
     #[test]
     fn a_closed_void_between_four_blocks_is_one_regular_domain_of_its_area() {
         let model = detected(PINWHEEL);
-        let d = build_domains(&model, None);
+        let d = build_domains(&model, None, None);
         assert_consistent(&model, &d);
         let regular: Vec<&Domain> = d.list.iter().filter(|x| x.kind == DomainKind::Regular).collect();
         assert_eq!(regular.len(), 1, "{:?}", kinds(&d));
@@ -677,7 +685,7 @@ mod tests {
         let ring =
             "BLOCK 0,0 3,0 3,1 0,1\nBLOCK 3,0 4,0 4,3 3,3\nBLOCK 1,3 4,3 4,4 1,4\nBLOCK 0,1 1,1 1,4 0,4\nBLOCK 1.75,1.75 2.25,1.75 2.25,2.25 1.75,2.25\n";
         let model = detected(ring);
-        let d = build_domains(&model, None);
+        let d = build_domains(&model, None, None);
         assert_consistent(&model, &d);
         let void = d.list.iter().find(|x| x.kind == DomainKind::Regular).expect("the hole");
         assert!((void.area - (4.0 - 0.25)).abs() < 1e-12, "{}", void.area);
@@ -691,13 +699,13 @@ mod tests {
 
     #[test]
     fn lone_blocks_and_an_empty_model_have_only_the_outer_domain() {
-        let d = build_domains(&Model::default(), None);
+        let d = build_domains(&Model::default(), None, None);
         assert_eq!(kinds(&d), [DomainKind::Outer]);
         assert!(d.links.is_empty() && d.min_area == 0.0);
         // Two blocks 1 m apart: no contact, both on the outer domain's list.
         let model = detected("BLOCK 0,0 1,0 1,1 0,1\nBLOCK 2,0 3,0 3,1 2,1\n");
         assert!(model.contacts.is_empty());
-        let d = build_domains(&model, None);
+        let d = build_domains(&model, None, None);
         assert_consistent(&model, &d);
         assert_eq!(kinds(&d), [DomainKind::Outer]);
         assert_eq!(d.links.len(), 8);
@@ -706,20 +714,20 @@ mod tests {
     #[test]
     fn a_rebuild_keeps_the_ids_pressures_and_pfix_of_the_domains_found_again() {
         let mut model = detected(PINWHEEL);
-        let mut first = build_domains(&model, None);
+        let mut first = build_domains(&model, None, None);
         // Fluid would have set these: a rebuild on the same lists keeps them all.
         for (k, d) in first.list.iter_mut().enumerate() {
             d.pressure = 100.0 * k as f64;
             d.fixed = k % 2 == 0;
         }
-        let again = build_domains(&model, Some(&first));
+        let again = build_domains(&model, Some(&first), None);
         let summary = |d: &Domains| d.list.iter().map(|x| (x.id, x.kind, x.pressure, x.fixed)).collect::<Vec<_>>();
         assert_eq!(summary(&again), summary(&first));
         assert_eq!(again.next_id, first.next_id);
         // Without block 3 (index 2) the hole opens into the outer domain: the two joints it had
         // go, the two others keep their ids and pressures, and no id is reused.
         model.remove_blocks(&[2]);
-        let after = build_domains(&model, Some(&first));
+        let after = build_domains(&model, Some(&first), None);
         assert_consistent(&model, &after);
         let joints = |d: &Domains| d.list.iter().filter(|x| x.kind == DomainKind::Joint).map(|x| (x.id, x.pressure)).collect::<Vec<_>>();
         let kept: Vec<(u32, f64)> = joints(&first).into_iter().filter(|j| joints(&after).contains(j)).collect();

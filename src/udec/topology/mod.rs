@@ -10,7 +10,7 @@ pub mod domain;
 pub use adjacency::Adjacency;
 pub use cracking::{apply_crack, find_griffith_crack, find_point_load_crack, PointLoadCrack};
 pub use detect::{update_contacts, update_topology};
-pub use domain::{build_domains, refresh_domains};
+pub use domain::{build_domains, refresh_domains, refresh_domains_with};
 
 /// The unit tests' random numbers: a xorshift64 stream from `seed`, each call a value below `m`
 /// (`m` = 2⁵³ and a division by it give a uniform f64 in [0, 1)).
