@@ -177,6 +177,55 @@ fn corners_between(from: u32, to: u32, wrap: bool, n: u32) -> impl Iterator<Item
     first.chain(second)
 }
 
+/// The bounding box of `pts`: [x min, y min, x max, y max].
+fn bounding_box(pts: &[[f64; 2]]) -> [f64; 4] {
+    pts.iter()
+        .fold([f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY], |b, p| [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])])
+}
+
+/// Boxes larger than this many cells go to [`BoxGrid::large`], tested for every point.
+const MAX_CELLS_PER_BOX: i64 = 64;
+
+/// Bounding boxes in a uniform grid, to find those that may hold a point without testing all
+/// of them (the voids a floating group may lie in: 3000 flying blocks over a wall of 30000 took
+/// 2 s testing every void).
+struct BoxGrid {
+    cell: f64,
+    cells: HashMap<(i64, i64), Vec<usize>>,
+    large: Vec<usize>,
+}
+
+impl BoxGrid {
+    fn new(boxes: &[[f64; 4]], cell: f64) -> Self {
+        let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
+        let mut grid = BoxGrid { cell, cells: HashMap::new(), large: Vec::new() };
+        for (v, b) in boxes.iter().enumerate() {
+            let (lo, hi) = (grid.key([b[0], b[1]]), grid.key([b[2], b[3]]));
+            let count = (hi.0 - lo.0 + 1).saturating_mul(hi.1 - lo.1 + 1);
+            if !(1..=MAX_CELLS_PER_BOX).contains(&count) {
+                grid.large.push(v);
+                continue;
+            }
+            for i in lo.0..=hi.0 {
+                for j in lo.1..=hi.1 {
+                    grid.cells.entry((i, j)).or_default().push(v);
+                }
+            }
+        }
+        grid
+    }
+
+    /// The cell of `p` (coordinates beyond i64 saturate: such a box is large anyway).
+    fn key(&self, p: [f64; 2]) -> (i64, i64) {
+        ((p[0] / self.cell).floor() as i64, (p[1] / self.cell).floor() as i64)
+    }
+
+    /// The boxes that may hold `p`: those of its cell and the large ones.
+    fn candidates(&self, p: [f64; 2]) -> impl Iterator<Item = usize> + '_ {
+        self.cells.get(&self.key(p)).into_iter().flatten().copied().chain(self.large.iter().copied())
+    }
+}
+
 /// Union–find root of `x`.
 fn root(parent: &mut [u32], mut x: u32) -> u32 {
     while parent[x as usize] != x {
@@ -282,22 +331,9 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
     }
     let is_outside: Vec<bool> = circuits.iter().enumerate().map(|(k, c)| outside_of_group[&c.group] == k as u32).collect();
 
-    // The voids and their polygons (for islands), then the islands: each group's outside, placed
-    // in the smallest void of another group that holds its first block's centroid, or outside.
+    // The voids, then the islands: each group's outside, placed in the smallest void of another
+    // group that holds its first block's centroid, or outside.
     let voids: Vec<u32> = (0..circuits.len() as u32).filter(|&k| !is_outside[k as usize]).collect();
-    let void_polygons: Vec<(Vec<[f64; 2]>, [f64; 4])> = voids
-        .iter()
-        .map(|&k| {
-            let mut pts = Vec::new();
-            for &d in &circuits[k as usize].darts {
-                trace_piece(model, &darts, &positions, d, next[d as usize], wraps[d as usize], |p| pts.push(p), |_| {});
-            }
-            let bbox = pts.iter().fold([f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY], |b, p| {
-                [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])]
-            });
-            (pts, bbox)
-        })
-        .collect();
     // Islands: (group, first block, circuit of its outside or none for a lone block).
     let mut islands: Vec<(u32, u32, Option<u32>)> = Vec::new();
     let mut seen_group = vec![false; model.blocks.len()];
@@ -308,26 +344,43 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
             islands.push((g, b, outside_of_group.get(&g).copied()));
         }
     }
-    // host[i]: the void (index into `voids`) island i floats in, if any.
-    let host: Vec<Option<usize>> = islands
-        .iter()
-        .map(|&(g, b, _)| {
-            let p = model.blocks[b as usize].centroid;
-            let mut best: Option<(usize, f64)> = None;
-            for (v, &k) in voids.iter().enumerate() {
-                let c = &circuits[k as usize];
-                let (pts, bb) = &void_polygons[v];
-                if c.group == g || p[0] < bb[0] || p[0] > bb[2] || p[1] < bb[1] || p[1] > bb[3] {
-                    continue;
+    // host[i]: the void (index into `voids`) island i floats in, if any. With one group there is
+    // no void of another group to float in.
+    let host: Vec<Option<usize>> = if islands.len() < 2 || voids.is_empty() {
+        vec![None; islands.len()]
+    } else {
+        let polygons: Vec<Vec<[f64; 2]>> = voids
+            .iter()
+            .map(|&k| {
+                let mut pts = Vec::new();
+                for &d in &circuits[k as usize].darts {
+                    trace_piece(model, &darts, &positions, d, next[d as usize], wraps[d as usize], |p| pts.push(p), |_| {});
                 }
-                let area = -c.signed_area;
-                if best.is_none_or(|(_, a)| area < a) && point_in_polygon(p, pts) {
-                    best = Some((v, area));
+                pts
+            })
+            .collect();
+        let boxes: Vec<[f64; 4]> = polygons.iter().map(|pts| bounding_box(pts)).collect();
+        let average = model.blocks.iter().map(|b| b.area.abs()).sum::<f64>() / model.blocks.len() as f64;
+        let grid = BoxGrid::new(&boxes, average.sqrt());
+        islands
+            .iter()
+            .map(|&(g, b, _)| {
+                let p = model.blocks[b as usize].centroid;
+                let mut best: Option<(usize, f64)> = None;
+                for v in grid.candidates(p) {
+                    let (c, bb) = (&circuits[voids[v] as usize], &boxes[v]);
+                    if c.group == g || p[0] < bb[0] || p[0] > bb[2] || p[1] < bb[1] || p[1] > bb[3] {
+                        continue;
+                    }
+                    let area = -c.signed_area;
+                    if best.is_none_or(|(w, a)| area < a || (area == a && v < w)) && point_in_polygon(p, &polygons[v]) {
+                        best = Some((v, area));
+                    }
                 }
-            }
-            best.map(|(v, _)| v)
-        })
-        .collect();
+                best.map(|(v, _)| v)
+            })
+            .collect()
+    };
 
     // The domains: the outer one first, then the voids in tracing order.
     let average_block_area = if model.blocks.is_empty() { 0.0 } else { model.blocks.iter().map(|b| b.area.abs()).sum::<f64>() / model.blocks.len() as f64 };
@@ -385,6 +438,10 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
     outer.max_displacement = max_moved(&blocks_seen);
     list.push(outer);
 
+    // The islands of each void, in island order.
+    let mut guests: Vec<(usize, usize)> = host.iter().enumerate().filter_map(|(i, h)| h.map(|v| (v, i))).collect();
+    guests.sort_unstable();
+    let mut guest = 0;
     for (v, &k) in voids.iter().enumerate() {
         let c = &circuits[k as usize];
         let mut domain = blank(DomainKind::Regular);
@@ -393,21 +450,23 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
         push_circuit(k as usize, &mut links, &mut blocks_seen);
         domain.void_area = -c.signed_area;
         // The islands floating in this void: their boundaries, less their area.
-        for (i, &(_, b, outside)) in islands.iter().enumerate() {
-            if host[i] == Some(v) {
-                match outside {
-                    Some(o) => {
-                        domain_of_circuit[o as usize] = list.len() as u32;
-                        domain.void_area -= circuits[o as usize].signed_area;
-                        push_circuit(o as usize, &mut links, &mut blocks_seen)
-                    }
-                    None => domain.void_area -= push_lone(b, &mut links, &mut blocks_seen),
+        let first_guest = guest;
+        while guest < guests.len() && guests[guest].0 == v {
+            let (_, b, outside) = islands[guests[guest].1];
+            match outside {
+                Some(o) => {
+                    domain_of_circuit[o as usize] = list.len() as u32;
+                    domain.void_area -= circuits[o as usize].signed_area;
+                    push_circuit(o as usize, &mut links, &mut blocks_seen)
                 }
+                None => domain.void_area -= push_lone(b, &mut links, &mut blocks_seen),
             }
+            guest += 1;
         }
         domain.link_count = links.len() as u32 - domain.link_start;
         domain.max_displacement = max_moved(&blocks_seen);
-        if let Some(length) = joint_length(&darts, &next, &wraps, c, model) {
+        let joint = if guest == first_guest { joint_length(&darts, &next, &wraps, c, model) } else { None };
+        if let Some(length) = joint {
             // ¶7: A_d = a_j·l_j; the aperture is the fluid's (0 until fluid flows), so A_d(min).
             domain.kind = DomainKind::Joint;
             domain.length = length;
