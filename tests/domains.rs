@@ -1,7 +1,7 @@
 //! Domains (issue 30 item 1; SL-85-1 Appendix A ¶6–9): the voids between blocks traced from the
 //! contact lists, as PRINT DOMAINS, PRINT DLIST and the state JSON show them, through contact
-//! creation and deletion, SPLIT, DELETE and cracking; sample 4 runs to its end. CPU only: the
-//! domains are the CPU topology's on every backend.
+//! creation and deletion, SPLIT, DELETE and cracking; sample 4 runs to its end. The domains are
+//! the CPU topology's on every backend: one scene checks them after cycling on each.
 
 mod common;
 
@@ -12,7 +12,7 @@ use blockdem::udec::model::domain::{DomainKind, DomainLink, Domains, NO_DOMAIN};
 use blockdem::udec::model::geometry::signed_area;
 use blockdem::udec::model::Model;
 use blockdem::udec::output::state_json;
-use common::SharedLog;
+use common::{every_backend, SharedLog, Target};
 
 fn run_logged(deck: &str) -> (Result<Model, RunError>, String) {
     let log = SharedLog::default();
@@ -442,4 +442,24 @@ fn set_damin_gives_the_minimum_area_and_bad_values_name_their_line() {
         let e = blockdem::udec::deck::parse_deck(&format!("START\n{bad}\n"), "d").unwrap_err();
         assert!(e.to_string().starts_with("d:2:") && e.to_string().contains(needle), "{bad}: {e}");
     }
+}
+
+every_backend!(domains_are_built_from_the_model_every_backend_leaves);
+
+/// A ring of blocks around a hole, one of them fixed, a small block falling into the hole: after
+/// cycling on `t`, the domains built from the model it leaves are those the CPU's gives (the
+/// same kinds, the hole's area to f32's round-off), and consistent.
+fn domains_are_built_from_the_model_every_backend_leaves(t: &Target) {
+    let deck = format!("{HEAD}{PINWHEEL}BLOCK 1.2,1.2 1.5,1.2 1.5,1.5 1.2,1.5\nFIX -1 4 -1 0.9\nGRAV 0 -10\nPRINT DOMAINS\nCYCLE 300\nPRINT DOMAINS\nSTOP\n");
+    let here = t.run(&deck);
+    let cpu = Target::Cpu.run(&deck);
+    let (d, reference) = (here.domains.as_ref().unwrap(), cpu.domains.as_ref().unwrap());
+    assert_consistent(&here, d);
+    let kinds = |d: &Domains| d.list.iter().map(|x| x.kind.name()).collect::<Vec<_>>();
+    assert_eq!(kinds(d), kinds(reference), "{}", t.name());
+    let hole = |d: &Domains| d.list.iter().find(|x| x.kind == DomainKind::Regular).map(|x| x.area).unwrap();
+    let tol = if t.is_f32() { 1e-4 } else { 1e-9 };
+    assert!((hole(d) - hole(reference)).abs() < tol, "{}: {} against {}", t.name(), hole(d), hole(reference));
+    // The block fell in: the hole is less than 1 m² by its area, and it touches the ring.
+    assert!(hole(d) < 0.95, "{}", hole(d));
 }

@@ -201,7 +201,8 @@ impl BoxGrid {
         let mut grid = BoxGrid { cell, cells: HashMap::new(), large: Vec::new() };
         for (v, b) in boxes.iter().enumerate() {
             let (lo, hi) = (grid.key([b[0], b[1]]), grid.key([b[2], b[3]]));
-            let count = (hi.0 - lo.0 + 1).saturating_mul(hi.1 - lo.1 + 1);
+            let span = |a: i64, b: i64| b.saturating_sub(a).saturating_add(1);
+            let count = span(lo.0, hi.0).saturating_mul(span(lo.1, hi.1));
             if !(1..=MAX_CELLS_PER_BOX).contains(&count) {
                 grid.large.push(v);
                 continue;
