@@ -463,3 +463,21 @@ fn domains_are_built_from_the_model_every_backend_leaves(t: &Target) {
     // The block fell in: the hole is less than 1 m² by its area, and it touches the ring.
     assert!(hole(d) < 0.95, "{}", hole(d));
 }
+
+#[test]
+fn a_restart_builds_the_domains_again() {
+    // SAVE files do not keep the domains; a scene that had them builds them again at RESTART,
+    // the same voids with the same numbers (nothing changed in between).
+    let dir = std::env::temp_dir().join(format!("blockdem-domains-restart-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("d.sav");
+    let deck = format!("{HEAD}{PINWHEEL}CYCLE 5\nPRINT DOMAINS\nSAVE {f}\nRESTART {f}\nPRINT DOMAINS\nSTOP\n", f = file.display());
+    let (model, log) = run_ok(&deck);
+    let t = domain_tables(&log);
+    assert_eq!(t.len(), 2);
+    assert_eq!(t[0], t[1]);
+    assert!(log.contains("THIS IS A RESTART RUN"));
+    assert_consistent(&model, model.domains.as_ref().unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+}
