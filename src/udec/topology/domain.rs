@@ -170,11 +170,10 @@ fn darts_of(model: &Model, i: usize, positions: &[[f64; 2]]) -> [Dart; 2] {
 /// feature `from` to feature `to`, exclusive; all the way round (`wrap`) when `to` is reached only
 /// after passing corner 0 again (the block's last dart to its first, or its only dart to itself).
 fn corners_between(from: u32, to: u32, wrap: bool, n: u32) -> impl Iterator<Item = u32> {
-    let after = (0..n).filter(move |&k| 2 * k > from);
-    let before = (0..n).filter(move |&k| 2 * k < to);
-    let (first, second): (Box<dyn Iterator<Item = u32>>, Box<dyn Iterator<Item = u32>>) =
-        if wrap { (Box::new(after), Box::new(before)) } else { (Box::new(after.filter(move |&k| 2 * k < to)), Box::new(std::iter::empty())) };
-    first.chain(second)
+    // Past `from` (and before `to` unless the piece wraps), then from corner 0 on before `to`.
+    let after = (0..n).filter(move |&k| 2 * k > from && (wrap || 2 * k < to));
+    let before = (0..if wrap { n } else { 0 }).filter(move |&k| 2 * k < to);
+    after.chain(before)
 }
 
 /// The bounding box of `pts`: [x min, y min, x max, y max].
