@@ -102,7 +102,7 @@ fn command() -> impl Strategy<Value = String> {
             .prop_map(|(m, d, kn, ks, f, c, tf)| format!("PROP MAT={m} D={d} KN={kn} KS={ks} F={f} C={c} TF={tf}")),
         1 => (range(), 1u32..3, 1u32..3).prop_map(|(r, m, k)| format!("CHANGE {r} MAT {m} CONS {k}")),
         3 => (0u32..150).prop_map(|n| format!("CYCLE {n}")),
-        1 => Just("PRINT BLOCKS CONTACTS ENERGY CORNERS".to_string()),
+        1 => Just("PRINT BLOCKS CONTACTS ENERGY CORNERS DOMAINS DLIST".to_string()),
         1 => range().prop_map(|r| format!("LINK {r}")),
         1 => Just("SAVE".to_string()),
         1 => Just("RESTART".to_string()),
@@ -218,7 +218,7 @@ fn scaled_command(s: Scale) -> impl Strategy<Value = String> {
         1 => (1u32..21, positive(), positive(), positive()).prop_map(|(m, d, kn, ks)| format!("PROP MAT={m} D={d} KN={kn} KS={ks} F=0.5")),
         1 => (range.clone(), 1u32..21, 1u32..3).prop_map(|(r, m, k)| format!("CHANGE {r} MAT {m} CONS {k}")),
         4 => prop_oneof![Just(0u32), Just(1), 2u32..200].prop_map(|n| format!("CYCLE {n}")),
-        1 => Just("PRINT BLOCKS CONTACTS ENERGY CORNERS LIST".to_string()),
+        1 => Just("PRINT BLOCKS CONTACTS ENERGY CORNERS LIST DOMAINS DLIST".to_string()),
         1 => prop_oneof![
             (-1.0f64..9.0, -1.0f64..6.0, -1.0f64..9.0, -1.0f64..6.0).prop_map(move |(a, b, c, d)| format!("LINK {} {} {} {}", s.x(a), s.x(b), s.x(c), s.x(d))),
             Just(format!("LINK {} {} {} {}", s.x(0.0), s.x(0.0), s.x(8.0), s.x(1.0))),

@@ -37,10 +37,13 @@ pub enum OverlapPolicy {
 }
 
 /// SET's settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Setting {
     /// SET OVERLAP ACCEPT|REFUSE
     Overlap(OverlapPolicy),
+    /// SET DAMIN a: the minimum domain area A_d(min) (Appendix A ¶7, the Program Guide's DAMIN,
+    /// "which may be set by the user"), instead of a fraction of the average block area.
+    Damin(f64),
 }
 
 /// DAMPING's third parameter.

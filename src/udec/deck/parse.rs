@@ -170,9 +170,10 @@ enum GenKey {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum SetKey {
     Overlap,
+    Damin,
 }
 
-const SET_KEYS: &[Name<SetKey>] = &[name("OVERLAP", "O", SetKey::Overlap)];
+const SET_KEYS: &[Name<SetKey>] = &[name("OVERLAP", "O", SetKey::Overlap), name("DAMIN", "DA", SetKey::Damin)];
 
 const OVERLAP_KEYS: &[Name<OverlapPolicy>] = &[name("ACCEPT", "A", OverlapPolicy::Accept), name("REFUSE", "R", OverlapPolicy::Refuse)];
 
@@ -302,7 +303,7 @@ fn usage(w: Word) -> &'static str {
         Word::RSet => "RSET v ia ioff",
         Word::Round => "ROUND d",
         Word::Save => "SAVE [file]",
-        Word::Set => "SET OVERLAP ACCEPT|REFUSE",
+        Word::Set => "SET OVERLAP ACCEPT|REFUSE or SET DAMIN a",
         Word::Split => "SPLIT x1 y1 x2 y2 [MATERIAL n] [CONSTITUTIVE m]",
         Word::Start => "START",
         Word::Stop => "STOP",
@@ -1034,11 +1035,17 @@ fn damping(a: &mut Args) -> Result<Command> {
 }
 
 /// SET OVERLAP ACCEPT|REFUSE (an extension): what a CYCLE does with blocks found overlapping
-/// before any motion.
+/// before any motion. SET DAMIN a: the minimum domain area (the Program Guide's DAMIN).
 fn set(a: &mut Args) -> Result<Command> {
     let t = a.next().ok_or_else(|| a.missing(&format!("a setting ({})", names(SET_KEYS))))?;
     match lookup(&t.text, SET_KEYS).filter(|_| !t.is_numeric()) {
         Some(SetKey::Overlap) => {}
+        Some(SetKey::Damin) => {
+            let t = a.next().ok_or_else(|| a.missing("the minimum domain area a"))?;
+            let v = a.real_of(t, "the minimum domain area a")?;
+            let v = a.positive(v, t, "the minimum domain area a")?;
+            return Ok(Command::Set { setting: Setting::Damin(v) });
+        }
         None => return Err(a.at(t, format!("unknown SET setting '{}'; SET takes {}", t.shown(), names(SET_KEYS)))),
     }
     let t = a.next().ok_or_else(|| a.missing(&format!("what OVERLAP does ({})", names(OVERLAP_KEYS))))?;

@@ -130,13 +130,17 @@ fn not_supported_yet(command: &Command) -> Option<&'static str> {
         Command::PFix { .. } => Some("PFIX (domain pressures)"),
         Command::PFree { .. } => Some("PFREE (domain pressures)"),
         Command::Print { items } => items.iter().find_map(|item| match item {
-            PrintItem::Domains => Some("PRINT DOMAINS (fluid domains)"),
-            PrintItem::DList => Some("PRINT DLIST (domain linked lists)"),
             PrintItem::Flows => Some("PRINT FLOWS (fluid flow)"),
             _ => None,
         }),
         _ => None,
     }
+}
+
+/// Whether `command` can change the blocks, their positions or the contacts, after which a scene
+/// with domains rebuilds them (RESTART's model has none; `Executor::restart` rebuilds them).
+fn changes_topology(command: &Command) -> bool {
+    matches!(command, Command::Block { .. } | Command::Split { .. } | Command::Delete { .. } | Command::Cycle { .. } | Command::Change { .. })
 }
 
 impl RunOptions {
@@ -172,6 +176,8 @@ pub struct Executor<'a> {
     griffith_rigid_warned: bool,
     /// Materials whose joints CYCLE said follow the point-contact law (no JKN, JKS; ¶5).
     joint_fallback_noted: Vec<u32>,
+    /// SET DAMIN: the minimum domain area, for the domains built from then on.
+    domain_min_area: Option<f64>,
 }
 
 impl<'a> Executor<'a> {
@@ -193,6 +199,7 @@ impl<'a> Executor<'a> {
             ledger_warned: false,
             griffith_rigid_warned: false,
             joint_fallback_noted: Vec::new(),
+            domain_min_area: None,
         }
     }
 
@@ -219,6 +226,9 @@ impl<'a> Executor<'a> {
     /// Runs the commands in order until STOP, END or an error.
     pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
         let result = self.run_commands(commands);
+        // The state a caller reads (the state JSON) has its domains right, also when a command
+        // failed and the model went back to its last good state.
+        self.refresh_domains_if_kept();
         // Also on an error, before the caller reports it.
         let _ = self.log.flush();
         result
@@ -236,6 +246,9 @@ impl<'a> Executor<'a> {
             }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
+            if changes_topology(&cmd.command) {
+                self.refresh_domains_if_kept();
+            }
             self.executed += 1;
             if done {
                 break;
@@ -341,6 +354,10 @@ impl<'a> Executor<'a> {
             Command::Vtk => self.vtk(cmd)?,
             Command::Save { file } => self.save(cmd, file)?,
             Command::Set { setting: crate::udec::deck::Setting::Overlap(policy) } => self.overlap_policy = *policy,
+            Command::Set { setting: crate::udec::deck::Setting::Damin(a) } => {
+                self.domain_min_area = Some(*a);
+                self.refresh_domains_if_kept();
+            }
             Command::Split { from, to, material, constitutive } => self.split(cmd, *from, *to, *material, *constitutive)?,
             Command::View { ix1, ix2, iy1, iy2 } => self.plot.view = [*ix1, *ix2, *iy1, *iy2],
             Command::Window { x1, x2, y1, y2 } => self.plot.window = [*x1, *x2, *y1, *y2],

@@ -31,7 +31,12 @@ impl Executor<'_> {
         let path = self.resolve(file);
         // Every RestartError names the file.
         let saved = output::restart::load(&path).map_err(|e| self.command_error(cmd, format!("RESTART: {e}")))?;
+        // SAVE files do not keep the domains: a scene that had them builds them again.
+        let had_domains = self.model.domains.is_some();
         self.model = saved.model;
+        if had_domains {
+            crate::udec::topology::refresh_domains_with(&mut self.model, self.domain_min_area);
+        }
         self.overlaps_checked = None;
         self.plot = saved.plot;
         self.plot_count = saved.plot_count;
@@ -88,12 +93,37 @@ impl Executor<'_> {
                 PrintItem::Corners => output::print::print_corners(&self.model, &mut self.log),
                 PrintItem::List => output::print::print_block_lists(&self.model, &mut self.log),
                 PrintItem::Energy => self.print_energy(),
+                PrintItem::Domains => {
+                    self.keep_domains();
+                    output::print::print_domains(&self.model, &mut self.log)
+                }
+                PrintItem::DList => {
+                    self.keep_domains();
+                    output::print::print_domain_lists(&self.model, &mut self.log)
+                }
                 // Stopped before (`not_supported_yet`).
-                PrintItem::Domains | PrintItem::DList | PrintItem::Flows => Ok(()),
+                PrintItem::Flows => Ok(()),
             };
             r.map_err(|e| self.command_error(cmd, format!("PRINT: {e}")))?;
         }
         Ok(())
+    }
+
+    /// Builds the domains when the scene first asks for them (PRINT DOMAINS or DLIST); from then
+    /// on they are rebuilt after every command that changes the topology
+    /// ([`Executor::refresh_domains_if_kept`]). A scene that never asks never builds them.
+    fn keep_domains(&mut self) {
+        if self.model.domains.is_none() {
+            crate::udec::topology::refresh_domains_with(&mut self.model, self.domain_min_area);
+        }
+    }
+
+    /// Rebuilds the domains of a scene that has them from the model's lists (keeping the ids of
+    /// the voids found again); nothing in a scene without them.
+    pub(super) fn refresh_domains_if_kept(&mut self) {
+        if self.model.domains.is_some() {
+            crate::udec::topology::refresh_domains_with(&mut self.model, self.domain_min_area);
+        }
     }
 
     fn print_energy(&mut self) -> std::io::Result<()> {

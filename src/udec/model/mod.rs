@@ -13,6 +13,7 @@
 pub mod build;
 pub mod constitutive;
 pub mod corners;
+pub mod domain;
 pub mod geometry;
 pub mod limits;
 pub mod sdef;
@@ -541,6 +542,13 @@ pub struct Model {
     /// zero). Saved after the model (save format 4).
     #[serde(skip)]
     pub sdef: Vec<sdef::Sdef>,
+    /// The domains (voids between blocks, `domain::Domains`), derived from the lists by
+    /// `topology::domain`: `None` in a scene that never asked for them (a rigid scene pays
+    /// nothing), rebuilt after each change of topology once asked. Derived data only: it takes
+    /// no part in the model's equality (the run driver's resume test compares the state the
+    /// cycle reads), and SAVE files do not keep it (a RESTART rebuilds it when asked).
+    #[serde(skip)]
+    pub domains: Option<domain::Domains>,
 }
 
 /// Field by field, so that `clone_from` reuses the target's vectors: the backends keep a copy of
@@ -560,6 +568,7 @@ impl Clone for Model {
         clone_list_from(&mut self.blocks, &source.blocks);
         clone_list_from(&mut self.corners, &source.corners);
         clone_list_from(&mut self.contacts, &source.contacts);
+        self.domains.clone_from(&source.domains);
         self.clone_settings_from(source);
     }
 }
@@ -576,7 +585,7 @@ macro_rules! with_settings {
 /// `a == b` for two models: the settings, then the long lists (`lists_equal`).
 macro_rules! models_equal {
     ($a:expr, $b:expr; $($field:ident),*) => {{
-        let Model { blocks, corners, contacts, $($field),* } = $a;
+        let Model { blocks, corners, contacts, domains: _, $($field),* } = $a;
         $($field == &$b.$field &&)* lists_equal(blocks, &$b.blocks) && lists_equal(corners, &$b.corners) && lists_equal(contacts, &$b.contacts)
     }};
 }
@@ -584,7 +593,7 @@ macro_rules! models_equal {
 /// `dst.field.clone_from(&src.field)` for every setting.
 macro_rules! clone_settings {
     ($dst:expr, $src:expr; $($field:ident),*) => {{
-        let Model { blocks: _, corners: _, contacts: _, $($field),* } = $src;
+        let Model { blocks: _, corners: _, contacts: _, domains: _, $($field),* } = $src;
         $($dst.$field.clone_from($field);)*
     }};
 }
@@ -673,6 +682,7 @@ impl Default for Model {
             external_work: 0.0,
             retired: timestep::RetiredEnergy::default(),
             sdef: Vec::new(),
+            domains: None,
         }
     }
 }

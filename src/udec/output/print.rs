@@ -5,7 +5,7 @@
 //! table reads like a UDEC listing and parses back with `str::parse::<f64>()`. No line of a table
 //! exceeds 132 columns, the width of a line printer.
 //!
-//! Block and contact numbers are the stable ids (`Block::id`, `Contact::id`), never vector
+//! Block, contact and domain numbers are the stable ids (`Block::id`, `Contact::id`, `Domain::id`), never vector
 //! indices: in 1985 they were memory addresses, here they do not change when other blocks are
 //! deleted. Corner numbers are the global corner index + 1.
 
@@ -14,6 +14,7 @@ use std::io::{self, Write};
 
 use super::format::{fmt_e, push_col_e, NUMBER_WIDTH};
 use crate::udec::deck::PrintItem;
+use crate::udec::model::domain::{Domain, DomainKind, DomainLink, Domains, MIN_AREA_FRACTION};
 use crate::udec::model::{Block, BlockKind, Contact, ContactKind, Model};
 
 /// One heading group: a title over one or more sub-columns of equal width. A single-column
@@ -356,8 +357,120 @@ pub fn print_energy(model: &Model, out: &mut dyn Write) -> io::Result<()> {
     Ok(())
 }
 
-/// Prints one PRINT keyword's table. Domains and flows are not modelled yet: their tables print
-/// their title and `(NONE IN THIS MODEL)`, so a 1985 deck that asks for them still runs.
+/// The note after a domain's row and beside its name in the linked lists.
+fn domain_label(d: &Domain) -> String {
+    let mut label = match d.kind {
+        DomainKind::Outer => "(OUTER BOUNDARY)".to_string(),
+        DomainKind::Joint => format!("JOINT L={}", fmt_e(d.length)),
+        DomainKind::Regular => String::new(),
+    };
+    if d.fixed {
+        label.push_str(if label.is_empty() { "FIXED" } else { " FIXED" });
+    }
+    label
+}
+
+/// Writes the title of a domain table and `(NONE IN THIS MODEL)` when the model has no domains
+/// built (the executor builds them before it prints them); returns them otherwise.
+fn domains_or_none<'a>(model: &'a Model, out: &mut dyn Write, title: &str) -> io::Result<Option<&'a Domains>> {
+    if model.domains.is_none() {
+        writeln!(out)?;
+        writeln!(out, "{title}")?;
+        writeln!(out, "   (NONE IN THIS MODEL)")?;
+    }
+    Ok(model.domains.as_ref())
+}
+
+const DOMAIN_GROUPS: [Group; 4] =
+    [single("DOMAIN", 8), numbers("PORE", &["PRESSURE"]), numbers("VOLUME", &[""]), Group { title: "  MAXIMUM", subs: &["DISPLACEMENT"], width: 14 }];
+
+/// PRINT DOMAINS: one row per domain (Appendix A ¶6–7): its id, pore pressure, volume (the area
+/// the fluid calculation uses: the void's, a joint's a·l, never below the minimum; 0 for the
+/// unbounded outer domain) and the largest displacement of a block around it since its last
+/// contact update, then `(OUTER BOUNDARY)` for the outer domain, `JOINT L=` and the joint's
+/// length for the void of an edge-to-edge contact, and `FIXED` for a pressure PFIX holds.
+pub fn print_domains(model: &Model, out: &mut dyn Write) -> io::Result<()> {
+    let Some(domains) = domains_or_none(model, out, "DOMAIN DATA")? else {
+        return Ok(());
+    };
+    write_headings(out, "DOMAIN DATA", &DOMAIN_GROUPS)?;
+    let mut line = String::new();
+    for d in &domains.list {
+        line.clear();
+        let _ = write!(line, "{:>8}", d.id);
+        push_col_e(&mut line, d.pressure);
+        push_col_e(&mut line, d.area);
+        line.push_str("   ");
+        push_col_e(&mut line, d.max_displacement);
+        let label = domain_label(d);
+        if !label.is_empty() {
+            line.push_str("  ");
+            line.push_str(&label);
+        }
+        writeln!(out, "{line}")?;
+    }
+    let why = match domains.given_min_area {
+        Some(_) => "SET DAMIN".to_string(),
+        None => format!("{} OF THE AVERAGE BLOCK AREA", fmt_e(MIN_AREA_FRACTION)),
+    };
+    writeln!(out, "   MINIMUM DOMAIN AREA {} ({why})", fmt_e(domains.min_area))
+}
+
+/// PRINT DLIST: for each domain, going round its void, each contact it crosses from one block to
+/// the next (`CONTACT n, BLOCK1 id, BLOCK2 id` and its kind, as PRINT CONTACTS names them) and
+/// the corners it passes between them (`CORNER n, BLOCK id, R-LINK n`, numbered as PRINT LIST
+/// numbers them). The outer domain goes round the outside of the assembly; a group of blocks
+/// floating in a void, or outside, follows the domain's own circuit.
+pub fn print_domain_lists(model: &Model, out: &mut dyn Write) -> io::Result<()> {
+    let Some(domains) = domains_or_none(model, out, "DOMAIN LINKED LISTS")? else {
+        return Ok(());
+    };
+    writeln!(out)?;
+    writeln!(out, "DOMAIN LINKED LISTS")?;
+    for d in &domains.list {
+        writeln!(out)?;
+        let label = domain_label(d);
+        if label.is_empty() {
+            writeln!(out, "DOMAIN {}", d.id)?;
+        } else {
+            writeln!(out, "DOMAIN {} {label}", d.id)?;
+        }
+        for link in domains.links_of(d) {
+            match *link {
+                DomainLink::Contact { index, id } => {
+                    // The contact at its index when the domains were built, or found by its id.
+                    let c = model.contacts.get(index as usize).filter(|c| c.id == id).or_else(|| model.contacts.iter().find(|c| c.id == id));
+                    match c {
+                        Some(c) => writeln!(
+                            out,
+                            "   CONTACT {}, BLOCK1 {}, BLOCK2 {} {}",
+                            c.id,
+                            block_id(model, c.block1),
+                            block_id(model, c.block2),
+                            kind_label(c.kind)
+                        )?,
+                        None => writeln!(out, "   CONTACT {id} (GONE)")?,
+                    }
+                }
+                DomainLink::Corner { corner } => {
+                    let owner = model.corners.get(corner as usize).map(|c| c.block);
+                    let (block, rlink) = match owner.and_then(|b| model.blocks.get(b as usize)) {
+                        Some(blk) => {
+                            let k = corner.wrapping_sub(blk.corner_start);
+                            (BlockId(Some(blk.id)), blk.corner_start as usize + (k as usize + 1) % (blk.corner_count.max(1) as usize) + 1)
+                        }
+                        None => (BlockId(None), corner as usize + 1),
+                    };
+                    writeln!(out, "   CORNER {}, BLOCK {block}, R-LINK {rlink}", corner as usize + 1)?
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Prints one PRINT keyword's table. Flows are not modelled yet: their table prints its title
+/// and `(NONE IN THIS MODEL)`, as the domain tables do in a model whose domains were never built.
 pub fn print_item(model: &Model, item: PrintItem, out: &mut dyn Write) -> io::Result<()> {
     let none = |out: &mut dyn Write, title: &str| -> io::Result<()> {
         writeln!(out)?;
@@ -370,8 +483,8 @@ pub fn print_item(model: &Model, item: PrintItem, out: &mut dyn Write) -> io::Re
         PrintItem::Corners => print_corners(model, out),
         PrintItem::List => print_block_lists(model, out),
         PrintItem::Energy => print_energy(model, out),
-        PrintItem::Domains => none(out, "DOMAIN DATA"),
-        PrintItem::DList => none(out, "DOMAIN LINKED LISTS"),
+        PrintItem::Domains => print_domains(model, out),
+        PrintItem::DList => print_domain_lists(model, out),
         PrintItem::Flows => none(out, "FLOW ACROSS CONTACTS OR JOINTS"),
     }
 }

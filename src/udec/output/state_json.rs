@@ -14,6 +14,7 @@ use serde_json::Value;
 
 use super::provenance::Provenance;
 use crate::udec::model::constitutive::ContactLaw;
+use crate::udec::model::domain::{DomainKind, DomainLink, Domains};
 use crate::udec::model::timestep::Energies;
 use crate::udec::model::{Block, Contact, Model};
 
@@ -181,11 +182,50 @@ struct StateJson {
     scalars: Scalars,
 }
 
+/// One domain (`model::domain`): the keys issue 30 fixes (`id`, `pressure`, `area`, `fixed`,
+/// `outer`) and its kind, its joint length and the contacts around it in circuit order.
+#[derive(serde::Serialize)]
+struct DomainJson {
+    /// The area the fluid calculation uses (0 for the outer domain).
+    area: Num,
+    /// Ids of the contacts the domain's circuit crosses, in order.
+    contacts: Vec<u32>,
+    fixed: bool,
+    id: u32,
+    /// "regular", "joint" or "outer".
+    kind: &'static str,
+    /// A joint domain's length; absent for the others.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    length: Option<Num>,
+    outer: bool,
+    pressure: Num,
+}
+
+fn domains_json(domains: &Domains) -> Vec<DomainJson> {
+    domains
+        .list
+        .iter()
+        .map(|d| DomainJson {
+            area: Num(d.area),
+            contacts: domains.links_of(d).iter().filter_map(|l| if let DomainLink::Contact { id, .. } = *l { Some(id) } else { None }).collect(),
+            fixed: d.fixed,
+            id: d.id,
+            kind: d.kind.name(),
+            length: (d.kind == DomainKind::Joint).then_some(Num(d.length)),
+            outer: d.kind == DomainKind::Outer,
+            pressure: Num(d.pressure),
+        })
+        .collect()
+}
+
 /// The members after the two lists (alphabetical, as the lists are).
 #[derive(serde::Serialize)]
 struct Scalars {
     cycle: u64,
     dim: u32,
+    /// The domains, when the scene has them (`Model::domains`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    domains: Option<Vec<DomainJson>>,
     energy: EnergyJson,
     gravity: [Num; 2],
     /// What made the run (`blockdem run` writes it; a state taken in a test has none).
@@ -199,6 +239,7 @@ fn scalars(model: &Model, provenance: Option<&Provenance>) -> Scalars {
     Scalars {
         cycle: model.cycle,
         dim: 2,
+        domains: model.domains.as_ref().map(domains_json),
         energy: energy_view(&model.energies()),
         gravity: pair(model.gravity),
         provenance: provenance.cloned(),
@@ -208,7 +249,8 @@ fn scalars(model: &Model, provenance: Option<&Provenance>) -> Scalars {
 }
 
 /// The state as a JSON value: `dim` (2), `cycle`, `time`, `timestep`, `gravity`, `energy`
-/// ([`energy_json`]), `blocks` and `contacts` (see the module documentation for the rules on keys).
+/// ([`energy_json`]), `blocks`, `contacts` and, in a scene with domains, `domains` (see the
+/// module documentation for the rules on keys).
 /// For a large model write it with [`write_state_json`], which streams it.
 pub fn state_json(model: &Model) -> Value {
     let state = StateJson {

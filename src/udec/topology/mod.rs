@@ -5,10 +5,12 @@
 pub mod adjacency;
 pub mod cracking;
 pub mod detect;
+pub mod domain;
 
 pub use adjacency::Adjacency;
 pub use cracking::{apply_crack, find_crack, Crack};
 pub use detect::{update_contacts, update_topology, BlockGrid, ListEdit};
+pub use domain::{build_domains, refresh_domains, refresh_domains_with};
 
 /// What stage 7 keeps between contact updates, three things apart: the per-block contact lists
 /// the gather walks, the broad phase's grid the next update starts from, and the edit the last
