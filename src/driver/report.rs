@@ -94,7 +94,8 @@ pub enum CycleError {
          more than half the rounding length ({limit:.4e}); the blocks are being driven through each other — \
          lower FRACTION, the loads or velocities, or raise the contact stiffness or ROUND"
     )]
-    Overlap { cycle: u64, block1: u32, block2: u32, overlap: f64, limit: f64, at: Position },
+    /// (`at` boxed: the error travels inside the executor's `RunError`, which stays small.)
+    Overlap { cycle: u64, block1: u32, block2: u32, overlap: f64, limit: f64, at: Box<Position> },
     #[error("non-finite value at cycle {cycle}: block {block} has {what}; the run diverged — lower FRACTION, or check the loads and material properties")]
     NonFinite { cycle: u64, block: u32, what: String },
     /// `budget` is the energy the model started the CYCLE with plus the work gravity and loads

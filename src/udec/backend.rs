@@ -82,7 +82,7 @@ impl CycleError {
             block2: model.blocks[c.block2 as usize].id,
             overlap: -c.gap,
             limit,
-            at: crate::driver::report::Position::xy(c.point),
+            at: Box::new(crate::driver::report::Position::xy(c.point)),
         }
     }
 }
