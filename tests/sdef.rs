@@ -58,9 +58,9 @@ fn uniaxial_stress_and_strain_match_plane_strain(t: &Target) {
 
 /// The internal vibration of a free SDEF square: a volumetric strain ε11 = ε22 = e0 rings at
 /// ω² = 2a(λ + G)/J, J = ∫ρx² da (the square's second moment, ρa²·a²/12); its corners' motion
-/// counts towards the contact-update tolerance.
-#[test]
-fn a_free_square_rings_at_its_volumetric_frequency() {
+/// counts towards the contact-update tolerance. Stepped one cycle a run (a GPU backend goes on
+/// from its device state each time: the model is what the last run left).
+fn a_free_square_rings_at_its_volumetric_frequency(t: &Target) {
     let deck =
         format!("START\nPROP MAT=1 DENS=2000 K={K:e} G={G:e} KN=1E9 KS=1E9\nROUND 0.01\nBLOCK (0,0) (0,1) (1,1) (1,0)\nCHANGE -1 2 -1 2 SDEF\nCYCLE 0\n");
     let mut m = run_deck_on(&deck, cpu()).unwrap();
@@ -73,11 +73,11 @@ fn a_free_square_rings_at_its_volumetric_frequency() {
     assert!((j - 2000.0 / 12.0).abs() < 1e-9, "J {j}");
     assert!((least_moment(m.sdef[b].moments) - j).abs() < 1e-9);
     let omega = (2.0 * 1.0 * (K + G / 3.0) / j).sqrt();
-    m.timestep = 0.02 * 2.0 / omega;
+    m.timestep = 0.04 * 2.0 / omega;
     let e0 = m.energies().ledger();
-    let mut backend = CpuBackend::new();
-    // Count the upward zero crossings of ε11 over many periods.
-    let steps = (20.0 * 2.0 * std::f64::consts::PI / omega / m.timestep) as u64;
+    let mut backend = t.backend();
+    // Count the upward zero crossings of ε11 over ten periods.
+    let steps = (10.0 * 2.0 * std::f64::consts::PI / omega / m.timestep) as u64;
     let mut crossings = Vec::new();
     let mut last = m.sdef[b].strain[0];
     for _ in 0..steps {
@@ -88,19 +88,26 @@ fn a_free_square_rings_at_its_volumetric_frequency() {
         }
         last = now;
     }
-    assert!(crossings.len() >= 10, "{} crossings", crossings.len());
+    assert!(crossings.len() >= 8, "{}: {} crossings", t.name(), crossings.len());
     let period = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
     let measured = 2.0 * std::f64::consts::PI / period;
-    assert!((measured - omega).abs() < 2e-3 * omega, "ω {measured} against {omega}");
+    assert!((measured - omega).abs() < 2e-3 * omega, "{}: ω {measured} against {omega}", t.name());
     // The block stays where it is, but its corners move with the strain: that counts towards its
     // contact-update tolerance (¶26) from the strain at its last update.
     let s = m.sdef[b];
     let since = [s.strain[0] - s.update_strain[0], s.strain[1] - s.update_strain[1], s.strain[2] - s.update_strain[2]];
     let travel = blockdem::udec::model::sdef::strain_travel(since, m.blocks[b].radius);
-    assert!(m.blocks[b].moved_since_update >= travel && m.blocks[b].moved_since_update > 5e-5, "moved {} against {travel}", m.blocks[b].moved_since_update);
+    let slack = if t.is_f32() { 1e-9 } else { 0.0 };
+    assert!(
+        m.blocks[b].moved_since_update + slack >= travel && m.blocks[b].moved_since_update > 5e-5,
+        "{}: moved {} against {travel}",
+        t.name(),
+        m.blocks[b].moved_since_update
+    );
     // Undamped: the strain keeps its amplitude and the ledger its balance.
     let e = m.energies();
-    assert!((e.ledger() - e0).abs() < 1e-3 * e.scale(), "ledger {} from {e0}, of {}", e.ledger(), e.scale());
+    let tol = if t.is_f32() { 1e-2 } else { 1e-3 };
+    assert!((e.ledger() - e0).abs() < tol * e.scale(), "{}: ledger {} from {e0}, of {}", t.name(), e.ledger(), e.scale());
 }
 
 /// Griffith's threshold in compression (¶17): the platen's uniaxial stress s2 = −F/a with s1 = 0
@@ -231,6 +238,7 @@ fn bad_sdef_input_is_named() {
 
 every_backend!(
     uniaxial_stress_and_strain_match_plane_strain,
+    a_free_square_rings_at_its_volumetric_frequency,
     griffith_threshold_in_compression,
     griffith_threshold_in_tension,
     the_ledger_balances_with_sdef_blocks,
