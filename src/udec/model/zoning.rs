@@ -210,7 +210,7 @@ pub fn auto_mesh(corners: &[[f64; 2]], amax: f64) -> Result<Mesh, String> {
         walk(k, (k + 1) % n, &boundary_split, &mut outline);
     }
     let mesh = renumber(points, &outline, zones);
-    Ok(smooth(mesh, SMOOTHING_SWEEPS))
+    Ok(smooth_within(mesh, SMOOTHING_SWEEPS, amax))
 }
 
 /// The mesh with the outline's points first (in its order), then the rest in their order.
@@ -234,7 +234,13 @@ fn renumber(points: Vec<[f64; 2]>, outline: &[u32], zones: Vec<[u32; 3]>) -> Mes
 /// Stage 3: each interior point moved to the mean of its neighbours, `sweeps` times in point
 /// order (Gauss–Seidel); a move that would turn one of its zones inside out (or flatten it) is
 /// not made.
-pub fn smooth(mut mesh: Mesh, sweeps: usize) -> Mesh {
+pub fn smooth(mesh: Mesh, sweeps: usize) -> Mesh {
+    smooth_within(mesh, sweeps, f64::INFINITY)
+}
+
+/// [`smooth`], a move that would make one of the point's sides longer than `amax` not made
+/// either (GENERATE AUTO keeps its promise of sides at most amax).
+pub fn smooth_within(mut mesh: Mesh, sweeps: usize, amax: f64) -> Mesh {
     let n = mesh.points.len();
     if n == mesh.boundary {
         return mesh;
@@ -267,7 +273,11 @@ pub fn smooth(mut mesh: Mesh, sweeps: usize) -> Mesh {
             let mean = [mean[0] / list.len() as f64, mean[1] / list.len() as f64];
             let old = mesh.points[k];
             mesh.points[k] = mean;
-            if around[k].iter().any(|&z| mesh.zone_area(z) <= 0.0) {
+            let too_long = list.iter().any(|&j| {
+                let d = sub(mesh.points[j as usize], mean);
+                d[0].hypot(d[1]) > amax
+            });
+            if too_long || around[k].iter().any(|&z| mesh.zone_area(z) <= 0.0) {
                 mesh.points[k] = old;
             }
         }
