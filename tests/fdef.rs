@@ -30,7 +30,8 @@ fn check_mesh(outline: &[[f64; 2]], m: &Mesh, amax: f64) {
         let centre = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0];
         assert!(point_in_polygon(centre, outline), "zone {z} lies outside the block: {centre:?}");
     }
-    let on_outline = |p: [f64; 2]| (0..outline.len()).map(|k| point_segment_distance(p, outline[k], outline[(k + 1) % outline.len()])).fold(f64::INFINITY, f64::min);
+    let on_outline =
+        |p: [f64; 2]| (0..outline.len()).map(|k| point_segment_distance(p, outline[k], outline[(k + 1) % outline.len()])).fold(f64::INFINITY, f64::min);
     for (k, p) in m.points.iter().enumerate() {
         if k < m.boundary {
             assert!(on_outline(*p) < 1e-12, "boundary grid point {k} {p:?} is off the outline");
@@ -105,11 +106,11 @@ fn smoothing_moves_interior_points_towards_their_neighbours_mean() {
             }
         }
         let mut sum = 0.0;
-        for k in m.boundary..m.points.len() {
-            nb[k].sort_unstable();
-            nb[k].dedup();
-            let n = nb[k].len() as f64;
-            let mean = nb[k].iter().fold([0.0, 0.0], |a, &j| [a[0] + m.points[j][0] / n, a[1] + m.points[j][1] / n]);
+        for (k, list) in nb.iter_mut().enumerate().skip(m.boundary) {
+            list.sort_unstable();
+            list.dedup();
+            let n = list.len() as f64;
+            let mean = list.iter().fold([0.0, 0.0], |a, &j| [a[0] + m.points[j][0] / n, a[1] + m.points[j][1] / n]);
             sum += (m.points[k][0] - mean[0]).hypot(m.points[k][1] - mean[1]);
         }
         sum
@@ -368,4 +369,17 @@ fn the_extension_is_empty_in_rigid_scenes_and_zoning_adds_corners() {
     // Contacts on the base from the new bottom corners, not only the original two.
     let on_base = m.contacts.iter().filter(|c| c.block1 as usize == b && c.normal_force > 0.0).count();
     assert!(on_base > 2, "{on_base} contacts of the zoned block's corners carry force");
+}
+
+/// SAVE keeps the zones and grid points (save format 5), and a RESTART goes on from them.
+#[test]
+fn save_and_restart_keep_the_zones() {
+    let m = run_deck_on(&format!("{SQUARE_DECK}CHANGE 0.5 2.5 0 1 FDEF\nGENERATE 0.5 2.5 0 1 AUTO 0.3\nGRAV 0 -10\nCYCLE 100\nSTOP\n"), cpu()).unwrap();
+    let path = std::env::temp_dir().join(format!("blockdem-fdef-{}.sav", std::process::id()));
+    blockdem::udec::output::restart::save_state(&path, &m, &Default::default(), 0).unwrap();
+    let back = blockdem::udec::output::load(&path).unwrap();
+    std::fs::remove_file(&path).ok();
+    assert_eq!(back.model.fdef, m.fdef);
+    assert!(back.model == m);
+    assert!(back.model.fdef.iter().any(|f| !f.zones.is_empty()));
 }

@@ -50,7 +50,15 @@ pub fn boundary_velocity(f: &Fdef, c: &Contact, side: u32, corner_start: u32, co
 /// gravity on its mass and its share of the block's load (by mass), then the contacts in the
 /// block's list order (a fixed order, so runs repeat). The block's force is the sum of the
 /// external ones (for PRINT), its moment zero.
-pub fn gather_fdef(block: &mut Block, f: &mut Fdef, corners: &[Corner], contacts: &[Contact], forces: &[ContactForce], entries: &[AdjacencyEntry], gravity: [f64; 2]) {
+pub fn gather_fdef(
+    block: &mut Block,
+    f: &mut Fdef,
+    corners: &[Corner],
+    contacts: &[Contact],
+    forces: &[ContactForce],
+    entries: &[AdjacencyEntry],
+    gravity: [f64; 2],
+) {
     let total = block.mass.max(f64::MIN_POSITIVE);
     for g in &mut f.gridpoints {
         let share = g.mass / total;
@@ -124,7 +132,8 @@ pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner],
         let lambda = mat.bulk - 2.0 * mat.shear / 3.0;
         for z in 0..f.zones.len() {
             let p = f.zone_points(z);
-            if !(twice_area(p) > 0.0) {
+            // Not positive, or NaN.
+            if twice_area(p).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 out.inverted_zone.get_or_insert(z as u32);
                 continue;
             }

@@ -29,13 +29,23 @@ impl Executor<'_> {
     /// (CHANGE … SDEF) their kind: simply deformable, unstrained, which needs the (new) material's
     /// bulk and shear moduli; with `fdef` (CHANGE … FDEF) fully deformable (`change_fdef`). A
     /// deformable block stays so: the report has no way back to rigid.
-    pub(super) fn change(&mut self, cmd: &Located, range: &Range, sdef: bool, fdef: bool, material: Option<u32>, constitutive: Option<u32>) -> Result<(), RunError> {
+    pub(super) fn change(
+        &mut self,
+        cmd: &Located,
+        range: &Range,
+        sdef: bool,
+        fdef: bool,
+        material: Option<u32>,
+        constitutive: Option<u32>,
+    ) -> Result<(), RunError> {
         self.check_material(cmd, "CHANGE", material)?;
         self.check_constitutive(cmd, "CHANGE", constitutive)?;
         let blocks = self.in_range("CHANGE", range);
         if sdef {
             if let Some(&b) = blocks.iter().find(|&&b| self.model.blocks[b].kind == crate::udec::model::BlockKind::FullyDeformable) {
-                return Err(self.command_error(cmd, format!("CHANGE SDEF: block {} is fully deformable already; a block is one or the other", self.model.blocks[b].id)));
+                return Err(
+                    self.command_error(cmd, format!("CHANGE SDEF: block {} is fully deformable already; a block is one or the other", self.model.blocks[b].id))
+                );
             }
             for &b in &blocks {
                 let m = material.unwrap_or(self.model.blocks[b].material);

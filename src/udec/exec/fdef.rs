@@ -19,7 +19,7 @@ impl Executor<'_> {
             let id = self.model.blocks[b].id;
             // `!(x > 0.0)`: a NaN modulus fails too.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            if !(props.bulk > 0.0 && props.bulk.is_finite()) || !(props.shear >= 0.0 && props.shear.is_finite()) {
+            if !(props.bulk > 0.0 && props.bulk.is_finite() && props.shear >= 0.0 && props.shear.is_finite()) {
                 return Err(self.command_error(
                     cmd,
                     format!(
@@ -34,7 +34,8 @@ impl Executor<'_> {
                 return Err(self.command_error(cmd, format!("CHANGE FDEF: block {id} is simply deformable already; a block is one or the other")));
             }
         }
-        let weak: Vec<u32> = blocks.iter().map(|&b| material.unwrap_or(self.model.blocks[b].material)).filter(|&m| self.model.material(m).block.shear == 0.0).collect();
+        let weak: Vec<u32> =
+            blocks.iter().map(|&b| material.unwrap_or(self.model.blocks[b].material)).filter(|&m| self.model.material(m).block.shear == 0.0).collect();
         if let Some(&m) = weak.first() {
             self.echo(&format!("WARNING: CHANGE FDEF: material {m} has no shear modulus (G = 0): its zones resist only a change of volume"));
         }
@@ -52,7 +53,11 @@ impl Executor<'_> {
         let all = self.model.blocks_in_range(range.x1, range.x2, range.y1, range.y2);
         let blocks: Vec<usize> = all.iter().copied().filter(|&b| self.model.blocks[b].kind == BlockKind::FullyDeformable).collect();
         if blocks.is_empty() {
-            let what = if all.is_empty() { "no block's centroid lies in the range".to_string() } else { format!("none of the {} block(s) in the range is fully deformable", all.len()) };
+            let what = if all.is_empty() {
+                "no block's centroid lies in the range".to_string()
+            } else {
+                format!("none of the {} block(s) in the range is fully deformable", all.len())
+            };
             return Err(self.command_error(
                 cmd,
                 format!(
@@ -101,7 +106,8 @@ impl Executor<'_> {
                 continue;
             }
             if self.model.fdef_of(b).is_none_or(|f| f.zones.is_empty()) {
-                return Err(self.command_error(cmd, format!("CYCLE: block {} is fully deformable but has no zones; give GENERATE x1 x2 y1 y2 AUTO amax over it", blk.id)));
+                return Err(self
+                    .command_error(cmd, format!("CYCLE: block {} is fully deformable but has no zones; give GENERATE x1 x2 y1 y2 AUTO amax over it", blk.id)));
             }
             let cracks = Constitutive::from_number(blk.constitutive).is_some();
             if cracks && self.model.material(blk.material).block.tf > 0.0 {

@@ -100,7 +100,11 @@ fn block_json(model: &Model, b: usize, blk: &Block) -> BlockJson {
         fixed: blk.fixed,
         force: pair(blk.force),
         gridpoints: model.fdef_of(b).map(|f| {
-            f.gridpoints.iter().enumerate().map(|(k, g)| GridPointJson { id: k as u32 + 1, mass: Num(g.mass), position: pair(g.position), velocity: pair(g.velocity) }).collect()
+            f.gridpoints
+                .iter()
+                .enumerate()
+                .map(|(k, g)| GridPointJson { id: k as u32 + 1, mass: Num(g.mass), position: pair(g.position), velocity: pair(g.velocity) })
+                .collect()
         }),
         id: blk.id,
         inertia: Num(blk.inertia),
