@@ -355,6 +355,17 @@ fn sample_3_runs_end_to_end() {
     }
     assert_eq!(zones[0]["gridpoints"].as_array().unwrap().len(), 3);
     assert_eq!(zones[0]["stress"].as_array().unwrap().len(), 3);
+    // PLOT ZONES draws every zone (the SVG's zone paths), a plain PLOT none.
+    let dir = std::env::temp_dir().join(format!("blockdem-fdef-plot-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let settings = blockdem::udec::output::plot::PlotSettings { window: [0.0, 8.0, 0.0, 10.0], ..Default::default() };
+    for (zones_on, want) in [(true, f.zones.len()), (false, 0)] {
+        let options = blockdem::udec::deck::PlotOptions { zones: zones_on, ..Default::default() };
+        let [_, svg] = blockdem::udec::output::plot::plot(&m, &settings, &options, &dir, 1, "udec3").unwrap();
+        let text = std::fs::read_to_string(svg).unwrap();
+        assert_eq!(text.matches(r#"class="zone""#).count(), want, "PLOT ZONES {zones_on}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A rigid scene carries no zone extension at all, and a zoned scene's contacts see the new
