@@ -394,3 +394,33 @@ fn save_and_restart_keep_the_zones() {
     assert!(back.model == m);
     assert!(back.model.fdef.iter().any(|f| !f.zones.is_empty()));
 }
+
+/// A zone driven inside out stops the run as a numerical failure naming the block and the zone,
+/// and the model goes back to its last good state.
+#[test]
+fn a_zone_turned_inside_out_stops_the_run_and_rolls_back() {
+    let deck = "START\nPROP MAT=1 DENS=2000 K=1E9 G=6E8 KN=1E10 KS=1E10\nROUND 0.05\nBLOCK (0,0) (2,0) (2,2) (0,2)\n\
+                CHANGE -1 3 -1 3 FDEF\nGENERATE -1 3 -1 3 AUTO 0.6\nCYCLE 0\nSTOP\n";
+    let mut m = run_deck_on(deck, cpu()).unwrap();
+    let b = m.blocks.iter().position(|b| b.kind == BlockKind::FullyDeformable).unwrap();
+    let before = m.clone();
+    // An interior grid point flung 10 m in one step, unstoppable: its zones turn inside out.
+    let k = m.fdef[b].boundary as usize;
+    let dt = m.timestep;
+    let g = &mut m.fdef[b].gridpoints[k];
+    g.mass = 1e30;
+    g.velocity = [10.0 / dt, 0.0];
+    let flung = m.clone();
+    let e = CpuBackend::new().run(&mut m, 10, &mut |_| true).unwrap_err();
+    match &e {
+        blockdem::udec::backend::CycleError::ZoneInverted { cycle, block, zone } => {
+            assert_eq!((*cycle, *block), (1, m.blocks[b].id));
+            let z = *zone as usize - 1;
+            assert!(m.fdef[b].zones[z].gridpoints.contains(&(k as u32)), "zone {zone} is one of the flung point's");
+        }
+        other => panic!("{other}"),
+    }
+    assert!(e.to_string().contains("turned inside out"), "{e}");
+    assert_eq!(m, flung, "the model is the last good state (the one the run started from)");
+    assert!(before.fdef[b].zones.len() == m.fdef[b].zones.len());
+}
