@@ -424,3 +424,15 @@ fn a_zone_turned_inside_out_stops_the_run_and_rolls_back() {
     assert_eq!(m, flung, "the model is the last good state (the one the run started from)");
     assert!(before.fdef[b].zones.len() == m.fdef[b].zones.len());
 }
+
+/// VELOCITY sets a zoned block's grid points moving (v + ω × r), and the block flies with them.
+#[test]
+fn velocity_moves_a_zoned_block_by_its_grid_points() {
+    let deck = "START\nPROP MAT=1 DENS=2000 K=1E9 G=6E8 KN=1E10 KS=1E10\nROUND 0.05\nBLOCK (0,0) (2,0) (2,2) (0,2)\n\
+                CHANGE -1 3 -1 3 FDEF\nGENERATE -1 3 -1 3 AUTO 0.6\nVELOCITY -1 3 -1 3 2 0 0\nCYCLE 100\nSTOP\n";
+    let m = run_deck_on(deck, cpu()).unwrap();
+    let b = m.blocks.iter().position(|b| b.kind == BlockKind::FullyDeformable).unwrap();
+    assert!(m.fdef[b].gridpoints.iter().all(|g| (g.velocity[0] - 2.0).abs() < 1e-9 && g.velocity[1].abs() < 1e-9));
+    let moved = m.blocks[b].centroid[0] - 1.0;
+    assert!((moved - 2.0 * m.time).abs() < 1e-9, "moved {moved} in {} s", m.time);
+}

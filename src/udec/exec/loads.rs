@@ -59,6 +59,14 @@ impl Executor<'_> {
             if !blk.fixed {
                 blk.velocity = velocity;
                 blk.angular_velocity = angular.unwrap_or(0.0);
+                // A zoned block moves by its grid points: each takes the rigid motion v + ω × r.
+                let c = blk.centroid;
+                if let Some(f) = self.model.fdef.get_mut(b).filter(|f| !f.zones.is_empty()) {
+                    for g in &mut f.gridpoints {
+                        g.velocity = [velocity[0] - w * (g.position[1] - c[1]), velocity[1] + w * (g.position[0] - c[0])];
+                    }
+                    self.model.blocks[b].angular_velocity = 0.0;
+                }
             }
         }
         self.model.external_work += self.model.energies().kinetic - before;
