@@ -118,6 +118,13 @@ pub enum CycleError {
          lower FRACTION or raise ROUND"
     )]
     TooFast { cycle: u64, block: u32, travel: f64, limit: f64, speed: f64 },
+    /// A zone of a fully-deformable block turned inside out (its area not positive): the grid
+    /// points were driven through each other. `zone` is its number within the block (from 1).
+    #[error(
+        "zone {zone} of block {block} turned inside out at cycle {cycle}: its grid points were driven through each other; \
+         lower FRACTION, the loads or velocities, or zone the block finer or raise its moduli"
+    )]
+    ZoneInverted { cycle: u64, block: u32, zone: u32 },
     #[error("cannot cycle: {0}")]
     Setup(String),
     /// The model does not fit the backend (a GPU adapter's binding limit, a value outside the

@@ -12,6 +12,7 @@ use crate::udec::contact::gather::ContactForce;
 use crate::udec::contact::geometry::track_feature;
 use crate::udec::contact::law::{contact_force_law, BlockMotion};
 use crate::udec::model::corners::counts_force;
+use crate::udec::model::fdef::Fdef;
 use crate::udec::model::sdef::Sdef;
 use crate::udec::model::{material_slot, Block, BlockKind, Contact, Corner, Damping, Material, Model};
 
@@ -21,6 +22,8 @@ struct ContactInputs<'a> {
     corners: &'a [Corner],
     /// The simply-deformable extension of the blocks (empty in a rigid scene).
     sdef: &'a [Sdef],
+    /// The fully-deformable extension of the blocks (empty in a scene without zones).
+    fdef: &'a [Fdef],
     materials: &'a [Material],
     damping: Damping,
     dt: f64,
@@ -56,7 +59,21 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
         // The other view of a corner-pair touch carries no force (the touch counts once).
         let active = counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
         let mat = &inp.materials[material_slot(contact.material, inp.materials.len())];
-        contact_force_law(contact, mat, &motion(contact.block1, b1), &motion(contact.block2, b2), &inp.damping, inp.dt, active);
+        let (m1, m2) = if inp.fdef.is_empty() {
+            (motion(contact.block1, b1), motion(contact.block2, b2))
+        } else {
+            // A zoned block's boundary moves with its grid points (`cpu::zones`).
+            let zoned = |k: u32, b: &Block, side: u32| match inp.fdef.get(k as usize) {
+                Some(f) if b.kind == BlockKind::FullyDeformable && !f.zones.is_empty() => {
+                    let mine = &inp.corners[b.corner_start as usize..(b.corner_start + b.corner_count) as usize];
+                    let velocity = super::zones::boundary_velocity(f, contact, side, b.corner_start, mine, g.point);
+                    BlockMotion { centroid: g.point, velocity, angular_velocity: 0.0, strain_rate: [0.0; 3] }
+                }
+                _ => motion(k, b),
+            };
+            (zoned(contact.block1, b1, 0), zoned(contact.block2, b2, 1))
+        };
+        contact_force_law(contact, mat, &m1, &m2, &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
         if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);
@@ -71,8 +88,8 @@ pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: 
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let failure = {
-        let Model { blocks, corners, contacts, materials, damping, sdef, .. } = &mut *model;
-        let inp = ContactInputs { blocks, corners, sdef, materials, damping: *damping, dt, limit };
+        let Model { blocks, corners, contacts, materials, damping, sdef, fdef, .. } = &mut *model;
+        let inp = ContactInputs { blocks, corners, sdef, fdef, materials, damping: *damping, dt, limit };
         let n = contacts.len();
         assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);

@@ -29,9 +29,12 @@ pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: 
     let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
     debug_assert_eq!(forces.len(), model.contacts.len());
-    let Model { blocks, sdef, .. } = model;
+    let Model { blocks, sdef, fdef, corners, contacts, .. } = model;
     let n = blocks.len();
     let shared = SharedMut::new(blocks);
+    // The fully-deformable extension, likewise.
+    let shared_fdef = (!fdef.is_empty()).then(|| SharedMut::new(fdef));
+    let (corners, contacts) = (&corners[..], &contacts[..]);
     // The simply-deformable extension, indexed like the blocks, where the scene has one.
     let shared_sdef = (!sdef.is_empty()).then(|| SharedMut::new(sdef));
     team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
@@ -39,7 +42,14 @@ pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: 
         // borrowed here.
         let piece = unsafe { shared.range(r.clone()) };
         let mut sdef = shared_sdef.as_ref().map(|s| unsafe { s.range(r.clone()) });
+        // SAFETY: as above.
+        let mut fdef = shared_fdef.as_ref().map(|s| unsafe { s.range(r.clone()) });
         for (j, block) in piece.iter_mut().enumerate() {
+            if let Some(f) = fdef.as_mut().map(|f| &mut f[j]).filter(|f| block.kind == BlockKind::FullyDeformable && !f.zones.is_empty()) {
+                let mine = &corners[block.corner_start as usize..(block.corner_start + block.corner_count) as usize];
+                super::zones::gather_fdef(block, f, mine, contacts, forces, adjacency.entries(r.start + j), gravity);
+                continue;
+            }
             match &mut sdef {
                 Some(sdef) if block.kind == BlockKind::SimplyDeformable => gather_sdef(r.start + j, block, &mut sdef[j], forces, adjacency, gravity),
                 _ => gather(r.start + j, block, forces, adjacency, gravity),

@@ -17,11 +17,13 @@ pub mod gather;
 pub mod geometry_update;
 pub mod law_of_motion;
 mod team;
+pub mod zones;
 
 use crate::driver::{self, Position};
 use crate::udec::backend::{Backend, CrackEvent, CycleError, CycleReport};
+use crate::udec::model::fdef::Fdef;
 use crate::udec::model::sdef::Sdef;
-use crate::udec::model::{Block, BlockKind, Corner, Material, Model};
+use crate::udec::model::{Block, BlockKind, Contact, Corner, Material, Model};
 use crate::udec::topology::{self, Adjacency, Topology};
 
 use crate::udec::contact::gather::ContactForce;
@@ -164,6 +166,8 @@ struct BlockInputs<'a> {
     /// Internal mass damping of simply-deformable blocks (DAMP … INTERNAL, ALPB).
     alpha_internal: f64,
     materials: &'a [Material],
+    /// The contacts (a fully-deformable block's gather reads their corners and features).
+    contacts: &'a [Contact],
     dt: f64,
 }
 
@@ -218,7 +222,40 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
     }
 }
 
-/// One cycle of stages 6, 1, 2 and 4 (the scene has no zones or fluid yet). Stage 6 of the
+/// [`block_piece`] in a scene with fully-deformable blocks: `fdef` is the extension of `blocks`
+/// (as long), `sdef` the simply-deformable one where the scene has it. A zoned block sums its
+/// grid points' forces (stage 6), steps them (stage 1), updates its zones' stresses (stage 3)
+/// and places its corners on them (stage 2, `zones`); any other block as before.
+#[allow(clippy::too_many_arguments)]
+fn block_piece_fdef(
+    first: usize,
+    blocks: &mut [Block],
+    mut sdef: Option<&mut [Sdef]>,
+    fdef: &mut [Fdef],
+    mut corners: &mut [Corner],
+    steps: &mut [StepOutcome],
+    inp: &BlockInputs,
+) {
+    for (j, ((block, f), step)) in blocks.iter_mut().zip(fdef.iter_mut()).zip(steps.iter_mut()).enumerate() {
+        let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
+        corners = rest;
+        match block.kind {
+            BlockKind::FullyDeformable if !f.zones.is_empty() => {
+                if let Some((forces, adjacency)) = inp.gather {
+                    zones::gather_fdef(block, f, mine, inp.contacts, forces, adjacency.entries(first + j), inp.gravity);
+                }
+                *step = zones::step_fdef(block, f, mine, inp);
+            }
+            BlockKind::SimplyDeformable if sdef.is_some() => {
+                let s = &mut sdef.as_deref_mut().expect("checked")[j];
+                block_piece_sdef(first + j, std::slice::from_mut(block), std::slice::from_mut(s), mine, std::slice::from_mut(step), inp);
+            }
+            _ => *step = rigid_block(first + j, block, mine, inp),
+        }
+    }
+}
+
+/// One cycle of stages 6, 1, 2, 3 (zones, where the scene has them) and 4 (no fluid yet). Stage 6 of the
 /// previous cycle — the force sums stage 1 needs — runs here, fused with stages 1 and 2, unless
 /// `gathered` says the block forces are current already; on return they are not (stage 4 has
 /// changed the contact forces). The corners must be in block order (`corners_in_block_order`).
@@ -232,14 +269,23 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     // whatever the number of threads.
     {
         let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
-        let Model { blocks, corners, sdef, materials, damping, .. } = &mut *model;
+        let Model { blocks, corners, sdef, fdef, materials, damping, contacts, .. } = &mut *model;
         steps.resize(blocks.len(), StepOutcome::default());
-        let inp =
-            BlockInputs { gather: (!gathered).then_some((&forces[..], adjacency)), gravity, alpha, alpha_internal: damping.alpha_internal, materials, dt };
+        let inp = BlockInputs {
+            gather: (!gathered).then_some((&forces[..], adjacency)),
+            gravity,
+            alpha,
+            alpha_internal: damping.alpha_internal,
+            materials,
+            contacts,
+            dt,
+        };
         let n = blocks.len();
         let (shared_blocks, shared_corners, shared_steps) = (SharedMut::new(blocks), SharedMut::new(corners), SharedMut::new(steps));
         // The simply-deformable extension, where the scene has one (indexed like the blocks).
         let shared_sdef = (!sdef.is_empty()).then(|| SharedMut::new(sdef));
+        // The fully-deformable extension, likewise.
+        let shared_fdef = (!fdef.is_empty()).then(|| SharedMut::new(fdef));
         team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
             // SAFETY: the chunks are disjoint ranges of blocks; their corners, the contiguous
             // range from the first block's first corner to the last block's last (corners in
@@ -249,16 +295,31 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             let corner_range = first.corner_start as usize..(last.corner_start + last.corner_count) as usize;
             // SAFETY: as above.
             let corners = unsafe { shared_corners.range(corner_range) };
-            match &shared_sdef {
+            match (&shared_sdef, &shared_fdef) {
+                // SAFETY: `fdef` (and `sdef`, where there) is as long as `blocks`; the chunk's
+                // range of it is disjoint too.
+                (sdef, Some(fdef)) => block_piece_fdef(
+                    r.start,
+                    blocks,
+                    sdef.as_ref().map(|s| unsafe { s.range(r.clone()) }),
+                    unsafe { fdef.range(r.clone()) },
+                    corners,
+                    steps,
+                    &inp,
+                ),
                 // SAFETY: `sdef` is as long as `blocks`; the chunk's range of it is disjoint too.
-                Some(sdef) => block_piece_sdef(r.start, blocks, unsafe { sdef.range(r.clone()) }, corners, steps, &inp),
-                None => block_piece(r.start, blocks, corners, steps, &inp),
+                (Some(sdef), None) => block_piece_sdef(r.start, blocks, unsafe { sdef.range(r.clone()) }, corners, steps, &inp),
+                (None, None) => block_piece(r.start, blocks, corners, steps, &inp),
             }
         });
     }
     let mut work = 0.0;
     let mut fastest = (0.0f64, 0usize);
+    let mut inverted = None;
     for (b, step) in steps.iter().enumerate() {
+        if let (None, Some(z)) = (inverted, step.inverted_zone) {
+            inverted = Some((b, z));
+        }
         work += step.external_work;
         if step.corner_travel > fastest.0 {
             fastest = (step.corner_travel, b);
@@ -275,6 +336,9 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             .position(|s| !s.external_work.is_finite())
             .unwrap_or_else(|| steps.iter().enumerate().max_by(|x, y| x.1.external_work.abs().total_cmp(&y.1.external_work.abs())).map_or(0, |(b, _)| b));
         return Err(CycleError::non_finite_step(model, b));
+    }
+    if let Some((b, z)) = inverted {
+        return Err(CycleError::ZoneInverted { cycle: model.cycle, block: model.blocks[b].id, zone: z + 1 });
     }
     // Between contact updates a block's corners move at most etol plus one step's travel s, so two
     // blocks approach by at most 2(etol + s); that must stay below atol for no touch to be missed.

@@ -27,13 +27,26 @@ impl Executor<'_> {
 
     /// CHANGE: the material and constitutive numbers of the blocks in `range`, and with `sdef`
     /// (CHANGE … SDEF) their kind: simply deformable, unstrained, which needs the (new) material's
-    /// bulk and shear moduli (FDEF is refused before, `not_supported_yet`). A simply-deformable
-    /// block stays so: the report has no way back to rigid.
-    pub(super) fn change(&mut self, cmd: &Located, range: &Range, sdef: bool, material: Option<u32>, constitutive: Option<u32>) -> Result<(), RunError> {
+    /// bulk and shear moduli; with `fdef` (CHANGE … FDEF) fully deformable (`change_fdef`). A
+    /// deformable block stays so: the report has no way back to rigid.
+    pub(super) fn change(
+        &mut self,
+        cmd: &Located,
+        range: &Range,
+        sdef: bool,
+        fdef: bool,
+        material: Option<u32>,
+        constitutive: Option<u32>,
+    ) -> Result<(), RunError> {
         self.check_material(cmd, "CHANGE", material)?;
         self.check_constitutive(cmd, "CHANGE", constitutive)?;
         let blocks = self.in_range("CHANGE", range);
         if sdef {
+            if let Some(&b) = blocks.iter().find(|&&b| self.model.blocks[b].kind == crate::udec::model::BlockKind::FullyDeformable) {
+                return Err(
+                    self.command_error(cmd, format!("CHANGE SDEF: block {} is fully deformable already; a block is one or the other", self.model.blocks[b].id))
+                );
+            }
             for &b in &blocks {
                 let m = material.unwrap_or(self.model.blocks[b].material);
                 let props = self.model.material(m).block;
@@ -52,6 +65,9 @@ impl Executor<'_> {
                     ));
                 }
             }
+        }
+        if fdef {
+            self.change_fdef(cmd, &blocks, material)?;
         }
         let before: Vec<(u32, u32)> = blocks.iter().map(|&b| (self.model.blocks[b].material, self.model.blocks[b].constitutive)).collect();
         for &b in &blocks {

@@ -145,6 +145,7 @@ impl Executor<'_> {
         self.check_joints(cmd)?;
         self.check_masses_and_stiffnesses(cmd)?;
         self.check_cracking(cmd)?;
+        self.check_fdef(cmd)?;
         let dt = self.critical_timestep(cmd)?;
         self.check_overflows(cmd)?;
         Ok(dt)

@@ -53,7 +53,29 @@ impl Executor<'_> {
         // with the work of gravity and loads: the balance is unchanged by the command, and
         // what it shows later is the cycle's error alone. Measured as the ledger measures
         // kinetic energy (at the whole step), so that the booking is exact.
-        self.model.external_work += self.model.set_velocities(&blocks, velocity, w);
+        if self.model.fdef.is_empty() {
+            self.model.external_work += self.model.set_velocities(&blocks, velocity, w);
+            return Ok(());
+        }
+        // A scene with zoned blocks: each zoned block moves by its grid points, which take the
+        // rigid motion v + ω × r.
+        let before = self.model.energies().kinetic;
+        for b in blocks {
+            let blk = &mut self.model.blocks[b];
+            if !blk.fixed {
+                blk.velocity = velocity;
+                blk.angular_velocity = angular.unwrap_or(0.0);
+                // A zoned block moves by its grid points: each takes the rigid motion v + ω × r.
+                let c = blk.centroid;
+                if let Some(f) = self.model.fdef.get_mut(b).filter(|f| !f.zones.is_empty()) {
+                    for g in &mut f.gridpoints {
+                        g.velocity = [velocity[0] - w * (g.position[1] - c[1]), velocity[1] + w * (g.position[0] - c[0])];
+                    }
+                    self.model.blocks[b].angular_velocity = 0.0;
+                }
+            }
+        }
+        self.model.external_work += self.model.energies().kinetic - before;
         Ok(())
     }
 

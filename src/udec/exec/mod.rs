@@ -16,6 +16,7 @@
 
 mod blocks;
 mod cycling;
+mod fdef;
 mod loads;
 mod materials;
 mod output;
@@ -124,9 +125,7 @@ pub enum Progress {
 /// item 6).
 fn not_supported_yet(command: &Command) -> Option<&'static str> {
     match command {
-        Command::Change { to: Some(crate::udec::deck::Deformability::Fdef), .. } => Some("CHANGE FDEF (fully-deformable blocks)"),
         Command::Fluid { .. } => Some("FLUID (fluid flow in joints and domains)"),
-        Command::Generate { .. } => Some("GENERATE (zoning of fully-deformable blocks)"),
         Command::PFix { .. } => Some("PFIX (domain pressures)"),
         Command::PFree { .. } => Some("PFREE (domain pressures)"),
         Command::Print { items } => items.iter().find_map(|item| match item {
@@ -331,9 +330,9 @@ impl<'a> Executor<'a> {
             Command::Stop | Command::End => return Ok(true),
             Command::Block { material, constitutive, corners } => self.block(cmd, *material, *constitutive, corners)?,
             Command::Change { range, to, material, constitutive } => {
-                // CHANGE FDEF stopped above (`not_supported_yet`).
                 let sdef = *to == Some(crate::udec::deck::Deformability::Sdef);
-                self.change(cmd, range, sdef, *material, *constitutive)?
+                let fdef = *to == Some(crate::udec::deck::Deformability::Fdef);
+                self.change(cmd, range, sdef, fdef, *material, *constitutive)?
             }
             Command::Cycle { n } => self.cycle(cmd, *n)?,
             Command::Damping { fcrit, freq, mode } => self.damping(cmd, *fcrit, *freq, *mode)?,
@@ -343,7 +342,8 @@ impl<'a> Executor<'a> {
             Command::Free { range } => self.free(range),
             Command::Fraction { f } => self.model.frac = *f,
             // Stopped above (`not_supported_yet`).
-            Command::Fluid { .. } | Command::Generate { .. } | Command::PFix { .. } | Command::PFree { .. } => {}
+            Command::Fluid { .. } | Command::PFix { .. } | Command::PFree { .. } => {}
+            Command::Generate { range, mesh } => self.generate(cmd, range, mesh)?,
             Command::Gravity { g } => self.model.gravity = *g,
             Command::Link { flying, anchor } => self.link(cmd, *flying, *anchor)?,
             Command::Load { range, force } => self.load(range, *force),

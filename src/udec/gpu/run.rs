@@ -308,6 +308,13 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
     /// kernel precision cannot hold (`representable`).
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        if model.has_fdef() {
+            // The zones' kernels are not written yet (issue 29 item 6): `--backend auto` goes on
+            // on the CPU, `--backend gpu` says so.
+            return Err(CycleError::DoesNotFit(
+                "fully-deformable blocks (CHANGE … FDEF, GENERATE) run on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
+            ));
+        }
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
         let sdef_blocks = if model.has_sdef() { model.blocks.len() } else { 0 };

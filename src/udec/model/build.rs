@@ -156,8 +156,71 @@ impl Model {
             self.sdef.resize(self.blocks.len(), super::sdef::Sdef::default());
             self.refresh_sdef_moments(b);
         }
+        if !self.fdef.is_empty() {
+            self.fdef.resize(self.blocks.len(), super::fdef::Fdef::default());
+        }
         self.update_corner_positions(b);
         b
+    }
+
+    /// Gives block `b` the outline `pts_ccw` (world, counter-clockwise), the same polygon as its
+    /// present one with corners added along its edges (GENERATE's boundary grid points): its
+    /// corners are made anew, rounded, each new one on an edge taking that edge's tags; its
+    /// contacts are dropped (the next CYCLE's detection finds them again at the new corners) and
+    /// the corner indices of the other blocks and contacts shifted. The body frame is the world's
+    /// (rotation 0).
+    pub fn replace_outline(&mut self, b: usize, pts_ccw: &[[f64; 2]]) {
+        let old: Vec<Corner> = self.block_corners(b).to_vec();
+        let old_positions: Vec<[f64; 2]> = old.iter().map(|c| c.position).collect();
+        let (start, n_old) = (self.blocks[b].corner_start as usize, self.blocks[b].corner_count as usize);
+        let props = polygon_properties(pts_ccw);
+        let c = props.centroid;
+        let local: Vec<[f64; 2]> = pts_ccw.iter().map(|p| geometry::sub(*p, c)).collect();
+        let rounds = corner_rounding(&local, self.tol.round);
+        // Each new corner takes the tags of the old edge it lies on (from the last old corner).
+        let mut tag = (old[0].edge_material, old[0].edge_constitutive);
+        let mut fresh = Vec::with_capacity(pts_ccw.len());
+        for ((p, l), r) in pts_ccw.iter().zip(&local).zip(&rounds) {
+            if let Some(k) = old_positions.iter().position(|q| geometry::distance(*q, *p) <= 1e-12 * (1.0 + geometry::norm(*q))) {
+                tag = (old[k].edge_material, old[k].edge_constitutive);
+            }
+            fresh.push(Corner {
+                block: b as u32,
+                local: *l,
+                circle_local: r.circle,
+                radius: r.radius,
+                round: r.round,
+                position: *p,
+                circle: geometry::add(c, r.circle),
+                edge_dir: [0.0, 0.0],
+                edge_length: 0.0,
+                edge_material: tag.0,
+                edge_constitutive: tag.1,
+            });
+        }
+        let n_new = fresh.len();
+        self.corners.splice(start..start + n_old, fresh);
+        let shift = |k: u32| if k as usize >= start + n_old { (k as usize + n_new - n_old) as u32 } else { k };
+        for blk in &mut self.blocks[b + 1..] {
+            blk.corner_start = shift(blk.corner_start);
+        }
+        self.contacts.retain(|k| k.block1 as usize != b && k.block2 as usize != b);
+        for k in &mut self.contacts {
+            k.corner = shift(k.corner);
+        }
+        let density = self.material(self.blocks[b].material).block.density;
+        let blk = &mut self.blocks[b];
+        blk.corner_count = n_new as u32;
+        blk.centroid = c;
+        blk.rotation = 0.0;
+        blk.area = props.area;
+        blk.mass = density * props.area;
+        blk.inertia = density * props.polar_moment;
+        blk.radius = local.iter().map(|l| geometry::norm(*l)).fold(0.0, f64::max);
+        blk.update_centroid = c;
+        blk.update_rotation = 0.0;
+        blk.moved_since_update = f64::INFINITY;
+        self.update_corner_positions(b);
     }
 
     /// Mass = density · area and inertia = density · polar moment of every block, from the current
@@ -172,6 +235,11 @@ impl Model {
             blk.mass = density * props.area;
             blk.inertia = density * props.polar_moment;
             self.refresh_sdef_moments(b);
+            if self.blocks[b].kind == BlockKind::FullyDeformable {
+                if let Some(f) = self.fdef.get_mut(b) {
+                    f.set_density(density);
+                }
+            }
         }
     }
 
@@ -213,6 +281,13 @@ impl Model {
             let sdef = std::mem::take(&mut self.sdef);
             self.sdef = sdef.into_iter().zip(&removed).filter(|&(_, &gone)| !gone).map(|(s, _)| s).collect();
         }
+        if !self.fdef.is_empty() {
+            let mut k = 0;
+            self.fdef.retain(|_| {
+                k += 1;
+                !removed.get(k - 1).copied().unwrap_or(true)
+            });
+        }
         let mut new_blocks = Vec::with_capacity(next as usize);
         for (i, blk) in self.blocks.drain(..).enumerate() {
             if !removed[i] {
@@ -249,6 +324,11 @@ impl Model {
     pub fn update_corner_positions(&mut self, b: usize) {
         let blk = &self.blocks[b];
         let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
+        if self.fdef_of(b).is_some_and(|f| !f.zones.is_empty()) {
+            let (blk, f) = (&mut self.blocks[b], &self.fdef[b]);
+            super::corners::place_corners_fdef(blk, f, &mut self.corners[range]);
+            return;
+        }
         match self.sdef_of(b) {
             Some(s) => super::corners::place_corners_strained(blk, s.strain, &mut self.corners[range]),
             None => super::corners::place_corners(blk, &mut self.corners[range]),
@@ -259,6 +339,9 @@ impl Model {
     /// (and the strain of a simply-deformable block; not from the cached `Corner::position`).
     pub fn world_outline(&self, b: usize) -> Vec<[f64; 2]> {
         let blk = &self.blocks[b];
+        if self.fdef_of(b).is_some_and(|f| !f.zones.is_empty()) {
+            return self.block_corners(b).iter().map(|k| k.position).collect();
+        }
         let strain = self.sdef_of(b).map_or([0.0; 3], |s| s.strain);
         self.block_corners(b).iter().map(|k| geometry::add(blk.centroid, super::corners::strained(strain, geometry::rotate(k.local, blk.rotation)))).collect()
     }
@@ -299,6 +382,26 @@ impl Model {
         }
         if let Some(k) = self.sdef.iter().position(|s| !(s.strain.iter().chain(&s.strain_rate).chain(&s.stress).all(|x| x.is_finite()))) {
             return Err(format!("block {k}'s strain, strain rate or stress is not finite"));
+        }
+        if !self.fdef.is_empty() && self.fdef.len() != nb {
+            return Err(format!("{} fully-deformable extensions for {nb} blocks", self.fdef.len()));
+        }
+        for (k, f) in self.fdef.iter().enumerate() {
+            if f.zones.is_empty() {
+                continue;
+            }
+            let ng = f.gridpoints.len();
+            if f.boundary != self.blocks[k].corner_count || f.boundary as usize > ng {
+                return Err(format!("block {k}: {} boundary grid points for {} corners", f.boundary, self.blocks[k].corner_count));
+            }
+            if f.zones.iter().any(|z| z.gridpoints.iter().any(|&g| g as usize >= ng)) {
+                return Err(format!("block {k}: a zone names a grid point beyond its {ng}"));
+            }
+            if !f.gridpoints.iter().all(|g| finite(&g.position) && finite(&g.velocity) && finite(&g.force) && g.mass.is_finite())
+                || !f.zones.iter().all(|z| finite(&z.stress) && z.mass.is_finite())
+            {
+                return Err(format!("block {k}: a zone or grid point has a non-finite value"));
+            }
         }
         if self.sdef.is_empty() {
             if let Some(b) = self.blocks.iter().find(|b| b.kind == super::BlockKind::SimplyDeformable) {

@@ -66,6 +66,14 @@ pub fn place_corners_strained(block: &Block, strain: [f64; 3], corners: &mut [Co
         let r = strained(strain, [c * lx - s * ly, s * lx + c * ly]);
         corner.position = [cx + r[0], cy + r[1]];
     }
+    fit_circles_to_edges(corners);
+}
+
+/// Each rounding circle of corners already placed fitted again tangent to its corner's two
+/// edges (its radius kept), and each edge's direction and length measured: the second half of
+/// [`place_corners_strained`], which [`place_corners_fdef`] shares.
+#[inline]
+fn fit_circles_to_edges(corners: &mut [Corner]) {
     let n = corners.len();
     for k in 0..n {
         let (prev, p, next) = (corners[(k + n - 1) % n].position, corners[k].position, corners[(k + 1) % n].position);
@@ -85,6 +93,32 @@ pub fn place_corners_strained(block: &Block, strain: [f64; 3], corners: &mut [Co
             corners[k].edge_dir = [e2[0] / l2, e2[1] / l2];
         }
         corners[k].edge_length = l2;
+    }
+}
+
+/// Places the corners of a zoned fully-deformable block on its boundary grid points (grid point
+/// k is corner k, `model::fdef`) and refits their rounding circles as a strained block's are; the
+/// block's centroid and velocity become its grid points' mass means, its area the outline's, its
+/// body frame the world's turned by nothing (each corner's `local` its offset from the centroid
+/// now), so that PRINT, SET ROUND and the broad phase see the deformed block.
+pub fn place_corners_fdef(block: &mut Block, f: &super::fdef::Fdef, corners: &mut [Corner]) {
+    let (c, v, _) = f.mass_centre();
+    block.centroid = c;
+    block.velocity = v;
+    block.rotation = 0.0;
+    block.angular_velocity = 0.0;
+    let mut radius: f64 = 0.0;
+    for (corner, g) in corners.iter_mut().zip(&f.gridpoints) {
+        corner.position = g.position;
+        corner.local = sub(g.position, c);
+        radius = radius.max(dot(corner.local, corner.local));
+    }
+    block.radius = radius.sqrt();
+    let local: Vec<[f64; 2]> = corners.iter().map(|k| k.local).collect();
+    block.area = super::geometry::signed_area(&local);
+    fit_circles_to_edges(corners);
+    for corner in corners.iter_mut() {
+        corner.circle_local = sub(corner.circle, c);
     }
 }
 

@@ -14,11 +14,13 @@ pub mod build;
 pub mod constitutive;
 pub mod corners;
 pub mod domain;
+pub mod fdef;
 pub mod geometry;
 pub mod limits;
 pub mod sdef;
 pub mod split;
 pub mod timestep;
+pub mod zoning;
 
 use constitutive::ContactLaw;
 use rayon::prelude::*;
@@ -549,6 +551,12 @@ pub struct Model {
     /// cycle reads), and SAVE files do not keep it (a RESTART rebuilds it when asked).
     #[serde(skip)]
     pub domains: Option<domain::Domains>,
+    /// The zones and grid points of each fully-deformable block (`fdef::Fdef`), indexed like
+    /// `blocks`: empty while no block is fully deformable (a rigid scene carries none of it), one
+    /// entry a block from the first CHANGE … FDEF on (empty for any other block). Saved after the
+    /// model (save format 5).
+    #[serde(skip)]
+    pub fdef: Vec<fdef::Fdef>,
 }
 
 /// Field by field, so that `clone_from` reuses the target's vectors: the backends keep a copy of
@@ -578,7 +586,7 @@ impl Clone for Model {
 /// exhaustively with it, so that a new field is a compile error until it is named here.
 macro_rules! with_settings {
     ($apply:ident!($($args:tt)*)) => {
-        $apply!($($args)*; materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired, sdef)
+        $apply!($($args)*; materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired, sdef, fdef)
     };
 }
 
@@ -683,6 +691,7 @@ impl Default for Model {
             retired: timestep::RetiredEnergy::default(),
             sdef: Vec::new(),
             domains: None,
+            fdef: Vec::new(),
         }
     }
 }
@@ -723,6 +732,45 @@ impl Model {
         let local: Vec<[f64; 2]> = self.block_corners(b).iter().map(|c| c.local).collect();
         let density = self.material(self.blocks[b].material).block.density;
         self.sdef[b].moments = sdef::polygon_moments(&local).map(|x| density * x);
+    }
+
+    /// The zones and grid points of block `b`, if it is fully deformable.
+    #[inline]
+    pub fn fdef_of(&self, b: usize) -> Option<&fdef::Fdef> {
+        (self.blocks[b].kind == BlockKind::FullyDeformable).then(|| self.fdef.get(b)).flatten()
+    }
+
+    /// Whether any block is fully deformable (the scene then runs the zones' stages).
+    pub fn has_fdef(&self) -> bool {
+        !self.fdef.is_empty() && self.blocks.iter().any(|b| b.kind == BlockKind::FullyDeformable)
+    }
+
+    /// Makes block `b` fully deformable (CHANGE … FDEF), not yet zoned (GENERATE zones it); a
+    /// block that already is keeps its zones.
+    pub fn make_fdef(&mut self, b: usize) {
+        self.fdef.resize(self.blocks.len(), fdef::Fdef::default());
+        if self.blocks[b].kind != BlockKind::FullyDeformable {
+            self.blocks[b].kind = BlockKind::FullyDeformable;
+            self.fdef[b] = fdef::Fdef::default();
+        }
+    }
+
+    /// Gives fully-deformable block `b` the zones of `mesh` (GENERATE): its corners become the
+    /// mesh's boundary grid points (rounded anew), its zones and grid points start at rest and
+    /// unstressed, their masses from the block's density.
+    pub fn zone_block(&mut self, b: usize, mesh: &zoning::Mesh) {
+        self.fdef.resize(self.blocks.len(), fdef::Fdef::default());
+        let density = self.material(self.blocks[b].material).block.density;
+        let outline: Vec<[f64; 2]> = mesh.points[..mesh.boundary].to_vec();
+        self.replace_outline(b, &outline);
+        let mut f = fdef::Fdef::from_mesh(mesh, density);
+        let v = self.blocks[b].velocity;
+        for g in &mut f.gridpoints {
+            g.velocity = v;
+        }
+        self.fdef[b] = f;
+        self.blocks[b].angular_velocity = 0.0;
+        self.update_corner_positions(b);
     }
 
     /// The corners of block `b`, counter-clockwise.

@@ -309,6 +309,12 @@ pub fn split_line(model: &mut Model, from: [f64; 2], to: [f64; 2], material: Opt
             );
         match pieces {
             Ok(p) if p.is_empty() => {}
+            // The report splits rigid and simply-deformable blocks; a zoned block's zones would
+            // not follow the cut.
+            Ok(_) if model.blocks[b].kind == super::BlockKind::FullyDeformable => outcome.rejected.push((
+                id,
+                "it is fully deformable (zoned), and splitting a zoned block is not in the report; split it before CHANGE … FDEF and GENERATE".into(),
+            )),
             Ok(p) => {
                 outcome.split.push(id);
                 cuts.push((b, p));

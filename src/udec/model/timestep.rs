@@ -83,9 +83,11 @@ impl Model {
     /// The energy terms of the blocks and contacts that exist now (no retired terms).
     fn live_energies(&self) -> Energies {
         let mut e = Energies { external_work: self.external_work, ..Energies::default() };
-        for b in &self.blocks {
-            if let Some(k) = kinetic_at_t(b, self.timestep) {
-                e.kinetic += k;
+        for (k, b) in self.blocks.iter().enumerate() {
+            // A zoned block's motion is its grid points' (below).
+            let zoned = self.fdef.get(k).is_some_and(|f| !f.zones.is_empty() && b.kind == super::BlockKind::FullyDeformable);
+            if let Some(kin) = kinetic_at_t(b, self.timestep).filter(|_| !zoned) {
+                e.kinetic += kin;
             }
             e.mass_damping += b.damping_work;
         }
@@ -101,6 +103,28 @@ impl Model {
             }
             e.strain += super::sdef::strain_energy(s, b.area);
             e.mass_damping += s.damping_work;
+        }
+        // Fully-deformable blocks: their grid points' kinetic energy (brought to the whole step
+        // as the blocks' is), their zones' strain energy, their mass damping.
+        for (k, f) in self.fdef.iter().enumerate() {
+            let b = &self.blocks[k];
+            if b.kind != super::BlockKind::FullyDeformable || f.zones.is_empty() {
+                continue;
+            }
+            if !b.fixed {
+                let h = 0.5 * self.timestep;
+                for g in f.gridpoints.iter().filter(|g| g.mass > 0.0) {
+                    let v = [g.velocity[0] + g.force[0] / g.mass * h, g.velocity[1] + g.force[1] / g.mass * h];
+                    let at_t = 0.5 * g.mass * (v[0] * v[0] + v[1] * v[1]);
+                    e.kinetic += if at_t.is_finite() { at_t } else { 0.5 * g.mass * (g.velocity[0].powi(2) + g.velocity[1].powi(2)) };
+                }
+            }
+            let mat = self.material(b.material).block;
+            let lambda = mat.bulk - 2.0 * mat.shear / 3.0;
+            for z in 0..f.zones.len() {
+                e.strain += super::fdef::zone_strain_energy(f.zones[z].stress, f.zone_area(z), lambda, mat.shear);
+            }
+            e.mass_damping += f.damping_work;
         }
         for c in &self.contacts {
             // The springs of the contact's law: a joint's are JKN·l_c, JKS·l_c (¶5).
@@ -142,6 +166,13 @@ impl Model {
                     internal = internal.min(SDEF_STEP_SAFETY * 2.0 * (least / stiffness).sqrt());
                 }
             }
+            // A zoned block's zones (`model::fdef`): half the least zone height over c_p.
+            if let Some(f) = self.fdef_of(k) {
+                let m = self.material(b.material).block;
+                for z in 0..f.zones.len() {
+                    internal = internal.min(super::fdef::ZONE_STEP_SAFETY * super::fdef::zone_timestep(f.zone_points(z), m.density, m.bulk, m.shear));
+                }
+            }
         }
         match rigid {
             Some(dt) => Some(dt.min(internal)),
@@ -151,7 +182,12 @@ impl Model {
 
     /// UDEC 1.2's contact time step alone (see [`Model::critical_timestep`]).
     fn contact_timestep(&self) -> Option<f64> {
-        let m_min = self.blocks.iter().map(|b| b.mass).filter(|&m| m > 0.0).fold(f64::INFINITY, f64::min);
+        // A zoned block's contact springs push on its boundary grid points, not its whole mass.
+        let mass = |(k, b): (usize, &super::Block)| match self.fdef_of(k) {
+            Some(f) if !f.zones.is_empty() => f.least_boundary_mass(),
+            _ => b.mass,
+        };
+        let m_min = self.blocks.iter().enumerate().map(mass).filter(|&m| m > 0.0).fold(f64::INFINITY, f64::min);
         let mut k_max: f64 = 0.0;
         let mut consider = |m: u32| {
             let mat = self.material(m);
@@ -307,6 +343,10 @@ impl Model {
             let blk = &self.blocks[b];
             if blk.fixed || blk.mass <= 0.0 {
                 return 0.0;
+            }
+            // A zoned block gives at a contact as its lightest boundary grid point at most.
+            if let Some(f) = self.fdef_of(b).filter(|f| !f.zones.is_empty()) {
+                return 1.0 / f.least_boundary_mass();
             }
             let r2 = (p[0] - blk.centroid[0]).powi(2) + (p[1] - blk.centroid[1]).powi(2);
             // A simply-deformable block gives at a point r from its centroid through its strain

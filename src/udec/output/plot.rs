@@ -230,11 +230,27 @@ const BLACK: Rgb = [0, 0, 0];
 const FIXED_GREY: Rgb = [200, 200, 200];
 /// Velocity arrows.
 const ARROW_BLUE: Rgb = [0, 70, 200];
+/// Zone sides (PLOT ZONES).
+const ZONE_GREY: Rgb = [110, 110, 110];
+
+/// A zone's fill for its mean stress relative to the largest shown, `r` in −1..1: white at 0,
+/// towards blue in compression and red in tension.
+fn stress_colour(r: f64) -> Rgb {
+    let r = if r.is_finite() { r.clamp(-1.0, 1.0) } else { 0.0 };
+    let fade = |x: f64| (255.0 * (1.0 - 0.75 * x)).round() as u8;
+    if r < 0.0 {
+        [fade(-r), fade(-r), 255]
+    } else {
+        [255, fade(r), fade(r)]
+    }
+}
 
 /// What a shape is, for the SVG's `class` attribute.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ShapeKind {
     Block(u32),
+    /// A zone of a fully-deformable block (the block's id).
+    Zone(u32),
     Centroid,
     Velocity,
     Axis,
@@ -360,6 +376,22 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions, ti
     };
     let min_chord = MIN_CHORD_PX / vp.scale;
 
+    // PLOT ZONES: the zones of fully-deformable blocks, filled by their mean stress
+    // ½(σ11 + σ22) (blue compression, red tension, white zero, against the largest shown), under
+    // the outlines.
+    if options.zones {
+        let zoned: Vec<usize> = shown.iter().copied().filter(|&b| block_shows(b) && model.fdef_of(b).is_some_and(|f| !f.zones.is_empty())).collect();
+        let mean = |z: &crate::udec::model::fdef::Zone| 0.5 * (z.stress[0] + z.stress[2]);
+        let largest = zoned.iter().flat_map(|&b| model.fdef[b].zones.iter().map(mean)).filter(|x| x.is_finite()).fold(0.0f64, |a, x| a.max(x.abs()));
+        for &b in &zoned {
+            let f = &model.fdef[b];
+            for (z, zone) in f.zones.iter().enumerate() {
+                let points: Vec<[f64; 2]> = f.zone_points(z).iter().map(|&p| vp.to_px(p)).collect();
+                let fill = stress_colour(if largest > 0.0 { mean(zone) / largest } else { 0.0 });
+                shapes.push(Shape { kind: ShapeKind::Zone(model.blocks[b].id), points, closed: true, fill: Some(fill), stroke: ZONE_GREY });
+            }
+        }
+    }
     // Outlines first so that crosses and arrows are drawn over the grey of fixed blocks.
     for &b in shown.iter().filter(|&&b| block_shows(b)) {
         let blk = &model.blocks[b];
@@ -445,8 +477,9 @@ fn arrow(tail: [f64; 2], head: [f64; 2]) -> Vec<Shape> {
 /// (left out entirely with `nofix`), a cross at each centroid, and with `velocities` an arrow at
 /// each centroid moving faster than round-off, with the arrows' scale. Both files carry a
 /// caption (`title`, usually the deck's name, the cycle and the time) and axes in metres (the
-/// PNG's text where a font is found, `output::font`). `zones` is accepted but draws nothing: the
-/// model has no zones yet. An empty WINDOW or VIEW is an `InvalidInput` error.
+/// PNG's text where a font is found, `output::font`). With `zones` the zones of fully-deformable
+/// blocks are drawn under the outlines, filled by their mean stress. An empty WINDOW or VIEW is an
+/// `InvalidInput` error.
 pub fn plot(model: &Model, settings: &PlotSettings, options: &PlotOptions, out_dir: &Path, number: usize, title: &str) -> io::Result<[PathBuf; 2]> {
     plot_noting_empty(model, settings, options, out_dir, number, title).map(|(files, _)| files)
 }
@@ -630,6 +663,7 @@ fn render_svg(scene: &Scene, s: &mut impl io::Write) -> io::Result<()> {
         }
         let class = match shape.kind {
             ShapeKind::Block(id) => format!(r#"class="block" data-id="{id}""#),
+            ShapeKind::Zone(id) => format!(r#"class="zone" data-block="{id}""#),
             ShapeKind::Centroid => r#"class="centroid""#.to_string(),
             ShapeKind::Velocity => r#"class="velocity""#.to_string(),
             ShapeKind::Axis => r#"class="axis""#.to_string(),

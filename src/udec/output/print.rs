@@ -104,9 +104,9 @@ const BLOCK_GROUPS: [Group; 8] = [
 /// simply-deformable block, the three tensors of its extension array (print-formats.md), each as
 /// 11 12 21 22: `ED` the strain rate, `SI` the internal stress, `SA` the applied stress times the
 /// block's area.
-///
-/// The FDEF zone and grid-point tables of the 1985 listing need zone data that the model does not
-/// carry yet.
+/// Under a zoned fully-deformable block, its zone table (ZONE, GRID-POINTS, SIGMA-11, SIGMA-12,
+/// SIGMA-22, MASS) and grid-point table (GRID-POINT, CORNER-LINK, X, Y, X,Y VELOCITIES, X,Y
+/// FORCES, MASS), numbered from 1 within the block.
 pub fn print_blocks(model: &Model, out: &mut dyn Write) -> io::Result<()> {
     write_headings(out, "BLOCK DATA", &BLOCK_GROUPS)?;
     let mut line = String::new();
@@ -129,7 +129,35 @@ pub fn print_blocks(model: &Model, out: &mut dyn Write) -> io::Result<()> {
                 writeln!(out, "{line}")?;
             }
         }
+        if let Some(f) = model.fdef_of(k).filter(|f| !f.zones.is_empty()) {
+            print_zones(f, out)?;
+        }
     }
+    Ok(())
+}
+
+/// The zone and grid-point tables of one fully-deformable block (print-formats.md).
+fn print_zones(f: &crate::udec::model::fdef::Fdef, out: &mut dyn Write) -> io::Result<()> {
+    let mut line = String::new();
+    writeln!(out)?;
+    writeln!(out, "{:>8}{:>18}{:>11}{:>11}{:>11}{:>11}", "ZONE", "GRID-POINTS", "SIGMA-11", "SIGMA-12", "SIGMA-22", "MASS")?;
+    for (z, zone) in f.zones.iter().enumerate() {
+        line.clear();
+        let [a, b, c] = zone.gridpoints.map(|g| g + 1);
+        let _ = write!(line, "{:>8}{a:>6}{b:>6}{c:>6}", z + 1);
+        [zone.stress[0], zone.stress[1], zone.stress[2], zone.mass].iter().for_each(|&x| push_col_e(&mut line, x));
+        writeln!(out, "{line}")?;
+    }
+    writeln!(out)?;
+    writeln!(out, "{:>10}{:>12}{:>11}{:>11}{:>22}{:>22}{:>11}", "GRID-POINT", "CORNER-LINK", "X", "Y", "X,Y VELOCITIES", "X,Y FORCES", "MASS")?;
+    for (k, g) in f.gridpoints.iter().enumerate() {
+        line.clear();
+        let link = if k < f.boundary as usize { k + 1 } else { 0 };
+        let _ = write!(line, "{:>10}{link:>12}", k + 1);
+        [g.position[0], g.position[1], g.velocity[0], g.velocity[1], g.force[0], g.force[1], g.mass].iter().for_each(|&x| push_col_e(&mut line, x));
+        writeln!(out, "{line}")?;
+    }
+    writeln!(out)?;
     Ok(())
 }
 

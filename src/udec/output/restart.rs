@@ -8,8 +8,8 @@
 //! | 8 | magic `BLOCKDEM` |
 //! | 4 | format version (u32), [`FORMAT_VERSION`] |
 //! | 8 | payload length in bytes (u64) |
-//! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in versions 3 and 4, FNV-1a 64 in version 2 |
-//! | n | payload: [`SaveFile`] serialized with postcard, then (version 4) the contacts' laws and the model's simply-deformable extension array (`Model::sdef`, a list) |
+//! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in versions 3 to 5, FNV-1a 64 in version 2 |
+//! | n | payload: [`SaveFile`] serialized with postcard, then (version 4) the contacts' laws and the model's simply-deformable extension array (`Model::sdef`, a list), then (version 5) the fully-deformable one (`Model::fdef`, a list) |
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
@@ -42,7 +42,10 @@ use crate::udec::model::Model;
 pub const MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// The save format this program writes (and reads, with versions 2 and 3, which have no joints
 /// and no simply-deformable blocks).
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
+/// Version 4: the joints and the simply-deformable extension, no zones (read as a model
+/// without fully-deformable blocks' zones).
+const SDEF_VERSION: u32 = 4;
 /// The format before the joints' list and the simply-deformable extension (the same payload
 /// without them, under CRC-32).
 const POINT_VERSION: u32 = 3;
@@ -161,6 +164,8 @@ struct SaveView<'a> {
     joints: Vec<(u32, f64)>,
     /// Version 4's last trailer: the model's simply-deformable extension.
     sdef: &'a [crate::udec::model::sdef::Sdef],
+    /// Version 5's: the fully-deformable blocks' zones and grid points (`Model::fdef`).
+    fdef: &'a [crate::udec::model::fdef::Fdef],
 }
 
 /// The contacts of `model` that follow the joint law, as version 4 files list them.
@@ -180,7 +185,7 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
 /// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
-    let file = SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef };
+    let file = SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef, fdef: &model.fdef };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
         let seekable = w.get_ref().metadata()?.is_file();
@@ -283,7 +288,7 @@ fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
-    if version != FORMAT_VERSION && version != POINT_VERSION && version != FNV_VERSION {
+    if version != FORMAT_VERSION && version != SDEF_VERSION && version != POINT_VERSION && version != FNV_VERSION {
         return Err(DecodeError::UnsupportedVersion(version));
     }
     Ok(Header { version, length: u64_at(12), checksum: u64_at(20) })
@@ -295,7 +300,7 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
         return Err(DecodeError::Corrupt("the payload checksum does not match".to_string()));
     }
     let (mut file, mut rest) = postcard::take_from_bytes::<SaveFile>(payload).map_err(|e| DecodeError::Corrupt(format!("bad payload: {e}")))?;
-    if version == FORMAT_VERSION {
+    if version == FORMAT_VERSION || version == SDEF_VERSION {
         let joints;
         (joints, rest) = postcard::take_from_bytes::<Vec<(u32, f64)>>(rest).map_err(|e| DecodeError::Corrupt(format!("bad list of joints: {e}")))?;
         for (k, length) in joints {
@@ -308,6 +313,9 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
             c.joint_length = length;
         }
         (file.model.sdef, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad simply-deformable extension: {e}")))?;
+    }
+    if version == FORMAT_VERSION {
+        (file.model.fdef, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad fully-deformable extension: {e}")))?;
     }
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));

@@ -49,6 +49,11 @@ struct BlockJson {
     corners: Vec<[Num; 2]>,
     fixed: bool,
     force: [Num; 2],
+    /// A zoned fully-deformable block's grid points (ids from 1, grid point k on corner k for
+    /// the boundary ones) and zones (their grid points' ids, counter-clockwise; stress s11, s12,
+    /// s22 in Pa, tension positive); absent for another block.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gridpoints: Option<Vec<GridPointJson>>,
     id: u32,
     inertia: Num,
     kind: &'static str,
@@ -66,6 +71,24 @@ struct BlockJson {
     #[serde(skip_serializing_if = "Option::is_none")]
     strain_rate: Option<[Num; 3]>,
     velocity: [Num; 2],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    zones: Option<Vec<ZoneJson>>,
+}
+
+#[derive(serde::Serialize)]
+struct GridPointJson {
+    id: u32,
+    mass: Num,
+    position: [Num; 2],
+    velocity: [Num; 2],
+}
+
+#[derive(serde::Serialize)]
+struct ZoneJson {
+    gridpoints: [u32; 3],
+    id: u32,
+    mass: Num,
+    stress: [Num; 3],
 }
 
 fn block_json(model: &Model, b: usize, blk: &Block) -> BlockJson {
@@ -77,6 +100,13 @@ fn block_json(model: &Model, b: usize, blk: &Block) -> BlockJson {
         corners: corner_positions(model, b).into_iter().map(pair).collect(),
         fixed: blk.fixed,
         force: pair(blk.force),
+        gridpoints: model.fdef_of(b).map(|f| {
+            f.gridpoints
+                .iter()
+                .enumerate()
+                .map(|(k, g)| GridPointJson { id: k as u32 + 1, mass: Num(g.mass), position: pair(g.position), velocity: pair(g.velocity) })
+                .collect()
+        }),
         id: blk.id,
         inertia: Num(blk.inertia),
         kind: blk.kind.name(),
@@ -89,6 +119,13 @@ fn block_json(model: &Model, b: usize, blk: &Block) -> BlockJson {
         strain: model.sdef_of(b).map(|s| s.strain.map(Num)),
         strain_rate: model.sdef_of(b).map(|s| s.strain_rate.map(Num)),
         velocity: pair(blk.velocity),
+        zones: model.fdef_of(b).map(|f| {
+            f.zones
+                .iter()
+                .enumerate()
+                .map(|(k, z)| ZoneJson { gridpoints: z.gridpoints.map(|g| g + 1), id: k as u32 + 1, mass: Num(z.mass), stress: z.stress.map(Num) })
+                .collect()
+        }),
     }
 }
 

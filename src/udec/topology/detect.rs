@@ -283,6 +283,10 @@ impl BlockGrid {
     /// margin; or its speed margin has grown since.
     #[inline]
     fn strayed(&self, b: usize, blk: &Block) -> bool {
+        // A fully-deformable block changes shape: its stored box is never trusted.
+        if blk.kind == crate::udec::model::BlockKind::FullyDeformable {
+            return true;
+        }
         let [x, y, rot, reach, speed_margin] = self.reference[b];
         let moved = (blk.centroid[0] - x).hypot(blk.centroid[1] - y) + (blk.rotation - rot).abs() * reach;
         moved.is_nan() || moved > 0.5 * self.margin || blk.update_margin > speed_margin
@@ -1079,6 +1083,15 @@ fn update(
         let flagged: Box<dyn Iterator<Item = usize>> = if all { Box::new(0..blocks.len()) } else { Box::new(flagged_list.iter().map(|&b| b as usize)) };
         for b in flagged {
             sdef[b].update_strain = sdef[b].strain;
+        }
+    }
+    // A fully-deformable block's boundary is measured from here too (`GridPoint::update_position`).
+    if !model.fdef.is_empty() {
+        let flagged: Box<dyn Iterator<Item = usize>> = if all { Box::new(0..model.blocks.len()) } else { Box::new(flagged_list.iter().map(|&b| b as usize)) };
+        for b in flagged {
+            for g in &mut model.fdef[b].gridpoints {
+                g.update_position = g.position;
+            }
         }
     }
     Ok((changes, flagged_list))

@@ -1,0 +1,156 @@
+//! Stages 6, 1, 2 and 3 of a fully-deformable block on the CPU (`model::fdef` has the physics):
+//! its grid points sum their forces (zones, contacts, gravity, load), move by central
+//! differences with mass damping, its zones take their stress increments from the new
+//! velocities, and its corners follow its boundary grid points. One block at a time, so the
+//! block pass runs it on any thread (its state is its own).
+
+use super::law_of_motion::StepOutcome;
+use super::BlockInputs;
+use crate::udec::contact::gather::{AdjacencyEntry, ContactForce};
+use crate::udec::model::corners::place_corners_fdef;
+use crate::udec::model::fdef::{nodal_forces, strain_rate, stress_increment, twice_area, Fdef};
+use crate::udec::model::{material_slot, Block, Contact, Corner};
+
+/// Where a force on block `b`'s boundary at contact `c` acts: the grid points and their shares.
+/// Block 1 of the contact owns the corner (its grid point takes it all); on block 2 a corner arc
+/// (feature 2k) gives it to grid point k, an edge (feature 2k + 1) shares it between k and k + 1
+/// by where the contact point lies along the edge.
+#[inline]
+pub fn force_shares(c: &Contact, side: u32, corner_start: u32, corners: &[Corner], point: [f64; 2]) -> [(usize, f64); 2] {
+    let n = corners.len();
+    if side == 0 {
+        return [((c.corner - corner_start) as usize, 1.0), (0, 0.0)];
+    }
+    let k = (c.feature / 2) as usize % n;
+    if c.feature % 2 == 0 {
+        return [(k, 1.0), (0, 0.0)];
+    }
+    let j = (k + 1) % n;
+    let (a, e) = (corners[k].position, corners[k].edge_dir);
+    let len = corners[k].edge_length;
+    let t = if len > 0.0 { (((point[0] - a[0]) * e[0] + (point[1] - a[1]) * e[1]) / len).clamp(0.0, 1.0) } else { 0.0 };
+    [(k, 1.0 - t), (j, t)]
+}
+
+/// The velocity of block `b`'s boundary at contact `c` (the contact law's twin of
+/// [`force_shares`]).
+#[inline]
+pub fn boundary_velocity(f: &Fdef, c: &Contact, side: u32, corner_start: u32, corners: &[Corner], point: [f64; 2]) -> [f64; 2] {
+    let mut v = [0.0; 2];
+    for (g, w) in force_shares(c, side, corner_start, corners, point) {
+        if w != 0.0 {
+            v[0] += w * f.gridpoints[g].velocity[0];
+            v[1] += w * f.gridpoints[g].velocity[1];
+        }
+    }
+    v
+}
+
+/// Stage 6 of a fully-deformable block: each grid point's force from its zones' stresses,
+/// gravity on its mass and its share of the block's load (by mass), then the contacts in the
+/// block's list order (a fixed order, so runs repeat). The block's force is the sum of the
+/// external ones (for PRINT), its moment zero.
+pub fn gather_fdef(
+    block: &mut Block,
+    f: &mut Fdef,
+    corners: &[Corner],
+    contacts: &[Contact],
+    forces: &[ContactForce],
+    entries: &[AdjacencyEntry],
+    gravity: [f64; 2],
+) {
+    let total = block.mass.max(f64::MIN_POSITIVE);
+    for g in &mut f.gridpoints {
+        let share = g.mass / total;
+        g.force = [g.mass * gravity[0] + block.load[0] * share, g.mass * gravity[1] + block.load[1] * share];
+    }
+    let mut external = [block.mass * gravity[0] + block.load[0], block.mass * gravity[1] + block.load[1]];
+    for e in entries {
+        let k = e.contact() as usize;
+        let cf = &forces[k];
+        let sign = if e.side() == 0 { 1.0 } else { -1.0 };
+        let fx = [sign * cf.force[0], sign * cf.force[1]];
+        external[0] += fx[0];
+        external[1] += fx[1];
+        for (g, w) in force_shares(&contacts[k], e.side(), block.corner_start, corners, cf.point) {
+            if w != 0.0 {
+                f.gridpoints[g].force[0] += w * fx[0];
+                f.gridpoints[g].force[1] += w * fx[1];
+            }
+        }
+    }
+    for z in 0..f.zones.len() {
+        let nodal = nodal_forces(f.zone_points(z), f.zones[z].stress);
+        for (g, fz) in f.zones[z].gridpoints.into_iter().zip(nodal) {
+            f.gridpoints[g as usize].force[0] += fz[0];
+            f.gridpoints[g as usize].force[1] += fz[1];
+        }
+    }
+    block.force = external;
+    block.moment = 0.0;
+}
+
+/// Stages 1, 3 and 2 of a fully-deformable block whose forces are gathered: its grid points
+/// step (eqs. 9–10 per grid point, with mass damping; a fixed block's stay still), its zones
+/// take their stress increments, its corners follow. The outcome's `inverted_zone` names the
+/// first zone turned inside out (its index), if any.
+pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner], inp: &BlockInputs) -> StepOutcome {
+    let dt = inp.dt;
+    let mut out = StepOutcome::default();
+    if block.fixed {
+        for g in &mut f.gridpoints {
+            g.velocity = [0.0; 2];
+        }
+    } else {
+        let con1 = 1.0 - 0.5 * inp.alpha * dt;
+        let con2 = 1.0 / (1.0 + 0.5 * inp.alpha * dt);
+        let total = block.mass.max(f64::MIN_POSITIVE);
+        let mut travel: f64 = 0.0;
+        let mut damping = 0.0;
+        for g in &mut f.gridpoints {
+            if g.mass <= 0.0 {
+                continue;
+            }
+            let v0 = g.velocity;
+            let v = [(v0[0] * con1 + g.force[0] / g.mass * dt) * con2, (v0[1] * con1 + g.force[1] / g.mass * dt) * con2];
+            let d = [v[0] * dt, v[1] * dt];
+            if inp.alpha > 0.0 {
+                let m = [0.5 * (v0[0] + v[0]), 0.5 * (v0[1] + v[1])];
+                damping += inp.alpha * dt * g.mass * (m[0] * m[0] + m[1] * m[1]);
+            }
+            g.velocity = v;
+            g.position[0] += d[0];
+            g.position[1] += d[1];
+            travel = travel.max(d[0].hypot(d[1]));
+            let share = g.mass / total;
+            out.external_work += (g.mass * inp.gravity[0] + block.load[0] * share) * d[0] + (g.mass * inp.gravity[1] + block.load[1] * share) * d[1];
+        }
+        f.damping_work += damping;
+        out.corner_travel = travel;
+        // Stage 3: the zones' stress increments from the new velocities.
+        let mat = &inp.materials[material_slot(block.material, inp.materials.len())].block;
+        let lambda = mat.bulk - 2.0 * mat.shear / 3.0;
+        for z in 0..f.zones.len() {
+            let p = f.zone_points(z);
+            // Not positive, or NaN.
+            if twice_area(p).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                out.inverted_zone.get_or_insert(z as u32);
+                continue;
+            }
+            let e = strain_rate(p, f.zone_velocities(z));
+            let ds = stress_increment(e.map(|x| x * dt), lambda, mat.shear);
+            let s = &mut f.zones[z].stress;
+            s[0] += ds[0];
+            s[1] += ds[1];
+            s[2] += ds[2];
+        }
+        // The update tolerance: how far the boundary moved since the last contact update.
+        let mut moved: f64 = 0.0;
+        for g in &f.gridpoints[..f.boundary as usize] {
+            moved = moved.max((g.position[0] - g.update_position[0]).hypot(g.position[1] - g.update_position[1]));
+        }
+        block.moved_since_update = block.moved_since_update.max(moved);
+    }
+    place_corners_fdef(block, f, corners);
+    out
+}
