@@ -256,20 +256,19 @@ fn commands_of_later_issues_stop_with_not_supported_yet_and_their_line() {
 fn sample_2_parses_whole_and_stops_at_its_first_later_command() {
     // Samples 3 and 4 run to their end since zones and domains came (tests/fdef.rs,
     // tests/domains.rs).
-    for (name, prefix, what) in [("udec2_pressurized_cavity.dat", "FLUID", "not supported yet: FLUID")] {
-        let deck = sample(name);
-        let commands = blockdem::udec::deck::parse_deck(&deck, name).unwrap_or_else(|e| panic!("{name} does not parse: {e}"));
-        assert!(matches!(commands.last().unwrap().command, blockdem::udec::deck::Command::End), "{name}: parsed to its END");
-        let (r, log) = run_logged(&deck);
-        let e = r.unwrap_err();
-        let line = line_of(&deck, prefix);
-        assert!(matches!(&e, RunError::Unsupported { line: l, .. } if *l == line), "{name}: {e}");
-        assert!(e.to_string().contains(&format!(":{line}: {what}")), "{name}: {e}");
-        // Echoed where the run reaches it; where a CYCLE comes first, the look-ahead before the
-        // first cycle names its line instead.
-        let named = log.contains(&format!("THE DECK CANNOT RUN TO ITS END: LINE {line} ({prefix})"));
-        assert!(log.contains(&format!("){prefix}")) || named, "{name}: the command is echoed or named before the stop:\n{log}");
-    }
+    let (name, prefix, what) = ("udec2_pressurized_cavity.dat", "FLUID", "not supported yet: FLUID");
+    let deck = sample(name);
+    let commands = blockdem::udec::deck::parse_deck(&deck, name).unwrap_or_else(|e| panic!("{name} does not parse: {e}"));
+    assert!(matches!(commands.last().unwrap().command, blockdem::udec::deck::Command::End), "{name}: parsed to its END");
+    let (r, log) = run_logged(&deck);
+    let e = r.unwrap_err();
+    let line = line_of(&deck, prefix);
+    assert!(matches!(&e, RunError::Unsupported { line: l, .. } if *l == line), "{name}: {e}");
+    assert!(e.to_string().contains(&format!(":{line}: {what}")), "{name}: {e}");
+    // Echoed where the run reaches it; where a CYCLE comes first, the look-ahead before the
+    // first cycle names its line instead.
+    let named = log.contains(&format!("THE DECK CANNOT RUN TO ITS END: LINE {line} ({prefix})"));
+    assert!(log.contains(&format!("){prefix}")) || named, "{name}: the command is echoed or named before the stop:\n{log}");
 }
 
 #[test]
