@@ -5,34 +5,12 @@
 
 mod common;
 
-use blockdem::scenes::run_deck_logged;
-use blockdem::udec::cpu::CpuBackend;
 use blockdem::udec::exec::RunError;
 use blockdem::udec::model::domain::{DomainKind, DomainLink, Domains, NO_DOMAIN};
 use blockdem::udec::model::geometry::signed_area;
 use blockdem::udec::model::Model;
 use blockdem::udec::output::state_json;
-use common::{every_backend, SharedLog, Target};
-
-fn run_logged(deck: &str) -> (Result<Model, RunError>, String) {
-    let log = SharedLog::default();
-    let r = run_deck_logged(deck, Box::new(CpuBackend::new()), Box::new(log.clone()));
-    let text = String::from_utf8(log.0.borrow().clone()).unwrap();
-    (r, text)
-}
-
-fn run_ok(deck: &str) -> (Model, String) {
-    let (r, log) = run_logged(deck);
-    match r {
-        Ok(m) => (m, log),
-        Err(e) => panic!("deck failed: {e}\n{log}"),
-    }
-}
-
-fn sample(name: &str) -> String {
-    let path = format!("{}/examples/{name}", env!("CARGO_MANIFEST_DIR"));
-    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
-}
+use common::{every_backend, run_logged, run_ok, sample, Target};
 
 const HEAD: &str = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\n";
 

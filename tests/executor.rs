@@ -6,33 +6,10 @@
 
 mod common;
 
-use blockdem::scenes::run_deck_logged;
 use blockdem::udec::cpu::CpuBackend;
 use blockdem::udec::exec::RunError;
-use blockdem::udec::model::Model;
 use blockdem::verify::stability::{LIMITS_CPU_F64, LIMITS_GPU_F32};
-use common::SharedLog;
-
-/// Runs a deck on the CPU; returns the result and the run log.
-fn run_logged(deck: &str) -> (Result<Model, RunError>, String) {
-    let log = SharedLog::default();
-    let r = run_deck_logged(deck, Box::new(CpuBackend::new()), Box::new(log.clone()));
-    let text = String::from_utf8(log.0.borrow().clone()).unwrap();
-    (r, text)
-}
-
-fn run_ok(deck: &str) -> (Model, String) {
-    let (r, log) = run_logged(deck);
-    match r {
-        Ok(m) => (m, log),
-        Err(e) => panic!("deck failed: {e}\n{log}"),
-    }
-}
-
-fn sample(name: &str) -> String {
-    let path = format!("{}/examples/{name}", env!("CARGO_MANIFEST_DIR"));
-    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
-}
+use common::{run_logged, run_ok, sample, SharedLog};
 
 const ONE_BLOCK: &str = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBLOCK 0,0 0,1 1,1 1,0\n";
 

@@ -150,3 +150,26 @@ impl Rng {
         ((self.next() * n as f64) as u32).min(n - 1)
     }
 }
+
+/// Runs a deck on the CPU; returns the result and the run log.
+pub fn run_logged(deck: &str) -> (Result<blockdem::udec::model::Model, blockdem::udec::exec::RunError>, String) {
+    let log = SharedLog::default();
+    let r = blockdem::scenes::run_deck_logged(deck, Box::new(CpuBackend::new()), Box::new(log.clone()));
+    let text = String::from_utf8(log.0.borrow().clone()).unwrap();
+    (r, text)
+}
+
+/// `run_logged` of a deck that must run: the model and the log (a failure panics with both).
+pub fn run_ok(deck: &str) -> (blockdem::udec::model::Model, String) {
+    let (r, log) = run_logged(deck);
+    match r {
+        Ok(m) => (m, log),
+        Err(e) => panic!("deck failed: {e}\n{log}"),
+    }
+}
+
+/// The text of the sample deck `name` in examples/.
+pub fn sample(name: &str) -> String {
+    let path = format!("{}/examples/{name}", env!("CARGO_MANIFEST_DIR"));
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
+}
