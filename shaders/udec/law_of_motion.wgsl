@@ -18,12 +18,15 @@ fn mass_damping_work(mass: real, inertia: real, v0: vec3<real>, v1: vec3<real>, 
 
 // What stage 1 did to a block (`rigid_step`), before it is stored (`store_step`): the block,
 // whether its corners must be placed again (f32: its placed angle moved), how far a corner moved
-// in the step (the too-fast check) and the work of gravity and load (the non-finite check).
+// in the step (the too-fast check), the work of gravity and load (the non-finite check) and its
+// net displacement since the last contact update (`net_since_update`, which an SDEF block adds
+// its strain's travel to).
 struct Step {
     blk: Block,
     place: bool,
     travel: real,
     work: real,
+    net: real,
 }
 
 // Stage 1 for a free block whose forces of the last cycle are `f` (force, moment): the rigid
@@ -85,12 +88,13 @@ fn rigid_step(blk_in: Block, f: vec3<real>) -> Step {
     // A corner moves at most |Δx| + |Δθ|·R in this step (the too-fast check).
     let travel = sqrt(dx * dx + dy * dy) + abs(dtheta) * blk.radius;
     // Net displacement since the last contact update, kept at its largest (report ¶26).
-    blk.moved = max(blk.moved, net_since_update(blk));
+    let net = net_since_update(blk);
+    blk.moved = max(blk.moved, net);
     let fx = blk.mass * params.gx + blk.load_x;
     let fy = blk.mass * params.gy + blk.load_y;
     let work = fx * dx + fy * dy;
     blk.work += work;
-    return Step(blk, place, travel, work);
+    return Step(blk, place, travel, work, net);
 }
 
 // How far the block's corners are from where they were at the last contact update, at most:
@@ -264,7 +268,7 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
     let dt = params.dt;
     s.travel += strain_travel(vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]) * dt, s.blk.radius);
     let since = vec3<real>(x.strain[0] - x.update_strain[0], x.strain[1] - x.update_strain[1], x.strain[2] - x.update_strain[2]);
-    s.blk.moved = max(s.blk.moved, net_since_update(s.blk) + strain_travel(since, s.blk.radius));
+    s.blk.moved = max(s.blk.moved, s.net + strain_travel(since, s.blk.radius));
     store_step(b, s);
     geometry_update_strained(s.blk, x.strain);
     sdefs[b].strain = x.strain;

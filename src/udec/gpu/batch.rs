@@ -40,21 +40,21 @@ impl<R: Real> Engine<R> {
         let cycle = |label, pipeline, bind_group, g: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) };
         let mut stages = Vec::with_capacity(4);
         if gather_only {
-            match (&p.sdef, &bg.sdef) {
-                (Some(k), Some(g)) if self.sdef_scene => stages.push(cycle("gather_sdef", &k.gather.pipeline, &g.gather, Grid::Blocks)),
-                _ => stages.push(cycle("gather", &p.gather.pipeline, &bg.gather, Grid::Blocks)),
+            match self.sdef_kernels() {
+                Some((k, g)) => stages.push(cycle("gather_sdef", &k.gather.pipeline, &g.gather, Grid::Blocks)),
+                None => stages.push(cycle("gather", &p.gather.pipeline, &bg.gather, Grid::Blocks)),
             }
         }
         if self.heavy_blocks(gather_only) > 0 {
             stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
         }
         if !gather_only {
-            match (&p.sdef, &bg.sdef) {
-                (Some(k), Some(g)) if self.sdef_scene => {
+            match self.sdef_kernels() {
+                Some((k, g)) => {
                     stages.push(cycle("law_of_motion_sdef", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
                     stages.push(cycle("contact_forces_sdef", &k.contact_forces.pipeline, &g.contact_forces, Grid::Contacts));
                 }
-                _ => {
+                None => {
                     stages.push(cycle("law_of_motion", &p.law_of_motion.pipeline, &bg.law_of_motion, Grid::Blocks));
                     stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
                 }
@@ -228,8 +228,7 @@ impl<R: Real> Engine<R> {
             pass.set_bind_group(0, bg, &[]);
             pass.dispatch_workgroups(x, y, 1);
             // Simply-deformable blocks add their strain modes to each workgroup's sum.
-            let groups = self.bind_groups.as_ref().and_then(|g| g.sdef.as_ref());
-            if let (Some(k), Some(g), true) = (&self.pipelines.sdef, groups, self.sdef_scene) {
+            if let Some((k, g)) = self.sdef_kernels() {
                 pass.set_pipeline(&k.energy_sums.pipeline);
                 pass.set_bind_group(0, &g.energy_sums, &[]);
                 pass.dispatch_workgroups(x, y, 1);

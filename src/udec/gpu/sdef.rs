@@ -142,6 +142,13 @@ impl<R: Real> Engine<R> {
         }
     }
 
+    /// The SDEF kernels and their bind groups, in a scene with SDEF blocks (the cycle, the gather
+    /// pass and the energy check run them then).
+    pub(super) fn sdef_kernels(&self) -> Option<(&super::kernels::SdefKernels, &super::kernels::SdefBindGroups)> {
+        let groups = self.bind_groups.as_ref()?.sdef.as_ref()?;
+        Some((self.pipelines.sdef.as_ref()?, groups)).filter(|_| self.sdef_scene)
+    }
+
     /// Contact updates splice the list on the device: not in an SDEF scene (see the module doc).
     pub(super) fn splices_on_device(&self) -> bool {
         self.splice && !self.sdef_scene
