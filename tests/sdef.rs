@@ -224,6 +224,61 @@ fn save_and_restart_keep_the_strain() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Sample 4 (`udec4_projectile_beam.dat`) up to `cycles` cycles at FRAC `frac` and TF `tf`, its
+/// plots left out: the log's crack lines, each as (cycle, Griffith stress, its two ends).
+fn sample_4_cracks(frac: &str, tf: &str, cycles: u32) -> Vec<(u32, f64, [f64; 4])> {
+    let deck = common::sample("udec4_projectile_beam.dat");
+    assert!(deck.contains("FRAC 0.10") && deck.contains("TF=3240."), "sample 4 changed");
+    let mut text = String::new();
+    for line in deck.replace("FRAC 0.10", &format!("FRAC {frac}")).replace("TF=3240.", &format!("TF={tf}")).lines() {
+        if line.starts_with("CYCLE") {
+            text += &format!("CYCLE {cycles}\nSTOP\nEND\n");
+            break;
+        }
+        if line != "PLOT" {
+            text += line;
+            text += "\n";
+        }
+    }
+    let (_, log) = common::run_ok(&text);
+    let number = |s: &str| s.trim_matches(|c: char| "(),:".contains(c)).parse::<f64>().unwrap();
+    log.lines()
+        .filter(|l| l.contains(" CRACKED AT CYCLE "))
+        .map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            // BLOCK b CRACKED AT CYCLE n (GRIFFITH STRESS s): NEW BLOCK m ALONG (x, y) - (x, y)
+            (w[5].parse().unwrap(), number(w[8]), [number(w[13]), number(w[14]), number(w[16]), number(w[17])])
+        })
+        .collect()
+}
+
+/// Sample 4's beam sits at Griffith's threshold when the projectile lands (about cycle 1000): the
+/// beam, one SDEF block on two legs, is compressed vertically by the projectile above and the
+/// legs below (σ22 ≈ −3.2e4 Pa at the peak, s1 ≈ 0: the criterion's −(s1 − s2)²/8(s1 + s2)
+/// ≈ −s2/8 against TF = 3240). At the deck's FRAC 0.1 the sampled peak is 3233.5, 0.2 % short of
+/// TF (no crack); the step converged (FRAC 0.02) peaks at 3245 and cracks it. Either way the first
+/// crack is the report's: vertical, through the beam's centre (x = 3), parallel to s2. What
+/// follows it, the pieces cracking on, is in docs/BENCHMARKS.md "Sample 4".
+#[test]
+fn sample_4_beam_is_at_the_griffith_threshold_on_impact() {
+    let vertical_through_the_centre = |c: &(u32, f64, [f64; 4])| {
+        let [x1, y1, x2, y2] = c.2;
+        (x1 - 3.0).abs() < 0.05 && (x2 - 3.0).abs() < 0.05 && (y1 - y2).abs() > 0.85
+    };
+    // The deck as it is: no crack by cycle 1100 (the impact is over).
+    assert!(sample_4_cracks("0.10", "3240.", 1100).is_empty());
+    // 1 % below its TF the beam cracks at the impact, through its centre.
+    let lower = sample_4_cracks("0.10", "3207.6", 1100);
+    assert!(!lower.is_empty(), "cracks 1 % below TF");
+    assert!((1000..1020).contains(&lower[0].0), "at the impact: {lower:?}");
+    assert!(vertical_through_the_centre(&lower[0]), "{lower:?}");
+    // With the step converged (FRAC 0.02, five times the cycles), at the deck's own TF.
+    let converged = sample_4_cracks("0.02", "3240.", 5500);
+    assert!(!converged.is_empty(), "the converged peak passes TF");
+    assert!((5000..5100).contains(&converged[0].0) && converged[0].1 >= 3240.0, "{converged:?}");
+    assert!(vertical_through_the_centre(&converged[0]), "{converged:?}");
+}
+
 /// Bad input: CHANGE SDEF into a material without K and G names the line; Griffith on rigid
 /// blocks alone names the block and CHANGE SDEF.
 #[test]
