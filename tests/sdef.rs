@@ -35,10 +35,12 @@ fn uniaxial_stress_and_strain_match_plane_strain(t: &Target) {
     let b = sdef_block(&m);
     let s = m.sdef[b];
     let sigma = -f / 1.0;
-    // (Second order in the strain: the lever arms are the strained block's, ε22 = −1.2e-3. In
-    // f32 the stiff contacts' forces carry the round-off of the corners' positions, 1e-7 m of
-    // 1e11 N/m, which the damped strain averages out to a few parts in 10⁴.)
-    let (tol, place) = if t.is_f32() { (5e-3, 1e-6) } else { (2e-3, 1e-12) };
+    // (Second order in the strain: the lever arms are the strained block's, ε22 = −1.2e-3; the
+    // error is 1.249e-3 in f64. In f32 the stiff contacts' forces carry the round-off of the
+    // corners' positions, 1e-7 m of 1e11 N/m, which the damped strain averages out: 1.278e-3,
+    // within the same tolerance. Positions themselves are f32's.)
+    let tol = 2e-3;
+    let place = if t.is_f32() { 1e-6 } else { 1e-12 };
     assert!((s.stress[2] - sigma).abs() < tol * f, "{}: σ22 {} against {sigma}", t.name(), s.stress[2]);
     assert!(s.stress[0].abs() < 1e-3 * f && s.stress[1].abs() < 1e-3 * f, "{}: σ11, σ12 {:?}", t.name(), s.stress);
     let l = K - 2.0 * G / 3.0;
@@ -105,8 +107,9 @@ fn a_free_square_rings_at_its_volumetric_frequency(t: &Target) {
         m.blocks[b].moved_since_update
     );
     // Undamped: the strain keeps its amplitude and the ledger its balance.
+    // (Measured: 1.6e-6 of the largest term in f64, 2.2e-6 in f32.)
     let e = m.energies();
-    let tol = if t.is_f32() { 1e-2 } else { 1e-3 };
+    let tol = 1e-3;
     assert!((e.ledger() - e0).abs() < tol * e.scale(), "{}: ledger {} from {e0}, of {}", t.name(), e.ledger(), e.scale());
 }
 
@@ -163,8 +166,9 @@ fn the_ledger_balances_with_sdef_blocks(t: &Target) {
         let m = t.run(&deck);
         let e = m.energies();
         assert!(e.strain > 0.0 && e.external_work > 0.0);
-        // (f32: the ledger's terms carry the kernels' round-off.)
-        let tol = if t.is_f32() { 1e-2 } else { 1e-3 };
+        // (Measured: 1.3e-4 and 1.6e-5 of the largest term in f64, 3.5e-4 and 5.1e-4 in f32, whose
+        // terms carry the kernels' round-off.)
+        let tol = 1e-3;
         assert!(e.ledger().abs() < tol * e.scale(), "{} {damp:?}: ledger {} of {}", t.name(), e.ledger(), e.scale());
         if !damp.is_empty() {
             assert!(m.sdef[1].damping_work > 0.0, "the internal damping took energy");
