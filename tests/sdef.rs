@@ -176,6 +176,43 @@ fn the_ledger_balances_with_sdef_blocks(t: &Target) {
     }
 }
 
+/// A simply-deformable base with a long contact list (more than `HEAVY_DEGREE`, 64: forty bricks
+/// on it, two corners each), free on a fixed ground and damped to rest: its applied stress is the
+/// bricks' weight W on top (r = +h/2) and the ground's W + w below (r = −h/2), so
+/// σ22 = −(h/2)(2W + w)/a, and its force balances (the GPU sums such a block in list order in
+/// its own pass, not by `gather_heavy`, which is for rigid blocks).
+fn a_heavy_sdef_block_carries_the_bricks(t: &Target) {
+    let (n, width, gap, h) = (40, 0.5, 0.02, 1.0);
+    let length = n as f64 * (width + gap) + gap;
+    // The ground (y < 0) and the base (0 < y < h) from one block, then the base's ends cut off.
+    let mut deck = format!(
+        "START\nPROP MAT=1 DENS=2000 K=1E9 G=6E8 KN=1E10 KS=1E10 F=0.5\nROUND 0.005\nGRAV 0 -10\n\
+         BLOCK (-1,-1) (-1,{h}) ({x},{h}) ({x},-1)\nSPLIT -2,0 {y},0\nSPLIT 0,-0.5 0,{top}\nSPLIT {length},-0.5 {length},{top}\n\
+         DELETE -1 0 0 {h}\nDELETE {length} {x} 0 {h}\n",
+        x = length + 1.0,
+        y = length + 2.0,
+        top = h + 0.5,
+    );
+    for k in 0..n {
+        let x0 = gap + k as f64 * (width + gap);
+        deck += &format!("BLOCK ({x0},{h}) ({x0},{t}) ({x1},{t}) ({x1},{h})\n", t = h + 0.5, x1 = x0 + width);
+    }
+    deck += &format!("CHANGE 0 {length} 0 {h} SDEF\nFIX -2 {} -2 -0.1\nDAMP 0.8 20 MASS\nDAMP 0.8 200 INTERNAL\nCYCLE 6000\n", length + 2.0);
+    let m = t.run(&deck);
+    let base = sdef_block(&m);
+    let degree = m.contacts.iter().filter(|c| c.block1 as usize == base || c.block2 as usize == base).count();
+    assert!(degree > 64, "{}: the base has {degree} contacts", t.name());
+    let brick_weight = n as f64 * width * 0.5 * 2000.0 * 10.0;
+    let area = length * h;
+    let base_weight = area * 2000.0 * 10.0;
+    let sigma = -(h / 2.0) * (2.0 * brick_weight + base_weight) / area;
+    let s = m.sdef[base].stress;
+    // (Measured: 3.4e-5 in f64, 3.6e-5 in f32; the force 0.19 N in f64, 2.8 N in f32.)
+    assert!((s[2] - sigma).abs() < 1e-3 * sigma.abs(), "{}: σ22 {} against {sigma}", t.name(), s[2]);
+    let f = m.blocks[base].force;
+    assert!(f[1].abs() < 1e-4 * base_weight, "{}: the base's force {f:?} balances", t.name());
+}
+
 /// PRINT BLOCKS shows an SDEF block's type line and its strain-rate, internal- and applied-stress
 /// rows; the state JSON its kind, stress and strain.
 fn outputs_show_sdef_blocks(t: &Target) {
@@ -302,4 +339,5 @@ every_backend!(
     griffith_threshold_in_tension,
     the_ledger_balances_with_sdef_blocks,
     outputs_show_sdef_blocks,
+    a_heavy_sdef_block_carries_the_bricks,
 );

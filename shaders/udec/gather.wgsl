@@ -134,8 +134,8 @@ fn force_sum_sdef(blk: Block, first: u32, end: u32) -> SdefForces {
 }
 
 // `gather` in a scene with simply-deformable blocks: a rigid block as `gather` sums it; an SDEF
-// block's force and moment in list order whatever its list's length (`gather_heavy` may have
-// summed a long one too: the two agree to rounding), its applied stress stored with them.
+// block's force and moment in list order whatever its list's length (the heavy list that
+// `gather_heavy` sums holds rigid blocks only), its applied stress stored with them.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gather_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);

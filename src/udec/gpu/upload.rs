@@ -217,7 +217,7 @@ impl<R: Real> Engine<R> {
                 .offsets
                 .windows(2)
                 .enumerate()
-                .filter(move |(b, w)| w[1] - w[0] > shaders::HEAVY_DEGREE && blocks[*b].fixed == fixed)
+                .filter(move |(b, w)| w[1] - w[0] > shaders::HEAVY_DEGREE && summed_by_gather_heavy(&blocks[*b], fixed))
                 .map(|(b, _)| b as u32)
         };
         let free: Vec<u32> = heavy(false).collect();
@@ -328,7 +328,7 @@ impl<R: Real> Engine<R> {
         });
         let heavy_list: Option<(Vec<u32>, usize)> = crossed.then(|| {
             let list = |fixed: bool| {
-                adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| heavy((w[1] - w[0]) as i64) && blocks[*b].fixed == fixed).map(|(b, _)| b as u32)
+                adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| heavy((w[1] - w[0]) as i64) && summed_by_gather_heavy(&blocks[*b], fixed)).map(|(b, _)| b as u32)
             };
             let free: Vec<u32> = list(false).collect();
             let n_free = free.len();
@@ -527,4 +527,12 @@ impl<R: Real> Corner<R> {
             oy: r(o[1]),
         }
     }
+}
+
+/// Whether `gather_heavy` sums block `b` when its list is long, in the part of its list for fixed
+/// or free blocks: a rigid block. A simply-deformable block sums its force and applied stress
+/// itself, in list order, whatever its list's length (`law_of_motion_sdef`, `gather_sdef`), so a
+/// workgroup's sum of its force would be done twice and never read.
+fn summed_by_gather_heavy(b: &crate::udec::model::Block, fixed: bool) -> bool {
+    b.fixed == fixed && b.kind != crate::udec::model::BlockKind::SimplyDeformable
 }
