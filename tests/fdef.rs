@@ -3,6 +3,8 @@
 //! weight, the outputs, the input errors and sample 3, on the CPU backend (the GPU's preflight
 //! refuses FDEF scenes in this version).
 
+mod common;
+
 use blockdem::scenes::run_deck_on;
 use blockdem::udec::backend::Backend;
 use blockdem::udec::cpu::CpuBackend;
@@ -435,4 +437,39 @@ fn velocity_moves_a_zoned_block_by_its_grid_points() {
     assert!(m.fdef[b].gridpoints.iter().all(|g| (g.velocity[0] - 2.0).abs() < 1e-9 && g.velocity[1].abs() < 1e-9));
     let moved = m.blocks[b].centroid[0] - 1.0;
     assert!((moved - 2.0 * m.time).abs() < 1e-9, "moved {moved} in {} s", m.time);
+}
+
+/// VTK (issue 29 item 4): a scene with zoned blocks writes a zone frame beside the block and
+/// contact frames, its grid points as points with their velocity, its zones as triangles through
+/// them with their stress; a rigid scene writes none.
+#[test]
+fn a_vtk_frame_holds_the_zones_and_grid_points() {
+    use blockdem::udec::output::vtk::{write_frame, zone_frame_name, ZONE_SERIES_FILE};
+    let m = run_deck_on(&format!("{SQUARE_DECK}CHANGE 0.5 2.5 0 1 FDEF\nGENERATE 0.5 2.5 0 1 AUTO 0.3\nGRAV 0 -10\nCYCLE 100\nSTOP\n"), cpu()).unwrap();
+    let b = m.blocks.iter().position(|b| b.kind == BlockKind::FullyDeformable).unwrap();
+    let f = &m.fdef[b];
+    let dir = std::env::temp_dir().join(format!("blockdem-fdef-vtk-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    write_frame(&m, &dir).unwrap();
+    let frame = common::VtkFrame::read(&dir.join(zone_frame_name(m.cycle)));
+    assert!(dir.join(ZONE_SERIES_FILE).is_file());
+    let points: Vec<f64> = f.gridpoints.iter().flat_map(|g| [g.position[0], g.position[1], 0.0]).collect();
+    assert_eq!(frame.points, points);
+    let cells: Vec<u32> = f.zones.iter().flat_map(|z| std::iter::once(3).chain(z.gridpoints)).collect();
+    assert_eq!(frame.cells, cells);
+    let f32s = |xs: &mut dyn Iterator<Item = f64>| xs.map(|x| x as f32 as f64).collect::<Vec<_>>();
+    assert_eq!(frame.array("velocity"), f32s(&mut f.gridpoints.iter().flat_map(|g| [g.velocity[0], g.velocity[1], 0.0])));
+    assert_eq!(frame.array("gridpoint_mass"), f32s(&mut f.gridpoints.iter().map(|g| g.mass)));
+    let stress = f32s(&mut f.zones.iter().flat_map(|z| [z.stress[0], z.stress[1], 0.0, z.stress[1], z.stress[2], 0.0, 0.0, 0.0, 0.0]));
+    assert_eq!(frame.array("stress"), stress);
+    assert!(frame.array("stress").iter().any(|&s| s < 0.0), "the block presses on its base");
+    assert_eq!(frame.array("zone"), (1..=f.zones.len()).map(|k| k as f64).collect::<Vec<_>>());
+    assert!(frame.array("block").iter().all(|&id| id == m.blocks[b].id as f64));
+    assert_eq!(frame.array("mass"), f32s(&mut f.zones.iter().map(|z| z.mass)));
+    // A rigid scene: no zone frame.
+    let rigid = run_deck_on(&format!("{SQUARE_DECK}GRAV 0 -10\nCYCLE 10\nSTOP\n"), cpu()).unwrap();
+    let dir2 = dir.join("rigid");
+    write_frame(&rigid, &dir2).unwrap();
+    assert!(!dir2.join(zone_frame_name(rigid.cycle)).exists() && !dir2.join(ZONE_SERIES_FILE).exists());
+    std::fs::remove_dir_all(&dir).ok();
 }
