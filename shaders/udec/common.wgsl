@@ -26,7 +26,7 @@
 // place in the zone, ascending by zone: the CPU's order), each contact's force shares. (15 is
 // end_cycle's dispatch grids.)
 @group(0) @binding(12) var<storage, read_write> gridpoints: array<GridPoint>;
-@group(0) @binding(13) var<storage, read_write> zones: array<Zone>;
+@group(0) @binding(13) var<storage, read_write> zone_list: array<Zone>;
 @group(0) @binding(14) var<storage, read> fdef_blocks: array<FdefBlock>;
 @group(0) @binding(16) var<storage, read> gridpoint_zones: array<u32>;
 @group(0) @binding(17) var<storage, read_write> contact_shares: array<ContactShare>;

@@ -148,8 +148,8 @@ fn energy_sums_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
             }
             e.z += gp.work;
         }
-        if (i < arrayLength(&zones)) {
-            let z = zones[i];
+        if (i < arrayLength(&zone_list)) {
+            let z = zone_list[i];
             let fb = fdef_blocks[z.block];
             let p = zone_points(z);
             e.y += zone_strain_energy(z.stress, 0.5 * twice_area(p[0], p[1], p[2]), fb.lambda, fb.shear);

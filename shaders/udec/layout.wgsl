@@ -161,7 +161,7 @@ struct Flags {
     toofast_block: atomic<u32>,
     overlap_contact: atomic<u32>,
     crack_due: atomic<u32>, // an SDEF block reached its Griffith strength: cracking is due
-    inverted_zone: atomic<u32>, // lowest zone turned inside out (zone_stresses)
+    inverted_zone: atomic<u32>, // lowest zone turned inside out (zones.wgsl)
 }
 
 const ERR_NONFINITE: u32 = 1u;

@@ -13,7 +13,7 @@
 // - `step_gridpoints`: v⁺ = [v⁻(1 − αΔt/2) + F/m Δt] / (1 + αΔt/2) per grid point (the rigid
 //   blocks' law, eqs. 9–10), the position as a compensated pair, the too-fast and non-finite
 //   checks with the grid point's block.
-// - `zone_stresses`: the inverted-zone check (a zone whose signed area is not positive raises
+// - `zones`: the inverted-zone check (a zone whose signed area is not positive raises
 //   ERR_ZONE_INVERTED with the lowest such zone), then Δσ from the strain rate times Δt.
 //
 // A fixed block's grid points stay still and its zones unstressed by the step, as on the CPU.
@@ -81,7 +81,7 @@ fn gridpoint_force(g: u32, gp: GridPoint) -> vec2<real> {
     }
     for (var e = gridpoint_zones[g]; e < gridpoint_zones[g + 1u]; e += 1u) {
         let entry = gridpoint_zones[e];
-        let z = zones[entry >> 2u];
+        let z = zone_list[entry >> 2u];
         f += nodal_forces(zone_points(z), z.stress, entry & 3u);
     }
     return f;
@@ -146,14 +146,14 @@ fn step_gridpoints(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocati
     }
 }
 
-// Stage 3 for zone z (twin of `cpu::zones::zone_stresses`, for one zone).
+// Stage 3 for zone z (twin of `cpu::zones::zones`, for one zone).
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn zone_stresses(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+fn zones(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let z = item_index(wg, li);
-    if (z >= arrayLength(&zones)) {
+    if (z >= arrayLength(&zone_list)) {
         return;
     }
-    let zone = zones[z];
+    let zone = zone_list[z];
     let fb = fdef_blocks[zone.block];
     if (fb.fixed != 0u) {
         return;
@@ -172,5 +172,5 @@ fn zone_stresses(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         vec2<real>(gridpoints[zone.g2].vx, gridpoints[zone.g2].vy),
     );
     let ds = stress_increment(strain_rate(p, v, a2) * params.dt, fb.lambda, fb.shear);
-    zones[z].stress = array<real, 3>(zone.stress[0] + ds.x, zone.stress[1] + ds.y, zone.stress[2] + ds.z);
+    zone_list[z].stress = array<real, 3>(zone.stress[0] + ds.x, zone.stress[1] + ds.y, zone.stress[2] + ds.z);
 }

@@ -129,21 +129,7 @@ pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner],
         out.corner_travel = travel;
         // Stage 3: the zones' stress increments from the new velocities.
         let mat = &inp.materials[material_slot(block.material, inp.materials.len())].block;
-        let lambda = mat.bulk - 2.0 * mat.shear / 3.0;
-        for z in 0..f.zones.len() {
-            let p = f.zone_points(z);
-            // Not positive, or NaN.
-            if twice_area(p).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                out.inverted_zone.get_or_insert(z as u32);
-                continue;
-            }
-            let e = strain_rate(p, f.zone_velocities(z));
-            let ds = stress_increment(e.map(|x| x * dt), lambda, mat.shear);
-            let s = &mut f.zones[z].stress;
-            s[0] += ds[0];
-            s[1] += ds[1];
-            s[2] += ds[2];
-        }
+        out.inverted_zone = zones(f, mat.bulk - 2.0 * mat.shear / 3.0, mat.shear, dt);
         // The update tolerance: how far the boundary moved since the last contact update.
         let mut moved: f64 = 0.0;
         for g in &f.gridpoints[..f.boundary as usize] {
@@ -153,4 +139,27 @@ pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner],
     }
     place_corners_fdef(block, f, corners);
     out
+}
+
+/// Stage 3 of a fully-deformable block whose grid points have stepped (the GPU's twin is
+/// zones.wgsl's `zones`, one invocation a zone): each zone's stress increment from its grid
+/// points' new velocities, Δσ = D·ε̇Δt in plane strain (λ, G); a zone whose signed area is not
+/// positive (turned inside out, or NaN) keeps its stress. Returns the first such zone's index.
+pub fn zones(f: &mut Fdef, lambda: f64, shear: f64, dt: f64) -> Option<u32> {
+    let mut inverted = None;
+    for z in 0..f.zones.len() {
+        let p = f.zone_points(z);
+        // Not positive, or NaN.
+        if twice_area(p).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            inverted.get_or_insert(z as u32);
+            continue;
+        }
+        let e = strain_rate(p, f.zone_velocities(z));
+        let ds = stress_increment(e.map(|x| x * dt), lambda, shear);
+        let s = &mut f.zones[z].stress;
+        s[0] += ds[0];
+        s[1] += ds[1];
+        s[2] += ds[2];
+    }
+    inverted
 }

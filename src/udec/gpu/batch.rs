@@ -88,7 +88,7 @@ impl<R: Real> Engine<R> {
         stages.push(cycle("gather_gridpoints", &k.gather_gridpoints.pipeline, &g.gather_gridpoints, Grid::GridPoints));
         if !gather_only {
             stages.push(cycle("step_gridpoints", &k.step_gridpoints.pipeline, &g.step_gridpoints, Grid::GridPoints));
-            stages.push(cycle("zone_stresses", &k.zone_stresses.pipeline, &g.zone_stresses, Grid::Zones));
+            stages.push(cycle("zones", &k.zones.pipeline, &g.zones, Grid::Zones));
             stages.push(cycle("law_of_motion_fdef", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces_fdef", &k.contact_forces.pipeline, &g.contact_forces, Grid::Contacts));
             let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");

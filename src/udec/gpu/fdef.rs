@@ -5,7 +5,7 @@
 //! a rigid scene binds and dispatches nothing of them (`kernels::FdefKernels`).
 //!
 //! What differs in such a scene (`Engine::stages`): each cycle runs `gather_gridpoints`,
-//! `step_gridpoints` and `zone_stresses` (zones.wgsl) before `law_of_motion_fdef` (rigid blocks
+//! `step_gridpoints` and `zones` (zones.wgsl) before `law_of_motion_fdef` (rigid blocks
 //! as before; a zoned block's corners on its grid points) and `contact_forces_fdef`. A zoned
 //! block's record keeps its velocity and force at zero on the device and its centroid where the
 //! upload put it (the reference its corners are placed from); a read-back gives the model its

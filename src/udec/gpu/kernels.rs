@@ -102,7 +102,7 @@ impl StateSlot {
             StateSlot::Sdefs => "sdefs",
             StateSlot::ContactLevers => "contact_levers",
             StateSlot::GridPoints => "gridpoints",
-            StateSlot::Zones => "zones",
+            StateSlot::Zones => "zone_list",
             StateSlot::FdefBlocks => "fdef_blocks",
             StateSlot::GridPointZones => "gridpoint_zones",
             StateSlot::ContactShares => "contact_shares",
@@ -173,7 +173,7 @@ pub struct CycleBindGroups {
 pub struct FdefBindGroups {
     pub gather_gridpoints: wgpu::BindGroup,
     pub step_gridpoints: wgpu::BindGroup,
-    pub zone_stresses: wgpu::BindGroup,
+    pub zones: wgpu::BindGroup,
     pub law_of_motion: wgpu::BindGroup,
     pub contact_forces: wgpu::BindGroup,
     pub gather: wgpu::BindGroup,
@@ -200,7 +200,7 @@ impl CycleBindGroups {
         let fdef = p.fdef.as_ref().filter(|_| b.gridpoints.is_some()).map(|k| FdefBindGroups {
             gather_gridpoints: make(&k.gather_gridpoints, "gather_gridpoints"),
             step_gridpoints: make(&k.step_gridpoints, "step_gridpoints"),
-            zone_stresses: make(&k.zone_stresses, "zone_stresses"),
+            zones: make(&k.zones, "zones"),
             law_of_motion: make(&k.law_of_motion, "law_of_motion_fdef"),
             contact_forces: make(&k.contact_forces, "contact_forces_fdef"),
             gather: make(&k.gather, "gather_fdef"),
@@ -259,7 +259,7 @@ pub struct Pipelines {
 }
 
 /// The entry points a scene with zoned fully-deformable blocks runs: zones.wgsl's
-/// `gather_gridpoints`, `step_gridpoints` and `zone_stresses` (stages 6, 1 and 3 of the grid
+/// `gather_gridpoints`, `step_gridpoints` and `zones` (stages 6, 1 and 3 of the grid
 /// points and zones), and in the files of their rigid twins `law_of_motion_fdef` (rigid blocks,
 /// and a zoned block's corners on its grid points), `contact_forces_fdef` (a zoned boundary's
 /// velocity, the force shares), `gather_fdef` (the rigid blocks' sums before a read-back) and
@@ -267,7 +267,7 @@ pub struct Pipelines {
 pub struct FdefKernels {
     pub gather_gridpoints: CycleKernel,
     pub step_gridpoints: CycleKernel,
-    pub zone_stresses: CycleKernel,
+    pub zones: CycleKernel,
     pub law_of_motion: CycleKernel,
     pub contact_forces: CycleKernel,
     pub gather: CycleKernel,
@@ -280,7 +280,7 @@ impl FdefKernels {
             Ok(FdefKernels {
                 gather_gridpoints: cycle_kernel(dev, "zones", "gather_gridpoints")?,
                 step_gridpoints: cycle_kernel(dev, "zones", "step_gridpoints")?,
-                zone_stresses: cycle_kernel(dev, "zones", "zone_stresses")?,
+                zones: cycle_kernel(dev, "zones", "zones")?,
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fdef")?,
                 contact_forces: cycle_kernel(dev, "contact_forces", "contact_forces_fdef")?,
                 gather: cycle_kernel(dev, "gather", "gather_fdef")?,

@@ -302,7 +302,7 @@ gpu_struct! {
 pub const ERR_NONFINITE: u32 = 1;
 pub const ERR_TOO_FAST: u32 = 2;
 pub const ERR_OVERLAP: u32 = 4;
-/// A zone of a fully-deformable block turned inside out (`zone_stresses`).
+/// A zone of a fully-deformable block turned inside out (`zones`, zones.wgsl).
 pub const ERR_ZONE_INVERTED: u32 = 8;
 /// "No index" in the atomic-min index slots.
 pub const NO_INDEX: u32 = u32::MAX;
