@@ -231,7 +231,7 @@ enum Cmd {
         /// ratio of two backends is taken from runs seconds apart (default 3, 1 with --quick).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100), allow_negative_numbers = true)]
         rounds: Option<u32>,
-        /// Largest scene of the zoned family (zones; default 10^5, 10^4 with --quick; 10^6 only
+        /// Largest scene of the zoned family (zones; default 10^5, 10^3 with --quick; 10^6 only
         /// when asked: its mesh takes minutes to generate).
         #[arg(long, value_parser = count::<usize>, allow_negative_numbers = true)]
         max_zones: Option<usize>,

@@ -70,7 +70,7 @@ pub struct BenchOptions {
     pub scaling: bool,
     /// The zoned scene family (`zones`: fully-deformable blocks).
     pub zones: bool,
-    /// Largest zoned scene (zones); None: `zones::DEFAULT_MAX_ZONES` (10⁴ with `quick`).
+    /// Largest zoned scene (zones); None: `zones::DEFAULT_MAX_ZONES` (10³ with `quick`).
     pub max_zones: Option<usize>,
     pub backends: Vec<BackendSpec>,
     /// Largest wall of the scaling family; None: 10⁴ with `quick`, else 10⁵ on the CPU and
@@ -457,7 +457,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };
     report.options = OptionsEcho {
         quick: opts.quick,
-        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("scaling", opts.scaling)]
+        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("scaling", opts.scaling), ("zones", opts.zones)]
             .iter()
             .filter(|s| s.1)
             .map(|s| s.0.to_string())
@@ -552,7 +552,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         }
     }
     if opts.zones {
-        let max = opts.max_zones.unwrap_or(if opts.quick { 10_000 } else { zones::DEFAULT_MAX_ZONES });
+        let max = opts.max_zones.unwrap_or(if opts.quick { 1_000 } else { zones::DEFAULT_MAX_ZONES });
         for &n in zones::ZONE_SIZES.iter().filter(|&&n| n <= max) {
             let decks = [("block", zones::block_deck(n)), ("wall", zones::wall_deck(n, opts.frac))];
             for (name, deck) in decks {

@@ -9,8 +9,8 @@
 //!   brick), bricks as soft as the SDEF scene's so that the zones' own step limit stays above the
 //!   contacts': zones among many contacts and contact updates.
 //!
-//! Sizes are 10³, 10⁴ and 10⁵ zones (10³ and 10⁴ with `--quick`); 10⁶ only when `--max-zones`
-//! asks for it (its mesh takes minutes to generate on this machine's CPU).
+//! Sizes are 10³, 10⁴ and 10⁵ zones (10³ with `--quick`); 10⁶ only when `--max-zones` asks for it
+//! (its mesh takes minutes to generate on this machine's CPU).
 //!
 //! The roofline: the bytes a cycle of the zone stages moves by the byte model
 //! [`zone_bytes_per_cycle`] (each kernel's loads and stores of the FDEF slots, a structure read
