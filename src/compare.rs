@@ -157,8 +157,8 @@ fn compare_zones(a: &Model, b: &Model) -> (Option<Largest>, Option<Largest>) {
         (0..m.blocks.len()).filter_map(|k| m.fdef_of(k).map(|f| (m.blocks[k].id, f))).collect()
     }
     let (za, zb) = (zoned(a), zoned(b));
-    let same = za.len() == zb.len()
-        && za.iter().zip(&zb).all(|((i, f), (j, g))| i == j && f.zones.len() == g.zones.len() && f.gridpoints.len() == g.gridpoints.len());
+    let same =
+        za.len() == zb.len() && za.iter().zip(&zb).all(|((i, f), (j, g))| i == j && f.zones.len() == g.zones.len() && f.gridpoints.len() == g.gridpoints.len());
     if !same {
         return (None, None);
     }

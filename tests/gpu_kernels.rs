@@ -1258,7 +1258,8 @@ fn zoned_patch<R: Real>(rng: &mut Rng) -> ZonedPatch<R> {
             ..bytemuck::Zeroable::zeroed()
         })
         .collect();
-    let zones: Vec<Zone<R>> = fdef.zones.iter().map(|z| Zone { stress: z.stress.map(r), g0: z.gridpoints[0], g1: z.gridpoints[1], g2: z.gridpoints[2], block: 0 }).collect();
+    let zones: Vec<Zone<R>> =
+        fdef.zones.iter().map(|z| Zone { stress: z.stress.map(r), g0: z.gridpoints[0], g1: z.gridpoints[1], g2: z.gridpoints[2], block: 0 }).collect();
     let n = fdef.gridpoints.len();
     let mut lists = vec![Vec::new(); n];
     for (z, zone) in fdef.zones.iter().enumerate() {
@@ -1325,7 +1326,10 @@ fn zones_match_rust<R: Real>(dev: &GpuDevice) {
         ],
     );
     let flags: blockdem::udec::gpu::layout::Flags = bytemuck::pod_read_unaligned(&out[0]);
-    assert_eq!((flags.errors & blockdem::udec::gpu::layout::ERR_ZONE_INVERTED, flags.inverted_zone), (blockdem::udec::gpu::layout::ERR_ZONE_INVERTED, bad as u32));
+    assert_eq!(
+        (flags.errors & blockdem::udec::gpu::layout::ERR_ZONE_INVERTED, flags.inverted_zone),
+        (blockdem::udec::gpu::layout::ERR_ZONE_INVERTED, bad as u32)
+    );
     let got: Vec<blockdem::udec::gpu::layout::Zone<R>> = bytemuck::pod_collect_to_vec(&out[1]);
     let top = want.zones.iter().flat_map(|z| z.stress).fold(0.0f64, |a, s| a.max(s.abs()));
     let tol = if f32_kernel { 1e-5 } else { 1e-9 } * top;

@@ -130,11 +130,11 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             let s = slots(file, entry);
             assert!(!s.iter().any(|x| fdef_slots.contains(x)), "{entry} binds an FDEF slot: {s:?}");
         }
-        assert_eq!(slots("law_of_motion", "law_of_motion_fdef"), [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces, GridPoints, FdefBlocks]);
         assert_eq!(
-            slots("zones", "gather_gridpoints"),
-            [Params, AdjOffsets, AdjEntries, ContactForces, GridPoints, Zones, GridPointZones, ContactShares]
+            slots("law_of_motion", "law_of_motion_fdef"),
+            [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces, GridPoints, FdefBlocks]
         );
+        assert_eq!(slots("zones", "gather_gridpoints"), [Params, AdjOffsets, AdjEntries, ContactForces, GridPoints, Zones, GridPointZones, ContactShares]);
         assert_eq!(slots("zones", "step_gridpoints"), [Params, Flags, GridPoints]);
         assert_eq!(slots("zones", "zones"), [Params, Flags, GridPoints, Zones, FdefBlocks]);
         assert!(slots("contact_forces", "contact_forces_fdef").contains(&ContactShares));

@@ -172,7 +172,11 @@ pub fn table(rows: &[ZoneRow]) -> String {
         return s;
     }
     let _ = writeln!(s, "\nZONED SCENES (fully-deformable blocks; roofline: the zone stages' bytes over the bandwidth yardstick)");
-    let _ = writeln!(s, "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} {:>8} {:>12} {:>12} {:>9}", "scene", "backend", "zones", "gridpts", "blocks", "contacts", "cycles", "s/cycle", "zone-cyc/s", "roofline");
+    let _ = writeln!(
+        s,
+        "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} {:>8} {:>12} {:>12} {:>9}",
+        "scene", "backend", "zones", "gridpts", "blocks", "contacts", "cycles", "s/cycle", "zone-cyc/s", "roofline"
+    );
     for r in rows {
         match &r.error {
             Some(e) => {
@@ -192,7 +196,9 @@ pub fn table(rows: &[ZoneRow]) -> String {
 
 /// The zone rows as CSV.
 pub fn csv(rows: &[ZoneRow]) -> String {
-    let mut s = String::from("scene,backend,nominal,zones,gridpoints,blocks,contacts,cycles,s_per_cycle,zone_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,error\n");
+    let mut s = String::from(
+        "scene,backend,nominal,zones,gridpoints,blocks,contacts,cycles,s_per_cycle,zone_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,error\n",
+    );
     for r in rows {
         s += &format!(
             "{},{},{},{},{},{},{},{},{:e},{:e},{},{:e},{:e},{}\n",

@@ -694,7 +694,16 @@ fn fdef_patch(ctx: &Ctx) -> Result<Measured, Failure> {
     let f = &m.fdef[b];
     let error = f.zones.iter().flat_map(|z| (0..3).map(move |i| (z.stress[i] - want[i]).abs() / top)).fold(0.0, f64::max);
     let s = f.zones[0].stress;
-    let detail = format!("{} zones; zone 1 σ ({:.6e}, {:.6e}, {:.6e}) against D·sym(L)Δt ({:.6e}, {:.6e}, {:.6e})", f.zones.len(), s[0], s[1], s[2], want[0], want[1], want[2]);
+    let detail = format!(
+        "{} zones; zone 1 σ ({:.6e}, {:.6e}, {:.6e}) against D·sym(L)Δt ({:.6e}, {:.6e}, {:.6e})",
+        f.zones.len(),
+        s[0],
+        s[1],
+        s[2],
+        want[0],
+        want[1],
+        want[2]
+    );
     Ok(Measured { error, detail, cost, energy_balance: None })
 }
 

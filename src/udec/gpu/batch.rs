@@ -77,7 +77,8 @@ impl<R: Real> Engine<R> {
     fn stages_fdef<'a>(&'a self, k: &'a kernels::FdefKernels, g: &'a kernels::FdefBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
         let p = &self.pipelines;
         let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
-        let cycle = |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let cycle =
+            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
         let mut stages = Vec::with_capacity(7);
         if gather_only {
             stages.push(cycle("gather_fdef", &k.gather.pipeline, &g.gather, Grid::Blocks));

@@ -195,7 +195,12 @@ impl<R: Real> Engine<R> {
         ck.fdef_bytes = [0, 0];
         let (Some(g), Some(z)) = (b.gridpoints.as_ref().filter(|_| self.fdef_scene), b.zones.as_ref()) else { return };
         let make = |label: &str, size: u64| {
-            self.dev.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC, mapped_at_creation: false })
+            self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
         };
         if ck.fdef.as_ref().is_none_or(|[dg, dz]| dg.size() < g.buffer.size() || dz.size() < z.buffer.size()) {
             ck.fdef = Some([make("checkpoint grid points", g.buffer.size()), make("checkpoint zones", z.buffer.size())]);

@@ -49,7 +49,8 @@ struct FdefUpload<R: Real> {
 impl<R: Real> FdefUpload<R> {
     fn of(model: &Model, origin: [f64; 2]) -> Self {
         let n = model.blocks.len();
-        let mut up = FdefUpload { blocks: vec![FdefBlock::default(); n], gp_start: vec![NO_INDEX; n], gridpoints: Vec::new(), zones: Vec::new(), csr: Vec::new() };
+        let mut up =
+            FdefUpload { blocks: vec![FdefBlock::default(); n], gp_start: vec![NO_INDEX; n], gridpoints: Vec::new(), zones: Vec::new(), csr: Vec::new() };
         for b in (0..n).filter(|&b| is_zoned(model, b)) {
             let f = &model.fdef[b];
             let blk = &model.blocks[b];
@@ -166,7 +167,8 @@ impl<R: Real> Engine<R> {
         let had_kernels = self.pipelines.fdef.is_some();
         self.pipelines.with_fdef(&self.dev)?;
         let up = FdefUpload::<R>::of(model, self.uploaded.origin);
-        let sizes = FdefSizes { gridpoints: up.gridpoints.len(), zones: up.zones.len(), blocks: model.blocks.len(), csr: up.csr.len(), contacts: model.contacts.len() };
+        let sizes =
+            FdefSizes { gridpoints: up.gridpoints.len(), zones: up.zones.len(), blocks: model.blocks.len(), csr: up.csr.len(), contacts: model.contacts.len() };
         let b = self.buffers.as_mut().expect("buffers exist");
         let made = b.ensure_fdef::<R>(&self.dev, sizes)?;
         for (_, blk) in self.last_blocks.iter_mut().enumerate().filter(|(k, _)| up.gp_start[*k] != NO_INDEX) {
@@ -215,10 +217,9 @@ impl<R: Real> Engine<R> {
         let b = self.buffers();
         let (n_gp, n_zones) = if self.fdef_scene { self.fdef_counts } else { (0, 0) };
         match (&b.gridpoints, &b.zones) {
-            (Some(g), Some(z)) => [
-                (&g.buffer, (n_gp * std::mem::size_of::<GridPoint<R>>()) as u64),
-                (&z.buffer, (n_zones * std::mem::size_of::<Zone<R>>()) as u64),
-            ],
+            (Some(g), Some(z)) => {
+                [(&g.buffer, (n_gp * std::mem::size_of::<GridPoint<R>>()) as u64), (&z.buffer, (n_zones * std::mem::size_of::<Zone<R>>()) as u64)]
+            }
             _ => [(&b.params, 0), (&b.params, 0)],
         }
     }
@@ -301,7 +302,11 @@ impl<R: Real> Engine<R> {
         }
         if changed {
             let b = self.buffers();
-            self.dev.queue.write_buffer(&b.gridpoints.as_ref().expect("a scene with zoned blocks has them").buffer, 0, bytemuck::cast_slice(&self.last_gridpoints));
+            self.dev.queue.write_buffer(
+                &b.gridpoints.as_ref().expect("a scene with zoned blocks has them").buffer,
+                0,
+                bytemuck::cast_slice(&self.last_gridpoints),
+            );
         }
     }
 

@@ -13,7 +13,8 @@
 
 use super::device::GpuDevice;
 use super::layout::{
-    Block, Contact, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, EnergySum, FdefBlock, Flags, GridPoint, Material, Params, Real, Sdef, Zone,
+    Block, Contact, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, EnergySum, FdefBlock, Flags, GridPoint, Material, Params, Real, Sdef,
+    Zone,
 };
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};
