@@ -5,7 +5,7 @@
 //!   fixed base under gravity, its zones at most `amax` long so that it has about N zones: the
 //!   zone stages' cost with few contacts.
 //! - `wall`: the scaling family's wall ([`scene::scaling_body`]: 25 rows, the reference
-//!   projectile at its left end) with every brick zoned (zones at most 0.35 m: six to eight a
+//!   projectile at its left end) with every brick zoned (zones at most 0.35 m: about 22 a
 //!   brick), bricks as soft as the SDEF scene's so that the zones' own step limit stays above the
 //!   contacts': zones among many contacts and contact updates.
 //!
@@ -56,9 +56,10 @@ pub struct ZoneRow {
 
 /// The deck of one large zoned block of about `zones` zones on a fixed base, up to its CYCLE.
 pub fn block_deck(zones: usize) -> String {
-    // AUTO's triangles are about equilateral with sides near amax: a 10 m square holds
-    // 100/(0.433 amax²) of them.
-    let amax = (100.0 / (0.433 * zones as f64)).sqrt();
+    // AUTO bisects the square's two right triangles (hypotenuse 10√2 m) until the longest side
+    // is at most amax: 2·2ᵏ zones with 10√2/2^(k/2) ≤ amax, so this amax gives the least 2·2ᵏ of
+    // at least `zones` (1024, 16384, 131072, 1048576 for the nominal sizes).
+    let amax = 0.999 * 10.0 * std::f64::consts::SQRT_2 * (2.0 / zones as f64).sqrt();
     format!(
         "START\nPROP MAT=1 DENS=2000 K={BULK:e} G={SHEAR:e} KN=1E10 KS=1E10 F=0.5\nROUND 0.05\nBLOCK (-1,-1) (-1,0) (11,0) (11,-1)\n\
          BLOCK (0,0) (0,10) (10,10) (10,0)\nFIX -2 12 -2 -0.2\nCHANGE -0.5 10.5 0 10 FDEF\nGENERATE -0.5 10.5 0 10 AUTO {amax:.6}\nGRAV 0 -10\n"
@@ -68,11 +69,11 @@ pub fn block_deck(zones: usize) -> String {
 /// The deck of the scaling wall with about `zones` zones, every brick zoned, struck by the
 /// projectile, up to its CYCLE.
 pub fn wall_deck(zones: usize, frac: f64) -> String {
-    // Seven zones a brick, 25 rows.
-    let wall = scene::scaling_wall(zones / 7, frac);
+    // About 22 zones a brick, 25 rows.
+    let wall = scene::scaling_wall(zones / 22, frac);
     let top = wall.rows as f64 * wall.brick[1];
     let right = wall.bricks as f64 * wall.brick[0];
-    let body = scene::scaling_body(zones / 7, frac);
+    let body = scene::scaling_body(zones / 22, frac);
     format!("{body}PROP MAT=1 K={BULK:e} G={SHEAR:e}\nCHANGE -1 {r} 0 {t} FDEF\nGENERATE -1 {r} 0 {t} AUTO 0.35\n", r = right + 1.0, t = top + 1.0)
 }
 
