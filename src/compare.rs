@@ -66,6 +66,11 @@ pub struct Comparison {
     /// Internal stress of the simply-deformable blocks (Pa; the largest component difference),
     /// relative to the largest stress component of the reference; None without SDEF blocks.
     pub stress: Option<Largest>,
+    /// Zone stresses of the fully-deformable blocks (Pa; the largest component difference),
+    /// relative to the largest zone stress component of the reference, and grid-point positions
+    /// (m, relative to the rounding length); None without zoned blocks.
+    pub zone_stress: Option<Largest>,
+    pub gridpoint: Option<Largest>,
     /// Kinetic, strain, external work, dissipated (damping + friction) and released energy:
     /// difference (J) and relative to the largest term of the reference.
     pub energy: Vec<(String, f64, f64)>,
@@ -131,6 +136,9 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
             }
             c.stress = Some(l);
         }
+        if a.has_fdef() {
+            (c.zone_stress, c.gridpoint) = compare_zones(a, b);
+        }
     } else {
         // Not the same blocks: no block-by-block comparison.
         let nan = Largest { value: f64::NAN, relative: f64::NAN, block: 0 };
@@ -139,6 +147,39 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
     let scale = energy_scale(a).max(f64::MIN_POSITIVE);
     c.energy = energy_terms(a).iter().zip(energy_terms(b)).map(|((name, x), (_, y))| (name.to_string(), (x - y).abs(), (x - y).abs() / scale)).collect();
     c
+}
+
+/// The zoned blocks' zone stresses and grid-point positions, the GPU's against the reference's
+/// (the block named is the zoned block with the largest difference); (None, None) when the two
+/// do not hold the same zones.
+fn compare_zones(a: &Model, b: &Model) -> (Option<Largest>, Option<Largest>) {
+    fn zoned(m: &Model) -> Vec<(u32, &crate::udec::model::fdef::Fdef)> {
+        (0..m.blocks.len()).filter_map(|k| m.fdef_of(k).map(|f| (m.blocks[k].id, f))).collect()
+    }
+    let (za, zb) = (zoned(a), zoned(b));
+    let same =
+        za.len() == zb.len() && za.iter().zip(&zb).all(|((i, f), (j, g))| i == j && f.zones.len() == g.zones.len() && f.gridpoints.len() == g.gridpoints.len());
+    if !same {
+        return (None, None);
+    }
+    let top = za.iter().flat_map(|(_, f)| f.zones.iter().flat_map(|z| z.stress)).fold(0.0f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+    let round = a.tol.round.max(f64::MIN_POSITIVE);
+    let (mut stress, mut point) = (Largest::default(), Largest::default());
+    let larger = |l: &mut Largest, value: f64, scale: f64, block: u32| {
+        if value.is_nan() || value > l.value {
+            *l = Largest { value, relative: value / scale, block };
+        }
+    };
+    for ((id, f), (_, g)) in za.iter().zip(&zb) {
+        for (x, y) in f.zones.iter().zip(&g.zones) {
+            let d = x.stress.iter().zip(y.stress).fold(0.0f64, |m, (p, q)| if (p - q).is_nan() { f64::NAN } else { m.max((p - q).abs()) });
+            larger(&mut stress, d, top, *id);
+        }
+        for (x, y) in f.gridpoints.iter().zip(&g.gridpoints) {
+            larger(&mut point, (x.position[0] - y.position[0]).hypot(x.position[1] - y.position[1]), round, *id);
+        }
+    }
+    (Some(stress), Some(point))
 }
 
 /// The energy ledger's terms that are compared.
@@ -182,6 +223,8 @@ pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
         let mut rows =
             vec![("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")];
         rows.extend(c.stress.map(|l| ("stress (SDEF)", l, "Pa", "of the largest stress")));
+        rows.extend(c.zone_stress.map(|l| ("zone stress (FDEF)", l, "Pa", "of the largest stress")));
+        rows.extend(c.gridpoint.map(|l| ("grid point (FDEF)", l, "m", "of ROUND")));
         let rows: Vec<_> =
             rows.into_iter().map(|(name, l, unit, over)| (name, format!("{:.3e} {unit}", l.value), format!("{:.2e} {over}", l.relative), l.block)).collect();
         // Columns as wide as their widest cell, so that every row's block lines up.

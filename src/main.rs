@@ -231,6 +231,10 @@ enum Cmd {
         /// ratio of two backends is taken from runs seconds apart (default 3, 1 with --quick).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100), allow_negative_numbers = true)]
         rounds: Option<u32>,
+        /// Largest scene of the zoned family (zones; default 10^5, 10^3 with --quick; 10^6 only
+        /// when asked: its mesh takes minutes to generate).
+        #[arg(long, value_parser = count::<usize>, allow_negative_numbers = true)]
+        max_zones: Option<usize>,
     },
 }
 
@@ -241,6 +245,8 @@ enum BenchScene {
     /// The settle scene with simply-deformable bricks (its cost per cycle against settle's).
     Sdef,
     Scaling,
+    /// The zoned scene family (fully-deformable blocks: one large block, a wall of zoned bricks).
+    Zones,
     All,
 }
 
@@ -266,6 +272,7 @@ fn bench(
     frac: Option<f64>,
     measure: Option<f64>,
     rounds: Option<u32>,
+    max_zones: Option<usize>,
 ) -> anyhow::Result<()> {
     check_out_dir(&out)?;
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
@@ -293,6 +300,8 @@ fn bench(
     options.impact = matches!(scene, BenchScene::Impact | BenchScene::All);
     options.sdef = matches!(scene, BenchScene::Sdef | BenchScene::All);
     options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
+    options.zones = matches!(scene, BenchScene::Zones | BenchScene::All);
+    options.max_zones = max_zones;
     options.max_blocks = max_blocks;
     if let Some(sizes) = sizes {
         options.sizes = sizes;
@@ -656,8 +665,8 @@ fn main() -> ExitCode {
         Cmd::Adapters => adapters(),
         Cmd::Compare { deck, adapter, precision, out, tolerance } => compare(deck, adapter, precision, out, tolerance),
         Cmd::Verify { quick, out, only } => verify(quick, out, only),
-        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds } => {
-            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds)
+        Cmd::Bench { quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds, max_zones } => {
+            bench(quick, out, scene, backend, adapter, precision, max_blocks, sizes, settle_time, impact_time, frac, measure, rounds, max_zones)
         }
     };
     let _ = Stdout.flush();

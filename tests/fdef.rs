@@ -1,7 +1,9 @@
 //! Fully-deformable blocks (issue 29; SL-85-1 Appendix A ¶11–12, CHANGE … FDEF, GENERATE): the
 //! mesh generator, the constant-strain zones' patch test, an elastic column under its own
-//! weight, the outputs, the input errors and sample 3, on the CPU backend (the GPU's preflight
-//! refuses FDEF scenes in this version).
+//! weight, the outputs, the input errors and sample 3 on the CPU backend; sample 3, reruns, the
+//! ledger and the inverted-zone failure on every backend (`every_backend!`).
+
+mod common;
 
 use blockdem::scenes::run_deck_on;
 use blockdem::udec::backend::Backend;
@@ -10,6 +12,7 @@ use blockdem::udec::model::fdef::{nodal_forces, strain_rate, stress_increment};
 use blockdem::udec::model::geometry::{point_in_polygon, point_segment_distance, signed_area};
 use blockdem::udec::model::zoning::{auto_mesh, manual_mesh, Mesh};
 use blockdem::udec::model::{BlockKind, Model};
+use common::{every_backend, Target};
 
 fn cpu() -> Box<dyn Backend> {
     Box::new(CpuBackend::new())
@@ -436,3 +439,120 @@ fn velocity_moves_a_zoned_block_by_its_grid_points() {
     let moved = m.blocks[b].centroid[0] - 1.0;
     assert!((moved - 2.0 * m.time).abs() < 1e-9, "moved {moved} in {} s", m.time);
 }
+
+/// VTK (issue 29 item 4): a scene with zoned blocks writes a zone frame beside the block and
+/// contact frames, its grid points as points with their velocity, its zones as triangles through
+/// them with their stress; a rigid scene writes none.
+#[test]
+fn a_vtk_frame_holds_the_zones_and_grid_points() {
+    use blockdem::udec::output::vtk::{write_frame, zone_frame_name, ZONE_SERIES_FILE};
+    let m = run_deck_on(&format!("{SQUARE_DECK}CHANGE 0.5 2.5 0 1 FDEF\nGENERATE 0.5 2.5 0 1 AUTO 0.3\nGRAV 0 -10\nCYCLE 100\nSTOP\n"), cpu()).unwrap();
+    let b = m.blocks.iter().position(|b| b.kind == BlockKind::FullyDeformable).unwrap();
+    let f = &m.fdef[b];
+    let dir = std::env::temp_dir().join(format!("blockdem-fdef-vtk-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    write_frame(&m, &dir).unwrap();
+    let frame = common::VtkFrame::read(&dir.join(zone_frame_name(m.cycle)));
+    assert!(dir.join(ZONE_SERIES_FILE).is_file());
+    let points: Vec<f64> = f.gridpoints.iter().flat_map(|g| [g.position[0], g.position[1], 0.0]).collect();
+    assert_eq!(frame.points, points);
+    let cells: Vec<u32> = f.zones.iter().flat_map(|z| std::iter::once(3).chain(z.gridpoints)).collect();
+    assert_eq!(frame.cells, cells);
+    let f32s = |xs: &mut dyn Iterator<Item = f64>| xs.map(|x| x as f32 as f64).collect::<Vec<_>>();
+    assert_eq!(frame.array("velocity"), f32s(&mut f.gridpoints.iter().flat_map(|g| [g.velocity[0], g.velocity[1], 0.0])));
+    assert_eq!(frame.array("gridpoint_mass"), f32s(&mut f.gridpoints.iter().map(|g| g.mass)));
+    let stress = f32s(&mut f.zones.iter().flat_map(|z| [z.stress[0], z.stress[1], 0.0, z.stress[1], z.stress[2], 0.0, 0.0, 0.0, 0.0]));
+    assert_eq!(frame.array("stress"), stress);
+    assert!(frame.array("stress").iter().any(|&s| s < 0.0), "the block presses on its base");
+    assert_eq!(frame.array("zone"), (1..=f.zones.len()).map(|k| k as f64).collect::<Vec<_>>());
+    assert!(frame.array("block").iter().all(|&id| id == m.blocks[b].id as f64));
+    assert_eq!(frame.array("mass"), f32s(&mut f.zones.iter().map(|z| z.mass)));
+    // A rigid scene: no zone frame.
+    let rigid = run_deck_on(&format!("{SQUARE_DECK}GRAV 0 -10\nCYCLE 10\nSTOP\n"), cpu()).unwrap();
+    let dir2 = dir.join("rigid");
+    write_frame(&rigid, &dir2).unwrap();
+    assert!(!dir2.join(zone_frame_name(rigid.cycle)).exists() && !dir2.join(ZONE_SERIES_FILE).exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The first zoned block of `m` and its extension.
+fn zoned(m: &Model) -> (usize, &blockdem::udec::model::fdef::Fdef) {
+    let b = m.blocks.iter().position(|b| b.kind == BlockKind::FullyDeformable).unwrap();
+    (b, &m.fdef[b])
+}
+
+/// Sample 3 on every backend against the CPU's run: every zone stress, grid point and block
+/// within the precision's round-off of the reference (f64: 1e-9 relative; f32: 1e-3 of the
+/// largest stress and 1e-4 m, 5e-4 of ROUND: f32's digits over a thousand steps of a soft block
+/// ringing under a heavy one), the zones the right way
+/// round, and a rerun on the same backend bit for bit the same (the gather's fixed order).
+fn sample_3_agrees_with_the_cpu(t: &Target) {
+    let deck = sample3().replace("WIND 0 8 0 10\nPLOT\nPRINT BLOCKS\n", "");
+    let reference = run_deck_on(&deck, cpu()).unwrap();
+    let m = t.run(&deck);
+    assert_eq!(m.cycle, 1000, "{}", t.name());
+    let ((b, f), (_, fr)) = (zoned(&m), zoned(&reference));
+    assert!((0..f.zones.len()).all(|z| f.zone_area(z) > 0.0));
+    let top = fr.zones.iter().flat_map(|z| z.stress).fold(0.0f64, |a, s| a.max(s.abs()));
+    let (stress_tol, pos_tol) = if t.is_f32() { (1e-3 * top, 1e-4) } else { (1e-9 * top, 1e-12) };
+    for (z, (x, y)) in f.zones.iter().zip(&fr.zones).enumerate() {
+        for i in 0..3 {
+            assert!((x.stress[i] - y.stress[i]).abs() <= stress_tol, "{}: zone {z} stress {:?} against {:?}", t.name(), x.stress, y.stress);
+        }
+    }
+    for (g, (x, y)) in f.gridpoints.iter().zip(&fr.gridpoints).enumerate() {
+        let d = (x.position[0] - y.position[0]).hypot(x.position[1] - y.position[1]);
+        assert!(d <= pos_tol, "{}: grid point {g} {:?} against {:?}", t.name(), x.position, y.position);
+    }
+    for (x, y) in m.blocks.iter().zip(&reference.blocks) {
+        let d = (x.centroid[0] - y.centroid[0]).hypot(x.centroid[1] - y.centroid[1]);
+        assert!(d <= pos_tol.max(1e-12), "{}: block {} at {:?} against {:?}", t.name(), x.id, x.centroid, y.centroid);
+    }
+    // The zoned block's corners are its boundary grid points, its centroid their mass centre.
+    for (k, c) in m.block_corners(b).iter().enumerate() {
+        assert_eq!(c.position, f.gridpoints[k].position);
+    }
+    assert!(m.validate().is_ok(), "{:?}", m.validate());
+    let again = t.run(&deck);
+    assert_eq!(again.fdef, m.fdef, "{}: a rerun repeats bit for bit", t.name());
+    assert_eq!(again.blocks, m.blocks);
+}
+
+/// The ledger balances with zoned blocks on every backend: the energy put in (the work of
+/// gravity) is the kinetic and strain energy held plus what damping and friction took, to the
+/// precision's round-off (the central-difference step's own error is second order and small).
+fn the_ledger_balances_with_zoned_blocks(t: &Target) {
+    let m = t.run(&format!("{SQUARE_DECK}CHANGE 0.5 2.5 0 1 FDEF\nGENERATE 0.5 2.5 0 1 AUTO 0.3\nGRAV 0 -10\nDAMP 0.05 5 MASS\nCYCLE 400\nSTOP\n"));
+    let e = m.energies();
+    let held = e.kinetic + e.strain + e.mass_damping + e.contact_damping + e.friction + e.released;
+    assert!(e.external_work > 0.0 && e.strain > 0.0, "{}: {e:?}", t.name());
+    let tol = if t.is_f32() { 2e-2 } else { 1e-2 };
+    assert!((held - e.external_work).abs() <= tol * e.external_work, "{}: held {held} against work {}", t.name(), e.external_work);
+}
+
+/// A zone driven inside out on any backend stops the run naming the block and a zone of the
+/// flung grid point, and the model goes back to the state the run started from.
+fn a_zone_turned_inside_out_stops_every_backend(t: &Target) {
+    let deck = "START\nPROP MAT=1 DENS=2000 K=1E9 G=6E8 KN=1E10 KS=1E10\nROUND 0.05\nBLOCK (0,0) (2,0) (2,2) (0,2)\n\
+                CHANGE -1 3 -1 3 FDEF\nGENERATE -1 3 -1 3 AUTO 0.6\nCYCLE 0\nSTOP\n";
+    let mut m = run_deck_on(deck, cpu()).unwrap();
+    let b = m.blocks.iter().position(|b| b.kind == BlockKind::FullyDeformable).unwrap();
+    let k = m.fdef[b].boundary as usize;
+    let dt = m.timestep;
+    let g = &mut m.fdef[b].gridpoints[k];
+    g.mass = 1e30;
+    g.velocity = [10.0 / dt, 0.0];
+    let e = t.backend().run(&mut m, 10, &mut |_| true).unwrap_err();
+    match &e {
+        blockdem::udec::backend::CycleError::ZoneInverted { cycle, block, zone } => {
+            assert_eq!((*cycle, *block), (1, m.blocks[b].id), "{}", t.name());
+            assert!(m.fdef[b].zones[*zone as usize - 1].gridpoints.contains(&(k as u32)), "{}: zone {zone}", t.name());
+        }
+        other => panic!("{}: {other}", t.name()),
+    }
+    assert_eq!(m.cycle, 0, "{}: rolled back", t.name());
+    let v = m.fdef[b].gridpoints[k].velocity;
+    assert!((v[0] / (10.0 / dt) - 1.0).abs() < 1e-6 && v[1] == 0.0, "{}: {v:?}", t.name());
+}
+
+every_backend!(sample_3_agrees_with_the_cpu, the_ledger_balances_with_zoned_blocks, a_zone_turned_inside_out_stops_every_backend,);

@@ -1210,7 +1210,176 @@ on_adapters!(
     splice => splice_contacts_matches_rust,
     splice_adjacency => splice_adjacency_matches_rust,
     update_lists => update_lists_match_rust,
+    zones => zones_match_rust,
+    gather_gridpoints => gather_gridpoints_matches_rust,
 );
+
+/// A zoned irregular pentagon as the device holds it (positions and velocities rounded to the
+/// kernel precision, so the CPU twin sees the GPU's inputs), with random stresses and
+/// velocities: the model's extension and the FDEF slots' records (one block, its λ and G).
+struct ZonedPatch<R: Real> {
+    fdef: blockdem::udec::model::fdef::Fdef,
+    gridpoints: Vec<blockdem::udec::gpu::layout::GridPoint<R>>,
+    zones: Vec<blockdem::udec::gpu::layout::Zone<R>>,
+    block: blockdem::udec::gpu::layout::FdefBlock<R>,
+    csr: Vec<u32>,
+    lambda: f64,
+    shear: f64,
+}
+
+fn zoned_patch<R: Real>(rng: &mut Rng) -> ZonedPatch<R> {
+    use blockdem::udec::gpu::layout::{FdefBlock, GridPoint, Zone};
+    let outline = [[0.0, 0.0], [3.1, 0.4], [3.6, 2.3], [1.2, 3.4], [-0.7, 1.9]];
+    let mesh = blockdem::udec::model::zoning::auto_mesh(&outline, 0.4).unwrap();
+    let mut fdef = blockdem::udec::model::fdef::Fdef::from_mesh(&mesh, 2000.0);
+    for g in &mut fdef.gridpoints {
+        g.position = g.position.map(|x| q::<R>(x + rng.range(-1e-3, 1e-3)));
+        g.velocity = [q::<R>(rng.range(-0.1, 0.1)), q::<R>(rng.range(-0.1, 0.1))];
+        g.mass = q::<R>(g.mass);
+    }
+    for z in &mut fdef.zones {
+        z.stress = [q::<R>(rng.range(-1e6, 1e6)), q::<R>(rng.range(-1e6, 1e6)), q::<R>(rng.range(-1e6, 1e6))];
+    }
+    let (lambda, shear) = (q::<R>(1e9 - 2.0 * 6e8 / 3.0), q::<R>(6e8));
+    let r = R::from_f64;
+    let gridpoints = fdef
+        .gridpoints
+        .iter()
+        .enumerate()
+        .map(|(k, g)| GridPoint::<R> {
+            x: r(g.position[0]),
+            y: r(g.position[1]),
+            vx: r(g.velocity[0]),
+            vy: r(g.velocity[1]),
+            mass: r(g.mass),
+            ux: r(g.position[0]),
+            uy: r(g.position[1]),
+            boundary: ((k as u32) < fdef.boundary) as u32,
+            ..bytemuck::Zeroable::zeroed()
+        })
+        .collect();
+    let zones: Vec<Zone<R>> =
+        fdef.zones.iter().map(|z| Zone { stress: z.stress.map(r), g0: z.gridpoints[0], g1: z.gridpoints[1], g2: z.gridpoints[2], block: 0 }).collect();
+    let n = fdef.gridpoints.len();
+    let mut lists = vec![Vec::new(); n];
+    for (z, zone) in fdef.zones.iter().enumerate() {
+        for (place, g) in zone.gridpoints.iter().enumerate() {
+            lists[*g as usize].push(((z as u32) << 2) | place as u32);
+        }
+    }
+    let mut csr = Vec::new();
+    let mut at = (n + 1) as u32;
+    for l in &lists {
+        csr.push(at);
+        at += l.len() as u32;
+    }
+    csr.push(at);
+    csr.extend(lists.into_iter().flatten());
+    let block = FdefBlock::<R> {
+        lambda: r(lambda),
+        shear: r(shear),
+        gp_start: 0,
+        gp_count: n as u32,
+        boundary: fdef.boundary,
+        zone_start: 0,
+        zone_count: fdef.zones.len() as u32,
+        fixed: 0,
+    };
+    ZonedPatch { fdef, gridpoints, zones, block, csr, lambda, shear }
+}
+
+fn fdef_params<R: Real>(dt: f64, gravity: [f64; 2]) -> GParams<R> {
+    let r = R::from_f64;
+    GParams::<R> { dt: r(dt), gx: r(gravity[0]), gy: r(gravity[1]), fast_limit: r(1e9), one: 1, ..bytemuck::Zeroable::zeroed() }
+}
+
+/// zones.wgsl's `zones` (each zone's stress increment from its grid points' velocities, and the
+/// inverted-zone flag) against `cpu::zones::zones` on the same zoned pentagon, with one zone
+/// turned inside out: the same stresses (f64 to 1e-9 of the largest; f32 to 1e-5: gradients of
+/// f32 positions a zone apart) and the same zone flagged, left unstressed.
+fn zones_match_rust<R: Real>(dev: &GpuDevice) {
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut rng = Rng(0x5eed_0000_0000_0029);
+    let mut p = zoned_patch::<R>(&mut rng);
+    // Zone 5 turned inside out: its first two corners swapped in its record.
+    let bad = 5;
+    let zg = &mut p.fdef.zones[bad].gridpoints;
+    zg.swap(0, 1);
+    (p.zones[bad].g0, p.zones[bad].g1) = (zg[0], zg[1]);
+    let dt = q::<R>(1e-4);
+    let mut want = p.fdef.clone();
+    let inverted = blockdem::udec::cpu::zones::zones(&mut want, p.lambda, p.shear, dt);
+    assert_eq!(inverted, Some(bad as u32));
+    let flags = blockdem::udec::gpu::layout::Flags::cleared();
+    let out = run_kernel(
+        dev,
+        "zones",
+        "",
+        "zones",
+        p.zones.len(),
+        &[
+            (0, bytemuck::bytes_of(&fdef_params::<R>(dt, [0.0, 0.0])).to_vec(), false),
+            (7, bytemuck::bytes_of(&flags).to_vec(), true),
+            (12, bytemuck::cast_slice(&p.gridpoints).to_vec(), false),
+            (13, bytemuck::cast_slice(&p.zones).to_vec(), true),
+            (14, bytemuck::bytes_of(&p.block).to_vec(), false),
+        ],
+    );
+    let flags: blockdem::udec::gpu::layout::Flags = bytemuck::pod_read_unaligned(&out[0]);
+    assert_eq!(
+        (flags.errors & blockdem::udec::gpu::layout::ERR_ZONE_INVERTED, flags.inverted_zone),
+        (blockdem::udec::gpu::layout::ERR_ZONE_INVERTED, bad as u32)
+    );
+    let got: Vec<blockdem::udec::gpu::layout::Zone<R>> = bytemuck::pod_collect_to_vec(&out[1]);
+    let top = want.zones.iter().flat_map(|z| z.stress).fold(0.0f64, |a, s| a.max(s.abs()));
+    let tol = if f32_kernel { 1e-5 } else { 1e-9 } * top;
+    for (z, (g, w)) in got.iter().zip(&want.zones).enumerate() {
+        for i in 0..3 {
+            assert!((g.stress[i].to_f64() - w.stress[i]).abs() <= tol, "zone {z}: {:?} against {:?}", g.stress, w.stress);
+        }
+    }
+    assert_eq!(got[bad].stress.map(|s| s.to_f64()), p.fdef.zones[bad].stress, "the inverted zone keeps its stress");
+}
+
+/// zones.wgsl's `gather_gridpoints` (gravity and each grid point's zones in ascending order)
+/// against `cpu::zones::gather_fdef` on the same zoned pentagon without contacts: f64 bit for
+/// bit but for the compiler's fused multiply–adds (1e-12 of the largest force), f32 to 1e-5.
+fn gather_gridpoints_matches_rust<R: Real>(dev: &GpuDevice) {
+    let f32_kernel = std::mem::size_of::<R>() == 4;
+    let mut rng = Rng(0x5eed_0000_0000_002a);
+    let p = zoned_patch::<R>(&mut rng);
+    let gravity = [q::<R>(0.3), q::<R>(-9.81)];
+    let mut want = p.fdef.clone();
+    let square = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nSTOP\n";
+    let mut block = blockdem::scenes::run_deck_on(square, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap().blocks[0].clone();
+    block.mass = want.gridpoints.iter().map(|g| g.mass).sum();
+    blockdem::udec::cpu::zones::gather_fdef(&mut block, &mut want, &[], &[], &[], &[], gravity);
+    let words = |x: &[u32]| bytemuck::cast_slice::<u32, u8>(x).to_vec();
+    let out = run_kernel(
+        dev,
+        "zones",
+        "",
+        "gather_gridpoints",
+        p.gridpoints.len(),
+        &[
+            (0, bytemuck::bytes_of(&fdef_params::<R>(1e-4, gravity)).to_vec(), false),
+            (5, words(&[0, 0]), false),
+            (6, words(&[0]), false),
+            (8, vec![0; 4 * std::mem::size_of::<R>()], false),
+            (12, bytemuck::cast_slice(&p.gridpoints).to_vec(), true),
+            (13, bytemuck::cast_slice(&p.zones).to_vec(), false),
+            (16, words(&p.csr), false),
+            (17, vec![0; 32], false),
+        ],
+    );
+    let got: Vec<blockdem::udec::gpu::layout::GridPoint<R>> = bytemuck::pod_collect_to_vec(&out[0]);
+    let top = want.gridpoints.iter().flat_map(|g| g.force).fold(0.0f64, |a, f| a.max(f.abs()));
+    let tol = if f32_kernel { 1e-5 } else { 1e-12 } * top;
+    for (k, (g, w)) in got.iter().zip(&want.gridpoints).enumerate() {
+        let f = [g.fx.to_f64(), g.fy.to_f64()];
+        assert!((f[0] - w.force[0]).abs() <= tol && (f[1] - w.force[1]).abs() <= tol, "grid point {k}: {f:?} against {:?}", w.force);
+    }
+}
 
 /// The device's energy sums against `Model::energies` on the same state: a brick wall settling
 /// under gravity (kinetic and strain energy of a thousand blocks and four thousand contacts, so
@@ -1255,27 +1424,28 @@ fn energy_sums_gl_f32() {
 
 /// `end_cycle` counts a cycle and, when a kernel raised a flag the CPU must act on, halts the
 /// batch and zeroes every grid of `dispatch_args`, so the batch's later cycles launch nothing;
-/// once halted it changes nothing (the flags are [halted, cycles_done, update_due, errors, …]).
+/// once halted it changes nothing (the flags are [halted, cycles_done, update_due, errors, …,
+/// inverted_zone]).
 fn end_cycle_halts_by_zeroing_the_grids(adapter: &str) {
     let Some(dev) = device(adapter, Precision::F32) else { return };
     let grids: Vec<u32> = vec![3, 1, 1, 7, 1, 1, 65535, 2, 1, 0, 1, 1];
     let words = |w: &[u32]| bytemuck::cast_slice::<u32, u8>(w).to_vec();
-    let run = |flags: [u32; 8]| {
+    let run = |flags: [u32; 9]| {
         let out = run_kernel(&dev, "end_cycle", "", "end_cycle", 1, &[(7, words(&flags), true), (15, words(&grids), true)]);
         (bytemuck::pod_collect_to_vec::<u8, u32>(&out[0]), bytemuck::pod_collect_to_vec::<u8, u32>(&out[1]))
     };
     let none = u32::MAX;
     // Nothing raised: the cycle is counted, the grids stay.
-    let (flags, args) = run([0, 4, 0, 0, none, none, none, 0]);
+    let (flags, args) = run([0, 4, 0, 0, none, none, none, 0, none]);
     assert_eq!((flags[0], flags[1], &args[..]), (0, 5, &grids[..]), "a quiet cycle on {adapter}");
     // A contact update due, or an error: halted, and nothing more is launched.
     for (due, errors) in [(1, 0), (0, 4)] {
-        let (flags, args) = run([0, 4, due, errors, none, none, none, 0]);
+        let (flags, args) = run([0, 4, due, errors, none, none, none, 0, none]);
         assert_eq!((flags[0], flags[1]), (1, 5), "halt on {adapter} (due {due}, errors {errors})");
         assert!(args.iter().all(|&a| a == 0), "grids after a halt on {adapter}: {args:?}");
     }
     // Already halted: not counted, nothing written.
-    let (flags, args) = run([1, 4, 1, 0, none, none, none, 0]);
+    let (flags, args) = run([1, 4, 1, 0, none, none, none, 0, none]);
     assert_eq!((flags[0], flags[1], &args[..]), (1, 4, &grids[..]), "a halted cycle on {adapter}");
 }
 

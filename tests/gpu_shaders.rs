@@ -112,6 +112,34 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             let s = slots(file, entry);
             assert!(!s.contains(&Sdefs) && !s.contains(&ContactLevers), "{entry} binds an SDEF slot: {s:?}");
         }
+        // Only the FDEF entry points bind the FDEF slots (a rigid or SDEF scene binds nothing of
+        // them).
+        let fdef_slots = [GridPoints, Zones, FdefBlocks, GridPointZones, ContactShares];
+        for (file, entry) in [
+            ("law_of_motion", "law_of_motion"),
+            ("law_of_motion", "law_of_motion_sdef"),
+            ("contact_forces", "contact_forces"),
+            ("contact_forces", "contact_forces_sdef"),
+            ("contact_forces", "contact_points"),
+            ("gather", "gather"),
+            ("gather", "gather_sdef"),
+            ("gather", "gather_heavy"),
+            ("energy_sums", "energy_sums"),
+            ("energy_sums", "energy_sums_sdef"),
+        ] {
+            let s = slots(file, entry);
+            assert!(!s.iter().any(|x| fdef_slots.contains(x)), "{entry} binds an FDEF slot: {s:?}");
+        }
+        assert_eq!(
+            slots("law_of_motion", "law_of_motion_fdef"),
+            [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces, GridPoints, FdefBlocks]
+        );
+        assert_eq!(slots("zones", "gather_gridpoints"), [Params, AdjOffsets, AdjEntries, ContactForces, GridPoints, Zones, GridPointZones, ContactShares]);
+        assert_eq!(slots("zones", "step_gridpoints"), [Params, Flags, GridPoints]);
+        assert_eq!(slots("zones", "zones"), [Params, Flags, GridPoints, Zones, FdefBlocks]);
+        assert!(slots("contact_forces", "contact_forces_fdef").contains(&ContactShares));
+        assert_eq!(slots("gather", "gather_fdef"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces]);
+        assert!(slots("energy_sums", "energy_sums_fdef").contains(&Zones));
         assert!(slots("contact_forces", "contact_forces_sdef").contains(&ContactLevers));
         assert!(slots("energy_sums", "energy_sums_sdef").contains(&Sdefs));
         let energy = slots("energy_sums", "energy_sums");
@@ -127,6 +155,13 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             ("contact_forces", "contact_forces_sdef"),
             ("gather", "gather_sdef"),
             ("energy_sums", "energy_sums_sdef"),
+            ("zones", "gather_gridpoints"),
+            ("zones", "step_gridpoints"),
+            ("zones", "zones"),
+            ("law_of_motion", "law_of_motion_fdef"),
+            ("contact_forces", "contact_forces_fdef"),
+            ("gather", "gather_fdef"),
+            ("energy_sums", "energy_sums_fdef"),
         ] {
             let s = slots(file, entry);
             let storage = s.iter().filter(|x| x.kind() != SlotKind::Uniform).count();

@@ -19,6 +19,17 @@
 // at the block's index, and each contact's lever arms.
 @group(0) @binding(10) var<storage, read_write> sdefs: array<Sdef>;
 @group(0) @binding(11) var<storage, read_write> contact_levers: array<ContactLever>;
+// Scenes with zoned fully-deformable blocks only (the `_fdef` entry points and zones.wgsl): the
+// grid points and zones of every zoned block (each slot exactly as long as the scene's), each
+// block's zone constants and ranges (at the block's index), each grid point's zones as CSR
+// (offsets into this array for grid points 0 ..= n, then entries zone·4 + the grid point's
+// place in the zone, ascending by zone: the CPU's order), each contact's force shares. (15 is
+// end_cycle's dispatch grids.)
+@group(0) @binding(12) var<storage, read_write> gridpoints: array<GridPoint>;
+@group(0) @binding(13) var<storage, read_write> zone_list: array<Zone>;
+@group(0) @binding(14) var<storage, read> fdef_blocks: array<FdefBlock>;
+@group(0) @binding(16) var<storage, read> gridpoint_zones: array<u32>;
+@group(0) @binding(17) var<storage, read_write> contact_shares: array<ContactShare>;
 
 // Finite test without isnan/isinf (which compilers may fold away): false for NaN and ±inf.
 fn is_finite(x: real) -> bool {
@@ -85,4 +96,23 @@ fn strain_inertia(m: array<real, 3>, cs: vec2<real>) -> vec3<real> {
 fn generalised_force(x: Sdef) -> vec3<real> {
     let a = x.applied;
     return vec3<real>(a[0] - x.area * x.stress[0], 0.5 * (a[1] + a[2]) - x.area * x.stress[1], a[3] - x.area * x.stress[2]);
+}
+
+// Twice the signed area of the triangle (a, b, c), positive counter-clockwise (twin of
+// `model::fdef::twice_area` on `geometry::orient`).
+fn twice_area(a: vec2<real>, b: vec2<real>, c: vec2<real>) -> real {
+    let u = b - a;
+    let v = c - a;
+    return u.x * v.y - u.y * v.x;
+}
+
+// A grid point's position relative to the run's origin (the large part of its compensated
+// pair: what the zones' gradients are measured from).
+fn gridpoint_position(g: u32) -> vec2<real> {
+    return vec2<real>(gridpoints[g].x, gridpoints[g].y);
+}
+
+// The three corners of zone z.
+fn zone_points(z: Zone) -> array<vec2<real>, 3> {
+    return array<vec2<real>, 3>(gridpoint_position(z.g0), gridpoint_position(z.g1), gridpoint_position(z.g2));
 }

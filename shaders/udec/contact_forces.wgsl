@@ -387,12 +387,84 @@ fn strain_velocity(e: vec3<real>, r: vec2<real>) -> vec2<real> {
     return vec2<real>(e.x * r.x + e.y * r.y, e.y * r.x + e.z * r.y);
 }
 
+// The grid points a contact of a zoned fully-deformable block may move with, loaded by
+// `contact_forces_fdef` before the contact stage (which binds no FDEF slot itself): `on1`, block
+// 1 is zoned and its corner is grid point g1 (velocity v1); `on2`, block 2 is zoned and g2 are
+// its grid points at corners jm, j, jp and the one after of the feature's neighbourhood
+// (`neighbourhood`), v2 their velocities. A scene without zoned blocks passes `not_zoned()`.
+struct Zoned {
+    on1: bool,
+    on2: bool,
+    g1: u32,
+    v1: vec2<real>,
+    g2: array<u32, 4>,
+    v2: array<vec2<real>, 4>,
+}
+
+fn not_zoned() -> Zoned {
+    let z = vec2<real>(0.0, 0.0);
+    return Zoned(false, false, NO_INDEX, z, array<u32, 4>(NO_INDEX, NO_INDEX, NO_INDEX, NO_INDEX), array<vec2<real>, 4>(z, z, z, z));
+}
+
+// What the contact stage gives back besides what it stores: the lever arms from block 1's and
+// block 2's centroids to the point (SDEF blocks), and the force shares of zoned blocks.
+struct StageOut {
+    levers: vec4<real>,
+    share: ContactShare,
+}
+
+// Block 2's boundary velocity at the contact point `at` on its feature `feature` (twin of
+// `cpu::zones::boundary_velocity` with `force_shares`): a corner arc moves with its grid point;
+// an edge with its two, weighted by where the point lies along it; and the shares the gather
+// gives the contact's reaction by. `nb` is the neighbourhood the feature was tracked in.
+struct Boundary {
+    velocity: vec2<real>,
+    share: ContactShare,
+}
+
+fn boundary_velocity(z: Zoned, nb: Neighbourhood, feature: u32, at: vec2<real>) -> Boundary {
+    let j = feature / 2u;
+    var slot = 2u;
+    var e = nb.edge_p;
+    if (j == nb.jm) {
+        slot = 0u;
+        e = nb.edge_m;
+    } else if (j == nb.j) {
+        slot = 1u;
+        e = nb.edge_j;
+    }
+    var g = z.g2;
+    var v = z.v2;
+    var out = Boundary(vec2<real>(0.0, 0.0), ContactShare(1.0, 0.0, z.g1, g[slot], NO_INDEX, 0u));
+    if (feature % 2u == 0u) {
+        out.velocity = v[slot];
+        return out;
+    }
+    var t = real(0.0);
+    if (e.len > 0.0) {
+        let d = at - e.p0;
+        t = clamp((d.x * e.u.x + d.y * e.u.y) / e.len, 0.0, 1.0);
+    }
+    out.share.wa = 1.0 - t;
+    out.share.wb = t;
+    out.share.g2b = g[slot + 1u];
+    if (out.share.wa != 0.0) {
+        out.velocity += out.share.wa * v[slot];
+    }
+    if (out.share.wb != 0.0) {
+        out.velocity += out.share.wb * v[slot + 1u];
+    }
+    return out;
+}
+
 // Stage 4 for contact k (`contact`, as loaded): its geometry, its force law, the gather's record,
 // the overlap flag.
 // `strained`: the blocks' strain rates e1, e2 (simply-deformable blocks; zero for rigid ones)
 // move the contact point too (`contact_forces_sdef`); a rigid scene passes false and computes
-// nothing of them. Returns the lever arms from block 1's and block 2's centroids to the point.
-fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: vec3<real>) -> vec4<real> {
+// nothing of them. `zoned`: the grid points a zoned block's boundary moves with
+// (`contact_forces_fdef`). Returns the lever arms from block 1's and block 2's centroids to the
+// point and the zoned blocks' force shares.
+fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: vec3<real>, zoned: Zoned) -> StageOut {
     var c = contact;
     let feature_before = c.feature;
     let bonded_before = c.bonded;
@@ -445,6 +517,26 @@ fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: v
     if (strained) {
         vrel = (velocity_at(m1, at) + strain_velocity(e1, at - d12)) - (velocity_at(m2, at) + strain_velocity(e2, at));
     }
+    var share = ContactShare(0.0, 0.0, NO_INDEX, NO_INDEX, NO_INDEX, 0u);
+    if (zoned.on1 || zoned.on2) {
+        // A zoned block's boundary moves with its grid points (`cpu::contact_forces`).
+        var v1 = velocity_at(m1, at);
+        var v2 = velocity_at(m2, at);
+        if (zoned.on1) {
+            v1 = zoned.v1;
+            share.wa = 1.0;
+            share.g1 = zoned.g1;
+        }
+        if (zoned.on2) {
+            let bv = boundary_velocity(zoned, nb, c.feature, at);
+            v2 = bv.velocity;
+            share.wa = bv.share.wa;
+            share.wb = bv.share.wb;
+            share.g2a = bv.share.g2a;
+            share.g2b = bv.share.g2b;
+        }
+        vrel = v1 - v2;
+    }
     let law = contact_force_law(c, contact_law(materials[c.material], c.length), vrel, params.beta, params.dt, counted);
     c = law.contact;
     let f = law.force;
@@ -475,7 +567,7 @@ fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: v
         atomicOr(&flags.errors, ERR_OVERLAP);
         atomicMin(&flags.overlap_contact, k);
     }
-    return vec4<real>(r1, p);
+    return StageOut(vec4<real>(r1, p), share);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -485,7 +577,7 @@ fn contact_forces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
         return;
     }
     let zero = vec3<real>(0.0, 0.0, 0.0);
-    _ = contact_stage(k, contacts[k], false, zero, zero);
+    _ = contact_stage(k, contacts[k], false, zero, zero, not_zoned());
 }
 
 // The strain rate of block b (zero for a rigid block, whose extension stays zero).
@@ -504,11 +596,51 @@ fn contact_forces_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invo
         return;
     }
     let c = contacts[k];
-    let r = contact_stage(k, c, true, strain_rate_of(c.block1), strain_rate_of(c.block2));
+    let r = contact_stage(k, c, true, strain_rate_of(c.block1), strain_rate_of(c.block2), not_zoned()).levers;
     contact_levers[k] = ContactLever(r.x, r.y, r.z, r.w);
 }
 
 
+// The grid points contact c's blocks move with where they are zoned (`Zoned`): block 1's corner's,
+// and block 2's around the feature it follows (the neighbourhood `track_feature` searches).
+fn zoned_of(c: Contact) -> Zoned {
+    var z = not_zoned();
+    let b1 = blocks[c.block1];
+    if (b1.kind == BLOCK_FDEF) {
+        z.on1 = true;
+        z.g1 = fdef_blocks[c.block1].gp_start + (c.corner - b1.corner_start);
+        z.v1 = vec2<real>(gridpoints[z.g1].vx, gridpoints[z.g1].vy);
+    }
+    let b2 = blocks[c.block2];
+    if (b2.kind == BLOCK_FDEF) {
+        z.on2 = true;
+        let start = fdef_blocks[c.block2].gp_start;
+        let n = b2.corner_count;
+        let j = min(c.feature, 2u * n - 1u) / 2u;
+        let jp = next_index(j, n);
+        let around = array<u32, 4>(prev_index(j, n), j, jp, next_index(jp, n));
+        for (var i = 0u; i < 4u; i += 1u) {
+            let g = start + around[i];
+            z.g2[i] = g;
+            z.v2[i] = vec2<real>(gridpoints[g].vx, gridpoints[g].vy);
+        }
+    }
+    return z;
+}
+
+// Stage 4 in a scene with zoned fully-deformable blocks: a zoned block's boundary velocity at
+// the contact point is its grid points' (`boundary_velocity`), and the force shares go to
+// `contact_shares` for the grid points' gather (`gather_gridpoints`, zones.wgsl).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn contact_forces_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
+        return;
+    }
+    let c = contacts[k];
+    let zero = vec3<real>(0.0, 0.0, 0.0);
+    contact_shares[k] = contact_stage(k, c, false, zero, zero, zoned_of(c)).share;
+}
 
 // The centre of a corner's rounding circle (offset `o` from block 1's centroid) relative to block
 // 2's centroid, in the frame block 2's corners are placed in, as an exact sum [nearest,

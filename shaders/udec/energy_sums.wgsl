@@ -106,3 +106,60 @@ fn energy_sums_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         energy_sums_out[w].strain += t.y;
     }
 }
+
+// Strain energy of a zone of area `area` and stress s in plane strain (twin of
+// `fdef::zone_strain_energy`): (σ11 + σ22)²/(8(λ + G)) + (σ11 − σ22)²/(8G) + σ12²/(2G) per unit
+// area.
+fn zone_strain_energy(s: array<real, 3>, area: real, lambda: real, shear: real) -> real {
+    let sum = s[0] + s[2];
+    var w = real(0.0);
+    if (lambda + shear > 0.0) {
+        w = sum * sum / (8.0 * (lambda + shear));
+    }
+    if (shear > 0.0) {
+        let diff = s[0] - s[2];
+        w += diff * diff / (8.0 * shear) + s[1] * s[1] / (2.0 * shear);
+    }
+    return w * area;
+}
+
+// The energy check's share of zoned fully-deformable blocks, dispatched after `energy_sums` on
+// the same grid in a scene that has them (the grid then covers the grid points and zones too):
+// each workgroup adds its grid points' kinetic energy at time t (half a step of the force the
+// gather pass left, as `Model::energies` takes it; a free block's only) and their work since the
+// upload, and its zones' strain energy (twins of `Model::energies`' FDEF terms).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn energy_sums_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let first = workgroup_index(wg) * (WORKGROUP_SIZE * ENERGY_ITEMS) + li;
+    let h = 0.5 * params.dt;
+    var e = vec3<real>(0.0, 0.0, 0.0);
+    for (var k = 0u; k < ENERGY_ITEMS; k++) {
+        let i = first + k * WORKGROUP_SIZE;
+        if (i < arrayLength(&gridpoints)) {
+            let gp = gridpoints[i];
+            if (gp.fixed == 0u && gp.mass > 0.0) {
+                let v = vec2<real>(gp.vx + gp.fx / gp.mass * h, gp.vy + gp.fy / gp.mass * h);
+                let at_t = 0.5 * gp.mass * (v.x * v.x + v.y * v.y);
+                if (is_finite(at_t)) {
+                    e.x += at_t;
+                } else {
+                    e.x += 0.5 * gp.mass * (gp.vx * gp.vx + gp.vy * gp.vy);
+                }
+            }
+            e.z += gp.work;
+        }
+        if (i < arrayLength(&zone_list)) {
+            let z = zone_list[i];
+            let fb = fdef_blocks[z.block];
+            let p = zone_points(z);
+            e.y += zone_strain_energy(z.stress, 0.5 * twice_area(p[0], p[1], p[2]), fb.lambda, fb.shear);
+        }
+    }
+    let t = workgroup_sum(li, e);
+    if (li == 0u) {
+        let w = workgroup_index(wg);
+        energy_sums_out[w].kinetic += t.x;
+        energy_sums_out[w].strain += t.y;
+        energy_sums_out[w].work += t.z;
+    }
+}

@@ -153,3 +153,16 @@ fn gather_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
     blocks[b].moment = s.force.z;
     sdefs[b].applied = s.applied;
 }
+
+// `gather` in a scene with zoned fully-deformable blocks: a rigid block as `gather` sums it; a
+// zoned block's forces are its grid points' (`gather_gridpoints`, zones.wgsl), and its block
+// record's stay zero on the device (the CPU sums its external force at a read-back), so that
+// the energy check counts its grid points' motion, not the block's.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks || blocks[b].kind == BLOCK_FDEF) {
+        return;
+    }
+    gather_block(b);
+}

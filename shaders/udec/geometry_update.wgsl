@@ -77,3 +77,69 @@ fn geometry_update_strained(blk: Block, e: array<real, 3>) {
         p = next;
     }
 }
+
+// Where grid point g lies from block blk's centroid (the reference its corners are placed from:
+// a zoned block's centroid on the device stays where the upload put it), from the two
+// compensated pairs.
+fn gridpoint_offset(blk: Block, g: u32) -> vec2<real> {
+    let gp = gridpoints[g];
+    return vec2<real>((gp.x - blk.cx) + (gp.x_lo - blk.cx_lo), (gp.y - blk.cy) + (gp.y_lo - blk.cy_lo));
+}
+
+// How far grid point g is from where it was at its block's last contact update.
+fn gridpoint_travel(g: u32) -> real {
+    let gp = gridpoints[g];
+    let d = vec2<real>((gp.x - gp.ux) + (gp.x_lo - gp.ux_lo), (gp.y - gp.uy) + (gp.y_lo - gp.uy_lo));
+    return sqrt(d.x * d.x + d.y * d.y);
+}
+
+// Stage 2 of a zoned fully-deformable block b (twin of `model::corners::place_corners_fdef`):
+// corner k on boundary grid point k, each rounding circle fitted again tangent to its corner's
+// two edges (centre on the bisector at radius / cos(½ turn), as `fit_circles_to_edges` does),
+// the body frame the world's (its rotation stays 0); and the update tolerance: the largest
+// travel of a boundary grid point since the last contact update (report ¶26).
+fn place_corners_fdef(b: u32, blk: Block, fb: FdefBlock) {
+    let n = fb.boundary;
+    var prev = gridpoint_offset(blk, fb.gp_start + n - 1u);
+    var p = gridpoint_offset(blk, fb.gp_start);
+    let first = p;
+    var moved = real(0.0);
+    for (var k = 0u; k < n; k += 1u) {
+        var next = first;
+        if (k + 1u < n) {
+            next = gridpoint_offset(blk, fb.gp_start + k + 1u);
+        }
+        let i = blk.corner_start + k;
+        let e1 = p - prev;
+        let e2 = next - p;
+        let l1 = sqrt(e1.x * e1.x + e1.y * e1.y);
+        let l2 = sqrt(e2.x * e2.x + e2.y * e2.y);
+        let radius = corners[i].radius;
+        var circle = p;
+        if (radius > 0.0 && l1 > 0.0 && l2 > 0.0) {
+            let half = sqrt(max(0.5 * (1.0 + (e1.x * e2.x + e1.y * e2.y) / (l1 * l2)), 0.0));
+            let bis = vec2<real>(e2.x / l2 - e1.x / l1, e2.y / l2 - e1.y / l1);
+            let lb = sqrt(bis.x * bis.x + bis.y * bis.y);
+            if (lb > 0.0 && half > 0.0) {
+                let offset = radius / half;
+                circle = vec2<real>(p.x + bis.x / lb * offset, p.y + bis.y / lb * offset);
+            }
+        }
+        corners[i].lx = p.x;
+        corners[i].ly = p.y;
+        corners[i].px = p.x;
+        corners[i].py = p.y;
+        corners[i].qx = circle.x;
+        corners[i].qy = circle.y;
+        corners[i].ox = circle.x;
+        corners[i].oy = circle.y;
+        moved = max(moved, gridpoint_travel(fb.gp_start + k));
+        prev = p;
+        p = next;
+    }
+    let m = max(blk.moved, moved);
+    blocks[b].moved = m;
+    if (m > params.etol + blk.update_margin) {
+        atomicOr(&flags.update_due, 1u);
+    }
+}

@@ -24,6 +24,7 @@ struct Block {
 
 const BLOCK_RIGID: u32 = 0u;
 const BLOCK_SDEF: u32 = 1u;
+const BLOCK_FDEF: u32 = 2u; // zoned: its motion is its grid points' (zones.wgsl)
 
 // 40 / 80 bytes. (px, py) corner and (ox, oy) circle centre relative to the block centroid. The
 // edge to the next corner is measured where it is used (contact_forces.wgsl, `edge_from`); the
@@ -83,6 +84,27 @@ struct Sdef {
 // the applied stress of SDEF blocks (written by contact_forces_sdef).
 struct ContactLever { r1x: real, r1y: real, r2x: real, r2y: real }
 
+// 84 / 152 bytes. A grid point of a fully-deformable block (twin of `layout::GridPoint`):
+// position relative to the run's origin as a compensated pair, velocity, force of the last
+// gather, lumped mass, gravity's and the load's share (m·g + load·m/M), the position at its
+// block's last contact update, the work and damping since the upload; its block, whether it is a
+// boundary grid point (its block's corner) and whether its block is fixed.
+struct GridPoint {
+    x: real, y: real, x_lo: real, y_lo: real,
+    vx: real, vy: real, fx: real, fy: real, mass: real,
+    load_x: real, load_y: real,
+    ux: real, uy: real, ux_lo: real, uy_lo: real,
+    work: real, damping_work: real,
+    block: u32, boundary: u32, fixed: u32, _pad: u32,
+}
+// 28 / 40 bytes. A constant-strain triangle: stress (11, 12, 22), its grid points (global,
+// counter-clockwise) and its block.
+struct Zone { stress: array<real, 3>, g0: u32, g1: u32, g2: u32, block: u32 }
+// 32 / 40 bytes. A fully-deformable block's λ, G, grid-point and zone ranges, whether fixed.
+struct FdefBlock { lambda: real, shear: real, gp_start: u32, gp_count: u32, boundary: u32, zone_start: u32, zone_count: u32, fixed: u32 }
+// 24 / 32 bytes. How a contact's force is shared to grid points (block 1's corner: g1; block 2:
+// g2a and g2b with weights wa, wb), NO_INDEX where the block is not zoned.
+struct ContactShare { wa: real, wb: real, g1: u32, g2a: u32, g2b: u32, _pad: u32 }
 // 32 / 64 bytes (a multiple of the 16-byte stride a uniform array needs, in both precisions):
 // the point contact's KN, KS, COHESION, FRICTION, then the joint's JKN, JKS, JCOH, JFRIC.
 struct Material {
@@ -129,7 +151,7 @@ struct ListParams {
     n_blocks: u32, n_contacts: u32, grid_kept: u32, _pad: u32,
 }
 
-// 32 bytes.
+// 36 bytes.
 struct Flags {
     halted: atomic<u32>,
     cycles_done: atomic<u32>,
@@ -139,11 +161,14 @@ struct Flags {
     toofast_block: atomic<u32>,
     overlap_contact: atomic<u32>,
     crack_due: atomic<u32>, // an SDEF block reached its Griffith strength: cracking is due
+    inverted_zone: atomic<u32>, // lowest zone turned inside out (zones.wgsl)
 }
 
 const ERR_NONFINITE: u32 = 1u;
 const ERR_TOO_FAST: u32 = 2u;
 const ERR_OVERLAP: u32 = 4u;
+const ERR_ZONE_INVERTED: u32 = 8u;
+const NO_INDEX: u32 = 0xffffffffu;
 
 // The workgroup's place in its dispatch and the item an invocation handles. Dispatches are
 // two-dimensional (at most 65535 workgroups a dimension, and a 10⁶-block wall has 8·10⁶

@@ -33,6 +33,7 @@ pub mod host;
 pub mod memory_spec;
 pub mod report;
 pub mod scene;
+pub mod zones;
 
 use std::time::Instant;
 
@@ -67,6 +68,10 @@ pub struct BenchOptions {
     /// The settle scene with simply-deformable bricks (`RefScene::Sdef`).
     pub sdef: bool,
     pub scaling: bool,
+    /// The zoned scene family (`zones`: fully-deformable blocks).
+    pub zones: bool,
+    /// Largest zoned scene (zones); None: `zones::DEFAULT_MAX_ZONES` (10³ with `quick`).
+    pub max_zones: Option<usize>,
     pub backends: Vec<BackendSpec>,
     /// Largest wall of the scaling family; None: 10⁴ with `quick`, else 10⁵ on the CPU and
     /// software adapters and 10⁶ on hardware GPUs.
@@ -96,6 +101,8 @@ impl BenchOptions {
             sdef: true,
             impact: true,
             scaling: true,
+            zones: true,
+            max_zones: None,
             backends,
             max_blocks: None,
             sizes: SIZES.to_vec(),
@@ -344,6 +351,8 @@ pub struct BenchReport {
     pub backends: Vec<BackendInfo>,
     pub reference: Vec<ReferenceRow>,
     pub scaling: Vec<ScalingRow>,
+    /// The zoned scene family (`zones`).
+    pub zones: Vec<zones::ZoneRow>,
     pub targets: Vec<TargetRow>,
 }
 
@@ -448,7 +457,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };
     report.options = OptionsEcho {
         quick: opts.quick,
-        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("scaling", opts.scaling)]
+        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("scaling", opts.scaling), ("zones", opts.zones)]
             .iter()
             .filter(|s| s.1)
             .map(|s| s.0.to_string())
@@ -471,7 +480,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         }
         seen.push(info.label.clone());
         if let Some(e) = engine {
-            if opts.scaling {
+            if opts.scaling || opts.zones {
                 measure_bandwidth(&mut info, &e, &say);
             }
             say(&format!("{} opened ({}), {}", info.label, info.driver, report::bandwidth_summary(&info)));
@@ -539,6 +548,16 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
                     )),
                 }
                 report.scaling.push(row);
+            }
+        }
+    }
+    if opts.zones {
+        let max = opts.max_zones.unwrap_or(if opts.quick { 1_000 } else { zones::DEFAULT_MAX_ZONES });
+        for &n in zones::ZONE_SIZES.iter().filter(|&&n| n <= max) {
+            let decks = [("block", zones::block_deck(n)), ("wall", zones::wall_deck(n, opts.frac))];
+            for (name, deck) in decks {
+                let rows = zones::measure(name, n, &deck, &mut engines, &report.backends, opts.measure_s, &say);
+                report.zones.extend(rows);
             }
         }
     }

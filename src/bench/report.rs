@@ -437,6 +437,7 @@ pub fn table(r: &BenchReport) -> String {
         }
     }
 
+    s += &super::zones::table(&r.zones);
     if !r.targets.is_empty() {
         let _ = writeln!(s, "\nTARGETS");
         let _ = writeln!(s, "{:<50} {:<24} {:<30} {:<14} {:<5} note", "target", "backend", "goal", "measured", "met");
@@ -576,6 +577,7 @@ pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBu
         ("bench_stages.csv", stages_csv(r)),
         ("bench_reference.csv", reference_csv(r)),
         ("bench_targets.csv", targets_csv(r)),
+        ("bench_zones.csv", super::zones::csv(&r.zones)),
         ("bench.json", serde_json::to_string_pretty(r).map_err(std::io::Error::other)?),
     ] {
         let p = dir.join(name);

@@ -131,6 +131,53 @@ pub fn all() -> Vec<Case> {
             why: "the loads sit 2% from the threshold, and critically damped loading overshoots by far less",
             run: griffith_threshold,
         },
+        Case {
+            name: "fdef_patch",
+            closed_form: "patch test: grid points of a zoned irregular pentagon moving with a uniform velocity gradient L give every \
+                          zone the stress increment D·sym(L)·Δt of plane-strain elasticity (largest error relative to the largest \
+                          component)",
+            tolerance: 1e-4,
+            why: "constant-strain triangles reproduce a linear velocity field exactly; the zones are measured on the moved \
+                  grid points (a relative change |L|Δt ≈ 1e-9) and f32 positions carry ~1e-7 of the pentagon's size over a \
+                  zone's height",
+            run: fdef_patch,
+        },
+        Case {
+            name: "fdef_column",
+            closed_form: "a zoned elastic column (1 × 2 m, zones ≤ 0.3 m) on a frictionless fixed base under its own weight: \
+                          σyy = −ρg·depth at each zone's centroid, σxx = 0 (largest error of either over ρgH, zones more \
+                          than a zone size above the base)",
+            tolerance: 0.05,
+            why: "a constant-strain zone holds the mean of a linear field exactly; the base's contacts are point loads a \
+                  zone apart, whose disturbance reaches about a zone up (the bottom row, left out), and the free sides bulge by \
+                  Poisson's ratio near the base (fdef_column_coarse, fdef_column_fine: the error against the zone size)",
+            run: fdef_column,
+        },
+        Case {
+            name: "fdef_column_coarse",
+            closed_form: "fdef_column with zones ≤ 0.6 m (mesh convergence: error against zone size and cost)",
+            tolerance: 0.1,
+            why: "two zones across the column: the base's point loads reach further up",
+            run: fdef_column_coarse,
+        },
+        Case {
+            name: "fdef_column_fine",
+            closed_form: "fdef_column with zones ≤ 0.15 m (mesh convergence: error against zone size and cost)",
+            tolerance: 0.05,
+            why: "as fdef_column; the smaller zones take more cycles (their step and the contacts' lighter grid points)",
+            run: fdef_column_fine,
+        },
+        Case {
+            name: "fdef_pwave",
+            closed_form: "a zoned bar 10 m long between frictionless fixed walls (plane strain, no lateral strain) moving at v₀ \
+                          against a fixed end: the compression front reaches the free end at L/c_p, c_p = √((K + 4G/3)/ρ), where \
+                          its velocity turns from −v₀ to +v₀ (relative error of the arrival time, the end's mean velocity \
+                          crossing 0, sampled every 10 steps)",
+            tolerance: 0.05,
+            why: "the step front spreads over a few zones by the mesh's dispersion (its middle still travels at c_p); the \
+                  walls' contact springs let the bar widen by ~1e-3 of its strain; sampling adds 10Δt ≈ 0.5% of L/c_p",
+            run: fdef_pwave,
+        },
     ]
 }
 
@@ -615,4 +662,133 @@ fn griffith_threshold(ctx: &Ctx) -> Result<Measured, Failure> {
         );
     }
     Ok(Measured { error: wrong as f64 / 4.0, detail, cost, energy_balance: None })
+}
+
+/// A zoned block on its own (no gravity): the irregular pentagon of the patch test.
+const FDEF_PENTAGON: &str = "START\nPROP MAT=1 DENS=2000 K=1E9 G=6E8 KN=1E10 KS=1E10\nROUND 0.05\n\
+                             BLOCK (0,0) (3.1,0.4) (3.6,2.3) (1.2,3.4) (-0.7,1.9)\nCHANGE -1 4 -1 4 FDEF\nGENERATE -1 4 -1 4 AUTO 0.5\n";
+
+/// The zoned block of `m` (the first).
+fn zoned_block(m: &Model, cost: super::Cost) -> Result<usize, Failure> {
+    (0..m.blocks.len()).find(|&b| m.fdef_of(b).is_some_and(|f| !f.zones.is_empty())).ok_or_else(|| Failure { message: "no zoned block".into(), cost })
+}
+
+fn fdef_patch(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (mut m, cost) = ctx.run(&format!("{FDEF_PENTAGON}{}CYCLE 0\n", ctx.frac_line()))?;
+    let b = zoned_block(&m, cost)?;
+    let grad = [[1e-3, 4e-4], [-2e-4, -5e-4]];
+    for g in &mut m.fdef[b].gridpoints {
+        let p = g.position;
+        g.velocity = [grad[0][0] * p[0] + grad[0][1] * p[1], grad[1][0] * p[0] + grad[1][1] * p[1]];
+        // So heavy that the zones' forces do not change the velocities in the step.
+        g.mass = 1e30;
+    }
+    let dt = m.timestep;
+    let mut backend = (ctx.backend.make)();
+    backend.run(&mut m, 1, &mut |_| true).map_err(|e| Failure { message: e.to_string(), cost })?;
+    let mat = m.material(m.blocks[b].material).block;
+    let lambda = mat.bulk - 2.0 * mat.shear / 3.0;
+    let e = [grad[0][0] * dt, 0.5 * (grad[0][1] + grad[1][0]) * dt, grad[1][1] * dt];
+    let want = crate::udec::model::fdef::stress_increment(e, lambda, mat.shear);
+    let top = want.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let f = &m.fdef[b];
+    let error = f.zones.iter().flat_map(|z| (0..3).map(move |i| (z.stress[i] - want[i]).abs() / top)).fold(0.0, f64::max);
+    let s = f.zones[0].stress;
+    let detail = format!(
+        "{} zones; zone 1 σ ({:.6e}, {:.6e}, {:.6e}) against D·sym(L)Δt ({:.6e}, {:.6e}, {:.6e})",
+        f.zones.len(),
+        s[0],
+        s[1],
+        s[2],
+        want[0],
+        want[1],
+        want[2]
+    );
+    Ok(Measured { error, detail, cost, energy_balance: None })
+}
+
+/// The zoned column of `fdef_column` with zones at most `amax` long: (error, detail).
+fn fdef_column_with(ctx: &Ctx, amax: f64) -> Result<Measured, Failure> {
+    let (rho, g, h) = (2000.0, 10.0, 2.0);
+    // Its axial mode: c = √(E/ρ), E = 9KG/(3K + G) = 1.5e8 Pa, f = c/4H ≈ 34 Hz; mass damping
+    // α = 0.8·2π·34 s⁻¹ takes every mode down by e^(−αt/2) ≈ e^(−13) in 0.15 s. The base's
+    // contacts are stiff against the column (KN = 1e10 N/m a contact, against E ≈ 1.5e8 Pa over
+    // a zone), so that it holds the column's bottom level and the weight goes down as in a
+    // column on a rigid base, not shared by the contacts' springs.
+    let setup = format!(
+        "START\nPROP MAT=1 DENS={rho} K=1E8 G=6E7 KN=1E10 KS=1E10 F=0\nROUND 0.02\nBLOCK (-1,-1) (-1,0) (2,0) (2,-1)\n\
+         BLOCK (0,0) (0,{h}) (1,{h}) (1,0)\nFIX -2 3 -2 -0.2\nCHANGE -0.5 1.5 0 {h} FDEF\nGENERATE -0.5 1.5 0 {h} AUTO {amax}\n\
+         GRAV 0 -{g}\nDAMP 0.8 34 MASS\n{}",
+        ctx.frac_line()
+    );
+    let n = ctx.cycles_for(&setup, 0.15)?;
+    let (m, cost) = ctx.run(&format!("{setup}CYCLE {n}\n"))?;
+    let b = zoned_block(&m, cost)?;
+    let f = &m.fdef[b];
+    let scale = rho * g * h;
+    let (mut error, mut worst) = (0.0f64, String::new());
+    for (z, zone) in f.zones.iter().enumerate() {
+        let p = f.zone_points(z);
+        let depth = h - (p[0][1] + p[1][1] + p[2][1]) / 3.0;
+        // The base carries the column on its bottom grid points' contacts, point loads a zone
+        // apart: their disturbance fades within about that distance (Saint-Venant), so the zones
+        // whose centroids lie within one zone size of the base are left out.
+        if h - depth < amax {
+            continue;
+        }
+        let e = ((zone.stress[2] + rho * g * depth).abs() / scale).max(zone.stress[0].abs() / scale);
+        if e > error {
+            error = e;
+            worst = format!("zone {} at depth {depth:.2} m: σyy {:.4e} (−ρgd {:.4e}), σxx {:.3e}", z + 1, zone.stress[2], -rho * g * depth, zone.stress[0]);
+        }
+    }
+    let balance = balance_of(ctx, &setup, &m)?;
+    Ok(Measured { error, detail: format!("{} zones; worst {worst}", f.zones.len()), cost, energy_balance: Some(balance) })
+}
+
+fn fdef_column(ctx: &Ctx) -> Result<Measured, Failure> {
+    fdef_column_with(ctx, 0.3)
+}
+
+fn fdef_column_coarse(ctx: &Ctx) -> Result<Measured, Failure> {
+    fdef_column_with(ctx, 0.6)
+}
+
+fn fdef_column_fine(ctx: &Ctx) -> Result<Measured, Failure> {
+    fdef_column_with(ctx, 0.15)
+}
+
+fn fdef_pwave(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (rho, k, g, len, v0): (f64, f64, f64, f64, f64) = (2000.0, 1e8, 6e7, 10.0, 0.1);
+    let setup = format!(
+        "START\nPROP MAT=1 DENS={rho} K={k:e} G={g:e} KN=1E10 KS=1E10 F=0\nROUND 0.01\n\
+         BLOCK (-1,-1) (-1,1.5) (0,1.5) (0,-1)\nBLOCK (0,-1) (0,0) ({len},0) ({len},-1)\nBLOCK (0,0.5) (0,1.5) ({len},1.5) ({len},0.5)\n\
+         BLOCK (0,0) (0,0.5) ({len},0.5) ({len},0)\nFIX -2 0 -2 2\nFIX 0 {x} -2 -0.1\nFIX 0 {x} 0.6 2\n\
+         CHANGE 0 {x} 0.1 0.4 FDEF\nGENERATE 0 {x} 0.1 0.4 AUTO 0.25\nVELOCITY 0 {x} 0.1 0.4 -{v0} 0 0\n{}",
+        ctx.frac_line(),
+        x = len + 1.0
+    );
+    let c = ((k + 4.0 * g / 3.0) / rho).sqrt();
+    let want = len / c;
+    let (mut m, cost) = ctx.run(&format!("{setup}CYCLE 0\n"))?;
+    let b = zoned_block(&m, cost)?;
+    let far: Vec<usize> = m.fdef[b].gridpoints.iter().enumerate().filter(|(_, p)| p.position[0] > len - 1e-6).map(|(i, _)| i).collect();
+    let dt = m.timestep;
+    let (every, limit) = (10u64, (1.5 * want / dt).ceil() as u64);
+    let mut backend = (ctx.backend.make)();
+    let t0 = std::time::Instant::now();
+    let mut arrival = None;
+    while m.cycle < limit && arrival.is_none() {
+        backend.run(&mut m, every, &mut |_| true).map_err(|e| Failure { message: e.to_string(), cost })?;
+        let v: f64 = far.iter().map(|&i| m.fdef[b].gridpoints[i].velocity[0]).sum::<f64>() / far.len() as f64;
+        if v >= 0.0 {
+            arrival = Some(m.time);
+        }
+    }
+    let cost = super::Cost { wall_s: cost.wall_s + t0.elapsed().as_secs_f64(), cycles: m.cycle };
+    let Some(t) = arrival else {
+        return Err(Failure { message: format!("the front did not reach the free end in {:.4} s (L/c_p = {want:.4} s)", m.time), cost });
+    };
+    let detail = format!("{} zones; arrival {t:.5} s, L/c_p {want:.5} s (c_p {c:.1} m/s)", m.fdef[b].zones.len());
+    Ok(Measured { error: (t - want).abs() / want, detail, cost, energy_balance: None })
 }

@@ -8,7 +8,7 @@ use super::law_of_motion::StepOutcome;
 use super::BlockInputs;
 use crate::udec::contact::gather::{AdjacencyEntry, ContactForce};
 use crate::udec::model::corners::place_corners_fdef;
-use crate::udec::model::fdef::{nodal_forces, strain_rate, stress_increment, twice_area, Fdef};
+use crate::udec::model::fdef::{nodal_forces, strain_rate_of_area, stress_increment, twice_area, Fdef};
 use crate::udec::model::{material_slot, Block, Contact, Corner};
 
 /// Where a force on block `b`'s boundary at contact `c` acts: the grid points and their shares.
@@ -105,6 +105,8 @@ pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner],
         let con1 = 1.0 - 0.5 * inp.alpha * dt;
         let con2 = 1.0 / (1.0 + 0.5 * inp.alpha * dt);
         let total = block.mass.max(f64::MIN_POSITIVE);
+        // The largest squared step (one square root at the end: `hypot` per grid point took a
+        // fifth of the zoned wall's cycle).
         let mut travel: f64 = 0.0;
         let mut damping = 0.0;
         for g in &mut f.gridpoints {
@@ -121,36 +123,49 @@ pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner],
             g.velocity = v;
             g.position[0] += d[0];
             g.position[1] += d[1];
-            travel = travel.max(d[0].hypot(d[1]));
+            travel = travel.max(d[0] * d[0] + d[1] * d[1]);
             let share = g.mass / total;
             out.external_work += (g.mass * inp.gravity[0] + block.load[0] * share) * d[0] + (g.mass * inp.gravity[1] + block.load[1] * share) * d[1];
         }
         f.damping_work += damping;
-        out.corner_travel = travel;
+        out.corner_travel = travel.sqrt();
         // Stage 3: the zones' stress increments from the new velocities.
         let mat = &inp.materials[material_slot(block.material, inp.materials.len())].block;
-        let lambda = mat.bulk - 2.0 * mat.shear / 3.0;
-        for z in 0..f.zones.len() {
-            let p = f.zone_points(z);
-            // Not positive, or NaN.
-            if twice_area(p).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                out.inverted_zone.get_or_insert(z as u32);
-                continue;
-            }
-            let e = strain_rate(p, f.zone_velocities(z));
-            let ds = stress_increment(e.map(|x| x * dt), lambda, mat.shear);
-            let s = &mut f.zones[z].stress;
-            s[0] += ds[0];
-            s[1] += ds[1];
-            s[2] += ds[2];
-        }
+        out.inverted_zone = zones(f, mat.bulk - 2.0 * mat.shear / 3.0, mat.shear, dt);
         // The update tolerance: how far the boundary moved since the last contact update.
         let mut moved: f64 = 0.0;
         for g in &f.gridpoints[..f.boundary as usize] {
-            moved = moved.max((g.position[0] - g.update_position[0]).hypot(g.position[1] - g.update_position[1]));
+            let d = [g.position[0] - g.update_position[0], g.position[1] - g.update_position[1]];
+            moved = moved.max(d[0] * d[0] + d[1] * d[1]);
         }
-        block.moved_since_update = block.moved_since_update.max(moved);
+        block.moved_since_update = block.moved_since_update.max(moved.sqrt());
     }
     place_corners_fdef(block, f, corners);
     out
+}
+
+/// Stage 3 of a fully-deformable block whose grid points have stepped (the GPU's twin is
+/// zones.wgsl's `zones`, one invocation a zone): each zone's stress increment from its grid
+/// points' new velocities, Δσ = D·ε̇Δt in plane strain (λ, G); a zone whose signed area is not
+/// positive (turned inside out, or NaN) keeps its stress. Returns the first such zone's index.
+pub fn zones(f: &mut Fdef, lambda: f64, shear: f64, dt: f64) -> Option<u32> {
+    let mut inverted = None;
+    let Fdef { gridpoints, zones, .. } = f;
+    for (z, zone) in zones.iter_mut().enumerate() {
+        let corners = zone.gridpoints.map(|g| &gridpoints[g as usize]);
+        let p = corners.map(|g| g.position);
+        let a2 = twice_area(p);
+        // Not positive, or NaN.
+        if a2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            inverted.get_or_insert(z as u32);
+            continue;
+        }
+        let e = strain_rate_of_area(p, corners.map(|g| g.velocity), a2);
+        let ds = stress_increment(e.map(|x| x * dt), lambda, shear);
+        let s = &mut zone.stress;
+        s[0] += ds[0];
+        s[1] += ds[1];
+        s[2] += ds[2];
+    }
+    inverted
 }

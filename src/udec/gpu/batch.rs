@@ -8,7 +8,7 @@
 use crate::udec::model::Model;
 
 use super::kernels::{self, Grid};
-use super::layout::{Block, Corner, EnergySum, Flags, Params, Real, Sdef};
+use super::layout::{Block, Corner, EnergySum, Flags, GridPoint, Params, Real, Sdef};
 use super::readback::pod_view;
 use super::{shaders, Engine, GpuError};
 
@@ -39,6 +39,9 @@ impl<R: Real> Engine<R> {
         let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
         let cycle = |label, pipeline, bind_group, g: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) };
         let mut stages = Vec::with_capacity(4);
+        if let Some((k, g)) = self.fdef_kernels() {
+            return self.stages_fdef(k, g, gather_only);
+        }
         if gather_only {
             match self.sdef_kernels() {
                 Some((k, g)) => stages.push(cycle("gather_sdef", &k.gather.pipeline, &g.gather, Grid::Blocks)),
@@ -66,6 +69,36 @@ impl<R: Real> Engine<R> {
         stages
     }
 
+    /// `stages` in a scene with zoned fully-deformable blocks (`gpu::fdef`): the gather of the
+    /// rigid blocks (before a read-back) and of the grid points, then in a cycle the grid
+    /// points' step, the zones' stresses, the blocks' motion (a zoned block's corners placed on
+    /// its grid points) and the contact stage, each a pass of its own: no invocation reads what
+    /// another of its pass writes.
+    fn stages_fdef<'a>(&'a self, k: &'a kernels::FdefKernels, g: &'a kernels::FdefBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
+        let p = &self.pipelines;
+        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
+        let cycle =
+            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let mut stages = Vec::with_capacity(7);
+        if gather_only {
+            stages.push(cycle("gather_fdef", &k.gather.pipeline, &g.gather, Grid::Blocks));
+        }
+        if self.heavy_blocks(gather_only) > 0 {
+            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
+        }
+        stages.push(cycle("gather_gridpoints", &k.gather_gridpoints.pipeline, &g.gather_gridpoints, Grid::GridPoints));
+        if !gather_only {
+            stages.push(cycle("step_gridpoints", &k.step_gridpoints.pipeline, &g.step_gridpoints, Grid::GridPoints));
+            stages.push(cycle("zones", &k.zones.pipeline, &g.zones, Grid::Zones));
+            stages.push(cycle("law_of_motion_fdef", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
+            stages.push(cycle("contact_forces_fdef", &k.contact_forces.pipeline, &g.contact_forces, Grid::Contacts));
+            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
+            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+        }
+        stages.retain(|d| d.grid.0 > 0);
+        stages
+    }
+
     /// The grid of `g` over the live counts: one invocation per block or contact, one workgroup
     /// per heavy block the pass gathers.
     pub(super) fn grid(&self, g: Grid, gather_only: bool) -> (u32, u32) {
@@ -74,6 +107,8 @@ impl<R: Real> Engine<R> {
             Grid::Blocks => items(self.counts.0),
             Grid::Contacts => items(self.counts.2),
             Grid::HeavyBlocks => shaders::dispatch_grid(self.heavy_blocks(gather_only) as u32),
+            Grid::GridPoints => items(self.fdef_counts.0),
+            Grid::Zones => items(self.fdef_counts.1),
         }
     }
 
@@ -186,6 +221,8 @@ impl<R: Real> Engine<R> {
             contacts,
             forces,
             self.sdef_part(),
+            self.fdef_parts()[0],
+            self.fdef_parts()[1],
         ];
         let up = self.uploaded.clone();
         let (flags, blocks) = self.dev.read_parts(&parts, |bytes| {
@@ -199,12 +236,15 @@ impl<R: Real> Engine<R> {
             Self::convert_contacts_read(&bytes[3..5], packed, &up, model);
             let sdefs: Vec<Sdef<R>> = bytemuck::pod_collect_to_vec(bytes[5]);
             Self::convert_sdefs(&sdefs, &up, model);
-            (flags, Some((blocks, sdefs)))
+            let gridpoints: Vec<GridPoint<R>> = bytemuck::pod_collect_to_vec(bytes[6]);
+            Self::convert_fdef(&gridpoints, &pod_view(bytes[7]), &up, model);
+            (flags, Some((blocks, sdefs, gridpoints)))
         })?;
         let read = blocks.is_some();
-        if let Some((blocks, sdefs)) = blocks {
+        if let Some((blocks, sdefs, gridpoints)) = blocks {
             self.last_blocks = blocks;
             self.last_sdefs = sdefs;
+            self.last_gridpoints = gridpoints;
         }
         Ok((flags, read))
     }
@@ -219,7 +259,7 @@ impl<R: Real> Engine<R> {
         };
         self.submit_batch(1, true)?;
         let bg = &self.bind_groups.as_ref().expect("bind groups built on upload").energy_sums;
-        let (x, y) = kernels::energy_grid(self.counts.0, self.counts.2);
+        let (x, y) = kernels::energy_grid(self.energy_items(self.counts.0), self.counts.2);
         let groups = (x * y) as usize;
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("energy check") });
         {
@@ -229,6 +269,12 @@ impl<R: Real> Engine<R> {
             pass.dispatch_workgroups(x, y, 1);
             // Simply-deformable blocks add their strain modes to each workgroup's sum.
             if let Some((k, g)) = self.sdef_kernels() {
+                pass.set_pipeline(&k.energy_sums.pipeline);
+                pass.set_bind_group(0, &g.energy_sums, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            // Zoned blocks add their grid points' motion and zones' strain.
+            if let Some((k, g)) = self.fdef_kernels() {
                 pass.set_pipeline(&k.energy_sums.pipeline);
                 pass.set_bind_group(0, &g.energy_sums, &[]);
                 pass.dispatch_workgroups(x, y, 1);

@@ -61,6 +61,10 @@ pub(super) struct Checkpoint {
     pub(super) sdefs: Option<wgpu::Buffer>,
     /// The SDEF slot's bytes copied (0 in a rigid scene).
     pub(super) sdef_bytes: u64,
+    /// The grid points and zones, in a scene with zoned blocks (made at its first checkpoint),
+    /// and the bytes of each copied (0 in the other scenes).
+    pub(super) fdef: Option<[wgpu::Buffer; 2]>,
+    pub(super) fdef_bytes: [u64; 2],
     pub(super) counts: (usize, usize, usize),
     pub(super) uploaded: std::rc::Rc<Uploaded>,
     /// Whether it holds a state of the current run (the buffers are kept from run to run: a
@@ -100,6 +104,8 @@ impl<R: Real> Engine<R> {
                 forces: make("checkpoint contact forces", b.contact_forces.buffer.size()),
                 sdefs: None,
                 sdef_bytes: 0,
+                fdef: None,
+                fdef_bytes: [0, 0],
                 counts: self.counts,
                 uploaded: self.uploaded.clone(),
                 valid: false,
@@ -122,6 +128,8 @@ impl<R: Real> Engine<R> {
             }
         }
         ck.sdef_bytes = sdef_bytes;
+        self.checkpoint_fdef();
+        let ck = self.checkpoint.as_mut().expect("made above");
         ck.valid = true;
         ck.counts = self.counts;
         ck.uploaded = self.uploaded.clone();
@@ -141,6 +149,13 @@ impl<R: Real> Engine<R> {
                 enc.copy_buffer_to_buffer(&src.buffer, 0, dst, 0, ck.sdef_bytes);
             }
         }
+        if let (Some(g), Some(z), Some([dg, dz])) = (b.gridpoints.as_ref(), b.zones.as_ref(), ck.fdef.as_ref()) {
+            for (src, dst, bytes) in [(g, dg, ck.fdef_bytes[0]), (z, dz, ck.fdef_bytes[1])] {
+                if bytes > 0 {
+                    enc.copy_buffer_to_buffer(&src.buffer, 0, dst, 0, bytes);
+                }
+            }
+        }
         self.dev.queue.submit([enc.finish()]);
     }
 
@@ -157,7 +172,11 @@ impl<R: Real> Engine<R> {
             Some(s) => (s, ck.sdef_bytes),
             None => (&ck.blocks, 0),
         };
-        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, sdefs, counts: ck.counts };
+        let fdef = match &ck.fdef {
+            Some([g, z]) => [(g, ck.fdef_bytes[0]), (z, ck.fdef_bytes[1])],
+            None => [(&ck.blocks, 0), (&ck.blocks, 0)],
+        };
+        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, sdefs, fdef, counts: ck.counts };
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
         let gravity = model.gravity;
@@ -166,5 +185,27 @@ impl<R: Real> Engine<R> {
             gather::gather(block, &forces, adjacency.entries(b), gravity);
         }
         Ok(())
+    }
+
+    /// The FDEF part of `take_checkpoint`: where the scene has zoned blocks, the checkpoint's
+    /// grid-point and zone buffers made or grown and the bytes to copy set (0 in the others).
+    fn checkpoint_fdef(&mut self) {
+        let b = self.buffers.as_ref().expect("buffers exist");
+        let ck = self.checkpoint.as_mut().expect("made by take_checkpoint");
+        ck.fdef_bytes = [0, 0];
+        let (Some(g), Some(z)) = (b.gridpoints.as_ref().filter(|_| self.fdef_scene), b.zones.as_ref()) else { return };
+        let make = |label: &str, size: u64| {
+            self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        if ck.fdef.as_ref().is_none_or(|[dg, dz]| dg.size() < g.buffer.size() || dz.size() < z.buffer.size()) {
+            ck.fdef = Some([make("checkpoint grid points", g.buffer.size()), make("checkpoint zones", z.buffer.size())]);
+        }
+        let (n_gp, n_zones) = self.fdef_counts;
+        ck.fdef_bytes = [(n_gp * std::mem::size_of::<super::layout::GridPoint<R>>()) as u64, (n_zones * std::mem::size_of::<super::layout::Zone<R>>()) as u64];
     }
 }

@@ -12,7 +12,10 @@
 //! `splice_contacts` and `pack_contacts` have layouts of their own.
 
 use super::device::GpuDevice;
-use super::layout::{Block, Contact, ContactForce, ContactLever, ContactSummary, Corner, EnergySum, Flags, Material, Params, Real, Sdef};
+use super::layout::{
+    Block, Contact, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, EnergySum, FdefBlock, Flags, GridPoint, Material, Params, Real, Sdef,
+    Zone,
+};
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};
 use crate::gpu::{GpuError, Precision};
@@ -35,6 +38,15 @@ pub enum StateSlot {
     Sdefs = 10,
     /// Scenes with simply-deformable blocks only: each contact's lever arms.
     ContactLevers = 11,
+    /// Scenes with zoned fully-deformable blocks only: every zoned block's grid points
+    /// (`layout::GridPoint`), zones (`layout::Zone`), each block's zone constants and ranges
+    /// (`layout::FdefBlock`), each grid point's zones (CSR in one array) and each contact's force
+    /// shares (`layout::ContactShare`). (Binding 15 is end_cycle's dispatch grids.)
+    GridPoints = 12,
+    Zones = 13,
+    FdefBlocks = 14,
+    GridPointZones = 16,
+    ContactShares = 17,
 }
 
 /// How a slot is bound: a uniform, or a storage buffer read only or read and written.
@@ -46,7 +58,7 @@ pub enum SlotKind {
 }
 
 impl StateSlot {
-    pub const ALL: [StateSlot; 12] = [
+    pub const ALL: [StateSlot; 17] = [
         StateSlot::Params,
         StateSlot::Blocks,
         StateSlot::Corners,
@@ -59,6 +71,11 @@ impl StateSlot {
         StateSlot::EnergySums,
         StateSlot::Sdefs,
         StateSlot::ContactLevers,
+        StateSlot::GridPoints,
+        StateSlot::Zones,
+        StateSlot::FdefBlocks,
+        StateSlot::GridPointZones,
+        StateSlot::ContactShares,
     ];
 
     pub fn binding(self) -> u32 {
@@ -67,7 +84,7 @@ impl StateSlot {
 
     /// The slot of a binding number, if the state has one there.
     pub fn of_binding(binding: u32) -> Option<StateSlot> {
-        Self::ALL.get(binding as usize).copied()
+        Self::ALL.iter().copied().find(|s| s.binding() == binding)
     }
 
     /// The WGSL variable of the slot in common.wgsl.
@@ -85,13 +102,18 @@ impl StateSlot {
             StateSlot::EnergySums => "energy_sums_out",
             StateSlot::Sdefs => "sdefs",
             StateSlot::ContactLevers => "contact_levers",
+            StateSlot::GridPoints => "gridpoints",
+            StateSlot::Zones => "zone_list",
+            StateSlot::FdefBlocks => "fdef_blocks",
+            StateSlot::GridPointZones => "gridpoint_zones",
+            StateSlot::ContactShares => "contact_shares",
         }
     }
 
     pub fn kind(self) -> SlotKind {
         match self {
             StateSlot::Params | StateSlot::Materials => SlotKind::Uniform,
-            StateSlot::AdjOffsets | StateSlot::AdjEntries => SlotKind::StorageRead,
+            StateSlot::AdjOffsets | StateSlot::AdjEntries | StateSlot::FdefBlocks | StateSlot::GridPointZones => SlotKind::StorageRead,
             _ => SlotKind::StorageReadWrite,
         }
     }
@@ -144,6 +166,19 @@ pub struct CycleBindGroups {
     pub energy_sums: wgpu::BindGroup,
     /// The SDEF kernels' (`SdefKernels`), in a scene with simply-deformable blocks.
     pub sdef: Option<SdefBindGroups>,
+    /// The FDEF kernels' (`FdefKernels`), in a scene with zoned fully-deformable blocks.
+    pub fdef: Option<FdefBindGroups>,
+}
+
+/// The bind groups of `FdefKernels`.
+pub struct FdefBindGroups {
+    pub gather_gridpoints: wgpu::BindGroup,
+    pub step_gridpoints: wgpu::BindGroup,
+    pub zones: wgpu::BindGroup,
+    pub law_of_motion: wgpu::BindGroup,
+    pub contact_forces: wgpu::BindGroup,
+    pub gather: wgpu::BindGroup,
+    pub energy_sums: wgpu::BindGroup,
 }
 
 /// The bind groups of `SdefKernels`.
@@ -163,8 +198,18 @@ impl CycleBindGroups {
             gather: make(&k.gather, "gather_sdef"),
             energy_sums: make(&k.energy_sums, "energy_sums_sdef"),
         });
+        let fdef = p.fdef.as_ref().filter(|_| b.gridpoints.is_some()).map(|k| FdefBindGroups {
+            gather_gridpoints: make(&k.gather_gridpoints, "gather_gridpoints"),
+            step_gridpoints: make(&k.step_gridpoints, "step_gridpoints"),
+            zones: make(&k.zones, "zones"),
+            law_of_motion: make(&k.law_of_motion, "law_of_motion_fdef"),
+            contact_forces: make(&k.contact_forces, "contact_forces_fdef"),
+            gather: make(&k.gather, "gather_fdef"),
+            energy_sums: make(&k.energy_sums, "energy_sums_fdef"),
+        });
         CycleBindGroups {
             sdef,
+            fdef,
             law_of_motion: make(&p.law_of_motion, "law_of_motion"),
             contact_forces: make(&p.contact_forces, "contact_forces"),
             contact_points: make(&p.contact_points, "contact_points"),
@@ -209,6 +254,41 @@ pub struct Pipelines {
     /// The cycle's kernels for simply-deformable blocks, made at the first upload of a scene
     /// that has them (`Pipelines::with_sdef`): a rigid scene never compiles them.
     pub sdef: Option<SdefKernels>,
+    /// The cycle's kernels for zoned fully-deformable blocks, made at the first upload of a
+    /// scene that has them (`Pipelines::with_fdef`).
+    pub fdef: Option<FdefKernels>,
+}
+
+/// The entry points a scene with zoned fully-deformable blocks runs: zones.wgsl's
+/// `gather_gridpoints`, `step_gridpoints` and `zones` (stages 6, 1 and 3 of the grid
+/// points and zones), and in the files of their rigid twins `law_of_motion_fdef` (rigid blocks,
+/// and a zoned block's corners on its grid points), `contact_forces_fdef` (a zoned boundary's
+/// velocity, the force shares), `gather_fdef` (the rigid blocks' sums before a read-back) and
+/// `energy_sums_fdef` after `energy_sums`. Only they bind the FDEF slots.
+pub struct FdefKernels {
+    pub gather_gridpoints: CycleKernel,
+    pub step_gridpoints: CycleKernel,
+    pub zones: CycleKernel,
+    pub law_of_motion: CycleKernel,
+    pub contact_forces: CycleKernel,
+    pub gather: CycleKernel,
+    pub energy_sums: CycleKernel,
+}
+
+impl FdefKernels {
+    pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        in_error_scopes(dev, || {
+            Ok(FdefKernels {
+                gather_gridpoints: cycle_kernel(dev, "zones", "gather_gridpoints")?,
+                step_gridpoints: cycle_kernel(dev, "zones", "step_gridpoints")?,
+                zones: cycle_kernel(dev, "zones", "zones")?,
+                law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fdef")?,
+                contact_forces: cycle_kernel(dev, "contact_forces", "contact_forces_fdef")?,
+                gather: cycle_kernel(dev, "gather", "gather_fdef")?,
+                energy_sums: cycle_kernel(dev, "energy_sums", "energy_sums_fdef")?,
+            })
+        })
+    }
 }
 
 /// The entry points a scene with simply-deformable blocks runs in place of the rigid ones, each
@@ -269,6 +349,14 @@ impl SdefKernels {
 }
 
 impl Pipelines {
+    /// Makes the FDEF kernels if they are not made yet.
+    pub fn with_fdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
+        if self.fdef.is_none() {
+            self.fdef = Some(FdefKernels::new(dev)?);
+        }
+        Ok(())
+    }
+
     /// Makes the SDEF kernels if they are not made yet.
     pub fn with_sdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
         if self.sdef.is_none() {
@@ -346,6 +434,7 @@ impl Pipelines {
             list_contacts: make_on(&lists_pipeline_layout, "list_blocks", "list_contacts")?,
             lists_layout,
             sdef: None,
+            fdef: None,
         };
         Ok(pipelines)
     }
@@ -384,6 +473,14 @@ pub struct Buffers {
     /// blocks (`Buffers::ensure_sdef`); None in a rigid one.
     pub sdefs: Option<Slab>,
     pub contact_levers: Option<Slab>,
+    /// The FDEF slots, in a scene with zoned fully-deformable blocks (`Buffers::ensure_fdef`;
+    /// grid points and zones exactly as long as the scene's, which their kernels take from
+    /// `arrayLength`); None in the others.
+    pub gridpoints: Option<Slab>,
+    pub zones: Option<Slab>,
+    pub fdef_blocks: Option<Slab>,
+    pub gridpoint_zones: Option<Slab>,
+    pub contact_shares: Option<Slab>,
     /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
     pub summaries: Option<Slab>,
 }
@@ -491,6 +588,11 @@ impl Buffers {
             spare_entries: None,
             sdefs: None,
             contact_levers: None,
+            gridpoints: None,
+            zones: None,
+            fdef_blocks: None,
+            gridpoint_zones: None,
+            contact_shares: None,
             summaries: None,
         })
     }
@@ -525,6 +627,35 @@ impl Buffers {
         for (slot, label, item, count) in [
             (&mut self.sdefs, "simply-deformable blocks", std::mem::size_of::<Sdef<R>>(), blocks),
             (&mut self.contact_levers, "contact levers", std::mem::size_of::<ContactLever<R>>(), contacts),
+        ] {
+            if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
+                ensure_slot(dev, slot, label, item, count)?;
+                made = true;
+            }
+        }
+        Ok(made)
+    }
+
+    /// Makes sure the FDEF slots hold `gridpoints` grid points and `zones` zones exactly (their
+    /// old contents not kept), `blocks` block records, `csr` grid-point zone words and
+    /// `contacts` shares; returns whether one was re-created (the bind groups must then be
+    /// rebuilt).
+    pub fn ensure_fdef<R: Real>(&mut self, dev: &GpuDevice, sizes: FdefSizes) -> Result<bool, GpuError> {
+        let mut made = false;
+        for (slot, label, item, count) in [
+            (&mut self.gridpoints, "grid points", std::mem::size_of::<GridPoint<R>>(), sizes.gridpoints),
+            (&mut self.zones, "zones", std::mem::size_of::<Zone<R>>(), sizes.zones),
+        ] {
+            if slot.as_ref().is_none_or(|s| s.capacity != count.max(1)) {
+                *slot = None;
+                *slot = Some(exact_slab(dev, label, item, count)?);
+                made = true;
+            }
+        }
+        for (slot, label, item, count) in [
+            (&mut self.fdef_blocks, "fully-deformable blocks", std::mem::size_of::<FdefBlock<R>>(), sizes.blocks),
+            (&mut self.gridpoint_zones, "grid-point zones", 4, sizes.csr),
+            (&mut self.contact_shares, "contact shares", std::mem::size_of::<ContactShare<R>>(), sizes.contacts),
         ] {
             if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
                 ensure_slot(dev, slot, label, item, count)?;
@@ -585,6 +716,11 @@ impl Buffers {
             StateSlot::EnergySums => &self.energy_sums.buffer,
             StateSlot::Sdefs => &self.sdefs.as_ref().expect("the SDEF kernels are bound only in a scene with SDEF blocks").buffer,
             StateSlot::ContactLevers => &self.contact_levers.as_ref().expect("the SDEF kernels are bound only in a scene with SDEF blocks").buffer,
+            StateSlot::GridPoints => &self.gridpoints.as_ref().expect(FDEF_ONLY).buffer,
+            StateSlot::Zones => &self.zones.as_ref().expect(FDEF_ONLY).buffer,
+            StateSlot::FdefBlocks => &self.fdef_blocks.as_ref().expect(FDEF_ONLY).buffer,
+            StateSlot::GridPointZones => &self.gridpoint_zones.as_ref().expect(FDEF_ONLY).buffer,
+            StateSlot::ContactShares => &self.contact_shares.as_ref().expect(FDEF_ONLY).buffer,
         }
     }
 
@@ -596,16 +732,46 @@ impl Buffers {
     }
 }
 
+const FDEF_ONLY: &str = "the FDEF kernels are bound only in a scene with zoned blocks";
+
+/// How many of each FDEF slot's items a scene needs (`Buffers::ensure_fdef`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FdefSizes {
+    pub gridpoints: usize,
+    pub zones: usize,
+    pub blocks: usize,
+    pub csr: usize,
+    pub contacts: usize,
+}
+
+/// A storage buffer of exactly `count` items (at least one), for the slots whose kernels take
+/// their length from `arrayLength`.
+fn exact_slab(dev: &GpuDevice, label: &str, item: usize, count: usize) -> Result<Slab, GpuError> {
+    let cap = binding_cap(dev);
+    check_fits(label, item, count, cap, dev.precision)?;
+    let capacity = count.max(1);
+    let buffer = dev.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: (capacity * item) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    Ok(Slab { buffer, capacity })
+}
+
 /// The grids of the cycle's indirect dispatches, in the order of `Buffers::dispatch_args`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Grid {
     Blocks,
     Contacts,
     HeavyBlocks,
+    /// Scenes with zoned blocks: one invocation per grid point, per zone.
+    GridPoints,
+    Zones,
 }
 
 impl Grid {
-    pub const ALL: [Grid; 3] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks];
+    pub const ALL: [Grid; 5] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks, Grid::GridPoints, Grid::Zones];
 
     /// Byte offset of this grid's (x, y, z) in `Buffers::dispatch_args`.
     pub fn offset(self) -> u64 {

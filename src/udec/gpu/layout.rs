@@ -44,6 +44,10 @@ gpu_struct! {
 pub const BLOCK_RIGID: u32 = 0;
 /// `Block::kind` of a simply-deformable block (`model::sdef`).
 pub const BLOCK_SDEF: u32 = 1;
+/// `Block::kind` of a zoned fully-deformable block (`model::fdef`): its motion is its grid
+/// points' (`GridPoint`), the block record's velocity and force stay zero on the device, and its
+/// centroid is the reference its corners are placed from (the mass centre at the upload).
+pub const BLOCK_FDEF: u32 = 2;
 
 impl<R: Real> Block<R> {
     /// The block's rotation: the angle its corners are placed at plus the turn since.
@@ -189,6 +193,51 @@ gpu_struct! {
 }
 
 gpu_struct! {
+    /// One grid point of a fully-deformable block (`model::fdef::GridPoint`), in a scene with
+    /// zoned blocks only: 84 bytes in f32, 152 in f64. The position is relative to the run's
+    /// origin as a compensated pair (`x + x_lo`, as the blocks' centroids), so that f32 keeps the
+    /// small steps of a slow grid point. `ext_x, ext_y`: gravity's and the load's share on it,
+    /// m·g + load·m/M (the CPU's `gather_fdef` order), computed in f64 at the upload.
+    GridPoint {
+        x: R, y: R, x_lo: R, y_lo: R,
+        vx: R, vy: R, fx: R, fy: R, mass: R,
+        load_x: R, load_y: R,
+        /// Where it was at its block's last contact update (`GridPoint::update_position`).
+        ux: R, uy: R, ux_lo: R, uy_lo: R,
+        /// Work of gravity and load on it, and the mass damping's dissipation, since the upload.
+        work: R, damping_work: R,
+        /// Its block's index; 1 if it is a boundary grid point (a corner of its block), 0 if not;
+        /// 1 if its block is fixed.
+        block: u32, boundary: u32, fixed: u32, _pad: u32,
+    }
+}
+
+gpu_struct! {
+    /// One constant-strain triangle (`model::fdef::Zone`): 28 bytes in f32, 40 in f64. Its
+    /// stress (11, 12, 22, tension positive), its three grid points (global indices into the
+    /// `gridpoints` slot, counter-clockwise) and its block.
+    Zone { stress: [R; 3], g0: u32, g1: u32, g2: u32, block: u32 }
+}
+
+gpu_struct! {
+    /// A fully-deformable block's zone constants and ranges, one per block in a scene with zoned
+    /// blocks (zero for the others): 32 bytes in f32, 40 in f64. Lamé's λ and G of its material
+    /// (plane strain), its grid points `gp_start .. gp_start + gp_count` (the first `boundary`
+    /// of them its corners, in order), its zones `zone_start .. zone_start + zone_count`, whether
+    /// it is fixed.
+    FdefBlock { lambda: R, shear: R, gp_start: u32, gp_count: u32, boundary: u32, zone_start: u32, zone_count: u32, fixed: u32 }
+}
+
+gpu_struct! {
+    /// How a contact's force is shared to grid points (`cpu::zones::force_shares`), written by
+    /// `contact_forces_fdef` with the force: 24 bytes in f32, 32 in f64. Block 1's corner gives
+    /// all of it to grid point `g1`; on block 2 a corner arc to `g2a` (weight `wa` = 1), an edge
+    /// to `g2a` and `g2b` by where the point lies along it (`wa`, `wb`). `NO_INDEX` where the
+    /// block is not zoned.
+    ContactShare { wa: R, wb: R, g1: u32, g2a: u32, g2b: u32, _pad: u32 }
+}
+
+gpu_struct! {
     /// Contact properties of one material: 32 bytes in f32, 64 in f64, the point contact's
     /// (KN, KS, COHESION, FRICTION) and the joint's (JKN, JKS, JCOH, JFRIC, ¶5). A uniform array
     /// of `MAX_MATERIALS` (a stride of a multiple of 16 bytes in both precisions, as uniform
@@ -253,10 +302,12 @@ gpu_struct! {
 pub const ERR_NONFINITE: u32 = 1;
 pub const ERR_TOO_FAST: u32 = 2;
 pub const ERR_OVERLAP: u32 = 4;
+/// A zone of a fully-deformable block turned inside out (`zones`, zones.wgsl).
+pub const ERR_ZONE_INVERTED: u32 = 8;
 /// "No index" in the atomic-min index slots.
 pub const NO_INDEX: u32 = u32::MAX;
 
-/// Flags and counters the kernels raise (atomics in WGSL): 32 bytes.
+/// Flags and counters the kernels raise (atomics in WGSL): 36 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Flags {
@@ -274,6 +325,8 @@ pub struct Flags {
     /// An SDEF block's stress reached its Griffith strength (`law_of_motion_sdef`): the CPU's
     /// cracking stage is due.
     pub crack_due: u32,
+    /// Lowest index (into the `zones` slot) of a zone turned inside out (`NO_INDEX` when none).
+    pub inverted_zone: u32,
 }
 
 impl Flags {
@@ -287,6 +340,7 @@ impl Flags {
             toofast_block: NO_INDEX,
             overlap_contact: NO_INDEX,
             crack_due: 0,
+            inverted_zone: NO_INDEX,
         }
     }
     pub fn layout() -> StructLayout {
@@ -302,6 +356,7 @@ impl Flags {
                 ("toofast_block", std::mem::offset_of!(Self, toofast_block)),
                 ("overlap_contact", std::mem::offset_of!(Self, overlap_contact)),
                 ("crack_due", std::mem::offset_of!(Self, crack_due)),
+                ("inverted_zone", std::mem::offset_of!(Self, inverted_zone)),
             ],
         }
     }
@@ -318,6 +373,10 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         ContactPatch::<R>::layout(),
         Sdef::<R>::layout(),
         ContactLever::<R>::layout(),
+        GridPoint::<R>::layout(),
+        Zone::<R>::layout(),
+        FdefBlock::<R>::layout(),
+        ContactShare::<R>::layout(),
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),

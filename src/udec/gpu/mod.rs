@@ -93,6 +93,7 @@ macro_rules! on_engine {
 
 mod batch;
 mod checkpoint;
+mod fdef;
 pub mod kernels;
 pub mod layout;
 pub mod partial;
@@ -269,6 +270,9 @@ struct Uploaded {
     /// Each simply-deformable block's internal damping work (`Sdef::damping_work`) at the
     /// upload of the SDEF slot (0 for the others; empty in a rigid scene).
     sdef_damping_base: Vec<f64>,
+    /// Each zoned block's mass damping work (`Fdef::damping_work`) at the upload of the FDEF
+    /// slots (0 for the others; empty in a scene without zoned blocks).
+    fdef_damping_base: Vec<f64>,
 }
 
 /// The GPU state of one precision and the code that drives it.
@@ -299,6 +303,14 @@ struct Engine<R: Real> {
     sdef_scene: bool,
     /// The SDEF slot as last uploaded or read back (to reset the update strains).
     last_sdefs: Vec<layout::Sdef<R>>,
+    /// The scene has zoned fully-deformable blocks: the cycle runs the FDEF kernels (`fdef`).
+    fdef_scene: bool,
+    /// Grid points and zones on the device (0 in a scene without zoned blocks).
+    fdef_counts: (usize, usize),
+    /// Each block's first grid point on the device (`layout::NO_INDEX` where it is not zoned).
+    fdef_gp_start: Vec<u32>,
+    /// The grid points as last uploaded or read back (to reset their update positions).
+    last_gridpoints: Vec<layout::GridPoint<R>>,
     counts: (usize, usize, usize),
     /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts), and how many of
     /// them (listed first) are free: a cycle skips fixed blocks, so it dispatches only those.
@@ -356,6 +368,10 @@ impl<R: Real> Engine<R> {
             last_blocks: Vec::new(),
             sdef_scene: false,
             last_sdefs: Vec::new(),
+            fdef_scene: false,
+            fdef_counts: (0, 0),
+            fdef_gp_start: Vec::new(),
+            last_gridpoints: Vec::new(),
             counts: (0, 0, 0),
             n_heavy: 0,
             n_heavy_free: 0,

@@ -6,7 +6,7 @@ use crate::udec::model::{ContactKind, Model};
 use rayon::prelude::*;
 
 use super::kernels;
-use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, Real, Sdef};
+use super::layout::{Block, Contact, ContactForce, ContactSummary, Corner, GridPoint, Real, Sdef};
 use super::{shaders, Engine, GpuError, Uploaded};
 
 /// Mapped bytes as GPU structs: in place when aligned (parts of a read-back start 16-byte
@@ -28,6 +28,9 @@ pub(super) struct StateBuffers<'a> {
     pub(super) forces: &'a wgpu::Buffer,
     /// The SDEF slot and the bytes of it to read (0 in a rigid scene).
     pub(super) sdefs: (&'a wgpu::Buffer, u64),
+    /// The grid points and zones and the bytes of each to read (0 in a scene without zoned
+    /// blocks).
+    pub(super) fdef: [(&'a wgpu::Buffer, u64); 2],
     pub(super) counts: (usize, usize, usize),
 }
 
@@ -115,12 +118,15 @@ impl<R: Real> Engine<R> {
             (src.contacts, (nk * std::mem::size_of::<Contact<R>>()) as u64),
             (src.forces, (nk * std::mem::size_of::<ContactForce<R>>()) as u64),
             src.sdefs,
+            src.fdef[0],
+            src.fdef[1],
         ];
         self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), up, model);
             Self::convert_contacts(&pod_view(bytes[2]), &pod_view(bytes[3]), up, model);
             Self::convert_sdefs(&pod_view(bytes[4]), up, model);
+            Self::convert_fdef(&pod_view(bytes[5]), &pod_view(bytes[6]), up, model);
             blocks
         })
     }
@@ -257,17 +263,22 @@ impl<R: Real> Engine<R> {
             contacts,
             forces,
             self.sdef_part(),
+            self.fdef_parts()[0],
+            self.fdef_parts()[1],
         ];
-        let (blocks, sdefs) = self.dev.read_parts(&parts, |bytes| {
+        let (blocks, sdefs, gridpoints) = self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
             Self::convert_blocks_and_corners(&blocks, &pod_view(bytes[1]), &up, model);
             Self::convert_contacts_read(&bytes[2..4], packed, &up, model);
             let sdefs: Vec<Sdef<R>> = bytemuck::pod_collect_to_vec(bytes[4]);
             Self::convert_sdefs(&sdefs, &up, model);
-            (blocks, sdefs)
+            let gridpoints: Vec<GridPoint<R>> = bytemuck::pod_collect_to_vec(bytes[5]);
+            Self::convert_fdef(&gridpoints, &pod_view(bytes[6]), &up, model);
+            (blocks, sdefs, gridpoints)
         })?;
         self.last_blocks = blocks;
         self.last_sdefs = sdefs;
+        self.last_gridpoints = gridpoints;
         Ok(())
     }
 }

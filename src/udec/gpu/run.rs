@@ -126,6 +126,9 @@ impl<R: Real> Engine<R> {
         if flags.errors & layout::ERR_NONFINITE != 0 {
             return CycleError::non_finite_step(model, flags.nonfinite_block as usize);
         }
+        if flags.errors & layout::ERR_ZONE_INVERTED != 0 {
+            return super::fdef::inverted_zone_error(model, flags.inverted_zone);
+        }
         if flags.errors & layout::ERR_TOO_FAST != 0 {
             let dt = model.timestep;
             let mut fastest = (0.0f64, flags.toofast_block as usize);
@@ -308,19 +311,13 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
     /// kernel precision cannot hold (`representable`).
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        if model.has_fdef() {
-            // The zones' kernels are not written yet (issue 29 item 6): `--backend auto` goes on
-            // on the CPU, `--backend gpu` says so.
-            return Err(CycleError::DoesNotFit(
-                "fully-deformable blocks (CHANGE … FDEF, GENERATE) run on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
-            ));
-        }
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
         let sdef_blocks = if model.has_sdef() { model.blocks.len() } else { 0 };
         kernels::check_fits("blocks", std::mem::size_of::<Block<R>>(), model.blocks.len(), cap, e.dev.precision)
             .and_then(|()| kernels::check_fits("corners", std::mem::size_of::<Corner<R>>(), model.corners.len(), cap, e.dev.precision))
             .and_then(|()| super::sdef::check_fits::<R>(cap, sdef_blocks, e.dev.precision))
+            .and_then(|()| super::fdef::check_fits::<R>(model, cap, e.dev.precision))
             .map_err(device_error)?;
         representable::<R>(model).map_err(device_error)
     }

@@ -149,9 +149,10 @@ impl<R: Real> Engine<R> {
         Some((self.pipelines.sdef.as_ref()?, groups)).filter(|_| self.sdef_scene)
     }
 
-    /// Contact updates splice the list on the device: not in an SDEF scene (see the module doc).
+    /// Contact updates splice the list on the device: not in an SDEF scene (see the module doc),
+    /// nor in one with zoned blocks (`gpu::fdef`).
     pub(super) fn splices_on_device(&self) -> bool {
-        self.splice && !self.sdef_scene
+        self.splice && !self.sdef_scene && !self.fdef_scene
     }
 }
 

@@ -41,6 +41,9 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("gather", include_str!("../../../shaders/udec/gather.wgsl")),
     ("end_cycle", include_str!("../../../shaders/udec/end_cycle.wgsl")),
     ("energy_sums", include_str!("../../../shaders/udec/energy_sums.wgsl")),
+    // Zoned fully-deformable blocks' grid points and zones (stages 6, 1 and 3; twin of
+    // `cpu::zones`), compiled only for a scene that has them.
+    ("zones", include_str!("../../../shaders/udec/zones.wgsl")),
 ];
 
 /// Kernels of the topology changes between cycles, with bindings of their own (the state's bind

@@ -90,6 +90,7 @@ impl<R: Real> Engine<R> {
             damping_base: model.blocks.iter().map(|b| b.damping_work).collect(),
             contact_base: Vec::new(),
             sdef_damping_base: Vec::new(),
+            fdef_damping_base: Vec::new(),
         };
         let blocks: Vec<Block<R>> = model.blocks.par_iter().with_min_len(4096).map(|b| Block::from_model(b, origin)).collect();
         let corners: Vec<Corner<R>> = model.corners.par_iter().with_min_len(4096).map(|c| Corner::from_model(&model.blocks, c)).collect();
@@ -137,6 +138,9 @@ impl<R: Real> Engine<R> {
         if self.upload_sdef(model)? {
             self.bind_groups = None;
         }
+        if self.upload_fdef(model)? {
+            self.bind_groups = None;
+        }
         self.upload_contacts(model, adjacency)
     }
 
@@ -155,6 +159,7 @@ impl<R: Real> Engine<R> {
         g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
         g |= self.upload_adjacency(&model.blocks, contacts.len(), adjacency)?;
         g |= self.upload_levers(model)?;
+        g |= self.upload_shares(model)?;
         if g {
             self.bind_groups = None;
         }
@@ -209,6 +214,8 @@ impl<R: Real> Engine<R> {
     /// counts); returns whether a buffer was re-created (the bind group must then be rebuilt).
     pub(super) fn upload_adjacency(&mut self, blocks: &[crate::udec::model::Block], n_contacts: usize, adjacency: &Adjacency) -> Result<bool, GpuError> {
         let n_blocks = blocks.len();
+        let zoned = self.fdef_gp_start.clone();
+        let is_zoned = |b: usize| zoned.get(b).is_some_and(|&g| g != super::layout::NO_INDEX);
         // The offsets, then the blocks `gather_heavy` sums (see gather.wgsl): free ones first,
         // then fixed ones, which only the pass before a read-back sums (a base under a wall).
         let mut offsets = adjacency.offsets.clone();
@@ -217,7 +224,8 @@ impl<R: Real> Engine<R> {
                 .offsets
                 .windows(2)
                 .enumerate()
-                .filter(move |(b, w)| w[1] - w[0] > shaders::HEAVY_DEGREE && summed_by_gather_heavy(&blocks[*b], fixed))
+                // (A zoned block's grid points sum its contacts: `gather_gridpoints`.)
+                .filter(move |(b, w)| w[1] - w[0] > shaders::HEAVY_DEGREE && summed_by_gather_heavy(&blocks[*b], fixed) && !is_zoned(*b))
                 .map(|(b, _)| b as u32)
         };
         let free: Vec<u32> = heavy(false).collect();
@@ -229,7 +237,10 @@ impl<R: Real> Engine<R> {
         let d = &self.dev;
         let mut g = Buffers::ensure(d, &mut b.adj_entries, "adjacency entries", 4, adjacency.entries.len())?;
         g |= Buffers::ensure(d, &mut b.adj_offsets, "adjacency offsets", 4, offsets.len())?;
-        g |= Buffers::ensure(d, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(n_blocks, n_contacts))?;
+        let items = self.energy_items(n_blocks);
+        let b = self.buffers.as_mut().expect("buffers exist");
+        let d = &self.dev;
+        g |= Buffers::ensure(d, &mut b.energy_sums, "energy sums", std::mem::size_of::<EnergySum<R>>(), kernels::energy_groups(items, n_contacts))?;
         let q = &self.dev.queue;
         q.write_buffer(&b.adj_offsets.buffer, 0, bytemuck::cast_slice(&offsets));
         q.write_buffer(&b.adj_entries.buffer, 0, bytemuck::cast_slice(&adjacency.entries));
@@ -442,6 +453,7 @@ impl<R: Real> Engine<R> {
             self.dev.queue.write_buffer(&self.buffers().blocks.buffer, 0, bytemuck::cast_slice(&self.last_blocks));
         }
         self.reset_update_strains(&reset);
+        self.reset_update_positions(&reset);
     }
 }
 

@@ -114,8 +114,14 @@ pub fn place_corners_fdef(block: &mut Block, f: &super::fdef::Fdef, corners: &mu
         radius = radius.max(dot(corner.local, corner.local));
     }
     block.radius = radius.sqrt();
-    let local: Vec<[f64; 2]> = corners.iter().map(|k| k.local).collect();
-    block.area = super::geometry::signed_area(&local);
+    // `geometry::signed_area` of the corners' offsets, without collecting them.
+    block.area = if corners.len() < 3 {
+        0.0
+    } else {
+        let o = corners[0].local;
+        let twice: f64 = corners[1..].windows(2).map(|w| super::geometry::cross(sub(w[0].local, o), sub(w[1].local, o))).fold(0.0, |a, x| a + x);
+        0.5 * twice
+    };
     fit_circles_to_edges(corners);
     for corner in corners.iter_mut() {
         corner.circle_local = sub(corner.circle, c);

@@ -91,8 +91,14 @@ fn scaled_gradients(p: [[f64; 2]; 3]) -> [[f64; 2]; 3] {
 /// The strain rate (11, 12, 22) of the triangle `p` whose corners move at `v`.
 #[inline]
 pub fn strain_rate(p: [[f64; 2]; 3], v: [[f64; 2]; 3]) -> [f64; 3] {
+    strain_rate_of_area(p, v, twice_area(p))
+}
+
+/// [`strain_rate`] of a triangle whose twice signed area `a2` is known (the zone stage has it
+/// from its inversion check).
+#[inline]
+pub fn strain_rate_of_area(p: [[f64; 2]; 3], v: [[f64; 2]; 3], a2: f64) -> [f64; 3] {
     let g = scaled_gradients(p);
-    let a2 = twice_area(p);
     let (mut e11, mut e22, mut e12) = (0.0, 0.0, 0.0);
     for n in 0..3 {
         e11 += v[n][0] * g[n][0];

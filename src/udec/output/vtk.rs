@@ -16,6 +16,12 @@
 //!   (1 for a contact that follows the joint law, Appendix A ¶5, 0 for a point contact) and
 //!   `joint_length` (m: the length of joint it carries, half the faces' common length; 0 for a
 //!   point contact).
+//! - `zones_<cycle>.vtk`, only in a scene with fully-deformable blocks (Appendix A ¶11–12): the
+//!   grid points of every zoned block as points, its zones as triangles through them. Cell data:
+//!   `block` (the block's id), `zone` (its number in the block, from 1 as PRINT shows it),
+//!   `stress` (Pa, tension positive, a 3×3 tensor with σ13 = σ23 = σ33 = 0) and `mass` (kg).
+//!   Point data: `velocity` (m/s, vector), `gridpoint_mass` (the lumped mass, kg) and `force`
+//!   (the unbalanced force of the last cycle, N, vector).
 //!
 //! Frames are named by cycle, so a RESTART that goes on writes new ones beside the old, and one
 //! that goes back replaces the frames after it (the series keeps the frames before its cycle).
@@ -30,6 +36,13 @@ use crate::udec::model::{ContactKind, Model};
 pub const SERIES_FILE: &str = "blocks.vtk.series";
 /// The series of the contact frames.
 pub const CONTACT_SERIES_FILE: &str = "contacts.vtk.series";
+/// The series of the zone frames (a scene with fully-deformable blocks).
+pub const ZONE_SERIES_FILE: &str = "zones.vtk.series";
+
+/// The zone file of the frame at `cycle`.
+pub fn zone_frame_name(cycle: u64) -> String {
+    format!("zones_{cycle:09}.vtk")
+}
 
 /// The block and contact files of the frame at `cycle`.
 pub fn frame_names(cycle: u64) -> (String, String) {
@@ -46,6 +59,11 @@ pub fn write_frame(model: &Model, dir: &Path) -> Result<PathBuf, String> {
     write_vtk(&dir.join(&contacts_name), contacts_vtk(model))?;
     add_to_series(&dir.join(SERIES_FILE), &blocks_name, model.cycle, model.time)?;
     add_to_series(&dir.join(CONTACT_SERIES_FILE), &contacts_name, model.cycle, model.time)?;
+    if model.has_fdef() {
+        let zones_name = zone_frame_name(model.cycle);
+        write_vtk(&dir.join(&zones_name), zones_vtk(model))?;
+        add_to_series(&dir.join(ZONE_SERIES_FILE), &zones_name, model.cycle, model.time)?;
+    }
     Ok(blocks_path)
 }
 
@@ -134,6 +152,55 @@ pub fn contacts_vtk(model: &Model) -> Vtk {
         ..Default::default()
     };
     poly_data(&format!("blockdem contacts, cycle {}, time {:e} s", model.cycle, model.time), piece)
+}
+
+/// The zones of the fully-deformable blocks as triangles through their grid points, with the
+/// zones' stresses as cell data and the grid points' motion as point data.
+pub fn zones_vtk(model: &Model) -> Vtk {
+    let zoned: Vec<(usize, &crate::udec::model::fdef::Fdef)> = (0..model.blocks.len()).filter_map(|b| model.fdef_of(b).map(|f| (b, f))).collect();
+    let (mut points, mut vertices) = (Vec::new(), Vec::new());
+    let (mut velocity, mut gp_mass, mut gp_force) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut stress, mut zone_mass, mut zone_block, mut zone_number) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut cells = 0u32;
+    for &(b, f) in &zoned {
+        // The block's grid points are numbered from here in the file.
+        let first = (points.len() / 3) as u32;
+        let id = model.blocks[b].id as i32;
+        for g in &f.gridpoints {
+            points.extend([g.position[0], g.position[1], 0.0]);
+            velocity.extend([g.velocity[0] as f32, g.velocity[1] as f32, 0.0]);
+            gp_force.extend([g.force[0] as f32, g.force[1] as f32, 0.0]);
+            gp_mass.push(g.mass as f32);
+        }
+        for (k, z) in f.zones.iter().enumerate() {
+            vertices.push(3);
+            vertices.extend(z.gridpoints.map(|g| first + g));
+            let s = z.stress.map(|x| x as f32);
+            stress.extend([s[0], s[1], 0.0, s[1], s[2], 0.0, 0.0, 0.0, 0.0]);
+            zone_mass.push(z.mass as f32);
+            zone_block.push(id);
+            zone_number.push(k as i32 + 1);
+            cells += 1;
+        }
+    }
+    let cell = vec![
+        Attribute::scalars("block", 1).with_data(zone_block),
+        Attribute::scalars("zone", 1).with_data(zone_number),
+        Attribute::tensors("stress").with_data(stress),
+        Attribute::scalars("mass", 1).with_data(zone_mass),
+    ];
+    let point = vec![
+        Attribute::vectors("velocity").with_data(velocity),
+        Attribute::scalars("gridpoint_mass", 1).with_data(gp_mass),
+        Attribute::vectors("force").with_data(gp_force),
+    ];
+    let piece = PolyDataPiece {
+        points: points.into(),
+        polys: Some(VertexNumbers::Legacy { num_cells: cells, vertices }),
+        data: Attributes { point, cell },
+        ..Default::default()
+    };
+    poly_data(&format!("blockdem zones, cycle {}, time {:e} s", model.cycle, model.time), piece)
 }
 
 /// One frame of a `.series` file.

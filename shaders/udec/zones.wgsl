@@ -1,0 +1,176 @@
+// Stages 6, 1 and 3 of fully-deformable blocks (SL-85-1 Appendix A ¶11–12; twin of
+// src/udec/cpu/zones.rs, the physics in `model::fdef`): the grid points sum their forces, move by
+// central differences, and the zones take their stress increments from the new velocities. One
+// invocation per grid point or zone, each pass a dispatch of its own so that no invocation reads
+// what another writes in the same pass:
+//
+// - `gather_gridpoints`: each grid point's force, gravity and the load's share first, then its
+//   contacts in its block's list order (boundary grid points only: the contact stage wrote each
+//   contact's shares, `ContactShare`), then its zones in ascending order (`gridpoint_zones`): the
+//   order the CPU's `gather_fdef` adds them in for that grid point, so a run repeats bit for bit
+//   and sums as the CPU does. Stored on the grid point (the step reads it, as do a read-back
+//   and the energy check).
+// - `step_gridpoints`: v⁺ = [v⁻(1 − αΔt/2) + F/m Δt] / (1 + αΔt/2) per grid point (the rigid
+//   blocks' law, eqs. 9–10), the position as a compensated pair, the too-fast and non-finite
+//   checks with the grid point's block.
+// - `zones`: the inverted-zone check (a zone whose signed area is not positive raises
+//   ERR_ZONE_INVERTED with the lowest such zone), then Δσ from the strain rate times Δt.
+//
+// A fixed block's grid points stay still and its zones unstressed by the step, as on the CPU.
+
+// The force a zone of stress s exerts on its corner n (−A σ·∇N_n; twin of `fdef::nodal_forces`).
+fn nodal_forces(p: array<vec2<real>, 3>, s: array<real, 3>, n: u32) -> vec2<real> {
+    var q = p;
+    let a = q[(n + 1u) % 3u];
+    let b = q[(n + 2u) % 3u];
+    let gx = a.y - b.y;
+    let gy = b.x - a.x;
+    return vec2<real>(-0.5 * (s[0] * gx + s[1] * gy), -0.5 * (s[1] * gx + s[2] * gy));
+}
+
+// The strain rate (11, 12, 22) of the triangle p whose corners move at v, twice its area a2
+// (twin of `fdef::strain_rate`): ε̇_ij = ½ Σ_n (v_i ∂N_n/∂x_j + v_j ∂N_n/∂x_i).
+fn strain_rate(p: array<vec2<real>, 3>, v: array<vec2<real>, 3>, a2: real) -> vec3<real> {
+    var e11 = real(0.0);
+    var e22 = real(0.0);
+    var e12 = real(0.0);
+    for (var n = 0u; n < 3u; n += 1u) {
+        var q = p;
+        var w = v;
+        let a = q[(n + 1u) % 3u];
+        let b = q[(n + 2u) % 3u];
+        let g = vec2<real>(a.y - b.y, b.x - a.x);
+        e11 += w[n].x * g.x;
+        e22 += w[n].y * g.y;
+        e12 += w[n].x * g.y + w[n].y * g.x;
+    }
+    return vec3<real>(e11 / a2, 0.5 * e12 / a2, e22 / a2);
+}
+
+// The stress increment of the strain increment d (11, 12, 22) in plane strain (twin of
+// `fdef::stress_increment`).
+fn stress_increment(d: vec3<real>, lambda: real, shear: real) -> vec3<real> {
+    return vec3<real>((lambda + 2.0 * shear) * d.x + lambda * d.z, 2.0 * shear * d.y, lambda * d.x + (lambda + 2.0 * shear) * d.z);
+}
+
+// Stage 6 for grid point g (twin of `cpu::zones::gather_fdef`, for one grid point).
+fn gridpoint_force(g: u32, gp: GridPoint) -> vec2<real> {
+    var f = vec2<real>(gp.mass * params.gx + gp.load_x, gp.mass * params.gy + gp.load_y);
+    if (gp.boundary != 0u) {
+        let b = gp.block;
+        for (var e = adj_offsets[b]; e < adj_offsets[b + 1u]; e += 1u) {
+            let entry = adj_entries[e];
+            let k = entry_contact(entry);
+            let side = entry_side(entry);
+            let sign = select(real(1.0), real(-1.0), side == 1u);
+            let fk = vec2<real>(sign * contact_forces_out[k].fx, sign * contact_forces_out[k].fy);
+            let share = contact_shares[k];
+            if (side == 0u) {
+                if (share.g1 == g) {
+                    f += fk;
+                }
+            } else {
+                if (share.g2a == g && share.wa != 0.0) {
+                    f += share.wa * fk;
+                }
+                if (share.g2b == g && share.wb != 0.0) {
+                    f += share.wb * fk;
+                }
+            }
+        }
+    }
+    for (var e = gridpoint_zones[g]; e < gridpoint_zones[g + 1u]; e += 1u) {
+        let entry = gridpoint_zones[e];
+        let z = zone_list[entry >> 2u];
+        f += nodal_forces(zone_points(z), z.stress, entry & 3u);
+    }
+    return f;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather_gridpoints(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let g = item_index(wg, li);
+    if (g >= arrayLength(&gridpoints)) {
+        return;
+    }
+    let f = gridpoint_force(g, gridpoints[g]);
+    gridpoints[g].fx = f.x;
+    gridpoints[g].fy = f.y;
+}
+
+// Stage 1 for grid point g, its force gathered (twin of the motion in `cpu::zones::step_fdef`).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn step_gridpoints(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let g = item_index(wg, li);
+    if (g >= arrayLength(&gridpoints)) {
+        return;
+    }
+    var gp = gridpoints[g];
+    if (gp.fixed != 0u) {
+        gridpoints[g].vx = 0.0;
+        gridpoints[g].vy = 0.0;
+        return;
+    }
+    if (!(gp.mass > 0.0)) {
+        return;
+    }
+    let dt = params.dt;
+    let con1 = 1.0 - 0.5 * params.alpha * dt;
+    let con2 = 1.0 / (1.0 + 0.5 * params.alpha * dt);
+    let v0 = vec2<real>(gp.vx, gp.vy);
+    let v = vec2<real>((v0.x * con1 + gp.fx / gp.mass * dt) * con2, (v0.y * con1 + gp.fy / gp.mass * dt) * con2);
+    let d = vec2<real>(v.x * dt, v.y * dt);
+    if (params.alpha > 0.0) {
+        let m = 0.5 * (v0 + v);
+        gp.damping_work += params.alpha * dt * gp.mass * (m.x * m.x + m.y * m.y);
+    }
+    let one = real(params.one);
+    let sx = two_sum(gp.x, d.x + gp.x_lo, one);
+    let sy = two_sum(gp.y, d.y + gp.y_lo, one);
+    let work = (gp.mass * params.gx + gp.load_x) * d.x + (gp.mass * params.gy + gp.load_y) * d.y;
+    gridpoints[g].vx = v.x;
+    gridpoints[g].vy = v.y;
+    gridpoints[g].x = sx.x;
+    gridpoints[g].x_lo = sx.y;
+    gridpoints[g].y = sy.x;
+    gridpoints[g].y_lo = sy.y;
+    gridpoints[g].work = gp.work + work;
+    gridpoints[g].damping_work = gp.damping_work;
+    if (!is_finite(work)) {
+        atomicOr(&flags.errors, ERR_NONFINITE);
+        atomicMin(&flags.nonfinite_block, gp.block);
+    }
+    if (sqrt(d.x * d.x + d.y * d.y) > params.fast_limit) {
+        atomicOr(&flags.errors, ERR_TOO_FAST);
+        atomicMin(&flags.toofast_block, gp.block);
+    }
+}
+
+// Stage 3 for zone z (twin of `cpu::zones::zones`, for one zone).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn zones(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let z = item_index(wg, li);
+    if (z >= arrayLength(&zone_list)) {
+        return;
+    }
+    let zone = zone_list[z];
+    let fb = fdef_blocks[zone.block];
+    if (fb.fixed != 0u) {
+        return;
+    }
+    let p = zone_points(zone);
+    let a2 = twice_area(p[0], p[1], p[2]);
+    // Not positive, or NaN: turned inside out.
+    if (!(a2 > 0.0)) {
+        atomicOr(&flags.errors, ERR_ZONE_INVERTED);
+        atomicMin(&flags.inverted_zone, z);
+        return;
+    }
+    let v = array<vec2<real>, 3>(
+        vec2<real>(gridpoints[zone.g0].vx, gridpoints[zone.g0].vy),
+        vec2<real>(gridpoints[zone.g1].vx, gridpoints[zone.g1].vy),
+        vec2<real>(gridpoints[zone.g2].vx, gridpoints[zone.g2].vy),
+    );
+    let ds = stress_increment(strain_rate(p, v, a2) * params.dt, fb.lambda, fb.shear);
+    zone_list[z].stress = array<real, 3>(zone.stress[0] + ds.x, zone.stress[1] + ds.y, zone.stress[2] + ds.z);
+}
