@@ -146,6 +146,7 @@ impl Executor<'_> {
         self.check_masses_and_stiffnesses(cmd)?;
         self.check_cracking(cmd)?;
         self.check_fdef(cmd)?;
+        self.check_fluid(cmd)?;
         let dt = self.critical_timestep(cmd)?;
         self.check_overflows(cmd)?;
         Ok(dt)
@@ -384,7 +385,8 @@ impl Executor<'_> {
             ));
         }
         for (cycle, dt) in &report.timestep_changes {
-            self.echo(&format!("TIMESTEP REDUCED TO {} AT CYCLE {cycle} (A LIGHTER BLOCK WAS CREATED)", output::format::fmt_e(*dt)));
+            let why = if self.model.fluid.is_some() { "A LIGHTER BLOCK WAS CREATED, OR THE FLUID'S LIMIT FELL" } else { "A LIGHTER BLOCK WAS CREATED" };
+            self.echo(&format!("TIMESTEP REDUCED TO {} AT CYCLE {cycle} ({why})", output::format::fmt_e(*dt)));
         }
     }
 

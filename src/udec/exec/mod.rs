@@ -10,6 +10,7 @@
 //! - `materials`: PROPERTY, DAMPING, and the checks of material and constitutive numbers;
 //! - `loads`: LOAD, FIX, FREE, VELOCITY, LINK (and GRAVITY, set in the dispatch);
 //! - `output`: PRINT, PLOT, DUMP, VTK, SAVE, RESTART (and WINDOW, VIEW, set in the dispatch);
+//! - `fluid`: FLUID, PFIX, PFREE and the checks of a scene with fluid;
 //! - `cycling`: CYCLE (the checks before it, blocks built overlapping, the run through the
 //!   backend in pieces, progress, running restart files and VTK frames, what a failure means, the
 //!   energy-balance warning), and FRACTION and SET OVERLAP, set in the dispatch.
@@ -17,6 +18,7 @@
 mod blocks;
 mod cycling;
 mod fdef;
+mod fluid;
 mod loads;
 mod materials;
 mod output;
@@ -27,7 +29,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use crate::udec::backend::{Backend, CycleError};
-use crate::udec::deck::{Command, DeckError, Located, PrintItem, Range};
+use crate::udec::deck::{Command, DeckError, Located, Range};
 use crate::udec::model::constitutive::Constitutive;
 use crate::udec::model::limits::{Limits, LIMITS_CPU_F64};
 use crate::udec::model::Model;
@@ -123,17 +125,10 @@ pub enum Progress {
 /// The executor stops at such a command, and before the first CYCLE it looks ahead for one, so
 /// that a deck of long CYCLEs followed by FLUID fails before it cycles, not after (issue 27
 /// item 6).
-fn not_supported_yet(command: &Command) -> Option<&'static str> {
-    match command {
-        Command::Fluid { .. } => Some("FLUID (fluid flow in joints and domains)"),
-        Command::PFix { .. } => Some("PFIX (domain pressures)"),
-        Command::PFree { .. } => Some("PFREE (domain pressures)"),
-        Command::Print { items } => items.iter().find_map(|item| match item {
-            PrintItem::Flows => Some("PRINT FLOWS (fluid flow)"),
-            _ => None,
-        }),
-        _ => None,
-    }
+/// Every command of UDEC 1.2 runs now (fluid came with issue 30); the look-ahead stays for
+/// what a later version adds.
+fn not_supported_yet(_command: &Command) -> Option<&'static str> {
+    None
 }
 
 /// Whether `command` can change the blocks, their positions or the contacts, after which a scene
@@ -341,8 +336,9 @@ impl<'a> Executor<'a> {
             Command::Fix { range } => self.fix(range),
             Command::Free { range } => self.free(range),
             Command::Fraction { f } => self.model.frac = *f,
-            // Stopped above (`not_supported_yet`).
-            Command::Fluid { .. } | Command::PFix { .. } | Command::PFree { .. } => {}
+            Command::Fluid { density, bulk } => self.fluid(*density, *bulk),
+            Command::PFix { domain, pressure } => self.pfix(cmd, *domain, *pressure)?,
+            Command::PFree { domain } => self.pfree(cmd, *domain)?,
             Command::Generate { range, mesh } => self.generate(cmd, range, mesh)?,
             Command::Gravity { g } => self.model.gravity = *g,
             Command::Link { flying, anchor } => self.link(cmd, *flying, *anchor)?,

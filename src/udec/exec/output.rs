@@ -101,8 +101,7 @@ impl Executor<'_> {
                     self.keep_domains();
                     output::print::print_domain_lists(&self.model, &mut self.log)
                 }
-                // Stopped before (`not_supported_yet`).
-                PrintItem::Flows => Ok(()),
+                PrintItem::Flows => output::print::print_flows(&self.model, &mut self.log),
             };
             r.map_err(|e| self.command_error(cmd, format!("PRINT: {e}")))?;
         }
