@@ -315,6 +315,9 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
                 "fully-deformable blocks (CHANGE … FDEF, GENERATE) run on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
             ));
         }
+        if model.fluid.is_some() {
+            return Err(CycleError::DoesNotFit("fluid flow (FLUID, PFIX) runs on the CPU backend only in this version; use --backend cpu or --backend auto".into()));
+        }
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
         let sdef_blocks = if model.has_sdef() { model.blocks.len() } else { 0 };
