@@ -51,7 +51,7 @@ impl Executor<'_> {
                 DomainRef::Number(n) => format!("domain {n}"),
                 DomainRef::At([x, y]) => {
                     let f = crate::output::format::fmt_short;
-                    format!("a domain at ({}, {}) (the point lies inside a block, away from any joint)", f(x), f(y))
+                    format!("domain at ({}, {}) (the point lies inside a block, away from any joint)", f(x), f(y))
                 }
             };
             self.command_error(cmd, format!("{what}: there is no {named}; {known}"))

@@ -50,7 +50,7 @@ impl Executor<'_> {
         if self.model.fluid.is_some() {
             // The save format has no place for the fluid and the domain pressures yet: a
             // RESTART would lose them without a word.
-            return Err(self.unsupported(cmd, "SAVE of a scene with fluid (the save file does not keep the fluid and the domain pressures yet)"));
+            return Err(self.unsupported(cmd, super::fluid_not_supported_yet(&crate::udec::deck::Command::Save { file: None }).unwrap_or("SAVE")));
         }
         let path = self.resolve(file);
         if let Some(dir) = path.parent() {

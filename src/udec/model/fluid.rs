@@ -318,7 +318,7 @@ pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
 }
 
 /// The domain PFIX … AT x y names: the regular domain whose void holds the point (the smallest
-/// if voids nest), else the joint domain nearest to it within half its length, else the outer
+/// if voids nest), else the joint domain nearest to it within a quarter of its length, else the outer
 /// domain when the point lies in no block; None when it lies in a block away from any joint.
 pub fn domain_at(model: &Model, domains: &Domains, p: [f64; 2]) -> Option<usize> {
     use super::geometry::point_in_polygon;
@@ -352,7 +352,7 @@ pub fn domain_at(model: &Model, domains: &Domains, p: [f64; 2]) -> Option<usize>
             continue;
         }
         let dist = point_segment_distance(p, ends[0], ends[1]);
-        if dist <= 0.5 * dom.length && nearest.is_none_or(|(_, x)| dist < x) {
+        if dist < 0.25 * dom.length && nearest.is_none_or(|(_, x)| dist < x) {
             nearest = Some((d, dist));
         }
     }
