@@ -203,7 +203,7 @@ fn plot_all_forms() {
     all_give(&["PLOT", "PL", "plot"], Command::Plot { options: PlotOptions::default() });
     all_give(
         &["PLOT NOFIX ZONES NC VEL", "PL N Z NC V", "plot nofix,zones,nc,velocity", "PLOT (VEL) NC / Z N"],
-        Command::Plot { options: PlotOptions { nofix: true, zones: true, no_rounding: true, velocities: true } },
+        Command::Plot { options: PlotOptions { nofix: true, zones: true, no_rounding: true, velocities: true, pressure: false } },
     );
     all_give(&["PLOT ZONES"], Command::Plot { options: PlotOptions { zones: true, ..Default::default() } });
 }

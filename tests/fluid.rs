@@ -168,3 +168,23 @@ fn the_gpu_refuses_a_scene_with_fluid_and_says_so() {
     let e = r.expect_err("fluid is not on the GPU yet");
     assert!(e.to_string().contains("fluid flow (FLUID, PFIX) runs on the CPU backend only"), "{e}");
 }
+
+#[test]
+fn plot_pressure_fills_the_domains_by_their_pressure() {
+    let dir = std::env::temp_dir().join(format!("blockdem-fluid-plot-{}", std::process::id()));
+    let deck = format!("{PINWHEEL}CYCLE 0\nPFIX OUTER 0\nPFIX AT 1.5 1.5 1E5\nCYCLE 5\nWINDOW -1 4 -1 4\nPLOT PRESSURE\n");
+    let commands = blockdem::udec::deck::parse_deck(&deck, "<scene>").unwrap();
+    let options = blockdem::udec::exec::RunOptions { out_dir: dir.clone(), ..Default::default() };
+    let mut exec = blockdem::udec::exec::Executor::new(Box::new(blockdem::udec::cpu::CpuBackend::new()), Box::new(std::io::sink()), options, "<scene>");
+    exec.run(&commands).unwrap();
+    let svg = std::fs::read_to_string(dir.join("plot_001.svg")).unwrap();
+    let domains = exec.model.domains.as_ref().unwrap();
+    let hole = blockdem::udec::model::fluid::domain_at(&exec.model, domains, [1.5, 1.5]).unwrap();
+    // The hole, the largest pressure, filled full red; every inner domain drawn.
+    let hole_shape = format!(r#"class="domain" data-domain="{}""#, domains.list[hole].id);
+    let line = svg.lines().find(|l| l.contains(&hole_shape)).unwrap_or_else(|| panic!("{svg}"));
+    assert!(line.contains("rgb(255,64,64)") || line.contains("#ff4040"), "{line}");
+    assert_eq!(svg.matches(r#"class="domain""#).count(), domains.list.len() - 1, "{svg}");
+    assert!(svg.contains("PORE PRESSURE"), "{svg}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -133,6 +133,8 @@ pub struct PlotOptions {
     pub no_rounding: bool,
     /// VEL: velocity vectors at block centroids.
     pub velocities: bool,
+    /// PRESSURE (an extension): the domains filled by their pore pressure.
+    pub pressure: bool,
 }
 
 // One line a command (rustfmt would spread every variant over lines once one has a field comment).

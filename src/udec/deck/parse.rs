@@ -190,10 +190,16 @@ enum PlotKey {
     Zones,
     Nc,
     Vel,
+    Pressure,
 }
 
-const PLOT_KEYS: &[Name<PlotKey>] =
-    &[name("NOFIX", "N", PlotKey::NoFix), name("ZONES", "Z", PlotKey::Zones), name("NC", "NC", PlotKey::Nc), name("VELOCITY", "V", PlotKey::Vel)];
+const PLOT_KEYS: &[Name<PlotKey>] = &[
+    name("NOFIX", "N", PlotKey::NoFix),
+    name("ZONES", "Z", PlotKey::Zones),
+    name("NC", "NC", PlotKey::Nc),
+    name("VELOCITY", "V", PlotKey::Vel),
+    name("PRESSURE", "P", PlotKey::Pressure),
+];
 
 const PRINT_KEYS: &[Name<PrintItem>] = &[
     name("BLOCKS", "B", PrintItem::Blocks),
@@ -853,6 +859,7 @@ fn parse_command(a: &mut Args) -> Result<Command> {
                     Some(PlotKey::Zones) => options.zones = true,
                     Some(PlotKey::Nc) => options.no_rounding = true,
                     Some(PlotKey::Vel) => options.velocities = true,
+                    Some(PlotKey::Pressure) => options.pressure = true,
                     None => return Err(a.at(t, format!("unknown PLOT keyword '{}'; PLOT takes {}", t.shown(), names(PLOT_KEYS)))),
                 }
             }
