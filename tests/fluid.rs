@@ -108,7 +108,9 @@ fn pfix_and_pfree_by_outer_id_and_point_hold_through_contact_updates() {
 
 #[test]
 fn a_dry_scene_builds_no_domains_and_carries_no_fluid() {
-    let (model, _) = run_ok("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 2,0 2,1 0,1\nBLOCK 0,1 2,1 2,2 0,2\nFIX 0 2 0 0.9\nGRAV 0 -10\nCYCLE 100\n");
+    let (model, _) = run_ok(
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 2,0 2,1 0,1\nBLOCK 0,1 2,1 2,2 0,2\nFIX 0 2 0 0.9\nGRAV 0 -10\nCYCLE 100\n",
+    );
     assert!(model.domains.is_none() && model.fluid.is_none());
     let json = state_json::state_json(&model);
     assert!(json.get("domains").is_none() && json.get("flows").is_none() && json["energy"].get("fluid_work").is_none());

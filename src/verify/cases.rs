@@ -180,7 +180,8 @@ fn fluid_cases() -> Vec<Case> {
 /// Four fixed blocks around a 1 × 1 hole (1.5, 1.5), each face against the next along 1 m: four
 /// joints from the hole to the outside, at x = 2 (0 < y < 1), y = 2 (2 < x < 3), x = 1 (2 < y < 3)
 /// and y = 1 (0 < x < 1).
-pub const FLUID_PINWHEEL: &str = "BLOCK CONS={c} 0,0 2,0 2,1 0,1\nBLOCK CONS={c} 2,0 3,0 3,2 2,2\nBLOCK CONS={c} 1,2 3,2 3,3 1,3\nBLOCK CONS={c} 0,1 1,1 1,3 0,3\nFIX -1 4 -1 4\n";
+pub const FLUID_PINWHEEL: &str =
+    "BLOCK CONS={c} 0,0 2,0 2,1 0,1\nBLOCK CONS={c} 2,0 3,0 3,2 2,2\nBLOCK CONS={c} 1,2 3,2 3,3 1,3\nBLOCK CONS={c} 0,1 1,1 1,3 0,3\nFIX -1 4 -1 4\n";
 
 /// The fluid state's mass balance error over the stored volume (0 without fluid).
 fn mass_balance(m: &Model) -> f64 {
@@ -195,7 +196,11 @@ fn mass_balance(m: &Model) -> f64 {
 
 /// The pinwheel with constitutive number `cons`, material 1 as `props` gives it, and the fluid.
 fn fluid_pinwheel(ctx: &Ctx, props: &str, cons: u32, fluid: &str) -> String {
-    format!("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5 {props}\nROUND 0.05\n{}{}{fluid}\nCYCLE 0\n", FLUID_PINWHEEL.replace("{c}", &cons.to_string()), ctx.frac_line())
+    format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5 {props}\nROUND 0.05\n{}{}{fluid}\nCYCLE 0\n",
+        FLUID_PINWHEEL.replace("{c}", &cons.to_string()),
+        ctx.frac_line()
+    )
 }
 
 fn fluid_cubic_law(ctx: &Ctx) -> Result<Measured, Failure> {
@@ -210,7 +215,11 @@ fn fluid_cubic_law(ctx: &Ctx) -> Result<Measured, Failure> {
     }
     let worst = flows.iter().map(|q| (q - expected).abs() / expected).fold(0.0, f64::max);
     let balance = mass_balance(&m);
-    let detail = format!("q = {:.6e} … {:.6e} vs k·a³·Δp/l = {expected:.6e}; mass balance {balance:.1e}", flows.iter().cloned().fold(f64::INFINITY, f64::min), flows.iter().cloned().fold(0.0, f64::max));
+    let detail = format!(
+        "q = {:.6e} … {:.6e} vs k·a³·Δp/l = {expected:.6e}; mass balance {balance:.1e}",
+        flows.iter().cloned().fold(f64::INFINITY, f64::min),
+        flows.iter().cloned().fold(0.0, f64::max)
+    );
     Ok(Measured { error: worst.max(balance), detail, cost, energy_balance: None })
 }
 

@@ -74,11 +74,5 @@ pub fn pressure_loads(model: &Model, adjacency: &Adjacency, loads: &mut Vec<[f64
 /// (`law_of_motion::law_of_motion`), which the kinetic energy at whole steps balances.
 pub fn fluid_work(model: &Model, loads: &[[f64; 3]]) -> f64 {
     let dt = model.timestep;
-    model
-        .blocks
-        .iter()
-        .zip(loads)
-        .filter(|(b, _)| !b.fixed)
-        .map(|(b, l)| (l[0] * b.velocity[0] + l[1] * b.velocity[1] + l[2] * b.angular_velocity) * dt)
-        .sum()
+    model.blocks.iter().zip(loads).filter(|(b, _)| !b.fixed).map(|(b, l)| (l[0] * b.velocity[0] + l[1] * b.velocity[1] + l[2] * b.angular_velocity) * dt).sum()
 }

@@ -388,6 +388,16 @@ impl Executor<'_> {
             let why = if self.model.fluid.is_some() { "A LIGHTER BLOCK WAS CREATED, OR THE FLUID'S LIMIT FELL" } else { "A LIGHTER BLOCK WAS CREATED" };
             self.echo(&format!("TIMESTEP REDUCED TO {} AT CYCLE {cycle} ({why})", output::format::fmt_e(*dt)));
         }
+        // The fluid's mass balance, every run: the volume the free domains store against what
+        // flowed in and what rebuilds and PFIX changed (`model::fluid::Fluid`); it holds to
+        // round-off, so a miss is a fault worth saying.
+        if let Some((stored, error)) = self.fluid_balance() {
+            let inflow = self.model.fluid.map_or(0.0, |f| f.inflow);
+            if error.abs() > FLUID_BALANCE_TOLERANCE * stored.abs().max(inflow.abs()) {
+                let f = output::format::fmt_e;
+                self.echo(&format!("WARNING: THE FLUID'S MASS BALANCE IS OFF BY {} (STORED {}, INFLOW {})", f(error), f(stored), f(inflow)));
+            }
+        }
     }
 
     /// A ROUND at or past half a block's shortest edge is cut to half each edge
@@ -583,6 +593,10 @@ impl Executor<'_> {
 /// shared corners) is ~1e-16 of the coordinates, far below it; the overlap it allows (1e-4 m at
 /// ROUND 0.1) stores ½kn·δ² = 5 J/m at kn = 1e9, a launch speed of cm/s.
 pub const INITIAL_OVERLAP_TOLERANCE: f64 = 1e-3;
+
+/// The fluid's mass balance may miss by this fraction of the volume stored or flowed in (it is
+/// exact but for round-off) before a CYCLE says so.
+pub const FLUID_BALANCE_TOLERANCE: f64 = 1e-9;
 
 /// The energy ledger (`Energies::ledger`, PRINT ENERGY's BALANCE) may move by this fraction of
 /// the energy in play (the largest of kinetic + strain energy, the work put in, and the energy

@@ -316,7 +316,9 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
             ));
         }
         if model.fluid.is_some() {
-            return Err(CycleError::DoesNotFit("fluid flow (FLUID, PFIX) runs on the CPU backend only in this version; use --backend cpu or --backend auto".into()));
+            return Err(CycleError::DoesNotFit(
+                "fluid flow (FLUID, PFIX) runs on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
+            ));
         }
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);

@@ -405,10 +405,19 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
             // Darts are pushed in pairs, block 1's first: the dart's index gives its side.
             sides.push((d & 1) as u8 | if n == 0 { LOOP_START } else { 0 });
             blocks_seen.push(dart.block);
-            trace_piece(model, &darts, &positions, d, next[d as usize], wraps[d as usize], |_| {}, |corner| {
-                links.push(DomainLink::Corner { corner });
-                sides.push(0);
-            });
+            trace_piece(
+                model,
+                &darts,
+                &positions,
+                d,
+                next[d as usize],
+                wraps[d as usize],
+                |_| {},
+                |corner| {
+                    links.push(DomainLink::Corner { corner });
+                    sides.push(0);
+                },
+            );
         }
     };
     // A lone block's boundary: its corners; returns the area they enclose.
