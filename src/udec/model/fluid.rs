@@ -135,7 +135,7 @@ pub fn pressure_load(jump: f64, foot: [f64; 2], centroid: [f64; 2]) -> [f64; 3] 
 }
 
 /// The pressure jump at contact `k`'s foot on its block on `side` (block 1: +, block 2: −), the
-/// pressures of its two domains being p(sides[0]) and p(sides[1]); 0 for a contact that is not a
+/// pressures of its two domains being p(`sides[0]`) and p(`sides[1]`); 0 for a contact that is not a
 /// link.
 #[inline]
 pub fn pressure_jump(domains: &Domains, k: usize, side: u32) -> f64 {
