@@ -133,12 +133,17 @@ fn corners_in_block_order(model: &Model) -> bool {
     next == model.corners.len()
 }
 
-/// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
+/// Runs stage 7 when a block has moved past the update tolerance; returns whether it did. In a
+/// scene with fluid the domains are rebuilt from the new lists (ids, pressures and PFIX kept), as
+/// the CPU's own stage 7 does (`fluid_after_topology`).
 pub(crate) fn maybe_update_topology(model: &mut Model, topology: &mut Topology, report: &mut CycleReport, force: bool) -> bool {
     if !force && !topology_update_due(model) {
         return false;
     }
     update_topology(model, topology, report, force);
+    if model.fluid.is_some() {
+        topology::refresh_domains(model);
+    }
     true
 }
 
