@@ -51,8 +51,9 @@ fn sample_2_runs_to_its_end_with_its_flows_domains_and_blocks() {
             continue;
         }
         let dp = domains.list[d0 as usize].pressure - domains.list[d1 as usize].pressure;
-        // q = CPERM·Δp (¶6), CPERM = 1e-9.
-        assert!((f.flow - 1e-9 * dp).abs() <= 1e-12 * (1e-9 * dp).abs(), "contact {k}: {f:?}, Δp {dp}");
+        // q = CPERM·Δp (¶6), CPERM = 1e-9, at the pressures the last cycle started from (the
+        // update has moved them since by far less than a thousandth).
+        assert!((f.flow - 1e-9 * dp).abs() <= 1e-3 * (1e-9 * dp).abs() + 1e-15, "contact {k}: {f:?}, Δp {dp}");
     }
     // The fluid stored and what crossed add up.
     let f = model.fluid.unwrap();
@@ -189,4 +190,14 @@ fn plot_pressure_fills_the_domains_by_their_pressure() {
     assert_eq!(svg.matches(r#"class="domain""#).count(), domains.list.len() - 1, "{svg}");
     assert!(svg.contains("PORE PRESSURE"), "{svg}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_cycle_split_in_two_is_the_same_run_bit_for_bit() {
+    // The second CYCLE goes on from the state the first left: its domains (rebuilt by stage 7
+    // alone in a scene with fluid), its loads and its time step (which only falls).
+    let deck = sample("udec2_pressurized_cavity.dat");
+    let whole = run_ok(&deck.replace("CYCLE 3000", "CYCLE 700")).0;
+    let split = run_ok(&deck.replace("CYCLE 3000", "CYCLE 300\nCYCLE 400")).0;
+    assert_eq!(state_json::state_json(&whole), state_json::state_json(&split));
 }

@@ -467,9 +467,12 @@ impl driver::Start<Model> for CpuStart<'_> {
             update_topology(model, self.topology, report, true);
         }
         sync_forces(model, self.forces);
-        // With fluid: the domains of the lists just detected (or kept), their loads, and the
-        // time step the fluid allows.
-        fluid_after_topology(model, self.topology, self.fluid, report);
+        // With fluid: the domains of the lists just detected, their loads, and the time step the
+        // fluid allows. A run that goes on from the last keeps the domains, loads and time step
+        // that run left, so that CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
+        if !resume {
+            fluid_after_topology(model, self.topology, self.fluid, report);
+        }
         Ok(())
     }
 }

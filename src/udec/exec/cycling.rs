@@ -235,8 +235,14 @@ impl Executor<'_> {
     // `!(x > 0.0)` on purpose: a NaN time step fails the check too.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn critical_timestep(&self, cmd: &Located) -> Result<f64, RunError> {
-        let dt =
+        let mut dt =
             self.model.critical_timestep().ok_or_else(|| self.command_error(cmd, "CYCLE: cannot compute a time step (no block mass or contact stiffness)"))?;
+        // With fluid the run cuts the step to the fluid's limits after its detection and every
+        // contact update (`model::fluid::fluid_timestep`); a later CYCLE keeps that cut, so that
+        // the step only falls and CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
+        if self.model.fluid.is_some() && self.model.timestep > 0.0 {
+            dt = dt.min(self.model.timestep);
+        }
         if !(dt > 0.0 && dt.is_finite()) {
             // m_min/k_max under- or overflowed f64: no explicit run can follow such a model.
             let m_min = self.model.blocks.iter().map(|b| b.mass).fold(f64::INFINITY, f64::min);

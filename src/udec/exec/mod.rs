@@ -231,8 +231,11 @@ impl<'a> Executor<'a> {
     pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
         let result = self.run_commands(commands);
         // The state a caller reads (the state JSON) has its domains right, also when a command
-        // failed and the model went back to its last good state.
-        self.refresh_domains_if_kept();
+        // failed and the model went back to its last good state. With fluid, stage 7 keeps them
+        // (and the last good state holds the ones it kept).
+        if self.model.fluid.is_none() {
+            self.refresh_domains_if_kept();
+        }
         // Also on an error, before the caller reports it.
         let _ = self.log.flush();
         result
@@ -250,7 +253,12 @@ impl<'a> Executor<'a> {
             }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
-            if changes_topology(&cmd.command) {
+            // With fluid a CYCLE's stage 7 rebuilds the domains itself at each contact update:
+            // one more rebuild here, on the geometry the run ended with, could trace them
+            // otherwise (a contact's feature moved on) and a CYCLE after it would not go on
+            // from the run's state bit for bit.
+            let kept_by_the_run = self.model.fluid.is_some() && matches!(cmd.command, Command::Cycle { .. });
+            if changes_topology(&cmd.command) && !kept_by_the_run {
                 self.refresh_domains_if_kept();
             }
             self.executed += 1;

@@ -178,13 +178,6 @@ impl Model {
                 }
             }
         }
-        // With fluid, the limits of the pressure update and of the domains' springs
-        // (`model::fluid::fluid_timestep`), where the domains are built.
-        if self.fluid.is_some() {
-            if let Some(dt) = super::fluid::fluid_timestep(self, self.contact_stiffness_max()) {
-                internal = internal.min(dt);
-            }
-        }
         match rigid {
             Some(dt) => Some(dt.min(internal)),
             None => internal.is_finite().then_some(internal),
