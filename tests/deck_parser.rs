@@ -196,6 +196,7 @@ fn gravity_link_pfix_pfree() {
     all_give(&["PFIX 3 1E6", "PF 3,1e6"], Command::PFix { domain: DomainRef::Number(3), pressure: 1e6 });
     all_give(&["PFREE OUTER", "PFR O", "pfree outer"], Command::PFree { domain: DomainRef::Outer });
     all_give(&["PFREE 7", "pfr (7)"], Command::PFree { domain: DomainRef::Number(7) });
+    all_give(&["PFIX AT 1.5 2.5 1E5", "pf at (1.5, 2.5) 1e5"], Command::PFix { domain: DomainRef::At([1.5, 2.5]), pressure: 1e5 });
 }
 
 #[test]
@@ -203,7 +204,7 @@ fn plot_all_forms() {
     all_give(&["PLOT", "PL", "plot"], Command::Plot { options: PlotOptions::default() });
     all_give(
         &["PLOT NOFIX ZONES NC VEL", "PL N Z NC V", "plot nofix,zones,nc,velocity", "PLOT (VEL) NC / Z N"],
-        Command::Plot { options: PlotOptions { nofix: true, zones: true, no_rounding: true, velocities: true } },
+        Command::Plot { options: PlotOptions { nofix: true, zones: true, no_rounding: true, velocities: true, pressure: false } },
     );
     all_give(&["PLOT ZONES"], Command::Plot { options: PlotOptions { zones: true, ..Default::default() } });
 }
@@ -618,7 +619,9 @@ fn arity_errors() {
     assert_body_err("DAMP .1 15 MASS STIFF", 2, &["'STIFF' is given twice"]);
     assert_body_err("DAMP .1 15 FULL", 2, &["unknown keyword 'FULL' for DAMPING; it takes MASS, STIFFNESS, INTERNAL"]);
     assert_body_err("PFIX 3", 2, &["PFIX needs the pressure p"]);
-    assert_body_err("PFIX INNER 0", 2, &["expected the domain (a domain number or OUTER), found 'INNER'"]);
+    assert_body_err("PFIX INNER 0", 2, &["expected the domain (a domain number, OUTER, or AT x y), found 'INNER'"]);
+    assert_body_err("PFIX AT 1 0", 2, &["PFIX needs the pressure p"]);
+    assert_body_err("PFREE AT 1", 2, &["PFREE needs y of the point AT x y"]);
     assert_body_err("PFIX -3 0", 2, &["domain number must be a non-negative integer"]);
     assert_body_err("PFREE", 2, &["PFREE needs the domain"]);
     assert_body_err("PFREE OUTER 3", 2, &["too many values for PFREE"]);

@@ -216,36 +216,15 @@ fn line_of(deck: &str, prefix: &str) -> usize {
 }
 
 #[test]
-fn commands_of_later_issues_stop_with_not_supported_yet_and_their_line() {
-    for (cmd, what) in [("FLUID 1000 2E9", "FLUID"), ("PFIX OUTER 0", "PFIX"), ("PFREE 3", "PFREE"), ("PRINT BLOCKS FLOWS", "PRINT FLOWS")] {
-        // Everything after the command is parsed first (a typing error there would be reported
-        // instead), then the run stops at the command and goes no further.
-        let deck = format!("{ONE_BLOCK}GRAV 0 -10\n{cmd}\nCYCLE 10\nSTOP\n");
-        let (r, log) = run_logged(&deck);
-        let e = r.unwrap_err();
-        assert!(matches!(e, RunError::Unsupported { line: 5, .. }), "{cmd}: {e}");
-        assert!(e.to_string().starts_with(&format!("<scene>:5: not supported yet: {what}")), "{cmd}: {e}");
-        assert!(!log.contains("CYCLE 10"), "{cmd}: the run went on:\n{log}");
-    }
-}
-
-#[test]
-fn sample_2_parses_whole_and_stops_at_its_first_later_command() {
-    // Samples 3 and 4 run to their end since zones and domains came (tests/fdef.rs,
-    // tests/domains.rs).
-    let (name, prefix, what) = ("udec2_pressurized_cavity.dat", "FLUID", "not supported yet: FLUID");
-    let deck = sample(name);
-    let commands = blockdem::udec::deck::parse_deck(&deck, name).unwrap_or_else(|e| panic!("{name} does not parse: {e}"));
-    assert!(matches!(commands.last().unwrap().command, blockdem::udec::deck::Command::End), "{name}: parsed to its END");
+fn save_of_a_scene_with_fluid_stops_with_not_supported_yet_and_its_line() {
+    // The save file has no place for the fluid and the domain pressures yet (issue 30): the run
+    // stops at the SAVE rather than write a file a RESTART would read without them.
+    let deck = format!("{ONE_BLOCK}PROP MAT=1 CPERM=1E-9\nFLUID 1000 2E9\nSAVE\nCYCLE 10\nSTOP\n");
     let (r, log) = run_logged(&deck);
     let e = r.unwrap_err();
-    let line = line_of(&deck, prefix);
-    assert!(matches!(&e, RunError::Unsupported { line: l, .. } if *l == line), "{name}: {e}");
-    assert!(e.to_string().contains(&format!(":{line}: {what}")), "{name}: {e}");
-    // Echoed where the run reaches it; where a CYCLE comes first, the look-ahead before the
-    // first cycle names its line instead.
-    let named = log.contains(&format!("THE DECK CANNOT RUN TO ITS END: LINE {line} ({prefix})"));
-    assert!(log.contains(&format!("){prefix}")) || named, "{name}: the command is echoed or named before the stop:\n{log}");
+    assert!(matches!(e, RunError::Unsupported { line: 6, .. }), "{e}");
+    assert!(e.to_string().starts_with("<scene>:6: not supported yet: SAVE of a scene with fluid"), "{e}");
+    assert!(!log.contains("CYCLE 10"), "the run went on:\n{log}");
 }
 
 #[test]
@@ -552,19 +531,24 @@ fn silent_no_ops_are_warned_against_and_the_run_goes_on() {
 
 /// Issue 27 item 6: a command that cannot run found after a long CYCLE stops the run before it
 /// cycles, naming that command's line (a deck of CYCLE 100000 then FLUID cycled first, then
-/// failed); typing errors are the parser's, before anything runs.
+/// failed); typing errors are the parser's, before anything runs. Since fluid runs (issue 30),
+/// what cannot run is a SAVE of a scene with fluid, found from the FLUID before it on.
 #[test]
 fn a_command_that_cannot_run_is_found_before_the_first_cycle() {
-    for (cmd, what) in [("FLUID 1000 2E9", "FLUID"), ("PRINT BLOCKS FLOWS", "PRINT FLOWS"), ("PFIX OUTER 0", "PFIX")] {
-        let deck = format!("{ONE_BLOCK}GRAV 0 -10\nCYCLE 100000000\nCYCLE 10\n{cmd}\nSTOP\n");
+    for fluid_first in [true, false] {
+        let (before, after) = if fluid_first { ("FLUID 1000 2E9\n", "") } else { ("", "FLUID 1000 2E9\n") };
+        let deck = format!("{ONE_BLOCK}PROP MAT=1 CPERM=1E-9\nGRAV 0 -10\n{before}CYCLE 100000000\n{after}CYCLE 10\nSAVE\nSTOP\n");
         let started = std::time::Instant::now();
         let (r, log) = run_logged(&deck);
         let e = r.unwrap_err();
-        assert!(matches!(e, RunError::Unsupported { line: 7, .. }), "{cmd}: {e}");
-        assert!(e.to_string().starts_with(&format!("<scene>:7: not supported yet: {what}")), "{cmd}: {e}");
-        assert!(log.contains(&format!("THE DECK CANNOT RUN TO ITS END: LINE 7 ({cmd}) IS NOT SUPPORTED YET; NOTHING IS CYCLED")), "{log}");
-        assert!(!log.contains("CURRENT CYCLE COUNT") && started.elapsed().as_secs() < 10, "{cmd}: it cycled first:\n{log}");
+        assert!(matches!(e, RunError::Unsupported { line: 9, .. }), "{e}");
+        assert!(e.to_string().starts_with("<scene>:9: not supported yet: SAVE of a scene with fluid"), "{e}");
+        assert!(log.contains("THE DECK CANNOT RUN TO ITS END: LINE 9 (SAVE) IS NOT SUPPORTED YET; NOTHING IS CYCLED"), "{log}");
+        assert!(!log.contains("CURRENT CYCLE COUNT") && started.elapsed().as_secs() < 10, "it cycled first:\n{log}");
     }
+    // A dry scene saves.
+    let (r, _) = run_logged(&format!("{ONE_BLOCK}CYCLE 1\nSAVE {}\n", std::env::temp_dir().join("blockdem-dry-save.sav").display()));
+    r.unwrap();
     let e = blockdem::udec::deck::parse_deck(&format!("{ONE_BLOCK}CYCLE 100000000\nCYLCE 10\n"), "<scene>").unwrap_err();
     assert!(e.to_string().starts_with("<scene>:5:1: unknown command 'CYLCE' (did you mean CYCLE?)"), "{e}");
 }

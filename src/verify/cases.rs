@@ -179,6 +179,159 @@ pub fn all() -> Vec<Case> {
             run: fdef_pwave,
         },
     ]
+    .into_iter()
+    .chain(fluid_cases())
+    .collect()
+}
+
+/// The names of the fluid cases start with this: fluid runs on the CPU backend only in this
+/// version (the GPU refuses a scene with fluid), so the suite runs them there alone.
+pub const CPU_ONLY_PREFIX: &str = "fluid_";
+
+/// The closed forms of fluid flow (issue 30; SL-85-1 Appendix A ¶6–9), on the pinwheel of four
+/// fixed blocks around a 1 × 1 void ([`FLUID_PINWHEEL`]), whose four joints each run from the void
+/// to the outside, and on a block on a base.
+fn fluid_cases() -> Vec<Case> {
+    vec![
+        Case {
+            name: "fluid_cubic_law",
+            closed_form: "steady flow along a joint between two fixed-pressure domains (the void at 1e5 Pa, the outer domain at 0):                           q = JPERM·a³·Δp/l, a = AZERO, l = 1 m (largest relative error of the 8 contacts' flows); and the mass                           balance (stored − start − inflow − adjusted, over the stored volume)",
+            tolerance: 1e-6,
+            why: "2000 steps are ~2000 time constants of the joint domains, so the steady state is reached to round-off",
+            run: fluid_cubic_law,
+        },
+        Case {
+            name: "fluid_drainage",
+            closed_form: "a closed void (A = 1 m²) draining through its four point contacts into fixed-pressure joint domains:                           p = p0·exp(−t/τ), τ = A_d/(bulkw·Σk_c) = 0.1 s (relative error at t = 2τ); and the mass balance",
+            tolerance: 0.01,
+            why: "the explicit update is (1 − Δt/τ)ⁿ, off exp(−nΔt/τ) by n(Δt/τ)²/2 = 4e-3 at FRAC 0.1 (Δt = 4e-4 s), growing                   as FRAC²",
+            run: fluid_drainage,
+        },
+        Case {
+            name: "fluid_buoyancy",
+            closed_form: "a 1 × 1 m block (ρ = 2000) resting on a base in a fluid of ρw = 1000 under g = 10 weighs                           (ρ − ρw)·g·V = 1e4 N (relative error of the contact force sum)",
+            tolerance: 1e-3,
+            why: "critically damped settling for 0.05 s leaves e^(−ωt) ≈ e^(−50) of the load; the rest is round-off",
+            run: fluid_buoyancy,
+        },
+        Case {
+            name: "fluid_joint_opening",
+            closed_form: "a joint (JKN = 1e10, l = 2 m) under a load of 2e5 Pa with its domain held at p = 1e5 Pa carries the                           effective stress σn′ = 2e5 − p and opens to a = AZERO − σn′/JKN (largest relative error of the contacts'                           normal force sum against (σ − p)·l and of the aperture's closure against σn′/JKN)",
+            tolerance: 2e-3,
+            why: "critically damped loading settles to e^(−ωt) ≈ 1e-4 in the time given; the block's tilt under the two                   contacts' unequal lever arms is below 1e-4",
+            run: fluid_joint_opening,
+        },
+    ]
+}
+
+/// Four fixed blocks around a 1 × 1 hole (1.5, 1.5), each face against the next along 1 m: four
+/// joints from the hole to the outside, at x = 2 (0 < y < 1), y = 2 (2 < x < 3), x = 1 (2 < y < 3)
+/// and y = 1 (0 < x < 1).
+pub const FLUID_PINWHEEL: &str =
+    "BLOCK CONS={c} 0,0 2,0 2,1 0,1\nBLOCK CONS={c} 2,0 3,0 3,2 2,2\nBLOCK CONS={c} 1,2 3,2 3,3 1,3\nBLOCK CONS={c} 0,1 1,1 1,3 0,3\nFIX -1 4 -1 4\n";
+
+/// The fluid state's mass balance error over the stored volume (0 without fluid).
+fn mass_balance(m: &Model) -> f64 {
+    match (m.fluid, m.domains.as_ref()) {
+        (Some(f), Some(d)) => {
+            let stored = crate::udec::model::fluid::stored_volume(d, f.bulk);
+            f.balance_error(stored).abs() / stored.abs().max(f.inflow.abs()).max(1e-300)
+        }
+        _ => 0.0,
+    }
+}
+
+/// The pinwheel with constitutive number `cons`, material 1 as `props` gives it, and the fluid.
+fn fluid_pinwheel(ctx: &Ctx, props: &str, cons: u32, fluid: &str) -> String {
+    format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5 {props}\nROUND 0.05\n{}{}{fluid}\nCYCLE 0\n",
+        FLUID_PINWHEEL.replace("{c}", &cons.to_string()),
+        ctx.frac_line()
+    )
+}
+
+fn fluid_cubic_law(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (k, a, p, l) = (1e5f64, 1e-3f64, 1e5f64, 1.0f64);
+    let setup = fluid_pinwheel(ctx, &format!("JKN=1E10 JKS=1E10 JPERM={k:e} AZERO={a:e} CPERM=1E-9"), 2, "FLUID 1000 1E6");
+    let (m, cost) = ctx.run(&format!("{setup}PFIX AT 1.5 1.5 {p:e}\nPFIX OUTER 0\nCYCLE 2000\n"))?;
+    let expected = k * a * a * a * p / l;
+    let d = m.domains.as_ref().ok_or_else(|| Failure { message: "no domains".into(), cost })?;
+    let flows: Vec<f64> = m.contacts.iter().zip(&d.flows).filter(|(c, _)| c.joint_length > 0.0).map(|(_, f)| f.flow.abs()).filter(|&q| q > 0.0).collect();
+    if flows.len() != 8 {
+        return Err(Failure { message: format!("expected 8 joint contacts carrying flow, found {}", flows.len()), cost });
+    }
+    let worst = flows.iter().map(|q| (q - expected).abs() / expected).fold(0.0, f64::max);
+    let balance = mass_balance(&m);
+    let detail = format!(
+        "q = {:.6e} … {:.6e} vs k·a³·Δp/l = {expected:.6e}; mass balance {balance:.1e}",
+        flows.iter().cloned().fold(f64::INFINITY, f64::min),
+        flows.iter().cloned().fold(0.0, f64::max)
+    );
+    Ok(Measured { error: worst.max(balance), detail, cost, energy_balance: None })
+}
+
+fn fluid_drainage(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (bulk, kc, p0, area) = (1e6f64, 2.5e-6f64, 1e5f64, 1.0f64);
+    let tau = area / (bulk * 4.0 * kc);
+    let setup = fluid_pinwheel(ctx, &format!("CPERM={kc:e}"), 1, &format!("FLUID 1000 {bulk:e}"));
+    let fixes = "PFIX OUTER 0\nPFIX AT 2 0.5 0\nPFIX AT 2.5 2 0\nPFIX AT 1 2.5 0\nPFIX AT 0.5 1 0\n";
+    let start = format!("{setup}{fixes}PFIX AT 1.5 1.5 {p0:e}\nPFREE AT 1.5 1.5\n");
+    let n = ctx.cycles_for(&start, 2.0 * tau)?;
+    let (m, cost) = ctx.run(&format!("{start}CYCLE {n}\n"))?;
+    let d = m.domains.as_ref().ok_or_else(|| Failure { message: "no domains".into(), cost })?;
+    let hole = crate::udec::model::fluid::domain_at(&m, d, [1.5, 1.5]).ok_or_else(|| Failure { message: "no void at (1.5, 1.5)".into(), cost })?;
+    let p = d.list[hole].pressure;
+    let expected = p0 * (-m.time / tau).exp();
+    let balance = mass_balance(&m);
+    let error = (p - expected).abs() / expected;
+    let detail = format!("p = {p:.5e} Pa at t = {:.4} s vs p0·exp(−t/τ) = {expected:.5e} (τ = {tau} s); mass balance {balance:.1e}", m.time);
+    Ok(Measured { error: error.max(balance), detail, cost, energy_balance: None })
+}
+
+fn fluid_buoyancy(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (kn, mass) = (1e9f64, 2000.0f64);
+    let f = (2.0 * kn / mass).sqrt() / (2.0 * PI);
+    let setup = format!(
+        "START\nPROP MAT=1 D=2000 KN={kn:e} KS={kn:e} F=0.5 CPERM=1E-12\nROUND 0.05\nBLOCK 0,-1 0,0 2,0 2,-1\nBLOCK 0.5,0 0.5,1 1.5,1 1.5,0\n\
+         FIX 0 2 -1 -0.1\nGRAV 0 -10\nDAMP 2 {f} MASS\nFLUID 1000 1E9\nPFIX OUTER 0\n{}",
+        ctx.frac_line()
+    );
+    let n = ctx.cycles_for(&setup, 0.05)?;
+    let (m, cost) = ctx.run(&format!("{setup}CYCLE {n}\n"))?;
+    let expected = (2000.0 - 1000.0) * 10.0 * 1.0;
+    let force: f64 = m.contacts.iter().filter(|c| m.counts_force(c)).map(|c| c.normal_force).sum();
+    let error = (force - expected).abs() / expected;
+    Ok(Measured { error, detail: format!("contact force {force:.3} N vs (ρ − ρw)gV = {expected} N"), cost, energy_balance: None })
+}
+
+fn fluid_joint_opening(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (jkn, l, sigma, p, a0) = (1e10f64, 2.0f64, 2e5f64, 1e5f64, 1e-4f64);
+    // Normal ω = √(2·JKN·l_c/m) with m = 800 kg (2 × 0.2 m block): DAMP 2 f MASS at f = ω/2π
+    // damps it critically.
+    let omega = (2.0 * jkn * 0.5 * l / 800.0f64).sqrt();
+    let setup = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 JKN={jkn:e} JKS={jkn:e} F=0.5 JPERM=1 AZERO={a0:e} CPERM=1E-12\nROUND 0.05\n\
+         BLOCK CONS=2 0,-1 0,0 4,0 4,-1\nBLOCK CONS=2 1,0 1,0.2 3,0.2 3,0\nFIX 0 4 -1 -0.1\nDAMP 2 {} MASS\nLOAD 0 4 0 0.2 0 {}\n\
+         FLUID 0 1E9\nCYCLE 0\nPFIX OUTER 0\nPFIX AT 2 0 {p:e}\n{}",
+        omega / (2.0 * PI),
+        -sigma * l,
+        ctx.frac_line()
+    );
+    let n = ctx.cycles_for(&setup, 0.05)?;
+    let (m, cost) = ctx.run(&format!("{setup}CYCLE {n}\n"))?;
+    let top = m.block_index(2).expect("the loaded block") as u32;
+    let joints: Vec<_> = m.contacts.iter().filter(|c| (c.block1 == top || c.block2 == top) && m.counts_force(c) && c.joint_length > 0.0).collect();
+    if joints.len() != 2 {
+        return Err(Failure { message: format!("expected the joint's two contacts, found {}", joints.len()), cost });
+    }
+    let force: f64 = joints.iter().map(|c| c.normal_force).sum();
+    let effective = (sigma - p) * l;
+    let mat = m.material(1);
+    let closure = joints.iter().map(|c| a0 - crate::udec::model::fluid::aperture(c, mat)).sum::<f64>() / 2.0;
+    let expected_closure = (sigma - p) / jkn;
+    let errors = [(force - effective).abs() / effective, (closure - expected_closure).abs() / expected_closure];
+    let detail = format!("Σ Fn = {force:.2} N vs (σ − p)·l = {effective:.0} N; closure {closure:.4e} m vs σn′/JKN = {expected_closure:.4e} m");
+    Ok(Measured { error: errors[0].max(errors[1]), detail, cost, energy_balance: None })
 }
 
 fn impact(ctx: &Ctx) -> Result<Measured, Failure> {

@@ -25,9 +25,12 @@ pub fn gather_sdef(b: usize, block: &mut Block, sdef: &mut Sdef, forces: &[Conta
 
 /// Stage 6 alone, for the whole model: after a topology change, and wherever the block forces
 /// must be current between cycles (energy check, checkpoint, end of a run).
-pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: &Adjacency, team: &mut Team) {
+/// In a scene with fluid, `fluid_loads` are the blocks' loads from the domain pressures and
+/// buoyancy (stage 5), added to a rigid block's sums.
+pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], fluid_loads: &[[f64; 3]], adjacency: &Adjacency, team: &mut Team) {
     let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
+    let fluid_loads = model.fluid.is_some().then_some(fluid_loads);
     debug_assert_eq!(forces.len(), model.contacts.len());
     let Model { blocks, sdef, fdef, corners, contacts, .. } = model;
     let n = blocks.len();
@@ -52,7 +55,10 @@ pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], adjacency: 
             }
             match &mut sdef {
                 Some(sdef) if block.kind == BlockKind::SimplyDeformable => gather_sdef(r.start + j, block, &mut sdef[j], forces, adjacency, gravity),
-                _ => gather(r.start + j, block, forces, adjacency, gravity),
+                _ => {
+                    gather(r.start + j, block, forces, adjacency, gravity);
+                    super::add_fluid_load(block, fluid_loads, r.start + j);
+                }
             }
         }
     });

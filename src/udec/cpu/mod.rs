@@ -13,6 +13,7 @@
 //! progress) is the run driver's (`driver`); this backend supplies its stages.
 
 pub mod contact_forces;
+pub mod flow;
 pub mod gather;
 pub mod geometry_update;
 pub mod law_of_motion;
@@ -64,6 +65,8 @@ struct Scratch {
     /// What the gather reads of each contact, in contact order: written by stage 4, and copied
     /// from the contacts after anything else changes them (`sync_forces`).
     forces: Vec<ContactForce>,
+    /// Stage 5's state (empty in a dry scene).
+    fluid: flow::FluidScratch,
 }
 
 /// Copies the gather's view of every contact after a topology change (stage 7, a crack).
@@ -130,12 +133,17 @@ fn corners_in_block_order(model: &Model) -> bool {
     next == model.corners.len()
 }
 
-/// Runs stage 7 when a block has moved past the update tolerance; returns whether it did.
+/// Runs stage 7 when a block has moved past the update tolerance; returns whether it did. In a
+/// scene with fluid the domains are rebuilt from the new lists (ids, pressures and PFIX kept), as
+/// the CPU's own stage 7 does (`fluid_after_topology`).
 pub(crate) fn maybe_update_topology(model: &mut Model, topology: &mut Topology, report: &mut CycleReport, force: bool) -> bool {
     if !force && !topology_update_due(model) {
         return false;
     }
     update_topology(model, topology, report, force);
+    if model.fluid.is_some() {
+        topology::refresh_domains(model);
+    }
     true
 }
 
@@ -168,7 +176,20 @@ struct BlockInputs<'a> {
     materials: &'a [Material],
     /// The contacts (a fully-deformable block's gather reads their corners and features).
     contacts: &'a [Contact],
+    /// In a scene with fluid, each block's load from the domain pressures and buoyancy, which
+    /// its gather adds (stage 5, `flow`).
+    fluid_loads: Option<&'a [[f64; 3]]>,
     dt: f64,
+}
+
+/// Adds block `b`'s fluid load (stage 5) to the force sums its gather has just made.
+#[inline]
+fn add_fluid_load(block: &mut Block, loads: Option<&[[f64; 3]]>, b: usize) {
+    if let Some(l) = loads.and_then(|l| l.get(b)) {
+        block.force[0] += l[0];
+        block.force[1] += l[1];
+        block.moment += l[2];
+    }
 }
 
 /// Stages 6, 1 and 2 of one rigid block, whose corners are `corners`: it sums its contact forces
@@ -177,6 +198,7 @@ struct BlockInputs<'a> {
 fn rigid_block(b: usize, block: &mut Block, corners: &mut [Corner], inp: &BlockInputs) -> StepOutcome {
     if let Some((forces, adjacency)) = inp.gather {
         gather::gather(b, block, forces, adjacency, inp.gravity);
+        add_fluid_load(block, inp.fluid_loads, b);
     }
     let step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
     geometry_update::geometry_update(block, corners);
@@ -260,7 +282,8 @@ fn block_piece_fdef(
 /// `gathered` says the block forces are current already; on return they are not (stage 4 has
 /// changed the contact forces). The corners must be in block order (`corners_in_block_order`).
 fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, gathered: bool, team: &mut Team) -> Result<(), CycleError> {
-    let Scratch { steps, forces } = scratch;
+    let Scratch { steps, forces, fluid } = scratch;
+    let has_fluid = model.fluid.is_some();
     let dt = model.timestep;
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
     // Stages 6, 1 and 2, block by block: a block's corners are its own contiguous slice and its
@@ -278,6 +301,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             alpha_internal: damping.alpha_internal,
             materials,
             contacts,
+            fluid_loads: has_fluid.then_some(&fluid.loads[..]),
             dt,
         };
         let n = blocks.len();
@@ -326,6 +350,12 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         }
     }
     model.external_work += work;
+    if has_fluid {
+        let w = flow::fluid_work(model, &fluid.loads);
+        if let Some(f) = model.fluid.as_mut() {
+            f.work += w;
+        }
+    }
     model.cycle += 1;
     model.time += dt;
     if !work.is_finite() {
@@ -349,7 +379,31 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
     // Stage 4.
-    contact_stage(model, forces, dt, team)
+    contact_stage(model, forces, dt, team)?;
+    // Stage 5.
+    if has_fluid {
+        flow::flow_stage(model, adjacency, fluid);
+    }
+    Ok(())
+}
+
+/// After a change of topology in a scene with fluid (stage 7: a contact update, a crack): the
+/// domains rebuilt from the new lists (keeping ids, pressures and PFIX), the blocks' loads at
+/// them, and the time step cut where the new domains need a shorter one
+/// (`model::fluid::fluid_timestep`). Nothing in a dry scene.
+fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow::FluidScratch, report: &mut CycleReport) {
+    if model.fluid.is_none() {
+        return;
+    }
+    topology::refresh_domains(model);
+    flow::pressure_loads(model, &topology.lists, &mut fluid.loads);
+    let k_contact = model.contact_stiffness_max();
+    if let Some(dt) = crate::udec::model::fluid::fluid_timestep(model, k_contact) {
+        if dt < model.timestep {
+            model.timestep = dt;
+            report.timestep_changes.push((model.cycle, dt));
+        }
+    }
 }
 
 impl Backend for CpuBackend {
@@ -361,7 +415,13 @@ impl Backend for CpuBackend {
     /// team of threads sized to the model the start's detection leaves.
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let mut report = CycleReport::default();
-        let mut start = CpuStart { topology: &mut self.topology, forces: &mut self.scratch.forces, last_good: &self.last_good, resumable: &mut self.resumable };
+        let mut start = CpuStart {
+            topology: &mut self.topology,
+            forces: &mut self.scratch.forces,
+            fluid: &mut self.scratch.fluid,
+            last_good: &self.last_good,
+            resumable: &mut self.resumable,
+        };
         let resume = driver::prepare(&mut start, model, &mut report)?;
         let mut kept = std::mem::take(&mut self.last_good);
         let mut topology = std::mem::take(&mut self.topology);
@@ -384,6 +444,7 @@ impl Backend for CpuBackend {
 struct CpuStart<'a> {
     topology: &'a mut Topology,
     forces: &'a mut Vec<ContactForce>,
+    fluid: &'a mut flow::FluidScratch,
     last_good: &'a Model,
     resumable: &'a mut bool,
 }
@@ -406,6 +467,12 @@ impl driver::Start<Model> for CpuStart<'_> {
             update_topology(model, self.topology, report, true);
         }
         sync_forces(model, self.forces);
+        // With fluid: the domains of the lists just detected, their loads, and the time step the
+        // fluid allows. A run that goes on from the last keeps the domains, loads and time step
+        // that run left, so that CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
+        if !resume {
+            fluid_after_topology(model, self.topology, self.fluid, report);
+        }
         Ok(())
     }
 }
@@ -426,7 +493,7 @@ struct CpuStages<'a, 't> {
 impl CpuStages<'_, '_> {
     fn gather(&mut self, model: &mut Model) {
         if !self.gathered {
-            gather_all(model, &self.scratch.forces, &self.topology.lists, self.team);
+            gather_all(model, &self.scratch.forces, &self.scratch.fluid.loads, &self.topology.lists, self.team);
             self.gathered = true;
         }
     }
@@ -435,7 +502,7 @@ impl CpuStages<'_, '_> {
 impl driver::Stages<Model> for CpuStages<'_, '_> {
     /// The force sums the first step needs.
     fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
-        gather_all(model, &self.scratch.forces, &self.topology.lists, self.team);
+        gather_all(model, &self.scratch.forces, &self.scratch.fluid.loads, &self.topology.lists, self.team);
         self.gathered = true;
         Ok(())
     }
@@ -451,6 +518,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
                     assert!(corners_in_block_order(model), "corners are stored in block order");
                     *self.topology = Topology::build(model.blocks.len(), &model.contacts);
                     sync_forces(model, &mut self.scratch.forces);
+                    fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report);
                     self.gathered = false;
                     if let Some(dt) = model.critical_timestep() {
                         if dt < model.timestep {
@@ -466,6 +534,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
                 self.gather(model);
                 update_topology(model, self.topology, report, false);
                 sync_forces(model, &mut self.scratch.forces);
+                fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report);
                 self.gathered = false;
             }
         }
@@ -476,7 +545,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
         self.gather(model);
         let _p = crate::profile::scope(crate::profile::Stage::Checks);
         let e = model.energies();
-        Ok((e.kinetic + e.strain, e.external_work))
+        Ok((e.kinetic + e.strain, e.external_work + e.fluid_work))
     }
 
     fn keep(&mut self, model: &Model, last_good: &mut Model) {

@@ -76,11 +76,13 @@ pub enum Mesh {
     Manual { grid_points: Vec<[f64; 2]>, zones: Vec<[u32; 3]> },
 }
 
-/// A domain named by PFIX/PFREE: the outer domain, or a domain by its number.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A domain named by PFIX/PFREE: the outer domain, a domain by its number (its id, as PRINT
+/// DOMAINS shows it), or the domain at a point (AT x y).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum DomainRef {
     Outer,
     Number(u32),
+    At([f64; 2]),
 }
 
 /// PROPERTY keywords (Appendix A table).
@@ -131,6 +133,8 @@ pub struct PlotOptions {
     pub no_rounding: bool,
     /// VEL: velocity vectors at block centroids.
     pub velocities: bool,
+    /// PRESSURE (an extension): the domains filled by their pore pressure.
+    pub pressure: bool,
 }
 
 // One line a command (rustfmt would spread every variant over lines once one has a field comment).

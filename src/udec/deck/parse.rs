@@ -38,7 +38,7 @@
 //! | CHANGE | SDEF `S`, FDEF `F`, MATERIAL `M`, CONSTITUTIVE `CO` |
 //! | DAMPING | MASS `M`, STIFFNESS `S`, INTERNAL `I` |
 //! | GENERATE | AUTOMATIC `A`, MANUAL `M`, GRIDPOINTS `GR`, ZONES `Z` |
-//! | PFIX, PFREE | OUTER `O` |
+//! | PFIX, PFREE | OUTER `O`, AT `AT` (then x y) |
 //! | PLOT | NOFIX `N`, ZONES `Z`, NC, VELOCITY `V` |
 //! | PRINT | BLOCKS `B`, CONTACTS `C`, CORNERS `COR`, DOMAINS `D`, LIST `L`, DLIST `DL`, FLOWS `F`, ENERGY `E` |
 //!
@@ -181,6 +181,8 @@ const GEN_KEYS: &[Name<GenKey>] =
     &[name("AUTOMATIC", "A", GenKey::Auto), name("MANUAL", "M", GenKey::Manual), name("GRIDPOINTS", "GR", GenKey::Grid), name("ZONES", "Z", GenKey::Zones)];
 
 const OUTER: &[Name<()>] = &[name("OUTER", "O", ())];
+/// PFIX/PFREE AT x y: the domain at a point.
+const AT: &[Name<()>] = &[name("AT", "AT", ())];
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum PlotKey {
@@ -188,10 +190,16 @@ enum PlotKey {
     Zones,
     Nc,
     Vel,
+    Pressure,
 }
 
-const PLOT_KEYS: &[Name<PlotKey>] =
-    &[name("NOFIX", "N", PlotKey::NoFix), name("ZONES", "Z", PlotKey::Zones), name("NC", "NC", PlotKey::Nc), name("VELOCITY", "V", PlotKey::Vel)];
+const PLOT_KEYS: &[Name<PlotKey>] = &[
+    name("NOFIX", "N", PlotKey::NoFix),
+    name("ZONES", "Z", PlotKey::Zones),
+    name("NC", "NC", PlotKey::Nc),
+    name("VELOCITY", "V", PlotKey::Vel),
+    name("PRESSURE", "P", PlotKey::Pressure),
+];
 
 const PRINT_KEYS: &[Name<PrintItem>] = &[
     name("BLOCKS", "B", PrintItem::Blocks),
@@ -294,8 +302,8 @@ fn usage(w: Word) -> &'static str {
         Word::Gravity => "GRAVITY gx gy",
         Word::Link => "LINK x1 y1 x2 y2",
         Word::Load => "LOAD x1 x2 y1 y2 fx fy",
-        Word::PFix => "PFIX (n | OUTER) p",
-        Word::PFree => "PFREE (n | OUTER)",
+        Word::PFix => "PFIX (n | OUTER | AT x y) p",
+        Word::PFree => "PFREE (n | OUTER | AT x y)",
         Word::Plot => "PLOT [NOFIX] [ZONES] [NC] [VEL]",
         Word::Print => "PRINT BLOCKS|CONTACTS|CORNERS|DOMAINS|LIST|DLIST|FLOWS|ENERGY ...",
         Word::Property => "PROPERTY MATERIAL n keyword value ...",
@@ -568,15 +576,20 @@ impl<'a> Args<'a> {
         toks.iter().zip(slots).map(|(t, s)| self.real_of(t, s)).collect()
     }
 
-    /// A domain reference: a domain number or OUTER.
+    /// A domain reference: a domain number, OUTER, or AT x y.
     fn domain(&mut self) -> Result<DomainRef> {
-        let what = "the domain (a domain number or OUTER)";
+        let what = "the domain (a domain number, OUTER, or AT x y)";
         let t = self.next().ok_or_else(|| self.missing(what))?;
         if t.is_numeric() {
             let v = self.int_of(t, "the domain number")?;
             return u32::try_from(v)
                 .map(DomainRef::Number)
                 .map_err(|_| self.at(t, format!("the domain number must be a non-negative integer, found '{}'", t.shown())));
+        }
+        if lookup(&t.text, AT).is_some() {
+            let (x, _) = self.real("x of the point AT x y")?;
+            let (y, _) = self.real("y of the point AT x y")?;
+            return Ok(DomainRef::At([x, y]));
         }
         match lookup(&t.text, OUTER) {
             Some(()) => Ok(DomainRef::Outer),
@@ -846,6 +859,7 @@ fn parse_command(a: &mut Args) -> Result<Command> {
                     Some(PlotKey::Zones) => options.zones = true,
                     Some(PlotKey::Nc) => options.no_rounding = true,
                     Some(PlotKey::Vel) => options.velocities = true,
+                    Some(PlotKey::Pressure) => options.pressure = true,
                     None => return Err(a.at(t, format!("unknown PLOT keyword '{}'; PLOT takes {}", t.shown(), names(PLOT_KEYS)))),
                 }
             }

@@ -146,6 +146,7 @@ impl Executor<'_> {
         self.check_masses_and_stiffnesses(cmd)?;
         self.check_cracking(cmd)?;
         self.check_fdef(cmd)?;
+        self.check_fluid(cmd)?;
         let dt = self.critical_timestep(cmd)?;
         self.check_overflows(cmd)?;
         Ok(dt)
@@ -234,8 +235,14 @@ impl Executor<'_> {
     // `!(x > 0.0)` on purpose: a NaN time step fails the check too.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn critical_timestep(&self, cmd: &Located) -> Result<f64, RunError> {
-        let dt =
+        let mut dt =
             self.model.critical_timestep().ok_or_else(|| self.command_error(cmd, "CYCLE: cannot compute a time step (no block mass or contact stiffness)"))?;
+        // With fluid the run cuts the step to the fluid's limits after its detection and every
+        // contact update (`model::fluid::fluid_timestep`); a later CYCLE keeps that cut, so that
+        // the step only falls and CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
+        if self.model.fluid.is_some() && self.model.timestep > 0.0 {
+            dt = dt.min(self.model.timestep);
+        }
         if !(dt > 0.0 && dt.is_finite()) {
             // m_min/k_max under- or overflowed f64: no explicit run can follow such a model.
             let m_min = self.model.blocks.iter().map(|b| b.mass).fold(f64::INFINITY, f64::min);
@@ -384,7 +391,18 @@ impl Executor<'_> {
             ));
         }
         for (cycle, dt) in &report.timestep_changes {
-            self.echo(&format!("TIMESTEP REDUCED TO {} AT CYCLE {cycle} (A LIGHTER BLOCK WAS CREATED)", output::format::fmt_e(*dt)));
+            let why = if self.model.fluid.is_some() { "A LIGHTER BLOCK WAS CREATED, OR THE FLUID'S LIMIT FELL" } else { "A LIGHTER BLOCK WAS CREATED" };
+            self.echo(&format!("TIMESTEP REDUCED TO {} AT CYCLE {cycle} ({why})", output::format::fmt_e(*dt)));
+        }
+        // The fluid's mass balance, every run: the volume the free domains store against what
+        // flowed in and what rebuilds and PFIX changed (`model::fluid::Fluid`); it holds to
+        // round-off, so a miss is a fault worth saying.
+        if let Some((stored, error)) = self.fluid_balance() {
+            let inflow = self.model.fluid.map_or(0.0, |f| f.inflow);
+            if error.abs() > FLUID_BALANCE_TOLERANCE * stored.abs().max(inflow.abs()) {
+                let f = output::format::fmt_e;
+                self.echo(&format!("WARNING: THE FLUID'S MASS BALANCE IS OFF BY {} (STORED {}, INFLOW {})", f(error), f(stored), f(inflow)));
+            }
         }
     }
 
@@ -581,6 +599,10 @@ impl Executor<'_> {
 /// shared corners) is ~1e-16 of the coordinates, far below it; the overlap it allows (1e-4 m at
 /// ROUND 0.1) stores ½kn·δ² = 5 J/m at kn = 1e9, a launch speed of cm/s.
 pub const INITIAL_OVERLAP_TOLERANCE: f64 = 1e-3;
+
+/// The fluid's mass balance may miss by this fraction of the volume stored or flowed in (it is
+/// exact but for round-off) before a CYCLE says so.
+pub const FLUID_BALANCE_TOLERANCE: f64 = 1e-9;
 
 /// The energy ledger (`Energies::ledger`, PRINT ENERGY's BALANCE) may move by this fraction of
 /// the energy in play (the largest of kinetic + strain energy, the work put in, and the energy

@@ -10,6 +10,7 @@
 //! - `materials`: PROPERTY, DAMPING, and the checks of material and constitutive numbers;
 //! - `loads`: LOAD, FIX, FREE, VELOCITY, LINK (and GRAVITY, set in the dispatch);
 //! - `output`: PRINT, PLOT, DUMP, VTK, SAVE, RESTART (and WINDOW, VIEW, set in the dispatch);
+//! - `fluid`: FLUID, PFIX, PFREE and the checks of a scene with fluid;
 //! - `cycling`: CYCLE (the checks before it, blocks built overlapping, the run through the
 //!   backend in pieces, progress, running restart files and VTK frames, what a failure means, the
 //!   energy-balance warning), and FRACTION and SET OVERLAP, set in the dispatch.
@@ -17,6 +18,7 @@
 mod blocks;
 mod cycling;
 mod fdef;
+mod fluid;
 mod loads;
 mod materials;
 mod output;
@@ -27,7 +29,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use crate::udec::backend::{Backend, CycleError};
-use crate::udec::deck::{Command, DeckError, Located, PrintItem, Range};
+use crate::udec::deck::{Command, DeckError, Located, Range};
 use crate::udec::model::constitutive::Constitutive;
 use crate::udec::model::limits::{Limits, LIMITS_CPU_F64};
 use crate::udec::model::Model;
@@ -123,15 +125,18 @@ pub enum Progress {
 /// The executor stops at such a command, and before the first CYCLE it looks ahead for one, so
 /// that a deck of long CYCLEs followed by FLUID fails before it cycles, not after (issue 27
 /// item 6).
-fn not_supported_yet(command: &Command) -> Option<&'static str> {
+/// Every command of UDEC 1.2 runs now (fluid came with issue 30); the look-ahead stays for
+/// what a later version adds, and for what a scene with fluid cannot do yet
+/// ([`fluid_not_supported_yet`]).
+fn not_supported_yet(_command: &Command) -> Option<&'static str> {
+    None
+}
+
+/// What of `command` a scene with fluid cannot do yet: SAVE (the save file does not keep the
+/// fluid and the domain pressures yet, and a RESTART would lose them without a word).
+fn fluid_not_supported_yet(command: &Command) -> Option<&'static str> {
     match command {
-        Command::Fluid { .. } => Some("FLUID (fluid flow in joints and domains)"),
-        Command::PFix { .. } => Some("PFIX (domain pressures)"),
-        Command::PFree { .. } => Some("PFREE (domain pressures)"),
-        Command::Print { items } => items.iter().find_map(|item| match item {
-            PrintItem::Flows => Some("PRINT FLOWS (fluid flow)"),
-            _ => None,
-        }),
+        Command::Save { .. } => Some("SAVE of a scene with fluid (the save file does not keep the fluid and the domain pressures yet)"),
         _ => None,
     }
 }
@@ -226,8 +231,11 @@ impl<'a> Executor<'a> {
     pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
         let result = self.run_commands(commands);
         // The state a caller reads (the state JSON) has its domains right, also when a command
-        // failed and the model went back to its last good state.
-        self.refresh_domains_if_kept();
+        // failed and the model went back to its last good state. With fluid, stage 7 keeps them
+        // (and the last good state holds the ones it kept).
+        if self.model.fluid.is_none() {
+            self.refresh_domains_if_kept();
+        }
         // Also on an error, before the caller reports it.
         let _ = self.log.flush();
         result
@@ -245,7 +253,12 @@ impl<'a> Executor<'a> {
             }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
-            if changes_topology(&cmd.command) {
+            // With fluid a CYCLE's stage 7 rebuilds the domains itself at each contact update:
+            // one more rebuild here, on the geometry the run ended with, could trace them
+            // otherwise (a contact's feature moved on) and a CYCLE after it would not go on
+            // from the run's state bit for bit.
+            let kept_by_the_run = self.model.fluid.is_some() && matches!(cmd.command, Command::Cycle { .. });
+            if changes_topology(&cmd.command) && !kept_by_the_run {
                 self.refresh_domains_if_kept();
             }
             self.executed += 1;
@@ -265,7 +278,13 @@ impl<'a> Executor<'a> {
     /// the run now, not after hours of cycling (the parser has read the whole deck, so typing
     /// errors are already reported).
     fn look_ahead(&mut self, rest: &[Located]) -> Result<(), RunError> {
-        if let Some((later, what)) = rest.iter().find_map(|c| not_supported_yet(&c.command).map(|w| (c, w))) {
+        // A scene has fluid from its FLUID command on.
+        let mut fluid = self.model.fluid.is_some();
+        let later_unsupported = rest.iter().find_map(|c| {
+            fluid |= matches!(c.command, Command::Fluid { .. });
+            not_supported_yet(&c.command).or_else(|| if fluid { fluid_not_supported_yet(&c.command) } else { None }).map(|w| (c, w))
+        });
+        if let Some((later, what)) = later_unsupported {
             self.echo(&format!("THE DECK CANNOT RUN TO ITS END: LINE {} ({}) IS NOT SUPPORTED YET; NOTHING IS CYCLED", later.line, later.source.trim()));
             return Err(self.unsupported(later, what));
         }
@@ -341,8 +360,9 @@ impl<'a> Executor<'a> {
             Command::Fix { range } => self.fix(range),
             Command::Free { range } => self.free(range),
             Command::Fraction { f } => self.model.frac = *f,
-            // Stopped above (`not_supported_yet`).
-            Command::Fluid { .. } | Command::PFix { .. } | Command::PFree { .. } => {}
+            Command::Fluid { density, bulk } => self.fluid(*density, *bulk),
+            Command::PFix { domain, pressure } => self.pfix(cmd, *domain, *pressure)?,
+            Command::PFree { domain } => self.pfree(cmd, *domain)?,
             Command::Generate { range, mesh } => self.generate(cmd, range, mesh)?,
             Command::Gravity { g } => self.model.gravity = *g,
             Command::Link { flying, anchor } => self.link(cmd, *flying, *anchor)?,

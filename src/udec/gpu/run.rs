@@ -311,6 +311,13 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
     /// kernel precision cannot hold (`representable`).
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        if model.fluid.is_some() {
+            // The fluid's kernels are not written yet (issue 30 item 7): `--backend auto` goes on
+            // on the CPU, `--backend gpu` says so.
+            return Err(CycleError::DoesNotFit(
+                "fluid flow (FLUID, PFIX) runs on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
+            ));
+        }
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
         let sdef_blocks = if model.has_sdef() { model.blocks.len() } else { 0 };

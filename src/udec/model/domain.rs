@@ -24,6 +24,22 @@ pub const MIN_AREA_FRACTION: f64 = 1.0e-3;
 /// its force, whose touch the other view already stands for.
 pub const NO_DOMAIN: u32 = u32::MAX;
 
+/// Bit 1 of [`Domains::link_sides`]: the link opens a closed loop of the domain's boundary (its
+/// own circuit, or that of a group of blocks floating in it).
+pub const LOOP_START: u8 = 2;
+
+/// The fluid's view of one contact in the last cycle (Appendix A ¶6, PRINT FLOWS).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactFlow {
+    /// Flow from the contact's first domain (`Domains::sides[k][0]`) to its second, volume per
+    /// unit time per unit thickness.
+    pub flow: f64,
+    /// The hydraulic aperture a = max(a_res, a_0 − σn′/k_n,j) of a joint; 0 for a point contact.
+    pub aperture: f64,
+    /// The length of joint the flow runs along (the contact's share l_c); 0 for a point contact.
+    pub length: f64,
+}
+
 /// What a domain is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum DomainKind {
@@ -96,6 +112,10 @@ pub struct Domains {
     /// Ordered by id.
     pub list: Vec<Domain>,
     pub links: Vec<DomainLink>,
+    /// Beside each of `links`: for a contact, the side whose dart starts the piece of block
+    /// boundary that follows it (bit 0: 0 block 1, 1 block 2); [`LOOP_START`] on the first link of
+    /// each closed loop.
+    pub link_sides: Vec<u8>,
     /// For each contact (indexed like `Model::contacts` when built) the indices in `list` of the
     /// domains on its two sides: first the side the circuit leaves along block 1, then along
     /// block 2 (both the same for a contact with one void around it). A flow across the contact
@@ -108,6 +128,8 @@ pub struct Domains {
     pub given_min_area: Option<f64>,
     /// The id the next new domain gets.
     pub next_id: u32,
+    /// With fluid, each contact's flow in the last cycle (indexed like `sides`); empty without.
+    pub flows: Vec<ContactFlow>,
 }
 
 impl Domains {

@@ -15,6 +15,7 @@ pub mod constitutive;
 pub mod corners;
 pub mod domain;
 pub mod fdef;
+pub mod fluid;
 pub mod geometry;
 pub mod limits;
 pub mod sdef;
@@ -557,6 +558,11 @@ pub struct Model {
     /// model (save format 5).
     #[serde(skip)]
     pub fdef: Vec<fdef::Fdef>,
+    /// The fluid (FLUID rhow bulkw, `fluid::Fluid`) and its accounts: `None` in a dry scene,
+    /// which then builds no domains for it and runs no stage of it. SAVE files keep it after the
+    /// model (`output::restart`).
+    #[serde(skip)]
+    pub fluid: Option<fluid::Fluid>,
 }
 
 /// Field by field, so that `clone_from` reuses the target's vectors: the backends keep a copy of
@@ -586,7 +592,7 @@ impl Clone for Model {
 /// exhaustively with it, so that a new field is a compile error until it is named here.
 macro_rules! with_settings {
     ($apply:ident!($($args:tt)*)) => {
-        $apply!($($args)*; materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired, sdef, fdef)
+        $apply!($($args)*; materials, links, gravity, damping, frac, tol, timestep, cycle, time, next_block_id, next_contact_id, external_work, retired, sdef, fdef, fluid)
     };
 }
 
@@ -692,6 +698,7 @@ impl Default for Model {
             sdef: Vec::new(),
             domains: None,
             fdef: Vec::new(),
+            fluid: None,
         }
     }
 }

@@ -32,6 +32,10 @@ pub struct Energies {
     /// Strain and kinetic energy that left the model with deleted contacts and blocks (a contact
     /// dropped while still loaded, DELETE of a moving block).
     pub released: f64,
+    /// Work the fluid did on the blocks (domain pressures and buoyancy, `model::fluid`) since
+    /// FLUID: energy put in, as the external work is; 0 in a dry scene.
+    #[serde(default)]
+    pub fluid_work: f64,
 }
 
 impl Energies {
@@ -43,12 +47,12 @@ impl Energies {
     /// E_kin + E_strain + dissipated + released − W_external: constant (= E₀) in an exact
     /// bookkeeping. Its drift against its START value is the balance error.
     pub fn ledger(&self) -> f64 {
-        self.kinetic + self.strain + self.dissipated() + self.released - self.external_work
+        self.kinetic + self.strain + self.dissipated() + self.released - self.external_work - self.fluid_work
     }
 
     /// The largest term of the ledger, the scale a balance error is measured against.
     pub fn scale(&self) -> f64 {
-        [self.kinetic, self.strain, self.external_work, self.mass_damping, self.contact_damping, self.friction, self.released]
+        [self.kinetic, self.strain, self.external_work, self.mass_damping, self.contact_damping, self.friction, self.released, self.fluid_work]
             .iter()
             .fold(0.0f64, |a, b| a.max(b.abs()))
     }
@@ -82,7 +86,7 @@ impl Model {
 
     /// The energy terms of the blocks and contacts that exist now (no retired terms).
     fn live_energies(&self) -> Energies {
-        let mut e = Energies { external_work: self.external_work, ..Energies::default() };
+        let mut e = Energies { external_work: self.external_work, fluid_work: self.fluid.map_or(0.0, |f| f.work), ..Energies::default() };
         for (k, b) in self.blocks.iter().enumerate() {
             // A zoned block's motion is its grid points' (below).
             let zoned = self.fdef.get(k).is_some_and(|f| !f.zones.is_empty() && b.kind == super::BlockKind::FullyDeformable);
@@ -188,6 +192,13 @@ impl Model {
             _ => b.mass,
         };
         let m_min = self.blocks.iter().enumerate().map(mass).filter(|&m| m > 0.0).fold(f64::INFINITY, f64::min);
+        let k_max = self.contact_stiffness_max();
+        (m_min.is_finite() && k_max > 0.0).then(|| self.frac * 2.0 * (m_min / k_max).sqrt())
+    }
+
+    /// The stiffest contact spring of the materials in use, k_max of UDEC's 2√(m_min/k_max)
+    /// (joints' JKN·l_c and JKS·l_c included).
+    pub fn contact_stiffness_max(&self) -> f64 {
         let mut k_max: f64 = 0.0;
         let mut consider = |m: u32| {
             let mat = self.material(m);
@@ -209,7 +220,7 @@ impl Model {
         // number gives joints, halved (a joint's share); nothing changes for a model without
         // joint stiffnesses.
         k_max = k_max.max(self.joint_stiffness_bound());
-        (m_min.is_finite() && k_max > 0.0).then(|| self.frac * 2.0 * (m_min / k_max).sqrt())
+        k_max
     }
 
     /// The largest stiffness a joint of this model may have (¶5: JKN·l_c, JKS·l_c): over the

@@ -251,6 +251,8 @@ enum ShapeKind {
     Block(u32),
     /// A zone of a fully-deformable block (the block's id).
     Zone(u32),
+    /// A domain filled by its pressure (PLOT PRESSURE; the domain's id).
+    Domain(u32),
     Centroid,
     Velocity,
     Axis,
@@ -392,6 +394,27 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions, ti
             }
         }
     }
+    // PLOT PRESSURE: each domain's void (its first loop, with the current positions) filled by
+    // its pore pressure against the largest shown (white 0, red the largest, blue suction),
+    // under the outlines.
+    let mut pressure_scale = None;
+    if let (true, Some(domains)) = (options.pressure, model.domains.as_ref()) {
+        use crate::udec::model::domain::DomainKind;
+        let voids: Vec<(u32, f64, Vec<[f64; 2]>)> = (0..domains.list.len())
+            .filter(|&d| domains.list[d].kind != DomainKind::Outer)
+            .filter_map(|d| {
+                let first = crate::udec::model::fluid::domain_loops(model, domains, d).into_iter().next()?;
+                let points: Vec<[f64; 2]> = first.into_iter().map(|(p, _)| vp.to_px(p)).collect();
+                (points.len() >= 3 && vp.shows(bounding_box(&points))).then(|| (domains.list[d].id, domains.list[d].pressure, points))
+            })
+            .collect();
+        let largest = voids.iter().map(|v| v.1.abs()).filter(|x| x.is_finite()).fold(0.0f64, f64::max);
+        for (id, p, points) in voids {
+            let fill = stress_colour(if largest > 0.0 { p / largest } else { 0.0 });
+            shapes.push(Shape { kind: ShapeKind::Domain(id), points, closed: true, fill: Some(fill), stroke: fill });
+        }
+        pressure_scale = Some(largest);
+    }
     // Outlines first so that crosses and arrows are drawn over the grey of fixed blocks.
     for &b in shown.iter().filter(|&&b| block_shows(b)) {
         let blk = &model.blocks[b];
@@ -420,6 +443,10 @@ fn build_scene(model: &Model, settings: &PlotSettings, options: &PlotOptions, ti
         colour: BLACK,
     }];
     axes(&vp, &mut shapes, &mut labels);
+    if let Some(largest) = pressure_scale {
+        let text = format!("PORE PRESSURE: WHITE 0, RED {} Pa", fmt_e(largest));
+        labels.push(Label { at: [l + 6.0, t + 6.0 + CAPTION_PX + 3.0 * LABEL_PX], text, size: LABEL_PX, anchor: Anchor::Start, colour: BLACK });
+    }
     if options.velocities {
         // Arrows scaled so the fastest block's arrow is 5% of the window width; none for a
         // block at rest to round-off.
@@ -664,6 +691,7 @@ fn render_svg(scene: &Scene, s: &mut impl io::Write) -> io::Result<()> {
         let class = match shape.kind {
             ShapeKind::Block(id) => format!(r#"class="block" data-id="{id}""#),
             ShapeKind::Zone(id) => format!(r#"class="zone" data-block="{id}""#),
+            ShapeKind::Domain(id) => format!(r#"class="domain" data-domain="{id}""#),
             ShapeKind::Centroid => r#"class="centroid""#.to_string(),
             ShapeKind::Velocity => r#"class="velocity""#.to_string(),
             ShapeKind::Axis => r#"class="axis""#.to_string(),

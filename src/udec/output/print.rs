@@ -497,14 +497,47 @@ pub fn print_domain_lists(model: &Model, out: &mut dyn Write) -> io::Result<()> 
     Ok(())
 }
 
-/// Prints one PRINT keyword's table. Flows are not modelled yet: their table prints its title
-/// and `(NONE IN THIS MODEL)`, as the domain tables do in a model whose domains were never built.
-pub fn print_item(model: &Model, item: PrintItem, out: &mut dyn Write) -> io::Result<()> {
-    let none = |out: &mut dyn Write, title: &str| -> io::Result<()> {
+const FLOW_GROUPS: [Group; 7] = [
+    single("CONTACT", 8),
+    numbers("X,Y COORDS.", &["X", "Y"]),
+    numbers("FLOW", &[""]),
+    numbers("LENGTH", &[""]),
+    numbers("APERTURE", &[""]),
+    single("DOM1", 8),
+    single("DOM2", 8),
+];
+
+/// PRINT FLOWS (Appendix A ¶8): for each contact that separates two domains, its point, the flow
+/// from its first domain (DOM1) to its second (DOM2) in the last cycle (volume per unit time per
+/// unit thickness), and for a joint its length (the contact's share l_c, the l of the flow law)
+/// and aperture; `(NONE IN THIS MODEL)` in a scene without fluid.
+pub fn print_flows(model: &Model, out: &mut dyn Write) -> io::Result<()> {
+    let title = "FLOW ACROSS CONTACTS OR JOINTS";
+    let Some(domains) = model.domains.as_ref().filter(|d| model.fluid.is_some() && !d.flows.is_empty()) else {
         writeln!(out)?;
         writeln!(out, "{title}")?;
-        writeln!(out, "   (NONE IN THIS MODEL)")
+        return writeln!(out, "   (NONE IN THIS MODEL)");
     };
+    write_headings(out, title, &FLOW_GROUPS)?;
+    let mut line = String::new();
+    for (k, c) in model.contacts.iter().enumerate() {
+        let (Some(&[d0, d1]), Some(f)) = (domains.sides.get(k), domains.flows.get(k)) else { continue };
+        if d0 == crate::udec::model::domain::NO_DOMAIN {
+            continue;
+        }
+        line.clear();
+        let _ = write!(line, "{:>8}", c.id);
+        for x in [c.point[0], c.point[1], f.flow, f.length, f.aperture] {
+            push_col_e(&mut line, x);
+        }
+        let _ = write!(line, "{:>8}{:>8}", domains.list[d0 as usize].id, domains.list[d1 as usize].id);
+        writeln!(out, "{line}")?;
+    }
+    Ok(())
+}
+
+/// Prints one PRINT keyword's table.
+pub fn print_item(model: &Model, item: PrintItem, out: &mut dyn Write) -> io::Result<()> {
     match item {
         PrintItem::Blocks => print_blocks(model, out),
         PrintItem::Contacts => print_contacts(model, out),
@@ -513,6 +546,6 @@ pub fn print_item(model: &Model, item: PrintItem, out: &mut dyn Write) -> io::Re
         PrintItem::Energy => print_energy(model, out),
         PrintItem::Domains => print_domains(model, out),
         PrintItem::DList => print_domain_lists(model, out),
-        PrintItem::Flows => none(out, "FLOW ACROSS CONTACTS OR JOINTS"),
+        PrintItem::Flows => print_flows(model, out),
     }
 }

@@ -183,6 +183,9 @@ fn contact_json(model: &Model, c: &Contact) -> ContactJson {
 struct EnergyJson {
     contact_damping: Num,
     external_work: Num,
+    /// The fluid's work on the blocks, in a scene with fluid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fluid_work: Option<Num>,
     friction: Num,
     kinetic: Num,
     ledger: Num,
@@ -201,6 +204,7 @@ fn energy_view(e: &Energies) -> EnergyJson {
         mass_damping: Num(e.mass_damping),
         released: Num(e.released),
         strain: Num(e.strain),
+        fluid_work: (e.fluid_work != 0.0).then_some(Num(e.fluid_work)),
     }
 }
 
@@ -255,6 +259,62 @@ fn domains_json(domains: &Domains) -> Vec<DomainJson> {
         .collect()
 }
 
+/// One contact's flow in the last cycle (issue 30: `contact`, `domains`, `flow`, `length`,
+/// `aperture`): flow positive from `domains[0]` to `domains[1]`, in volume per unit time per
+/// unit thickness; length (the contact's share of joint, l_c) and aperture 0 for a point contact.
+#[derive(serde::Serialize)]
+struct FlowJson {
+    aperture: Num,
+    contact: u32,
+    domains: [u32; 2],
+    flow: Num,
+    length: Num,
+}
+
+fn flows_json(model: &Model, domains: &Domains) -> Vec<FlowJson> {
+    model
+        .contacts
+        .iter()
+        .zip(domains.sides.iter().zip(&domains.flows))
+        .filter(|(_, (s, _))| s[0] != crate::udec::model::domain::NO_DOMAIN)
+        .map(|(c, (s, f))| FlowJson {
+            aperture: Num(f.aperture),
+            contact: c.id,
+            domains: [domains.list[s[0] as usize].id, domains.list[s[1] as usize].id],
+            flow: Num(f.flow),
+            length: Num(f.length),
+        })
+        .collect()
+}
+
+/// The fluid (FLUID) and its mass balance, in a scene with fluid.
+#[derive(serde::Serialize)]
+struct FluidJson {
+    /// Stored − (stored at FLUID + inflow + adjusted): the mass balance's error, in volume.
+    balance_error: Num,
+    bulk: Num,
+    density: Num,
+    /// Volume that flowed into the free domains from fixed-pressure and outer domains.
+    inflow: Num,
+    /// The fluid volume the free domains hold now, Σ A_d(1 + p_d/bulkw).
+    stored: Num,
+    /// The fluid's work on the blocks.
+    work: Num,
+}
+
+fn fluid_json(model: &Model) -> Option<FluidJson> {
+    let (f, d) = (model.fluid?, model.domains.as_ref()?);
+    let stored = crate::udec::model::fluid::stored_volume(d, f.bulk);
+    Some(FluidJson {
+        balance_error: Num(f.balance_error(stored)),
+        bulk: Num(f.bulk),
+        density: Num(f.density),
+        inflow: Num(f.inflow),
+        stored: Num(stored),
+        work: Num(f.work),
+    })
+}
+
 /// The members after the two lists (alphabetical, as the lists are).
 #[derive(serde::Serialize)]
 struct Scalars {
@@ -264,6 +324,11 @@ struct Scalars {
     #[serde(skip_serializing_if = "Option::is_none")]
     domains: Option<Vec<DomainJson>>,
     energy: EnergyJson,
+    /// Each contact's flow, in a scene with fluid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    flows: Option<Vec<FlowJson>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    fluid: Option<FluidJson>,
     gravity: [Num; 2],
     /// What made the run (`blockdem run` writes it; a state taken in a test has none).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -278,6 +343,8 @@ fn scalars(model: &Model, provenance: Option<&Provenance>) -> Scalars {
         dim: 2,
         domains: model.domains.as_ref().map(domains_json),
         energy: energy_view(&model.energies()),
+        flows: model.domains.as_ref().filter(|_| model.fluid.is_some()).map(|d| flows_json(model, d)),
+        fluid: fluid_json(model),
         gravity: pair(model.gravity),
         provenance: provenance.cloned(),
         time: Num(model.time),

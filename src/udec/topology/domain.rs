@@ -27,7 +27,7 @@
 
 use std::collections::HashMap;
 
-use crate::udec::model::domain::{Domain, DomainKind, DomainLink, Domains, MIN_AREA_FRACTION, NO_DOMAIN};
+use crate::udec::model::domain::{Domain, DomainKind, DomainLink, Domains, LOOP_START, MIN_AREA_FRACTION, NO_DOMAIN};
 use crate::udec::model::geometry::{cross, distance, dot, point_in_polygon, signed_area, sub};
 use crate::udec::model::{Contact, Model};
 
@@ -388,27 +388,46 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
     let min_area = given_min_area.unwrap_or(MIN_AREA_FRACTION * average_block_area);
     let mut list: Vec<Domain> = Vec::with_capacity(voids.len() + 1);
     let mut links: Vec<DomainLink> = Vec::new();
+    let mut link_sides: Vec<u8> = Vec::new();
     let mut domain_of_circuit = vec![0u32; circuits.len()];
     let mut blocks_seen: Vec<u32> = Vec::new();
     let blank =
         |kind| Domain { id: 0, kind, area: 0.0, void_area: 0.0, length: 0.0, pressure: 0.0, fixed: false, max_displacement: 0.0, link_start: 0, link_count: 0 };
 
     // Appends a circuit's boundary to `links` and notes its blocks.
-    let push_circuit = |k: usize, links: &mut Vec<DomainLink>, blocks_seen: &mut Vec<u32>| {
-        for &d in &circuits[k].darts {
+    // `sides` gets, beside each link, the side of the contact whose dart starts the piece that
+    // follows it (bit 0: 0 on block 1, 1 on block 2) and whether it opens a loop (bit 1): what
+    // the fluid stage needs to trace the void's polygon with the current positions.
+    let push_circuit = |k: usize, links: &mut Vec<DomainLink>, sides: &mut Vec<u8>, blocks_seen: &mut Vec<u32>| {
+        for (n, &d) in circuits[k].darts.iter().enumerate() {
             let dart = &darts[d as usize];
             links.push(DomainLink::Contact { index: dart.contact, id: model.contacts[dart.contact as usize].id });
+            // Darts are pushed in pairs, block 1's first: the dart's index gives its side.
+            sides.push((d & 1) as u8 | if n == 0 { LOOP_START } else { 0 });
             blocks_seen.push(dart.block);
-            trace_piece(model, &darts, &positions, d, next[d as usize], wraps[d as usize], |_| {}, |corner| links.push(DomainLink::Corner { corner }));
+            trace_piece(
+                model,
+                &darts,
+                &positions,
+                d,
+                next[d as usize],
+                wraps[d as usize],
+                |_| {},
+                |corner| {
+                    links.push(DomainLink::Corner { corner });
+                    sides.push(0);
+                },
+            );
         }
     };
     // A lone block's boundary: its corners; returns the area they enclose.
-    let push_lone = |b: u32, links: &mut Vec<DomainLink>, blocks_seen: &mut Vec<u32>| -> f64 {
+    let push_lone = |b: u32, links: &mut Vec<DomainLink>, sides: &mut Vec<u8>, blocks_seen: &mut Vec<u32>| -> f64 {
         let blk = &model.blocks[b as usize];
         blocks_seen.push(b);
         let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
         match positions.get(range.clone()) {
             Some(pts) => {
+                sides.extend((0..pts.len()).map(|k| if k == 0 { LOOP_START } else { 0 }));
                 links.extend(range.map(|corner| DomainLink::Corner { corner: corner as u32 }));
                 signed_area(pts)
             }
@@ -428,9 +447,9 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
                 Some(k) => {
                     domain_of_circuit[k as usize] = 0;
                     outer.void_area -= circuits[k as usize].signed_area;
-                    push_circuit(k as usize, &mut links, &mut blocks_seen)
+                    push_circuit(k as usize, &mut links, &mut link_sides, &mut blocks_seen)
                 }
-                None => outer.void_area -= push_lone(b, &mut links, &mut blocks_seen),
+                None => outer.void_area -= push_lone(b, &mut links, &mut link_sides, &mut blocks_seen),
             }
         }
     }
@@ -447,7 +466,7 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
         let mut domain = blank(DomainKind::Regular);
         domain.link_start = links.len() as u32;
         blocks_seen.clear();
-        push_circuit(k as usize, &mut links, &mut blocks_seen);
+        push_circuit(k as usize, &mut links, &mut link_sides, &mut blocks_seen);
         domain.void_area = -c.signed_area;
         // The islands floating in this void: their boundaries, less their area.
         let first_guest = guest;
@@ -457,9 +476,9 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
                 Some(o) => {
                     domain_of_circuit[o as usize] = list.len() as u32;
                     domain.void_area -= circuits[o as usize].signed_area;
-                    push_circuit(o as usize, &mut links, &mut blocks_seen)
+                    push_circuit(o as usize, &mut links, &mut link_sides, &mut blocks_seen)
                 }
-                None => domain.void_area -= push_lone(b, &mut links, &mut blocks_seen),
+                None => domain.void_area -= push_lone(b, &mut links, &mut link_sides, &mut blocks_seen),
             }
             guest += 1;
         }
@@ -486,7 +505,7 @@ pub fn build_domains(model: &Model, previous: Option<&Domains>, min_area: Option
         }
     }
 
-    let mut domains = Domains { list, links, sides, min_area, given_min_area, next_id: 1 };
+    let mut domains = Domains { list, links, link_sides, sides, min_area, given_min_area, next_id: 1, flows: Vec::new() };
     assign_ids(&mut domains, previous);
     domains
 }
@@ -624,10 +643,42 @@ pub fn refresh_domains(model: &mut Model) {
     refresh_domains_with(model, None);
 }
 
-/// [`refresh_domains`] with SET DAMIN's minimum area, when one was given.
+/// [`refresh_domains`] with SET DAMIN's minimum area, when one was given. In a scene with fluid
+/// the domains found again keep their pressures and PFIX, every domain gets the area the fluid
+/// calculation uses now (`model::fluid::fluid_area`), the contacts their flows, and the change
+/// this makes in the fluid stored goes to the mass balance's `adjusted` account (two voids a
+/// new contact splits both keep the pressure of the one before; a void a lost contact merges
+/// takes the pressure of the one most of its contacts came from).
 pub fn refresh_domains_with(model: &mut Model, min_area: Option<f64>) {
     let previous = model.domains.take();
-    model.domains = Some(build_domains(model, previous.as_ref(), min_area));
+    let before = match (&model.fluid, &previous) {
+        (Some(f), Some(d)) => crate::udec::model::fluid::stored_volume(d, f.bulk),
+        _ => 0.0,
+    };
+    let mut domains = build_domains(model, previous.as_ref(), min_area);
+    if let Some(fluid) = model.fluid {
+        fluid_state(model, &mut domains);
+        let after = crate::udec::model::fluid::stored_volume(&domains, fluid.bulk);
+        if let Some(f) = model.fluid.as_mut() {
+            if previous.is_some() {
+                f.adjusted += after - before;
+            } else {
+                f.stored_at_start = after - f.inflow - f.adjusted;
+            }
+        }
+    }
+    model.domains = Some(domains);
+}
+
+/// A freshly built set's fluid state: each domain's area as the fluid calculation takes it now,
+/// and each contact's flow at the pressures it has.
+fn fluid_state(model: &Model, domains: &mut Domains) {
+    use crate::udec::model::fluid::{contact_flows, fluid_area};
+    let areas: Vec<f64> = (0..domains.list.len()).map(|d| fluid_area(model, domains, d)).collect();
+    for (d, a) in domains.list.iter_mut().zip(areas) {
+        d.area = a;
+    }
+    contact_flows(model, domains, &mut Vec::new());
 }
 
 #[cfg(test)]

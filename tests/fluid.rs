@@ -1,0 +1,203 @@
+//! Fluid flow in joints and voids (issue 30; SL-85-1 Appendix A ¶6–9, ¶19): sample 2 end to end
+//! on the CPU with its outputs, the state JSON's keys, PFIX/PFREE by OUTER, id and AT through
+//! contact updates, a dry scene that builds nothing, bad input naming its line, and the GPU's
+//! refusal. The closed forms (cubic law, drainage, buoyancy, a pressurized joint, the mass
+//! balance) are `blockdem verify`'s fluid cases, run here on the CPU.
+
+mod common;
+
+use blockdem::udec::exec::RunError;
+use blockdem::udec::model::domain::DomainKind;
+use blockdem::udec::output::state_json;
+use common::{run_logged, run_ok, sample, Target};
+
+/// Four blocks around a 1 × 1 hole at (1.5, 1.5), each face against the next along 1 m; point
+/// contacts with CPERM, and the fluid.
+const PINWHEEL: &str = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5 CPERM=1E-9\nROUND 0.05\n\
+    BLOCK 0,0 2,0 2,1 0,1\nBLOCK 2,0 3,0 3,2 2,2\nBLOCK 1,2 3,2 3,3 1,3\nBLOCK 0,1 1,1 1,3 0,3\nFLUID 1000 1E9\n";
+
+#[test]
+fn sample_2_runs_to_its_end_with_its_flows_domains_and_blocks() {
+    let deck = sample("udec2_pressurized_cavity.dat");
+    let (model, log) = run_ok(&deck);
+    assert!(log.contains(")STOP") && log.contains("CURRENT CYCLE COUNT = 3000"), "{log}");
+    // PRINT FLOWS, DOMAINS, BLOCKS in the report's layouts.
+    for title in ["FLOW ACROSS CONTACTS OR JOINTS", "DOMAIN DATA", "BLOCK DATA"] {
+        assert!(log.contains(&format!("\n{title}\n")), "{title}:\n{log}");
+    }
+    let flows = log.split("FLOW ACROSS CONTACTS OR JOINTS").nth(1).unwrap();
+    let heading = flows.lines().nth(2).unwrap();
+    for word in ["CONTACT", "X,Y COORDS.", "FLOW", "LENGTH", "APERTURE", "DOM1", "DOM2"] {
+        assert!(heading.contains(word), "{heading}");
+    }
+    let domains = model.domains.as_ref().expect("a scene with fluid has its domains");
+    let outer = domains.outer().unwrap();
+    assert!(outer.fixed && outer.pressure == 0.0, "PFIX OUTER 0.0");
+    // The cavity (10 × 10, less what the loaded block pushed into it and the right-hand block
+    // gave back) holds the highest pressure; every free domain's lies between it and the outer's.
+    let cavity = domains.list.iter().filter(|d| d.kind == DomainKind::Regular).max_by(|a, b| a.area.total_cmp(&b.area)).unwrap();
+    assert!((cavity.area - 100.0).abs() < 5.0, "{}", cavity.area);
+    assert!(cavity.pressure > 1e4, "{}", cavity.pressure);
+    assert!(domains.list.iter().all(|d| d.pressure >= 0.0 && d.pressure <= cavity.pressure), "{:?}", domains.list);
+    // The pressure drives the right-hand block (centroid 32.5, 15) outwards, the loaded block down.
+    let right = model.blocks.iter().find(|b| (b.centroid[1] - 15.0).abs() < 1.0 && b.centroid[0] > 30.0).unwrap();
+    assert!(right.centroid[0] > 32.5 && right.velocity[0] > 0.0, "{:?}", right.centroid);
+    let loaded = model.blocks.iter().find(|b| (b.centroid[0] - 20.0).abs() < 1.0 && b.centroid[1] > 20.0).unwrap();
+    assert!(loaded.centroid[1] < 25.0, "{:?}", loaded.centroid);
+    // Flows run from high pressure to low, and leak to the outer domain.
+    for (k, f) in domains.flows.iter().enumerate() {
+        let [d0, d1] = domains.sides[k];
+        if d0 == blockdem::udec::model::domain::NO_DOMAIN {
+            continue;
+        }
+        let dp = domains.list[d0 as usize].pressure - domains.list[d1 as usize].pressure;
+        // q = CPERM·Δp (¶6), CPERM = 1e-9, at the pressures the last cycle started from (the
+        // update has moved them since by far less than a thousandth).
+        assert!((f.flow - 1e-9 * dp).abs() <= 1e-3 * (1e-9 * dp).abs() + 1e-15, "contact {k}: {f:?}, Δp {dp}");
+    }
+    // The fluid stored and what crossed add up.
+    let f = model.fluid.unwrap();
+    let stored = blockdem::udec::model::fluid::stored_volume(domains, f.bulk);
+    assert!(f.balance_error(stored).abs() < 1e-9 * stored, "{}", f.balance_error(stored));
+    assert!(f.inflow < 0.0, "fluid leaves the model through the outer domain: {}", f.inflow);
+}
+
+#[test]
+fn the_state_json_has_the_keys_the_issue_names() {
+    let (model, _) = run_ok(&sample("udec2_pressurized_cavity.dat"));
+    let json = state_json::state_json(&model);
+    let domains = json["domains"].as_array().unwrap();
+    assert_eq!(domains.len(), model.domains.as_ref().unwrap().list.len());
+    for d in domains {
+        for key in ["id", "pressure", "area", "fixed", "outer"] {
+            assert!(d.get(key).is_some(), "{key}: {d}");
+        }
+    }
+    assert_eq!(domains.iter().filter(|d| d["outer"] == true).count(), 1);
+    let flows = json["flows"].as_array().unwrap();
+    assert!(!flows.is_empty());
+    let ids: Vec<u64> = domains.iter().map(|d| d["id"].as_u64().unwrap()).collect();
+    for f in flows {
+        for key in ["contact", "domains", "flow", "length", "aperture"] {
+            assert!(f.get(key).is_some(), "{key}: {f}");
+        }
+        let pair = f["domains"].as_array().unwrap();
+        assert!(pair.len() == 2 && pair.iter().all(|d| ids.contains(&d.as_u64().unwrap())), "{f}");
+        // Point contacts: no length, no aperture.
+        assert_eq!((f["length"].as_f64(), f["aperture"].as_f64()), (Some(0.0), Some(0.0)), "{f}");
+    }
+    assert!(json["energy"]["fluid_work"].is_number() && json["fluid"]["balance_error"].is_number(), "{}", json["fluid"]);
+}
+
+#[test]
+fn pfix_and_pfree_by_outer_id_and_point_hold_through_contact_updates() {
+    let deck = format!("{PINWHEEL}CYCLE 0\nPFIX OUTER 0\nPFIX AT 1.5 1.5 1E5\nPRINT DOMAINS\nCYCLE 50\n");
+    let (model, log) = run_ok(&deck);
+    let d = model.domains.as_ref().unwrap();
+    let hole = blockdem::udec::model::fluid::domain_at(&model, d, [1.5, 1.5]).unwrap();
+    assert!(d.list[hole].fixed && d.list[hole].pressure == 1e5, "{:?}", d.list[hole]);
+    assert!(log.contains("FIXED"), "{log}");
+    // The hole's pressure pushes the four blocks outwards (nothing holds them).
+    assert!(model.blocks.iter().all(|b| b.velocity[0].abs() + b.velocity[1].abs() > 0.0));
+    // By id as PRINT DOMAINS shows it: PFREE the hole, then PFIX it again by its number.
+    let id = d.list[hole].id;
+    let (model, _) = run_ok(&format!("{deck}PFREE {id}\nCYCLE 10\nPFIX {id} 2E5\n"));
+    let d = model.domains.as_ref().unwrap();
+    let hole = d.index_of(id).unwrap();
+    assert!(d.list[hole].fixed && d.list[hole].pressure == 2e5);
+}
+
+#[test]
+fn a_dry_scene_builds_no_domains_and_carries_no_fluid() {
+    let (model, _) = run_ok(
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nROUND 0.05\nBLOCK 0,0 2,0 2,1 0,1\nBLOCK 0,1 2,1 2,2 0,2\nFIX 0 2 0 0.9\nGRAV 0 -10\nCYCLE 100\n",
+    );
+    assert!(model.domains.is_none() && model.fluid.is_none());
+    let json = state_json::state_json(&model);
+    assert!(json.get("domains").is_none() && json.get("flows").is_none() && json["energy"].get("fluid_work").is_none());
+}
+
+/// A deck's error: its line, and that its message contains each of `words`.
+fn assert_error_at(deck: &str, line: usize, words: &[&str]) {
+    let (r, log) = run_logged(deck);
+    let e = r.expect_err(deck);
+    let text = e.to_string();
+    assert!(!text.contains("panicked"), "{text}");
+    assert!(text.starts_with(&format!("<scene>:{line}:")), "line {line}: {text}\n{log}");
+    for w in words {
+        assert!(text.contains(w), "'{w}' in: {text}");
+    }
+}
+
+#[test]
+fn bad_fluid_input_names_its_line_and_what_was_expected() {
+    let body = |more: &str| format!("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\n{more}");
+    // FLUID with a non-positive bulk modulus or a negative density (the parser's).
+    assert_error_at(&body("FLUID 1000 0\n"), 4, &["fluid bulk modulus must be positive"]);
+    assert_error_at(&body("FLUID -1 1E9\n"), 4, &["fluid density must not be negative"]);
+    // Negative apertures and permeabilities.
+    assert_error_at(&body("PROP MAT=1 AZERO=-1E-4\n"), 4, &["azero"]);
+    assert_error_at(&body("PROP MAT=1 ARES=-1\n"), 4, &["ares"]);
+    assert_error_at(&body("PROP MAT=1 CPERM=-1\n"), 4, &["cperm"]);
+    // No flow law where FLUID needs one, and a joint permeability without an aperture.
+    assert_error_at(&body("FLUID 1000 1E9\nCYCLE 1\n"), 5, &["material 1 has no flow law", "CPERM", "JPERM"]);
+    assert_error_at(
+        "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 JKN=1E9 JKS=1E9 JPERM=1\nBLOCK CONS=2 0,0 0,1 1,1 1,0\nFLUID 1000 1E9\nCYCLE 1\n",
+        5,
+        &["JPERM but no aperture", "AZERO"],
+    );
+    // PFIX before FLUID, of an id that names no domain, of a point inside a block.
+    assert_error_at(&body("PFIX OUTER 0\n"), 4, &["PFIX", "FLUID"]);
+    assert_error_at(&format!("{PINWHEEL}CYCLE 0\nPFIX 999 1E5\n"), 10, &["PFIX: there is no domain 999", "PRINT DOMAINS"]);
+    assert_error_at(&format!("{PINWHEEL}CYCLE 0\nPFREE AT 0.5 0.5\n"), 10, &["PFREE: there is no domain at (0.5, 0.5)"]);
+    // Deformable blocks with fluid are not supported yet.
+    let (r, _) = run_logged(&body("PROP MAT=1 K=1E8 G=1E8 CPERM=1E-9\nCHANGE 0 1 0 1 SDEF\nFLUID 1000 1E9\nCYCLE 1\n"));
+    assert!(matches!(r, Err(RunError::Unsupported { line: 7, .. })), "{r:?}");
+}
+
+#[test]
+fn the_fluid_closed_forms_pass_on_the_cpu() {
+    let backend = blockdem::verify::backends().into_iter().find(|b| !b.gpu).unwrap();
+    for case in blockdem::verify::cases::all().into_iter().filter(|c| c.name.starts_with(blockdem::verify::cases::CPU_ONLY_PREFIX)) {
+        let row = blockdem::verify::run_case(&case, &backend, blockdem::verify::CHECK_FRAC);
+        assert!(row.passed, "{}: error {:?} (tolerance {}), {} {:?}", case.name, row.error, case.tolerance, row.detail, row.failure);
+    }
+}
+
+#[test]
+fn the_gpu_refuses_a_scene_with_fluid_and_says_so() {
+    let Some(target) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else { return };
+    let r = blockdem::scenes::run_deck_on(&format!("{PINWHEEL}PFIX OUTER 0\nCYCLE 10\n"), target.backend());
+    let e = r.expect_err("fluid is not on the GPU yet");
+    assert!(e.to_string().contains("fluid flow (FLUID, PFIX) runs on the CPU backend only"), "{e}");
+}
+
+#[test]
+fn plot_pressure_fills_the_domains_by_their_pressure() {
+    let dir = std::env::temp_dir().join(format!("blockdem-fluid-plot-{}", std::process::id()));
+    let deck = format!("{PINWHEEL}CYCLE 0\nPFIX OUTER 0\nPFIX AT 1.5 1.5 1E5\nCYCLE 5\nWINDOW -1 4 -1 4\nPLOT PRESSURE\n");
+    let commands = blockdem::udec::deck::parse_deck(&deck, "<scene>").unwrap();
+    let options = blockdem::udec::exec::RunOptions { out_dir: dir.clone(), ..Default::default() };
+    let mut exec = blockdem::udec::exec::Executor::new(Box::new(blockdem::udec::cpu::CpuBackend::new()), Box::new(std::io::sink()), options, "<scene>");
+    exec.run(&commands).unwrap();
+    let svg = std::fs::read_to_string(dir.join("plot_001.svg")).unwrap();
+    let domains = exec.model.domains.as_ref().unwrap();
+    let hole = blockdem::udec::model::fluid::domain_at(&exec.model, domains, [1.5, 1.5]).unwrap();
+    // The hole, the largest pressure, filled full red; every inner domain drawn.
+    let hole_shape = format!(r#"class="domain" data-domain="{}""#, domains.list[hole].id);
+    let line = svg.lines().find(|l| l.contains(&hole_shape)).unwrap_or_else(|| panic!("{svg}"));
+    assert!(line.contains("rgb(255,64,64)") || line.contains("#ff4040"), "{line}");
+    assert_eq!(svg.matches(r#"class="domain""#).count(), domains.list.len() - 1, "{svg}");
+    assert!(svg.contains("PORE PRESSURE"), "{svg}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_cycle_split_in_two_is_the_same_run_bit_for_bit() {
+    // The second CYCLE goes on from the state the first left: its domains (rebuilt by stage 7
+    // alone in a scene with fluid), its loads and its time step (which only falls).
+    let deck = sample("udec2_pressurized_cavity.dat");
+    let whole = run_ok(&deck.replace("CYCLE 3000", "CYCLE 700")).0;
+    let split = run_ok(&deck.replace("CYCLE 3000", "CYCLE 300\nCYCLE 400")).0;
+    assert_eq!(state_json::state_json(&whole), state_json::state_json(&split));
+}
