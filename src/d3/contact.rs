@@ -66,24 +66,35 @@ pub struct CommonPlane {
 }
 
 /// The common plane of convex blocks `a` and `b` (the separating axis of greatest separation).
-pub fn common_plane(a: &Block, b: &Block) -> CommonPlane {
+///
+/// Face normals and edge–edge cross products find the least penetration of two convex blocks
+/// that overlap, and a separating plane of two that do not; but two blocks apart whose nearest
+/// features are a vertex and an edge, or two vertices, are further apart than any of those axes
+/// shows. So where the blocks are apart by no more than `reach` (the contact-forming distance)
+/// the directions from each vertex to the nearest point of each feature edge of the other block,
+/// and between vertices, are tried too: the separation is then the blocks' distance, and the
+/// normal the direction between their nearest features (an edge–vertex or vertex–vertex contact
+/// about to touch is recognised as such). Once they overlap, a vertex pressed into an edge's
+/// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
+pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
     let sep = |n: DVec3| -> f64 {
         let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
         let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
         lo_b - hi_a
     };
     let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY };
-    let mut consider = |n: DVec3| {
+    let slack = 1e-12 * (a.shape.radius + b.shape.radius);
+    let consider = |best: &mut CommonPlane, n: DVec3| {
         let s = sep(n);
-        if s > best.separation + 1e-12 * (a.shape.radius + b.shape.radius) {
-            best = CommonPlane { normal: n, separation: s };
+        if s > best.separation + slack {
+            *best = CommonPlane { normal: n, separation: s };
         }
     };
     for f in 0..a.shape.faces.len() {
-        consider(a.face_normal(f));
+        consider(&mut best, a.face_normal(f));
     }
     for f in 0..b.shape.faces.len() {
-        consider(-b.face_normal(f));
+        consider(&mut best, -b.face_normal(f));
     }
     for ea in a.shape.edges.iter().filter(|e| e.feature) {
         let da = a.vertices[ea.b as usize] - a.vertices[ea.a as usize];
@@ -94,8 +105,29 @@ pub fn common_plane(a: &Block, b: &Block) -> CommonPlane {
                 continue;
             }
             let n = c.normalize();
-            consider(n);
-            consider(-n);
+            consider(&mut best, n);
+            consider(&mut best, -n);
+        }
+    }
+    if best.separation > 0.0 && best.separation <= reach {
+        for (from, to, sign) in [(a, b, 1.0), (b, a, -1.0)] {
+            for e in from.shape.edges.iter().filter(|e| e.feature) {
+                let (p, q) = (from.vertices[e.a as usize], from.vertices[e.b as usize]);
+                let d = q - p;
+                for v in &to.vertices {
+                    let t = ((*v - p).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+                    if let Some(n) = (*v - (p + d * t)).try_normalize() {
+                        consider(&mut best, n * sign);
+                    }
+                }
+            }
+        }
+        for va in &a.vertices {
+            for vb in &b.vertices {
+                if let Some(n) = (*vb - *va).try_normalize() {
+                    consider(&mut best, n);
+                }
+            }
         }
     }
     best

@@ -183,7 +183,7 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
 
 /// One contact's stage 4.
 pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model::Block, mat: &super::model::Material, tol: f64, dt: f64) {
-    let plane = contact::common_plane(a, b);
+    let plane = contact::common_plane(a, b, tol);
     let old_normal = c.normal;
     c.normal = plane.normal;
     if plane.separation > tol {
