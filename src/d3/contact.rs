@@ -90,15 +90,17 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
             *best = CommonPlane { normal: n, separation: s };
         }
     };
-    for f in 0..a.shape.faces.len() {
-        consider(&mut best, a.face_normal(f));
+    for &f in &a.shape.planes {
+        consider(&mut best, a.face_normal(f as usize));
     }
-    for f in 0..b.shape.faces.len() {
-        consider(&mut best, -b.face_normal(f));
+    for &f in &b.shape.planes {
+        consider(&mut best, -b.face_normal(f as usize));
     }
-    for ea in a.shape.edges.iter().filter(|e| e.feature) {
+    for &i in &a.shape.edge_directions {
+        let ea = a.shape.edges[i as usize];
         let da = a.vertices[ea.b as usize] - a.vertices[ea.a as usize];
-        for eb in b.shape.edges.iter().filter(|e| e.feature) {
+        for &j in &b.shape.edge_directions {
+            let eb = b.shape.edges[j as usize];
             let db = b.vertices[eb.b as usize] - b.vertices[eb.a as usize];
             let c = da.cross(db);
             if c.length_squared() <= 1e-12 * da.length_squared() * db.length_squared() {
@@ -110,24 +112,42 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
         }
     }
     if best.separation > 0.0 && best.separation <= reach {
-        for (from, to, sign) in [(a, b, 1.0), (b, a, -1.0)] {
+        // The nearest pair of a vertex and a vertex or feature edge of the other block, among
+        // those that can be within `reach` (near the plane found so far): its direction's
+        // separation is the blocks' distance where those are their nearest features, and less
+        // than what the axes above found otherwise.
+        let n = best.normal;
+        let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+        let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+        let near_a = |v: &DVec3| n.dot(*v) >= hi_a - reach;
+        let near_b = |v: &DVec3| n.dot(*v) <= lo_b + reach;
+        let mut nearest: Option<(f64, DVec3)> = None;
+        let mut offer = |d: DVec3| {
+            let l = d.length_squared();
+            if l > 0.0 && nearest.is_none_or(|(m, _)| l < m) {
+                nearest = Some((l, d));
+            }
+        };
+        for (from, to, sign, near_from, near_to) in [(a, b, 1.0, &near_a as &dyn Fn(&DVec3) -> bool, &near_b as &dyn Fn(&DVec3) -> bool), (b, a, -1.0, &near_b, &near_a)] {
             for e in from.shape.edges.iter().filter(|e| e.feature) {
                 let (p, q) = (from.vertices[e.a as usize], from.vertices[e.b as usize]);
+                if !near_from(&p) && !near_from(&q) {
+                    continue;
+                }
                 let d = q - p;
-                for v in &to.vertices {
+                for v in to.vertices.iter().filter(|v| near_to(v)) {
                     let t = ((*v - p).dot(d) / d.length_squared()).clamp(0.0, 1.0);
-                    if let Some(n) = (*v - (p + d * t)).try_normalize() {
-                        consider(&mut best, n * sign);
-                    }
+                    offer((*v - (p + d * t)) * sign);
                 }
             }
         }
-        for va in &a.vertices {
-            for vb in &b.vertices {
-                if let Some(n) = (*vb - *va).try_normalize() {
-                    consider(&mut best, n);
-                }
+        for va in a.vertices.iter().filter(|v| near_a(v)) {
+            for vb in b.vertices.iter().filter(|v| near_b(v)) {
+                offer(*vb - *va);
             }
+        }
+        if let Some((_, d)) = nearest {
+            consider(&mut best, d.normalize());
         }
     }
     best

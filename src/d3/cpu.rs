@@ -183,6 +183,15 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
 
 /// One contact's stage 4.
 pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model::Block, mat: &super::model::Material, tol: f64, dt: f64) {
+    // Boxes apart by more than the contact-forming distance: the blocks are (a lower bound of
+    // their distance), and the common plane is not needed.
+    let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
+    if (b0 - a1).max(a0 - b1).max_element() > tol {
+        c.category = None;
+        c.area = 0.0;
+        c.logical.clear();
+        return;
+    }
     let plane = contact::common_plane(a, b, tol);
     let old_normal = c.normal;
     c.normal = plane.normal;

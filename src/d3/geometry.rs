@@ -53,6 +53,12 @@ pub struct Shape {
     /// Unit outward normals of the faces (reference frame).
     pub normals: Vec<DVec3>,
     pub edges: Vec<Edge>,
+    /// One face for each distinct outward normal (a planar side cut in triangles counts once):
+    /// the face axes the common plane tries.
+    pub planes: Vec<u32>,
+    /// One feature edge for each distinct direction (parallel edges count once): the edge axes
+    /// the common plane crosses.
+    pub edge_directions: Vec<u32>,
     /// Whether the block is convex (every vertex on or behind every face's plane).
     pub convex: bool,
     /// The largest distance from the centroid to a vertex.
@@ -214,7 +220,22 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
         local.iter().all(|v| n.dot(*v - p) <= 1e-9 * size)
     });
     let radius = local.iter().map(|v| v.length()).fold(0.0, f64::max);
-    Ok((Shape { vertices: local, faces, neighbours, normals, edges, convex, radius }, props))
+    let same = 1.0 - 1e-9;
+    let mut planes: Vec<u32> = Vec::new();
+    for (k, n) in normals.iter().enumerate() {
+        if !planes.iter().any(|&p| normals[p as usize].dot(*n) > same) {
+            planes.push(k as u32);
+        }
+    }
+    let direction = |e: &Edge| (vertices[e.b as usize] - vertices[e.a as usize]).normalize();
+    let mut edge_directions: Vec<u32> = Vec::new();
+    for (k, e) in edges.iter().enumerate().filter(|(_, e)| e.feature) {
+        let d = direction(e);
+        if !edge_directions.iter().any(|&j| direction(&edges[j as usize]).dot(d).abs() > same) {
+            edge_directions.push(k as u32);
+        }
+    }
+    Ok((Shape { vertices: local, faces, neighbours, normals, edges, planes, edge_directions, convex, radius }, props))
 }
 
 /// The twelve faces of the box [x1,x2]×[y1,y2]×[z1,z2], as a deck would type them (each
