@@ -656,7 +656,7 @@ fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<Pat
             if let Some(folder) = path.parent().filter(|f| !f.as_os_str().is_empty()) {
                 let _ = std::fs::create_dir_all(folder);
             }
-            let json = blockdem::d3::output::state_json(&exec.model, Some(&provenance.line()));
+            let json = blockdem::d3::output::state_json(&exec.model, Some(&provenance));
             std::fs::write(path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))
         }
         None => Ok(()),

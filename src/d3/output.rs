@@ -121,7 +121,7 @@ fn vec3(v: glam::DVec3) -> Value {
 /// numbers from 0 counter-clockwise seen from outside, fixed) and the real contacts (kind,
 /// blocks, point, normal, normal_force, shear_force as a vector, area, and their logical
 /// contacts).
-pub fn state_json(model: &Model, provenance: Option<&str>) -> Value {
+pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::Provenance>) -> Value {
     let blocks: Vec<Value> = model
         .blocks
         .iter()
@@ -189,7 +189,7 @@ pub fn state_json(model: &Model, provenance: Option<&str>) -> Value {
         "energy": {"kinetic": num(e.kinetic), "strain": num(e.strain), "external_work": num(e.external_work)},
     });
     if let Some(p) = provenance {
-        v["provenance"] = json!(p);
+        v["provenance"] = serde_json::to_value(p).unwrap_or(Value::Null);
     }
     v
 }
