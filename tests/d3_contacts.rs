@@ -52,7 +52,9 @@ fn the_six_physical_categories() {
     // The blocks a shade apart, within the contact-forming distance: about to touch. (Once they
     // overlap, a vertex pressed into an edge takes the normal of one of the edge's faces, the
     // least penetration; the first four categories are checked overlapping too.)
-    for (name, lower, upper, category, count, overlap) in cases.iter().map(|c| (c.0, c.1, c.2, c.3, c.4, -1e-4)).chain(cases[..4].iter().map(|c| (c.0, c.1, c.2, c.3, c.4, 1e-4))) {
+    for (name, lower, upper, category, count, overlap) in
+        cases.iter().map(|c| (c.0, c.1, c.2, c.3, c.4, -1e-4)).chain(cases[..4].iter().map(|c| (c.0, c.1, c.2, c.3, c.4, 1e-4)))
+    {
         // The lower block's top at z = overlap/2, the upper's bottom at −overlap/2.
         let a = block(1, &cube_at_plane(lower, true, overlap / 2.0));
         let b = block(2, &cube_at_plane(upper, false, overlap / 2.0));

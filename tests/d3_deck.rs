@@ -171,7 +171,11 @@ fn blockdem_run_takes_a_3d_deck_to_d3() {
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("--dim 2"));
     let plain = dir.join("plain.dat");
-    std::fs::write(&plain, "START\nPROP MAT 1 D 1000 KN 1E8 KS 1E8\nBLOCK 0 0 0 1 0 0 0 1 0\n+ 0 0 0 0 0 1 1 0 0\n+ 0 0 0 0 1 0 0 0 1\n+ 1 0 0 0 0 1 0 1 0\nPRINT BLOCKS\nSTOP\n").unwrap();
+    std::fs::write(
+        &plain,
+        "START\nPROP MAT 1 D 1000 KN 1E8 KS 1E8\nBLOCK 0 0 0 1 0 0 0 1 0\n+ 0 0 0 0 0 1 1 0 0\n+ 0 0 0 0 1 0 0 0 1\n+ 1 0 0 0 0 1 0 1 0\nPRINT BLOCKS\nSTOP\n",
+    )
+    .unwrap();
     let out = std::process::Command::new(exe).args(["run", "--backend", "cpu", "--dim", "3"]).arg(&plain).output().unwrap();
     let log = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{log}{}", String::from_utf8_lossy(&out.stderr));

@@ -74,8 +74,7 @@ fn a_rotated_box_turns_its_tensor() {
     let (a, b, c) = (1.0, 2.0, 3.0);
     let q = DQuat::from_axis_angle(DVec3::new(1.0, 2.0, -0.5).normalize(), 0.7);
     let shift = DVec3::new(1e5, -2e5, 3e5);
-    let faces: Vec<[[f64; 3]; 3]> =
-        box_faces([0.0; 3], [a, b, c]).iter().map(|f| f.map(|v| (q * DVec3::from_array(v) + shift).to_array())).collect();
+    let faces: Vec<[[f64; 3]; 3]> = box_faces([0.0; 3], [a, b, c]).iter().map(|f| f.map(|v| (q * DVec3::from_array(v) + shift).to_array())).collect();
     let (_, p) = shape_from_faces(&faces).unwrap();
     assert!(close(p.volume, a * b * c, 1e-9));
     assert!((p.centroid - (q * DVec3::new(a, b, c) / 2.0 + shift)).length() < 1e-9);

@@ -128,7 +128,9 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
                 nearest = Some((l, d));
             }
         };
-        for (from, to, sign, near_from, near_to) in [(a, b, 1.0, &near_a as &dyn Fn(&DVec3) -> bool, &near_b as &dyn Fn(&DVec3) -> bool), (b, a, -1.0, &near_b, &near_a)] {
+        for (from, to, sign, near_from, near_to) in
+            [(a, b, 1.0, &near_a as &dyn Fn(&DVec3) -> bool, &near_b as &dyn Fn(&DVec3) -> bool), (b, a, -1.0, &near_b, &near_a)]
+        {
             for e in from.shape.edges.iter().filter(|e| e.feature) {
                 let (p, q) = (from.vertices[e.a as usize], from.vertices[e.b as usize]);
                 if !near_from(&p) && !near_from(&q) {
@@ -335,7 +337,13 @@ pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f6
         })
         .collect();
     let area = if found.len() >= 3 {
-        let region = hull(&(0..found.len() as u32).collect::<Vec<_>>(), &found.iter().map(|(_, p)| DVec3::new(p.x, p.y, 0.0)).collect::<Vec<_>>(), DVec3::X, DVec3::Y, flat);
+        let region = hull(
+            &(0..found.len() as u32).collect::<Vec<_>>(),
+            &found.iter().map(|(_, p)| DVec3::new(p.x, p.y, 0.0)).collect::<Vec<_>>(),
+            DVec3::X,
+            DVec3::Y,
+            flat,
+        );
         let m = region.pts.len();
         if m >= 3 {
             0.5 * (0..m).map(|i| region.pts[i].perp_dot(region.pts[(i + 1) % m])).sum::<f64>()
@@ -353,7 +361,8 @@ pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f6
 /// 1/d (d the distance of p from each face's plane), or the normal of a face p lies on; made a
 /// unit vector. Outward from `block`.
 pub fn prescribed_normal(block: &Block, p: DVec3) -> DVec3 {
-    let nearest = (0..block.vertices.len()).min_by(|&i, &j| (block.vertices[i] - p).length_squared().total_cmp(&(block.vertices[j] - p).length_squared())).unwrap_or(0);
+    let nearest =
+        (0..block.vertices.len()).min_by(|&i, &j| (block.vertices[i] - p).length_squared().total_cmp(&(block.vertices[j] - p).length_squared())).unwrap_or(0);
     let mut sum = DVec3::ZERO;
     for (f, face) in block.shape.faces.iter().enumerate() {
         if !face.contains(&(nearest as u32)) {

@@ -98,7 +98,7 @@ impl driver::Start<Model> for CpuBackend {
                 b.id
             )));
         }
-        if let Some(b) = model.blocks.iter().find(|b| !b.fixed && !(b.mass > 0.0)) {
+        if let Some(b) = model.blocks.iter().find(|b| !b.fixed && (b.mass.is_nan() || b.mass <= 0.0)) {
             return Err(CycleError::Setup(format!("block {} has no mass: give its material (MATERIAL {}) a DENSITY", b.id, b.material)));
         }
         Ok(())

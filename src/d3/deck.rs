@@ -477,10 +477,9 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
         Word::Dump => return not_yet("DUMP"),
         Word::Split => return not_yet("SPLIT"),
         Word::RSet => {
-            return Err(a.at(
-                word,
-                "RSET is not supported: it poked a value into the 1985 program's main array at a raw memory address, which has no meaning here",
-            ))
+            return Err(
+                a.at(word, "RSET is not supported: it poked a value into the 1985 program's main array at a raw memory address, which has no meaning here")
+            )
         }
         Word::Block => block(&mut a)?,
         Word::Box => {
@@ -525,11 +524,11 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
         }
         Word::Damping => {
             let (fcrit, t) = a.real("fcrit (the fraction of critical damping)")?;
-            if !(fcrit >= 0.0) {
+            if fcrit.is_nan() || fcrit < 0.0 {
                 return Err(a.at(t, format!("fcrit must be 0 or more, found {fcrit}")));
             }
             let (freq, t) = a.real("freq (the centre frequency)")?;
-            if !(freq > 0.0) {
+            if freq.is_nan() || freq <= 0.0 {
                 return Err(a.at(t, format!("freq must be above zero, found {freq}")));
             }
             let mode = match a.next() {
@@ -537,7 +536,9 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
                 Some(t) => match (!t.is_numeric()).then(|| lookup(&t.text, DAMP_MODES)).flatten() {
                     Some(Some(m)) => m,
                     Some(None) => {
-                        return Err(a.at(t, "not available yet in the D3 engine: DAMPING INTERNAL (it damps simply-deformable blocks, which D3 does not have yet)"))
+                        return Err(
+                            a.at(t, "not available yet in the D3 engine: DAMPING INTERNAL (it damps simply-deformable blocks, which D3 does not have yet)")
+                        )
                     }
                     None => return Err(a.at(t, format!("expected MASS, STIFFNESS or INTERNAL, found '{}'", t.shown()))),
                 },
@@ -547,7 +548,7 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
         }
         Word::Fraction => {
             let (f, t) = a.real("the fraction f of the critical time-step")?;
-            if !(f > 0.0 && f.is_finite()) {
+            if f.is_nan() || f <= 0.0 || f.is_infinite() {
                 return Err(a.at(t, format!("the time-step fraction must be above zero, found {f}")));
             }
             a.done()?;
@@ -668,16 +669,19 @@ fn property(a: &mut Args) -> Result<Command> {
                 }
                 return Err(a.at(
                     t,
-                    format!("expected a property keyword (BULK, K, G, DENSITY, KN, KS, COHESION, FRICTION, JKN, JKS, JCOHESION, JFRICTION, TF), found '{}'", t.shown()),
+                    format!(
+                        "expected a property keyword (BULK, K, G, DENSITY, KN, KS, COHESION, FRICTION, JKN, JKS, JCOHESION, JFRICTION, TF), found '{}'",
+                        t.shown()
+                    ),
                 ));
             }
         };
         let must_be_positive = matches!(key, PropKey::Bulk | PropKey::Shear | PropKey::Density | PropKey::Kn | PropKey::Ks | PropKey::Jkn | PropKey::Jks);
         let (v, vt) = a.real(&format!("a value after {}", t.shown()))?;
-        if must_be_positive && !(v > 0.0 && v.is_finite()) {
+        if must_be_positive && (v.is_nan() || v <= 0.0 || v.is_infinite()) {
             return Err(a.at(vt, format!("{} must be above zero, found {}", t.text.to_ascii_uppercase(), vt.shown())));
         }
-        if !must_be_positive && !(v >= 0.0 && v.is_finite()) {
+        if !must_be_positive && (v.is_nan() || v < 0.0 || v.is_infinite()) {
             return Err(a.at(vt, format!("{} must be 0 or more, found {}", t.text.to_ascii_uppercase(), vt.shown())));
         }
         values.push((key, v));

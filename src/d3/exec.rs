@@ -178,7 +178,14 @@ impl<'a> Executor<'a> {
     }
 
     /// BLOCK and BOX: the surface checked, the block added with its material's density.
-    fn add_block(&mut self, cmd: &Located, typed: &[[[f64; 3]; 3]], material: u32, constitutive: u32, line_of: impl Fn(usize) -> usize) -> Result<(), RunError> {
+    fn add_block(
+        &mut self,
+        cmd: &Located,
+        typed: &[[[f64; 3]; 3]],
+        material: u32,
+        constitutive: u32,
+        line_of: impl Fn(usize) -> usize,
+    ) -> Result<(), RunError> {
         let (shape, props) = match geometry::shape_from_faces(typed) {
             Ok(ok) => ok,
             Err(e) => {

@@ -123,7 +123,7 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
         }
     }
     let size = (hi - lo).max_element();
-    if !(size > 0.0) {
+    if size.is_nan() || size <= 0.0 {
         return Err(whole("all the vertices coincide: the block has no size"));
     }
     let merge = 1e-9 * size;
@@ -170,7 +170,12 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
             if let Some(&other) = directed.get(&(a, b)) {
                 let both = directed.contains_key(&(b, a));
                 let message = if both {
-                    format!("the edge from {} to {} is shared by more than two faces (face {} and others): the surface must be a simple closed one", show(a), show(b), other + 1)
+                    format!(
+                        "the edge from {} to {} is shared by more than two faces (face {} and others): the surface must be a simple closed one",
+                        show(a),
+                        show(b),
+                        other + 1
+                    )
                 } else {
                     format!(
                         "the face is ordered the other way round from face {} (they share the edge from {} to {} and run along it in the same direction): \
@@ -191,10 +196,7 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
         for e in 0..3 {
             let (a, b) = (f[e], f[(e + 1) % 3]);
             let Some(&other) = directed.get(&(b, a)) else {
-                return Err(err(
-                    k,
-                    format!("the surface is not closed: the edge from {} to {} of this face is on no other face", show(b), show(a)),
-                ));
+                return Err(err(k, format!("the surface is not closed: the edge from {} to {} of this face is on no other face", show(b), show(a))));
             };
             neighbours[k][e] = other;
             if (k as u32) < other {
@@ -205,7 +207,7 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
     }
 
     let props = mass_properties(&vertices, &faces);
-    if !(props.volume > 0.0) {
+    if props.volume.is_nan() || props.volume <= 0.0 {
         return Err(whole(
             "the faces are ordered clockwise looking along the outward normal (the surface encloses a negative volume): \
              give each face's vertices counter-clockwise looking along the outward normal (from inside the block)",
@@ -238,7 +240,7 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
     Ok((Shape { vertices: local, faces, neighbours, normals, edges, planes, edge_directions, convex, radius }, props))
 }
 
-/// The twelve faces of the box [x1,x2]×[y1,y2]×[z1,z2], as a deck would type them (each
+/// The twelve faces of the box `[x1,x2]×[y1,y2]×[z1,z2]`, as a deck would type them (each
 /// counter-clockwise looking along the outward normal): two triangles per side.
 pub fn box_faces(min: [f64; 3], max: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
     let p = |i: usize| [if i & 1 == 0 { min[0] } else { max[0] }, if i & 2 == 0 { min[1] } else { max[1] }, if i & 4 == 0 { min[2] } else { max[2] }];

@@ -29,7 +29,20 @@ impl Default for Material {
     /// The 1985 programs started from zeroed arrays: a material not given has no density and no
     /// stiffness (the executor refuses blocks of such a material when mass is needed).
     fn default() -> Self {
-        Material { density: 0.0, bulk: 0.0, shear: 0.0, kn: 0.0, ks: 0.0, cohesion: 0.0, friction: 0.0, jkn: 0.0, jks: 0.0, jcohesion: 0.0, jfriction: 0.0, tf: 0.0 }
+        Material {
+            density: 0.0,
+            bulk: 0.0,
+            shear: 0.0,
+            kn: 0.0,
+            ks: 0.0,
+            cohesion: 0.0,
+            friction: 0.0,
+            jkn: 0.0,
+            jks: 0.0,
+            jcohesion: 0.0,
+            jfriction: 0.0,
+            tf: 0.0,
+        }
     }
 }
 

@@ -26,7 +26,17 @@ pub fn blocks_table(model: &Model) -> String {
         let i = principal_moments(b.inertia_ref);
         let head = format!("{:>7} {:>4} {:>5}", b.id, b.material, b.constitutive);
         row(&mut out, &head, &[b.centroid.x, b.centroid.y, b.centroid.z, b.volume, b.mass, i[0], i[1], i[2]]);
-        let _ = writeln!(out, "  ({}) FORCE {} {} {}  MOMENT {} {} {}", if b.fixed { "FIXED" } else { "RIGID" }, fmt_e(b.force.x), fmt_e(b.force.y), fmt_e(b.force.z), fmt_e(b.moment.x), fmt_e(b.moment.y), fmt_e(b.moment.z));
+        let _ = writeln!(
+            out,
+            "  ({}) FORCE {} {} {}  MOMENT {} {} {}",
+            if b.fixed { "FIXED" } else { "RIGID" },
+            fmt_e(b.force.x),
+            fmt_e(b.force.y),
+            fmt_e(b.force.z),
+            fmt_e(b.moment.x),
+            fmt_e(b.moment.y),
+            fmt_e(b.moment.z)
+        );
     }
     out
 }
