@@ -134,7 +134,8 @@ impl<'a> Executor<'a> {
                     // The kinetic energy given is input, booked with the work of the loads.
                     let after = blk.kinetic_energy();
                     if !after.is_finite() {
-                        return Err(self.error(cmd, format!("VELOCITY: block {b} would move so fast that its kinetic energy overflows f64")));
+                        let id = blk.id;
+                        return Err(self.error(cmd, format!("VELOCITY: block {id} would move so fast that its kinetic energy overflows f64")));
                     }
                     self.model.external_work += after - before;
                 }
