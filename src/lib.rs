@@ -22,6 +22,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`udec`] | UDEC, the 2D engine: its commands, model, contact mechanics, topology, CPU and GPU backends, executor and outputs |
+//! | [`d3`] | D3, the 3D engine: its commands, polyhedral blocks, contacts, the cycle on the CPU, outputs |
 //!
 //! Above the engines:
 //!
@@ -34,6 +35,7 @@
 
 pub mod bench;
 pub mod compare;
+pub mod d3;
 pub mod deck;
 pub mod driver;
 pub mod gpu;

@@ -139,6 +139,10 @@ struct RunArgs {
     /// a multiple of 100).
     #[arg(long, value_name = "CYCLES", value_parser = count::<u64>, allow_negative_numbers = true)]
     vtk_every: Option<u64>,
+    /// The engine: 2 (UDEC) or 3 (D3). [default: 3 when the deck has a BLOCK of (x,y,z)
+    /// vertices, a BOX or a GRAVITY of three components, else 2]
+    #[arg(long, value_parser = clap::value_parser!(u8).range(2..=3))]
+    dim: Option<u8>,
 }
 
 #[derive(Subcommand)]
@@ -517,7 +521,7 @@ fn seconds(text: &str) -> Result<f64, String> {
 }
 
 fn run(args: RunArgs) -> anyhow::Result<()> {
-    let RunArgs { deck, backend, adapter, precision, out, state_json, checkpoint_every, vtk_every } = args;
+    let RunArgs { deck, backend, adapter, precision, out, state_json, checkpoint_every, vtk_every, dim } = args;
     if backend == BackendChoice::Cpu {
         let given: Vec<&str> = [adapter.as_ref().map(|_| "--adapter"), precision.map(|_| "--precision")].into_iter().flatten().collect();
         if !given.is_empty() {
@@ -528,6 +532,15 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     let precision = precision.unwrap_or(PrecisionChoice::F32);
     let name = deck.display().to_string();
     let bytes = blockdem::udec::deck::parse::read_deck(&deck, &name)?;
+    // The engine (README, "2D or 3D"): `--dim`, or the deck's own commands.
+    if let Ok(text) = blockdem::udec::deck::parse::lenient_text(&bytes) {
+        let three_d = blockdem::d3::deck::three_dimensional(&blockdem::deck::lexer::split(&text, &name)?);
+        match (dim, three_d) {
+            (Some(3), _) | (None, Some(_)) => return run_d3(&text, &name, backend, state_json),
+            (Some(2), Some(why)) => bail!("{name}:{}: {} makes this a 3D (D3) deck, but --dim 2 was given", why.line, why.what),
+            _ => {}
+        }
+    }
     let commands = blockdem::udec::deck::parse::parse_deck_bytes(&bytes, &name)?;
     warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
@@ -630,6 +643,38 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     json_written
 }
 
+/// `blockdem run` of a 3D deck: D3 on the CPU (its GPU kernels are to come).
+fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<PathBuf>) -> anyhow::Result<()> {
+    match backend {
+        BackendChoice::Gpu => bail!("--backend gpu: the D3 engine (3D decks) runs on the CPU only in this version; use --backend cpu or auto"),
+        BackendChoice::Auto => note!("blockdem: a 3D deck: the D3 engine, on the CPU (f64)"),
+        BackendChoice::Cpu => {}
+    }
+    let commands = blockdem::d3::deck::parse_deck(text, name)?;
+    if let Some(path) = &state_json {
+        check_out_file(path, "--state-json")?;
+    }
+    let interrupt = Arc::new(AtomicBool::new(false));
+    watch_interrupts(interrupt.clone());
+    let mut exec = blockdem::d3::exec::Executor::new(Box::new(std::io::BufWriter::new(Stdout)), name);
+    exec.set_interrupt(interrupt);
+    let result = exec.run(&commands);
+    let provenance = Provenance::now(name, "cpu", None, "f64");
+    let json_written = match &state_json {
+        Some(path) => {
+            if let Some(folder) = path.parent().filter(|f| !f.as_os_str().is_empty()) {
+                let _ = std::fs::create_dir_all(folder);
+            }
+            let json = blockdem::d3::output::state_json(&exec.model, Some(&provenance));
+            std::fs::write(path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))
+        }
+        None => Ok(()),
+    };
+    drop(exec);
+    result?;
+    json_written
+}
+
 /// Ctrl-C (SIGINT) or SIGTERM (a batch system's time limit, `kill`) sets `flag`, which stops the
 /// run at its next energy check with the state saved; a second one quits at once. SIGHUP keeps
 /// its own handling, so that `nohup` still keeps a run going after a logout.
@@ -683,7 +728,8 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             note!("error: {e:#}");
-            let interrupted = e.downcast_ref::<RunError>().is_some_and(RunError::is_interrupted);
+            let interrupted = e.downcast_ref::<RunError>().is_some_and(RunError::is_interrupted)
+                || e.downcast_ref::<blockdem::d3::exec::RunError>().is_some_and(blockdem::d3::exec::RunError::is_interrupted);
             if interrupted {
                 ExitCode::from(INTERRUPTED_EXIT as u8)
             } else {

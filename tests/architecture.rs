@@ -194,7 +194,7 @@ fn module_path(rel: &Path) -> Vec<String> {
 }
 
 /// The folders under `src/` that hold an engine: their modules are nodes of their own.
-const ENGINES: [&str; 1] = ["udec"];
+const ENGINES: [&str; 2] = ["udec", "d3"];
 
 /// The modules of the chassis, dimension-free (issue 26, item 7): none of them may name an
 /// engine's module.
@@ -424,6 +424,26 @@ fn the_chassis_names_no_engine() {
         }
     }
     assert!(report.is_empty(), "the chassis must not use an engine's modules:\n{report}");
+}
+
+/// The engines stand apart from each other (docs/ARCHITECTURE.md, "how to add an engine"): no
+/// module of one engine names a module of another; what both need goes into the chassis.
+#[test]
+fn no_engine_names_another() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let g = graph(&src);
+    let engine_of = |node: &str| ENGINES.iter().copied().find(|e| node == *e || node.starts_with(&format!("{e}::")));
+    let mut report = String::new();
+    for (a, edges) in &g {
+        let Some(from) = engine_of(a) else { continue };
+        for (b, site) in edges {
+            if engine_of(b).is_some_and(|to| to != from) {
+                let file = site.file.strip_prefix(&src).unwrap_or(&site.file).display();
+                report.push_str(&format!("  {a} -> {b}  (src/{file}:{})\n", site.line));
+            }
+        }
+    }
+    assert!(report.is_empty(), "an engine must not use another engine's modules:\n{report}");
 }
 
 /// The scanner itself: comments, strings, test items and `super::` are read as the compiler would.

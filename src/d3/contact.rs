@@ -1,0 +1,428 @@
+//! Contact geometry and mechanics between two convex polyhedral blocks (SL-85-1 ¶18–24, ¶32,
+//! ¶35a and c).
+//!
+//! # The common plane and the physical category
+//!
+//! Two convex blocks either have a separating plane or overlap. Of the candidate directions (the
+//! face normals of either block and the cross products of a feature edge of each: the separating
+//! axis theorem's complete set for convex polyhedra) the one of greatest separation
+//! s = min over block 2 of n·x − max over block 1 of n·x is the **common-plane normal** n, from
+//! block 1 to block 2; s > 0 is their distance along it, s < 0 their overlap. The features of each
+//! block within the contact tolerance of the plane (one vertex, two: an edge, three or more: a
+//! face) give the physical category of ¶24, one of six (face–face, face–edge, face–vertex,
+//! edge–edge, edge–vertex, vertex–vertex).
+//!
+//! # Logical contacts
+//!
+//! The touching features, projected on the common plane, are a point, a segment or a convex
+//! polygon each; their intersection is the contact's region, whose corners are the logical
+//! contacts of ¶24 and ¶32: a **vertex–face** contact where a vertex of one block lies over the
+//! other's touching feature, an **edge–edge** contact where an edge of each cross. A face–face
+//! contact thus has a logical contact at every corner of its overlap polygon and carries the
+//! moment of its area (¶35c), as UDEC's edge–edge contact does with its two corner–edge contacts;
+//! a vertex–face contact has one. Each logical contact's gap is measured along n exactly: the line
+//! through its point along n leaves block 1 and enters block 2 at distances found from their face
+//! planes (convex blocks), so that a contact point's gap is right however the features lie.
+//! Logical contacts are keyed by their blocks' vertex numbers, so their shear force survives the
+//! re-detection each cycle.
+//!
+//! # The report's normal prescription (¶23) and why the common plane is the default
+//!
+//! [`prescribed_normal`] is ¶23's rule: the faces around the vertex of the block nearest the
+//! contact point, their normals averaged with weights 1/d. `tests/d3_contacts.rs` compares it with
+//! the common plane, as ¶35a asks. It agrees for a vertex pressed into the middle of a face, and
+//! fails (1) for an edge–edge contact, where the true normal is the cross product of the two
+//! edges and the prescription gives a mean of face normals of one block, off by up to half the
+//! dihedral angle, so that two crossing edges slide apart along a wrong direction; (2) for a
+//! point near the middle of a long face whose nearest vertex carries steep side faces, which then
+//! tilt the normal by an amount that depends on the penetration; and (3) on a face cut in
+//! triangles, whose normals it counts as many times as there are triangles at the vertex. The
+//! common plane has none of these faults and is the same for both blocks (the prescription of
+//! block 1 and that of block 2 differ), so it is the normal used here.
+//!
+//! # The force–displacement law (¶18, eqs. 13–20)
+//!
+//! For each logical contact: the relative velocity of block 2's point over block 1's (eq. 13),
+//! split into normal and shear parts (eqs. 14–15). The normal force is eq. (16) integrated
+//! exactly, Fn = −kn·gap (compression positive; the gap is known), as in 2D. The shear force is
+//! stepped, ΔFs = −ks u̇s Δt, after turning the previous shear force with the normal (eq. 17's
+//! second term; here as an exact rotation into the new plane, its magnitude kept, rather than the
+//! small-angle cross product). Coulomb's limit with cohesion (eq. 20): |Fs| ≤ c + μFn. A contact
+//! that opens (gap > 0) carries nothing. The force acts on block 2, its opposite on block 1, with
+//! eq. (12)'s moments about their centroids. Stiffness-proportional damping (β) adds dashpots
+//! β·k on the relative velocity, not stored, as in 2D.
+
+use glam::{DVec2, DVec3};
+
+use super::model::{Block, Contact, Feature, Logical, LogicalKind, Material};
+
+/// The common plane of two blocks and the features of each that touch it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CommonPlane {
+    /// Unit normal from block 1 to block 2.
+    pub normal: DVec3,
+    /// Their separation along it (negative: overlap).
+    pub separation: f64,
+}
+
+/// The common plane of convex blocks `a` and `b` (the separating axis of greatest separation).
+///
+/// Face normals and edge–edge cross products find the least penetration of two convex blocks
+/// that overlap, and a separating plane of two that do not; but two blocks apart whose nearest
+/// features are a vertex and an edge, or two vertices, are further apart than any of those axes
+/// shows. So where the blocks are apart by no more than `reach` (the contact-forming distance)
+/// the directions from each vertex to the nearest point of each feature edge of the other block,
+/// and between vertices, are tried too: the separation is then the blocks' distance, and the
+/// normal the direction between their nearest features (an edge–vertex or vertex–vertex contact
+/// about to touch is recognised as such). Once they overlap, a vertex pressed into an edge's
+/// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
+pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
+    let sep = |n: DVec3| -> f64 {
+        let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+        let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+        lo_b - hi_a
+    };
+    let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY };
+    let slack = 1e-12 * (a.shape.radius + b.shape.radius);
+    let consider = |best: &mut CommonPlane, n: DVec3| {
+        let s = sep(n);
+        if s > best.separation + slack {
+            *best = CommonPlane { normal: n, separation: s };
+        }
+    };
+    for &f in &a.shape.planes {
+        consider(&mut best, a.face_normal(f as usize));
+    }
+    for &f in &b.shape.planes {
+        consider(&mut best, -b.face_normal(f as usize));
+    }
+    for &i in &a.shape.edge_directions {
+        let ea = a.shape.edges[i as usize];
+        let da = a.vertices[ea.b as usize] - a.vertices[ea.a as usize];
+        for &j in &b.shape.edge_directions {
+            let eb = b.shape.edges[j as usize];
+            let db = b.vertices[eb.b as usize] - b.vertices[eb.a as usize];
+            let c = da.cross(db);
+            if c.length_squared() <= 1e-12 * da.length_squared() * db.length_squared() {
+                continue;
+            }
+            let n = c.normalize();
+            consider(&mut best, n);
+            consider(&mut best, -n);
+        }
+    }
+    if best.separation > 0.0 && best.separation <= reach {
+        // The nearest pair of a vertex and a vertex or feature edge of the other block, among
+        // those that can be within `reach` (near the plane found so far): its direction's
+        // separation is the blocks' distance where those are their nearest features, and less
+        // than what the axes above found otherwise.
+        let n = best.normal;
+        let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+        let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+        let near_a = |v: &DVec3| n.dot(*v) >= hi_a - reach;
+        let near_b = |v: &DVec3| n.dot(*v) <= lo_b + reach;
+        let mut nearest: Option<(f64, DVec3)> = None;
+        let mut offer = |d: DVec3| {
+            let l = d.length_squared();
+            if l > 0.0 && nearest.is_none_or(|(m, _)| l < m) {
+                nearest = Some((l, d));
+            }
+        };
+        for (from, to, sign, near_from, near_to) in
+            [(a, b, 1.0, &near_a as &dyn Fn(&DVec3) -> bool, &near_b as &dyn Fn(&DVec3) -> bool), (b, a, -1.0, &near_b, &near_a)]
+        {
+            for e in from.shape.edges.iter().filter(|e| e.feature) {
+                let (p, q) = (from.vertices[e.a as usize], from.vertices[e.b as usize]);
+                if !near_from(&p) && !near_from(&q) {
+                    continue;
+                }
+                let d = q - p;
+                for v in to.vertices.iter().filter(|v| near_to(v)) {
+                    let t = ((*v - p).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+                    offer((*v - (p + d * t)) * sign);
+                }
+            }
+        }
+        for va in a.vertices.iter().filter(|v| near_a(v)) {
+            for vb in b.vertices.iter().filter(|v| near_b(v)) {
+                offer(*vb - *va);
+            }
+        }
+        if let Some((_, d)) = nearest {
+            consider(&mut best, d.normalize());
+        }
+    }
+    best
+}
+
+/// The distance along `n` from `p` at which the line p + s·n leaves the convex block (the least
+/// s over the faces it heads out through), or enters it (`entering`: the greatest s over the faces
+/// it heads in through).
+fn ray_crossing(block: &Block, p: DVec3, n: DVec3, entering: bool) -> f64 {
+    let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
+    for (f, face) in block.shape.faces.iter().enumerate() {
+        let nf = block.face_normal(f);
+        let d = nf.dot(n);
+        let x = block.vertices[face[0] as usize];
+        if entering && d < -1e-9 {
+            s_best = s_best.max(nf.dot(x - p) / d);
+        } else if !entering && d > 1e-9 {
+            s_best = s_best.min(nf.dot(x - p) / d);
+        }
+    }
+    s_best
+}
+
+/// Orthonormal axes (t1, t2) of the plane normal to `n`.
+fn plane_axes(n: DVec3) -> (DVec3, DVec3) {
+    let t1 = n.any_orthonormal_vector();
+    (t1, n.cross(t1))
+}
+
+/// A touching feature projected on the common plane: its vertices (block numbers) in
+/// counter-clockwise order about n, as 2D points; one (a vertex), two (an edge) or more (a face).
+struct Hull {
+    ids: Vec<u32>,
+    pts: Vec<DVec2>,
+}
+
+impl Hull {
+    fn feature(&self) -> Feature {
+        match self.ids.len() {
+            1 => Feature::Vertex,
+            2 => Feature::Edge,
+            _ => Feature::Face,
+        }
+    }
+
+    /// Whether `p` lies on the feature (within `tol`).
+    fn covers(&self, p: DVec2, tol: f64) -> bool {
+        match self.pts.len() {
+            1 => (p - self.pts[0]).length() <= tol,
+            2 => segment_distance(p, self.pts[0], self.pts[1]) <= tol,
+            n => (0..n).all(|i| {
+                let (a, b) = (self.pts[i], self.pts[(i + 1) % n]);
+                (b - a).perp_dot(p - a) >= -tol * (b - a).length()
+            }),
+        }
+    }
+
+    /// Its edges as pairs of positions in `ids`.
+    fn edges(&self) -> Vec<(usize, usize)> {
+        match self.pts.len() {
+            1 => Vec::new(),
+            2 => vec![(0, 1)],
+            n => (0..n).map(|i| (i, (i + 1) % n)).collect(),
+        }
+    }
+}
+
+fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let d = b - a;
+    let t = if d.length_squared() > 0.0 { ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + d * t)).length()
+}
+
+/// The convex hull (counter-clockwise) of the vertices `ids` of a block projected on the plane
+/// (t1, t2); collinear points dropped, so that a line of points is its two ends.
+fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
+    let mut pts: Vec<(DVec2, u32)> = ids.iter().map(|&i| (DVec2::new(t1.dot(verts[i as usize]), t2.dot(verts[i as usize])), i)).collect();
+    pts.sort_by(|a, b| a.0.x.total_cmp(&b.0.x).then(a.0.y.total_cmp(&b.0.y)));
+    pts.dedup_by(|a, b| (a.0 - b.0).length() <= tol);
+    if pts.len() <= 2 {
+        return Hull { ids: pts.iter().map(|p| p.1).collect(), pts: pts.iter().map(|p| p.0).collect() };
+    }
+    // Andrew's monotone chain, dropping points within `tol` of the line of their neighbours.
+    let turn = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o) / (b - o).length().max(f64::MIN_POSITIVE);
+    let mut chain: Vec<(DVec2, u32)> = Vec::with_capacity(pts.len() * 2);
+    for pass in 0..2 {
+        let start = chain.len();
+        let iter: Box<dyn Iterator<Item = &(DVec2, u32)>> = if pass == 0 { Box::new(pts.iter()) } else { Box::new(pts.iter().rev()) };
+        for &p in iter {
+            while chain.len() >= start + 2 && turn(chain[chain.len() - 2].0, chain[chain.len() - 1].0, p.0) <= tol {
+                chain.pop();
+            }
+            chain.push(p);
+        }
+        chain.pop();
+    }
+    if chain.len() < 3 {
+        // All on a line: its two ends.
+        let (first, last) = (pts[0], pts[pts.len() - 1]);
+        return Hull { ids: vec![first.1, last.1], pts: vec![first.0, last.0] };
+    }
+    Hull { ids: chain.iter().map(|p| p.1).collect(), pts: chain.iter().map(|p| p.0).collect() }
+}
+
+/// The crossing of segments p0p1 and q0q1 strictly inside both (parameters on each), if any.
+fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2) -> Option<(f64, f64)> {
+    let r = p1 - p0;
+    let s = q1 - q0;
+    let den = r.perp_dot(s);
+    if den.abs() <= 1e-12 * r.length() * s.length() {
+        return None;
+    }
+    let t = (q0 - p0).perp_dot(s) / den;
+    let u = (q0 - p0).perp_dot(r) / den;
+    (t > 1e-9 && t < 1.0 - 1e-9 && u > 1e-9 && u < 1.0 - 1e-9).then_some((t, u))
+}
+
+/// The touching region of two blocks whose common plane is `plane`: the category, the logical
+/// contacts' kinds, points (on the plane, between the surfaces) and gaps, and the region's area.
+/// `tolerance` is the contact-forming distance (features within it of the plane touch).
+pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Vec<(LogicalKind, DVec3, f64)>, f64) {
+    let n = plane.normal;
+    let (t1, t2) = plane_axes(n);
+    let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+    let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+    let near_a: Vec<u32> = (0..a.vertices.len() as u32).filter(|&i| n.dot(a.vertices[i as usize]) >= hi_a - tolerance).collect();
+    let near_b: Vec<u32> = (0..b.vertices.len() as u32).filter(|&i| n.dot(b.vertices[i as usize]) <= lo_b + tolerance).collect();
+    let size = a.shape.radius.min(b.shape.radius);
+    let flat = 1e-6 * size;
+    let ha = hull(&near_a, &a.vertices, t1, t2, flat);
+    let hb = hull(&near_b, &b.vertices, t1, t2, flat);
+    let category = [ha.feature(), hb.feature()];
+
+    let mut found: Vec<(LogicalKind, DVec2)> = Vec::new();
+    for (k, &p) in ha.pts.iter().enumerate() {
+        if hb.covers(p, flat) {
+            found.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[k] }, p));
+        }
+    }
+    for (k, &p) in hb.pts.iter().enumerate() {
+        // A vertex of each at one place is one logical contact (vertex–vertex, or the corner
+        // of two faces matching): keep block 1's.
+        if ha.covers(p, flat) && !found.iter().any(|(_, q)| (*q - p).length() <= flat) {
+            found.push((LogicalKind::VertexFace { on_first: false, vertex: hb.ids[k] }, p));
+        }
+    }
+    let key = |x: u32, y: u32| (x.min(y), x.max(y));
+    for (i, j) in ha.edges() {
+        for (k, l) in hb.edges() {
+            if let Some((t, _)) = crossing(ha.pts[i], ha.pts[j], hb.pts[k], hb.pts[l]) {
+                let p = ha.pts[i] + (ha.pts[j] - ha.pts[i]) * t;
+                if !found.iter().any(|(_, q)| (*q - p).length() <= flat) {
+                    found.push((LogicalKind::EdgeEdge { first: key(ha.ids[i], ha.ids[j]), second: key(hb.ids[k], hb.ids[l]) }, p));
+                }
+            }
+        }
+    }
+    if found.is_empty() {
+        // Features that touch without their projections meeting within the tolerance of the
+        // tests (an edge and a vertex at a grazing angle): one contact at the nearest pair.
+        let (mut best, mut at) = (f64::INFINITY, (0, 0));
+        for (i, p) in ha.pts.iter().enumerate() {
+            for (j, q) in hb.pts.iter().enumerate() {
+                let d = (*p - *q).length();
+                if d < best {
+                    best = d;
+                    at = (i, j);
+                }
+            }
+        }
+        let p = 0.5 * (ha.pts[at.0] + hb.pts[at.1]);
+        found.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[at.0] }, p));
+    }
+    // Each point on the plane: the gap along n between where the line leaves block 1 and enters
+    // block 2, and the point halfway between the two surfaces.
+    let origin = n * (0.5 * (hi_a + lo_b));
+    let out = found
+        .iter()
+        .map(|(kind, p2)| {
+            let p = origin + t1 * p2.x + t2 * p2.y;
+            let leave = ray_crossing(a, p, n, false);
+            let enter = ray_crossing(b, p, n, true);
+            let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, plane.separation) };
+            (*kind, p + n * (0.5 * (leave + enter)), enter - leave)
+        })
+        .collect();
+    let area = if found.len() >= 3 {
+        let region = hull(
+            &(0..found.len() as u32).collect::<Vec<_>>(),
+            &found.iter().map(|(_, p)| DVec3::new(p.x, p.y, 0.0)).collect::<Vec<_>>(),
+            DVec3::X,
+            DVec3::Y,
+            flat,
+        );
+        let m = region.pts.len();
+        if m >= 3 {
+            0.5 * (0..m).map(|i| region.pts[i].perp_dot(region.pts[(i + 1) % m])).sum::<f64>()
+        } else {
+            0.0
+        }
+    } else {
+        0.0
+    };
+    (category, out, area)
+}
+
+/// ¶23's prescription for the normal at a point `p` inside (or on) block `block`: the vertex of
+/// the block nearest p; the faces around it; their outward normals averaged with weights
+/// 1/d (d the distance of p from each face's plane), or the normal of a face p lies on; made a
+/// unit vector. Outward from `block`.
+pub fn prescribed_normal(block: &Block, p: DVec3) -> DVec3 {
+    let nearest =
+        (0..block.vertices.len()).min_by(|&i, &j| (block.vertices[i] - p).length_squared().total_cmp(&(block.vertices[j] - p).length_squared())).unwrap_or(0);
+    let mut sum = DVec3::ZERO;
+    for (f, face) in block.shape.faces.iter().enumerate() {
+        if !face.contains(&(nearest as u32)) {
+            continue;
+        }
+        let n = block.face_normal(f);
+        let d = n.dot(p - block.vertices[face[0] as usize]).abs();
+        if d <= 1e-12 * block.shape.radius {
+            return n;
+        }
+        sum += n / d;
+    }
+    sum.normalize_or_zero()
+}
+
+/// The force–displacement law for the logical contacts of `contact` (eqs. 13–20), at the
+/// contact's current normal; `old_normal` is the normal of the previous cycle (for the rotation
+/// of the shear force). Returns nothing: the forces are stored in the logical contacts.
+pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block, mat: &Material, dt: f64) {
+    let n = contact.normal;
+    for l in &mut contact.logical {
+        if l.gap > 0.0 {
+            // Open: no force, and the shear history is lost.
+            l.normal_force = 0.0;
+            l.shear_force = DVec3::ZERO;
+            continue;
+        }
+        // Eq. (13): block 2's point relative to block 1's; eqs. (14)–(15).
+        let u = b.velocity_at(l.point) - a.velocity_at(l.point);
+        let un = u.dot(n);
+        let us = u - un * n;
+        // Eq. (16), integrated: the overlap is known.
+        l.normal_force = -mat.kn * l.gap;
+        // Eq. (17): the previous shear force turned into the new plane, magnitude kept.
+        let mut fs = l.shear_force;
+        if old_normal != n {
+            let magnitude = fs.length();
+            fs -= n * n.dot(fs);
+            let left = fs.length();
+            fs = if left > 0.0 { fs * (magnitude / left) } else { DVec3::ZERO };
+        }
+        fs -= us * (mat.ks * dt);
+        // Eq. (20): Coulomb's limit with cohesion.
+        let limit = mat.cohesion + mat.friction * l.normal_force;
+        let size = fs.length();
+        if size > limit {
+            fs *= if size > 0.0 { limit.max(0.0) / size } else { 0.0 };
+        }
+        l.shear_force = fs;
+    }
+}
+
+/// The total force each logical contact puts on block 2 (block 1 takes its opposite), the
+/// stiffness-proportional dashpots included (not stored): Fn·n + Fs + β(kn u̇n n + ks u̇s).
+pub fn logical_force(l: &Logical, n: DVec3, a: &Block, b: &Block, mat: &Material, beta: f64) -> DVec3 {
+    let mut f = n * l.normal_force + l.shear_force;
+    if beta > 0.0 && l.gap <= 0.0 {
+        let u = b.velocity_at(l.point) - a.velocity_at(l.point);
+        let un = u.dot(n);
+        f -= beta * (mat.kn * un * n + mat.ks * (u - un * n));
+    }
+    f
+}

@@ -1,0 +1,261 @@
+//! D3's cycle on the CPU, in f64 (the reference), through the chassis's run driver.
+//!
+//! One cycle, in the order of DESIGN.md §1 (stage 6 of a cycle runs at the start of the next one's
+//! block pass, as in 2D):
+//!
+//! 6. gather: each block's force and moment, gravity and load plus its contacts' forces summed in
+//!    the contacts' order (eq. 12 for the moments; the order is fixed, so reruns repeat bit for
+//!    bit);
+//! 1. law of motion and 2. geometry update (`d3::motion`);
+//! 7. the neighbour lists, when a block has moved past the contact-forming distance
+//!    (`d3::topology`);
+//! 4. each contact's common plane, logical contacts and force–displacement law (`d3::contact`),
+//!    in parallel over the contacts.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::contact;
+use super::model::{Contact, Logical, Model};
+use super::motion;
+use super::topology;
+use crate::driver::{self, CycleError, CycleReport, Position};
+
+impl driver::RunModel for Model {
+    fn cycle(&self) -> u64 {
+        self.cycle
+    }
+
+    fn timestep(&self) -> f64 {
+        Model::timestep(self)
+    }
+
+    fn frac(&self) -> f64 {
+        self.frac
+    }
+
+    fn energy_terms(&self) -> (f64, f64) {
+        let e = self.energies();
+        (e.kinetic + e.strain, e.external_work)
+    }
+
+    fn energy_baseline(&self) -> (f64, f64) {
+        let e = self.energies();
+        let baseline = e.kinetic + e.strain - e.external_work;
+        // The floor's scale: each block's weight and load over its own size, and the strain of
+        // its contacts at an overlap of 1e-3 of its size (as in 2D).
+        let g = self.gravity.length();
+        let kn = self.materials.iter().map(|m| m.kn).fold(0.0, f64::max);
+        let scale = self.blocks.iter().map(|b| (b.mass * g + b.load.length()) * b.shape.radius + kn * (1e-3 * b.shape.radius).powi(2)).sum::<f64>()
+            + (e.kinetic + e.strain).abs();
+        (baseline, scale)
+    }
+
+    fn stable_frac_estimate(&self) -> f64 {
+        f64::NAN
+    }
+
+    fn has_crack_candidates(&self) -> bool {
+        false
+    }
+}
+
+/// The CPU backend for D3: it keeps the state its last run left, to resume from.
+#[derive(Default)]
+pub struct CpuBackend {
+    last_good: Model,
+    resumable: bool,
+}
+
+impl CpuBackend {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Runs `cycles` cycles of `model` through the run driver. `progress` is told the cycles done
+    /// at each check and may end the run there (false).
+    pub fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        let mut report = CycleReport::default();
+        let resume = driver::prepare(self, model, &mut report)?;
+        let mut kept = std::mem::take(&mut self.last_good);
+        let result = driver::cycles(&mut Stages, model, cycles, resume, &mut kept, &mut report, progress);
+        self.last_good = kept;
+        result?;
+        self.resumable = cycles > 0;
+        Ok(report)
+    }
+}
+
+impl driver::Start<Model> for CpuBackend {
+    fn take_resumable(&mut self) -> Option<&Model> {
+        std::mem::take(&mut self.resumable).then_some(&self.last_good)
+    }
+
+    fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        if let Some(b) = model.blocks.iter().find(|b| !b.shape.convex) {
+            return Err(CycleError::Setup(format!(
+                "block {} is not convex; contact detection in D3 handles convex blocks (build a concave block from convex ones)",
+                b.id
+            )));
+        }
+        if let Some(b) = model.blocks.iter().find(|b| !b.fixed && (b.mass.is_nan() || b.mass <= 0.0)) {
+            return Err(CycleError::Setup(format!("block {} has no mass: give its material (MATERIAL {}) a DENSITY", b.id, b.material)));
+        }
+        Ok(())
+    }
+
+    fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        if !resume {
+            let (created, dropped) = topology::update_neighbours(model);
+            report.topology_updates += 1;
+            report.contacts_created += created;
+            report.contacts_dropped += dropped;
+            // The contacts' geometry and their normal forces now; no shear increment (Δt = 0).
+            contact_stage(model, 0.0);
+        }
+        Ok(())
+    }
+}
+
+/// The CPU's stages within a run.
+struct Stages;
+
+impl driver::Stages<Model> for Stages {
+    fn advance(&mut self, model: &mut Model, max: u64, _cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
+        for _ in 0..max {
+            cycle(model, report)?;
+        }
+        Ok(max)
+    }
+
+    fn energy(&mut self, model: &mut Model) -> Result<(f64, f64), CycleError> {
+        let e = model.energies();
+        Ok((e.kinetic + e.strain, e.external_work))
+    }
+
+    fn keep(&mut self, model: &Model, last_good: &mut Model) {
+        last_good.clone_from(model);
+    }
+}
+
+/// Stage 6: each block's force and moment sums, gravity, load and contacts, in a fixed order.
+pub fn gather(model: &mut Model) {
+    let g = model.gravity;
+    for b in &mut model.blocks {
+        b.force = b.mass * g + b.load;
+        b.moment = DVec3::ZERO;
+    }
+    let beta = model.damping.beta;
+    for c in &model.contacts {
+        let [ia, ib] = c.blocks.map(|i| i as usize);
+        let mat = model.contact_material(c);
+        let (a, b) = (&model.blocks[ia], &model.blocks[ib]);
+        let mut fa = DVec3::ZERO;
+        let mut ma = DVec3::ZERO;
+        let mut fb = DVec3::ZERO;
+        let mut mb = DVec3::ZERO;
+        for l in &c.logical {
+            let f = contact::logical_force(l, c.normal, a, b, &mat, beta);
+            // Eq. (12) on each block: positive on block 2, negative on block 1 (¶19).
+            fb += f;
+            mb += (l.point - b.centroid).cross(f);
+            fa -= f;
+            ma -= (l.point - a.centroid).cross(f);
+        }
+        model.blocks[ia].force += fa;
+        model.blocks[ia].moment += ma;
+        model.blocks[ib].force += fb;
+        model.blocks[ib].moment += mb;
+    }
+}
+
+/// Stage 4 over every contact: common plane, logical contacts (their shear forces carried by
+/// key), force–displacement law. With `dt` = 0 only the geometry and normal forces are renewed.
+pub fn contact_stage(model: &mut Model, dt: f64) {
+    let tol = model.contact_tolerance();
+    let blocks = &model.blocks;
+    let materials: Vec<_> = model.contacts.iter().map(|c| model.material(blocks[c.blocks[0] as usize].material)).collect();
+    model.contacts.par_iter_mut().zip(materials).for_each(|(c, mat)| {
+        let (a, b) = (&blocks[c.blocks[0] as usize], &blocks[c.blocks[1] as usize]);
+        update_contact(c, a, b, &mat, tol, dt);
+    });
+}
+
+/// One contact's stage 4.
+pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model::Block, mat: &super::model::Material, tol: f64, dt: f64) {
+    // Boxes apart by more than the contact-forming distance: the blocks are (a lower bound of
+    // their distance), and the common plane is not needed.
+    let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
+    if (b0 - a1).max(a0 - b1).max_element() > tol {
+        c.category = None;
+        c.area = 0.0;
+        c.logical.clear();
+        return;
+    }
+    let plane = contact::common_plane(a, b, tol);
+    let old_normal = c.normal;
+    c.normal = plane.normal;
+    if plane.separation > tol {
+        c.category = None;
+        c.area = 0.0;
+        c.logical.clear();
+        return;
+    }
+    let (category, found, area) = contact::logical_contacts(a, b, &plane, tol);
+    let previous = std::mem::take(&mut c.logical);
+    c.logical = found
+        .into_iter()
+        .map(|(kind, point, gap)| {
+            let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
+            Logical { kind, point, gap, normal_force: 0.0, shear_force }
+        })
+        .collect();
+    c.category = Some(category);
+    c.area = area;
+    contact::force_law(c, old_normal, a, b, mat, dt);
+}
+
+/// One cycle: stages 6, 1–2, 7 as due, 4.
+pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
+    let dt = model.timestep();
+    gather(model);
+    let (gravity, alpha) = (model.gravity, model.damping.alpha);
+    let outcomes: Vec<motion::StepOutcome> = model.blocks.par_iter_mut().map(|b| motion::law_of_motion(b, gravity, alpha, dt)).collect();
+    let tol = model.contact_tolerance();
+    for (k, o) in outcomes.iter().enumerate() {
+        let b = &model.blocks[k];
+        if !(o.external_work.is_finite() && b.centroid.is_finite() && b.velocity.is_finite() && b.angular_momentum.is_finite()) {
+            return Err(CycleError::NonFinite { cycle: model.cycle + 1, block: b.id, what: "a non-finite position or velocity".into() });
+        }
+        if o.travel > tol {
+            return Err(CycleError::TooFast { cycle: model.cycle + 1, block: b.id, travel: o.travel, limit: tol, speed: o.travel / dt });
+        }
+        model.external_work += o.external_work;
+    }
+    model.cycle += 1;
+    model.time += dt;
+    if topology::rebuild_due(model) {
+        let (created, dropped) = topology::update_neighbours(model);
+        report.topology_updates += 1;
+        report.contacts_created += created;
+        report.contacts_dropped += dropped;
+    }
+    contact_stage(model, dt);
+    // A contact driven through: overlap past half the smaller block's radius.
+    for c in &model.contacts {
+        if let Some((l, overlap)) = c.logical.iter().map(|l| (l, -l.gap)).max_by(|x, y| x.1.total_cmp(&y.1)) {
+            let limit = 0.5 * model.blocks[c.blocks[0] as usize].shape.radius.min(model.blocks[c.blocks[1] as usize].shape.radius);
+            if overlap > limit {
+                return Err(CycleError::Overlap {
+                    cycle: model.cycle,
+                    block1: model.blocks[c.blocks[0] as usize].id,
+                    block2: model.blocks[c.blocks[1] as usize].id,
+                    overlap,
+                    limit,
+                    at: Box::new(Position::xyz(l.point.to_array())),
+                });
+            }
+        }
+    }
+    Ok(())
+}

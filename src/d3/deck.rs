@@ -1,0 +1,708 @@
+//! D3's command language (SL-85-1, Appendix B, "Input Commands") on the chassis lexer: tokens →
+//! [`Command`]s, checked as they are read. No physics: the faces of a BLOCK are read and grouped
+//! here; whether they close a surface, face the right way and enclose a volume is the geometry's
+//! check (`d3::geometry::Polyhedron::from_faces`), which names the face and its line.
+//!
+//! # Commands and their minimum abbreviations
+//!
+//! | command | min | | command | min | | command | min |
+//! |---|---|---|---|---|---|---|---|
+//! | BLOCK | `B` | | FIX | `F` | | PROPERTY | `PRO` |
+//! | BOX (extension) | `BO` | | FRACTION | `FRA` | | RESTART | `R` |
+//! | CHANGE | `CH` | | FREE | `FR` | | RSET | `RS` |
+//! | CYCLE | `C` | | GRAVITY | `G` | | SAVE | `SA` |
+//! | DAMPING | `D` | | LOAD (extension) | `L` | | SPLIT (extension) | `SP` |
+//! | DUMP | `DU` | | PRINT | `P` | | START | `STA` |
+//! | END | `E` | | VELOCITY (extension) | `VE` | | STOP | `S` |
+//!
+//! PRINT's keywords: BLOCKS `B`, FACES `F`, VELOCITIES `V`, VERTICES `VERT`, CONTACTS `C`.
+//! PROPERTY's: those of the 2D language (MATERIAL `M` first, BULK `B` or `K`, G, DENSITY `D`, KN,
+//! KS, COHESION `C`, FRICTION `F`, JKN, JKS, JCOHESION `JC`, JFRICTION `JF`, TF `T`); the fluid
+//! keys (JPERM, CPERM, AZERO, ARES) belong to UDEC's fluid flow and are refused in a 3D deck.
+//!
+//! # Choices beyond the manual
+//!
+//! * BLOCK's vertices are typed three coordinates at a time, three vertices to a face; a face's
+//!   nine numbers must stand on one line ("a set of three vertices defining a face must not be
+//!   separated"). Parentheses, where typed, must each hold one vertex's three numbers.
+//! * Ranges (`x1 x2 y1 y2 z1 z2`) select the blocks whose centroid lies in the open box, as in 2D;
+//!   an empty range (x1 ≥ x2, …) is an error, and so is a range of four numbers (a 2D range).
+//! * `LOAD x1 x2 y1 y2 z1 z2 fx fy fz`, `VELOCITY x1 x2 y1 y2 z1 z2 vx vy vz [wx wy wz]` and
+//!   `BOX x1 x2 y1 y2 z1 z2 [MAT n] [CONS m]` (twelve faces) are extensions, as the issue asks.
+//! * A 2D (UDEC) command in a 3D deck is refused at its line, naming it as such: a BLOCK of
+//!   (x,y) pairs, GRAVITY of two components, ROUND, GENERATE, PLOT, … .
+//! * CHANGE (SDEF), DUMP, SAVE, SPLIT and DAMPING INTERNAL are read by the language but their
+//!   physics is not in this version of the D3 engine: each is refused at its line as "not
+//!   available yet"; RESTART likewise (there is no D3 save file to restart from). RSET is refused
+//!   as in 2D: there is no main array to poke.
+
+use crate::deck::lexer::{self, lookup, name, Name, NumberError, Statement, Token};
+use crate::deck::DeckError;
+
+type Result<T> = std::result::Result<T, DeckError>;
+
+/// An open box of space: the blocks whose centroid lies strictly inside are selected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range3 {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+impl Range3 {
+    /// Whether `p` lies strictly inside.
+    pub fn contains(&self, p: [f64; 3]) -> bool {
+        (0..3).all(|i| self.min[i] < p[i] && p[i] < self.max[i])
+    }
+}
+
+/// One triangular face as typed: its three vertices (counter-clockwise looking along the outward
+/// normal) and the line it stands on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FaceInput {
+    pub vertices: [[f64; 3]; 3],
+    pub line: usize,
+}
+
+/// PROPERTY's keys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PropKey {
+    Bulk,
+    Shear,
+    Density,
+    Kn,
+    Ks,
+    Cohesion,
+    Friction,
+    Jkn,
+    Jks,
+    Jcohesion,
+    Jfriction,
+    Tf,
+}
+
+/// PRINT's items.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrintItem {
+    Blocks,
+    Faces,
+    Velocities,
+    Vertices,
+    Contacts,
+}
+
+/// DAMPING's qualifier.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DampMode {
+    /// Rayleigh damping, both terms.
+    Full,
+    /// "The word Mass eliminates the stiffness-proportional dashpots".
+    Mass,
+    /// "Stiffness eliminates the mass-proportional dashpots".
+    Stiffness,
+}
+
+/// A D3 command.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    Start,
+    Block { material: u32, constitutive: u32, faces: Vec<FaceInput> },
+    Box { range: Range3, material: u32, constitutive: u32 },
+    Property { material: u32, values: Vec<(PropKey, f64)> },
+    Gravity { g: [f64; 3] },
+    Fix { range: Range3 },
+    Free { range: Range3 },
+    Load { range: Range3, force: [f64; 3] },
+    Velocity { range: Range3, velocity: [f64; 3], angular: Option<[f64; 3]> },
+    Damping { fcrit: f64, freq: f64, mode: DampMode },
+    Fraction { f: f64 },
+    Cycle { n: u64 },
+    Print { items: Vec<PrintItem> },
+    Stop,
+    End,
+}
+
+/// A command with the line it starts on and its text as typed (for the echo).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Located {
+    pub line: usize,
+    pub source: String,
+    pub command: Command,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Word {
+    Block,
+    Box,
+    Change,
+    Cycle,
+    Damping,
+    Dump,
+    End,
+    Fix,
+    Fraction,
+    Free,
+    Gravity,
+    Load,
+    Print,
+    Property,
+    Restart,
+    RSet,
+    Save,
+    Split,
+    Start,
+    Stop,
+    Velocity,
+}
+
+const COMMANDS: &[Name<Word>] = &[
+    name("BLOCK", "B", Word::Block),
+    name("BOX", "BO", Word::Box),
+    name("CHANGE", "CH", Word::Change),
+    name("CYCLE", "C", Word::Cycle),
+    name("DAMPING", "D", Word::Damping),
+    name("DUMP", "DU", Word::Dump),
+    name("END", "E", Word::End),
+    name("FIX", "F", Word::Fix),
+    name("FRACTION", "FRA", Word::Fraction),
+    name("FREE", "FR", Word::Free),
+    name("GRAVITY", "G", Word::Gravity),
+    name("LOAD", "L", Word::Load),
+    name("PRINT", "P", Word::Print),
+    name("PROPERTY", "PRO", Word::Property),
+    name("RESTART", "R", Word::Restart),
+    name("RSET", "RS", Word::RSet),
+    name("SAVE", "SA", Word::Save),
+    name("SPLIT", "SP", Word::Split),
+    name("START", "STA", Word::Start),
+    name("STOP", "S", Word::Stop),
+    name("VELOCITY", "VE", Word::Velocity),
+];
+
+/// The 2D language's commands that D3 has no counterpart of (refused by name in a 3D deck).
+const UDEC_ONLY: &[Name<&str>] = &[
+    name("DELETE", "DE", "DELETE"),
+    name("FLUID", "FL", "FLUID"),
+    name("GENERATE", "GE", "GENERATE"),
+    name("LINK", "LI", "LINK"),
+    name("PFIX", "PF", "PFIX"),
+    name("PFREE", "PFR", "PFREE"),
+    name("PLOT", "PL", "PLOT"),
+    name("ROUND", "RO", "ROUND"),
+    name("SET", "SE", "SET"),
+    name("VIEW", "V", "VIEW"),
+    name("VTK", "VT", "VTK"),
+    name("WINDOW", "W", "WINDOW"),
+];
+
+const PRINT_ITEMS: &[Name<PrintItem>] = &[
+    name("BLOCKS", "B", PrintItem::Blocks),
+    name("FACES", "F", PrintItem::Faces),
+    name("VELOCITIES", "V", PrintItem::Velocities),
+    name("VERTICES", "VERT", PrintItem::Vertices),
+    name("CONTACTS", "C", PrintItem::Contacts),
+];
+
+const DAMP_MODES: &[Name<Option<DampMode>>] =
+    &[name("MASS", "M", Some(DampMode::Mass)), name("STIFFNESS", "S", Some(DampMode::Stiffness)), name("INTERNAL", "I", None)];
+
+/// PROPERTY keys; `None` is MATERIAL.
+const PROP_KEYS: &[Name<Option<PropKey>>] = &[
+    name("MATERIAL", "M", None),
+    name("BULK", "B", Some(PropKey::Bulk)),
+    name("K", "K", Some(PropKey::Bulk)),
+    name("G", "G", Some(PropKey::Shear)),
+    name("DENSITY", "D", Some(PropKey::Density)),
+    name("KN", "KN", Some(PropKey::Kn)),
+    name("KS", "KS", Some(PropKey::Ks)),
+    name("COHESION", "C", Some(PropKey::Cohesion)),
+    name("FRICTION", "F", Some(PropKey::Friction)),
+    name("JKN", "JKN", Some(PropKey::Jkn)),
+    name("JKS", "JKS", Some(PropKey::Jks)),
+    name("JCOHESION", "JC", Some(PropKey::Jcohesion)),
+    name("JFRICTION", "JF", Some(PropKey::Jfriction)),
+    name("TF", "T", Some(PropKey::Tf)),
+];
+
+/// UDEC's fluid keys: refused in a 3D deck by name.
+const FLUID_KEYS: &[Name<&str>] = &[name("JPERM", "JP", "JPERM"), name("CPERM", "CP", "CPERM"), name("AZERO", "AZ", "AZERO"), name("ARES", "AR", "ARES")];
+
+/// BLOCK/BOX keywords.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum BlockKey {
+    Material,
+    Constitutive,
+}
+const BLOCK_KEYS: &[Name<BlockKey>] = &[name("MATERIAL", "M", BlockKey::Material), name("CONSTITUTIVE", "CO", BlockKey::Constitutive)];
+
+/// Why a deck is read as D3 (the engine rule of `blockdem run`, README): the line and what was
+/// seen there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThreeDimensional {
+    pub line: usize,
+    pub what: &'static str,
+}
+
+/// Whether a deck is a 3D (D3) deck, by its commands: a BLOCK whose vertices are typed as
+/// parenthesised (x,y,z) triples, a BOX, or GRAVITY with three components. The first such
+/// command's line, or `None` for a 2D deck. The 2D language has no BOX; its BLOCK corners are
+/// pairs and its GRAVITY has two components, so no 2D deck is taken for a 3D one.
+pub fn three_dimensional(statements: &[Statement]) -> Option<ThreeDimensional> {
+    for st in statements {
+        let word = &st.tokens[0];
+        if word.is_numeric() {
+            continue;
+        }
+        match lookup(&word.text, COMMANDS) {
+            Some(Word::Block) if has_triple_group(&st.tokens[1..]) => {
+                return Some(ThreeDimensional { line: st.line, what: "a BLOCK with (x,y,z) vertices" });
+            }
+            Some(Word::Box) => return Some(ThreeDimensional { line: st.line, what: "a BOX" }),
+            Some(Word::Gravity) if st.tokens.len() == 4 && st.tokens[1..].iter().all(Token::is_numeric) => {
+                return Some(ThreeDimensional { line: st.line, what: "GRAVITY with three components" });
+            }
+            Some(Word::End) => break,
+            _ => {}
+        }
+    }
+    None
+}
+
+/// Whether some parenthesised group of the tokens holds exactly three numbers.
+fn has_triple_group(tokens: &[Token]) -> bool {
+    let mut i = 0;
+    while i < tokens.len() {
+        match tokens[i].group {
+            Some(g) => {
+                let n = tokens[i..].iter().take_while(|t| t.group == Some(g)).count();
+                if n == 3 && tokens[i..i + 3].iter().all(Token::is_numeric) {
+                    return true;
+                }
+                i += n;
+            }
+            None => i += 1,
+        }
+    }
+    false
+}
+
+/// Reads a D3 deck: the first command must be START or RESTART; commands after END are not
+/// read. Errors name the file, line and column.
+pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
+    let statements = lexer::split(text, file)?;
+    let Some(first) = statements.first() else {
+        return Err(DeckError::new(file, 1, 0, "empty deck: the first command must be START or RESTART"));
+    };
+    let mut out = Vec::with_capacity(statements.len());
+    for (k, st) in statements.iter().enumerate() {
+        let command = parse_statement(st, file)?;
+        if k == 0 && command != Command::Start {
+            let t = &first.tokens[0];
+            return Err(DeckError::new(file, t.line, t.column, format!("the first command must be START or RESTART, found '{}'", t.shown())));
+        }
+        if k > 0 && command == Command::Start {
+            let t = &st.tokens[0];
+            return Err(DeckError::new(file, t.line, t.column, "START may only be the first command"));
+        }
+        let end = command == Command::End;
+        out.push(Located { line: st.line, source: st.source.clone(), command });
+        if end {
+            break;
+        }
+    }
+    Ok(out)
+}
+
+/// The parameters of one statement, read in order.
+struct Args<'a> {
+    file: &'a str,
+    word: &'a Token,
+    tokens: &'a [Token],
+    at: usize,
+}
+
+impl<'a> Args<'a> {
+    fn at(&self, t: &Token, message: impl Into<String>) -> DeckError {
+        DeckError::new(self.file, t.line, t.column, message)
+    }
+
+    /// An error for something missing: just past the last token.
+    fn at_end(&self, message: impl Into<String>) -> DeckError {
+        let last = self.tokens.last().unwrap_or(self.word);
+        DeckError::new(self.file, last.line, last.end_column(), message)
+    }
+
+    fn next(&mut self) -> Option<&'a Token> {
+        let t = self.tokens.get(self.at)?;
+        self.at += 1;
+        Some(t)
+    }
+
+    fn peek(&self) -> Option<&'a Token> {
+        self.tokens.get(self.at)
+    }
+
+    fn real_of(&self, t: &Token, what: &str) -> Result<f64> {
+        match lexer::parse_real(&t.text) {
+            Ok(v) => Ok(v),
+            Err(NumberError::TooLarge) => Err(self.at(t, format!("{what}: '{}' is out of range", t.shown()))),
+            Err(_) => Err(self.at(t, format!("expected a number for {what}, found '{}'", t.shown()))),
+        }
+    }
+
+    fn real(&mut self, what: &str) -> Result<(f64, &'a Token)> {
+        let t = self.next().ok_or_else(|| self.at_end(format!("expected {what}")))?;
+        Ok((self.real_of(t, what)?, t))
+    }
+
+    fn int_of(&self, t: &Token, what: &str) -> Result<i64> {
+        match lexer::parse_int(&t.text) {
+            Ok(v) => Ok(v),
+            Err(NumberError::NotInteger) => Err(self.at(t, format!("{what} must be a whole number, found '{}'", t.shown()))),
+            Err(NumberError::TooLarge) => Err(self.at(t, format!("{what}: '{}' is out of range", t.shown()))),
+            Err(NumberError::Syntax) => Err(self.at(t, format!("expected a whole number for {what}, found '{}'", t.shown()))),
+        }
+    }
+
+    /// A material or constitutive number: 1 or more.
+    fn id(&mut self, what: &str) -> Result<u32> {
+        let t = self.next().ok_or_else(|| self.at_end(format!("expected {what}")))?;
+        let v = self.int_of(t, what)?;
+        if v < 1 || v > u32::MAX as i64 {
+            return Err(self.at(t, format!("{what} must be 1 or more, found {v}")));
+        }
+        Ok(v as u32)
+    }
+
+    /// Nothing may follow.
+    fn done(&self) -> Result<()> {
+        match self.peek() {
+            Some(t) => Err(self.at(t, format!("too many values: '{}' is not expected after {}", t.shown(), self.word.text.to_ascii_uppercase()))),
+            None => Ok(()),
+        }
+    }
+
+    /// The numeric tokens up to the next word (or the end).
+    fn numbers(&mut self) -> Vec<&'a Token> {
+        let mut out = Vec::new();
+        while let Some(t) = self.peek().filter(|t| t.is_numeric()) {
+            out.push(t);
+            self.at += 1;
+        }
+        out
+    }
+
+    /// A range x1 x2 y1 y2 z1 z2 from its six tokens.
+    fn range(&self, toks: &[&Token]) -> Result<Range3> {
+        let mut v = [0.0; 6];
+        for (k, (t, what)) in toks.iter().zip(["x1", "x2", "y1", "y2", "z1", "z2"]).enumerate() {
+            v[k] = self.real_of(t, what)?;
+        }
+        for (axis, pair) in ["x", "y", "z"].iter().zip([0, 2, 4]) {
+            if v[pair] >= v[pair + 1] {
+                return Err(self.at(
+                    toks[pair],
+                    format!("empty range: {axis}1 = {} is not below {axis}2 = {} (the range is the open {axis}1 < {axis} < {axis}2)", v[pair], v[pair + 1]),
+                ));
+            }
+        }
+        Ok(Range3 { min: [v[0], v[2], v[4]], max: [v[1], v[3], v[5]] })
+    }
+
+    /// A range followed by `n` numbers (`extra` names them) and, optionally, `optional` more.
+    fn range_then(&mut self, command: &str, extra: &[&str], optional: &[&str]) -> Result<(Range3, Vec<f64>)> {
+        let toks = self.numbers();
+        let need = 6 + extra.len();
+        if toks.len() == 4 + extra.len() || (toks.len() == 4 && extra.is_empty()) {
+            return Err(self.at(
+                toks[0],
+                format!(
+                    "{command} takes a 3D range x1 x2 y1 y2 z1 z2{}; found {} numbers, a 2D range (x1 x2 y1 y2) — this is a 3D (D3) deck",
+                    tail(extra),
+                    toks.len()
+                ),
+            ));
+        }
+        if toks.len() != need && toks.len() != need + optional.len() {
+            let expected = if optional.is_empty() { format!("{need}") } else { format!("{need} or {}", need + optional.len()) };
+            let at = toks.get(need.min(toks.len())).copied().or(toks.last().copied());
+            let msg = format!("{command} takes x1 x2 y1 y2 z1 z2{}{}: {expected} numbers, found {}", tail(extra), tail(optional), toks.len());
+            return Err(match at {
+                Some(t) if toks.len() > need => self.at(t, msg),
+                _ => self.at_end(msg),
+            });
+        }
+        let range = self.range(&toks[..6])?;
+        let names: Vec<&str> = extra.iter().chain(optional).copied().collect();
+        let values = toks[6..].iter().zip(names).map(|(t, what)| self.real_of(t, what)).collect::<Result<Vec<f64>>>()?;
+        self.done()?;
+        Ok((range, values))
+    }
+
+    /// `[MATERIAL n] [CONSTITUTIVE m]`, in either order, each at most once.
+    fn block_keys(&mut self, t: &'a Token, key: BlockKey, material: &mut Option<u32>, constitutive: &mut Option<u32>) -> Result<()> {
+        let (slot, what) = match key {
+            BlockKey::Material => (material, "the material number n"),
+            BlockKey::Constitutive => (constitutive, "the constitutive number m"),
+        };
+        if slot.is_some() {
+            return Err(self.at(t, format!("{} given twice", t.text.to_ascii_uppercase())));
+        }
+        *slot = Some(self.id(what)?);
+        Ok(())
+    }
+}
+
+fn tail(names: &[&str]) -> String {
+    names.iter().map(|n| format!(" {n}")).collect()
+}
+
+fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
+    let word = &st.tokens[0];
+    let mut a = Args { file, word, tokens: &st.tokens[1..], at: 0 };
+    let Some(w) = (!word.is_numeric()).then(|| lookup(&word.text, COMMANDS)).flatten() else {
+        if let Some(udec) = (!word.is_numeric()).then(|| lookup(&word.text, UDEC_ONLY)).flatten() {
+            return Err(a.at(word, format!("{udec} is a command of the 2D language (UDEC, Appendix A), not of D3's: this is a 3D deck")));
+        }
+        return Err(a.at(word, format!("unknown command '{}'", word.shown())));
+    };
+    let not_yet = |what: &str| Err(a.at(word, format!("not available yet in the D3 engine: {what}")));
+    let command = match w {
+        Word::Start => {
+            a.done()?;
+            Command::Start
+        }
+        Word::Restart => return not_yet("RESTART (D3 has no save file to restart from in this version)"),
+        Word::Save => return not_yet("SAVE"),
+        Word::Change => return not_yet("CHANGE (simply-deformable 3D blocks, SL-85-1 ¶35d)"),
+        Word::Dump => return not_yet("DUMP"),
+        Word::Split => return not_yet("SPLIT"),
+        Word::RSet => {
+            return Err(
+                a.at(word, "RSET is not supported: it poked a value into the 1985 program's main array at a raw memory address, which has no meaning here")
+            )
+        }
+        Word::Block => block(&mut a)?,
+        Word::Box => {
+            let toks = a.numbers();
+            if toks.len() != 6 {
+                let msg = format!("BOX takes x1 x2 y1 y2 z1 z2 [MATERIAL n] [CONSTITUTIVE m]: 6 numbers, found {}", toks.len());
+                return Err(if toks.len() > 6 { a.at(toks[6], msg) } else { a.at_end(msg) });
+            }
+            let range = a.range(&toks)?;
+            let (mut material, mut constitutive) = (None, None);
+            while let Some(t) = a.next() {
+                match (!t.is_numeric()).then(|| lookup(&t.text, BLOCK_KEYS)).flatten() {
+                    Some(k) => a.block_keys(t, k, &mut material, &mut constitutive)?,
+                    None => return Err(a.at(t, format!("expected MATERIAL or CONSTITUTIVE, found '{}'", t.shown()))),
+                }
+            }
+            Command::Box { range, material: material.unwrap_or(1), constitutive: constitutive.unwrap_or(1) }
+        }
+        Word::Property => property(&mut a)?,
+        Word::Gravity => {
+            let toks = a.numbers();
+            if toks.len() == 2 {
+                return Err(a.at(word, "GRAVITY takes three components gx gy gz in a 3D deck; found two (the 2D form)"));
+            }
+            if toks.len() != 3 {
+                let msg = format!("GRAVITY takes gx gy gz: 3 numbers, found {}", toks.len());
+                return Err(if toks.len() > 3 { a.at(toks[3], msg) } else { a.at_end(msg) });
+            }
+            a.done()?;
+            Command::Gravity { g: [a.real_of(toks[0], "gx")?, a.real_of(toks[1], "gy")?, a.real_of(toks[2], "gz")?] }
+        }
+        Word::Fix => Command::Fix { range: a.range_then("FIX", &[], &[])?.0 },
+        Word::Free => Command::Free { range: a.range_then("FREE", &[], &[])?.0 },
+        Word::Load => {
+            let (range, v) = a.range_then("LOAD", &["fx", "fy", "fz"], &[])?;
+            Command::Load { range, force: [v[0], v[1], v[2]] }
+        }
+        Word::Velocity => {
+            let (range, v) = a.range_then("VELOCITY", &["vx", "vy", "vz"], &["wx", "wy", "wz"])?;
+            let angular = (v.len() == 6).then(|| [v[3], v[4], v[5]]);
+            Command::Velocity { range, velocity: [v[0], v[1], v[2]], angular }
+        }
+        Word::Damping => {
+            let (fcrit, t) = a.real("fcrit (the fraction of critical damping)")?;
+            if fcrit.is_nan() || fcrit < 0.0 {
+                return Err(a.at(t, format!("fcrit must be 0 or more, found {fcrit}")));
+            }
+            let (freq, t) = a.real("freq (the centre frequency)")?;
+            if freq.is_nan() || freq <= 0.0 {
+                return Err(a.at(t, format!("freq must be above zero, found {freq}")));
+            }
+            let mode = match a.next() {
+                None => DampMode::Full,
+                Some(t) => match (!t.is_numeric()).then(|| lookup(&t.text, DAMP_MODES)).flatten() {
+                    Some(Some(m)) => m,
+                    Some(None) => {
+                        return Err(
+                            a.at(t, "not available yet in the D3 engine: DAMPING INTERNAL (it damps simply-deformable blocks, which D3 does not have yet)")
+                        )
+                    }
+                    None => return Err(a.at(t, format!("expected MASS, STIFFNESS or INTERNAL, found '{}'", t.shown()))),
+                },
+            };
+            a.done()?;
+            Command::Damping { fcrit, freq, mode }
+        }
+        Word::Fraction => {
+            let (f, t) = a.real("the fraction f of the critical time-step")?;
+            if f.is_nan() || f <= 0.0 || f.is_infinite() {
+                return Err(a.at(t, format!("the time-step fraction must be above zero, found {f}")));
+            }
+            a.done()?;
+            Command::Fraction { f }
+        }
+        Word::Cycle => {
+            let t = a.next().ok_or_else(|| a.at_end("expected n, the number of cycles"))?;
+            let n = a.int_of(t, "the number of cycles n")?;
+            if n < 0 {
+                return Err(a.at(t, format!("the number of cycles must be 0 or more, found {n}")));
+            }
+            a.done()?;
+            Command::Cycle { n: n as u64 }
+        }
+        Word::Print => {
+            let mut items = Vec::new();
+            while let Some(t) = a.next() {
+                match (!t.is_numeric()).then(|| lookup(&t.text, PRINT_ITEMS)).flatten() {
+                    Some(i) => items.push(i),
+                    None => return Err(a.at(t, format!("expected BLOCKS, FACES, VELOCITIES, VERTICES or CONTACTS, found '{}'", t.shown()))),
+                }
+            }
+            if items.is_empty() {
+                return Err(a.at_end("PRINT needs what to print: BLOCKS, FACES, VELOCITIES, VERTICES or CONTACTS"));
+            }
+            Command::Print { items }
+        }
+        Word::Stop => {
+            a.done()?;
+            Command::Stop
+        }
+        Word::End => {
+            a.done()?;
+            Command::End
+        }
+    };
+    Ok(command)
+}
+
+/// BLOCK [MATERIAL n] [CONSTITUTIVE m] x1 y1 z1 x2 y2 z2 x3 y3 z3 …: faces of three vertices.
+fn block(a: &mut Args) -> Result<Command> {
+    let (mut material, mut constitutive) = (None, None);
+    let mut coords: Vec<&Token> = Vec::new();
+    while let Some(t) = a.next() {
+        if t.is_numeric() {
+            coords.push(t);
+            continue;
+        }
+        match lookup(&t.text, BLOCK_KEYS) {
+            Some(k) if coords.is_empty() => a.block_keys(t, k, &mut material, &mut constitutive)?,
+            Some(_) => return Err(a.at(t, "MATERIAL and CONSTITUTIVE come before the vertices")),
+            None => return Err(a.at(t, format!("expected MATERIAL, CONSTITUTIVE or a vertex coordinate, found '{}'", t.shown()))),
+        }
+    }
+    // Parenthesised vertices: each group one vertex, three numbers (a pair is a 2D corner).
+    let mut i = 0;
+    while i < coords.len() {
+        if let Some(g) = coords[i].group {
+            let n = coords[i..].iter().take_while(|t| t.group == Some(g)).count();
+            if n != 3 {
+                let what = if n == 2 { " (an (x,y) pair is a 2D corner: this is a 3D deck)" } else { "" };
+                return Err(a.at(coords[i], format!("a vertex in parentheses needs three coordinates (x,y,z), found {n}{what}")));
+            }
+            i += n;
+        } else {
+            i += 1;
+        }
+    }
+    if coords.is_empty() {
+        return Err(a.at_end("BLOCK needs its faces: three vertices (x y z) each, at least four faces"));
+    }
+    let mut faces = Vec::with_capacity(coords.len() / 9);
+    for (k, chunk) in coords.chunks(9).enumerate() {
+        let face = k + 1;
+        if chunk.len() < 9 {
+            let vertices = chunk.len() / 3;
+            let msg = if chunk.len() % 3 == 0 {
+                format!("face {face} has {vertices} vertices: vertices are given three at a time, three to a face")
+            } else {
+                format!("face {face}: {} coordinates left over: vertices are given as x y z, three to a face", chunk.len())
+            };
+            return Err(a.at(chunk[0], msg));
+        }
+        if let Some(t) = chunk.iter().find(|t| t.line != chunk[0].line) {
+            return Err(a.at(
+                t,
+                format!("face {face} is split across lines {} and {}: a set of three vertices defining a face must not be separated", chunk[0].line, t.line),
+            ));
+        }
+        let mut vertices = [[0.0; 3]; 3];
+        for (j, t) in chunk.iter().enumerate() {
+            let what = format!("{} of vertex {} of face {face}", ["x", "y", "z"][j % 3], j / 3 + 1);
+            vertices[j / 3][j % 3] = a.real_of(t, &what)?;
+        }
+        faces.push(FaceInput { vertices, line: chunk[0].line });
+    }
+    if faces.len() < 4 {
+        return Err(a.at_end(format!("BLOCK needs at least four faces to close a surface, found {}", faces.len())));
+    }
+    Ok(Command::Block { material: material.unwrap_or(1), constitutive: constitutive.unwrap_or(1), faces })
+}
+
+/// PROPERTY MATERIAL n keyword value …
+fn property(a: &mut Args) -> Result<Command> {
+    let first = a.next().ok_or_else(|| a.at_end("expected MATERIAL n first"))?;
+    if first.is_numeric() || lookup(&first.text, PROP_KEYS) != Some(None) {
+        return Err(a.at(first, format!("PROPERTY must begin with MATERIAL n (the material number), found '{}'", first.shown())));
+    }
+    let material = a.id("the material number n")?;
+    let mut values = Vec::new();
+    while let Some(t) = a.next() {
+        let key = match (!t.is_numeric()).then(|| lookup(&t.text, PROP_KEYS)).flatten() {
+            Some(Some(k)) => k,
+            Some(None) => return Err(a.at(t, "MATERIAL may be given only once, as PROPERTY's first parameter")),
+            None => {
+                if let Some(fluid) = (!t.is_numeric()).then(|| lookup(&t.text, FLUID_KEYS)).flatten() {
+                    return Err(a.at(t, format!("{fluid} is a fluid property of the 2D language (UDEC); D3 has no fluid flow")));
+                }
+                return Err(a.at(
+                    t,
+                    format!(
+                        "expected a property keyword (BULK, K, G, DENSITY, KN, KS, COHESION, FRICTION, JKN, JKS, JCOHESION, JFRICTION, TF), found '{}'",
+                        t.shown()
+                    ),
+                ));
+            }
+        };
+        let must_be_positive = matches!(key, PropKey::Bulk | PropKey::Shear | PropKey::Density | PropKey::Kn | PropKey::Ks | PropKey::Jkn | PropKey::Jks);
+        let (v, vt) = a.real(&format!("a value after {}", t.shown()))?;
+        if must_be_positive && (v.is_nan() || v <= 0.0 || v.is_infinite()) {
+            return Err(a.at(vt, format!("{} must be above zero, found {}", t.text.to_ascii_uppercase(), vt.shown())));
+        }
+        if !must_be_positive && (v.is_nan() || v < 0.0 || v.is_infinite()) {
+            return Err(a.at(vt, format!("{} must be 0 or more, found {}", t.text.to_ascii_uppercase(), vt.shown())));
+        }
+        values.push((key, v));
+    }
+    if values.is_empty() {
+        return Err(a.at_end("PROPERTY needs at least one keyword and value after MATERIAL n"));
+    }
+    Ok(Command::Property { material, values })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn abbreviations() {
+        assert_eq!(lookup("BO", COMMANDS), Some(Word::Box));
+        assert_eq!(lookup("B", COMMANDS), Some(Word::Block));
+        assert_eq!(lookup("VERT", PRINT_ITEMS), Some(PrintItem::Vertices));
+        assert_eq!(lookup("VEL", PRINT_ITEMS), Some(PrintItem::Velocities));
+        assert_eq!(lookup("CON", PRINT_ITEMS), Some(PrintItem::Contacts));
+        assert_eq!(lookup("FR", COMMANDS), Some(Word::Free));
+    }
+}

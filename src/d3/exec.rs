@@ -1,0 +1,273 @@
+//! D3's executor: runs a deck's commands (`d3::deck`) against the model and the CPU backend,
+//! writing the run log as the 1985 program did (a `>` before each echoed command, `TIMESTEP =`
+//! and `CURRENT CYCLE COUNT =` after each CYCLE, the PRINT tables of `d3::output`).
+
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use super::cpu::CpuBackend;
+use super::deck::{Command, DampMode, Located, PrintItem, PropKey, Range3};
+use super::geometry;
+use super::model::{Block, Material, Model};
+use super::output;
+use crate::deck::DeckError;
+use crate::driver::CycleError;
+use crate::output::format::fmt_e;
+
+/// Why a run stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// A command that cannot be carried out (its file, line and why).
+    #[error("{0}")]
+    Input(DeckError),
+    /// A numerical failure during CYCLE; the model holds the last good state.
+    #[error("{0}")]
+    Cycle(CycleError),
+    /// Ctrl-C or SIGTERM stopped the run at an energy check.
+    #[error("interrupted at cycle {0}")]
+    Interrupted(u64),
+    #[error("cannot write the run log: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+impl RunError {
+    pub fn is_interrupted(&self) -> bool {
+        matches!(self, RunError::Interrupted(_))
+    }
+}
+
+/// Runs D3 decks.
+pub struct Executor<'a> {
+    pub model: Model,
+    backend: CpuBackend,
+    log: Box<dyn Write + 'a>,
+    file: String,
+    interrupt: Option<Arc<AtomicBool>>,
+}
+
+impl<'a> Executor<'a> {
+    /// An executor writing its log to `log`; `file` names the deck in error messages.
+    pub fn new(log: Box<dyn Write + 'a>, file: &str) -> Self {
+        Executor { model: Model::default(), backend: CpuBackend::new(), log, file: file.to_string(), interrupt: None }
+    }
+
+    /// A flag that, once set, stops a CYCLE at its next energy check.
+    pub fn set_interrupt(&mut self, flag: Arc<AtomicBool>) {
+        self.interrupt = Some(flag);
+    }
+
+    fn echo(&mut self, line: &str) -> Result<(), RunError> {
+        writeln!(self.log, "{line}")?;
+        Ok(())
+    }
+
+    fn error(&self, cmd: &Located, message: impl Into<String>) -> RunError {
+        RunError::Input(DeckError::new(&self.file, cmd.line, 0, message))
+    }
+
+    /// Runs the commands in order, up to STOP or END.
+    pub fn run(&mut self, commands: &[Located]) -> Result<(), RunError> {
+        for cmd in commands {
+            self.echo(&format!(">{}", cmd.source))?;
+            let stop = matches!(cmd.command, Command::Stop | Command::End);
+            self.execute(cmd)?;
+            self.log.flush()?;
+            if stop {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    fn execute(&mut self, cmd: &Located) -> Result<(), RunError> {
+        match &cmd.command {
+            Command::Start => {
+                self.echo("PROGRAM D3: THREE-DIMENSIONAL DISTINCT ELEMENT CODE (VERSION 1.0)")?;
+                self.echo("THIS IS A START RUN")?;
+            }
+            Command::Block { material, constitutive, faces } => {
+                let typed: Vec<[[f64; 3]; 3]> = faces.iter().map(|f| f.vertices).collect();
+                let line_of = |face: usize| faces.get(face - 1).map_or(cmd.line, |f| f.line);
+                self.add_block(cmd, &typed, *material, *constitutive, line_of)?;
+            }
+            Command::Box { range, material, constitutive } => {
+                let typed = geometry::box_faces(range.min, range.max);
+                self.add_block(cmd, &typed, *material, *constitutive, |_| cmd.line)?;
+            }
+            Command::Property { material, values } => self.property(*material, values),
+            Command::Gravity { g } => self.model.gravity = DVec3::from_array(*g),
+            Command::Fix { range } => {
+                for b in self.in_range(range) {
+                    let blk = &mut self.model.blocks[b];
+                    blk.fixed = true;
+                    blk.velocity = DVec3::ZERO;
+                    blk.angular_momentum = DVec3::ZERO;
+                    blk.angular_velocity = DVec3::ZERO;
+                }
+                self.model.neighbours_stale = true;
+            }
+            Command::Free { range } => {
+                for b in self.in_range(range) {
+                    self.model.blocks[b].fixed = false;
+                }
+                self.model.neighbours_stale = true;
+            }
+            Command::Load { range, force } => {
+                for b in self.in_range(range) {
+                    self.model.blocks[b].load = DVec3::from_array(*force);
+                }
+            }
+            Command::Velocity { range, velocity, angular } => {
+                for b in self.in_range(range) {
+                    let blk = &mut self.model.blocks[b];
+                    if blk.fixed {
+                        continue;
+                    }
+                    let before = blk.kinetic_energy();
+                    blk.velocity = DVec3::from_array(*velocity);
+                    let w = DVec3::from_array(angular.unwrap_or([0.0; 3]));
+                    blk.angular_momentum = blk.inertia() * w;
+                    blk.angular_velocity = w;
+                    // The kinetic energy given is input, booked with the work of the loads.
+                    let after = blk.kinetic_energy();
+                    if !after.is_finite() {
+                        let id = blk.id;
+                        return Err(self.error(cmd, format!("VELOCITY: block {id} would move so fast that its kinetic energy overflows f64")));
+                    }
+                    self.model.external_work += after - before;
+                }
+            }
+            Command::Damping { fcrit, freq, mode } => {
+                // Rayleigh damping with its least ξ at ω = 2πf: α = ξω, β = ξ/ω (as in 2D).
+                let omega = 2.0 * std::f64::consts::PI * freq;
+                let (alpha, beta) = (fcrit * omega, fcrit / omega);
+                if !(alpha.is_finite() && beta.is_finite()) {
+                    return Err(self.error(cmd, format!("DAMPING: fcrit {fcrit:e} at freq {freq:e} gives damping constants that are not finite numbers")));
+                }
+                match mode {
+                    DampMode::Full => self.model.damping = super::model::Damping { alpha, beta },
+                    DampMode::Mass => {
+                        self.model.damping = super::model::Damping { alpha, beta: 0.0 };
+                        self.echo("STIFFNESS-DAMPING TERM SET TO ZERO")?;
+                    }
+                    DampMode::Stiffness => {
+                        self.model.damping = super::model::Damping { alpha: 0.0, beta };
+                        self.echo("MASS-DAMPING TERM SET TO ZERO")?;
+                    }
+                }
+            }
+            Command::Fraction { f } => self.model.frac = *f,
+            Command::Cycle { n } => self.cycle(cmd, *n)?,
+            Command::Print { items } => {
+                for item in items {
+                    let table = match item {
+                        PrintItem::Blocks => output::blocks_table(&self.model),
+                        PrintItem::Faces => output::faces_table(&self.model),
+                        PrintItem::Velocities => output::velocities_table(&self.model),
+                        PrintItem::Vertices => output::vertices_table(&self.model),
+                        PrintItem::Contacts => output::contacts_table(&self.model),
+                    };
+                    self.log.write_all(table.as_bytes())?;
+                }
+            }
+            Command::Stop | Command::End => {}
+        }
+        Ok(())
+    }
+
+    /// BLOCK and BOX: the surface checked, the block added with its material's density.
+    fn add_block(
+        &mut self,
+        cmd: &Located,
+        typed: &[[[f64; 3]; 3]],
+        material: u32,
+        constitutive: u32,
+        line_of: impl Fn(usize) -> usize,
+    ) -> Result<(), RunError> {
+        let (shape, props) = match geometry::shape_from_faces(typed) {
+            Ok(ok) => ok,
+            Err(e) => {
+                let (line, message) = match e.face {
+                    Some(face) => (line_of(face), format!("BLOCK: face {face}: {}", e.message)),
+                    None => (cmd.line, format!("BLOCK: {}", e.message)),
+                };
+                return Err(RunError::Input(DeckError::new(&self.file, line, 0, message)));
+            }
+        };
+        let density = self.model.material(material).density;
+        let id = self.model.blocks.len() as u32 + 1;
+        self.model.blocks.push(Block::new(id, material, constitutive, shape, &props, density));
+        self.model.neighbours_stale = true;
+        Ok(())
+    }
+
+    /// PROPERTY: the material's values; blocks of the material take a new density's mass.
+    fn property(&mut self, material: u32, values: &[(PropKey, f64)]) {
+        let n = material as usize;
+        if self.model.materials.len() < n {
+            self.model.materials.resize(n, Material::default());
+        }
+        let old_density = self.model.materials[n - 1].density;
+        let m = &mut self.model.materials[n - 1];
+        for &(key, v) in values {
+            match key {
+                PropKey::Bulk => m.bulk = v,
+                PropKey::Shear => m.shear = v,
+                PropKey::Density => m.density = v,
+                PropKey::Kn => m.kn = v,
+                PropKey::Ks => m.ks = v,
+                PropKey::Cohesion => m.cohesion = v,
+                PropKey::Friction => m.friction = v,
+                PropKey::Jkn => m.jkn = v,
+                PropKey::Jks => m.jks = v,
+                PropKey::Jcohesion => m.jcohesion = v,
+                PropKey::Jfriction => m.jfriction = v,
+                PropKey::Tf => m.tf = v,
+            }
+        }
+        let density = m.density;
+        if density != old_density {
+            for b in self.model.blocks.iter_mut().filter(|b| b.material == material) {
+                b.set_density(old_density, density);
+            }
+        }
+    }
+
+    /// The blocks whose centroid lies in the open range.
+    fn in_range(&self, range: &Range3) -> Vec<usize> {
+        (0..self.model.blocks.len()).filter(|&b| range.contains(self.model.blocks[b].centroid.to_array())).collect()
+    }
+
+    /// CYCLE n through the CPU backend, with its log lines.
+    fn cycle(&mut self, cmd: &Located, n: u64) -> Result<(), RunError> {
+        if self.model.blocks.is_empty() {
+            return Err(self.error(cmd, "CYCLE: there are no blocks (BLOCK or BOX first)"));
+        }
+        let Some(_) = self.model.critical_timestep() else {
+            return Err(self.error(
+                cmd,
+                "CYCLE: the time step cannot be found: the free blocks need a DENSITY and the contacts the stiffnesses KN and KS (PROPERTY MATERIAL n ...)",
+            ));
+        };
+        self.echo(&format!("TIMESTEP = {}", fmt_e(self.model.timestep())))?;
+        let interrupt = self.interrupt.clone();
+        let mut progress = |_done: u64| !interrupt.as_ref().is_some_and(|f| f.load(Ordering::Relaxed));
+        let result = self.backend.run(&mut self.model, n, &mut progress);
+        match result {
+            Ok(_) => {}
+            Err(CycleError::Setup(why)) => return Err(self.error(cmd, format!("CYCLE: cannot cycle: {why}"))),
+            Err(e) => {
+                self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
+                return Err(RunError::Cycle(e));
+            }
+        }
+        self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
+        if self.interrupt.as_ref().is_some_and(|f| f.load(Ordering::Relaxed)) {
+            return Err(RunError::Interrupted(self.model.cycle));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,27 @@
+//! D3, the 3D engine (SL-85-1 Part III ¶9–32, Part IV ¶35, Appendix B): polyhedral blocks of
+//! triangular faces on the same chassis as the 2D engine (the deck lexer, the run driver, the
+//! output formatting). Its modules, from the bottom layer up:
+//!
+//! | module | what |
+//! |---|---|
+//! | [`deck`] | Appendix B's commands on the chassis lexer: tokens → [`deck::Command`]s; which decks are 3D |
+//! | [`geometry`] | a block's closed surface checked, its volume, centroid and exact inertia tensor (¶12–16) |
+//! | [`model`] | blocks, materials, contacts (real with their logical contacts, or degenerate), the clock |
+//! | [`motion`] | stages 1–2: central differences for translation and for the angular momentum, the orientation a unit quaternion (¶17) |
+//! | [`contact`] | stage 4: the common plane, the six physical categories, the logical vertex–face and edge–edge contacts, ¶23's normal prescription, the force–displacement law (¶18–24, ¶35) |
+//! | [`topology`] | stage 7: the neighbour lists on a uniform grid, rebuilt past a travel threshold (¶26) |
+//! | [`cpu`] | the cycle on the CPU in f64 through the chassis's run driver |
+//! | [`output`] | the PRINT tables and the state JSON |
+//! | [`exec`] | runs a deck's commands |
+//!
+//! GPU kernels for D3 (`shaders/d3/`) are a later step.
+
+pub mod contact;
+pub mod cpu;
+pub mod deck;
+pub mod exec;
+pub mod geometry;
+pub mod model;
+pub mod motion;
+pub mod output;
+pub mod topology;

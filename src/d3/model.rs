@@ -1,0 +1,407 @@
+//! D3's model (SL-85-1 ¶27–32, Appendix B's data arrays): blocks with their faces, edges and
+//! vertices, the materials, the contacts (real ones with their logical contacts, and degenerate
+//! ones: neighbour links), gravity, damping and the clock. Authoritative, in f64.
+
+use glam::{DMat3, DQuat, DVec3};
+
+use super::geometry::{MassProperties, Shape};
+
+/// A material's properties (PROPERTY; the keys of the 2D language less the fluid's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    pub density: f64,
+    pub bulk: f64,
+    pub shear: f64,
+    /// Contact normal and shear stiffness (force per length: a logical contact is a point).
+    pub kn: f64,
+    pub ks: f64,
+    pub cohesion: f64,
+    /// Friction coefficient μ (eq. 20).
+    pub friction: f64,
+    pub jkn: f64,
+    pub jks: f64,
+    pub jcohesion: f64,
+    pub jfriction: f64,
+    pub tf: f64,
+}
+
+impl Default for Material {
+    /// The 1985 programs started from zeroed arrays: a material not given has no density and no
+    /// stiffness (the executor refuses blocks of such a material when mass is needed).
+    fn default() -> Self {
+        Material {
+            density: 0.0,
+            bulk: 0.0,
+            shear: 0.0,
+            kn: 0.0,
+            ks: 0.0,
+            cohesion: 0.0,
+            friction: 0.0,
+            jkn: 0.0,
+            jks: 0.0,
+            jcohesion: 0.0,
+            jfriction: 0.0,
+            tf: 0.0,
+        }
+    }
+}
+
+/// A polyhedral block (Appendix B's block array: KMAT, KCONS, KRCOD, KCBN, KCD, KTD, KVOL, KEM,
+/// KBI, KBFX, KBFT, KCL).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Block {
+    /// Stable id, from 1 in the order built.
+    pub id: u32,
+    pub material: u32,
+    pub constitutive: u32,
+    /// KRCOD: a fixed block does not move.
+    pub fixed: bool,
+    /// Its surface in its reference frame, about its centroid.
+    pub shape: Shape,
+    pub volume: f64,
+    pub mass: f64,
+    /// The inertia tensor about the centroid in the reference frame (exact, ¶16).
+    pub inertia_ref: DMat3,
+    pub centroid: DVec3,
+    /// Rotation from the reference frame to the global axes, a unit quaternion.
+    pub orientation: DQuat,
+    /// Velocity of the centroid (at the half step).
+    pub velocity: DVec3,
+    /// Angular momentum about the centroid, global axes (at the half step).
+    pub angular_momentum: DVec3,
+    /// Angular velocity, global axes (at the half step): I⁻¹L.
+    pub angular_velocity: DVec3,
+    /// Force and moment sums (KBFX, KBFT) at the whole step, gravity and load included.
+    pub force: DVec3,
+    pub moment: DVec3,
+    /// Applied load at the centroid (KCL).
+    pub load: DVec3,
+    /// Vertices in global coordinates, placed from centroid and orientation (stage 2).
+    pub vertices: Vec<DVec3>,
+    /// How far any vertex can have moved since the last neighbour update (¶26).
+    pub travel: f64,
+}
+
+impl Block {
+    /// A block of `shape` with the mass properties `props` (per unit density) and `density`.
+    pub fn new(id: u32, material: u32, constitutive: u32, shape: Shape, props: &MassProperties, density: f64) -> Block {
+        let vertices = shape.vertices.iter().map(|v| *v + props.centroid).collect();
+        Block {
+            id,
+            material,
+            constitutive,
+            fixed: false,
+            shape,
+            volume: props.volume,
+            mass: density * props.volume,
+            inertia_ref: props.inertia * density,
+            centroid: props.centroid,
+            orientation: DQuat::IDENTITY,
+            velocity: DVec3::ZERO,
+            angular_momentum: DVec3::ZERO,
+            angular_velocity: DVec3::ZERO,
+            force: DVec3::ZERO,
+            moment: DVec3::ZERO,
+            load: DVec3::ZERO,
+            vertices,
+            travel: 0.0,
+        }
+    }
+
+    /// The inertia tensor about the centroid in global axes: R I Rᵀ.
+    pub fn inertia(&self) -> DMat3 {
+        let r = DMat3::from_quat(self.orientation);
+        r * self.inertia_ref * r.transpose()
+    }
+
+    /// Sets the density: mass and inertia scale with it.
+    pub fn set_density(&mut self, old: f64, new: f64) {
+        if old > 0.0 {
+            self.inertia_ref *= new / old;
+        } else {
+            // From a zero density the tensor is lost: rebuild it per unit density from the shape.
+            let props = super::geometry::mass_properties(&self.shape.vertices, &self.shape.faces);
+            self.inertia_ref = props.inertia * new;
+        }
+        self.mass = new * self.volume;
+        self.angular_velocity = self.angular_velocity_from(self.angular_momentum);
+    }
+
+    /// ω = I⁻¹ L in global axes (zero for a block without inertia).
+    pub fn angular_velocity_from(&self, l: DVec3) -> DVec3 {
+        let i = self.inertia();
+        if i.determinant() > 0.0 {
+            i.inverse() * l
+        } else {
+            DVec3::ZERO
+        }
+    }
+
+    /// Velocity of the material point at `p` (eq. 11): v + ω × (p − c).
+    pub fn velocity_at(&self, p: DVec3) -> DVec3 {
+        self.velocity + self.angular_velocity.cross(p - self.centroid)
+    }
+
+    /// Places the vertices from centroid and orientation (stage 2, the geometry update).
+    pub fn place_vertices(&mut self) {
+        let r = DMat3::from_quat(self.orientation);
+        for (g, l) in self.vertices.iter_mut().zip(&self.shape.vertices) {
+            *g = self.centroid + r * *l;
+        }
+    }
+
+    /// The outward unit normal of face `f` in global axes.
+    pub fn face_normal(&self, f: usize) -> DVec3 {
+        self.orientation * self.shape.normals[f]
+    }
+
+    /// Kinetic energy: ½mv² + ½ω·L.
+    pub fn kinetic_energy(&self) -> f64 {
+        0.5 * self.mass * self.velocity.length_squared() + 0.5 * self.angular_velocity.dot(self.angular_momentum)
+    }
+
+    /// The axis-aligned box around the vertices.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.vertices.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
+    }
+}
+
+/// The six physical categories of contact (¶24), by the features of block 1 and block 2 that
+/// touch; the degenerate contact is a neighbour link that does not touch (¶32).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    Vertex,
+    Edge,
+    Face,
+}
+
+impl Feature {
+    pub fn name(self) -> &'static str {
+        match self {
+            Feature::Vertex => "VERTEX",
+            Feature::Edge => "EDGE",
+            Feature::Face => "FACE",
+        }
+    }
+}
+
+/// What a logical contact (¶24, ¶32) is between: a vertex of one block against a face of the
+/// other, or an edge of each. The ids are the blocks' own vertex numbers (from 0), so that the
+/// shear force survives the contact's re-detection every cycle (STYLE.md 7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum LogicalKind {
+    /// A vertex of block 1 (`on_first`) or block 2 against the other's face.
+    VertexFace { on_first: bool, vertex: u32 },
+    /// An edge of block 1 (its two vertices, lower first) against one of block 2.
+    EdgeEdge { first: (u32, u32), second: (u32, u32) },
+}
+
+/// A logical contact: where it is, its gap along the contact's normal (negative: overlap) and
+/// its forces (Appendix B: KCX, KCFN, KCFV). The normal force is a scalar, compression positive;
+/// the shear force a vector in global axes. Both act on block 2; block 1 takes their opposite.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Logical {
+    pub kind: LogicalKind,
+    pub point: DVec3,
+    pub gap: f64,
+    pub normal_force: f64,
+    pub shear_force: DVec3,
+}
+
+/// A contact between two blocks (indices `blocks`, the lower first): a real one with its
+/// physical category, common-plane normal (from block 1 to block 2) and logical contacts, or a
+/// degenerate one (a neighbour link; `category` None, no logical contacts).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Contact {
+    /// Stable id, from 1, kept while the two blocks stay neighbours.
+    pub id: u32,
+    pub blocks: [u32; 2],
+    /// The features of block 1 and block 2 in touch; None for a degenerate contact.
+    pub category: Option<[Feature; 2]>,
+    pub normal: DVec3,
+    /// The area of the touching region (a face–face or face–edge contact's overlap polygon; 0
+    /// for the others).
+    pub area: f64,
+    pub logical: Vec<Logical>,
+}
+
+impl Contact {
+    /// The type as PRINT names it, e.g. `VERTEX-FACE`, `DEGENERATE`.
+    pub fn type_name(&self) -> String {
+        match self.category {
+            Some([a, b]) => format!("{}-{}", a.name(), b.name()),
+            None => "DEGENERATE".into(),
+        }
+    }
+
+    /// The normal force summed over the logical contacts.
+    pub fn normal_force(&self) -> f64 {
+        self.logical.iter().map(|l| l.normal_force).sum()
+    }
+
+    /// The shear force summed over the logical contacts.
+    pub fn shear_force(&self) -> DVec3 {
+        self.logical.iter().map(|l| l.shear_force).sum()
+    }
+
+    /// The point of the contact: the logical contacts' points weighted by their normal force
+    /// (their mean where none carries force).
+    pub fn point(&self) -> DVec3 {
+        let total = self.normal_force();
+        if total > 0.0 {
+            self.logical.iter().map(|l| l.point * l.normal_force).sum::<DVec3>() / total
+        } else if self.logical.is_empty() {
+            DVec3::ZERO
+        } else {
+            self.logical.iter().map(|l| l.point).sum::<DVec3>() / self.logical.len() as f64
+        }
+    }
+}
+
+/// Rayleigh damping's constants (DAMPING): α mass-proportional, β stiffness-proportional.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Damping {
+    pub alpha: f64,
+    pub beta: f64,
+}
+
+/// The D3 model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    pub blocks: Vec<Block>,
+    /// Material n is `materials[n - 1]`; grown as PROPERTY names them.
+    pub materials: Vec<Material>,
+    pub contacts: Vec<Contact>,
+    pub gravity: DVec3,
+    pub damping: Damping,
+    /// FRACTION of the critical time step.
+    pub frac: f64,
+    pub cycle: u64,
+    pub time: f64,
+    /// Work done by gravity, loads and VELOCITY since the start.
+    pub external_work: f64,
+    /// The next contact id.
+    pub next_contact_id: u32,
+    /// The neighbour lists are stale (a command moved, added or changed blocks).
+    pub neighbours_stale: bool,
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        Model {
+            blocks: Vec::new(),
+            materials: Vec::new(),
+            contacts: Vec::new(),
+            gravity: DVec3::ZERO,
+            damping: Damping::default(),
+            frac: 0.1,
+            cycle: 0,
+            time: 0.0,
+            external_work: 0.0,
+            next_contact_id: 1,
+            neighbours_stale: true,
+        }
+    }
+}
+
+/// The energy terms of a state.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energies {
+    pub kinetic: f64,
+    pub strain: f64,
+    pub external_work: f64,
+}
+
+impl Model {
+    /// Material `n` (the default, all zero, where not given).
+    pub fn material(&self, n: u32) -> Material {
+        self.materials.get(n as usize - 1).copied().unwrap_or_default()
+    }
+
+    /// The material of a contact: its first block's.
+    pub fn contact_material(&self, c: &Contact) -> Material {
+        self.material(self.blocks[c.blocks[0] as usize].material)
+    }
+
+    /// The contact-forming distance: a logical contact whose gap is within it is kept (its
+    /// shear history with it); and the margin of the neighbour lists (¶26) is twice it.
+    pub fn contact_tolerance(&self) -> f64 {
+        let r = self.blocks.iter().map(|b| b.shape.radius).fold(f64::INFINITY, f64::min);
+        if r.is_finite() {
+            0.02 * r
+        } else {
+            0.0
+        }
+    }
+
+    /// The critical time step (the FRACTION of it is the run's): 2√(m/k) for the lightest block
+    /// on the stiffest spring, as UDEC 1.2 takes it, with the block's rotation counted: its mass
+    /// is taken as no more than I_min/R² (the least principal moment over the squared radius), so
+    /// that a spring at a vertex does not ring faster about the block's softest axis.
+    pub fn critical_timestep(&self) -> Option<f64> {
+        let mut k: f64 = 0.0;
+        let mut m = f64::INFINITY;
+        for b in &self.blocks {
+            let mat = self.material(b.material);
+            k = k.max(mat.kn).max(mat.ks);
+            if b.fixed || b.mass <= 0.0 {
+                continue;
+            }
+            let least = least_eigenvalue(b.inertia_ref);
+            let rotational = if b.shape.radius > 0.0 { least / (b.shape.radius * b.shape.radius) } else { b.mass };
+            m = m.min(b.mass.min(rotational));
+        }
+        (k > 0.0 && m.is_finite() && m > 0.0).then(|| 2.0 * (m / k).sqrt())
+    }
+
+    /// The time step the run takes: FRACTION × the critical one.
+    pub fn timestep(&self) -> f64 {
+        self.critical_timestep().map_or(0.0, |dt| self.frac * dt)
+    }
+
+    /// Kinetic energy, strain energy in the contact springs and the external work.
+    pub fn energies(&self) -> Energies {
+        let kinetic = self.blocks.iter().map(Block::kinetic_energy).sum();
+        let mut strain = 0.0;
+        for c in &self.contacts {
+            let m = self.contact_material(c);
+            for l in &c.logical {
+                if m.kn > 0.0 {
+                    strain += 0.5 * l.normal_force * l.normal_force / m.kn;
+                }
+                if m.ks > 0.0 {
+                    strain += 0.5 * l.shear_force.length_squared() / m.ks;
+                }
+            }
+        }
+        Energies { kinetic, strain, external_work: self.external_work }
+    }
+}
+
+/// The least eigenvalue of a symmetric 3 × 3 matrix (the least principal moment of inertia), by
+/// the trigonometric solution of its characteristic cubic.
+pub fn least_eigenvalue(m: DMat3) -> f64 {
+    principal_moments(m)[0]
+}
+
+/// The eigenvalues of a symmetric 3 × 3 matrix, ascending (Smith's closed form).
+pub fn principal_moments(m: DMat3) -> [f64; 3] {
+    let (a11, a22, a33) = (m.x_axis.x, m.y_axis.y, m.z_axis.z);
+    let (a12, a13, a23) = (m.y_axis.x, m.z_axis.x, m.z_axis.y);
+    let p1 = a12 * a12 + a13 * a13 + a23 * a23;
+    let mut e = if p1 <= 1e-30 * (a11 * a11 + a22 * a22 + a33 * a33) {
+        [a11, a22, a33]
+    } else {
+        let q = (a11 + a22 + a33) / 3.0;
+        let p2 = (a11 - q).powi(2) + (a22 - q).powi(2) + (a33 - q).powi(2) + 2.0 * p1;
+        let p = (p2 / 6.0).sqrt();
+        let b = (m - DMat3::from_diagonal(DVec3::splat(q))) * (1.0 / p);
+        let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
+        let phi = r.acos() / 3.0;
+        let e1 = q + 2.0 * p * phi.cos();
+        let e3 = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
+        [e3, 3.0 * q - e1 - e3, e1]
+    };
+    e.sort_by(f64::total_cmp);
+    e
+}

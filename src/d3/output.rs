@@ -1,0 +1,205 @@
+//! D3's outputs: the PRINT tables in the layouts of the 1985 listings
+//! (`../shared/spec/print-formats.md`, "D3 PRINT tables") and the state JSON (`"dim": 3`).
+
+use std::fmt::Write as _;
+
+use serde_json::{json, Value};
+
+use super::model::{principal_moments, Model};
+use crate::output::format::fmt_e;
+
+/// A row of numbers in the listings' columns.
+fn row(out: &mut String, head: &str, values: &[f64]) {
+    out.push_str(head);
+    for v in values {
+        let _ = write!(out, " {:>10}", fmt_e(*v));
+    }
+    out.push('\n');
+}
+
+/// PRINT BLOCKS: block, material, constitutive number, centroid, volume, mass, the principal
+/// moments of inertia, and the force sums.
+pub fn blocks_table(model: &Model) -> String {
+    let mut out = String::from("\nBLOCK DATA\n");
+    out.push_str("  BLOCK  MAT CONST   CENTROID X   CENTROID Y   CENTROID Z     VOLUME       MASS        I1         I2         I3     \n");
+    for b in &model.blocks {
+        let i = principal_moments(b.inertia_ref);
+        let head = format!("{:>7} {:>4} {:>5}", b.id, b.material, b.constitutive);
+        row(&mut out, &head, &[b.centroid.x, b.centroid.y, b.centroid.z, b.volume, b.mass, i[0], i[1], i[2]]);
+        let _ = writeln!(
+            out,
+            "  ({}) FORCE {} {} {}  MOMENT {} {} {}",
+            if b.fixed { "FIXED" } else { "RIGID" },
+            fmt_e(b.force.x),
+            fmt_e(b.force.y),
+            fmt_e(b.force.z),
+            fmt_e(b.moment.x),
+            fmt_e(b.moment.y),
+            fmt_e(b.moment.z)
+        );
+    }
+    out
+}
+
+/// PRINT FACES: each face's three vertices (the block's vertex numbers, from 1, counter-clockwise
+/// looking along the outward normal as typed), its three neighbouring faces (KFP1–KFP3) and its
+/// outward normal.
+pub fn faces_table(model: &Model) -> String {
+    let mut out = String::from("\nFACE DATA\n");
+    for b in &model.blocks {
+        let _ = writeln!(out, "BLOCK {}", b.id);
+        out.push_str("   FACE   V1   V2   V3   F1   F2   F3      N(1)       N(2)       N(3)\n");
+        for (k, f) in b.shape.faces.iter().enumerate() {
+            // Stored counter-clockwise from outside; printed as typed.
+            let v = [f[0] + 1, f[2] + 1, f[1] + 1];
+            let nb = b.shape.neighbours[k];
+            let n = b.face_normal(k);
+            let head = format!("{:>7} {:>4} {:>4} {:>4} {:>4} {:>4} {:>4}", k + 1, v[0], v[1], v[2], nb[2] + 1, nb[1] + 1, nb[0] + 1);
+            row(&mut out, &head, &[n.x, n.y, n.z]);
+        }
+    }
+    out
+}
+
+/// PRINT VELOCITIES: BLOCK, CODE (0 free, 1 fixed), UXDOT UYDOT UZDOT, TXDOT TYDOT TZDOT.
+pub fn velocities_table(model: &Model) -> String {
+    let mut out = String::from("\nBLOCK VELOCITIES\n");
+    out.push_str("  BLOCK  CODE      UXDOT      UYDOT      UZDOT      TXDOT      TYDOT      TZDOT\n");
+    for b in &model.blocks {
+        let head = format!("{:>7} {:>5}", b.id, u8::from(b.fixed));
+        let (v, w) = (b.velocity, b.angular_velocity);
+        row(&mut out, &head, &[v.x, v.y, v.z, w.x, w.y, w.z]);
+    }
+    out
+}
+
+/// PRINT VERTICES: each block's vertices, numbered from 1, in global coordinates.
+pub fn vertices_table(model: &Model) -> String {
+    let mut out = String::from("\nVERTEX COORDINATES\n");
+    for b in &model.blocks {
+        let _ = writeln!(out, "BLOCK {}", b.id);
+        out.push_str("  VERTEX        X          Y          Z\n");
+        for (k, v) in b.vertices.iter().enumerate() {
+            row(&mut out, &format!("{:>8}", k + 1), &[v.x, v.y, v.z]);
+        }
+    }
+    out
+}
+
+/// PRINT CONTACTS: CONTACT, TYPE, BLOCK-1, BLOCK-2, X(1) X(2) X(3), FS(1) FS(2) FS(3), FM. A
+/// contact of several logical contacts (face–face, …) prints its sums on its line, then each
+/// logical contact (VERTEX-FACE, FACE-VERTEX or EDGE-EDGE) on a line of its own.
+pub fn contacts_table(model: &Model) -> String {
+    let mut out = String::from("\nCONTACT DATA\n");
+    out.push_str("  CONTACT  TYPE               BLOCK-1  BLOCK-2      X(1)       X(2)       X(3)      FS(1)      FS(2)      FS(3)        FM\n");
+    for c in &model.contacts {
+        let [a, b] = c.blocks.map(|i| model.blocks[i as usize].id);
+        let head = format!("{:>9}  {:<18} {:>7}  {:>7}", c.id, format!("({})", c.type_name()), a, b);
+        let p = c.point();
+        let fs = c.shear_force();
+        row(&mut out, &head, &[p.x, p.y, p.z, fs.x, fs.y, fs.z, c.normal_force()]);
+        if c.logical.len() > 1 {
+            for l in &c.logical {
+                let kind = match l.kind {
+                    super::model::LogicalKind::VertexFace { on_first: true, .. } => "VERTEX-FACE",
+                    super::model::LogicalKind::VertexFace { on_first: false, .. } => "FACE-VERTEX",
+                    super::model::LogicalKind::EdgeEdge { .. } => "EDGE-EDGE",
+                };
+                let head = format!("{:>9}  {:<18} {:>7}  {:>7}", "", format!("  {kind}"), "", "");
+                row(&mut out, &head, &[l.point.x, l.point.y, l.point.z, l.shear_force.x, l.shear_force.y, l.shear_force.z, l.normal_force]);
+            }
+        }
+    }
+    out
+}
+
+/// A finite number, or null.
+fn num(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+fn vec3(v: glam::DVec3) -> Value {
+    json!([num(v.x), num(v.y), num(v.z)])
+}
+
+/// The state JSON of a D3 model: `"dim": 3`, the clock, the blocks (centroid, velocity,
+/// angular_velocity, mass, volume, inertia 3 × 3 in global axes, vertices, faces as vertex
+/// numbers from 0 counter-clockwise seen from outside, fixed) and the real contacts (kind,
+/// blocks, point, normal, normal_force, shear_force as a vector, area, and their logical
+/// contacts).
+pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::Provenance>) -> Value {
+    let blocks: Vec<Value> = model
+        .blocks
+        .iter()
+        .map(|b| {
+            let i = b.inertia();
+            json!({
+                "id": b.id,
+                "material": b.material,
+                "constitutive": b.constitutive,
+                "centroid": vec3(b.centroid),
+                "velocity": vec3(b.velocity),
+                "angular_velocity": vec3(b.angular_velocity),
+                "mass": num(b.mass),
+                "volume": num(b.volume),
+                "inertia": [vec3(i.row(0)), vec3(i.row(1)), vec3(i.row(2))],
+                "orientation": [num(b.orientation.w), num(b.orientation.x), num(b.orientation.y), num(b.orientation.z)],
+                "vertices": b.vertices.iter().map(|v| vec3(*v)).collect::<Vec<_>>(),
+                "faces": b.shape.faces,
+                "fixed": b.fixed,
+                "force": vec3(b.force),
+                "moment": vec3(b.moment),
+                "load": vec3(b.load),
+            })
+        })
+        .collect();
+    let contacts: Vec<Value> = model
+        .contacts
+        .iter()
+        .filter(|c| c.category.is_some())
+        .map(|c| {
+            let logical: Vec<Value> = c
+                .logical
+                .iter()
+                .map(|l| {
+                    let kind = match l.kind {
+                        super::model::LogicalKind::VertexFace { on_first: true, .. } => "vertex-face",
+                        super::model::LogicalKind::VertexFace { on_first: false, .. } => "face-vertex",
+                        super::model::LogicalKind::EdgeEdge { .. } => "edge-edge",
+                    };
+                    json!({"kind": kind, "point": vec3(l.point), "gap": num(l.gap), "normal_force": num(l.normal_force), "shear_force": vec3(l.shear_force)})
+                })
+                .collect();
+            json!({
+                "id": c.id,
+                "kind": c.type_name().to_ascii_lowercase(),
+                "blocks": c.blocks.map(|i| model.blocks[i as usize].id),
+                "point": vec3(c.point()),
+                "normal": vec3(c.normal),
+                "normal_force": num(c.normal_force()),
+                "shear_force": vec3(c.shear_force()),
+                "area": num(c.area),
+                "logical": logical,
+            })
+        })
+        .collect();
+    let e = model.energies();
+    let mut v = json!({
+        "dim": 3,
+        "cycle": model.cycle,
+        "time": num(model.time),
+        "timestep": num(model.timestep()),
+        "gravity": vec3(model.gravity),
+        "blocks": blocks,
+        "contacts": contacts,
+        "energy": {"kinetic": num(e.kinetic), "strain": num(e.strain), "external_work": num(e.external_work)},
+    });
+    if let Some(p) = provenance {
+        v["provenance"] = serde_json::to_value(p).unwrap_or(Value::Null);
+    }
+    v
+}

@@ -1,0 +1,102 @@
+//! Stage 7 for D3: the neighbour lists (SL-85-1 ¶26, ¶31–32). Every pair of blocks whose boxes,
+//! widened by the neighbour margin, overlap is a contact: a degenerate one (a link between nearby
+//! blocks) until they touch. The pairs come from a uniform grid of cells at least as large as the
+//! largest widened block, so the search costs a number of operations proportional to the number of
+//! blocks N, not N². The lists are rebuilt only once some block has moved, since the last
+//! rebuild, by as much as the contact-forming distance (`Block::travel`): a pair further apart
+//! than the margin (four times that distance) cannot come within touching distance before then.
+//! A contact kept across a rebuild keeps its id and its logical contacts (their shear forces).
+
+use glam::DVec3;
+use rustc_hash::FxHashMap;
+
+use super::model::{Contact, Model};
+
+/// The neighbour margin: four times the contact-forming distance.
+pub fn neighbour_margin(model: &Model) -> f64 {
+    4.0 * model.contact_tolerance()
+}
+
+/// Whether a block has moved far enough since the last rebuild to need one.
+pub fn rebuild_due(model: &Model) -> bool {
+    let tol = model.contact_tolerance();
+    model.neighbours_stale || model.blocks.iter().any(|b| b.travel >= tol)
+}
+
+/// The pairs of blocks (indices, lower first, ascending) whose boxes widened by half `margin`
+/// each overlap, by a uniform grid.
+pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
+    let boxes: Vec<(DVec3, DVec3)> = model
+        .blocks
+        .iter()
+        .map(|b| {
+            let (lo, hi) = b.bounds();
+            (lo - DVec3::splat(0.5 * margin), hi + DVec3::splat(0.5 * margin))
+        })
+        .collect();
+    let cell = boxes.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(0.0, f64::max);
+    if boxes.len() < 2 || !(cell > 0.0 && cell.is_finite()) {
+        return Vec::new();
+    }
+    let cell_of = |p: DVec3| (p / cell).floor().as_i64vec3();
+    let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
+    for (i, (lo, hi)) in boxes.iter().enumerate() {
+        let (a, b) = (cell_of(*lo), cell_of(*hi));
+        for x in a.x..=b.x {
+            for y in a.y..=b.y {
+                for z in a.z..=b.z {
+                    grid.entry((x, y, z)).or_default().push(i as u32);
+                }
+            }
+        }
+    }
+    let overlap = |i: usize, j: usize| {
+        let (a, b) = (boxes[i], boxes[j]);
+        a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
+    };
+    let mut pairs = Vec::new();
+    for members in grid.values() {
+        for (k, &i) in members.iter().enumerate() {
+            for &j in &members[k + 1..] {
+                let (i, j) = (i.min(j), i.max(j));
+                if overlap(i as usize, j as usize) {
+                    pairs.push((i, j));
+                }
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
+}
+
+/// Rebuilds the neighbour lists: the contacts of pairs still neighbours are kept (id, normal,
+/// logical contacts), new pairs come in as degenerate contacts, pairs no longer neighbours go.
+/// Returns (created, dropped).
+pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
+    let margin = neighbour_margin(model);
+    let pairs = neighbour_pairs(model, margin);
+    let mut old: FxHashMap<(u32, u32), Contact> = std::mem::take(&mut model.contacts).into_iter().map(|c| ((c.blocks[0], c.blocks[1]), c)).collect();
+    let mut created = 0;
+    let mut contacts = Vec::with_capacity(pairs.len());
+    for (a, b) in pairs {
+        // Two fixed blocks never act on each other.
+        if model.blocks[a as usize].fixed && model.blocks[b as usize].fixed {
+            continue;
+        }
+        match old.remove(&(a, b)) {
+            Some(c) => contacts.push(c),
+            None => {
+                created += 1;
+                contacts.push(Contact { id: model.next_contact_id, blocks: [a, b], category: None, normal: DVec3::Z, area: 0.0, logical: Vec::new() });
+                model.next_contact_id += 1;
+            }
+        }
+    }
+    model.contacts = contacts;
+    for b in &mut model.blocks {
+        b.travel = 0.0;
+    }
+    model.neighbours_stale = false;
+    (created, old.len() as u64)
+}

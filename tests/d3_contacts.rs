@@ -1,0 +1,263 @@
+//! D3's contacts on the CPU (SL-85-1 ¶18–26, ¶32, ¶35a and c): the six physical categories and
+//! their logical contacts, ¶23's normal prescription against the common plane, the neighbour
+//! grid against a search of all pairs, a box resting on a fixed box carrying its weight, and a
+//! box sliding (and one sticking) on an incline whose dip direction is oblique to the axes:
+//! s = ½gt²(sin ψ − cos ψ tan φ).
+
+use blockdem::d3::contact::{common_plane, logical_contacts, prescribed_normal};
+use blockdem::d3::deck::parse_deck;
+use blockdem::d3::exec::Executor;
+use blockdem::d3::geometry::{box_faces, shape_from_faces};
+use blockdem::d3::model::{Block, Feature, LogicalKind, Model};
+use blockdem::d3::topology::neighbour_pairs;
+use glam::{DQuat, DVec3};
+
+/// The faces of the box [lo, hi] turned by `q` about the origin and moved by `shift`.
+fn turned_box(lo: [f64; 3], hi: [f64; 3], q: DQuat, shift: DVec3) -> Vec<[[f64; 3]; 3]> {
+    box_faces(lo, hi).iter().map(|f| f.map(|v| (q * DVec3::from_array(v) + shift).to_array())).collect()
+}
+
+fn block(id: u32, faces: &[[[f64; 3]; 3]]) -> Block {
+    let (shape, props) = shape_from_faces(faces).unwrap();
+    Block::new(id, 1, 1, shape, &props, 1000.0)
+}
+
+/// A unit cube centred at the origin, turned by `q`, then moved so that its lowest point (`up`
+/// false) or highest (`up` true) is at z = 0, overlapping z = 0 by `overlap`.
+fn cube_at_plane(q: DQuat, up: bool, overlap: f64) -> Vec<[[f64; 3]; 3]> {
+    let faces = turned_box([-0.5; 3], [0.5; 3], q, DVec3::ZERO);
+    let zs = faces.iter().flatten().map(|v| v[2]);
+    let shift = if up { -zs.fold(f64::NEG_INFINITY, f64::max) + overlap } else { -zs.fold(f64::INFINITY, f64::min) - overlap };
+    faces.iter().map(|f| f.map(|v| [v[0], v[1], v[2] + shift])).collect()
+}
+
+/// The rotation that points a cube's body diagonal (1,1,1) along −z (a vertex down) or +z.
+fn diagonal(down: bool) -> DQuat {
+    DQuat::from_rotation_arc(DVec3::ONE.normalize(), if down { -DVec3::Z } else { DVec3::Z })
+}
+
+#[test]
+fn the_six_physical_categories() {
+    let flat = DQuat::IDENTITY;
+    let edge_x = DQuat::from_rotation_x(std::f64::consts::FRAC_PI_4);
+    let edge_y = DQuat::from_rotation_y(std::f64::consts::FRAC_PI_4);
+    let cases: [(&str, DQuat, DQuat, [Feature; 2], usize); 6] = [
+        ("face-face", flat, flat, [Feature::Face, Feature::Face], 4),
+        ("face-edge", flat, edge_y, [Feature::Face, Feature::Edge], 2),
+        ("face-vertex", flat, diagonal(true), [Feature::Face, Feature::Vertex], 1),
+        ("edge-edge", edge_x, edge_y, [Feature::Edge, Feature::Edge], 1),
+        ("edge-vertex", edge_x, diagonal(true), [Feature::Edge, Feature::Vertex], 1),
+        ("vertex-vertex", diagonal(false), diagonal(true), [Feature::Vertex, Feature::Vertex], 1),
+    ];
+    // The blocks a shade apart, within the contact-forming distance: about to touch. (Once they
+    // overlap, a vertex pressed into an edge takes the normal of one of the edge's faces, the
+    // least penetration; the first four categories are checked overlapping too.)
+    for (name, lower, upper, category, count, overlap) in
+        cases.iter().map(|c| (c.0, c.1, c.2, c.3, c.4, -1e-4)).chain(cases[..4].iter().map(|c| (c.0, c.1, c.2, c.3, c.4, 1e-4)))
+    {
+        // The lower block's top at z = overlap/2, the upper's bottom at −overlap/2.
+        let a = block(1, &cube_at_plane(lower, true, overlap / 2.0));
+        let b = block(2, &cube_at_plane(upper, false, overlap / 2.0));
+        let plane = common_plane(&a, &b, 0.01);
+        assert!((plane.separation + overlap).abs() < 1e-9, "{name}: separation {}", plane.separation);
+        assert!((plane.normal - DVec3::Z).length() < 1e-9, "{name}: normal {}", plane.normal);
+        let (found, logical, area) = logical_contacts(&a, &b, &plane, 0.01);
+        assert_eq!(found, category, "{name}");
+        assert_eq!(logical.len(), count, "{name}: {logical:?}");
+        for (_, point, gap) in &logical {
+            assert!((gap + overlap).abs() < 1e-9, "{name}: gap {gap}");
+            assert!(point.z.abs() < 1e-9, "{name}: point {point}");
+        }
+        if name == "face-face" {
+            assert!((area - 1.0).abs() < 1e-9, "the overlap square: {area}");
+        }
+        if name == "edge-edge" {
+            assert!(matches!(logical[0].0, LogicalKind::EdgeEdge { .. }));
+        }
+    }
+}
+
+#[test]
+fn a_face_face_contact_off_centre_has_the_corners_of_its_overlap() {
+    // A unit cube over the corner of another, offset by (0.5, 0.25): the overlap is 0.5 × 0.75,
+    // with four logical contacts: one vertex of each over the other's face, two edge crossings.
+    let a = block(1, &box_faces([0.0, 0.0, -1.0], [1.0, 1.0, 0.0]));
+    let b = block(2, &box_faces([0.5, 0.25, -1e-3], [1.5, 1.25, 1.0 - 1e-3]));
+    let plane = common_plane(&a, &b, 0.01);
+    let (category, logical, area) = logical_contacts(&a, &b, &plane, 0.01);
+    assert_eq!(category, [Feature::Face, Feature::Face]);
+    assert!((area - 0.375).abs() < 1e-9, "{area}");
+    let kinds = |f: fn(&LogicalKind) -> bool| logical.iter().filter(|l| f(&l.0)).count();
+    assert_eq!(kinds(|k| matches!(k, LogicalKind::VertexFace { on_first: true, .. })), 1);
+    assert_eq!(kinds(|k| matches!(k, LogicalKind::VertexFace { on_first: false, .. })), 1);
+    assert_eq!(kinds(|k| matches!(k, LogicalKind::EdgeEdge { .. })), 2);
+}
+
+/// ¶35a: the report's prescription (¶23) tested against the common plane.
+#[test]
+fn the_prescription_against_the_common_plane() {
+    let angle = |a: DVec3, b: DVec3| a.dot(b).clamp(-1.0, 1.0).acos().to_degrees();
+    // A vertex pressed 1 mm into the middle of a 2 × 2 face: the two agree within a degree.
+    let slab = block(1, &box_faces([-1.0, -1.0, -1.0], [1.0, 1.0, 0.0]));
+    let tip = block(2, &cube_at_plane(diagonal(true), false, 1e-3));
+    let plane = common_plane(&slab, &tip, 0.01);
+    let (_, logical, _) = logical_contacts(&slab, &tip, &plane, 0.01);
+    let p = logical[0].1;
+    let prescribed = -prescribed_normal(&tip, p);
+    let from_slab = prescribed_normal(&slab, p);
+    assert!(angle(from_slab, plane.normal) < 1.0, "the slab's prescription: {}°", angle(from_slab, plane.normal));
+    // The tip's own prescription (its nearest vertex is the contact's vertex, whose three faces
+    // are equally far): the mean of three face normals, which for a vertex pointing straight
+    // down is the vertical too, by symmetry.
+    assert!(angle(prescribed, plane.normal) < 1e-6, "{}", angle(prescribed, plane.normal));
+    // Two crossing edges, block 1's turned 30° about x (its faces at the edge lean 30° and 60°),
+    // block 2's 45° about y: the common plane gives the cross product of the edges, vertical;
+    // block 1's prescription weights its two faces by 1/d, d ∝ cos 30° and cos 60°, and leans
+    // 30° off; block 2's, whose crossing point is off the middle of its edge, leans 18° off; the
+    // two blocks' prescriptions disagree with each other too.
+    let a = block(1, &cube_at_plane(DQuat::from_rotation_x(30f64.to_radians()), true, 5e-4));
+    let b = block(2, &cube_at_plane(DQuat::from_rotation_y(std::f64::consts::FRAC_PI_4), false, 5e-4));
+    let plane = common_plane(&a, &b, 0.01);
+    let (_, logical, _) = logical_contacts(&a, &b, &plane, 0.01);
+    let p = logical[0].1;
+    let (na, nb) = (prescribed_normal(&a, p), -prescribed_normal(&b, p));
+    assert!((plane.normal - DVec3::Z).length() < 1e-9);
+    assert!((angle(na, plane.normal) - 30.0).abs() < 1.0, "block 1's prescription is {}° off", angle(na, plane.normal));
+    assert!(angle(nb, plane.normal) > 10.0, "block 2's prescription is {}° off", angle(nb, plane.normal));
+    assert!(angle(na, nb) > 10.0, "the two blocks' prescriptions differ by {}°", angle(na, nb));
+}
+
+#[test]
+fn the_neighbour_grid_finds_every_pair_a_search_of_all_finds() {
+    let mut model = Model::default();
+    let mut id = 1;
+    let mut seed = 12345u64;
+    let mut next = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for i in 0..6 {
+        for j in 0..6 {
+            for k in 0..4 {
+                let size = 0.3 + 0.6 * next();
+                let at = DVec3::new(i as f64, j as f64, k as f64) * 1.05 + DVec3::new(next(), next(), next()) * 0.2;
+                let q = DQuat::from_axis_angle(DVec3::new(next(), next(), next() + 0.1).normalize(), next() * 3.0);
+                model.blocks.push(block(id, &turned_box([0.0; 3], [size, 1.0, 0.8], q, at)));
+                id += 1;
+            }
+        }
+    }
+    let margin = 0.05;
+    let pairs = neighbour_pairs(&model, margin);
+    let mut all = Vec::new();
+    for i in 0..model.blocks.len() {
+        for j in i + 1..model.blocks.len() {
+            let (a0, a1) = model.blocks[i].bounds();
+            let (b0, b1) = model.blocks[j].bounds();
+            let h = DVec3::splat(0.5 * margin);
+            if (a0 - h).cmple(b1 + h).all() && (b0 - h).cmple(a1 + h).all() {
+                all.push((i as u32, j as u32));
+            }
+        }
+    }
+    assert!(all.len() > 100, "{}", all.len());
+    assert_eq!(pairs, all);
+}
+
+/// Runs a deck; the model at its end.
+fn run(deck: &str) -> Model {
+    let commands = parse_deck(deck, "t.dat").unwrap();
+    let mut log = Vec::new();
+    let mut exec = Executor::new(Box::new(&mut log), "t.dat");
+    let result = exec.run(&commands);
+    let model = exec.model.clone();
+    drop(exec);
+    result.unwrap_or_else(|e| panic!("{e}\n{}", String::from_utf8_lossy(&log)));
+    model
+}
+
+/// A deck's BLOCK command for faces.
+fn block_command(faces: &[[[f64; 3]; 3]]) -> String {
+    let mut s = String::from("BLOCK");
+    for f in faces {
+        s.push_str("\n+");
+        for v in f {
+            s.push_str(&format!(" ({},{},{})", v[0], v[1], v[2]));
+        }
+    }
+    s.push('\n');
+    s
+}
+
+#[test]
+fn a_box_resting_on_a_fixed_box_carries_its_weight() {
+    let deck = "START\nPROP MAT 1 D 2000 KN 1E9 KS 1E9 F 0.5\nBOX -1 1 -1 1 -1 0\nBOX -0.3 0.5 -0.5 0.4 0 1\nFIX -2 2 -2 2 -2 -0.1\n\
+                GRAV 0 0 -10\nDAMP 0.5 200 MASS\nCYCLE 4000\nSTOP\n";
+    let model = run(deck);
+    let weight = model.blocks[1].mass * 10.0;
+    let c = model.contacts.iter().find(|c| c.category.is_some()).expect("a real contact");
+    assert_eq!(c.type_name(), "FACE-FACE");
+    assert_eq!(c.logical.len(), 4);
+    assert!((c.area - 0.72).abs() < 1e-6, "{}", c.area);
+    assert!((c.normal_force() - weight).abs() < 1e-3 * weight, "{} vs {weight}", c.normal_force());
+    assert!(c.shear_force().length() < 1e-6 * weight);
+    // The force is at the block's centroid line: it carries the weight without a moment.
+    let p = c.point();
+    assert!((p.x - 0.1).abs() < 1e-6 && (p.y + 0.05).abs() < 1e-6, "{p}");
+    assert!(model.blocks[1].velocity.length() < 1e-4);
+}
+
+/// A 1 m cube on a slab whose dip ψ is towards an azimuth of 30° from x (the incline turned
+/// about a horizontal axis oblique to x and y), friction φ; gravity −z. It slides
+/// s = ½gt²(sin ψ − cos ψ tan φ) down the dip, or sticks where ψ < φ.
+fn incline(psi_deg: f64, phi_deg: f64, t: f64) -> (f64, f64) {
+    let (psi, phi) = (psi_deg.to_radians(), phi_deg.to_radians());
+    let azimuth = 30f64.to_radians();
+    let dip = DVec3::new(azimuth.cos(), azimuth.sin(), 0.0);
+    // Turning about the horizontal axis z × dip by ψ tilts the slab's normal towards `dip`, so
+    // that the slab falls away towards it.
+    let q = DQuat::from_axis_angle(DVec3::Z.cross(dip).normalize(), psi);
+    let (g, kn, density) = (10.0, 1e8, 1000.0);
+    // The cube starts at its static overlap (its weight's normal share on four springs).
+    let overlap = density * g * psi.cos() / (4.0 * kn);
+    let slab = turned_box([-3.0, -3.0, -1.0], [3.0, 3.0, 0.0], q, DVec3::ZERO);
+    let cube = turned_box([-0.5, -0.5, -overlap], [0.5, 0.5, 1.0 - overlap], q, DVec3::ZERO);
+    let deck = format!(
+        "START\nPROP MAT 1 D {density} KN {kn} KS {kn} F {}\n{}{}FIX -2 2 -2 2 -2 -0.1\nGRAV 0 0 -{g}\nCYCLE {}\nSTOP\n",
+        phi.tan(),
+        block_command(&slab),
+        block_command(&cube),
+        0
+    );
+    let model = run(&deck);
+    let dt = model.timestep();
+    let n = (t / dt).round() as u64;
+    let deck = deck.replace("CYCLE 0", &format!("CYCLE {n}"));
+    let start = model.blocks[1].centroid;
+    let model = run(&deck);
+    let moved = model.blocks[1].centroid - start;
+    let downhill = q * dip;
+    let expected = 0.5 * g * (n as f64 * dt).powi(2) * (psi.sin() - psi.cos() * phi.tan()).max(0.0);
+    // Off the dip line: what it moved across the slope.
+    let across = (moved - downhill * moved.dot(downhill)).length();
+    (moved.dot(downhill) - expected, across)
+}
+
+#[test]
+fn a_box_slides_on_an_oblique_incline_as_coulomb_says() {
+    let (psi, phi, t) = (30.0f64, 20.0f64, 0.6);
+    let expected = 0.5 * 10.0 * t * t * (psi.to_radians().sin() - psi.to_radians().cos() * phi.to_radians().tan());
+    let (error, across) = incline(psi, phi, t);
+    assert!(error.abs() < 0.01 * expected, "slid {} m more than {expected} m", error);
+    assert!(across < 1e-3 * expected, "it left the dip line by {across} m");
+}
+
+#[test]
+fn a_box_sticks_on_an_incline_flatter_than_its_friction() {
+    // It moves only by the elastic shear of its springs: mg sin ψ/(4ks) = 6.5e-6 m at rest, more
+    // in the ringing of the sudden load and the cube's rocking on its corners; a frictionless
+    // cube would have slid ½g sin ψ t² = 0.12 m.
+    let (error, across) = incline(15.0, 20.0, 0.3);
+    assert!(error.abs() < 1e-4, "it crept {error} m");
+    assert!(across < 1e-5, "{across}");
+}
