@@ -339,12 +339,13 @@ fn sample_4_projectile_beam() {
 }
 
 #[test]
-fn sample_d3_is_refused_as_3d() {
-    // The D3 deck's first BLOCK (line 10) gives corners as (x,y,z) triples.
-    let e = assert_err(&sample("d3_two_tetrahedra.dat"), 10, &["not supported yet: BLOCK with (x,y,z) corners", "3D deck of D3"]);
+fn sample_d3_is_refused_by_the_2d_parser_as_3d() {
+    // The D3 deck's first BLOCK (line 10) gives corners as (x,y,z) triples: the 2D parser says
+    // whose language it is and where such a deck runs.
+    let e = assert_err(&sample("d3_two_tetrahedra.dat"), 10, &["BLOCK with (x,y,z) corners is D3's", "D3 engine", "--dim 3"]);
     assert_eq!(e.column, 14);
     // GRAVITY with three components is the other cheap tell.
-    assert_body_err("GRAV 0 0 -10", 2, &["not supported yet: GRAVITY gx gy gz", "3D deck"]);
+    assert_body_err("GRAV 0 0 -10", 2, &["GRAVITY gx gy gz (three components) is D3's", "D3 engine"]);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -247,12 +247,12 @@ fn griffith_cracking_of_rigid_blocks_alone_is_an_input_error() {
 }
 
 #[test]
-fn d3_deck_stops_as_not_supported_yet_at_its_first_3d_command() {
+fn d3_deck_is_refused_by_the_2d_parser_at_its_first_3d_command() {
     let deck = sample("d3_two_tetrahedra.dat");
     let e = blockdem::udec::deck::parse_deck(&deck, "d3.dat").unwrap_err();
     let line = line_of(&deck, "BLOCK");
     assert_eq!(e.line, line);
-    assert!(e.to_string().starts_with(&format!("d3.dat:{line}:14: not supported yet: BLOCK with (x,y,z) corners")), "{e}");
+    assert!(e.to_string().starts_with(&format!("d3.dat:{line}:14: BLOCK with (x,y,z) corners is D3's")), "{e}");
 }
 
 #[test]

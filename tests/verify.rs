@@ -40,6 +40,7 @@ fn quick_suite_passes_every_check() {
             );
         }
     }
+    assert!(table.contains("STABLE FRACTION") && !suite.stability.is_empty(), "{table}");
     for t in &suite.stability {
         assert!(t.passed, "stable-FRAC estimate of {}: {} against a measured threshold {}\n{table}", t.scene, t.estimate, t.measured);
     }

@@ -822,8 +822,8 @@ fn parse_command(a: &mut Args) -> Result<Command> {
             if let Some(t) = toks.get(2) {
                 return Err(a.at(
                     t,
-                    "not supported yet: GRAVITY gx gy gz (three components: a 3D deck of D3, SL-85-1 Appendix B; \
-                     this program reads the 2D UDEC language, and D3 comes in a later version)",
+                    "GRAVITY gx gy gz (three components) is D3's, a 3D deck's (SL-85-1 Appendix B), not the 2D UDEC \
+                     language's: `blockdem run` takes such a deck to the D3 engine (by its commands, or --dim 3)",
                 ));
             }
             Command::Gravity { g: [a.real_of(toks[0], "gx")?, a.real_of(toks[1], "gy")?] }
@@ -953,8 +953,8 @@ fn block(a: &mut Args) -> Result<Command> {
             if in_group == 3 && (i == 0 || coords[i - 1].group != Some(g)) {
                 return Err(a.at(
                     t,
-                    "not supported yet: BLOCK with (x,y,z) corners (a 3D deck of D3, SL-85-1 Appendix B; this \
-                     program reads the 2D UDEC language, and D3 comes in a later version)",
+                    "BLOCK with (x,y,z) corners is D3's, a 3D deck's (SL-85-1 Appendix B), not the 2D UDEC \
+                     language's: `blockdem run` takes such a deck to the D3 engine (by its commands, or --dim 3)",
                 ));
             }
         }

@@ -339,7 +339,12 @@ impl<R: Real> Engine<R> {
         });
         let heavy_list: Option<(Vec<u32>, usize)> = crossed.then(|| {
             let list = |fixed: bool| {
-                adjacency.offsets.windows(2).enumerate().filter(move |(b, w)| heavy((w[1] - w[0]) as i64) && summed_by_gather_heavy(&blocks[*b], fixed)).map(|(b, _)| b as u32)
+                adjacency
+                    .offsets
+                    .windows(2)
+                    .enumerate()
+                    .filter(move |(b, w)| heavy((w[1] - w[0]) as i64) && summed_by_gather_heavy(&blocks[*b], fixed))
+                    .map(|(b, _)| b as u32)
             };
             let free: Vec<u32> = list(false).collect();
             let n_free = free.len();
