@@ -44,10 +44,14 @@ pub enum Stage {
     Upload,
     /// GPU backend: device → host read-backs and their conversion into the `Model`.
     Download,
+    /// GPU backend: building the kernels of a block kind the first time a scene has it (the
+    /// simply- and fully-deformable kernels, made on demand: a rigid scene never builds them).
+    /// Once per backend, in the set-up of the run that needs them.
+    KernelBuild,
 }
 
 impl Stage {
-    pub const ALL: [Stage; 10] = [
+    pub const ALL: [Stage; 11] = [
         Stage::MotionGeometry,
         Stage::ContactForces,
         Stage::Gather,
@@ -58,6 +62,7 @@ impl Stage {
         Stage::GpuBatches,
         Stage::Upload,
         Stage::Download,
+        Stage::KernelBuild,
     ];
 
     pub fn name(self) -> &'static str {
@@ -72,17 +77,19 @@ impl Stage {
             Stage::GpuBatches => "GPU batches (submit+wait)",
             Stage::Upload => "upload host->device",
             Stage::Download => "read-back device->host",
+            Stage::KernelBuild => "kernel build (once)",
         }
     }
 
     /// The accounting group: "cycle" (the explicit cycle itself), "topology" (CPU topology work),
-    /// "transfer" (host ↔ device) or "check".
+    /// "transfer" (host ↔ device), "check" or "setup" (a backend's one-off kernel build).
     pub fn group(self) -> &'static str {
         match self {
             Stage::MotionGeometry | Stage::ContactForces | Stage::Gather | Stage::GpuBatches => "cycle",
             Stage::DetectFull | Stage::DetectUpdate | Stage::Cracking => "topology",
             Stage::Upload | Stage::Download => "transfer",
             Stage::Checks => "check",
+            Stage::KernelBuild => "setup",
         }
     }
 

@@ -132,14 +132,14 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
     for b in r.backends.iter().filter(|b| b.error.is_none()) {
         let row = |scene: &str| r.reference.iter().find(|x| x.scene == scene && x.backend == b.label && x.error.is_none() && x.cycles_per_s > 0.0);
         if let (Some(rigid), Some(sdef)) = (row("settle"), row("sdef")) {
-            let ratio = rigid.cycles_per_s / sdef.cycles_per_s;
+            let ratio = rigid.cycles_per_s_without_kernel_build() / sdef.cycles_per_s_without_kernel_build();
             t.push(TargetRow {
                 target: "SDEF wall vs rigid wall, time per cycle".into(),
                 backend: b.label.clone(),
                 goal: "<= 1.5x".into(),
                 measured: format!("{ratio:.2}x"),
                 met: Some(ratio <= 1.5),
-                note: format!("reference wall, {} cycles each, set-up included", sdef.cycles),
+                note: format!("reference wall, {} cycles each, set-up included, the one-off kernel build not", sdef.cycles),
             });
         }
     }

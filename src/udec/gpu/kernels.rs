@@ -352,6 +352,7 @@ impl Pipelines {
     /// Makes the FDEF kernels if they are not made yet.
     pub fn with_fdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
         if self.fdef.is_none() {
+            let _p = crate::profile::scope(crate::profile::Stage::KernelBuild);
             self.fdef = Some(FdefKernels::new(dev)?);
         }
         Ok(())
@@ -360,6 +361,7 @@ impl Pipelines {
     /// Makes the SDEF kernels if they are not made yet.
     pub fn with_sdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
         if self.sdef.is_none() {
+            let _p = crate::profile::scope(crate::profile::Stage::KernelBuild);
             self.sdef = Some(SdefKernels::new(dev)?);
         }
         Ok(())

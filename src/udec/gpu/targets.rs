@@ -49,7 +49,12 @@ fn api_of(a: &AdapterSummary) -> Option<GpuApi> {
 
 /// Whether a device opens with these options (remembered per process: a check costs a device).
 /// An adapter can be listed and still refuse every device: NVIDIA's GL through EGL without a
-/// display does (wgpu reports "Parent device is lost"); such an adapter is no target.
+/// display does (wgpu reports "Parent device is lost"); such an adapter is no target. On GL the
+/// cycle's kernels are built too: wgpu translates WGSL to GLSL when a pipeline is made, and a
+/// driver whose context is older than compute shaders (NVIDIA's EGL gives GL 3.3 without a
+/// display) lists compute and still rejects every kernel, so it is no target either (as the bench
+/// refuses it when it opens it). Vulkan's SPIR-V has no such version gate; its kernels are left
+/// to the backend.
 pub fn device_opens(options: &GpuOptions) -> Result<(), String> {
     use std::collections::HashMap;
     use std::sync::{Mutex, OnceLock};
@@ -59,7 +64,10 @@ pub fn device_opens(options: &GpuOptions) -> Result<(), String> {
     if let Some(known) = cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
         return known;
     }
-    let result = super::GpuDevice::open(&options.adapter, options.precision).map(|_| ()).map_err(|e| e.to_string());
+    let on_gl = matches!(options.adapter, AdapterChoice::Gl | AdapterChoice::OnApi(GpuApi::Gl, _));
+    let result = super::GpuDevice::open(&options.adapter, options.precision)
+        .and_then(|dev| if on_gl { super::kernels::Pipelines::new(&dev).map(|_| ()) } else { Ok(()) })
+        .map_err(|e| e.to_string());
     if let Ok(mut c) = cache.lock() {
         c.insert(key, result.clone());
     }
