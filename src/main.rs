@@ -249,6 +249,8 @@ enum BenchScene {
     /// The settle scene with simply-deformable bricks (its cost per cycle against settle's).
     Sdef,
     Scaling,
+    /// The scaling family with simply-deformable bricks (10^3 to 10^6 blocks, against the rigid walls when both run)
+    SdefScaling,
     /// The zoned scene family (fully-deformable blocks: one large block, a wall of zoned bricks).
     Zones,
     All,
@@ -304,6 +306,7 @@ fn bench(
     options.impact = matches!(scene, BenchScene::Impact | BenchScene::All);
     options.sdef = matches!(scene, BenchScene::Sdef | BenchScene::All);
     options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
+    options.sdef_scaling = matches!(scene, BenchScene::SdefScaling | BenchScene::All);
     options.zones = matches!(scene, BenchScene::Zones | BenchScene::All);
     options.max_zones = max_zones;
     options.max_blocks = max_blocks;

@@ -146,6 +146,27 @@ fn quick_bench(t: &Target) {
     }
     assert!(row["stages"].as_array().unwrap().len() >= 3);
     assert!(!json["targets"].as_array().unwrap().is_empty());
+    // The same wall with SDEF bricks (the projectile rigid): rates, no byte model, its ratio
+    // to the rigid row in the targets.
+    let sdef = json["sdef_scaling"].as_array().unwrap();
+    assert_eq!(sdef.len(), 1);
+    let srow = &sdef[0];
+    assert!(srow["error"].is_null(), "{srow}");
+    assert_eq!(srow["blocks"], 1014);
+    // The same wall and projectile; the first detection of SDEF bricks (joint law where faces
+    // are in opposition, ¶5) may keep a few contacts more or fewer.
+    let (ks, kr) = (srow["contacts"].as_f64().unwrap(), row["contacts"].as_f64().unwrap());
+    assert!((ks - kr).abs() <= 0.01 * kr, "{ks} contacts against {kr}");
+    for key in ["block_cycles_per_s", "contact_cycles_per_s"] {
+        let v = srow[key].as_f64().unwrap();
+        assert!(v.is_finite() && v > 0.0, "{key} = {v}");
+    }
+    assert_eq!(srow["roofline"].as_f64().unwrap(), 0.0, "no byte model for SDEF rows");
+    let family = targets.iter().find(|t| t["target"] == "SDEF wall vs rigid wall, scaling family").expect("the SDEF scaling target row");
+    let q: f64 = family["measured"].as_str().unwrap().trim_end_matches('x').parse().unwrap();
+    assert!(q > 0.3 && q < 20.0, "SDEF against rigid per block-cycle: {q}");
+    let sdef_csv = std::fs::read_to_string(dir.join("bench_sdef_scaling.csv")).unwrap();
+    assert_eq!(sdef_csv.lines().count(), 2);
 
     // The CSV files: a header and one row per measurement, the same number of fields in each.
     let csv = std::fs::read_to_string(dir.join("bench.csv")).unwrap();
@@ -170,6 +191,7 @@ fn scaling_rounds_alternate_the_backends() {
     let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
     options.settle = false;
     options.impact = false;
+    options.sdef_scaling = false;
     options.sizes = vec![1_000];
     options.measure_s = 0.3;
     options.rounds = 3;

@@ -68,6 +68,8 @@ pub struct BenchOptions {
     /// The settle scene with simply-deformable bricks (`RefScene::Sdef`).
     pub sdef: bool,
     pub scaling: bool,
+    /// The scaling family with simply-deformable bricks (`scene::scaling_body_sdef`).
+    pub sdef_scaling: bool,
     /// The zoned scene family (`zones`: fully-deformable blocks).
     pub zones: bool,
     /// Largest zoned scene (zones); None: `zones::DEFAULT_MAX_ZONES` (10³ with `quick`).
@@ -101,6 +103,7 @@ impl BenchOptions {
             sdef: true,
             impact: true,
             scaling: true,
+            sdef_scaling: true,
             zones: true,
             max_zones: None,
             backends,
@@ -366,6 +369,9 @@ pub struct BenchReport {
     pub backends: Vec<BackendInfo>,
     pub reference: Vec<ReferenceRow>,
     pub scaling: Vec<ScalingRow>,
+    /// The scaling family with simply-deformable bricks (`sdef_scaling`): the same walls and
+    /// projectile, rates and stage times as `scaling`'s rows; no byte model (roofline 0).
+    pub sdef_scaling: Vec<ScalingRow>,
     /// The zoned scene family (`zones`).
     pub zones: Vec<zones::ZoneRow>,
     pub targets: Vec<TargetRow>,
@@ -472,11 +478,18 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };
     report.options = OptionsEcho {
         quick: opts.quick,
-        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("scaling", opts.scaling), ("zones", opts.zones)]
-            .iter()
-            .filter(|s| s.1)
-            .map(|s| s.0.to_string())
-            .collect(),
+        scenes: [
+            ("settle", opts.settle),
+            ("impact", opts.impact),
+            ("sdef", opts.sdef),
+            ("scaling", opts.scaling),
+            ("sdef-scaling", opts.sdef_scaling),
+            ("zones", opts.zones),
+        ]
+        .iter()
+        .filter(|s| s.1)
+        .map(|s| s.0.to_string())
+        .collect(),
         sizes: opts.sizes.clone(),
         max_blocks: opts.max_blocks,
         settle_time: opts.settle_time,
@@ -495,7 +508,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         }
         seen.push(info.label.clone());
         if let Some(e) = engine {
-            if opts.scaling || opts.zones {
+            if opts.scaling || opts.sdef_scaling || opts.zones {
                 measure_bandwidth(&mut info, &e, &say);
             }
             say(&format!("{} opened ({}), {}", info.label, info.driver, report::bandwidth_summary(&info)));
@@ -523,24 +536,25 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         }
     }
 
-    if opts.scaling {
+    for (wanted, sdef) in [(opts.scaling, false), (opts.sdef_scaling, true)] {
+        if !wanted {
+            continue;
+        }
+        let family = if sdef { "sdef-scaling" } else { "scaling" };
+        let mut rows = Vec::new();
         let largest = report.backends.iter().filter(|b| b.error.is_none()).map(|b| b.max_blocks).max().unwrap_or(0);
         for &n in opts.sizes.iter().filter(|&&n| n <= largest) {
             let wall = scene::scaling_wall(n, opts.frac);
-            say(&format!("scaling: building a wall of {} blocks", wall.brick_count() + 2));
+            say(&format!("{family}: building a wall of {} blocks", wall.brick_count() + 2));
             let engines_here = engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks).count();
             if let Some(problem) = memory_problem(wall.brick_count() + 2, engines_here) {
                 for (i, _) in engines.iter().filter(|(i, _)| n <= report.backends[*i].max_blocks) {
-                    report.scaling.push(ScalingRow {
-                        backend: report.backends[*i].label.clone(),
-                        nominal: n,
-                        error: Some(problem.clone()),
-                        ..Default::default()
-                    });
+                    rows.push(ScalingRow { backend: report.backends[*i].label.clone(), nominal: n, error: Some(problem.clone()), ..Default::default() });
                 }
                 continue;
             }
-            let deck = format!("{}CYCLE 0\n", scene::scaling_body(n, opts.frac));
+            let body = if sdef { scene::scaling_body_sdef(n, opts.frac) } else { scene::scaling_body(n, opts.frac) };
+            let deck = format!("{body}CYCLE 0\n");
             let built = std::time::Instant::now();
             let model0 = match crate::scenes::run_deck_on(&deck, Box::new(CpuBackend::new())) {
                 Ok(m) => m,
@@ -552,9 +566,16 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             let mut here: Vec<(&mut Engine, &BackendInfo)> =
                 engines.iter_mut().map(|(i, e)| (e, &report.backends[*i])).filter(|(_, info)| n <= info.max_blocks).collect();
             let build_s = built.elapsed().as_secs_f64();
-            say(&format!("scaling: {} blocks (built in {build_s:.3} s) on {} backends, {} rounds", model0.blocks.len(), here.len(), opts.rounds.max(1)));
+            say(&format!("{family}: {} blocks (built in {build_s:.3} s) on {} backends, {} rounds", model0.blocks.len(), here.len(), opts.rounds.max(1)));
             for mut row in measure_scaling(&model0, n, &mut here, opts) {
                 row.build_s = build_s;
+                if sdef {
+                    // The byte model counts the rigid cycle's structs: no roofline for SDEF rows.
+                    row.bytes_per_cycle = 0;
+                    row.roofline = 0.0;
+                    row.roofline_kernels = None;
+                    row.stages.iter_mut().for_each(|st| st.bytes_per_cycle = None);
+                }
                 match &row.error {
                     Some(e) => say(&format!("  {} failed: {e}", row.backend)),
                     None => say(&format!(
@@ -562,8 +583,13 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
                         row.backend, row.cycles, row.block_cycles_per_s, row.contact_cycles_per_s
                     )),
                 }
-                report.scaling.push(row);
+                rows.push(row);
             }
+        }
+        if sdef {
+            report.sdef_scaling = rows;
+        } else {
+            report.scaling = rows;
         }
     }
     if opts.zones {

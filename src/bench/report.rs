@@ -143,6 +143,21 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
             });
         }
     }
+    // The largest SDEF wall each backend ran, per block-cycle against its rigid twin (issue 28:
+    // the 10⁶-block SDEF wall on a hardware GPU).
+    for b in r.backends.iter().filter(|b| b.error.is_none()) {
+        let largest = r.sdef_scaling.iter().filter(|x| x.backend == b.label && x.error.is_none()).max_by_key(|x| x.nominal);
+        if let Some((x, q)) = largest.and_then(|x| sdef_vs_rigid(r, x).map(|q| (x, q))) {
+            t.push(TargetRow {
+                target: "SDEF wall vs rigid wall, scaling family".into(),
+                backend: b.label.clone(),
+                goal: "<= 1.5x".into(),
+                measured: format!("{q:.2}x"),
+                met: Some(q <= 1.5),
+                note: format!("at {} blocks, per block-cycle, {:.3e} SDEF block-cycles/s", x.blocks, x.block_cycles_per_s),
+            });
+        }
+    }
     // Software adapters against the CPU at 10^5 blocks (or the largest wall both reached).
     for b in r.backends.iter().filter(|b| b.kind == "gpu" && b.software && b.error.is_none()) {
         let cpu: Vec<&ScalingRow> = ok_rows(r, "cpu f64").collect();
@@ -437,6 +452,7 @@ pub fn table(r: &BenchReport) -> String {
         }
     }
 
+    s += &sdef_scaling_table(r);
     s += &super::zones::table(&r.zones);
     if !r.targets.is_empty() {
         let _ = writeln!(s, "\nTARGETS");
@@ -453,6 +469,55 @@ pub fn table(r: &BenchReport) -> String {
     s
 }
 
+/// The SDEF scaling family: rates per backend and wall, each against the rigid wall of the same
+/// size on the same backend in this run (the rigid family's row), and the kernels' times.
+fn sdef_scaling_table(r: &BenchReport) -> String {
+    let mut s = String::new();
+    if r.sdef_scaling.is_empty() {
+        return s;
+    }
+    let _ = writeln!(
+        s,
+        "\nSDEF SCALING (the scaling walls with simply-deformable bricks, the same projectile; against the rigid wall of the same size and backend)"
+    );
+    let _ = writeln!(
+        s,
+        "{:<24} {:>8} {:>8} {:>6} {:>10} {:>11} {:>11} {:>9} {:>7} {:>7}",
+        "backend", "blocks", "contacts", "cycles", "s/cycle", "block-cyc/s", "contact-c/s", "vs rigid", "topo", "xfer"
+    );
+    for x in &r.sdef_scaling {
+        if let Some(e) = &x.error {
+            let _ = writeln!(s, "{:<24} {:>8} FAILED/SKIPPED: {e}", x.backend, x.nominal);
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            "{:<24} {:>8} {:>8} {:>6} {:>10.3e} {:>11.3e} {:>11.3e} {:>9} {:>7} {:>7}",
+            x.backend,
+            x.blocks,
+            x.contacts,
+            x.cycles,
+            x.s_per_cycle,
+            x.block_cycles_per_s,
+            x.contact_cycles_per_s,
+            sdef_vs_rigid(r, x).map(|q| format!("{q:.2}x")).unwrap_or_else(|| "-".into()),
+            pct(x.topology_share),
+            pct(x.transfer_share),
+        );
+    }
+    for x in r.sdef_scaling.iter().filter(|x| x.error.is_none() && x.stages.iter().any(|st| st.source == "device")) {
+        let kernels: Vec<String> = x.stages.iter().filter(|st| st.source == "device").map(|st| format!("{} {:.2}", st.stage, 1e6 * st.s_per_cycle)).collect();
+        let _ = writeln!(s, "  {} at {} blocks: kernels (us/cycle) {}", x.backend, x.blocks, kernels.join(", "));
+    }
+    s
+}
+
+/// An SDEF scaling row's time per block-cycle over the rigid row's of the same wall and backend.
+pub fn sdef_vs_rigid(r: &BenchReport, x: &ScalingRow) -> Option<f64> {
+    let rigid = r.scaling.iter().find(|c| c.backend == x.backend && c.nominal == x.nominal && c.error.is_none() && c.s_per_block_cycle > 0.0)?;
+    (x.error.is_none() && x.s_per_block_cycle > 0.0).then(|| x.s_per_block_cycle / rigid.s_per_block_cycle)
+}
+
 fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
         format!("\"{}\"", s.replace('"', "\"\""))
@@ -467,10 +532,15 @@ fn opt(x: Option<f64>) -> String {
 
 /// bench.csv: one row per wall and backend of the scaling family.
 pub fn scaling_csv(r: &BenchReport) -> String {
+    rows_csv(&r.scaling)
+}
+
+/// The rows of a scaling family as CSV (bench.csv, bench_sdef_scaling.csv).
+pub fn rows_csv(rows: &[ScalingRow]) -> String {
     let mut s = String::from(
         "backend,nominal,blocks,corners,contacts,cycles,setup_s,teardown_s,steady_s,s_per_cycle,s_per_block_cycle,block_cycles_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,topology_share,transfer_share,run_topology_transfer_share,contact_updates,host_s_per_update,build_s,round_s_per_cycle,error\n",
     );
-    for x in &r.scaling {
+    for x in rows {
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{:e},{:e},{},{:e},{:e},{:e},{},{:e},{:e},{},{}",
@@ -578,6 +648,7 @@ pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBu
         ("bench_reference.csv", reference_csv(r)),
         ("bench_targets.csv", targets_csv(r)),
         ("bench_zones.csv", super::zones::csv(&r.zones)),
+        ("bench_sdef_scaling.csv", rows_csv(&r.sdef_scaling)),
         ("bench.json", serde_json::to_string_pretty(r).map_err(std::io::Error::other)?),
     ] {
         let p = dir.join(name);

@@ -104,6 +104,18 @@ pub fn scaling_body(n: usize, frac: f64) -> String {
     wall.deck() + &projectile_lines(&wall)
 }
 
+/// The scaling wall of about `n` blocks with every brick simply deformable (`SDEF_BULK`,
+/// `SDEF_SHEAR`, as the reference `sdef` scene), struck by the same rigid projectile: the SDEF
+/// kernels' cost per block-cycle against the rigid family's, up to 10⁶ blocks (issue 28's
+/// "10⁶-block SDEF wall" on a lent GPU). The CHANGE range holds the bricks' centroids, not the
+/// ground's (below y = 0) nor the projectile's (left of x = 0).
+pub fn scaling_body_sdef(n: usize, frac: f64) -> String {
+    let wall = scaling_wall(n, frac);
+    let top = wall.rows as f64 * wall.brick[1];
+    let right = wall.bricks as f64 * wall.brick[0];
+    wall.deck() + &format!("PROP MAT=1 K={SDEF_BULK:e} G={SDEF_SHEAR:e}\nCHANGE 0 {} 0 {} SDEF\n", right + 1.0, top + 1.0) + &projectile_lines(&wall)
+}
+
 /// The projectile's commands: its material (2), its block, its velocity.
 fn projectile_lines(wall: &BrickWall) -> String {
     let [x, y] = PROJECTILE_AT;
