@@ -226,6 +226,11 @@ fn gpu_run_with(
 /// A wall of `rows` × `cols` bricks on a fixed base, struck at its left end by a heavy block at
 /// 50 m/s: most of the wall is far from the blocks that contact updates re-examine.
 fn projectile_into_wall(rows: usize, cols: usize) -> Model {
+    run(&wall_deck(rows, cols, ""))
+}
+
+/// The deck of `projectile_into_wall`, with `extra` commands after the bricks.
+fn wall_deck(rows: usize, cols: usize, extra: &str) -> String {
     let mut deck = format!(
         "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nPROP MAT=2 D=8000 KN=1E9 KS=1E9 F=0.6\nROUND 0.1\nBLOCK -1,-0.5 -1,0 {w},0 {w},-0.5\n",
         w = cols + 1
@@ -237,8 +242,9 @@ fn projectile_into_wall(rows: usize, cols: usize) -> Model {
             deck += &format!("BLOCK {x},{y} {x},{} {},{} {},{y}\n", y + 0.5, x + 1.0, y + 0.5, x + 1.0);
         }
     }
+    deck += extra;
     deck += &format!("FIX -2 {} -1 0\nGRAV 0 -10\nBLOCK MAT=2 -2.25,0.5 -2.25,1 -1.75,1 -1.75,0.5\nVELOCITY -2.5 -1.5 0.5 1 50 0\nCYCLE 0\n", cols + 2);
-    run(&deck)
+    deck
 }
 
 #[test]
@@ -251,19 +257,42 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
     // block's position, rotation and velocity, every contact's forces. The ledger's dissipation
     // may differ in f32 by rounding only (an unread contact's slip work keeps adding up on the
     // device instead of moving to its f64 base at each update): to 1e-5 relative.
+    partial_matches_whole(|| projectile_into_wall(8, 24));
+}
+
+#[test]
+fn an_sdef_wall_splices_and_reads_partly_as_the_whole_state_does() {
+    // The same with simply-deformable bricks: the lever arms follow their contacts through the
+    // splice (`Engine::splice_levers`), and a partial update resets the re-examined blocks'
+    // update strain from their extensions read back; motion, contacts and stresses the same bit
+    // for bit as with the whole state read back at every update.
+    partial_matches_whole(|| projectile_into_sdef_wall(8, 24));
+}
+
+/// A wall of `rows` × `cols` simply-deformable bricks (K 5e8, G 3e8) on a fixed base, struck by
+/// the rigid heavy block of `projectile_into_wall`.
+fn projectile_into_sdef_wall(rows: usize, cols: usize) -> Model {
+    run(&wall_deck(rows, cols, &format!("PROP MAT=1 K=5E8 G=3E8\nCHANGE 0 {} 0 {} SDEF\n", cols + 1, rows)))
+}
+
+/// Runs `make()`'s model on every GPU target with partial read-backs always and never, and checks
+/// that both make the same updates and end in the same state bit for bit (the ledger's slip work
+/// to rounding in f32).
+fn partial_matches_whole(make: impl Fn() -> Model) {
     for (adapter, precision) in common::GPU_TARGETS {
         let Some(t) = common::Target::gpu(adapter, precision) else { continue };
         let common::Target::Gpu(options) = &t else { unreachable!("a GPU target") };
         let go = |partial: bool| {
-            let mut m = projectile_into_wall(8, 24);
+            let mut m = make();
             let mut gpu = blockdem::udec::gpu::GpuBackend::new(options).unwrap_or_else(|e| panic!("{e}"));
             gpu.set_partial_reads(if partial { blockdem::udec::gpu::PartialReads::Always } else { blockdem::udec::gpu::PartialReads::Never });
             let report = gpu.run(&mut m, 1500, &mut |_| true).unwrap_or_else(|e| panic!("{e} on {}", t.name()));
-            (m, report, gpu.partial_updates())
+            (m, report, gpu.partial_updates(), gpu.contact_splices())
         };
-        let (a, ra, partial) = go(true);
-        let (b, rb, none) = go(false);
+        let (a, ra, partial, splices) = go(true);
+        let (b, rb, none, _) = go(false);
         assert_eq!(none, 0, "no partial update when they are off");
+        assert!(splices >= partial, "{splices} splices for {partial} partial updates on {}", t.name());
         // The updates while a few blocks move (47 of 106 here); once the bricks fly, an update
         // re-examines more than an eighth of the blocks, sweeps the grid and reads everything.
         assert!(partial >= 20 && ra.contacts_created > 10 && ra.contacts_dropped > 10, "{partial} partial updates on {}: {ra:?}", t.name());
@@ -295,6 +324,14 @@ fn a_partial_read_back_updates_as_the_whole_state_does() {
             );
             let tol = if t.is_f32() { 1e-5 * (1.0 + x.slip_work.abs()) } else { 1e-9 * (1.0 + x.slip_work.abs()) };
             assert!((x.slip_work - y.slip_work).abs() <= tol, "contact {} on {}: slip work {} against {}", x.id, t.name(), x.slip_work, y.slip_work);
+        }
+        for (k, (x, y)) in a.sdef.iter().zip(&b.sdef).enumerate() {
+            assert_eq!(
+                [x.stress, x.strain, x.update_strain].map(|v| v.map(f64::to_bits)),
+                [y.stress, y.strain, y.update_strain].map(|v| v.map(f64::to_bits)),
+                "block {k}'s extension on {}",
+                t.name()
+            );
         }
     }
 }

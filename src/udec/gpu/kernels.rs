@@ -471,6 +471,8 @@ pub struct Buffers {
     pub spare_contacts: Option<(Slab, Slab)>,
     /// Likewise the adjacency entries' other buffer, which `splice_adjacency` writes.
     pub spare_entries: Option<Slab>,
+    /// Likewise the contact levers' other buffer, in an SDEF scene (`Engine::splice_levers`).
+    pub spare_levers: Option<Slab>,
     /// `layout::Sdef` per block and `ContactLever` per contact, in a scene with simply-deformable
     /// blocks (`Buffers::ensure_sdef`); None in a rigid one.
     pub sdefs: Option<Slab>,
@@ -588,6 +590,7 @@ impl Buffers {
             energy_sums: slab(dev, "energy sums", std::mem::size_of::<EnergySum<R>>(), energy_groups(blocks, contacts))?,
             spare_contacts: None,
             spare_entries: None,
+            spare_levers: None,
             sdefs: None,
             contact_levers: None,
             gridpoints: None,
@@ -675,6 +678,17 @@ impl Buffers {
     /// Makes sure the spare adjacency entries hold `count` (its contents are not kept).
     pub fn ensure_spare_entries(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
         ensure_slot(dev, &mut self.spare_entries, "adjacency entries (spare)", 4, count)
+    }
+
+    /// Makes sure the spare lever buffer holds `count` records.
+    pub fn ensure_spare_levers<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
+        ensure_slot(dev, &mut self.spare_levers, "contact levers (spare)", std::mem::size_of::<super::layout::ContactLever<R>>(), count)
+    }
+
+    /// The spare levers become the live ones (after `Engine::splice_levers` wrote into them).
+    pub fn swap_levers(&mut self) {
+        let levers = self.spare_levers.take().expect("spare levers to swap in");
+        self.spare_levers = self.contact_levers.replace(levers);
     }
 
     /// The spare entries become the live ones (after `splice_adjacency` wrote into them).

@@ -15,7 +15,7 @@ use crate::udec::model::Model;
 use crate::udec::topology::Topology;
 
 use super::kernels::{self, slab, uniform_buffer, Slab};
-use super::layout::{Block, Contact, ContactPatch, ContactSummary, Corner, GridReference, ListParams, Real};
+use super::layout::{Block, Contact, ContactPatch, ContactSummary, Corner, GridReference, ListParams, Real, Sdef};
 use super::readback::pod_view;
 use super::run::cycles_to_threshold;
 use super::{r, Engine, GpuError};
@@ -271,7 +271,7 @@ impl<R: Real> Engine<R> {
         };
         // The listed blocks and contacts into the model.
         let mut read_contacts = runs(&listed_contacts);
-        let records = self.read_subset(model, &listed, &read_contacts)?;
+        let (records, sdef_records) = self.read_subset(model, &listed, &read_contacts)?;
         let tol = model.tol;
         if !listed.iter().any(|&b| model.blocks[b as usize].update_due(&tol)) {
             return Ok(PartialUpdate::NotDue);
@@ -321,6 +321,7 @@ impl<R: Real> Engine<R> {
                 m.update_margin = margin.to_f64();
                 self.write_update_reset(b as usize, &g.update_reset(margin));
             }
+            self.reset_sdef_update_strains(&listed, &sdef_records, &flagged);
         }
         // The next update expected: the device's figure for the blocks not listed, the CPU's for
         // those it read.
@@ -348,7 +349,7 @@ impl<R: Real> Engine<R> {
     /// Reads the blocks `blocks` (ascending; records and corners) and the contacts of `contacts`
     /// (runs of indices) back into the model, as a whole read-back would convert them (contacts
     /// as their summaries: gap, forces, dissipation, feature, bond); returns the block records.
-    pub(super) fn read_subset(&mut self, model: &mut Model, blocks: &[u32], contacts: &[(u32, u32)]) -> Result<Vec<Block<R>>, GpuError> {
+    pub(super) fn read_subset(&mut self, model: &mut Model, blocks: &[u32], contacts: &[(u32, u32)]) -> Result<(Vec<Block<R>>, Vec<Sdef<R>>), GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Download);
         let b = self.buffers();
         let (bs, cs, ks) = (std::mem::size_of::<Block<R>>() as u64, std::mem::size_of::<Corner<R>>() as u64, std::mem::size_of::<Contact<R>>() as u64);
@@ -361,9 +362,22 @@ impl<R: Real> Engine<R> {
             runs.iter().map(|&(s, e)| (buffer, s as u64 * size, (e - s) as u64 * size)).collect()
         }
         let (rb, rc, rk) = (ranges(&b.blocks.buffer, &block_runs, bs), ranges(&b.corners.buffer, &corner_runs, cs), ranges(&b.contacts.buffer, contacts, ks));
+        // In an SDEF scene, the blocks' extensions too (`reset_sdef_update_strains`).
+        let rs = match b.sdefs.as_ref().filter(|_| self.sdef_scene) {
+            Some(sdefs) => ranges(&sdefs.buffer, &block_runs, std::mem::size_of::<Sdef<R>>() as u64),
+            None => Vec::new(),
+        };
         let up = self.uploaded.clone();
-        self.dev.read_gathered(&[&rb, &rc, &rk], |bytes| {
+        self.dev.read_gathered(&[&rb, &rc, &rk, &rs], |bytes| {
             let records: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
+            let sdef_records: Vec<Sdef<R>> = bytemuck::pod_collect_to_vec(bytes[3]);
+            if !sdef_records.is_empty() {
+                for (&k, g) in blocks.iter().zip(&sdef_records) {
+                    if model.blocks[k as usize].kind == crate::udec::model::BlockKind::SimplyDeformable {
+                        g.convert(up.sdef_damping_base.get(k as usize).copied().unwrap_or(0.0), &mut model.sdef[k as usize]);
+                    }
+                }
+            }
             let corners: std::borrow::Cow<'_, [Corner<R>]> = pod_view(bytes[1]);
             let gathered: std::borrow::Cow<'_, [Contact<R>]> = pod_view(bytes[2]);
             for (&k, g) in blocks.iter().zip(&records) {
@@ -407,7 +421,7 @@ impl<R: Real> Engine<R> {
                     Self::convert_summary(&summary, up.contact_base[k as usize], &mut model.contacts[k as usize]);
                 }
             }
-            records
+            (records, sdef_records)
         })
     }
 }

@@ -3,11 +3,16 @@
 //! (`layout::ContactLever`), made, uploaded and read back only in a scene that has SDEF blocks;
 //! a rigid scene binds and dispatches nothing of them (`kernels::SdefKernels`).
 //!
-//! What differs in such a scene: the cycle runs the `_sdef` entry points (`Engine::stages`); the
-//! contact list is uploaded whole at each contact update rather than spliced (the lever arms of
-//! a new list are the CPU's, from the contact points it read), so partial read-backs are off
-//! too; the block pass raises `Flags::crack_due` when a block's stress reaches its Griffith
-//! strength, and the CPU's cracking stage runs on the state read back then (`gpu::run`).
+//! What differs in such a scene: the cycle runs the `_sdef` entry points (`Engine::stages`); at a
+//! contact update the lever arms follow their contacts as the list is spliced on the device
+//! (`Engine::splice_levers`: the kept ones copied run by run, the new ones the CPU's, from the
+//! contact points it read), and a partial read-back brings the listed blocks' extensions too, so
+//! that the re-examined blocks' `update_strain` is reset on the device (`Engine::reset_sdef_
+//! update_strains`); the block pass raises `Flags::crack_due` when a block's stress reaches its
+//! Griffith strength, and the CPU's cracking stage runs on the state read back then (`gpu::run`).
+//! (Until 2026-11-26 an SDEF scene uploaded its whole contact list at every update: on an H100
+//! the wall of 10⁵ SDEF bricks ran at a ninth of the rigid wall's rate, and 10⁶ did not finish
+//! its measurement.)
 
 use crate::udec::model::{BlockKind, Model};
 use crate::udec::topology::cracking::is_griffith_candidate;
@@ -149,10 +154,65 @@ impl<R: Real> Engine<R> {
         Some((self.pipelines.sdef.as_ref()?, groups)).filter(|_| self.sdef_scene)
     }
 
-    /// Contact updates splice the list on the device: not in an SDEF scene (see the module doc),
-    /// nor in one with zoned blocks (`gpu::fdef`).
+    /// Contact updates splice the list on the device: not in a scene with zoned blocks
+    /// (`gpu::fdef`).
     pub(super) fn splices_on_device(&self) -> bool {
-        self.splice && !self.sdef_scene && !self.fdef_scene
+        self.splice && !self.fdef_scene
+    }
+
+    /// `splice_contacts`'s companion in an SDEF scene: the lever arms follow their contacts into
+    /// the new list. `runs` is the edit's (`ListEdit::runs`, the new bit `new_bit`): each run of
+    /// kept contacts is one device copy from the live levers into the spare ones, each run of new
+    /// contacts a write of their levers from the model (the CPU read their blocks); the spare
+    /// then becomes live. Copies, not a kernel: a contact update has few runs.
+    pub(super) fn splice_levers(&mut self, model: &Model, inserted_at: &[u32], runs: &[[u32; 2]], new_bit: u32) -> Result<(), GpuError> {
+        if !self.sdef_scene {
+            return Ok(());
+        }
+        let n = model.contacts.len();
+        let size = std::mem::size_of::<ContactLever<R>>() as u64;
+        let created: Vec<ContactLever<R>> = inserted_at.iter().map(|&k| ContactLever::of(model, &model.contacts[k as usize])).collect();
+        let dev = &self.dev;
+        let b = self.buffers.as_mut().expect("buffers exist");
+        b.ensure_spare_levers::<R>(dev, n)?;
+        let (Some(live), Some(spare)) = (b.contact_levers.as_ref(), b.spare_levers.as_ref()) else {
+            return Err(GpuError::Device("GPU: an SDEF scene without its lever buffers (a bug)".into()));
+        };
+        let mut encoder = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("splice_levers") });
+        for w in runs.windows(2) {
+            let ([start, source], end) = (w[0], w[1][0]);
+            let len = end.saturating_sub(start) as usize;
+            if len == 0 {
+                continue;
+            }
+            if source & new_bit != 0 {
+                let j = (source & !new_bit) as usize;
+                dev.queue.write_buffer(&spare.buffer, start as u64 * size, bytemuck::cast_slice(&created[j..j + len]));
+            } else {
+                encoder.copy_buffer_to_buffer(&live.buffer, source as u64 * size, &spare.buffer, start as u64 * size, len as u64 * size);
+            }
+        }
+        dev.queue.submit([encoder.finish()]);
+        b.swap_levers();
+        Ok(())
+    }
+
+    /// After a partial contact update in an SDEF scene: the re-examined blocks (`flagged`)
+    /// measure their strain from here on, `update_strain` set on the device to the strain just
+    /// read (`records`: the listed blocks' extensions, in the order of `listed`).
+    pub(super) fn reset_sdef_update_strains(&self, listed: &[u32], records: &[Sdef<R>], flagged: &[u32]) {
+        if !self.sdef_scene || records.is_empty() {
+            return;
+        }
+        let Some(sdefs) = self.buffers().sdefs.as_ref() else { return };
+        let field = std::mem::offset_of!(Sdef<R>, update_strain);
+        for &b in flagged {
+            let Ok(i) = listed.binary_search(&b) else { continue };
+            if self.last_blocks.get(b as usize).is_some_and(|g| g.kind == BLOCK_SDEF) {
+                let at = (b as usize * std::mem::size_of::<Sdef<R>>() + field) as u64;
+                self.dev.queue.write_buffer(&sdefs.buffer, at, bytemuck::cast_slice(&records[i].strain));
+            }
+        }
     }
 }
 

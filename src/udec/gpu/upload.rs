@@ -302,6 +302,7 @@ impl<R: Real> Engine<R> {
         }
         b.swap_contacts();
         self.counts.2 = n;
+        self.splice_levers(model, &edit.inserted_at, &runs, splice::NEW_CONTACT)?;
         let on_device = match self.adjacency_edits {
             AdjacencyEdits::Auto => !self.dev.summary.is_software(),
             AdjacencyEdits::Always => true,
