@@ -5,7 +5,12 @@
 # network). Both folders are ignored by git and travel as the `run` call's `carry`:
 #
 #   bash scripts/device-prep.sh
-#   device run, carry [".gl", ".devbin"]:  bash scripts/device-bench.sh
+#   device run, carry [".gl", ".devbin"]:  bash scripts/device-check.sh
+#
+# device-check.sh runs the whole bench (device-bench.sh), `blockdem compare` of the samples and
+# the reference walls, and `blockdem verify --quick` (about 3 minutes on an H100), packing what
+# they write into $OUT/results.tar.gz; device-bench.sh alone runs the bench; device-ab.sh measures
+# two builds alternated (copy the older one into .devbin/ first).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 exclude="$(git rev-parse --git-path info/exclude)"
