@@ -24,6 +24,9 @@ struct ContactInputs<'a> {
     sdef: &'a [Sdef],
     /// The fully-deformable extension of the blocks (empty in a scene without zones).
     fdef: &'a [Fdef],
+    /// Each zoned block's boundary grid-point velocities in corner order (`Scratch::corner_velocity`;
+    /// empty in a scene without zoned blocks).
+    corner_velocity: &'a [[f64; 2]],
     materials: &'a [Material],
     damping: Damping,
     dt: f64,
@@ -66,7 +69,8 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
             let zoned = |k: u32, b: &Block, side: u32| match inp.fdef.get(k as usize) {
                 Some(f) if b.kind == BlockKind::FullyDeformable && !f.zones.is_empty() => {
                     let mine = &inp.corners[b.corner_start as usize..(b.corner_start + b.corner_count) as usize];
-                    let velocity = super::zones::boundary_velocity(f, contact, side, b.corner_start, mine, g.point);
+                    let cv = &inp.corner_velocity[b.corner_start as usize..(b.corner_start + b.corner_count) as usize];
+                    let velocity = super::zones::boundary_velocity(cv, contact, side, b.corner_start, mine, g.point);
                     BlockMotion { centroid: g.point, velocity, angular_velocity: 0.0, strain_rate: [0.0; 3] }
                 }
                 _ => motion(k, b),
@@ -84,12 +88,12 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
 
 /// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
 /// index, so the report repeats) whose overlap passes the limit, if any.
-pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], dt: f64, team: &mut Team) -> Result<(), CycleError> {
+pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], corner_velocity: &[[f64; 2]], dt: f64, team: &mut Team) -> Result<(), CycleError> {
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let failure = {
         let Model { blocks, corners, contacts, materials, damping, sdef, fdef, .. } = &mut *model;
-        let inp = ContactInputs { blocks, corners, sdef, fdef, materials, damping: *damping, dt, limit };
+        let inp = ContactInputs { blocks, corners, sdef, fdef, corner_velocity, materials, damping: *damping, dt, limit };
         let n = contacts.len();
         assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);

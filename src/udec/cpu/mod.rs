@@ -67,6 +67,12 @@ struct Scratch {
     forces: Vec<ContactForce>,
     /// Stage 5's state (empty in a dry scene).
     fluid: flow::FluidScratch,
+    /// In a scene with zoned blocks, each zoned block's boundary grid-point velocities in corner
+    /// order (indexed like the corners), written by stage 1 for stage 4: the contact law reads
+    /// them there, in the order of the corners it already reads, instead of through each block's
+    /// own grid-point list (a cache miss a contact side: the zoned wall's contact stage cost
+    /// twenty times the rigid one's per contact on this machine). Empty in other scenes.
+    corner_velocity: Vec<[f64; 2]>,
 }
 
 /// Copies the gather's view of every contact after a topology change (stage 7, a crack).
@@ -255,18 +261,25 @@ fn block_piece_fdef(
     mut sdef: Option<&mut [Sdef]>,
     fdef: &mut [Fdef],
     mut corners: &mut [Corner],
+    mut corner_velocity: &mut [[f64; 2]],
     steps: &mut [StepOutcome],
     inp: &BlockInputs,
 ) {
     for (j, ((block, f), step)) in blocks.iter_mut().zip(fdef.iter_mut()).zip(steps.iter_mut()).enumerate() {
         let (mine, rest) = std::mem::take(&mut corners).split_at_mut(block.corner_count as usize);
         corners = rest;
+        let (velocities, rest) = std::mem::take(&mut corner_velocity).split_at_mut(block.corner_count as usize);
+        corner_velocity = rest;
         match block.kind {
             BlockKind::FullyDeformable if !f.zones.is_empty() => {
                 if let Some((forces, adjacency)) = inp.gather {
                     zones::gather_fdef(block, f, mine, inp.contacts, forces, adjacency.entries(first + j), inp.gravity);
                 }
                 *step = zones::step_fdef(block, f, mine, inp);
+                // Its boundary's velocities for stage 4 (grid point k is corner k).
+                for (v, g) in velocities.iter_mut().zip(&f.gridpoints) {
+                    *v = g.velocity;
+                }
             }
             BlockKind::SimplyDeformable if sdef.is_some() => {
                 let s = &mut sdef.as_deref_mut().expect("checked")[j];
@@ -282,7 +295,7 @@ fn block_piece_fdef(
 /// `gathered` says the block forces are current already; on return they are not (stage 4 has
 /// changed the contact forces). The corners must be in block order (`corners_in_block_order`).
 fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, gathered: bool, team: &mut Team) -> Result<(), CycleError> {
-    let Scratch { steps, forces, fluid } = scratch;
+    let Scratch { steps, forces, fluid, corner_velocity } = scratch;
     let has_fluid = model.fluid.is_some();
     let dt = model.timestep;
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
@@ -305,6 +318,8 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             dt,
         };
         let n = blocks.len();
+        corner_velocity.resize(if fdef.is_empty() { 0 } else { corners.len() }, [0.0; 2]);
+        let shared_velocity = SharedMut::new(&mut corner_velocity[..]);
         let (shared_blocks, shared_corners, shared_steps) = (SharedMut::new(blocks), SharedMut::new(corners), SharedMut::new(steps));
         // The simply-deformable extension, where the scene has one (indexed like the blocks).
         let shared_sdef = (!sdef.is_empty()).then(|| SharedMut::new(sdef));
@@ -318,7 +333,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             let (first, last) = (&blocks[0], &blocks[blocks.len() - 1]);
             let corner_range = first.corner_start as usize..(last.corner_start + last.corner_count) as usize;
             // SAFETY: as above.
-            let corners = unsafe { shared_corners.range(corner_range) };
+            let corners = unsafe { shared_corners.range(corner_range.clone()) };
             match (&shared_sdef, &shared_fdef) {
                 // SAFETY: `fdef` (and `sdef`, where there) is as long as `blocks`; the chunk's
                 // range of it is disjoint too.
@@ -328,6 +343,8 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
                     sdef.as_ref().map(|s| unsafe { s.range(r.clone()) }),
                     unsafe { fdef.range(r.clone()) },
                     corners,
+                    // SAFETY: indexed like the corners (sized to them above): the same disjoint range.
+                    unsafe { shared_velocity.range(corner_range.clone()) },
                     steps,
                     &inp,
                 ),
@@ -379,7 +396,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
     // Stage 4.
-    contact_stage(model, forces, dt, team)?;
+    contact_stage(model, forces, corner_velocity, dt, team)?;
     // Stage 5.
     if has_fluid {
         flow::flow_stage(model, adjacency, fluid);

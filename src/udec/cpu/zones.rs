@@ -32,15 +32,16 @@ pub fn force_shares(c: &Contact, side: u32, corner_start: u32, corners: &[Corner
     [(k, 1.0 - t), (j, t)]
 }
 
-/// The velocity of block `b`'s boundary at contact `c` (the contact law's twin of
-/// [`force_shares`]).
+/// The velocity of a zoned block's boundary at contact `c` (the contact law's twin of
+/// [`force_shares`]), from `corner_velocity`, its boundary grid points' velocities in corner order
+/// (grid point k is corner k, `model::fdef`).
 #[inline]
-pub fn boundary_velocity(f: &Fdef, c: &Contact, side: u32, corner_start: u32, corners: &[Corner], point: [f64; 2]) -> [f64; 2] {
+pub fn boundary_velocity(corner_velocity: &[[f64; 2]], c: &Contact, side: u32, corner_start: u32, corners: &[Corner], point: [f64; 2]) -> [f64; 2] {
     let mut v = [0.0; 2];
     for (g, w) in force_shares(c, side, corner_start, corners, point) {
         if w != 0.0 {
-            v[0] += w * f.gridpoints[g].velocity[0];
-            v[1] += w * f.gridpoints[g].velocity[1];
+            v[0] += w * corner_velocity[g][0];
+            v[1] += w * corner_velocity[g][1];
         }
     }
     v
