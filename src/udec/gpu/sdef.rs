@@ -150,9 +150,10 @@ impl<R: Real> Engine<R> {
     }
 
     /// Contact updates splice the list on the device: not in an SDEF scene (see the module doc),
-    /// nor in one with zoned blocks (`gpu::fdef`).
+    /// nor in one with zoned blocks (`gpu::fdef`) or fluid (`gpu::flow`: the domains are rebuilt
+    /// on the CPU and uploaded with the list).
     pub(super) fn splices_on_device(&self) -> bool {
-        self.splice && !self.sdef_scene && !self.fdef_scene
+        self.splice && !self.sdef_scene && !self.fdef_scene && !self.fluid_scene
     }
 }
 
