@@ -3,7 +3,8 @@
 // scene with fluid (`gpu::flow`), after the contact stage (the joints' apertures read the normal
 // forces it has just set), in three passes, none reading what its own pass writes:
 //
-// 1. `contact_flows`, per contact: its aperture, its flow q = k_c·Δp across a point contact or
+// 1. `flow`, per contact (the entry point named after the file; the loop body of
+//    `model::fluid::contact_flows`): its aperture, its flow q = k_c·Δp across a point contact or
 //    k_j·a³·Δp/l along a joint (¶6) at the pressures of the last step, and its feet;
 // 2. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
 //    (the CPU's order: reruns repeat bit for bit, and f64 agrees with the CPU to round-off), its
@@ -64,7 +65,7 @@ fn conductance(c: Contact, f: FluidMaterial, a: real) -> real {
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn contact_flows(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+fn flow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let k = item_index(wg, li);
     if (k >= params.n_contacts) {
         return;

@@ -120,7 +120,7 @@ impl<R: Real> Engine<R> {
         } else {
             stages.push(cycle("law_of_motion_fluid", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
-            stages.push(cycle("contact_flows", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts));
+            stages.push(cycle("flow", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts));
             stages.push(cycle("domain_pressures", &k.domain_pressures.pipeline, &g.domain_pressures, Grid::Domains));
             stages.push(cycle("pressure_loads", &k.pressure_loads.pipeline, &g.pressure_loads, Grid::Blocks));
             let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");

@@ -9,7 +9,7 @@
 //! them whole (`upload_fluid`), with each domain's flows as a CSR list in ascending contact
 //! order, so that its inflow is summed in the CPU's order and a rerun repeats bit for bit. Each
 //! cycle runs `law_of_motion_fluid` (the fluid loads added to the gather), the contact stage,
-//! then flow.wgsl's `contact_flows`, `domain_pressures` and `pressure_loads`. What differs
+//! then flow.wgsl's `flow` (per contact), `domain_pressures` and `pressure_loads`. What differs
 //! otherwise, as in an SDEF scene: contact updates upload the contact list whole, so the splice
 //! and partial read-backs are off. A read-back gives the model each domain's pressure and area,
 //! each contact's flow and the ledger's fluid work and inflow (accumulated on the device from
@@ -32,6 +32,9 @@ struct FluidUpload<R: Real> {
     links: Vec<u32>,
     sides: Vec<u32>,
     loads: Vec<FluidLoad<R>>,
+    /// Each contact's flow as the CPU found it at the rebuild (what a read-back before the
+    /// first cycle gives back; the first `flow` pass writes them all, feet included).
+    contact_flows: Vec<ContactFlow<R>>,
 }
 
 impl<R: Real> FluidUpload<R> {
@@ -108,7 +111,13 @@ impl<R: Real> FluidUpload<R> {
                 work: R::default(),
             })
             .collect();
-        FluidUpload { domains: out, flows, links, sides, loads }
+        let contact_flows = (0..model.contacts.len())
+            .map(|k| {
+                let f = domains.flows.get(k).copied().unwrap_or_default();
+                ContactFlow { flow: r(f.flow), aperture: r(f.aperture), length: r(f.length), ..Default::default() }
+            })
+            .collect();
+        FluidUpload { domains: out, flows, links, sides, loads, contact_flows }
     }
 }
 
@@ -160,6 +169,7 @@ impl<R: Real> Engine<R> {
         write(&b.domain_links, bytemuck::cast_slice(&up.links));
         write(&b.contact_sides, bytemuck::cast_slice(&up.sides));
         write(&b.fluid_loads, bytemuck::cast_slice(&up.loads));
+        write(&b.contact_flows, bytemuck::cast_slice(&up.contact_flows));
         let base = std::rc::Rc::make_mut(&mut self.uploaded);
         base.fluid_base = [fluid.work, fluid.inflow];
         self.n_domains = up.domains.len();

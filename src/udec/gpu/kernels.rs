@@ -255,7 +255,7 @@ impl CycleBindGroups {
         });
         let fluid = p.fluid.as_ref().filter(|_| b.domains.is_some()).map(|k| FluidBindGroups {
             law_of_motion: make(&k.law_of_motion, "law_of_motion_fluid"),
-            contact_flows: make(&k.contact_flows, "contact_flows"),
+            contact_flows: make(&k.contact_flows, "flow"),
             domain_pressures: make(&k.domain_pressures, "domain_pressures"),
             pressure_loads: make(&k.pressure_loads, "pressure_loads"),
             gather: make(&k.gather, "gather_fluid"),
@@ -318,7 +318,7 @@ pub struct Pipelines {
 }
 
 /// The entry points a scene with fluid runs (stage 5, `gpu::flow`): flow.wgsl's
-/// `contact_flows`, `domain_pressures` and `pressure_loads` after the contact stage, and in the
+/// `flow` (each contact's flow, field `contact_flows`), `domain_pressures` and `pressure_loads` after the contact stage, and in the
 /// files of their rigid twins `law_of_motion_fluid` (a block's fluid load added to its gather,
 /// its work booked), `gather_fluid` (before a read-back) and `energy_sums_fluid` after
 /// `energy_sums`. Only they bind the fluid's slots.
@@ -336,7 +336,7 @@ impl FluidKernels {
         in_error_scopes(dev, || {
             Ok(FluidKernels {
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fluid")?,
-                contact_flows: cycle_kernel(dev, "flow", "contact_flows")?,
+                contact_flows: cycle_kernel(dev, "flow", "flow")?,
                 domain_pressures: cycle_kernel(dev, "flow", "domain_pressures")?,
                 pressure_loads: cycle_kernel(dev, "flow", "pressure_loads")?,
                 gather: cycle_kernel(dev, "gather", "gather_fluid")?,
