@@ -46,7 +46,7 @@ fn the_reference_wall_has_1012_bricks_on_a_ground_block() {
 /// The decks in examples/ are what the generator writes (`BLOCKDEM_BLESS=1` rewrites them).
 #[test]
 fn example_decks_equal_the_generator() {
-    for s in [RefScene::Settle, RefScene::Impact, RefScene::Sdef] {
+    for s in [RefScene::Settle, RefScene::Impact, RefScene::Sdef, RefScene::Fluid] {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(scene::example_path(s));
         let text = scene::example_deck(s);
         if std::env::var("BLOCKDEM_BLESS").is_ok_and(|v| v == "1") {
@@ -56,6 +56,12 @@ fn example_decks_equal_the_generator() {
         assert!(on_disk == text, "{} differs from scene::example_deck (run BLOCKDEM_BLESS=1 cargo test --release --test bench)", path.display());
         let cycles: u64 = text.lines().find_map(|l| l.strip_prefix("CYCLE ")).unwrap().trim().parse().unwrap();
         let expected = if s == RefScene::Impact { 7072 } else { 14143 };
+        if s == RefScene::Fluid {
+            // The fluid's own limit (bulkw·L²/A_d on the bricks round a void) shortens the step
+            // by a few per cent only: the scene's fluid is chosen compressible enough for that.
+            assert!(cycles >= expected && cycles < expected * 21 / 20, "{cycles}");
+            continue;
+        }
         assert_eq!(cycles, expected, "2 s and 1 s at dt = 0.1 * 2 sqrt(500 / 1e9) (the SDEF bricks' own limit is longer)");
     }
 }

@@ -67,6 +67,8 @@ pub struct BenchOptions {
     pub impact: bool,
     /// The settle scene with simply-deformable bricks (`RefScene::Sdef`).
     pub sdef: bool,
+    /// The settle scene with fluid in the wall's joints (`RefScene::Fluid`).
+    pub fluid: bool,
     pub scaling: bool,
     /// The zoned scene family (`zones`: fully-deformable blocks).
     pub zones: bool,
@@ -99,6 +101,7 @@ impl BenchOptions {
             quick,
             settle: true,
             sdef: true,
+            fluid: true,
             impact: true,
             scaling: true,
             zones: true,
@@ -457,7 +460,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };
     report.options = OptionsEcho {
         quick: opts.quick,
-        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("scaling", opts.scaling), ("zones", opts.zones)]
+        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("fluid", opts.fluid), ("scaling", opts.scaling), ("zones", opts.zones)]
             .iter()
             .filter(|s| s.1)
             .map(|s| s.0.to_string())
@@ -492,7 +495,12 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     }
 
     for (scene, wanted, time) in
-        [(RefScene::Settle, opts.settle, opts.settle_time), (RefScene::Impact, opts.impact, opts.impact_time), (RefScene::Sdef, opts.sdef, opts.settle_time)]
+        [
+            (RefScene::Settle, opts.settle, opts.settle_time),
+            (RefScene::Impact, opts.impact, opts.impact_time),
+            (RefScene::Sdef, opts.sdef, opts.settle_time),
+            (RefScene::Fluid, opts.fluid, opts.settle_time),
+        ]
     {
         if !wanted {
             continue;

@@ -142,6 +142,18 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
                 note: format!("reference wall, {} cycles each, set-up included", sdef.cycles),
             });
         }
+        // The wall with fluid in its joints against the dry wall (issue 30).
+        if let (Some(dry), Some(wet)) = (row("settle"), row("fluid")) {
+            let ratio = dry.cycles_per_s / wet.cycles_per_s;
+            t.push(TargetRow {
+                target: "fluid wall vs dry wall, time per cycle".into(),
+                backend: b.label.clone(),
+                goal: "<= 1.3x".into(),
+                measured: format!("{ratio:.2}x"),
+                met: Some(ratio <= 1.3),
+                note: format!("reference wall, {} and {} cycles, set-up included", dry.cycles, wet.cycles),
+            });
+        }
     }
     // Software adapters against the CPU at 10^5 blocks (or the largest wall both reached).
     for b in r.backends.iter().filter(|b| b.kind == "gpu" && b.software && b.error.is_none()) {
