@@ -111,8 +111,9 @@ fn quick_bench(t: &Target) {
     assert_eq!(json["backends"].as_array().unwrap().len(), 1);
     assert!(json["backends"][0]["error"].is_null(), "{}", json["backends"][0]);
     let reference = json["reference"].as_array().unwrap();
-    assert_eq!(reference.len(), 3, "settle, impact and the settle of SDEF bricks");
+    assert_eq!(reference.len(), 4, "settle, impact, the settle of SDEF bricks and the settle with fluid");
     assert_eq!(reference[2]["scene"], "sdef");
+    assert_eq!(reference[3]["scene"], "fluid");
     for r in reference {
         assert!(r["error"].is_null(), "{r}");
         assert_eq!(r["measures"]["bricks"], 1012, "{r}");
@@ -139,6 +140,12 @@ fn quick_bench(t: &Target) {
     let targets = json["targets"].as_array().unwrap();
     let ratio = targets.iter().find(|t| t["target"].as_str().is_some_and(|s| s.starts_with("SDEF wall"))).expect("the SDEF target row");
     assert!(ratio["measured"].as_str().unwrap().ends_with('x'), "{ratio}");
+    // The wall with fluid in its joints stands (buoyancy halves its weight) and its cost per cycle
+    // is set against the dry one's.
+    let fluid_drift = reference[3]["measures"]["drift"].as_f64().unwrap();
+    assert!(fluid_drift.is_finite() && fluid_drift < 2e-3, "fluid settle drift {fluid_drift} m");
+    let ratio = targets.iter().find(|t| t["target"].as_str().is_some_and(|s| s.starts_with("fluid wall"))).expect("the fluid target row");
+    assert!(ratio["measured"].as_str().unwrap().ends_with('x'), "{ratio}");
 
     let scaling = json["scaling"].as_array().unwrap();
     assert_eq!(scaling.len(), 1);
@@ -159,7 +166,7 @@ fn quick_bench(t: &Target) {
     assert_eq!(lines.len(), 2);
     assert_eq!(lines[0].split(',').count(), lines[1].split(',').count());
     let reference_csv = std::fs::read_to_string(dir.join("bench_reference.csv")).unwrap();
-    assert_eq!(reference_csv.lines().count(), 4);
+    assert_eq!(reference_csv.lines().count(), 5, "a header and the four reference scenes");
     assert!(blockdem::bench::table(&report).contains("TARGETS"));
 }
 
