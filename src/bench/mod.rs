@@ -460,11 +460,18 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     let mut report = BenchReport { machine: host::machine_info(), ..Default::default() };
     report.options = OptionsEcho {
         quick: opts.quick,
-        scenes: [("settle", opts.settle), ("impact", opts.impact), ("sdef", opts.sdef), ("fluid", opts.fluid), ("scaling", opts.scaling), ("zones", opts.zones)]
-            .iter()
-            .filter(|s| s.1)
-            .map(|s| s.0.to_string())
-            .collect(),
+        scenes: [
+            ("settle", opts.settle),
+            ("impact", opts.impact),
+            ("sdef", opts.sdef),
+            ("fluid", opts.fluid),
+            ("scaling", opts.scaling),
+            ("zones", opts.zones),
+        ]
+        .iter()
+        .filter(|s| s.1)
+        .map(|s| s.0.to_string())
+        .collect(),
         sizes: opts.sizes.clone(),
         max_blocks: opts.max_blocks,
         settle_time: opts.settle_time,
@@ -494,14 +501,12 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         report.backends.push(info);
     }
 
-    for (scene, wanted, time) in
-        [
-            (RefScene::Settle, opts.settle, opts.settle_time),
-            (RefScene::Impact, opts.impact, opts.impact_time),
-            (RefScene::Sdef, opts.sdef, opts.settle_time),
-            (RefScene::Fluid, opts.fluid, opts.settle_time),
-        ]
-    {
+    for (scene, wanted, time) in [
+        (RefScene::Settle, opts.settle, opts.settle_time),
+        (RefScene::Impact, opts.impact, opts.impact_time),
+        (RefScene::Sdef, opts.sdef, opts.settle_time),
+        (RefScene::Fluid, opts.fluid, opts.settle_time),
+    ] {
         if !wanted {
             continue;
         }

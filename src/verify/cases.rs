@@ -263,7 +263,10 @@ fn fluid_cubic_law(ctx: &Ctx) -> Result<Measured, Failure> {
     // Each joint's two contacts (the joint domain between them) in series: q = Δp / Σ l_c/(k·a_i³).
     let mut joints: std::collections::BTreeMap<u32, Vec<(f64, f64, f64)>> = Default::default();
     for (i, (c, f)) in m.contacts.iter().zip(&d.flows).enumerate() {
-        let joint = d.sides.get(i).and_then(|s| s.iter().copied().find(|&x| d.list.get(x as usize).is_some_and(|x| x.kind == crate::udec::model::domain::DomainKind::Joint)));
+        let joint = d
+            .sides
+            .get(i)
+            .and_then(|s| s.iter().copied().find(|&x| d.list.get(x as usize).is_some_and(|x| x.kind == crate::udec::model::domain::DomainKind::Joint)));
         if let (true, Some(j), true) = (c.joint_length > 0.0, joint, f.flow != 0.0) {
             joints.entry(j).or_default().push((f.flow.abs(), f.aperture, c.joint_length));
         }

@@ -216,8 +216,7 @@ impl<R: Real> Engine<R> {
             Some([d, f, l]) => [(d, ck.fluid_bytes[0]), (f, ck.fluid_bytes[1]), (l, ck.fluid_bytes[2])],
             None => [(&ck.blocks, 0), (&ck.blocks, 0), (&ck.blocks, 0)],
         };
-        let src =
-            StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, sdefs, fdef, fluid, counts: ck.counts };
+        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, sdefs, fdef, fluid, counts: ck.counts };
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
         let gravity = model.gravity;

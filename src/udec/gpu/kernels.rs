@@ -787,8 +787,7 @@ impl Buffers {
         let mut made = false;
         if self.fluid_params.is_none() {
             self.fluid_params = Some(uniform_buffer(dev, "fluid params", std::mem::size_of::<FluidParams<R>>()));
-            self.fluid_materials =
-                Some(uniform_buffer(dev, "fluid materials", crate::udec::model::MAX_MATERIALS * std::mem::size_of::<FluidMaterial<R>>()));
+            self.fluid_materials = Some(uniform_buffer(dev, "fluid materials", crate::udec::model::MAX_MATERIALS * std::mem::size_of::<FluidMaterial<R>>()));
             made = true;
         }
         for (slot, label, item, count) in [

@@ -257,7 +257,6 @@ fn regular_void(model: &Model, domains: &Domains, d: usize) -> f64 {
     void
 }
 
-
 /// The flows of every contact now ([`ContactFlow`]: positive from its first domain to its
 /// second), written into `domains.flows`, and each domain's net inflow Q into `inflow`: summed
 /// in contact order, so a run repeats bit for bit.
