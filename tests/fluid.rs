@@ -229,6 +229,31 @@ fn plot_pressure_fills_the_domains_by_their_pressure() {
 }
 
 #[test]
+fn vtk_writes_the_domains_with_their_pressures_and_the_contacts_flows() {
+    let dir = std::env::temp_dir().join(format!("blockdem-fluid-vtk-{}", std::process::id()));
+    let deck = format!("{PINWHEEL}CYCLE 0\nPFIX OUTER 0\nPFIX AT 1.5 1.5 1E5\nCYCLE 5\nVTK\n");
+    let commands = blockdem::udec::deck::parse_deck(&deck, "<scene>").unwrap();
+    let options = blockdem::udec::exec::RunOptions { out_dir: dir.clone(), ..Default::default() };
+    let mut exec = blockdem::udec::exec::Executor::new(Box::new(blockdem::udec::cpu::CpuBackend::new()), Box::new(std::io::sink()), options, "<scene>");
+    exec.run(&commands).unwrap();
+    let domains = exec.model.domains.as_ref().unwrap();
+    let vtk = dir.join(blockdem::udec::exec::VTK_DIR);
+    let frame = common::VtkFrame::read(&vtk.join("domains_000000005.vtk"));
+    // Every domain but the outer one, the hole at its PFIX pressure.
+    let ids = frame.array("id");
+    assert_eq!(ids.len(), domains.list.len() - 1);
+    let hole = blockdem::udec::model::fluid::domain_at(&exec.model, domains, [1.5, 1.5]).unwrap();
+    let at = ids.iter().position(|&i| i == domains.list[hole].id as f64).unwrap();
+    assert_eq!(frame.array("pressure")[at], 1e5);
+    let contacts = common::VtkFrame::read(&vtk.join("contacts_000000005.vtk"));
+    let flows = contacts.array("flow");
+    assert_eq!(flows.len(), exec.model.contacts.len());
+    assert!(flows.iter().any(|&q| q != 0.0), "{flows:?}");
+    assert!(std::fs::read_to_string(vtk.join("domains.vtk.series")).unwrap().contains("domains_000000005.vtk"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn a_cycle_split_in_two_is_the_same_run_bit_for_bit() {
     // The second CYCLE goes on from the state the first left: its domains (rebuilt by stage 7
     // alone in a scene with fluid), its loads and its time step (which only falls).
