@@ -198,7 +198,8 @@ enum Cmd {
         #[arg(long, default_value = "bench-out")]
         out: PathBuf,
         /// Which scenes: the reference settle or impact, the settle with simply-deformable bricks
-        /// (sdef), the scaling family, or all.
+        /// (sdef) or with fluid in its joints (fluid, with the dry settle), the scaling family, or
+        /// all.
         #[arg(long, value_enum, default_value_t = BenchScene::All)]
         scene: BenchScene,
         /// Which backends: all present, the CPU, or the GPU adapters.
@@ -248,6 +249,9 @@ enum BenchScene {
     Impact,
     /// The settle scene with simply-deformable bricks (its cost per cycle against settle's).
     Sdef,
+    /// The settle scene with fluid in the wall's joints, and the dry settle scene it is measured
+    /// against back to back.
+    Fluid,
     Scaling,
     /// The scaling family with simply-deformable bricks (10^3 to 10^6 blocks, against the rigid walls when both run)
     SdefScaling,
@@ -302,9 +306,10 @@ fn bench(
         note!("blockdem: benchmarking the CPU only: {why}");
     }
     let mut options = blockdem::bench::BenchOptions::new(quick, specs);
-    options.settle = matches!(scene, BenchScene::Settle | BenchScene::All);
+    options.settle = matches!(scene, BenchScene::Settle | BenchScene::Fluid | BenchScene::All);
     options.impact = matches!(scene, BenchScene::Impact | BenchScene::All);
     options.sdef = matches!(scene, BenchScene::Sdef | BenchScene::All);
+    options.fluid = matches!(scene, BenchScene::Fluid | BenchScene::All);
     options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
     options.sdef_scaling = matches!(scene, BenchScene::SdefScaling | BenchScene::All);
     options.zones = matches!(scene, BenchScene::Zones | BenchScene::All);

@@ -44,8 +44,9 @@ pub enum Stage {
     Upload,
     /// GPU backend: device → host read-backs and their conversion into the `Model`.
     Download,
-    /// GPU backend: building the kernels of a block kind the first time a scene has it (the
-    /// simply- and fully-deformable kernels, made on demand: a rigid scene never builds them).
+    /// GPU backend: building the kernels of a block kind or of the fluid the first time a scene
+    /// has it (the simply- and fully-deformable and the fluid kernels, made on demand: a rigid,
+    /// dry scene never builds them).
     /// Once per backend, in the set-up of the run that needs them.
     KernelBuild,
 }

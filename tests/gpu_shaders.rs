@@ -142,6 +142,33 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         assert!(slots("energy_sums", "energy_sums_fdef").contains(&Zones));
         assert!(slots("contact_forces", "contact_forces_sdef").contains(&ContactLevers));
         assert!(slots("energy_sums", "energy_sums_sdef").contains(&Sdefs));
+        // Only the fluid's entry points bind the fluid's slots (a dry scene binds nothing of
+        // them), each at most 8 storage buffers.
+        let fluid_slots = [FluidParams, FluidMaterials, Domains, DomainFlows, DomainLinks, ContactSides, ContactFlows, FluidLoads];
+        for (file, entry) in [
+            ("law_of_motion", "law_of_motion"),
+            ("law_of_motion", "law_of_motion_sdef"),
+            ("law_of_motion", "law_of_motion_fdef"),
+            ("contact_forces", "contact_forces"),
+            ("contact_forces", "contact_points"),
+            ("gather", "gather"),
+            ("gather", "gather_heavy"),
+            ("energy_sums", "energy_sums"),
+            ("zones", "gather_gridpoints"),
+        ] {
+            let s = slots(file, entry);
+            assert!(!s.iter().any(|x| fluid_slots.contains(x)), "{entry} binds a fluid slot: {s:?}");
+        }
+        assert_eq!(slots("law_of_motion", "law_of_motion_fluid"), [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces, FluidLoads]);
+        assert_eq!(slots("gather", "gather_fluid"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces, FluidLoads]);
+        assert_eq!(slots("energy_sums", "energy_sums_fluid"), [Params, EnergySums, FluidLoads]);
+        assert_eq!(slots("flow", "flow"), [Params, Blocks, Corners, Contacts, Materials, FluidMaterials, Domains, ContactSides, ContactFlows]);
+        assert_eq!(slots("flow", "domain_pressures"), [Params, Blocks, Corners, FluidParams, Domains, DomainFlows, DomainLinks, ContactFlows]);
+        assert_eq!(slots("flow", "pressure_loads"), [Params, AdjOffsets, AdjEntries, Domains, ContactSides, ContactFlows, FluidLoads]);
+        for entry in ["flow", "domain_pressures", "pressure_loads"] {
+            let s = slots("flow", entry);
+            assert!(s.iter().filter(|x| x.kind() != SlotKind::Uniform).count() <= 8, "{entry}: {s:?}");
+        }
         let energy = slots("energy_sums", "energy_sums");
         assert!(energy.contains(&EnergySums) && !energy.contains(&AdjEntries), "{energy:?}");
         for (file, entry) in [

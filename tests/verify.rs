@@ -15,11 +15,9 @@ fn quick_suite_passes_every_check() {
     let suite = verify::run_suite(&VerifyOptions { quick: true, out: None, only: None });
     let table = verify::table(&suite);
     let backends = verify::backends();
-    // Every case on every backend (the SDEF cases too); the fluid cases on the CPU alone (the
-    // GPU refuses a scene with fluid in this version).
-    let fluid = cases::all().iter().filter(|c| c.name.starts_with(cases::CPU_ONLY_PREFIX)).count();
-    let cpus = backends.iter().filter(|b| !b.gpu).count();
-    let expected: usize = backends.len() * (cases::all().len() - fluid) + cpus * fluid;
+    // Every case on every backend (the SDEF, FDEF and fluid cases too).
+    let fluid = cases::all().iter().filter(|c| c.name.starts_with(cases::FLUID_PREFIX)).count();
+    let expected: usize = backends.len() * cases::all().len();
     assert!(fluid == 4 && table.contains("fluid_cubic_law"), "{table}");
     assert_eq!(suite.checks().count(), expected, "one check per case and backend\n{table}");
     assert!(table.contains("sdef_uniaxial") && table.contains("griffith_threshold"), "{table}");

@@ -31,6 +31,20 @@
 @group(0) @binding(16) var<storage, read> gridpoint_zones: array<u32>;
 @group(0) @binding(17) var<storage, read_write> contact_shares: array<ContactShare>;
 
+// Scenes with fluid only (flow.wgsl and the `_fluid` entry points; `gpu::flow`): the fluid's
+// constants and each material's flow properties (uniforms), the domains, each domain's flows (CSR:
+// contact·2 + 1 where it is the contact's second domain), each domain's boundary (four words a
+// link), each contact's two domains (two words a contact, NO_INDEX for none), each contact's flow
+// and feet, each block's fluid load.
+@group(0) @binding(18) var<uniform> fluid_params: FluidParams;
+@group(0) @binding(19) var<uniform> fluid_materials: array<FluidMaterial, MAX_MATERIALS>;
+@group(0) @binding(20) var<storage, read_write> domains: array<Domain>;
+@group(0) @binding(21) var<storage, read> domain_flows: array<u32>;
+@group(0) @binding(22) var<storage, read> domain_links: array<u32>;
+@group(0) @binding(23) var<storage, read> contact_sides: array<u32>;
+@group(0) @binding(24) var<storage, read_write> contact_flows_out: array<ContactFlow>;
+@group(0) @binding(25) var<storage, read_write> fluid_loads: array<FluidLoad>;
+
 // Finite test without isnan/isinf (which compilers may fold away): false for NaN and ±inf.
 fn is_finite(x: real) -> bool {
     return abs(x) <= FINITE_MAX;

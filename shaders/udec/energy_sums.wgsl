@@ -163,3 +163,22 @@ fn energy_sums_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         energy_sums_out[w].work += t.z;
     }
 }
+
+// The energy check's share of the fluid, dispatched after `energy_sums` on the same grid in a
+// scene with fluid: each workgroup adds its blocks' fluid work since the upload (the ledger's
+// `fluid_work`, which the check counts with the external work, as the CPU's does).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn energy_sums_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let first = workgroup_index(wg) * (WORKGROUP_SIZE * ENERGY_ITEMS) + li;
+    var e = vec3<real>(0.0, 0.0, 0.0);
+    for (var k = 0u; k < ENERGY_ITEMS; k++) {
+        let i = first + k * WORKGROUP_SIZE;
+        if (i < params.n_blocks) {
+            e.z += fluid_loads[i].work;
+        }
+    }
+    let t = workgroup_sum(li, e);
+    if (li == 0u) {
+        energy_sums_out[workgroup_index(wg)].work += t.z;
+    }
+}

@@ -166,3 +166,26 @@ fn gather_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
     }
     gather_block(b);
 }
+
+// `gather` in a scene with fluid (before a read-back or the energy check): each block's contact
+// forces and its fluid load (`pressure_loads`, flow.wgsl), as the CPU's `gather_all` adds it. A
+// block with a long list was summed by `gather_heavy`, dispatched before this pass in such a
+// scene: its load is added to the stored sums.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    var f = vec3<real>(blk.fx, blk.fy, blk.moment);
+    if (!is_heavy(first, end)) {
+        f = force_sum(blk, first, end);
+    }
+    let l = vec3<real>(fluid_loads[b].fx, fluid_loads[b].fy, fluid_loads[b].m);
+    blocks[b].fx = f.x + l.x;
+    blocks[b].fy = f.y + l.y;
+    blocks[b].moment = f.z + l.z;
+}

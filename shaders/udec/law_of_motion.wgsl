@@ -302,3 +302,38 @@ fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
     }
     place_corners_fdef(b, blk, fdef_blocks[b]);
 }
+
+// Stages 6, 1 and 2 in a scene with fluid (twin of the CPU's `block_piece` with
+// `BlockInputs::fluid_loads`): a rigid block as `law_of_motion` moves it, its fluid load
+// (`pressure_loads`, flow.wgsl: the domain pressures and buoyancy of the last stage 5) added after
+// its contact forces, and the load's work over the step, F·Δx + M·Δθ at the new velocities,
+// counted on the block (`cpu::flow::fluid_work`, the ledger's fluid term).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn law_of_motion_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    if (blk.fixed != 0u) {
+        blocks[b].vx = 0.0;
+        blocks[b].vy = 0.0;
+        blocks[b].w = 0.0;
+        return;
+    }
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    var f = vec3<real>(0.0, 0.0, 0.0);
+    if (is_heavy(first, end)) {
+        f = vec3<real>(blocks[b].fx, blocks[b].fy, blocks[b].moment);
+    } else {
+        f = force_sum(blk, first, end);
+    }
+    let l = vec3<real>(fluid_loads[b].fx, fluid_loads[b].fy, fluid_loads[b].m);
+    let s = rigid_step(blk, f + l);
+    store_step(b, s);
+    if (s.place) {
+        geometry_update(s.blk);
+    }
+    fluid_loads[b].work += (l.x * s.blk.vx + l.y * s.blk.vy + l.z * s.blk.w) * params.dt;
+}

@@ -67,6 +67,8 @@ pub struct BenchOptions {
     pub impact: bool,
     /// The settle scene with simply-deformable bricks (`RefScene::Sdef`).
     pub sdef: bool,
+    /// The settle scene with fluid in the wall's joints (`RefScene::Fluid`).
+    pub fluid: bool,
     pub scaling: bool,
     /// The scaling family with simply-deformable bricks (`scene::scaling_body_sdef`).
     pub sdef_scaling: bool,
@@ -101,6 +103,7 @@ impl BenchOptions {
             quick,
             settle: true,
             sdef: true,
+            fluid: true,
             impact: true,
             scaling: true,
             sdef_scaling: true,
@@ -482,6 +485,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             ("settle", opts.settle),
             ("impact", opts.impact),
             ("sdef", opts.sdef),
+            ("fluid", opts.fluid),
             ("scaling", opts.scaling),
             ("sdef-scaling", opts.sdef_scaling),
             ("zones", opts.zones),
@@ -519,9 +523,12 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         report.backends.push(info);
     }
 
-    for (scene, wanted, time) in
-        [(RefScene::Settle, opts.settle, opts.settle_time), (RefScene::Impact, opts.impact, opts.impact_time), (RefScene::Sdef, opts.sdef, opts.settle_time)]
-    {
+    for (scene, wanted, time) in [
+        (RefScene::Settle, opts.settle, opts.settle_time),
+        (RefScene::Impact, opts.impact, opts.impact_time),
+        (RefScene::Sdef, opts.sdef, opts.settle_time),
+        (RefScene::Fluid, opts.fluid, opts.settle_time),
+    ] {
         if !wanted {
             continue;
         }

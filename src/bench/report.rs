@@ -142,6 +142,18 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
                 note: format!("reference wall, {} cycles each, set-up included, the one-off kernel build not", sdef.cycles),
             });
         }
+        // The wall with fluid in its joints against the dry wall (issue 30).
+        if let (Some(dry), Some(wet)) = (row("settle"), row("fluid")) {
+            let ratio = dry.cycles_per_s_without_kernel_build() / wet.cycles_per_s_without_kernel_build();
+            t.push(TargetRow {
+                target: "fluid wall vs dry wall, time per cycle".into(),
+                backend: b.label.clone(),
+                goal: "<= 1.3x".into(),
+                measured: format!("{ratio:.2}x"),
+                met: Some(ratio <= 1.3),
+                note: format!("reference wall, {} and {} cycles, set-up included, the one-off kernel build not", dry.cycles, wet.cycles),
+            });
+        }
     }
     // The largest SDEF wall each backend ran, per block-cycle against its rigid twin (issue 28:
     // the 10⁶-block SDEF wall on a hardware GPU).

@@ -47,14 +47,25 @@ pub const PROJECTILE_VELOCITY: [f64; 2] = [50.0, 0.0];
 pub const SDEF_BULK: f64 = 5e8;
 pub const SDEF_SHEAR: f64 = 3e8;
 
+/// The fluid of the `Fluid` scene: ρw = 1000 in the wall's joints and voids, flowing across its
+/// contacts at CPERM = 1e-7 (the pressure update's explicit limit A_d(min)/(bulkw·Σk_c) is 6e-4 s,
+/// four settle steps), the outer domain held at 0. Its bulk modulus, 2e5 Pa, is a compressible
+/// fluid's, as the SDEF scene's bricks are soft: with water's 2e9 the voids' stiffness on the
+/// bricks round them (bulkw·L²/A_d, `model::fluid::fluid_timestep`) would cut the settle's time
+/// step 62 times; at 2e5 by 4.5%, so that the scene runs about the settle's cycles and its cost
+/// per cycle is the fluid's.
+pub const FLUID_LINES: &str = "PROP MAT=1 CPERM=1E-7\nFLUID 1000 2E5\nPFIX OUTER 0\n";
+
 /// The reference scenes: the wall settling and struck, and the settling wall of
-/// simply-deformable bricks (`Sdef`, issue 28: its cost per cycle against `Settle`'s).
+/// simply-deformable bricks (`Sdef`, issue 28: its cost per cycle against `Settle`'s) or with
+/// fluid in its joints (`Fluid`, issue 30: likewise).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RefScene {
     Settle,
     Impact,
     Sdef,
+    Fluid,
 }
 
 impl RefScene {
@@ -63,13 +74,14 @@ impl RefScene {
             RefScene::Settle => "settle",
             RefScene::Impact => "impact",
             RefScene::Sdef => "sdef",
+            RefScene::Fluid => "fluid",
         }
     }
 
     /// Simulated time of the reference.
     pub fn time(self) -> f64 {
         match self {
-            RefScene::Settle | RefScene::Sdef => SETTLE_TIME,
+            RefScene::Settle | RefScene::Sdef | RefScene::Fluid => SETTLE_TIME,
             RefScene::Impact => IMPACT_TIME,
         }
     }
@@ -147,6 +159,7 @@ pub fn reference_body(scene: RefScene, frac: f64) -> String {
             let right = wall.bricks as f64 * wall.brick[0];
             deck += &format!("PROP MAT=1 K={SDEF_BULK:e} G={SDEF_SHEAR:e}\nCHANGE -1 {} 0 {} SDEF\n", right + 1.0, top + 1.0);
         }
+        RefScene::Fluid => deck += FLUID_LINES,
     }
     deck
 }
@@ -176,6 +189,11 @@ pub fn example_deck(scene: RefScene) -> String {
              * CHANGE ... SDEF): `blockdem bench --scene sdef` reports its cost per cycle against the\n\
              * settle scene's on each backend (issue 28: at most 1.5 times).\n"
         ),
+        RefScene::Fluid => "* FLUID: the settle scene with fluid in the wall's joints and voids (FLUID 1000 2E5: a\n\
+             * compressible fluid, whose voids do not cut the time step much; CPERM 1e-7 across each\n\
+             * contact; the outer domain held at 0 with PFIX): `blockdem bench --scene fluid` reports its\n\
+             * cost per cycle against the dry settle scene's on each backend (issue 30: at most 1.3 times).\n"
+            .to_string(),
         RefScene::Impact => format!(
             "* IMPACT: a {PROJECTILE_SIDE} m square projectile of density {PROJECTILE_DENSITY} (material 2) fired\n\
              * horizontally at {} m/s from x = {}, y = {} (VELOCITY, an extension of the 1985\n\
@@ -220,6 +238,7 @@ pub fn example_path(scene: RefScene) -> &'static str {
         RefScene::Settle => "examples/brick_wall_settle.dat",
         RefScene::Impact => "examples/brick_wall_impact.dat",
         RefScene::Sdef => "examples/brick_wall_sdef.dat",
+        RefScene::Fluid => "examples/brick_wall_fluid.dat",
     }
 }
 

@@ -212,10 +212,6 @@ pub fn run_suite(options: &VerifyOptions) -> Suite {
             if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
                 continue;
             }
-            // Fluid runs on the CPU backend only in this version (the GPU refuses its scenes).
-            if backend.gpu && case.name.starts_with(cases::CPU_ONLY_PREFIX) {
-                continue;
-            }
             for &frac in fracs_for(&backend, options.quick) {
                 suite.rows.push(run_case(&case, &backend, frac));
             }

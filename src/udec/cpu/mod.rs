@@ -414,6 +414,15 @@ fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow
     }
     topology::refresh_domains(model);
     flow::pressure_loads(model, &topology.lists, &mut fluid.loads);
+    fluid_timestep_cut(model, report);
+}
+
+/// The time step cut where the domains as they are now need a shorter one
+/// (`model::fluid::fluid_timestep`): after each rebuild of the domains, on either backend.
+pub(crate) fn fluid_timestep_cut(model: &mut Model, report: &mut CycleReport) {
+    if model.fluid.is_none() {
+        return;
+    }
     let k_contact = model.contact_stiffness_max();
     if let Some(dt) = crate::udec::model::fluid::fluid_timestep(model, k_contact) {
         if dt < model.timestep {

@@ -42,6 +42,9 @@ impl<R: Real> Engine<R> {
         if let Some((k, g)) = self.fdef_kernels() {
             return self.stages_fdef(k, g, gather_only);
         }
+        if let Some((k, g)) = self.fluid_kernels() {
+            return self.stages_fluid(k, g, gather_only);
+        }
         if gather_only {
             match self.sdef_kernels() {
                 Some((k, g)) => stages.push(cycle("gather_sdef", &k.gather.pipeline, &g.gather, Grid::Blocks)),
@@ -99,6 +102,34 @@ impl<R: Real> Engine<R> {
         stages
     }
 
+    /// `stages` in a scene with fluid (`gpu::flow`): the blocks with long lists summed first
+    /// (`gather_heavy`), then the blocks' gather with their fluid loads (before a read-back) or
+    /// in a cycle their motion with it (`law_of_motion_fluid`), the contact stage, and stage 5:
+    /// each contact's flow, each domain's pressure, each block's load, each a pass of its own.
+    fn stages_fluid<'a>(&'a self, k: &'a kernels::FluidKernels, g: &'a kernels::FluidBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
+        let p = &self.pipelines;
+        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
+        let cycle =
+            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let mut stages = Vec::with_capacity(7);
+        if self.heavy_blocks(gather_only) > 0 {
+            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
+        }
+        if gather_only {
+            stages.push(cycle("gather_fluid", &k.gather.pipeline, &g.gather, Grid::Blocks));
+        } else {
+            stages.push(cycle("law_of_motion_fluid", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
+            stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
+            stages.push(cycle("flow", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts));
+            stages.push(cycle("domain_pressures", &k.domain_pressures.pipeline, &g.domain_pressures, Grid::Domains));
+            stages.push(cycle("pressure_loads", &k.pressure_loads.pipeline, &g.pressure_loads, Grid::Blocks));
+            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
+            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+        }
+        stages.retain(|d| d.grid.0 > 0);
+        stages
+    }
+
     /// The grid of `g` over the live counts: one invocation per block or contact, one workgroup
     /// per heavy block the pass gathers.
     pub(super) fn grid(&self, g: Grid, gather_only: bool) -> (u32, u32) {
@@ -109,6 +140,7 @@ impl<R: Real> Engine<R> {
             Grid::HeavyBlocks => shaders::dispatch_grid(self.heavy_blocks(gather_only) as u32),
             Grid::GridPoints => items(self.fdef_counts.0),
             Grid::Zones => items(self.fdef_counts.1),
+            Grid::Domains => items(self.n_domains),
         }
     }
 
@@ -223,6 +255,9 @@ impl<R: Real> Engine<R> {
             self.sdef_part(),
             self.fdef_parts()[0],
             self.fdef_parts()[1],
+            self.fluid_parts()[0],
+            self.fluid_parts()[1],
+            self.fluid_parts()[2],
         ];
         let up = self.uploaded.clone();
         let (flags, blocks) = self.dev.read_parts(&parts, |bytes| {
@@ -238,6 +273,7 @@ impl<R: Real> Engine<R> {
             Self::convert_sdefs(&sdefs, &up, model);
             let gridpoints: Vec<GridPoint<R>> = bytemuck::pod_collect_to_vec(bytes[6]);
             Self::convert_fdef(&gridpoints, &pod_view(bytes[7]), &up, model);
+            Self::convert_fluid(&pod_view(bytes[8]), &pod_view(bytes[9]), &pod_view(bytes[10]), &up, model);
             (flags, Some((blocks, sdefs, gridpoints)))
         })?;
         let read = blocks.is_some();
@@ -279,6 +315,12 @@ impl<R: Real> Engine<R> {
                 pass.set_bind_group(0, &g.energy_sums, &[]);
                 pass.dispatch_workgroups(x, y, 1);
             }
+            // The fluid adds its loads' work.
+            if let Some((k, g)) = self.fluid_kernels() {
+                pass.set_pipeline(&k.energy_sums.pipeline);
+                pass.set_bind_group(0, &g.energy_sums, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
         }
         self.dev.queue.submit([enc.finish()]);
         let sums: Vec<EnergySum<R>> = self.read(&b.energy_sums.buffer, groups)?;
@@ -288,6 +330,9 @@ impl<R: Real> Engine<R> {
             strain += s.strain.to_f64();
             work += s.work.to_f64();
         }
-        Ok((kinetic, strain, self.uploaded.work_base + work))
+        // The fluid's work counts from its own base (0 in a dry scene), as `Model::energies`
+        // books it beside the external work.
+        let fluid_base = if self.fluid_scene { self.uploaded.fluid_base[0] } else { 0.0 };
+        Ok((kinetic, strain, self.uploaded.work_base + work + fluid_base))
     }
 }

@@ -65,6 +65,10 @@ pub(super) struct Checkpoint {
     /// and the bytes of each copied (0 in the other scenes).
     pub(super) fdef: Option<[wgpu::Buffer; 2]>,
     pub(super) fdef_bytes: [u64; 2],
+    /// The domains, contact flows and fluid loads, in a scene with fluid (made at its first
+    /// checkpoint), and the bytes of each copied (0 in a dry scene).
+    pub(super) fluid: Option<[wgpu::Buffer; 3]>,
+    pub(super) fluid_bytes: [u64; 3],
     pub(super) counts: (usize, usize, usize),
     pub(super) uploaded: std::rc::Rc<Uploaded>,
     /// Whether it holds a state of the current run (the buffers are kept from run to run: a
@@ -106,6 +110,8 @@ impl<R: Real> Engine<R> {
                 sdef_bytes: 0,
                 fdef: None,
                 fdef_bytes: [0, 0],
+                fluid: None,
+                fluid_bytes: [0; 3],
                 counts: self.counts,
                 uploaded: self.uploaded.clone(),
                 valid: false,
@@ -129,6 +135,7 @@ impl<R: Real> Engine<R> {
         }
         ck.sdef_bytes = sdef_bytes;
         self.checkpoint_fdef();
+        self.checkpoint_fluid();
         let ck = self.checkpoint.as_mut().expect("made above");
         ck.valid = true;
         ck.counts = self.counts;
@@ -156,7 +163,36 @@ impl<R: Real> Engine<R> {
                 }
             }
         }
+        if let (Some(d), Some(f), Some(l), Some(dst)) = (b.domains.as_ref(), b.contact_flows.as_ref(), b.fluid_loads.as_ref(), ck.fluid.as_ref()) {
+            for (src, dst, bytes) in [(d, &dst[0], ck.fluid_bytes[0]), (f, &dst[1], ck.fluid_bytes[1]), (l, &dst[2], ck.fluid_bytes[2])] {
+                if bytes > 0 {
+                    enc.copy_buffer_to_buffer(&src.buffer, 0, dst, 0, bytes);
+                }
+            }
+        }
         self.dev.queue.submit([enc.finish()]);
+    }
+
+    /// The fluid's part of `take_checkpoint`: where the scene has fluid, the checkpoint's
+    /// domain, flow and load buffers made or grown and the bytes to copy set (0 in the others).
+    fn checkpoint_fluid(&mut self) {
+        let parts = self.fluid_parts().map(|(buffer, bytes)| (buffer.size(), bytes));
+        let ck = self.checkpoint.as_mut().expect("made by take_checkpoint");
+        ck.fluid_bytes = parts.map(|p| p.1);
+        if !self.fluid_scene {
+            return;
+        }
+        let make = |label: &str, size: u64| {
+            self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        if ck.fluid.as_ref().is_none_or(|d| d.iter().zip(&parts).any(|(d, p)| d.size() < p.0)) {
+            ck.fluid = Some([make("checkpoint domains", parts[0].0), make("checkpoint contact flows", parts[1].0), make("checkpoint fluid loads", parts[2].0)]);
+        }
     }
 
     /// Puts the device checkpoint's state into `model` (the CPU copy taken at that checkpoint),
@@ -176,13 +212,27 @@ impl<R: Real> Engine<R> {
             Some([g, z]) => [(g, ck.fdef_bytes[0]), (z, ck.fdef_bytes[1])],
             None => [(&ck.blocks, 0), (&ck.blocks, 0)],
         };
-        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, sdefs, fdef, counts: ck.counts };
+        let fluid = match &ck.fluid {
+            Some([d, f, l]) => [(d, ck.fluid_bytes[0]), (f, ck.fluid_bytes[1]), (l, ck.fluid_bytes[2])],
+            None => [(&ck.blocks, 0), (&ck.blocks, 0), (&ck.blocks, 0)],
+        };
+        let src = StateBuffers { blocks: &ck.blocks, corners: &ck.corners, contacts: &ck.contacts, forces: &ck.forces, sdefs, fdef, fluid, counts: ck.counts };
         self.read_state(&src, &ck.uploaded, model)?;
         let adjacency = Adjacency::build(model.blocks.len(), &model.contacts);
         let gravity = model.gravity;
         let forces: Vec<gather::ContactForce> = model.contacts.iter().map(gather::ContactForce::from).collect();
         for (b, block) in model.blocks.iter_mut().enumerate().filter(|(_, blk)| blk.fixed) {
             gather::gather(block, &forces, adjacency.entries(b), gravity);
+        }
+        if model.fluid.is_some() {
+            // Their fluid loads too, as the gather pass before the copy added them.
+            let mut loads = Vec::new();
+            crate::udec::cpu::flow::pressure_loads(model, &adjacency, &mut loads);
+            for (block, l) in model.blocks.iter_mut().zip(&loads).filter(|(blk, _)| blk.fixed) {
+                block.force[0] += l[0];
+                block.force[1] += l[1];
+                block.moment += l[2];
+            }
         }
         Ok(())
     }

@@ -13,8 +13,8 @@
 
 use super::device::GpuDevice;
 use super::layout::{
-    Block, Contact, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, EnergySum, FdefBlock, Flags, GridPoint, Material, Params, Real, Sdef,
-    Zone,
+    Block, Contact, ContactFlow, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, Domain, EnergySum, FdefBlock, Flags, FluidLoad,
+    FluidMaterial, FluidParams, GridPoint, Material, Params, Real, Sdef, Zone,
 };
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};
@@ -47,6 +47,18 @@ pub enum StateSlot {
     FdefBlocks = 14,
     GridPointZones = 16,
     ContactShares = 17,
+    /// Scenes with fluid only (`gpu::flow`): the fluid's constants and each material's flow
+    /// properties (uniforms), the domains (`layout::Domain`), each domain's flows and boundary
+    /// links (CSR words), each contact's two domains, each contact's flow and feet
+    /// (`layout::ContactFlow`) and each block's fluid load (`layout::FluidLoad`).
+    FluidParams = 18,
+    FluidMaterials = 19,
+    Domains = 20,
+    DomainFlows = 21,
+    DomainLinks = 22,
+    ContactSides = 23,
+    ContactFlows = 24,
+    FluidLoads = 25,
 }
 
 /// How a slot is bound: a uniform, or a storage buffer read only or read and written.
@@ -58,7 +70,7 @@ pub enum SlotKind {
 }
 
 impl StateSlot {
-    pub const ALL: [StateSlot; 17] = [
+    pub const ALL: [StateSlot; 25] = [
         StateSlot::Params,
         StateSlot::Blocks,
         StateSlot::Corners,
@@ -76,6 +88,14 @@ impl StateSlot {
         StateSlot::FdefBlocks,
         StateSlot::GridPointZones,
         StateSlot::ContactShares,
+        StateSlot::FluidParams,
+        StateSlot::FluidMaterials,
+        StateSlot::Domains,
+        StateSlot::DomainFlows,
+        StateSlot::DomainLinks,
+        StateSlot::ContactSides,
+        StateSlot::ContactFlows,
+        StateSlot::FluidLoads,
     ];
 
     pub fn binding(self) -> u32 {
@@ -107,13 +127,27 @@ impl StateSlot {
             StateSlot::FdefBlocks => "fdef_blocks",
             StateSlot::GridPointZones => "gridpoint_zones",
             StateSlot::ContactShares => "contact_shares",
+            StateSlot::FluidParams => "fluid_params",
+            StateSlot::FluidMaterials => "fluid_materials",
+            StateSlot::Domains => "domains",
+            StateSlot::DomainFlows => "domain_flows",
+            StateSlot::DomainLinks => "domain_links",
+            StateSlot::ContactSides => "contact_sides",
+            StateSlot::ContactFlows => "contact_flows_out",
+            StateSlot::FluidLoads => "fluid_loads",
         }
     }
 
     pub fn kind(self) -> SlotKind {
         match self {
-            StateSlot::Params | StateSlot::Materials => SlotKind::Uniform,
-            StateSlot::AdjOffsets | StateSlot::AdjEntries | StateSlot::FdefBlocks | StateSlot::GridPointZones => SlotKind::StorageRead,
+            StateSlot::Params | StateSlot::Materials | StateSlot::FluidParams | StateSlot::FluidMaterials => SlotKind::Uniform,
+            StateSlot::AdjOffsets
+            | StateSlot::AdjEntries
+            | StateSlot::FdefBlocks
+            | StateSlot::GridPointZones
+            | StateSlot::DomainFlows
+            | StateSlot::DomainLinks
+            | StateSlot::ContactSides => SlotKind::StorageRead,
             _ => SlotKind::StorageReadWrite,
         }
     }
@@ -168,6 +202,18 @@ pub struct CycleBindGroups {
     pub sdef: Option<SdefBindGroups>,
     /// The FDEF kernels' (`FdefKernels`), in a scene with zoned fully-deformable blocks.
     pub fdef: Option<FdefBindGroups>,
+    /// The fluid's kernels' (`FluidKernels`), in a scene with fluid.
+    pub fluid: Option<FluidBindGroups>,
+}
+
+/// The bind groups of `FluidKernels`.
+pub struct FluidBindGroups {
+    pub law_of_motion: wgpu::BindGroup,
+    pub contact_flows: wgpu::BindGroup,
+    pub domain_pressures: wgpu::BindGroup,
+    pub pressure_loads: wgpu::BindGroup,
+    pub gather: wgpu::BindGroup,
+    pub energy_sums: wgpu::BindGroup,
 }
 
 /// The bind groups of `FdefKernels`.
@@ -207,9 +253,18 @@ impl CycleBindGroups {
             gather: make(&k.gather, "gather_fdef"),
             energy_sums: make(&k.energy_sums, "energy_sums_fdef"),
         });
+        let fluid = p.fluid.as_ref().filter(|_| b.domains.is_some()).map(|k| FluidBindGroups {
+            law_of_motion: make(&k.law_of_motion, "law_of_motion_fluid"),
+            contact_flows: make(&k.contact_flows, "flow"),
+            domain_pressures: make(&k.domain_pressures, "domain_pressures"),
+            pressure_loads: make(&k.pressure_loads, "pressure_loads"),
+            gather: make(&k.gather, "gather_fluid"),
+            energy_sums: make(&k.energy_sums, "energy_sums_fluid"),
+        });
         CycleBindGroups {
             sdef,
             fdef,
+            fluid,
             law_of_motion: make(&p.law_of_motion, "law_of_motion"),
             contact_forces: make(&p.contact_forces, "contact_forces"),
             contact_points: make(&p.contact_points, "contact_points"),
@@ -257,6 +312,38 @@ pub struct Pipelines {
     /// The cycle's kernels for zoned fully-deformable blocks, made at the first upload of a
     /// scene that has them (`Pipelines::with_fdef`).
     pub fdef: Option<FdefKernels>,
+    /// The fluid's kernels, made at the first upload of a scene with fluid
+    /// (`Pipelines::with_fluid`): a dry scene never compiles them.
+    pub fluid: Option<FluidKernels>,
+}
+
+/// The entry points a scene with fluid runs (stage 5, `gpu::flow`): flow.wgsl's
+/// `flow` (each contact's flow, field `contact_flows`), `domain_pressures` and `pressure_loads` after the contact stage, and in the
+/// files of their rigid twins `law_of_motion_fluid` (a block's fluid load added to its gather,
+/// its work booked), `gather_fluid` (before a read-back) and `energy_sums_fluid` after
+/// `energy_sums`. Only they bind the fluid's slots.
+pub struct FluidKernels {
+    pub law_of_motion: CycleKernel,
+    pub contact_flows: CycleKernel,
+    pub domain_pressures: CycleKernel,
+    pub pressure_loads: CycleKernel,
+    pub gather: CycleKernel,
+    pub energy_sums: CycleKernel,
+}
+
+impl FluidKernels {
+    pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        in_error_scopes(dev, || {
+            Ok(FluidKernels {
+                law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fluid")?,
+                contact_flows: cycle_kernel(dev, "flow", "flow")?,
+                domain_pressures: cycle_kernel(dev, "flow", "domain_pressures")?,
+                pressure_loads: cycle_kernel(dev, "flow", "pressure_loads")?,
+                gather: cycle_kernel(dev, "gather", "gather_fluid")?,
+                energy_sums: cycle_kernel(dev, "energy_sums", "energy_sums_fluid")?,
+            })
+        })
+    }
 }
 
 /// The entry points a scene with zoned fully-deformable blocks runs: zones.wgsl's
@@ -349,6 +436,15 @@ impl SdefKernels {
 }
 
 impl Pipelines {
+    /// Makes the fluid's kernels if they are not made yet.
+    pub fn with_fluid(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
+        if self.fluid.is_none() {
+            let _p = crate::profile::scope(crate::profile::Stage::KernelBuild);
+            self.fluid = Some(FluidKernels::new(dev)?);
+        }
+        Ok(())
+    }
+
     /// Makes the FDEF kernels if they are not made yet.
     pub fn with_fdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
         if self.fdef.is_none() {
@@ -437,6 +533,7 @@ impl Pipelines {
             lists_layout,
             sdef: None,
             fdef: None,
+            fluid: None,
         };
         Ok(pipelines)
     }
@@ -485,6 +582,17 @@ pub struct Buffers {
     pub fdef_blocks: Option<Slab>,
     pub gridpoint_zones: Option<Slab>,
     pub contact_shares: Option<Slab>,
+    /// The fluid's slots, in a scene with fluid (`Buffers::ensure_fluid`; None in a dry one):
+    /// its two uniforms, then the domains, their flows and links, each contact's domains and
+    /// flow, each block's load.
+    pub fluid_params: Option<wgpu::Buffer>,
+    pub fluid_materials: Option<wgpu::Buffer>,
+    pub domains: Option<Slab>,
+    pub domain_flows: Option<Slab>,
+    pub domain_links: Option<Slab>,
+    pub contact_sides: Option<Slab>,
+    pub contact_flows: Option<Slab>,
+    pub fluid_loads: Option<Slab>,
     /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
     pub summaries: Option<Slab>,
 }
@@ -598,6 +706,14 @@ impl Buffers {
             fdef_blocks: None,
             gridpoint_zones: None,
             contact_shares: None,
+            fluid_params: None,
+            fluid_materials: None,
+            domains: None,
+            domain_flows: None,
+            domain_links: None,
+            contact_sides: None,
+            contact_flows: None,
+            fluid_loads: None,
             summaries: None,
         })
     }
@@ -664,6 +780,32 @@ impl Buffers {
         ] {
             if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
                 ensure_slot(dev, slot, label, item, count)?;
+                made = true;
+            }
+        }
+        Ok(made)
+    }
+
+    /// Makes sure the fluid's slots hold what `sizes` asks (their old contents not kept), its
+    /// uniforms made; returns whether one was (re-)created (the bind groups must then be
+    /// rebuilt).
+    pub fn ensure_fluid<R: Real>(&mut self, dev: &GpuDevice, sizes: FluidSizes) -> Result<bool, GpuError> {
+        let mut made = false;
+        if self.fluid_params.is_none() {
+            self.fluid_params = Some(uniform_buffer(dev, "fluid params", std::mem::size_of::<FluidParams<R>>()));
+            self.fluid_materials = Some(uniform_buffer(dev, "fluid materials", crate::udec::model::MAX_MATERIALS * std::mem::size_of::<FluidMaterial<R>>()));
+            made = true;
+        }
+        for (slot, label, item, count) in [
+            (&mut self.domains, "domains", std::mem::size_of::<Domain<R>>(), sizes.domains),
+            (&mut self.domain_flows, "domain flows", 4, sizes.flows),
+            (&mut self.domain_links, "domain links", 16, sizes.links),
+            (&mut self.contact_sides, "contact domains", 8, sizes.contacts),
+            (&mut self.contact_flows, "contact flows", std::mem::size_of::<ContactFlow<R>>(), sizes.contacts),
+            (&mut self.fluid_loads, "fluid loads", std::mem::size_of::<FluidLoad<R>>(), sizes.blocks),
+        ] {
+            if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
+                ensure_slot(dev, slot, label, item, count.max(1))?;
                 made = true;
             }
         }
@@ -737,6 +879,14 @@ impl Buffers {
             StateSlot::FdefBlocks => &self.fdef_blocks.as_ref().expect(FDEF_ONLY).buffer,
             StateSlot::GridPointZones => &self.gridpoint_zones.as_ref().expect(FDEF_ONLY).buffer,
             StateSlot::ContactShares => &self.contact_shares.as_ref().expect(FDEF_ONLY).buffer,
+            StateSlot::FluidParams => self.fluid_params.as_ref().expect(FLUID_ONLY),
+            StateSlot::FluidMaterials => self.fluid_materials.as_ref().expect(FLUID_ONLY),
+            StateSlot::Domains => &self.domains.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::DomainFlows => &self.domain_flows.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::DomainLinks => &self.domain_links.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::ContactSides => &self.contact_sides.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::ContactFlows => &self.contact_flows.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::FluidLoads => &self.fluid_loads.as_ref().expect(FLUID_ONLY).buffer,
         }
     }
 
@@ -749,6 +899,18 @@ impl Buffers {
 }
 
 const FDEF_ONLY: &str = "the FDEF kernels are bound only in a scene with zoned blocks";
+const FLUID_ONLY: &str = "the fluid's kernels are bound only in a scene with fluid";
+
+/// How many of each fluid slot's items a scene needs (`Buffers::ensure_fluid`): domains, domain
+/// flow words, domain links, contacts, blocks.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FluidSizes {
+    pub domains: usize,
+    pub flows: usize,
+    pub links: usize,
+    pub contacts: usize,
+    pub blocks: usize,
+}
 
 /// How many of each FDEF slot's items a scene needs (`Buffers::ensure_fdef`).
 #[derive(Clone, Copy, Debug, Default)]
@@ -784,10 +946,12 @@ pub enum Grid {
     /// Scenes with zoned blocks: one invocation per grid point, per zone.
     GridPoints,
     Zones,
+    /// Scenes with fluid: one invocation per domain (`domain_pressures`).
+    Domains,
 }
 
 impl Grid {
-    pub const ALL: [Grid; 5] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks, Grid::GridPoints, Grid::Zones];
+    pub const ALL: [Grid; 6] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks, Grid::GridPoints, Grid::Zones, Grid::Domains];
 
     /// Byte offset of this grid's (x, y, z) in `Buffers::dispatch_args`.
     pub fn offset(self) -> u64 {

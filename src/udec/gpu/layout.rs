@@ -238,6 +238,62 @@ gpu_struct! {
 }
 
 gpu_struct! {
+    /// The fluid's run constants (a uniform), in a scene with fluid only: 32 bytes in f32, 48 in
+    /// f64. bulkw (¶7), A_d(min) (`Domains::min_area`), the live count of domains.
+    FluidParams { bulk: R, min_area: R, _r0: R, _r1: R, n_domains: u32, _p0: u32, _p1: u32, _p2: u32 }
+}
+
+gpu_struct! {
+    /// The flow properties of one material (¶6; `Material::fluid`): 16 bytes in f32, 32 in f64,
+    /// a uniform array of `MAX_MATERIALS` beside the contact table, bound only by the fluid's
+    /// kernels. JPERM, CPERM, AZERO, ARES.
+    FluidMaterial { jperm: R, cperm: R, azero: R, ares: R }
+}
+
+gpu_struct! {
+    /// One domain on the device (`model::domain::Domain`), in a scene with fluid only: 40 bytes
+    /// in f32, 56 in f64. Its pressure, the area the fluid calculation gave it at the last step
+    /// (`model::fluid::fluid_area`), a joint domain's length, the volume that flowed into it
+    /// since the upload (Σ Q·Δt, the mass balance's `Fluid::inflow`); whether its pressure moves
+    /// (`model::fluid::is_free`), its kind (`DOMAIN_*`), its flows
+    /// (`domain_flows[flow_start .. + flow_count]`: contact·2 + 1 where it is the contact's second
+    /// domain, + 0 where its first, ascending by contact: the CPU's order) and its boundary
+    /// (`domain_links`, four words a link, see `Engine::upload_fluid`).
+    Domain {
+        pressure: R, area: R, length: R, inflow: R,
+        free: u32, kind: u32, flow_start: u32, flow_count: u32, link_start: u32, link_count: u32,
+    }
+}
+
+/// `Domain::kind` of a regular domain (a void), a joint domain and the outer domain.
+pub const DOMAIN_REGULAR: u32 = 0;
+pub const DOMAIN_JOINT: u32 = 1;
+pub const DOMAIN_OUTER: u32 = 2;
+/// Bits of a domain link's first word (`domain_links`): the contact's side whose piece of block
+/// boundary follows it (`Domains::link_sides` bit 0), the link opens a loop (`LOOP_START`), the
+/// link is a corner (else a contact).
+pub const LINK_SIDE: u32 = 1;
+pub const LINK_LOOP_START: u32 = 2;
+pub const LINK_CORNER: u32 = 4;
+
+gpu_struct! {
+    /// One contact's flow in the last cycle (`model::domain::ContactFlow`), written by
+    /// `contact_flows`: 32 bytes in f32, 64 in f64. The flow from its first domain to its second,
+    /// the joint's aperture and length (0 for a point contact), and its feet (`contact_foot`):
+    /// on side 0 relative to block 1's centroid, on side 1 relative to block 2's, where the
+    /// domain areas and the pressure loads read them.
+    ContactFlow { flow: R, aperture: R, length: R, f0x: R, f0y: R, f1x: R, f1y: R, _r: R }
+}
+
+gpu_struct! {
+    /// One block's fluid load (`cpu::flow::pressure_loads`), in a scene with fluid only: 24 bytes
+    /// in f32, 48 in f64. Buoyancy −ρ_w·A·g (¶9, from the CPU at the upload), the load of the
+    /// domain pressures and buoyancy as the next gather adds it (written by `pressure_loads`), and
+    /// the work of that load since the upload (the ledger's fluid work).
+    FluidLoad { buoy_x: R, buoy_y: R, fx: R, fy: R, m: R, work: R }
+}
+
+gpu_struct! {
     /// Contact properties of one material: 32 bytes in f32, 64 in f64, the point contact's
     /// (KN, KS, COHESION, FRICTION) and the joint's (JKN, JKS, JCOH, JFRIC, ¶5). A uniform array
     /// of `MAX_MATERIALS` (a stride of a multiple of 16 bytes in both precisions, as uniform
@@ -377,6 +433,11 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         Zone::<R>::layout(),
         FdefBlock::<R>::layout(),
         ContactShare::<R>::layout(),
+        FluidParams::<R>::layout(),
+        FluidMaterial::<R>::layout(),
+        Domain::<R>::layout(),
+        ContactFlow::<R>::layout(),
+        FluidLoad::<R>::layout(),
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),

@@ -94,6 +94,7 @@ macro_rules! on_engine {
 mod batch;
 mod checkpoint;
 mod fdef;
+mod flow;
 pub mod kernels;
 pub mod layout;
 pub mod partial;
@@ -273,6 +274,9 @@ struct Uploaded {
     /// Each zoned block's mass damping work (`Fdef::damping_work`) at the upload of the FDEF
     /// slots (0 for the others; empty in a scene without zoned blocks).
     fdef_damping_base: Vec<f64>,
+    /// The fluid's ledger work and inflow (`Fluid::work`, `Fluid::inflow`) at the upload of the
+    /// fluid's slots (the device counts from zero since; 0 in a dry scene).
+    fluid_base: [f64; 2],
 }
 
 /// The GPU state of one precision and the code that drives it.
@@ -311,6 +315,10 @@ struct Engine<R: Real> {
     fdef_gp_start: Vec<u32>,
     /// The grid points as last uploaded or read back (to reset their update positions).
     last_gridpoints: Vec<layout::GridPoint<R>>,
+    /// The scene has fluid: the cycle runs the fluid's kernels (`flow`).
+    fluid_scene: bool,
+    /// Domains on the device (0 in a dry scene).
+    n_domains: usize,
     counts: (usize, usize, usize),
     /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts), and how many of
     /// them (listed first) are free: a cycle skips fixed blocks, so it dispatches only those.
@@ -372,6 +380,8 @@ impl<R: Real> Engine<R> {
             fdef_counts: (0, 0),
             fdef_gp_start: Vec::new(),
             last_gridpoints: Vec::new(),
+            fluid_scene: false,
+            n_domains: 0,
             counts: (0, 0, 0),
             n_heavy: 0,
             n_heavy_free: 0,

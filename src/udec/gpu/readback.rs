@@ -31,6 +31,9 @@ pub(super) struct StateBuffers<'a> {
     /// The grid points and zones and the bytes of each to read (0 in a scene without zoned
     /// blocks).
     pub(super) fdef: [(&'a wgpu::Buffer, u64); 2],
+    /// The domains, contact flows and fluid loads and the bytes of each to read (0 in a dry
+    /// scene).
+    pub(super) fluid: [(&'a wgpu::Buffer, u64); 3],
     pub(super) counts: (usize, usize, usize),
 }
 
@@ -120,6 +123,9 @@ impl<R: Real> Engine<R> {
             src.sdefs,
             src.fdef[0],
             src.fdef[1],
+            src.fluid[0],
+            src.fluid[1],
+            src.fluid[2],
         ];
         self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
@@ -127,6 +133,7 @@ impl<R: Real> Engine<R> {
             Self::convert_contacts(&pod_view(bytes[2]), &pod_view(bytes[3]), up, model);
             Self::convert_sdefs(&pod_view(bytes[4]), up, model);
             Self::convert_fdef(&pod_view(bytes[5]), &pod_view(bytes[6]), up, model);
+            Self::convert_fluid(&pod_view(bytes[7]), &pod_view(bytes[8]), &pod_view(bytes[9]), up, model);
             blocks
         })
     }
@@ -265,6 +272,9 @@ impl<R: Real> Engine<R> {
             self.sdef_part(),
             self.fdef_parts()[0],
             self.fdef_parts()[1],
+            self.fluid_parts()[0],
+            self.fluid_parts()[1],
+            self.fluid_parts()[2],
         ];
         let (blocks, sdefs, gridpoints) = self.dev.read_parts(&parts, |bytes| {
             let blocks: Vec<Block<R>> = bytemuck::pod_collect_to_vec(bytes[0]);
@@ -274,6 +284,7 @@ impl<R: Real> Engine<R> {
             Self::convert_sdefs(&sdefs, &up, model);
             let gridpoints: Vec<GridPoint<R>> = bytemuck::pod_collect_to_vec(bytes[5]);
             Self::convert_fdef(&gridpoints, &pod_view(bytes[6]), &up, model);
+            Self::convert_fluid(&pod_view(bytes[7]), &pod_view(bytes[8]), &pod_view(bytes[9]), &up, model);
             (blocks, sdefs, gridpoints)
         })?;
         self.last_blocks = blocks;

@@ -173,6 +173,10 @@ impl<R: Real> Engine<R> {
         // error, the end of the run): after a change the device holds it.
         if cracking && cpu::crack_step(model, &topology.lists, report) {
             *topology = Topology::build(model.blocks.len(), &model.contacts);
+            if model.fluid.is_some() {
+                crate::udec::topology::refresh_domains(model);
+                cpu::fluid_timestep_cut(model, report);
+            }
             if let Some(dt) = model.critical_timestep() {
                 if dt < model.timestep {
                     model.timestep = dt;
@@ -191,6 +195,7 @@ impl<R: Real> Engine<R> {
             self.read_live_state(model, false).map_err(device_error)?;
         }
         if cpu::maybe_update_topology(model, topology, report, false) {
+            cpu::fluid_timestep_cut(model, report);
             self.list_in_order = true;
             *expected_update = cycles_to_next_update(model);
             self.upload_reset_distances(model);
@@ -228,6 +233,11 @@ impl<R: Real> Engine<R> {
             let _p = crate::profile::scope(crate::profile::Stage::Checks);
             if generation.1 == now.1 {
                 last_good.clone_settings_from(model);
+                // The domains of the new list (the checkpoint holds their pressures).
+                if model.fluid.is_some() {
+                    last_good.domains.clone_from(&model.domains);
+                    last_good.fluid = model.fluid;
+                }
                 let identities = self.last_good_contacts.get_or_insert_with(Vec::new);
                 model.contacts.par_iter().map(ContactIdentity::of).collect_into_vec(identities);
             } else {
@@ -311,13 +321,9 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
     /// kernel precision cannot hold (`representable`).
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        if model.fluid.is_some() {
-            // The fluid's kernels are not written yet (issue 30 item 7): `--backend auto` goes on
-            // on the CPU, `--backend gpu` says so.
-            return Err(CycleError::DoesNotFit(
-                "fluid flow (FLUID, PFIX) runs on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
-            ));
-        }
+        // Fluid with deformable blocks stays on the CPU (`gpu::flow`): `--backend auto` goes on
+        // there, `--backend gpu` says so.
+        super::flow::check_supported(model).map_err(device_error)?;
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
         let sdef_blocks = if model.has_sdef() { model.blocks.len() } else { 0 };
@@ -340,9 +346,17 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
         self.topology = std::mem::take(&mut self.engine.topology);
         let e = &mut *self.engine;
         if resume {
+            // The domains as the model holds them now (PFIX and PFREE may have changed them
+            // between runs; the model's equality leaves them out), their loads, the accounts'
+            // bases.
+            if (e.fluid_scene || model.fluid.is_some()) && e.upload_fluid(model, &self.topology.lists).map_err(device_error)? {
+                e.bind_groups = Some(kernels::CycleBindGroups::new(&e.dev, &e.pipelines, e.buffers()));
+            }
             e.write_params(model);
         } else {
             cpu::maybe_update_topology(model, &mut self.topology, report, true);
+            // With fluid: the time step the new domains allow (their loads go up with them).
+            cpu::fluid_timestep_cut(model, report);
             e.list_in_order = true;
             e.upload_all(model, &self.topology.lists).map_err(device_error)?;
             e.write_params(model);

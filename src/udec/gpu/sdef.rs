@@ -155,9 +155,10 @@ impl<R: Real> Engine<R> {
     }
 
     /// Contact updates splice the list on the device: not in a scene with zoned blocks
-    /// (`gpu::fdef`).
+    /// (`gpu::fdef`) or fluid (`gpu::flow`: the domains are rebuilt on the CPU and uploaded with
+    /// the list).
     pub(super) fn splices_on_device(&self) -> bool {
-        self.splice && !self.fdef_scene
+        self.splice && !self.fdef_scene && !self.fluid_scene
     }
 
     /// `splice_contacts`'s companion in an SDEF scene: the lever arms follow their contacts into

@@ -44,6 +44,9 @@ pub const KERNELS: &[(&str, &str)] = &[
     // Zoned fully-deformable blocks' grid points and zones (stages 6, 1 and 3; twin of
     // `cpu::zones`), compiled only for a scene that has them.
     ("zones", include_str!("../../../shaders/udec/zones.wgsl")),
+    // Stage 5, fluid flow in joints and voids (twin of `cpu::flow`), compiled only for a scene
+    // with fluid.
+    ("flow", include_str!("../../../shaders/udec/flow.wgsl")),
 ];
 
 /// Kernels of the topology changes between cycles, with bindings of their own (the state's bind

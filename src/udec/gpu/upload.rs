@@ -91,6 +91,7 @@ impl<R: Real> Engine<R> {
             contact_base: Vec::new(),
             sdef_damping_base: Vec::new(),
             fdef_damping_base: Vec::new(),
+            fluid_base: [0.0, 0.0],
         };
         let blocks: Vec<Block<R>> = model.blocks.par_iter().with_min_len(4096).map(|b| Block::from_model(b, origin)).collect();
         let corners: Vec<Corner<R>> = model.corners.par_iter().with_min_len(4096).map(|c| Corner::from_model(&model.blocks, c)).collect();
@@ -160,6 +161,7 @@ impl<R: Real> Engine<R> {
         g |= self.upload_adjacency(&model.blocks, contacts.len(), adjacency)?;
         g |= self.upload_levers(model)?;
         g |= self.upload_shares(model)?;
+        g |= self.upload_fluid(model, adjacency)?;
         if g {
             self.bind_groups = None;
         }

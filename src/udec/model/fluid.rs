@@ -208,21 +208,53 @@ pub fn fluid_area(model: &Model, domains: &Domains, d: usize) -> f64 {
                 domains.min_area
             }
         }
-        DomainKind::Regular => {
-            let void: f64 = domain_loops(model, domains, d).iter().map(|l| -signed_area(l)).sum();
-            void.max(domains.min_area)
-        }
+        DomainKind::Regular => regular_void(model, domains, d).max(domains.min_area),
     }
 }
 
-fn signed_area(poly: &[([f64; 2], u32)]) -> f64 {
-    let n = poly.len();
-    let mut s = 0.0;
-    for i in 0..n {
-        let (p, q) = (poly[i].0, poly[(i + 1) % n].0);
-        s += p[0] * q[1] - q[0] * p[1];
+/// The void of regular domain `d`: its loops' area ([`domain_loops`]' vertices in their order,
+/// each loop's shoelace sum Σ p_i × p_(i+1) taken in that order, as it was when the loops were
+/// built first) without building the loops: stage 5 takes it for every domain every cycle.
+/// The GPU's twin is `fluid_area` in flow.wgsl.
+fn regular_void(model: &Model, domains: &Domains, d: usize) -> f64 {
+    let dom = &domains.list[d];
+    let start = dom.link_start as usize;
+    let cross = |p: [f64; 2], q: [f64; 2]| p[0] * q[1] - q[0] * p[1];
+    let (mut void, mut s) = (0.0, 0.0);
+    let mut open: Option<([f64; 2], [f64; 2])> = None;
+    let vertex = |v: [f64; 2], open: &mut Option<([f64; 2], [f64; 2])>, s: &mut f64| match open {
+        Some((_, prev)) => {
+            *s += cross(*prev, v);
+            *prev = v;
+        }
+        None => *open = Some((v, v)),
+    };
+    for (k, link) in domains.links_of(dom).iter().enumerate() {
+        let bits = domains.link_sides.get(start + k).copied().unwrap_or(0);
+        if bits & LOOP_START != 0 {
+            if let Some((first, last)) = open.take() {
+                void += -(0.5 * (s + cross(last, first)));
+                s = 0.0;
+            }
+        }
+        match *link {
+            DomainLink::Contact { index, .. } => {
+                let Some(c) = model.contacts.get(index as usize) else { continue };
+                let side = u32::from(bits & 1);
+                vertex(contact_foot(model, c, 1 - side), &mut open, &mut s);
+                vertex(contact_foot(model, c, side), &mut open, &mut s);
+            }
+            DomainLink::Corner { corner } => {
+                if let Some(cn) = model.corners.get(corner as usize) {
+                    vertex(cn.position, &mut open, &mut s);
+                }
+            }
+        }
     }
-    0.5 * s
+    if let Some((first, last)) = open {
+        void += -(0.5 * (s + cross(last, first)));
+    }
+    void
 }
 
 /// The flows of every contact now ([`ContactFlow`]: positive from its first domain to its

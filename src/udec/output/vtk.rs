@@ -23,6 +23,13 @@
 //!   Point data: `velocity` (m/s, vector), `gridpoint_mass` (the lumped mass, kg) and `force`
 //!   (the unbalanced force of the last cycle, N, vector).
 //!
+//! - `domains_<cycle>.vtk`, only in a scene with fluid (Appendix A ¶6–9): every domain but the
+//!   outer one as the polygon of its boundary's first loop (the void's outline, or a joint's four
+//!   contact feet), with the current positions. Cell data: `id` (as PRINT DOMAINS shows it),
+//!   `pressure` (Pa), `area` (the fluid's, m²), `fixed` (1 while PFIX holds it), `joint` (1 for a
+//!   joint domain). The contacts' file then also has `flow` (from its first domain to its
+//!   second, m²/s) and `aperture` (m) as point data.
+//!
 //! Frames are named by cycle, so a RESTART that goes on writes new ones beside the old, and one
 //! that goes back replaces the frames after it (the series keeps the frames before its cycle).
 
@@ -36,6 +43,8 @@ use crate::udec::model::{ContactKind, Model};
 pub const SERIES_FILE: &str = "blocks.vtk.series";
 /// The series of the contact frames.
 pub const CONTACT_SERIES_FILE: &str = "contacts.vtk.series";
+/// The series of the domain frames (a scene with fluid).
+pub const DOMAIN_SERIES_FILE: &str = "domains.vtk.series";
 /// The series of the zone frames (a scene with fully-deformable blocks).
 pub const ZONE_SERIES_FILE: &str = "zones.vtk.series";
 
@@ -59,6 +68,11 @@ pub fn write_frame(model: &Model, dir: &Path) -> Result<PathBuf, String> {
     write_vtk(&dir.join(&contacts_name), contacts_vtk(model))?;
     add_to_series(&dir.join(SERIES_FILE), &blocks_name, model.cycle, model.time)?;
     add_to_series(&dir.join(CONTACT_SERIES_FILE), &contacts_name, model.cycle, model.time)?;
+    if let (Some(_), Some(domains)) = (model.fluid, model.domains.as_ref()) {
+        let name = format!("domains_{:09}.vtk", model.cycle);
+        write_vtk(&dir.join(&name), domains_vtk(model, domains))?;
+        add_to_series(&dir.join(DOMAIN_SERIES_FILE), &name, model.cycle, model.time)?;
+    }
     if model.has_fdef() {
         let zones_name = zone_frame_name(model.cycle);
         write_vtk(&dir.join(&zones_name), zones_vtk(model))?;
@@ -145,6 +159,14 @@ pub fn contacts_vtk(model: &Model) -> Vtk {
         Attribute::scalars("joint", 1).with_data(contacts.iter().map(|c| flag(c.joint_length > 0.0)).collect::<Vec<_>>()),
         Attribute::scalars("joint_length", 1).with_data(scalars(&|c| c.joint_length)),
     ];
+    let mut point = point;
+    if let (Some(_), Some(d)) = (model.fluid, model.domains.as_ref()) {
+        // With fluid, each contact's flow in the last cycle and its aperture (0 for a point
+        // contact).
+        let flow = |k: usize, f: &dyn Fn(&crate::udec::model::domain::ContactFlow) -> f64| d.flows.get(k).map_or(0.0, |x| f(x) as f32);
+        point.push(Attribute::scalars("flow", 1).with_data((0..contacts.len()).map(|k| flow(k, &|x| x.flow)).collect::<Vec<f32>>()));
+        point.push(Attribute::scalars("aperture", 1).with_data((0..contacts.len()).map(|k| flow(k, &|x| x.aperture)).collect::<Vec<f32>>()));
+    }
     let piece = PolyDataPiece {
         points: points.into(),
         verts: Some(VertexNumbers::Legacy { num_cells: n, vertices }),
@@ -152,6 +174,44 @@ pub fn contacts_vtk(model: &Model) -> Vtk {
         ..Default::default()
     };
     poly_data(&format!("blockdem contacts, cycle {}, time {:e} s", model.cycle, model.time), piece)
+}
+
+/// The domains of a scene with fluid (all but the outer one) as polygons, with their pressures
+/// as cell data.
+pub fn domains_vtk(model: &Model, domains: &crate::udec::model::domain::Domains) -> Vtk {
+    use crate::udec::model::domain::DomainKind;
+    let (mut points, mut vertices) = (Vec::new(), Vec::new());
+    let (mut id, mut pressure, mut area, mut fixed, mut joint) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (d, dom) in domains.list.iter().enumerate().filter(|(_, d)| d.kind != DomainKind::Outer) {
+        let loops = crate::udec::model::fluid::domain_loops(model, domains, d);
+        let Some(outline) = loops.first().filter(|l| l.len() >= 3) else { continue };
+        let first = (points.len() / 3) as u32;
+        vertices.push(outline.len() as u32);
+        for (k, (p, _)) in outline.iter().enumerate() {
+            points.extend([p[0], p[1], 0.0]);
+            vertices.push(first + k as u32);
+        }
+        id.push(dom.id as i32);
+        pressure.push(dom.pressure as f32);
+        area.push(dom.area as f32);
+        fixed.push(flag(dom.fixed));
+        joint.push(flag(dom.kind == DomainKind::Joint));
+    }
+    let cells = id.len() as u32;
+    let cell = vec![
+        Attribute::scalars("id", 1).with_data(id),
+        Attribute::scalars("pressure", 1).with_data(pressure),
+        Attribute::scalars("area", 1).with_data(area),
+        Attribute::scalars("fixed", 1).with_data(fixed),
+        Attribute::scalars("joint", 1).with_data(joint),
+    ];
+    let piece = PolyDataPiece {
+        points: points.into(),
+        polys: Some(VertexNumbers::Legacy { num_cells: cells, vertices }),
+        data: Attributes { point: Vec::new(), cell },
+        ..Default::default()
+    };
+    poly_data(&format!("blockdem domains, cycle {}, time {:e} s", model.cycle, model.time), piece)
 }
 
 /// The zones of the fully-deformable blocks as triangles through their grid points, with the

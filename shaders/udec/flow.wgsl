@@ -1,0 +1,251 @@
+// Stage 5: fluid flow in joints and voids (SL-85-1 Appendix A ¶6–9, ¶19). Twin of
+// src/udec/cpu/flow.rs on the pure pieces of `model::fluid`; compiled and dispatched only in a
+// scene with fluid (`gpu::flow`), after the contact stage (the joints' apertures read the normal
+// forces it has just set), in three passes, none reading what its own pass writes:
+//
+// 1. `flow`, per contact (the entry point named after the file; the loop body of
+//    `model::fluid::contact_flows`): its aperture, its flow q = k_c·Δp across a point contact or
+//    k_j·a³·Δp/l along a joint (¶6) at the pressures of the last step, and its feet;
+// 2. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
+//    (the CPU's order: reruns repeat bit for bit, and f64 agrees with the CPU to round-off), its
+//    area now, and the pressure update with its change of volume (¶7); a PFIX domain and the
+//    outer domain keep theirs;
+// 3. `pressure_loads`, per block: buoyancy and the pressure jumps across its contacts, in its
+//    adjacency list's order, as the next cycle's block pass adds them (`law_of_motion_fluid`).
+
+// A corner's position relative to its block's centroid.
+fn corner_at(i: u32) -> vec2<real> {
+    return vec2<real>(corners[i].px, corners[i].py);
+}
+
+// Contact c's feet (twin of `model::fluid::contact_foot`): side 0, block 1's corner, from block
+// 1's centroid; side 1, block 2's corner or the foot of block 1's corner on block 2's edge
+// (within the edge), from block 2's centroid.
+fn contact_feet(c: Contact) -> array<vec2<real>, 2> {
+    let p1 = corner_at(c.corner);
+    let b2 = blocks[c.block2];
+    let n = max(b2.corner_count, 1u);
+    let k = (c.feature / 2u) % n;
+    let p = corner_at(b2.corner_start + k);
+    if (c.feature % 2u == 0u) {
+        return array<vec2<real>, 2>(p1, p);
+    }
+    let q = corner_at(b2.corner_start + (k + 1u) % n);
+    let corner = centroid_difference(blocks[c.block1], b2) + p1;
+    let e = q - p;
+    let len2 = e.x * e.x + e.y * e.y;
+    var t = real(0.0);
+    if (len2 > 0.0) {
+        t = clamp(((corner.x - p.x) * e.x + (corner.y - p.y) * e.y) / len2, 0.0, 1.0);
+    }
+    return array<vec2<real>, 2>(p1, vec2<real>(p.x + t * e.x, p.y + t * e.y));
+}
+
+// A joint's hydraulic aperture a = max(a_res, a_0 − σn′/k_n,j), 0 for a point contact (twin of
+// `model::fluid::aperture`).
+fn aperture(c: Contact, jkn: real, f: FluidMaterial) -> real {
+    if (c.length <= 0.0) {
+        return 0.0;
+    }
+    let sigma = c.normal_force / c.length;
+    var closure = real(0.0);
+    if (jkn > 0.0) {
+        closure = sigma / jkn;
+    }
+    return max(f.azero - closure, f.ares);
+}
+
+// q = conductance·Δp: k_j·a³/l_c along a joint, k_c across a point contact (twin of
+// `model::fluid::conductance`).
+fn conductance(c: Contact, f: FluidMaterial, a: real) -> real {
+    if (c.length > 0.0) {
+        return f.jperm * a * a * a / c.length;
+    }
+    return f.cperm;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn flow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
+        return;
+    }
+    let c = contacts[k];
+    let f = fluid_materials[c.material];
+    let a = aperture(c, materials[c.material].jkn, f);
+    let feet = contact_feet(c);
+    let d0 = contact_sides[2u * k];
+    let d1 = contact_sides[2u * k + 1u];
+    var q = real(0.0);
+    if (d0 != NO_INDEX && d0 != d1) {
+        q = conductance(c, f, a) * (domains[d0].pressure - domains[d1].pressure);
+    }
+    contact_flows_out[k] = ContactFlow(q, a, c.length, feet[0].x, feet[0].y, feet[1].x, feet[1].y, 0.0);
+}
+
+// Where a domain link's vertex t (0 or 1 of a contact's two feet, in circuit order; 0 of a
+// corner) lies relative to the centroid of block `reference`.
+fn link_vertex(l: u32, t: u32, reference: Block) -> vec2<real> {
+    let bits = domain_links[4u * l];
+    let index = domain_links[4u * l + 1u];
+    if ((bits & LINK_CORNER) != 0u) {
+        return centroid_difference(blocks[domain_links[4u * l + 2u]], reference) + corner_at(index);
+    }
+    // A contact gives the foot the circuit arrives at (the other side's), then its own side's.
+    var side = bits & LINK_SIDE;
+    if (t == 0u) {
+        side = 1u - side;
+    }
+    let cf = contact_flows_out[index];
+    var foot = vec2<real>(cf.f0x, cf.f0y);
+    if (side == 1u) {
+        foot = vec2<real>(cf.f1x, cf.f1y);
+    }
+    return centroid_difference(blocks[domain_links[4u * l + 2u + side]], reference) + foot;
+}
+
+fn cross2(p: vec2<real>, q: vec2<real>) -> real {
+    return p.x * q.y - q.x * p.y;
+}
+
+// The area the fluid calculation gives domain `dom` now (twin of `model::fluid::fluid_area`): a
+// regular domain's void (its loops' area, with the current positions, measured from one block's
+// centroid so that f32 keeps a small void's digits), a joint's mean aperture times its length,
+// never below A_d(min); 0 for the outer domain.
+fn fluid_area(dom: Domain) -> real {
+    if (dom.kind == DOMAIN_OUTER) {
+        return 0.0;
+    }
+    let first = dom.link_start;
+    let end = dom.link_start + dom.link_count;
+    if (dom.kind == DOMAIN_JOINT) {
+        var n = 0u;
+        var sum = real(0.0);
+        var a0 = real(0.0);
+        for (var l = first; l < end; l += 1u) {
+            if ((domain_links[4u * l] & LINK_CORNER) != 0u) {
+                continue;
+            }
+            let cf = contact_flows_out[domain_links[4u * l + 1u]];
+            if (cf.length > 0.0) {
+                if (n == 0u) {
+                    a0 = cf.aperture;
+                } else {
+                    sum = a0 + cf.aperture;
+                }
+                n += 1u;
+            }
+        }
+        if (n == 2u) {
+            return max(0.5 * sum * dom.length, fluid_params.min_area);
+        }
+        return fluid_params.min_area;
+    }
+    if (dom.link_count == 0u) {
+        return fluid_params.min_area;
+    }
+    let reference = blocks[domain_links[4u * first + 2u]];
+    var void_area = real(0.0);
+    var s = real(0.0);
+    var start = vec2<real>(0.0, 0.0);
+    var prev = vec2<real>(0.0, 0.0);
+    var open = false;
+    for (var l = first; l < end; l += 1u) {
+        let bits = domain_links[4u * l];
+        if ((bits & LINK_LOOP_START) != 0u && open) {
+            // Close the loop: its last edge back to its first vertex.
+            s += cross2(prev, start);
+            void_area += -(0.5 * s);
+            s = 0.0;
+            open = false;
+        }
+        var count = 2u;
+        if ((bits & LINK_CORNER) != 0u) {
+            count = 1u;
+        }
+        for (var t = 0u; t < count; t += 1u) {
+            let v = link_vertex(l, t, reference);
+            if (open) {
+                s += cross2(prev, v);
+            } else {
+                start = v;
+                open = true;
+            }
+            prev = v;
+        }
+    }
+    if (open) {
+        s += cross2(prev, start);
+        void_area += -(0.5 * s);
+    }
+    return max(void_area, fluid_params.min_area);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let d = item_index(wg, li);
+    if (d >= fluid_params.n_domains) {
+        return;
+    }
+    var dom = domains[d];
+    let area = fluid_area(dom);
+    if (dom.free != 0u) {
+        var q = real(0.0);
+        let end = dom.flow_start + dom.flow_count;
+        for (var e = dom.flow_start; e < end; e += 1u) {
+            let entry = domain_flows[e];
+            let flow = contact_flows_out[entry >> 1u].flow;
+            if ((entry & 1u) != 0u) {
+                q += flow;
+            } else {
+                q -= flow;
+            }
+        }
+        q = q * params.dt;
+        // ¶7 with the domain's change of volume: the fluid mass A(1 + p/bulkw) changes by the
+        // inflow alone (twin of `model::fluid::pressure_step`).
+        dom.pressure = (dom.area * dom.pressure + fluid_params.bulk * (q - (area - dom.area))) / area;
+        domains[d].pressure = dom.pressure;
+        domains[d].inflow = dom.inflow + q;
+    }
+    domains[d].area = area;
+}
+
+// Block b's load from the pressures around it and its buoyancy (twin of
+// `cpu::flow::pressure_loads`): each contact of its list gives the pressure jump at its foot,
+// (p_after − p_before)·perp(f − c) and (p_after − p_before)·|f − c|²/2 (`model::fluid::
+// pressure_load`), in list order after the buoyancy.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn pressure_loads(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    var l = vec3<real>(fluid_loads[b].buoy_x, fluid_loads[b].buoy_y, 0.0);
+    let end = adj_offsets[b + 1u];
+    for (var e = adj_offsets[b]; e < end; e += 1u) {
+        let entry = adj_entries[e];
+        let k = entry_contact(entry);
+        let side = entry_side(entry);
+        let d0 = contact_sides[2u * k];
+        let d1 = contact_sides[2u * k + 1u];
+        if (d0 == NO_INDEX || d0 == d1) {
+            continue;
+        }
+        var jump = domains[d1].pressure - domains[d0].pressure;
+        if (side == 1u) {
+            jump = -jump;
+        }
+        if (jump != 0.0) {
+            let cf = contact_flows_out[k];
+            var r = vec2<real>(cf.f0x, cf.f0y);
+            if (side == 1u) {
+                r = vec2<real>(cf.f1x, cf.f1y);
+            }
+            l += vec3<real>(-jump * r.y, jump * r.x, 0.5 * jump * (r.x * r.x + r.y * r.y));
+        }
+    }
+    fluid_loads[b].fx = l.x;
+    fluid_loads[b].fy = l.y;
+    fluid_loads[b].m = l.z;
+}

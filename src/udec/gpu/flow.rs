@@ -1,0 +1,241 @@
+//! Fluid flow on the device (issue 30, stage 5; twin of `cpu::flow`): the domains, their flows
+//! and boundaries, each contact's two domains and flow, each block's fluid load, in slots of
+//! their own (`layout::Domain`, `layout::ContactFlow`, `layout::FluidLoad`, CSR words), made,
+//! uploaded and read back only in a scene with fluid; a dry scene compiles, binds and
+//! dispatches nothing of them (`kernels::FluidKernels`).
+//!
+//! The domains stay the CPU's (stage 7, `topology::domain`): each topology change rebuilds them
+//! on the CPU (`cpu::maybe_update_topology`, `cpu::fluid_after_topology`), and the device takes
+//! them whole (`upload_fluid`), with each domain's flows as a CSR list in ascending contact
+//! order, so that its inflow is summed in the CPU's order and a rerun repeats bit for bit. Each
+//! cycle runs `law_of_motion_fluid` (the fluid loads added to the gather), the contact stage,
+//! then flow.wgsl's `flow` (per contact), `domain_pressures` and `pressure_loads`. What differs
+//! otherwise, as in an SDEF scene: contact updates upload the contact list whole, so the splice
+//! and partial read-backs are off. A read-back gives the model each domain's pressure and area,
+//! each contact's flow and the ledger's fluid work and inflow (accumulated on the device from
+//! zero since the upload, added to their f64 bases as the external work is).
+
+use crate::udec::model::domain::{DomainKind, DomainLink, NO_DOMAIN};
+use crate::udec::model::{Model, MAX_MATERIALS};
+use crate::udec::topology::Adjacency;
+
+use super::kernels::FluidSizes;
+use super::layout::{
+    ContactFlow, Domain, FluidLoad, FluidMaterial, FluidParams, Real, DOMAIN_JOINT, DOMAIN_OUTER, DOMAIN_REGULAR, LINK_CORNER, LINK_LOOP_START, LINK_SIDE,
+};
+use super::{r, Engine, GpuError, Uploaded};
+
+/// The device's fluid state of a model (`upload_fluid`).
+struct FluidUpload<R: Real> {
+    domains: Vec<Domain<R>>,
+    flows: Vec<u32>,
+    links: Vec<u32>,
+    sides: Vec<u32>,
+    loads: Vec<FluidLoad<R>>,
+    /// Each contact's flow as the CPU found it at the rebuild (what a read-back before the
+    /// first cycle gives back; the first `flow` pass writes them all, feet included).
+    contact_flows: Vec<ContactFlow<R>>,
+}
+
+impl<R: Real> FluidUpload<R> {
+    /// `loads`: each block's fluid load now (`cpu::flow::pressure_loads`).
+    fn of(model: &Model, loads: &[[f64; 3]]) -> Self {
+        let domains = model.domains.as_ref().expect("a scene with fluid has its domains");
+        let n = domains.list.len();
+        // Each domain's flows, ascending by contact: the order the CPU sums them in
+        // (`model::fluid::contact_flows`).
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n];
+        let mut sides = vec![NO_DOMAIN; 2 * model.contacts.len()];
+        for k in 0..model.contacts.len() {
+            let Some(&[d0, d1]) = domains.sides.get(k) else { continue };
+            sides[2 * k] = d0;
+            sides[2 * k + 1] = d1;
+            if d0 != NO_DOMAIN && d0 != d1 {
+                lists[d0 as usize].push((k as u32) << 1);
+                lists[d1 as usize].push(((k as u32) << 1) | 1);
+            }
+        }
+        let mut flows = Vec::with_capacity(lists.iter().map(Vec::len).sum());
+        let mut links = Vec::with_capacity(4 * domains.links.len());
+        let mut out = Vec::with_capacity(n);
+        for (d, (dom, list)) in domains.list.iter().zip(lists).enumerate() {
+            let link_start = (links.len() / 4) as u32;
+            let first = dom.link_start as usize;
+            for (j, link) in domains.links_of(dom).iter().enumerate() {
+                let bits = domains.link_sides.get(first + j).copied().unwrap_or(0);
+                let mut word = if bits & crate::udec::model::domain::LOOP_START != 0 { LINK_LOOP_START } else { 0 };
+                match *link {
+                    DomainLink::Contact { index, .. } => {
+                        let c = &model.contacts[index as usize];
+                        word |= u32::from(bits & 1) * LINK_SIDE;
+                        links.extend([word, index, c.block1, c.block2]);
+                    }
+                    DomainLink::Corner { corner } => {
+                        let block = model.corners[corner as usize].block;
+                        links.extend([word | LINK_CORNER, corner, block, block]);
+                    }
+                }
+            }
+            let kind = match dom.kind {
+                DomainKind::Regular => DOMAIN_REGULAR,
+                DomainKind::Joint => DOMAIN_JOINT,
+                DomainKind::Outer => DOMAIN_OUTER,
+            };
+            out.push(Domain {
+                pressure: r(dom.pressure),
+                area: r(dom.area),
+                length: r(dom.length),
+                inflow: R::default(),
+                free: crate::udec::model::fluid::is_free(dom.kind, dom.fixed) as u32,
+                kind,
+                flow_start: flows.len() as u32,
+                flow_count: list.len() as u32,
+                link_start,
+                link_count: (links.len() / 4) as u32 - link_start,
+            });
+            flows.extend(list);
+            debug_assert_eq!(d + 1, out.len());
+        }
+        let fluid = model.fluid.expect("a scene with fluid");
+        let g = model.gravity;
+        let loads = model
+            .blocks
+            .iter()
+            .zip(loads)
+            .map(|(b, l)| FluidLoad {
+                buoy_x: r(-fluid.density * b.area * g[0]),
+                buoy_y: r(-fluid.density * b.area * g[1]),
+                fx: r(l[0]),
+                fy: r(l[1]),
+                m: r(l[2]),
+                work: R::default(),
+            })
+            .collect();
+        let contact_flows = (0..model.contacts.len())
+            .map(|k| {
+                let f = domains.flows.get(k).copied().unwrap_or_default();
+                ContactFlow { flow: r(f.flow), aperture: r(f.aperture), length: r(f.length), ..Default::default() }
+            })
+            .collect();
+        FluidUpload { domains: out, flows, links, sides, loads, contact_flows }
+    }
+}
+
+impl<R: Real> Engine<R> {
+    /// With a new contact list (and at a run's start, resumed or not) in a scene with fluid: its
+    /// kernels and slots made (once), the domains, their flows and boundaries, each contact's
+    /// domains, each block's load now and the fluid's constants uploaded, the accumulators of
+    /// fluid work and inflow counted from here (their bases the model's). Returns whether a
+    /// buffer was re-created (the bind groups must then be rebuilt). Nothing in a dry scene.
+    pub(super) fn upload_fluid(&mut self, model: &Model, adjacency: &Adjacency) -> Result<bool, GpuError> {
+        self.fluid_scene = model.fluid.is_some() && model.domains.is_some();
+        if !self.fluid_scene {
+            self.n_domains = 0;
+            return Ok(false);
+        }
+        let had_kernels = self.pipelines.fluid.is_some();
+        self.pipelines.with_fluid(&self.dev)?;
+        let mut loads = Vec::new();
+        crate::udec::cpu::flow::pressure_loads(model, adjacency, &mut loads);
+        let up = FluidUpload::<R>::of(model, &loads);
+        let sizes = FluidSizes {
+            domains: up.domains.len(),
+            flows: up.flows.len(),
+            links: up.links.len() / 4,
+            contacts: model.contacts.len(),
+            blocks: model.blocks.len(),
+        };
+        let b = self.buffers.as_mut().expect("buffers exist");
+        let made = b.ensure_fluid::<R>(&self.dev, sizes)?;
+        let fluid = model.fluid.expect("checked above");
+        let domains = model.domains.as_ref().expect("checked above");
+        let params = FluidParams::<R> { bulk: r(fluid.bulk), min_area: r(domains.min_area), n_domains: up.domains.len() as u32, ..Default::default() };
+        let mut materials = vec![FluidMaterial::<R>::default(); MAX_MATERIALS];
+        for (g, m) in materials.iter_mut().zip(&model.materials) {
+            let f = &m.fluid;
+            *g = FluidMaterial { jperm: r(f.jperm), cperm: r(f.cperm), azero: r(f.azero), ares: r(f.ares) };
+        }
+        let b = self.buffers();
+        let q = &self.dev.queue;
+        q.write_buffer(b.fluid_params.as_ref().expect("made above"), 0, bytemuck::bytes_of(&params));
+        q.write_buffer(b.fluid_materials.as_ref().expect("made above"), 0, bytemuck::cast_slice(&materials));
+        let write = |slot: &Option<super::kernels::Slab>, bytes: &[u8]| {
+            if !bytes.is_empty() {
+                q.write_buffer(&slot.as_ref().expect("made above").buffer, 0, bytes);
+            }
+        };
+        write(&b.domains, bytemuck::cast_slice(&up.domains));
+        write(&b.domain_flows, bytemuck::cast_slice(&up.flows));
+        write(&b.domain_links, bytemuck::cast_slice(&up.links));
+        write(&b.contact_sides, bytemuck::cast_slice(&up.sides));
+        write(&b.fluid_loads, bytemuck::cast_slice(&up.loads));
+        write(&b.contact_flows, bytemuck::cast_slice(&up.contact_flows));
+        let base = std::rc::Rc::make_mut(&mut self.uploaded);
+        base.fluid_base = [fluid.work, fluid.inflow];
+        self.n_domains = up.domains.len();
+        Ok(made || !had_kernels)
+    }
+
+    /// What a read-back reads of the fluid's slots: every domain, each contact's flow and each
+    /// block's load (nothing in a dry scene).
+    pub(super) fn fluid_parts(&self) -> [(&wgpu::Buffer, u64); 3] {
+        let b = self.buffers();
+        match (&b.domains, &b.contact_flows, &b.fluid_loads) {
+            (Some(d), Some(f), Some(l)) if self.fluid_scene => [
+                (&d.buffer, (self.n_domains * std::mem::size_of::<Domain<R>>()) as u64),
+                (&f.buffer, (self.counts.2 * std::mem::size_of::<ContactFlow<R>>()) as u64),
+                (&l.buffer, (self.counts.0 * std::mem::size_of::<FluidLoad<R>>()) as u64),
+            ],
+            _ => [(&b.params, 0), (&b.params, 0), (&b.params, 0)],
+        }
+    }
+
+    /// The fluid's slots as read (`fluid_parts`) into the model: each domain's pressure and area,
+    /// each contact's flow, aperture and length (`Domains::flows`), the ledger's fluid work and
+    /// the mass balance's inflow (their bases at the upload plus what the device added since,
+    /// summed in order in f64).
+    pub(super) fn convert_fluid(domains: &[Domain<R>], flows: &[ContactFlow<R>], loads: &[FluidLoad<R>], up: &Uploaded, model: &mut Model) {
+        if domains.is_empty() && loads.is_empty() {
+            return;
+        }
+        let Some(list) = model.domains.as_mut() else { return };
+        let mut inflow = 0.0;
+        for (m, g) in list.list.iter_mut().zip(domains) {
+            m.pressure = g.pressure.to_f64();
+            m.area = g.area.to_f64();
+            inflow += g.inflow.to_f64();
+        }
+        list.flows.resize(flows.len(), Default::default());
+        for (m, g) in list.flows.iter_mut().zip(flows) {
+            m.flow = g.flow.to_f64();
+            m.aperture = g.aperture.to_f64();
+            m.length = g.length.to_f64();
+        }
+        let work: f64 = loads.iter().map(|l| l.work.to_f64()).sum();
+        if let Some(f) = model.fluid.as_mut() {
+            f.work = up.fluid_base[0] + work;
+            f.inflow = up.fluid_base[1] + inflow;
+        }
+    }
+
+    /// The fluid's kernels and their bind groups, in a scene with fluid (the cycle, the gather
+    /// pass and the energy check run them then).
+    pub(super) fn fluid_kernels(&self) -> Option<(&super::kernels::FluidKernels, &super::kernels::FluidBindGroups)> {
+        let groups = self.bind_groups.as_ref()?.fluid.as_ref()?;
+        Some((self.pipelines.fluid.as_ref()?, groups)).filter(|_| self.fluid_scene)
+    }
+}
+
+/// Refuses what the GPU does not run of fluid: fluid with simply- or fully-deformable blocks
+/// (their kernels and the fluid's are apart: the CPU backend runs it).
+pub(super) fn check_supported(model: &Model) -> Result<(), GpuError> {
+    if model.fluid.is_none() {
+        return Ok(());
+    }
+    if model.blocks.iter().any(|b| b.kind != crate::udec::model::BlockKind::Rigid) {
+        return Err(GpuError::DoesNotFit(
+            "fluid flow with simply- or fully-deformable blocks runs on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
+        ));
+    }
+    Ok(())
+}
