@@ -83,17 +83,25 @@ fn the_file_round_trips_and_damage_is_refused_naming_the_file() {
 
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         ("truncated.sav", bytes[..bytes.len() - 9].to_vec(), "truncated or appended to"),
-        ("flipped.sav", {
-            let mut b = bytes.clone();
-            let k = b.len() - 100;
-            b[k] ^= 0x40;
-            b
-        }, "the payload checksum does not match"),
-        ("version.sav", {
-            let mut b = bytes.clone();
-            b[8] = 99;
-            b
-        }, "is D3 save format version 99"),
+        (
+            "flipped.sav",
+            {
+                let mut b = bytes.clone();
+                let k = b.len() - 100;
+                b[k] ^= 0x40;
+                b
+            },
+            "the payload checksum does not match",
+        ),
+        (
+            "version.sav",
+            {
+                let mut b = bytes.clone();
+                b[8] = 99;
+                b
+            },
+            "is D3 save format version 99",
+        ),
         ("deck.sav", b"START\nBOX 0 1 0 1 0 1\n".to_vec(), "is not a D3 save file"),
         ("udec.sav", b"BLOCKDEM\x05\0\0\0".to_vec(), "is a 2D (UDEC) save file: RESTART it from a 2D deck"),
         ("short.sav", b"BLOCKD3\0\x01\0".to_vec(), "the header is truncated"),
@@ -186,5 +194,8 @@ fn vtk_frames_hold_the_faces_with_their_blocks_motion_and_the_contacts_forces() 
     assert_eq!(contacts.array("force")[..3], f.to_array().map(|x| x as f32 as f64));
     assert_eq!(contacts.array("shear_force").len(), 3 * real.len());
     assert_eq!(contacts.array("normal").len(), 3 * real.len());
-    assert_eq!((contacts.array("block1")[0], contacts.array("block2")[0]), (m.blocks[c.blocks[0] as usize].id as f64, m.blocks[c.blocks[1] as usize].id as f64));
+    assert_eq!(
+        (contacts.array("block1")[0], contacts.array("block2")[0]),
+        (m.blocks[c.blocks[0] as usize].id as f64, m.blocks[c.blocks[1] as usize].id as f64)
+    );
 }

@@ -82,8 +82,9 @@ fn a_moving_spinning_block_cut_obliquely_keeps_its_momentum() {
     // A rotated block (its faces typed by hand from a turned box), given a velocity and a spin,
     // cut by an oblique plane off its centroid.
     let q = glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
-    let corners: Vec<DVec3> =
-        (0..8).map(|i| q * DVec3::new(if i & 1 == 0 { -0.5 } else { 0.5 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -0.75 } else { 0.75 })).collect();
+    let corners: Vec<DVec3> = (0..8)
+        .map(|i| q * DVec3::new(if i & 1 == 0 { -0.5 } else { 0.5 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -0.75 } else { 0.75 }))
+        .collect();
     let sides: [[usize; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
     let mut block = String::from("BLOCK\n");
     for s in sides {
@@ -127,7 +128,9 @@ fn a_moving_spinning_block_cut_obliquely_keeps_its_momentum() {
 fn split_pieces_touch_and_settle_as_the_parent_did() {
     // A 1 × 1 × 2 column on a base cut at mid-height: the lower piece carries the upper's weight
     // across the cut (a face–face contact found by the next cycle's neighbour lists).
-    let deck = format!("{PROPS}BOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 2\nFIX -1 2 -1 2 -1 -0.1\nSPLIT 0.5 0.5 1 0 0 1 MAT 1 CONS 1\nGRAV 0 0 -10\nDAMP 1 160 MASS\nCYCLE 1500\n");
+    let deck = format!(
+        "{PROPS}BOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 2\nFIX -1 2 -1 2 -1 -0.1\nSPLIT 0.5 0.5 1 0 0 1 MAT 1 CONS 1\nGRAV 0 0 -10\nDAMP 1 160 MASS\nCYCLE 1500\n"
+    );
     let (m, log) = ok(&deck);
     assert!(log.contains("SPLIT: 1 BLOCKS CUT (2 -> 2 + 3)"), "{log}");
     let cut = m.contacts.iter().find(|c| c.blocks == [1, 2]).expect("a contact across the cut");
@@ -167,7 +170,22 @@ fn concave_parents_and_bad_split_input_are_refused_at_their_line() {
         DVec3::new(0., 1., 1.),
         DVec3::new(0.5, 0.5, 0.5),
     ];
-    let tris = [[0, 1, 2], [0, 2, 3], [0, 1, 5], [0, 5, 4], [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7], [4, 5, 8], [5, 6, 8], [6, 7, 8], [7, 4, 8]];
+    let tris = [
+        [0, 1, 2],
+        [0, 2, 3],
+        [0, 1, 5],
+        [0, 5, 4],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 0, 4],
+        [3, 4, 7],
+        [4, 5, 8],
+        [5, 6, 8],
+        [6, 7, 8],
+        [7, 4, 8],
+    ];
     let inside = DVec3::new(0.5, 0.5, 0.2);
     let mut block = String::from("BLOCK\n");
     for t in tris {

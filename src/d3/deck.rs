@@ -115,28 +115,74 @@ pub enum DampMode {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
     Start,
-    Block { material: u32, constitutive: u32, faces: Vec<FaceInput> },
-    Box { range: Range3, material: u32, constitutive: u32 },
-    Property { material: u32, values: Vec<(PropKey, f64)> },
-    Gravity { g: [f64; 3] },
-    Fix { range: Range3 },
-    Free { range: Range3 },
-    Load { range: Range3, force: [f64; 3] },
-    Velocity { range: Range3, velocity: [f64; 3], angular: Option<[f64; 3]> },
-    Damping { fcrit: f64, freq: f64, mode: DampMode },
-    Fraction { f: f64 },
-    Cycle { n: u64 },
-    Print { items: Vec<PrintItem> },
+    Block {
+        material: u32,
+        constitutive: u32,
+        faces: Vec<FaceInput>,
+    },
+    Box {
+        range: Range3,
+        material: u32,
+        constitutive: u32,
+    },
+    Property {
+        material: u32,
+        values: Vec<(PropKey, f64)>,
+    },
+    Gravity {
+        g: [f64; 3],
+    },
+    Fix {
+        range: Range3,
+    },
+    Free {
+        range: Range3,
+    },
+    Load {
+        range: Range3,
+        force: [f64; 3],
+    },
+    Velocity {
+        range: Range3,
+        velocity: [f64; 3],
+        angular: Option<[f64; 3]>,
+    },
+    Damping {
+        fcrit: f64,
+        freq: f64,
+        mode: DampMode,
+    },
+    Fraction {
+        f: f64,
+    },
+    Cycle {
+        n: u64,
+    },
+    Print {
+        items: Vec<PrintItem>,
+    },
     /// SPLIT x y z nx ny nz [MATERIAL n] [CONSTITUTIVE m] (extension): the plane through the point
     /// with the normal cuts every block it crosses; MAT and CONS, where given, are the pieces'.
-    Split { point: [f64; 3], normal: [f64; 3], material: Option<u32>, constitutive: Option<u32> },
+    Split {
+        point: [f64; 3],
+        normal: [f64; 3],
+        material: Option<u32>,
+        constitutive: Option<u32>,
+    },
     /// RESTART [file]: the state a SAVE wrote (`d3::restart`).
-    Restart { file: Option<String> },
+    Restart {
+        file: Option<String>,
+    },
     /// SAVE [file].
-    Save { file: Option<String> },
+    Save {
+        file: Option<String>,
+    },
     /// DUMP [n m]: the whole state, readable (n and m, the 1985 main array's addresses, are read
     /// and have no meaning here).
-    Dump { from: Option<i64>, to: Option<i64> },
+    Dump {
+        from: Option<i64>,
+        to: Option<i64>,
+    },
     /// VTK (extension, as in 2D): a frame of the blocks and contacts (`d3::vtk`).
     Vtk,
     Stop,
@@ -512,7 +558,8 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
         Word::Split => {
             let toks = a.numbers();
             if toks.len() != 6 {
-                let msg = format!("SPLIT takes x y z nx ny nz [MATERIAL n] [CONSTITUTIVE m]: a point of the plane and its normal, 6 numbers, found {}", toks.len());
+                let msg =
+                    format!("SPLIT takes x y z nx ny nz [MATERIAL n] [CONSTITUTIVE m]: a point of the plane and its normal, 6 numbers, found {}", toks.len());
                 return Err(if toks.len() > 6 { a.at(toks[6], msg) } else { a.at_end(msg) });
             }
             let mut v = [0.0; 6];
@@ -654,7 +701,8 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
 fn file_name(a: &mut Args) -> Option<String> {
     let first = a.next()?.text.to_string();
     let word = &a.word.text;
-    let whole = a.source.find(word.as_str()).map(|at| a.source[at + word.len()..].trim_matches(|c: char| c.is_whitespace() || matches!(c, '=' | '(' | ')' | ',')));
+    let whole =
+        a.source.find(word.as_str()).map(|at| a.source[at + word.len()..].trim_matches(|c: char| c.is_whitespace() || matches!(c, '=' | '(' | ')' | ',')));
     match whole.filter(|n| !n.is_empty() && !n.contains(char::is_whitespace)) {
         Some(name) => {
             let name = name.to_string();

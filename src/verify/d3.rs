@@ -121,7 +121,9 @@ fn run_observed(setup: &str, cycles: u64, mut observe: impl FnMut(&Model)) -> Re
     let (mut model, _) = run(&format!("{setup}CYCLE 0\n"))?;
     let mut backend = d3::cpu::CpuBackend::new();
     for _ in 0..cycles {
-        backend.run(&mut model, 1, &mut |_| true).map_err(|e| Failure { message: e.to_string(), cost: Cost { wall_s: t.elapsed().as_secs_f64(), cycles: model.cycle } })?;
+        backend
+            .run(&mut model, 1, &mut |_| true)
+            .map_err(|e| Failure { message: e.to_string(), cost: Cost { wall_s: t.elapsed().as_secs_f64(), cycles: model.cycle } })?;
         observe(&model);
     }
     let cost = Cost { wall_s: t.elapsed().as_secs_f64(), cycles: model.cycle };
@@ -179,7 +181,9 @@ fn convex_block(points: &[DVec3], sides: &[&[usize]], material: u32) -> String {
 /// The box `[min, max]` of `frame`'s local axes as a BLOCK command.
 fn frame_box(frame: &Frame, min: DVec3, max: DVec3, material: u32) -> String {
     let points: Vec<DVec3> = (0..8)
-        .map(|i| frame.global(DVec3::new(if i & 1 == 0 { min.x } else { max.x }, if i & 2 == 0 { min.y } else { max.y }, if i & 4 == 0 { min.z } else { max.z })))
+        .map(|i| {
+            frame.global(DVec3::new(if i & 1 == 0 { min.x } else { max.x }, if i & 2 == 0 { min.y } else { max.y }, if i & 4 == 0 { min.z } else { max.z }))
+        })
         .collect();
     convex_block(&points, &[&[0, 2, 3, 1], &[4, 5, 7, 6], &[0, 1, 5, 4], &[2, 6, 7, 3], &[0, 4, 6, 2], &[1, 3, 7, 5]], material)
 }

@@ -30,9 +30,9 @@ use std::path::{Path, PathBuf};
 
 use vtkio::model::{Attribute, Attributes, PolyDataPiece, VertexNumbers, Vtk};
 
-use crate::output::vtk::{poly_data, write_vtk};
 /// The series file format and its upkeep are the chassis's (`output::vtk`), shared with D3.
 pub use crate::output::vtk::{add_to_series, Series, SeriesFrame};
+use crate::output::vtk::{poly_data, write_vtk};
 
 use crate::udec::model::{ContactKind, Model};
 
