@@ -2,7 +2,6 @@
 //! a damaged or foreign file is refused naming it), DUMP (the whole state), VTK frames and their
 //! series, and `blockdem run`, which tells a deck that restarts a D3 file for a D3 deck.
 
-#[allow(dead_code)]
 mod common;
 
 use std::path::{Path, PathBuf};

@@ -109,7 +109,7 @@ fn run(deck: &str) -> Result<(Model, Cost), Failure> {
 fn cycles_for(setup: &str, time: f64) -> Result<u64, Failure> {
     let (m, _) = run(&format!("{setup}CYCLE 0\n"))?;
     let dt = m.timestep();
-    if !(dt > 0.0) {
+    if dt.is_nan() || dt <= 0.0 {
         return Err(Failure { message: "the scene has no time step".into(), cost: Cost::default() });
     }
     Ok((time / dt).ceil() as u64)
