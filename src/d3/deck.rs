@@ -47,6 +47,7 @@
 //!   refused as in 2D: there is no main array to poke.
 
 use crate::deck::lexer::{self, lookup, name, Name, NumberError, Statement, Token};
+use crate::deck::props::PROP_KEYS;
 use crate::deck::DeckError;
 
 type Result<T> = std::result::Result<T, DeckError>;
@@ -73,22 +74,8 @@ pub struct FaceInput {
     pub line: usize,
 }
 
-/// PROPERTY's keys.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PropKey {
-    Bulk,
-    Shear,
-    Density,
-    Kn,
-    Ks,
-    Cohesion,
-    Friction,
-    Jkn,
-    Jks,
-    Jcohesion,
-    Jfriction,
-    Tf,
-}
+/// PROPERTY's keys: the chassis's table, shared with the 2D language (`deck::props`).
+pub use crate::deck::props::PropKey;
 
 /// PRINT's items.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -273,27 +260,6 @@ const PRINT_ITEMS: &[Name<PrintItem>] = &[
 
 const DAMP_MODES: &[Name<Option<DampMode>>] =
     &[name("MASS", "M", Some(DampMode::Mass)), name("STIFFNESS", "S", Some(DampMode::Stiffness)), name("INTERNAL", "I", None)];
-
-/// PROPERTY keys; `None` is MATERIAL.
-const PROP_KEYS: &[Name<Option<PropKey>>] = &[
-    name("MATERIAL", "M", None),
-    name("BULK", "B", Some(PropKey::Bulk)),
-    name("K", "K", Some(PropKey::Bulk)),
-    name("G", "G", Some(PropKey::Shear)),
-    name("DENSITY", "D", Some(PropKey::Density)),
-    name("KN", "KN", Some(PropKey::Kn)),
-    name("KS", "KS", Some(PropKey::Ks)),
-    name("COHESION", "C", Some(PropKey::Cohesion)),
-    name("FRICTION", "F", Some(PropKey::Friction)),
-    name("JKN", "JKN", Some(PropKey::Jkn)),
-    name("JKS", "JKS", Some(PropKey::Jks)),
-    name("JCOHESION", "JC", Some(PropKey::Jcohesion)),
-    name("JFRICTION", "JF", Some(PropKey::Jfriction)),
-    name("TF", "T", Some(PropKey::Tf)),
-];
-
-/// UDEC's fluid keys: refused in a 3D deck by name.
-const FLUID_KEYS: &[Name<&str>] = &[name("JPERM", "JP", "JPERM"), name("CPERM", "CP", "CPERM"), name("AZERO", "AZ", "AZERO"), name("ARES", "AR", "ARES")];
 
 /// BLOCK/BOX keywords.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -786,12 +752,13 @@ fn property(a: &mut Args) -> Result<Command> {
     let mut values = Vec::new();
     while let Some(t) = a.next() {
         let key = match (!t.is_numeric()).then(|| lookup(&t.text, PROP_KEYS)).flatten() {
+            Some(Some(k)) if k.is_fluid() => {
+                let fluid = PROP_KEYS.iter().find(|n| n.value == Some(k)).map_or("", |n| n.full);
+                return Err(a.at(t, format!("{fluid} is a fluid property of the 2D language (UDEC); D3 has no fluid flow")));
+            }
             Some(Some(k)) => k,
             Some(None) => return Err(a.at(t, "MATERIAL may be given only once, as PROPERTY's first parameter")),
             None => {
-                if let Some(fluid) = (!t.is_numeric()).then(|| lookup(&t.text, FLUID_KEYS)).flatten() {
-                    return Err(a.at(t, format!("{fluid} is a fluid property of the 2D language (UDEC); D3 has no fluid flow")));
-                }
                 return Err(a.at(
                     t,
                     format!(
@@ -801,7 +768,7 @@ fn property(a: &mut Args) -> Result<Command> {
                 ));
             }
         };
-        let must_be_positive = matches!(key, PropKey::Bulk | PropKey::Shear | PropKey::Density | PropKey::Kn | PropKey::Ks | PropKey::Jkn | PropKey::Jks);
+        let must_be_positive = key.must_be_positive();
         let (v, vt) = a.real(&format!("a value after {}", t.shown()))?;
         if must_be_positive && (v.is_nan() || v <= 0.0 || v.is_infinite()) {
             return Err(a.at(vt, format!("{} must be above zero, found {}", t.text.to_ascii_uppercase(), vt.shown())));

@@ -298,6 +298,8 @@ impl<'a> Executor<'a> {
                 PropKey::Jcohesion => m.jcohesion = v,
                 PropKey::Jfriction => m.jfriction = v,
                 PropKey::Tf => m.tf = v,
+                // The fluid keys: d3::deck refuses them at their line (D3 has no fluid flow).
+                PropKey::Jperm | PropKey::Cperm | PropKey::Azero | PropKey::Ares => {}
             }
         }
         let density = m.density;
