@@ -69,7 +69,12 @@ pub enum RestartError {
 }
 
 /// Whether the file at `path` starts as a D3 save file does (for `blockdem run`'s engine rule).
+/// Only a regular file is looked into: reading the head of a FIFO would take bytes its writer
+/// meant for the RESTART that follows (and could leave that one waiting for a writer gone).
 pub fn is_save_file(path: &Path) -> bool {
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return false;
+    }
     let mut head = [0u8; 8];
     std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head)).is_ok() && head == MAGIC
 }
