@@ -543,8 +543,11 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     // The engine (README, "2D or 3D"): `--dim`, or the deck's own commands.
     if let Ok(text) = blockdem::udec::deck::parse::lenient_text(&bytes) {
         let three_d = blockdem::d3::deck::three_dimensional(&blockdem::deck::lexer::split(&text, &name)?);
+        // A deck that starts by RESTART of a D3 save file is a D3 deck too.
+        let d3_restart = three_d.is_none() && dim.is_none() && restarts_d3(&text, &name, &out);
         match (dim, three_d) {
-            (Some(3), _) | (None, Some(_)) => return run_d3(&text, &name, backend, state_json),
+            (Some(3), _) | (None, Some(_)) => return run_d3(&text, &name, backend, state_json, &out),
+            (None, None) if d3_restart => return run_d3(&text, &name, backend, state_json, &out),
             (Some(2), Some(why)) => bail!("{name}:{}: {} makes this a 3D (D3) deck, but --dim 2 was given", why.line, why.what),
             _ => {}
         }
@@ -651,8 +654,24 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     json_written
 }
 
-/// `blockdem run` of a 3D deck: D3 on the CPU (its GPU kernels are to come).
-fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<PathBuf>) -> anyhow::Result<()> {
+/// Whether the deck's first command is a RESTART of a D3 save file (`d3::restart::MAGIC`), the
+/// file named as D3's executor resolves it (in `out` when it names no folder).
+fn restarts_d3(text: &str, name: &str, out: &std::path::Path) -> bool {
+    let Ok(commands) = blockdem::d3::deck::parse_deck(text, name) else {
+        return false;
+    };
+    let Some(blockdem::d3::deck::Command::Restart { file }) = commands.first().map(|c| &c.command) else {
+        return false;
+    };
+    let file = file.as_deref().unwrap_or(blockdem::d3::exec::DEFAULT_SAVE_FILE);
+    let p = std::path::Path::new(file);
+    let path = if p.is_absolute() || p.components().count() > 1 { p.to_path_buf() } else { out.join(p) };
+    blockdem::d3::restart::is_save_file(&path)
+}
+
+/// `blockdem run` of a 3D deck: D3 on the CPU (its GPU kernels are to come). SAVE and RESTART
+/// files named without a folder are in `out`.
+fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<PathBuf>, out: &std::path::Path) -> anyhow::Result<()> {
     match backend {
         BackendChoice::Gpu => bail!("--backend gpu: the D3 engine (3D decks) runs on the CPU only in this version; use --backend cpu or auto"),
         BackendChoice::Auto => note!("blockdem: a 3D deck: the D3 engine, on the CPU (f64)"),
@@ -666,6 +685,7 @@ fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<Pat
     watch_interrupts(interrupt.clone());
     let mut exec = blockdem::d3::exec::Executor::new(Box::new(std::io::BufWriter::new(Stdout)), name);
     exec.set_interrupt(interrupt);
+    exec.set_out_dir(out);
     let result = exec.run(&commands);
     let provenance = Provenance::now(name, "cpu", None, "f64");
     let json_written = match &state_json {

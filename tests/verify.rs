@@ -15,10 +15,25 @@ fn quick_suite_passes_every_check() {
     let suite = verify::run_suite(&VerifyOptions { quick: true, out: None, only: None });
     let table = verify::table(&suite);
     let backends = verify::backends();
-    // Every case on every backend (the SDEF, FDEF and fluid cases too).
+    // Every case on every backend (the SDEF, FDEF and fluid cases too); D3's on the CPU alone
+    // (D3 has no GPU path), at the check FRACTION only.
     let fluid = cases::all().iter().filter(|c| c.name.starts_with(cases::FLUID_PREFIX)).count();
-    let expected: usize = backends.len() * cases::all().len();
+    let d3 = cases::all().iter().filter(|c| c.name.starts_with(verify::d3::D3_PREFIX)).count();
+    let cpu_only = cases::all().iter().filter(|c| cases::cpu_only(c.name)).count();
+    let cpus = backends.iter().filter(|b| !b.gpu).count();
+    let expected: usize = backends.len() * (cases::all().len() - cpu_only) + cpus * cpu_only;
     assert!(fluid == 4 && table.contains("fluid_cubic_law"), "{table}");
+    assert!(d3 == 6 && cpu_only == d3, "{table}");
+    for name in ["d3_tumbling", "d3_slide", "d3_stick", "d3_stack", "d3_topple", "d3_wedge"] {
+        let rows: Vec<_> = suite.rows.iter().filter(|r| r.case == name).collect();
+        assert!(rows.len() == cpus && rows.iter().all(|r| r.backend == "cpu" && r.is_check), "{name}: {} rows\n{table}", rows.len());
+    }
+    // The 3D closed forms say what they saw: the intermediate axis flips with the free top's
+    // period, the others keep their spin; the held wedge creeps by less than 1% of the slide.
+    let detail = |name: &str| suite.rows.iter().find(|r| r.case == name).map(|r| r.detail.clone()).unwrap_or_default();
+    let tumbling = detail("d3_tumbling");
+    assert!(tumbling.contains("y (intermediate)") && tumbling.contains("flips, period") && tumbling.matches("keeps its spin").count() == 2, "{tumbling}");
+    assert!(detail("d3_topple").matches("Topples").count() == 1 && detail("d3_topple").matches("Slides").count() == 1, "{table}");
     assert_eq!(suite.checks().count(), expected, "one check per case and backend\n{table}");
     assert!(table.contains("sdef_uniaxial") && table.contains("griffith_threshold"), "{table}");
     for r in suite.checks() {

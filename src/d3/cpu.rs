@@ -72,6 +72,19 @@ impl CpuBackend {
         Self::default()
     }
 
+    /// Whether the backend would go on from `model` as the state its last run left (SAVE
+    /// records it, `d3::restart`).
+    pub fn resumes_from(&self, model: &Model) -> bool {
+        self.resumable && self.last_good == *model
+    }
+
+    /// Takes `model` as the state its last run left (RESTART of a state saved as resumable), so
+    /// that the next run goes on from it as the saving run would have.
+    pub fn resume_from(&mut self, model: &Model) {
+        self.last_good.clone_from(model);
+        self.resumable = true;
+    }
+
     /// Runs `cycles` cycles of `model` through the run driver. `progress` is told the cycles done
     /// at each check and may end the run there (false).
     pub fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {

@@ -14,6 +14,7 @@
 //! | DAMPING | `D` | | LOAD (extension) | `L` | | SPLIT (extension) | `SP` |
 //! | DUMP | `DU` | | PRINT | `P` | | START | `STA` |
 //! | END | `E` | | VELOCITY (extension) | `VE` | | STOP | `S` |
+//! | | | | VTK (extension) | `VT` | | | |
 //!
 //! PRINT's keywords: BLOCKS `B`, FACES `F`, VELOCITIES `V`, VERTICES `VERT`, CONTACTS `C`.
 //! PROPERTY's: those of the 2D language (MATERIAL `M` first, BULK `B` or `K`, G, DENSITY `D`, KN,
@@ -31,12 +32,22 @@
 //!   `BOX x1 x2 y1 y2 z1 z2 [MAT n] [CONS m]` (twelve faces) are extensions, as the issue asks.
 //! * A 2D (UDEC) command in a 3D deck is refused at its line, naming it as such: a BLOCK of
 //!   (x,y) pairs, GRAVITY of two components, ROUND, GENERATE, PLOT, … .
-//! * CHANGE (SDEF), DUMP, SAVE, SPLIT and DAMPING INTERNAL are read by the language but their
-//!   physics is not in this version of the D3 engine: each is refused at its line as "not
-//!   available yet"; RESTART likewise (there is no D3 save file to restart from). RSET is refused
-//!   as in 2D: there is no main array to poke.
+//! * `SPLIT x y z nx ny nz [MAT n] [CONS m]` (extension): the plane through (x, y, z) with normal
+//!   (nx, ny, nz) cuts every block it crosses (`d3::split`); MAT and CONS give the pieces'
+//!   material and constitutive number (else they keep the parent's; in the 2D language they tag
+//!   the new joint, which D3's contacts, taking their first block's material, have no place for).
+//! * `SAVE [file]` and `RESTART [file]` write and read D3's own save file (`d3::restart`; the
+//!   name as in 2D, `blockdem.sav` in the output folder when none is given); `DUMP [n m]` writes
+//!   the whole state as JSON under a heading with Appendix B's pointers as counts (n and m, the
+//!   main array's addresses, have no meaning here).
+//! * `VTK` (extension, as in 2D): a frame of the blocks and contacts for ParaView in the output
+//!   folder's `vtk/` (`d3::vtk`).
+//! * CHANGE (SDEF) and DAMPING INTERNAL are read by the language but their physics is not in
+//!   this version of the D3 engine: each is refused at its line as "not available yet". RSET is
+//!   refused as in 2D: there is no main array to poke.
 
 use crate::deck::lexer::{self, lookup, name, Name, NumberError, Statement, Token};
+use crate::deck::props::PROP_KEYS;
 use crate::deck::DeckError;
 
 type Result<T> = std::result::Result<T, DeckError>;
@@ -63,22 +74,8 @@ pub struct FaceInput {
     pub line: usize,
 }
 
-/// PROPERTY's keys.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PropKey {
-    Bulk,
-    Shear,
-    Density,
-    Kn,
-    Ks,
-    Cohesion,
-    Friction,
-    Jkn,
-    Jks,
-    Jcohesion,
-    Jfriction,
-    Tf,
-}
+/// PROPERTY's keys: the chassis's table, shared with the 2D language (`deck::props`).
+pub use crate::deck::props::PropKey;
 
 /// PRINT's items.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,18 +102,76 @@ pub enum DampMode {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
     Start,
-    Block { material: u32, constitutive: u32, faces: Vec<FaceInput> },
-    Box { range: Range3, material: u32, constitutive: u32 },
-    Property { material: u32, values: Vec<(PropKey, f64)> },
-    Gravity { g: [f64; 3] },
-    Fix { range: Range3 },
-    Free { range: Range3 },
-    Load { range: Range3, force: [f64; 3] },
-    Velocity { range: Range3, velocity: [f64; 3], angular: Option<[f64; 3]> },
-    Damping { fcrit: f64, freq: f64, mode: DampMode },
-    Fraction { f: f64 },
-    Cycle { n: u64 },
-    Print { items: Vec<PrintItem> },
+    Block {
+        material: u32,
+        constitutive: u32,
+        faces: Vec<FaceInput>,
+    },
+    Box {
+        range: Range3,
+        material: u32,
+        constitutive: u32,
+    },
+    Property {
+        material: u32,
+        values: Vec<(PropKey, f64)>,
+    },
+    Gravity {
+        g: [f64; 3],
+    },
+    Fix {
+        range: Range3,
+    },
+    Free {
+        range: Range3,
+    },
+    Load {
+        range: Range3,
+        force: [f64; 3],
+    },
+    Velocity {
+        range: Range3,
+        velocity: [f64; 3],
+        angular: Option<[f64; 3]>,
+    },
+    Damping {
+        fcrit: f64,
+        freq: f64,
+        mode: DampMode,
+    },
+    Fraction {
+        f: f64,
+    },
+    Cycle {
+        n: u64,
+    },
+    Print {
+        items: Vec<PrintItem>,
+    },
+    /// SPLIT x y z nx ny nz [MATERIAL n] [CONSTITUTIVE m] (extension): the plane through the point
+    /// with the normal cuts every block it crosses; MAT and CONS, where given, are the pieces'.
+    Split {
+        point: [f64; 3],
+        normal: [f64; 3],
+        material: Option<u32>,
+        constitutive: Option<u32>,
+    },
+    /// RESTART [file]: the state a SAVE wrote (`d3::restart`).
+    Restart {
+        file: Option<String>,
+    },
+    /// SAVE [file].
+    Save {
+        file: Option<String>,
+    },
+    /// DUMP [n m]: the whole state, readable (n and m, the 1985 main array's addresses, are read
+    /// and have no meaning here).
+    Dump {
+        from: Option<i64>,
+        to: Option<i64>,
+    },
+    /// VTK (extension, as in 2D): a frame of the blocks and contacts (`d3::vtk`).
+    Vtk,
     Stop,
     End,
 }
@@ -152,6 +207,7 @@ enum Word {
     Start,
     Stop,
     Velocity,
+    Vtk,
 }
 
 const COMMANDS: &[Name<Word>] = &[
@@ -176,6 +232,7 @@ const COMMANDS: &[Name<Word>] = &[
     name("START", "STA", Word::Start),
     name("STOP", "S", Word::Stop),
     name("VELOCITY", "VE", Word::Velocity),
+    name("VTK", "VT", Word::Vtk),
 ];
 
 /// The 2D language's commands that D3 has no counterpart of (refused by name in a 3D deck).
@@ -190,7 +247,6 @@ const UDEC_ONLY: &[Name<&str>] = &[
     name("ROUND", "RO", "ROUND"),
     name("SET", "SE", "SET"),
     name("VIEW", "V", "VIEW"),
-    name("VTK", "VT", "VTK"),
     name("WINDOW", "W", "WINDOW"),
 ];
 
@@ -204,27 +260,6 @@ const PRINT_ITEMS: &[Name<PrintItem>] = &[
 
 const DAMP_MODES: &[Name<Option<DampMode>>] =
     &[name("MASS", "M", Some(DampMode::Mass)), name("STIFFNESS", "S", Some(DampMode::Stiffness)), name("INTERNAL", "I", None)];
-
-/// PROPERTY keys; `None` is MATERIAL.
-const PROP_KEYS: &[Name<Option<PropKey>>] = &[
-    name("MATERIAL", "M", None),
-    name("BULK", "B", Some(PropKey::Bulk)),
-    name("K", "K", Some(PropKey::Bulk)),
-    name("G", "G", Some(PropKey::Shear)),
-    name("DENSITY", "D", Some(PropKey::Density)),
-    name("KN", "KN", Some(PropKey::Kn)),
-    name("KS", "KS", Some(PropKey::Ks)),
-    name("COHESION", "C", Some(PropKey::Cohesion)),
-    name("FRICTION", "F", Some(PropKey::Friction)),
-    name("JKN", "JKN", Some(PropKey::Jkn)),
-    name("JKS", "JKS", Some(PropKey::Jks)),
-    name("JCOHESION", "JC", Some(PropKey::Jcohesion)),
-    name("JFRICTION", "JF", Some(PropKey::Jfriction)),
-    name("TF", "T", Some(PropKey::Tf)),
-];
-
-/// UDEC's fluid keys: refused in a 3D deck by name.
-const FLUID_KEYS: &[Name<&str>] = &[name("JPERM", "JP", "JPERM"), name("CPERM", "CP", "CPERM"), name("AZERO", "AZ", "AZERO"), name("ARES", "AR", "ARES")];
 
 /// BLOCK/BOX keywords.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -295,7 +330,7 @@ pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
     let mut out = Vec::with_capacity(statements.len());
     for (k, st) in statements.iter().enumerate() {
         let command = parse_statement(st, file)?;
-        if k == 0 && command != Command::Start {
+        if k == 0 && !matches!(command, Command::Start | Command::Restart { .. }) {
             let t = &first.tokens[0];
             return Err(DeckError::new(file, t.line, t.column, format!("the first command must be START or RESTART, found '{}'", t.shown())));
         }
@@ -315,6 +350,8 @@ pub fn parse_deck(text: &str, file: &str) -> Result<Vec<Located>> {
 /// The parameters of one statement, read in order.
 struct Args<'a> {
     file: &'a str,
+    /// The statement as typed (for SAVE's and RESTART's file names).
+    source: &'a str,
     word: &'a Token,
     tokens: &'a [Token],
     at: usize,
@@ -458,7 +495,7 @@ fn tail(names: &[&str]) -> String {
 
 fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
     let word = &st.tokens[0];
-    let mut a = Args { file, word, tokens: &st.tokens[1..], at: 0 };
+    let mut a = Args { file, source: &st.source, word, tokens: &st.tokens[1..], at: 0 };
     let Some(w) = (!word.is_numeric()).then(|| lookup(&word.text, COMMANDS)).flatten() else {
         if let Some(udec) = (!word.is_numeric()).then(|| lookup(&word.text, UDEC_ONLY)).flatten() {
             return Err(a.at(word, format!("{udec} is a command of the 2D language (UDEC, Appendix A), not of D3's: this is a 3D deck")));
@@ -471,11 +508,43 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
             a.done()?;
             Command::Start
         }
-        Word::Restart => return not_yet("RESTART (D3 has no save file to restart from in this version)"),
-        Word::Save => return not_yet("SAVE"),
+        Word::Restart => Command::Restart { file: file_name(&mut a) },
+        Word::Save => Command::Save { file: file_name(&mut a) },
         Word::Change => return not_yet("CHANGE (simply-deformable 3D blocks, SL-85-1 ¶35d)"),
-        Word::Dump => return not_yet("DUMP"),
-        Word::Split => return not_yet("SPLIT"),
+        Word::Dump => {
+            let toks = a.numbers();
+            if toks.len() > 2 {
+                return Err(a.at(toks[2], format!("DUMP takes [n m]: at most 2 numbers, found {}", toks.len())));
+            }
+            let from = toks.first().map(|t| a.int_of(t, "n (first address)")).transpose()?;
+            let to = toks.get(1).map(|t| a.int_of(t, "m (last address)")).transpose()?;
+            a.done()?;
+            Command::Dump { from, to }
+        }
+        Word::Split => {
+            let toks = a.numbers();
+            if toks.len() != 6 {
+                let msg =
+                    format!("SPLIT takes x y z nx ny nz [MATERIAL n] [CONSTITUTIVE m]: a point of the plane and its normal, 6 numbers, found {}", toks.len());
+                return Err(if toks.len() > 6 { a.at(toks[6], msg) } else { a.at_end(msg) });
+            }
+            let mut v = [0.0; 6];
+            for (k, (t, what)) in toks.iter().zip(["x", "y", "z", "nx", "ny", "nz"]).enumerate() {
+                v[k] = a.real_of(t, what)?;
+            }
+            let length = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
+            if !(length > 0.0 && length.is_finite()) {
+                return Err(a.at(toks[3], "SPLIT: the plane's normal nx ny nz must be a non-zero vector"));
+            }
+            let (mut material, mut constitutive) = (None, None);
+            while let Some(t) = a.next() {
+                match (!t.is_numeric()).then(|| lookup(&t.text, BLOCK_KEYS)).flatten() {
+                    Some(k) => a.block_keys(t, k, &mut material, &mut constitutive)?,
+                    None => return Err(a.at(t, format!("expected MATERIAL or CONSTITUTIVE, found '{}'", t.shown()))),
+                }
+            }
+            Command::Split { point: [v[0], v[1], v[2]], normal: [v[3], v[4], v[5]], material, constitutive }
+        }
         Word::RSet => {
             return Err(
                 a.at(word, "RSET is not supported: it poked a value into the 1985 program's main array at a raw memory address, which has no meaning here")
@@ -580,12 +649,34 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
             a.done()?;
             Command::Stop
         }
+        Word::Vtk => {
+            a.done()?;
+            Command::Vtk
+        }
         Word::End => {
             a.done()?;
             Command::End
         }
     };
     Ok(command)
+}
+
+/// SAVE's and RESTART's optional file name. A name may hold '/', which the 1985 language counts
+/// as a separator, so when the text after the command word is one blank-free word it is taken
+/// whole (as in the 2D language); otherwise the first token is the name and any other is too many.
+fn file_name(a: &mut Args) -> Option<String> {
+    let first = a.next()?.text.to_string();
+    let word = &a.word.text;
+    let whole =
+        a.source.find(word.as_str()).map(|at| a.source[at + word.len()..].trim_matches(|c: char| c.is_whitespace() || matches!(c, '=' | '(' | ')' | ',')));
+    match whole.filter(|n| !n.is_empty() && !n.contains(char::is_whitespace)) {
+        Some(name) => {
+            let name = name.to_string();
+            a.at = a.tokens.len();
+            Some(name)
+        }
+        None => Some(first),
+    }
 }
 
 /// BLOCK [MATERIAL n] [CONSTITUTIVE m] x1 y1 z1 x2 y2 z2 x3 y3 z3 …: faces of three vertices.
@@ -661,12 +752,13 @@ fn property(a: &mut Args) -> Result<Command> {
     let mut values = Vec::new();
     while let Some(t) = a.next() {
         let key = match (!t.is_numeric()).then(|| lookup(&t.text, PROP_KEYS)).flatten() {
+            Some(Some(k)) if k.is_fluid() => {
+                let fluid = PROP_KEYS.iter().find(|n| n.value == Some(k)).map_or("", |n| n.full);
+                return Err(a.at(t, format!("{fluid} is a fluid property of the 2D language (UDEC); D3 has no fluid flow")));
+            }
             Some(Some(k)) => k,
             Some(None) => return Err(a.at(t, "MATERIAL may be given only once, as PROPERTY's first parameter")),
             None => {
-                if let Some(fluid) = (!t.is_numeric()).then(|| lookup(&t.text, FLUID_KEYS)).flatten() {
-                    return Err(a.at(t, format!("{fluid} is a fluid property of the 2D language (UDEC); D3 has no fluid flow")));
-                }
                 return Err(a.at(
                     t,
                     format!(
@@ -676,7 +768,7 @@ fn property(a: &mut Args) -> Result<Command> {
                 ));
             }
         };
-        let must_be_positive = matches!(key, PropKey::Bulk | PropKey::Shear | PropKey::Density | PropKey::Kn | PropKey::Ks | PropKey::Jkn | PropKey::Jks);
+        let must_be_positive = key.must_be_positive();
         let (v, vt) = a.real(&format!("a value after {}", t.shown()))?;
         if must_be_positive && (v.is_nan() || v <= 0.0 || v.is_infinite()) {
             return Err(a.at(vt, format!("{} must be above zero, found {}", t.text.to_ascii_uppercase(), vt.shown())));

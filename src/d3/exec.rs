@@ -3,6 +3,7 @@
 //! and `CURRENT CYCLE COUNT =` after each CYCLE, the PRINT tables of `d3::output`).
 
 use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -46,12 +47,36 @@ pub struct Executor<'a> {
     log: Box<dyn Write + 'a>,
     file: String,
     interrupt: Option<Arc<AtomicBool>>,
+    /// Where SAVE and RESTART files named without a folder and VTK frames go (`--out`).
+    out_dir: PathBuf,
 }
+
+/// SAVE's and RESTART's file when the command names none (as in 2D).
+pub const DEFAULT_SAVE_FILE: &str = "blockdem.sav";
+/// The folder of the output folder VTK frames go into (as in 2D).
+pub const VTK_DIR: &str = "vtk";
 
 impl<'a> Executor<'a> {
     /// An executor writing its log to `log`; `file` names the deck in error messages.
     pub fn new(log: Box<dyn Write + 'a>, file: &str) -> Self {
-        Executor { model: Model::default(), backend: CpuBackend::new(), log, file: file.to_string(), interrupt: None }
+        Executor { model: Model::default(), backend: CpuBackend::new(), log, file: file.to_string(), interrupt: None, out_dir: PathBuf::from(".") }
+    }
+
+    /// The folder SAVE and RESTART files named without a folder are in.
+    pub fn set_out_dir(&mut self, dir: &Path) {
+        self.out_dir = dir.to_path_buf();
+    }
+
+    /// The path of a SAVE or RESTART file: `name` (or [`DEFAULT_SAVE_FILE`]) in the output folder
+    /// when it names no folder.
+    fn resolve(&self, name: &Option<String>) -> PathBuf {
+        let name = name.as_deref().unwrap_or(DEFAULT_SAVE_FILE);
+        let p = Path::new(name);
+        if p.is_absolute() || p.components().count() > 1 {
+            p.to_path_buf()
+        } else {
+            self.out_dir.join(p)
+        }
     }
 
     /// A flag that, once set, stops a CYCLE at its next energy check.
@@ -173,6 +198,52 @@ impl<'a> Executor<'a> {
                     self.log.write_all(table.as_bytes())?;
                 }
             }
+            Command::Split { point, normal, material, constitutive } => {
+                let outcome = super::split::split(&mut self.model, DVec3::from_array(*point), DVec3::from_array(*normal), *material, *constitutive)
+                    .map_err(|why| self.error(cmd, format!("SPLIT: {why}")))?;
+                if let Some(n) = material {
+                    if self.model.material(*n).density <= 0.0 && !outcome.split.is_empty() {
+                        self.echo(&format!("WARNING: SPLIT: material {n} has no DENSITY yet: the pieces have no mass until PROPERTY gives it"))?;
+                    }
+                }
+                for (id, why) in &outcome.rejected {
+                    self.echo(&format!("WARNING: SPLIT: block {id} left whole: {why}"))?;
+                }
+                if outcome.split.is_empty() {
+                    if outcome.rejected.is_empty() {
+                        self.echo("WARNING: SPLIT: the plane crosses no block")?;
+                    }
+                } else {
+                    let list: Vec<String> = outcome.split.iter().map(|(a, b)| format!("{a} -> {a} + {b}")).collect();
+                    self.echo(&format!("SPLIT: {} BLOCKS CUT ({})", outcome.split.len(), list.join(", ")))?;
+                }
+            }
+            Command::Restart { file } => {
+                let path = self.resolve(file);
+                let saved = super::restart::load(&path).map_err(|e| self.error(cmd, format!("RESTART: {e}")))?;
+                self.model = saved.model;
+                self.backend = CpuBackend::new();
+                if saved.resumable {
+                    self.backend.resume_from(&self.model);
+                }
+                self.echo("PROGRAM D3: THREE-DIMENSIONAL DISTINCT ELEMENT CODE (VERSION 1.0)")?;
+                self.echo(&format!("THIS IS A RESTART RUN (FROM {}, CYCLE {})", path.display(), self.model.cycle))?;
+            }
+            Command::Save { file } => {
+                let path = self.resolve(file);
+                if let Some(dir) = path.parent() {
+                    let _ = std::fs::create_dir_all(dir);
+                }
+                let saved = super::restart::SaveFile { model: self.model.clone(), resumable: self.backend.resumes_from(&self.model) };
+                super::restart::save(&path, &saved).map_err(|e| self.error(cmd, format!("SAVE: {e}")))?;
+                self.echo(&format!("STATE SAVED TO {}", path.display()))?;
+            }
+            Command::Dump { .. } => output::dump(&self.model, &mut self.log)?,
+            Command::Vtk => {
+                let dir = self.out_dir.join(VTK_DIR);
+                let path = super::vtk::write_frame(&self.model, &dir).map_err(|e| self.error(cmd, format!("VTK: {e}")))?;
+                self.echo(&format!("VTK FRAME WRITTEN TO {} (AND ITS CONTACTS BESIDE IT)", path.display()))?;
+            }
             Command::Stop | Command::End => {}
         }
         Ok(())
@@ -198,7 +269,8 @@ impl<'a> Executor<'a> {
             }
         };
         let density = self.model.material(material).density;
-        let id = self.model.blocks.len() as u32 + 1;
+        // Ids from 1 in the order built; SPLIT's pieces take ids past the largest.
+        let id = self.model.blocks.iter().map(|b| b.id).max().unwrap_or(0) + 1;
         self.model.blocks.push(Block::new(id, material, constitutive, shape, &props, density));
         self.model.neighbours_stale = true;
         Ok(())
@@ -226,6 +298,8 @@ impl<'a> Executor<'a> {
                 PropKey::Jcohesion => m.jcohesion = v,
                 PropKey::Jfriction => m.jfriction = v,
                 PropKey::Tf => m.tf = v,
+                // The fluid keys: d3::deck refuses them at their line (D3 has no fluid flow).
+                PropKey::Jperm | PropKey::Cperm | PropKey::Azero | PropKey::Ares => {}
             }
         }
         let density = m.density;

@@ -19,6 +19,7 @@
 //! the outward normal, i.e. seen from inside) with its second and third vertices swapped.
 
 use glam::{DMat3, DVec3};
+use serde::{Deserialize, Serialize};
 
 /// What is wrong with a surface, and which face (1-based, in the order typed) shows it.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,7 +31,7 @@ pub struct SurfaceError {
 
 /// One edge of the surface: its two vertices (`a` → `b` as face `left` runs along it), the face on
 /// either side, and whether it is a feature of the block (the faces on either side not coplanar).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Edge {
     pub a: u32,
     pub b: u32,
@@ -42,7 +43,7 @@ pub struct Edge {
 
 /// A block's shape in its own frame: vertices relative to the centroid, in the axes the block had
 /// when built (its orientation is then the identity).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Shape {
     /// Vertices relative to the centroid (reference frame).
     pub vertices: Vec<DVec3>,

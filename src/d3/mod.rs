@@ -9,9 +9,12 @@
 //! | [`model`] | blocks, materials, contacts (real with their logical contacts, or degenerate), the clock |
 //! | [`motion`] | stages 1–2: central differences for translation and for the angular momentum, the orientation a unit quaternion (¶17) |
 //! | [`contact`] | stage 4: the common plane, the six physical categories, the logical vertex–face and edge–edge contacts, ¶23's normal prescription, the force–displacement law (¶18–24, ¶35) |
+//! | [`split`] | SPLIT: a plane cuts the convex blocks it crosses in two, mass properties afresh, momentum kept |
 //! | [`topology`] | stage 7: the neighbour lists on a uniform grid, rebuilt past a travel threshold (¶26) |
 //! | [`cpu`] | the cycle on the CPU in f64 through the chassis's run driver |
-//! | [`output`] | the PRINT tables and the state JSON |
+//! | [`output`] | the PRINT tables, DUMP and the state JSON |
+//! | [`restart`] | SAVE/RESTART files: the whole state, bit for bit, in a versioned, checksummed envelope |
+//! | [`vtk`] | VTK frames of the blocks (faces with their block's motion) and contacts (points with normal and forces), and their series |
 //! | [`exec`] | runs a deck's commands |
 //!
 //! GPU kernels for D3 (`shaders/d3/`) are a later step.
@@ -24,4 +27,7 @@ pub mod geometry;
 pub mod model;
 pub mod motion;
 pub mod output;
+pub mod restart;
+pub mod split;
 pub mod topology;
+pub mod vtk;

@@ -3,11 +3,12 @@
 //! ones: neighbour links), gravity, damping and the clock. Authoritative, in f64.
 
 use glam::{DMat3, DQuat, DVec3};
+use serde::{Deserialize, Serialize};
 
 use super::geometry::{MassProperties, Shape};
 
 /// A material's properties (PROPERTY; the keys of the 2D language less the fluid's).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Material {
     pub density: f64,
     pub bulk: f64,
@@ -48,7 +49,7 @@ impl Default for Material {
 
 /// A polyhedral block (Appendix B's block array: KMAT, KCONS, KRCOD, KCBN, KCD, KTD, KVOL, KEM,
 /// KBI, KBFX, KBFT, KCL).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Block {
     /// Stable id, from 1 in the order built.
     pub id: u32,
@@ -168,7 +169,7 @@ impl Block {
 
 /// The six physical categories of contact (¶24), by the features of block 1 and block 2 that
 /// touch; the degenerate contact is a neighbour link that does not touch (¶32).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Feature {
     Vertex,
     Edge,
@@ -188,7 +189,7 @@ impl Feature {
 /// What a logical contact (¶24, ¶32) is between: a vertex of one block against a face of the
 /// other, or an edge of each. The ids are the blocks' own vertex numbers (from 0), so that the
 /// shear force survives the contact's re-detection every cycle (STYLE.md 7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum LogicalKind {
     /// A vertex of block 1 (`on_first`) or block 2 against the other's face.
     VertexFace { on_first: bool, vertex: u32 },
@@ -199,7 +200,7 @@ pub enum LogicalKind {
 /// A logical contact: where it is, its gap along the contact's normal (negative: overlap) and
 /// its forces (Appendix B: KCX, KCFN, KCFV). The normal force is a scalar, compression positive;
 /// the shear force a vector in global axes. Both act on block 2; block 1 takes their opposite.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Logical {
     pub kind: LogicalKind,
     pub point: DVec3,
@@ -211,7 +212,7 @@ pub struct Logical {
 /// A contact between two blocks (indices `blocks`, the lower first): a real one with its
 /// physical category, common-plane normal (from block 1 to block 2) and logical contacts, or a
 /// degenerate one (a neighbour link; `category` None, no logical contacts).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Contact {
     /// Stable id, from 1, kept while the two blocks stay neighbours.
     pub id: u32,
@@ -259,14 +260,14 @@ impl Contact {
 }
 
 /// Rayleigh damping's constants (DAMPING): α mass-proportional, β stiffness-proportional.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Damping {
     pub alpha: f64,
     pub beta: f64,
 }
 
 /// The D3 model.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Model {
     pub blocks: Vec<Block>,
     /// Material n is `materials[n - 1]`; grown as PROPERTY names them.

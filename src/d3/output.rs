@@ -113,6 +113,28 @@ pub fn contacts_table(model: &Model) -> String {
     out
 }
 
+/// DUMP: Appendix B's dump printed a range of the main array and the pointers MFREE, JUNK, IBPNT
+/// and ICPNT; addresses mean nothing here, so the dump is the whole model as JSON (the fields of
+/// `d3::model`, non-finite numbers as null) under a heading, and the pointers become the counts
+/// they pointed into.
+pub fn dump(model: &Model, out: &mut dyn std::io::Write) -> std::io::Result<()> {
+    let logical: usize = model.contacts.iter().map(|c| c.logical.len()).sum();
+    writeln!(out)?;
+    writeln!(out, "FULL STATE DUMP (CYCLE {}, TIME {})", model.cycle, fmt_e(model.time))?;
+    writeln!(
+        out,
+        "BLOCKS (IBPNT) {}  CONTACTS (ICPNT) {}  LOGICAL CONTACTS {}  MATERIALS {}  NEXT CONTACT ID {}",
+        model.blocks.len(),
+        model.contacts.len(),
+        logical,
+        model.materials.len(),
+        model.next_contact_id
+    )?;
+    writeln!(out)?;
+    serde_json::to_writer_pretty(&mut *out, model)?;
+    writeln!(out)
+}
+
 /// A finite number, or null.
 fn num(x: f64) -> Value {
     if x.is_finite() {

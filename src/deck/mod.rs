@@ -1,10 +1,12 @@
 //! The deck language every engine's commands are written in (SL-85-1, Appendix A, "Input
 //! Commands", and D3's Appendix B share it): free format with the separators `= ( ) , /`, `*`
 //! comment lines, `+` continuation lines, commands and keywords abbreviated to their upper-case
-//! prefix. Here the lexer (lines → located tokens, numbers, name tables) and the input error;
-//! the 2D engine's commands are `udec::deck`.
+//! prefix. Here the lexer (lines → located tokens, numbers, name tables), PROPERTY's keywords
+//! (`props`, one table for both engines) and the input error; the 2D engine's commands are
+//! `udec::deck`, D3's `d3::deck`.
 
 pub mod lexer;
+pub mod props;
 
 /// An input error: the file, line and column, and what was expected there.
 ///

@@ -7,6 +7,7 @@
 //! |---|---|
 //! | [`mod@format`] | numbers in the 1985 `1.234E+05` form |
 //! | [`mod@font`] | the font plots caption with |
+//! | [`vtk`] | VTK frames (legacy binary, vtkio) and ParaView's `.series` files that list them |
 //! | [`provenance`] | what made a run (version, commit, deck, backend, adapter, precision, date): the log's line under the banner and the state JSON's `provenance` |
 //!
 //! Nothing here reads a model.
@@ -14,6 +15,7 @@
 pub mod font;
 pub mod format;
 pub mod provenance;
+pub mod vtk;
 
 pub use format::fmt_e;
 

@@ -1,4 +1,4 @@
-//! `blockdem verify`: the 2D rigid engine against closed-form solutions (DESIGN.md §6, issue 4).
+//! `blockdem verify`: the engines against closed-form solutions (DESIGN.md §6, issue 4; D3's 3D cases, issue 31).
 //!
 //! Every case is a deck (so it exercises the command language too) run on every backend in
 //! [`backends`], at every FRACTION of a sweep. A row records the error against the closed form, the
@@ -11,9 +11,11 @@
 //! | [`cases`] | the closed-form problems: decks, measurements, tolerances and why |
 //! | [`stability`] | measured thresholds of instability against `stable_frac_estimate`, extreme ratios |
 //! | [`chart`] | CSV and PNG charts (accuracy against speed) |
+//! | [`d3`] | the 3D closed forms on D3's CPU backend (torque-free rotation, oblique incline, stack, toppling, wedge) |
 
 pub mod cases;
 pub mod chart;
+pub mod d3;
 pub mod stability;
 
 use std::fmt::Write as _;
@@ -36,6 +38,9 @@ pub const FULL_FRACS: &[f64] = &[0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6
 /// these few-block scenes, so the quick sweep would cost minutes per adapter; the full suite
 /// sweeps every FRACTION on every backend.
 pub const QUICK_FRACS_GPU: &[f64] = &[CHECK_FRAC];
+/// FRACTIONs of the quick suite for D3's cases: the check FRACTION only, so that the 3D rows add
+/// about 3 s to the CI suite (their sweep, ~12 s, is the full suite's).
+pub const QUICK_FRACS_D3: &[f64] = &[CHECK_FRAC];
 
 /// One backend the suite runs on: a label, its precision, and a factory (a fresh backend per run).
 pub struct BackendEntry {
@@ -212,7 +217,12 @@ pub fn run_suite(options: &VerifyOptions) -> Suite {
             if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
                 continue;
             }
-            for &frac in fracs_for(&backend, options.quick) {
+            // D3 runs on the CPU backend only in this version (it has no GPU path).
+            if backend.gpu && cases::cpu_only(case.name) {
+                continue;
+            }
+            let fracs = if options.quick && case.name.starts_with(d3::D3_PREFIX) { QUICK_FRACS_D3 } else { fracs_for(&backend, options.quick) };
+            for &frac in fracs {
                 suite.rows.push(run_case(&case, &backend, frac));
             }
         }

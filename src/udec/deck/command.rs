@@ -85,26 +85,8 @@ pub enum DomainRef {
     At([f64; 2]),
 }
 
-/// PROPERTY keywords (Appendix A table).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum PropKey {
-    Bulk,
-    Shear,
-    Density,
-    Kn,
-    Ks,
-    Cohesion,
-    Friction,
-    Jkn,
-    Jks,
-    Jcohesion,
-    Jfriction,
-    Tf,
-    Jperm,
-    Cperm,
-    Azero,
-    Ares,
-}
+/// PROPERTY keywords (Appendix A table): the chassis's, shared with D3.
+pub use crate::deck::props::PropKey;
 
 /// PRINT keywords.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

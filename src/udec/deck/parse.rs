@@ -62,6 +62,8 @@
 use super::command::*;
 use super::lexer::{self, lookup, name, Name, NumberError, Token};
 use super::{DeckError, Located};
+// PROPERTY's keywords: the chassis's table (`deck::props`), shared with D3.
+use crate::deck::props::PROP_KEYS;
 
 type Result<T> = std::result::Result<T, DeckError>;
 
@@ -210,28 +212,6 @@ const PRINT_KEYS: &[Name<PrintItem>] = &[
     name("DLIST", "DL", PrintItem::DList),
     name("FLOWS", "F", PrintItem::Flows),
     name("ENERGY", "E", PrintItem::Energy),
-];
-
-/// PROPERTY keywords; `None` is MATERIAL, which must come first.
-const PROP_KEYS: &[Name<Option<PropKey>>] = &[
-    name("MATERIAL", "M", None),
-    name("BULK", "B", Some(PropKey::Bulk)),
-    name("K", "K", Some(PropKey::Bulk)),
-    name("G", "G", Some(PropKey::Shear)),
-    name("DENSITY", "D", Some(PropKey::Density)),
-    name("KN", "KN", Some(PropKey::Kn)),
-    name("KS", "KS", Some(PropKey::Ks)),
-    name("COHESION", "C", Some(PropKey::Cohesion)),
-    name("FRICTION", "F", Some(PropKey::Friction)),
-    name("JKN", "JKN", Some(PropKey::Jkn)),
-    name("JKS", "JKS", Some(PropKey::Jks)),
-    name("JCOHESION", "JC", Some(PropKey::Jcohesion)),
-    name("JFRICTION", "JF", Some(PropKey::Jfriction)),
-    name("TF", "T", Some(PropKey::Tf)),
-    name("JPERM", "JP", Some(PropKey::Jperm)),
-    name("CPERM", "CP", Some(PropKey::Cperm)),
-    name("AZERO", "AZ", Some(PropKey::Azero)),
-    name("ARES", "AR", Some(PropKey::Ares)),
 ];
 
 /// The full names of a table, for "expected one of ..." messages.
@@ -1087,24 +1067,7 @@ fn property(a: &mut Args) -> Result<Command> {
                 return Err(a.at(t, format!("expected a property keyword ({list}), found '{}'", t.shown())));
             }
         };
-        let (label, must_be_positive) = match key {
-            PropKey::Bulk => ("the bulk modulus", true),
-            PropKey::Shear => ("the shear modulus", true),
-            PropKey::Density => ("density", true),
-            PropKey::Kn => ("kn", true),
-            PropKey::Ks => ("ks", true),
-            PropKey::Jkn => ("jkn", true),
-            PropKey::Jks => ("jks", true),
-            PropKey::Cohesion => ("cohesion", false),
-            PropKey::Friction => ("friction", false),
-            PropKey::Jcohesion => ("jcohesion", false),
-            PropKey::Jfriction => ("jfriction", false),
-            PropKey::Tf => ("tf", false),
-            PropKey::Jperm => ("jperm", false),
-            PropKey::Cperm => ("cperm", false),
-            PropKey::Azero => ("azero", false),
-            PropKey::Ares => ("ares", false),
-        };
+        let (label, must_be_positive) = (key.label(), key.must_be_positive());
         let (v, vt) = a.real(&format!("a value after {}", t.shown()))?;
         let v = if must_be_positive { a.positive(v, vt, label)? } else { a.non_negative(v, vt, label)? };
         values.push((key, v));

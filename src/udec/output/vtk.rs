@@ -35,7 +35,11 @@
 
 use std::path::{Path, PathBuf};
 
-use vtkio::model::{Attribute, Attributes, ByteOrder, DataSet, PolyDataPiece, Version, VertexNumbers, Vtk};
+use vtkio::model::{Attribute, Attributes, PolyDataPiece, VertexNumbers, Vtk};
+
+/// The series file format and its upkeep are the chassis's (`output::vtk`), shared with D3.
+pub use crate::output::vtk::{add_to_series, Series, SeriesFrame};
+use crate::output::vtk::{poly_data, write_vtk};
 
 use crate::udec::model::{ContactKind, Model};
 
@@ -79,15 +83,6 @@ pub fn write_frame(model: &Model, dir: &Path) -> Result<PathBuf, String> {
         add_to_series(&dir.join(ZONE_SERIES_FILE), &zones_name, model.cycle, model.time)?;
     }
     Ok(blocks_path)
-}
-
-fn write_vtk(path: &Path, vtk: Vtk) -> Result<(), String> {
-    super::write_atomically(path, |w| vtk.write_legacy(w).map_err(|e| std::io::Error::other(e.to_string())))
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
-}
-
-fn poly_data(title: &str, piece: PolyDataPiece) -> Vtk {
-    Vtk { version: Version::new_legacy(4, 2), title: title.into(), byte_order: ByteOrder::BigEndian, data: DataSet::inline(piece), file_path: None }
 }
 
 fn flag(b: bool) -> i32 {
@@ -261,38 +256,4 @@ pub fn zones_vtk(model: &Model) -> Vtk {
         ..Default::default()
     };
     poly_data(&format!("blockdem zones, cycle {}, time {:e} s", model.cycle, model.time), piece)
-}
-
-/// One frame of a `.series` file.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct SeriesFrame {
-    pub name: String,
-    pub time: f64,
-}
-
-/// ParaView's file series (`*.series`, JSON): the frames in order of time.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Series {
-    #[serde(rename = "file-series-version")]
-    pub version: String,
-    pub files: Vec<SeriesFrame>,
-}
-
-/// The cycle a frame's file name carries (`blocks_000000100.vtk` → 100).
-fn frame_cycle(name: &str) -> Option<u64> {
-    name.rsplit_once('_')?.1.strip_suffix(".vtk")?.parse().ok()
-}
-
-/// Lists `name` (the frame at `cycle`) in the series file at `path`: frames of later cycles
-/// there (a run restarted from an earlier state) are dropped, one of the same cycle replaced.
-/// A series file that cannot be read is started again.
-pub fn add_to_series(path: &Path, name: &str, cycle: u64, time: f64) -> Result<(), String> {
-    let mut series = std::fs::read(path)
-        .ok()
-        .and_then(|bytes| serde_json::from_slice::<Series>(&bytes).ok())
-        .unwrap_or_else(|| Series { version: "1.0".into(), files: Vec::new() });
-    series.files.retain(|f| frame_cycle(&f.name).is_some_and(|c| c < cycle));
-    series.files.push(SeriesFrame { name: name.into(), time });
-    super::write_atomically(path, |w| serde_json::to_writer_pretty(&mut *w, &series).map_err(std::io::Error::other))
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }

@@ -1,0 +1,168 @@
+//! D3's SAVE/RESTART files (Appendix B's SAVE and RESTART; DESIGN.md §5): the whole problem
+//! state in a versioned binary file, so that a restarted run continues bit for bit.
+//!
+//! The envelope is the 2D engine's (`udec::output::restart`), with D3's own magic so that neither
+//! engine mistakes the other's file for its own (and `blockdem run` can tell a RESTART deck's
+//! engine by its file). All integers little-endian:
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 8 | magic `BLOCKD3\0` |
+//! | 4 | format version (u32), [`FORMAT_VERSION`] |
+//! | 8 | payload length in bytes (u64) |
+//! | 8 | CRC-32 (IEEE) of the payload (u64) |
+//! | n | payload: [`SaveFile`] serialized with postcard |
+//!
+//! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact. The length and
+//! checksum make a truncated or damaged file an error; an intact file whose model no run could
+//! have made (an index past its list, a non-finite position) is refused by [`check`]. The
+//! version must change whenever `d3::model` changes shape: postcard is not self-describing.
+//!
+//! The file also records whether the saved model is the state the last CYCLE left untouched
+//! (`resumable`): the CPU backend then goes on from it as it would have in the saving run,
+//! without the full contact detection a changed model gets (which would renumber the
+//! neighbour lists' contacts and restart the travel counts), so that CYCLE N, SAVE, RESTART,
+//! CYCLE M leaves the state CYCLE N+M leaves, bit for bit.
+
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::model::Model;
+
+/// The first eight bytes of every D3 save file.
+pub const MAGIC: [u8; 8] = *b"BLOCKD3\0";
+/// The first eight bytes of a 2D (UDEC) save file, named in the refusal of one.
+const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
+/// The D3 save format this program writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+const HEADER_LEN: usize = 8 + 4 + 8 + 8;
+
+/// Everything SAVE keeps.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SaveFile {
+    pub model: Model,
+    /// The model is the state the last CYCLE left, unchanged since (the backend resumes from it).
+    pub resumable: bool,
+}
+
+/// Why a save file could not be written or read (each names the file).
+#[derive(Debug, thiserror::Error)]
+pub enum RestartError {
+    #[error("cannot access save file {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    #[error("{path} is not a D3 save file (it does not start with \"BLOCKD3\")")]
+    NotASaveFile { path: PathBuf },
+    #[error("{path} is a 2D (UDEC) save file: RESTART it from a 2D deck")]
+    TwoDimensional { path: PathBuf },
+    #[error("{path} is D3 save format version {found}; this program reads version {FORMAT_VERSION}")]
+    UnsupportedVersion { path: PathBuf, found: u32 },
+    #[error("save file {path} is corrupt: {reason}")]
+    Corrupt { path: PathBuf, reason: String },
+    #[error("the model saved in {path} is inconsistent: {reason}")]
+    Inconsistent { path: PathBuf, reason: String },
+}
+
+/// Whether the file at `path` starts as a D3 save file does (for `blockdem run`'s engine rule).
+/// Only a regular file is looked into: reading the head of a FIFO would take bytes its writer
+/// meant for the RESTART that follows (and could leave that one waiting for a writer gone).
+pub fn is_save_file(path: &Path) -> bool {
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return false;
+    }
+    let mut head = [0u8; 8];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head)).is_ok() && head == MAGIC
+}
+
+/// SAVE: writes `file` to `path` atomically (a temporary file renamed into place).
+pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
+    let payload = postcard::to_stdvec(file).map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
+    let crc = crc32fast::hash(&payload) as u64;
+    crate::output::write_atomically(path, |w| {
+        w.write_all(&MAGIC)?;
+        w.write_all(&FORMAT_VERSION.to_le_bytes())?;
+        w.write_all(&(payload.len() as u64).to_le_bytes())?;
+        w.write_all(&crc.to_le_bytes())?;
+        w.write_all(&payload)
+    })
+    .map_err(|source| RestartError::Io { path: path.to_path_buf(), source })
+}
+
+/// RESTART: reads a file [`save`] wrote. The header is read first and the payload only as far
+/// as it announces, so a path that is no save file is refused at its first bytes.
+pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
+    let p = || path.to_path_buf();
+    let io_err = |source| RestartError::Io { path: p(), source };
+    let mut file = std::fs::File::open(path).map_err(io_err)?;
+    let mut header = Vec::with_capacity(HEADER_LEN);
+    (&mut file).take(HEADER_LEN as u64).read_to_end(&mut header).map_err(io_err)?;
+    if header.len() >= 8 && header[..8] == UDEC_MAGIC {
+        return Err(RestartError::TwoDimensional { path: p() });
+    }
+    if header.len() < 8 || header[..8] != MAGIC {
+        return Err(RestartError::NotASaveFile { path: p() });
+    }
+    if header.len() < HEADER_LEN {
+        return Err(RestartError::Corrupt { path: p(), reason: format!("the header is truncated ({} of {HEADER_LEN} bytes)", header.len()) });
+    }
+    let version = u32::from_le_bytes(header[8..12].try_into().expect("4 bytes"));
+    if version != FORMAT_VERSION {
+        return Err(RestartError::UnsupportedVersion { path: p(), found: version });
+    }
+    let length = u64::from_le_bytes(header[12..20].try_into().expect("8 bytes"));
+    let checksum = u64::from_le_bytes(header[20..28].try_into().expect("8 bytes"));
+    let size = file.metadata().ok().filter(|m| m.is_file()).map(|m| m.len().saturating_sub(HEADER_LEN as u64));
+    if let Some(holds) = size.filter(|&holds| holds != length) {
+        return Err(RestartError::Corrupt {
+            path: p(),
+            reason: format!("the header announces {length} payload bytes but the file holds {holds} (truncated or appended to)"),
+        });
+    }
+    let mut payload = Vec::new();
+    (&mut file).take(length).read_to_end(&mut payload).map_err(io_err)?;
+    if payload.len() as u64 != length {
+        return Err(RestartError::Corrupt { path: p(), reason: format!("the header announces {length} payload bytes but the file holds {}", payload.len()) });
+    }
+    if crc32fast::hash(&payload) as u64 != checksum {
+        return Err(RestartError::Corrupt { path: p(), reason: "the payload checksum does not match".into() });
+    }
+    let saved: SaveFile = postcard::from_bytes(&payload).map_err(|e| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") })?;
+    check(&saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
+    Ok(saved)
+}
+
+/// What a loaded model must hold for the program to trust its indices: each block's vertices
+/// as many as its shape's, its faces' vertex numbers in range, finite positions, materials from
+/// 1; each contact's blocks in range, the lower first.
+pub fn check(model: &Model) -> Result<(), String> {
+    for b in &model.blocks {
+        let n = b.shape.vertices.len();
+        if b.vertices.len() != n || b.shape.faces.len() != b.shape.normals.len() || b.shape.faces.len() != b.shape.neighbours.len() {
+            return Err(format!("block {}'s vertex and face lists do not match its shape", b.id));
+        }
+        if b.shape.faces.iter().flatten().any(|&v| v as usize >= n) || b.shape.neighbours.iter().flatten().any(|&f| f as usize >= b.shape.faces.len()) {
+            return Err(format!("block {} names a vertex or face past its lists", b.id));
+        }
+        if b.shape.edges.iter().any(|e| e.a as usize >= n || e.b as usize >= n) {
+            return Err(format!("block {} has an edge past its vertices", b.id));
+        }
+        if !(b.centroid.is_finite() && b.velocity.is_finite() && b.angular_momentum.is_finite() && b.vertices.iter().all(|v| v.is_finite())) {
+            return Err(format!("block {} has a non-finite position or velocity", b.id));
+        }
+        if b.material == 0 {
+            return Err(format!("block {} has material 0", b.id));
+        }
+    }
+    for c in &model.contacts {
+        let [a, b] = c.blocks;
+        if a >= b || b as usize >= model.blocks.len() {
+            return Err(format!("contact {} names blocks {a} and {b} of {}", c.id, model.blocks.len()));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,189 @@
+//! SPLIT for D3 (an extension, issue 31): a plane cuts every block it crosses into two convex
+//! polyhedra, the 3D form of UDEC's SPLIT (SL-85-1 Appendix A ¶13–14).
+//!
+//! The cut assumes a convex parent (D3's contact detection does too): each of the parent's
+//! triangular faces is clipped to either side of the plane (a triangle stays a triangle or
+//! becomes a quadrilateral, cut into two triangles), and each piece is closed by the **cap**,
+//! the convex polygon where the plane meets the block, fanned from its centroid into triangles so
+//! that no triangle is degenerate where the cap's sides carry the crossings of a planar side's
+//! diagonals. The points where the plane crosses an edge are computed once per edge, so that the
+//! faces on either side of it and the cap share them exactly. A vertex within round-off of the
+//! plane (10⁻⁹ of the block's radius) counts as on it. Each piece's surface goes through the
+//! same checks as a BLOCK's (`geometry::shape_from_faces`: closed, outward, no zero-area face),
+//! with its volume, centroid and exact inertia tensor computed afresh, and must come out convex;
+//! a block whose cut fails any of these is left whole, with the reason.
+//!
+//! Momentum is kept: both pieces take the parent's angular velocity ω and the velocity of the
+//! parent's motion at their own centroids, v + ω × (cᵢ − c), so that Σ mᵢvᵢ = m v and
+//! Σ (Iᵢω + mᵢ (cᵢ − c) × vᵢ) = I ω (parallel axes). A load (LOAD) is shared by mass.
+
+use glam::DVec3;
+use rustc_hash::FxHashMap;
+
+use super::geometry;
+use super::model::{Block, Model};
+
+/// What a SPLIT did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SplitOutcome {
+    /// (parent id, the new piece's id) for each block cut; the piece on the side the normal
+    /// points away from keeps the parent's id and index.
+    pub split: Vec<(u32, u32)>,
+    /// Blocks the plane crosses that were left whole, with the reason.
+    pub rejected: Vec<(u32, String)>,
+}
+
+/// The faces (as a deck types them: counter-clockwise looking along the outward normal) of the
+/// two pieces of the convex polyhedron `vertices`/`faces` (faces counter-clockwise seen from
+/// outside) cut by the plane through `point` with unit normal `normal`: first the piece behind
+/// the plane (n·(x − p) < 0), then the one in front. None when the plane does not cross it.
+pub fn cut_faces(vertices: &[DVec3], faces: &[[u32; 3]], point: DVec3, normal: DVec3, radius: f64) -> Option<[Vec<[[f64; 3]; 3]>; 2]> {
+    let eps = 1e-9 * radius;
+    let d: Vec<f64> = vertices.iter().map(|v| normal.dot(*v - point)).map(|x| if x.abs() <= eps { 0.0 } else { x }).collect();
+    if d.iter().all(|&x| x >= 0.0) || d.iter().all(|&x| x <= 0.0) {
+        return None;
+    }
+    // The crossing of each edge the plane cuts, once per edge (its lower vertex first).
+    let mut crossings: FxHashMap<(u32, u32), DVec3> = FxHashMap::default();
+    let mut crossing = |a: u32, b: u32| -> DVec3 {
+        let (lo, hi) = (a.min(b), a.max(b));
+        *crossings.entry((lo, hi)).or_insert_with(|| {
+            let (pa, pb) = (vertices[lo as usize], vertices[hi as usize]);
+            let (da, db) = (d[lo as usize], d[hi as usize]);
+            pa + (pb - pa) * (da / (da - db))
+        })
+    };
+    let mut pieces: [Vec<[[f64; 3]; 3]>; 2] = [Vec::new(), Vec::new()];
+    let mut cap: Vec<DVec3> = Vec::new();
+    for f in faces {
+        for (side, sign) in [(0usize, -1.0f64), (1, 1.0)] {
+            // Sutherland–Hodgman against the half-space sign·d ≥ 0, keeping the face's order.
+            let mut poly: Vec<DVec3> = Vec::with_capacity(4);
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                let (da, db) = (sign * d[a as usize], sign * d[b as usize]);
+                if da >= 0.0 {
+                    poly.push(vertices[a as usize]);
+                }
+                if (da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0) {
+                    poly.push(crossing(a, b));
+                }
+            }
+            if poly.len() < 3 || f.iter().all(|&v| d[v as usize] == 0.0) {
+                continue;
+            }
+            // Counter-clockwise from outside (a, b, c) is typed (a, c, b).
+            for k in 1..poly.len() - 1 {
+                pieces[side].push([poly[0].to_array(), poly[k + 1].to_array(), poly[k].to_array()]);
+            }
+        }
+    }
+    for (k, &x) in d.iter().enumerate() {
+        if x == 0.0 {
+            cap.push(vertices[k]);
+        }
+    }
+    cap.extend(crossings.values().copied());
+    // The cap: its points around their centroid, in the plane's own axes.
+    let centre = cap.iter().copied().sum::<DVec3>() / cap.len() as f64;
+    let u = normal.any_orthonormal_vector();
+    let w = normal.cross(u);
+    cap.sort_by(|p, q| {
+        let (a, b) = (*p - centre, *q - centre);
+        a.dot(w).atan2(a.dot(u)).total_cmp(&b.dot(w).atan2(b.dot(u)))
+    });
+    cap.dedup_by(|p, q| (*p - *q).length() <= eps);
+    if cap.len() < 3 {
+        return None;
+    }
+    // The cap's points run counter-clockwise about n (u × w = n). The back piece's cap faces +n:
+    // (c, p_k, p_k+1) is counter-clockwise from its outside and typed (c, p_k+1, p_k); the front
+    // piece's faces −n, so the other way round.
+    for k in 0..cap.len() {
+        let (p, q) = (cap[k].to_array(), cap[(k + 1) % cap.len()].to_array());
+        pieces[0].push([centre.to_array(), q, p]);
+        pieces[1].push([centre.to_array(), p, q]);
+    }
+    Some(pieces)
+}
+
+/// SPLIT: cuts every block the plane through `point` with normal `normal` crosses. `material`
+/// and `constitutive`, where given, are the pieces' (else the parent's). Refuses (Err, nothing
+/// cut) when a block the plane crosses is not convex.
+pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u32>, constitutive: Option<u32>) -> Result<SplitOutcome, String> {
+    let n = normal.normalize();
+    let crossed: Vec<usize> = (0..model.blocks.len())
+        .filter(|&b| {
+            let blk = &model.blocks[b];
+            let eps = 1e-9 * blk.shape.radius;
+            let (lo, hi) = blk.vertices.iter().map(|v| n.dot(*v - point)).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+            lo < -eps && hi > eps
+        })
+        .collect();
+    if let Some(&b) = crossed.iter().find(|&&b| !model.blocks[b].shape.convex) {
+        return Err(format!("block {} is not convex: SPLIT cuts convex blocks only (build a concave block from convex ones)", model.blocks[b].id));
+    }
+    let mut outcome = SplitOutcome::default();
+    let mut next_id = model.blocks.iter().map(|b| b.id).max().unwrap_or(0) + 1;
+    let mut touched = Vec::new();
+    for b in crossed {
+        let parent = model.blocks[b].clone();
+        let faces: Vec<[u32; 3]> = parent.shape.faces.clone();
+        let Some(typed) = cut_faces(&parent.vertices, &faces, point, n, parent.shape.radius) else {
+            continue;
+        };
+        let mut built = Vec::with_capacity(2);
+        for (side, faces) in typed.iter().enumerate() {
+            match geometry::shape_from_faces(faces) {
+                Ok((shape, props)) if shape.convex => built.push((shape, props)),
+                Ok(_) => {
+                    built.clear();
+                    outcome.rejected.push((parent.id, format!("its {} piece comes out not convex within round-off", ["back", "front"][side])));
+                    break;
+                }
+                Err(e) => {
+                    built.clear();
+                    outcome.rejected.push((parent.id, format!("its {} piece is not a valid block: {}", ["back", "front"][side], e.message)));
+                    break;
+                }
+            }
+        }
+        if built.len() != 2 {
+            continue;
+        }
+        let mat = material.unwrap_or(parent.material);
+        let cons = constitutive.unwrap_or(parent.constitutive);
+        let density = model.material(mat).density;
+        let pieces: Vec<Block> = built
+            .into_iter()
+            .enumerate()
+            .map(|(k, (shape, props))| {
+                let id = if k == 0 { parent.id } else { next_id };
+                let mut piece = Block::new(id, mat, cons, shape, &props, density);
+                piece.fixed = parent.fixed;
+                if !parent.fixed {
+                    // The parent's motion at the piece's centroid; its spin.
+                    piece.velocity = parent.velocity_at(piece.centroid);
+                    piece.angular_velocity = parent.angular_velocity;
+                    piece.angular_momentum = piece.inertia() * parent.angular_velocity;
+                }
+                piece.load = if parent.volume > 0.0 { parent.load * (props.volume / parent.volume) } else { DVec3::ZERO };
+                piece
+            })
+            .collect();
+        let [back, front]: [Block; 2] = pieces.try_into().unwrap_or_else(|_| unreachable!("two pieces were built"));
+        outcome.split.push((parent.id, next_id));
+        next_id += 1;
+        model.blocks[b] = back;
+        touched.push(b as u32);
+        touched.push(model.blocks.len() as u32);
+        model.blocks.push(front);
+    }
+    if !outcome.split.is_empty() {
+        // The split blocks' contacts go (their logical contacts were keyed by the parents'
+        // vertices); the lists are rebuilt before the next cycle.
+        model.contacts.retain(|c| !touched.contains(&c.blocks[0]) && !touched.contains(&c.blocks[1]));
+        model.neighbours_stale = true;
+    }
+    Ok(outcome)
+}

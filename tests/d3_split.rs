@@ -1,0 +1,219 @@
+//! D3's SPLIT (issue 31's extension): the pieces of a cut block are closed, outward, convex
+//! polyhedra with their own exact mass properties, momentum is kept, the contacts are rebuilt
+//! between cycles, and concave parents and bad input are refused naming the line.
+
+use blockdem::d3::deck::parse_deck;
+use blockdem::d3::exec::Executor;
+use blockdem::d3::model::Model;
+use glam::{DMat3, DVec3};
+
+/// Runs a deck; the model, the run log and the error, if any.
+fn run(deck: &str) -> (Model, String, Result<(), String>) {
+    let mut log = Vec::new();
+    let (model, result) = match parse_deck(deck, "t.dat") {
+        Ok(commands) => {
+            let mut exec = Executor::new(Box::new(&mut log), "t.dat");
+            let r = exec.run(&commands).map_err(|e| e.to_string());
+            (exec.model, r)
+        }
+        Err(e) => (Model::default(), Err(e.to_string())),
+    };
+    (model, String::from_utf8(log).unwrap(), result)
+}
+
+fn ok(deck: &str) -> (Model, String) {
+    let (m, log, r) = run(deck);
+    r.unwrap_or_else(|e| panic!("{e}\n{log}"));
+    (m, log)
+}
+
+const PROPS: &str = "START\nPROP MAT=1 D=1000 KN=1E9 KS=1E9 F=0.5\n";
+
+fn close(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol * b.abs().max(1.0)
+}
+
+#[test]
+fn a_plane_across_a_box_gives_two_boxes_with_exact_mass_properties() {
+    let (m, log) = ok(&format!("{PROPS}BOX 0 1 0 2 0 3\nSPLIT 0.3 0 0 1 0 0\n"));
+    assert!(log.contains("SPLIT: 1 BLOCKS CUT (1 -> 1 + 2)"), "{log}");
+    assert_eq!(m.blocks.len(), 2);
+    // The piece behind the plane (x < 0.3) keeps the parent's id and index.
+    let (a, b) = (&m.blocks[0], &m.blocks[1]);
+    assert_eq!((a.id, b.id), (1, 2));
+    for (blk, (x0, x1)) in [(a, (0.0, 0.3)), (b, (0.3, 1.0))] {
+        let w: f64 = x1 - x0;
+        assert!(blk.shape.convex);
+        assert!(close(blk.volume, w * 6.0, 1e-12), "{}", blk.volume);
+        assert!((blk.centroid - DVec3::new(0.5 * (x0 + x1), 1.0, 1.5)).length() < 1e-12, "{}", blk.centroid);
+        let mass = 1000.0 * w * 6.0;
+        assert!(close(blk.mass, mass, 1e-12));
+        // A box's principal moments m(b² + c²)/12 about the global axes.
+        let expected = DMat3::from_diagonal(DVec3::new(4.0 + 9.0, w * w + 9.0, w * w + 4.0) * (mass / 12.0));
+        let i = blk.inertia();
+        for k in 0..3 {
+            assert!((i.col(k) - expected.col(k)).length() <= 1e-9 * mass, "{i:?} vs {expected:?}");
+        }
+        // Every vertex of the piece lies on its box's surface: its corners, the crossings of the
+        // sides' diagonals with the cut, and the cap's centre.
+        for v in &blk.vertices {
+            let inside = v.x >= x0 - 1e-12 && v.x <= x1 + 1e-12 && (-1e-12..=2.0 + 1e-12).contains(&v.y) && (-1e-12..=3.0 + 1e-12).contains(&v.z);
+            let on_side = [v.x - x0, v.x - x1, v.y, v.y - 2.0, v.z, v.z - 3.0].iter().any(|d| d.abs() < 1e-12);
+            assert!(inside && on_side, "{v}");
+        }
+    }
+}
+
+#[test]
+fn a_plane_through_vertices_cuts_a_cube_into_two_prisms() {
+    // The diagonal plane x = y passes through two vertical edges of the unit cube.
+    let (m, _) = ok(&format!("{PROPS}BOX 0 1 0 1 0 1\nSPLIT 0 0 0 1 -1 0\n"));
+    assert_eq!(m.blocks.len(), 2);
+    for b in &m.blocks {
+        // Six corners and the cap's centre.
+        assert!(close(b.volume, 0.5, 1e-12) && b.shape.convex && b.vertices.len() == 7, "{} {}", b.volume, b.vertices.len());
+    }
+    // x − y < 0 behind: the prism with centroid (1/3, 2/3, 1/2).
+    assert!((m.blocks[0].centroid - DVec3::new(1.0 / 3.0, 2.0 / 3.0, 0.5)).length() < 1e-12);
+}
+
+#[test]
+fn a_moving_spinning_block_cut_obliquely_keeps_its_momentum() {
+    // A rotated block (its faces typed by hand from a turned box), given a velocity and a spin,
+    // cut by an oblique plane off its centroid.
+    let q = glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
+    let corners: Vec<DVec3> = (0..8)
+        .map(|i| q * DVec3::new(if i & 1 == 0 { -0.5 } else { 0.5 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -0.75 } else { 0.75 }))
+        .collect();
+    let sides: [[usize; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+    let mut block = String::from("BLOCK\n");
+    for s in sides {
+        for tri in [[s[0], s[2], s[1]], [s[0], s[3], s[2]]] {
+            block.push('+');
+            for k in tri {
+                let p = corners[k] + DVec3::new(5.0, 5.0, 5.0);
+                block.push_str(&format!(" {} {} {}", p.x, p.y, p.z));
+            }
+            block.push('\n');
+        }
+    }
+    let before = format!("{PROPS}{block}VELOCITY 4 6 4 6 4 6 1 -2 0.5 3 1 -2\n");
+    let (parent, _) = ok(&before);
+    let (m, log) = ok(&format!("{before}SPLIT 5.1 5.2 4.9 0.3 -0.8 1\n"));
+    assert!(log.contains("SPLIT: 1 BLOCKS CUT"), "{log}");
+    let p = &parent.blocks[0];
+    let mass: f64 = m.blocks.iter().map(|b| b.mass).sum();
+    let momentum: DVec3 = m.blocks.iter().map(|b| b.mass * b.velocity).sum();
+    let centroid: DVec3 = m.blocks.iter().map(|b| b.mass * b.centroid).sum::<DVec3>() / mass;
+    let spin: DVec3 = m.blocks.iter().map(|b| b.angular_momentum + b.mass * (b.centroid - p.centroid).cross(b.velocity - p.velocity)).sum();
+    assert!(close(mass, p.mass, 1e-12), "{mass} vs {}", p.mass);
+    assert!((centroid - p.centroid).length() < 1e-12, "{centroid} vs {}", p.centroid);
+    assert!((momentum - p.mass * p.velocity).length() <= 1e-12 * p.mass * p.velocity.length(), "{momentum}");
+    assert!((spin - p.angular_momentum).length() <= 1e-10 * p.angular_momentum.length(), "{spin} vs {}", p.angular_momentum);
+    for b in &m.blocks {
+        assert!(b.shape.convex);
+        assert!((b.angular_velocity - p.angular_velocity).length() < 1e-12);
+        assert!((b.velocity - p.velocity_at(b.centroid)).length() < 1e-12);
+        // Every face's outward normal points away from the piece's centroid (convex).
+        for (k, f) in b.shape.faces.iter().enumerate() {
+            assert!(b.face_normal(k).dot(b.vertices[f[0] as usize] - b.centroid) > 0.0, "block {} face {k}", b.id);
+        }
+    }
+    // The kinetic energy is the parent's (the pieces move as it did).
+    let ke: f64 = m.blocks.iter().map(|b| b.kinetic_energy()).sum();
+    assert!(close(ke, p.kinetic_energy(), 1e-10), "{ke} vs {}", p.kinetic_energy());
+}
+
+#[test]
+fn split_pieces_touch_and_settle_as_the_parent_did() {
+    // A 1 × 1 × 2 column on a base cut at mid-height: the lower piece carries the upper's weight
+    // across the cut (a face–face contact found by the next cycle's neighbour lists).
+    let deck = format!(
+        "{PROPS}BOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 2\nFIX -1 2 -1 2 -1 -0.1\nSPLIT 0.5 0.5 1 0 0 1 MAT 1 CONS 1\nGRAV 0 0 -10\nDAMP 1 160 MASS\nCYCLE 1500\n"
+    );
+    let (m, log) = ok(&deck);
+    assert!(log.contains("SPLIT: 1 BLOCKS CUT (2 -> 2 + 3)"), "{log}");
+    let cut = m.contacts.iter().find(|c| c.blocks == [1, 2]).expect("a contact across the cut");
+    assert_eq!(cut.type_name(), "FACE-FACE");
+    assert!(close(cut.normal_force(), 1000.0 * 10.0, 1e-6), "{}", cut.normal_force());
+    let base = m.contacts.iter().find(|c| c.blocks == [0, 1]).expect("the base contact");
+    assert!(close(base.normal_force(), 2.0 * 1000.0 * 10.0, 1e-6), "{}", base.normal_force());
+}
+
+#[test]
+fn a_plane_that_crosses_nothing_warns_and_splits_are_repeatable() {
+    let (m, log) = ok(&format!("{PROPS}BOX 0 1 0 1 0 1\nSPLIT 0 0 5 0 0 1\nSPLIT 0 0 1 0 0 1\n"));
+    assert_eq!(m.blocks.len(), 1);
+    assert_eq!(log.matches("WARNING: SPLIT: the plane crosses no block").count(), 2, "a plane on a face crosses nothing\n{log}");
+    // Three cuts of a cube into eight: each later cut crosses every piece before it.
+    let (m, log) = ok(&format!("{PROPS}BOX 0 1 0 1 0 1\nSPLIT 0.5 0 0 1 0 0\nSPLIT 0 0.5 0 0 1 0\nSPLIT 0 0 0.5 0 0 1\n"));
+    assert_eq!(m.blocks.len(), 8, "{log}");
+    let ids: Vec<u32> = m.blocks.iter().map(|b| b.id).collect();
+    assert_eq!(ids, [1, 2, 3, 4, 5, 6, 7, 8]);
+    for b in &m.blocks {
+        assert!(close(b.volume, 0.125, 1e-12) && b.shape.convex);
+    }
+}
+
+#[test]
+fn concave_parents_and_bad_split_input_are_refused_at_their_line() {
+    // A cube with an inverted pyramid pressed into its top: star-shaped about (0.5, 0.5, 0.2),
+    // so each face is typed with its normal away from that point.
+    let c = [
+        DVec3::new(0., 0., 0.),
+        DVec3::new(1., 0., 0.),
+        DVec3::new(1., 1., 0.),
+        DVec3::new(0., 1., 0.),
+        DVec3::new(0., 0., 1.),
+        DVec3::new(1., 0., 1.),
+        DVec3::new(1., 1., 1.),
+        DVec3::new(0., 1., 1.),
+        DVec3::new(0.5, 0.5, 0.5),
+    ];
+    let tris = [
+        [0, 1, 2],
+        [0, 2, 3],
+        [0, 1, 5],
+        [0, 5, 4],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 0, 4],
+        [3, 4, 7],
+        [4, 5, 8],
+        [5, 6, 8],
+        [6, 7, 8],
+        [7, 4, 8],
+    ];
+    let inside = DVec3::new(0.5, 0.5, 0.2);
+    let mut block = String::from("BLOCK\n");
+    for t in tris {
+        let [a, b, d] = t.map(|k| c[k]);
+        let outward = (b - a).cross(d - a).dot((a + b + d) / 3.0 - inside) > 0.0;
+        let typed = if outward { [a, d, b] } else { [a, b, d] };
+        block.push('+');
+        for p in typed {
+            block.push_str(&format!(" {} {} {}", p.x, p.y, p.z));
+        }
+        block.push('\n');
+    }
+    let deck = format!("{PROPS}{block}SPLIT 0.5 0.5 0.5 1 0 0\n");
+    let line = deck.lines().count();
+    let (m, _, r) = run(&deck);
+    let e = r.expect_err("a concave block is refused");
+    assert!(e.contains(&format!("t.dat:{line}")) && e.contains("block 1 is not convex") && e.contains("SPLIT cuts convex blocks only"), "{e}");
+    assert_eq!(m.blocks.len(), 1, "nothing is cut");
+
+    for (text, expect) in [
+        ("SPLIT 0 0 0 1 0", "SPLIT takes x y z nx ny nz"),
+        ("SPLIT 0 0 0 0 0 0", "must be a non-zero vector"),
+        ("SPLIT 0 0 0 1 0 0 MAT 0", "the material number n must be 1 or more"),
+        ("SPLIT 0 0 0 1 0 0 7", "SPLIT takes x y z nx ny nz"),
+        ("SPLIT 0 0 0 1 0 0 FOO", "expected MATERIAL or CONSTITUTIVE"),
+    ] {
+        let (_, _, r) = run(&format!("{PROPS}BOX 0 1 0 1 0 1\n{text}\n"));
+        let e = r.expect_err(text);
+        assert!(e.contains("t.dat:4") && e.contains(expect), "{text}: {e}");
+    }
+}
