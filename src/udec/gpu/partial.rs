@@ -24,6 +24,10 @@ use super::{r, Engine, GpuError};
 pub const LIST_SLACK: f64 = 0.01;
 
 /// Twin of `near_update` (list_blocks.wgsl).
+/// What `Engine::read_subset` returns: the blocks' device records and, in an SDEF scene, their
+/// extensions (empty in the others), both in the order of the blocks asked for.
+type SubsetRecords<R> = (Vec<Block<R>>, Vec<Sdef<R>>);
+
 fn near_update<R: Real>(blk: &Block<R>, lp: &ListParams<R>) -> bool {
     let (etol, margin, moved) = (lp.etol.to_f64(), blk.update_margin.to_f64(), blk.moved.to_f64());
     blk.fixed == 0 && moved > 0.5 * (etol + margin) * (1.0 - LIST_SLACK)
@@ -349,7 +353,7 @@ impl<R: Real> Engine<R> {
     /// Reads the blocks `blocks` (ascending; records and corners) and the contacts of `contacts`
     /// (runs of indices) back into the model, as a whole read-back would convert them (contacts
     /// as their summaries: gap, forces, dissipation, feature, bond); returns the block records.
-    pub(super) fn read_subset(&mut self, model: &mut Model, blocks: &[u32], contacts: &[(u32, u32)]) -> Result<(Vec<Block<R>>, Vec<Sdef<R>>), GpuError> {
+    pub(super) fn read_subset(&mut self, model: &mut Model, blocks: &[u32], contacts: &[(u32, u32)]) -> Result<SubsetRecords<R>, GpuError> {
         let _p = crate::profile::scope(crate::profile::Stage::Download);
         let b = self.buffers();
         let (bs, cs, ks) = (std::mem::size_of::<Block<R>>() as u64, std::mem::size_of::<Corner<R>>() as u64, std::mem::size_of::<Contact<R>>() as u64);
