@@ -17,12 +17,7 @@ args=("$@")
 out="${OUT:-out}"
 work=/tmp/blockdem-ab
 mkdir -p "$out" "$work"
-if ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-fi
-icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-[ -f "$icd" ] && export VK_DRIVER_FILES="$icd"
+source scripts/device-env.sh
 for i in $(seq 1 "$repeats"); do
     for bin in "$a" "$b"; do
         name="$(basename "$bin")-$i"

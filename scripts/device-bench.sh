@@ -8,15 +8,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 out="${OUT:-out}/bench"
 mkdir -p "$out"
-# The loaders only where the machine has none (unpacking over a system's own could break it).
-if ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-fi
-icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-egl=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
-[ -f "$icd" ] && export VK_DRIVER_FILES="$icd"
-[ -f "$egl" ] && export __EGL_VENDOR_LIBRARY_FILENAMES="$egl"
+source scripts/device-env.sh
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
 .devbin/blockdem adapters
 args=("$@")

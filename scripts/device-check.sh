@@ -16,8 +16,7 @@ pack() { tar -C "$work" -czf "$final/results.tar.gz" . ; cp "$work"/*.log "$fina
 trap pack EXIT
 OUT="$work" timeout "${BENCH_LIMIT:-240}" bash scripts/device-bench.sh "$@" > /dev/null 2>&1
 echo "bench: rc $?" | tee -a "$work/check.log"
-icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-[ -f "$icd" ] && export VK_DRIVER_FILES="$icd"
+source scripts/device-env.sh
 for deck in examples/udec1_point_load_cracking.dat examples/udec3_deformable_block.dat \
     examples/udec4_projectile_beam.dat examples/brick_wall_sdef.dat examples/brick_wall_impact.dat; do
     for p in f32 f64; do

@@ -11,12 +11,7 @@ cd "$(dirname "$0")/.."
 out="${OUT:-out}"
 work=/tmp/blockdem-experiments
 mkdir -p "$out" "$work"
-if ! ldconfig -p | grep -q 'libvulkan.so.1 '; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-fi
-icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-[ -f "$icd" ] && export VK_DRIVER_FILES="$icd"
+source scripts/device-env.sh
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
 sizes="${SIZES:-100000,1000000}"
 bench() {
