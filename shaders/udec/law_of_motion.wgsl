@@ -142,26 +142,33 @@ fn store_step(b: u32, s: Step) {
     }
 }
 
+// A fixed block stays still: its velocities held at zero.
+fn hold_still(b: u32) {
+    blocks[b].vx = 0.0;
+    blocks[b].vy = 0.0;
+    blocks[b].w = 0.0;
+}
+
+// Stage 6 of the last cycle for block b: its contact forces, gravity and load summed (fx, fy,
+// moment). The sums stay in this invocation: nothing reads a block's force in the cycle, and
+// `gather` stores them before they are read between cycles. A heavy block's stored sums are read
+// in its own (rare) branch, so that the others do not load them.
+fn gathered_force(b: u32, blk: Block) -> vec3<real> {
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    if (is_heavy(first, end)) {
+        return vec3<real>(blocks[b].fx, blocks[b].fy, blocks[b].moment);
+    }
+    return force_sum(blk, first, end);
+}
+
 // Stage 1 (with stage 6 of the last cycle before it and stage 2 after it) for the rigid block b.
 fn rigid_block(b: u32, blk: Block) {
     if (blk.fixed != 0u) {
-        blocks[b].vx = 0.0;
-        blocks[b].vy = 0.0;
-        blocks[b].w = 0.0;
+        hold_still(b);
         return;
     }
-    // Stage 6 of the last cycle. The sums stay in this invocation: nothing reads a block's force
-    // in the cycle, and `gather` stores them before they are read between cycles. A heavy
-    // block's stored sums are read in its own (rare) branch, so that the others do not load them.
-    let first = adj_offsets[b];
-    let end = adj_offsets[b + 1u];
-    var f = vec3<real>(0.0, 0.0, 0.0);
-    if (is_heavy(first, end)) {
-        f = vec3<real>(blocks[b].fx, blocks[b].fy, blocks[b].moment);
-    } else {
-        f = force_sum(blk, first, end);
-    }
-    let s = rigid_step(blk, f);
+    let s = rigid_step(blk, gathered_force(b, blk));
     store_step(b, s);
     if (s.place) {
         geometry_update(s.blk);
@@ -248,9 +255,7 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
         return;
     }
     if (blk.fixed != 0u) {
-        blocks[b].vx = 0.0;
-        blocks[b].vy = 0.0;
-        blocks[b].w = 0.0;
+        hold_still(b);
         sdefs[b].strain_rate = array<real, 3>(0.0, 0.0, 0.0);
         return;
     }
@@ -316,21 +321,11 @@ fn law_of_motion_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invo
     }
     let blk = blocks[b];
     if (blk.fixed != 0u) {
-        blocks[b].vx = 0.0;
-        blocks[b].vy = 0.0;
-        blocks[b].w = 0.0;
+        hold_still(b);
         return;
     }
-    let first = adj_offsets[b];
-    let end = adj_offsets[b + 1u];
-    var f = vec3<real>(0.0, 0.0, 0.0);
-    if (is_heavy(first, end)) {
-        f = vec3<real>(blocks[b].fx, blocks[b].fy, blocks[b].moment);
-    } else {
-        f = force_sum(blk, first, end);
-    }
     let l = vec3<real>(fluid_loads[b].fx, fluid_loads[b].fy, fluid_loads[b].m);
-    let s = rigid_step(blk, f + l);
+    let s = rigid_step(blk, gathered_force(b, blk) + l);
     store_step(b, s);
     if (s.place) {
         geometry_update(s.blk);
