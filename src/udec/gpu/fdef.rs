@@ -188,7 +188,7 @@ impl<R: Real> Engine<R> {
         q.write_buffer(&b.fdef_blocks.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&up.blocks));
         q.write_buffer(&b.gridpoint_zones.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&up.csr));
         let base = std::rc::Rc::make_mut(&mut self.uploaded);
-        base.fdef_damping_base = (0..model.blocks.len()).map(|k| model.fdef_of(k).map_or(0.0, |f| f.damping_work)).collect();
+        base.fdef_damping_base = std::sync::Arc::new((0..model.blocks.len()).map(|k| model.fdef_of(k).map_or(0.0, |f| f.damping_work)).collect());
         self.fdef_counts = (up.gridpoints.len(), up.zones.len());
         self.fdef_gp_start = up.gp_start;
         self.last_gridpoints = up.gridpoints;
