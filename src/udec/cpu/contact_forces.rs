@@ -38,7 +38,7 @@ struct ContactInputs<'a> {
 /// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
 /// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
 /// limit.
-fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], inp: &ContactInputs) -> Option<usize> {
+fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], features: &mut [[u32; 2]], inp: &ContactInputs) -> Option<usize> {
     let motion = |k: u32, b: &Block| BlockMotion {
         centroid: b.centroid,
         velocity: b.velocity,
@@ -79,6 +79,9 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
         };
         contact_force_law(contact, mat, &m1, &m2, &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
+        if let Some(f) = features.get_mut(k) {
+            *f = [contact.corner, g.feature];
+        }
         if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);
         }
@@ -88,7 +91,9 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
 
 /// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
 /// index, so the report repeats) whose overlap passes the limit, if any.
-pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], corner_velocity: &[[f64; 2]], dt: f64, team: &mut Team) -> Result<(), CycleError> {
+/// `features`: each contact's corner and feature, kept beside the forces in a scene with zoned
+/// blocks (`Scratch::features`; empty in other scenes).
+pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], features: &mut [[u32; 2]], corner_velocity: &[[f64; 2]], dt: f64, team: &mut Team) -> Result<(), CycleError> {
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let failure = {
@@ -97,12 +102,17 @@ pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], corn
         let n = contacts.len();
         assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);
+        assert!(features.is_empty() || features.len() == n, "a corner and feature per contact, or none");
         let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
+        let zoned = !features.is_empty();
+        let shared_features = SharedMut::new(features);
         team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
             // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` (as long),
             // mutably borrowed here.
             let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
-            if let Some(k) = contact_piece(r.start, piece, forces, &inp) {
+            // SAFETY: likewise, where the scene keeps them (else the empty slice).
+            let features = if zoned { unsafe { shared_features.range(r.clone()) } } else { &mut [] };
+            if let Some(k) = contact_piece(r.start, piece, forces, features, &inp) {
                 first.fetch_min(k, Ordering::Relaxed);
             }
         });

@@ -139,7 +139,7 @@ impl<R: Real> ContactShare<R> {
         if gp_start[b2] != NO_INDEX {
             let blk = &model.blocks[b2];
             let corners = &model.corners[blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize];
-            let [(ka, wa), (kb, wb)] = crate::udec::cpu::zones::force_shares(c, 1, blk.corner_start, corners, c.point);
+            let [(ka, wa), (kb, wb)] = crate::udec::cpu::zones::force_shares([c.corner, c.feature], 1, blk.corner_start, corners, c.point);
             s.g2a = gp_start[b2] + ka as u32;
             s.wa = r(wa);
             if c.feature % 2 == 1 {
