@@ -335,24 +335,74 @@ impl Model {
         }
     }
 
-    /// The critical time step (the FRACTION of it is the run's): 2√(m/k) for the lightest block
-    /// on the stiffest spring, as UDEC 1.2 takes it, with the block's rotation counted: its mass
-    /// is taken as no more than I_min/R² (the least principal moment over the squared radius), so
-    /// that a spring at a vertex does not ring faster about the block's softest axis.
+    /// The critical time step (the FRACTION of it is the run's), renewed every cycle from the
+    /// contacts there are, as 3DEC and PFC do (the report gives no rule for D3: Part III's law of
+    /// motion, ¶17, is UDEC's central differences, stable for Δt < 2/ω_max).
+    ///
+    /// UDEC takes 2√(m/k) for the lightest block on the stiffest spring: one spring per block.
+    /// A D3 block has several logical contacts at once (four at a face–face contact, eight
+    /// between two faces of a stack, ¶24) acting in parallel, and its rotation gives at a vertex
+    /// as its translation does, so ω_max is bounded here as in 2D's `stable_frac_estimate`, by
+    /// Gershgorin's theorem on the mass-normalised stiffness, block by block. A logical contact at
+    /// the point p with springs kn (normal) and ks (shear) moves block i by a compliance of at most
+    /// a_i = 1/m_i + |p − c_i|²/I_min,i (its translation, and its rotation about its softest
+    /// principal axis, the lever arm |p − c_i|), so its 3 × 6 block of the stiffness has norm at
+    /// most k·a_i with k = max(kn, ks), and the coupling with block j at most k·√(a_i a_j) (0 for a
+    /// fixed block j). Then
+    ///
+    ///   ω_max² ≤ max over free blocks i of Σ_{logical contacts of i} k (a_i + √(a_i a_j)),
+    ///
+    /// which for a block translating against fixed neighbours is UDEC/3DEC's Σk/m: the step
+    /// 2√(m/Σk). Before a block has contacts (and as a floor after) the row is that of one spring
+    /// of the stiffest material in use at the block's farthest vertex against a fixed block,
+    /// k_max·(1/m + R²/I_min), so FRACTION means the same from the first cycle. Stiffness-
+    /// proportional damping narrows the range to (2/ω)(√(1+ξ²) − ξ), ξ = βω/2, as in 2D. At
+    /// FRACTION 1 the step is at the bound, which lies at or below the true limit: the D3 cases
+    /// run stable there (`blockdem verify`, README). Returns None when no free block has mass or
+    /// no stiffness is defined.
     pub fn critical_timestep(&self) -> Option<f64> {
-        let mut k: f64 = 0.0;
-        let mut m = f64::INFINITY;
-        for b in &self.blocks {
-            let mat = self.material(b.material);
-            k = k.max(mat.kn).max(mat.ks);
+        let k_max = self.blocks.iter().map(|b| self.material(b.material)).fold(0.0f64, |k, m| k.max(m.kn).max(m.ks));
+        if k_max <= 0.0 {
+            return None;
+        }
+        // Each free block's least principal moment (zero for a fixed or massless block, which
+        // does not give at a contact).
+        let least: Vec<f64> = self.blocks.iter().map(|b| if b.fixed || b.mass <= 0.0 { 0.0 } else { least_eigenvalue(b.inertia_ref) }).collect();
+        // The compliance of block i at a lever arm r (r² given).
+        let compliance = |i: usize, r2: f64| -> f64 {
+            let b = &self.blocks[i];
             if b.fixed || b.mass <= 0.0 {
+                return 0.0;
+            }
+            1.0 / b.mass + if least[i] > 0.0 { r2 / least[i] } else { 0.0 }
+        };
+        let mut row: Vec<f64> = (0..self.blocks.len()).map(|i| k_max * compliance(i, self.blocks[i].shape.radius.powi(2))).collect();
+        let mut contact_rows = vec![0.0f64; self.blocks.len()];
+        for c in &self.contacts {
+            if c.logical.is_empty() {
                 continue;
             }
-            let least = least_eigenvalue(b.inertia_ref);
-            let rotational = if b.shape.radius > 0.0 { least / (b.shape.radius * b.shape.radius) } else { b.mass };
-            m = m.min(b.mass.min(rotational));
+            let mat = self.contact_material(c);
+            let k = mat.kn.max(mat.ks);
+            let [i, j] = c.blocks.map(|b| b as usize);
+            for l in &c.logical {
+                let ai = compliance(i, (l.point - self.blocks[i].centroid).length_squared());
+                let aj = compliance(j, (l.point - self.blocks[j].centroid).length_squared());
+                let shared = (ai * aj).sqrt();
+                contact_rows[i] += k * (ai + shared);
+                contact_rows[j] += k * (aj + shared);
+            }
         }
-        (k > 0.0 && m.is_finite() && m > 0.0).then(|| 2.0 * (m / k).sqrt())
+        for (r, c) in row.iter_mut().zip(&contact_rows) {
+            *r = r.max(*c);
+        }
+        let lambda = row.iter().copied().fold(0.0, f64::max);
+        if !(lambda > 0.0 && lambda.is_finite()) {
+            return None;
+        }
+        let omega = lambda.sqrt();
+        let xi = 0.5 * self.damping.beta * omega;
+        Some(2.0 / (omega * ((1.0 + xi * xi).sqrt() + xi)))
     }
 
     /// The time step the run takes: FRACTION × the critical one.
