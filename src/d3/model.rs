@@ -281,6 +281,8 @@ pub struct Model {
     pub time: f64,
     /// Work done by gravity, loads and VELOCITY since the start.
     pub external_work: f64,
+    /// The energy dissipated and released since the start (the ledger's other terms).
+    pub dissipated: Dissipation,
     /// The next contact id.
     pub next_contact_id: u32,
     /// The neighbour lists are stale (a command moved, added or changed blocks).
@@ -299,18 +301,66 @@ impl Default for Model {
             cycle: 0,
             time: 0.0,
             external_work: 0.0,
+            dissipated: Dissipation::default(),
             next_contact_id: 1,
             neighbours_stale: true,
         }
     }
 }
 
-/// The energy terms of a state.
+/// The energy taken out of the blocks' motion and the contact springs since the start, summed
+/// in a fixed order each cycle (so reruns repeat bit for bit).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Dissipation {
+    /// By the mass-proportional damping force −αmv (and −αL on the rotation).
+    pub mass_damping: f64,
+    /// By the stiffness-proportional contact dashpots β·kn·u̇n, β·ks·u̇s.
+    pub contact_damping: f64,
+    /// By friction (slip at the Coulomb limit) and by shear springs lost as contacts open.
+    pub friction: f64,
+    /// Strain energy of logical contacts that went while loaded (the touching region changed).
+    pub released: f64,
+}
+
+/// The energy ledger of a state (as 2D's, `udec::model::timestep::Energies`). With E₀ the
+/// kinetic + strain energy at START, the explicit cycle keeps
+///
+///   E_kin + E_strain + W_mass_damping + W_contact_damping + W_friction + E_released = E₀ + W_external
+///
+/// up to the O(Δt) errors of central differences; [`Energies::ledger`] is the left side minus
+/// W_external, which should stay at E₀ (0 from rest).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Energies {
+    /// ½mv² + ½ω·L of the free blocks, brought to the whole step by half a step of the current
+    /// force and moment (velocities live at t − Δt/2, positions and forces at t).
     pub kinetic: f64,
+    /// Fn²/2kn + |Fs|²/2ks over the logical contacts.
     pub strain: f64,
+    /// Work of gravity, loads and VELOCITY since START: the energy put in.
     pub external_work: f64,
+    pub mass_damping: f64,
+    pub contact_damping: f64,
+    pub friction: f64,
+    pub released: f64,
+}
+
+impl Energies {
+    /// Everything dissipated: mass and contact damping plus friction.
+    pub fn dissipated(&self) -> f64 {
+        self.mass_damping + self.contact_damping + self.friction
+    }
+
+    /// E_kin + E_strain + dissipated + released − W_external: constant in an exact bookkeeping.
+    pub fn ledger(&self) -> f64 {
+        self.kinetic + self.strain + self.dissipated() + self.released - self.external_work
+    }
+
+    /// The largest term, the scale a balance error is measured against.
+    pub fn scale(&self) -> f64 {
+        [self.kinetic, self.strain, self.external_work, self.mass_damping, self.contact_damping, self.friction, self.released]
+            .iter()
+            .fold(0.0f64, |a, b| a.max(b.abs()))
+    }
 }
 
 impl Model {
@@ -410,9 +460,25 @@ impl Model {
         self.critical_timestep().map_or(0.0, |dt| self.frac * dt)
     }
 
-    /// Kinetic energy, strain energy in the contact springs and the external work.
+    /// The energy ledger now (see [`Energies`]).
     pub fn energies(&self) -> Energies {
-        let kinetic = self.blocks.iter().map(Block::kinetic_energy).sum();
+        let h = 0.5 * self.timestep();
+        let kinetic = self
+            .blocks
+            .iter()
+            .filter(|b| !b.fixed && b.mass > 0.0)
+            .map(|b| {
+                let v = b.velocity + b.force / b.mass * h;
+                let l = b.angular_momentum + b.moment * h;
+                let at_t = 0.5 * b.mass * v.length_squared() + 0.5 * l.dot(b.angular_velocity_from(l));
+                // Where half a step overflows, the half-step's energy keeps the ledger a number.
+                if at_t.is_finite() {
+                    at_t
+                } else {
+                    b.kinetic_energy()
+                }
+            })
+            .sum();
         let mut strain = 0.0;
         for c in &self.contacts {
             let m = self.contact_material(c);
@@ -425,7 +491,16 @@ impl Model {
                 }
             }
         }
-        Energies { kinetic, strain, external_work: self.external_work }
+        let d = self.dissipated;
+        Energies {
+            kinetic,
+            strain,
+            external_work: self.external_work,
+            mass_damping: d.mass_damping,
+            contact_damping: d.contact_damping,
+            friction: d.friction,
+            released: d.released,
+        }
     }
 }
 
