@@ -257,6 +257,10 @@ enum BenchScene {
     SdefScaling,
     /// The zoned scene family (fully-deformable blocks: one large block, a wall of zoned bricks).
     Zones,
+    /// D3: 1000 unit cubes in a lattice falling on a slab (body-steps/s; CPU).
+    D3Cubes,
+    /// D3: a brick wall of 10^3 and 10^4 bricks struck by a cube (contact-cycles/s; CPU).
+    D3Wall,
     All,
 }
 
@@ -313,6 +317,11 @@ fn bench(
     options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
     options.sdef_scaling = matches!(scene, BenchScene::SdefScaling | BenchScene::All);
     options.zones = matches!(scene, BenchScene::Zones | BenchScene::All);
+    options.d3_cubes = matches!(scene, BenchScene::D3Cubes | BenchScene::All);
+    options.d3_wall = matches!(scene, BenchScene::D3Wall | BenchScene::All);
+    if let (true, Some(sizes)) = (scene == BenchScene::D3Wall, &sizes) {
+        options.d3_wall_sizes = sizes.clone();
+    }
     options.max_zones = max_zones;
     options.max_blocks = max_blocks;
     if let Some(sizes) = sizes {
