@@ -628,12 +628,12 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     if opts.backends.iter().any(|b| matches!(b, BackendSpec::Cpu)) {
         if opts.d3_cubes {
             say(&format!("d3-cubes ({} cubes) on the CPU", opts.d3_cubes_n));
-            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s));
+            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s, opts.rounds));
         }
         if opts.d3_wall {
             for &n in &opts.d3_wall_sizes {
                 say(&format!("d3-wall ({n} bricks) on the CPU"));
-                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s));
+                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s, opts.rounds));
             }
         }
     }

@@ -158,12 +158,15 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
 /// The distance along `n` from `p` at which the line p + s·n leaves the convex block (the least
 /// s over the faces it heads out through), or enters it (`entering`: the greatest s over the faces
 /// it heads in through).
+///
+/// Only one face of each plane is tried (`Shape::planes`): the faces of a convex block that
+/// share an outward normal lie in one supporting plane, so the others give the same crossing.
 fn ray_crossing(block: &Block, p: DVec3, n: DVec3, entering: bool) -> f64 {
     let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
-    for (f, face) in block.shape.faces.iter().enumerate() {
-        let nf = block.face_normal(f);
+    for &f in &block.shape.planes {
+        let nf = block.face_normal(f as usize);
         let d = nf.dot(n);
-        let x = block.vertices[face[0] as usize];
+        let x = block.vertices[block.shape.faces[f as usize][0] as usize];
         if entering && d < -1e-9 {
             s_best = s_best.max(nf.dot(x - p) / d);
         } else if !entering && d > 1e-9 {
