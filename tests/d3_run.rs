@@ -178,13 +178,8 @@ fn the_ledger_balances_on_the_sliding_box() {
     let slab = corners(-2.0, 6.0, -1.0, 0.0, -2.0, 2.0);
     let cube = corners(0.0, 1.0, 0.0, 0.5, -0.5, 0.5);
     let (fx, fz) = rot(2.0, -0.5);
-    let deck = format!(
-        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.3\n{slab}{cube}FIX {} {} -0.1 0.1 {} {}\nGRAV 0 0 -10\n",
-        fx - 0.1,
-        fx + 0.1,
-        fz - 0.1,
-        fz + 0.1
-    );
+    let deck =
+        format!("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.3\n{slab}{cube}FIX {} {} -0.1 0.1 {} {}\nGRAV 0 0 -10\n", fx - 0.1, fx + 0.1, fz - 0.1, fz + 0.1);
     let model = run(&format!("{deck}CYCLE 0\n"));
     assert!(model.blocks[0].fixed && !model.blocks[1].fixed);
     let (drift, e) = ledger_drift(&deck, 20000, 500);

@@ -266,11 +266,7 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
             goal: format!(">= {:.0e} body-steps/s", super::d3::CUBES_TARGET),
             measured: if ok { format!("{:.3e}", row.body_steps_per_s) } else { "failed".into() },
             met: Some(ok && row.body_steps_per_s >= super::d3::CUBES_TARGET),
-            note: if ok {
-                format!("{:.2} of the target", row.body_steps_per_s / super::d3::CUBES_TARGET)
-            } else {
-                row.error.clone().unwrap_or_default()
-            },
+            note: if ok { format!("{:.2} of the target", row.body_steps_per_s / super::d3::CUBES_TARGET) } else { row.error.clone().unwrap_or_default() },
         });
     }
     t

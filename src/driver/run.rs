@@ -154,7 +154,6 @@ impl Ticker {
     }
 }
 
-
 /// What [`run_in_pieces`] asks of an engine's executor.
 pub trait Pieces {
     /// Runs `cycles` cycles (0: the contact detection alone) through the backend, `tick` told the

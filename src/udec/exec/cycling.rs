@@ -561,4 +561,3 @@ pub fn initial_overlaps(model: &Model) -> Vec<InitialOverlap> {
     pairs.sort_by(|a, b| b.energy.total_cmp(&a.energy));
     pairs
 }
-
