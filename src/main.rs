@@ -677,9 +677,7 @@ fn restarts_d3(text: &str, name: &str, out: &std::path::Path) -> bool {
     let Some(blockdem::d3::deck::Command::Restart { file }) = commands.first().map(|c| &c.command) else {
         return false;
     };
-    let file = file.as_deref().unwrap_or(blockdem::d3::exec::DEFAULT_SAVE_FILE);
-    let p = std::path::Path::new(file);
-    let path = if p.is_absolute() || p.components().count() > 1 { p.to_path_buf() } else { out.join(p) };
+    let path = blockdem::output::resolve_in(out, file.as_deref(), blockdem::d3::exec::DEFAULT_SAVE_FILE);
     blockdem::d3::restart::is_save_file(&path)
 }
 

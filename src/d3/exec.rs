@@ -77,13 +77,7 @@ impl<'a> Executor<'a> {
     /// The path of a SAVE or RESTART file: `name` (or [`DEFAULT_SAVE_FILE`]) in the output folder
     /// when it names no folder.
     fn resolve(&self, name: &Option<String>) -> PathBuf {
-        let name = name.as_deref().unwrap_or(DEFAULT_SAVE_FILE);
-        let p = Path::new(name);
-        if p.is_absolute() || p.components().count() > 1 {
-            p.to_path_buf()
-        } else {
-            self.options.out_dir.join(p)
-        }
+        crate::output::resolve_in(&self.options.out_dir, name.as_deref(), DEFAULT_SAVE_FILE)
     }
 
     /// Writes the model as a save file RESTART reads (SAVE's, and the last good state `blockdem
