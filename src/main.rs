@@ -257,6 +257,10 @@ enum BenchScene {
     SdefScaling,
     /// The zoned scene family (fully-deformable blocks: one large block, a wall of zoned bricks).
     Zones,
+    /// D3: 1000 unit cubes in a lattice falling on a slab (body-steps/s; CPU).
+    D3Cubes,
+    /// D3: a brick wall of 10^3 and 10^4 bricks struck by a cube (contact-cycles/s; CPU).
+    D3Wall,
     All,
 }
 
@@ -313,6 +317,11 @@ fn bench(
     options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
     options.sdef_scaling = matches!(scene, BenchScene::SdefScaling | BenchScene::All);
     options.zones = matches!(scene, BenchScene::Zones | BenchScene::All);
+    options.d3_cubes = matches!(scene, BenchScene::D3Cubes | BenchScene::All);
+    options.d3_wall = matches!(scene, BenchScene::D3Wall | BenchScene::All);
+    if let (true, Some(sizes)) = (scene == BenchScene::D3Wall, &sizes) {
+        options.d3_wall_sizes = sizes.clone();
+    }
     options.max_zones = max_zones;
     options.max_blocks = max_blocks;
     if let Some(sizes) = sizes {
@@ -546,8 +555,8 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         // A deck that starts by RESTART of a D3 save file is a D3 deck too.
         let d3_restart = three_d.is_none() && dim.is_none() && restarts_d3(&text, &name, &out);
         match (dim, three_d) {
-            (Some(3), _) | (None, Some(_)) => return run_d3(&text, &name, backend, state_json, &out),
-            (None, None) if d3_restart => return run_d3(&text, &name, backend, state_json, &out),
+            (Some(3), _) | (None, Some(_)) => return run_d3(&text, &name, backend, state_json, run_options(&out, checkpoint_every, vtk_every)),
+            (None, None) if d3_restart => return run_d3(&text, &name, backend, state_json, run_options(&out, checkpoint_every, vtk_every)),
             (Some(2), Some(why)) => bail!("{name}:{}: {} makes this a 3D (D3) deck, but --dim 2 was given", why.line, why.what),
             _ => {}
         }
@@ -595,18 +604,7 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
             }
         }
     };
-    let interrupt = Arc::new(AtomicBool::new(false));
-    watch_interrupts(interrupt.clone());
-    // A bar on a terminal; otherwise (a batch run, a log file) a line on stderr every 30 s, or
-    // every BLOCKDEM_PROGRESS_SECONDS.
-    let progress = if std::io::stdout().is_terminal() {
-        Progress::Bar
-    } else {
-        let seconds = std::env::var("BLOCKDEM_PROGRESS_SECONDS").ok().and_then(|v| v.parse::<f64>().ok()).filter(|s| s.is_finite() && *s >= 0.0);
-        Progress::Lines { every: std::time::Duration::from_secs_f64(seconds.unwrap_or(30.0)) }
-    };
-    let checkpoint_every = checkpoint_every.map(std::time::Duration::from_secs_f64);
-    let options = RunOptions { out_dir: out.clone(), progress, interrupt: Some(interrupt), checkpoint_every, vtk_every };
+    let options = run_options(&out, checkpoint_every, vtk_every);
     // Buffered: the executor flushes the log after every command but BLOCK, so a generated deck's
     // 10⁶ BLOCK echoes cost buffered writes rather than one write each (0.2–0.6 s here).
     let mut exec = Executor::new(backend, Box::new(std::io::BufWriter::new(Stdout)), options, &name);
@@ -654,6 +652,22 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
     json_written
 }
 
+/// The run options of `blockdem run` for either engine: `--out`, Ctrl-C watched, progress (a
+/// bar on a terminal; otherwise, a batch run or a log file, a line on stderr every 30 s or every
+/// BLOCKDEM_PROGRESS_SECONDS), `--checkpoint-every`, `--vtk-every`.
+fn run_options(out: &std::path::Path, checkpoint_every: Option<f64>, vtk_every: Option<u64>) -> RunOptions {
+    let interrupt = Arc::new(AtomicBool::new(false));
+    watch_interrupts(interrupt.clone());
+    let progress = if std::io::stdout().is_terminal() {
+        Progress::Bar
+    } else {
+        let seconds = std::env::var("BLOCKDEM_PROGRESS_SECONDS").ok().and_then(|v| v.parse::<f64>().ok()).filter(|s| s.is_finite() && *s >= 0.0);
+        Progress::Lines { every: std::time::Duration::from_secs_f64(seconds.unwrap_or(30.0)) }
+    };
+    let checkpoint_every = checkpoint_every.map(std::time::Duration::from_secs_f64);
+    RunOptions { out_dir: out.to_path_buf(), progress, interrupt: Some(interrupt), checkpoint_every, vtk_every }
+}
+
 /// Whether the deck's first command is a RESTART of a D3 save file (`d3::restart::MAGIC`), the
 /// file named as D3's executor resolves it (in `out` when it names no folder).
 fn restarts_d3(text: &str, name: &str, out: &std::path::Path) -> bool {
@@ -663,29 +677,27 @@ fn restarts_d3(text: &str, name: &str, out: &std::path::Path) -> bool {
     let Some(blockdem::d3::deck::Command::Restart { file }) = commands.first().map(|c| &c.command) else {
         return false;
     };
-    let file = file.as_deref().unwrap_or(blockdem::d3::exec::DEFAULT_SAVE_FILE);
-    let p = std::path::Path::new(file);
-    let path = if p.is_absolute() || p.components().count() > 1 { p.to_path_buf() } else { out.join(p) };
+    let path = blockdem::output::resolve_in(out, file.as_deref(), blockdem::d3::exec::DEFAULT_SAVE_FILE);
     blockdem::d3::restart::is_save_file(&path)
 }
 
-/// `blockdem run` of a 3D deck: D3 on the CPU (its GPU kernels are to come). SAVE and RESTART
-/// files named without a folder are in `out`.
-fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<PathBuf>, out: &std::path::Path) -> anyhow::Result<()> {
+/// `blockdem run` of a 3D deck: D3 on the CPU (its GPU kernels are to come), with the chassis's
+/// run options (as 2D's). After a numerical failure or an interrupt the last good state (or the
+/// state the interrupt stopped at) goes to OUT/last_good.sav, a D3 save file RESTART reads.
+fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<PathBuf>, options: RunOptions) -> anyhow::Result<()> {
     match backend {
         BackendChoice::Gpu => bail!("--backend gpu: the D3 engine (3D decks) runs on the CPU only in this version; use --backend cpu or auto"),
         BackendChoice::Auto => note!("blockdem: a 3D deck: the D3 engine, on the CPU (f64)"),
         BackendChoice::Cpu => {}
     }
     let commands = blockdem::d3::deck::parse_deck(text, name)?;
+    check_out_dir(&options.out_dir)?;
     if let Some(path) = &state_json {
         check_out_file(path, "--state-json")?;
     }
-    let interrupt = Arc::new(AtomicBool::new(false));
-    watch_interrupts(interrupt.clone());
+    let out = options.out_dir.clone();
     let mut exec = blockdem::d3::exec::Executor::new(Box::new(std::io::BufWriter::new(Stdout)), name);
-    exec.set_interrupt(interrupt);
-    exec.set_out_dir(out);
+    exec.set_options(options);
     let result = exec.run(&commands);
     let provenance = Provenance::now(name, "cpu", None, "f64");
     let json_written = match &state_json {
@@ -698,7 +710,22 @@ fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<Pat
         }
         None => Ok(()),
     };
+    if let Err(e) = &result {
+        // Never lose work (as in 2D): the last good state, or the state an interrupt stopped at.
+        let numerical = matches!(e, blockdem::d3::exec::RunError::Cycle(_));
+        if numerical || e.is_interrupted() {
+            let _ = std::fs::create_dir_all(&out);
+            let path = out.join("last_good.sav");
+            let which = if numerical { "the last good state" } else { "the state" };
+            if exec.save_state(&path).is_ok() {
+                note!("blockdem: {which} (cycle {}) is saved in {}", exec.model.cycle, path.display());
+            }
+        }
+    }
     drop(exec);
+    if let (Err(_), Err(json)) = (&result, &json_written) {
+        note!("blockdem: {json:#}");
+    }
     result?;
     json_written
 }

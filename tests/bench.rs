@@ -361,3 +361,34 @@ fn the_stage_shares_add_up_to_the_whole() {
     assert_eq!(share("GPU batches") + share("contact updates"), 100.0, "{table}");
     assert_eq!((share("law_of_motion"), share("contact_forces")), (25.0, 75.0), "{table}");
 }
+
+/// D3's scenes (`--scene d3-cubes`, `--scene d3-wall`) at tiny sizes: they run on the CPU, write
+/// their rows (bench_d3.csv, bench.json) and the TARGETS row of the cubes.
+#[test]
+fn the_d3_scenes_run_and_write_their_files() {
+    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu]);
+    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones) =
+        (false, false, false, false, false, false, false);
+    options.d3_cubes_n = 8;
+    options.d3_wall_sizes = vec![20];
+    options.measure_s = 0.05;
+    let report = blockdem::bench::run(&options);
+    assert_eq!(report.d3.len(), 2, "{:?}", report.d3);
+    for r in &report.d3 {
+        assert!(r.error.is_none(), "{r:?}");
+        assert!(r.cycles >= 10 && r.s_per_cycle > 0.0 && r.body_steps_per_s > 0.0, "{r:?}");
+        // Every cube stands on another or on the slab; the bricks on each other.
+        assert!(r.touching > 0 && r.logical >= 4 * r.touching / 2, "{r:?}");
+    }
+    assert_eq!((report.d3[0].scene, report.d3[0].blocks), ("d3-cubes", 8));
+    assert_eq!((report.d3[1].scene, report.d3[1].blocks), ("d3-wall", 21), "20 bricks and the projectile");
+    let target = report.targets.iter().find(|t| t.target.starts_with("d3-cubes")).expect("a TARGETS row");
+    assert!(target.met.is_some() && target.goal.contains("1e6"), "{target:?}");
+    let dir = temp("d3");
+    let (files, _) = blockdem::bench::write_outputs(&report, &dir).unwrap();
+    let csv = std::fs::read_to_string(dir.join("bench_d3.csv")).unwrap();
+    assert!(files.contains(&dir.join("bench_d3.csv")) && csv.lines().count() == 3, "{csv}");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap();
+    assert_eq!(json["d3"].as_array().unwrap().len(), 2);
+    assert!(blockdem::bench::table(&report).contains("d3-wall"));
+}

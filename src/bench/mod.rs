@@ -29,6 +29,7 @@
 //! stage on the same state (`gpu::profile`).
 
 pub mod chart;
+pub mod d3;
 pub mod host;
 pub mod memory_spec;
 pub mod report;
@@ -76,6 +77,12 @@ pub struct BenchOptions {
     pub zones: bool,
     /// Largest zoned scene (zones); None: `zones::DEFAULT_MAX_ZONES` (10³ with `quick`).
     pub max_zones: Option<usize>,
+    /// D3's cubes in a lattice (`d3::cubes_deck`), and how many.
+    pub d3_cubes: bool,
+    pub d3_cubes_n: usize,
+    /// D3's brick wall struck by a cube (`d3::wall_deck`), and its sizes (bricks).
+    pub d3_wall: bool,
+    pub d3_wall_sizes: Vec<usize>,
     pub backends: Vec<BackendSpec>,
     /// Largest wall of the scaling family; None: 10⁴ with `quick`, else 10⁵ on the CPU and
     /// software adapters and 10⁶ on hardware GPUs.
@@ -109,6 +116,10 @@ impl BenchOptions {
             sdef_scaling: true,
             zones: true,
             max_zones: None,
+            d3_cubes: true,
+            d3_cubes_n: 1000,
+            d3_wall: true,
+            d3_wall_sizes: if quick { vec![1_000] } else { vec![1_000, 10_000] },
             backends,
             max_blocks: None,
             sizes: SIZES.to_vec(),
@@ -377,6 +388,8 @@ pub struct BenchReport {
     pub sdef_scaling: Vec<ScalingRow>,
     /// The zoned scene family (`zones`).
     pub zones: Vec<zones::ZoneRow>,
+    /// D3's scenes (`d3-cubes`, `d3-wall`), on its CPU backend.
+    pub d3: Vec<d3::D3Row>,
     pub targets: Vec<TargetRow>,
 }
 
@@ -489,6 +502,8 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             ("scaling", opts.scaling),
             ("sdef-scaling", opts.sdef_scaling),
             ("zones", opts.zones),
+            ("d3-cubes", opts.d3_cubes),
+            ("d3-wall", opts.d3_wall),
         ]
         .iter()
         .filter(|s| s.1)
@@ -606,6 +621,19 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             for (name, deck) in decks {
                 let rows = zones::measure(name, n, &deck, &mut engines, &report.backends, opts.measure_s, &say);
                 report.zones.extend(rows);
+            }
+        }
+    }
+    // D3 runs on the CPU only: its rows come when the CPU is among the backends.
+    if opts.backends.iter().any(|b| matches!(b, BackendSpec::Cpu)) {
+        if opts.d3_cubes {
+            say(&format!("d3-cubes ({} cubes) on the CPU", opts.d3_cubes_n));
+            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s, opts.rounds));
+        }
+        if opts.d3_wall {
+            for &n in &opts.d3_wall_sizes {
+                say(&format!("d3-wall ({n} bricks) on the CPU"));
+                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s, opts.rounds));
             }
         }
     }

@@ -257,6 +257,18 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
             }),
         }
     }
+    // D3's cycle on the CPU (issue 31): 10⁶ body-steps per second on the 1000 cubes.
+    for row in r.d3.iter().filter(|x| x.scene == "d3-cubes") {
+        let ok = row.error.is_none();
+        t.push(TargetRow {
+            target: format!("d3-cubes ({} cubes), D3 CPU cycle", row.blocks),
+            backend: row.backend.clone(),
+            goal: format!(">= {:.0e} body-steps/s", super::d3::CUBES_TARGET),
+            measured: if ok { format!("{:.3e}", row.body_steps_per_s) } else { "failed".into() },
+            met: Some(ok && row.body_steps_per_s >= super::d3::CUBES_TARGET),
+            note: if ok { format!("{:.2} of the target", row.body_steps_per_s / super::d3::CUBES_TARGET) } else { row.error.clone().unwrap_or_default() },
+        });
+    }
     t
 }
 
@@ -466,6 +478,7 @@ pub fn table(r: &BenchReport) -> String {
 
     s += &sdef_scaling_table(r);
     s += &super::zones::table(&r.zones);
+    s += &super::d3::table(&r.d3);
     if !r.targets.is_empty() {
         let _ = writeln!(s, "\nTARGETS");
         let _ = writeln!(s, "{:<50} {:<24} {:<30} {:<14} {:<5} note", "target", "backend", "goal", "measured", "met");
@@ -649,7 +662,8 @@ pub fn targets_csv(r: &BenchReport) -> String {
     s
 }
 
-/// Writes bench.csv, bench_stages.csv, bench_reference.csv, bench_targets.csv, bench.json and
+/// Writes bench.csv, bench_stages.csv, bench_reference.csv, bench_targets.csv, bench_zones.csv,
+/// bench_sdef_scaling.csv, bench_d3.csv, bench.json and
 /// bench.png into `dir`. Returns the files written and, when the chart could not be drawn, why.
 pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBuf>, Option<String>)> {
     std::fs::create_dir_all(dir)?;
@@ -660,6 +674,7 @@ pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBu
         ("bench_reference.csv", reference_csv(r)),
         ("bench_targets.csv", targets_csv(r)),
         ("bench_zones.csv", super::zones::csv(&r.zones)),
+        ("bench_d3.csv", super::d3::csv(&r.d3)),
         ("bench_sdef_scaling.csv", rows_csv(&r.sdef_scaling)),
         ("bench.json", serde_json::to_string_pretty(r).map_err(std::io::Error::other)?),
     ] {

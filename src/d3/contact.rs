@@ -158,12 +158,15 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
 /// The distance along `n` from `p` at which the line p + s·n leaves the convex block (the least
 /// s over the faces it heads out through), or enters it (`entering`: the greatest s over the faces
 /// it heads in through).
+///
+/// Only one face of each plane is tried (`Shape::planes`): the faces of a convex block that
+/// share an outward normal lie in one supporting plane, so the others give the same crossing.
 fn ray_crossing(block: &Block, p: DVec3, n: DVec3, entering: bool) -> f64 {
     let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
-    for (f, face) in block.shape.faces.iter().enumerate() {
-        let nf = block.face_normal(f);
+    for &f in &block.shape.planes {
+        let nf = block.face_normal(f as usize);
         let d = nf.dot(n);
-        let x = block.vertices[face[0] as usize];
+        let x = block.vertices[block.shape.faces[f as usize][0] as usize];
         if entering && d < -1e-9 {
             s_best = s_best.max(nf.dot(x - p) / d);
         } else if !entering && d > 1e-9 {
@@ -380,12 +383,18 @@ pub fn prescribed_normal(block: &Block, p: DVec3) -> DVec3 {
 
 /// The force–displacement law for the logical contacts of `contact` (eqs. 13–20), at the
 /// contact's current normal; `old_normal` is the normal of the previous cycle (for the rotation
-/// of the shear force). Returns nothing: the forces are stored in the logical contacts.
-pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block, mat: &Material, dt: f64) {
+/// of the shear force). The forces are stored in the logical contacts; returns the energy
+/// friction took (the ledger's `friction`): at the Coulomb limit L the spring slips by
+/// (|Fs_trial| − L)/ks, at the force L, and a contact that opens loses its shear spring's energy.
+pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block, mat: &Material, dt: f64) -> f64 {
     let n = contact.normal;
+    let mut friction = 0.0;
     for l in &mut contact.logical {
         if l.gap > 0.0 {
             // Open: no force, and the shear history is lost.
+            if mat.ks > 0.0 {
+                friction += 0.5 * l.shear_force.length_squared() / mat.ks;
+            }
             l.normal_force = 0.0;
             l.shear_force = DVec3::ZERO;
             continue;
@@ -409,10 +418,19 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
         let limit = mat.cohesion + mat.friction * l.normal_force;
         let size = fs.length();
         if size > limit {
-            fs *= if size > 0.0 { limit.max(0.0) / size } else { 0.0 };
+            let kept = limit.max(0.0);
+            if mat.ks > 0.0 {
+                friction += kept * (size - kept) / mat.ks;
+                // Below a zero limit (tension) the spring's whole energy goes.
+                if kept == 0.0 {
+                    friction += 0.5 * size * size / mat.ks;
+                }
+            }
+            fs *= if size > 0.0 { kept / size } else { 0.0 };
         }
         l.shear_force = fs;
     }
+    friction
 }
 
 /// The total force each logical contact puts on block 2 (block 1 takes its opposite), the

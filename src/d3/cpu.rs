@@ -151,14 +151,17 @@ impl driver::Stages<Model> for Stages {
     }
 }
 
-/// Stage 6: each block's force and moment sums, gravity, load and contacts, in a fixed order.
-pub fn gather(model: &mut Model) {
+/// Stage 6: each block's force and moment sums, gravity, load and contacts, in a fixed order;
+/// the contact dashpots' work over the step `dt` to come (their power β(kn u̇n² + ks|u̇s|²) at
+/// the half-step velocities) booked in the ledger.
+pub fn gather(model: &mut Model, dt: f64) {
     let g = model.gravity;
     for b in &mut model.blocks {
         b.force = b.mass * g + b.load;
         b.moment = DVec3::ZERO;
     }
     let beta = model.damping.beta;
+    let mut dashpots = 0.0;
     for c in &model.contacts {
         let [ia, ib] = c.blocks.map(|i| i as usize);
         let mat = model.contact_material(c);
@@ -169,6 +172,11 @@ pub fn gather(model: &mut Model) {
         let mut mb = DVec3::ZERO;
         for l in &c.logical {
             let f = contact::logical_force(l, c.normal, a, b, &mat, beta);
+            if beta > 0.0 && l.gap <= 0.0 {
+                let u = b.velocity_at(l.point) - a.velocity_at(l.point);
+                let un = u.dot(c.normal);
+                dashpots += beta * (mat.kn * un * un + mat.ks * (u - un * c.normal).length_squared()) * dt;
+            }
             // Eq. (12) on each block: positive on block 2, negative on block 1 (¶19).
             fb += f;
             mb += (l.point - b.centroid).cross(f);
@@ -180,6 +188,7 @@ pub fn gather(model: &mut Model) {
         model.blocks[ib].force += fb;
         model.blocks[ib].moment += mb;
     }
+    model.dissipated.contact_damping += dashpots;
 }
 
 /// Stage 4 over every contact: common plane, logical contacts (their shear forces carried by
@@ -188,32 +197,53 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
     let tol = model.contact_tolerance();
     let blocks = &model.blocks;
     let materials: Vec<_> = model.contacts.iter().map(|c| model.material(blocks[c.blocks[0] as usize].material)).collect();
-    model.contacts.par_iter_mut().zip(materials).for_each(|(c, mat)| {
-        let (a, b) = (&blocks[c.blocks[0] as usize], &blocks[c.blocks[1] as usize]);
-        update_contact(c, a, b, &mat, tol, dt);
-    });
+    let energy: Vec<(f64, f64)> = model
+        .contacts
+        .par_iter_mut()
+        .zip(materials)
+        .map(|(c, mat)| {
+            let (a, b) = (&blocks[c.blocks[0] as usize], &blocks[c.blocks[1] as usize]);
+            update_contact(c, a, b, &mat, tol, dt)
+        })
+        .collect();
+    // Summed in the contacts' order: reruns repeat bit for bit.
+    for (friction, released) in energy {
+        model.dissipated.friction += friction;
+        model.dissipated.released += released;
+    }
 }
 
-/// One contact's stage 4.
-pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model::Block, mat: &super::model::Material, tol: f64, dt: f64) {
+/// The strain energy of a logical contact's springs, Fn²/2kn + |Fs|²/2ks.
+fn spring_energy(l: &Logical, mat: &super::model::Material) -> f64 {
+    let mut e = 0.0;
+    if mat.kn > 0.0 {
+        e += 0.5 * l.normal_force * l.normal_force / mat.kn;
+    }
+    if mat.ks > 0.0 {
+        e += 0.5 * l.shear_force.length_squared() / mat.ks;
+    }
+    e
+}
+
+/// One contact's stage 4. Returns the energy friction took and that released by logical
+/// contacts that went while loaded (for the ledger).
+pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model::Block, mat: &super::model::Material, tol: f64, dt: f64) -> (f64, f64) {
     // Boxes apart by more than the contact-forming distance: the blocks are (a lower bound of
     // their distance), and the common plane is not needed.
     let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
-    if (b0 - a1).max(a0 - b1).max_element() > tol {
-        c.category = None;
-        c.area = 0.0;
-        c.logical.clear();
-        return;
-    }
-    let plane = contact::common_plane(a, b, tol);
+    let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
+    let plane = (!apart).then(|| contact::common_plane(a, b, tol));
     let old_normal = c.normal;
-    c.normal = plane.normal;
-    if plane.separation > tol {
+    if let Some(p) = &plane {
+        c.normal = p.normal;
+    }
+    let Some(plane) = plane.filter(|p| p.separation <= tol) else {
+        let released = c.logical.iter().map(|l| spring_energy(l, mat)).sum();
         c.category = None;
         c.area = 0.0;
         c.logical.clear();
-        return;
-    }
+        return (0.0, released);
+    };
     let (category, found, area) = contact::logical_contacts(a, b, &plane, tol);
     let previous = std::mem::take(&mut c.logical);
     c.logical = found
@@ -223,27 +253,36 @@ pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model
             Logical { kind, point, gap, normal_force: 0.0, shear_force }
         })
         .collect();
+    // The strain of logical contacts not found again (their shear springs; their normal ones
+    // too, where the touching region lost a loaded corner).
+    let released = previous.iter().filter(|l| !c.logical.iter().any(|n| n.kind == l.kind)).map(|l| spring_energy(l, mat)).sum();
     c.category = Some(category);
     c.area = area;
-    contact::force_law(c, old_normal, a, b, mat, dt);
+    (contact::force_law(c, old_normal, a, b, mat, dt), released)
 }
 
 /// One cycle: stages 6, 1–2, 7 as due, 4.
 pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
     let dt = model.timestep();
-    gather(model);
+    gather(model, dt);
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
     let outcomes: Vec<motion::StepOutcome> = model.blocks.par_iter_mut().map(|b| motion::law_of_motion(b, gravity, alpha, dt)).collect();
     let tol = model.contact_tolerance();
+    let fastest = outcomes.iter().map(|o| o.travel).fold(0.0, f64::max);
     for (k, o) in outcomes.iter().enumerate() {
         let b = &model.blocks[k];
         if !(o.external_work.is_finite() && b.centroid.is_finite() && b.velocity.is_finite() && b.angular_momentum.is_finite()) {
             return Err(CycleError::NonFinite { cycle: model.cycle + 1, block: b.id, what: "a non-finite position or velocity".into() });
         }
-        if o.travel > tol {
+        // A block that moved more than the contact-forming distance in one step could pass a
+        // contact unseen; one with no other block within its travel plus the neighbour margin
+        // (and the fastest block's travel) cannot, and the lists are rebuilt after the step
+        // (its travel is past the threshold): a block tumbling alone is not stopped.
+        if o.travel > tol && !topology::alone(model, k, o.travel + fastest + topology::neighbour_margin(model)) {
             return Err(CycleError::TooFast { cycle: model.cycle + 1, block: b.id, travel: o.travel, limit: tol, speed: o.travel / dt });
         }
         model.external_work += o.external_work;
+        model.dissipated.mass_damping += o.damping_work;
     }
     model.cycle += 1;
     model.time += dt;

@@ -4,7 +4,7 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -15,7 +15,8 @@ use super::geometry;
 use super::model::{Block, Material, Model};
 use super::output;
 use crate::deck::DeckError;
-use crate::driver::CycleError;
+use crate::driver::run::{Pieces, RunOptions, Ticker};
+use crate::driver::{CycleError, CycleReport};
 use crate::output::format::fmt_e;
 
 /// Why a run stopped early.
@@ -46,42 +47,49 @@ pub struct Executor<'a> {
     backend: CpuBackend,
     log: Box<dyn Write + 'a>,
     file: String,
-    interrupt: Option<Arc<AtomicBool>>,
-    /// Where SAVE and RESTART files named without a folder and VTK frames go (`--out`).
-    out_dir: PathBuf,
+    /// The chassis's run options (as 2D's): `--out` (SAVE and RESTART files named without a
+    /// folder, VTK frames, running restart files), progress, Ctrl-C, `--checkpoint-every`,
+    /// `--vtk-every`.
+    options: RunOptions,
 }
 
 /// SAVE's and RESTART's file when the command names none (as in 2D).
 pub const DEFAULT_SAVE_FILE: &str = "blockdem.sav";
-/// The folder of the output folder VTK frames go into (as in 2D).
-pub const VTK_DIR: &str = "vtk";
+/// The folder of the output folder VTK frames go into, and the running restart file (as in 2D).
+pub use crate::driver::run::{CHECKPOINT_FILE, VTK_DIR};
 
 impl<'a> Executor<'a> {
     /// An executor writing its log to `log`; `file` names the deck in error messages.
     pub fn new(log: Box<dyn Write + 'a>, file: &str) -> Self {
-        Executor { model: Model::default(), backend: CpuBackend::new(), log, file: file.to_string(), interrupt: None, out_dir: PathBuf::from(".") }
+        Executor { model: Model::default(), backend: CpuBackend::new(), log, file: file.to_string(), options: RunOptions::default() }
+    }
+
+    /// The run's options (`--out`, progress, Ctrl-C, `--checkpoint-every`, `--vtk-every`).
+    pub fn set_options(&mut self, options: RunOptions) {
+        self.options = options;
     }
 
     /// The folder SAVE and RESTART files named without a folder are in.
     pub fn set_out_dir(&mut self, dir: &Path) {
-        self.out_dir = dir.to_path_buf();
+        self.options.out_dir = dir.to_path_buf();
     }
 
     /// The path of a SAVE or RESTART file: `name` (or [`DEFAULT_SAVE_FILE`]) in the output folder
     /// when it names no folder.
     fn resolve(&self, name: &Option<String>) -> PathBuf {
-        let name = name.as_deref().unwrap_or(DEFAULT_SAVE_FILE);
-        let p = Path::new(name);
-        if p.is_absolute() || p.components().count() > 1 {
-            p.to_path_buf()
-        } else {
-            self.out_dir.join(p)
-        }
+        crate::output::resolve_in(&self.options.out_dir, name.as_deref(), DEFAULT_SAVE_FILE)
+    }
+
+    /// Writes the model as a save file RESTART reads (SAVE's, and the last good state `blockdem
+    /// run` keeps after a failure or an interrupt).
+    pub fn save_state(&self, path: &Path) -> Result<(), super::restart::RestartError> {
+        let saved = super::restart::SaveFile { model: self.model.clone(), resumable: self.backend.resumes_from(&self.model) };
+        super::restart::save(path, &saved)
     }
 
     /// A flag that, once set, stops a CYCLE at its next energy check.
     pub fn set_interrupt(&mut self, flag: Arc<AtomicBool>) {
-        self.interrupt = Some(flag);
+        self.options.interrupt = Some(flag);
     }
 
     fn echo(&mut self, line: &str) -> Result<(), RunError> {
@@ -234,13 +242,12 @@ impl<'a> Executor<'a> {
                 if let Some(dir) = path.parent() {
                     let _ = std::fs::create_dir_all(dir);
                 }
-                let saved = super::restart::SaveFile { model: self.model.clone(), resumable: self.backend.resumes_from(&self.model) };
-                super::restart::save(&path, &saved).map_err(|e| self.error(cmd, format!("SAVE: {e}")))?;
+                self.save_state(&path).map_err(|e| self.error(cmd, format!("SAVE: {e}")))?;
                 self.echo(&format!("STATE SAVED TO {}", path.display()))?;
             }
             Command::Dump { .. } => output::dump(&self.model, &mut self.log)?,
             Command::Vtk => {
-                let dir = self.out_dir.join(VTK_DIR);
+                let dir = self.options.out_dir.join(VTK_DIR);
                 let path = super::vtk::write_frame(&self.model, &dir).map_err(|e| self.error(cmd, format!("VTK: {e}")))?;
                 self.echo(&format!("VTK FRAME WRITTEN TO {} (AND ITS CONTACTS BESIDE IT)", path.display()))?;
             }
@@ -327,11 +334,12 @@ impl<'a> Executor<'a> {
             ));
         };
         self.echo(&format!("TIMESTEP = {}", fmt_e(self.model.timestep())))?;
-        let interrupt = self.interrupt.clone();
-        let mut progress = |_done: u64| !interrupt.as_ref().is_some_and(|f| f.load(Ordering::Relaxed));
-        let result = self.backend.run(&mut self.model, n, &mut progress);
+        let mut ticker = Ticker::new(&self.options, n);
+        self.log.flush()?;
+        let (_, result) = crate::driver::run::run_in_pieces(self, n, &mut ticker);
+        let stopped = ticker.finish();
         match result {
-            Ok(_) => {}
+            Ok(()) => {}
             Err(CycleError::Setup(why)) => return Err(self.error(cmd, format!("CYCLE: cannot cycle: {why}"))),
             Err(e) => {
                 self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
@@ -339,9 +347,29 @@ impl<'a> Executor<'a> {
             }
         }
         self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
-        if self.interrupt.as_ref().is_some_and(|f| f.load(Ordering::Relaxed)) {
+        if stopped || self.options.interrupted() {
+            self.echo(&format!("CYCLE INTERRUPTED AT CYCLE {}", self.model.cycle))?;
             return Err(RunError::Interrupted(self.model.cycle));
         }
         Ok(())
+    }
+}
+
+impl Pieces for Executor<'_> {
+    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        self.backend.run(&mut self.model, cycles, tick)
+    }
+
+    fn write_frame(&mut self) {
+        if let Err(e) = super::vtk::write_frame(&self.model, &self.options.out_dir.join(VTK_DIR)) {
+            let _ = writeln!(std::io::stderr(), "blockdem: a VTK frame was not written ({e}); the run goes on");
+        }
+    }
+
+    fn write_checkpoint(&mut self) {
+        let _ = std::fs::create_dir_all(&self.options.out_dir);
+        if let Err(e) = self.save_state(&self.options.out_dir.join(CHECKPOINT_FILE)) {
+            let _ = writeln!(std::io::stderr(), "blockdem: the running restart file was not written ({e}); the run goes on");
+        }
     }
 }

@@ -281,6 +281,8 @@ pub struct Model {
     pub time: f64,
     /// Work done by gravity, loads and VELOCITY since the start.
     pub external_work: f64,
+    /// The energy dissipated and released since the start (the ledger's other terms).
+    pub dissipated: Dissipation,
     /// The next contact id.
     pub next_contact_id: u32,
     /// The neighbour lists are stale (a command moved, added or changed blocks).
@@ -299,18 +301,66 @@ impl Default for Model {
             cycle: 0,
             time: 0.0,
             external_work: 0.0,
+            dissipated: Dissipation::default(),
             next_contact_id: 1,
             neighbours_stale: true,
         }
     }
 }
 
-/// The energy terms of a state.
+/// The energy taken out of the blocks' motion and the contact springs since the start, summed
+/// in a fixed order each cycle (so reruns repeat bit for bit).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Dissipation {
+    /// By the mass-proportional damping force −αmv (and −αL on the rotation).
+    pub mass_damping: f64,
+    /// By the stiffness-proportional contact dashpots β·kn·u̇n, β·ks·u̇s.
+    pub contact_damping: f64,
+    /// By friction (slip at the Coulomb limit) and by shear springs lost as contacts open.
+    pub friction: f64,
+    /// Strain energy of logical contacts that went while loaded (the touching region changed).
+    pub released: f64,
+}
+
+/// The energy ledger of a state (as 2D's, `udec::model::timestep::Energies`). With E₀ the
+/// kinetic + strain energy at START, the explicit cycle keeps
+///
+///   E_kin + E_strain + W_mass_damping + W_contact_damping + W_friction + E_released = E₀ + W_external
+///
+/// up to the O(Δt) errors of central differences; [`Energies::ledger`] is the left side minus
+/// W_external, which should stay at E₀ (0 from rest).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Energies {
+    /// ½mv² + ½ω·L of the free blocks, brought to the whole step by half a step of the current
+    /// force and moment (velocities live at t − Δt/2, positions and forces at t).
     pub kinetic: f64,
+    /// Fn²/2kn + |Fs|²/2ks over the logical contacts.
     pub strain: f64,
+    /// Work of gravity, loads and VELOCITY since START: the energy put in.
     pub external_work: f64,
+    pub mass_damping: f64,
+    pub contact_damping: f64,
+    pub friction: f64,
+    pub released: f64,
+}
+
+impl Energies {
+    /// Everything dissipated: mass and contact damping plus friction.
+    pub fn dissipated(&self) -> f64 {
+        self.mass_damping + self.contact_damping + self.friction
+    }
+
+    /// E_kin + E_strain + dissipated + released − W_external: constant in an exact bookkeeping.
+    pub fn ledger(&self) -> f64 {
+        self.kinetic + self.strain + self.dissipated() + self.released - self.external_work
+    }
+
+    /// The largest term, the scale a balance error is measured against.
+    pub fn scale(&self) -> f64 {
+        [self.kinetic, self.strain, self.external_work, self.mass_damping, self.contact_damping, self.friction, self.released]
+            .iter()
+            .fold(0.0f64, |a, b| a.max(b.abs()))
+    }
 }
 
 impl Model {
@@ -335,24 +385,74 @@ impl Model {
         }
     }
 
-    /// The critical time step (the FRACTION of it is the run's): 2√(m/k) for the lightest block
-    /// on the stiffest spring, as UDEC 1.2 takes it, with the block's rotation counted: its mass
-    /// is taken as no more than I_min/R² (the least principal moment over the squared radius), so
-    /// that a spring at a vertex does not ring faster about the block's softest axis.
+    /// The critical time step (the FRACTION of it is the run's), renewed every cycle from the
+    /// contacts there are, as 3DEC and PFC do (the report gives no rule for D3: Part III's law of
+    /// motion, ¶17, is UDEC's central differences, stable for Δt < 2/ω_max).
+    ///
+    /// UDEC takes 2√(m/k) for the lightest block on the stiffest spring: one spring per block.
+    /// A D3 block has several logical contacts at once (four at a face–face contact, eight
+    /// between two faces of a stack, ¶24) acting in parallel, and its rotation gives at a vertex
+    /// as its translation does, so ω_max is bounded here as in 2D's `stable_frac_estimate`, by
+    /// Gershgorin's theorem on the mass-normalised stiffness, block by block. A logical contact at
+    /// the point p with springs kn (normal) and ks (shear) moves block i by a compliance of at most
+    /// a_i = 1/m_i + |p − c_i|²/I_min,i (its translation, and its rotation about its softest
+    /// principal axis, the lever arm |p − c_i|), so its 3 × 6 block of the stiffness has norm at
+    /// most k·a_i with k = max(kn, ks), and the coupling with block j at most k·√(a_i a_j) (0 for a
+    /// fixed block j). Then
+    ///
+    ///   ω_max² ≤ max over free blocks i of Σ_{logical contacts of i} k (a_i + √(a_i a_j)),
+    ///
+    /// which for a block translating against fixed neighbours is UDEC/3DEC's Σk/m: the step
+    /// 2√(m/Σk). Before a block has contacts (and as a floor after) the row is that of one spring
+    /// of the stiffest material in use at the block's farthest vertex against a fixed block,
+    /// k_max·(1/m + R²/I_min), so FRACTION means the same from the first cycle. Stiffness-
+    /// proportional damping narrows the range to (2/ω)(√(1+ξ²) − ξ), ξ = βω/2, as in 2D. At
+    /// FRACTION 1 the step is at the bound, which lies at or below the true limit: the D3 cases
+    /// run stable there (`blockdem verify`, README). Returns None when no free block has mass or
+    /// no stiffness is defined.
     pub fn critical_timestep(&self) -> Option<f64> {
-        let mut k: f64 = 0.0;
-        let mut m = f64::INFINITY;
-        for b in &self.blocks {
-            let mat = self.material(b.material);
-            k = k.max(mat.kn).max(mat.ks);
+        let k_max = self.blocks.iter().map(|b| self.material(b.material)).fold(0.0f64, |k, m| k.max(m.kn).max(m.ks));
+        if k_max <= 0.0 {
+            return None;
+        }
+        // Each free block's least principal moment (zero for a fixed or massless block, which
+        // does not give at a contact).
+        let least: Vec<f64> = self.blocks.iter().map(|b| if b.fixed || b.mass <= 0.0 { 0.0 } else { least_eigenvalue(b.inertia_ref) }).collect();
+        // The compliance of block i at a lever arm r (r² given).
+        let compliance = |i: usize, r2: f64| -> f64 {
+            let b = &self.blocks[i];
             if b.fixed || b.mass <= 0.0 {
+                return 0.0;
+            }
+            1.0 / b.mass + if least[i] > 0.0 { r2 / least[i] } else { 0.0 }
+        };
+        let mut row: Vec<f64> = (0..self.blocks.len()).map(|i| k_max * compliance(i, self.blocks[i].shape.radius.powi(2))).collect();
+        let mut contact_rows = vec![0.0f64; self.blocks.len()];
+        for c in &self.contacts {
+            if c.logical.is_empty() {
                 continue;
             }
-            let least = least_eigenvalue(b.inertia_ref);
-            let rotational = if b.shape.radius > 0.0 { least / (b.shape.radius * b.shape.radius) } else { b.mass };
-            m = m.min(b.mass.min(rotational));
+            let mat = self.contact_material(c);
+            let k = mat.kn.max(mat.ks);
+            let [i, j] = c.blocks.map(|b| b as usize);
+            for l in &c.logical {
+                let ai = compliance(i, (l.point - self.blocks[i].centroid).length_squared());
+                let aj = compliance(j, (l.point - self.blocks[j].centroid).length_squared());
+                let shared = (ai * aj).sqrt();
+                contact_rows[i] += k * (ai + shared);
+                contact_rows[j] += k * (aj + shared);
+            }
         }
-        (k > 0.0 && m.is_finite() && m > 0.0).then(|| 2.0 * (m / k).sqrt())
+        for (r, c) in row.iter_mut().zip(&contact_rows) {
+            *r = r.max(*c);
+        }
+        let lambda = row.iter().copied().fold(0.0, f64::max);
+        if !(lambda > 0.0 && lambda.is_finite()) {
+            return None;
+        }
+        let omega = lambda.sqrt();
+        let xi = 0.5 * self.damping.beta * omega;
+        Some(2.0 / (omega * ((1.0 + xi * xi).sqrt() + xi)))
     }
 
     /// The time step the run takes: FRACTION × the critical one.
@@ -360,9 +460,25 @@ impl Model {
         self.critical_timestep().map_or(0.0, |dt| self.frac * dt)
     }
 
-    /// Kinetic energy, strain energy in the contact springs and the external work.
+    /// The energy ledger now (see [`Energies`]).
     pub fn energies(&self) -> Energies {
-        let kinetic = self.blocks.iter().map(Block::kinetic_energy).sum();
+        let h = 0.5 * self.timestep();
+        let kinetic = self
+            .blocks
+            .iter()
+            .filter(|b| !b.fixed && b.mass > 0.0)
+            .map(|b| {
+                let v = b.velocity + b.force / b.mass * h;
+                let l = b.angular_momentum + b.moment * h;
+                let at_t = 0.5 * b.mass * v.length_squared() + 0.5 * l.dot(b.angular_velocity_from(l));
+                // Where half a step overflows, the half-step's energy keeps the ledger a number.
+                if at_t.is_finite() {
+                    at_t
+                } else {
+                    b.kinetic_energy()
+                }
+            })
+            .sum();
         let mut strain = 0.0;
         for c in &self.contacts {
             let m = self.contact_material(c);
@@ -375,7 +491,16 @@ impl Model {
                 }
             }
         }
-        Energies { kinetic, strain, external_work: self.external_work }
+        let d = self.dissipated;
+        Energies {
+            kinetic,
+            strain,
+            external_work: self.external_work,
+            mass_damping: d.mass_damping,
+            contact_damping: d.contact_damping,
+            friction: d.friction,
+            released: d.released,
+        }
     }
 }
 

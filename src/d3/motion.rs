@@ -34,6 +34,8 @@ pub struct StepOutcome {
     pub external_work: f64,
     /// How far any vertex can have moved in the step: |Δx| + |Δθ|·R.
     pub travel: f64,
+    /// Energy the mass-proportional damping took in the step (the ledger's `mass_damping`).
+    pub damping_work: f64,
 }
 
 /// Advances one block by one step (stages 1 and 2). `force` and `moment` on the block are the
@@ -47,8 +49,18 @@ pub fn law_of_motion(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64) -> 
     }
     let con1 = 1.0 - 0.5 * alpha * dt;
     let con2 = 1.0 / (1.0 + 0.5 * alpha * dt);
+    let (v0, l0) = (block.velocity, block.angular_momentum);
     block.velocity = (block.velocity * con1 + block.force / block.mass * dt) * con2;
     block.angular_momentum = (block.angular_momentum * con1 + block.moment * dt) * con2;
+    // The scheme is v⁺ − v⁻ = (F/m − αv̄)Δt with v̄ = (v⁺ + v⁻)/2, so ½m(v⁺² − v⁻²) =
+    // F·v̄Δt − αm v̄²Δt exactly: the last term is the dissipation (as in 2D); the angular
+    // momentum's twin is α L̄·I⁻¹L̄ Δt, I at the step's start.
+    let damping_work = if alpha > 0.0 {
+        let (v, l) = (0.5 * (v0 + block.velocity), 0.5 * (l0 + block.angular_momentum));
+        alpha * dt * (block.mass * v.length_squared() + l.dot(block.angular_velocity_from(l)))
+    } else {
+        0.0
+    };
     let dx = block.velocity * dt;
     block.centroid += dx;
     let (orientation, omega) = rotate(block.orientation, block.inertia_ref, block.angular_momentum, dt);
@@ -58,7 +70,7 @@ pub fn law_of_motion(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64) -> 
     let travel = dx.length() + omega.length() * dt * block.shape.radius;
     block.travel += travel;
     let applied = block.mass * gravity + block.load;
-    StepOutcome { external_work: applied.dot(dx), travel }
+    StepOutcome { external_work: applied.dot(dx), travel, damping_work }
 }
 
 /// The angular velocity ω = R I₀⁻¹ Rᵀ L of a block at orientation `q`.

@@ -218,7 +218,9 @@ pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::
         "gravity": vec3(model.gravity),
         "blocks": blocks,
         "contacts": contacts,
-        "energy": {"kinetic": num(e.kinetic), "strain": num(e.strain), "external_work": num(e.external_work)},
+        "energy": {"kinetic": num(e.kinetic), "strain": num(e.strain), "external_work": num(e.external_work),
+                   "mass_damping": num(e.mass_damping), "contact_damping": num(e.contact_damping), "friction": num(e.friction),
+                   "released": num(e.released), "ledger": num(e.ledger())},
     });
     if let Some(p) = provenance {
         v["provenance"] = serde_json::to_value(p).unwrap_or(Value::Null);

@@ -36,7 +36,9 @@ pub const MAGIC: [u8; 8] = *b"BLOCKD3\0";
 /// The first eight bytes of a 2D (UDEC) save file, named in the refusal of one.
 const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// The D3 save format this program writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// (Version 2: the model keeps the energy dissipated, `d3::model::Dissipation`; a version 1 file
+/// is refused by name.)
+pub const FORMAT_VERSION: u32 = 2;
 const HEADER_LEN: usize = 8 + 4 + 8 + 8;
 
 /// Everything SAVE keeps.

@@ -23,6 +23,19 @@ pub fn rebuild_due(model: &Model) -> bool {
     model.neighbours_stale || model.blocks.iter().any(|b| b.travel >= tol)
 }
 
+/// Whether no block but block `k` has its box within `reach` of block `k`'s box.
+pub fn alone(model: &Model, k: usize, reach: f64) -> bool {
+    let (lo, hi) = model.blocks[k].bounds();
+    let (lo, hi) = (lo - DVec3::splat(reach), hi + DVec3::splat(reach));
+    model.blocks.iter().enumerate().all(|(j, b)| {
+        if j == k {
+            return true;
+        }
+        let (a, c) = b.bounds();
+        !(a.cmple(hi).all() && lo.cmple(c).all())
+    })
+}
+
 /// The pairs of blocks (indices, lower first, ascending) whose boxes widened by half `margin`
 /// each overlap, by a uniform grid.
 pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {

@@ -28,6 +28,7 @@
 //! implements [`RunModel`] in `udec::backend`.
 
 pub mod report;
+pub mod run;
 
 pub use report::{CrackEvent, CycleError, CycleReport, Position};
 

@@ -185,3 +185,15 @@ mod tests {
         assert_eq!(fs::read_dir(dir.join("folder")).unwrap().count(), 0);
     }
 }
+
+/// The path of a file a command names (SAVE, RESTART): `name`, or `default` where none is given,
+/// in the output folder `out_dir` when it names no folder; a path with a folder (`./a.sav`,
+/// `runs/a.sav`) or an absolute one is taken as given. Both engines' executors resolve by it.
+pub fn resolve_in(out_dir: &std::path::Path, name: Option<&str>, default: &str) -> std::path::PathBuf {
+    let p = std::path::Path::new(name.unwrap_or(default));
+    if p.is_absolute() || p.components().count() > 1 {
+        p.to_path_buf()
+    } else {
+        out_dir.join(p)
+    }
+}

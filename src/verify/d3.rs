@@ -5,7 +5,7 @@
 //! runs it through D3's executor and measures its error against the closed form.
 //!
 //! Every scene is small (one to five moving blocks); at FRAC 0.1 the whole set costs about
-//! 1.5 × 10⁵ cycles, under a second on this machine's CPU.
+//! 2.3 × 10⁵ cycles, a few seconds on this machine's CPU.
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -421,7 +421,10 @@ fn topple(ctx: &Ctx) -> Result<Measured, Failure> {
         cost.add(c);
         let rot = turned(m.blocks[1].orientation);
         let dx = travel_in(&frame, &m, frame.global(0.5 * DVec3::new(size.x, 0.0, size.z))).x;
-        let got = if rot > 0.05 {
+        // A toppled prism lies on its side (turned ~1.5 rad); one that slides rocks on its
+        // downhill edge as its undamped springs ring, by up to ~0.06 rad at some FRACTIONs: the
+        // line between them is drawn well clear of both.
+        let got = if rot > 0.25 {
             Regime::Topples
         } else if dx.abs() > 0.02 {
             Regime::Slides

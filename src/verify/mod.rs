@@ -39,7 +39,7 @@ pub const FULL_FRACS: &[f64] = &[0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6
 /// sweeps every FRACTION on every backend.
 pub const QUICK_FRACS_GPU: &[f64] = &[CHECK_FRAC];
 /// FRACTIONs of the quick suite for D3's cases: the check FRACTION only, so that the 3D rows add
-/// about 3 s to the CI suite (their sweep, ~12 s, is the full suite's).
+/// about 6 s to the CI suite (their sweep, ~70 s, is the full suite's).
 pub const QUICK_FRACS_D3: &[f64] = &[CHECK_FRAC];
 
 /// One backend the suite runs on: a label, its precision, and a factory (a fresh backend per run).

@@ -2,100 +2,32 @@
 //! pieces, for running restart files and VTK frames), its progress, and what a failure means.
 
 use std::io::Write;
-use std::time::{Duration, Instant};
 
-use super::{Executor, Progress, RunError, RunOptions, CHECKPOINT_FILE, VTK_DIR};
+use super::{Executor, RunError, CHECKPOINT_FILE, VTK_DIR};
+use crate::driver::run::Ticker;
 use crate::udec::backend::{CycleError, CycleReport};
 use crate::udec::deck::Located;
 use crate::udec::model::constitutive::{Constitutive, CrackingLaw};
 use crate::udec::model::{BlockKind, Model};
 use crate::udec::output;
 
-/// The progress line of `Progress::Lines`: done of n cycles after `elapsed` seconds.
-fn progress_line(done: u64, n: u64, elapsed: f64) -> String {
-    let rate = done as f64 / elapsed.max(1e-9);
-    let left = (n - done.min(n)) as f64 / rate.max(1e-9);
-    let (m, sec) = ((left / 60.0).floor(), left % 60.0);
-    format!(
-        "blockdem: cycle {done} of {n} ({:.1}%), {} cycles/s, about {}{sec:.0} s left",
-        100.0 * done as f64 / n as f64,
-        rate_text(rate),
-        if m > 0.0 { format!("{m:.0} min ") } else { String::new() }
-    )
-}
-
-/// A rate of cycles per second as a person reads it: whole numbers from 100 up (`6532`, not
-/// indicatif's `6,531.7848/s`), three significant digits below, exponent form past 10⁷.
-fn rate_text(rate: f64) -> String {
-    if !rate.is_finite() || rate >= 1e7 {
-        format!("{rate:.2e}")
-    } else if rate >= 100.0 {
-        format!("{rate:.0}")
-    } else if rate >= 10.0 {
-        format!("{rate:.1}")
-    } else {
-        format!("{rate:.2}")
-    }
-}
-
-/// The progress bar of `Progress::Bar`.
-fn progress_bar(n: u64) -> indicatif::ProgressBar {
-    let pb = indicatif::ProgressBar::new(n);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} cycles {rate} cycles/s eta {eta}")
-            .map(|style| {
-                style.with_key("rate", |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
-                    let _ = w.write_str(&rate_text(state.per_sec()));
-                })
-            })
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    pb
-}
-
-/// The progress of one CYCLE of `n` cycles, which the backend reports (`tick`) at each energy
-/// check: a bar or lines on stderr for a long CYCLE, and whether the run was interrupted.
-struct Ticker {
-    /// The run's options (a copy: the backend runs while the ticker is called).
-    options: RunOptions,
-    bar: Option<indicatif::ProgressBar>,
-    n: u64,
-    long: bool,
-    started: Instant,
-    last_line: Instant,
-    /// The run was interrupted at the last tick.
-    stopped: bool,
-}
-
-impl Ticker {
-    fn new(options: &RunOptions, n: u64) -> Self {
-        let long = n >= 1000;
-        let bar = (options.progress == Progress::Bar && long).then(|| progress_bar(n));
-        let started = Instant::now();
-        Ticker { options: options.clone(), bar, n, long, started, last_line: started, stopped: false }
+impl crate::driver::run::Pieces for Executor<'_> {
+    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        self.backend.run(&mut self.model, cycles, tick)
     }
 
-    /// `done` cycles of the CYCLE are done; false asks the backend to stop (interrupted).
-    fn tick(&mut self, done: u64) -> bool {
-        if let Some(pb) = &self.bar {
-            pb.set_position(done);
+    fn write_frame(&mut self) {
+        if let Err(e) = output::vtk::write_frame(&self.model, &self.options.out_dir.join(VTK_DIR)) {
+            let _ = writeln!(std::io::stderr(), "blockdem: a VTK frame was not written ({e}); the run goes on");
         }
-        if let (Progress::Lines { every }, true) = (self.options.progress, self.long && done < self.n) {
-            if self.last_line.elapsed() >= every {
-                self.last_line = Instant::now();
-                let _ = writeln!(std::io::stderr(), "{}", progress_line(done, self.n, self.started.elapsed().as_secs_f64()));
-            }
-        }
-        self.stopped = self.options.interrupted();
-        !self.stopped
     }
 
-    /// Clears the bar; returns whether the run was interrupted.
-    fn finish(self) -> bool {
-        if let Some(pb) = self.bar {
-            pb.finish_and_clear();
+    fn write_checkpoint(&mut self) {
+        let path = self.options.out_dir.join(CHECKPOINT_FILE);
+        let _ = std::fs::create_dir_all(&self.options.out_dir);
+        if let Err(e) = output::restart::save_state(&path, &self.model, &self.plot, self.plot_count) {
+            let _ = writeln!(std::io::stderr(), "blockdem: the running restart file was not written ({e}); the run goes on");
         }
-        self.stopped
     }
 }
 
@@ -287,72 +219,9 @@ impl Executor<'_> {
         Ok(())
     }
 
-    /// Runs the `n` cycles through the backend, in one run or in pieces of whole check
-    /// intervals: with running restart files, pieces sized to last about `every`, each followed
-    /// by the file when `every` has passed since the last; with VTK frames, pieces that end on the
-    /// frames' cycles. Returns what the runs reported, and the failure that ended them, if any.
+    /// Runs the `n` cycles through the backend, in one run or in pieces (`driver::run`).
     fn run_cycles(&mut self, n: u64, ticker: &mut Ticker) -> (CycleReport, Result<(), CycleError>) {
-        let interval = crate::driver::CHECK_INTERVAL;
-        let frame_every = self.options.vtk_every.map(|f| f.max(1).div_ceil(interval) * interval);
-        let mut report = CycleReport::default();
-        if frame_every.is_some() {
-            // The frame of the CYCLE's start shows the contacts the CYCLE starts from: a run of no
-            // cycles detects them (the run that follows finds nothing changed and does not detect
-            // again, so the cycles are the same).
-            match self.backend.run(&mut self.model, 0, &mut |done| ticker.tick(done)) {
-                Ok(r) => {
-                    report.extend(r);
-                    self.write_frame();
-                }
-                Err(e) => return (report, Err(e)),
-            }
-        }
-        let mut piece = if self.options.checkpoint_every.is_some() { interval } else { n };
-        let mut last_checkpoint = Instant::now();
-        // (At least one run: CYCLE 0 still detects the contacts.)
-        loop {
-            let (base, t0) = (report.cycles, Instant::now());
-            let mut k = piece.min(n - base);
-            if let Some(f) = frame_every {
-                k = k.min(f - base % f);
-            }
-            match self.backend.run(&mut self.model, k, &mut |done| ticker.tick(base + done)) {
-                Ok(r) => report.extend(r),
-                Err(e) => return (report, Err(e)),
-            }
-            if frame_every.is_some_and(|f| report.cycles > base && report.cycles % f == 0) {
-                self.write_frame();
-            }
-            if let Some(every) = self.options.checkpoint_every {
-                if last_checkpoint.elapsed() >= every {
-                    self.write_checkpoint();
-                    last_checkpoint = Instant::now();
-                }
-            }
-            if report.cycles >= n || report.cycles == base || ticker.stopped {
-                return (report, Ok(()));
-            }
-            if let Some(every) = self.options.checkpoint_every {
-                piece = piece_for(every, t0.elapsed(), report.cycles - base, interval);
-            }
-        }
-    }
-
-    /// A VTK frame of `RunOptions::vtk_every`; a frame that cannot be written does not stop the run.
-    fn write_frame(&self) {
-        if let Err(e) = output::vtk::write_frame(&self.model, &self.options.out_dir.join(VTK_DIR)) {
-            let _ = writeln!(std::io::stderr(), "blockdem: a VTK frame was not written ({e}); the run goes on");
-        }
-    }
-
-    /// The running restart file of `RunOptions::checkpoint_every`; one that cannot be written
-    /// does not stop the run.
-    fn write_checkpoint(&self) {
-        let path = self.options.out_dir.join(CHECKPOINT_FILE);
-        let _ = std::fs::create_dir_all(&self.options.out_dir);
-        if let Err(e) = output::restart::save_state(&path, &self.model, &self.plot, self.plot_count) {
-            let _ = writeln!(std::io::stderr(), "blockdem: the running restart file was not written ({e}); the run goes on");
-        }
+        crate::driver::run::run_in_pieces(self, n, ticker)
     }
 
     /// The error of a CYCLE the backend failed in (the model rolled back to its last good state).
@@ -691,11 +560,4 @@ pub fn initial_overlaps(model: &Model) -> Vec<InitialOverlap> {
     }
     pairs.sort_by(|a, b| b.energy.total_cmp(&a.energy));
     pairs
-}
-
-/// The size of the next piece of a CYCLE with running restart files: about `every` of wall
-/// time at the pace of the last piece (`done` cycles in `took`), in whole check intervals.
-fn piece_for(every: Duration, took: Duration, done: u64, interval: u64) -> u64 {
-    let per_cycle = took.as_secs_f64() / done as f64;
-    ((every.as_secs_f64() / per_cycle.max(1e-12)) as u64).clamp(1, u64::MAX / 2).div_ceil(interval) * interval
 }

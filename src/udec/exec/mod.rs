@@ -24,9 +24,6 @@ mod materials;
 mod output;
 
 use std::io::Write;
-use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 
 use crate::udec::backend::{Backend, CycleError};
 use crate::udec::deck::{Command, DeckError, Located, Range};
@@ -73,53 +70,7 @@ impl RunError {
     }
 }
 
-/// Settings of a run that do not come from the deck.
-#[derive(Clone, Debug)]
-pub struct RunOptions {
-    /// Folder for PLOT files and SAVE files named without a folder.
-    pub out_dir: PathBuf,
-    /// How long CYCLE commands show their progress.
-    pub progress: Progress,
-    /// Set (by a Ctrl-C handler) to stop the run: a CYCLE ends at its next energy check (every
-    /// 100 cycles) with its state intact, and no further command runs.
-    pub interrupt: Option<Arc<AtomicBool>>,
-    /// Write the state to `CHECKPOINT_FILE` in `out_dir` about this often during a CYCLE (a
-    /// running restart file: a run killed outright, by the system or a power cut, loses at most
-    /// this much). The CYCLE then runs in pieces of whole energy-check intervals, which are one
-    /// run bit for bit (a CYCLE after a CYCLE goes on from the backend's state); only the energy
-    /// check's budget starts again with each piece, as it does with each CYCLE command (an
-    /// instability grows exponentially, within a piece of 100 cycles or more).
-    pub checkpoint_every: Option<std::time::Duration>,
-    /// Write a VTK frame (`output::vtk`) into `VTK_DIR` in `out_dir` at the start of each CYCLE
-    /// and every this many cycles of it, rounded up to whole energy-check intervals (100 cycles)
-    /// so that the pieces the CYCLE then runs in are one run bit for bit, as above.
-    pub vtk_every: Option<u64>,
-}
-
-/// The folder, in the output folder, of the VTK frames (the VTK command, `--vtk-every`).
-pub const VTK_DIR: &str = "vtk";
-
-/// The running restart file of `RunOptions::checkpoint_every`, in the output folder.
-pub const CHECKPOINT_FILE: &str = "checkpoint.sav";
-
-impl Default for RunOptions {
-    fn default() -> Self {
-        RunOptions { out_dir: PathBuf::from("."), progress: Progress::Off, interrupt: None, checkpoint_every: None, vtk_every: None }
-    }
-}
-
-/// How a CYCLE of 1000 cycles or more shows its progress.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub enum Progress {
-    /// Not at all (tests, the library's scenes).
-    #[default]
-    Off,
-    /// A progress bar (the run's log goes to a terminal).
-    Bar,
-    /// A line on stderr at most every `every` of wall time (the log goes to a file or a pipe:
-    /// a batch run still says how far it is and how long it has left).
-    Lines { every: std::time::Duration },
-}
+pub use crate::driver::run::{Progress, RunOptions, CHECKPOINT_FILE, VTK_DIR};
 
 /// What of `command` is not supported yet (its physics comes in a later version), if anything.
 /// The executor stops at such a command, and before the first CYCLE it looks ahead for one, so
@@ -145,12 +96,6 @@ fn fluid_not_supported_yet(command: &Command) -> Option<&'static str> {
 /// with domains rebuilds them (RESTART's model has none; `Executor::restart` rebuilds them).
 fn changes_topology(command: &Command) -> bool {
     matches!(command, Command::Block { .. } | Command::Split { .. } | Command::Delete { .. } | Command::Cycle { .. } | Command::Change { .. })
-}
-
-impl RunOptions {
-    fn interrupted(&self) -> bool {
-        self.interrupt.as_ref().is_some_and(|flag| flag.load(Ordering::Relaxed))
-    }
 }
 
 pub struct Executor<'a> {

@@ -2,7 +2,7 @@
 //! (WINDOW and VIEW, the plot's settings, are set in the dispatch, `Executor::execute`).
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use super::{Executor, RunError, DEFAULT_SAVE_FILE, VTK_DIR};
 use crate::udec::deck::{Located, PlotOptions, PrintItem};
@@ -17,13 +17,7 @@ impl Executor<'_> {
     /// The path of a SAVE or RESTART file: `name` (or `DEFAULT_SAVE_FILE`) in the output folder
     /// when it names no folder.
     fn resolve(&self, name: &Option<String>) -> PathBuf {
-        let name = name.as_deref().unwrap_or(DEFAULT_SAVE_FILE);
-        let p = Path::new(name);
-        if p.is_absolute() || p.components().count() > 1 {
-            p.to_path_buf()
-        } else {
-            self.options.out_dir.join(p)
-        }
+        crate::output::resolve_in(&self.options.out_dir, name.as_deref(), DEFAULT_SAVE_FILE)
     }
 
     /// RESTART [file]: the model and plot settings of a SAVE file, then the banner.
