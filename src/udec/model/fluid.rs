@@ -31,7 +31,7 @@ use super::domain::{ContactFlow, DomainKind, DomainLink, Domains, LOOP_START, NO
 use super::{material_slot, Contact, Material, Model};
 
 /// The fluid of a scene (FLUID rhow bulkw) and its accounts.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Fluid {
     /// ρ_w, for buoyancy (¶9).
     pub density: f64,
@@ -49,6 +49,23 @@ pub struct Fluid {
     pub adjusted: f64,
     /// [`stored_volume`] when FLUID was given.
     pub stored_at_start: f64,
+    /// Whether the model's domains and time step are as a run left them: a run sets it at its
+    /// start (whose domains are then rebuilt and the step cut to the fluid's limits), and every
+    /// command but those that only write or read (PRINT, PLOT, SAVE, …) clears it. Within a
+    /// run the step falls only where stage 7 rebuilds the domains, so a run that starts from a
+    /// state a run left (a RESTART of its SAVE) keeps those domains and that step where its
+    /// detection finds the contacts as they were: CYCLE N, SAVE, RESTART, CYCLE M is then
+    /// CYCLE N + M bit for bit. Not part of the model's equality (the backends' test of a
+    /// run that goes on from the last: a command that changes nothing leaves it going on).
+    pub as_run_left: bool,
+}
+
+/// Every field but [`Fluid::as_run_left`], which says how the state came about, not what it is.
+impl PartialEq for Fluid {
+    fn eq(&self, o: &Self) -> bool {
+        let Fluid { density, bulk, work, inflow, adjusted, stored_at_start, as_run_left: _ } = *self;
+        (density, bulk, work, inflow, adjusted, stored_at_start) == (o.density, o.bulk, o.work, o.inflow, o.adjusted, o.stored_at_start)
+    }
 }
 
 impl Fluid {
