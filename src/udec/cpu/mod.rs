@@ -396,10 +396,10 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
     // Stage 4.
-    contact_stage(model, forces, corner_velocity, dt, team)?;
+    contact_stage(model, forces, has_fluid.then_some(&mut fluid.feet), corner_velocity, dt, team)?;
     // Stage 5.
     if has_fluid {
-        flow::flow_stage(model, adjacency, fluid);
+        flow::flow_stage(model, adjacency, fluid, team);
     }
     Ok(())
 }
