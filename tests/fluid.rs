@@ -339,7 +339,6 @@ fn a_restarted_run_agrees_with_the_run_straight_through(t: &Target) {
     }
 }
 
-
 /// SAVE keeps the fluid and the domains whole (save format 6), and RESTART refuses a file whose
 /// fluid or domains no run could have left (a domain index past the list, a bulk modulus of 0),
 /// naming what is wrong.

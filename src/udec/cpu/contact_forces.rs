@@ -40,7 +40,13 @@ struct ContactInputs<'a> {
 /// (eqs. 16–20); in a scene with fluid it also takes its two feet into `feet` (as long as
 /// `contacts`; `model::fluid::contact_foot`), which stage 5 reads, while its corners are at
 /// hand. Returns the first contact of the piece (lowest index) whose overlap passes the limit.
-fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], mut feet: Option<&mut [[[f64; 2]; 2]]>, inp: &ContactInputs) -> Option<usize> {
+fn contact_piece(
+    first: usize,
+    contacts: &mut [Contact],
+    forces: &mut [ContactForce],
+    mut feet: Option<&mut [[[f64; 2]; 2]]>,
+    inp: &ContactInputs,
+) -> Option<usize> {
     let motion = |k: u32, b: &Block| BlockMotion {
         centroid: b.centroid,
         velocity: b.velocity,
@@ -97,7 +103,7 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
 pub(super) fn contact_stage(
     model: &mut Model,
     forces: &mut [ContactForce],
-    mut feet: Option<&mut Vec<[[f64; 2]; 2]>>,
+    feet: Option<&mut Vec<[[f64; 2]; 2]>>,
     corner_velocity: &[[f64; 2]],
     dt: f64,
     team: &mut Team,
@@ -111,7 +117,7 @@ pub(super) fn contact_stage(
         assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);
         let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
-        let shared_feet = feet.as_deref_mut().map(|f| {
+        let shared_feet = feet.map(|f| {
             f.resize(n, [[0.0; 2]; 2]);
             SharedMut::new(f)
         });

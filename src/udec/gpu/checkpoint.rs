@@ -78,7 +78,12 @@ pub(super) struct Checkpoint {
 /// A checkpoint buffer of `size` bytes (16 at least: a scene's empty list still gets one), a
 /// copy's target and source: the one maker of every slot of the checkpoint.
 fn checkpoint_buffer(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size.max(16), usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC, mapped_at_creation: false })
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    })
 }
 
 impl<R: Real> Engine<R> {

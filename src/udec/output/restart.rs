@@ -201,7 +201,8 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
 /// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
-    let file = SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef, fdef: &model.fdef, fluid: &model.fluid, domains: &model.domains };
+    let file =
+        SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef, fdef: &model.fdef, fluid: &model.fluid, domains: &model.domains };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
         let seekable = w.get_ref().metadata()?.is_file();
