@@ -193,3 +193,20 @@ fn the_f32_kernels_resolve_a_light_block_on_a_heavy_one() {
         assert!(e < 1e-5, "{}: interface forces {e:e} off at a mass ratio of 100", b.name());
     }
 }
+
+/// Mesh convergence (issue 29): the zoned column's stress error, measured over one region for
+/// every mesh, falls with the zone size, at about first order (halving the zones' size at least
+/// 1.7 times smaller an error each time), on the CPU reference.
+#[test]
+fn the_zoned_column_converges_with_the_zone_size() {
+    let cpu = verify::BackendEntry::new("cpu", "f64", || Box::new(blockdem::udec::cpu::CpuBackend::new()));
+    let all = cases::all();
+    let error = |name: &str| {
+        let case = all.iter().find(|c| c.name == name).expect("the case");
+        let row = verify::run_case(case, &cpu, verify::CHECK_FRAC);
+        assert!(row.passed, "{name}: {row:?}");
+        row.error.expect("measured")
+    };
+    let (coarse, mid, fine) = (error("fdef_column_coarse"), error("fdef_column"), error("fdef_column_fine"));
+    assert!(coarse / mid > 1.7 && mid / fine > 1.7, "zones 0.6, 0.3, 0.15 m: errors {coarse:.3e}, {mid:.3e}, {fine:.3e}");
+}

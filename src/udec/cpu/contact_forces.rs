@@ -37,13 +37,16 @@ struct ContactInputs<'a> {
 
 /// Stage 4 for the contacts `first .. first + contacts.len()`: each contact follows its feature
 /// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
-/// (eqs. 16–20); in a scene with fluid it also takes its two feet into `feet` (as long as
-/// `contacts`; `model::fluid::contact_foot`), which stage 5 reads, while its corners are at
-/// hand. Returns the first contact of the piece (lowest index) whose overlap passes the limit.
+/// (eqs. 16–20); `features` (as long as `contacts`, or empty) takes each contact's corner and
+/// feature in a scene with zoned blocks, and in a scene with fluid `feet` (as long as
+/// `contacts`) its two feet (`model::fluid::contact_foot`), which stage 5 reads, while its
+/// corners are at hand. Returns the first contact of the piece (lowest index) whose overlap
+/// passes the limit.
 fn contact_piece(
     first: usize,
     contacts: &mut [Contact],
     forces: &mut [ContactForce],
+    features: &mut [[u32; 2]],
     mut feet: Option<&mut [[[f64; 2]; 2]]>,
     inp: &ContactInputs,
 ) -> Option<usize> {
@@ -90,6 +93,9 @@ fn contact_piece(
         };
         contact_force_law(contact, mat, &m1, &m2, &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
+        if let Some(f) = features.get_mut(k) {
+            *f = [contact.corner, g.feature];
+        }
         if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);
         }
@@ -100,9 +106,12 @@ fn contact_piece(
 /// Stage 4 for the whole model, shared out over the team, with each contact's feet into `feet`
 /// where given (a scene with fluid; resized to the contacts). Returns the first contact (lowest
 /// index, so the report repeats) whose overlap passes the limit, if any.
+/// `features`: each contact's corner and feature, kept beside the forces in a scene with zoned
+/// blocks (`Scratch::features`; empty in other scenes).
 pub(super) fn contact_stage(
     model: &mut Model,
     forces: &mut [ContactForce],
+    features: &mut [[u32; 2]],
     feet: Option<&mut Vec<[[f64; 2]; 2]>>,
     corner_velocity: &[[f64; 2]],
     dt: f64,
@@ -116,18 +125,23 @@ pub(super) fn contact_stage(
         let n = contacts.len();
         assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);
+        assert!(features.is_empty() || features.len() == n, "a corner and feature per contact, or none");
         let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
         let shared_feet = feet.map(|f| {
             f.resize(n, [[0.0; 2]; 2]);
             SharedMut::new(f)
         });
+        let zoned = !features.is_empty();
+        let shared_features = SharedMut::new(features);
         team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
             // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` and `feet` (as
             // long), mutably borrowed here.
             let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
+            // SAFETY: likewise, where the scene keeps them (else the empty slice).
+            let features = if zoned { unsafe { shared_features.range(r.clone()) } } else { &mut [] };
             // SAFETY: as above.
             let feet = shared_feet.as_ref().map(|f| unsafe { f.range(r.clone()) });
-            if let Some(k) = contact_piece(r.start, piece, forces, feet, &inp) {
+            if let Some(k) = contact_piece(r.start, piece, forces, features, feet, &inp) {
                 first.fetch_min(k, Ordering::Relaxed);
             }
         });

@@ -27,17 +27,17 @@ pub fn gather_sdef(b: usize, block: &mut Block, sdef: &mut Sdef, forces: &[Conta
 /// must be current between cycles (energy check, checkpoint, end of a run).
 /// In a scene with fluid, `fluid_loads` are the blocks' loads from the domain pressures and
 /// buoyancy (stage 5), added to a rigid block's sums.
-pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], fluid_loads: &[[f64; 3]], adjacency: &Adjacency, team: &mut Team) {
+pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], features: &[[u32; 2]], fluid_loads: &[[f64; 3]], adjacency: &Adjacency, team: &mut Team) {
     let _p = crate::profile::scope(crate::profile::Stage::Gather);
     let gravity = model.gravity;
     let fluid_loads = model.fluid.is_some().then_some(fluid_loads);
     debug_assert_eq!(forces.len(), model.contacts.len());
-    let Model { blocks, sdef, fdef, corners, contacts, .. } = model;
+    let Model { blocks, sdef, fdef, corners, .. } = model;
     let n = blocks.len();
     let shared = SharedMut::new(blocks);
     // The fully-deformable extension, likewise.
     let shared_fdef = (!fdef.is_empty()).then(|| SharedMut::new(fdef));
-    let (corners, contacts) = (&corners[..], &contacts[..]);
+    let corners = &corners[..];
     // The simply-deformable extension, indexed like the blocks, where the scene has one.
     let shared_sdef = (!sdef.is_empty()).then(|| SharedMut::new(sdef));
     team.for_chunks(n, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, &|r| {
@@ -50,7 +50,7 @@ pub(super) fn gather_all(model: &mut Model, forces: &[ContactForce], fluid_loads
         for (j, block) in piece.iter_mut().enumerate() {
             if let Some(f) = fdef.as_mut().map(|f| &mut f[j]).filter(|f| block.kind == BlockKind::FullyDeformable && !f.zones.is_empty()) {
                 let mine = &corners[block.corner_start as usize..(block.corner_start + block.corner_count) as usize];
-                super::zones::gather_fdef(block, f, mine, contacts, forces, adjacency.entries(r.start + j), gravity);
+                super::zones::gather_fdef(block, f, mine, features, forces, adjacency.entries(r.start + j), gravity);
                 continue;
             }
             match &mut sdef {

@@ -73,16 +73,33 @@ struct Scratch {
     /// own grid-point list (a cache miss a contact side: the zoned wall's contact stage cost
     /// twenty times the rigid one's per contact on this machine). Empty in other scenes.
     corner_velocity: Vec<[f64; 2]>,
+    /// In a scene with zoned blocks, each contact's corner and feature (`[corner, feature]`), in
+    /// contact order beside `forces`: written by stage 4, which moves the feature, for a zoned
+    /// block's gather, which shares each force out to its grid points by them
+    /// (`zones::force_shares`). Read from the contacts themselves, they were a cache miss an
+    /// adjacency entry (a third of the zoned wall's gather). Empty in other scenes.
+    features: Vec<[u32; 2]>,
 }
 
-/// Copies the gather's view of every contact after a topology change (stage 7, a crack).
-fn sync_forces(model: &Model, forces: &mut Vec<ContactForce>) {
+/// Copies the gather's view of every contact after a topology change (stage 7, a crack): the
+/// force records, and in a scene with zoned blocks the contacts' corners and features.
+fn sync_forces(model: &Model, forces: &mut Vec<ContactForce>, features: &mut Vec<[u32; 2]>) {
     use rayon::prelude::*;
+    let feature = |c: &Contact| [c.corner, c.feature];
     if model.contacts.len() < PARALLEL_SYNC {
         forces.clear();
         forces.extend(model.contacts.iter().map(ContactForce::from));
+        features.clear();
+        if !model.fdef.is_empty() {
+            features.extend(model.contacts.iter().map(feature));
+        }
     } else {
         model.contacts.par_iter().with_min_len(PARALLEL_SYNC / 4).map(ContactForce::from).collect_into_vec(forces);
+        if model.fdef.is_empty() {
+            features.clear();
+        } else {
+            model.contacts.par_iter().with_min_len(PARALLEL_SYNC / 4).map(feature).collect_into_vec(features);
+        }
     }
 }
 
@@ -180,8 +197,9 @@ struct BlockInputs<'a> {
     /// Internal mass damping of simply-deformable blocks (DAMP … INTERNAL, ALPB).
     alpha_internal: f64,
     materials: &'a [Material],
-    /// The contacts (a fully-deformable block's gather reads their corners and features).
-    contacts: &'a [Contact],
+    /// Each contact's corner and feature (`Scratch::features`: a fully-deformable block's gather
+    /// shares its contact forces out by them; empty in a scene without zoned blocks).
+    features: &'a [[u32; 2]],
     /// In a scene with fluid, each block's load from the domain pressures and buoyancy, which
     /// its gather adds (stage 5, `flow`).
     fluid_loads: Option<&'a [[f64; 3]]>,
@@ -273,7 +291,7 @@ fn block_piece_fdef(
         match block.kind {
             BlockKind::FullyDeformable if !f.zones.is_empty() => {
                 if let Some((forces, adjacency)) = inp.gather {
-                    zones::gather_fdef(block, f, mine, inp.contacts, forces, adjacency.entries(first + j), inp.gravity);
+                    zones::gather_fdef(block, f, mine, inp.features, forces, adjacency.entries(first + j), inp.gravity);
                 }
                 *step = zones::step_fdef(block, f, mine, inp);
                 // Its boundary's velocities for stage 4 (grid point k is corner k).
@@ -295,7 +313,7 @@ fn block_piece_fdef(
 /// `gathered` says the block forces are current already; on return they are not (stage 4 has
 /// changed the contact forces). The corners must be in block order (`corners_in_block_order`).
 fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, gathered: bool, team: &mut Team) -> Result<(), CycleError> {
-    let Scratch { steps, forces, fluid, corner_velocity } = scratch;
+    let Scratch { steps, forces, fluid, corner_velocity, features } = scratch;
     let has_fluid = model.fluid.is_some();
     let dt = model.timestep;
     let (gravity, alpha) = (model.gravity, model.damping.alpha);
@@ -305,7 +323,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     // whatever the number of threads.
     {
         let _p = crate::profile::scope(crate::profile::Stage::MotionGeometry);
-        let Model { blocks, corners, sdef, fdef, materials, damping, contacts, .. } = &mut *model;
+        let Model { blocks, corners, sdef, fdef, materials, damping, .. } = &mut *model;
         steps.resize(blocks.len(), StepOutcome::default());
         let inp = BlockInputs {
             gather: (!gathered).then_some((&forces[..], adjacency)),
@@ -313,7 +331,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             alpha,
             alpha_internal: damping.alpha_internal,
             materials,
-            contacts,
+            features,
             fluid_loads: has_fluid.then_some(&fluid.loads[..]),
             dt,
         };
@@ -396,7 +414,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
     // Stage 4.
-    contact_stage(model, forces, has_fluid.then_some(&mut fluid.feet), corner_velocity, dt, team)?;
+    contact_stage(model, forces, features, has_fluid.then_some(&mut fluid.feet), corner_velocity, dt, team)?;
     // Stage 5.
     if has_fluid {
         flow::flow_stage(model, adjacency, fluid, team);
@@ -470,6 +488,7 @@ impl Backend for CpuBackend {
         let mut start = CpuStart {
             topology: &mut self.topology,
             forces: &mut self.scratch.forces,
+            features: &mut self.scratch.features,
             fluid: &mut self.scratch.fluid,
             last_good: &self.last_good,
             resumable: &mut self.resumable,
@@ -496,6 +515,7 @@ impl Backend for CpuBackend {
 struct CpuStart<'a> {
     topology: &'a mut Topology,
     forces: &'a mut Vec<ContactForce>,
+    features: &'a mut Vec<[u32; 2]>,
     fluid: &'a mut flow::FluidScratch,
     last_good: &'a Model,
     resumable: &'a mut bool,
@@ -516,11 +536,11 @@ impl driver::Start<Model> for CpuStart<'_> {
     /// unless the model is the very state the last run left, whose contacts are current.
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
         if resume {
-            sync_forces(model, self.forces);
+            sync_forces(model, self.forces, self.features);
             return Ok(());
         }
         let kept = start_detection(model, self.topology, report);
-        sync_forces(model, self.forces);
+        sync_forces(model, self.forces, self.features);
         // With fluid: the domains of the lists just detected, their loads, and the time step the
         // fluid allows; or, from a state a run left, that state's domains and step and their
         // loads. A run that goes on from the last keeps the domains, loads and time step that
@@ -551,7 +571,7 @@ struct CpuStages<'a, 't> {
 impl CpuStages<'_, '_> {
     fn gather(&mut self, model: &mut Model) {
         if !self.gathered {
-            gather_all(model, &self.scratch.forces, &self.scratch.fluid.loads, &self.topology.lists, self.team);
+            gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid.loads, &self.topology.lists, self.team);
             self.gathered = true;
         }
     }
@@ -560,7 +580,7 @@ impl CpuStages<'_, '_> {
 impl driver::Stages<Model> for CpuStages<'_, '_> {
     /// The force sums the first step needs.
     fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
-        gather_all(model, &self.scratch.forces, &self.scratch.fluid.loads, &self.topology.lists, self.team);
+        gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid.loads, &self.topology.lists, self.team);
         self.gathered = true;
         Ok(())
     }
@@ -575,7 +595,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
                 if crack_step(model, &self.topology.lists, report) {
                     assert!(corners_in_block_order(model), "corners are stored in block order");
                     *self.topology = Topology::build(model.blocks.len(), &model.contacts);
-                    sync_forces(model, &mut self.scratch.forces);
+                    sync_forces(model, &mut self.scratch.forces, &mut self.scratch.features);
                     fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report);
                     self.gathered = false;
                     if let Some(dt) = model.critical_timestep() {
@@ -591,7 +611,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
                 // The update books the energy of the contacts it drops, from the forces.
                 self.gather(model);
                 update_topology(model, self.topology, report, false);
-                sync_forces(model, &mut self.scratch.forces);
+                sync_forces(model, &mut self.scratch.forces, &mut self.scratch.features);
                 fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report);
                 self.gathered = false;
             }

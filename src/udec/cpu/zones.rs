@@ -11,18 +11,19 @@ use crate::udec::model::corners::place_corners_fdef;
 use crate::udec::model::fdef::{nodal_forces, strain_rate_of_area, stress_increment, twice_area, Fdef};
 use crate::udec::model::{material_slot, Block, Contact, Corner};
 
-/// Where a force on block `b`'s boundary at contact `c` acts: the grid points and their shares.
-/// Block 1 of the contact owns the corner (its grid point takes it all); on block 2 a corner arc
-/// (feature 2k) gives it to grid point k, an edge (feature 2k + 1) shares it between k and k + 1
-/// by where the contact point lies along the edge.
+/// Where a force on a block's boundary at a contact acts: the grid points and their shares, from
+/// the contact's corner and feature (`[corner, feature]`). Block 1 of the contact owns the corner
+/// (its grid point takes it all); on block 2 a corner arc (feature 2k) gives it to grid point k,
+/// an edge (feature 2k + 1) shares it between k and k + 1 by where the contact point lies along
+/// the edge.
 #[inline]
-pub fn force_shares(c: &Contact, side: u32, corner_start: u32, corners: &[Corner], point: [f64; 2]) -> [(usize, f64); 2] {
+pub fn force_shares([corner, feature]: [u32; 2], side: u32, corner_start: u32, corners: &[Corner], point: [f64; 2]) -> [(usize, f64); 2] {
     let n = corners.len();
     if side == 0 {
-        return [((c.corner - corner_start) as usize, 1.0), (0, 0.0)];
+        return [((corner - corner_start) as usize, 1.0), (0, 0.0)];
     }
-    let k = (c.feature / 2) as usize % n;
-    if c.feature % 2 == 0 {
+    let k = (feature / 2) as usize % n;
+    if feature % 2 == 0 {
         return [(k, 1.0), (0, 0.0)];
     }
     let j = (k + 1) % n;
@@ -38,7 +39,7 @@ pub fn force_shares(c: &Contact, side: u32, corner_start: u32, corners: &[Corner
 #[inline]
 pub fn boundary_velocity(corner_velocity: &[[f64; 2]], c: &Contact, side: u32, corner_start: u32, corners: &[Corner], point: [f64; 2]) -> [f64; 2] {
     let mut v = [0.0; 2];
-    for (g, w) in force_shares(c, side, corner_start, corners, point) {
+    for (g, w) in force_shares([c.corner, c.feature], side, corner_start, corners, point) {
         if w != 0.0 {
             v[0] += w * corner_velocity[g][0];
             v[1] += w * corner_velocity[g][1];
@@ -50,12 +51,13 @@ pub fn boundary_velocity(corner_velocity: &[[f64; 2]], c: &Contact, side: u32, c
 /// Stage 6 of a fully-deformable block: each grid point's force from its zones' stresses,
 /// gravity on its mass and its share of the block's load (by mass), then the contacts in the
 /// block's list order (a fixed order, so runs repeat). The block's force is the sum of the
-/// external ones (for PRINT), its moment zero.
+/// external ones (for PRINT), its moment zero. `features`: each contact's corner and feature
+/// (`Scratch::features`), which stage 4 writes beside its force record.
 pub fn gather_fdef(
     block: &mut Block,
     f: &mut Fdef,
     corners: &[Corner],
-    contacts: &[Contact],
+    features: &[[u32; 2]],
     forces: &[ContactForce],
     entries: &[AdjacencyEntry],
     gravity: [f64; 2],
@@ -73,7 +75,7 @@ pub fn gather_fdef(
         let fx = [sign * cf.force[0], sign * cf.force[1]];
         external[0] += fx[0];
         external[1] += fx[1];
-        for (g, w) in force_shares(&contacts[k], e.side(), block.corner_start, corners, cf.point) {
+        for (g, w) in force_shares(features[k], e.side(), block.corner_start, corners, cf.point) {
             if w != 0.0 {
                 f.gridpoints[g].force[0] += w * fx[0];
                 f.gridpoints[g].force[1] += w * fx[1];

@@ -139,7 +139,7 @@ impl<R: Real> ContactShare<R> {
         if gp_start[b2] != NO_INDEX {
             let blk = &model.blocks[b2];
             let corners = &model.corners[blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize];
-            let [(ka, wa), (kb, wb)] = crate::udec::cpu::zones::force_shares(c, 1, blk.corner_start, corners, c.point);
+            let [(ka, wa), (kb, wb)] = crate::udec::cpu::zones::force_shares([c.corner, c.feature], 1, blk.corner_start, corners, c.point);
             s.g2a = gp_start[b2] + ka as u32;
             s.wa = r(wa);
             if c.feature % 2 == 1 {
@@ -188,7 +188,7 @@ impl<R: Real> Engine<R> {
         q.write_buffer(&b.fdef_blocks.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&up.blocks));
         q.write_buffer(&b.gridpoint_zones.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&up.csr));
         let base = std::rc::Rc::make_mut(&mut self.uploaded);
-        base.fdef_damping_base = (0..model.blocks.len()).map(|k| model.fdef_of(k).map_or(0.0, |f| f.damping_work)).collect();
+        base.fdef_damping_base = std::sync::Arc::new((0..model.blocks.len()).map(|k| model.fdef_of(k).map_or(0.0, |f| f.damping_work)).collect());
         self.fdef_counts = (up.gridpoints.len(), up.zones.len());
         self.fdef_gp_start = up.gp_start;
         self.last_gridpoints = up.gridpoints;

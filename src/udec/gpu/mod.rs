@@ -110,6 +110,7 @@ mod upload;
 use crate::udec::backend::{Backend, CycleError, CycleReport};
 use crate::udec::model::Model;
 use crate::udec::topology::Topology;
+use std::sync::Arc;
 
 pub use crate::gpu::{device, list_adapters, matching_adapters, AdapterChoice, AdapterSummary, GpuApi, GpuDevice, GpuError, Precision};
 use checkpoint::{Checkpoint, ContactIdentity};
@@ -254,7 +255,9 @@ fn device_error(e: GpuError) -> CycleError {
 
 /// What the GPU's accumulators count from: the model's values when the state was uploaded (see
 /// "The energy ledger" above), and the origin the f32 centroids are relative to. Shared with the
-/// checkpoint taken under it, so a checkpoint costs no copy of these.
+/// checkpoint taken under it, so a checkpoint costs no copy of these; each list is shared on its
+/// own, so that a change of one (a contact update's bases) copies none of the others, and a list
+/// the checkpoint still shares is replaced, never copied to be edited (`edit_contact_list`).
 #[derive(Clone, Debug, Default)]
 struct Uploaded {
     /// The model origin the GPU centroids are relative to.
@@ -266,14 +269,14 @@ struct Uploaded {
     /// `slip_work` and `dashpot_work` when the contact buffer was: the GPU accumulates from zero
     /// in its `real` (a short sum per element, so f32 keeps its digits) and the CPU adds these
     /// f64 bases back on read-back.
-    damping_base: Vec<f64>,
-    contact_base: Vec<[f64; 2]>,
+    damping_base: Arc<Vec<f64>>,
+    contact_base: Arc<Vec<[f64; 2]>>,
     /// Each simply-deformable block's internal damping work (`Sdef::damping_work`) at the
     /// upload of the SDEF slot (0 for the others; empty in a rigid scene).
-    sdef_damping_base: Vec<f64>,
+    sdef_damping_base: Arc<Vec<f64>>,
     /// Each zoned block's mass damping work (`Fdef::damping_work`) at the upload of the FDEF
     /// slots (0 for the others; empty in a scene without zoned blocks).
-    fdef_damping_base: Vec<f64>,
+    fdef_damping_base: Arc<Vec<f64>>,
     /// The fluid's ledger work and inflow (`Fluid::work`, `Fluid::inflow`) at the upload of the
     /// fluid's slots (the device counts from zero since; 0 in a dry scene).
     fluid_base: [f64; 2],

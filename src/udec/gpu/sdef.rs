@@ -80,7 +80,7 @@ impl<R: Real> Engine<R> {
         let made = b.ensure_sdef::<R>(&self.dev, model.blocks.len(), model.contacts.len())?;
         let sdefs: Vec<Sdef<R>> = (0..model.blocks.len()).map(|k| Sdef::from_model(model, k)).collect();
         let up = std::rc::Rc::make_mut(&mut self.uploaded);
-        up.sdef_damping_base = (0..model.blocks.len()).map(|k| model.sdef_of(k).map_or(0.0, |s| s.damping_work)).collect();
+        up.sdef_damping_base = std::sync::Arc::new((0..model.blocks.len()).map(|k| model.sdef_of(k).map_or(0.0, |s| s.damping_work)).collect());
         let b = self.buffers();
         self.dev.queue.write_buffer(&b.sdefs.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&sdefs));
         self.last_sdefs = sdefs;

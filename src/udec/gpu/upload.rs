@@ -8,6 +8,7 @@ use crate::udec::model::{Model, MAX_MATERIALS};
 use crate::udec::topology::detect::ListEdit;
 use crate::udec::topology::Adjacency;
 use rayon::prelude::*;
+use std::sync::Arc;
 
 use super::kernels::{self, Buffers};
 use super::layout::{Block, Contact, ContactForce, ContactPatch, Corner, EnergySum, Material, Params, Real};
@@ -87,10 +88,10 @@ impl<R: Real> Engine<R> {
         let uploaded = Uploaded {
             origin,
             work_base: model.external_work,
-            damping_base: model.blocks.iter().map(|b| b.damping_work).collect(),
-            contact_base: Vec::new(),
-            sdef_damping_base: Vec::new(),
-            fdef_damping_base: Vec::new(),
+            damping_base: Arc::new(model.blocks.iter().map(|b| b.damping_work).collect()),
+            contact_base: Default::default(),
+            sdef_damping_base: Default::default(),
+            fdef_damping_base: Default::default(),
             fluid_base: [0.0, 0.0],
         };
         let blocks: Vec<Block<R>> = model.blocks.par_iter().with_min_len(4096).map(|b| Block::from_model(b, origin)).collect();
@@ -186,24 +187,40 @@ impl<R: Real> Engine<R> {
     /// Every contact's ledger bases from the model: the contact update kept each surviving
     /// contact's ledger terms there (matched by corner and block, with their feature ids).
     pub(super) fn bases_from_model(&mut self, model: &Model) {
-        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = model.contacts.iter().map(|c| [c.slip_work, c.dashpot_work]).collect();
+        std::rc::Rc::make_mut(&mut self.uploaded).contact_base =
+            Arc::new(model.contacts.par_iter().with_min_len(4096).map(|c| [c.slip_work, c.dashpot_work]).collect());
     }
 
     /// `new_contact_list` after a splice of `edit`, where the kept contacts at `patched` (new
     /// indices; None: all) were read and take their bases from the model: the others keep their
-    /// old bases, since the device keeps their dissipation. (A copy of the bases only when a
-    /// checkpoint still shares them.) An edit that changed no contact leaves the generation: the
-    /// last good state's copy of the topology still holds (a checkpoint's bases are its own).
+    /// old bases, since the device keeps their dissipation. (Spliced in place, or into a new list
+    /// when a checkpoint still shares them: one pass over the bases either way.) An edit that
+    /// changed no contact leaves the generation: the last good state's copy of the topology still
+    /// holds (a checkpoint's bases are its own).
     pub(super) fn edit_contact_list(&mut self, model: &Model, edit: &ListEdit, patched: Option<&[u32]>) {
         // Stage 7's bookkeeping on the host, in proportion to the list (a splice of 16 bytes a
         // contact): timed with the contact updates (it was "other" in the bench).
         let _p = crate::profile::scope(crate::profile::Stage::DetectUpdate);
         match patched {
             None => self.bases_from_model(model),
+            // Every kept contact read (a read-back of them all): the bases are the model's, read
+            // in parallel rather than spliced and then patched one by one.
+            Some(patched) if patched.len() + edit.inserted_at.len() == model.contacts.len() => self.bases_from_model(model),
             Some(patched) => {
-                let bases = &mut std::rc::Rc::make_mut(&mut self.uploaded).contact_base;
+                use crate::udec::topology::detect::{splice, spliced};
+                let up = std::rc::Rc::make_mut(&mut self.uploaded);
                 let base = |k: u32| [model.contacts[k as usize].slip_work, model.contacts[k as usize].dashpot_work];
-                crate::udec::topology::detect::splice(bases, &edit.dropped, &edit.insert_before, edit.inserted_at.iter().map(|&k| base(k)));
+                let created = edit.inserted_at.iter().map(|&k| base(k));
+                let bases = match Arc::get_mut(&mut up.contact_base) {
+                    Some(bases) => {
+                        splice(bases, &edit.dropped, &edit.insert_before, created);
+                        bases
+                    }
+                    None => {
+                        up.contact_base = Arc::new(spliced(&up.contact_base, &edit.dropped, &edit.insert_before, created));
+                        Arc::get_mut(&mut up.contact_base).expect("made above")
+                    }
+                };
                 for &k in patched {
                     bases[k as usize] = base(k);
                 }

@@ -517,7 +517,10 @@ impl Model {
         if d.link_sides.len() != d.links.len() {
             return Err(format!("the domains have {} links but {} link sides", d.links.len(), d.link_sides.len()));
         }
-        if !(d.min_area.is_finite() && d.min_area >= 0.0) || d.given_min_area.is_some_and(|a| !(a.is_finite() && a > 0.0)) {
+        // The numbers are checked where the cycle reads them, with fluid: in a dry scene they are
+        // derived data (PRINT DOMAINS), which a model of extreme scale may hold as infinities.
+        let fluid = self.fluid.is_some();
+        if fluid && (!(d.min_area.is_finite() && d.min_area >= 0.0) || d.given_min_area.is_some_and(|a| !(a.is_finite() && a > 0.0))) {
             return Err(format!("the domains' minimum area {} (given {:?}) is out of range", d.min_area, d.given_min_area));
         }
         let mut last_id = None;
@@ -531,8 +534,8 @@ impl Model {
                 return Err(format!("domain {k} (id {}) has links {s}..{} of {}", dom.id, s + n, d.links.len()));
             }
             // The distance moved may be infinite, as its blocks' may (cracking asks so for an
-            // update); a void's area is derived data no stage reads.
-            if ![dom.area, dom.length, dom.pressure].iter().all(|x| x.is_finite()) || dom.void_area.is_nan() || dom.max_displacement.is_nan() || dom.max_displacement < 0.0 {
+            // update).
+            if fluid && (![dom.area, dom.length, dom.pressure].iter().all(|x| x.is_finite()) || dom.max_displacement.is_nan() || dom.max_displacement < 0.0) {
                 return Err(format!("domain {k} (id {}) has a non-finite value", dom.id));
             }
         }
@@ -546,7 +549,7 @@ impl Model {
         if let Some((k, s)) = d.sides.iter().enumerate().find(|(_, s)| s.iter().any(|&x| x != NO_DOMAIN && x as usize >= nd)) {
             return Err(format!("contact {k}'s domains {s:?} are not among the {nd} domains"));
         }
-        if d.flows.iter().any(|f| !(f.flow.is_finite() && f.aperture.is_finite() && f.length.is_finite())) {
+        if fluid && d.flows.iter().any(|f| !(f.flow.is_finite() && f.aperture.is_finite() && f.length.is_finite())) {
             return Err("a contact's flow is not finite".to_string());
         }
         Ok(())

@@ -1212,7 +1212,27 @@ pub fn splice<T: Copy + Send + Sync>(contacts: &mut Vec<T>, dropped: &[u32], ins
     if dropped.is_empty() && insert_before.is_empty() {
         return Vec::new();
     }
-    // Kept stretches (start, end, shift) and the final index of each insertion.
+    let (stretches, inserted_at) = splice_plan(old_len, dropped, insert_before);
+    if new_len > old_len {
+        let filler = contacts[0];
+        contacts.resize(new_len, filler);
+    }
+    for &(s, e, d) in stretches.iter().filter(|t| t.2 < 0) {
+        move_stretch(contacts, s, e, d);
+    }
+    for &(s, e, d) in stretches.iter().rev().filter(|t| t.2 > 0) {
+        move_stretch(contacts, s, e, d);
+    }
+    for (&at, c) in inserted_at.iter().zip(new_contacts) {
+        contacts[at as usize] = c;
+    }
+    contacts.truncate(new_len);
+    inserted_at
+}
+
+/// A splice's kept stretches (start, end, shift: where each stretch of kept contacts moves) and
+/// the final index of each insertion, for a list of `old_len` contacts.
+fn splice_plan(old_len: usize, dropped: &[u32], insert_before: &[u32]) -> (Vec<(usize, usize, isize)>, Vec<u32>) {
     let mut stretches: Vec<(usize, usize, isize)> = Vec::with_capacity(dropped.len() + insert_before.len() + 1);
     let mut inserted_at: Vec<u32> = Vec::with_capacity(insert_before.len());
     let (mut i, mut j, mut start, mut shift) = (0, 0, 0usize, 0isize);
@@ -1239,21 +1259,27 @@ pub fn splice<T: Copy + Send + Sync>(contacts: &mut Vec<T>, dropped: &[u32], ins
             start = at + 1;
         }
     }
-    if new_len > old_len {
-        let filler = contacts[0];
-        contacts.resize(new_len, filler);
+    (stretches, inserted_at)
+}
+
+/// `splice` into a new list, `contacts` left as it is: for a list another owner still shares (a
+/// checkpoint's ledger bases), one pass over it where a copy and then a splice would take two.
+pub fn spliced<T: Copy>(contacts: &[T], dropped: &[u32], insert_before: &[u32], new_contacts: impl Iterator<Item = T>) -> Vec<T> {
+    let new_len = (contacts.len() + insert_before.len()) - dropped.len();
+    let (stretches, inserted_at) = splice_plan(contacts.len(), dropped, insert_before);
+    let mut out = Vec::with_capacity(new_len);
+    // The final places are the stretches' and the insertions', in order and without gaps.
+    let mut created = inserted_at.iter().zip(new_contacts).peekable();
+    for &(s, e, shift) in &stretches {
+        let to = (s as isize + shift) as usize;
+        while let Some((_, c)) = created.next_if(|(&at, _)| (at as usize) < to) {
+            out.push(c);
+        }
+        out.extend_from_slice(&contacts[s..e]);
     }
-    for &(s, e, d) in stretches.iter().filter(|t| t.2 < 0) {
-        move_stretch(contacts, s, e, d);
-    }
-    for &(s, e, d) in stretches.iter().rev().filter(|t| t.2 > 0) {
-        move_stretch(contacts, s, e, d);
-    }
-    for (&at, c) in inserted_at.iter().zip(new_contacts) {
-        contacts[at as usize] = c;
-    }
-    contacts.truncate(new_len);
-    inserted_at
+    out.extend(created.map(|(_, c)| c));
+    debug_assert_eq!(out.len(), new_len);
+    out
 }
 
 /// `v.copy_within(s..e, s + shift)`, in parallel for a long stretch and a short shift (a splice
@@ -1484,6 +1510,8 @@ mod tests {
                 let mut got = old.clone();
                 let at = splice(&mut got, &dropped, &insert_before, new.iter().copied());
                 assert!(got == expected, "len {len}, dropped {dropped:?}, inserted before {insert_before:?}");
+                // Into a new list, the old one left as it was.
+                assert!(spliced(&old, &dropped, &insert_before, new.iter().copied()) == expected, "spliced: len {len}");
                 let positions: Vec<u32> = expected.iter().enumerate().filter(|(_, c)| c.id >= 1_000_000).map(|(k, _)| k as u32).collect();
                 assert_eq!(at, positions);
                 // The same edit as runs and as a renumbering of the kept contacts.
