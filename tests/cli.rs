@@ -47,14 +47,19 @@ fn an_unknown_command_names_file_and_line_and_exits_nonzero() {
 }
 
 #[test]
-fn a_command_of_a_later_issue_stops_with_not_supported_yet() {
-    let dir = temp("unsupported");
-    // Fluid runs since issue 30; a scene with fluid cannot be saved yet.
+fn a_scene_with_fluid_saves_and_restarts() {
+    let dir = temp("fluidsave");
+    // Fluid runs since issue 30, and its SAVE since save format 6.
     let deck = write_deck(&dir, "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 CPERM=1E-9\nBLOCK 0,0 0,1 1,1 1,0\nFLUID 1000 2E9\nCYCLE 10\nSAVE\n");
     let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", dir.to_str().unwrap()]);
-    assert_ne!(code, 0);
-    assert!(stderr.contains("not supported yet: SAVE of a scene with fluid"), "{stderr}");
-    assert!(stderr.contains(&format!("{deck}:6")), "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
+    let again = write_deck(&dir, "RESTART\nCYCLE 10\nSTOP\n");
+    let state = dir.join("state.json");
+    let (code, _, stderr) = blockdem(&["run", &again, "--backend", "cpu", "--out", dir.to_str().unwrap(), "--state-json", state.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&state).unwrap()).unwrap();
+    assert_eq!(json["cycle"], 20);
+    assert!(json["domains"].as_array().is_some_and(|d| !d.is_empty()) && json["fluid"]["bulk"] == 2e9, "{json}");
 }
 
 #[test]

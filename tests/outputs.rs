@@ -590,12 +590,16 @@ fn a_save_header_is_filled_in_after_its_streamed_payload() {
     save(&path, &file).unwrap();
     let bytes = std::fs::read(&path).unwrap();
     let payload = &bytes[28..];
-    // Version 5: the save file's fields, then the joints (index, length of joint) of ¶5, then the
-    // simply-deformable extension array, then the fully-deformable one.
+    // Version 6: the save file's fields, then the joints (index, length of joint) of ¶5, then the
+    // simply-deformable extension array, then the fully-deformable one, then the fluid and the
+    // domains (options: none here).
     let mut expected = postcard::to_stdvec(&file).unwrap();
     expected.extend(postcard::to_stdvec(&vec![(0u32, 0.5f64)]).unwrap());
     expected.extend(postcard::to_stdvec(&file.model.sdef).unwrap());
     expected.extend(postcard::to_stdvec(&file.model.fdef).unwrap());
+    expected.extend(postcard::to_stdvec(&file.model.fluid).unwrap());
+    expected.extend(postcard::to_stdvec(&file.model.domains).unwrap());
+    assert!(file.model.fluid.is_none() && file.model.domains.is_none());
     assert_eq!(payload, expected.as_slice());
     assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), FORMAT_VERSION);
     assert_eq!(u64::from_le_bytes(bytes[12..20].try_into().unwrap()), payload.len() as u64);
@@ -640,6 +644,28 @@ fn a_save_file_of_format_4_still_loads() {
     std::fs::write(&path, &bytes).unwrap();
     let back = load(&path).unwrap();
     assert!(back.model.fdef.is_empty());
+    assert_eq!(back, file);
+}
+
+#[test]
+fn a_save_file_of_format_5_still_loads() {
+    // Version 5 files (before the fluid) end with the fully-deformable extension: they load as a
+    // model without fluid and without domains (RESTART builds these again when asked).
+    let dir = out_dir("restart_v5");
+    let file = save_file();
+    let mut payload = postcard::to_stdvec(&file).unwrap();
+    payload.extend(postcard::to_stdvec(&vec![(0u32, 0.5f64)]).unwrap());
+    payload.extend(postcard::to_stdvec(&file.model.sdef).unwrap());
+    payload.extend(postcard::to_stdvec(&file.model.fdef).unwrap());
+    let mut bytes = MAGIC.to_vec();
+    bytes.extend_from_slice(&5u32.to_le_bytes());
+    bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&(crc32fast::hash(&payload) as u64).to_le_bytes());
+    bytes.extend_from_slice(&payload);
+    let path = dir.join("v5.sav");
+    std::fs::write(&path, &bytes).unwrap();
+    let back = load(&path).unwrap();
+    assert!(back.model.fluid.is_none() && back.model.domains.is_none());
     assert_eq!(back, file);
 }
 

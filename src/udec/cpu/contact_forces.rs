@@ -13,6 +13,7 @@ use crate::udec::contact::geometry::track_feature;
 use crate::udec::contact::law::{contact_force_law, BlockMotion};
 use crate::udec::model::corners::counts_force;
 use crate::udec::model::fdef::Fdef;
+use crate::udec::model::fluid::contact_foot_in;
 use crate::udec::model::sdef::Sdef;
 use crate::udec::model::{material_slot, Block, BlockKind, Contact, Corner, Damping, Material, Model};
 
@@ -36,9 +37,19 @@ struct ContactInputs<'a> {
 
 /// Stage 4 for the contacts `first .. first + contacts.len()`: each contact follows its feature
 /// (the geometry of eqs. 13–15 at the rounded boundary) and applies the force–displacement law
-/// (eqs. 16–20). Returns the first contact of the piece (lowest index) whose overlap passes the
-/// limit.
-fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactForce], features: &mut [[u32; 2]], inp: &ContactInputs) -> Option<usize> {
+/// (eqs. 16–20); `features` (as long as `contacts`, or empty) takes each contact's corner and
+/// feature in a scene with zoned blocks, and in a scene with fluid `feet` (as long as
+/// `contacts`) its two feet (`model::fluid::contact_foot`), which stage 5 reads, while its
+/// corners are at hand. Returns the first contact of the piece (lowest index) whose overlap
+/// passes the limit.
+fn contact_piece(
+    first: usize,
+    contacts: &mut [Contact],
+    forces: &mut [ContactForce],
+    features: &mut [[u32; 2]],
+    mut feet: Option<&mut [[[f64; 2]; 2]]>,
+    inp: &ContactInputs,
+) -> Option<usize> {
     let motion = |k: u32, b: &Block| BlockMotion {
         centroid: b.centroid,
         velocity: b.velocity,
@@ -56,6 +67,9 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
         let g = track_feature(corners2, contact.feature, corner.circle, corner.radius);
         contact.feature = g.feature;
         contact.kind = g.kind;
+        if let Some(feet) = feet.as_deref_mut() {
+            feet[k] = [contact_foot_in(inp.corners, b2, contact, 0), contact_foot_in(inp.corners, b2, contact, 1)];
+        }
         contact.gap = g.gap;
         contact.normal = g.normal;
         contact.point = g.point;
@@ -89,11 +103,20 @@ fn contact_piece(first: usize, contacts: &mut [Contact], forces: &mut [ContactFo
     failure
 }
 
-/// Stage 4 for the whole model, shared out over the team. Returns the first contact (lowest
+/// Stage 4 for the whole model, shared out over the team, with each contact's feet into `feet`
+/// where given (a scene with fluid; resized to the contacts). Returns the first contact (lowest
 /// index, so the report repeats) whose overlap passes the limit, if any.
 /// `features`: each contact's corner and feature, kept beside the forces in a scene with zoned
 /// blocks (`Scratch::features`; empty in other scenes).
-pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], features: &mut [[u32; 2]], corner_velocity: &[[f64; 2]], dt: f64, team: &mut Team) -> Result<(), CycleError> {
+pub(super) fn contact_stage(
+    model: &mut Model,
+    forces: &mut [ContactForce],
+    features: &mut [[u32; 2]],
+    feet: Option<&mut Vec<[[f64; 2]; 2]>>,
+    corner_velocity: &[[f64; 2]],
+    dt: f64,
+    team: &mut Team,
+) -> Result<(), CycleError> {
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let failure = {
@@ -104,15 +127,21 @@ pub(super) fn contact_stage(model: &mut Model, forces: &mut [ContactForce], feat
         let first = AtomicUsize::new(usize::MAX);
         assert!(features.is_empty() || features.len() == n, "a corner and feature per contact, or none");
         let (shared, shared_forces) = (SharedMut::new(contacts), SharedMut::new(forces));
+        let shared_feet = feet.map(|f| {
+            f.resize(n, [[0.0; 2]; 2]);
+            SharedMut::new(f)
+        });
         let zoned = !features.is_empty();
         let shared_features = SharedMut::new(features);
         team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
-            // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` (as long),
-            // mutably borrowed here.
+            // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` and `feet` (as
+            // long), mutably borrowed here.
             let (piece, forces) = unsafe { (shared.range(r.clone()), shared_forces.range(r.clone())) };
             // SAFETY: likewise, where the scene keeps them (else the empty slice).
             let features = if zoned { unsafe { shared_features.range(r.clone()) } } else { &mut [] };
-            if let Some(k) = contact_piece(r.start, piece, forces, features, &inp) {
+            // SAFETY: as above.
+            let feet = shared_feet.as_ref().map(|f| unsafe { f.range(r.clone()) });
+            if let Some(k) = contact_piece(r.start, piece, forces, features, feet, &inp) {
                 first.fetch_min(k, Ordering::Relaxed);
             }
         });

@@ -3,10 +3,14 @@
 //! only in a scene with fluid (`Model::fluid`), after stage 4 (the joints' apertures read the
 //! normal forces it has just set); the loads join the contact forces in the next gather.
 //!
-//! Every sum is taken serially in a fixed order (contacts in order for the flows, each block's
-//! adjacency list for its loads), so a run repeats bit for bit.
+//! Each contact's flow and feet, each domain's area and each block's load is computed alone, on
+//! the team's threads as the contact stage is; every sum is taken serially in a fixed order
+//! (the domains' inflows in contact order, each block's load over its adjacency list), so a
+//! run repeats bit for bit whatever the number of threads, and gives what a serial loop gives.
 
-use crate::udec::model::fluid::{contact_flows, fluid_area, is_free, pressure_jump, pressure_load, pressure_step};
+use super::team::Team;
+use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, MIN_CONTACTS_PER_THREAD};
+use crate::udec::model::fluid::{contact_flow, contact_foot, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step, sum_inflows};
 use crate::udec::model::Model;
 use crate::udec::topology::Adjacency;
 
@@ -15,23 +19,59 @@ use crate::udec::topology::Adjacency;
 pub struct FluidScratch {
     /// Each domain's net inflow Q in this cycle.
     inflow: Vec<f64>,
+    /// Each domain's area this cycle.
+    areas: Vec<f64>,
     /// Each block's load from the domain pressures and buoyancy (force x, y, moment), as the next
     /// gather adds it.
     pub loads: Vec<[f64; 3]>,
+    /// Each contact's two feet this cycle (`model::fluid::contact_foot`, side 0 then 1), taken
+    /// once, by stage 4 where it has the corners at hand (`contact_forces::contact_stage`), for
+    /// the areas and the loads, where each domain's area and each block's load would take them
+    /// again.
+    pub(super) feet: Vec<[[f64; 2]; 2]>,
+}
+
+/// `out[i] = f(i)` for every `i`, on the team's threads: each element alone, so the result is
+/// what a serial loop gives.
+fn fill_on_team<T: Send>(team: &mut Team, out: &mut [T], min_per_thread: usize, f: &(dyn Fn(usize) -> T + Sync)) {
+    let n = out.len();
+    let shared = SharedMut::new(out);
+    team.for_chunks(n, min_per_thread, MIN_CHUNK, &|r| {
+        // SAFETY: `for_chunks` hands each call its own range of 0..n, within the slice, which
+        // stays borrowed here until every call has returned.
+        let part = unsafe { shared.range(r.clone()) };
+        for (slot, i) in part.iter_mut().zip(r) {
+            *slot = f(i);
+        }
+    });
 }
 
 /// Stage 5: each contact's flow (¶6), each free domain's pressure from its inflow and its change
-/// of volume (¶7), and the blocks' loads at the new pressures. Nothing in a dry scene.
-pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidScratch) {
+/// of volume (¶7), and the blocks' loads at the new pressures, with the contacts' feet stage 4
+/// has just taken (`scratch.feet`). Nothing in a dry scene.
+pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidScratch, team: &mut Team) {
     // Counted with stage 4, whose contacts it walks again.
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let (Some(fluid), Some(mut domains)) = (model.fluid, model.domains.take()) else { return };
-    contact_flows(model, &mut domains, &mut scratch.inflow);
+    let nk = model.contacts.len();
+    let mut flows = std::mem::take(&mut domains.flows);
+    flows.resize(nk, Default::default());
+    fill_on_team(team, &mut flows, MIN_CONTACTS_PER_THREAD, &|k| contact_flow(model, &domains, k));
+    domains.flows = flows;
+    sum_inflows(&domains, &mut scratch.inflow);
+    debug_assert_eq!(scratch.feet.len(), nk, "stage 4 took every contact's feet");
+    let feet = &scratch.feet;
+    let foot = |k: usize, side: u32| feet[k][side as usize];
+    scratch.areas.resize(domains.list.len(), 0.0);
+    // A joint's aperture as its flow has just taken it (the same number).
+    let joint = |k: usize| {
+        let f = &domains.flows[k];
+        (f.length > 0.0).then_some(f.aperture)
+    };
+    fill_on_team(team, &mut scratch.areas, MIN_BLOCKS_PER_THREAD, &|d| fluid_area_with(model, &domains, d, &foot, &joint));
     let dt = model.timestep;
     let mut inflow = 0.0;
-    for d in 0..domains.list.len() {
-        let area = fluid_area(model, &domains, d);
-        let dom = &mut domains.list[d];
+    for (d, (dom, &area)) in domains.list.iter_mut().zip(&scratch.areas).enumerate() {
         if is_free(dom.kind, dom.fixed) {
             let q = scratch.inflow[d] * dt;
             inflow += q;
@@ -43,7 +83,10 @@ pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidS
     if let Some(f) = model.fluid.as_mut() {
         f.inflow += inflow;
     }
-    pressure_loads(model, adjacency, &mut scratch.loads);
+    let feet = &scratch.feet;
+    scratch.loads.resize(model.blocks.len(), [0.0; 3]);
+    let model = &*model;
+    fill_on_team(team, &mut scratch.loads, MIN_BLOCKS_PER_THREAD, &|b| block_load(model, adjacency, b, &|k, side| feet[k][side as usize]));
 }
 
 /// Each block's load from the pressures of the domains around it (the module doc of
@@ -51,22 +94,29 @@ pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidS
 /// at its foot) and, with gravity, its buoyancy −ρ_w·A·g (¶9).
 pub fn pressure_loads(model: &Model, adjacency: &Adjacency, loads: &mut Vec<[f64; 3]>) {
     loads.clear();
-    loads.resize(model.blocks.len(), [0.0; 3]);
-    let (Some(fluid), Some(domains)) = (model.fluid.as_ref(), model.domains.as_ref()) else { return };
-    let g = model.gravity;
-    for (b, (block, load)) in model.blocks.iter().zip(loads.iter_mut()).enumerate() {
-        let mut l = [-fluid.density * block.area * g[0], -fluid.density * block.area * g[1], 0.0];
-        for e in adjacency.entries(b) {
-            let k = e.contact() as usize;
-            let jump = pressure_jump(domains, k, e.side());
-            if jump != 0.0 {
-                let foot = crate::udec::model::fluid::contact_foot(model, &model.contacts[k], e.side());
-                let p = pressure_load(jump, foot, block.centroid);
-                l = [l[0] + p[0], l[1] + p[1], l[2] + p[2]];
-            }
-        }
-        *load = l;
+    if model.fluid.is_none() || model.domains.is_none() {
+        loads.resize(model.blocks.len(), [0.0; 3]);
+        return;
     }
+    let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
+    loads.extend((0..model.blocks.len()).map(|b| block_load(model, adjacency, b, &foot)));
+}
+
+/// Block `b`'s load ([`pressure_loads`]) with the contacts' feet from `foot` (contact index,
+/// side); 0 without fluid or domains.
+fn block_load(model: &Model, adjacency: &Adjacency, b: usize, foot: &impl Fn(usize, u32) -> [f64; 2]) -> [f64; 3] {
+    let (Some(fluid), Some(domains)) = (model.fluid.as_ref(), model.domains.as_ref()) else { return [0.0; 3] };
+    let (block, g) = (&model.blocks[b], model.gravity);
+    let mut l = [-fluid.density * block.area * g[0], -fluid.density * block.area * g[1], 0.0];
+    for e in adjacency.entries(b) {
+        let k = e.contact() as usize;
+        let jump = pressure_jump(domains, k, e.side());
+        if jump != 0.0 {
+            let p = pressure_load(jump, foot(k, e.side()), block.centroid);
+            l = [l[0] + p[0], l[1] + p[1], l[2] + p[2]];
+        }
+    }
+    l
 }
 
 /// The work of the fluid loads over this cycle's step, F·Δx + M·Δθ with the velocities the step

@@ -414,10 +414,10 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         return Err(CycleError::TooFast { cycle: model.cycle, block: b.id, travel: fastest.0, limit, speed: fastest.0 / dt });
     }
     // Stage 4.
-    contact_stage(model, forces, features, corner_velocity, dt, team)?;
+    contact_stage(model, forces, features, has_fluid.then_some(&mut fluid.feet), corner_velocity, dt, team)?;
     // Stage 5.
     if has_fluid {
-        flow::flow_stage(model, adjacency, fluid);
+        flow::flow_stage(model, adjacency, fluid, team);
     }
     Ok(())
 }
@@ -433,6 +433,32 @@ fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow
     topology::refresh_domains(model);
     flow::pressure_loads(model, &topology.lists, &mut fluid.loads);
     fluid_timestep_cut(model, report);
+}
+
+/// The contact lists a run starts from when it does not go on from the last: a full detection
+/// (stage 7 over all pairs), or, in a scene with fluid whose state is as a run left it
+/// (`Fluid::as_run_left`: a RESTART of a SAVE after a CYCLE), the lists of the contacts it has,
+/// which that run kept current. A run's updates are incremental: a full detection would restart
+/// every block's distance moved (`Block::moved_since_update`), and with it the timing of the
+/// updates after, at which the domains are rebuilt and the step cut to the fluid's limits; so
+/// such a state's contacts, domains and step are kept, as in a run that went on, and CYCLE N,
+/// SAVE, RESTART, CYCLE M is CYCLE N + M bit for bit. Returns whether they were kept.
+pub(crate) fn start_detection(model: &mut Model, topology: &mut Topology, report: &mut CycleReport) -> bool {
+    let kept = model.fluid.is_some_and(|f| f.as_run_left) && model.domains.is_some();
+    if kept {
+        *topology = Topology::build(model.blocks.len(), &model.contacts);
+    } else {
+        update_topology(model, topology, report, true);
+    }
+    kept
+}
+
+/// A run has started: in a scene with fluid its state is as a run left it from here on
+/// (`Fluid::as_run_left`).
+pub(crate) fn mark_as_run_left(model: &mut Model) {
+    if let Some(f) = model.fluid.as_mut() {
+        f.as_run_left = true;
+    }
 }
 
 /// The time step cut where the domains as they are now need a shorter one
@@ -509,16 +535,22 @@ impl driver::Start<Model> for CpuStart<'_> {
     /// Between runs the executor may have split, deleted or moved blocks: a full detection,
     /// unless the model is the very state the last run left, whose contacts are current.
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
-        if !resume {
-            update_topology(model, self.topology, report, true);
+        if resume {
+            sync_forces(model, self.forces, self.features);
+            return Ok(());
         }
+        let kept = start_detection(model, self.topology, report);
         sync_forces(model, self.forces, self.features);
         // With fluid: the domains of the lists just detected, their loads, and the time step the
-        // fluid allows. A run that goes on from the last keeps the domains, loads and time step
-        // that run left, so that CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
-        if !resume {
+        // fluid allows; or, from a state a run left, that state's domains and step and their
+        // loads. A run that goes on from the last keeps the domains, loads and time step that
+        // run left, so that CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
+        if kept {
+            flow::pressure_loads(model, &self.topology.lists, &mut self.fluid.loads);
+        } else {
             fluid_after_topology(model, self.topology, self.fluid, report);
         }
+        mark_as_run_left(model);
         Ok(())
     }
 }

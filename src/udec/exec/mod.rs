@@ -76,20 +76,29 @@ pub use crate::driver::run::{Progress, RunOptions, CHECKPOINT_FILE, VTK_DIR};
 /// The executor stops at such a command, and before the first CYCLE it looks ahead for one, so
 /// that a deck of long CYCLEs followed by FLUID fails before it cycles, not after (issue 27
 /// item 6).
-/// Every command of UDEC 1.2 runs now (fluid came with issue 30); the look-ahead stays for
-/// what a later version adds, and for what a scene with fluid cannot do yet
-/// ([`fluid_not_supported_yet`]).
+/// Every command of UDEC 1.2 runs now (fluid came with issue 30, its SAVE with save format 6);
+/// the look-ahead stays for what a later version adds.
 fn not_supported_yet(_command: &Command) -> Option<&'static str> {
     None
 }
 
-/// What of `command` a scene with fluid cannot do yet: SAVE (the save file does not keep the
-/// fluid and the domain pressures yet, and a RESTART would lose them without a word).
-fn fluid_not_supported_yet(command: &Command) -> Option<&'static str> {
-    match command {
-        Command::Save { .. } => Some("SAVE of a scene with fluid (the save file does not keep the fluid and the domain pressures yet)"),
-        _ => None,
-    }
+/// Whether `command` leaves the model as the last run left it (`Fluid::as_run_left`): it only
+/// writes or reads the state (a RESTART reads one, the flag with it), or is a run or the end.
+fn leaves_the_run_state(command: &Command) -> bool {
+    matches!(
+        command,
+        Command::Restart { .. }
+            | Command::Stop
+            | Command::End
+            | Command::Cycle { .. }
+            | Command::Dump { .. }
+            | Command::Plot { .. }
+            | Command::Print { .. }
+            | Command::Save { .. }
+            | Command::Vtk
+            | Command::View { .. }
+            | Command::Window { .. }
+    )
 }
 
 /// Whether `command` can change the blocks, their positions or the contacts, after which a scene
@@ -198,6 +207,11 @@ impl<'a> Executor<'a> {
             }
             self.echo(&format!("){}", cmd.source));
             let done = self.execute(cmd)?;
+            if !leaves_the_run_state(&cmd.command) {
+                if let Some(f) = self.model.fluid.as_mut() {
+                    f.as_run_left = false;
+                }
+            }
             // With fluid a CYCLE's stage 7 rebuilds the domains itself at each contact update:
             // one more rebuild here, on the geometry the run ended with, could trace them
             // otherwise (a contact's feature moved on) and a CYCLE after it would not go on
@@ -223,12 +237,7 @@ impl<'a> Executor<'a> {
     /// the run now, not after hours of cycling (the parser has read the whole deck, so typing
     /// errors are already reported).
     fn look_ahead(&mut self, rest: &[Located]) -> Result<(), RunError> {
-        // A scene has fluid from its FLUID command on.
-        let mut fluid = self.model.fluid.is_some();
-        let later_unsupported = rest.iter().find_map(|c| {
-            fluid |= matches!(c.command, Command::Fluid { .. });
-            not_supported_yet(&c.command).or_else(|| if fluid { fluid_not_supported_yet(&c.command) } else { None }).map(|w| (c, w))
-        });
+        let later_unsupported = rest.iter().find_map(|c| not_supported_yet(&c.command).map(|w| (c, w)));
         if let Some((later, what)) = later_unsupported {
             self.echo(&format!("THE DECK CANNOT RUN TO ITS END: LINE {} ({}) IS NOT SUPPORTED YET; NOTHING IS CYCLED", later.line, later.source.trim()));
             return Err(self.unsupported(later, what));

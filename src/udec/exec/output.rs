@@ -25,10 +25,11 @@ impl Executor<'_> {
         let path = self.resolve(file);
         // Every RestartError names the file.
         let saved = output::restart::load(&path).map_err(|e| self.command_error(cmd, format!("RESTART: {e}")))?;
-        // SAVE files do not keep the domains: a scene that had them builds them again.
+        // Save files of format 6 keep the domains (and the fluid) as the run left them; an older
+        // file has none, and a scene that had them builds them again.
         let had_domains = self.model.domains.is_some();
         self.model = saved.model;
-        if had_domains {
+        if had_domains && self.model.domains.is_none() {
             crate::udec::topology::refresh_domains_with(&mut self.model, self.domain_min_area);
         }
         self.overlaps_checked = None;
@@ -39,13 +40,9 @@ impl Executor<'_> {
         Ok(())
     }
 
-    /// SAVE [file]: the state, for RESTART.
+    /// SAVE [file]: the state, for RESTART (with fluid, the fluid and the domains too: save
+    /// format 6).
     pub(super) fn save(&mut self, cmd: &Located, file: &Option<String>) -> Result<(), RunError> {
-        if self.model.fluid.is_some() {
-            // The save format has no place for the fluid and the domain pressures yet: a
-            // RESTART would lose them without a word.
-            return Err(self.unsupported(cmd, super::fluid_not_supported_yet(&crate::udec::deck::Command::Save { file: None }).unwrap_or("SAVE")));
-        }
         let path = self.resolve(file);
         if let Some(dir) = path.parent() {
             let _ = std::fs::create_dir_all(dir);

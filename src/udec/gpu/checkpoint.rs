@@ -75,6 +75,16 @@ pub(super) struct Checkpoint {
     /// 10⁶-block model's copy is a gigabyte to allocate).
     pub(super) valid: bool,
 }
+/// A checkpoint buffer of `size` bytes (16 at least: a scene's empty list still gets one), a
+/// copy's target and source: the one maker of every slot of the checkpoint.
+fn checkpoint_buffer(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: size.max(16),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    })
+}
 
 impl<R: Real> Engine<R> {
     /// Copies the live state into the checkpoint buffers on the device (queued; no wait).
@@ -93,14 +103,7 @@ impl<R: Real> Engine<R> {
             .as_ref()
             .is_some_and(|c| c.blocks.size() >= sizes[0] && c.corners.size() >= sizes[1] && c.contacts.size() >= sizes[2] && c.forces.size() >= sizes[3]);
         if !fits {
-            let make = |label: &str, size: u64| {
-                self.dev.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: size.max(16),
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                })
-            };
+            let make = |label: &str, size: u64| checkpoint_buffer(&self.dev.device, label, size);
             self.checkpoint = Some(Checkpoint {
                 blocks: make("checkpoint blocks", b.blocks.buffer.size()),
                 corners: make("checkpoint corners", b.corners.buffer.size()),
@@ -125,12 +128,7 @@ impl<R: Real> Engine<R> {
         };
         if let Some(src) = sdef_src {
             if ck.sdefs.as_ref().is_none_or(|d| d.size() < src.buffer.size()) {
-                ck.sdefs = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("checkpoint simply-deformable blocks"),
-                    size: src.buffer.size(),
-                    usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                }));
+                ck.sdefs = Some(checkpoint_buffer(&self.dev.device, "checkpoint simply-deformable blocks", src.buffer.size()));
             }
         }
         ck.sdef_bytes = sdef_bytes;
@@ -182,14 +180,7 @@ impl<R: Real> Engine<R> {
         if !self.fluid_scene {
             return;
         }
-        let make = |label: &str, size: u64| {
-            self.dev.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
-        };
+        let make = |label: &str, size: u64| checkpoint_buffer(&self.dev.device, label, size);
         if ck.fluid.as_ref().is_none_or(|d| d.iter().zip(&parts).any(|(d, p)| d.size() < p.0)) {
             ck.fluid = Some([make("checkpoint domains", parts[0].0), make("checkpoint contact flows", parts[1].0), make("checkpoint fluid loads", parts[2].0)]);
         }
@@ -244,14 +235,7 @@ impl<R: Real> Engine<R> {
         let ck = self.checkpoint.as_mut().expect("made by take_checkpoint");
         ck.fdef_bytes = [0, 0];
         let (Some(g), Some(z)) = (b.gridpoints.as_ref().filter(|_| self.fdef_scene), b.zones.as_ref()) else { return };
-        let make = |label: &str, size: u64| {
-            self.dev.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size,
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
-        };
+        let make = |label: &str, size: u64| checkpoint_buffer(&self.dev.device, label, size);
         if ck.fdef.as_ref().is_none_or(|[dg, dz]| dg.size() < g.buffer.size() || dz.size() < z.buffer.size()) {
             ck.fdef = Some([make("checkpoint grid points", g.buffer.size()), make("checkpoint zones", z.buffer.size())]);
         }

@@ -354,9 +354,13 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
             }
             e.write_params(model);
         } else {
-            cpu::maybe_update_topology(model, &mut self.topology, report, true);
-            // With fluid: the time step the new domains allow (their loads go up with them).
-            cpu::fluid_timestep_cut(model, report);
+            // With fluid: the domains of the lists detected and the time step they allow (their
+            // loads go up with them), or those of a state a run left (`cpu::start_detection`).
+            if !cpu::start_detection(model, &mut self.topology, report) && model.fluid.is_some() {
+                crate::udec::topology::refresh_domains(model);
+                cpu::fluid_timestep_cut(model, report);
+            }
+            cpu::mark_as_run_left(model);
             e.list_in_order = true;
             e.upload_all(model, &self.topology.lists).map_err(device_error)?;
             e.write_params(model);

@@ -187,7 +187,8 @@ impl<R: Real> Engine<R> {
     /// Every contact's ledger bases from the model: the contact update kept each surviving
     /// contact's ledger terms there (matched by corner and block, with their feature ids).
     pub(super) fn bases_from_model(&mut self, model: &Model) {
-        std::rc::Rc::make_mut(&mut self.uploaded).contact_base = Arc::new(model.contacts.par_iter().with_min_len(4096).map(|c| [c.slip_work, c.dashpot_work]).collect());
+        std::rc::Rc::make_mut(&mut self.uploaded).contact_base =
+            Arc::new(model.contacts.par_iter().with_min_len(4096).map(|c| [c.slip_work, c.dashpot_work]).collect());
     }
 
     /// `new_contact_list` after a splice of `edit`, where the kept contacts at `patched` (new

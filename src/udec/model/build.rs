@@ -494,6 +494,64 @@ impl Model {
                 return Err(format!("link {i} joins blocks {} and {} of {nb}", l.flying, l.anchor));
             }
         }
+        self.validate_fluid()
+    }
+
+    /// The fluid's part of [`Model::validate`] (save format 6 keeps the fluid and the domains):
+    /// FLUID's density not negative and bulk modulus positive, the accounts finite; the domains
+    /// in id order below `next_id`, their boundaries within the links, the links naming contacts
+    /// and corners that exist, each contact's two sides domains that exist, the pressures and
+    /// areas finite.
+    fn validate_fluid(&self) -> Result<(), String> {
+        use super::domain::{DomainLink, NO_DOMAIN};
+        if let Some(f) = &self.fluid {
+            if !(f.density >= 0.0 && f.density.is_finite() && f.bulk > 0.0 && f.bulk.is_finite()) {
+                return Err(format!("the fluid's density {} or bulk modulus {} is out of range (FLUID asks for rhow >= 0, bulkw > 0)", f.density, f.bulk));
+            }
+            if ![f.work, f.inflow, f.adjusted, f.stored_at_start].iter().all(|x| x.is_finite()) {
+                return Err("the fluid's accounts (work, inflow, adjusted, stored) are not finite".to_string());
+            }
+        }
+        let Some(d) = &self.domains else { return Ok(()) };
+        let (nd, nk, nc) = (d.list.len(), self.corners.len(), self.contacts.len());
+        if d.link_sides.len() != d.links.len() {
+            return Err(format!("the domains have {} links but {} link sides", d.links.len(), d.link_sides.len()));
+        }
+        // The numbers are checked where the cycle reads them, with fluid: in a dry scene they are
+        // derived data (PRINT DOMAINS), which a model of extreme scale may hold as infinities.
+        let fluid = self.fluid.is_some();
+        if fluid && (!(d.min_area.is_finite() && d.min_area >= 0.0) || d.given_min_area.is_some_and(|a| !(a.is_finite() && a > 0.0))) {
+            return Err(format!("the domains' minimum area {} (given {:?}) is out of range", d.min_area, d.given_min_area));
+        }
+        let mut last_id = None;
+        for (k, dom) in d.list.iter().enumerate() {
+            if last_id.is_some_and(|id| dom.id <= id) || dom.id >= d.next_id {
+                return Err(format!("domain {k} has id {}: the ids must rise and stay below the next id {}", dom.id, d.next_id));
+            }
+            last_id = Some(dom.id);
+            let (s, n) = (dom.link_start as usize, dom.link_count as usize);
+            if s + n > d.links.len() {
+                return Err(format!("domain {k} (id {}) has links {s}..{} of {}", dom.id, s + n, d.links.len()));
+            }
+            // The distance moved may be infinite, as its blocks' may (cracking asks so for an
+            // update).
+            if fluid && (![dom.area, dom.length, dom.pressure].iter().all(|x| x.is_finite()) || dom.max_displacement.is_nan() || dom.max_displacement < 0.0) {
+                return Err(format!("domain {k} (id {}) has a non-finite value", dom.id));
+            }
+        }
+        for (i, l) in d.links.iter().enumerate() {
+            match *l {
+                DomainLink::Contact { index, .. } if index as usize >= nc => return Err(format!("domain link {i} names contact {index} of {nc}")),
+                DomainLink::Corner { corner } if corner as usize >= nk => return Err(format!("domain link {i} names corner {corner} of {nk}")),
+                _ => {}
+            }
+        }
+        if let Some((k, s)) = d.sides.iter().enumerate().find(|(_, s)| s.iter().any(|&x| x != NO_DOMAIN && x as usize >= nd)) {
+            return Err(format!("contact {k}'s domains {s:?} are not among the {nd} domains"));
+        }
+        if fluid && d.flows.iter().any(|f| !(f.flow.is_finite() && f.aperture.is_finite() && f.length.is_finite())) {
+            return Err("a contact's flow is not finite".to_string());
+        }
         Ok(())
     }
 

@@ -29,7 +29,7 @@ pub const NO_DOMAIN: u32 = u32::MAX;
 pub const LOOP_START: u8 = 2;
 
 /// The fluid's view of one contact in the last cycle (Appendix A ¶6, PRINT FLOWS).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ContactFlow {
     /// Flow from the contact's first domain (`Domains::sides[k][0]`) to its second, volume per
     /// unit time per unit thickness.
@@ -66,7 +66,7 @@ impl DomainKind {
 }
 
 /// One domain.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Domain {
     /// Stable id shown by PRINT: kept by a rebuild for the domain that has the most contacts in
     /// common with one before it (the same void), never reused for another.
@@ -97,7 +97,7 @@ pub struct Domain {
 }
 
 /// One item of a domain's boundary, in the order the circuit passes it (PRINT DLIST).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum DomainLink {
     /// A contact the circuit crosses from one block to the next: its index in `Model::contacts`
     /// when the domains were built, and its id.
@@ -107,7 +107,7 @@ pub enum DomainLink {
 }
 
 /// The domains of a model, as built from its lists.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Domains {
     /// Ordered by id.
     pub list: Vec<Domain>,

@@ -31,7 +31,7 @@ use super::domain::{ContactFlow, DomainKind, DomainLink, Domains, LOOP_START, NO
 use super::{material_slot, Contact, Material, Model};
 
 /// The fluid of a scene (FLUID rhow bulkw) and its accounts.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Fluid {
     /// ρ_w, for buoyancy (¶9).
     pub density: f64,
@@ -49,6 +49,23 @@ pub struct Fluid {
     pub adjusted: f64,
     /// [`stored_volume`] when FLUID was given.
     pub stored_at_start: f64,
+    /// Whether the model's domains and time step are as a run left them: a run sets it at its
+    /// start (whose domains are then rebuilt and the step cut to the fluid's limits), and every
+    /// command but those that only write or read (PRINT, PLOT, SAVE, …) clears it. Within a
+    /// run the step falls only where stage 7 rebuilds the domains, so a run that starts from a
+    /// state a run left (a RESTART of its SAVE) keeps those domains and that step where its
+    /// detection finds the contacts as they were: CYCLE N, SAVE, RESTART, CYCLE M is then
+    /// CYCLE N + M bit for bit. Not part of the model's equality (the backends' test of a
+    /// run that goes on from the last: a command that changes nothing leaves it going on).
+    pub as_run_left: bool,
+}
+
+/// Every field but [`Fluid::as_run_left`], which says how the state came about, not what it is.
+impl PartialEq for Fluid {
+    fn eq(&self, o: &Self) -> bool {
+        let Fluid { density, bulk, work, inflow, adjusted, stored_at_start, as_run_left: _ } = *self;
+        (density, bulk, work, inflow, adjusted, stored_at_start) == (o.density, o.bulk, o.work, o.inflow, o.adjusted, o.stored_at_start)
+    }
 }
 
 impl Fluid {
@@ -107,18 +124,24 @@ pub fn pressure_step(pressure: f64, area_before: f64, area_after: f64, inflow: f
 /// 2's corner, or the foot of block 1's corner on block 2's edge, within the edge): the point the
 /// domains on either side of the contact meet on that block.
 pub fn contact_foot(model: &Model, c: &Contact, side: u32) -> [f64; 2] {
-    let corner = model.corners[c.corner as usize].position;
+    contact_foot_in(&model.corners, &model.blocks[c.block2 as usize], c, side)
+}
+
+/// [`contact_foot`] from the corners and contact `c`'s block 2 (stage 4 takes each contact's feet
+/// where it has just read them, `cpu::contact_forces`).
+#[inline]
+pub fn contact_foot_in(corners: &[super::Corner], b2: &super::Block, c: &Contact, side: u32) -> [f64; 2] {
+    let corner = corners[c.corner as usize].position;
     if side == 0 {
         return corner;
     }
-    let b2 = &model.blocks[c.block2 as usize];
     let n = b2.corner_count.max(1);
     let k = (c.feature / 2) % n;
-    let p = model.corners[(b2.corner_start + k) as usize].position;
+    let p = corners[(b2.corner_start + k) as usize].position;
     if c.feature % 2 == 0 {
         return p;
     }
-    let q = model.corners[(b2.corner_start + (k + 1) % n) as usize].position;
+    let q = corners[(b2.corner_start + (k + 1) % n) as usize].position;
     let e = [q[0] - p[0], q[1] - p[1]];
     let len2 = e[0] * e[0] + e[1] * e[1];
     let t = if len2 > 0.0 { (((corner[0] - p[0]) * e[0] + (corner[1] - p[1]) * e[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
@@ -187,28 +210,44 @@ pub fn domain_loops(model: &Model, domains: &Domains, d: usize) -> Vec<Vec<([f64
 /// contacts when both are joints, else no known aperture), never below A_d(min); 0 for the outer
 /// domain.
 pub fn fluid_area(model: &Model, domains: &Domains, d: usize) -> f64 {
+    let joint = |k: usize| {
+        let c = &model.contacts[k];
+        (c.joint_length > 0.0).then(|| aperture(c, &model.materials[material_slot(c.material, model.materials.len())]))
+    };
+    fluid_area_with(model, domains, d, &|k, side| contact_foot(model, &model.contacts[k], side), &joint)
+}
+
+/// [`fluid_area`] with the contacts' feet from `foot` (contact index, side) and, for a contact
+/// that is a joint, its aperture from `joint` (contact index; None for a point contact): stage 5
+/// takes each contact's two feet and its aperture once a cycle, where every domain's area would
+/// take them again, twice for each domain a contact bounds. The same numbers in the same order.
+pub fn fluid_area_with(model: &Model, domains: &Domains, d: usize, foot: &impl Fn(usize, u32) -> [f64; 2], joint: &impl Fn(usize) -> Option<f64>) -> f64 {
     let dom = &domains.list[d];
     match dom.kind {
         DomainKind::Outer => 0.0,
         DomainKind::Joint => {
-            let apertures: Vec<f64> = domains
-                .links_of(dom)
-                .iter()
-                .filter_map(|l| match *l {
-                    DomainLink::Contact { index, .. } => {
-                        let c = model.contacts.get(index as usize)?;
-                        (c.joint_length > 0.0).then(|| aperture(c, &model.materials[material_slot(c.material, model.materials.len())]))
+            // The apertures of its contacts that are joints (without a list: every cycle).
+            let (mut apertures, mut n) = ([0.0f64; 2], 0usize);
+            for l in domains.links_of(dom) {
+                if let DomainLink::Contact { index, .. } = *l {
+                    if index as usize >= model.contacts.len() {
+                        continue;
                     }
-                    DomainLink::Corner { .. } => None,
-                })
-                .collect();
-            if apertures.len() == 2 {
+                    if let Some(a) = joint(index as usize) {
+                        if n < 2 {
+                            apertures[n] = a;
+                        }
+                        n += 1;
+                    }
+                }
+            }
+            if n == 2 {
                 (0.5 * (apertures[0] + apertures[1]) * dom.length).max(domains.min_area)
             } else {
                 domains.min_area
             }
         }
-        DomainKind::Regular => regular_void(model, domains, d).max(domains.min_area),
+        DomainKind::Regular => regular_void(model, domains, d, foot).max(domains.min_area),
     }
 }
 
@@ -216,7 +255,7 @@ pub fn fluid_area(model: &Model, domains: &Domains, d: usize) -> f64 {
 /// each loop's shoelace sum Σ p_i × p_(i+1) taken in that order, as it was when the loops were
 /// built first) without building the loops: stage 5 takes it for every domain every cycle.
 /// The GPU's twin is `fluid_area` in flow.wgsl.
-fn regular_void(model: &Model, domains: &Domains, d: usize) -> f64 {
+fn regular_void(model: &Model, domains: &Domains, d: usize, foot: &impl Fn(usize, u32) -> [f64; 2]) -> f64 {
     let dom = &domains.list[d];
     let start = dom.link_start as usize;
     let cross = |p: [f64; 2], q: [f64; 2]| p[0] * q[1] - q[0] * p[1];
@@ -239,10 +278,12 @@ fn regular_void(model: &Model, domains: &Domains, d: usize) -> f64 {
         }
         match *link {
             DomainLink::Contact { index, .. } => {
-                let Some(c) = model.contacts.get(index as usize) else { continue };
+                if index as usize >= model.contacts.len() {
+                    continue;
+                }
                 let side = u32::from(bits & 1);
-                vertex(contact_foot(model, c, 1 - side), &mut open, &mut s);
-                vertex(contact_foot(model, c, side), &mut open, &mut s);
+                vertex(foot(index as usize, 1 - side), &mut open, &mut s);
+                vertex(foot(index as usize, side), &mut open, &mut s);
             }
             DomainLink::Corner { corner } => {
                 if let Some(cn) = model.corners.get(corner as usize) {
@@ -261,22 +302,42 @@ fn regular_void(model: &Model, domains: &Domains, d: usize) -> f64 {
 /// second), written into `domains.flows`, and each domain's net inflow Q into `inflow`: summed
 /// in contact order, so a run repeats bit for bit.
 pub fn contact_flows(model: &Model, domains: &mut Domains, inflow: &mut Vec<f64>) {
+    let mut flows = std::mem::take(&mut domains.flows);
+    flows.clear();
+    flows.extend((0..model.contacts.len()).map(|k| contact_flow(model, domains, k)));
+    domains.flows = flows;
+    sum_inflows(domains, inflow);
+}
+
+/// Contact `k`'s flow now ([`ContactFlow`]: positive from its first domain to its second), its
+/// aperture and length: each contact alone (stage 5 takes them on its threads).
+#[inline]
+pub fn contact_flow(model: &Model, domains: &Domains, k: usize) -> ContactFlow {
+    let c = &model.contacts[k];
+    let mat = &model.materials[material_slot(c.material, model.materials.len())];
+    let a = aperture(c, mat);
+    let mut f = ContactFlow { flow: 0.0, aperture: a, length: c.joint_length };
+    if let Some(&[d0, d1]) = domains.sides.get(k) {
+        if d0 != NO_DOMAIN && d0 != d1 {
+            let dp = domains.list[d0 as usize].pressure - domains.list[d1 as usize].pressure;
+            f.flow = conductance(c, mat, a) * dp;
+        }
+    }
+    f
+}
+
+/// Each domain's net inflow Q from `domains.flows` into `inflow`, summed in contact order, so a
+/// run repeats bit for bit.
+pub fn sum_inflows(domains: &Domains, inflow: &mut Vec<f64>) {
     inflow.clear();
     inflow.resize(domains.list.len(), 0.0);
-    domains.flows.resize(model.contacts.len(), ContactFlow::default());
-    for (k, c) in model.contacts.iter().enumerate() {
-        let mat = &model.materials[material_slot(c.material, model.materials.len())];
-        let a = aperture(c, mat);
-        let mut f = ContactFlow { flow: 0.0, aperture: a, length: c.joint_length };
+    for (k, f) in domains.flows.iter().enumerate() {
         if let Some(&[d0, d1]) = domains.sides.get(k) {
             if d0 != NO_DOMAIN && d0 != d1 {
-                let dp = domains.list[d0 as usize].pressure - domains.list[d1 as usize].pressure;
-                f.flow = conductance(c, mat, a) * dp;
                 inflow[d0 as usize] -= f.flow;
                 inflow[d1 as usize] += f.flow;
             }
         }
-        domains.flows[k] = f;
     }
 }
 

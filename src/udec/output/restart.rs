@@ -9,7 +9,7 @@
 //! | 4 | format version (u32), [`FORMAT_VERSION`] |
 //! | 8 | payload length in bytes (u64) |
 //! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in versions 3 to 5, FNV-1a 64 in version 2 |
-//! | n | payload: [`SaveFile`] serialized with postcard, then (version 4) the contacts' laws and the model's simply-deformable extension array (`Model::sdef`, a list), then (version 5) the fully-deformable one (`Model::fdef`, a list) |
+//! | n | payload: [`SaveFile`] serialized with postcard, then (version 4) the contacts' laws and the model's simply-deformable extension array (`Model::sdef`, a list), then (version 5) the fully-deformable one (`Model::fdef`, a list), then (version 6) the fluid (`Model::fluid`) and the domains (`Model::domains`), each an option |
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
@@ -28,6 +28,14 @@
 //! (empty for a model without joints), which the contact's own record does not hold; then the
 //! simply-deformable extension (`Model::sdef`, empty for a rigid model). Version 2 and 3 files,
 //! written before both, read with every contact a point contact and every block rigid.
+//!
+//! Version 6 appends the fluid (FLUID's properties and the mass balance's and energy ledger's
+//! accounts, `Model::fluid`) and the domains as the cycle carries them (`Model::domains`: their
+//! ids, pressures, PFIX, the areas the next pressure update starts from, the boundaries and
+//! each contact's sides and last flow), so that a scene with fluid restarts where it stopped:
+//! CYCLE N, SAVE, RESTART, CYCLE M is CYCLE N + M bit for bit. A scene without fluid that had
+//! its domains built (PRINT DOMAINS) keeps them too, with their ids. Files of versions 2 to 5
+//! read as a model without fluid, whose domains RESTART builds again when asked.
 
 use std::fs;
 use std::io::{self, Read, Seek, SeekFrom, Write};
@@ -40,9 +48,14 @@ use crate::udec::model::Model;
 
 /// The first eight bytes of every save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKDEM";
-/// The save format this program writes (and reads, with versions 2 and 3, which have no joints
-/// and no simply-deformable blocks).
-pub const FORMAT_VERSION: u32 = 5;
+/// The save format this program writes (and reads, with versions 2 to 5, which have no fluid,
+/// and 2 and 3 no joints and no simply-deformable blocks).
+pub const FORMAT_VERSION: u32 = 6;
+/// Version 5: the zones, no fluid and no domains (read as a dry model whose domains are built
+/// again when asked).
+const FDEF_VERSION: u32 = 5;
+/// The first version with the fluid and the domains (this one).
+const FLUID_VERSION: u32 = FORMAT_VERSION;
 /// Version 4: the joints and the simply-deformable extension, no zones (read as a model
 /// without fully-deformable blocks' zones).
 const SDEF_VERSION: u32 = 4;
@@ -166,6 +179,9 @@ struct SaveView<'a> {
     sdef: &'a [crate::udec::model::sdef::Sdef],
     /// Version 5's: the fully-deformable blocks' zones and grid points (`Model::fdef`).
     fdef: &'a [crate::udec::model::fdef::Fdef],
+    /// Version 6's: the fluid (`Model::fluid`), then the domains (`Model::domains`).
+    fluid: &'a Option<crate::udec::model::fluid::Fluid>,
+    domains: &'a Option<crate::udec::model::domain::Domains>,
 }
 
 /// The contacts of `model` that follow the joint law, as version 4 files list them.
@@ -185,7 +201,8 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
 /// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
-    let file = SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef, fdef: &model.fdef };
+    let file =
+        SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef, fdef: &model.fdef, fluid: &model.fluid, domains: &model.domains };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
         let seekable = w.get_ref().metadata()?.is_file();
@@ -288,7 +305,7 @@ fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
-    if version != FORMAT_VERSION && version != SDEF_VERSION && version != POINT_VERSION && version != FNV_VERSION {
+    if ![FORMAT_VERSION, FDEF_VERSION, SDEF_VERSION, POINT_VERSION, FNV_VERSION].contains(&version) {
         return Err(DecodeError::UnsupportedVersion(version));
     }
     Ok(Header { version, length: u64_at(12), checksum: u64_at(20) })
@@ -300,7 +317,7 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
         return Err(DecodeError::Corrupt("the payload checksum does not match".to_string()));
     }
     let (mut file, mut rest) = postcard::take_from_bytes::<SaveFile>(payload).map_err(|e| DecodeError::Corrupt(format!("bad payload: {e}")))?;
-    if version == FORMAT_VERSION || version == SDEF_VERSION {
+    if version >= SDEF_VERSION {
         let joints;
         (joints, rest) = postcard::take_from_bytes::<Vec<(u32, f64)>>(rest).map_err(|e| DecodeError::Corrupt(format!("bad list of joints: {e}")))?;
         for (k, length) in joints {
@@ -314,8 +331,12 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
         }
         (file.model.sdef, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad simply-deformable extension: {e}")))?;
     }
-    if version == FORMAT_VERSION {
+    if version >= FDEF_VERSION {
         (file.model.fdef, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad fully-deformable extension: {e}")))?;
+    }
+    if version >= FLUID_VERSION {
+        (file.model.fluid, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad fluid: {e}")))?;
+        (file.model.domains, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad domains: {e}")))?;
     }
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));
