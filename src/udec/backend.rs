@@ -21,9 +21,11 @@ impl crate::driver::RunModel for Model {
         self.frac
     }
 
+    /// The work put in counts the fluid's, as both backends' energy sums do (the CPU's
+    /// `Model::energies`, the GPU's `energy_sums`).
     fn energy_terms(&self) -> (f64, f64) {
         let e = self.energies();
-        (e.kinetic + e.strain, e.external_work)
+        (e.kinetic + e.strain, e.external_work + e.fluid_work)
     }
 
     fn energy_baseline(&self) -> (f64, f64) {
@@ -31,7 +33,9 @@ impl crate::driver::RunModel for Model {
         // Contacts that start overlapping (blocks built into each other, the stage not yet run)
         // hold strain energy the first force computation will release: it is energy put in.
         let overlap_strain: f64 = self.contacts.iter().map(|c| 0.5 * self.material(c.material).contact.kn * c.gap.min(0.0).powi(2)).sum();
-        let baseline = e0.kinetic + e0.strain.max(overlap_strain) - e0.external_work;
+        // The work put in before this run (gravity's and loads', and the fluid's) is taken off:
+        // the budget is the work done since.
+        let baseline = e0.kinetic + e0.strain.max(overlap_strain) - e0.external_work - e0.fluid_work;
         // Energy scale for the floor of the growth test: potential energy of each block's weight
         // and load over its own size.
         let g = (self.gravity[0].powi(2) + self.gravity[1].powi(2)).sqrt();
