@@ -461,11 +461,26 @@ fn stick(ctx: &Ctx) -> Result<Measured, Failure> {
     Ok(Measured { error: slid / frictionless, detail: format!("moved {slid:.3e} m of a frictionless {frictionless:.3} m"), cost, energy_balance: None })
 }
 
+/// What a prism on an incline does (the topple-vs-slide cases of both engines).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Regime {
+pub(super) enum Regime {
     Stands,
     Slides,
     Topples,
+}
+
+impl Regime {
+    /// The regime of a prism turned by `turned` (rad) and moved `slid` (m) down the dip: it
+    /// toppled above `toppled_above`, else slid more than 0.02 m, else stood.
+    pub(super) fn of(turned: f64, slid: f64, toppled_above: f64) -> Regime {
+        if turned > toppled_above {
+            Regime::Topples
+        } else if slid.abs() > 0.02 {
+            Regime::Slides
+        } else {
+            Regime::Stands
+        }
+    }
 }
 
 fn topple_vs_slide(ctx: &Ctx) -> Result<Measured, Failure> {
@@ -501,13 +516,7 @@ fn topple_vs_slide(ctx: &Ctx) -> Result<Measured, Failure> {
         let blk = &m.blocks[1];
         let rot = blk.rotation.abs();
         let dx = blk.centroid[0] - 0.5 * b;
-        let got = if rot > 0.05 {
-            Regime::Topples
-        } else if dx.abs() > 0.02 {
-            Regime::Slides
-        } else {
-            Regime::Stands
-        };
+        let got = Regime::of(rot, dx, 0.05);
         if got != expected {
             wrong += 1;
         }

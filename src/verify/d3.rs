@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use glam::{DQuat, DVec3};
 
-use super::cases::Case;
+use super::cases::{Case, Regime};
 use super::{Cost, Ctx, Failure, Measured};
 use crate::d3;
 use crate::d3::model::Model;
@@ -328,14 +328,20 @@ fn travel_in(frame: &Frame, m: &Model, start: DVec3) -> DVec3 {
     DVec3::new(d.dot(frame.axes[0]), d.dot(frame.axes[1]), d.dot(frame.axes[2]))
 }
 
-fn slide(ctx: &Ctx) -> Result<Measured, Failure> {
-    let (psi, tan_phi) = (30.0f64, 0.3);
-    let size = DVec3::new(1.0, 1.0, 0.5);
+/// A block of `size` on the incline of `incline_setup` for one second: the model, the block's
+/// travel in the frame's axes, and the cost.
+fn incline_run(ctx: &Ctx, psi: f64, tan_phi: f64, size: DVec3) -> Result<(Model, DVec3, Cost), Failure> {
     let (setup, frame) = incline_setup(psi, tan_phi, size, &ctx.frac_line());
     let n = cycles_for(&setup, 1.0)?;
     let (m, cost) = run(&format!("{setup}CYCLE {n}\n"))?;
-    let start = frame.global(0.5 * DVec3::new(size.x, 0.0, size.z));
-    let s = travel_in(&frame, &m, start);
+    let s = travel_in(&frame, &m, frame.global(0.5 * DVec3::new(size.x, 0.0, size.z)));
+    Ok((m, s, cost))
+}
+
+fn slide(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (psi, tan_phi) = (30.0f64, 0.3);
+    let size = DVec3::new(1.0, 1.0, 0.5);
+    let (m, s, cost) = incline_run(ctx, psi, tan_phi, size)?;
     let r = psi.to_radians();
     let t = m.time;
     let expected = 0.5 * 10.0 * t * t * (r.sin() - r.cos() * tan_phi);
@@ -352,11 +358,7 @@ fn slide(ctx: &Ctx) -> Result<Measured, Failure> {
 fn stick(ctx: &Ctx) -> Result<Measured, Failure> {
     let (psi, tan_phi) = (10.0f64, 0.3);
     let size = DVec3::new(1.0, 1.0, 0.5);
-    let (setup, frame) = incline_setup(psi, tan_phi, size, &ctx.frac_line());
-    let n = cycles_for(&setup, 1.0)?;
-    let (m, cost) = run(&format!("{setup}CYCLE {n}\n"))?;
-    let start = frame.global(0.5 * DVec3::new(size.x, 0.0, size.z));
-    let s = travel_in(&frame, &m, start);
+    let (m, s, cost) = incline_run(ctx, psi, tan_phi, size)?;
     let t = m.time;
     let free = 0.5 * 10.0 * t * t * psi.to_radians().sin();
     Ok(Measured {
@@ -391,13 +393,6 @@ fn stack(ctx: &Ctx) -> Result<Measured, Failure> {
     Ok(Measured { error: worst, detail, cost, energy_balance: None })
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Regime {
-    Topples,
-    Slides,
-    Stands,
-}
-
 fn topple(ctx: &Ctx) -> Result<Measured, Failure> {
     let psi = 30f64;
     let tan = psi.to_radians().tan();
@@ -424,13 +419,7 @@ fn topple(ctx: &Ctx) -> Result<Measured, Failure> {
         // A toppled prism lies on its side (turned ~1.5 rad); one that slides rocks on its
         // downhill edge as its undamped springs ring, by up to ~0.06 rad at some FRACTIONs: the
         // line between them is drawn well clear of both.
-        let got = if rot > 0.25 {
-            Regime::Topples
-        } else if dx.abs() > 0.02 {
-            Regime::Slides
-        } else {
-            Regime::Stands
-        };
+        let got = Regime::of(rot, dx, 0.25);
         if got != expected {
             wrong += 1;
         }
