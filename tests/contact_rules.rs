@@ -640,3 +640,63 @@ fn corners_meeting_corners_make_one_force_carrying_corner_corner_contact() {
     let counted = m.contacts.iter().filter(|c| m.counts_force(c)).count();
     assert_eq!(counted, 1, "the touch counts once: {:?}", m.contacts);
 }
+
+/// Runs a deck of two blocks, the first fixed (its centroid in the unit square about (0.5, 0.5)
+/// or (1, 1)), for one cycle without gravity and returns the model: its contacts hold the forces
+/// of the positions as built.
+fn pressed(deck: &str) -> Model {
+    run(&format!("{deck}FIX 0.4 1.1 0.4 1.1\nCYCLE 1\n"))
+}
+
+#[test]
+fn of_a_corner_pair_the_deeper_view_carries_the_touch() {
+    // Block 1, a 2 × 2 square; block 2's bottom-left corner a sits 3 cm deep in block 1's top
+    // edge, 0.12 m from block 1's top-left corner b (ROUND 0.2: the two rounding circles, centres
+    // (0.2, 1.8) and (0.32, 2.17), overlap, so the two views are those of a corner pair). a's
+    // view finds the straight part of the top edge, 3 cm deep; b's view finds a's arc, 1.1 cm
+    // deep (0.2 − (0.389 − 0.2)). The touch is a's: 3 cm, as UDEC sample 2 found it (a corner
+    // 2.9 cm into an edge beside its corner). By index alone b's view counted (block 1 is
+    // first): 1.1 cm of force, then the whole 3 cm at once when the circles parted.
+    let (r, depth, off) = (0.2, 0.03, 0.12);
+    let y = 2.0 - depth;
+    let m = pressed(&format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND {r}\nSET OVERLAP ACCEPT\nBLOCK 0,0 0,2 2,2 2,0\nBLOCK {off},{y} {off},{t} {e},{t} {e},{y}\n",
+        t = y + 2.0,
+        e = off + 2.0
+    ));
+    // The pair at the left (block 2's corner a, block 1's corner b); block 1's top-right corner
+    // sits in block 2's bottom edge likewise, a pair of its own on the right.
+    let left: Vec<_> = m.contacts.iter().filter(|c| c.gap < 0.0 && c.point[0] < 1.0).collect();
+    assert_eq!(left.len(), 2, "the pair's two views, both in touch: {:?}", m.contacts);
+    let counted: Vec<_> = left.iter().filter(|c| m.counts_force(c)).collect();
+    assert_eq!(counted.len(), 1, "one view carries the touch: {left:?}");
+    let c = counted[0];
+    assert_eq!(c.block1, 1, "block 2's corner carries it: {c:?}");
+    assert!((c.gap + depth).abs() < 1e-9, "3 cm deep: {}", c.gap);
+    assert!((c.normal_force - 1e9 * depth).abs() < 1e-3 * 1e9 * depth, "kn · 3 cm: {}", c.normal_force);
+    // The other view of the pair is in touch too (1.1 cm) but carries nothing.
+    let other = left.iter().find(|d| d.block1 == 0).expect("b's view of the pair");
+    assert!((other.gap + (r - ((0.32f64 - 0.2).hypot(2.17 - 1.8) - r))).abs() < 1e-3, "b's view: {}", other.gap);
+    assert!(!m.counts_force(other) && other.normal_force == 0.0, "{other:?}");
+    // The right-hand pair mirrors it: block 1's corner, 3 cm deep in block 2's edge, carries it.
+    let right: Vec<_> = m.contacts.iter().filter(|c| c.gap < 0.0 && c.point[0] > 1.0 && m.counts_force(c)).collect();
+    assert!(right.len() == 1 && right[0].block1 == 0 && (right[0].gap + depth).abs() < 1e-9, "{right:?}");
+}
+
+#[test]
+fn of_aligned_corners_the_lower_index_carries_the_touch() {
+    // Two equal squares side by side, their facing corners aligned and pressed 1 cm together:
+    // each corner pair's two views are equally deep (up to round-off, within `PAIR_BAND`), and
+    // the view of the corner with the lower index counts, as before the depth rule, so a brick
+    // wall's aligned corners count as they did.
+    let m = pressed("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.1\nSET OVERLAP ACCEPT\nBLOCK 0,0 0,1 1,1 1,0\nBLOCK 0.99,0 0.99,1 1.99,1 1.99,0\n");
+    let touching: Vec<_> = m.contacts.iter().filter(|c| c.gap < 0.0).collect();
+    assert_eq!(touching.len(), 4, "two corner pairs, two views each: {:?}", m.contacts);
+    for c in &touching {
+        let mirror = touching.iter().find(|d| d.block1 == c.block2 && (d.point[1] - c.point[1]).abs() < 0.2).expect("the pair's other view");
+        assert!((c.gap - mirror.gap).abs() < 1e-12, "equal depths: {} {}", c.gap, mirror.gap);
+        assert_eq!(m.counts_force(c), c.block1 == 0, "the lower index (block 1's corner) counts: {c:?}");
+    }
+    let total: f64 = touching.iter().map(|c| c.normal_force).sum();
+    assert!((total - 2.0 * 1e9 * 0.01).abs() < 1e-6 * total, "two touches of 1 cm each: {total}");
+}

@@ -61,6 +61,13 @@ fn sample_2_runs_to_its_end_with_its_flows_domains_and_blocks() {
     let stored = blockdem::udec::model::fluid::stored_volume(domains, f.bulk);
     assert!(f.balance_error(stored).abs() < 1e-9 * stored, "{}", f.balance_error(stored));
     assert!(f.inflow < 0.0, "fluid leaves the model through the outer domain: {}", f.inflow);
+    // The energy ledger balances: what the loads and the fluid put in is kinetic, strain,
+    // damped or slipped (it was 26% off while a corner sat 2.9 cm deep in an edge with no force,
+    // its pair's other view counting instead, and counted in full at once when the circles
+    // parted: `contact::pair`). Its drift is 1.4e-4 of the energy in play.
+    let e = model.energies();
+    assert!(e.ledger().abs() < 1e-3 * e.scale(), "ledger {:e} of {:e}: {e:?}", e.ledger(), e.scale());
+    assert!(!log.contains("THE ENERGY BALANCE IS"), "no ledger warning: {log}");
 }
 
 #[test]
@@ -324,8 +331,14 @@ fn cycle_save_restart_cycle_is_the_same_run_bit_for_bit() {
 /// digits the model does not (the energy accounts' device sums, re-based on the model's f64 at
 /// an upload, and each domain's area as the device last took it, which the next pressure update
 /// differences against bulkw·ΔA), so the restarted one agrees to round-off: measured on lavapipe,
-/// f64 1.6e-13 of the largest pressure and positions equal; f32 3.1e-6 of the largest
-/// pressure, 4.8e-8 m, 2.4e-5 of an energy term.
+/// f64 1.6e-13 of the largest pressure and positions equal. In f32 the round-off grows: which
+/// view of a corner pair counts is decided by which is deeper, beyond a band of 4e-5 m here
+/// (`contact::pair`), and f32 round-off moves the cycle at which a pair leaves the band, where
+/// the normal force steps by kn·band and the counting view's shear spring starts afresh: 2.6e-6 m
+/// and 2.5e-3 of the largest pressure after 1200 cycles (the f32 run's own distance from the CPU
+/// reference is 5e-6 m and 4.1e-3; the pressures, bulkw·ΔA/A with bulkw = 1e9, magnify a
+/// domain's area change 1e9-fold). Counting by index alone it was 4.8e-8 m and 3.1e-6, but with
+/// a corner 2.9 cm into an edge carrying no force and the ledger 26% off.
 fn a_restarted_run_agrees_with_the_run_straight_through(t: &Target) {
     let tag: String = t.name().chars().filter(|c| c.is_ascii_alphanumeric()).collect();
     let dir = std::env::temp_dir().join(format!("blockdem-fluid-restart-{}-{tag}", std::process::id()));
@@ -340,7 +353,7 @@ fn a_restarted_run_agrees_with_the_run_straight_through(t: &Target) {
         assert!(fluid_bits(&whole) == fluid_bits(&resumed), "bit for bit on the CPU");
         return;
     }
-    let (p_tol, x_tol, e_tol) = if t.is_f32() { (2e-5, 5e-7, 2e-4) } else { (1e-11, 1e-12, 1e-11) };
+    let (p_tol, x_tol, e_tol) = if t.is_f32() { (5e-3, 1e-5, 2e-3) } else { (1e-11, 1e-12, 1e-11) };
     assert_eq!(whole.cycle, resumed.cycle);
     let (wd, rd) = (whole.domains.as_ref().unwrap(), resumed.domains.as_ref().unwrap());
     let p_max = wd.list.iter().map(|d| d.pressure.abs()).fold(0.0, f64::max);

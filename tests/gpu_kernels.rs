@@ -29,6 +29,7 @@ mod common;
 use blockdem::udec::contact::gather::AdjacencyEntry;
 use blockdem::udec::contact::geometry::track_feature;
 use blockdem::udec::contact::law::{contact_force_law, BlockMotion};
+use blockdem::udec::contact::pair::counts_force;
 use blockdem::udec::gpu::layout::{
     Block as GBlock, Contact as GContact, ContactForce as GForce, ContactPatch as GPatch, ContactSummary as GSummary, Corner as GCorner, GridReference,
     ListParams, Material as GMaterial, Params as GParams, Real,
@@ -36,7 +37,6 @@ use blockdem::udec::gpu::layout::{
 use blockdem::udec::gpu::shaders::split_rotation;
 use blockdem::udec::gpu::splice::{pack_contacts, patch_contacts, renumber_table, shift_offsets, splice_adjacency, splice_contacts, NEW_CONTACT};
 use blockdem::udec::gpu::{shaders, AdapterChoice, GpuDevice, Precision};
-use blockdem::udec::model::corners::counts_force;
 use blockdem::udec::model::{Contact, ContactKind, ContactMaterial, Damping, JointMaterial, Material, Model};
 use blockdem::udec::topology::adjacency::FROM_LISTS;
 use blockdem::udec::topology::detect::ListEdit;
@@ -115,14 +115,14 @@ const TRACK: &str = r#"
 @compute @workgroup_size(64)
 fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= arrayLength(&t_in_u) / 4u) {
+    if (i >= arrayLength(&t_in_u) / 6u) {
         return;
     }
     let c = vec2<real>(t_in_r[3u * i], t_in_r[3u * i + 1u]);
     let r = t_in_r[3u * i + 2u];
-    let start = t_in_u[4u * i];
-    let n = t_in_u[4u * i + 1u];
-    let nb = neighbourhood(start, n, t_in_u[4u * i + 2u]);
+    let start = t_in_u[6u * i];
+    let n = t_in_u[6u * i + 1u];
+    let nb = neighbourhood(start, n, t_in_u[6u * i + 2u]);
     let g = track_feature(nb, c, r);
     t_out_r[6u * i] = g.gap;
     t_out_r[6u * i + 1u] = g.normal.x;
@@ -131,16 +131,39 @@ fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
     t_out_r[6u * i + 4u] = g.point.y;
     t_out_r[6u * i + 5u] = g.distance;
     t_out_u[2u * i] = g.feature;
-    t_out_u[2u * i + 1u] = select(0u, 1u, counts_force(t_in_u[4u * i + 3u], c, r, nb, g.feature));
+    t_out_u[2u * i + 1u] = select(0u, 1u, counts_force(t_in_u[6u * i + 3u], c, r, g.gap, nb, g.feature, blocks[2u * i], blocks[2u * i + 1u]));
 }
 "#;
+
+/// Rounds a block's corners to the kernel precision relative to its centroid `cen`, so that the
+/// CPU reference measures what the GPU measures; the kernel measures each edge from the two
+/// rounded corners (`edge_from`), so the reference does too.
+fn quantize<R: Real>(corners: &mut [blockdem::udec::model::Corner], cen: [f64; 2]) {
+    for c in corners.iter_mut() {
+        for (i, &o) in cen.iter().enumerate() {
+            c.position[i] = o + q::<R>(c.position[i] - o);
+            c.circle[i] = o + q::<R>(c.circle[i] - o);
+        }
+        c.radius = q::<R>(c.radius);
+        c.round = q::<R>(c.round);
+    }
+    let n = corners.len();
+    let rel = |c: &blockdem::udec::model::Corner| [c.position[0] - cen[0], c.position[1] - cen[1]];
+    for k in 0..n {
+        let (a, b) = (rel(&corners[k]), rel(&corners[(k + 1) % n]));
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let len = e[0].hypot(e[1]);
+        corners[k].edge_dir = [e[0] / len, e[1] / len];
+        corners[k].edge_length = len;
+    }
+}
 
 fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
     let f32_kernel = std::mem::size_of::<R>() == 4;
     let mut rng = Rng(0x5eed_1234_abcd_0001);
     let cases = 2000;
     let (mut gpu_corners, mut in_r, mut in_u) = (Vec::<GCorner<R>>::new(), Vec::new(), Vec::new());
-    let mut expected = Vec::new();
+    let (mut expected, mut pairs, mut gblocks) = (Vec::new(), 0usize, Vec::<GBlock<R>>::new());
     for _ in 0..cases {
         // A random convex polygon (3–6 corners on a circle of radius 0.5–2 m, jittered), far from
         // the origin so that the relative-to-centroid geometry is exercised, rounded by 2–20 cm.
@@ -163,36 +186,12 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
         // reference measures what the GPU measures; the kernel measures each edge from the two
         // rounded corners (`edge_from`), so the reference does too.
         let mut ref_corners = corners.clone();
-        for c in ref_corners.iter_mut() {
-            for (i, &o) in cen.iter().enumerate() {
-                c.position[i] = o + q::<R>(c.position[i] - o);
-                c.circle[i] = o + q::<R>(c.circle[i] - o);
-            }
-            c.radius = q::<R>(c.radius);
-            c.round = q::<R>(c.round);
-        }
-        let rel = |c: &blockdem::udec::model::Corner| [c.position[0] - cen[0], c.position[1] - cen[1]];
-        for k in 0..n {
-            let (a, b) = (rel(&ref_corners[k]), rel(&ref_corners[(k + 1) % n]));
-            let e = [b[0] - a[0], b[1] - a[1]];
-            let len = e[0].hypot(e[1]);
-            ref_corners[k].edge_dir = [e[0] / len, e[1] / len];
-            ref_corners[k].edge_length = len;
-        }
-        let start = gpu_corners.len() as u32;
-        for c in &ref_corners {
-            gpu_corners.push(GCorner {
-                radius: R::from_f64(c.radius),
-                round: R::from_f64(c.round),
-                px: R::from_f64(c.position[0] - cen[0]),
-                py: R::from_f64(c.position[1] - cen[1]),
-                ox: R::from_f64(c.circle[0] - cen[0]),
-                oy: R::from_f64(c.circle[1] - cen[1]),
-                ..Default::default()
-            });
-        }
+        quantize::<R>(&mut ref_corners, cen);
         // A corner circle near a random feature: on the boundary ± up to 30% of the size, the
-        // tracked feature one of that feature and its neighbours.
+        // tracked feature one of that feature and its neighbours. The circle is corner 0 of block
+        // 1, a second random polygon turned so that this corner points at block 2: a circle near
+        // an end of the feature is a view of a corner pair, whose depth is compared with the other
+        // view's.
         let nf = 2 * n as u32;
         let f0 = rng.below(nf);
         let k = (f0 / 2) as usize;
@@ -202,19 +201,93 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
         let dir = [base[0] - cen[0], base[1] - cen[1]];
         let dl = (dir[0] * dir[0] + dir[1] * dir[1]).sqrt();
         let off = rng.range(-0.1, 0.3) * size;
-        let rel = [q::<R>(base[0] - cen[0] + dir[0] / dl * off), q::<R>(base[1] - cen[1] + dir[1] / dl * off)];
+        let target = [base[0] + dir[0] / dl * off, base[1] + dir[1] / dl * off];
+        // Block 1: corner 0 towards block 2 (at −dir from block 1's centre), the others spread.
+        let n1 = 3 + rng.below(4) as usize;
+        let size1 = rng.range(0.3, 1.0) * size;
+        let toward = (-dir[1]).atan2(-dir[0]) + rng.range(-0.3, 0.3);
+        let outline1: Vec<[f64; 2]> = (0..n1)
+            .map(|j| {
+                let jitter = if j == 0 { 0.0 } else { rng.range(-0.2, 0.2) };
+                let a = toward + (j as f64 + jitter) * std::f64::consts::TAU / n1 as f64;
+                [size1 * a.cos(), size1 * a.sin()]
+            })
+            .collect();
+        let round1 = rng.range(0.01, 0.1) * size;
+        let placed = |shift: [f64; 2]| {
+            let mut m = Model::default();
+            m.set_round(round1);
+            m.add_block(&outline1.iter().map(|p| [p[0] + shift[0], p[1] + shift[1]]).collect::<Vec<_>>(), 1, 1, None).unwrap();
+            m
+        };
+        let probe = placed([0.0, 0.0]);
+        let model1 = placed([target[0] - probe.corners[0].circle[0], target[1] - probe.corners[0].circle[1]]);
+        let cen1 = model1.blocks[0].centroid;
+        let mut ref_corners1 = model1.block_corners(0).to_vec();
+        quantize::<R>(&mut ref_corners1, cen1);
+        let rel = [q::<R>(ref_corners1[0].circle[0] - cen[0]), q::<R>(ref_corners1[0].circle[1] - cen[1])];
         let c = [cen[0] + rel[0], cen[1] + rel[1]];
-        let r = q::<R>(rng.range(0.01, 0.1) * size);
+        let r = ref_corners1[0].radius;
+        // Block 1's corners before or after block 2's (the index decides ties).
+        let first1 = rng.below(2) == 0;
+        let here = gpu_corners.len() as u32;
+        let (start, start1) = if first1 { (here + n1 as u32, here) } else { (here, here + n as u32) };
+        let mut push = |cs: &[blockdem::udec::model::Corner], o: [f64; 2]| {
+            for c in cs {
+                gpu_corners.push(GCorner {
+                    radius: R::from_f64(c.radius),
+                    round: R::from_f64(c.round),
+                    px: R::from_f64(c.position[0] - o[0]),
+                    py: R::from_f64(c.position[1] - o[1]),
+                    ox: R::from_f64(c.circle[0] - o[0]),
+                    oy: R::from_f64(c.circle[1] - o[1]),
+                    ..Default::default()
+                });
+            }
+        };
+        if first1 {
+            push(&ref_corners1, cen1);
+            push(&ref_corners, cen);
+        } else {
+            push(&ref_corners, cen);
+            push(&ref_corners1, cen1);
+        }
         let feature = (f0 + nf + rng.below(3) - 1) % nf;
-        let own = start + rng.below(2 * n as u32);
         let g = track_feature(&ref_corners, feature, c, r);
-        let mut own_corner = ref_corners[0];
+        let mut own_corner = ref_corners1[0];
         own_corner.circle = c;
-        own_corner.radius = r;
-        let counted = counts_force(own, &own_corner, &ref_corners, start, g.feature);
+        let counts = |gap: f64| counts_force(start1, &own_corner, gap, &ref_corners1, start1, &ref_corners, start, g.feature);
+        let counted = counts(g.gap);
+        // A view of a corner pair: its count depends on its depth. Decided within round-off of
+        // the band's edges, the f32 kernel may decide the other way (checked only where sure).
+        let pair = counts(-1e3 * size) != counts(1e3 * size);
+        // Each of the two gaps carries the f32 round-off of a gap (2e-6 of the size, below).
+        let tl = if f32_kernel { 4e-6 * size } else { 1e-12 * size };
+        // A run stops where an overlap passes half the rounding length (`CycleError`), so a pair
+        // deeper than that (two circles nearly concentric, where the nearest feature of either
+        // view is a tie between an arc from inside and an edge from outside) is not compared.
+        let limit = 0.5 * round1.min(ref_corners[0].round);
+        let other = track_feature(&ref_corners1, 0, ref_corners[(g.feature / 2) as usize % n].circle, ref_corners[(g.feature / 2) as usize % n].radius);
+        let in_range = -g.gap < limit && -other.gap < limit;
+        let sure = counts(g.gap - tl) == counted && counts(g.gap + tl) == counted;
         in_r.extend([rel[0], rel[1], r]);
-        in_u.extend([start, n as u32, feature, own]);
-        expected.push((g, cen, size, counted));
+        in_u.extend([start, n as u32, feature, start1, start1, n1 as u32]);
+        // The two blocks as the kernel holds them: each centroid as a compensated pair.
+        let block = |cen: [f64; 2], start: u32, count: usize| {
+            let (hx, hy) = (R::from_f64(cen[0]), R::from_f64(cen[1]));
+            GBlock::<R> {
+                cx: hx,
+                cy: hy,
+                cx_lo: R::from_f64(cen[0] - hx.to_f64()),
+                cy_lo: R::from_f64(cen[1] - hy.to_f64()),
+                corner_start: start,
+                corner_count: count as u32,
+                ..bytemuck::Zeroable::zeroed()
+            }
+        };
+        gblocks.extend([block(cen1, start1, n1), block(cen, start, n)]);
+        pairs += usize::from(pair && in_range);
+        expected.push((g, cen, size, counted, in_range, sure));
     }
     let out = run_kernel(
         dev,
@@ -223,6 +296,8 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
         "test_track_feature",
         cases,
         &[
+            (0, bytemuck::bytes_of(&GParams::<R> { one: 1, ..bytemuck::Zeroable::zeroed() }).to_vec(), false),
+            (1, bytemuck::cast_slice(&gblocks).to_vec(), false),
             (2, bytemuck::cast_slice(&gpu_corners).to_vec(), false),
             (20, reals::<R>(&in_r), false),
             (21, bytemuck::cast_slice(&in_u).to_vec(), false),
@@ -231,8 +306,8 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
         ],
     );
     let (out_r, out_u) = (back::<R>(&out[0]), bytemuck::pod_collect_to_vec::<u8, u32>(&out[1]));
-    let mut other_feature = 0;
-    for (i, (g, cen, size, counted)) in expected.iter().enumerate() {
+    let (mut other_feature, mut unsure) = (0, 0);
+    for (i, (g, cen, size, counted, in_range, sure)) in expected.iter().enumerate() {
         if out_u[2 * i] != g.feature {
             other_feature += 1;
             continue;
@@ -246,8 +321,18 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
         assert!((o[1] - g.normal[0]).abs() < tn && (o[2] - g.normal[1]).abs() < tn, "case {i}: normal");
         assert!((o[3] + cen[0] - g.point[0]).abs() < tl && (o[4] + cen[1] - g.point[1]).abs() < tl, "case {i}: point");
         assert!((o[5] - g.distance).abs() < tl, "case {i}: distance");
-        assert_eq!(out_u[2 * i + 1] != 0, *counted, "case {i}: counts_force");
+        if !*in_range {
+            continue;
+        }
+        if *sure {
+            assert_eq!(out_u[2 * i + 1] != 0, *counted, "case {i}: counts_force, gap {:e} (GPU {:e}), feature {}, size {size}", g.gap, o[0], g.feature);
+        } else {
+            unsure += 1;
+        }
     }
+    // The cases cover the views of corner pairs (their count decided by depth) well.
+    assert!(pairs > cases / 20, "only {pairs} of {cases} cases are views of a corner pair within the overlap limit");
+    assert!(unsure <= cases / 100, "{unsure} of {cases} cases decided within round-off");
     // Features are chosen alike except within round-off of a tie: none in f64; in f32, under 1%.
     let allowed = if f32_kernel { cases / 100 } else { 0 };
     assert!(other_feature <= allowed, "{other_feature} of {cases} cases chose another feature");

@@ -339,16 +339,25 @@ fn slip_dissipation(fs_old: real, fs_new: real, dus: real, ks: real) -> real {
     return -0.5 * (fs_old + fs_new) * dus - (fs_new * fs_new - fs_old * fs_old) / (2.0 * ks);
 }
 
-// Whether a contact carries the force of its touch (twin of `cpu::contact_forces::counts_force`):
-// of the two views of one touching corner pair exactly one counts, whatever kinds they found. An
-// arc (corner–corner) counts when the own corner has the lower index; an edge counts unless the
-// rounding circles of the own corner and of the edge's nearer end overlap (a corner pair), in
-// which case the lower index counts too. Circles are relative to block 2's centroid; `feature` is
-// one that `track_feature` chose in the neighbourhood `nb` (an edge among them is j−1 or j).
-fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, nb: Neighbourhood, feature: u32) -> bool {
+// Whether a contact carries the force of its touch (twin of `contact::pair::counts_force`): of
+// the two views of one touching corner pair exactly one counts, whatever kinds they found. A view
+// on the arc of corner b, or on an edge whose nearer end b has a rounding circle overlapping the
+// own corner a's, is one view of the pair (a, b), and the deeper of the pair's two views counts
+// (`deeper_view_counts`); a view on an edge's straight part away from its ends always counts.
+// Circles are relative to block 2's centroid; `feature` is one that `track_feature` chose in the
+// neighbourhood `nb` (an edge among them is j−1 or j); `own_gap` is this view's gap; b1 and b2
+// are the contact's blocks.
+fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, own_gap: real, nb: Neighbourhood, feature: u32, b1: Block, b2: Block) -> bool {
     let k = feature / 2u;
     if (feature % 2u == 0u) {
-        return own_corner < nb.start + k;
+        // The arc of corner k of the neighbourhood (j−1, j or j+1).
+        var ck = nb.c;
+        if (k == nb.jm) {
+            ck = nb.m;
+        } else if (k == nb.jp) {
+            ck = nb.p;
+        }
+        return deeper_view_counts(own_corner, own_radius, own_gap, b1, b2, ck, nb.start + k);
     }
     // Edge k runs from corner k to corner j = k+1: j → j+1, or j−1 → j. Corner j−1's circle
     // matters only here and only for edge j−1 (a contact on an arc that now finds the edge
@@ -369,16 +378,44 @@ fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, nb: N
     let dj = sqrt(dot(rj, rj));
     var b = k;
     var d = dk;
-    var rb = ck.radius;
+    var cb = ck;
     if (!(dk <= dj)) {
         b = j;
         d = dj;
-        rb = cj.radius;
+        cb = cj;
     }
-    if (d < own_radius + rb) {
-        return own_corner < nb.start + b;
+    if (d < own_radius + cb.radius) {
+        return deeper_view_counts(own_corner, own_radius, own_gap, b1, b2, cb, nb.start + b);
     }
     return true;
+}
+
+// Of the two views of the corner pair (a, b), whether a's counts (twin of
+// `contact::pair::deeper_view_counts`): b's gap against block 1 is measured from block 1's
+// features around a (edge a−1, arc a, edge a), with b's circle placed relative to block 1 as
+// b's own view places it (`circle_parts` in f32), so that both views compute the same two
+// numbers. The deeper view counts; within PAIR_BAND of the two radii the lower index does.
+// Only views of a corner pair come here (aligned corners in a wall), so block 1's corners are
+// loaded only then.
+fn deeper_view_counts(a: u32, radius_a: real, own_gap: real, b1: Block, b2: Block, cb: CornerView, b: u32) -> bool {
+    if (a < b1.corner_start || a - b1.corner_start >= b1.corner_count) {
+        return a < b;
+    }
+    let nb1 = neighbourhood(b1.corner_start, b1.corner_count, 2u * (a - b1.corner_start));
+    var parts = array<vec2<real>, 2>(centroid_difference(b2, b1) + cb.circle, vec2<real>(0.0, 0.0));
+    if (EXACT_CIRCLE) {
+        parts = circle_parts(b2, b1, cb.circle);
+    }
+    let g = track_feature(nb1, parts[0], cb.radius);
+    let other_gap = g.gap + dot(parts[1], g.normal);
+    let band = PAIR_BAND * (radius_a + cb.radius);
+    if (own_gap < other_gap - band) {
+        return true;
+    }
+    if (other_gap < own_gap - band) {
+        return false;
+    }
+    return a < b;
 }
 
 // The velocity the strain rate e (11, 12, 22) of a simply-deformable block gives a point r from
@@ -509,7 +546,7 @@ fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: v
     c.ny = world.normal.y;
     c.px = world.point.x;
     c.py = world.point.y;
-    let counted = counts_force(c.corner, circle, corner.radius, nb, c.feature);
+    let counted = counts_force(c.corner, circle, corner.radius, c.gap, nb, c.feature, b1, b2);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
     let at = vec2<real>(c.px, c.py);

@@ -11,7 +11,7 @@ use crate::udec::backend::CycleError;
 use crate::udec::contact::gather::ContactForce;
 use crate::udec::contact::geometry::track_feature;
 use crate::udec::contact::law::{contact_force_law, BlockMotion};
-use crate::udec::model::corners::counts_force;
+use crate::udec::contact::pair::counts_force;
 use crate::udec::model::fdef::Fdef;
 use crate::udec::model::fluid::contact_foot_in;
 use crate::udec::model::sdef::Sdef;
@@ -74,7 +74,8 @@ fn contact_piece(
         contact.normal = g.normal;
         contact.point = g.point;
         // The other view of a corner-pair touch carries no force (the touch counts once).
-        let active = counts_force(contact.corner, corner, corners2, b2.corner_start, g.feature);
+        let corners1 = &inp.corners[b1.corner_start as usize..(b1.corner_start + b1.corner_count) as usize];
+        let active = counts_force(contact.corner, corner, g.gap, corners1, b1.corner_start, corners2, b2.corner_start, g.feature);
         let mat = &inp.materials[material_slot(contact.material, inp.materials.len())];
         let (m1, m2) = if inp.fdef.is_empty() {
             (motion(contact.block1, b1), motion(contact.block2, b2))

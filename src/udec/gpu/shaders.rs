@@ -92,6 +92,9 @@ pub fn kernel_names() -> impl Iterator<Item = &'static str> {
 /// quarter turn. In f64 the two parts the kernels always had (the third is 0), so f64 runs are
 /// unchanged.
 ///
+/// PAIR_BAND is `contact::pair::PAIR_BAND`: overlaps of a corner pair's two views closer than it
+/// (a fraction of the two radii) count as equal and the lower index decides which view counts.
+///
 /// ROTATION_STEP (f32): the f32 kernels place a block's corners at a multiple of it and apply the
 /// turn since to second order (law_of_motion.wgsl, `circle_parts`); see `split_rotation`.
 pub fn prelude(precision: Precision) -> String {
@@ -112,8 +115,9 @@ pub fn prelude(precision: Precision) -> String {
     };
     let materials = crate::udec::model::MAX_MATERIALS;
     let workgroup = workgroup_size();
+    let pair_band = crate::udec::contact::pair::PAIR_BAND;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {workgroup}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst FINITE_MAX: real = {finite_max};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {workgroup}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst PAIR_BAND: real = {pair_band:e};\nconst FINITE_MAX: real = {finite_max};\n"
     )
 }
 

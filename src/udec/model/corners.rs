@@ -1,4 +1,4 @@
-//! Where a block's corners are, and which view of a touch of two corners carries its force.
+//! Where a block's corners are.
 //!
 //! A rigid block's corners and rounding-circle centres follow its centroid and rotation exactly:
 //! x = c + R(θ)·x_local (eq. 11 integrated without drift), so a rigid block never distorts however
@@ -7,8 +7,8 @@
 //! `shaders/udec/geometry_update.wgsl` on the GPU) and what BLOCK, SPLIT and a crack use to place new
 //! corners.
 
-use super::geometry::{dot, next, sub};
-use super::{Block, Contact, Corner, Feature, Model};
+use super::geometry::{dot, sub};
+use super::{Block, Corner};
 
 /// Places the corners of one block in world coordinates.
 #[inline]
@@ -125,51 +125,5 @@ pub fn place_corners_fdef(block: &mut Block, f: &super::fdef::Fdef, corners: &mu
     fit_circles_to_edges(corners);
     for corner in corners.iter_mut() {
         corner.circle_local = sub(corner.circle, c);
-    }
-}
-
-/// Whether a corner–corner contact is the counted one of its mirrored pair: the corner with the
-/// lower global index owns the touch.
-#[inline]
-pub fn owns_corner_corner(own_corner_global: u32, other_corner_global: u32) -> bool {
-    own_corner_global < other_corner_global
-}
-
-/// Whether a contact carries the force of its touch. Two rounded corners that touch are seen from
-/// both blocks, and the two views need not agree on the kind: one may find the other's arc
-/// (corner–corner), the other the straight edge beside the first corner (corner–edge), or both
-/// may find edges. Counting every corner–edge view then counts such a touch twice. The rule:
-///
-/// - corner–corner (arc of corner b): counts when the own corner a owns it, a < b;
-/// - corner–edge: when the two rounding circles of a and of the edge's nearer end corner b
-///   overlap (the touch is a corner pair, and b sees a's block in touch too), it counts only when
-///   a < b; otherwise (a corner on an edge's straight part) it always counts.
-///
-/// So of the two views of one corner pair exactly one counts, whatever kinds they found.
-/// `corners2` are block 2's corners, `start2` the global index of its first corner.
-#[inline]
-pub fn counts_force(own_corner_global: u32, own: &Corner, corners2: &[Corner], start2: u32, feature: Feature) -> bool {
-    let n = corners2.len();
-    let k = (feature / 2) as usize % n;
-    if feature % 2 == 0 {
-        return owns_corner_corner(own_corner_global, start2 + k as u32);
-    }
-    let j = next(k, n);
-    let (rk, rj) = (sub(own.circle, corners2[k].circle), sub(own.circle, corners2[j].circle));
-    let (b, d2) = if dot(rk, rk) <= dot(rj, rj) { (k, dot(rk, rk)) } else { (j, dot(rj, rj)) };
-    let reach = own.radius + corners2[b].radius;
-    if d2 < reach * reach {
-        return owns_corner_corner(own_corner_global, start2 + b as u32);
-    }
-    true
-}
-
-impl Model {
-    /// True for a contact that carries the force of its touch; false for the other view of a
-    /// touch of two corners (see [`counts_force`]).
-    #[inline]
-    pub fn counts_force(&self, c: &Contact) -> bool {
-        let b2 = &self.blocks[c.block2 as usize];
-        counts_force(c.corner, &self.corners[c.corner as usize], self.block_corners(c.block2 as usize), b2.corner_start, c.feature)
     }
 }
