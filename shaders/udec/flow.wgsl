@@ -1,7 +1,7 @@
 // Stage 5: fluid flow in joints and voids (SL-85-1 Appendix A ¶6–9, ¶19). Twin of
 // src/udec/cpu/flow.rs on the pure pieces of `model::fluid`; compiled and dispatched only in a
 // scene with fluid (`gpu::flow`), after the contact stage (the joints' apertures read the normal
-// forces it has just set), in three passes, none reading what its own pass writes:
+// forces it has just set), in two passes, neither reading what its own pass writes:
 //
 // 1. `flow`, per contact (the entry point named after the file; the loop body of
 //    `model::fluid::contact_flows`): its aperture, its flow q = k_c·Δp across a point contact or
@@ -9,9 +9,12 @@
 // 2. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
 //    (the CPU's order: reruns repeat bit for bit, and f64 agrees with the CPU to round-off), its
 //    area now, and the pressure update with its change of volume (¶7); a PFIX domain and the
-//    outer domain keep theirs;
-// 3. `pressure_loads`, per block: buoyancy and the pressure jumps across its contacts, in its
-//    adjacency list's order, as the next cycle's block pass adds them (`law_of_motion_fluid`).
+//    outer domain keep theirs. A free domain then copies its new pressure into each of its
+//    contacts' flow slots (`ContactFlow::p0`, `p1`: each contact's two domains write one each).
+//
+// The loads the pressures put on the blocks (buoyancy and the pressure jump at each contact's
+// foot, the CPU's `block_load`) are summed by the next cycle's block pass in the same walk of a
+// block's list as its contact forces (`force_sum_fluid`, gather.wgsl; `law_of_motion_fluid`).
 
 // A corner's position relative to its block's centroid.
 fn corner_at(i: u32) -> vec2<real> {
@@ -80,7 +83,14 @@ fn flow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     if (d0 != NO_INDEX && d0 != d1) {
         q = conductance(c, f, a) * (domains[d0].pressure - domains[d1].pressure);
     }
-    contact_flows_out[k] = ContactFlow(q, a, c.length, feet[0].x, feet[0].y, feet[1].x, feet[1].y, 0.0);
+    // Field by field: the domains' pressures in the slot (`p0`, `p1`) are `domain_pressures`'.
+    contact_flows_out[k].flow = q;
+    contact_flows_out[k].aperture = a;
+    contact_flows_out[k].length = c.length;
+    contact_flows_out[k].f0x = feet[0].x;
+    contact_flows_out[k].f0y = feet[0].y;
+    contact_flows_out[k].f1x = feet[1].x;
+    contact_flows_out[k].f1y = feet[1].y;
 }
 
 // Where a domain link's vertex t (0 or 1 of a contact's two feet, in circuit order; 0 of a
@@ -96,10 +106,10 @@ fn link_vertex(l: u32, t: u32, reference: Block) -> vec2<real> {
     if (t == 0u) {
         side = 1u - side;
     }
-    let cf = contact_flows_out[index];
-    var foot = vec2<real>(cf.f0x, cf.f0y);
+    // Field by field (here and below): the same pass writes the slots' pressures.
+    var foot = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
     if (side == 1u) {
-        foot = vec2<real>(cf.f1x, cf.f1y);
+        foot = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
     }
     return centroid_difference(blocks[domain_links[4u * l + 2u + side]], reference) + foot;
 }
@@ -126,12 +136,13 @@ fn fluid_area(dom: Domain) -> real {
             if ((domain_links[4u * l] & LINK_CORNER) != 0u) {
                 continue;
             }
-            let cf = contact_flows_out[domain_links[4u * l + 1u]];
-            if (cf.length > 0.0) {
+            let k = domain_links[4u * l + 1u];
+            if (contact_flows_out[k].length > 0.0) {
+                let aperture = contact_flows_out[k].aperture;
                 if (n == 0u) {
-                    a0 = cf.aperture;
+                    a0 = aperture;
                 } else {
-                    sum = a0 + cf.aperture;
+                    sum = a0 + aperture;
                 }
                 n += 1u;
             }
@@ -207,45 +218,17 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         dom.pressure = (dom.area * dom.pressure + fluid_params.bulk * (q - (area - dom.area))) / area;
         domains[d].pressure = dom.pressure;
         domains[d].inflow = dom.inflow + q;
+        // The new pressure next to each of its contacts' feet, for the next cycle's gather
+        // (`add_pressure_load`, gather.wgsl): this domain's side of the slot only, the other
+        // domain of the contact writing the other (a fixed domain's stays as uploaded).
+        for (var e = dom.flow_start; e < end; e += 1u) {
+            let entry = domain_flows[e];
+            if ((entry & 1u) != 0u) {
+                contact_flows_out[entry >> 1u].p1 = dom.pressure;
+            } else {
+                contact_flows_out[entry >> 1u].p0 = dom.pressure;
+            }
+        }
     }
     domains[d].area = area;
-}
-
-// Block b's load from the pressures around it and its buoyancy (twin of
-// `cpu::flow::pressure_loads`): each contact of its list gives the pressure jump at its foot,
-// (p_after − p_before)·perp(f − c) and (p_after − p_before)·|f − c|²/2 (`model::fluid::
-// pressure_load`), in list order after the buoyancy.
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn pressure_loads(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let b = item_index(wg, li);
-    if (b >= params.n_blocks) {
-        return;
-    }
-    var l = vec3<real>(fluid_loads[b].buoy_x, fluid_loads[b].buoy_y, 0.0);
-    let end = adj_offsets[b + 1u];
-    for (var e = adj_offsets[b]; e < end; e += 1u) {
-        let entry = adj_entries[e];
-        let k = entry_contact(entry);
-        let side = entry_side(entry);
-        let d0 = contact_sides[2u * k];
-        let d1 = contact_sides[2u * k + 1u];
-        if (d0 == NO_INDEX || d0 == d1) {
-            continue;
-        }
-        var jump = domains[d1].pressure - domains[d0].pressure;
-        if (side == 1u) {
-            jump = -jump;
-        }
-        if (jump != 0.0) {
-            let cf = contact_flows_out[k];
-            var r = vec2<real>(cf.f0x, cf.f0y);
-            if (side == 1u) {
-                r = vec2<real>(cf.f1x, cf.f1y);
-            }
-            l += vec3<real>(-jump * r.y, jump * r.x, 0.5 * jump * (r.x * r.x + r.y * r.y));
-        }
-    }
-    fluid_loads[b].fx = l.x;
-    fluid_loads[b].fy = l.y;
-    fluid_loads[b].m = l.z;
 }

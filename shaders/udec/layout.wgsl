@@ -124,12 +124,13 @@ const DOMAIN_OUTER: u32 = 2u;
 const LINK_SIDE: u32 = 1u;
 const LINK_LOOP_START: u32 = 2u;
 const LINK_CORNER: u32 = 4u;
-// 32 / 64 bytes. A contact's flow (first domain to second), aperture and length of joint, its
-// feet on side 0 (from block 1's centroid) and side 1 (from block 2's).
-struct ContactFlow { flow: real, aperture: real, length: real, f0x: real, f0y: real, f1x: real, f1y: real, _r: real }
-// 24 / 48 bytes. A block's buoyancy, its fluid load for the next gather, the load's work since
-// the upload.
-struct FluidLoad { buoy_x: real, buoy_y: real, fx: real, fy: real, m: real, work: real }
+// 36 / 72 bytes. A contact's flow (first domain to second), aperture and length of joint, its
+// feet on side 0 (from block 1's centroid) and side 1 (from block 2's), and the pressures of its
+// first and second domain as the last pressure update left them (equal for a contact that is not
+// a link between two domains), which the gather's pressure loads read.
+struct ContactFlow { flow: real, aperture: real, length: real, f0x: real, f0y: real, f1x: real, f1y: real, p0: real, p1: real }
+// 12 / 24 bytes. A block's buoyancy and the work of its fluid load since the upload.
+struct FluidLoad { buoy_x: real, buoy_y: real, work: real }
 
 // 32 / 64 bytes (a multiple of the 16-byte stride a uniform array needs, in both precisions):
 // the point contact's KN, KS, COHESION, FRICTION, then the joint's JKN, JKS, JCOH, JFRIC.

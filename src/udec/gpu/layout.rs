@@ -277,20 +277,25 @@ pub const LINK_LOOP_START: u32 = 2;
 pub const LINK_CORNER: u32 = 4;
 
 gpu_struct! {
-    /// One contact's flow in the last cycle (`model::domain::ContactFlow`), written by
-    /// `contact_flows`: 32 bytes in f32, 64 in f64. The flow from its first domain to its second,
-    /// the joint's aperture and length (0 for a point contact), and its feet (`contact_foot`):
-    /// on side 0 relative to block 1's centroid, on side 1 relative to block 2's, where the
-    /// domain areas and the pressure loads read them.
-    ContactFlow { flow: R, aperture: R, length: R, f0x: R, f0y: R, f1x: R, f1y: R, _r: R }
+    /// One contact's flow in the last cycle (`model::domain::ContactFlow`), written by `flow`:
+    /// 36 bytes in f32, 72 in f64. The flow from its first domain to its second, the joint's
+    /// aperture and length (0 for a point contact), its feet (`contact_foot`): on side 0 relative
+    /// to block 1's centroid, on side 1 relative to block 2's, where the domain areas and the
+    /// pressure loads read them; and the pressures of its first and second domain as the last
+    /// pressure update left them (`domain_pressures` writes a free domain's into each of its
+    /// contacts, the upload every domain's; equal, 0, for a contact that is not a link between
+    /// two domains), so that the gather takes each contact's pressure jump from the slot it
+    /// reads the foot from (`add_pressure_load`, gather.wgsl).
+    ContactFlow { flow: R, aperture: R, length: R, f0x: R, f0y: R, f1x: R, f1y: R, p0: R, p1: R }
 }
 
 gpu_struct! {
-    /// One block's fluid load (`cpu::flow::pressure_loads`), in a scene with fluid only: 24 bytes
-    /// in f32, 48 in f64. Buoyancy −ρ_w·A·g (¶9, from the CPU at the upload), the load of the
-    /// domain pressures and buoyancy as the next gather adds it (written by `pressure_loads`), and
-    /// the work of that load since the upload (the ledger's fluid work).
-    FluidLoad { buoy_x: R, buoy_y: R, fx: R, fy: R, m: R, work: R }
+    /// One block's share of the fluid, in a scene with fluid only: 12 bytes in f32, 24 in f64.
+    /// Buoyancy −ρ_w·A·g (¶9, from the CPU at the upload) and the work of the block's fluid load
+    /// since the upload (the ledger's fluid work). The load itself, buoyancy and the pressure
+    /// jumps across its contacts, is summed by its gather (`law_of_motion_fluid`,
+    /// `gather_fluid`) and never stored.
+    FluidLoad { buoy_x: R, buoy_y: R, work: R }
 }
 
 gpu_struct! {
