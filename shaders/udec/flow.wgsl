@@ -192,6 +192,113 @@ fn fluid_area(dom: Domain) -> real {
     return max(void_area, fluid_params.min_area);
 }
 
+// How far the point of block `blk` at `r` from its centroid moved in this step: the block's
+// rigid motion as the law of motion took it (Δx = v·Δt, Δθ = ω·Δt), r − R(−Δθ)·r for the turn,
+// with 1 − cos Δθ as 2·sin²(Δθ/2) (no cancellation).
+fn step_displacement(blk: Block, r: vec2<real>) -> vec2<real> {
+    let a = blk.w * params.dt;
+    let sa = sin(a);
+    let h = sin(0.5 * a);
+    let c1 = 2.0 * h * h;
+    return vec2<real>(blk.vx * params.dt + (c1 * r.x - sa * r.y), blk.vy * params.dt + (sa * r.x + c1 * r.y));
+}
+
+// `link_vertex` (the vertex, from the centroid of block `reference`) with how far it moved in
+// this step (`step_displacement` of the block whose point it is: a contact's foot moves with
+// its side's block).
+struct MovedVertex {
+    at: vec2<real>,
+    moved: vec2<real>,
+}
+
+fn link_vertex_moved(l: u32, t: u32, reference: Block) -> MovedVertex {
+    let bits = domain_links[4u * l];
+    let index = domain_links[4u * l + 1u];
+    if ((bits & LINK_CORNER) != 0u) {
+        let blk = blocks[domain_links[4u * l + 2u]];
+        let r = corner_at(index);
+        return MovedVertex(centroid_difference(blk, reference) + r, step_displacement(blk, r));
+    }
+    var side = bits & LINK_SIDE;
+    if (t == 0u) {
+        side = 1u - side;
+    }
+    var foot = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
+    if (side == 1u) {
+        foot = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
+    }
+    let blk = blocks[domain_links[4u * l + 2u + side]];
+    var moved = step_displacement(blk, foot);
+    let c = contacts[index];
+    if (side == 1u && c.feature % 2u == 1u) {
+        // The foot of block 1's corner on block 2's edge p → q slides along the edge as the
+        // corner moves along it (`contact_feet`): by the corner's motion relative to block 2's
+        // point there, along the edge, while the foot is within the edge.
+        let b1 = blocks[c.block1];
+        let r1 = corner_at(c.corner);
+        let n = max(blk.corner_count, 1u);
+        let k = (c.feature / 2u) % n;
+        let p = corner_at(blk.corner_start + k);
+        let e = corner_at(blk.corner_start + (k + 1u) % n) - p;
+        let len2 = e.x * e.x + e.y * e.y;
+        let corner = centroid_difference(b1, blk) + r1;
+        if (len2 > 0.0) {
+            let t = ((corner.x - p.x) * e.x + (corner.y - p.y) * e.y) / len2;
+            if (t > 0.0 && t < 1.0) {
+                let rel = step_displacement(b1, r1) - moved;
+                moved += ((rel.x * e.x + rel.y * e.y) / len2) * e;
+            }
+        }
+    }
+    return MovedVertex(centroid_difference(blk, reference) + foot, moved);
+}
+
+// The change of regular domain `dom`'s void in this step, from its boundary's motion
+// (AREA_BY_MOTION): with each vertex v_i now and d_i how far it moved, each loop's area before
+// the step is A(v − d), so A(v) − A(v − d) = −½·Σ (v_i × d_i+1 + d_i × v_i+1 − d_i × d_i+1) over its
+// edges (the circuits run clockwise: `fluid_area`'s sign). The terms are as small as the motion,
+// so f32 keeps the change's own digits, where the difference of two f32 areas kept those of the
+// areas (a void's pressure takes bulkw/A times the change). Exact for the rigid motion of the
+// corners; a foot on an edge slides with the corner it is the foot of (`link_vertex_moved`).
+fn void_step(dom: Domain) -> real {
+    let first = dom.link_start;
+    let end = dom.link_start + dom.link_count;
+    let reference = blocks[domain_links[4u * first + 2u]];
+    var change = real(0.0);
+    var s = real(0.0);
+    var start = MovedVertex(vec2<real>(0.0, 0.0), vec2<real>(0.0, 0.0));
+    var prev = start;
+    var open = false;
+    for (var l = first; l < end; l += 1u) {
+        let bits = domain_links[4u * l];
+        if ((bits & LINK_LOOP_START) != 0u && open) {
+            s += cross2(prev.at, start.moved) + cross2(prev.moved, start.at) - cross2(prev.moved, start.moved);
+            change += -(0.5 * s);
+            s = 0.0;
+            open = false;
+        }
+        var count = 2u;
+        if ((bits & LINK_CORNER) != 0u) {
+            count = 1u;
+        }
+        for (var t = 0u; t < count; t += 1u) {
+            let v = link_vertex_moved(l, t, reference);
+            if (open) {
+                s += cross2(prev.at, v.moved) + cross2(prev.moved, v.at) - cross2(prev.moved, v.moved);
+            } else {
+                start = v;
+                open = true;
+            }
+            prev = v;
+        }
+    }
+    if (open) {
+        s += cross2(prev.at, start.moved) + cross2(prev.moved, start.at) - cross2(prev.moved, start.moved);
+        change += -(0.5 * s);
+    }
+    return change;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let d = item_index(wg, li);
@@ -199,7 +306,26 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         return;
     }
     var dom = domains[d];
-    let area = fluid_area(dom);
+    var area = real(0.0);
+    // The change of area in this step.
+    var da = real(0.0);
+    if (AREA_BY_MOTION && dom.kind == DOMAIN_REGULAR && dom.link_count > 0u) {
+        // The void followed by its boundary's motion from the upload's (`void_step`); the
+        // change is the step's own, unless A_d(min) held the area before or after it.
+        let step = void_step(dom);
+        let before = dom.void_base + dom.void_change;
+        let change = dom.void_change + step;
+        let now = dom.void_base + change;
+        area = max(now, fluid_params.min_area);
+        da = area - dom.area;
+        if (before >= fluid_params.min_area && now >= fluid_params.min_area) {
+            da = step;
+        }
+        domains[d].void_change = change;
+    } else {
+        area = fluid_area(dom);
+        da = area - dom.area;
+    }
     if (dom.free != 0u) {
         var q = real(0.0);
         let end = dom.flow_start + dom.flow_count;
@@ -215,7 +341,13 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         q = q * params.dt;
         // ¶7 with the domain's change of volume: the fluid mass A(1 + p/bulkw) changes by the
         // inflow alone (twin of `model::fluid::pressure_step`).
-        dom.pressure = (dom.area * dom.pressure + fluid_params.bulk * (q - (area - dom.area))) / area;
+        if (AREA_BY_MOTION) {
+            // The same update as p + [bulkw·(Q·Δt − ΔA) − p·ΔA]/A_new (A_new = A_old + ΔA), which
+            // rounds the increment, not the pressure's whole: the area enters as a scale only.
+            dom.pressure = dom.pressure + (fluid_params.bulk * (q - da) - dom.pressure * da) / area;
+        } else {
+            dom.pressure = (dom.area * dom.pressure + fluid_params.bulk * (q - (area - dom.area))) / area;
+        }
         domains[d].pressure = dom.pressure;
         domains[d].inflow = dom.inflow + q;
         // The new pressure next to each of its contacts' feet, for the next cycle's gather

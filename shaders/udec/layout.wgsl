@@ -110,10 +110,11 @@ struct ContactShare { wa: real, wb: real, g1: u32, g2a: u32, g2b: u32, _pad: u32
 struct FluidParams { bulk: real, min_area: real, _r0: real, _r1: real, n_domains: u32, _p0: u32, _p1: u32, _p2: u32 }
 // 16 / 32 bytes (a uniform array of MAX_MATERIALS): JPERM, CPERM, AZERO, ARES.
 struct FluidMaterial { jperm: real, cperm: real, azero: real, ares: real }
-// 40 / 56 bytes. A domain: pressure, area at the last step, a joint's length, inflow since the
-// upload; free (1: its pressure moves), kind (DOMAIN_*), its flows and its boundary links.
+// 48 / 72 bytes. A domain: pressure, area at the last step, a joint's length, inflow since the
+// upload, a regular domain's void at the upload and its change since (AREA_BY_MOTION); free (1:
+// its pressure moves), kind (DOMAIN_*), its flows and its boundary links.
 struct Domain {
-    pressure: real, area: real, length: real, inflow: real,
+    pressure: real, area: real, length: real, inflow: real, void_base: real, void_change: real,
     free: u32, kind: u32, flow_start: u32, flow_count: u32, link_start: u32, link_count: u32,
 }
 const DOMAIN_REGULAR: u32 = 0u;

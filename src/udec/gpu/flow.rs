@@ -83,11 +83,21 @@ impl<R: Real> FluidUpload<R> {
                 DomainKind::Joint => DOMAIN_JOINT,
                 DomainKind::Outer => DOMAIN_OUTER,
             };
+            // A regular domain's void, from which the f32 kernels follow it by its boundary's
+            // motion: its area as the model has it (the device's own where it read the domains
+            // back, so a run that goes on goes on from there) unless A_d(min) holds it.
+            let void_base = match dom.kind {
+                DomainKind::Regular if dom.area > domains.min_area => dom.area,
+                DomainKind::Regular => crate::udec::model::fluid::void_area(model, domains, d),
+                _ => 0.0,
+            };
             out.push(Domain {
                 pressure: r(dom.pressure),
                 area: r(dom.area),
                 length: r(dom.length),
                 inflow: R::default(),
+                void_base: r(void_base),
+                void_change: R::default(),
                 free: crate::udec::model::fluid::is_free(dom.kind, dom.fixed) as u32,
                 kind,
                 flow_start: flows.len() as u32,

@@ -251,16 +251,20 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One domain on the device (`model::domain::Domain`), in a scene with fluid only: 40 bytes
-    /// in f32, 56 in f64. Its pressure, the area the fluid calculation gave it at the last step
+    /// One domain on the device (`model::domain::Domain`), in a scene with fluid only: 48 bytes
+    /// in f32, 72 in f64. Its pressure, the area the fluid calculation gave it at the last step
     /// (`model::fluid::fluid_area`), a joint domain's length, the volume that flowed into it
-    /// since the upload (Σ Q·Δt, the mass balance's `Fluid::inflow`); whether its pressure moves
+    /// since the upload (Σ Q·Δt, the mass balance's `Fluid::inflow`), a regular domain's void at
+    /// the upload and the sum of its changes since, step by step from its boundary's motion (the
+    /// f32 kernels' `AREA_BY_MOTION`, `void_step` in flow.wgsl: the void is then their sum, and
+    /// the pressure update takes each step's change itself rather than the difference of two
+    /// large f32 areas; unused in f64); whether its pressure moves
     /// (`model::fluid::is_free`), its kind (`DOMAIN_*`), its flows
     /// (`domain_flows[flow_start .. + flow_count]`: contact·2 + 1 where it is the contact's second
     /// domain, + 0 where its first, ascending by contact: the CPU's order) and its boundary
     /// (`domain_links`, four words a link, see `Engine::upload_fluid`).
     Domain {
-        pressure: R, area: R, length: R, inflow: R,
+        pressure: R, area: R, length: R, inflow: R, void_base: R, void_change: R,
         free: u32, kind: u32, flow_start: u32, flow_count: u32, link_start: u32, link_count: u32,
     }
 }
