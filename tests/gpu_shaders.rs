@@ -163,7 +163,7 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         assert_eq!(slots("gather", "gather_fluid"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces, ContactFlows, FluidLoads]);
         assert_eq!(slots("energy_sums", "energy_sums_fluid"), [Params, EnergySums, FluidLoads]);
         assert_eq!(slots("flow", "flow"), [Params, Blocks, Corners, Contacts, Materials, FluidMaterials, Domains, ContactSides, ContactFlows]);
-        assert_eq!(slots("flow", "domain_pressures"), [Params, Blocks, Corners, FluidParams, Domains, DomainFlows, DomainLinks, ContactFlows]);
+        assert_eq!(slots("flow", "domain_pressures"), [Params, Blocks, Corners, Contacts, FluidParams, Domains, DomainFlows, DomainLinks, ContactFlows]);
         // The pressure loads are summed in the block pass (`force_sum_fluid`): flow.wgsl has no
         // pass over the blocks, and the block pass reads the pressures from the contacts' flow
         // slots, within the 8 storage buffers.

@@ -192,65 +192,61 @@ fn fluid_area(dom: Domain) -> real {
     return max(void_area, fluid_params.min_area);
 }
 
-// How far the point of block `blk` at `r` from its centroid moved in this step: the block's
-// rigid motion as the law of motion took it (Δx = v·Δt, Δθ = ω·Δt), r − R(−Δθ)·r for the turn,
-// with 1 − cos Δθ as 2·sin²(Δθ/2) (no cancellation).
-fn step_displacement(blk: Block, r: vec2<real>) -> vec2<real> {
-    let a = blk.w * params.dt;
-    let sa = sin(a);
-    let h = sin(0.5 * a);
-    let c1 = 2.0 * h * h;
-    return vec2<real>(blk.vx * params.dt + (c1 * r.x - sa * r.y), blk.vy * params.dt + (sa * r.x + c1 * r.y));
+// A block's motion in this step as the law of motion took it: Δx = v·Δt, and the turn Δθ = ω·Δt
+// as sin Δθ and 1 − cos Δθ (`Motion::turn`).
+struct Motion {
+    shift: vec2<real>,
+    turn: vec2<real>,
 }
 
-// `link_vertex` (the vertex, from the centroid of block `reference`) with how far it moved in
-// this step (`step_displacement` of the block whose point it is: a contact's foot moves with
-// its side's block).
-struct MovedVertex {
-    at: vec2<real>,
-    moved: vec2<real>,
+// Block `b`'s motion in this step (its velocities were set by this cycle's law of motion, zero
+// for a fixed block). Δθ is small (a corner travels less than the contact tolerance in a step,
+// the too-fast check), so sin Δθ and 1 − cos Δθ are their series to Δθ³ and Δθ⁴ (the next
+// terms under 1e-10 of Δθ for |Δθ| < 0.01), without cancellation.
+fn motion(b: u32) -> Motion {
+    let dt = params.dt;
+    let a = blocks[b].w * dt;
+    let a2 = a * a;
+    return Motion(vec2<real>(blocks[b].vx * dt, blocks[b].vy * dt), vec2<real>(a - a * a2 / 6.0, 0.5 * a2 - a2 * a2 / 24.0));
 }
 
-fn link_vertex_moved(l: u32, t: u32, reference: Block) -> MovedVertex {
-    let bits = domain_links[4u * l];
-    let index = domain_links[4u * l + 1u];
-    if ((bits & LINK_CORNER) != 0u) {
-        let blk = blocks[domain_links[4u * l + 2u]];
-        let r = corner_at(index);
-        return MovedVertex(centroid_difference(blk, reference) + r, step_displacement(blk, r));
+// How far the point at `r` from the centroid of a block with motion `m` moved in this step:
+// the shift and r − R(−Δθ)·r.
+fn moved_by(m: Motion, r: vec2<real>) -> vec2<real> {
+    let s = m.turn.x;
+    let c1 = m.turn.y;
+    return m.shift + vec2<real>(c1 * r.x - s * r.y, s * r.x + c1 * r.y);
+}
+
+// A vertex of a domain's boundary is a vec4 here: its position (`link_vertex`, from the centroid
+// of the domain's reference block) in xy and how far it moved in this step in zw.
+
+// The change of the edge p → q's term of the shoelace sum, p × q, when both vertices move back
+// by their motion: p × q − (p − d_p) × (q − d_q).
+fn edge_change(p: vec4<real>, q: vec4<real>) -> real {
+    return cross2(p.xy, q.zw) + cross2(p.zw, q.xy) - cross2(p.zw, q.zw);
+}
+
+// A loop's shoelace sum of changes as `void_step` walks it: the sum, the loop's first vertex and
+// the last one, and whether a loop is open.
+struct VoidWalk {
+    s: real,
+    start: vec4<real>,
+    prev: vec4<real>,
+    open: bool,
+}
+
+// The walk `w` with the next vertex `v` of its loop.
+fn walk_to(w_in: VoidWalk, v: vec4<real>) -> VoidWalk {
+    var w = w_in;
+    if (w.open) {
+        w.s += edge_change(w.prev, v);
+    } else {
+        w.start = v;
+        w.open = true;
     }
-    var side = bits & LINK_SIDE;
-    if (t == 0u) {
-        side = 1u - side;
-    }
-    var foot = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
-    if (side == 1u) {
-        foot = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
-    }
-    let blk = blocks[domain_links[4u * l + 2u + side]];
-    var moved = step_displacement(blk, foot);
-    let c = contacts[index];
-    if (side == 1u && c.feature % 2u == 1u) {
-        // The foot of block 1's corner on block 2's edge p → q slides along the edge as the
-        // corner moves along it (`contact_feet`): by the corner's motion relative to block 2's
-        // point there, along the edge, while the foot is within the edge.
-        let b1 = blocks[c.block1];
-        let r1 = corner_at(c.corner);
-        let n = max(blk.corner_count, 1u);
-        let k = (c.feature / 2u) % n;
-        let p = corner_at(blk.corner_start + k);
-        let e = corner_at(blk.corner_start + (k + 1u) % n) - p;
-        let len2 = e.x * e.x + e.y * e.y;
-        let corner = centroid_difference(b1, blk) + r1;
-        if (len2 > 0.0) {
-            let t = ((corner.x - p.x) * e.x + (corner.y - p.y) * e.y) / len2;
-            if (t > 0.0 && t < 1.0) {
-                let rel = step_displacement(b1, r1) - moved;
-                moved += ((rel.x * e.x + rel.y * e.y) / len2) * e;
-            }
-        }
-    }
-    return MovedVertex(centroid_difference(blk, reference) + foot, moved);
+    w.prev = v;
+    return w;
 }
 
 // The change of regular domain `dom`'s void in this step, from its boundary's motion
@@ -258,43 +254,51 @@ fn link_vertex_moved(l: u32, t: u32, reference: Block) -> MovedVertex {
 // the step is A(v − d), so A(v) − A(v − d) = −½·Σ (v_i × d_i+1 + d_i × v_i+1 − d_i × d_i+1) over its
 // edges (the circuits run clockwise: `fluid_area`'s sign). The terms are as small as the motion,
 // so f32 keeps the change's own digits, where the difference of two f32 areas kept those of the
-// areas (a void's pressure takes bulkw/A times the change). Exact for the rigid motion of the
-// corners; a foot on an edge slides with the corner it is the foot of (`link_vertex_moved`).
+// areas (a void's pressure takes bulkw/A times the change). The vertices as `link_vertex` gives
+// them, in its order: a corner moves with its block; a contact's foot on side 0 (block 1's
+// corner) with block 1, its foot on side 1 with block 2, and a foot on block 2's edge (an odd
+// feature) slides along the edge with the corner it is the foot of as well (`contact_feet`): by
+// the tangential part of the corner's motion relative to block 2's point there (the edge's
+// direction being the contact's tangent). Exact for the rigid motion of the corners.
 fn void_step(dom: Domain) -> real {
     let first = dom.link_start;
     let end = dom.link_start + dom.link_count;
     let reference = blocks[domain_links[4u * first + 2u]];
     var change = real(0.0);
-    var s = real(0.0);
-    var start = MovedVertex(vec2<real>(0.0, 0.0), vec2<real>(0.0, 0.0));
-    var prev = start;
-    var open = false;
+    var w = VoidWalk(0.0, vec4<real>(0.0, 0.0, 0.0, 0.0), vec4<real>(0.0, 0.0, 0.0, 0.0), false);
     for (var l = first; l < end; l += 1u) {
         let bits = domain_links[4u * l];
-        if ((bits & LINK_LOOP_START) != 0u && open) {
-            s += cross2(prev.at, start.moved) + cross2(prev.moved, start.at) - cross2(prev.moved, start.moved);
-            change += -(0.5 * s);
-            s = 0.0;
-            open = false;
+        if ((bits & LINK_LOOP_START) != 0u && w.open) {
+            change += -(0.5 * (w.s + edge_change(w.prev, w.start)));
+            w.s = 0.0;
+            w.open = false;
         }
-        var count = 2u;
+        let index = domain_links[4u * l + 1u];
+        let b1 = domain_links[4u * l + 2u];
         if ((bits & LINK_CORNER) != 0u) {
-            count = 1u;
+            let r = corner_at(index);
+            w = walk_to(w, vec4<real>(centroid_difference(blocks[b1], reference) + r, moved_by(motion(b1), r)));
+            continue;
         }
-        for (var t = 0u; t < count; t += 1u) {
-            let v = link_vertex_moved(l, t, reference);
-            if (open) {
-                s += cross2(prev.at, v.moved) + cross2(prev.moved, v.at) - cross2(prev.moved, v.moved);
-            } else {
-                start = v;
-                open = true;
-            }
-            prev = v;
+        let b2 = domain_links[4u * l + 3u];
+        let f0 = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
+        let f1 = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
+        let d0 = moved_by(motion(b1), f0);
+        var d1 = moved_by(motion(b2), f1);
+        if (contacts[index].feature % 2u == 1u) {
+            let rel = d0 - d1;
+            let n = vec2<real>(contacts[index].nx, contacts[index].ny);
+            d1 += rel - dot(rel, n) * n;
         }
+        let v0 = vec4<real>(centroid_difference(blocks[b1], reference) + f0, d0);
+        let v1 = vec4<real>(centroid_difference(blocks[b2], reference) + f1, d1);
+        // The foot the circuit arrives at (the other side's), then its own side's.
+        let own_is_1 = (bits & LINK_SIDE) != 0u;
+        w = walk_to(w, select(v1, v0, own_is_1));
+        w = walk_to(w, select(v0, v1, own_is_1));
     }
-    if (open) {
-        s += cross2(prev.at, start.moved) + cross2(prev.moved, start.at) - cross2(prev.moved, start.moved);
-        change += -(0.5 * s);
+    if (w.open) {
+        change += -(0.5 * (w.s + edge_change(w.prev, w.start)));
     }
     return change;
 }
