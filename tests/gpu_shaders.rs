@@ -159,7 +159,10 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             let s = slots(file, entry);
             assert!(!s.iter().any(|x| fluid_slots.contains(x)), "{entry} binds a fluid slot: {s:?}");
         }
-        assert_eq!(slots("law_of_motion", "law_of_motion_fluid"), [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces, ContactFlows, FluidLoads]);
+        assert_eq!(
+            slots("law_of_motion", "law_of_motion_fluid"),
+            [Params, Blocks, Corners, AdjOffsets, AdjEntries, Flags, ContactForces, ContactFlows, FluidLoads]
+        );
         assert_eq!(slots("gather", "gather_fluid"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces, ContactFlows, FluidLoads]);
         assert_eq!(slots("energy_sums", "energy_sums_fluid"), [Params, EnergySums, FluidLoads]);
         assert_eq!(slots("flow", "flow"), [Params, Blocks, Corners, Contacts, Materials, FluidMaterials, Domains, ContactSides, ContactFlows]);
