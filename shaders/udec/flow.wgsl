@@ -1,7 +1,7 @@
 // Stage 5: fluid flow in joints and voids (SL-85-1 Appendix A ¶6–9, ¶19). Twin of
 // src/udec/cpu/flow.rs on the pure pieces of `model::fluid`; compiled and dispatched only in a
 // scene with fluid (`gpu::flow`), after the contact stage (the joints' apertures read the normal
-// forces it has just set), in three passes, none reading what its own pass writes:
+// forces it has just set), in two passes, neither reading what its own pass writes:
 //
 // 1. `flow`, per contact (the entry point named after the file; the loop body of
 //    `model::fluid::contact_flows`): its aperture, its flow q = k_c·Δp across a point contact or
@@ -9,9 +9,12 @@
 // 2. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
 //    (the CPU's order: reruns repeat bit for bit, and f64 agrees with the CPU to round-off), its
 //    area now, and the pressure update with its change of volume (¶7); a PFIX domain and the
-//    outer domain keep theirs;
-// 3. `pressure_loads`, per block: buoyancy and the pressure jumps across its contacts, in its
-//    adjacency list's order, as the next cycle's block pass adds them (`law_of_motion_fluid`).
+//    outer domain keep theirs. A free domain then copies its new pressure into each of its
+//    contacts' flow slots (`ContactFlow::p0`, `p1`: each contact's two domains write one each).
+//
+// The loads the pressures put on the blocks (buoyancy and the pressure jump at each contact's
+// foot, the CPU's `block_load`) are summed by the next cycle's block pass in the same walk of a
+// block's list as its contact forces (`force_sum_fluid`, gather.wgsl; `law_of_motion_fluid`).
 
 // A corner's position relative to its block's centroid.
 fn corner_at(i: u32) -> vec2<real> {
@@ -80,7 +83,14 @@ fn flow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     if (d0 != NO_INDEX && d0 != d1) {
         q = conductance(c, f, a) * (domains[d0].pressure - domains[d1].pressure);
     }
-    contact_flows_out[k] = ContactFlow(q, a, c.length, feet[0].x, feet[0].y, feet[1].x, feet[1].y, 0.0);
+    // Field by field: the domains' pressures in the slot (`p0`, `p1`) are `domain_pressures`'.
+    contact_flows_out[k].flow = q;
+    contact_flows_out[k].aperture = a;
+    contact_flows_out[k].length = c.length;
+    contact_flows_out[k].f0x = feet[0].x;
+    contact_flows_out[k].f0y = feet[0].y;
+    contact_flows_out[k].f1x = feet[1].x;
+    contact_flows_out[k].f1y = feet[1].y;
 }
 
 // Where a domain link's vertex t (0 or 1 of a contact's two feet, in circuit order; 0 of a
@@ -96,10 +106,10 @@ fn link_vertex(l: u32, t: u32, reference: Block) -> vec2<real> {
     if (t == 0u) {
         side = 1u - side;
     }
-    let cf = contact_flows_out[index];
-    var foot = vec2<real>(cf.f0x, cf.f0y);
+    // Field by field (here and below): the same pass writes the slots' pressures.
+    var foot = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
     if (side == 1u) {
-        foot = vec2<real>(cf.f1x, cf.f1y);
+        foot = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
     }
     return centroid_difference(blocks[domain_links[4u * l + 2u + side]], reference) + foot;
 }
@@ -126,12 +136,13 @@ fn fluid_area(dom: Domain) -> real {
             if ((domain_links[4u * l] & LINK_CORNER) != 0u) {
                 continue;
             }
-            let cf = contact_flows_out[domain_links[4u * l + 1u]];
-            if (cf.length > 0.0) {
+            let k = domain_links[4u * l + 1u];
+            if (contact_flows_out[k].length > 0.0) {
+                let aperture = contact_flows_out[k].aperture;
                 if (n == 0u) {
-                    a0 = cf.aperture;
+                    a0 = aperture;
                 } else {
-                    sum = a0 + cf.aperture;
+                    sum = a0 + aperture;
                 }
                 n += 1u;
             }
@@ -181,6 +192,117 @@ fn fluid_area(dom: Domain) -> real {
     return max(void_area, fluid_params.min_area);
 }
 
+// A block's motion in this step as the law of motion took it: Δx = v·Δt, and the turn Δθ = ω·Δt
+// as sin Δθ and 1 − cos Δθ (`Motion::turn`).
+struct Motion {
+    shift: vec2<real>,
+    turn: vec2<real>,
+}
+
+// Block `b`'s motion in this step (its velocities were set by this cycle's law of motion, zero
+// for a fixed block). Δθ is small (a corner travels less than the contact tolerance in a step,
+// the too-fast check), so sin Δθ and 1 − cos Δθ are their series to Δθ³ and Δθ⁴ (the next
+// terms under 1e-10 of Δθ for |Δθ| < 0.01), without cancellation.
+fn motion(b: u32) -> Motion {
+    let dt = params.dt;
+    let a = blocks[b].w * dt;
+    let a2 = a * a;
+    return Motion(vec2<real>(blocks[b].vx * dt, blocks[b].vy * dt), vec2<real>(a - a * a2 / 6.0, 0.5 * a2 - a2 * a2 / 24.0));
+}
+
+// How far the point at `r` from the centroid of a block with motion `m` moved in this step:
+// the shift and r − R(−Δθ)·r.
+fn moved_by(m: Motion, r: vec2<real>) -> vec2<real> {
+    let s = m.turn.x;
+    let c1 = m.turn.y;
+    return m.shift + vec2<real>(c1 * r.x - s * r.y, s * r.x + c1 * r.y);
+}
+
+// A vertex of a domain's boundary is a vec4 here: its position (`link_vertex`, from the centroid
+// of the domain's reference block) in xy and how far it moved in this step in zw.
+
+// The change of the edge p → q's term of the shoelace sum, p × q, when both vertices move back
+// by their motion: p × q − (p − d_p) × (q − d_q).
+fn edge_change(p: vec4<real>, q: vec4<real>) -> real {
+    return cross2(p.xy, q.zw) + cross2(p.zw, q.xy) - cross2(p.zw, q.zw);
+}
+
+// A loop's shoelace sum of changes as `void_step` walks it: the sum, the loop's first vertex and
+// the last one, and whether a loop is open.
+struct VoidWalk {
+    s: real,
+    start: vec4<real>,
+    prev: vec4<real>,
+    open: bool,
+}
+
+// The walk `w` with the next vertex `v` of its loop.
+fn walk_to(w_in: VoidWalk, v: vec4<real>) -> VoidWalk {
+    var w = w_in;
+    if (w.open) {
+        w.s += edge_change(w.prev, v);
+    } else {
+        w.start = v;
+        w.open = true;
+    }
+    w.prev = v;
+    return w;
+}
+
+// The change of regular domain `dom`'s void in this step, from its boundary's motion
+// (AREA_BY_MOTION): with each vertex v_i now and d_i how far it moved, each loop's area before
+// the step is A(v − d), so A(v) − A(v − d) = −½·Σ (v_i × d_i+1 + d_i × v_i+1 − d_i × d_i+1) over its
+// edges (the circuits run clockwise: `fluid_area`'s sign). The terms are as small as the motion,
+// so f32 keeps the change's own digits, where the difference of two f32 areas kept those of the
+// areas (a void's pressure takes bulkw/A times the change). The vertices as `link_vertex` gives
+// them, in its order: a corner moves with its block; a contact's foot on side 0 (block 1's
+// corner) with block 1, its foot on side 1 with block 2, and a foot on block 2's edge (an odd
+// feature) slides along the edge with the corner it is the foot of as well (`contact_feet`): by
+// the tangential part of the corner's motion relative to block 2's point there (the edge's
+// direction being the contact's tangent). Exact for the rigid motion of the corners.
+fn void_step(dom: Domain) -> real {
+    let first = dom.link_start;
+    let end = dom.link_start + dom.link_count;
+    let reference = blocks[domain_links[4u * first + 2u]];
+    var change = real(0.0);
+    var w = VoidWalk(0.0, vec4<real>(0.0, 0.0, 0.0, 0.0), vec4<real>(0.0, 0.0, 0.0, 0.0), false);
+    for (var l = first; l < end; l += 1u) {
+        let bits = domain_links[4u * l];
+        if ((bits & LINK_LOOP_START) != 0u && w.open) {
+            change += -(0.5 * (w.s + edge_change(w.prev, w.start)));
+            w.s = 0.0;
+            w.open = false;
+        }
+        let index = domain_links[4u * l + 1u];
+        let b1 = domain_links[4u * l + 2u];
+        if ((bits & LINK_CORNER) != 0u) {
+            let r = corner_at(index);
+            w = walk_to(w, vec4<real>(centroid_difference(blocks[b1], reference) + r, moved_by(motion(b1), r)));
+            continue;
+        }
+        let b2 = domain_links[4u * l + 3u];
+        let f0 = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
+        let f1 = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
+        let d0 = moved_by(motion(b1), f0);
+        var d1 = moved_by(motion(b2), f1);
+        if (contacts[index].feature % 2u == 1u) {
+            let rel = d0 - d1;
+            let n = vec2<real>(contacts[index].nx, contacts[index].ny);
+            d1 += rel - dot(rel, n) * n;
+        }
+        let v0 = vec4<real>(centroid_difference(blocks[b1], reference) + f0, d0);
+        let v1 = vec4<real>(centroid_difference(blocks[b2], reference) + f1, d1);
+        // The foot the circuit arrives at (the other side's), then its own side's.
+        let own_is_1 = (bits & LINK_SIDE) != 0u;
+        w = walk_to(w, select(v1, v0, own_is_1));
+        w = walk_to(w, select(v0, v1, own_is_1));
+    }
+    if (w.open) {
+        change += -(0.5 * (w.s + edge_change(w.prev, w.start)));
+    }
+    return change;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let d = item_index(wg, li);
@@ -188,7 +310,26 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         return;
     }
     var dom = domains[d];
-    let area = fluid_area(dom);
+    var area = real(0.0);
+    // The change of area in this step.
+    var da = real(0.0);
+    if (AREA_BY_MOTION && dom.kind == DOMAIN_REGULAR && dom.link_count > 0u) {
+        // The void followed by its boundary's motion from the upload's (`void_step`); the
+        // change is the step's own, unless A_d(min) held the area before or after it.
+        let step = void_step(dom);
+        let before = dom.void_base + dom.void_change;
+        let change = dom.void_change + step;
+        let now = dom.void_base + change;
+        area = max(now, fluid_params.min_area);
+        da = area - dom.area;
+        if (before >= fluid_params.min_area && now >= fluid_params.min_area) {
+            da = step;
+        }
+        domains[d].void_change = change;
+    } else {
+        area = fluid_area(dom);
+        da = area - dom.area;
+    }
     if (dom.free != 0u) {
         var q = real(0.0);
         let end = dom.flow_start + dom.flow_count;
@@ -204,48 +345,26 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         q = q * params.dt;
         // ¶7 with the domain's change of volume: the fluid mass A(1 + p/bulkw) changes by the
         // inflow alone (twin of `model::fluid::pressure_step`).
-        dom.pressure = (dom.area * dom.pressure + fluid_params.bulk * (q - (area - dom.area))) / area;
+        if (AREA_BY_MOTION) {
+            // The same update as p + [bulkw·(Q·Δt − ΔA) − p·ΔA]/A_new (A_new = A_old + ΔA), which
+            // rounds the increment, not the pressure's whole: the area enters as a scale only.
+            dom.pressure = dom.pressure + (fluid_params.bulk * (q - da) - dom.pressure * da) / area;
+        } else {
+            dom.pressure = (dom.area * dom.pressure + fluid_params.bulk * (q - (area - dom.area))) / area;
+        }
         domains[d].pressure = dom.pressure;
         domains[d].inflow = dom.inflow + q;
+        // The new pressure next to each of its contacts' feet, for the next cycle's gather
+        // (`add_pressure_load`, gather.wgsl): this domain's side of the slot only, the other
+        // domain of the contact writing the other (a fixed domain's stays as uploaded).
+        for (var e = dom.flow_start; e < end; e += 1u) {
+            let entry = domain_flows[e];
+            if ((entry & 1u) != 0u) {
+                contact_flows_out[entry >> 1u].p1 = dom.pressure;
+            } else {
+                contact_flows_out[entry >> 1u].p0 = dom.pressure;
+            }
+        }
     }
     domains[d].area = area;
-}
-
-// Block b's load from the pressures around it and its buoyancy (twin of
-// `cpu::flow::pressure_loads`): each contact of its list gives the pressure jump at its foot,
-// (p_after − p_before)·perp(f − c) and (p_after − p_before)·|f − c|²/2 (`model::fluid::
-// pressure_load`), in list order after the buoyancy.
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn pressure_loads(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
-    let b = item_index(wg, li);
-    if (b >= params.n_blocks) {
-        return;
-    }
-    var l = vec3<real>(fluid_loads[b].buoy_x, fluid_loads[b].buoy_y, 0.0);
-    let end = adj_offsets[b + 1u];
-    for (var e = adj_offsets[b]; e < end; e += 1u) {
-        let entry = adj_entries[e];
-        let k = entry_contact(entry);
-        let side = entry_side(entry);
-        let d0 = contact_sides[2u * k];
-        let d1 = contact_sides[2u * k + 1u];
-        if (d0 == NO_INDEX || d0 == d1) {
-            continue;
-        }
-        var jump = domains[d1].pressure - domains[d0].pressure;
-        if (side == 1u) {
-            jump = -jump;
-        }
-        if (jump != 0.0) {
-            let cf = contact_flows_out[k];
-            var r = vec2<real>(cf.f0x, cf.f0y);
-            if (side == 1u) {
-                r = vec2<real>(cf.f1x, cf.f1y);
-            }
-            l += vec3<real>(-jump * r.y, jump * r.x, 0.5 * jump * (r.x * r.x + r.y * r.y));
-        }
-    }
-    fluid_loads[b].fx = l.x;
-    fluid_loads[b].fy = l.y;
-    fluid_loads[b].m = l.z;
 }

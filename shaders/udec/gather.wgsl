@@ -167,25 +167,88 @@ fn gather_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
     gather_block(b);
 }
 
+// Stage 5's loads, folded into the gather in a scene with fluid (twin of `cpu::flow::block_load`;
+// the module doc of `model::fluid`, "Loads"): a block's buoyancy −ρ_w·A·g (¶9) and, over its
+// adjacency list in order, the pressure jump at each contact's foot, (p_after − p_before)·perp(r)
+// and (p_after − p_before)·|r|²/2 with r the foot from the block's centroid
+// (`model::fluid::pressure_load`). The pressures are the last pressure update's, each contact's
+// two copied into its flow slot next to its feet (`domain_pressures`, flow.wgsl), so the gather
+// reads one slot per contact for them and binds neither the domains nor each contact's two
+// domains; it runs in the same pass as the contact forces' sums, where a pass of its own walked
+// every block's list again (one dispatch and one pass over the blocks and their lists fewer).
+
+// The load of adjacency entry `entry`'s pressure jump added to `l` (`l` unchanged where the
+// jump is 0, as for a contact that is not a link between two domains).
+fn add_pressure_load(l: vec3<real>, entry: u32) -> vec3<real> {
+    let k = entry_contact(entry);
+    let side = entry_side(entry);
+    var jump = contact_flows_out[k].p1 - contact_flows_out[k].p0;
+    if (side == 1u) {
+        jump = -jump;
+    }
+    if (jump == 0.0) {
+        return l;
+    }
+    var r = vec2<real>(contact_flows_out[k].f0x, contact_flows_out[k].f0y);
+    if (side == 1u) {
+        r = vec2<real>(contact_flows_out[k].f1x, contact_flows_out[k].f1y);
+    }
+    return l + vec3<real>(-jump * r.y, jump * r.x, 0.5 * jump * (r.x * r.x + r.y * r.y));
+}
+
+// Block b's buoyancy, where its fluid load starts.
+fn buoyancy(b: u32) -> vec3<real> {
+    return vec3<real>(fluid_loads[b].buoy_x, fluid_loads[b].buoy_y, 0.0);
+}
+
+// Block b's fluid load alone, over its entries first .. end (a block with a long list, whose
+// contact forces `gather_heavy` summed).
+fn pressure_load_sum(b: u32, first: u32, end: u32) -> vec3<real> {
+    var l = buoyancy(b);
+    for (var e = first; e < end; e += 1u) {
+        l = add_pressure_load(l, adj_entries[e]);
+    }
+    return l;
+}
+
+// A block's contact forces (with gravity and its load, as `force_sum` adds them) and its fluid
+// load, kept apart: the block's force is their sum, the load's work is booked on its own.
+struct FluidSums {
+    force: vec3<real>,
+    load: vec3<real>,
+}
+
+// Stage 6 of block b in a scene with fluid: its contact forces and its fluid load in one walk of
+// its list (a block with a long list: the stored sums of `gather_heavy` and its load's own walk).
+fn force_sum_fluid(b: u32, blk: Block) -> FluidSums {
+    let first = adj_offsets[b];
+    let end = adj_offsets[b + 1u];
+    if (is_heavy(first, end)) {
+        return FluidSums(vec3<real>(blocks[b].fx, blocks[b].fy, blocks[b].moment), pressure_load_sum(b, first, end));
+    }
+    var f = vec3<real>(blk.mass * params.gx + blk.load_x, blk.mass * params.gy + blk.load_y, 0.0);
+    var l = buoyancy(b);
+    for (var e = first; e < end; e += 1u) {
+        let entry = adj_entries[e];
+        f += entry_force(entry);
+        l = add_pressure_load(l, entry);
+    }
+    return FluidSums(f, l);
+}
+
 // `gather` in a scene with fluid (before a read-back or the energy check): each block's contact
-// forces and its fluid load (`pressure_loads`, flow.wgsl), as the CPU's `gather_all` adds it. A
-// block with a long list was summed by `gather_heavy`, dispatched before this pass in such a
-// scene: its load is added to the stored sums.
+// forces and its fluid load (`force_sum_fluid`), as the CPU's `gather_all` adds it. A block with
+// a long list was summed by `gather_heavy`, dispatched before this pass in such a scene: its
+// load is added to the stored sums.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gather_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);
     if (b >= params.n_blocks) {
         return;
     }
-    let blk = blocks[b];
-    let first = adj_offsets[b];
-    let end = adj_offsets[b + 1u];
-    var f = vec3<real>(blk.fx, blk.fy, blk.moment);
-    if (!is_heavy(first, end)) {
-        f = force_sum(blk, first, end);
-    }
-    let l = vec3<real>(fluid_loads[b].fx, fluid_loads[b].fy, fluid_loads[b].m);
-    blocks[b].fx = f.x + l.x;
-    blocks[b].fy = f.y + l.y;
-    blocks[b].moment = f.z + l.z;
+    let s = force_sum_fluid(b, blocks[b]);
+    let f = s.force + s.load;
+    blocks[b].fx = f.x;
+    blocks[b].fy = f.y;
+    blocks[b].moment = f.z;
 }

@@ -309,10 +309,11 @@ fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
 }
 
 // Stages 6, 1 and 2 in a scene with fluid (twin of the CPU's `block_piece` with
-// `BlockInputs::fluid_loads`): a rigid block as `law_of_motion` moves it, its fluid load
-// (`pressure_loads`, flow.wgsl: the domain pressures and buoyancy of the last stage 5) added after
-// its contact forces, and the load's work over the step, F·Δx + M·Δθ at the new velocities,
-// counted on the block (`cpu::flow::fluid_work`, the ledger's fluid term).
+// `BlockInputs::fluid_loads`): a rigid block as `law_of_motion` moves it, its fluid load (the
+// domain pressures of the last stage 5 and buoyancy, summed in the same walk of its list as its
+// contact forces: `force_sum_fluid`, gather.wgsl) added after its contact forces, and the load's
+// work over the step, F·Δx + M·Δθ at the new velocities, counted on the block
+// (`cpu::flow::fluid_work`, the ledger's fluid term).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn law_of_motion_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);
@@ -324,8 +325,9 @@ fn law_of_motion_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invo
         hold_still(b);
         return;
     }
-    let l = vec3<real>(fluid_loads[b].fx, fluid_loads[b].fy, fluid_loads[b].m);
-    let s = rigid_step(blk, gathered_force(b, blk) + l);
+    let sums = force_sum_fluid(b, blk);
+    let l = sums.load;
+    let s = rigid_step(blk, sums.force + l);
     store_step(b, s);
     if (s.place) {
         geometry_update(s.blk);

@@ -110,10 +110,11 @@ struct ContactShare { wa: real, wb: real, g1: u32, g2a: u32, g2b: u32, _pad: u32
 struct FluidParams { bulk: real, min_area: real, _r0: real, _r1: real, n_domains: u32, _p0: u32, _p1: u32, _p2: u32 }
 // 16 / 32 bytes (a uniform array of MAX_MATERIALS): JPERM, CPERM, AZERO, ARES.
 struct FluidMaterial { jperm: real, cperm: real, azero: real, ares: real }
-// 40 / 56 bytes. A domain: pressure, area at the last step, a joint's length, inflow since the
-// upload; free (1: its pressure moves), kind (DOMAIN_*), its flows and its boundary links.
+// 48 / 72 bytes. A domain: pressure, area at the last step, a joint's length, inflow since the
+// upload, a regular domain's void at the upload and its change since (AREA_BY_MOTION); free (1:
+// its pressure moves), kind (DOMAIN_*), its flows and its boundary links.
 struct Domain {
-    pressure: real, area: real, length: real, inflow: real,
+    pressure: real, area: real, length: real, inflow: real, void_base: real, void_change: real,
     free: u32, kind: u32, flow_start: u32, flow_count: u32, link_start: u32, link_count: u32,
 }
 const DOMAIN_REGULAR: u32 = 0u;
@@ -124,12 +125,13 @@ const DOMAIN_OUTER: u32 = 2u;
 const LINK_SIDE: u32 = 1u;
 const LINK_LOOP_START: u32 = 2u;
 const LINK_CORNER: u32 = 4u;
-// 32 / 64 bytes. A contact's flow (first domain to second), aperture and length of joint, its
-// feet on side 0 (from block 1's centroid) and side 1 (from block 2's).
-struct ContactFlow { flow: real, aperture: real, length: real, f0x: real, f0y: real, f1x: real, f1y: real, _r: real }
-// 24 / 48 bytes. A block's buoyancy, its fluid load for the next gather, the load's work since
-// the upload.
-struct FluidLoad { buoy_x: real, buoy_y: real, fx: real, fy: real, m: real, work: real }
+// 36 / 72 bytes. A contact's flow (first domain to second), aperture and length of joint, its
+// feet on side 0 (from block 1's centroid) and side 1 (from block 2's), and the pressures of its
+// first and second domain as the last pressure update left them (equal for a contact that is not
+// a link between two domains), which the gather's pressure loads read.
+struct ContactFlow { flow: real, aperture: real, length: real, f0x: real, f0y: real, f1x: real, f1y: real, p0: real, p1: real }
+// 12 / 24 bytes. A block's buoyancy and the work of its fluid load since the upload.
+struct FluidLoad { buoy_x: real, buoy_y: real, work: real }
 
 // 32 / 64 bytes (a multiple of the 16-byte stride a uniform array needs, in both precisions):
 // the point contact's KN, KS, COHESION, FRICTION, then the joint's JKN, JKS, JCOH, JFRIC.

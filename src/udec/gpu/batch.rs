@@ -104,8 +104,9 @@ impl<R: Real> Engine<R> {
 
     /// `stages` in a scene with fluid (`gpu::flow`): the blocks with long lists summed first
     /// (`gather_heavy`), then the blocks' gather with their fluid loads (before a read-back) or
-    /// in a cycle their motion with it (`law_of_motion_fluid`), the contact stage, and stage 5:
-    /// each contact's flow, each domain's pressure, each block's load, each a pass of its own.
+    /// in a cycle their motion with it (`law_of_motion_fluid`, which sums the loads of the last
+    /// stage 5's pressures with the contact forces), the contact stage, and stage 5: each
+    /// contact's flow, then each domain's pressure, each a pass of its own.
     fn stages_fluid<'a>(&'a self, k: &'a kernels::FluidKernels, g: &'a kernels::FluidBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
         let p = &self.pipelines;
         let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
@@ -122,7 +123,6 @@ impl<R: Real> Engine<R> {
             stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
             stages.push(cycle("flow", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts));
             stages.push(cycle("domain_pressures", &k.domain_pressures.pipeline, &g.domain_pressures, Grid::Domains));
-            stages.push(cycle("pressure_loads", &k.pressure_loads.pipeline, &g.pressure_loads, Grid::Blocks));
             let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
             stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
         }

@@ -8,8 +8,10 @@
 //! on the CPU (`cpu::maybe_update_topology`, `cpu::fluid_after_topology`), and the device takes
 //! them whole (`upload_fluid`), with each domain's flows as a CSR list in ascending contact
 //! order, so that its inflow is summed in the CPU's order and a rerun repeats bit for bit. Each
-//! cycle runs `law_of_motion_fluid` (the fluid loads added to the gather), the contact stage,
-//! then flow.wgsl's `flow` (per contact), `domain_pressures` and `pressure_loads`. What differs
+//! cycle runs `law_of_motion_fluid` (each block's fluid load summed in the same walk of its list
+//! as its contact forces), the contact stage, then flow.wgsl's `flow` (per contact) and
+//! `domain_pressures` (per domain, which leaves each contact's two pressures next to its feet
+//! for the next gather). What differs
 //! otherwise, as in an SDEF scene: contact updates upload the contact list whole, so the splice
 //! and partial read-backs are off. A read-back gives the model each domain's pressure and area,
 //! each contact's flow and the ledger's fluid work and inflow (accumulated on the device from
@@ -17,7 +19,6 @@
 
 use crate::udec::model::domain::{DomainKind, DomainLink, NO_DOMAIN};
 use crate::udec::model::{Model, MAX_MATERIALS};
-use crate::udec::topology::Adjacency;
 
 use super::kernels::FluidSizes;
 use super::layout::{
@@ -33,13 +34,14 @@ struct FluidUpload<R: Real> {
     sides: Vec<u32>,
     loads: Vec<FluidLoad<R>>,
     /// Each contact's flow as the CPU found it at the rebuild (what a read-back before the
-    /// first cycle gives back; the first `flow` pass writes them all, feet included).
+    /// first cycle gives back; the first `flow` pass writes them all again), its feet from its
+    /// blocks' centroids and its two domains' pressures now, which the first cycle's gather reads
+    /// for the pressure loads (`add_pressure_load`, gather.wgsl).
     contact_flows: Vec<ContactFlow<R>>,
 }
 
 impl<R: Real> FluidUpload<R> {
-    /// `loads`: each block's fluid load now (`cpu::flow::pressure_loads`).
-    fn of(model: &Model, loads: &[[f64; 3]]) -> Self {
+    fn of(model: &Model) -> Self {
         let domains = model.domains.as_ref().expect("a scene with fluid has its domains");
         let n = domains.list.len();
         // Each domain's flows, ascending by contact: the order the CPU sums them in
@@ -81,11 +83,21 @@ impl<R: Real> FluidUpload<R> {
                 DomainKind::Joint => DOMAIN_JOINT,
                 DomainKind::Outer => DOMAIN_OUTER,
             };
+            // A regular domain's void, from which the f32 kernels follow it by its boundary's
+            // motion: its area as the model has it (the device's own where it read the domains
+            // back, so a run that goes on goes on from there) unless A_d(min) holds it.
+            let void_base = match dom.kind {
+                DomainKind::Regular if dom.area > domains.min_area => dom.area,
+                DomainKind::Regular => crate::udec::model::fluid::void_area(model, domains, d),
+                _ => 0.0,
+            };
             out.push(Domain {
                 pressure: r(dom.pressure),
                 area: r(dom.area),
                 length: r(dom.length),
                 inflow: R::default(),
+                void_base: r(void_base),
+                void_change: R::default(),
                 free: crate::udec::model::fluid::is_free(dom.kind, dom.fixed) as u32,
                 kind,
                 flow_start: flows.len() as u32,
@@ -101,20 +113,27 @@ impl<R: Real> FluidUpload<R> {
         let loads = model
             .blocks
             .iter()
-            .zip(loads)
-            .map(|(b, l)| FluidLoad {
-                buoy_x: r(-fluid.density * b.area * g[0]),
-                buoy_y: r(-fluid.density * b.area * g[1]),
-                fx: r(l[0]),
-                fy: r(l[1]),
-                m: r(l[2]),
-                work: R::default(),
-            })
+            .map(|b| FluidLoad { buoy_x: r(-fluid.density * b.area * g[0]), buoy_y: r(-fluid.density * b.area * g[1]), work: R::default() })
             .collect();
-        let contact_flows = (0..model.contacts.len())
-            .map(|k| {
+        let contact_flows = model
+            .contacts
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
                 let f = domains.flows.get(k).copied().unwrap_or_default();
-                ContactFlow { flow: r(f.flow), aperture: r(f.aperture), length: r(f.length), ..Default::default() }
+                // A foot from its block's centroid (`model::fluid::contact_foot`, as `flow` takes it).
+                let foot = |side: u32, block: u32| {
+                    let (p, o) = (crate::udec::model::fluid::contact_foot(model, c, side), model.blocks[block as usize].centroid);
+                    [r(p[0] - o[0]), r(p[1] - o[1])]
+                };
+                let ([f0x, f0y], [f1x, f1y]) = (foot(0, c.block1), foot(1, c.block2));
+                // Each domain's pressure where the contact is a link between two (the jump that
+                // `model::fluid::pressure_jump` takes), 0 on both sides where it is not.
+                let (p0, p1) = match (sides[2 * k], sides[2 * k + 1]) {
+                    (d0, d1) if d0 != NO_DOMAIN && d0 != d1 => (r(domains.list[d0 as usize].pressure), r(domains.list[d1 as usize].pressure)),
+                    _ => (R::default(), R::default()),
+                };
+                ContactFlow { flow: r(f.flow), aperture: r(f.aperture), length: r(f.length), f0x, f0y, f1x, f1y, p0, p1 }
             })
             .collect();
         FluidUpload { domains: out, flows, links, sides, loads, contact_flows }
@@ -127,7 +146,7 @@ impl<R: Real> Engine<R> {
     /// domains, each block's load now and the fluid's constants uploaded, the accumulators of
     /// fluid work and inflow counted from here (their bases the model's). Returns whether a
     /// buffer was re-created (the bind groups must then be rebuilt). Nothing in a dry scene.
-    pub(super) fn upload_fluid(&mut self, model: &Model, adjacency: &Adjacency) -> Result<bool, GpuError> {
+    pub(super) fn upload_fluid(&mut self, model: &Model) -> Result<bool, GpuError> {
         self.fluid_scene = model.fluid.is_some() && model.domains.is_some();
         if !self.fluid_scene {
             self.n_domains = 0;
@@ -135,9 +154,7 @@ impl<R: Real> Engine<R> {
         }
         let had_kernels = self.pipelines.fluid.is_some();
         self.pipelines.with_fluid(&self.dev)?;
-        let mut loads = Vec::new();
-        crate::udec::cpu::flow::pressure_loads(model, adjacency, &mut loads);
-        let up = FluidUpload::<R>::of(model, &loads);
+        let up = FluidUpload::<R>::of(model);
         let sizes = FluidSizes {
             domains: up.domains.len(),
             flows: up.flows.len(),

@@ -211,7 +211,6 @@ pub struct FluidBindGroups {
     pub law_of_motion: wgpu::BindGroup,
     pub contact_flows: wgpu::BindGroup,
     pub domain_pressures: wgpu::BindGroup,
-    pub pressure_loads: wgpu::BindGroup,
     pub gather: wgpu::BindGroup,
     pub energy_sums: wgpu::BindGroup,
 }
@@ -257,7 +256,6 @@ impl CycleBindGroups {
             law_of_motion: make(&k.law_of_motion, "law_of_motion_fluid"),
             contact_flows: make(&k.contact_flows, "flow"),
             domain_pressures: make(&k.domain_pressures, "domain_pressures"),
-            pressure_loads: make(&k.pressure_loads, "pressure_loads"),
             gather: make(&k.gather, "gather_fluid"),
             energy_sums: make(&k.energy_sums, "energy_sums_fluid"),
         });
@@ -317,16 +315,15 @@ pub struct Pipelines {
     pub fluid: Option<FluidKernels>,
 }
 
-/// The entry points a scene with fluid runs (stage 5, `gpu::flow`): flow.wgsl's
-/// `flow` (each contact's flow, field `contact_flows`), `domain_pressures` and `pressure_loads` after the contact stage, and in the
-/// files of their rigid twins `law_of_motion_fluid` (a block's fluid load added to its gather,
-/// its work booked), `gather_fluid` (before a read-back) and `energy_sums_fluid` after
-/// `energy_sums`. Only they bind the fluid's slots.
+/// The entry points a scene with fluid runs (stage 5, `gpu::flow`): flow.wgsl's `flow` (each
+/// contact's flow, field `contact_flows`) and `domain_pressures` after the contact stage, and in
+/// the files of their rigid twins `law_of_motion_fluid` (a block's fluid load summed with its
+/// contact forces in its gather, its work booked), `gather_fluid` (before a read-back) and
+/// `energy_sums_fluid` after `energy_sums`. Only they bind the fluid's slots.
 pub struct FluidKernels {
     pub law_of_motion: CycleKernel,
     pub contact_flows: CycleKernel,
     pub domain_pressures: CycleKernel,
-    pub pressure_loads: CycleKernel,
     pub gather: CycleKernel,
     pub energy_sums: CycleKernel,
 }
@@ -338,7 +335,6 @@ impl FluidKernels {
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fluid")?,
                 contact_flows: cycle_kernel(dev, "flow", "flow")?,
                 domain_pressures: cycle_kernel(dev, "flow", "domain_pressures")?,
-                pressure_loads: cycle_kernel(dev, "flow", "pressure_loads")?,
                 gather: cycle_kernel(dev, "gather", "gather_fluid")?,
                 energy_sums: cycle_kernel(dev, "energy_sums", "energy_sums_fluid")?,
             })

@@ -251,16 +251,20 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// One domain on the device (`model::domain::Domain`), in a scene with fluid only: 40 bytes
-    /// in f32, 56 in f64. Its pressure, the area the fluid calculation gave it at the last step
+    /// One domain on the device (`model::domain::Domain`), in a scene with fluid only: 48 bytes
+    /// in f32, 72 in f64. Its pressure, the area the fluid calculation gave it at the last step
     /// (`model::fluid::fluid_area`), a joint domain's length, the volume that flowed into it
-    /// since the upload (Σ Q·Δt, the mass balance's `Fluid::inflow`); whether its pressure moves
+    /// since the upload (Σ Q·Δt, the mass balance's `Fluid::inflow`), a regular domain's void at
+    /// the upload and the sum of its changes since, step by step from its boundary's motion (the
+    /// f32 kernels' `AREA_BY_MOTION`, `void_step` in flow.wgsl: the void is then their sum, and
+    /// the pressure update takes each step's change itself rather than the difference of two
+    /// large f32 areas; unused in f64); whether its pressure moves
     /// (`model::fluid::is_free`), its kind (`DOMAIN_*`), its flows
     /// (`domain_flows[flow_start .. + flow_count]`: contact·2 + 1 where it is the contact's second
     /// domain, + 0 where its first, ascending by contact: the CPU's order) and its boundary
     /// (`domain_links`, four words a link, see `Engine::upload_fluid`).
     Domain {
-        pressure: R, area: R, length: R, inflow: R,
+        pressure: R, area: R, length: R, inflow: R, void_base: R, void_change: R,
         free: u32, kind: u32, flow_start: u32, flow_count: u32, link_start: u32, link_count: u32,
     }
 }
@@ -277,20 +281,25 @@ pub const LINK_LOOP_START: u32 = 2;
 pub const LINK_CORNER: u32 = 4;
 
 gpu_struct! {
-    /// One contact's flow in the last cycle (`model::domain::ContactFlow`), written by
-    /// `contact_flows`: 32 bytes in f32, 64 in f64. The flow from its first domain to its second,
-    /// the joint's aperture and length (0 for a point contact), and its feet (`contact_foot`):
-    /// on side 0 relative to block 1's centroid, on side 1 relative to block 2's, where the
-    /// domain areas and the pressure loads read them.
-    ContactFlow { flow: R, aperture: R, length: R, f0x: R, f0y: R, f1x: R, f1y: R, _r: R }
+    /// One contact's flow in the last cycle (`model::domain::ContactFlow`), written by `flow`:
+    /// 36 bytes in f32, 72 in f64. The flow from its first domain to its second, the joint's
+    /// aperture and length (0 for a point contact), its feet (`contact_foot`): on side 0 relative
+    /// to block 1's centroid, on side 1 relative to block 2's, where the domain areas and the
+    /// pressure loads read them; and the pressures of its first and second domain as the last
+    /// pressure update left them (`domain_pressures` writes a free domain's into each of its
+    /// contacts, the upload every domain's; equal, 0, for a contact that is not a link between
+    /// two domains), so that the gather takes each contact's pressure jump from the slot it
+    /// reads the foot from (`add_pressure_load`, gather.wgsl).
+    ContactFlow { flow: R, aperture: R, length: R, f0x: R, f0y: R, f1x: R, f1y: R, p0: R, p1: R }
 }
 
 gpu_struct! {
-    /// One block's fluid load (`cpu::flow::pressure_loads`), in a scene with fluid only: 24 bytes
-    /// in f32, 48 in f64. Buoyancy −ρ_w·A·g (¶9, from the CPU at the upload), the load of the
-    /// domain pressures and buoyancy as the next gather adds it (written by `pressure_loads`), and
-    /// the work of that load since the upload (the ledger's fluid work).
-    FluidLoad { buoy_x: R, buoy_y: R, fx: R, fy: R, m: R, work: R }
+    /// One block's share of the fluid, in a scene with fluid only: 12 bytes in f32, 24 in f64.
+    /// Buoyancy −ρ_w·A·g (¶9, from the CPU at the upload) and the work of the block's fluid load
+    /// since the upload (the ledger's fluid work). The load itself, buoyancy and the pressure
+    /// jumps across its contacts, is summed by its gather (`law_of_motion_fluid`,
+    /// `gather_fluid`) and never stored.
+    FluidLoad { buoy_x: R, buoy_y: R, work: R }
 }
 
 gpu_struct! {

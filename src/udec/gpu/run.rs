@@ -349,7 +349,7 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
             // The domains as the model holds them now (PFIX and PFREE may have changed them
             // between runs; the model's equality leaves them out), their loads, the accounts'
             // bases.
-            if (e.fluid_scene || model.fluid.is_some()) && e.upload_fluid(model, &self.topology.lists).map_err(device_error)? {
+            if (e.fluid_scene || model.fluid.is_some()) && e.upload_fluid(model).map_err(device_error)? {
                 e.bind_groups = Some(kernels::CycleBindGroups::new(&e.dev, &e.pipelines, e.buffers()));
             }
             e.write_params(model);

@@ -95,6 +95,13 @@ pub fn kernel_names() -> impl Iterator<Item = &'static str> {
 /// PAIR_BAND is `contact::pair::PAIR_BAND`: overlaps of a corner pair's two views closer than it
 /// (a fraction of the two radii) count as equal and the lower index decides which view counts.
 ///
+/// AREA_BY_MOTION (f32 only) has the fluid's pressure update (flow.wgsl, `domain_pressures`) follow
+/// a regular domain's void by the motion of its boundary over each step (`void_step`) rather than
+/// take the difference of its area now and at the last step: two f32 areas each off by ~ε·L·P
+/// (ε the f32 round-off, L the distance of the boundary from the block centroid it is measured
+/// from, P the perimeter), which the update multiplies by bulkw/A (sample 2's cavity: 2.6e-3 of
+/// its largest pressure). In f64 the difference is exact enough, and the update is the CPU's.
+///
 /// ROTATION_STEP (f32): the f32 kernels place a block's corners at a multiple of it and apply the
 /// turn since to second order (law_of_motion.wgsl, `circle_parts`); see `split_rotation`.
 pub fn prelude(precision: Precision) -> String {
@@ -102,6 +109,7 @@ pub fn prelude(precision: Precision) -> String {
         Precision::F32 => ("f32", "1e-5", "1e-5", true),
         Precision::F64 => ("f64", "1e-9", "1e-12", false),
     };
+    let area_by_motion = precision == Precision::F32;
     // The largest magnitude `is_finite` (common.wgsl) takes as finite: a little under each
     // precision's largest value (f64 kernels held the work of a step to f32's, and a value of
     // 1.6e39 was reported as not finite).
@@ -117,7 +125,7 @@ pub fn prelude(precision: Precision) -> String {
     let workgroup = workgroup_size();
     let pair_band = crate::udec::contact::pair::PAIR_BAND;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {workgroup}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst PAIR_BAND: real = {pair_band:e};\nconst FINITE_MAX: real = {finite_max};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {workgroup}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst AREA_BY_MOTION: bool = {area_by_motion};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst PAIR_BAND: real = {pair_band:e};\nconst FINITE_MAX: real = {finite_max};\n"
     )
 }
 

@@ -162,7 +162,7 @@ impl<R: Real> Engine<R> {
         g |= self.upload_adjacency(&model.blocks, contacts.len(), adjacency)?;
         g |= self.upload_levers(model)?;
         g |= self.upload_shares(model)?;
-        g |= self.upload_fluid(model, adjacency)?;
+        g |= self.upload_fluid(model)?;
         if g {
             self.bind_groups = None;
         }

@@ -251,6 +251,12 @@ pub fn fluid_area_with(model: &Model, domains: &Domains, d: usize, foot: &impl F
     }
 }
 
+/// The void of regular domain `d` now, below A_d(min) too (`fluid_area` gives at least that): where
+/// the f32 kernels start the void they follow by its boundary's motion (`gpu::flow`).
+pub fn void_area(model: &Model, domains: &Domains, d: usize) -> f64 {
+    regular_void(model, domains, d, &|k, side| contact_foot(model, &model.contacts[k], side))
+}
+
 /// The void of regular domain `d`: its loops' area ([`domain_loops`]' vertices in their order,
 /// each loop's shoelace sum Σ p_i × p_(i+1) taken in that order, as it was when the loops were
 /// built first) without building the loops: stage 5 takes it for every domain every cycle.
