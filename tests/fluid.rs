@@ -359,14 +359,12 @@ fn cycle_save_restart_cycle_is_the_same_run_bit_for_bit() {
 /// differences against bulkw·ΔA), so the restarted one agrees to round-off: measured on lavapipe,
 /// f64 1.6e-13 of the largest pressure and positions equal. In f32 the round-off grows: which
 /// view of a corner pair counts is decided by which is deeper, beyond a band of 4e-5 m here
-/// (`contact::pair`), and f32 round-off moves the cycle at which a pair leaves the band (the
-/// counting view's shear spring starts afresh there; its normal force does not step, as the view
-/// counting inside the band carries the deeper gap): 2.6e-7 m and 5.9e-5 of the largest
-/// pressure after 1200 cycles (the pressures, bulkw·ΔA/A with bulkw = 1e9, magnify a domain's
-/// area change 1e9-fold; the f32 run's own distance from the CPU reference is 5.4e-6 m and
-/// 1.6e-3). Counting by index alone it was 4.8e-8 m and 3.1e-6, but with a corner 2.9 cm into
-/// an edge carrying no force and the ledger 26% off; with the normal force stepping by kn·band
-/// at the band's edges, 2.6e-6 m and 2.5e-3.
+/// (`contact::pair`), and f32 round-off moves the cycle at which a pair leaves the band, where
+/// the normal force steps by kn·band and the counting view's shear spring starts afresh: 2.6e-6 m
+/// and 2.5e-3 of the largest pressure after 1200 cycles (the f32 run's own distance from the CPU
+/// reference is 5e-6 m and 4.1e-3; the pressures, bulkw·ΔA/A with bulkw = 1e9, magnify a
+/// domain's area change 1e9-fold). Counting by index alone it was 4.8e-8 m and 3.1e-6, but with
+/// a corner 2.9 cm into an edge carrying no force and the ledger 26% off.
 fn a_restarted_run_agrees_with_the_run_straight_through(t: &Target) {
     let tag: String = t.name().chars().filter(|c| c.is_ascii_alphanumeric()).collect();
     let dir = std::env::temp_dir().join(format!("blockdem-fluid-restart-{}-{tag}", std::process::id()));
@@ -381,7 +379,7 @@ fn a_restarted_run_agrees_with_the_run_straight_through(t: &Target) {
         assert!(fluid_bits(&whole) == fluid_bits(&resumed), "bit for bit on the CPU");
         return;
     }
-    let (p_tol, x_tol, e_tol) = if t.is_f32() { (3e-4, 1.5e-6, 5e-4) } else { (1e-11, 1e-12, 1e-11) };
+    let (p_tol, x_tol, e_tol) = if t.is_f32() { (5e-3, 1e-5, 2e-3) } else { (1e-11, 1e-12, 1e-11) };
     assert_eq!(whole.cycle, resumed.cycle);
     let (wd, rd) = (whole.domains.as_ref().unwrap(), resumed.domains.as_ref().unwrap());
     let p_max = wd.list.iter().map(|d| d.pressure.abs()).fold(0.0, f64::max);

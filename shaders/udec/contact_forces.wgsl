@@ -346,8 +346,8 @@ fn slip_dissipation(fs_old: real, fs_new: real, dus: real, ks: real) -> real {
 // (`deeper_view_counts`); a view on an edge's straight part away from its ends always counts.
 // Circles are relative to block 2's centroid; `feature` is one that `track_feature` chose in the
 // neighbourhood `nb` (an edge among them is j−1 or j); `own_gap` is this view's gap; b1 and b2
-// are the contact's blocks. Gives the gap a counting view carries (`Count`).
-fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, own_gap: real, nb: Neighbourhood, feature: u32, b1: Block, b2: Block) -> Count {
+// are the contact's blocks.
+fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, own_gap: real, nb: Neighbourhood, feature: u32, b1: Block, b2: Block) -> bool {
     let k = feature / 2u;
     if (feature % 2u == 0u) {
         // The arc of corner k of the neighbourhood (j−1, j or j+1).
@@ -387,27 +387,19 @@ fn counts_force(own_corner: u32, own_circle: vec2<real>, own_radius: real, own_g
     if (d < own_radius + cb.radius) {
         return deeper_view_counts(own_corner, own_radius, own_gap, b1, b2, cb, nb.start + b);
     }
-    return Count(true, own_gap);
-}
-
-// Whether a view carries its touch's force, and the gap it carries it by (twin of
-// `contact::pair::Count`): its own, or within the band, the deeper of the pair's two.
-struct Count {
-    counted: bool,
-    gap: real,
+    return true;
 }
 
 // Of the two views of the corner pair (a, b), whether a's counts (twin of
 // `contact::pair::deeper_view_counts`): b's gap against block 1 is measured from block 1's
 // features around a (edge a−1, arc a, edge a), with b's circle placed relative to block 1 as
 // b's own view places it (`circle_parts` in f32), so that both views compute the same two
-// numbers. The deeper view counts; within PAIR_BAND of the two radii the lower index does, with
-// the deeper of the two gaps (so the normal force does not step at the band's edges).
+// numbers. The deeper view counts; within PAIR_BAND of the two radii the lower index does.
 // Only views of a corner pair come here (aligned corners in a wall), so block 1's corners are
 // loaded only then.
-fn deeper_view_counts(a: u32, radius_a: real, own_gap: real, b1: Block, b2: Block, cb: CornerView, b: u32) -> Count {
+fn deeper_view_counts(a: u32, radius_a: real, own_gap: real, b1: Block, b2: Block, cb: CornerView, b: u32) -> bool {
     if (a < b1.corner_start || a - b1.corner_start >= b1.corner_count) {
-        return Count(a < b, own_gap);
+        return a < b;
     }
     let nb1 = neighbourhood(b1.corner_start, b1.corner_count, 2u * (a - b1.corner_start));
     var parts = array<vec2<real>, 2>(centroid_difference(b2, b1) + cb.circle, vec2<real>(0.0, 0.0));
@@ -418,15 +410,12 @@ fn deeper_view_counts(a: u32, radius_a: real, own_gap: real, b1: Block, b2: Bloc
     let other_gap = g.gap + dot(parts[1], g.normal);
     let band = PAIR_BAND * (radius_a + cb.radius);
     if (own_gap < other_gap - band) {
-        return Count(true, own_gap);
+        return true;
     }
     if (other_gap < own_gap - band) {
-        return Count(false, own_gap);
+        return false;
     }
-    if (a < b) {
-        return Count(true, min(own_gap, other_gap));
-    }
-    return Count(false, own_gap);
+    return a < b;
 }
 
 // The velocity the strain rate e (11, 12, 22) of a simply-deformable block gives a point r from
@@ -557,9 +546,7 @@ fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: v
     c.ny = world.normal.y;
     c.px = world.point.x;
     c.py = world.point.y;
-    let count = counts_force(c.corner, circle, corner.radius, c.gap, nb, c.feature, b1, b2);
-    c.gap = count.gap;
-    let counted = count.counted;
+    let counted = counts_force(c.corner, circle, corner.radius, c.gap, nb, c.feature, b1, b2);
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
     let at = vec2<real>(c.px, c.py);

@@ -18,19 +18,9 @@ pub fn owns_corner_corner(own_corner_global: u32, other_corner_global: u32) -> b
 /// sum of the two rounding radii count as equal, and the index decides: aligned corners (a brick
 /// wall's, a column's) have equal overlaps up to round-off, and with the index rule there they
 /// neither flip from view to view nor differ between the CPU and an f32 GPU (whose overlaps carry
-/// round-off of ~1e-7 of a block's size).
+/// round-off of ~1e-7 of a block's size). A switch between views outside the band changes the
+/// normal force by at most kn times this band.
 pub const PAIR_BAND: f64 = 1e-4;
-
-/// Whether a view carries its touch's force, and the gap it carries it by: its own, or within
-/// [`PAIR_BAND`], where the lower index counts, the deeper of the pair's two (so that the normal
-/// force, kn times the overlap, does not step where the count passes from view to view at the
-/// band's edge; a step of kn·band there let f32 round-off, which moves the cycle a pair leaves
-/// the band at, grow 50-fold in a restarted run of UDEC sample 2).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Count {
-    pub counts: bool,
-    pub gap: f64,
-}
 
 /// Whether a contact carries the force of its touch. Two rounded corners that touch are seen from
 /// both blocks, and the two views need not agree on the kind: one may find the other's arc
@@ -46,13 +36,12 @@ pub struct Count {
 /// other's edge, next to that edge's end corner, whose own view of the pair finds almost no
 /// overlap. Counting by index alone (the rule before) left such a penetration without force until
 /// the circles parted, then counted it in full at once (UDEC sample 2: 2.9 cm, 2.9 MN, 4e4 J out
-/// of nothing). By depth, the count passes from one view to the other at the edge of the band in
-/// which their overlaps count as equal, where the counting view already carries the deeper of the
-/// two (`Count::gap`), so the normal force (kn times the overlap) does not jump.
+/// of nothing). By depth, the count passes from one view to the other where their overlaps are
+/// equal, so the normal force (kn times the overlap) does not jump.
 ///
 /// `own_gap` is this view's gap (negative: overlap) as stage 4 measured it; `corners1` are block
 /// 1's corners (the own corner's), `start1` the global index of its first; `corners2`, `start2`
-/// block 2's. Stage 4 gives a counting view the gap returned (`Count`).
+/// block 2's.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn counts_force(
@@ -64,7 +53,7 @@ pub fn counts_force(
     corners2: &[Corner],
     start2: u32,
     feature: Feature,
-) -> Count {
+) -> bool {
     let n = corners2.len();
     let k = (feature / 2) as usize % n;
     let b = if feature % 2 == 0 {
@@ -75,7 +64,7 @@ pub fn counts_force(
         let (b, d2) = if dot(rk, rk) <= dot(rj, rj) { (k, dot(rk, rk)) } else { (j, dot(rj, rj)) };
         let reach = own.radius + corners2[b].radius;
         if d2 >= reach * reach {
-            return Count { counts: true, gap: own_gap };
+            return true;
         }
         b
     };
@@ -87,23 +76,21 @@ pub fn counts_force(
 /// `own_gap`; b's against block 1 is measured here, from the features of block 1 around a (edge
 /// a−1, arc a, edge a: b's circle overlaps a's, so b's nearest feature is among them unless an
 /// edge is shorter than the rounding), as b's own view tracks it. The deeper view counts; within
-/// [`PAIR_BAND`] the lower index does, with the deeper of the two gaps, so exactly one view of a
-/// pair counts and the pair's force is kn times its deeper overlap either side of the band's edges.
+/// [`PAIR_BAND`] the lower index does, so exactly one view of a pair counts.
 #[inline]
-pub fn deeper_view_counts(a: u32, own: &Corner, own_gap: f64, corners1: &[Corner], a_local: usize, corner_b: &Corner, b: u32) -> Count {
+pub fn deeper_view_counts(a: u32, own: &Corner, own_gap: f64, corners1: &[Corner], a_local: usize, corner_b: &Corner, b: u32) -> bool {
     if a_local >= corners1.len() {
-        return Count { counts: owns_corner_corner(a, b), gap: own_gap };
+        return owns_corner_corner(a, b);
     }
     let other_gap = track_feature(corners1, 2 * a_local as Feature, corner_b.circle, corner_b.radius).gap;
     let band = PAIR_BAND * (own.radius + corner_b.radius);
-    let counts = if own_gap < other_gap - band {
+    if own_gap < other_gap - band {
         true
     } else if other_gap < own_gap - band {
         false
     } else {
         owns_corner_corner(a, b)
-    };
-    Count { counts, gap: if counts { own_gap.min(other_gap) } else { own_gap } }
+    }
 }
 
 impl Model {
@@ -122,6 +109,5 @@ impl Model {
             b2.corner_start,
             c.feature,
         )
-        .counts
     }
 }

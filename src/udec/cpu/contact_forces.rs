@@ -70,14 +70,12 @@ fn contact_piece(
         if let Some(feet) = feet.as_deref_mut() {
             feet[k] = [contact_foot_in(inp.corners, b2, contact, 0), contact_foot_in(inp.corners, b2, contact, 1)];
         }
+        contact.gap = g.gap;
         contact.normal = g.normal;
         contact.point = g.point;
-        // The other view of a corner-pair touch carries no force (the touch counts once); the
-        // counting view carries the pair's deeper gap (`contact::pair::Count`).
+        // The other view of a corner-pair touch carries no force (the touch counts once).
         let corners1 = &inp.corners[b1.corner_start as usize..(b1.corner_start + b1.corner_count) as usize];
-        let count = counts_force(contact.corner, corner, g.gap, corners1, b1.corner_start, corners2, b2.corner_start, g.feature);
-        contact.gap = count.gap;
-        let active = count.counts;
+        let active = counts_force(contact.corner, corner, g.gap, corners1, b1.corner_start, corners2, b2.corner_start, g.feature);
         let mat = &inp.materials[material_slot(contact.material, inp.materials.len())];
         let (m1, m2) = if inp.fdef.is_empty() {
             (motion(contact.block1, b1), motion(contact.block2, b2))
@@ -99,7 +97,7 @@ fn contact_piece(
         if let Some(f) = features.get_mut(k) {
             *f = [contact.corner, g.feature];
         }
-        if failure.is_none() && active && -contact.gap > inp.limit {
+        if failure.is_none() && active && -g.gap > inp.limit {
             failure = Some(first + k);
         }
     }
