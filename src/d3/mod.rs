@@ -19,11 +19,13 @@
 //!
 //! GPU kernels for D3 (`shaders/d3/`) are a later step.
 
+pub mod backend;
 pub mod contact;
 pub mod cpu;
 pub mod deck;
 pub mod exec;
 pub mod geometry;
+pub mod gpu;
 pub mod model;
 pub mod motion;
 pub mod output;

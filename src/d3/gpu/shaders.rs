@@ -1,0 +1,38 @@
+//! D3's WGSL sources: a prelude generated here (the precision alias, the workgroup size, the
+//! shared math constants: constants live in Rust, STYLE.md item 4), `shaders/math.wgsl` (the
+//! dimension-free helpers), `shaders/d3/layout.wgsl` (structs and bindings),
+//! `shaders/d3/common.wgsl` (vector and quaternion helpers), then one kernel file, named like its
+//! Rust twin.
+
+use crate::gpu::wgsl::{math_constants, workgroup_size, MATH, MAX_GROUPS_PER_DIMENSION};
+use crate::gpu::Precision;
+
+pub const LAYOUT: &str = include_str!("../../../shaders/d3/layout.wgsl");
+pub const COMMON: &str = include_str!("../../../shaders/d3/common.wgsl");
+
+/// The cycle's kernels in the order they run, each with its Rust twin's name: stage 6
+/// (`cpu::gather`), stages 1–2 (`motion::law_of_motion`), stage 4 (`contact::track_contact`).
+pub const KERNELS: &[(&str, &str)] = &[
+    ("gather", include_str!("../../../shaders/d3/gather.wgsl")),
+    ("law_of_motion", include_str!("../../../shaders/d3/law_of_motion.wgsl")),
+    ("track_contact", include_str!("../../../shaders/d3/track_contact.wgsl")),
+];
+
+/// The prelude: the precision switch and the constants.
+pub fn prelude(precision: Precision) -> String {
+    let real = match precision {
+        Precision::F32 => "f32",
+        Precision::F64 => "f64",
+    };
+    format!(
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\n{}",
+        workgroup_size(),
+        math_constants(precision)
+    )
+}
+
+/// The full source of one kernel in one precision.
+pub fn source(kernel: &str, precision: Precision) -> Option<String> {
+    let body = KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
+    Some(format!("{}\n{MATH}\n{LAYOUT}\n{COMMON}\n{body}", prelude(precision)))
+}
