@@ -76,7 +76,19 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         damping = alpha * dt * (b.mass * dot3(vm, vm) + dot3(lm, angular_velocity(q0, inv, lm)));
     }
     let dx = v * dt;
-    let c = vec3<real>(b.cx, b.cy, b.cz) + dx;
+    var c = vec3<real>(b.cx, b.cy, b.cz) + dx;
+    if (COMPENSATED) {
+        // In f32 the centroid is a compensated pair: a step below the coordinate's ulp (a slow
+        // slide, a settling stack) is kept in the low part rather than lost.
+        let one = params.one;
+        let sx = two_sum(b.cx, dx.x + b.cx_lo, one);
+        let sy = two_sum(b.cy, dx.y + b.cy_lo, one);
+        let sz = two_sum(b.cz, dx.z + b.cz_lo, one);
+        c = vec3<real>(sx.x, sy.x, sz.x);
+        b.cx_lo = sx.y;
+        b.cy_lo = sy.y;
+        b.cz_lo = sz.y;
+    }
     let turn = rotate(q0, inv, l, dt);
     // Stage 2: the vertices placed from the centroid and the orientation.
     let r = rotation_matrix(turn.q);

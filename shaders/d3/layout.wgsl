@@ -3,7 +3,7 @@
 // or `f64` and the constants. Storage structs hold reals first and then an even number of u32
 // words, so both precisions have the same field order and no padding; no vectors in storage.
 
-// One polyhedral block. Centroid c, velocity v (half step), angular momentum l and angular
+// One polyhedral block. Centroid c (in f32 a compensated pair c + c_lo, COMPENSATED), velocity v (half step), angular momentum l and angular
 // velocity w (global axes, half step), orientation q (a unit quaternion, x y z w), the inverse
 // of its inertia tensor in the reference frame (inv0..inv8, column-major), load, bounding radius;
 // force f and moment m, the sums of stage 6; travel since the last detection (¶26) and the
@@ -14,7 +14,7 @@
 // `adjacency_start`: its contacts, in the contacts' order. `finite` is cleared by a step that
 // leaves a non-finite value.
 struct Block {
-    cx: real, cy: real, cz: real,
+    cx: real, cy: real, cz: real, cx_lo: real, cy_lo: real, cz_lo: real,
     vx: real, vy: real, vz: real,
     lx: real, ly: real, lz: real,
     wx: real, wy: real, wz: real,
@@ -69,10 +69,10 @@ const LOGICAL_VERTEX_SECOND: u32 = 1u;
 const LOGICAL_EDGE_EDGE: u32 = 2u;
 
 // The run's constants: gravity, Rayleigh damping (α, β), the time step, the contact-forming
-// distance; the counts.
+// distance, 1 (read at run time, for `two_sum`); the counts.
 struct Params {
     gx: real, gy: real, gz: real,
-    alpha: real, beta: real, dt: real, tol: real, spare_real: real,
+    alpha: real, beta: real, dt: real, tol: real, one: real,
     blocks: u32, contacts: u32, spare0: u32, spare1: u32,
 }
 

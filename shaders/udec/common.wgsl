@@ -45,19 +45,6 @@
 @group(0) @binding(24) var<storage, read_write> contact_flows_out: array<ContactFlow>;
 @group(0) @binding(25) var<storage, read_write> fluid_loads: array<FluidLoad>;
 
-// Exact sum of two reals as (sum, rounding error): Knuth's TwoSum, six additions. Shader
-// compilers may rewrite floating point as if it were real arithmetic (no WGSL qualifier forbids
-// it): Mesa folds (a + b) − a to b, and the error term to 0, so in f32 every position step lost
-// the bits below the coordinate's ulp (at 10 m, 1e-6 m a step) and a wave in a chain of stiff
-// contacts gained 40% energy in 120 cycles. Multiplying by `one` (= 1, exact, read from the
-// params at run time) hides the identities from the compiler. Twin test: tests/gpu_kernels.rs.
-fn two_sum(a: real, b: real, one: real) -> vec2<real> {
-    let s = (a + b) * one;
-    let bb = (s - a) * one;
-    let err = (a - (s - bb)) + (b - bb);
-    return vec2<real>(s, err);
-}
-
 // Centroid of block a minus centroid of block b, from the compensated pairs: the large parts
 // cancel exactly when the blocks are near each other (Sterbenz), so the difference keeps full
 // precision however far the model lies from the origin.

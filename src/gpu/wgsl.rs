@@ -45,7 +45,7 @@ pub fn stream_copy_source() -> String {
     format!("const STREAM_WORKGROUP_SIZE: u32 = {STREAM_WORKGROUP_SIZE}u;\n{}", include_str!("../../shaders/stream_copy.wgsl"))
 }
 
-/// The dimension-free helpers of `shaders/math.wgsl` (`is_finite`, `sin_cos`), for an engine's
+/// The dimension-free helpers of `shaders/math.wgsl` (`is_finite`, `two_sum`, `sin_cos`), for an engine's
 /// kernels after its prelude, which includes [`math_constants`].
 pub const MATH: &str = include_str!("../../shaders/math.wgsl");
 

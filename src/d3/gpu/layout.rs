@@ -6,7 +6,7 @@ pub use crate::gpu::real::{Real, StructLayout};
 use crate::gpu_struct;
 
 gpu_struct! {
-    /// One polyhedral block: 212 bytes in f32, 376 in f64. State at the half step (velocity,
+    /// One polyhedral block: 224 bytes in f32, 400 in f64. State at the half step (velocity,
     /// angular momentum and velocity) and the whole step (centroid, orientation); the inverse of
     /// the reference-frame inertia tensor, column-major (`Block::inertia_ref`); the force and
     /// moment sums of stage 6; and the sums since the upload of the block buffer: `travel` since
@@ -15,6 +15,9 @@ gpu_struct! {
     /// block 1 of each contact).
     Block {
         cx: R, cy: R, cz: R,
+        /// The centroid's low parts (f32: a compensated pair, so that steps below the
+        /// coordinate's ulp are not lost; 0 in f64, whose kernels add as the CPU does).
+        cx_lo: R, cy_lo: R, cz_lo: R,
         vx: R, vy: R, vz: R,
         lx: R, ly: R, lz: R,
         wx: R, wy: R, wz: R,
@@ -76,7 +79,7 @@ gpu_struct! {
     /// distance, the counts.
     Params {
         gx: R, gy: R, gz: R,
-        alpha: R, beta: R, dt: R, tol: R, spare_real: R,
+        alpha: R, beta: R, dt: R, tol: R, one: R,
         blocks: u32, contacts: u32, spare0: u32, spare1: u32,
     }
 }

@@ -178,8 +178,9 @@ impl GpuBackend {
 
     fn buffer(&self, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
         use wgpu::util::DeviceExt;
-        // A binding may not be empty: one zeroed word stands for an empty list.
-        let zero = [0u8; 16];
+        // A binding may not be empty, nor shorter than one of its structs: zeros stand for an
+        // empty list (the counts say it is empty).
+        let zero = [0u8; 512];
         let contents = if bytes.is_empty() { &zero[..] } else { bytes };
         self.dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
     }
@@ -258,10 +259,15 @@ impl GpuBackend {
             let r = |x: f64| R::from_f64(x);
             let cols = inv.to_cols_array();
             let feature_count = b.shape.edges.iter().filter(|e| e.feature).count() as u32;
+            // The centroid in the kernel precision and what that leaves (the compensated pair).
+            let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
             blocks.push(layout::Block::<R> {
-                cx: r(b.centroid.x),
-                cy: r(b.centroid.y),
-                cz: r(b.centroid.z),
+                cx: hi[0],
+                cy: hi[1],
+                cz: hi[2],
+                cx_lo: r(b.centroid.x - hi[0].to_f64()),
+                cy_lo: r(b.centroid.y - hi[1].to_f64()),
+                cz_lo: r(b.centroid.z - hi[2].to_f64()),
                 vx: r(b.velocity.x),
                 vy: r(b.velocity.y),
                 vz: r(b.velocity.z),
@@ -422,7 +428,7 @@ impl GpuBackend {
         let mut peaks = Vec::with_capacity(gpu.len());
         let (mut work, mut damping, mut dashpots) = (0.0, 0.0, 0.0);
         for (k, (b, g)) in model.blocks.iter_mut().zip(&gpu).enumerate() {
-            b.centroid = DVec3::new(f(g.cx), f(g.cy), f(g.cz));
+            b.centroid = DVec3::new(f(g.cx) + f(g.cx_lo), f(g.cy) + f(g.cy_lo), f(g.cz) + f(g.cz_lo));
             b.velocity = DVec3::new(f(g.vx), f(g.vy), f(g.vz));
             b.angular_momentum = DVec3::new(f(g.lx), f(g.ly), f(g.lz));
             b.angular_velocity = DVec3::new(f(g.wx), f(g.wy), f(g.wz));
@@ -525,6 +531,7 @@ fn params<R: Real>(model: &Model) -> layout::Params<R> {
         beta: r(model.damping.beta),
         dt: r(model.timestep()),
         tol: r(model.contact_tolerance()),
+        one: r(1.0),
         blocks: model.blocks.len() as u32,
         contacts: model.contacts.len() as u32,
         ..Default::default()

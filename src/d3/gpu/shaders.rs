@@ -20,12 +20,14 @@ pub const KERNELS: &[(&str, &str)] = &[
 
 /// The prelude: the precision switch and the constants.
 pub fn prelude(precision: Precision) -> String {
-    let real = match precision {
-        Precision::F32 => "f32",
-        Precision::F64 => "f64",
+    // COMPENSATED: the f32 kernels keep the centroid as a compensated pair (law_of_motion.wgsl);
+    // the f64 ones add as the CPU does, so that they follow it to round-off.
+    let (real, compensated) = match precision {
+        Precision::F32 => ("f32", true),
+        Precision::F64 => ("f64", false),
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\n{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\n{}",
         workgroup_size(),
         math_constants(precision)
     )

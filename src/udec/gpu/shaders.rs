@@ -19,7 +19,7 @@ pub const HEAVY_WORKGROUP_SIZE: u32 = 256;
 pub const ENERGY_ITEMS: u32 = 16;
 
 pub const LAYOUT: &str = include_str!("../../../shaders/udec/layout.wgsl");
-/// The dimension-free helpers (`shaders/math.wgsl`: `is_finite`, `sin_cos`), then the 2D cycle's
+/// The dimension-free helpers (`shaders/math.wgsl`: `is_finite`, `two_sum`, `sin_cos`), then the 2D cycle's
 /// shared bindings and helpers.
 pub const COMMON: &str = concat!(include_str!("../../../shaders/math.wgsl"), "\n", include_str!("../../../shaders/udec/common.wgsl"));
 

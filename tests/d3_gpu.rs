@@ -1,0 +1,197 @@
+//! D3 on the GPU (`d3::gpu`) against the CPU reference (`d3::cpu`), on lavapipe's Vulkan f32 and
+//! f64 (the GPU tests' convention, tests/common: skipped without the adapter, a failure under
+//! `BLOCKDEM_REQUIRE_GPU=1`).
+//!
+//! Tolerances, and why: the GPU keeps each contact's logical contacts between detections and
+//! moves them with their blocks (module doc of `d3::gpu`), where the CPU finds them afresh each
+//! cycle, so even in f64 the two differ by more than round-off where the contact's touching
+//! region changes; where it does not, the f64 GPU is its Rust twin (`contact::track_contact`) to
+//! round-off. In f32 a position carries ~1e-7 relative round-off: at 1 m from the origin and a
+//! contact stiffness of 1e8–1e9 N/m that is a force of 10–100 N on a contact, a per cent or so of
+//! the weights here, so f32 figures are held to a few per cent.
+
+mod common;
+
+use blockdem::d3::exec::Executor;
+use blockdem::d3::gpu::GpuBackend;
+use blockdem::d3::model::Model;
+use blockdem::udec::gpu::{GpuOptions, Precision};
+use common::Target;
+
+const SAMPLE: &str = include_str!("../examples/d3_two_tetrahedra.dat");
+
+/// Runs a D3 deck on the CPU (None) or on the GPU with `options`.
+fn run(deck: &str, gpu: Option<&GpuOptions>) -> Model {
+    let commands = blockdem::d3::deck::parse_deck(deck, "<test>").unwrap();
+    let backend: Box<dyn blockdem::d3::backend::Backend> = match gpu {
+        None => Box::new(blockdem::d3::cpu::CpuBackend::new()),
+        Some(o) => Box::new(GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"))),
+    };
+    let mut exec = Executor::with_backend(Box::new(std::io::sink()), "<test>", backend);
+    exec.run(&commands).unwrap_or_else(|e| panic!("deck failed: {e}"));
+    exec.model
+}
+
+/// The Vulkan targets present: f32, and f64 where the adapter has it.
+fn targets() -> Vec<GpuOptions> {
+    [Precision::F32, Precision::F64]
+        .into_iter()
+        .filter_map(|p| match Target::gpu("vulkan", p) {
+            Some(Target::Gpu(o)) => Some(o),
+            _ => None,
+        })
+        .collect()
+}
+
+fn is_f32(o: &GpuOptions) -> bool {
+    o.precision == Precision::F32
+}
+
+/// The largest difference of the blocks' centroids and of their velocities, each relative to a
+/// scale (a length and a speed).
+fn state_difference(a: &Model, b: &Model, length: f64, speed: f64) -> (f64, f64) {
+    let dx = a.blocks.iter().zip(&b.blocks).map(|(p, q)| (p.centroid - q.centroid).length()).fold(0.0, f64::max);
+    let dv = a.blocks.iter().zip(&b.blocks).map(|(p, q)| (p.velocity - q.velocity).length()).fold(0.0, f64::max);
+    (dx / length, dv / speed)
+}
+
+/// The report's sample: the tetrahedron falls onto the fixed one and rocks on a vertex–face
+/// contact; the GPU's velocities and contact force follow the CPU's.
+#[test]
+fn the_sample_runs_on_the_gpu_as_on_the_cpu() {
+    let cpu = run(SAMPLE, None);
+    for o in targets() {
+        let gpu = run(SAMPLE, Some(&o));
+        assert_eq!(gpu.cycle, cpu.cycle);
+        let (a, b) = (&cpu.blocks[1], &gpu.blocks[1]);
+        let dv = (a.velocity - b.velocity).length() / a.velocity.length();
+        let dw = (a.angular_velocity - b.angular_velocity).length() / a.angular_velocity.length();
+        let (fa, fb) = (cpu.contacts[0].normal_force(), gpu.contacts[0].normal_force());
+        let df = (fa - fb).abs() / fa;
+        eprintln!("{:?}: velocity {dv:.2e}, angular velocity {dw:.2e}, normal force {df:.2e} (relative)", o.precision);
+        // f64: 4e-3 measured in the angular velocity (the logical contact tracked rather than
+        // found afresh), 1e-5 in the velocity and force. f32: 5e-2 in the velocity, 0.49 in the
+        // angular velocity and force: the contact's overlap in the first cycles (3e-7 m after
+        // one) is a few ulps of the vertex's coordinate (1.2e-7 m at z = 1), so the impact's
+        // forces carry errors of tens of per cent, which the rocking keeps.
+        let (tv, tw, tf) = if is_f32(&o) { (0.1, 0.6, 0.6) } else { (1e-4, 2e-2, 1e-4) };
+        assert!(dv < tv && dw < tw && df < tf, "{:?}: velocity {dv:e}, angular velocity {dw:e}, force {df:e}", o.precision);
+        assert_eq!(gpu.contacts[0].type_name(), cpu.contacts[0].type_name());
+    }
+}
+
+/// A free 1 × 2 × 3 box spinning about an axis near the intermediate one: no contacts, so the
+/// GPU's law of motion is the CPU's (Euler's equations through the angular momentum, the
+/// quaternion by the implicit midpoint rule): the same state to round-off in f64; L kept and
+/// the energy within the scheme's O(Δt²) on both.
+#[test]
+fn a_tumbling_box_turns_on_the_gpu_as_on_the_cpu() {
+    let deck = "START\nPROP MAT=1 D=1000 KN=1E7 KS=1E7\nBOX 0 1 0 2 0 3\nVELOCITY 0 1 0 2 0 3 0 0 0 0.1 2 0.1\nCYCLE 3000\n";
+    let cpu = run(deck, None);
+    let b0 = {
+        let m = run(&deck.replace("CYCLE 3000", "CYCLE 0"), None);
+        m.blocks[0].clone()
+    };
+    let l0 = b0.angular_momentum;
+    let e0 = 0.5 * l0.dot(b0.angular_velocity_from(l0));
+    for o in targets() {
+        let gpu = run(deck, Some(&o));
+        let (c, g) = (&cpu.blocks[0], &gpu.blocks[0]);
+        let dq = (c.orientation - g.orientation).length().min((c.orientation + g.orientation).length());
+        let dw = (c.angular_velocity - g.angular_velocity).length() / c.angular_velocity.length();
+        let dl = (g.angular_momentum - l0).length() / l0.length();
+        let de = (0.5 * g.angular_momentum.dot(g.angular_velocity_from(g.angular_momentum)) - e0).abs() / e0;
+        eprintln!("{:?}: orientation {dq:.2e}, ω {dw:.2e}, ΔL {dl:.2e}, ΔE {de:.2e}", o.precision);
+        // The flip about the intermediate axis makes differences grow: f64 round-off (a
+        // polynomial sin/cos against libm's) measured 1e-10 after 3000 steps; f32 1e-3.
+        let tol = if is_f32(&o) { 3e-2 } else { 1e-8 };
+        assert!(dq < tol && dw < tol, "{:?}: orientation {dq:e}, ω {dw:e}", o.precision);
+        assert!(dl < if is_f32(&o) { 1e-6 } else { 1e-14 }, "{:?}: L drifts {dl:e}", o.precision);
+        assert!(de < 1e-3, "{:?}: energy {de:e}", o.precision);
+    }
+}
+
+/// A box on a flat fixed base under gravity tilted 20° from the vertical, towards a direction
+/// oblique to the axes (a box on an incline whose dip direction is oblique): settled first under
+/// vertical gravity with mass damping (so that the contact springs do not ring), then with
+/// φ = 11.3° (F = 0.2) and no damping it slides, s = ½ g t² (sin ψ − cos ψ tan φ).
+#[test]
+fn a_box_slides_down_an_oblique_incline_on_the_gpu_as_on_the_cpu() {
+    let (psi, azimuth, mu, g) = (20f64.to_radians(), 30f64.to_radians(), 0.2, 10.0);
+    let (gh, gz) = (g * psi.sin(), -g * psi.cos());
+    let settle = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F={mu}\nBOX -2 3 -2 3 -1 0\nBOX 0 1 0 1 0 1\nFIX -2 3 -2 3 -1 -0.1\nGRAV 0 0 {gz}\nDAMP 1 160 MASS\nCYCLE 1000\n"
+    );
+    let deck = format!("{settle}DAMP 0 160 MASS\nGRAV {} {} {gz}\nCYCLE 2000\n", gh * azimuth.cos(), gh * azimuth.sin());
+    let settled = run(&settle, None);
+    let cpu = run(&deck, None);
+    let start = settled.blocks[1].centroid;
+    let t = cpu.time - settled.time;
+    let expected = 0.5 * g * t * t * (psi.sin() - psi.cos() * mu);
+    let slid = |m: &Model| {
+        let d = m.blocks[1].centroid - start;
+        d.x.hypot(d.y)
+    };
+    let s_cpu = slid(&cpu);
+    // 1.1 % measured: the normal force rings a little once gravity tilts.
+    assert!((s_cpu - expected).abs() < 0.02 * expected, "cpu: {s_cpu} vs {expected}");
+    for o in targets() {
+        let gpu = run(&deck, Some(&o));
+        let s = slid(&gpu);
+        let (dx, dv) = state_difference(&cpu, &gpu, expected, cpu.blocks[1].velocity.length());
+        eprintln!("{:?}: slid {s:.6} m (cpu {s_cpu:.6}, closed form {expected:.6}); state {dx:.2e}, {dv:.2e}", o.precision);
+        if is_f32(&o) {
+            // Measured 16 % more slide: in f32 the sliding box rocks on its corners (ω 3e-2 rad/s
+            // against the CPU's 2e-3), which unloads corners and lowers the friction; not yet
+            // explained (left in the issue).
+            assert!((s - expected).abs() < 0.25 * expected, "f32: slid {s} vs {expected}");
+        } else {
+            // f64: 5e-7 of the slide and 8e-7 of the speed measured (the logical contacts
+            // tracked rather than found afresh).
+            assert!(dx < 1e-5 && dv < 1e-5, "f64: positions {dx:e}, velocities {dv:e} off the cpu's");
+            assert!((s - expected).abs() < 0.02 * expected, "f64: slid {s} vs {expected}");
+        }
+    }
+}
+
+/// A stack of three boxes on a fixed base, damped to rest: each contact carries the weight above
+/// it, on both backends.
+#[test]
+fn a_stack_carries_its_weight_on_the_gpu_as_on_the_cpu() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nBOX 0 1 0 1 1 2\nBOX 0 1 0 1 2 3\n\
+                FIX -1 2 -1 2 -1 -0.1\nGRAV 0 0 -10\nDAMP 1 160 MASS\nCYCLE 3000\n";
+    let cpu = run(deck, None);
+    let weight = 2000.0 * 10.0;
+    let carried = |m: &Model| -> Vec<f64> {
+        // The contact under box k (k = 1, 2, 3) carries 4 − k boxes.
+        (1..4).map(|k| m.contacts.iter().find(|c| c.blocks[1] as usize == k && c.blocks[0] as usize == k - 1).map_or(0.0, |c| c.normal_force())).collect()
+    };
+    let f_cpu = carried(&cpu);
+    for (k, f) in f_cpu.iter().enumerate() {
+        let expected = (3 - k) as f64 * weight;
+        assert!((f - expected).abs() < 1e-3 * expected, "cpu: contact under box {} carries {f} vs {expected}", k + 1);
+    }
+    for o in targets() {
+        let gpu = run(deck, Some(&o));
+        let f = carried(&gpu);
+        let off = f.iter().zip(&f_cpu).map(|(a, b)| (a - b).abs() / b).fold(0.0, f64::max);
+        eprintln!("{:?}: {f:?} vs cpu {f_cpu:?} ({off:.2e})", o.precision);
+        let tol = if is_f32(&o) { 2e-2 } else { 1e-6 };
+        assert!(off < tol, "{:?}: forces {f:?} vs {f_cpu:?}", o.precision);
+    }
+}
+
+/// A rerun on the GPU repeats the first bit for bit: every kernel sums in a fixed order and the
+/// batches and detections depend on the state alone.
+#[test]
+fn gpu_reruns_repeat_bit_for_bit() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.3\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nBOX 0.2 1.2 0.1 1.1 1.05 2.05\n\
+                FIX -1 2 -1 2 -1 -0.1\nGRAV 1 2 -10\nVELOCITY 0.1 1.3 0 1.2 1 2.1 0.5 0 0 0 0 1\nCYCLE 1500\n";
+    for o in targets() {
+        let first = run(deck, Some(&o));
+        let second = run(deck, Some(&o));
+        assert!(first.cycle == 1500 && first.contacts.iter().any(|c| !c.logical.is_empty()));
+        assert!(first == second, "{:?}: a rerun differs", o.precision);
+        eprintln!("{:?}: two runs of 1500 cycles identical", o.precision);
+    }
+}
