@@ -394,6 +394,12 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     }
     let name = deck.display().to_string();
     let bytes = blockdem::udec::deck::parse::read_deck(&deck, &name)?;
+    // A 3D deck (README, "2D or 3D"): D3 on the CPU and on the GPU.
+    if let Ok(text) = blockdem::udec::deck::parse::lenient_text(&bytes) {
+        if blockdem::d3::deck::three_dimensional(&blockdem::deck::lexer::split(&text, &name)?).is_some() {
+            return compare_d3(&text, &name, adapter, precision, out, tolerance);
+        }
+    }
     let commands = blockdem::udec::deck::parse::parse_deck_bytes(&bytes, &name)?;
     warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
@@ -424,6 +430,47 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     if let Some(tol) = tolerance {
         if !c.same_blocks {
             bail!("the runs end on different blocks ({} and {}, or other ids): a crack or deletion differs", c.blocks[0], c.blocks[1]);
+        }
+        for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
+            if l.relative.is_nan() || l.relative > tol {
+                bail!("block {}'s {what} differs by {:.3e} relative, more than the tolerance {tol:e}", l.block, l.relative);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `blockdem compare` of a 3D deck: D3 on the CPU (f64) and on the GPU, the same report.
+fn compare_d3(text: &str, name: &str, adapter: String, precision: PrecisionChoice, out: PathBuf, tolerance: Option<f64>) -> anyhow::Result<()> {
+    use blockdem::compare;
+    let commands = blockdem::d3::deck::parse_deck(text, name)?;
+    check_out_dir(&out)?;
+    let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
+    let gpu = blockdem::d3::gpu::GpuBackend::new(&choice, precision.into()).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
+    note!("blockdem: running {name} (a 3D deck, D3) on the CPU (f64), then on {}", blockdem::d3::backend::Backend::describe(&gpu));
+    let progress = Progress::Lines { every: std::time::Duration::from_secs(30) };
+    let reference = compare::run_d3_on(Box::new(blockdem::d3::cpu::CpuBackend::new()), &commands, name, &out.join("cpu"), progress);
+    let on_gpu = compare::run_d3_on(Box::new(gpu), &commands, name, &out.join("gpu"), progress);
+    let c = compare::compare_d3(&reference, &on_gpu);
+    let _ = write!(Stdout, "{}", compare::table(&reference, &on_gpu, &c));
+    let json = serde_json::json!({
+        "deck": name,
+        "reference": { "backend": reference.backend, "wall_s": reference.wall_s, "error": reference.error },
+        "gpu": { "backend": on_gpu.backend, "wall_s": on_gpu.wall_s, "error": on_gpu.error },
+        "comparison": c,
+    });
+    let path = out.join("compare.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))?;
+    say!("wrote {}", path.display());
+    match (&reference.error, &on_gpu.error) {
+        (None, Some(e)) => bail!("the GPU run stopped where the reference did not: {e}"),
+        (Some(e), None) => bail!("the reference run stopped where the GPU's did not: {e}"),
+        (Some(e), Some(_)) => bail!("both runs stopped (the reference: {e})"),
+        (None, None) => {}
+    }
+    if let Some(tol) = tolerance {
+        if !c.same_blocks {
+            bail!("the runs end on different blocks ({} and {})", c.blocks[0], c.blocks[1]);
         }
         for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
             if l.relative.is_nan() || l.relative > tol {

@@ -145,7 +145,8 @@ fn near(first: bool, h: real, hi_a: real, lo_b: real, reach: real) -> bool {
 
 // The distance along n from p at which the line p + s·n leaves block i (the least s over the
 // planes it heads out through), or enters it (`entering`: the greatest over those it heads in
-// through) (Rust twin: `contact::ray_crossing`); `found` false where no plane qualifies.
+// through) (Rust twin: `contact::ray_crossing`); `found` false where no plane qualifies. Planes
+// within GRAZING of parallel to n are passed over (the prelude says why).
 struct Crossing {
     s: real,
     found: bool,
@@ -158,7 +159,7 @@ fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool) -> Crossin
         let nf = plane_normal(i, k);
         let d = dot3(nf, n);
         let x = vertex(v0 + planes[blocks[i].plane_start + k].vertex);
-        if ((entering && d < -1e-9) || (!entering && d > 1e-9)) {
+        if ((entering && d < -GRAZING) || (!entering && d > GRAZING)) {
             let s = dot3(nf, x - p) / d;
             if (!out.found || (entering && s > out.s) || (!entering && s < out.s)) {
                 out = Crossing(s, true);

@@ -22,12 +22,19 @@ pub const KERNELS: &[(&str, &str)] = &[
 pub fn prelude(precision: Precision) -> String {
     // COMPENSATED: the f32 kernels keep the centroid as a compensated pair (law_of_motion.wgsl);
     // the f64 ones add as the CPU does, so that they follow it to round-off.
-    let (real, compensated) = match precision {
-        Precision::F32 => ("f32", true),
-        Precision::F64 => ("f64", false),
+    //
+    // GRAZING: `ray_crossing` passes over a face plane whose normal is within GRAZING (the
+    // cosine) of perpendicular to the ray; the CPU takes 1e-9. The ray through a block's corner
+    // meets every face at the corner at one point, and for a face nearly parallel to the ray
+    // the crossing is round-off over that cosine: in f32, 1e-7 m over a box tilted by 1e-5 rad
+    // put the crossing centimetres off, and a sliding box's corners took forces of kilonewtons
+    // at random and rocked it. The faces across the ray give the crossing to round-off.
+    let (real, compensated, grazing) = match precision {
+        Precision::F32 => ("f32", true, "1e-3"),
+        Precision::F64 => ("f64", false, "1e-9"),
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\n{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst GRAZING: real = {grazing};\n{}",
         workgroup_size(),
         math_constants(precision)
     )
