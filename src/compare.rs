@@ -16,9 +16,9 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::driver::run::{Progress, RunOptions};
 use crate::udec::backend::Backend;
 use crate::udec::deck::Located;
-use crate::driver::run::{Progress, RunOptions};
 use crate::udec::exec::Executor;
 use crate::udec::model::Model;
 
@@ -260,7 +260,13 @@ fn truncate(text: &str, n: usize) -> String {
 }
 
 /// Runs D3's `commands` on `backend`, its run log (`run.log`) and outputs in `out`.
-pub fn run_d3_on(backend: Box<dyn crate::d3::backend::Backend>, commands: &[crate::d3::deck::Located], file: &str, out: &Path, progress: Progress) -> Outcome<crate::d3::model::Model> {
+pub fn run_d3_on(
+    backend: Box<dyn crate::d3::backend::Backend>,
+    commands: &[crate::d3::deck::Located],
+    file: &str,
+    out: &Path,
+    progress: Progress,
+) -> Outcome<crate::d3::model::Model> {
     let description = backend.describe();
     let _ = std::fs::create_dir_all(out);
     let log: Box<dyn std::io::Write> = match std::fs::File::create(out.join("run.log")) {

@@ -602,8 +602,12 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         // A deck that starts by RESTART of a D3 save file is a D3 deck too.
         let d3_restart = three_d.is_none() && dim.is_none() && restarts_d3(&text, &name, &out);
         match (dim, three_d) {
-            (Some(3), _) | (None, Some(_)) => return run_d3(&text, &name, (backend, &adapter, precision), state_json, run_options(&out, checkpoint_every, vtk_every)),
-            (None, None) if d3_restart => return run_d3(&text, &name, (backend, &adapter, precision), state_json, run_options(&out, checkpoint_every, vtk_every)),
+            (Some(3), _) | (None, Some(_)) => {
+                return run_d3(&text, &name, (backend, &adapter, precision), state_json, run_options(&out, checkpoint_every, vtk_every))
+            }
+            (None, None) if d3_restart => {
+                return run_d3(&text, &name, (backend, &adapter, precision), state_json, run_options(&out, checkpoint_every, vtk_every))
+            }
             (Some(2), Some(why)) => bail!("{name}:{}: {} makes this a 3D (D3) deck, but --dim 2 was given", why.line, why.what),
             _ => {}
         }
@@ -728,10 +732,16 @@ fn restarts_d3(text: &str, name: &str, out: &std::path::Path) -> bool {
     blockdem::d3::restart::is_save_file(&path)
 }
 
-/// `blockdem run` of a 3D deck: D3 on the CPU (its GPU kernels are to come), with the chassis's
+/// `blockdem run` of a 3D deck: D3 on the backend asked for (as a 2D deck's), with the chassis's
 /// run options (as 2D's). After a numerical failure or an interrupt the last good state (or the
 /// state the interrupt stopped at) goes to OUT/last_good.sav, a D3 save file RESTART reads.
-fn run_d3(text: &str, name: &str, (backend, adapter, precision): (BackendChoice, &str, PrecisionChoice), state_json: Option<PathBuf>, options: RunOptions) -> anyhow::Result<()> {
+fn run_d3(
+    text: &str,
+    name: &str,
+    (backend, adapter, precision): (BackendChoice, &str, PrecisionChoice),
+    state_json: Option<PathBuf>,
+    options: RunOptions,
+) -> anyhow::Result<()> {
     let commands = blockdem::d3::deck::parse_deck(text, name)?;
     // The backend as for a 2D deck: `auto` takes a hardware GPU where there is one.
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);

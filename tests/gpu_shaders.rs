@@ -221,7 +221,11 @@ fn check_d3_layouts<R: Real>(precision: Precision) {
         let (handle, ty) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(rust.name)).unwrap_or_else(|| panic!("no WGSL struct {}", rust.name));
         let naga::TypeInner::Struct { members, span } = &ty.inner else { panic!("{} is not a struct", rust.name) };
         assert_eq!(layouter[handle].size, *span);
-        let wgsl = StructLayout { name: rust.name, size: *span as usize, fields: members.iter().map(|m| (leak(m.name.clone().unwrap()), m.offset as usize)).collect() };
+        let wgsl = StructLayout {
+            name: rust.name,
+            size: *span as usize,
+            fields: members.iter().map(|m| (leak(m.name.clone().unwrap()), m.offset as usize)).collect(),
+        };
         assert_eq!(wgsl, rust, "D3's {} in {precision}: WGSL (left) against Rust (right)", rust.name);
     }
 }

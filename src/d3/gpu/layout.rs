@@ -93,12 +93,5 @@ pub const LOGICAL_EDGE_EDGE: u32 = 2;
 
 /// Every D3 GPU struct's layout, for the naga check.
 pub fn layouts<R: Real>() -> Vec<StructLayout> {
-    vec![
-        Block::<R>::layout(),
-        Vertex::<R>::layout(),
-        Plane::<R>::layout(),
-        Contact::<R>::layout(),
-        Logical::<R>::layout(),
-        Params::<R>::layout(),
-    ]
+    vec![Block::<R>::layout(), Vertex::<R>::layout(), Plane::<R>::layout(), Contact::<R>::layout(), Logical::<R>::layout(), Params::<R>::layout()]
 }

@@ -466,7 +466,10 @@ impl GpuBackend {
         let Some(s) = self.state.as_ref() else { return Ok(()) };
         let n = model.contacts.len();
         let (contacts, logicals) = self.dev.read_parts(
-            &[(&s.contacts, (n * std::mem::size_of::<layout::Contact<R>>()) as u64), (&s.logicals, (s.logical_count * std::mem::size_of::<layout::Logical<R>>()) as u64)],
+            &[
+                (&s.contacts, (n * std::mem::size_of::<layout::Contact<R>>()) as u64),
+                (&s.logicals, (s.logical_count * std::mem::size_of::<layout::Logical<R>>()) as u64),
+            ],
             |bytes| (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1])),
         )?;
         let f = |x: R| x.to_f64();
