@@ -189,3 +189,35 @@ fn gpu_reruns_repeat_bit_for_bit() {
         eprintln!("{:?}: two runs of 1500 cycles identical", o.precision);
     }
 }
+
+/// The command line: `run --backend gpu` takes a 3D deck to its end on D3's GPU backend (its
+/// tables as the CPU's), and `compare` of a 3D deck reports the GPU against the CPU within a
+/// tolerance.
+#[test]
+fn run_and_compare_take_3d_decks_on_the_gpu() {
+    let Some(Target::Gpu(o)) = Target::gpu("vulkan", Precision::F64) else { return };
+    assert_eq!(o.precision, Precision::F64);
+    let exe = env!("CARGO_BIN_EXE_blockdem");
+    let dir = std::env::temp_dir().join(format!("blockdem-d3gpu-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let run = std::process::Command::new(exe)
+        .args(["run", "--backend", "gpu", "--adapter", "vulkan", "--precision", "f64", "examples/d3_two_tetrahedra.dat", "--out"])
+        .arg(dir.join("run"))
+        .output()
+        .unwrap();
+    let (out, err) = (String::from_utf8_lossy(&run.stdout), String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success(), "{out}\n{err}");
+    assert!(err.contains("the D3 engine, on gpu") && out.contains("CURRENT CYCLE COUNT = 16") && out.contains("(VERTEX-FACE)"), "{out}\n{err}");
+    let compare = std::process::Command::new(exe)
+        .args(["compare", "examples/d3_two_tetrahedra.dat", "--adapter", "vulkan", "--precision", "f64", "--tolerance", "1e-3", "--out"])
+        .arg(dir.join("compare"))
+        .output()
+        .unwrap();
+    let (out, err) = (String::from_utf8_lossy(&compare.stdout), String::from_utf8_lossy(&compare.stderr));
+    assert!(compare.status.success(), "{out}\n{err}");
+    assert!(out.contains("of the contact distance") && dir.join("compare/compare.json").exists(), "{out}");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("compare/compare.json")).unwrap()).unwrap();
+    assert_eq!(json["comparison"]["dim"], 3);
+    assert!(json["comparison"]["velocity"]["relative"].as_f64().unwrap() < 1e-3);
+    let _ = std::fs::remove_dir_all(&dir);
+}
