@@ -1,6 +1,6 @@
-//! D3 on the GPU (`d3::gpu`) against the CPU reference (`d3::cpu`), on lavapipe's Vulkan f32 and
-//! f64 (the GPU tests' convention, tests/common: skipped without the adapter, a failure under
-//! `BLOCKDEM_REQUIRE_GPU=1`).
+//! D3 on the GPU (`d3::gpu`) against the CPU reference (`d3::cpu`), on Vulkan f32 and f64 and GL
+//! f32 (lavapipe and llvmpipe here; the GPU tests' convention, tests/common: skipped without the
+//! adapter, a failure under `BLOCKDEM_REQUIRE_GPU=1`).
 //!
 //! Tolerances, and why: the GPU keeps each contact's logical contacts between detections and
 //! moves them with their blocks (module doc of `d3::gpu`), where the CPU finds them afresh each
@@ -32,11 +32,11 @@ fn run(deck: &str, gpu: Option<&GpuOptions>) -> Model {
     exec.model
 }
 
-/// The Vulkan targets present: f32, and f64 where the adapter has it.
+/// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32.
 fn targets() -> Vec<GpuOptions> {
-    [Precision::F32, Precision::F64]
+    common::GPU_TARGETS
         .into_iter()
-        .filter_map(|p| match Target::gpu("vulkan", p) {
+        .filter_map(|(api, p)| match Target::gpu(api, p) {
             Some(Target::Gpu(o)) => Some(o),
             _ => None,
         })
