@@ -42,8 +42,10 @@
 //!
 //! Cycles run in batches sized to the next detection at the velocities of the batch's start
 //! (`cycles_to_detection`); after each the blocks are read back (travel, finiteness, the
-//! too-fast check). Everything the device does is in a fixed order, so a rerun repeats bit for
-//! bit.
+//! too-fast check). The time step is the CPU's rule (`Model::timestep`, from the logical
+//! contacts there are and their lever arms) taken at each batch's start and held over it, where
+//! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
+//! repeats bit for bit.
 //!
 //! # The energy ledger
 //!
@@ -126,6 +128,8 @@ struct State {
     keys: Vec<Vec<LogicalKind>>,
     logical_count: usize,
     bases: Bases,
+    /// The time step in the params buffer.
+    dt: f64,
 }
 
 /// The GPU backend for D3.
@@ -221,7 +225,7 @@ impl GpuBackend {
                 edges.extend([e.a, e.b]);
             }
         }
-        let params = params::<R>(model);
+        let params = params::<R>(model, model.timestep());
         let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let params = self.buffer("d3 params", bytemuck::bytes_of(&params), uniform_usage);
         let vertices = self.buffer("d3 vertices", bytemuck::cast_slice(&vertices), storage_usage);
@@ -230,7 +234,8 @@ impl GpuBackend {
         let (blocks, contacts, logicals, adjacency, keys, logical_count) = self.topology_buffers::<R>(model);
         let bind = self.bind(&[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency]);
         let bases = bases(model);
-        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, bind, keys, logical_count, bases });
+        let dt = model.timestep();
+        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, bind, keys, logical_count, bases, dt });
         Ok(())
     }
 
@@ -390,6 +395,19 @@ impl GpuBackend {
         s.bases = bases(model);
     }
 
+    /// Writes the time step `dt` into the params where it changed.
+    fn set_timestep(&mut self, model: &Model, dt: f64) {
+        let Some(s) = self.state.as_mut() else { return };
+        if s.dt == dt {
+            return;
+        }
+        s.dt = dt;
+        match self.dev.precision {
+            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, dt))),
+            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, dt))),
+        }
+    }
+
     /// Records `n` cycles' kernels and submits them.
     fn dispatch(&self, model: &Model, n: u64) {
         let Some(s) = self.state.as_ref() else { return };
@@ -523,8 +541,8 @@ impl GpuBackend {
     }
 }
 
-/// The run's constants as the kernels take them.
-fn params<R: Real>(model: &Model) -> layout::Params<R> {
+/// The run's constants as the kernels take them, with the time step `dt`.
+fn params<R: Real>(model: &Model, dt: f64) -> layout::Params<R> {
     let r = |x: f64| R::from_f64(x);
     layout::Params::<R> {
         gx: r(model.gravity.x),
@@ -532,7 +550,7 @@ fn params<R: Real>(model: &Model) -> layout::Params<R> {
         gz: r(model.gravity.z),
         alpha: r(model.damping.alpha),
         beta: r(model.damping.beta),
-        dt: r(model.timestep()),
+        dt: r(dt),
         tol: r(model.contact_tolerance()),
         one: r(1.0),
         blocks: model.blocks.len() as u32,
@@ -593,7 +611,11 @@ impl driver::Start<Model> for GpuBackend {
 impl driver::Stages<Model> for GpuBackend {
     fn advance(&mut self, model: &mut Model, max: u64, _cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
         let n = cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1));
+        // The time step as the CPU takes it (`Model::timestep`, from the contacts there are), at
+        // the batch's start: the kernels hold it over the batch (the CPU renews it each cycle,
+        // as the logical contacts' lever arms move).
         let dt = model.timestep();
+        self.set_timestep(model, dt);
         self.dispatch(model, n);
         let (bad, peaks) = self.read_blocks(model).map_err(device_error)?;
         let first = model.cycle + 1;
