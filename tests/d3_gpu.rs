@@ -221,3 +221,41 @@ fn run_and_compare_take_3d_decks_on_the_gpu() {
     assert!(json["comparison"]["velocity"]["relative"].as_f64().unwrap() < 1e-3);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The GPU's stage 4 between detections places each logical contact by its key
+/// (`contact::place_logical`, twin of the WGSL's): right after a detection that is where the
+/// detection put it (`contact::logical_contacts`), to round-off, for vertex–face contacts (a
+/// stack's faces) and edge–edge ones (two crossed bars).
+#[test]
+fn a_logical_contact_is_placed_by_its_key_where_detection_found_it() {
+    use blockdem::d3::contact::{common_plane, place_logical};
+    use blockdem::d3::model::LogicalKind;
+    let decks = [
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 -0.001 1\nBOX 0.2 1.2 0.1 1.1 0.9995 2\nFIX -1 2 -1 2 -1 -0.1\nCYCLE 0\n",
+        // A bar along y lying across a bar along x: their long edges cross at four points.
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nBOX -1 1 -0.1 0.1 -0.2 0\nBOX -0.1 0.1 -1 1 -0.0005 0.2\nCYCLE 0\n",
+    ];
+    let mut kinds = (0, 0);
+    for deck in decks {
+        let m = run(deck, None);
+        for c in m.contacts.iter().filter(|c| !c.logical.is_empty()) {
+            let (a, b) = (&m.blocks[c.blocks[0] as usize], &m.blocks[c.blocks[1] as usize]);
+            let tol = m.contact_tolerance();
+            let plane = common_plane(a, b, tol);
+            let n = plane.normal;
+            let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+            let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+            for l in &c.logical {
+                let (p, gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
+                match l.kind {
+                    LogicalKind::VertexFace { .. } => kinds.0 += 1,
+                    LogicalKind::EdgeEdge { .. } => kinds.1 += 1,
+                }
+                let scale = a.shape.radius.min(b.shape.radius);
+                assert!((p - l.point).length() < 1e-12 * scale, "{:?}: point {p} vs {}", l.kind, l.point);
+                assert!((gap - l.gap).abs() < 1e-12 * scale, "{:?}: gap {gap} vs {}", l.kind, l.gap);
+            }
+        }
+    }
+    assert!(kinds.0 >= 4 && kinds.1 >= 4, "vertex–face {}, edge–edge {}", kinds.0, kinds.1);
+}
