@@ -16,20 +16,21 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::driver::run::{Progress, RunOptions};
 use crate::udec::backend::Backend;
 use crate::udec::deck::Located;
-use crate::udec::exec::{Executor, Progress, RunOptions};
+use crate::udec::exec::Executor;
 use crate::udec::model::Model;
 
-/// One backend's run of the deck.
+/// One backend's run of the deck (a 2D model, or D3's).
 #[derive(Clone, Debug)]
-pub struct Outcome {
+pub struct Outcome<M = Model> {
     /// The backend as it describes itself.
     pub backend: String,
     /// Wall time of the whole deck (s).
     pub wall_s: f64,
     /// The final model (after a numerical failure: the last good state).
-    pub model: Model,
+    pub model: M,
     /// The error that stopped the run, if any.
     pub error: Option<String>,
 }
@@ -76,6 +77,8 @@ pub struct Comparison {
     pub energy: Vec<(String, f64, f64)>,
     /// Wall time of the GPU run over the reference's.
     pub time_ratio: f64,
+    /// The engine: 2 (UDEC) or 3 (D3).
+    pub dim: u32,
 }
 
 /// Runs `commands` on `backend`, writing its outputs (plots, SAVE files) and its run log
@@ -103,6 +106,7 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
         blocks: [a.blocks.len(), b.blocks.len()],
         contacts: [a.contacts.len(), b.contacts.len()],
         time_ratio: gpu.wall_s / reference.wall_s.max(1e-9),
+        dim: 2,
         ..Comparison::default()
     };
     c.same_blocks = a.blocks.len() == b.blocks.len() && a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.id == y.id);
@@ -200,10 +204,10 @@ fn energy_scale(model: &Model) -> f64 {
 }
 
 /// The comparison as a table.
-pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
+pub fn table<M>(reference: &Outcome<M>, gpu: &Outcome<M>, c: &Comparison) -> String {
     use std::fmt::Write;
     let mut s = String::new();
-    let outcome = |o: &Outcome| o.error.as_deref().map_or_else(|| "ok".to_string(), |e| format!("stopped: {e}"));
+    let outcome = |o: &Outcome<M>| o.error.as_deref().map_or_else(|| "ok".to_string(), |e| format!("stopped: {e}"));
     let _ = writeln!(s, "run                 backend                                                          wall (s)   cycles  blocks contacts  outcome");
     for (name, o, i) in [("reference (cpu)", reference, 0), ("gpu", gpu, 1)] {
         let _ = writeln!(
@@ -220,8 +224,10 @@ pub fn table(reference: &Outcome, gpu: &Outcome, c: &Comparison) -> String {
     let _ = writeln!(s, "gpu / cpu wall time: {:.2}x", c.time_ratio);
     let _ = writeln!(s);
     if c.same_blocks {
+        // D3 measures positions against the contact-forming distance (it has no ROUND).
+        let length = if c.dim == 3 { "of the contact distance" } else { "of ROUND" };
         let mut rows =
-            vec![("position", c.position, "m", "of ROUND"), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")];
+            vec![("position", c.position, "m", length), ("rotation", c.rotation, "rad", "rad"), ("velocity", c.velocity, "m/s", "of the speed scale")];
         rows.extend(c.stress.map(|l| ("stress (SDEF)", l, "Pa", "of the largest stress")));
         rows.extend(c.zone_stress.map(|l| ("zone stress (FDEF)", l, "Pa", "of the largest stress")));
         rows.extend(c.gridpoint.map(|l| ("grid point (FDEF)", l, "m", "of ROUND")));
@@ -251,4 +257,79 @@ fn truncate(text: &str, n: usize) -> String {
     } else {
         format!("{}…", text.chars().take(n - 1).collect::<String>())
     }
+}
+
+/// Runs D3's `commands` on `backend`, its run log (`run.log`) and outputs in `out`.
+pub fn run_d3_on(
+    backend: Box<dyn crate::d3::backend::Backend>,
+    commands: &[crate::d3::deck::Located],
+    file: &str,
+    out: &Path,
+    progress: Progress,
+) -> Outcome<crate::d3::model::Model> {
+    let description = backend.describe();
+    let _ = std::fs::create_dir_all(out);
+    let log: Box<dyn std::io::Write> = match std::fs::File::create(out.join("run.log")) {
+        Ok(f) => Box::new(std::io::BufWriter::new(f)),
+        Err(_) => Box::new(std::io::sink()),
+    };
+    let mut exec = crate::d3::exec::Executor::with_backend(log, file, backend);
+    exec.set_options(RunOptions { out_dir: out.to_path_buf(), progress, ..Default::default() });
+    let start = Instant::now();
+    let result = exec.run(commands);
+    let wall_s = start.elapsed().as_secs_f64();
+    Outcome { backend: description, wall_s, model: std::mem::take(&mut exec.model), error: result.err().map(|e| e.to_string()) }
+}
+
+/// D3's GPU final state against the reference's: positions against the contact-forming
+/// distance, rotations as the angle between the orientations, velocities against the top speed
+/// (or √(2E/M) for a model at rest), the ledger's terms against the largest.
+pub fn compare_d3(reference: &Outcome<crate::d3::model::Model>, gpu: &Outcome<crate::d3::model::Model>) -> Comparison {
+    let (a, b) = (&reference.model, &gpu.model);
+    let mut c = Comparison {
+        cycles: [a.cycle, b.cycle],
+        blocks: [a.blocks.len(), b.blocks.len()],
+        contacts: [a.contacts.len(), b.contacts.len()],
+        time_ratio: gpu.wall_s / reference.wall_s.max(1e-9),
+        dim: 3,
+        ..Comparison::default()
+    };
+    let terms = |m: &crate::d3::model::Model| {
+        let e = m.energies();
+        [
+            ("kinetic", e.kinetic),
+            ("strain", e.strain),
+            ("external work", e.external_work),
+            ("dissipated", e.mass_damping + e.contact_damping + e.friction),
+            ("released", e.released),
+        ]
+    };
+    let scale = terms(a).iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    c.same_blocks = a.blocks.len() == b.blocks.len() && a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.id == y.id);
+    if c.same_blocks {
+        let length = a.contact_tolerance().max(f64::MIN_POSITIVE);
+        let top = a.blocks.iter().map(|x| x.velocity.length()).fold(0.0, f64::max);
+        let free_mass: f64 = a.blocks.iter().filter(|x| !x.fixed).map(|x| x.mass).sum();
+        let energy_speed = if free_mass > 0.0 { (2.0 * scale / free_mass).sqrt() } else { 0.0 };
+        let speed = top.max(energy_speed).max(f64::MIN_POSITIVE);
+        let larger = |l: &mut Largest, value: f64, scale: f64, block: u32| {
+            if value.is_nan() || value > l.value {
+                *l = Largest { value, relative: value / scale, block };
+            }
+        };
+        for (x, y) in a.blocks.iter().zip(&b.blocks) {
+            larger(&mut c.position, (x.centroid - y.centroid).length(), length, x.id);
+            // The angle of the rotation from one orientation to the other, 2·atan2(|v|, |w|) of
+            // q₁⁻¹q₂ (acos of a dot product loses angles below 1e-8 rad).
+            let d = x.orientation.inverse() * y.orientation;
+            larger(&mut c.rotation, 2.0 * d.xyz().length().atan2(d.w.abs()), 1.0, x.id);
+            larger(&mut c.velocity, (x.velocity - y.velocity).length(), speed, x.id);
+        }
+    } else {
+        let nan = Largest { value: f64::NAN, relative: f64::NAN, block: 0 };
+        (c.position, c.rotation, c.velocity) = (nan, nan, nan);
+    }
+    let scale = scale.max(f64::MIN_POSITIVE);
+    c.energy = terms(a).iter().zip(terms(b)).map(|((name, x), (_, y))| (name.to_string(), (x - y).abs(), (x - y).abs() / scale)).collect();
+    c
 }

@@ -394,6 +394,12 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     }
     let name = deck.display().to_string();
     let bytes = blockdem::udec::deck::parse::read_deck(&deck, &name)?;
+    // A 3D deck (README, "2D or 3D"): D3 on the CPU and on the GPU.
+    if let Ok(text) = blockdem::udec::deck::parse::lenient_text(&bytes) {
+        if blockdem::d3::deck::three_dimensional(&blockdem::deck::lexer::split(&text, &name)?).is_some() {
+            return compare_d3(&text, &name, adapter, precision, out, tolerance);
+        }
+    }
     let commands = blockdem::udec::deck::parse::parse_deck_bytes(&bytes, &name)?;
     warn_after_end(&bytes, &commands, &name);
     check_out_dir(&out)?;
@@ -424,6 +430,47 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     if let Some(tol) = tolerance {
         if !c.same_blocks {
             bail!("the runs end on different blocks ({} and {}, or other ids): a crack or deletion differs", c.blocks[0], c.blocks[1]);
+        }
+        for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
+            if l.relative.is_nan() || l.relative > tol {
+                bail!("block {}'s {what} differs by {:.3e} relative, more than the tolerance {tol:e}", l.block, l.relative);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `blockdem compare` of a 3D deck: D3 on the CPU (f64) and on the GPU, the same report.
+fn compare_d3(text: &str, name: &str, adapter: String, precision: PrecisionChoice, out: PathBuf, tolerance: Option<f64>) -> anyhow::Result<()> {
+    use blockdem::compare;
+    let commands = blockdem::d3::deck::parse_deck(text, name)?;
+    check_out_dir(&out)?;
+    let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
+    let gpu = blockdem::d3::gpu::GpuBackend::new(&choice, precision.into()).map_err(|e| anyhow::anyhow!("compare needs a GPU adapter: {e}"))?;
+    note!("blockdem: running {name} (a 3D deck, D3) on the CPU (f64), then on {}", blockdem::d3::backend::Backend::describe(&gpu));
+    let progress = Progress::Lines { every: std::time::Duration::from_secs(30) };
+    let reference = compare::run_d3_on(Box::new(blockdem::d3::cpu::CpuBackend::new()), &commands, name, &out.join("cpu"), progress);
+    let on_gpu = compare::run_d3_on(Box::new(gpu), &commands, name, &out.join("gpu"), progress);
+    let c = compare::compare_d3(&reference, &on_gpu);
+    let _ = write!(Stdout, "{}", compare::table(&reference, &on_gpu, &c));
+    let json = serde_json::json!({
+        "deck": name,
+        "reference": { "backend": reference.backend, "wall_s": reference.wall_s, "error": reference.error },
+        "gpu": { "backend": on_gpu.backend, "wall_s": on_gpu.wall_s, "error": on_gpu.error },
+        "comparison": c,
+    });
+    let path = out.join("compare.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))?;
+    say!("wrote {}", path.display());
+    match (&reference.error, &on_gpu.error) {
+        (None, Some(e)) => bail!("the GPU run stopped where the reference did not: {e}"),
+        (Some(e), None) => bail!("the reference run stopped where the GPU's did not: {e}"),
+        (Some(e), Some(_)) => bail!("both runs stopped (the reference: {e})"),
+        (None, None) => {}
+    }
+    if let Some(tol) = tolerance {
+        if !c.same_blocks {
+            bail!("the runs end on different blocks ({} and {})", c.blocks[0], c.blocks[1]);
         }
         for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
             if l.relative.is_nan() || l.relative > tol {
@@ -555,8 +602,12 @@ fn run(args: RunArgs) -> anyhow::Result<()> {
         // A deck that starts by RESTART of a D3 save file is a D3 deck too.
         let d3_restart = three_d.is_none() && dim.is_none() && restarts_d3(&text, &name, &out);
         match (dim, three_d) {
-            (Some(3), _) | (None, Some(_)) => return run_d3(&text, &name, backend, state_json, run_options(&out, checkpoint_every, vtk_every)),
-            (None, None) if d3_restart => return run_d3(&text, &name, backend, state_json, run_options(&out, checkpoint_every, vtk_every)),
+            (Some(3), _) | (None, Some(_)) => {
+                return run_d3(&text, &name, (backend, &adapter, precision), state_json, run_options(&out, checkpoint_every, vtk_every))
+            }
+            (None, None) if d3_restart => {
+                return run_d3(&text, &name, (backend, &adapter, precision), state_json, run_options(&out, checkpoint_every, vtk_every))
+            }
             (Some(2), Some(why)) => bail!("{name}:{}: {} makes this a 3D (D3) deck, but --dim 2 was given", why.line, why.what),
             _ => {}
         }
@@ -681,25 +732,50 @@ fn restarts_d3(text: &str, name: &str, out: &std::path::Path) -> bool {
     blockdem::d3::restart::is_save_file(&path)
 }
 
-/// `blockdem run` of a 3D deck: D3 on the CPU (its GPU kernels are to come), with the chassis's
+/// `blockdem run` of a 3D deck: D3 on the backend asked for (as a 2D deck's), with the chassis's
 /// run options (as 2D's). After a numerical failure or an interrupt the last good state (or the
 /// state the interrupt stopped at) goes to OUT/last_good.sav, a D3 save file RESTART reads.
-fn run_d3(text: &str, name: &str, backend: BackendChoice, state_json: Option<PathBuf>, options: RunOptions) -> anyhow::Result<()> {
-    match backend {
-        BackendChoice::Gpu => bail!("--backend gpu: the D3 engine (3D decks) runs on the CPU only in this version; use --backend cpu or auto"),
-        BackendChoice::Auto => note!("blockdem: a 3D deck: the D3 engine, on the CPU (f64)"),
-        BackendChoice::Cpu => {}
-    }
+fn run_d3(
+    text: &str,
+    name: &str,
+    (backend, adapter, precision): (BackendChoice, &str, PrecisionChoice),
+    state_json: Option<PathBuf>,
+    options: RunOptions,
+) -> anyhow::Result<()> {
     let commands = blockdem::d3::deck::parse_deck(text, name)?;
+    // The backend as for a 2D deck: `auto` takes a hardware GPU where there is one.
+    let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
+    let precision = Precision::from(precision);
+    let mut runs_on = ("cpu", None, "f64");
+    let engine: Box<dyn blockdem::d3::backend::Backend> = match backend {
+        BackendChoice::Cpu => Box::new(blockdem::d3::cpu::CpuBackend::new()),
+        BackendChoice::Auto if !matching_adapters(&choice).into_iter().any(|a| a.compute && !a.is_software()) => {
+            note!("blockdem: a 3D deck: the D3 engine, on the CPU (f64) (no hardware GPU adapter; software adapters are used only with --backend gpu)");
+            Box::new(blockdem::d3::cpu::CpuBackend::new())
+        }
+        BackendChoice::Auto | BackendChoice::Gpu => match blockdem::d3::gpu::GpuBackend::new(&choice, precision) {
+            Ok(gpu) => {
+                note!("blockdem: a 3D deck: the D3 engine, on {}", blockdem::d3::backend::Backend::describe(&gpu));
+                let a = gpu.adapter();
+                runs_on = ("gpu", Some(format!("{} ({}, {})", a.name, a.backend, a.driver_name())), if precision == Precision::F32 { "f32" } else { "f64" });
+                Box::new(gpu)
+            }
+            Err(e) if backend == BackendChoice::Auto => {
+                note!("blockdem: {e}; running on the CPU (f64)");
+                Box::new(blockdem::d3::cpu::CpuBackend::new())
+            }
+            Err(e) => bail!("--backend gpu: {e}"),
+        },
+    };
     check_out_dir(&options.out_dir)?;
     if let Some(path) = &state_json {
         check_out_file(path, "--state-json")?;
     }
     let out = options.out_dir.clone();
-    let mut exec = blockdem::d3::exec::Executor::new(Box::new(std::io::BufWriter::new(Stdout)), name);
+    let mut exec = blockdem::d3::exec::Executor::with_backend(Box::new(std::io::BufWriter::new(Stdout)), name, engine);
     exec.set_options(options);
     let result = exec.run(&commands);
-    let provenance = Provenance::now(name, "cpu", None, "f64");
+    let provenance = Provenance::now(name, runs_on.0, runs_on.1, runs_on.2);
     let json_written = match &state_json {
         Some(path) => {
             if let Some(folder) = path.parent().filter(|f| !f.as_os_str().is_empty()) {

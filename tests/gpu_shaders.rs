@@ -204,3 +204,46 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         }
     }
 }
+
+/// D3's kernels (`shaders/d3/`) parse and validate in both precisions, each with its entry point.
+#[test]
+fn every_d3_kernel_parses_and_validates_in_every_precision() {
+    use blockdem::d3::gpu::shaders as d3;
+    for precision in [Precision::F32, Precision::F64] {
+        for (name, _) in d3::KERNELS {
+            let src = d3::source(name, precision).unwrap();
+            let (module, _) = shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/{name}.wgsl ({precision}):\n{e}"));
+            assert!(module.entry_points.iter().any(|e| e.name == *name), "d3/{name}.wgsl has an entry point named after it");
+        }
+    }
+}
+
+fn check_d3_layouts<R: Real>(precision: Precision) {
+    use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
+    let src = d3::source("track_contact", precision).unwrap();
+    let (module, _) = shaders::validate(&src, precision).unwrap();
+    for rust in d3_layout::layouts::<R>() {
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        let (handle, ty) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(rust.name)).unwrap_or_else(|| panic!("no WGSL struct {}", rust.name));
+        let naga::TypeInner::Struct { members, span } = &ty.inner else { panic!("{} is not a struct", rust.name) };
+        assert_eq!(layouter[handle].size, *span);
+        let wgsl = StructLayout {
+            name: rust.name,
+            size: *span as usize,
+            fields: members.iter().map(|m| (leak(m.name.clone().unwrap()), m.offset as usize)).collect(),
+        };
+        assert_eq!(wgsl, rust, "D3's {} in {precision}: WGSL (left) against Rust (right)", rust.name);
+    }
+}
+
+/// Every D3 GPU struct (`d3::gpu::layout`) has its WGSL twin's size and field offsets.
+#[test]
+fn every_d3_gpu_struct_matches_its_rust_twin_in_f32() {
+    check_d3_layouts::<f32>(Precision::F32);
+}
+
+#[test]
+fn every_d3_gpu_struct_matches_its_rust_twin_in_f64() {
+    check_d3_layouts::<f64>(Precision::F64);
+}

@@ -1,4 +1,4 @@
-//! D3's bench scenes (issue 31, Speed), on its CPU backend (D3 has no GPU path yet):
+//! D3's bench scenes (issue 31, Speed), on its CPU and GPU backends:
 //!
 //! - `d3-cubes`: unit cubes in a lattice under gravity, the scene the Yade polyhedra peer runs:
 //!   columns 0.1 m apart of cubes standing on each other on a fixed slab (so that every cube
@@ -97,12 +97,33 @@ pub fn wall_deck(n: usize, frac: f64) -> String {
     deck
 }
 
+/// A D3 backend for the bench: the CPU's, or the GPU's on an adapter in a precision.
+pub fn backend_for(spec: &super::BackendSpec) -> (String, Result<Box<dyn d3::backend::Backend>, String>) {
+    match spec {
+        super::BackendSpec::Cpu => (format!("cpu f64 ({} threads)", rayon::current_num_threads()), Ok(Box::new(d3::cpu::CpuBackend::new()))),
+        super::BackendSpec::Gpu(o) => match d3::gpu::GpuBackend::new(&o.adapter, o.precision) {
+            Ok(g) => {
+                let a = g.adapter();
+                (format!("gpu {} {} ({})", a.backend, o.precision, a.driver_name()), Ok(Box::new(g)))
+            }
+            Err(e) => (format!("gpu {:?} {}", o.adapter, o.precision), Err(e.to_string())),
+        },
+    }
+}
+
 /// Builds `deck` (`CYCLE 0`), runs it a few cycles to find its pace, then times `rounds` runs of
-/// about `measure_s` of cycles each on D3's CPU backend (`cycles`: all of them; `s_per_cycle`:
-/// the best run's).
-pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32) -> D3Row {
-    let label = format!("cpu f64 ({} threads)", rayon::current_num_threads());
+/// about `measure_s` of cycles each on `backend` (`cycles`: all of them; `s_per_cycle`: the best
+/// run's).
+pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spec: &super::BackendSpec) -> D3Row {
+    let (label, backend) = backend_for(spec);
     let mut row = D3Row { scene, backend: label, ..Default::default() };
+    let mut backend = match backend {
+        Ok(b) => b,
+        Err(e) => {
+            row.error = Some(e);
+            return row;
+        }
+    };
     let commands = match d3::deck::parse_deck(&format!("{deck}CYCLE 0\n"), scene) {
         Ok(c) => c,
         Err(e) => {
@@ -116,7 +137,6 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32) -> 
         return row;
     }
     let mut model: Model = std::mem::take(&mut exec.model);
-    let mut backend = d3::cpu::CpuBackend::new();
     let mut run = |model: &mut Model, cycles: u64| -> Result<f64, String> {
         let t = Instant::now();
         backend.run(model, cycles, &mut |_| true).map_err(|e| e.to_string())?;
@@ -161,20 +181,20 @@ pub fn table(rows: &[D3Row]) -> String {
     if rows.is_empty() {
         return s;
     }
-    let _ = writeln!(s, "\nD3 (3D, CPU f64): cubes in a lattice falling on a slab; a brick wall struck by a cube");
+    let _ = writeln!(s, "\nD3 (3D): cubes in a lattice falling on a slab; a brick wall struck by a cube");
     let _ = writeln!(
         s,
-        "{:<9} {:<22} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11} {:>13} {:>13}",
+        "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11} {:>13} {:>13}",
         "scene", "backend", "blocks", "contacts", "touching", "logical", "cycles", "s/cycle", "body-steps/s", "contact-c/s"
     );
     for r in rows {
         if let Some(e) = &r.error {
-            let _ = writeln!(s, "{:<9} {:<22} failed: {e}", r.scene, r.backend);
+            let _ = writeln!(s, "{:<9} {:<34} failed: {e}", r.scene, r.backend);
             continue;
         }
         let _ = writeln!(
             s,
-            "{:<9} {:<22} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11.3e} {:>13.3e} {:>13.3e}",
+            "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11.3e} {:>13.3e} {:>13.3e}",
             r.scene, r.backend, r.blocks, r.contacts, r.touching, r.logical, r.cycles, r.s_per_cycle, r.body_steps_per_s, r.contact_cycles_per_s
         );
     }

@@ -624,16 +624,20 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             }
         }
     }
-    // D3 runs on the CPU only: its rows come when the CPU is among the backends.
-    if opts.backends.iter().any(|b| matches!(b, BackendSpec::Cpu)) {
+    // D3 on every backend asked for, one after the other (the GPU/CPU ratio from one run).
+    for spec in &opts.backends {
+        let on = match spec {
+            BackendSpec::Cpu => "the CPU".to_string(),
+            BackendSpec::Gpu(o) => format!("the GPU ({})", o.precision),
+        };
         if opts.d3_cubes {
-            say(&format!("d3-cubes ({} cubes) on the CPU", opts.d3_cubes_n));
-            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s, opts.rounds));
+            say(&format!("d3-cubes ({} cubes) on {on}", opts.d3_cubes_n));
+            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s, opts.rounds, spec));
         }
         if opts.d3_wall {
             for &n in &opts.d3_wall_sizes {
-                say(&format!("d3-wall ({n} bricks) on the CPU"));
-                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s, opts.rounds));
+                say(&format!("d3-wall ({n} bricks) on {on}"));
+                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s, opts.rounds, spec));
             }
         }
     }

@@ -258,7 +258,7 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
         }
     }
     // D3's cycle on the CPU (issue 31): 10⁶ body-steps per second on the 1000 cubes.
-    for row in r.d3.iter().filter(|x| x.scene == "d3-cubes") {
+    for row in r.d3.iter().filter(|x| x.scene == "d3-cubes" && x.backend.starts_with("cpu")) {
         let ok = row.error.is_none();
         t.push(TargetRow {
             target: format!("d3-cubes ({} cubes), D3 CPU cycle", row.blocks),

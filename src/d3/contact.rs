@@ -444,3 +444,75 @@ pub fn logical_force(l: &Logical, n: DVec3, a: &Block, b: &Block, mat: &Material
     }
     f
 }
+
+/// Where a logical contact of the last detection lies now, and its gap, given the contact's
+/// common plane (normal `n`, block 1's support `hi_a` and block 2's `lo_b` along it): its vertex
+/// (vertex–face), or the point of block 1's edge where block 2's crosses it as seen along n
+/// (edge–edge; the nearest end where they no longer cross, the middle where they are parallel),
+/// on the mid-plane between the supports; then moved along n to halfway between where the line
+/// along n leaves block 1 and enters block 2, as [`logical_contacts`] places the contacts it
+/// finds. The GPU's stage 4 between detections (`track_contact`; WGSL twin in
+/// `shaders/d3/track_contact.wgsl`).
+pub fn place_logical(kind: LogicalKind, a: &Block, b: &Block, n: DVec3, hi_a: f64, lo_b: f64, separation: f64) -> (DVec3, f64) {
+    let mid = 0.5 * (hi_a + lo_b);
+    let x = match kind {
+        LogicalKind::VertexFace { on_first: true, vertex } => a.vertices[vertex as usize],
+        LogicalKind::VertexFace { on_first: false, vertex } => b.vertices[vertex as usize],
+        LogicalKind::EdgeEdge { first, second } => {
+            let p0 = a.vertices[first.0 as usize];
+            let r = a.vertices[first.1 as usize] - p0;
+            let q0 = b.vertices[second.0 as usize];
+            let s = b.vertices[second.1 as usize] - q0;
+            // In the plane's axes (t1, t2, n right-handed) a perp-dot product is (· × ·)·n.
+            let den = r.cross(s).dot(n);
+            let t = if den.abs() > 1e-12 * r.length() * s.length() { ((q0 - p0).cross(s).dot(n) / den).clamp(0.0, 1.0) } else { 0.5 };
+            p0 + r * t
+        }
+    };
+    let p = x + n * (mid - n.dot(x));
+    let leave = ray_crossing(a, p, n, false);
+    let enter = ray_crossing(b, p, n, true);
+    let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };
+    (p + n * (0.5 * (leave + enter)), enter - leave)
+}
+
+/// Stage 4 of one contact between detections, as the GPU runs it (WGSL twin in
+/// `shaders/d3/track_contact.wgsl`): the common plane afresh; a contact whose blocks have parted
+/// (boxes or plane apart by more than `tol`) loses its logical contacts, their springs' energy
+/// released; otherwise each logical contact the last detection found is placed anew
+/// ([`place_logical`]) and the force–displacement law applied ([`force_law`]). The set of
+/// logical contacts changes only at a detection ([`logical_contacts`], on the CPU between
+/// cycles). Returns the energy friction took and that released.
+pub fn track_contact(c: &mut Contact, a: &Block, b: &Block, mat: &Material, tol: f64, dt: f64) -> (f64, f64) {
+    let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
+    let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
+    let plane = (!apart).then(|| common_plane(a, b, tol));
+    let old_normal = c.normal;
+    if let Some(p) = &plane {
+        c.normal = p.normal;
+    }
+    let Some(plane) = plane.filter(|p| p.separation <= tol) else {
+        let released = c.logical.iter().map(|l| spring_energy(l, mat)).sum();
+        c.logical.clear();
+        return (0.0, released);
+    };
+    let n = plane.normal;
+    let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+    let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+    for l in &mut c.logical {
+        (l.point, l.gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
+    }
+    (force_law(c, old_normal, a, b, mat, dt), 0.0)
+}
+
+/// The strain energy of a logical contact's springs, Fn²/2kn + |Fs|²/2ks.
+pub fn spring_energy(l: &Logical, mat: &Material) -> f64 {
+    let mut e = 0.0;
+    if mat.kn > 0.0 {
+        e += 0.5 * l.normal_force * l.normal_force / mat.kn;
+    }
+    if mat.ks > 0.0 {
+        e += 0.5 * l.shear_force.length_squared() / mat.ks;
+    }
+    e
+}

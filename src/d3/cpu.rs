@@ -15,7 +15,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::contact;
+use super::contact::{self, spring_energy};
 use super::model::{Contact, Logical, Model};
 use super::motion;
 use super::topology;
@@ -99,22 +99,70 @@ impl CpuBackend {
     }
 }
 
+impl super::backend::Backend for CpuBackend {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        CpuBackend::run(self, model, cycles, progress)
+    }
+
+    fn resumes_from(&self, model: &Model) -> bool {
+        CpuBackend::resumes_from(self, model)
+    }
+
+    fn resume_from(&mut self, model: &Model) {
+        CpuBackend::resume_from(self, model)
+    }
+
+    fn forget(&mut self) {
+        *self = CpuBackend::new();
+    }
+
+    fn describe(&self) -> String {
+        "cpu (f64)".into()
+    }
+}
+
+/// The preconditions of a D3 run on any backend: convex blocks, and a mass for every free one.
+pub fn preflight(model: &Model) -> Result<(), CycleError> {
+    if let Some(b) = model.blocks.iter().find(|b| !b.shape.convex) {
+        return Err(CycleError::Setup(format!(
+            "block {} is not convex; contact detection in D3 handles convex blocks (build a concave block from convex ones)",
+            b.id
+        )));
+    }
+    if let Some(b) = model.blocks.iter().find(|b| !b.fixed && (b.mass.is_nan() || b.mass <= 0.0)) {
+        return Err(CycleError::Setup(format!("block {} has no mass: give its material (MATERIAL {}) a DENSITY", b.id, b.material)));
+    }
+    Ok(())
+}
+
+/// A contact driven through: a logical contact's overlap past half the smaller block's radius
+/// (checked after each stage 4).
+pub fn overlap_check(model: &Model) -> Result<(), CycleError> {
+    for c in &model.contacts {
+        if let Some((l, overlap)) = c.logical.iter().map(|l| (l, -l.gap)).max_by(|x, y| x.1.total_cmp(&y.1)) {
+            let limit = 0.5 * model.blocks[c.blocks[0] as usize].shape.radius.min(model.blocks[c.blocks[1] as usize].shape.radius);
+            if overlap > limit {
+                return Err(CycleError::Overlap {
+                    cycle: model.cycle,
+                    block1: model.blocks[c.blocks[0] as usize].id,
+                    block2: model.blocks[c.blocks[1] as usize].id,
+                    overlap,
+                    limit,
+                    at: Box::new(Position::xyz(l.point.to_array())),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 impl driver::Start<Model> for CpuBackend {
     fn take_resumable(&mut self) -> Option<&Model> {
         std::mem::take(&mut self.resumable).then_some(&self.last_good)
     }
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        if let Some(b) = model.blocks.iter().find(|b| !b.shape.convex) {
-            return Err(CycleError::Setup(format!(
-                "block {} is not convex; contact detection in D3 handles convex blocks (build a concave block from convex ones)",
-                b.id
-            )));
-        }
-        if let Some(b) = model.blocks.iter().find(|b| !b.fixed && (b.mass.is_nan() || b.mass <= 0.0)) {
-            return Err(CycleError::Setup(format!("block {} has no mass: give its material (MATERIAL {}) a DENSITY", b.id, b.material)));
-        }
-        Ok(())
+        preflight(model)
     }
 
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
@@ -213,18 +261,6 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
     }
 }
 
-/// The strain energy of a logical contact's springs, Fn²/2kn + |Fs|²/2ks.
-fn spring_energy(l: &Logical, mat: &super::model::Material) -> f64 {
-    let mut e = 0.0;
-    if mat.kn > 0.0 {
-        e += 0.5 * l.normal_force * l.normal_force / mat.kn;
-    }
-    if mat.ks > 0.0 {
-        e += 0.5 * l.shear_force.length_squared() / mat.ks;
-    }
-    e
-}
-
 /// One contact's stage 4. Returns the energy friction took and that released by logical
 /// contacts that went while loaded (for the ledger).
 pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model::Block, mat: &super::model::Material, tol: f64, dt: f64) -> (f64, f64) {
@@ -293,21 +329,5 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
         report.contacts_dropped += dropped;
     }
     contact_stage(model, dt);
-    // A contact driven through: overlap past half the smaller block's radius.
-    for c in &model.contacts {
-        if let Some((l, overlap)) = c.logical.iter().map(|l| (l, -l.gap)).max_by(|x, y| x.1.total_cmp(&y.1)) {
-            let limit = 0.5 * model.blocks[c.blocks[0] as usize].shape.radius.min(model.blocks[c.blocks[1] as usize].shape.radius);
-            if overlap > limit {
-                return Err(CycleError::Overlap {
-                    cycle: model.cycle,
-                    block1: model.blocks[c.blocks[0] as usize].id,
-                    block2: model.blocks[c.blocks[1] as usize].id,
-                    overlap,
-                    limit,
-                    at: Box::new(Position::xyz(l.point.to_array())),
-                });
-            }
-        }
-    }
-    Ok(())
+    overlap_check(model)
 }

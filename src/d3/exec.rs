@@ -1,4 +1,4 @@
-//! D3's executor: runs a deck's commands (`d3::deck`) against the model and the CPU backend,
+//! D3's executor: runs a deck's commands (`d3::deck`) against the model and a backend (`d3::cpu`, `d3::gpu`),
 //! writing the run log as the 1985 program did (a `>` before each echoed command, `TIMESTEP =`
 //! and `CURRENT CYCLE COUNT =` after each CYCLE, the PRINT tables of `d3::output`).
 
@@ -9,6 +9,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use super::backend::Backend;
 use super::cpu::CpuBackend;
 use super::deck::{Command, DampMode, Located, PrintItem, PropKey, Range3};
 use super::geometry;
@@ -44,7 +45,7 @@ impl RunError {
 /// Runs D3 decks.
 pub struct Executor<'a> {
     pub model: Model,
-    backend: CpuBackend,
+    backend: Box<dyn Backend>,
     log: Box<dyn Write + 'a>,
     file: String,
     /// The chassis's run options (as 2D's): `--out` (SAVE and RESTART files named without a
@@ -61,7 +62,17 @@ pub use crate::driver::run::{CHECKPOINT_FILE, VTK_DIR};
 impl<'a> Executor<'a> {
     /// An executor writing its log to `log`; `file` names the deck in error messages.
     pub fn new(log: Box<dyn Write + 'a>, file: &str) -> Self {
-        Executor { model: Model::default(), backend: CpuBackend::new(), log, file: file.to_string(), options: RunOptions::default() }
+        Self::with_backend(log, file, Box::new(CpuBackend::new()))
+    }
+
+    /// An executor running its CYCLEs on `backend` (the CPU's or the GPU's).
+    pub fn with_backend(log: Box<dyn Write + 'a>, file: &str, backend: Box<dyn Backend>) -> Self {
+        Executor { model: Model::default(), backend, log, file: file.to_string(), options: RunOptions::default() }
+    }
+
+    /// The backend in words.
+    pub fn backend_name(&self) -> String {
+        self.backend.describe()
     }
 
     /// The run's options (`--out`, progress, Ctrl-C, `--checkpoint-every`, `--vtk-every`).
@@ -230,7 +241,7 @@ impl<'a> Executor<'a> {
                 let path = self.resolve(file);
                 let saved = super::restart::load(&path).map_err(|e| self.error(cmd, format!("RESTART: {e}")))?;
                 self.model = saved.model;
-                self.backend = CpuBackend::new();
+                self.backend.forget();
                 if saved.resumable {
                     self.backend.resume_from(&self.model);
                 }
@@ -322,7 +333,7 @@ impl<'a> Executor<'a> {
         (0..self.model.blocks.len()).filter(|&b| range.contains(self.model.blocks[b].centroid.to_array())).collect()
     }
 
-    /// CYCLE n through the CPU backend, with its log lines.
+    /// CYCLE n through the backend, with its log lines.
     fn cycle(&mut self, cmd: &Located, n: u64) -> Result<(), RunError> {
         if self.model.blocks.is_empty() {
             return Err(self.error(cmd, "CYCLE: there are no blocks (BLOCK or BOX first)"));

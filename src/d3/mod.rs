@@ -11,19 +11,21 @@
 //! | [`contact`] | stage 4: the common plane, the six physical categories, the logical vertex–face and edge–edge contacts, ¶23's normal prescription, the force–displacement law (¶18–24, ¶35) |
 //! | [`split`] | SPLIT: a plane cuts the convex blocks it crosses in two, mass properties afresh, momentum kept |
 //! | [`topology`] | stage 7: the neighbour lists on a uniform grid, rebuilt past a travel threshold (¶26) |
+//! | [`backend`] | what the executor asks of a backend, the CPU's or the GPU's |
 //! | [`cpu`] | the cycle on the CPU in f64 through the chassis's run driver |
+//! | [`gpu`] | the cycle on the GPU (WGSL in `shaders/d3/`, f32 or f64), detection on the CPU between cycles |
 //! | [`output`] | the PRINT tables, DUMP and the state JSON |
 //! | [`restart`] | SAVE/RESTART files: the whole state, bit for bit, in a versioned, checksummed envelope |
 //! | [`vtk`] | VTK frames of the blocks (faces with their block's motion) and contacts (points with normal and forces), and their series |
 //! | [`exec`] | runs a deck's commands |
-//!
-//! GPU kernels for D3 (`shaders/d3/`) are a later step.
 
+pub mod backend;
 pub mod contact;
 pub mod cpu;
 pub mod deck;
 pub mod exec;
 pub mod geometry;
+pub mod gpu;
 pub mod model;
 pub mod motion;
 pub mod output;

@@ -45,6 +45,30 @@ pub fn stream_copy_source() -> String {
     format!("const STREAM_WORKGROUP_SIZE: u32 = {STREAM_WORKGROUP_SIZE}u;\n{}", include_str!("../../shaders/stream_copy.wgsl"))
 }
 
+/// The dimension-free helpers of `shaders/math.wgsl` (`is_finite`, `two_sum`, `sin_cos`), for an engine's
+/// kernels after its prelude, which includes [`math_constants`].
+pub const MATH: &str = include_str!("../../shaders/math.wgsl");
+
+/// The constants `shaders/math.wgsl` reads, for an engine's prelude.
+///
+/// FINITE_MAX: the largest magnitude `is_finite` takes as finite, a little under each precision's
+/// largest value (f64 kernels held the work of a step to f32's, and a value of 1.6e39 was
+/// reported as not finite).
+///
+/// PIO2_1 + PIO2_2 + PIO2_3 is π/2 split for `sin_cos`'s reduction θ − k·π/2 (Cody–Waite): each
+/// part has few enough bits that k times it is exact (see the 2D prelude, `udec::gpu::shaders`).
+pub fn math_constants(precision: Precision) -> String {
+    let finite_max = match precision {
+        Precision::F32 => "1.0e38",
+        Precision::F64 => "1.0e300",
+    };
+    let (pio2_1, pio2_2, pio2_3) = match precision {
+        Precision::F32 => ("1.5703125", "4.837512969970703125e-4", "7.54978995489188216e-8"),
+        Precision::F64 => ("1.57079632673412561417e+00", "6.07710050650619224932e-11", "0.0"),
+    };
+    format!("const PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst FINITE_MAX: real = {finite_max};\n")
+}
+
 /// Parses and validates WGSL with naga, with f64 allowed only in the f64 variant. Returns the
 /// module (for layout checks) or the error rendered with its source location.
 pub fn validate(source: &str, precision: Precision) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {

@@ -19,7 +19,9 @@ pub const HEAVY_WORKGROUP_SIZE: u32 = 256;
 pub const ENERGY_ITEMS: u32 = 16;
 
 pub const LAYOUT: &str = include_str!("../../../shaders/udec/layout.wgsl");
-pub const COMMON: &str = include_str!("../../../shaders/udec/common.wgsl");
+/// The dimension-free helpers (`shaders/math.wgsl`: `is_finite`, `two_sum`, `sin_cos`), then the 2D cycle's
+/// shared bindings and helpers.
+pub const COMMON: &str = concat!(include_str!("../../../shaders/math.wgsl"), "\n", include_str!("../../../shaders/udec/common.wgsl"));
 
 /// The kernel files of the cycle, one per stage, each named like its CPU twin in `src/udec/cpu/`;
 /// they share the declarations of common.wgsl, and each binds the slots of them it uses
@@ -110,22 +112,12 @@ pub fn prelude(precision: Precision) -> String {
         Precision::F64 => ("f64", "1e-9", "1e-12", false),
     };
     let area_by_motion = precision == Precision::F32;
-    // The largest magnitude `is_finite` (common.wgsl) takes as finite: a little under each
-    // precision's largest value (f64 kernels held the work of a step to f32's, and a value of
-    // 1.6e39 was reported as not finite).
-    let finite_max = match precision {
-        Precision::F32 => "1.0e38",
-        Precision::F64 => "1.0e300",
-    };
-    let (pio2_1, pio2_2, pio2_3) = match precision {
-        Precision::F32 => ("1.5703125", "4.837512969970703125e-4", "7.54978995489188216e-8"),
-        Precision::F64 => ("1.57079632673412561417e+00", "6.07710050650619224932e-11", "0.0"),
-    };
     let materials = crate::udec::model::MAX_MATERIALS;
     let workgroup = workgroup_size();
     let pair_band = crate::udec::contact::pair::PAIR_BAND;
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {workgroup}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst AREA_BY_MOTION: bool = {area_by_motion};\nconst PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst PAIR_BAND: real = {pair_band:e};\nconst FINITE_MAX: real = {finite_max};\n"
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {workgroup}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst HEAVY_WORKGROUP_SIZE: u32 = {HEAVY_WORKGROUP_SIZE}u;\nconst HEAVY_DEGREE: u32 = {HEAVY_DEGREE}u;\nconst ENERGY_ITEMS: u32 = {ENERGY_ITEMS}u;\nconst MAX_MATERIALS: u32 = {materials}u;\nconst TIE_TOL: real = {tie};\nconst REGION_TOL: real = {region};\nconst EXACT_CIRCLE: bool = {exact_circle};\nconst AREA_BY_MOTION: bool = {area_by_motion};\nconst ROTATION_STEP: real = {ROTATION_STEP:e};\nconst PAIR_BAND: real = {pair_band:e};\n{}",
+        crate::gpu::wgsl::math_constants(precision)
     )
 }
 

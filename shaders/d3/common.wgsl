@@ -1,0 +1,128 @@
+// Helpers of D3's cycle kernels: vector and quaternion arithmetic written out in glam's order of
+// operations (so that the f64 kernels round as the CPU's f64 does, as far as the compiler keeps
+// it), and the readings of a block's state. Rust twins: glam's DVec3, DQuat and DMat3 methods.
+
+fn dot3(a: vec3<real>, b: vec3<real>) -> real {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+fn cross3(a: vec3<real>, b: vec3<real>) -> vec3<real> {
+    return vec3<real>(a.y * b.z - b.y * a.z, a.z * b.x - b.z * a.x, a.x * b.y - b.x * a.y);
+}
+
+fn length3(a: vec3<real>) -> real {
+    return sqrt(dot3(a, a));
+}
+
+// v / |v| as glam's `normalize`: v times the reciprocal of its length.
+fn normalize3(a: vec3<real>) -> vec3<real> {
+    return a * (1.0 / length3(a));
+}
+
+// The rotation of v by the unit quaternion q (glam's `DQuat::mul_vec3`).
+fn quat_rotate(q: vec4<real>, v: vec3<real>) -> vec3<real> {
+    let w = q.w;
+    let b = q.xyz;
+    let b2 = dot3(b, b);
+    return v * (w * w - b2) + b * (dot3(v, b) * 2.0) + cross3(b, v) * (w * 2.0);
+}
+
+// The product a·b (glam's `DQuat::mul_quat`): the rotation b, then a.
+fn quat_mul(a: vec4<real>, b: vec4<real>) -> vec4<real> {
+    return vec4<real>(
+        a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+        a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x,
+        a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w,
+        a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z,
+    );
+}
+
+fn quat_normalize(q: vec4<real>) -> vec4<real> {
+    let len = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+    return q * (1.0 / len);
+}
+
+// The inverse of a unit quaternion: its conjugate.
+fn quat_inverse(q: vec4<real>) -> vec4<real> {
+    return vec4<real>(-q.x, -q.y, -q.z, q.w);
+}
+
+// The rotation by the angle |v| about v (glam's `DQuat::from_scaled_axis`); sin and cos of the
+// half angle by `sin_cos` (shaders/math.wgsl: f64 kernels have no sin/cos).
+fn quat_from_scaled_axis(v: vec3<real>) -> vec4<real> {
+    let len = length3(v);
+    if (len == 0.0) {
+        return vec4<real>(0.0, 0.0, 0.0, 1.0);
+    }
+    let axis = v / len;
+    let cs = sin_cos(len * 0.5);
+    let s = axis * cs.y;
+    return vec4<real>(s.x, s.y, s.z, cs.x);
+}
+
+// A 3 × 3 matrix by its columns.
+struct Mat3 {
+    x: vec3<real>,
+    y: vec3<real>,
+    z: vec3<real>,
+}
+
+// M v, column by column as glam's `DMat3::mul_vec3`.
+fn mat_mul(m: Mat3, v: vec3<real>) -> vec3<real> {
+    var r = m.x * v.x;
+    r = r + m.y * v.y;
+    r = r + m.z * v.z;
+    return r;
+}
+
+// The rotation matrix of a unit quaternion (glam's `DMat3::from_quat`).
+fn rotation_matrix(q: vec4<real>) -> Mat3 {
+    let x2 = q.x + q.x;
+    let y2 = q.y + q.y;
+    let z2 = q.z + q.z;
+    let xx = q.x * x2;
+    let xy = q.x * y2;
+    let xz = q.x * z2;
+    let yy = q.y * y2;
+    let yz = q.y * z2;
+    let zz = q.z * z2;
+    let wx = q.w * x2;
+    let wy = q.w * y2;
+    let wz = q.w * z2;
+    return Mat3(
+        vec3<real>(1.0 - (yy + zz), xy + wz, xz - wy),
+        vec3<real>(xy - wz, 1.0 - (xx + zz), yz + wx),
+        vec3<real>(xz + wy, yz - wx, 1.0 - (xx + yy)),
+    );
+}
+
+fn centroid(i: u32) -> vec3<real> {
+    return vec3<real>(blocks[i].cx, blocks[i].cy, blocks[i].cz);
+}
+
+fn orientation(i: u32) -> vec4<real> {
+    return vec4<real>(blocks[i].qx, blocks[i].qy, blocks[i].qz, blocks[i].qw);
+}
+
+fn vertex(i: u32) -> vec3<real> {
+    return vec3<real>(vertices[i].x, vertices[i].y, vertices[i].z);
+}
+
+// The velocity of block i's material point at p (eq. 11; `Block::velocity_at`): v + ω × (p − c).
+fn velocity_at(i: u32, p: vec3<real>) -> vec3<real> {
+    let v = vec3<real>(blocks[i].vx, blocks[i].vy, blocks[i].vz);
+    let w = vec3<real>(blocks[i].wx, blocks[i].wy, blocks[i].wz);
+    return v + cross3(w, p - centroid(i));
+}
+
+fn normal_of(c: Contact) -> vec3<real> {
+    return vec3<real>(c.nx, c.ny, c.nz);
+}
+
+fn point_of(l: Logical) -> vec3<real> {
+    return vec3<real>(l.px, l.py, l.pz);
+}
+
+fn shear_of(l: Logical) -> vec3<real> {
+    return vec3<real>(l.sx, l.sy, l.sz);
+}

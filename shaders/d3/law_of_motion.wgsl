@@ -1,0 +1,129 @@
+// Stages 1 and 2 for D3, one invocation per block (Rust twin: `d3::motion::law_of_motion`):
+// central differences for the velocity and the angular momentum with mass-proportional damping
+// (eqs. 9–10, UDEC's CON1/CON2), the orientation by the implicit midpoint rule (`rotate`), and
+// the vertices placed (`Block::place_vertices`). The work of gravity and load, the damping's
+// dissipation and the travel (¶26) are added to the block's sums.
+
+// Fixed-point iterations of the midpoint orientation (`motion::MIDPOINT_ITERATIONS`).
+const MIDPOINT_ITERATIONS: u32 = 4u;
+
+// ω = R I₀⁻¹ Rᵀ L at orientation q (Rust twin: `motion::angular_velocity`).
+fn angular_velocity(q: vec4<real>, inv: Mat3, l: vec3<real>) -> vec3<real> {
+    return quat_rotate(q, mat_mul(inv, quat_rotate(quat_inverse(q), l)));
+}
+
+// The orientation and angular velocity after one step under the angular momentum l (Rust twin:
+// `motion::rotate`).
+struct Turn {
+    q: vec4<real>,
+    omega: vec3<real>,
+}
+
+fn rotate(q: vec4<real>, inv: Mat3, l: vec3<real>, dt: real) -> Turn {
+    if (l.x == 0.0 && l.y == 0.0 && l.z == 0.0) {
+        return Turn(q, vec3<real>(0.0, 0.0, 0.0));
+    }
+    var omega = angular_velocity(q, inv, l);
+    for (var k = 0u; k < MIDPOINT_ITERATIONS; k++) {
+        let mid = quat_normalize(quat_mul(quat_from_scaled_axis(omega * (0.5 * dt)), q));
+        omega = angular_velocity(mid, inv, l);
+    }
+    return Turn(quat_normalize(quat_mul(quat_from_scaled_axis(omega * dt), q)), omega);
+}
+
+fn all_finite(v: vec3<real>) -> bool {
+    return is_finite(v.x) && is_finite(v.y) && is_finite(v.z);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let i = item_index(wg, li);
+    if (i >= params.blocks) {
+        return;
+    }
+    var b = blocks[i];
+    if (b.fixed != 0u) {
+        blocks[i].vx = 0.0;
+        blocks[i].vy = 0.0;
+        blocks[i].vz = 0.0;
+        blocks[i].lx = 0.0;
+        blocks[i].ly = 0.0;
+        blocks[i].lz = 0.0;
+        blocks[i].wx = 0.0;
+        blocks[i].wy = 0.0;
+        blocks[i].wz = 0.0;
+        return;
+    }
+    let alpha = params.alpha;
+    let dt = params.dt;
+    let g = vec3<real>(params.gx, params.gy, params.gz);
+    let con1 = 1.0 - 0.5 * alpha * dt;
+    let con2 = 1.0 / (1.0 + 0.5 * alpha * dt);
+    let v0 = vec3<real>(b.vx, b.vy, b.vz);
+    let l0 = vec3<real>(b.lx, b.ly, b.lz);
+    let force = vec3<real>(b.fx, b.fy, b.fz);
+    let moment = vec3<real>(b.mx, b.my, b.mz);
+    let v = (v0 * con1 + force / b.mass * dt) * con2;
+    let l = (l0 * con1 + moment * dt) * con2;
+    let q0 = vec4<real>(b.qx, b.qy, b.qz, b.qw);
+    let inv = Mat3(vec3<real>(b.inv0, b.inv1, b.inv2), vec3<real>(b.inv3, b.inv4, b.inv5), vec3<real>(b.inv6, b.inv7, b.inv8));
+    // The damping's dissipation, α m v̄² Δt + α L̄·I⁻¹L̄ Δt at the step's start (module doc of
+    // `d3::motion`).
+    var damping: real = 0.0;
+    if (alpha > 0.0) {
+        let vm = 0.5 * (v0 + v);
+        let lm = 0.5 * (l0 + l);
+        damping = alpha * dt * (b.mass * dot3(vm, vm) + dot3(lm, angular_velocity(q0, inv, lm)));
+    }
+    let dx = v * dt;
+    var c = vec3<real>(b.cx, b.cy, b.cz) + dx;
+    if (COMPENSATED) {
+        // In f32 the centroid is a compensated pair: a step below the coordinate's ulp (a slow
+        // slide, a settling stack) is kept in the low part rather than lost.
+        let one = params.one;
+        let sx = two_sum(b.cx, dx.x + b.cx_lo, one);
+        let sy = two_sum(b.cy, dx.y + b.cy_lo, one);
+        let sz = two_sum(b.cz, dx.z + b.cz_lo, one);
+        c = vec3<real>(sx.x, sy.x, sz.x);
+        b.cx_lo = sx.y;
+        b.cy_lo = sy.y;
+        b.cz_lo = sz.y;
+    }
+    let turn = rotate(q0, inv, l, dt);
+    // Stage 2: the vertices placed from the centroid and the orientation.
+    let r = rotation_matrix(turn.q);
+    for (var k = 0u; k < b.vertex_count; k++) {
+        let j = b.vertex_start + k;
+        let p = c + mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
+        vertices[j].x = p.x;
+        vertices[j].y = p.y;
+        vertices[j].z = p.z;
+    }
+    let travel = length3(dx) + length3(turn.omega) * dt * b.radius;
+    let applied = b.mass * g + vec3<real>(b.load_x, b.load_y, b.load_z);
+    let work = dot3(applied, dx);
+    b.vx = v.x;
+    b.vy = v.y;
+    b.vz = v.z;
+    b.lx = l.x;
+    b.ly = l.y;
+    b.lz = l.z;
+    b.wx = turn.omega.x;
+    b.wy = turn.omega.y;
+    b.wz = turn.omega.z;
+    b.qx = turn.q.x;
+    b.qy = turn.q.y;
+    b.qz = turn.q.z;
+    b.qw = turn.q.w;
+    b.cx = c.x;
+    b.cy = c.y;
+    b.cz = c.z;
+    b.travel += travel;
+    b.peak_travel = max(b.peak_travel, travel);
+    b.work += work;
+    b.damping_work += damping;
+    if (!(is_finite(work) && all_finite(c) && all_finite(v) && all_finite(l))) {
+        b.finite = 0u;
+    }
+    blocks[i] = b;
+}

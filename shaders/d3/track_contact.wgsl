@@ -1,0 +1,364 @@
+// Stage 4 for D3, one invocation per contact (Rust twin: `d3::contact::track_contact`): the common
+// plane afresh (`common_plane`), then each logical contact the last detection on the CPU found
+// (keyed by its blocks' vertices) placed on it with its gap (`place_logical`), then the
+// force–displacement law (`force_law`, eqs. 13–20). Which logical contacts a contact has changes
+// only at a detection, on the CPU between cycles (module doc of `d3::gpu`).
+
+// The outward normal of face plane k of block i, in global axes (`Block::face_normal`).
+fn plane_normal(i: u32, k: u32) -> vec3<real> {
+    let pl = planes[blocks[i].plane_start + k];
+    return quat_rotate(orientation(i), vec3<real>(pl.nx, pl.ny, pl.nz));
+}
+
+// The greatest n·x over block i's vertices (`lowest`: the least).
+fn support(i: u32, n: vec3<real>, lowest: bool) -> real {
+    let start = blocks[i].vertex_start;
+    var s = dot3(n, vertex(start));
+    for (var k = 1u; k < blocks[i].vertex_count; k++) {
+        let d = dot3(n, vertex(start + k));
+        s = select(max(s, d), min(s, d), lowest);
+    }
+    return s;
+}
+
+// The separation of blocks a and b along n: least n·x over b less greatest over a.
+fn separation_along(a: u32, b: u32, n: vec3<real>) -> real {
+    return support(b, n, true) - support(a, n, false);
+}
+
+struct Plane3 {
+    normal: vec3<real>,
+    separation: real,
+}
+
+fn consider(best: Plane3, a: u32, b: u32, n: vec3<real>, slack: real) -> Plane3 {
+    let s = separation_along(a, b, n);
+    if (s > best.separation + slack) {
+        return Plane3(n, s);
+    }
+    return best;
+}
+
+// The common plane of convex blocks a and b (Rust twin: `contact::common_plane`): of the face
+// normals of either block and the cross products of an edge direction of each, the one of
+// greatest separation; where they are apart by no more than `reach`, the directions between
+// their nearest vertex and edge or vertex and vertex too.
+fn common_plane(a: u32, b: u32, reach: real) -> Plane3 {
+    var best = Plane3(vec3<real>(0.0, 0.0, 1.0), -FINITE_MAX);
+    let slack = 1e-12 * (blocks[a].radius + blocks[b].radius);
+    for (var k = 0u; k < blocks[a].plane_count; k++) {
+        best = consider(best, a, b, plane_normal(a, k), slack);
+    }
+    for (var k = 0u; k < blocks[b].plane_count; k++) {
+        best = consider(best, a, b, -plane_normal(b, k), slack);
+    }
+    let ea0 = blocks[a].edge_start;
+    let eb0 = blocks[b].edge_start;
+    let va0 = blocks[a].vertex_start;
+    let vb0 = blocks[b].vertex_start;
+    for (var i = 0u; i < blocks[a].edge_dir_count; i++) {
+        let da = vertex(va0 + edges[2u * (ea0 + i) + 1u]) - vertex(va0 + edges[2u * (ea0 + i)]);
+        for (var j = 0u; j < blocks[b].edge_dir_count; j++) {
+            let db = vertex(vb0 + edges[2u * (eb0 + j) + 1u]) - vertex(vb0 + edges[2u * (eb0 + j)]);
+            let c = cross3(da, db);
+            if (dot3(c, c) <= 1e-12 * dot3(da, da) * dot3(db, db)) {
+                continue;
+            }
+            let n = normalize3(c);
+            best = consider(best, a, b, n, slack);
+            best = consider(best, a, b, -n, slack);
+        }
+    }
+    if (best.separation > 0.0 && best.separation <= reach) {
+        let n = best.normal;
+        let hi_a = support(a, n, false);
+        let lo_b = support(b, n, true);
+        var found = false;
+        var nearest_l: real = 0.0;
+        var nearest = vec3<real>(0.0, 0.0, 0.0);
+        // Each feature edge of one block near the plane against each vertex of the other near
+        // it (block a's edges first, then block b's, the direction always from a to b).
+        for (var side = 0u; side < 2u; side++) {
+            let src = select(b, a, side == 0u);
+            let dst = select(a, b, side == 0u);
+            let sign = select(real(-1.0), real(1.0), side == 0u);
+            let e0 = blocks[src].edge_start + blocks[src].edge_dir_count;
+            let vf0 = blocks[src].vertex_start;
+            let vt0 = blocks[dst].vertex_start;
+            for (var k = 0u; k < blocks[src].feature_count; k++) {
+                let p = vertex(vf0 + edges[2u * (e0 + k)]);
+                let q = vertex(vf0 + edges[2u * (e0 + k) + 1u]);
+                if (!near(side == 0u, dot3(n, p), hi_a, lo_b, reach) && !near(side == 0u, dot3(n, q), hi_a, lo_b, reach)) {
+                    continue;
+                }
+                let d = q - p;
+                for (var m = 0u; m < blocks[dst].vertex_count; m++) {
+                    let v = vertex(vt0 + m);
+                    if (!near(side != 0u, dot3(n, v), hi_a, lo_b, reach)) {
+                        continue;
+                    }
+                    let t = clamp(dot3(v - p, d) / dot3(d, d), 0.0, 1.0);
+                    let off = (v - (p + d * t)) * sign;
+                    let l = dot3(off, off);
+                    if (l > 0.0 && (!found || l < nearest_l)) {
+                        found = true;
+                        nearest_l = l;
+                        nearest = off;
+                    }
+                }
+            }
+        }
+        for (var i = 0u; i < blocks[a].vertex_count; i++) {
+            let va = vertex(va0 + i);
+            if (!near(true, dot3(n, va), hi_a, lo_b, reach)) {
+                continue;
+            }
+            for (var j = 0u; j < blocks[b].vertex_count; j++) {
+                let vb = vertex(vb0 + j);
+                if (!near(false, dot3(n, vb), hi_a, lo_b, reach)) {
+                    continue;
+                }
+                let off = vb - va;
+                let l = dot3(off, off);
+                if (l > 0.0 && (!found || l < nearest_l)) {
+                    found = true;
+                    nearest_l = l;
+                    nearest = off;
+                }
+            }
+        }
+        if (found) {
+            best = consider(best, a, b, normalize3(nearest), slack);
+        }
+    }
+    return best;
+}
+
+// Whether a vertex at height h along the normal is near the plane: within `reach` of block 1's
+// top (`first`) or of block 2's bottom.
+fn near(first: bool, h: real, hi_a: real, lo_b: real, reach: real) -> bool {
+    if (first) {
+        return h >= hi_a - reach;
+    }
+    return h <= lo_b + reach;
+}
+
+// The distance along n from p at which the line p + s·n leaves block i (the least s over the
+// planes it heads out through), or enters it (`entering`: the greatest over those it heads in
+// through) (Rust twin: `contact::ray_crossing`); `found` false where no plane qualifies. Planes
+// within GRAZING of parallel to n are passed over (the prelude says why).
+struct Crossing {
+    s: real,
+    found: bool,
+}
+
+fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool) -> Crossing {
+    var out = Crossing(0.0, false);
+    let v0 = blocks[i].vertex_start;
+    for (var k = 0u; k < blocks[i].plane_count; k++) {
+        let nf = plane_normal(i, k);
+        let d = dot3(nf, n);
+        let x = vertex(v0 + planes[blocks[i].plane_start + k].vertex);
+        if ((entering && d < -GRAZING) || (!entering && d > GRAZING)) {
+            let s = dot3(nf, x - p) / d;
+            if (!out.found || (entering && s > out.s) || (!entering && s < out.s)) {
+                out = Crossing(s, true);
+            }
+        }
+    }
+    return out;
+}
+
+// Where a logical contact lies now, and its gap (Rust twin: `contact::place_logical`): its
+// vertex (vertex–face), or the crossing of its two edges as seen along n (edge–edge; the nearest
+// point of them where they no longer cross), on the mid-plane between the blocks' supports, then
+// moved along n to halfway between where the line along n leaves block 1 and enters block 2.
+struct Placed {
+    point: vec3<real>,
+    gap: real,
+}
+
+fn place_logical(l: Logical, a: u32, b: u32, n: vec3<real>, hi_a: real, lo_b: real, separation: real) -> Placed {
+    let mid = 0.5 * (hi_a + lo_b);
+    var x: vec3<real>;
+    if (l.kind == LOGICAL_VERTEX_FIRST) {
+        x = vertex(blocks[a].vertex_start + l.v1);
+    } else if (l.kind == LOGICAL_VERTEX_SECOND) {
+        x = vertex(blocks[b].vertex_start + l.v1);
+    } else {
+        let p0 = vertex(blocks[a].vertex_start + l.v1);
+        let r = vertex(blocks[a].vertex_start + l.v2) - p0;
+        let q0 = vertex(blocks[b].vertex_start + l.v3);
+        let s = vertex(blocks[b].vertex_start + l.v4) - q0;
+        let den = dot3(cross3(r, s), n);
+        var t: real = 0.5;
+        if (abs(den) > 1e-12 * length3(r) * length3(s)) {
+            t = clamp(dot3(cross3(q0 - p0, s), n) / den, 0.0, 1.0);
+        }
+        x = p0 + r * t;
+    }
+    let p = x + n * (mid - dot3(n, x));
+    let leave = ray_crossing(a, p, n, false);
+    let enter = ray_crossing(b, p, n, true);
+    var ls: real = 0.0;
+    var es: real = separation;
+    if (leave.found && enter.found) {
+        ls = leave.s;
+        es = enter.s;
+    }
+    return Placed(p + n * (0.5 * (ls + es)), es - ls);
+}
+
+// The force–displacement law for the contact's live logical contacts (Rust twin:
+// `contact::force_law`), at its normal n; `old` is the normal of the cycle before. Returns the
+// energy friction took.
+fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
+    let n = normal_of(c);
+    var friction: real = 0.0;
+    for (var j = 0u; j < c.logical_count; j++) {
+        let k = c.logical_start + j;
+        var l = logicals[k];
+        if (l.live == 0u) {
+            continue;
+        }
+        if (l.gap > 0.0) {
+            // Open: no force, and the shear history is lost.
+            let fs = shear_of(l);
+            if (c.ks > 0.0) {
+                friction += 0.5 * dot3(fs, fs) / c.ks;
+            }
+            l.normal_force = 0.0;
+            l.sx = 0.0;
+            l.sy = 0.0;
+            l.sz = 0.0;
+            logicals[k] = l;
+            continue;
+        }
+        // Eq. (13): block 2's point relative to block 1's; eqs. (14)–(15).
+        let p = point_of(l);
+        let u = velocity_at(c.block2, p) - velocity_at(c.block1, p);
+        let un = dot3(u, n);
+        let us = u - un * n;
+        // Eq. (16), integrated: the overlap is known.
+        l.normal_force = -c.kn * l.gap;
+        // Eq. (17): the previous shear force turned into the new plane, magnitude kept.
+        var fs = shear_of(l);
+        if (any(old != n)) {
+            let magnitude = length3(fs);
+            fs = fs - n * dot3(n, fs);
+            let left = length3(fs);
+            if (left > 0.0) {
+                fs = fs * (magnitude / left);
+            } else {
+                fs = vec3<real>(0.0, 0.0, 0.0);
+            }
+        }
+        fs = fs - us * (c.ks * dt);
+        // Eq. (20): Coulomb's limit with cohesion.
+        let limit = c.cohesion + c.friction * l.normal_force;
+        let size = length3(fs);
+        if (size > limit) {
+            let kept = max(limit, 0.0);
+            if (c.ks > 0.0) {
+                friction += kept * (size - kept) / c.ks;
+                if (kept == 0.0) {
+                    friction += 0.5 * size * size / c.ks;
+                }
+            }
+            if (size > 0.0) {
+                fs = fs * (kept / size);
+            } else {
+                fs = fs * 0.0;
+            }
+        }
+        l.sx = fs.x;
+        l.sy = fs.y;
+        l.sz = fs.z;
+        logicals[k] = l;
+    }
+    return friction;
+}
+
+// The strain energy of a logical contact's springs, Fn²/2kn + |Fs|²/2ks (`cpu::spring_energy`).
+fn spring_energy(l: Logical, c: Contact) -> real {
+    var e: real = 0.0;
+    if (c.kn > 0.0) {
+        e += 0.5 * l.normal_force * l.normal_force / c.kn;
+    }
+    if (c.ks > 0.0) {
+        let fs = shear_of(l);
+        e += 0.5 * dot3(fs, fs) / c.ks;
+    }
+    return e;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let ci = item_index(wg, li);
+    if (ci >= params.contacts) {
+        return;
+    }
+    var c = contacts[ci];
+    let a = c.block1;
+    let b = c.block2;
+    let tol = params.tol;
+    // Boxes apart by more than the contact-forming distance: the blocks are.
+    var a0 = vertex(blocks[a].vertex_start);
+    var a1 = a0;
+    for (var k = 1u; k < blocks[a].vertex_count; k++) {
+        let v = vertex(blocks[a].vertex_start + k);
+        a0 = min(a0, v);
+        a1 = max(a1, v);
+    }
+    var b0 = vertex(blocks[b].vertex_start);
+    var b1 = b0;
+    for (var k = 1u; k < blocks[b].vertex_count; k++) {
+        let v = vertex(blocks[b].vertex_start + k);
+        b0 = min(b0, v);
+        b1 = max(b1, v);
+    }
+    let gaps = max(b0 - a1, a0 - b1);
+    let apart = max(max(gaps.x, gaps.y), gaps.z) > tol;
+    var plane = Plane3(normal_of(c), FINITE_MAX);
+    if (!apart) {
+        plane = common_plane(a, b, tol);
+    }
+    let old = normal_of(c);
+    c.nx = plane.normal.x;
+    c.ny = plane.normal.y;
+    c.nz = plane.normal.z;
+    if (apart || plane.separation > tol) {
+        // Parted: the logical contacts go, their springs' energy released.
+        var released: real = 0.0;
+        for (var j = 0u; j < c.logical_count; j++) {
+            let k = c.logical_start + j;
+            if (logicals[k].live != 0u) {
+                released += spring_energy(logicals[k], c);
+                logicals[k].live = 0u;
+                logicals[k].normal_force = 0.0;
+                logicals[k].sx = 0.0;
+                logicals[k].sy = 0.0;
+                logicals[k].sz = 0.0;
+            }
+        }
+        c.released_work += released;
+        contacts[ci] = c;
+        return;
+    }
+    let n = plane.normal;
+    let hi_a = support(a, n, false);
+    let lo_b = support(b, n, true);
+    for (var j = 0u; j < c.logical_count; j++) {
+        let k = c.logical_start + j;
+        if (logicals[k].live == 0u) {
+            continue;
+        }
+        let placed = place_logical(logicals[k], a, b, n, hi_a, lo_b, plane.separation);
+        logicals[k].px = placed.point.x;
+        logicals[k].py = placed.point.y;
+        logicals[k].pz = placed.point.z;
+        logicals[k].gap = placed.gap;
+    }
+    c.friction_work += force_law(c, old, params.dt);
+    contacts[ci] = c;
+}

@@ -1,0 +1,20 @@
+//! What D3's executor asks of a backend (the CPU's, `d3::cpu`, or the GPU's, `d3::gpu`): runs of
+//! cycles through the chassis's run driver, and the state the last run left, to resume from.
+
+use super::model::Model;
+use crate::driver::{CycleError, CycleReport};
+
+pub trait Backend {
+    /// Runs `cycles` cycles of `model`. `progress` is told the cycles done at each check and may
+    /// end the run there (false).
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError>;
+    /// Whether the backend would go on from `model` as the state its last run left (SAVE
+    /// records it, `d3::restart`).
+    fn resumes_from(&self, model: &Model) -> bool;
+    /// Takes `model` as the state its last run left (RESTART of a state saved as resumable).
+    fn resume_from(&mut self, model: &Model);
+    /// Forgets the state its last run left (RESTART of a state not saved as resumable).
+    fn forget(&mut self);
+    /// The backend in words, e.g. `cpu (f64)`.
+    fn describe(&self) -> String;
+}

@@ -1,0 +1,97 @@
+//! D3's GPU state: flat storage buffers of `#[repr(C)]` Pod structs (`gpu_struct!`), mirrored in
+//! `shaders/d3/layout.wgsl` and checked against it with naga (tests/gpu_shaders.rs). Reals first,
+//! then an even number of u32 words (`gpu::real`); no vectors in storage.
+
+pub use crate::gpu::real::{Real, StructLayout};
+use crate::gpu_struct;
+
+gpu_struct! {
+    /// One polyhedral block: 224 bytes in f32, 400 in f64. State at the half step (velocity,
+    /// angular momentum and velocity) and the whole step (centroid, orientation); the inverse of
+    /// the reference-frame inertia tensor, column-major (`Block::inertia_ref`); the force and
+    /// moment sums of stage 6; and the sums since the upload of the block buffer: `travel` since
+    /// the last detection (reset at each), `peak_travel` (the largest step), `work` of gravity
+    /// and load, `damping_work` (mass damping) and `dashpot_work` (contact dashpots, booked on
+    /// block 1 of each contact).
+    Block {
+        cx: R, cy: R, cz: R,
+        /// The centroid's low parts (f32: a compensated pair, so that steps below the
+        /// coordinate's ulp are not lost; 0 in f64, whose kernels add as the CPU does).
+        cx_lo: R, cy_lo: R, cz_lo: R,
+        vx: R, vy: R, vz: R,
+        lx: R, ly: R, lz: R,
+        wx: R, wy: R, wz: R,
+        qx: R, qy: R, qz: R, qw: R,
+        mass: R,
+        inv0: R, inv1: R, inv2: R, inv3: R, inv4: R, inv5: R, inv6: R, inv7: R, inv8: R,
+        load_x: R, load_y: R, load_z: R, radius: R,
+        fx: R, fy: R, fz: R, mx: R, my: R, mz: R,
+        travel: R, peak_travel: R, work: R, damping_work: R, dashpot_work: R,
+        fixed: u32, vertex_start: u32, vertex_count: u32, plane_start: u32, plane_count: u32, edge_start: u32,
+        edge_dir_count: u32, feature_count: u32, adjacency_start: u32, adjacency_count: u32,
+        /// 1, cleared by a step that leaves a non-finite value.
+        finite: u32,
+        spare: u32,
+    }
+}
+
+gpu_struct! {
+    /// A vertex: in the block's reference frame about its centroid (`l*`), and placed in global
+    /// axes by stage 2.
+    Vertex {
+        lx: R, ly: R, lz: R,
+        x: R, y: R, z: R,
+    }
+}
+
+gpu_struct! {
+    /// A face plane of a block (one per distinct outward normal, `Shape::planes`): its normal in
+    /// the reference frame and one of its vertices (the block's numbering).
+    Plane {
+        nx: R, ny: R, nz: R,
+        vertex: u32, spare: u32,
+    }
+}
+
+gpu_struct! {
+    /// A contact: its common-plane normal, block 1's material and the energy friction took and
+    /// springs released since the upload; its logical contacts are a run of the logical buffer.
+    Contact {
+        nx: R, ny: R, nz: R,
+        kn: R, ks: R, cohesion: R, friction: R,
+        friction_work: R, released_work: R,
+        block1: u32, block2: u32, logical_start: u32, logical_count: u32,
+    }
+}
+
+gpu_struct! {
+    /// A logical contact (`model::Logical`): point, gap, normal force, shear force; its kind and
+    /// vertices (the key its shear force is carried by); `live` 0 once its contact parted.
+    Logical {
+        px: R, py: R, pz: R, gap: R, normal_force: R,
+        sx: R, sy: R, sz: R,
+        kind: u32, v1: u32, v2: u32, v3: u32, v4: u32, live: u32,
+    }
+}
+
+gpu_struct! {
+    /// The run's constants (a uniform): gravity, α and β, the time step, the contact-forming
+    /// distance, the counts.
+    Params {
+        gx: R, gy: R, gz: R,
+        alpha: R, beta: R, dt: R, tol: R, one: R,
+        blocks: u32, contacts: u32, spare0: u32, spare1: u32,
+    }
+}
+
+/// `Logical::kind`: a vertex of block 1 against block 2.
+pub const LOGICAL_VERTEX_FIRST: u32 = 0;
+/// `Logical::kind`: a vertex of block 2 against block 1.
+pub const LOGICAL_VERTEX_SECOND: u32 = 1;
+/// `Logical::kind`: an edge of block 1 across an edge of block 2.
+pub const LOGICAL_EDGE_EDGE: u32 = 2;
+
+/// Every D3 GPU struct's layout, for the naga check.
+pub fn layouts<R: Real>() -> Vec<StructLayout> {
+    vec![Block::<R>::layout(), Vertex::<R>::layout(), Plane::<R>::layout(), Contact::<R>::layout(), Logical::<R>::layout(), Params::<R>::layout()]
+}

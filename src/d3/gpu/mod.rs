@@ -1,0 +1,689 @@
+//! D3's cycle on the GPU (wgpu + WGSL, f32 or f64), on the chassis's device, precision and Pod
+//! machinery (`crate::gpu`).
+//!
+//! # What runs where
+//!
+//! The state lives in storage buffers (`layout`): blocks (centroid, velocity, angular momentum
+//! and velocity, orientation quaternion, mass, the inverse reference-frame inertia, load,
+//! fixity, the stage-6 sums), their vertices, face planes and edges, the contacts (normal,
+//! block 1's material) and their logical contacts (kind and vertices, point, gap, normal and shear
+//! force). One cycle is three kernels, each the twin of the CPU function of its name:
+//!
+//! 1. `gather` (stage 6, `cpu::gather`): per block, its weight and load and its contacts' forces
+//!    and moments, summed over the block's adjacency list in the contacts' order (no atomics on
+//!    floats; the order is the CPU's);
+//! 2. `law_of_motion` (stages 1–2, `motion::law_of_motion`): central differences, Euler's
+//!    equations through the angular momentum, the quaternion by the implicit midpoint rule, the
+//!    vertices placed;
+//! 3. `track_contact` (stage 4, `contact::track_contact`): per contact, the common plane
+//!    afresh, each logical contact placed anew with its gap, the force–displacement law with the
+//!    shear force's rotation, Coulomb with cohesion.
+//!
+//! # Detection stays on the CPU, between cycles
+//!
+//! Which pairs are neighbours (stage 7, `topology`) and which logical contacts each contact has
+//! (`contact::logical_contacts`: the touching features' projections intersected) change only on
+//! the CPU. The CPU backend finds the logical contacts afresh every cycle; the GPU backend keeps
+//! the set of the last detection and moves each member with its blocks (`track_contact`), and
+//! detects again once a block has travelled half the contact-forming distance since the last
+//! detection (`DETECTION_SHARE`): a feature further than that distance from the common plane
+//! at a detection (so not a logical contact) cannot then have reached it, the two blocks having
+//! closed on each other by less than the distance. A detection reads the state back, runs
+//! stage 7 and the CPU's stage 4 with Δt = 0 (new logical contacts, their shear forces carried
+//! by key; normal forces from the gaps), and re-uploads the blocks (their travel and adjacency),
+//! the contacts, logical contacts and adjacency lists; vertices, planes and edges (the shapes)
+//! stay on the device.
+//!
+//! So the GPU's results are not the CPU's bit for bit even in f64: between detections a vertex
+//! that slides off its face keeps its logical contact (with the gap the ray through the other
+//! block finds), and an edge–edge contact whose edges stop crossing is held at the nearer end,
+//! until the next detection, within half the contact-forming distance of travel. The twins and
+//! tests/d3_gpu.rs measure the difference.
+//!
+//! Cycles run in batches sized to the next detection at the velocities of the batch's start
+//! (`cycles_to_detection`); after each the blocks are read back (travel, finiteness, the
+//! too-fast check). The time step is the CPU's rule (`Model::timestep`, from the logical
+//! contacts there are and their lever arms) taken at each batch's start and held over it, where
+//! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
+//! repeats bit for bit.
+//!
+//! # The energy ledger
+//!
+//! The kernels add the work of gravity and loads, the mass damping's and the dashpots'
+//! dissipation (per block) and friction and released spring energy (per contact) to
+//! accumulators that count from the upload; the model's totals are the values at the upload
+//! (`Bases`) plus the accumulators, summed in f64 on the CPU at each read-back.
+
+pub mod layout;
+pub mod shaders;
+
+use glam::{DMat3, DQuat, DVec3};
+
+use super::cpu::{self, contact_stage};
+use super::model::{Logical, LogicalKind, Model};
+use super::topology;
+use crate::driver::{self, CycleError, CycleReport};
+use crate::gpu::real::Real;
+use crate::gpu::wgsl::{dispatch_grid, layouts, storage, uniform, validate, workgroup_size};
+use crate::gpu::{AdapterChoice, AdapterSummary, GpuDevice, GpuError, Precision};
+
+/// The share of the contact-forming distance a block may travel between detections.
+pub const DETECTION_SHARE: f64 = 0.5;
+
+/// The kernels of the cycle, compiled for the device's precision.
+struct Kernels {
+    group: wgpu::BindGroupLayout,
+    pipelines: Vec<wgpu::ComputePipeline>,
+}
+
+impl Kernels {
+    fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        let mut entries = vec![uniform(0)];
+        entries.extend((1..=7).map(|b| storage(b, false)));
+        let (group, pipeline_layout) = layouts(&dev.device, "d3", &entries);
+        let scopes = dev.creation_scopes();
+        let mut pipelines = Vec::new();
+        for (name, _) in shaders::KERNELS {
+            let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+            validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/{name}.wgsl: {e}")))?;
+            let module = dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
+            pipelines.push(dev.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(name),
+                compilation_options: Default::default(),
+                cache: None,
+            }));
+        }
+        scopes.check(dev)?;
+        Ok(Kernels { group, pipelines })
+    }
+}
+
+/// The model's energy terms when the accumulators on the device were zero: the blocks' (work,
+/// mass damping, dashpots) at the block upload, the contacts' (friction, released) at the
+/// contact upload.
+#[derive(Clone, Copy, Debug, Default)]
+struct Bases {
+    external_work: f64,
+    mass_damping: f64,
+    contact_damping: f64,
+    friction: f64,
+    released: f64,
+}
+
+/// The state on the device.
+struct State {
+    params: wgpu::Buffer,
+    blocks: wgpu::Buffer,
+    vertices: wgpu::Buffer,
+    planes: wgpu::Buffer,
+    edges: wgpu::Buffer,
+    contacts: wgpu::Buffer,
+    logicals: wgpu::Buffer,
+    adjacency: wgpu::Buffer,
+    bind: wgpu::BindGroup,
+    /// The logical contacts' kinds as uploaded, contact by contact (the read-back's keys).
+    keys: Vec<Vec<LogicalKind>>,
+    logical_count: usize,
+    bases: Bases,
+    /// The time step in the params buffer.
+    dt: f64,
+}
+
+/// The GPU backend for D3.
+pub struct GpuBackend {
+    dev: GpuDevice,
+    kernels: Kernels,
+    state: Option<State>,
+    last_good: Model,
+    resumable: bool,
+}
+
+fn device_error(e: GpuError) -> CycleError {
+    match e {
+        GpuError::DoesNotFit(_) => CycleError::DoesNotFit(e.to_string()),
+        _ => CycleError::Setup(e.to_string()),
+    }
+}
+
+impl GpuBackend {
+    /// Opens the adapter `choice` names in `precision` and compiles the kernels.
+    pub fn new(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
+        let dev = GpuDevice::open(choice, precision)?;
+        let kernels = Kernels::new(&dev)?;
+        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false })
+    }
+
+    pub fn adapter(&self) -> &AdapterSummary {
+        &self.dev.summary
+    }
+
+    pub fn precision(&self) -> Precision {
+        self.dev.precision
+    }
+
+    /// Runs `cycles` cycles of `model` through the run driver.
+    pub fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        let mut report = CycleReport::default();
+        let resume = driver::prepare(self, model, &mut report)?;
+        let mut kept = std::mem::take(&mut self.last_good);
+        let result = driver::cycles(self, model, cycles, resume, &mut kept, &mut report, progress);
+        self.last_good = kept;
+        if result.is_err() {
+            // The device holds a state past the last good one: the next run starts afresh.
+            self.state = None;
+        }
+        result?;
+        self.resumable = cycles > 0 && self.state.is_some();
+        Ok(report)
+    }
+
+    fn buffer(&self, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        use wgpu::util::DeviceExt;
+        // A binding may not be empty, nor shorter than one of its structs: zeros stand for an
+        // empty list (the counts say it is empty).
+        let zero = [0u8; 512];
+        let contents = if bytes.is_empty() { &zero[..] } else { bytes };
+        self.dev.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+    }
+
+    /// The whole state uploaded (a run's start without resuming).
+    fn upload(&mut self, model: &Model) -> Result<(), GpuError> {
+        match self.dev.precision {
+            Precision::F32 => self.upload_as::<f32>(model),
+            Precision::F64 => self.upload_as::<f64>(model),
+        }
+    }
+
+    fn upload_as<R: Real>(&mut self, model: &Model) -> Result<(), GpuError> {
+        let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let mut vertices = Vec::new();
+        let mut planes = Vec::new();
+        let mut edges = Vec::new();
+        for b in &model.blocks {
+            for (l, g) in b.shape.vertices.iter().zip(&b.vertices) {
+                let r = |x: f64| R::from_f64(x);
+                vertices.push(layout::Vertex::<R> { lx: r(l.x), ly: r(l.y), lz: r(l.z), x: r(g.x), y: r(g.y), z: r(g.z) });
+            }
+            for &f in &b.shape.planes {
+                let n = b.shape.normals[f as usize];
+                planes.push(layout::Plane::<R> {
+                    nx: R::from_f64(n.x),
+                    ny: R::from_f64(n.y),
+                    nz: R::from_f64(n.z),
+                    vertex: b.shape.faces[f as usize][0],
+                    spare: 0,
+                });
+            }
+            for &e in &b.shape.edge_directions {
+                let e = b.shape.edges[e as usize];
+                edges.extend([e.a, e.b]);
+            }
+            for e in b.shape.edges.iter().filter(|e| e.feature) {
+                edges.extend([e.a, e.b]);
+            }
+        }
+        let params = params::<R>(model, model.timestep());
+        let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        let params = self.buffer("d3 params", bytemuck::bytes_of(&params), uniform_usage);
+        let vertices = self.buffer("d3 vertices", bytemuck::cast_slice(&vertices), storage_usage);
+        let planes = self.buffer("d3 planes", bytemuck::cast_slice(&planes), storage_usage);
+        let edges = self.buffer("d3 edges", bytemuck::cast_slice(&edges), storage_usage);
+        let (blocks, contacts, logicals, adjacency, keys, logical_count) = self.topology_buffers::<R>(model);
+        let bind = self.bind(&[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency]);
+        let bases = bases(model);
+        let dt = model.timestep();
+        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, bind, keys, logical_count, bases, dt });
+        Ok(())
+    }
+
+    fn bind(&self, buffers: &[&wgpu::Buffer; 8]) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> =
+            buffers.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+        self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("d3"), layout: &self.kernels.group, entries: &entries })
+    }
+
+    /// The buffers a detection changes: blocks (their travel reset and adjacency lists),
+    /// contacts, logical contacts and adjacency.
+    #[allow(clippy::type_complexity)]
+    fn topology_buffers<R: Real>(&self, model: &Model) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, Vec<Vec<LogicalKind>>, usize) {
+        let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        // Adjacency: each block's contacts in the contacts' order.
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); model.blocks.len()];
+        for (k, c) in model.contacts.iter().enumerate() {
+            lists[c.blocks[0] as usize].push(2 * k as u32);
+            lists[c.blocks[1] as usize].push(2 * k as u32 + 1);
+        }
+        let mut adjacency = Vec::new();
+        let mut blocks = Vec::with_capacity(model.blocks.len());
+        let (mut vertex_start, mut plane_start, mut edge_start) = (0u32, 0u32, 0u32);
+        for (b, list) in model.blocks.iter().zip(&lists) {
+            let inv = if b.inertia_ref.determinant() > 0.0 { b.inertia_ref.inverse() } else { DMat3::ZERO };
+            let r = |x: f64| R::from_f64(x);
+            let cols = inv.to_cols_array();
+            let feature_count = b.shape.edges.iter().filter(|e| e.feature).count() as u32;
+            // The centroid in the kernel precision and what that leaves (the compensated pair).
+            let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
+            blocks.push(layout::Block::<R> {
+                cx: hi[0],
+                cy: hi[1],
+                cz: hi[2],
+                cx_lo: r(b.centroid.x - hi[0].to_f64()),
+                cy_lo: r(b.centroid.y - hi[1].to_f64()),
+                cz_lo: r(b.centroid.z - hi[2].to_f64()),
+                vx: r(b.velocity.x),
+                vy: r(b.velocity.y),
+                vz: r(b.velocity.z),
+                lx: r(b.angular_momentum.x),
+                ly: r(b.angular_momentum.y),
+                lz: r(b.angular_momentum.z),
+                wx: r(b.angular_velocity.x),
+                wy: r(b.angular_velocity.y),
+                wz: r(b.angular_velocity.z),
+                qx: r(b.orientation.x),
+                qy: r(b.orientation.y),
+                qz: r(b.orientation.z),
+                qw: r(b.orientation.w),
+                mass: r(b.mass),
+                inv0: r(cols[0]),
+                inv1: r(cols[1]),
+                inv2: r(cols[2]),
+                inv3: r(cols[3]),
+                inv4: r(cols[4]),
+                inv5: r(cols[5]),
+                inv6: r(cols[6]),
+                inv7: r(cols[7]),
+                inv8: r(cols[8]),
+                load_x: r(b.load.x),
+                load_y: r(b.load.y),
+                load_z: r(b.load.z),
+                radius: r(b.shape.radius),
+                fx: r(b.force.x),
+                fy: r(b.force.y),
+                fz: r(b.force.z),
+                mx: r(b.moment.x),
+                my: r(b.moment.y),
+                mz: r(b.moment.z),
+                travel: r(b.travel),
+                fixed: b.fixed as u32,
+                vertex_start,
+                vertex_count: b.shape.vertices.len() as u32,
+                plane_start,
+                plane_count: b.shape.planes.len() as u32,
+                edge_start,
+                edge_dir_count: b.shape.edge_directions.len() as u32,
+                feature_count,
+                adjacency_start: adjacency.len() as u32,
+                adjacency_count: list.len() as u32,
+                finite: 1,
+                ..Default::default()
+            });
+            adjacency.extend_from_slice(list);
+            vertex_start += b.shape.vertices.len() as u32;
+            plane_start += b.shape.planes.len() as u32;
+            edge_start += b.shape.edge_directions.len() as u32 + feature_count;
+        }
+        let mut contacts = Vec::with_capacity(model.contacts.len());
+        let mut logicals = Vec::new();
+        let mut keys = Vec::with_capacity(model.contacts.len());
+        for c in &model.contacts {
+            let mat = model.contact_material(c);
+            let r = |x: f64| R::from_f64(x);
+            contacts.push(layout::Contact::<R> {
+                nx: r(c.normal.x),
+                ny: r(c.normal.y),
+                nz: r(c.normal.z),
+                kn: r(mat.kn),
+                ks: r(mat.ks),
+                cohesion: r(mat.cohesion),
+                friction: r(mat.friction),
+                block1: c.blocks[0],
+                block2: c.blocks[1],
+                logical_start: logicals.len() as u32,
+                logical_count: c.logical.len() as u32,
+                ..Default::default()
+            });
+            keys.push(c.logical.iter().map(|l| l.kind).collect());
+            for l in &c.logical {
+                let (kind, v1, v2, v3, v4) = match l.kind {
+                    LogicalKind::VertexFace { on_first: true, vertex } => (layout::LOGICAL_VERTEX_FIRST, vertex, 0, 0, 0),
+                    LogicalKind::VertexFace { on_first: false, vertex } => (layout::LOGICAL_VERTEX_SECOND, vertex, 0, 0, 0),
+                    LogicalKind::EdgeEdge { first, second } => (layout::LOGICAL_EDGE_EDGE, first.0, first.1, second.0, second.1),
+                };
+                logicals.push(layout::Logical::<R> {
+                    px: r(l.point.x),
+                    py: r(l.point.y),
+                    pz: r(l.point.z),
+                    gap: r(l.gap),
+                    normal_force: r(l.normal_force),
+                    sx: r(l.shear_force.x),
+                    sy: r(l.shear_force.y),
+                    sz: r(l.shear_force.z),
+                    kind,
+                    v1,
+                    v2,
+                    v3,
+                    v4,
+                    live: 1,
+                });
+            }
+        }
+        let logical_count = logicals.len();
+        (
+            self.buffer("d3 blocks", bytemuck::cast_slice(&blocks), storage_usage),
+            self.buffer("d3 contacts", bytemuck::cast_slice(&contacts), storage_usage),
+            self.buffer("d3 logicals", bytemuck::cast_slice(&logicals), storage_usage),
+            self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency), storage_usage),
+            keys,
+            logical_count,
+        )
+    }
+
+    /// After a detection: the blocks, contacts, logical contacts and adjacency re-uploaded (the
+    /// shapes stay), the bases moved to the model's totals now.
+    fn reupload(&mut self, model: &Model) {
+        let (blocks, contacts, logicals, adjacency, keys, logical_count) = match self.dev.precision {
+            Precision::F32 => self.topology_buffers::<f32>(model),
+            Precision::F64 => self.topology_buffers::<f64>(model),
+        };
+        let Some(s) = self.state.as_ref() else { return };
+        let bind = self.bind(&[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency]);
+        let s = self.state.as_mut().expect("state");
+        (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) = (blocks, contacts, logicals, adjacency, bind, keys, logical_count);
+        s.bases = bases(model);
+    }
+
+    /// Writes the time step `dt` into the params where it changed.
+    fn set_timestep(&mut self, model: &Model, dt: f64) {
+        let Some(s) = self.state.as_mut() else { return };
+        if s.dt == dt {
+            return;
+        }
+        s.dt = dt;
+        match self.dev.precision {
+            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, dt))),
+            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, dt))),
+        }
+    }
+
+    /// Records `n` cycles' kernels and submits them.
+    fn dispatch(&self, model: &Model, n: u64) {
+        let Some(s) = self.state.as_ref() else { return };
+        let wg = workgroup_size();
+        let blocks = dispatch_grid((model.blocks.len() as u32).div_ceil(wg).max(1));
+        let contacts = dispatch_grid((model.contacts.len() as u32).div_ceil(wg).max(1));
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("d3 cycles") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("d3 cycles"), timestamp_writes: None });
+            pass.set_bind_group(0, &s.bind, &[]);
+            for _ in 0..n {
+                for (k, grid) in [blocks, blocks, contacts].into_iter().enumerate() {
+                    pass.set_pipeline(&self.kernels.pipelines[k]);
+                    pass.dispatch_workgroups(grid.0, grid.1, 1);
+                }
+            }
+        }
+        self.dev.queue.submit([enc.finish()]);
+    }
+
+    /// Reads the blocks back into the model (state, sums, vertices placed on the CPU in f64);
+    /// returns the index of a block left non-finite, if any, and the largest step's travel of
+    /// each.
+    fn read_blocks(&self, model: &mut Model) -> Result<(Option<usize>, Vec<f64>), GpuError> {
+        match self.dev.precision {
+            Precision::F32 => self.read_blocks_as::<f32>(model),
+            Precision::F64 => self.read_blocks_as::<f64>(model),
+        }
+    }
+
+    fn read_blocks_as<R: Real>(&self, model: &mut Model) -> Result<(Option<usize>, Vec<f64>), GpuError> {
+        let Some(s) = self.state.as_ref() else { return Ok((None, Vec::new())) };
+        let gpu: Vec<layout::Block<R>> = self.dev.read_pod(&s.blocks, model.blocks.len())?;
+        let f = |x: R| x.to_f64();
+        let mut bad = None;
+        let mut peaks = Vec::with_capacity(gpu.len());
+        let (mut work, mut damping, mut dashpots) = (0.0, 0.0, 0.0);
+        for (k, (b, g)) in model.blocks.iter_mut().zip(&gpu).enumerate() {
+            b.centroid = DVec3::new(f(g.cx) + f(g.cx_lo), f(g.cy) + f(g.cy_lo), f(g.cz) + f(g.cz_lo));
+            b.velocity = DVec3::new(f(g.vx), f(g.vy), f(g.vz));
+            b.angular_momentum = DVec3::new(f(g.lx), f(g.ly), f(g.lz));
+            b.angular_velocity = DVec3::new(f(g.wx), f(g.wy), f(g.wz));
+            b.orientation = DQuat::from_xyzw(f(g.qx), f(g.qy), f(g.qz), f(g.qw));
+            b.force = DVec3::new(f(g.fx), f(g.fy), f(g.fz));
+            b.moment = DVec3::new(f(g.mx), f(g.my), f(g.mz));
+            b.travel = f(g.travel);
+            if g.finite == 0 && bad.is_none() {
+                bad = Some(k);
+            }
+            if bad.is_none() {
+                b.place_vertices();
+            }
+            peaks.push(f(g.peak_travel));
+            work += f(g.work);
+            damping += f(g.damping_work);
+            dashpots += f(g.dashpot_work);
+        }
+        model.external_work = s.bases.external_work + work;
+        model.dissipated.mass_damping = s.bases.mass_damping + damping;
+        model.dissipated.contact_damping = s.bases.contact_damping + dashpots;
+        Ok((bad, peaks))
+    }
+
+    /// Reads the contacts and logical contacts back into the model: normals, points, gaps and
+    /// forces; logical contacts of a contact that parted dropped.
+    fn read_contacts(&self, model: &mut Model) -> Result<(), GpuError> {
+        match self.dev.precision {
+            Precision::F32 => self.read_contacts_as::<f32>(model),
+            Precision::F64 => self.read_contacts_as::<f64>(model),
+        }
+    }
+
+    fn read_contacts_as<R: Real>(&self, model: &mut Model) -> Result<(), GpuError> {
+        let Some(s) = self.state.as_ref() else { return Ok(()) };
+        let n = model.contacts.len();
+        let (contacts, logicals) = self.dev.read_parts(
+            &[
+                (&s.contacts, (n * std::mem::size_of::<layout::Contact<R>>()) as u64),
+                (&s.logicals, (s.logical_count * std::mem::size_of::<layout::Logical<R>>()) as u64),
+            ],
+            |bytes| (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1])),
+        )?;
+        let f = |x: R| x.to_f64();
+        let (mut friction, mut released) = (0.0, 0.0);
+        for ((c, g), keys) in model.contacts.iter_mut().zip(&contacts).zip(&s.keys) {
+            c.normal = DVec3::new(f(g.nx), f(g.ny), f(g.nz));
+            friction += f(g.friction_work);
+            released += f(g.released_work);
+            let run = &logicals[g.logical_start as usize..(g.logical_start + g.logical_count) as usize];
+            c.logical = run
+                .iter()
+                .zip(keys)
+                .filter(|(l, _)| l.live != 0)
+                .map(|(l, kind)| Logical {
+                    kind: *kind,
+                    point: DVec3::new(f(l.px), f(l.py), f(l.pz)),
+                    gap: f(l.gap),
+                    normal_force: f(l.normal_force),
+                    shear_force: DVec3::new(f(l.sx), f(l.sy), f(l.sz)),
+                })
+                .collect();
+            if c.logical.is_empty() {
+                c.category = None;
+                c.area = 0.0;
+            }
+        }
+        model.dissipated.friction = s.bases.friction + friction;
+        model.dissipated.released = s.bases.released + released;
+        Ok(())
+    }
+
+    /// The whole state read back into the model.
+    fn read_all(&self, model: &mut Model) -> Result<Option<usize>, GpuError> {
+        let (bad, _) = self.read_blocks(model)?;
+        self.read_contacts(model)?;
+        Ok(bad)
+    }
+
+    /// A detection between cycles: the state read back, stage 7 (neighbour lists) and the CPU's
+    /// stage 4 with Δt = 0 (the logical contacts afresh), the changed buffers re-uploaded.
+    fn detect(&mut self, model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
+        self.read_contacts(model).map_err(device_error)?;
+        let (created, dropped) = topology::update_neighbours(model);
+        report.topology_updates += 1;
+        report.contacts_created += created;
+        report.contacts_dropped += dropped;
+        contact_stage(model, 0.0);
+        cpu::overlap_check(model)?;
+        self.reupload(model);
+        Ok(())
+    }
+}
+
+/// The run's constants as the kernels take them, with the time step `dt`.
+fn params<R: Real>(model: &Model, dt: f64) -> layout::Params<R> {
+    let r = |x: f64| R::from_f64(x);
+    layout::Params::<R> {
+        gx: r(model.gravity.x),
+        gy: r(model.gravity.y),
+        gz: r(model.gravity.z),
+        alpha: r(model.damping.alpha),
+        beta: r(model.damping.beta),
+        dt: r(dt),
+        tol: r(model.contact_tolerance()),
+        one: r(1.0),
+        blocks: model.blocks.len() as u32,
+        contacts: model.contacts.len() as u32,
+        ..Default::default()
+    }
+}
+
+fn bases(model: &Model) -> Bases {
+    Bases {
+        external_work: model.external_work,
+        mass_damping: model.dissipated.mass_damping,
+        contact_damping: model.dissipated.contact_damping,
+        friction: model.dissipated.friction,
+        released: model.dissipated.released,
+    }
+}
+
+/// How many cycles, at the velocities now, until the first free block has travelled
+/// `DETECTION_SHARE` of the contact-forming distance since the last detection (at least 1);
+/// None when nothing moves.
+pub fn cycles_to_detection(model: &Model) -> Option<u64> {
+    let dt = model.timestep();
+    let limit = DETECTION_SHARE * model.contact_tolerance();
+    model
+        .blocks
+        .iter()
+        .filter(|b| !b.fixed)
+        .filter_map(|b| {
+            let s = b.velocity.length() * dt + b.angular_velocity.length() * dt * b.shape.radius;
+            (s > 0.0 && s.is_finite()).then(|| ((limit - b.travel).max(0.0) / s).floor().min(1e9) as u64 + 1)
+        })
+        .min()
+}
+
+impl driver::Start<Model> for GpuBackend {
+    fn take_resumable(&mut self) -> Option<&Model> {
+        std::mem::take(&mut self.resumable).then_some(&self.last_good)
+    }
+
+    fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        cpu::preflight(model)
+    }
+
+    fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        if resume && self.state.is_some() {
+            return Ok(());
+        }
+        let (created, dropped) = topology::update_neighbours(model);
+        report.topology_updates += 1;
+        report.contacts_created += created;
+        report.contacts_dropped += dropped;
+        contact_stage(model, 0.0);
+        self.upload(model).map_err(device_error)
+    }
+}
+
+impl driver::Stages<Model> for GpuBackend {
+    fn advance(&mut self, model: &mut Model, max: u64, _cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
+        let n = cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1));
+        // The time step as the CPU takes it (`Model::timestep`, from the contacts there are), at
+        // the batch's start: the kernels hold it over the batch (the CPU renews it each cycle,
+        // as the logical contacts' lever arms move).
+        let dt = model.timestep();
+        self.set_timestep(model, dt);
+        self.dispatch(model, n);
+        let (bad, peaks) = self.read_blocks(model).map_err(device_error)?;
+        let first = model.cycle + 1;
+        for _ in 0..n {
+            model.cycle += 1;
+            model.time += dt;
+        }
+        if let Some(k) = bad {
+            return Err(CycleError::NonFinite { cycle: first, block: model.blocks[k].id, what: "a non-finite position or velocity".into() });
+        }
+        // A block that moved more than the contact-forming distance in one step could pass a
+        // contact unseen, unless it is alone (as on the CPU, `cpu::cycle`).
+        let tol = model.contact_tolerance();
+        let fastest = peaks.iter().copied().fold(0.0, f64::max);
+        for (k, &travel) in peaks.iter().enumerate() {
+            if travel > tol && !topology::alone(model, k, travel + fastest + topology::neighbour_margin(model)) {
+                return Err(CycleError::TooFast { cycle: model.cycle, block: model.blocks[k].id, travel, limit: tol, speed: travel / dt });
+            }
+        }
+        let limit = DETECTION_SHARE * tol;
+        if model.neighbours_stale || model.blocks.iter().any(|b| b.travel >= limit) {
+            self.detect(model, report)?;
+        }
+        Ok(n)
+    }
+
+    fn energy(&mut self, model: &mut Model) -> Result<(f64, f64), CycleError> {
+        self.read_all(model).map_err(device_error)?;
+        cpu::overlap_check(model)?;
+        let e = model.energies();
+        Ok((e.kinetic + e.strain, e.external_work))
+    }
+
+    fn keep(&mut self, model: &Model, last_good: &mut Model) {
+        last_good.clone_from(model);
+    }
+
+    fn finish(&mut self, model: &mut Model) -> Result<(), CycleError> {
+        self.read_all(model).map_err(device_error)?;
+        Ok(())
+    }
+}
+
+impl super::backend::Backend for GpuBackend {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        GpuBackend::run(self, model, cycles, progress)
+    }
+
+    fn resumes_from(&self, model: &Model) -> bool {
+        self.resumable && self.last_good == *model
+    }
+
+    fn resume_from(&mut self, model: &Model) {
+        // The device's state is not the saved one: the next run uploads it afresh (a detection
+        // at its start, as after any command).
+        self.last_good.clone_from(model);
+        self.state = None;
+        self.resumable = false;
+    }
+
+    fn forget(&mut self) {
+        self.state = None;
+        self.resumable = false;
+        self.last_good = Model::default();
+    }
+
+    fn describe(&self) -> String {
+        let a = self.adapter();
+        format!("gpu ({}, {} [{}], {})", a.backend, a.name, a.driver_name(), self.precision())
+    }
+}

@@ -1,0 +1,47 @@
+//! D3's WGSL sources: a prelude generated here (the precision alias, the workgroup size, the
+//! shared math constants: constants live in Rust, STYLE.md item 4), `shaders/math.wgsl` (the
+//! dimension-free helpers), `shaders/d3/layout.wgsl` (structs and bindings),
+//! `shaders/d3/common.wgsl` (vector and quaternion helpers), then one kernel file, named like its
+//! Rust twin.
+
+use crate::gpu::wgsl::{math_constants, workgroup_size, MATH, MAX_GROUPS_PER_DIMENSION};
+use crate::gpu::Precision;
+
+pub const LAYOUT: &str = include_str!("../../../shaders/d3/layout.wgsl");
+pub const COMMON: &str = include_str!("../../../shaders/d3/common.wgsl");
+
+/// The cycle's kernels in the order they run, each with its Rust twin's name: stage 6
+/// (`cpu::gather`), stages 1–2 (`motion::law_of_motion`), stage 4 (`contact::track_contact`).
+pub const KERNELS: &[(&str, &str)] = &[
+    ("gather", include_str!("../../../shaders/d3/gather.wgsl")),
+    ("law_of_motion", include_str!("../../../shaders/d3/law_of_motion.wgsl")),
+    ("track_contact", include_str!("../../../shaders/d3/track_contact.wgsl")),
+];
+
+/// The prelude: the precision switch and the constants.
+pub fn prelude(precision: Precision) -> String {
+    // COMPENSATED: the f32 kernels keep the centroid as a compensated pair (law_of_motion.wgsl);
+    // the f64 ones add as the CPU does, so that they follow it to round-off.
+    //
+    // GRAZING: `ray_crossing` passes over a face plane whose normal is within GRAZING (the
+    // cosine) of perpendicular to the ray; the CPU takes 1e-9. The ray through a block's corner
+    // meets every face at the corner at one point, and for a face nearly parallel to the ray
+    // the crossing is round-off over that cosine: in f32, 1e-7 m over a box tilted by 1e-5 rad
+    // put the crossing centimetres off, and a sliding box's corners took forces of kilonewtons
+    // at random and rocked it. The faces across the ray give the crossing to round-off.
+    let (real, compensated, grazing) = match precision {
+        Precision::F32 => ("f32", true, "1e-3"),
+        Precision::F64 => ("f64", false, "1e-9"),
+    };
+    format!(
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst GRAZING: real = {grazing};\n{}",
+        workgroup_size(),
+        math_constants(precision)
+    )
+}
+
+/// The full source of one kernel in one precision.
+pub fn source(kernel: &str, precision: Precision) -> Option<String> {
+    let body = KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
+    Some(format!("{}\n{MATH}\n{LAYOUT}\n{COMMON}\n{body}", prelude(precision)))
+}

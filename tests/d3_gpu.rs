@@ -1,0 +1,261 @@
+//! D3 on the GPU (`d3::gpu`) against the CPU reference (`d3::cpu`), on Vulkan f32 and f64 and GL
+//! f32 (lavapipe and llvmpipe here; the GPU tests' convention, tests/common: skipped without the
+//! adapter, a failure under `BLOCKDEM_REQUIRE_GPU=1`).
+//!
+//! Tolerances, and why: the GPU keeps each contact's logical contacts between detections and
+//! moves them with their blocks (module doc of `d3::gpu`), where the CPU finds them afresh each
+//! cycle, so even in f64 the two differ by more than round-off where the contact's touching
+//! region changes; where it does not, the f64 GPU is its Rust twin (`contact::track_contact`) to
+//! round-off. In f32 a position carries ~1e-7 relative round-off: at 1 m from the origin and a
+//! contact stiffness of 1e8–1e9 N/m that is a force of 10–100 N on a contact, a few thousandths
+//! of the loads here. Each test states what it measured; the bounds are a few times that.
+
+mod common;
+
+use blockdem::d3::exec::Executor;
+use blockdem::d3::gpu::GpuBackend;
+use blockdem::d3::model::Model;
+use blockdem::udec::gpu::{GpuOptions, Precision};
+use common::Target;
+
+const SAMPLE: &str = include_str!("../examples/d3_two_tetrahedra.dat");
+
+/// Runs a D3 deck on the CPU (None) or on the GPU with `options`.
+fn run(deck: &str, gpu: Option<&GpuOptions>) -> Model {
+    let commands = blockdem::d3::deck::parse_deck(deck, "<test>").unwrap();
+    let backend: Box<dyn blockdem::d3::backend::Backend> = match gpu {
+        None => Box::new(blockdem::d3::cpu::CpuBackend::new()),
+        Some(o) => Box::new(GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"))),
+    };
+    let mut exec = Executor::with_backend(Box::new(std::io::sink()), "<test>", backend);
+    exec.run(&commands).unwrap_or_else(|e| panic!("deck failed: {e}"));
+    exec.model
+}
+
+/// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32.
+fn targets() -> Vec<GpuOptions> {
+    common::GPU_TARGETS
+        .into_iter()
+        .filter_map(|(api, p)| match Target::gpu(api, p) {
+            Some(Target::Gpu(o)) => Some(o),
+            _ => None,
+        })
+        .collect()
+}
+
+fn is_f32(o: &GpuOptions) -> bool {
+    o.precision == Precision::F32
+}
+
+/// The largest difference of the blocks' centroids and of their velocities, each relative to a
+/// scale (a length and a speed).
+fn state_difference(a: &Model, b: &Model, length: f64, speed: f64) -> (f64, f64) {
+    let dx = a.blocks.iter().zip(&b.blocks).map(|(p, q)| (p.centroid - q.centroid).length()).fold(0.0, f64::max);
+    let dv = a.blocks.iter().zip(&b.blocks).map(|(p, q)| (p.velocity - q.velocity).length()).fold(0.0, f64::max);
+    (dx / length, dv / speed)
+}
+
+/// The report's sample: the tetrahedron falls onto the fixed one and rocks on a vertex–face
+/// contact; the GPU's velocities and contact force follow the CPU's.
+#[test]
+fn the_sample_runs_on_the_gpu_as_on_the_cpu() {
+    let cpu = run(SAMPLE, None);
+    for o in targets() {
+        let gpu = run(SAMPLE, Some(&o));
+        assert_eq!(gpu.cycle, cpu.cycle);
+        let (a, b) = (&cpu.blocks[1], &gpu.blocks[1]);
+        let dv = (a.velocity - b.velocity).length() / a.velocity.length();
+        let dw = (a.angular_velocity - b.angular_velocity).length() / a.angular_velocity.length();
+        let (fa, fb) = (cpu.contacts[0].normal_force(), gpu.contacts[0].normal_force());
+        let df = (fa - fb).abs() / fa;
+        eprintln!("{:?}: velocity {dv:.2e}, angular velocity {dw:.2e}, normal force {df:.2e} (relative)", o.precision);
+        // Measured: f64 3e-5 in the velocity and force, 3e-4 in the angular velocity (the logical
+        // contact tracked rather than found afresh); f32 2e-4, 2e-3 and 1e-4 (the contact's
+        // overlap in the first cycles, 3e-7 m after one, is a few ulps of the vertex's
+        // coordinate, 1.2e-7 m at z = 1).
+        let (tv, tw, tf) = if is_f32(&o) { (2e-3, 2e-2, 1e-3) } else { (3e-4, 3e-3, 3e-4) };
+        assert!(dv < tv && dw < tw && df < tf, "{:?}: velocity {dv:e}, angular velocity {dw:e}, force {df:e}", o.precision);
+        assert_eq!(gpu.contacts[0].type_name(), cpu.contacts[0].type_name());
+    }
+}
+
+/// A free 1 × 2 × 3 box spinning about an axis near the intermediate one: no contacts, so the
+/// GPU's law of motion is the CPU's (Euler's equations through the angular momentum, the
+/// quaternion by the implicit midpoint rule): the same state to round-off in f64; L kept and
+/// the energy within the scheme's O(Δt²) on both.
+#[test]
+fn a_tumbling_box_turns_on_the_gpu_as_on_the_cpu() {
+    let deck = "START\nPROP MAT=1 D=1000 KN=1E7 KS=1E7\nBOX 0 1 0 2 0 3\nVELOCITY 0 1 0 2 0 3 0 0 0 0.1 2 0.1\nCYCLE 3000\n";
+    let cpu = run(deck, None);
+    let b0 = {
+        let m = run(&deck.replace("CYCLE 3000", "CYCLE 0"), None);
+        m.blocks[0].clone()
+    };
+    let l0 = b0.angular_momentum;
+    let e0 = 0.5 * l0.dot(b0.angular_velocity_from(l0));
+    for o in targets() {
+        let gpu = run(deck, Some(&o));
+        let (c, g) = (&cpu.blocks[0], &gpu.blocks[0]);
+        let dq = (c.orientation - g.orientation).length().min((c.orientation + g.orientation).length());
+        let dw = (c.angular_velocity - g.angular_velocity).length() / c.angular_velocity.length();
+        let dl = (g.angular_momentum - l0).length() / l0.length();
+        let de = (0.5 * g.angular_momentum.dot(g.angular_velocity_from(g.angular_momentum)) - e0).abs() / e0;
+        eprintln!("{:?}: orientation {dq:.2e}, ω {dw:.2e}, ΔL {dl:.2e}, ΔE {de:.2e}", o.precision);
+        // Measured after 3000 steps: f64 1e-15 (a polynomial sin/cos against libm's), f32 3e-6.
+        let tol = if is_f32(&o) { 1e-4 } else { 1e-12 };
+        assert!(dq < tol && dw < tol, "{:?}: orientation {dq:e}, ω {dw:e}", o.precision);
+        assert!(dl < if is_f32(&o) { 1e-6 } else { 1e-14 }, "{:?}: L drifts {dl:e}", o.precision);
+        assert!(de < 1e-3, "{:?}: energy {de:e}", o.precision);
+    }
+}
+
+/// A box on a flat fixed base under gravity tilted 20° from the vertical, towards a direction
+/// oblique to the axes (a box on an incline whose dip direction is oblique): settled first under
+/// vertical gravity with mass damping (so that the contact springs do not ring), then with
+/// φ = 11.3° (F = 0.2) and no damping it slides, s = ½ g t² (sin ψ − cos ψ tan φ).
+#[test]
+fn a_box_slides_down_an_oblique_incline_on_the_gpu_as_on_the_cpu() {
+    let (psi, azimuth, mu, g) = (20f64.to_radians(), 30f64.to_radians(), 0.2, 10.0);
+    let (gh, gz) = (g * psi.sin(), -g * psi.cos());
+    let settle = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F={mu}\nBOX -2 3 -2 3 -1 0\nBOX 0 1 0 1 0 1\nFIX -2 3 -2 3 -1 -0.1\nGRAV 0 0 {gz}\nDAMP 1 160 MASS\nCYCLE 1000\n"
+    );
+    let deck = format!("{settle}DAMP 0 160 MASS\nGRAV {} {} {gz}\nCYCLE 2000\n", gh * azimuth.cos(), gh * azimuth.sin());
+    let settled = run(&settle, None);
+    let cpu = run(&deck, None);
+    let start = settled.blocks[1].centroid;
+    let t = cpu.time - settled.time;
+    let expected = 0.5 * g * t * t * (psi.sin() - psi.cos() * mu);
+    let slid = |m: &Model| {
+        let d = m.blocks[1].centroid - start;
+        d.x.hypot(d.y)
+    };
+    let s_cpu = slid(&cpu);
+    // 1.1 % measured: the normal force rings a little once gravity tilts.
+    assert!((s_cpu - expected).abs() < 0.02 * expected, "cpu: {s_cpu} vs {expected}");
+    for o in targets() {
+        let gpu = run(&deck, Some(&o));
+        let s = slid(&gpu);
+        let (dx, dv) = state_difference(&cpu, &gpu, expected, cpu.blocks[1].velocity.length());
+        eprintln!("{:?}: slid {s:.6} m (cpu {s_cpu:.6}, closed form {expected:.6}); state {dx:.2e}, {dv:.2e}", o.precision);
+        // Measured: f64 5e-7 of the slide and 1.2e-6 of the speed (the logical contacts tracked
+        // rather than found afresh, the time step held over a batch); f32 7e-6 and 6e-5.
+        let tol = if is_f32(&o) { (1e-4, 3e-3) } else { (1e-5, 1e-5) };
+        assert!(dx < tol.0 && dv < tol.1, "{:?}: positions {dx:e}, velocities {dv:e} off the cpu's", o.precision);
+        assert!((s - expected).abs() < 0.02 * expected, "{:?}: slid {s} vs {expected}", o.precision);
+    }
+}
+
+/// A stack of three boxes on a fixed base, damped to rest: each contact carries the weight above
+/// it, on both backends.
+#[test]
+fn a_stack_carries_its_weight_on_the_gpu_as_on_the_cpu() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nBOX 0 1 0 1 1 2\nBOX 0 1 0 1 2 3\n\
+                FIX -1 2 -1 2 -1 -0.1\nGRAV 0 0 -10\nDAMP 1 160 MASS\nCYCLE 3000\n";
+    let cpu = run(deck, None);
+    let weight = 2000.0 * 10.0;
+    let carried = |m: &Model| -> Vec<f64> {
+        // The contact under box k (k = 1, 2, 3) carries 4 − k boxes.
+        (1..4).map(|k| m.contacts.iter().find(|c| c.blocks[1] as usize == k && c.blocks[0] as usize == k - 1).map_or(0.0, |c| c.normal_force())).collect()
+    };
+    let f_cpu = carried(&cpu);
+    for (k, f) in f_cpu.iter().enumerate() {
+        let expected = (3 - k) as f64 * weight;
+        assert!((f - expected).abs() < 1e-3 * expected, "cpu: contact under box {} carries {f} vs {expected}", k + 1);
+    }
+    for o in targets() {
+        let gpu = run(deck, Some(&o));
+        let f = carried(&gpu);
+        let off = f.iter().zip(&f_cpu).map(|(a, b)| (a - b).abs() / b).fold(0.0, f64::max);
+        eprintln!("{:?}: {f:?} vs cpu {f_cpu:?} ({off:.2e})", o.precision);
+        // Measured: f64 4e-11, f32 1.4e-3 (a corner's overlap, 2.5e-6 m, is 20 ulps of its
+        // coordinate at z = 2).
+        let tol = if is_f32(&o) { 5e-3 } else { 1e-9 };
+        assert!(off < tol, "{:?}: forces {f:?} vs {f_cpu:?}", o.precision);
+    }
+}
+
+/// A rerun on the GPU repeats the first bit for bit: every kernel sums in a fixed order and the
+/// batches and detections depend on the state alone.
+#[test]
+fn gpu_reruns_repeat_bit_for_bit() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.3\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nBOX 0.2 1.2 0.1 1.1 1.05 2.05\n\
+                FIX -1 2 -1 2 -1 -0.1\nGRAV 1 2 -10\nVELOCITY 0.1 1.3 0 1.2 1 2.1 0.5 0 0 0 0 1\nCYCLE 1500\n";
+    for o in targets() {
+        let first = run(deck, Some(&o));
+        let second = run(deck, Some(&o));
+        assert!(first.cycle == 1500 && first.contacts.iter().any(|c| !c.logical.is_empty()));
+        assert!(first == second, "{:?}: a rerun differs", o.precision);
+        eprintln!("{:?}: two runs of 1500 cycles identical", o.precision);
+    }
+}
+
+/// The command line: `run --backend gpu` takes a 3D deck to its end on D3's GPU backend (its
+/// tables as the CPU's), and `compare` of a 3D deck reports the GPU against the CPU within a
+/// tolerance.
+#[test]
+fn run_and_compare_take_3d_decks_on_the_gpu() {
+    let Some(Target::Gpu(o)) = Target::gpu("vulkan", Precision::F64) else { return };
+    assert_eq!(o.precision, Precision::F64);
+    let exe = env!("CARGO_BIN_EXE_blockdem");
+    let dir = std::env::temp_dir().join(format!("blockdem-d3gpu-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let run = std::process::Command::new(exe)
+        .args(["run", "--backend", "gpu", "--adapter", "vulkan", "--precision", "f64", "examples/d3_two_tetrahedra.dat", "--out"])
+        .arg(dir.join("run"))
+        .output()
+        .unwrap();
+    let (out, err) = (String::from_utf8_lossy(&run.stdout), String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success(), "{out}\n{err}");
+    assert!(err.contains("the D3 engine, on gpu") && out.contains("CURRENT CYCLE COUNT = 16") && out.contains("(VERTEX-FACE)"), "{out}\n{err}");
+    let compare = std::process::Command::new(exe)
+        .args(["compare", "examples/d3_two_tetrahedra.dat", "--adapter", "vulkan", "--precision", "f64", "--tolerance", "1e-3", "--out"])
+        .arg(dir.join("compare"))
+        .output()
+        .unwrap();
+    let (out, err) = (String::from_utf8_lossy(&compare.stdout), String::from_utf8_lossy(&compare.stderr));
+    assert!(compare.status.success(), "{out}\n{err}");
+    assert!(out.contains("of the contact distance") && dir.join("compare/compare.json").exists(), "{out}");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("compare/compare.json")).unwrap()).unwrap();
+    assert_eq!(json["comparison"]["dim"], 3);
+    assert!(json["comparison"]["velocity"]["relative"].as_f64().unwrap() < 1e-3);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The GPU's stage 4 between detections places each logical contact by its key
+/// (`contact::place_logical`, twin of the WGSL's): right after a detection that is where the
+/// detection put it (`contact::logical_contacts`), to round-off, for vertex–face contacts (a
+/// stack's faces) and edge–edge ones (two crossed bars).
+#[test]
+fn a_logical_contact_is_placed_by_its_key_where_detection_found_it() {
+    use blockdem::d3::contact::{common_plane, place_logical};
+    use blockdem::d3::model::LogicalKind;
+    let decks = [
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 -0.001 1\nBOX 0.2 1.2 0.1 1.1 0.9995 2\nFIX -1 2 -1 2 -1 -0.1\nCYCLE 0\n",
+        // A bar along y lying across a bar along x: their long edges cross at four points.
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nBOX -1 1 -0.1 0.1 -0.2 0\nBOX -0.1 0.1 -1 1 -0.0005 0.2\nCYCLE 0\n",
+    ];
+    let mut kinds = (0, 0);
+    for deck in decks {
+        let m = run(deck, None);
+        for c in m.contacts.iter().filter(|c| !c.logical.is_empty()) {
+            let (a, b) = (&m.blocks[c.blocks[0] as usize], &m.blocks[c.blocks[1] as usize]);
+            let tol = m.contact_tolerance();
+            let plane = common_plane(a, b, tol);
+            let n = plane.normal;
+            let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+            let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+            for l in &c.logical {
+                let (p, gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
+                match l.kind {
+                    LogicalKind::VertexFace { .. } => kinds.0 += 1,
+                    LogicalKind::EdgeEdge { .. } => kinds.1 += 1,
+                }
+                let scale = a.shape.radius.min(b.shape.radius);
+                assert!((p - l.point).length() < 1e-12 * scale, "{:?}: point {p} vs {}", l.kind, l.point);
+                assert!((gap - l.gap).abs() < 1e-12 * scale, "{:?}: gap {gap} vs {}", l.kind, l.gap);
+            }
+        }
+    }
+    assert!(kinds.0 >= 4 && kinds.1 >= 4, "vertex–face {}, edge–edge {}", kinds.0, kinds.1);
+}
