@@ -411,7 +411,23 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     let reference = compare::run_on(Box::new(CpuBackend::new()), &commands, &name, &out.join("cpu"), progress);
     let on_gpu = compare::run_on(Box::new(gpu), &commands, &name, &out.join("gpu"), progress);
     let c = compare::compare(&reference, &on_gpu);
-    let _ = write!(Stdout, "{}", compare::table(&reference, &on_gpu, &c));
+    finish_compare(&name, &reference, &on_gpu, &c, &out, tolerance, ", or other ids")
+}
+
+/// The end of `blockdem compare`, 2D and 3D alike: the table, compare.json, and the verdict (a
+/// run that stopped where the other did not, or a difference past `--tolerance`). `differ` adds
+/// to the counts of blocks in the message for runs that end on different blocks.
+fn finish_compare<M>(
+    name: &str,
+    reference: &blockdem::compare::Outcome<M>,
+    on_gpu: &blockdem::compare::Outcome<M>,
+    c: &blockdem::compare::Comparison,
+    out: &std::path::Path,
+    tolerance: Option<f64>,
+    differ: &str,
+) -> anyhow::Result<()> {
+    use blockdem::compare;
+    let _ = write!(Stdout, "{}", compare::table(reference, on_gpu, c));
     let json = serde_json::json!({
         "deck": name,
         "reference": { "backend": reference.backend, "wall_s": reference.wall_s, "error": reference.error },
@@ -429,7 +445,7 @@ fn compare(deck: PathBuf, adapter: String, precision: PrecisionChoice, out: Path
     }
     if let Some(tol) = tolerance {
         if !c.same_blocks {
-            bail!("the runs end on different blocks ({} and {}, or other ids): a crack or deletion differs", c.blocks[0], c.blocks[1]);
+            bail!("the runs end on different blocks ({} and {}{differ}): a crack or deletion differs", c.blocks[0], c.blocks[1]);
         }
         for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
             if l.relative.is_nan() || l.relative > tol {
@@ -452,33 +468,7 @@ fn compare_d3(text: &str, name: &str, adapter: String, precision: PrecisionChoic
     let reference = compare::run_d3_on(Box::new(blockdem::d3::cpu::CpuBackend::new()), &commands, name, &out.join("cpu"), progress);
     let on_gpu = compare::run_d3_on(Box::new(gpu), &commands, name, &out.join("gpu"), progress);
     let c = compare::compare_d3(&reference, &on_gpu);
-    let _ = write!(Stdout, "{}", compare::table(&reference, &on_gpu, &c));
-    let json = serde_json::json!({
-        "deck": name,
-        "reference": { "backend": reference.backend, "wall_s": reference.wall_s, "error": reference.error },
-        "gpu": { "backend": on_gpu.backend, "wall_s": on_gpu.wall_s, "error": on_gpu.error },
-        "comparison": c,
-    });
-    let path = out.join("compare.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&json)?).with_context(|| format!("cannot write {}", path.display()))?;
-    say!("wrote {}", path.display());
-    match (&reference.error, &on_gpu.error) {
-        (None, Some(e)) => bail!("the GPU run stopped where the reference did not: {e}"),
-        (Some(e), None) => bail!("the reference run stopped where the GPU's did not: {e}"),
-        (Some(e), Some(_)) => bail!("both runs stopped (the reference: {e})"),
-        (None, None) => {}
-    }
-    if let Some(tol) = tolerance {
-        if !c.same_blocks {
-            bail!("the runs end on different blocks ({} and {})", c.blocks[0], c.blocks[1]);
-        }
-        for (what, l) in [("position", c.position), ("rotation", c.rotation), ("velocity", c.velocity)] {
-            if l.relative.is_nan() || l.relative > tol {
-                bail!("block {}'s {what} differs by {:.3e} relative, more than the tolerance {tol:e}", l.block, l.relative);
-            }
-        }
-    }
-    Ok(())
+    finish_compare(name, &reference, &on_gpu, &c, &out, tolerance, "")
 }
 
 fn adapters() -> anyhow::Result<()> {
