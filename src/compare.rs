@@ -46,6 +46,56 @@ pub struct Largest {
     pub block: u32,
 }
 
+impl Largest {
+    /// Keeps `value` (over `scale`, at `block`) if it is the largest yet; a non-finite
+    /// difference is the largest there is.
+    fn offer(&mut self, value: f64, scale: f64, block: u32) {
+        if value.is_nan() || value > self.value {
+            *self = Largest { value, relative: value / scale, block };
+        }
+    }
+
+    /// No block-by-block comparison (the runs end on different blocks).
+    const NOT_COMPARED: Largest = Largest { value: f64::NAN, relative: f64::NAN, block: 0 };
+}
+
+/// The speed velocity differences are measured against: the reference's top speed, or for a
+/// model come to rest (a top speed of round-off) the speed its largest energy term `energy`
+/// would give its free mass, √(2E/M).
+fn speed_scale(top: f64, free_mass: f64, energy: f64) -> f64 {
+    let energy_speed = if free_mass > 0.0 { (2.0 * energy / free_mass).sqrt() } else { 0.0 };
+    top.max(energy_speed).max(f64::MIN_POSITIVE)
+}
+
+/// The ledger's terms of the two runs, their differences and those over `scale` (the
+/// reference's largest term).
+fn compare_terms(a: &[(&'static str, f64)], b: &[(&'static str, f64)], scale: f64) -> Vec<(String, f64, f64)> {
+    let scale = scale.max(f64::MIN_POSITIVE);
+    a.iter().zip(b).map(|((name, x), (_, y))| (name.to_string(), (x - y).abs(), (x - y).abs() / scale)).collect()
+}
+
+/// The ledger's terms compared, from the kinetic, strain, external, dissipated (damping +
+/// friction) and released energies, 2D and 3D alike.
+fn ledger_terms(kinetic: f64, strain: f64, external_work: f64, dissipated: f64, released: f64) -> [(&'static str, f64); 5] {
+    [("kinetic", kinetic), ("strain", strain), ("external work", external_work), ("dissipated", dissipated), ("released", released)]
+}
+
+/// The run log (`run.log`) in `out`, made if need be; a sink where it cannot be written.
+fn run_log(out: &Path) -> Box<dyn std::io::Write> {
+    let _ = std::fs::create_dir_all(out);
+    match std::fs::File::create(out.join("run.log")) {
+        Ok(f) => Box::new(std::io::BufWriter::new(f)),
+        Err(_) => Box::new(std::io::sink()),
+    }
+}
+
+/// Runs `run` (a whole deck), timing it, into the run's `Outcome`.
+fn timed<M>(backend: String, run: impl FnOnce() -> (M, Result<(), String>)) -> Outcome<M> {
+    let start = Instant::now();
+    let (model, result) = run();
+    Outcome { backend, wall_s: start.elapsed().as_secs_f64(), model, error: result.err() }
+}
+
 /// The GPU run against the CPU reference.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Comparison {
@@ -85,17 +135,12 @@ pub struct Comparison {
 /// (`run.log`) into `out`; long CYCLE commands say how far they are as `progress` sets.
 pub fn run_on(backend: Box<dyn Backend>, commands: &[Located], file: &str, out: &Path, progress: Progress) -> Outcome {
     let description = backend.describe();
-    let _ = std::fs::create_dir_all(out);
-    let log: Box<dyn std::io::Write> = match std::fs::File::create(out.join("run.log")) {
-        Ok(f) => Box::new(std::io::BufWriter::new(f)),
-        Err(_) => Box::new(std::io::sink()),
-    };
     let options = RunOptions { out_dir: out.to_path_buf(), progress, ..Default::default() };
-    let mut exec = Executor::new(backend, log, options, file);
-    let start = Instant::now();
-    let result = exec.run(commands);
-    let wall_s = start.elapsed().as_secs_f64();
-    Outcome { backend: description, wall_s, model: std::mem::take(&mut exec.model), error: result.err().map(|e| e.to_string()) }
+    let mut exec = Executor::new(backend, run_log(out), options, file);
+    timed(description, || {
+        let result = exec.run(commands).map_err(|e| e.to_string());
+        (std::mem::take(&mut exec.model), result)
+    })
 }
 
 /// The GPU's final state against the reference's.
@@ -112,22 +157,13 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
     c.same_blocks = a.blocks.len() == b.blocks.len() && a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.id == y.id);
     if c.same_blocks {
         let round = a.tol.round.max(f64::MIN_POSITIVE);
-        // A model come to rest has a top speed of round-off: the speed its largest energy term
-        // would give the free mass, √(2E/M), is the scale then.
         let top = a.blocks.iter().map(|x| x.velocity[0].hypot(x.velocity[1])).fold(0.0, f64::max);
         let free_mass: f64 = a.blocks.iter().filter(|x| !x.fixed).map(|x| x.mass).sum();
-        let energy_speed = if free_mass > 0.0 { (2.0 * energy_scale(a) / free_mass).sqrt() } else { 0.0 };
-        let speed = top.max(energy_speed).max(f64::MIN_POSITIVE);
-        let larger = |l: &mut Largest, value: f64, scale: f64, block: u32| {
-            // A non-finite difference is the largest there is.
-            if value.is_nan() || value > l.value {
-                *l = Largest { value, relative: value / scale, block };
-            }
-        };
+        let speed = speed_scale(top, free_mass, energy_scale(a));
         for (x, y) in a.blocks.iter().zip(&b.blocks) {
-            larger(&mut c.position, (x.centroid[0] - y.centroid[0]).hypot(x.centroid[1] - y.centroid[1]), round, x.id);
-            larger(&mut c.rotation, (x.rotation - y.rotation).abs(), 1.0, x.id);
-            larger(&mut c.velocity, (x.velocity[0] - y.velocity[0]).hypot(x.velocity[1] - y.velocity[1]), speed, x.id);
+            c.position.offer((x.centroid[0] - y.centroid[0]).hypot(x.centroid[1] - y.centroid[1]), round, x.id);
+            c.rotation.offer((x.rotation - y.rotation).abs(), 1.0, x.id);
+            c.velocity.offer((x.velocity[0] - y.velocity[0]).hypot(x.velocity[1] - y.velocity[1]), speed, x.id);
         }
         if a.has_sdef() {
             let stresses = |m: &Model| (0..m.blocks.len()).map(|k| m.sdef_of(k).map_or([0.0; 3], |s| s.stress)).collect::<Vec<_>>();
@@ -136,7 +172,7 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
             let mut l = Largest::default();
             for ((x, y), blk) in sa.iter().zip(&sb).zip(&a.blocks) {
                 let d = x.iter().zip(y).fold(0.0f64, |m, (p, q)| if (p - q).is_nan() { f64::NAN } else { m.max((p - q).abs()) });
-                larger(&mut l, d, top, blk.id);
+                l.offer(d, top, blk.id);
             }
             c.stress = Some(l);
         }
@@ -145,11 +181,9 @@ pub fn compare(reference: &Outcome, gpu: &Outcome) -> Comparison {
         }
     } else {
         // Not the same blocks: no block-by-block comparison.
-        let nan = Largest { value: f64::NAN, relative: f64::NAN, block: 0 };
-        (c.position, c.rotation, c.velocity) = (nan, nan, nan);
+        (c.position, c.rotation, c.velocity) = (Largest::NOT_COMPARED, Largest::NOT_COMPARED, Largest::NOT_COMPARED);
     }
-    let scale = energy_scale(a).max(f64::MIN_POSITIVE);
-    c.energy = energy_terms(a).iter().zip(energy_terms(b)).map(|((name, x), (_, y))| (name.to_string(), (x - y).abs(), (x - y).abs() / scale)).collect();
+    c.energy = compare_terms(&energy_terms(a), &energy_terms(b), energy_scale(a));
     c
 }
 
@@ -169,18 +203,13 @@ fn compare_zones(a: &Model, b: &Model) -> (Option<Largest>, Option<Largest>) {
     let top = za.iter().flat_map(|(_, f)| f.zones.iter().flat_map(|z| z.stress)).fold(0.0f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
     let round = a.tol.round.max(f64::MIN_POSITIVE);
     let (mut stress, mut point) = (Largest::default(), Largest::default());
-    let larger = |l: &mut Largest, value: f64, scale: f64, block: u32| {
-        if value.is_nan() || value > l.value {
-            *l = Largest { value, relative: value / scale, block };
-        }
-    };
     for ((id, f), (_, g)) in za.iter().zip(&zb) {
         for (x, y) in f.zones.iter().zip(&g.zones) {
             let d = x.stress.iter().zip(y.stress).fold(0.0f64, |m, (p, q)| if (p - q).is_nan() { f64::NAN } else { m.max((p - q).abs()) });
-            larger(&mut stress, d, top, *id);
+            stress.offer(d, top, *id);
         }
         for (x, y) in f.gridpoints.iter().zip(&g.gridpoints) {
-            larger(&mut point, (x.position[0] - y.position[0]).hypot(x.position[1] - y.position[1]), round, *id);
+            point.offer((x.position[0] - y.position[0]).hypot(x.position[1] - y.position[1]), round, *id);
         }
     }
     (Some(stress), Some(point))
@@ -189,13 +218,7 @@ fn compare_zones(a: &Model, b: &Model) -> (Option<Largest>, Option<Largest>) {
 /// The energy ledger's terms that are compared.
 fn energy_terms(model: &Model) -> [(&'static str, f64); 5] {
     let e = model.energies();
-    [
-        ("kinetic", e.kinetic),
-        ("strain", e.strain),
-        ("external work", e.external_work),
-        ("dissipated", e.mass_damping + e.contact_damping + e.friction),
-        ("released", e.released),
-    ]
+    ledger_terms(e.kinetic, e.strain, e.external_work, e.mass_damping + e.contact_damping + e.friction, e.released)
 }
 
 /// The largest term of the ledger (J).
@@ -268,17 +291,12 @@ pub fn run_d3_on(
     progress: Progress,
 ) -> Outcome<crate::d3::model::Model> {
     let description = backend.describe();
-    let _ = std::fs::create_dir_all(out);
-    let log: Box<dyn std::io::Write> = match std::fs::File::create(out.join("run.log")) {
-        Ok(f) => Box::new(std::io::BufWriter::new(f)),
-        Err(_) => Box::new(std::io::sink()),
-    };
-    let mut exec = crate::d3::exec::Executor::with_backend(log, file, backend);
+    let mut exec = crate::d3::exec::Executor::with_backend(run_log(out), file, backend);
     exec.set_options(RunOptions { out_dir: out.to_path_buf(), progress, ..Default::default() });
-    let start = Instant::now();
-    let result = exec.run(commands);
-    let wall_s = start.elapsed().as_secs_f64();
-    Outcome { backend: description, wall_s, model: std::mem::take(&mut exec.model), error: result.err().map(|e| e.to_string()) }
+    timed(description, || {
+        let result = exec.run(commands).map_err(|e| e.to_string());
+        (std::mem::take(&mut exec.model), result)
+    })
 }
 
 /// D3's GPU final state against the reference's: positions against the contact-forming
@@ -296,13 +314,7 @@ pub fn compare_d3(reference: &Outcome<crate::d3::model::Model>, gpu: &Outcome<cr
     };
     let terms = |m: &crate::d3::model::Model| {
         let e = m.energies();
-        [
-            ("kinetic", e.kinetic),
-            ("strain", e.strain),
-            ("external work", e.external_work),
-            ("dissipated", e.mass_damping + e.contact_damping + e.friction),
-            ("released", e.released),
-        ]
+        ledger_terms(e.kinetic, e.strain, e.external_work, e.mass_damping + e.contact_damping + e.friction, e.released)
     };
     let scale = terms(a).iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
     c.same_blocks = a.blocks.len() == b.blocks.len() && a.blocks.iter().zip(&b.blocks).all(|(x, y)| x.id == y.id);
@@ -310,26 +322,18 @@ pub fn compare_d3(reference: &Outcome<crate::d3::model::Model>, gpu: &Outcome<cr
         let length = a.contact_tolerance().max(f64::MIN_POSITIVE);
         let top = a.blocks.iter().map(|x| x.velocity.length()).fold(0.0, f64::max);
         let free_mass: f64 = a.blocks.iter().filter(|x| !x.fixed).map(|x| x.mass).sum();
-        let energy_speed = if free_mass > 0.0 { (2.0 * scale / free_mass).sqrt() } else { 0.0 };
-        let speed = top.max(energy_speed).max(f64::MIN_POSITIVE);
-        let larger = |l: &mut Largest, value: f64, scale: f64, block: u32| {
-            if value.is_nan() || value > l.value {
-                *l = Largest { value, relative: value / scale, block };
-            }
-        };
+        let speed = speed_scale(top, free_mass, scale);
         for (x, y) in a.blocks.iter().zip(&b.blocks) {
-            larger(&mut c.position, (x.centroid - y.centroid).length(), length, x.id);
+            c.position.offer((x.centroid - y.centroid).length(), length, x.id);
             // The angle of the rotation from one orientation to the other, 2·atan2(|v|, |w|) of
             // q₁⁻¹q₂ (acos of a dot product loses angles below 1e-8 rad).
             let d = x.orientation.inverse() * y.orientation;
-            larger(&mut c.rotation, 2.0 * d.xyz().length().atan2(d.w.abs()), 1.0, x.id);
-            larger(&mut c.velocity, (x.velocity - y.velocity).length(), speed, x.id);
+            c.rotation.offer(2.0 * d.xyz().length().atan2(d.w.abs()), 1.0, x.id);
+            c.velocity.offer((x.velocity - y.velocity).length(), speed, x.id);
         }
     } else {
-        let nan = Largest { value: f64::NAN, relative: f64::NAN, block: 0 };
-        (c.position, c.rotation, c.velocity) = (nan, nan, nan);
+        (c.position, c.rotation, c.velocity) = (Largest::NOT_COMPARED, Largest::NOT_COMPARED, Largest::NOT_COMPARED);
     }
-    let scale = scale.max(f64::MIN_POSITIVE);
-    c.energy = terms(a).iter().zip(terms(b)).map(|((name, x), (_, y))| (name.to_string(), (x - y).abs(), (x - y).abs() / scale)).collect();
+    c.energy = compare_terms(&terms(a), &terms(b), scale);
     c
 }

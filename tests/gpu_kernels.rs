@@ -115,14 +115,14 @@ const TRACK: &str = r#"
 @compute @workgroup_size(64)
 fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
-    if (i >= arrayLength(&t_in_u) / 6u) {
+    if (i >= arrayLength(&t_in_u) / 4u) {
         return;
     }
     let c = vec2<real>(t_in_r[3u * i], t_in_r[3u * i + 1u]);
     let r = t_in_r[3u * i + 2u];
-    let start = t_in_u[6u * i];
-    let n = t_in_u[6u * i + 1u];
-    let nb = neighbourhood(start, n, t_in_u[6u * i + 2u]);
+    let start = t_in_u[4u * i];
+    let n = t_in_u[4u * i + 1u];
+    let nb = neighbourhood(start, n, t_in_u[4u * i + 2u]);
     let g = track_feature(nb, c, r);
     t_out_r[6u * i] = g.gap;
     t_out_r[6u * i + 1u] = g.normal.x;
@@ -131,7 +131,7 @@ fn test_track_feature(@builtin(global_invocation_id) gid: vec3<u32>) {
     t_out_r[6u * i + 4u] = g.point.y;
     t_out_r[6u * i + 5u] = g.distance;
     t_out_u[2u * i] = g.feature;
-    t_out_u[2u * i + 1u] = select(0u, 1u, counts_force(t_in_u[6u * i + 3u], c, r, g.gap, nb, g.feature, blocks[2u * i], blocks[2u * i + 1u]));
+    t_out_u[2u * i + 1u] = select(0u, 1u, counts_force(t_in_u[4u * i + 3u], c, r, g.gap, nb, g.feature, blocks[2u * i], blocks[2u * i + 1u]));
 }
 "#;
 
@@ -271,7 +271,7 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
         let in_range = -g.gap < limit && -other.gap < limit;
         let sure = counts(g.gap - tl) == counted && counts(g.gap + tl) == counted;
         in_r.extend([rel[0], rel[1], r]);
-        in_u.extend([start, n as u32, feature, start1, start1, n1 as u32]);
+        in_u.extend([start, n as u32, feature, start1]);
         // The two blocks as the kernel holds them: each centroid as a compensated pair.
         let block = |cen: [f64; 2], start: u32, count: usize| {
             let (hx, hy) = (R::from_f64(cen[0]), R::from_f64(cen[1]));
