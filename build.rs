@@ -14,7 +14,11 @@ fn main() {
                 println!("cargo:rerun-if-changed=.git/{}", reference.trim());
             }
         }
-        println!("cargo:rerun-if-changed=.git/packed-refs");
+        // Only when it exists: cargo counts a missing watched file as changed, and would rebuild
+        // the crate on every invocation in a repository without packed refs.
+        if git.join("packed-refs").is_file() {
+            println!("cargo:rerun-if-changed=.git/packed-refs");
+        }
     }
     let commit = Command::new("git")
         .args(["rev-parse", "--short", "HEAD"])

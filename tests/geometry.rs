@@ -565,6 +565,47 @@ fn split_block_along_a_chord() {
     assert_eq!(joints, 2);
 }
 
+/// ¶13 on a sliver (the case proptest found): the line crosses the top edge 0.54 from the corner
+/// below it, a corner of another edge (and the chord's other end); with d = 0.76 the new corner's
+/// rounding arc would overlap that corner's, which no diversion along the crossed edge cures: the
+/// cut is refused for the block.
+#[test]
+fn split_diverts_onto_a_corner_across_a_sliver() {
+    let poly = vec![
+        [23.919779763002676, 0.0],
+        [20.122599230169797, 0.5406408174555976],
+        [9.936635621250018, 0.9096319953545183],
+        [-3.4041395885043215, 0.9898214418809328],
+        [-15.664124531409508, 0.7557495743542583],
+        [-23.81183428393228, -0.09489604498306926],
+        [-21.72140328077984, -0.41876685905581845],
+        [-15.664124531409513, -0.7557495743542582],
+        [-3.404139588504327, -0.9898214418809327],
+        [9.936635621250007, -0.9096319953545186],
+        [20.122599230169797, -0.5406408174555974],
+    ];
+    let mut m = Model::default();
+    m.materials[0].block.density = 1.0;
+    m.add_block(&poly, 1, 1, None).unwrap();
+    m.set_round(0.7619681127556684);
+    let (c, s) = (m.blocks[0].centroid, m.blocks[0].radius);
+    let from = [c[0] - 0.6873386704193756 * s, c[1] + 0.7691534022767548 * s];
+    let to = [c[0] - 1.1892594063131599 * s, c[1] - 0.9275290643968269 * s];
+    let out = split_line(&mut m, from, to, Some(1), Some(1));
+    valid(&m);
+    assert_eq!(m.blocks.len(), 1, "{out:?}");
+    assert_eq!(out.rejected.len(), 1);
+    assert!(out.rejected[0].1.contains("rounding arcs would overlap"), "{out:?}");
+    // With a rounding length below that 0.54 m the same line cuts the tip off.
+    let mut m = Model::default();
+    m.materials[0].block.density = 1.0;
+    m.add_block(&poly, 1, 1, None).unwrap();
+    m.set_round(0.3);
+    let out = split_line(&mut m, from, to, Some(1), Some(1));
+    valid(&m);
+    assert_eq!((m.blocks.len(), out.split.len()), (2, 1), "{out:?}");
+}
+
 // ---------------------------------------------------------------- property-based
 
 /// A convex polygon: points on an ellipse at sorted angles at least ~2° apart.
@@ -756,3 +797,4 @@ fn split_pieces_are_given_touching_and_cycle() {
         run_deck_on(&run, cpu()).unwrap_or_else(|e| panic!("{e}\n{run}"));
     }
 }
+

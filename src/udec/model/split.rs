@@ -4,7 +4,9 @@
 //! ¶13: a split may have any orientation and may pass through corners. If a crossing point of the
 //! split line would make a new corner whose rounding arc interferes with an existing corner (here:
 //! closer to it than the rounding length d), the line is diverted through that corner. If the
-//! diverted line would then coincide with an existing edge, the split is rejected for that block.
+//! diverted line would then coincide with an existing edge, the split is rejected for that block;
+//! so it is when a new corner would still lie closer than d to a corner of another edge (a sliver,
+//! or beside a sharp corner: see `interferes`).
 //!
 //! All work is done on world outlines (a block may be rotated when it is split mid-run); the pieces
 //! get a fresh body frame with rotation 0. A block's parent is removed and its pieces are appended at
@@ -70,6 +72,23 @@ fn divert(pts: &[[f64; 2]], at: OnBoundary, d: f64, eps: f64) -> OnBoundary {
                 at
             }
         }
+    }
+}
+
+/// ¶13's interference check for a corner the diversion could not cure: a crossing left inside its
+/// edge is at least d from that edge's ends, but on a sliver or beside a sharp corner it can still
+/// lie closer than d to a corner of another edge (the chord's other end, or a corner across). Its
+/// rounding arc would overlap that corner's, and diverting onto a corner off its edge would bend
+/// the cut away from the split line (a second SPLIT along the same line would then cut again), so
+/// the split is rejected for this block instead.
+fn interferes(pts: &[[f64; 2]], at: OnBoundary, d: f64) -> Result<(), String> {
+    let OnBoundary::Edge(_, p) = at else { return Ok(()) };
+    match pts.iter().map(|&c| (c, distance(p, c))).filter(|&(_, dc)| dc < d).min_by(|a, b| a.1.total_cmp(&b.1)) {
+        Some((c, dc)) => Err(format!(
+            "a new corner at ({:.6}, {:.6}) would lie {:.4} from the corner at ({:.6}, {:.6}), closer than the rounding length {}: their rounding arcs would overlap",
+            p[0], p[1], dc, c[0], c[1], d
+        )),
+        None => Ok(()),
     }
 }
 
@@ -174,6 +193,9 @@ fn chords_along_segment(pts: &[[f64; 2]], from: [f64; 2], to: [f64; 2], d: f64) 
     for chord in &mut chords {
         *chord = (divert(pts, chord.0, d, eps), divert(pts, chord.1, d, eps));
         check_chord(pts, chord.0, chord.1, eps)?;
+        for end in [chord.0, chord.1] {
+            interferes(pts, end, d)?;
+        }
     }
     Ok(chords)
 }
