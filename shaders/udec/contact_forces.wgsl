@@ -339,6 +339,13 @@ fn slip_dissipation(fs_old: real, fs_new: real, dus: real, ks: real) -> real {
     return -0.5 * (fs_old + fs_new) * dus - (fs_new * fs_new - fs_old * fs_old) / (2.0 * ks);
 }
 
+// Whether the force law gives this contact the same result whether or not it is the counted view
+// of a corner pair: open (gap > 0), unbonded, no tension held (twin of
+// `contact::law::force_free_either_way`). Its gap is already this cycle's.
+fn force_free_either_way(c: Contact, kn: real) -> bool {
+    return c.bonded == 0u && c.normal_force >= 0.0 && c.gap > 0.0 && -kn * c.gap < 0.0;
+}
+
 // Whether a contact carries the force of its touch (twin of `contact::pair::counts_force`): of
 // the two views of one touching corner pair exactly one counts, whatever kinds they found. A view
 // on the arc of corner b, or on an edge whose nearer end b has a rounding circle overlapping the
@@ -546,7 +553,13 @@ fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: v
     c.ny = world.normal.y;
     c.px = world.point.x;
     c.py = world.point.y;
-    let counted = counts_force(c.corner, circle, corner.radius, c.gap, nb, c.feature, b1, b2);
+    // An open, unbonded view gets no force whether or not it counts: the comparison of the
+    // pair's depths is skipped for it (`force_free_either_way`).
+    let law_mat = contact_law(materials[c.material], c.length);
+    var counted = true;
+    if (!force_free_either_way(c, law_mat.kn)) {
+        counted = counts_force(c.corner, circle, corner.radius, c.gap, nb, c.feature, b1, b2);
+    }
     let m1 = Motion(d12, vec2<real>(b1.vx, b1.vy), b1.w);
     let m2 = Motion(vec2<real>(0.0, 0.0), vec2<real>(b2.vx, b2.vy), b2.w);
     let at = vec2<real>(c.px, c.py);
@@ -574,7 +587,7 @@ fn contact_stage(k: u32, contact: Contact, strained: bool, e1: vec3<real>, e2: v
         }
         vrel = v1 - v2;
     }
-    let law = contact_force_law(c, contact_law(materials[c.material], c.length), vrel, params.beta, params.dt, counted);
+    let law = contact_force_law(c, law_mat, vrel, params.beta, params.dt, counted);
     c = law.contact;
     let f = law.force;
     store_contact_state(k, c);

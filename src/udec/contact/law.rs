@@ -42,6 +42,18 @@ fn opens(fn_: f64, bonded: bool, cohesion: f64) -> bool {
     fn_ < 0.0 && (!bonded || -fn_ > cohesion)
 }
 
+/// Whether the force law gives this contact the same result whether or not it is the counted view
+/// of a corner pair (`contact::pair::counts_force`), so that stage 4 need not decide which view
+/// counts: an open (gap > 0), unbonded contact that held no tension. The uncounted view's branch
+/// and the opening branch of [`contact_force_law`] then do the same: the shear spring lets go to
+/// the slip work and the forces are zero (a bond's tension would be booked only on opening, hence
+/// `normal_force ≥ 0`; with kn = 0 an open gap gives no tension, and the law would not open).
+/// Twin of `force_free_either_way` in shaders/udec/contact_forces.wgsl.
+#[inline]
+pub fn force_free_either_way(contact: &Contact, gap: f64, kn: f64) -> bool {
+    !contact.bonded && contact.normal_force >= 0.0 && opens(-kn * gap, false, 0.0)
+}
+
 /// The normal force a contact of gap `gap` holds, eq. (16) in total form (kn times the overlap,
 /// compression positive), as the force law gives it: zero once it opens (`opens`), a tension up to
 /// `cohesion` while it is intact (pass 0 for a broken contact).
@@ -170,5 +182,36 @@ mod tests {
         let before = c;
         contact_force_law(&mut c, &mat, &still, &still, &Damping::default(), 1e-4, false);
         assert_eq!(c, before, "nothing more to let go");
+    }
+
+    /// `force_free_either_way` holds exactly where the law's result does not depend on which view
+    /// counts (stage 4 then skips the comparison of the pair's depths): an open, unbonded contact
+    /// gives the same contact counted or not, shear spring and dashpot bookings included; a closed,
+    /// a bonded or a tension-holding one is not free (counted, it carries a force or books the bond).
+    #[test]
+    fn an_open_unbonded_view_gets_the_same_law_counted_or_not() {
+        let mat = Material { contact: ContactMaterial { kn: 1e9, ks: 5e8, friction: 0.6, cohesion: 1e3, ..Default::default() }, ..Default::default() };
+        let still = BlockMotion { centroid: [0.0, 0.0], velocity: [0.0, 0.0], angular_velocity: 0.0, strain_rate: [0.0; 3] };
+        let sliding = BlockMotion { velocity: [0.3, -0.1], angular_velocity: 0.2, ..still };
+        let damping = Damping { beta: 1e-4, ..Default::default() };
+        let open = Contact { normal: [0.0, 1.0], gap: 2e-6, shear_force: 3e3, dashpot_velocity: [0.01, -0.02], ..Contact::unloaded(0, 0, 1) };
+        let kn = mat.contact.kn;
+        let cases = [
+            (open, true),
+            (Contact { gap: -1e-6, ..open }, false),
+            (Contact { bonded: true, ..open }, false),
+            (Contact { normal_force: -500.0, ..open }, false),
+        ];
+        for (c, free) in cases {
+            assert_eq!(force_free_either_way(&c, c.gap, kn), free, "{c:?}");
+            let (mut counted, mut mirror) = (c, c);
+            contact_force_law(&mut counted, &mat, &sliding, &still, &damping, 1e-4, true);
+            contact_force_law(&mut mirror, &mat, &sliding, &still, &damping, 1e-4, false);
+            if free {
+                assert_eq!(counted, mirror, "an open unbonded view: the same either way");
+            } else {
+                assert_ne!(counted, mirror, "this one depends on which view counts: {c:?}");
+            }
+        }
     }
 }

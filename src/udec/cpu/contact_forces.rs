@@ -10,7 +10,8 @@ use super::{SharedMut, MIN_CHUNK, MIN_CONTACTS_PER_THREAD};
 use crate::udec::backend::CycleError;
 use crate::udec::contact::gather::ContactForce;
 use crate::udec::contact::geometry::track_feature;
-use crate::udec::contact::law::{contact_force_law, BlockMotion};
+use crate::udec::contact::joint::law_parameters;
+use crate::udec::contact::law::{contact_force_law, force_free_either_way, BlockMotion};
 use crate::udec::contact::pair::counts_force;
 use crate::udec::model::fdef::Fdef;
 use crate::udec::model::fluid::contact_foot_in;
@@ -73,10 +74,12 @@ fn contact_piece(
         contact.gap = g.gap;
         contact.normal = g.normal;
         contact.point = g.point;
-        // The other view of a corner-pair touch carries no force (the touch counts once).
-        let corners1 = &inp.corners[b1.corner_start as usize..(b1.corner_start + b1.corner_count) as usize];
-        let active = counts_force(contact.corner, corner, g.gap, corners1, b1.corner_start, corners2, b2.corner_start, g.feature);
+        // The other view of a corner-pair touch carries no force (the touch counts once); an open,
+        // unbonded view gets none either way, and skips the comparison of the pair's depths.
         let mat = &inp.materials[material_slot(contact.material, inp.materials.len())];
+        let corners1 = &inp.corners[b1.corner_start as usize..(b1.corner_start + b1.corner_count) as usize];
+        let active = (g.gap > 0.0 && force_free_either_way(contact, g.gap, law_parameters(contact.joint_length, mat).kn))
+            || counts_force(contact.corner, corner, g.gap, corners1, b1.corner_start, corners2, b2.corner_start, g.feature);
         let (m1, m2) = if inp.fdef.is_empty() {
             (motion(contact.block1, b1), motion(contact.block2, b2))
         } else {
