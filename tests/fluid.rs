@@ -363,8 +363,9 @@ fn cycle_save_restart_cycle_is_the_same_run_bit_for_bit() {
 /// the normal force steps by kn·band and the counting view's shear spring starts afresh: 2.6e-6 m
 /// and 2.5e-3 of the largest pressure after 1200 cycles (the f32 run's own distance from the CPU
 /// reference is 5e-6 m and 4.1e-3; the pressures, bulkw·ΔA/A with bulkw = 1e9, magnify a
-/// domain's area change 1e9-fold). Counting by index alone it was 4.8e-8 m and 3.1e-6, but with
-/// a corner 2.9 cm into an edge carrying no force and the ledger 26% off.
+/// domain's area change 1e9-fold); the energy terms 2.2e-6 (the strain energy, of 1.1 J; the
+/// others ≤ 1.7e-6 of their size), bounded at 2e-5. Counting by index alone it was 4.8e-8 m and
+/// 3.1e-6, but with a corner 2.9 cm into an edge carrying no force and the ledger 26% off.
 fn a_restarted_run_agrees_with_the_run_straight_through(t: &Target) {
     let tag: String = t.name().chars().filter(|c| c.is_ascii_alphanumeric()).collect();
     let dir = std::env::temp_dir().join(format!("blockdem-fluid-restart-{}-{tag}", std::process::id()));
@@ -379,7 +380,7 @@ fn a_restarted_run_agrees_with_the_run_straight_through(t: &Target) {
         assert!(fluid_bits(&whole) == fluid_bits(&resumed), "bit for bit on the CPU");
         return;
     }
-    let (p_tol, x_tol, e_tol) = if t.is_f32() { (5e-3, 1e-5, 2e-3) } else { (1e-11, 1e-12, 1e-11) };
+    let (p_tol, x_tol, e_tol) = if t.is_f32() { (5e-3, 1e-5, 2e-5) } else { (1e-11, 1e-12, 1e-11) };
     assert_eq!(whole.cycle, resumed.cycle);
     let (wd, rd) = (whole.domains.as_ref().unwrap(), resumed.domains.as_ref().unwrap());
     let p_max = wd.list.iter().map(|d| d.pressure.abs()).fold(0.0, f64::max);
