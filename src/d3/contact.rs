@@ -53,8 +53,24 @@
 //! β·k on the relative velocity, not stored, as in 2D.
 
 use glam::{DVec2, DVec3};
+use smallvec::SmallVec;
 
 use super::model::{Block, Contact, Feature, Logical, LogicalKind, Material};
+
+/// A short list kept on the stack: stage 4 builds several per contact every cycle (the features
+/// near the plane, their hulls, the logical contacts), and a heap list each was a third of the
+/// cubes' cycle in malloc and free. Longer lists (blocks of many faces) spill to the heap.
+type Few<T> = SmallVec<[T; 8]>;
+
+/// The outward normals of a block's face planes (`Shape::planes`, in that order) in global axes,
+/// turned once for a contact's stage 4 rather than at each of the common plane's axes and each
+/// logical contact's ray crossings.
+pub type PlaneNormals = Few<DVec3>;
+
+/// [`PlaneNormals`] of `block`.
+pub fn plane_normals(block: &Block) -> PlaneNormals {
+    block.shape.planes.iter().map(|&f| block.face_normal(f as usize)).collect()
+}
 
 /// The common plane of two blocks and the features of each that touch it.
 #[derive(Clone, Debug, PartialEq)]
@@ -77,24 +93,25 @@ pub struct CommonPlane {
 /// about to touch is recognised as such). Once they overlap, a vertex pressed into an edge's
 /// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
 pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
-    let sep = |n: DVec3| -> f64 {
-        let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
-        let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
-        lo_b - hi_a
-    };
+    common_plane_with(a, b, &plane_normals(a), &plane_normals(b), reach)
+}
+
+/// [`common_plane`] given the blocks' [`PlaneNormals`] (`na` of `a`, `nb` of `b`).
+pub fn common_plane_with(a: &Block, b: &Block, na: &[DVec3], nb: &[DVec3], reach: f64) -> CommonPlane {
+    let sep = |n: DVec3| -> f64 { least(&b.vertices, n) - greatest(&a.vertices, n) };
     let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY };
     let slack = 1e-12 * (a.shape.radius + b.shape.radius);
-    let consider = |best: &mut CommonPlane, n: DVec3| {
-        let s = sep(n);
+    let offer = |best: &mut CommonPlane, n: DVec3, s: f64| {
         if s > best.separation + slack {
             *best = CommonPlane { normal: n, separation: s };
         }
     };
-    for &f in &a.shape.planes {
-        consider(&mut best, a.face_normal(f as usize));
+    let consider = |best: &mut CommonPlane, n: DVec3| offer(best, n, sep(n));
+    for &n in na {
+        consider(&mut best, n);
     }
-    for &f in &b.shape.planes {
-        consider(&mut best, -b.face_normal(f as usize));
+    for &n in nb {
+        consider(&mut best, -n);
     }
     for &i in &a.shape.edge_directions {
         let ea = a.shape.edges[i as usize];
@@ -106,9 +123,14 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
             if c.length_squared() <= 1e-12 * da.length_squared() * db.length_squared() {
                 continue;
             }
+            // Both senses of the axis from one set of projections: along −n every projection
+            // is exactly the negative of its value along n, so the support of one block along
+            // −n is minus its least projection along n, bit for bit.
             let n = c.normalize();
-            consider(&mut best, n);
-            consider(&mut best, -n);
+            let (lo_a, hi_a) = extent(&a.vertices, n);
+            let (lo_b, hi_b) = extent(&b.vertices, n);
+            offer(&mut best, n, lo_b - hi_a);
+            offer(&mut best, -n, lo_a - hi_b);
         }
     }
     if best.separation > 0.0 && best.separation <= reach {
@@ -155,16 +177,35 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
     best
 }
 
+/// The least of n·x over the points `xs` (+∞ for none). A plain comparison rather than
+/// `f64::min`, whose NaN handling costs two instructions more a point (there are no NaNs here:
+/// the cycle stops on a non-finite position first).
+#[inline]
+fn least(xs: &[DVec3], n: DVec3) -> f64 {
+    xs.iter().map(|x| n.dot(*x)).fold(f64::INFINITY, |m, p| if p < m { p } else { m })
+}
+
+/// The greatest of n·x over the points `xs` (−∞ for none); see [`least`].
+#[inline]
+fn greatest(xs: &[DVec3], n: DVec3) -> f64 {
+    xs.iter().map(|x| n.dot(*x)).fold(f64::NEG_INFINITY, |m, p| if p > m { p } else { m })
+}
+
+/// The least and the greatest of n·x over the points `xs`.
+#[inline]
+fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
+    xs.iter().map(|x| n.dot(*x)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (if p < lo { p } else { lo }, if p > hi { p } else { hi }))
+}
+
 /// The distance along `n` from `p` at which the line p + s·n leaves the convex block (the least
 /// s over the faces it heads out through), or enters it (`entering`: the greatest s over the faces
-/// it heads in through).
+/// it heads in through). `normals`: the block's [`PlaneNormals`].
 ///
 /// Only one face of each plane is tried (`Shape::planes`): the faces of a convex block that
 /// share an outward normal lie in one supporting plane, so the others give the same crossing.
-fn ray_crossing(block: &Block, p: DVec3, n: DVec3, entering: bool) -> f64 {
+fn ray_crossing(block: &Block, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool) -> f64 {
     let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
-    for &f in &block.shape.planes {
-        let nf = block.face_normal(f as usize);
+    for (&f, &nf) in block.shape.planes.iter().zip(normals) {
         let d = nf.dot(n);
         let x = block.vertices[block.shape.faces[f as usize][0] as usize];
         if entering && d < -1e-9 {
@@ -185,8 +226,8 @@ fn plane_axes(n: DVec3) -> (DVec3, DVec3) {
 /// A touching feature projected on the common plane: its vertices (block numbers) in
 /// counter-clockwise order about n, as 2D points; one (a vertex), two (an edge) or more (a face).
 struct Hull {
-    ids: Vec<u32>,
-    pts: Vec<DVec2>,
+    ids: Few<u32>,
+    pts: Few<DVec2>,
 }
 
 impl Hull {
@@ -210,13 +251,16 @@ impl Hull {
         }
     }
 
-    /// Its edges as pairs of positions in `ids`.
-    fn edges(&self) -> Vec<(usize, usize)> {
-        match self.pts.len() {
-            1 => Vec::new(),
-            2 => vec![(0, 1)],
-            n => (0..n).map(|i| (i, (i + 1) % n)).collect(),
-        }
+    /// Its edges as pairs of positions in `ids`: none for a point, one for a segment, n for a
+    /// polygon of n corners.
+    fn edges(&self) -> impl Iterator<Item = (usize, usize)> {
+        let n = self.pts.len();
+        let count = match n {
+            0 | 1 => 0,
+            2 => 1,
+            n => n,
+        };
+        (0..count).map(move |i| (i, (i + 1) % n))
     }
 }
 
@@ -229,7 +273,7 @@ fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
 /// The convex hull (counter-clockwise) of the vertices `ids` of a block projected on the plane
 /// (t1, t2); collinear points dropped, so that a line of points is its two ends.
 fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
-    let mut pts: Vec<(DVec2, u32)> = ids.iter().map(|&i| (DVec2::new(t1.dot(verts[i as usize]), t2.dot(verts[i as usize])), i)).collect();
+    let mut pts: Few<(DVec2, u32)> = ids.iter().map(|&i| (DVec2::new(t1.dot(verts[i as usize]), t2.dot(verts[i as usize])), i)).collect();
     pts.sort_by(|a, b| a.0.x.total_cmp(&b.0.x).then(a.0.y.total_cmp(&b.0.y)));
     pts.dedup_by(|a, b| (a.0 - b.0).length() <= tol);
     if pts.len() <= 2 {
@@ -237,11 +281,12 @@ fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
     }
     // Andrew's monotone chain, dropping points within `tol` of the line of their neighbours.
     let turn = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o) / (b - o).length().max(f64::MIN_POSITIVE);
-    let mut chain: Vec<(DVec2, u32)> = Vec::with_capacity(pts.len() * 2);
+    let mut chain: SmallVec<[(DVec2, u32); 32]> = SmallVec::with_capacity(pts.len() * 2);
+    let m = pts.len();
     for pass in 0..2 {
         let start = chain.len();
-        let iter: Box<dyn Iterator<Item = &(DVec2, u32)>> = if pass == 0 { Box::new(pts.iter()) } else { Box::new(pts.iter().rev()) };
-        for &p in iter {
+        for i in 0..m {
+            let p = if pass == 0 { pts[i] } else { pts[m - 1 - i] };
             while chain.len() >= start + 2 && turn(chain[chain.len() - 2].0, chain[chain.len() - 1].0, p.0) <= tol {
                 chain.pop();
             }
@@ -252,7 +297,7 @@ fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
     if chain.len() < 3 {
         // All on a line: its two ends.
         let (first, last) = (pts[0], pts[pts.len() - 1]);
-        return Hull { ids: vec![first.1, last.1], pts: vec![first.0, last.0] };
+        return Hull { ids: smallvec::smallvec![first.1, last.1], pts: smallvec::smallvec![first.0, last.0] };
     }
     Hull { ids: chain.iter().map(|p| p.1).collect(), pts: chain.iter().map(|p| p.0).collect() }
 }
@@ -273,20 +318,32 @@ fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2) -> Option<(f64, f64)> {
 /// The touching region of two blocks whose common plane is `plane`: the category, the logical
 /// contacts' kinds, points (on the plane, between the surfaces) and gaps, and the region's area.
 /// `tolerance` is the contact-forming distance (features within it of the plane touch).
-pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Vec<(LogicalKind, DVec3, f64)>, f64) {
+pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Few<(LogicalKind, DVec3, f64)>, f64) {
+    logical_contacts_with(a, b, &plane_normals(a), &plane_normals(b), plane, tolerance)
+}
+
+/// [`logical_contacts`] given the blocks' [`PlaneNormals`] (`na` of `a`, `nb` of `b`).
+pub fn logical_contacts_with(
+    a: &Block,
+    b: &Block,
+    na: &[DVec3],
+    nb: &[DVec3],
+    plane: &CommonPlane,
+    tolerance: f64,
+) -> ([Feature; 2], Few<(LogicalKind, DVec3, f64)>, f64) {
     let n = plane.normal;
     let (t1, t2) = plane_axes(n);
     let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
     let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
-    let near_a: Vec<u32> = (0..a.vertices.len() as u32).filter(|&i| n.dot(a.vertices[i as usize]) >= hi_a - tolerance).collect();
-    let near_b: Vec<u32> = (0..b.vertices.len() as u32).filter(|&i| n.dot(b.vertices[i as usize]) <= lo_b + tolerance).collect();
+    let near_a: Few<u32> = (0..a.vertices.len() as u32).filter(|&i| n.dot(a.vertices[i as usize]) >= hi_a - tolerance).collect();
+    let near_b: Few<u32> = (0..b.vertices.len() as u32).filter(|&i| n.dot(b.vertices[i as usize]) <= lo_b + tolerance).collect();
     let size = a.shape.radius.min(b.shape.radius);
     let flat = 1e-6 * size;
     let ha = hull(&near_a, &a.vertices, t1, t2, flat);
     let hb = hull(&near_b, &b.vertices, t1, t2, flat);
     let category = [ha.feature(), hb.feature()];
 
-    let mut found: Vec<(LogicalKind, DVec2)> = Vec::new();
+    let mut found: Few<(LogicalKind, DVec2)> = Few::new();
     for (k, &p) in ha.pts.iter().enumerate() {
         if hb.covers(p, flat) {
             found.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[k] }, p));
@@ -333,16 +390,16 @@ pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f6
         .iter()
         .map(|(kind, p2)| {
             let p = origin + t1 * p2.x + t2 * p2.y;
-            let leave = ray_crossing(a, p, n, false);
-            let enter = ray_crossing(b, p, n, true);
+            let leave = ray_crossing(a, na, p, n, false);
+            let enter = ray_crossing(b, nb, p, n, true);
             let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, plane.separation) };
             (*kind, p + n * (0.5 * (leave + enter)), enter - leave)
         })
         .collect();
     let area = if found.len() >= 3 {
         let region = hull(
-            &(0..found.len() as u32).collect::<Vec<_>>(),
-            &found.iter().map(|(_, p)| DVec3::new(p.x, p.y, 0.0)).collect::<Vec<_>>(),
+            &(0..found.len() as u32).collect::<Few<_>>(),
+            &found.iter().map(|(_, p)| DVec3::new(p.x, p.y, 0.0)).collect::<Few<_>>(),
             DVec3::X,
             DVec3::Y,
             flat,
@@ -470,8 +527,8 @@ pub fn place_logical(kind: LogicalKind, a: &Block, b: &Block, n: DVec3, hi_a: f6
         }
     };
     let p = x + n * (mid - n.dot(x));
-    let leave = ray_crossing(a, p, n, false);
-    let enter = ray_crossing(b, p, n, true);
+    let leave = ray_crossing(a, &plane_normals(a), p, n, false);
+    let enter = ray_crossing(b, &plane_normals(b), p, n, true);
     let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };
     (p + n * (0.5 * (leave + enter)), enter - leave)
 }

@@ -268,7 +268,10 @@ pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model
     // their distance), and the common plane is not needed.
     let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
     let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
-    let plane = (!apart).then(|| contact::common_plane(a, b, tol));
+    // The blocks' face-plane normals in global axes, turned once for the common plane's axes and
+    // the logical contacts' ray crossings.
+    let normals = (!apart).then(|| (contact::plane_normals(a), contact::plane_normals(b)));
+    let plane = normals.as_ref().map(|(na, nb)| contact::common_plane_with(a, b, na, nb, tol));
     let old_normal = c.normal;
     if let Some(p) = &plane {
         c.normal = p.normal;
@@ -280,15 +283,15 @@ pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model
         c.logical.clear();
         return (0.0, released);
     };
-    let (category, found, area) = contact::logical_contacts(a, b, &plane, tol);
-    let previous = std::mem::take(&mut c.logical);
-    c.logical = found
-        .into_iter()
-        .map(|(kind, point, gap)| {
-            let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
-            Logical { kind, point, gap, normal_force: 0.0, shear_force }
-        })
-        .collect();
+    let (na, nb) = normals.as_ref().expect("a plane was found, so the normals were turned");
+    let (category, found, area) = contact::logical_contacts_with(a, b, na, nb, &plane, tol);
+    // The last cycle's logical contacts (copied aside; the list keeps its allocation).
+    let previous: smallvec::SmallVec<[Logical; 16]> = c.logical.iter().copied().collect();
+    c.logical.clear();
+    c.logical.extend(found.into_iter().map(|(kind, point, gap)| {
+        let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
+        Logical { kind, point, gap, normal_force: 0.0, shear_force }
+    }));
     // The strain of logical contacts not found again (their shear springs; their normal ones
     // too, where the touching region lost a loaded corner).
     let released = previous.iter().filter(|l| !c.logical.iter().any(|n| n.kind == l.kind)).map(|l| spring_energy(l, mat)).sum();
