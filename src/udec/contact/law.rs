@@ -190,7 +190,7 @@ mod tests {
     /// a bonded or a tension-holding one is not free (counted, it carries a force or books the bond).
     #[test]
     fn an_open_unbonded_view_gets_the_same_law_counted_or_not() {
-        let mat = Material { contact: ContactMaterial { kn: 1e9, ks: 5e8, friction: 0.6, cohesion: 1e3, ..Default::default() }, ..Default::default() };
+        let mat = Material { contact: ContactMaterial { kn: 1e9, ks: 5e8, friction: 0.6, cohesion: 1e3 }, ..Default::default() };
         let still = BlockMotion { centroid: [0.0, 0.0], velocity: [0.0, 0.0], angular_velocity: 0.0, strain_rate: [0.0; 3] };
         let sliding = BlockMotion { velocity: [0.3, -0.1], angular_velocity: 0.2, ..still };
         let damping = Damping { beta: 1e-4, ..Default::default() };
