@@ -75,10 +75,17 @@ pub fn place_corners_strained(block: &Block, strain: [f64; 3], corners: &mut [Co
 #[inline]
 fn fit_circles_to_edges(corners: &mut [Corner]) {
     let n = corners.len();
+    if n == 0 {
+        return;
+    }
+    // Each edge is measured once: edge k−1's vector and length, from the last step (the same
+    // difference of the same two positions, so the same bits as measuring it again).
+    let mut e1 = sub(corners[0].position, corners[n - 1].position);
+    let mut l1 = dot(e1, e1).sqrt();
     for k in 0..n {
-        let (prev, p, next) = (corners[(k + n - 1) % n].position, corners[k].position, corners[(k + 1) % n].position);
-        let (e1, e2) = (sub(p, prev), sub(next, p));
-        let (l1, l2) = (dot(e1, e1).sqrt(), dot(e2, e2).sqrt());
+        let (p, next) = (corners[k].position, corners[(k + 1) % n].position);
+        let e2 = sub(next, p);
+        let l2 = dot(e2, e2).sqrt();
         corners[k].circle = p;
         if corners[k].radius > 0.0 && l1 > 0.0 && l2 > 0.0 {
             let half = (0.5 * (1.0 + dot(e1, e2) / (l1 * l2))).max(0.0).sqrt();
@@ -93,6 +100,7 @@ fn fit_circles_to_edges(corners: &mut [Corner]) {
             corners[k].edge_dir = [e2[0] / l2, e2[1] / l2];
         }
         corners[k].edge_length = l2;
+        (e1, l1) = (e2, l2);
     }
 }
 
