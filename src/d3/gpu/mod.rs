@@ -47,6 +47,19 @@
 //! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
 //! repeats bit for bit.
 //!
+//! # SAVE and RESTART
+//!
+//! The device holds more than the model it reads back: the logical contacts of the last
+//! detection (dead ones in place), the energy sums since the last upload, the time step of the
+//! batch, and in f32 each centroid's compensated pair. SAVE after a GPU run keeps them as the
+//! device holds them (`restart::DeviceState`, read by `device_state_as`); RESTART on a GPU of the
+//! same precision checks them against the model and uploads them as they were (`restore_as`),
+//! so the run goes on as the saving run would have, bit for bit (tests/d3_gpu.rs). Each CYCLE's
+//! batches end at its energy checks (every `driver::CHECK_INTERVAL` cycles of the run), where the
+//! next batch takes its time step and length afresh; a SAVE after a number of cycles that is a
+//! multiple of that interval therefore continues the straight run exactly, another cuts a batch
+//! the straight run would not have cut (as two CYCLEs do on one backend without a SAVE).
+//!
 //! # The energy ledger
 //!
 //! The kernels add the work of gravity and loads, the mass damping's and the dashpots'
