@@ -292,6 +292,11 @@ fn a_gpu_run_saved_and_restarted_goes_on_bit_for_bit() {
         let restarted = run_in("RESTART gpu.sav\nCYCLE 600\n", &o);
         assert_eq!(restarted.cycle, 1200);
         assert!(whole == restarted, "{:?}: CYCLE 600, SAVE, RESTART, CYCLE 600 differs from CYCLE 1200", o.precision);
+        // A RESTART saved again before any CYCLE keeps the device state it restarted from.
+        run_in("RESTART gpu.sav\nSAVE again.sav\n", &o);
+        assert_eq!(blockdem::d3::restart::load(&dir.join("again.sav")).unwrap().device.as_ref(), Some(device));
+        let again = run_in("RESTART again.sav\nCYCLE 600\n", &o);
+        assert!(whole == again, "{:?}: RESTART, SAVE, RESTART, CYCLE 600 differs from CYCLE 1200", o.precision);
         // Without the device state (the file as version 2 wrote it) the restart detects afresh:
         // the run goes on, off the whole run by the tracked contacts' difference.
         let mut bare = file.clone();

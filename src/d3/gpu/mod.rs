@@ -832,6 +832,10 @@ impl super::backend::Backend for GpuBackend {
     }
 
     fn device_state(&self) -> Option<DeviceState> {
+        if self.state.is_none() {
+            // RESTART then SAVE with no CYCLE between: the state restarted from, not uploaded yet.
+            return self.pending.clone();
+        }
         let read = match self.dev.precision {
             Precision::F32 => self.device_state_as::<f32>(&self.last_good),
             Precision::F64 => self.device_state_as::<f64>(&self.last_good),
