@@ -2,6 +2,7 @@
 //! cycles through the chassis's run driver, and the state the last run left, to resume from.
 
 use super::model::Model;
+use super::restart::DeviceState;
 use crate::driver::{CycleError, CycleReport};
 
 pub trait Backend {
@@ -11,8 +12,15 @@ pub trait Backend {
     /// Whether the backend would go on from `model` as the state its last run left (SAVE
     /// records it, `d3::restart`).
     fn resumes_from(&self, model: &Model) -> bool;
-    /// Takes `model` as the state its last run left (RESTART of a state saved as resumable).
-    fn resume_from(&mut self, model: &Model);
+    /// What the backend holds beyond the model to go on from it (the GPU's device state, read
+    /// back; None on the CPU, whose model is the whole state, or where the read-back failed: a
+    /// RESTART then detects afresh). Asked by SAVE where [`Backend::resumes_from`] the model.
+    fn device_state(&self) -> Option<DeviceState> {
+        None
+    }
+    /// Takes `model` as the state its last run left (RESTART of a state saved as resumable),
+    /// with the device state saved with it, if any.
+    fn resume_from(&mut self, model: &Model, device: Option<&DeviceState>);
     /// Forgets the state its last run left (RESTART of a state not saved as resumable).
     fn forget(&mut self);
     /// The backend in words, e.g. `cpu (f64)`.

@@ -108,7 +108,8 @@ impl super::backend::Backend for CpuBackend {
         CpuBackend::resumes_from(self, model)
     }
 
-    fn resume_from(&mut self, model: &Model) {
+    fn resume_from(&mut self, model: &Model, _device: Option<&super::restart::DeviceState>) {
+        // The model is the CPU's whole state; a GPU's device state is not the CPU's to take.
         CpuBackend::resume_from(self, model)
     }
 

@@ -94,7 +94,9 @@ impl<'a> Executor<'a> {
     /// Writes the model as a save file RESTART reads (SAVE's, and the last good state `blockdem
     /// run` keeps after a failure or an interrupt).
     pub fn save_state(&self, path: &Path) -> Result<(), super::restart::RestartError> {
-        let saved = super::restart::SaveFile { model: self.model.clone(), resumable: self.backend.resumes_from(&self.model) };
+        let resumable = self.backend.resumes_from(&self.model);
+        let device = if resumable { self.backend.device_state() } else { None };
+        let saved = super::restart::SaveFile { model: self.model.clone(), resumable, device };
         super::restart::save(path, &saved)
     }
 
@@ -243,7 +245,7 @@ impl<'a> Executor<'a> {
                 self.model = saved.model;
                 self.backend.forget();
                 if saved.resumable {
-                    self.backend.resume_from(&self.model);
+                    self.backend.resume_from(&self.model, saved.device.as_ref());
                 }
                 self.echo("PROGRAM D3: THREE-DIMENSIONAL DISTINCT ELEMENT CODE (VERSION 1.0)")?;
                 self.echo(&format!("THIS IS A RESTART RUN (FROM {}, CYCLE {})", path.display(), self.model.cycle))?;

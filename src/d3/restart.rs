@@ -23,22 +23,31 @@
 //! without the full contact detection a changed model gets (which would renumber the
 //! neighbour lists' contacts and restart the travel counts), so that CYCLE N, SAVE, RESTART,
 //! CYCLE M leaves the state CYCLE N+M leaves, bit for bit.
+//!
+//! A GPU backend's state is more than the model: between detections it keeps each contact's
+//! logical contacts as the last detection found them (dead ones too, `live` 0), the energy it
+//! has counted since the last upload on top of the model's totals then, the time step of the
+//! batch, and in f32 each centroid as a compensated pair. A file saved from a GPU run that SAVE
+//! could resume keeps those as the device holds them ([`DeviceState`]), so that a RESTART on a
+//! GPU backend of the same precision uploads them as they were instead of detecting afresh, and
+//! goes on bit for bit as the saving run would have; any other backend (the CPU, the other
+//! precision) ignores them and starts as from any model.
 
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::model::Model;
+use super::model::{LogicalKind, Model};
 
 /// The first eight bytes of every D3 save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKD3\0";
 /// The first eight bytes of a 2D (UDEC) save file, named in the refusal of one.
 const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// The D3 save format this program writes and reads.
-/// (Version 2: the model keeps the energy dissipated, `d3::model::Dissipation`; a version 1 file
-/// is refused by name.)
-pub const FORMAT_VERSION: u32 = 2;
+/// (Version 2: the model keeps the energy dissipated, `d3::model::Dissipation`; version 3: the GPU
+/// backend's device state, [`DeviceState`]; an older file is refused by name.)
+pub const FORMAT_VERSION: u32 = 3;
 const HEADER_LEN: usize = 8 + 4 + 8 + 8;
 
 /// Everything SAVE keeps.
@@ -47,6 +56,33 @@ pub struct SaveFile {
     pub model: Model,
     /// The model is the state the last CYCLE left, unchanged since (the backend resumes from it).
     pub resumable: bool,
+    /// The GPU backend's device state, when a GPU run left the model (and `resumable`).
+    pub device: Option<DeviceState>,
+}
+
+/// What a D3 GPU backend holds beyond the model (`d3::gpu`), as the device holds it: a RESTART
+/// on a GPU backend of the same precision uploads it as it was, so that the run goes on bit for
+/// bit. The buffers are the kernels' structs (`d3::gpu::layout`) as bytes; the backend checks
+/// them against the model before it takes them (each block's and contact's lists and indices as
+/// the model's give them), and detects afresh from the model where they do not fit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DeviceState {
+    /// The kernels' precision: f64 (else f32).
+    pub f64_kernels: bool,
+    /// The time step the kernels held when the run ended.
+    pub dt: f64,
+    /// The model's energy terms when the device's sums were last zero (its last upload): the
+    /// external work, mass damping, contact dashpots, friction and energy released.
+    pub bases: [f64; 5],
+    /// Each contact's logical contacts as the last detection found them (the keys of the run of
+    /// `logicals` each contact owns; dead ones kept in place).
+    pub keys: Vec<Vec<LogicalKind>>,
+    /// The buffers' bytes: `layout::Block`, `Vertex`, `Contact` and `Logical` in the kernels'
+    /// precision.
+    pub blocks: Vec<u8>,
+    pub vertices: Vec<u8>,
+    pub contacts: Vec<u8>,
+    pub logicals: Vec<u8>,
 }
 
 /// Why a save file could not be written or read (each names the file).

@@ -191,12 +191,6 @@ pub fn all() -> Vec<Case> {
 /// The names of the fluid cases start with this (they run on every backend, as the others do).
 pub const FLUID_PREFIX: &str = "fluid_";
 
-/// Whether the suite runs the case on the CPU backend only: D3's (D3 has no GPU path in this
-/// version, `verify::d3`).
-pub fn cpu_only(name: &str) -> bool {
-    name.starts_with(super::d3::D3_PREFIX)
-}
-
 /// The closed forms of fluid flow (issue 30; SL-85-1 Appendix A ¶6–9), on the pinwheel of four
 /// fixed blocks around a 1 × 1 void ([`FLUID_PINWHEEL`]), whose four joints each run from the void
 /// to the outside, and on a block on a base.

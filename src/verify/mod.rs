@@ -11,7 +11,7 @@
 //! | [`cases`] | the closed-form problems: decks, measurements, tolerances and why |
 //! | [`stability`] | measured thresholds of instability against `stable_frac_estimate`, extreme ratios |
 //! | [`chart`] | CSV and PNG charts (accuracy against speed) |
-//! | [`d3`] | the 3D closed forms on D3's CPU backend (torque-free rotation, oblique incline, stack, toppling, wedge) |
+//! | [`d3`] | the 3D closed forms on D3's backends (torque-free rotation, oblique incline, stack, toppling, wedge), each GPU row also against the CPU's |
 
 pub mod cases;
 pub mod chart;
@@ -39,21 +39,40 @@ pub const FULL_FRACS: &[f64] = &[0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6
 /// sweeps every FRACTION on every backend.
 pub const QUICK_FRACS_GPU: &[f64] = &[CHECK_FRAC];
 /// FRACTIONs of the quick suite for D3's cases: the check FRACTION only, so that the 3D rows add
-/// about 6 s to the CI suite (their sweep, ~70 s, is the full suite's).
+/// about 6 s on the CPU and ~35 s per software adapter to the CI suite (their sweep, ~70 s on the
+/// CPU, is the full suite's).
 pub const QUICK_FRACS_D3: &[f64] = &[CHECK_FRAC];
 
-/// One backend the suite runs on: a label, its precision, and a factory (a fresh backend per run).
+/// A fresh D3 backend, or why none opens (the case's row then says it).
+pub type MakeD3 = Box<dyn Fn() -> Result<Box<dyn crate::d3::backend::Backend>, String>>;
+
+/// One backend the suite runs on: a label, its precision, and a factory (a fresh backend per run)
+/// for each engine: the 2D engine's, and D3's for the 3D cases (`verify::d3`).
 pub struct BackendEntry {
     pub label: String,
     pub precision: String,
     /// A GPU adapter (the quick suite runs fewer FRACTIONs there, [`QUICK_FRACS_GPU`]).
     pub gpu: bool,
     pub make: Box<dyn Fn() -> Box<dyn Backend>>,
+    pub make_d3: MakeD3,
 }
 
 impl BackendEntry {
+    /// An entry whose 3D cases run on D3's CPU backend ([`BackendEntry::with_d3`] gives another).
     pub fn new(label: &str, precision: &str, make: impl Fn() -> Box<dyn Backend> + 'static) -> Self {
-        BackendEntry { label: label.to_string(), precision: precision.to_string(), gpu: false, make: Box::new(make) }
+        BackendEntry {
+            label: label.to_string(),
+            precision: precision.to_string(),
+            gpu: false,
+            make: Box::new(make),
+            make_d3: Box::new(|| Ok(Box::new(crate::d3::cpu::CpuBackend::new()))),
+        }
+    }
+
+    /// The entry with D3's backend made by `make_d3`.
+    pub fn with_d3(mut self, make_d3: impl Fn() -> Result<Box<dyn crate::d3::backend::Backend>, String> + 'static) -> Self {
+        self.make_d3 = Box::new(make_d3);
+        self
     }
 
     /// "cpu f64", "vulkan (lavapipe) f32": how tables and charts name the backend.
@@ -69,16 +88,23 @@ impl BackendEntry {
 
 /// The backends of this build: the CPU (f64), then one entry per GPU adapter and precision
 /// present (`gpu::scenario_backends`, the list the scenario tests run on too): with Mesa's
-/// software adapters, "vulkan (lavapipe)" f32 and f64 and "gl (llvmpipe)" f32.
+/// software adapters, "vulkan (lavapipe)" f32 and f64 and "gl (llvmpipe)" f32. Each entry runs
+/// the 2D cases on the 2D engine's backend and the 3D ones on D3's, on the same adapter and in the
+/// same precision.
 pub fn backends() -> Vec<BackendEntry> {
     let mut v = vec![BackendEntry::new("cpu", "f64", || Box::new(CpuBackend::new()))];
     for target in crate::udec::gpu::scenario_backends() {
         let (label, precision) = (target.label(), target.precision().to_string());
+        let d3_options = target.options.clone();
         let mut entry = BackendEntry::new(&label, &precision, move || -> Box<dyn Backend> {
             match target.backend() {
                 Ok(b) => Box::new(b),
                 Err(e) => Box::new(Unavailable(e.to_string())),
             }
+        })
+        .with_d3(move || match crate::d3::gpu::GpuBackend::new(&d3_options.adapter, d3_options.precision) {
+            Ok(b) => Ok(Box::new(b)),
+            Err(e) => Err(e.to_string()),
         });
         entry.gpu = true;
         v.push(entry);
@@ -217,10 +243,6 @@ pub fn run_suite(options: &VerifyOptions) -> Suite {
             if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
                 continue;
             }
-            // D3 runs on the CPU backend only in this version (it has no GPU path).
-            if backend.gpu && cases::cpu_only(case.name) {
-                continue;
-            }
             let fracs = if options.quick && case.name.starts_with(d3::D3_PREFIX) { QUICK_FRACS_D3 } else { fracs_for(&backend, options.quick) };
             for &frac in fracs {
                 suite.rows.push(run_case(&case, &backend, frac));
@@ -231,6 +253,7 @@ pub fn run_suite(options: &VerifyOptions) -> Suite {
             suite.extremes.extend(stability::extreme_limits(&backend, options.quick));
         }
     }
+    d3::against_cpu(&mut suite.rows);
     suite.wall_s = start.elapsed().as_secs_f64();
     suite
 }

@@ -47,6 +47,19 @@
 //! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
 //! repeats bit for bit.
 //!
+//! # SAVE and RESTART
+//!
+//! The device holds more than the model it reads back: the logical contacts of the last
+//! detection (dead ones in place), the energy sums since the last upload, the time step of the
+//! batch, and in f32 each centroid's compensated pair. SAVE after a GPU run keeps them as the
+//! device holds them (`restart::DeviceState`, read by `device_state_as`); RESTART on a GPU of the
+//! same precision checks them against the model and uploads them as they were (`restore_as`),
+//! so the run goes on as the saving run would have, bit for bit (tests/d3_gpu.rs). Each CYCLE's
+//! batches end at its energy checks (every `driver::CHECK_INTERVAL` cycles of the run), where the
+//! next batch takes its time step and length afresh; a SAVE after a number of cycles that is a
+//! multiple of that interval therefore continues the straight run exactly, another cuts a batch
+//! the straight run would not have cut (as two CYCLEs do on one backend without a SAVE).
+//!
 //! # The energy ledger
 //!
 //! The kernels add the work of gravity and loads, the mass damping's and the dashpots'
@@ -61,6 +74,7 @@ use glam::{DMat3, DQuat, DVec3};
 
 use super::cpu::{self, contact_stage};
 use super::model::{Logical, LogicalKind, Model};
+use super::restart::DeviceState;
 use super::topology;
 use crate::driver::{self, CycleError, CycleReport};
 use crate::gpu::real::Real;
@@ -139,6 +153,8 @@ pub struct GpuBackend {
     state: Option<State>,
     last_good: Model,
     resumable: bool,
+    /// RESTART's device state, uploaded at the next run's start where it resumes.
+    pending: Option<DeviceState>,
 }
 
 fn device_error(e: GpuError) -> CycleError {
@@ -153,7 +169,7 @@ impl GpuBackend {
     pub fn new(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
         let dev = GpuDevice::open(choice, precision)?;
         let kernels = Kernels::new(&dev)?;
-        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false })
+        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false, pending: None })
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -176,7 +192,9 @@ impl GpuBackend {
             self.state = None;
         }
         result?;
-        self.resumable = cycles > 0 && self.state.is_some();
+        // A run of no cycles that started afresh changed the model (its detection) but is no
+        // state to go on from; one that resumed still is.
+        self.resumable = (cycles > 0 || resume) && self.state.is_some();
         Ok(report)
     }
 
@@ -199,43 +217,119 @@ impl GpuBackend {
 
     fn upload_as<R: Real>(&mut self, model: &Model) -> Result<(), GpuError> {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        let mut vertices = Vec::new();
-        let mut planes = Vec::new();
-        let mut edges = Vec::new();
-        for b in &model.blocks {
-            for (l, g) in b.shape.vertices.iter().zip(&b.vertices) {
-                let r = |x: f64| R::from_f64(x);
-                vertices.push(layout::Vertex::<R> { lx: r(l.x), ly: r(l.y), lz: r(l.z), x: r(g.x), y: r(g.y), z: r(g.z) });
-            }
-            for &f in &b.shape.planes {
-                let n = b.shape.normals[f as usize];
-                planes.push(layout::Plane::<R> {
-                    nx: R::from_f64(n.x),
-                    ny: R::from_f64(n.y),
-                    nz: R::from_f64(n.z),
-                    vertex: b.shape.faces[f as usize][0],
-                    spare: 0,
-                });
-            }
-            for &e in &b.shape.edge_directions {
-                let e = b.shape.edges[e as usize];
-                edges.extend([e.a, e.b]);
-            }
-            for e in b.shape.edges.iter().filter(|e| e.feature) {
-                edges.extend([e.a, e.b]);
-            }
-        }
-        let params = params::<R>(model, model.timestep());
-        let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
-        let params = self.buffer("d3 params", bytemuck::bytes_of(&params), uniform_usage);
+        let (vertices, planes, edges) = shape_pods::<R>(model);
         let vertices = self.buffer("d3 vertices", bytemuck::cast_slice(&vertices), storage_usage);
-        let planes = self.buffer("d3 planes", bytemuck::cast_slice(&planes), storage_usage);
-        let edges = self.buffer("d3 edges", bytemuck::cast_slice(&edges), storage_usage);
         let (blocks, contacts, logicals, adjacency, keys, logical_count) = self.topology_buffers::<R>(model);
-        let bind = self.bind(&[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency]);
-        let bases = bases(model);
         let dt = model.timestep();
+        self.install::<R>(model, dt, vertices, [blocks, contacts, logicals, adjacency], keys, logical_count, (&planes, &edges), bases(model));
+        Ok(())
+    }
+
+    /// The state made of its buffers: the shapes' planes and edges and the params (with the time
+    /// step `dt`) made here, the rest given.
+    #[allow(clippy::too_many_arguments)]
+    fn install<R: Real>(
+        &mut self,
+        model: &Model,
+        dt: f64,
+        vertices: wgpu::Buffer,
+        [blocks, contacts, logicals, adjacency]: [wgpu::Buffer; 4],
+        keys: Vec<Vec<LogicalKind>>,
+        logical_count: usize,
+        (planes, edges): (&[layout::Plane<R>], &[u32]),
+        bases: Bases,
+    ) {
+        let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        let params = self.buffer("d3 params", bytemuck::bytes_of(&params::<R>(model, dt)), uniform_usage);
+        let planes = self.buffer("d3 planes", bytemuck::cast_slice(planes), storage_usage);
+        let edges = self.buffer("d3 edges", bytemuck::cast_slice(edges), storage_usage);
+        let bind = self.bind(&[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency]);
         self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, bind, keys, logical_count, bases, dt });
+    }
+
+    /// The device state a SAVE keeps (`restart::DeviceState`): the blocks, vertices, contacts and
+    /// logical contacts as the device holds them, the keys, the time step and the bases.
+    fn device_state_as<R: Real>(&self, model: &Model) -> Result<Option<DeviceState>, GpuError> {
+        let Some(s) = self.state.as_ref() else { return Ok(None) };
+        let vertex_count: usize = model.blocks.iter().map(|b| b.shape.vertices.len()).sum();
+        let sizes = [
+            model.blocks.len() * std::mem::size_of::<layout::Block<R>>(),
+            vertex_count * std::mem::size_of::<layout::Vertex<R>>(),
+            model.contacts.len() * std::mem::size_of::<layout::Contact<R>>(),
+            s.logical_count * std::mem::size_of::<layout::Logical<R>>(),
+        ];
+        let [blocks, vertices, contacts, logicals] = self.dev.read_parts(
+            &[(&s.blocks, sizes[0] as u64), (&s.vertices, sizes[1] as u64), (&s.contacts, sizes[2] as u64), (&s.logicals, sizes[3] as u64)],
+            |bytes| [0, 1, 2, 3].map(|k| bytes[k].to_vec()),
+        )?;
+        let b = s.bases;
+        Ok(Some(DeviceState {
+            f64_kernels: self.dev.precision == Precision::F64,
+            dt: s.dt,
+            bases: [b.external_work, b.mass_damping, b.contact_damping, b.friction, b.released],
+            keys: s.keys.clone(),
+            blocks,
+            vertices,
+            contacts,
+            logicals,
+        }))
+    }
+
+    /// RESTART's device state uploaded as it was saved, after checking it against the model:
+    /// each block's ranges of vertices, planes, edges and adjacency and its fixity as the model
+    /// gives them, each contact's blocks and a run of logical contacts whose kinds and vertices
+    /// are its keys. Err says what does not fit (the run then detects afresh).
+    fn restore_as<R: Real>(&mut self, model: &Model, device: &DeviceState) -> Result<(), String> {
+        let (vertices, planes, edges) = shape_pods::<R>(model);
+        let (blocks, contacts, _, adjacency, _) = topology_pods::<R>(model);
+        let saved_blocks: Vec<layout::Block<R>> = pods(&device.blocks, blocks.len(), "blocks")?;
+        let _: Vec<layout::Vertex<R>> = pods(&device.vertices, vertices.len(), "vertices")?;
+        let saved_contacts: Vec<layout::Contact<R>> = pods(&device.contacts, contacts.len(), "contacts")?;
+        let logical_count: usize = device.keys.iter().map(Vec::len).sum();
+        let saved_logicals: Vec<layout::Logical<R>> = pods(&device.logicals, logical_count, "logical contacts")?;
+        let ranges = |b: &layout::Block<R>| {
+            [
+                b.fixed,
+                b.vertex_start,
+                b.vertex_count,
+                b.plane_start,
+                b.plane_count,
+                b.edge_start,
+                b.edge_dir_count,
+                b.feature_count,
+                b.adjacency_start,
+                b.adjacency_count,
+            ]
+        };
+        if let Some(k) = (0..blocks.len()).find(|&k| ranges(&blocks[k]) != ranges(&saved_blocks[k])) {
+            return Err(format!("block {}'s lists are not the model's", model.blocks[k].id));
+        }
+        if device.keys.len() != contacts.len() {
+            return Err(format!("{} contacts' keys for {} contacts", device.keys.len(), contacts.len()));
+        }
+        let mut start = 0usize;
+        for (k, (c, keys)) in saved_contacts.iter().zip(&device.keys).enumerate() {
+            let fits = [c.block1, c.block2] == model.contacts[k].blocks
+                && c.logical_start as usize == start
+                && c.logical_count as usize == keys.len()
+                && saved_logicals[start..start + keys.len()].iter().zip(keys).all(|(l, kind)| logical_words(*kind) == [l.kind, l.v1, l.v2, l.v3, l.v4]);
+            if !fits {
+                return Err(format!("contact {}'s logical contacts are not its keys", model.contacts[k].id));
+            }
+            start += keys.len();
+        }
+        let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let buffers = [
+            self.buffer("d3 blocks", &device.blocks, storage_usage),
+            self.buffer("d3 contacts", &device.contacts, storage_usage),
+            self.buffer("d3 logicals", &device.logicals, storage_usage),
+            self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency), storage_usage),
+        ];
+        let vertices = self.buffer("d3 vertices", &device.vertices, storage_usage);
+        let [external_work, mass_damping, contact_damping, friction, released] = device.bases;
+        let bases = Bases { external_work, mass_damping, contact_damping, friction, released };
+        self.install::<R>(model, device.dt, vertices, buffers, device.keys.clone(), logical_count, (&planes, &edges), bases);
         Ok(())
     }
 
@@ -250,134 +344,14 @@ impl GpuBackend {
     #[allow(clippy::type_complexity)]
     fn topology_buffers<R: Real>(&self, model: &Model) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, Vec<Vec<LogicalKind>>, usize) {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        // Adjacency: each block's contacts in the contacts' order.
-        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); model.blocks.len()];
-        for (k, c) in model.contacts.iter().enumerate() {
-            lists[c.blocks[0] as usize].push(2 * k as u32);
-            lists[c.blocks[1] as usize].push(2 * k as u32 + 1);
-        }
-        let mut adjacency = Vec::new();
-        let mut blocks = Vec::with_capacity(model.blocks.len());
-        let (mut vertex_start, mut plane_start, mut edge_start) = (0u32, 0u32, 0u32);
-        for (b, list) in model.blocks.iter().zip(&lists) {
-            let inv = if b.inertia_ref.determinant() > 0.0 { b.inertia_ref.inverse() } else { DMat3::ZERO };
-            let r = |x: f64| R::from_f64(x);
-            let cols = inv.to_cols_array();
-            let feature_count = b.shape.edges.iter().filter(|e| e.feature).count() as u32;
-            // The centroid in the kernel precision and what that leaves (the compensated pair).
-            let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
-            blocks.push(layout::Block::<R> {
-                cx: hi[0],
-                cy: hi[1],
-                cz: hi[2],
-                cx_lo: r(b.centroid.x - hi[0].to_f64()),
-                cy_lo: r(b.centroid.y - hi[1].to_f64()),
-                cz_lo: r(b.centroid.z - hi[2].to_f64()),
-                vx: r(b.velocity.x),
-                vy: r(b.velocity.y),
-                vz: r(b.velocity.z),
-                lx: r(b.angular_momentum.x),
-                ly: r(b.angular_momentum.y),
-                lz: r(b.angular_momentum.z),
-                wx: r(b.angular_velocity.x),
-                wy: r(b.angular_velocity.y),
-                wz: r(b.angular_velocity.z),
-                qx: r(b.orientation.x),
-                qy: r(b.orientation.y),
-                qz: r(b.orientation.z),
-                qw: r(b.orientation.w),
-                mass: r(b.mass),
-                inv0: r(cols[0]),
-                inv1: r(cols[1]),
-                inv2: r(cols[2]),
-                inv3: r(cols[3]),
-                inv4: r(cols[4]),
-                inv5: r(cols[5]),
-                inv6: r(cols[6]),
-                inv7: r(cols[7]),
-                inv8: r(cols[8]),
-                load_x: r(b.load.x),
-                load_y: r(b.load.y),
-                load_z: r(b.load.z),
-                radius: r(b.shape.radius),
-                fx: r(b.force.x),
-                fy: r(b.force.y),
-                fz: r(b.force.z),
-                mx: r(b.moment.x),
-                my: r(b.moment.y),
-                mz: r(b.moment.z),
-                travel: r(b.travel),
-                fixed: b.fixed as u32,
-                vertex_start,
-                vertex_count: b.shape.vertices.len() as u32,
-                plane_start,
-                plane_count: b.shape.planes.len() as u32,
-                edge_start,
-                edge_dir_count: b.shape.edge_directions.len() as u32,
-                feature_count,
-                adjacency_start: adjacency.len() as u32,
-                adjacency_count: list.len() as u32,
-                finite: 1,
-                ..Default::default()
-            });
-            adjacency.extend_from_slice(list);
-            vertex_start += b.shape.vertices.len() as u32;
-            plane_start += b.shape.planes.len() as u32;
-            edge_start += b.shape.edge_directions.len() as u32 + feature_count;
-        }
-        let mut contacts = Vec::with_capacity(model.contacts.len());
-        let mut logicals = Vec::new();
-        let mut keys = Vec::with_capacity(model.contacts.len());
-        for c in &model.contacts {
-            let mat = model.contact_material(c);
-            let r = |x: f64| R::from_f64(x);
-            contacts.push(layout::Contact::<R> {
-                nx: r(c.normal.x),
-                ny: r(c.normal.y),
-                nz: r(c.normal.z),
-                kn: r(mat.kn),
-                ks: r(mat.ks),
-                cohesion: r(mat.cohesion),
-                friction: r(mat.friction),
-                block1: c.blocks[0],
-                block2: c.blocks[1],
-                logical_start: logicals.len() as u32,
-                logical_count: c.logical.len() as u32,
-                ..Default::default()
-            });
-            keys.push(c.logical.iter().map(|l| l.kind).collect());
-            for l in &c.logical {
-                let (kind, v1, v2, v3, v4) = match l.kind {
-                    LogicalKind::VertexFace { on_first: true, vertex } => (layout::LOGICAL_VERTEX_FIRST, vertex, 0, 0, 0),
-                    LogicalKind::VertexFace { on_first: false, vertex } => (layout::LOGICAL_VERTEX_SECOND, vertex, 0, 0, 0),
-                    LogicalKind::EdgeEdge { first, second } => (layout::LOGICAL_EDGE_EDGE, first.0, first.1, second.0, second.1),
-                };
-                logicals.push(layout::Logical::<R> {
-                    px: r(l.point.x),
-                    py: r(l.point.y),
-                    pz: r(l.point.z),
-                    gap: r(l.gap),
-                    normal_force: r(l.normal_force),
-                    sx: r(l.shear_force.x),
-                    sy: r(l.shear_force.y),
-                    sz: r(l.shear_force.z),
-                    kind,
-                    v1,
-                    v2,
-                    v3,
-                    v4,
-                    live: 1,
-                });
-            }
-        }
-        let logical_count = logicals.len();
+        let (blocks, contacts, logicals, adjacency, keys) = topology_pods::<R>(model);
         (
             self.buffer("d3 blocks", bytemuck::cast_slice(&blocks), storage_usage),
             self.buffer("d3 contacts", bytemuck::cast_slice(&contacts), storage_usage),
             self.buffer("d3 logicals", bytemuck::cast_slice(&logicals), storage_usage),
             self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency), storage_usage),
             keys,
-            logical_count,
+            logicals.len(),
         )
     }
 
@@ -541,6 +515,178 @@ impl GpuBackend {
     }
 }
 
+/// The shapes as the kernels take them: each block's vertices (reference frame and placed), its
+/// face planes and its edges (the directions', then the feature edges).
+fn shape_pods<R: Real>(model: &Model) -> (Vec<layout::Vertex<R>>, Vec<layout::Plane<R>>, Vec<u32>) {
+    let mut vertices = Vec::new();
+    let mut planes = Vec::new();
+    let mut edges = Vec::new();
+    for b in &model.blocks {
+        for (l, g) in b.shape.vertices.iter().zip(&b.vertices) {
+            let r = |x: f64| R::from_f64(x);
+            vertices.push(layout::Vertex::<R> { lx: r(l.x), ly: r(l.y), lz: r(l.z), x: r(g.x), y: r(g.y), z: r(g.z) });
+        }
+        for &f in &b.shape.planes {
+            let n = b.shape.normals[f as usize];
+            planes.push(layout::Plane::<R> {
+                nx: R::from_f64(n.x),
+                ny: R::from_f64(n.y),
+                nz: R::from_f64(n.z),
+                vertex: b.shape.faces[f as usize][0],
+                spare: 0,
+            });
+        }
+        for &e in &b.shape.edge_directions {
+            let e = b.shape.edges[e as usize];
+            edges.extend([e.a, e.b]);
+        }
+        for e in b.shape.edges.iter().filter(|e| e.feature) {
+            edges.extend([e.a, e.b]);
+        }
+    }
+    (vertices, planes, edges)
+}
+
+/// What a detection changes, as the kernels take it: the blocks (their travel and adjacency
+/// lists), the contacts, their logical contacts, the adjacency, and each contact's keys.
+#[allow(clippy::type_complexity)]
+fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Vec<u32>, Vec<Vec<LogicalKind>>) {
+    // Adjacency: each block's contacts in the contacts' order.
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); model.blocks.len()];
+    for (k, c) in model.contacts.iter().enumerate() {
+        lists[c.blocks[0] as usize].push(2 * k as u32);
+        lists[c.blocks[1] as usize].push(2 * k as u32 + 1);
+    }
+    let mut adjacency = Vec::new();
+    let mut blocks = Vec::with_capacity(model.blocks.len());
+    let (mut vertex_start, mut plane_start, mut edge_start) = (0u32, 0u32, 0u32);
+    for (b, list) in model.blocks.iter().zip(&lists) {
+        let inv = if b.inertia_ref.determinant() > 0.0 { b.inertia_ref.inverse() } else { DMat3::ZERO };
+        let r = |x: f64| R::from_f64(x);
+        let cols = inv.to_cols_array();
+        let feature_count = b.shape.edges.iter().filter(|e| e.feature).count() as u32;
+        // The centroid in the kernel precision and what that leaves (the compensated pair).
+        let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
+        blocks.push(layout::Block::<R> {
+            cx: hi[0],
+            cy: hi[1],
+            cz: hi[2],
+            cx_lo: r(b.centroid.x - hi[0].to_f64()),
+            cy_lo: r(b.centroid.y - hi[1].to_f64()),
+            cz_lo: r(b.centroid.z - hi[2].to_f64()),
+            vx: r(b.velocity.x),
+            vy: r(b.velocity.y),
+            vz: r(b.velocity.z),
+            lx: r(b.angular_momentum.x),
+            ly: r(b.angular_momentum.y),
+            lz: r(b.angular_momentum.z),
+            wx: r(b.angular_velocity.x),
+            wy: r(b.angular_velocity.y),
+            wz: r(b.angular_velocity.z),
+            qx: r(b.orientation.x),
+            qy: r(b.orientation.y),
+            qz: r(b.orientation.z),
+            qw: r(b.orientation.w),
+            mass: r(b.mass),
+            inv0: r(cols[0]),
+            inv1: r(cols[1]),
+            inv2: r(cols[2]),
+            inv3: r(cols[3]),
+            inv4: r(cols[4]),
+            inv5: r(cols[5]),
+            inv6: r(cols[6]),
+            inv7: r(cols[7]),
+            inv8: r(cols[8]),
+            load_x: r(b.load.x),
+            load_y: r(b.load.y),
+            load_z: r(b.load.z),
+            radius: r(b.shape.radius),
+            fx: r(b.force.x),
+            fy: r(b.force.y),
+            fz: r(b.force.z),
+            mx: r(b.moment.x),
+            my: r(b.moment.y),
+            mz: r(b.moment.z),
+            travel: r(b.travel),
+            fixed: b.fixed as u32,
+            vertex_start,
+            vertex_count: b.shape.vertices.len() as u32,
+            plane_start,
+            plane_count: b.shape.planes.len() as u32,
+            edge_start,
+            edge_dir_count: b.shape.edge_directions.len() as u32,
+            feature_count,
+            adjacency_start: adjacency.len() as u32,
+            adjacency_count: list.len() as u32,
+            finite: 1,
+            ..Default::default()
+        });
+        adjacency.extend_from_slice(list);
+        vertex_start += b.shape.vertices.len() as u32;
+        plane_start += b.shape.planes.len() as u32;
+        edge_start += b.shape.edge_directions.len() as u32 + feature_count;
+    }
+    let mut contacts = Vec::with_capacity(model.contacts.len());
+    let mut logicals = Vec::new();
+    let mut keys = Vec::with_capacity(model.contacts.len());
+    for c in &model.contacts {
+        let mat = model.contact_material(c);
+        let r = |x: f64| R::from_f64(x);
+        contacts.push(layout::Contact::<R> {
+            nx: r(c.normal.x),
+            ny: r(c.normal.y),
+            nz: r(c.normal.z),
+            kn: r(mat.kn),
+            ks: r(mat.ks),
+            cohesion: r(mat.cohesion),
+            friction: r(mat.friction),
+            block1: c.blocks[0],
+            block2: c.blocks[1],
+            logical_start: logicals.len() as u32,
+            logical_count: c.logical.len() as u32,
+            ..Default::default()
+        });
+        keys.push(c.logical.iter().map(|l| l.kind).collect());
+        for l in &c.logical {
+            let [kind, v1, v2, v3, v4] = logical_words(l.kind);
+            logicals.push(layout::Logical::<R> {
+                px: r(l.point.x),
+                py: r(l.point.y),
+                pz: r(l.point.z),
+                gap: r(l.gap),
+                normal_force: r(l.normal_force),
+                sx: r(l.shear_force.x),
+                sy: r(l.shear_force.y),
+                sz: r(l.shear_force.z),
+                kind,
+                v1,
+                v2,
+                v3,
+                v4,
+                live: 1,
+            });
+        }
+    }
+    (blocks, contacts, logicals, adjacency, keys)
+}
+
+/// A logical contact's kind and vertices as `layout::Logical` holds them.
+fn logical_words(kind: LogicalKind) -> [u32; 5] {
+    match kind {
+        LogicalKind::VertexFace { on_first: true, vertex } => [layout::LOGICAL_VERTEX_FIRST, vertex, 0, 0, 0],
+        LogicalKind::VertexFace { on_first: false, vertex } => [layout::LOGICAL_VERTEX_SECOND, vertex, 0, 0, 0],
+        LogicalKind::EdgeEdge { first, second } => [layout::LOGICAL_EDGE_EDGE, first.0, first.1, second.0, second.1],
+    }
+}
+
+/// `n` structs `T` from a saved buffer's bytes; Err names the buffer whose length is not theirs.
+fn pods<T: bytemuck::Pod>(bytes: &[u8], n: usize, what: &str) -> Result<Vec<T>, String> {
+    if bytes.len() != n * std::mem::size_of::<T>() {
+        return Err(format!("the saved {what} are {} bytes, not {n} of {}", bytes.len(), std::mem::size_of::<T>()));
+    }
+    Ok(bytemuck::pod_collect_to_vec(bytes))
+}
+
 /// The run's constants as the kernels take them, with the time step `dt`.
 fn params<R: Real>(model: &Model, dt: f64) -> layout::Params<R> {
     let r = |x: f64| R::from_f64(x);
@@ -596,8 +742,25 @@ impl driver::Start<Model> for GpuBackend {
     }
 
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        let pending = self.pending.take();
         if resume && self.state.is_some() {
             return Ok(());
+        }
+        if let Some(device) = pending.filter(|_| resume) {
+            // RESTART of a GPU run: its device state as it was (not a detection, which would
+            // find the logical contacts afresh and restart the energy sums).
+            let restored = match self.dev.precision {
+                Precision::F32 if !device.f64_kernels => self.restore_as::<f32>(model, &device),
+                Precision::F64 if device.f64_kernels => self.restore_as::<f64>(model, &device),
+                _ => Err("it was saved from kernels of the other precision".into()),
+            };
+            match restored {
+                Ok(()) => return Ok(()),
+                Err(why) => {
+                    use std::io::Write as _;
+                    let _ = writeln!(std::io::stderr(), "blockdem: the saved GPU state is not taken ({why}); the run starts with a contact detection");
+                }
+            }
         }
         let (created, dropped) = topology::update_neighbours(model);
         report.topology_updates += 1;
@@ -668,17 +831,32 @@ impl super::backend::Backend for GpuBackend {
         self.resumable && self.last_good == *model
     }
 
-    fn resume_from(&mut self, model: &Model) {
-        // The device's state is not the saved one: the next run uploads it afresh (a detection
-        // at its start, as after any command).
+    fn device_state(&self) -> Option<DeviceState> {
+        if self.state.is_none() {
+            // RESTART then SAVE with no CYCLE between: the state restarted from, not uploaded yet.
+            return self.pending.clone();
+        }
+        let read = match self.dev.precision {
+            Precision::F32 => self.device_state_as::<f32>(&self.last_good),
+            Precision::F64 => self.device_state_as::<f64>(&self.last_good),
+        };
+        read.ok().flatten()
+    }
+
+    fn resume_from(&mut self, model: &Model, device: Option<&DeviceState>) {
+        // With the device state saved by a GPU run, the next run uploads it as it was and goes on
+        // as the saving run would have; without it (a CPU run's file), the next run uploads the
+        // model afresh (a detection at its start, as after any command).
         self.last_good.clone_from(model);
         self.state = None;
-        self.resumable = false;
+        self.resumable = device.is_some();
+        self.pending = device.cloned();
     }
 
     fn forget(&mut self) {
         self.state = None;
         self.resumable = false;
+        self.pending = None;
         self.last_good = Model::default();
     }
 
