@@ -203,6 +203,8 @@ struct BlockInputs<'a> {
     /// In a scene with fluid, each block's load from the domain pressures and buoyancy, which
     /// its gather adds (stage 5, `flow`).
     fluid_loads: Option<&'a [[f64; 3]]>,
+    /// The same stage's scratch whole, for the deformable blocks' share of the pressures.
+    fluid: Option<&'a flow::FluidScratch>,
     dt: f64,
 }
 
@@ -254,7 +256,7 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
             continue;
         }
         if let Some((forces, adjacency)) = inp.gather {
-            gather::gather_sdef(first + j, block, s, forces, adjacency, inp.gravity);
+            gather::gather_sdef(first + j, block, s, forces, adjacency, inp.gravity, inp.fluid);
         }
         *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
         if !block.fixed {
@@ -291,7 +293,8 @@ fn block_piece_fdef(
         match block.kind {
             BlockKind::FullyDeformable if !f.zones.is_empty() => {
                 if let Some((forces, adjacency)) = inp.gather {
-                    zones::gather_fdef(block, f, mine, inp.features, forces, adjacency.entries(first + j), inp.gravity);
+                    let wet = gather::fdef_fluid(inp.fluid, first + j, block);
+                    zones::gather_fdef(block, f, mine, inp.features, forces, adjacency.entries(first + j), inp.gravity, wet);
                 }
                 *step = zones::step_fdef(block, f, mine, inp);
                 // Its boundary's velocities for stage 4 (grid point k is corner k).
@@ -333,6 +336,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             materials,
             features,
             fluid_loads: has_fluid.then_some(&fluid.loads[..]),
+            fluid: has_fluid.then_some(&*fluid),
             dt,
         };
         let n = blocks.len();
@@ -386,7 +390,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
     }
     model.external_work += work;
     if has_fluid {
-        let w = flow::fluid_work(model, &fluid.loads);
+        let w = flow::fluid_work(model, fluid);
         if let Some(f) = model.fluid.as_mut() {
             f.work += w;
         }
@@ -431,7 +435,7 @@ fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow
         return;
     }
     topology::refresh_domains(model);
-    flow::pressure_loads(model, &topology.lists, &mut fluid.loads);
+    flow::all_pressure_loads(model, &topology.lists, fluid);
     fluid_timestep_cut(model, report);
 }
 
@@ -546,7 +550,7 @@ impl driver::Start<Model> for CpuStart<'_> {
         // loads. A run that goes on from the last keeps the domains, loads and time step that
         // run left, so that CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
         if kept {
-            flow::pressure_loads(model, &self.topology.lists, &mut self.fluid.loads);
+            flow::all_pressure_loads(model, &self.topology.lists, self.fluid);
         } else {
             fluid_after_topology(model, self.topology, self.fluid, report);
         }
@@ -571,7 +575,7 @@ struct CpuStages<'a, 't> {
 impl CpuStages<'_, '_> {
     fn gather(&mut self, model: &mut Model) {
         if !self.gathered {
-            gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid.loads, &self.topology.lists, self.team);
+            gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid, &self.topology.lists, self.team);
             self.gathered = true;
         }
     }
@@ -580,7 +584,7 @@ impl CpuStages<'_, '_> {
 impl driver::Stages<Model> for CpuStages<'_, '_> {
     /// The force sums the first step needs.
     fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
-        gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid.loads, &self.topology.lists, self.team);
+        gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid, &self.topology.lists, self.team);
         self.gathered = true;
         Ok(())
     }

@@ -52,7 +52,10 @@ pub fn boundary_velocity(corner_velocity: &[[f64; 2]], c: &Contact, side: u32, c
 /// gravity on its mass and its share of the block's load (by mass), then the contacts in the
 /// block's list order (a fixed order, so runs repeat). The block's force is the sum of the
 /// external ones (for PRINT), its moment zero. `features`: each contact's corner and feature
-/// (`Scratch::features`), which stage 4 writes beside its force record.
+/// (`Scratch::features`), which stage 4 writes beside its force record. In a scene with fluid,
+/// `fluid` is the block's buoyancy (shared by mass, as the load is) and its corners' grid point
+/// loads from the domain pressures (`cpu::flow::FluidScratch`).
+#[allow(clippy::too_many_arguments)]
 pub fn gather_fdef(
     block: &mut Block,
     f: &mut Fdef,
@@ -61,6 +64,7 @@ pub fn gather_fdef(
     forces: &[ContactForce],
     entries: &[AdjacencyEntry],
     gravity: [f64; 2],
+    fluid: Option<([f64; 3], &[[f64; 2]])>,
 ) {
     let total = block.mass.max(f64::MIN_POSITIVE);
     for g in &mut f.gridpoints {
@@ -68,6 +72,17 @@ pub fn gather_fdef(
         g.force = [g.mass * gravity[0] + block.load[0] * share, g.mass * gravity[1] + block.load[1] * share];
     }
     let mut external = [block.mass * gravity[0] + block.load[0], block.mass * gravity[1] + block.load[1]];
+    if let Some((buoyancy, pressures)) = fluid {
+        for (k, g) in f.gridpoints.iter_mut().enumerate() {
+            let share = g.mass / total;
+            let p = if (k as u32) < f.boundary { pressures.get(k).copied().unwrap_or([0.0; 2]) } else { [0.0; 2] };
+            let l = [buoyancy[0] * share + p[0], buoyancy[1] * share + p[1]];
+            g.force[0] += l[0];
+            g.force[1] += l[1];
+            external[0] += l[0];
+            external[1] += l[1];
+        }
+    }
     for e in entries {
         let k = e.contact() as usize;
         let cf = &forces[k];
