@@ -156,8 +156,8 @@ fn block_load(model: &Model, adjacency: &Adjacency, b: usize, foot: &impl Fn(usi
 /// (`law_of_motion::law_of_motion`), which the kinetic energy at whole steps balances. A rigid
 /// block's load does F·Δx + M·Δθ; a simply-deformable block's applied stress from the pressures
 /// does A : Δε besides, A11·Δε11 + (A12 + A21)·Δε12 + A22·Δε22 (`model::sdef`, the power of its
-/// internal modes); a zoned block's grid point loads and its buoyancy's share do F·Δx on each
-/// grid point.
+/// internal modes); a zoned block's grid point loads are booked by its step
+/// (`zones::step_fdef`), which has the grid points' velocities before and after it.
 pub fn fluid_work(model: &Model, scratch: &FluidScratch) -> f64 {
     let dt = model.timestep;
     let loads = &scratch.loads;
@@ -166,21 +166,8 @@ pub fn fluid_work(model: &Model, scratch: &FluidScratch) -> f64 {
         if block.fixed {
             continue;
         }
-        if let Some(f) = model.fdef_of(b).filter(|f| !f.zones.is_empty()) {
-            let total = block.mass.max(f64::MIN_POSITIVE);
-            let start = block.corner_start as usize;
-            let mut wb = 0.0;
-            for (k, g) in f.gridpoints.iter().enumerate() {
-                let share = g.mass / total;
-                let mut fx = [l[0] * share, l[1] * share];
-                if (k as u32) < f.boundary {
-                    if let Some(p) = scratch.gridpoint.get(start + k) {
-                        fx = [fx[0] + p[0], fx[1] + p[1]];
-                    }
-                }
-                wb += fx[0] * g.velocity[0] + fx[1] * g.velocity[1];
-            }
-            w += wb * dt;
+        if model.fdef_of(b).is_some_and(|f| !f.zones.is_empty()) {
+            // Booked by its step (`zones::step_fdef`).
             continue;
         }
         w += (l[0] * block.velocity[0] + l[1] * block.velocity[1] + l[2] * block.angular_velocity) * dt;

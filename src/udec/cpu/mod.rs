@@ -292,11 +292,11 @@ fn block_piece_fdef(
         corner_velocity = rest;
         match block.kind {
             BlockKind::FullyDeformable if !f.zones.is_empty() => {
+                let wet = gather::fdef_fluid(inp.fluid, first + j, block);
                 if let Some((forces, adjacency)) = inp.gather {
-                    let wet = gather::fdef_fluid(inp.fluid, first + j, block);
                     zones::gather_fdef(block, f, mine, inp.features, forces, adjacency.entries(first + j), inp.gravity, wet);
                 }
-                *step = zones::step_fdef(block, f, mine, inp);
+                *step = zones::step_fdef(block, f, mine, inp, wet);
                 // Its boundary's velocities for stage 4 (grid point k is corner k).
                 for (v, g) in velocities.iter_mut().zip(&f.gridpoints) {
                     *v = g.velocity;
@@ -377,6 +377,8 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         });
     }
     let mut work = 0.0;
+    // The zoned blocks' fluid work (none elsewhere: `flow::fluid_work` takes the others').
+    let mut zoned_fluid_work = 0.0;
     let mut fastest = (0.0f64, 0usize);
     let mut inverted = None;
     for (b, step) in steps.iter().enumerate() {
@@ -384,13 +386,17 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             inverted = Some((b, z));
         }
         work += step.external_work;
+        zoned_fluid_work += step.fluid_work;
         if step.corner_travel > fastest.0 {
             fastest = (step.corner_travel, b);
         }
     }
     model.external_work += work;
     if has_fluid {
-        let w = flow::fluid_work(model, fluid);
+        let mut w = flow::fluid_work(model, fluid);
+        if !model.fdef.is_empty() {
+            w += zoned_fluid_work;
+        }
         if let Some(f) = model.fluid.as_mut() {
             f.work += w;
         }
