@@ -797,4 +797,3 @@ fn split_pieces_are_given_touching_and_cycle() {
         run_deck_on(&run, cpu()).unwrap_or_else(|e| panic!("{e}\n{run}"));
     }
 }
-

@@ -10,7 +10,9 @@
 
 use super::team::Team;
 use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, MIN_CONTACTS_PER_THREAD};
-use crate::udec::model::fluid::{contact_flow, contact_foot, deformable_pressure_loads, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step, sum_inflows};
+use crate::udec::model::fluid::{
+    contact_flow, contact_foot, deformable_pressure_loads, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step, sum_inflows,
+};
 use crate::udec::model::{BlockKind, Model};
 use crate::udec::topology::Adjacency;
 

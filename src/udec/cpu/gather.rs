@@ -21,7 +21,15 @@ pub fn gather(b: usize, block: &mut Block, forces: &[ContactForce], adjacency: &
 /// scene with fluid, `fluid` adds the domain pressures' share of each (stage 5: its load, and its
 /// applied stress times area, `model::fluid::deformable_pressure_loads`).
 #[inline]
-pub fn gather_sdef(b: usize, block: &mut Block, sdef: &mut Sdef, forces: &[ContactForce], adjacency: &Adjacency, gravity: [f64; 2], fluid: Option<&FluidScratch>) {
+pub fn gather_sdef(
+    b: usize,
+    block: &mut Block,
+    sdef: &mut Sdef,
+    forces: &[ContactForce],
+    adjacency: &Adjacency,
+    gravity: [f64; 2],
+    fluid: Option<&FluidScratch>,
+) {
     gather(b, block, forces, adjacency, gravity);
     sdef.applied = crate::udec::contact::gather::gather_applied_stress(block, forces, adjacency.entries(b));
     if let Some(fluid) = fluid {

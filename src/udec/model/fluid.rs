@@ -310,12 +310,19 @@ fn regular_void(model: &Model, domains: &Domains, d: usize, foot: &impl Fn(usize
 /// `edge` (the index within the block of the corner the edge starts at). The contacts' feet come
 /// from `foot` (contact index, side). The vertices are [`domain_loops`]' own: a piece never spans
 /// a corner, whose link the circuit passes.
-pub fn boundary_pieces(model: &Model, domains: &Domains, d: usize, foot: &impl Fn(usize, u32) -> [f64; 2], visit: &mut impl FnMut(u32, u32, [f64; 2], [f64; 2])) {
+pub fn boundary_pieces(
+    model: &Model,
+    domains: &Domains,
+    d: usize,
+    foot: &impl Fn(usize, u32) -> [f64; 2],
+    visit: &mut impl FnMut(u32, u32, [f64; 2], [f64; 2]),
+) {
     let dom = &domains.list[d];
     let start = dom.link_start as usize;
     // One loop's vertices, each with the block piece it starts (block, edge), if any.
-    let mut ring: Vec<([f64; 2], Option<(u32, u32)>)> = Vec::new();
-    let mut flush = |ring: &mut Vec<([f64; 2], Option<(u32, u32)>)>| {
+    type Vertex = ([f64; 2], Option<(u32, u32)>);
+    let mut ring: Vec<Vertex> = Vec::new();
+    let mut flush = |ring: &mut Vec<Vertex>| {
         for i in 0..ring.len() {
             if let (p, Some((b, e))) = ring[i] {
                 visit(b, e, p, ring[(i + 1) % ring.len()].0);
@@ -367,7 +374,13 @@ pub fn boundary_pieces(model: &Model, domains: &Domains, d: usize, foot: &impl F
 /// `gridpoint` like the corners (a zoned block's corner k is its grid point k; empty where the
 /// scene has no fully-deformable block). Summed serially, domain by domain in list order and
 /// each domain's pieces in circuit order, so a run repeats bit for bit.
-pub fn deformable_pressure_loads(model: &Model, domains: &Domains, foot: &impl Fn(usize, u32) -> [f64; 2], applied: &mut Vec<[f64; 4]>, gridpoint: &mut Vec<[f64; 2]>) {
+pub fn deformable_pressure_loads(
+    model: &Model,
+    domains: &Domains,
+    foot: &impl Fn(usize, u32) -> [f64; 2],
+    applied: &mut Vec<[f64; 4]>,
+    gridpoint: &mut Vec<[f64; 2]>,
+) {
     applied.clear();
     gridpoint.clear();
     if !model.sdef.is_empty() {
@@ -559,16 +572,24 @@ pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
             let mut strain: Vec<(u32, [f64; 4])> = Vec::new();
             let mut points: Vec<(u32, f64)> = Vec::new();
             let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
-            deformable_pressure_loads_at(model, domains, d, 1.0, &foot, &mut |b, a| match strain.iter_mut().find(|(x, _)| *x == b) {
-                Some(e) => e.1.iter_mut().zip(a).for_each(|(x, y)| *x += y),
-                None => strain.push((b, a)),
-            }, &mut |g, f| {
-                let l = (f[0] * f[0] + f[1] * f[1]).sqrt();
-                match points.iter_mut().find(|(x, _)| *x == g) {
-                    Some(e) => e.1 += l,
-                    None => points.push((g, l)),
-                }
-            });
+            deformable_pressure_loads_at(
+                model,
+                domains,
+                d,
+                1.0,
+                &foot,
+                &mut |b, a| match strain.iter_mut().find(|(x, _)| *x == b) {
+                    Some(e) => e.1.iter_mut().zip(a).for_each(|(x, y)| *x += y),
+                    None => strain.push((b, a)),
+                },
+                &mut |g, f| {
+                    let l = (f[0] * f[0] + f[1] * f[1]).sqrt();
+                    match points.iter_mut().find(|(x, _)| *x == g) {
+                        Some(e) => e.1 += l,
+                        None => points.push((g, l)),
+                    }
+                },
+            );
             for (b, a) in strain {
                 let m = a[0].abs().max(a[3].abs()).max(0.5 * (a[1] + a[2]).abs());
                 k_strain[b as usize] += k_bulk * m * m / area;
