@@ -1438,7 +1438,7 @@ fn gather_gridpoints_matches_rust<R: Real>(dev: &GpuDevice) {
     let square = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nSTOP\n";
     let mut block = blockdem::scenes::run_deck_on(square, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap().blocks[0].clone();
     block.mass = want.gridpoints.iter().map(|g| g.mass).sum();
-    blockdem::udec::cpu::zones::gather_fdef(&mut block, &mut want, &[], &[], &[], &[], gravity);
+    blockdem::udec::cpu::zones::gather_fdef(&mut block, &mut want, &[], &[], &[], &[], gravity, None);
     let words = |x: &[u32]| bytemuck::cast_slice::<u32, u8>(x).to_vec();
     let out = run_kernel(
         dev,

@@ -10,8 +10,10 @@
 
 use super::team::Team;
 use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, MIN_CONTACTS_PER_THREAD};
-use crate::udec::model::fluid::{contact_flow, contact_foot, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step, sum_inflows};
-use crate::udec::model::Model;
+use crate::udec::model::fluid::{
+    contact_flow, contact_foot, deformable_pressure_loads, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step, sum_inflows,
+};
+use crate::udec::model::{BlockKind, Model};
 use crate::udec::topology::Adjacency;
 
 /// What stage 5 keeps between cycles.
@@ -24,6 +26,14 @@ pub struct FluidScratch {
     /// Each block's load from the domain pressures and buoyancy (force x, y, moment), as the next
     /// gather adds it.
     pub loads: Vec<[f64; 3]>,
+    /// Each simply-deformable block's applied stress times area from the domain pressures
+    /// (`model::fluid::deformable_pressure_loads`), as the next gather adds it to the contacts';
+    /// indexed like the blocks, empty in a scene without such blocks.
+    pub applied: Vec<[f64; 4]>,
+    /// Each zoned block's boundary grid points' loads from the domain pressures, indexed like the
+    /// corners (corner k of a zoned block is its grid point k); empty in a scene without zoned
+    /// blocks.
+    pub gridpoint: Vec<[f64; 2]>,
     /// Each contact's two feet this cycle (`model::fluid::contact_foot`, side 0 then 1), taken
     /// once, by stage 4 where it has the corners at hand (`contact_forces::contact_stage`), for
     /// the areas and the loads, where each domain's area and each block's load would take them
@@ -87,6 +97,25 @@ pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidS
     scratch.loads.resize(model.blocks.len(), [0.0; 3]);
     let model = &*model;
     fill_on_team(team, &mut scratch.loads, MIN_BLOCKS_PER_THREAD, &|b| block_load(model, adjacency, b, &|k, side| feet[k][side as usize]));
+    if let Some(domains) = model.domains.as_ref() {
+        deformable_pressure_loads(model, domains, &|k, side| feet[k][side as usize], &mut scratch.applied, &mut scratch.gridpoint);
+    }
+}
+
+/// [`pressure_loads`] and the deformable blocks' share of the pressures
+/// (`model::fluid::deformable_pressure_loads`), into `scratch`: after a change of topology.
+pub fn all_pressure_loads(model: &Model, adjacency: &Adjacency, scratch: &mut FluidScratch) {
+    pressure_loads(model, adjacency, &mut scratch.loads);
+    match model.domains.as_ref().filter(|_| model.fluid.is_some()) {
+        Some(domains) => {
+            let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
+            deformable_pressure_loads(model, domains, &foot, &mut scratch.applied, &mut scratch.gridpoint);
+        }
+        None => {
+            scratch.applied.clear();
+            scratch.gridpoint.clear();
+        }
+    }
 }
 
 /// Each block's load from the pressures of the domains around it (the module doc of
@@ -103,11 +132,16 @@ pub fn pressure_loads(model: &Model, adjacency: &Adjacency, loads: &mut Vec<[f64
 }
 
 /// Block `b`'s load ([`pressure_loads`]) with the contacts' feet from `foot` (contact index,
-/// side); 0 without fluid or domains.
+/// side); 0 without fluid or domains. A zoned block's is its buoyancy alone (its grid points
+/// take the pressures, `FluidScratch::gridpoint`), which its gather shares out by mass as it
+/// does its LOAD.
 fn block_load(model: &Model, adjacency: &Adjacency, b: usize, foot: &impl Fn(usize, u32) -> [f64; 2]) -> [f64; 3] {
     let (Some(fluid), Some(domains)) = (model.fluid.as_ref(), model.domains.as_ref()) else { return [0.0; 3] };
     let (block, g) = (&model.blocks[b], model.gravity);
     let mut l = [-fluid.density * block.area * g[0], -fluid.density * block.area * g[1], 0.0];
+    if block.kind == BlockKind::FullyDeformable && model.fdef_of(b).is_some_and(|f| !f.zones.is_empty()) {
+        return l;
+    }
     for e in adjacency.entries(b) {
         let k = e.contact() as usize;
         let jump = pressure_jump(domains, k, e.side());
@@ -119,10 +153,30 @@ fn block_load(model: &Model, adjacency: &Adjacency, b: usize, foot: &impl Fn(usi
     l
 }
 
-/// The work of the fluid loads over this cycle's step, F·Δx + M·Δθ with the velocities the step
-/// just took: the ledger's fluid term, summed forward as gravity's work is
-/// (`law_of_motion::law_of_motion`), which the kinetic energy at whole steps balances.
-pub fn fluid_work(model: &Model, loads: &[[f64; 3]]) -> f64 {
+/// The work of the fluid loads over this cycle's step, with the velocities the step just took:
+/// the ledger's fluid term, summed forward as gravity's work is
+/// (`law_of_motion::law_of_motion`), which the kinetic energy at whole steps balances. A rigid
+/// block's load does F·Δx + M·Δθ; a simply-deformable block's applied stress from the pressures
+/// does A : Δε besides, A11·Δε11 + (A12 + A21)·Δε12 + A22·Δε22 (`model::sdef`, the power of its
+/// internal modes); a zoned block's grid point loads are booked by its step
+/// (`zones::step_fdef`), which has the grid points' velocities before and after it.
+pub fn fluid_work(model: &Model, scratch: &FluidScratch) -> f64 {
     let dt = model.timestep;
-    model.blocks.iter().zip(loads).filter(|(b, _)| !b.fixed).map(|(b, l)| (l[0] * b.velocity[0] + l[1] * b.velocity[1] + l[2] * b.angular_velocity) * dt).sum()
+    let loads = &scratch.loads;
+    let mut w = 0.0;
+    for (b, (block, l)) in model.blocks.iter().zip(loads).enumerate() {
+        if block.fixed {
+            continue;
+        }
+        if model.fdef_of(b).is_some_and(|f| !f.zones.is_empty()) {
+            // Booked by its step (`zones::step_fdef`).
+            continue;
+        }
+        w += (l[0] * block.velocity[0] + l[1] * block.velocity[1] + l[2] * block.angular_velocity) * dt;
+        if let (Some(s), Some(a)) = (model.sdef_of(b), scratch.applied.get(b)) {
+            let e = s.strain_rate;
+            w += (a[0] * e[0] + (a[1] + a[2]) * e[1] + a[3] * e[2]) * dt;
+        }
+    }
+    w
 }

@@ -17,6 +17,9 @@ pub struct StepOutcome {
     pub corner_travel: f64,
     /// The first zone of a fully-deformable block turned inside out in this step (its index).
     pub inverted_zone: Option<u32>,
+    /// Work the fluid loads did on a zoned block's grid points over this step (`zones::step_fdef`;
+    /// the other blocks' is `flow::fluid_work`'s).
+    pub fluid_work: f64,
 }
 
 /// Advances one free block by one step. Fixed blocks do not move (their velocity stays zero).
@@ -51,7 +54,7 @@ pub fn law_of_motion(block: &mut Block, gravity: [f64; 2], alpha: f64, dt: f64) 
     block.moved_since_update = block.moved_since_update.max(block.net_since_update());
     let fx = block.mass * gravity[0] + block.load[0];
     let fy = block.mass * gravity[1] + block.load[1];
-    StepOutcome { external_work: fx * dx + fy * dy, corner_travel, inverted_zone: None }
+    StepOutcome { external_work: fx * dx + fy * dy, corner_travel, inverted_zone: None, fluid_work: 0.0 }
 }
 
 /// Energy the mass-proportional damping force takes from a block in one step, from its velocities

@@ -203,6 +203,8 @@ struct BlockInputs<'a> {
     /// In a scene with fluid, each block's load from the domain pressures and buoyancy, which
     /// its gather adds (stage 5, `flow`).
     fluid_loads: Option<&'a [[f64; 3]]>,
+    /// The same stage's scratch whole, for the deformable blocks' share of the pressures.
+    fluid: Option<&'a flow::FluidScratch>,
     dt: f64,
 }
 
@@ -254,7 +256,7 @@ fn block_piece_sdef(first: usize, blocks: &mut [Block], sdef: &mut [Sdef], mut c
             continue;
         }
         if let Some((forces, adjacency)) = inp.gather {
-            gather::gather_sdef(first + j, block, s, forces, adjacency, inp.gravity);
+            gather::gather_sdef(first + j, block, s, forces, adjacency, inp.gravity, inp.fluid);
         }
         *step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
         if !block.fixed {
@@ -290,10 +292,11 @@ fn block_piece_fdef(
         corner_velocity = rest;
         match block.kind {
             BlockKind::FullyDeformable if !f.zones.is_empty() => {
+                let wet = gather::fdef_fluid(inp.fluid, first + j, block);
                 if let Some((forces, adjacency)) = inp.gather {
-                    zones::gather_fdef(block, f, mine, inp.features, forces, adjacency.entries(first + j), inp.gravity);
+                    zones::gather_fdef(block, f, mine, inp.features, forces, adjacency.entries(first + j), inp.gravity, wet);
                 }
-                *step = zones::step_fdef(block, f, mine, inp);
+                *step = zones::step_fdef(block, f, mine, inp, wet);
                 // Its boundary's velocities for stage 4 (grid point k is corner k).
                 for (v, g) in velocities.iter_mut().zip(&f.gridpoints) {
                     *v = g.velocity;
@@ -333,6 +336,7 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             materials,
             features,
             fluid_loads: has_fluid.then_some(&fluid.loads[..]),
+            fluid: has_fluid.then_some(&*fluid),
             dt,
         };
         let n = blocks.len();
@@ -373,6 +377,8 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
         });
     }
     let mut work = 0.0;
+    // The zoned blocks' fluid work (none elsewhere: `flow::fluid_work` takes the others').
+    let mut zoned_fluid_work = 0.0;
     let mut fastest = (0.0f64, 0usize);
     let mut inverted = None;
     for (b, step) in steps.iter().enumerate() {
@@ -380,13 +386,17 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             inverted = Some((b, z));
         }
         work += step.external_work;
+        zoned_fluid_work += step.fluid_work;
         if step.corner_travel > fastest.0 {
             fastest = (step.corner_travel, b);
         }
     }
     model.external_work += work;
     if has_fluid {
-        let w = flow::fluid_work(model, &fluid.loads);
+        let mut w = flow::fluid_work(model, fluid);
+        if !model.fdef.is_empty() {
+            w += zoned_fluid_work;
+        }
         if let Some(f) = model.fluid.as_mut() {
             f.work += w;
         }
@@ -431,7 +441,7 @@ fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow
         return;
     }
     topology::refresh_domains(model);
-    flow::pressure_loads(model, &topology.lists, &mut fluid.loads);
+    flow::all_pressure_loads(model, &topology.lists, fluid);
     fluid_timestep_cut(model, report);
 }
 
@@ -546,7 +556,7 @@ impl driver::Start<Model> for CpuStart<'_> {
         // loads. A run that goes on from the last keeps the domains, loads and time step that
         // run left, so that CYCLE 100, CYCLE 100 is CYCLE 200 bit for bit.
         if kept {
-            flow::pressure_loads(model, &self.topology.lists, &mut self.fluid.loads);
+            flow::all_pressure_loads(model, &self.topology.lists, self.fluid);
         } else {
             fluid_after_topology(model, self.topology, self.fluid, report);
         }
@@ -571,7 +581,7 @@ struct CpuStages<'a, 't> {
 impl CpuStages<'_, '_> {
     fn gather(&mut self, model: &mut Model) {
         if !self.gathered {
-            gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid.loads, &self.topology.lists, self.team);
+            gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid, &self.topology.lists, self.team);
             self.gathered = true;
         }
     }
@@ -580,7 +590,7 @@ impl CpuStages<'_, '_> {
 impl driver::Stages<Model> for CpuStages<'_, '_> {
     /// The force sums the first step needs.
     fn begin_cycles(&mut self, model: &mut Model) -> Result<(), CycleError> {
-        gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid.loads, &self.topology.lists, self.team);
+        gather_all(model, &self.scratch.forces, &self.scratch.features, &self.scratch.fluid, &self.topology.lists, self.team);
         self.gathered = true;
         Ok(())
     }

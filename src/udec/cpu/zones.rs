@@ -52,7 +52,10 @@ pub fn boundary_velocity(corner_velocity: &[[f64; 2]], c: &Contact, side: u32, c
 /// gravity on its mass and its share of the block's load (by mass), then the contacts in the
 /// block's list order (a fixed order, so runs repeat). The block's force is the sum of the
 /// external ones (for PRINT), its moment zero. `features`: each contact's corner and feature
-/// (`Scratch::features`), which stage 4 writes beside its force record.
+/// (`Scratch::features`), which stage 4 writes beside its force record. In a scene with fluid,
+/// `fluid` is the block's buoyancy (shared by mass, as the load is) and its corners' grid point
+/// loads from the domain pressures (`cpu::flow::FluidScratch`).
+#[allow(clippy::too_many_arguments)]
 pub fn gather_fdef(
     block: &mut Block,
     f: &mut Fdef,
@@ -61,6 +64,7 @@ pub fn gather_fdef(
     forces: &[ContactForce],
     entries: &[AdjacencyEntry],
     gravity: [f64; 2],
+    fluid: Option<([f64; 3], &[[f64; 2]])>,
 ) {
     let total = block.mass.max(f64::MIN_POSITIVE);
     for g in &mut f.gridpoints {
@@ -68,6 +72,17 @@ pub fn gather_fdef(
         g.force = [g.mass * gravity[0] + block.load[0] * share, g.mass * gravity[1] + block.load[1] * share];
     }
     let mut external = [block.mass * gravity[0] + block.load[0], block.mass * gravity[1] + block.load[1]];
+    if let Some((buoyancy, pressures)) = fluid {
+        for (k, g) in f.gridpoints.iter_mut().enumerate() {
+            let share = g.mass / total;
+            let p = if (k as u32) < f.boundary { pressures.get(k).copied().unwrap_or([0.0; 2]) } else { [0.0; 2] };
+            let l = [buoyancy[0] * share + p[0], buoyancy[1] * share + p[1]];
+            g.force[0] += l[0];
+            g.force[1] += l[1];
+            external[0] += l[0];
+            external[1] += l[1];
+        }
+    }
     for e in entries {
         let k = e.contact() as usize;
         let cf = &forces[k];
@@ -96,8 +111,13 @@ pub fn gather_fdef(
 /// Stages 1, 3 and 2 of a fully-deformable block whose forces are gathered: its grid points
 /// step (eqs. 9–10 per grid point, with mass damping; a fixed block's stay still), its zones
 /// take their stress increments, its corners follow. The outcome's `inverted_zone` names the
-/// first zone turned inside out (its index), if any.
-pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner], inp: &BlockInputs) -> StepOutcome {
+/// first zone turned inside out (its index), if any. In a scene with fluid `fluid` is what the
+/// gather added of it ([`gather_fdef`]), whose work over the step the outcome books: each grid
+/// point's fluid force times its mean velocity over the step, ½(v_old + v_new)·Δt, which is what
+/// the step gives its kinetic energy (the grid points' springs of fluid are stiff and light: the
+/// forward product F·v_new·Δt that gravity's work takes would leave the ledger off by
+/// ½Σ ΔF·Δx, first order in the step).
+pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner], inp: &BlockInputs, fluid: Option<([f64; 3], &[[f64; 2]])>) -> StepOutcome {
     let dt = inp.dt;
     let mut out = StepOutcome::default();
     if block.fixed {
@@ -112,7 +132,8 @@ pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner],
         // fifth of the zoned wall's cycle).
         let mut travel: f64 = 0.0;
         let mut damping = 0.0;
-        for g in &mut f.gridpoints {
+        let boundary = f.boundary as usize;
+        for (k, g) in f.gridpoints.iter_mut().enumerate() {
             if g.mass <= 0.0 {
                 continue;
             }
@@ -129,6 +150,11 @@ pub(super) fn step_fdef(block: &mut Block, f: &mut Fdef, corners: &mut [Corner],
             travel = travel.max(d[0] * d[0] + d[1] * d[1]);
             let share = g.mass / total;
             out.external_work += (g.mass * inp.gravity[0] + block.load[0] * share) * d[0] + (g.mass * inp.gravity[1] + block.load[1] * share) * d[1];
+            if let Some((buoyancy, pressures)) = fluid {
+                let p = if k < boundary { pressures.get(k).copied().unwrap_or([0.0; 2]) } else { [0.0; 2] };
+                let l = [buoyancy[0] * share + p[0], buoyancy[1] * share + p[1]];
+                out.fluid_work += 0.5 * dt * (l[0] * (v0[0] + v[0]) + l[1] * (v0[1] + v[1]));
+            }
         }
         f.damping_work += damping;
         out.corner_travel = travel.sqrt();

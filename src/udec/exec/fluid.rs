@@ -5,7 +5,6 @@ use super::{Executor, RunError};
 use crate::udec::deck::{DomainRef, Located};
 use crate::udec::model::constitutive::{Constitutive, ContactLaw};
 use crate::udec::model::fluid::{domain_at, stored_volume, Fluid};
-use crate::udec::model::BlockKind;
 
 impl Executor<'_> {
     /// FLUID rhow bulkw: the scene carries fluid from here on; its domains are built (and rebuilt
@@ -88,19 +87,14 @@ impl Executor<'_> {
         Ok(())
     }
 
-    /// Before CYCLE in a scene with fluid: the blocks are rigid (the pressures' share of a
-    /// deformable block's stress is not written yet), and every material in use has a flow law
-    /// (¶6): CPERM for its point contacts, and where its contacts may be joints (a joint
-    /// constitutive number with JKN and JKS) JPERM with AZERO > 0 if it gives JPERM.
+    /// Before CYCLE in a scene with fluid: every material in use has a flow law (¶6): CPERM for
+    /// its point contacts, and where its contacts may be joints (a joint constitutive number with
+    /// JKN and JKS) JPERM with AZERO > 0 if it gives JPERM. Deformable blocks take the pressures
+    /// too (`model::fluid::deformable_pressure_loads`); the GPU runs fluid with rigid blocks only
+    /// and says so (`gpu::flow`).
     pub(super) fn check_fluid(&self, cmd: &Located) -> Result<(), RunError> {
         if self.model.fluid.is_none() {
             return Ok(());
-        }
-        if let Some(b) = self.model.blocks.iter().find(|b| b.kind != BlockKind::Rigid) {
-            return Err(self.unsupported(
-                cmd,
-                &format!("fluid with a deformable block (block {} is {}): domain pressures act on rigid blocks in this version", b.id, b.kind.name()),
-            ));
         }
         let mut used: Vec<(u32, u32)> = self.model.blocks.iter().map(|b| (b.material, b.constitutive)).collect();
         used.extend(self.model.corners.iter().filter(|c| c.edge_material != 0).map(|c| (c.edge_material, c.edge_constitutive.max(1))));

@@ -304,6 +304,151 @@ fn regular_void(model: &Model, domains: &Domains, d: usize, foot: &impl Fn(usize
     void
 }
 
+/// Calls `visit(block, edge, from, to)` for each piece of block boundary that bounds domain `d`,
+/// in circuit order: the piece runs from `from` to `to` along the boundary of `block` (its index;
+/// the block lies on the piece's left, the circuit keeping the void on its right) on its edge
+/// `edge` (the index within the block of the corner the edge starts at). The contacts' feet come
+/// from `foot` (contact index, side). The vertices are [`domain_loops`]' own: a piece never spans
+/// a corner, whose link the circuit passes.
+pub fn boundary_pieces(
+    model: &Model,
+    domains: &Domains,
+    d: usize,
+    foot: &impl Fn(usize, u32) -> [f64; 2],
+    visit: &mut impl FnMut(u32, u32, [f64; 2], [f64; 2]),
+) {
+    let dom = &domains.list[d];
+    let start = dom.link_start as usize;
+    // One loop's vertices, each with the block piece it starts (block, edge), if any.
+    type Vertex = ([f64; 2], Option<(u32, u32)>);
+    let mut ring: Vec<Vertex> = Vec::new();
+    let mut flush = |ring: &mut Vec<Vertex>| {
+        for i in 0..ring.len() {
+            if let (p, Some((b, e))) = ring[i] {
+                visit(b, e, p, ring[(i + 1) % ring.len()].0);
+            }
+        }
+        ring.clear();
+    };
+    for (k, link) in domains.links_of(dom).iter().enumerate() {
+        let bits = domains.link_sides.get(start + k).copied().unwrap_or(0);
+        if bits & LOOP_START != 0 {
+            flush(&mut ring);
+        }
+        match *link {
+            DomainLink::Contact { index, .. } => {
+                let Some(c) = model.contacts.get(index as usize) else { continue };
+                let side = u32::from(bits & 1);
+                let (block, edge) = if side == 0 {
+                    (c.block1, c.corner - model.blocks[c.block1 as usize].corner_start)
+                } else {
+                    (c.block2, (c.feature / 2) % model.blocks[c.block2 as usize].corner_count.max(1))
+                };
+                ring.push((foot(index as usize, 1 - side), None));
+                ring.push((foot(index as usize, side), Some((block, edge))));
+            }
+            DomainLink::Corner { corner } => {
+                if let Some(cn) = model.corners.get(corner as usize) {
+                    ring.push((cn.position, Some((cn.block, corner - model.blocks[cn.block as usize].corner_start))));
+                }
+            }
+        }
+    }
+    flush(&mut ring);
+}
+
+/// The share of the domain pressures that a deformable block takes beyond its force and moment
+/// (the module's "Loads", which `cpu::flow` sums for every block by the pressure jumps at the
+/// contacts' feet):
+/// - a simply-deformable block's applied stress times area (`model::sdef`, KSA): a uniform
+///   pressure p on a piece of its boundary from a to b is the force p·perp(b − a) spread evenly
+///   along it, whose Σ r ⊗ f is exactly (m − c) ⊗ p·perp(b − a), m the piece's midpoint and c the
+///   centroid. Round the whole block, −p·A·I: a block pressed on all sides by p takes the mean
+///   stress −p, as a contact force would make it (¶3, ¶19);
+/// - a zoned block's grid point loads (`model::fdef`): the same force split between the two
+///   grid points of the edge k, k + 1 the piece lies on by the linear shape functions of the
+///   edge, 1 − t̄ and t̄ with t̄ the mean of the piece's ends' parameters along the edge (so the
+///   loads do on the grid points' motion the work the pressure does on the boundary's).
+///
+/// `applied` is indexed like the blocks (empty where the scene has no simply-deformable block),
+/// `gridpoint` like the corners (a zoned block's corner k is its grid point k; empty where the
+/// scene has no fully-deformable block). Summed serially, domain by domain in list order and
+/// each domain's pieces in circuit order, so a run repeats bit for bit.
+pub fn deformable_pressure_loads(
+    model: &Model,
+    domains: &Domains,
+    foot: &impl Fn(usize, u32) -> [f64; 2],
+    applied: &mut Vec<[f64; 4]>,
+    gridpoint: &mut Vec<[f64; 2]>,
+) {
+    applied.clear();
+    gridpoint.clear();
+    if !model.sdef.is_empty() {
+        applied.resize(model.blocks.len(), [0.0; 4]);
+    }
+    if !model.fdef.is_empty() {
+        gridpoint.resize(model.corners.len(), [0.0; 2]);
+    }
+    if applied.is_empty() && gridpoint.is_empty() {
+        return;
+    }
+    let (mut to_applied, mut to_point) = (std::mem::take(applied), std::mem::take(gridpoint));
+    for (d, dom) in domains.list.iter().enumerate() {
+        let p = dom.pressure;
+        if p == 0.0 {
+            continue;
+        }
+        deformable_pressure_loads_at(
+            model,
+            domains,
+            d,
+            p,
+            foot,
+            &mut |b, a| to_applied[b as usize].iter_mut().zip(a).for_each(|(x, y)| *x += y),
+            &mut |g, f| {
+                let x = &mut to_point[g as usize];
+                x[0] += f[0];
+                x[1] += f[1];
+            },
+        );
+    }
+    *applied = to_applied;
+    *gridpoint = to_point;
+}
+
+/// The pieces of [`deformable_pressure_loads`] of domain `d` at pressure `p`: `sdef(b, a)` for
+/// each piece on simply-deformable block b with its applied stress times area a (11, 12, 21,
+/// 22), `point(g, f)` for each of the two grid points g (a corner index) of a piece on a zoned
+/// block with its share f of the piece's force; in circuit order.
+fn deformable_pressure_loads_at(
+    model: &Model,
+    domains: &Domains,
+    d: usize,
+    p: f64,
+    foot: &impl Fn(usize, u32) -> [f64; 2],
+    sdef: &mut impl FnMut(u32, [f64; 4]),
+    point: &mut impl FnMut(u32, [f64; 2]),
+) {
+    boundary_pieces(model, domains, d, foot, &mut |b, edge, from, to| {
+        let block = &model.blocks[b as usize];
+        let f = [-p * (to[1] - from[1]), p * (to[0] - from[0])];
+        if model.sdef_of(b as usize).is_some() {
+            let m = [0.5 * (from[0] + to[0]), 0.5 * (from[1] + to[1])];
+            sdef(b, super::sdef::applied_stress(m, block.centroid, f));
+        } else if model.fdef_of(b as usize).is_some_and(|z| !z.zones.is_empty()) {
+            let n = block.corner_count.max(1);
+            let (i, j) = (block.corner_start + edge % n, block.corner_start + (edge + 1) % n);
+            let (pi, pj) = (model.corners[i as usize].position, model.corners[j as usize].position);
+            let e = [pj[0] - pi[0], pj[1] - pi[1]];
+            let len2 = e[0] * e[0] + e[1] * e[1];
+            let t = |x: [f64; 2]| if len2 > 0.0 { (((x[0] - pi[0]) * e[0] + (x[1] - pi[1]) * e[1]) / len2).clamp(0.0, 1.0) } else { 0.5 };
+            let tm = 0.5 * (t(from) + t(to));
+            point(i, [(1.0 - tm) * f[0], (1.0 - tm) * f[1]]);
+            point(j, [tm * f[0], tm * f[1]]);
+        }
+    });
+}
+
 /// The flows of every contact now ([`ContactFlow`]: positive from its first domain to its
 /// second), written into `domains.flows`, and each domain's net inflow Q into `inflow`: summed
 /// in contact order, so a run repeats bit for bit.
@@ -355,7 +500,16 @@ pub fn sum_inflows(domains: &Domains, inflow: &mut Vec<f64>) {
 /// - a free domain whose volume follows the blocks is a spring on each block around it of
 ///   stiffness bulkw·L²/A_d (L the length of the block's boundary on it): with the stiffest
 ///   contact k_max, Δt ≤ FRAC·2√(m/(k_max + Σ bulkw·L²/A_d)) over the free blocks, as UDEC's
-///   2√(m/k).
+///   2√(m/k);
+/// - on a simply-deformable block the same spring acts on the strain modes: a strain ε_ij
+///   changes the void by ∫ r_i n_j ds over the block's boundary on it, which is the applied
+///   stress times area per unit pressure a_ij (`deformable_pressure_loads`), so the mode's
+///   stiffness is bulkw·a_ij²/A_d; the largest of 11, 22 and the mean of 12 and 21, added to the
+///   block's own volumetric stiffness, enters its internal limit ½·2√(M_min/k) (`model::sdef`);
+/// - on a zoned block the spring acts on each boundary grid point, of stiffness bulkw·ℓ²/A_d
+///   with ℓ the grid point's share of the block's boundary on the domain (the edge's shape
+///   function integrated along it, the void's change per unit motion): Δt ≤ FRAC·2√(m_g/(k_max
+///   + Σ bulkw·ℓ²/A_d)) over the boundary grid points, as the contacts' limit on them.
 ///
 /// None without fluid or domains, or where neither limits anything.
 pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
@@ -375,6 +529,12 @@ pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
         sum_c[d1 as usize] += cond;
     }
     let mut k_fluid = vec![0.0f64; model.blocks.len()];
+    // The deformable blocks' springs (none in a scene of rigid blocks): each simply-deformable
+    // block's strain-mode stiffness, each zoned block's boundary grid point's.
+    let deformable = model.sdef.len() + model.fdef.len() > 0;
+    let mut k_strain = vec![0.0f64; if deformable { model.blocks.len() } else { 0 }];
+    let mut k_point = vec![0.0f64; if deformable { model.corners.len() } else { 0 }];
+    let zoned = |b: usize| model.fdef_of(b).is_some_and(|f| !f.zones.is_empty());
     for (d, dom) in domains.list.iter().enumerate() {
         if !is_free(dom.kind, dom.fixed) {
             continue;
@@ -407,10 +567,59 @@ pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
                 *k += k_bulk * len * len / area;
             }
         }
+        if deformable {
+            // Per unit pressure: each simply-deformable block's a_ij, each grid point's ℓ.
+            let mut strain: Vec<(u32, [f64; 4])> = Vec::new();
+            let mut points: Vec<(u32, f64)> = Vec::new();
+            let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
+            deformable_pressure_loads_at(
+                model,
+                domains,
+                d,
+                1.0,
+                &foot,
+                &mut |b, a| match strain.iter_mut().find(|(x, _)| *x == b) {
+                    Some(e) => e.1.iter_mut().zip(a).for_each(|(x, y)| *x += y),
+                    None => strain.push((b, a)),
+                },
+                &mut |g, f| {
+                    let l = (f[0] * f[0] + f[1] * f[1]).sqrt();
+                    match points.iter_mut().find(|(x, _)| *x == g) {
+                        Some(e) => e.1 += l,
+                        None => points.push((g, l)),
+                    }
+                },
+            );
+            for (b, a) in strain {
+                let m = a[0].abs().max(a[3].abs()).max(0.5 * (a[1] + a[2]).abs());
+                k_strain[b as usize] += k_bulk * m * m / area;
+            }
+            for (g, l) in points {
+                k_point[g as usize] += k_bulk * l * l / area;
+            }
+        }
     }
     for (b, blk) in model.blocks.iter().enumerate() {
-        if !blk.fixed && blk.mass > 0.0 && k_fluid[b] > 0.0 {
+        if !blk.fixed && blk.mass > 0.0 && k_fluid[b] > 0.0 && !zoned(b) {
             dt = dt.min(model.frac * 2.0 * (blk.mass / (k_contact + k_fluid[b])).sqrt());
+        }
+        if blk.fixed || !deformable {
+            continue;
+        }
+        if let Some(s) = model.sdef_of(b).filter(|_| k_strain[b] > 0.0) {
+            let own = super::sdef::internal_stiffness(&model.material(blk.material).block, blk.area);
+            let least = super::sdef::least_moment(s.moments);
+            if least > 0.0 {
+                dt = dt.min(super::timestep::SDEF_STEP_SAFETY * 2.0 * (least / (own + k_strain[b])).sqrt());
+            }
+        }
+        if let Some(f) = model.fdef_of(b).filter(|f| !f.zones.is_empty()) {
+            for (k, g) in f.gridpoints[..(f.boundary as usize).min(blk.corner_count as usize)].iter().enumerate() {
+                let kg = k_point[blk.corner_start as usize + k];
+                if kg > 0.0 && g.mass > 0.0 {
+                    dt = dt.min(model.frac * 2.0 * (g.mass / (k_contact + kg)).sqrt());
+                }
+            }
         }
     }
     dt.is_finite().then_some(dt)
