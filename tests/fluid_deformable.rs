@@ -209,7 +209,7 @@ fn a_pressurized_cavity_between_zoned_blocks_keeps_its_ledger() {
 }
 
 /// The GPU runs fluid with rigid blocks only: a deck with deformable blocks is refused with a
-/// message naming the CPU backend, nothing run.
+/// message naming the CPU backend, nothing run; `--backend auto` runs it on the CPU.
 #[test]
 fn the_gpu_refuses_fluid_with_deformable_blocks_naming_the_cpu_backend() {
     let Some(target) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F64) else { return };
@@ -217,6 +217,14 @@ fn the_gpu_refuses_fluid_with_deformable_blocks_naming_the_cpu_backend() {
         let r = blockdem::scenes::run_deck_on(&deck, target.backend());
         let e = r.expect_err("the GPU refuses fluid with deformable blocks").to_string();
         assert!(e.contains("deformable") && e.contains("--backend cpu"), "{e}");
+        // `--backend auto` (the GPU wrapped in `GpuOrCpu`, as `blockdem run` wraps a hardware
+        // adapter) takes the refusal as a model the GPU cannot hold and runs the deck on the CPU:
+        // the same run as the CPU backend's, bit for bit.
+        let auto = blockdem::udec::backend::GpuOrCpu::new(target.backend(), || Box::new(blockdem::udec::cpu::CpuBackend::new()));
+        let on_auto = blockdem::scenes::run_deck_on(&deck, Box::new(auto)).expect("--backend auto runs it on the CPU");
+        let (on_cpu, _) = run_ok(&deck);
+        let json = blockdem::udec::output::state_json::state_json;
+        assert_eq!(json(&on_auto), json(&on_cpu));
     }
 }
 
