@@ -200,10 +200,9 @@ struct BlockInputs<'a> {
     /// Each contact's corner and feature (`Scratch::features`: a fully-deformable block's gather
     /// shares its contact forces out by them; empty in a scene without zoned blocks).
     features: &'a [[u32; 2]],
-    /// In a scene with fluid, each block's load from the domain pressures and buoyancy, which
-    /// its gather adds (stage 5, `flow`).
-    fluid_loads: Option<&'a [[f64; 3]]>,
-    /// The same stage's scratch whole, for the deformable blocks' share of the pressures.
+    /// In a scene with fluid, stage 5's results (`flow`): each block's load from the domain
+    /// pressures and buoyancy, which its gather adds, and the deformable blocks' share of the
+    /// pressures.
     fluid: Option<&'a flow::FluidScratch>,
     dt: f64,
 }
@@ -224,7 +223,7 @@ fn add_fluid_load(block: &mut Block, loads: Option<&[[f64; 3]]>, b: usize) {
 fn rigid_block(b: usize, block: &mut Block, corners: &mut [Corner], inp: &BlockInputs) -> StepOutcome {
     if let Some((forces, adjacency)) = inp.gather {
         gather::gather(b, block, forces, adjacency, inp.gravity);
-        add_fluid_load(block, inp.fluid_loads, b);
+        add_fluid_load(block, inp.fluid.map(|f| &f.loads[..]), b);
     }
     let step = law_of_motion::law_of_motion(block, inp.gravity, inp.alpha, inp.dt);
     geometry_update::geometry_update(block, corners);
@@ -335,7 +334,6 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             alpha_internal: damping.alpha_internal,
             materials,
             features,
-            fluid_loads: has_fluid.then_some(&fluid.loads[..]),
             fluid: has_fluid.then_some(&*fluid),
             dt,
         };
