@@ -392,3 +392,42 @@ fn the_d3_scenes_run_and_write_their_files() {
     assert_eq!(json["d3"].as_array().unwrap().len(), 2);
     assert!(blockdem::bench::table(&report).contains("d3-wall"));
 }
+
+/// The zoned family (`--scene zones`) at 10³ zones on the CPU and a GPU adapter: each GPU row
+/// says where its cycle goes kernel by kernel (the zone kernels among them, each a positive
+/// part of the cycle; bench_zone_kernels.csv), the CPU row has no kernels, and every row gives
+/// its contact updates and its topology and transfer shares.
+#[test]
+fn the_zoned_scenes_time_their_kernels_on_a_gpu() {
+    let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
+        return;
+    };
+    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
+    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.d3_cubes, options.d3_wall) =
+        (false, false, false, false, false, false, false, false);
+    options.zones = true;
+    options.max_zones = Some(1_000);
+    options.measure_s = 0.1;
+    let report = blockdem::bench::run(&options);
+    assert_eq!(report.zones.len(), 4, "block and wall on two backends: {:?}", report.zones);
+    for r in &report.zones {
+        assert!(r.error.is_none() && r.s_per_cycle > 0.0, "{r:?}");
+        assert!((0.0..=1.0).contains(&r.topology_share) && (0.0..=1.0).contains(&r.transfer_share), "{r:?}");
+        if r.backend.starts_with("cpu") {
+            assert!(r.kernels.is_empty() && r.device_timing.is_none(), "{r:?}");
+            continue;
+        }
+        let names: Vec<&str> = r.kernels.iter().map(|k| k.0.as_str()).collect();
+        for k in ["gather_gridpoints", "step_gridpoints", "zones", "law_of_motion_fdef"] {
+            assert!(names.contains(&k), "{k} not timed: {names:?}");
+        }
+        assert!(r.kernels.iter().all(|k| k.1 > 0.0 && k.1 < 10.0 * r.s_per_cycle), "{r:?}");
+    }
+    let table = blockdem::bench::table(&report);
+    assert!(table.contains("device step_gridpoints"), "{table}");
+    let dir = temp("zones");
+    blockdem::bench::write_outputs(&report, &dir).unwrap();
+    let csv = std::fs::read_to_string(dir.join("bench_zone_kernels.csv")).unwrap();
+    let gpu_kernels: usize = report.zones.iter().map(|r| r.kernels.len()).sum();
+    assert_eq!(csv.lines().count(), 1 + gpu_kernels, "{csv}");
+}

@@ -663,6 +663,7 @@ pub fn targets_csv(r: &BenchReport) -> String {
 }
 
 /// Writes bench.csv, bench_stages.csv, bench_reference.csv, bench_targets.csv, bench_zones.csv,
+/// bench_zone_kernels.csv,
 /// bench_sdef_scaling.csv, bench_d3.csv, bench.json and
 /// bench.png into `dir`. Returns the files written and, when the chart could not be drawn, why.
 pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBuf>, Option<String>)> {
@@ -674,6 +675,7 @@ pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBu
         ("bench_reference.csv", reference_csv(r)),
         ("bench_targets.csv", targets_csv(r)),
         ("bench_zones.csv", super::zones::csv(&r.zones)),
+        ("bench_zone_kernels.csv", super::zones::kernels_csv(&r.zones)),
         ("bench_d3.csv", super::d3::csv(&r.d3)),
         ("bench_sdef_scaling.csv", rows_csv(&r.sdef_scaling)),
         ("bench.json", serde_json::to_string_pretty(r).map_err(std::io::Error::other)?),

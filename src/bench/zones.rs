@@ -51,6 +51,15 @@ pub struct ZoneRow {
     pub bandwidth_bytes_per_s: f64,
     /// Achieved bytes per second of the zone stages over the bandwidth.
     pub roofline: f64,
+    /// On a GPU: each kernel's time per cycle (pass timestamps over a short run after the
+    /// measurement, `GpuBackend::profile_stages`), in dispatch order; how they were timed.
+    pub kernels: Vec<(String, f64)>,
+    pub device_timing: Option<String>,
+    /// Contact updates in the timed run, and the shares of its cycles' time spent in CPU
+    /// topology work and in host ↔ device transfers (as the scaling rows give them).
+    pub updates: u64,
+    pub topology_share: f64,
+    pub transfer_share: f64,
     pub error: Option<String>,
 }
 
@@ -150,10 +159,29 @@ pub(super) fn measure(
                 row.cycles = cycles;
                 row.s_per_cycle = t.steady_s / cycles as f64;
                 row.zone_cycles_per_s = zones as f64 / row.s_per_cycle;
+                row.updates = t.updates;
+                let share = |group: &str| {
+                    crate::profile::Stage::ALL.iter().filter(|s| s.group() == group).map(|&s| t.times.cycles_of(s).as_secs_f64()).sum::<f64>()
+                        / t.steady_s.max(1e-300)
+                };
+                row.topology_share = share("topology");
+                row.transfer_share = share("transfer");
                 if row.bandwidth_bytes_per_s > 0.0 {
                     row.roofline = row.bytes_per_cycle as f64 / row.s_per_cycle / row.bandwidth_bytes_per_s;
                 }
                 say(&format!("  {}: {:.3e} zone-cycles/s, roofline {:.3}", row.backend, row.zone_cycles_per_s, row.roofline));
+                if let Engine::Gpu(g) = engine {
+                    // Where a GPU cycle of zones goes, kernel by kernel (a fifth of the
+                    // measurement's time more), as the scaling walls report it.
+                    let reps = ((0.2 * measure_s / row.s_per_cycle.max(1e-7)) as u32).clamp(3, 400);
+                    match g.profile_stages(reps) {
+                        Ok(p) => {
+                            row.device_timing = Some(format!("{} over {} cycles", p.method, p.cycles));
+                            row.kernels = p.stages.iter().map(|(name, t)| (name.to_string(), *t)).collect();
+                        }
+                        Err(e) => row.device_timing = Some(format!("not measured: {e}")),
+                    }
+                }
             }
             Err(e) => {
                 say(&format!("  {} failed: {e}", row.backend));
@@ -175,8 +203,8 @@ pub fn table(rows: &[ZoneRow]) -> String {
     let _ = writeln!(s, "\nZONED SCENES (fully-deformable blocks; roofline: the zone stages' bytes over the bandwidth yardstick)");
     let _ = writeln!(
         s,
-        "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} {:>8} {:>12} {:>12} {:>9}",
-        "scene", "backend", "zones", "gridpts", "blocks", "contacts", "cycles", "s/cycle", "zone-cyc/s", "roofline"
+        "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} {:>8} {:>12} {:>12} {:>9} {:>8} {:>7} {:>7}",
+        "scene", "backend", "zones", "gridpts", "blocks", "contacts", "cycles", "s/cycle", "zone-cyc/s", "roofline", "updates", "topo", "xfer"
     );
     for r in rows {
         match &r.error {
@@ -186,10 +214,49 @@ pub fn table(rows: &[ZoneRow]) -> String {
             None => {
                 let _ = writeln!(
                     s,
-                    "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} {:>8} {:>12.3e} {:>12.3e} {:>9.3}",
-                    r.scene, r.backend, r.zones, r.gridpoints, r.blocks, r.contacts, r.cycles, r.s_per_cycle, r.zone_cycles_per_s, r.roofline
+                    "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} {:>8} {:>12.3e} {:>12.3e} {:>9.3} {:>8} {:>6.1}% {:>6.1}%",
+                    r.scene,
+                    r.backend,
+                    r.zones,
+                    r.gridpoints,
+                    r.blocks,
+                    r.contacts,
+                    r.cycles,
+                    r.s_per_cycle,
+                    r.zone_cycles_per_s,
+                    r.roofline,
+                    r.updates,
+                    100.0 * r.topology_share,
+                    100.0 * r.transfer_share
                 );
             }
+        }
+    }
+    // Each GPU row's kernels, in microseconds a cycle and as a share of their sum.
+    for r in rows.iter().filter(|r| r.device_timing.is_some()) {
+        let _ = writeln!(
+            s,
+            "  {} {} of {} zones ({:.1} us/cycle), kernels by {}",
+            r.backend,
+            r.scene,
+            r.zones,
+            r.s_per_cycle * 1e6,
+            r.device_timing.as_deref().unwrap_or("")
+        );
+        let sum: f64 = r.kernels.iter().map(|k| k.1).sum();
+        for (name, t) in &r.kernels {
+            let _ = writeln!(s, "    device {name:<28} {:>10.2} {:>6.1}%", t * 1e6, 100.0 * t / sum.max(1e-300));
+        }
+    }
+    s
+}
+
+/// Each GPU zone row's kernel times as CSV (bench_zone_kernels.csv).
+pub fn kernels_csv(rows: &[ZoneRow]) -> String {
+    let mut s = String::from("scene,backend,zones,kernel,s_per_cycle\n");
+    for r in rows {
+        for (name, t) in &r.kernels {
+            s += &format!("{},{},{},{},{:e}\n", r.scene, r.backend, r.zones, name, t);
         }
     }
     s
@@ -198,11 +265,11 @@ pub fn table(rows: &[ZoneRow]) -> String {
 /// The zone rows as CSV.
 pub fn csv(rows: &[ZoneRow]) -> String {
     let mut s = String::from(
-        "scene,backend,nominal,zones,gridpoints,blocks,contacts,cycles,s_per_cycle,zone_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,error\n",
+        "scene,backend,nominal,zones,gridpoints,blocks,contacts,cycles,s_per_cycle,zone_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,updates,topology_share,transfer_share,error\n",
     );
     for r in rows {
         s += &format!(
-            "{},{},{},{},{},{},{},{},{:e},{:e},{},{:e},{:e},{}\n",
+            "{},{},{},{},{},{},{},{},{:e},{:e},{},{:e},{:e},{},{:e},{:e},{}\n",
             r.scene,
             r.backend,
             r.nominal,
@@ -216,6 +283,9 @@ pub fn csv(rows: &[ZoneRow]) -> String {
             r.bytes_per_cycle,
             r.bandwidth_bytes_per_s,
             r.roofline,
+            r.updates,
+            r.topology_share,
+            r.transfer_share,
             r.error.as_deref().unwrap_or("").replace(',', ";")
         );
     }
