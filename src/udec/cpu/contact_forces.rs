@@ -13,8 +13,9 @@ use crate::udec::contact::geometry::track_feature;
 use crate::udec::contact::joint::law_parameters;
 use crate::udec::contact::law::{contact_force_law, force_free_either_way, BlockMotion};
 use crate::udec::contact::pair::counts_force;
+use crate::udec::model::domain::{ContactFlow, Domains};
 use crate::udec::model::fdef::Fdef;
-use crate::udec::model::fluid::contact_foot_in;
+use crate::udec::model::fluid::{contact_flow_of, contact_foot_in};
 use crate::udec::model::sdef::Sdef;
 use crate::udec::model::{material_slot, Block, BlockKind, Contact, Corner, Damping, Material, Model};
 
@@ -30,6 +31,9 @@ struct ContactInputs<'a> {
     /// empty in a scene without zoned blocks).
     corner_velocity: &'a [[f64; 2]],
     materials: &'a [Material],
+    /// In a scene with fluid, the domains (their pressures of the last stage 5): each contact's
+    /// flow is taken right after its force (`model::fluid::contact_flow_of`).
+    domains: Option<&'a Domains>,
     damping: Damping,
     dt: f64,
     /// Overlap beyond which the run stops (half the rounding length).
@@ -41,14 +45,17 @@ struct ContactInputs<'a> {
 /// (eqs. 16–20); `features` (as long as `contacts`, or empty) takes each contact's corner and
 /// feature in a scene with zoned blocks, and in a scene with fluid `feet` (as long as
 /// `contacts`) its two feet (`model::fluid::contact_foot`), which stage 5 reads, while its
-/// corners are at hand. Returns the first contact of the piece (lowest index) whose overlap
-/// passes the limit.
+/// corners are at hand, and where the domains are given its flow (stage 5's first step, ¶6:
+/// each contact alone, from its force just set and the pressures of the last stage 5) into
+/// `flows`. Returns the first contact of the piece (lowest index) whose overlap passes the
+/// limit.
 fn contact_piece(
     first: usize,
     contacts: &mut [Contact],
     forces: &mut [ContactForce],
     features: &mut [[u32; 2]],
     mut feet: Option<&mut [[[f64; 2]; 2]]>,
+    mut flows: Option<&mut [ContactFlow]>,
     inp: &ContactInputs,
 ) -> Option<usize> {
     let motion = |k: u32, b: &Block| BlockMotion {
@@ -97,6 +104,9 @@ fn contact_piece(
         };
         contact_force_law(contact, mat, &m1, &m2, &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
+        if let (Some(flows), Some(domains)) = (flows.as_deref_mut(), inp.domains) {
+            flows[k] = contact_flow_of(contact, inp.materials, domains, first + k);
+        }
         if let Some(f) = features.get_mut(k) {
             *f = [contact.corner, g.feature];
         }
@@ -108,7 +118,8 @@ fn contact_piece(
 }
 
 /// Stage 4 for the whole model, shared out over the team, with each contact's feet into `feet`
-/// where given (a scene with fluid; resized to the contacts). Returns the first contact (lowest
+/// where given (a scene with fluid; resized to the contacts) and then, where the model has its
+/// domains, each contact's flow into `domains.flows` (resized likewise). Returns the first contact (lowest
 /// index, so the report repeats) whose overlap passes the limit, if any.
 /// `features`: each contact's corner and feature, kept beside the forces in a scene with zoned
 /// blocks (`Scratch::features`; empty in other scenes).
@@ -124,9 +135,19 @@ pub(super) fn contact_stage(
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let limit = 0.5 * model.tol.round;
     let failure = {
-        let Model { blocks, corners, contacts, materials, damping, sdef, fdef, .. } = &mut *model;
-        let inp = ContactInputs { blocks, corners, sdef, fdef, corner_velocity, materials, damping: *damping, dt, limit };
+        let Model { blocks, corners, contacts, materials, damping, sdef, fdef, domains, .. } = &mut *model;
         let n = contacts.len();
+        // The flows leave the domains while the team writes them (the domains' pressures are
+        // read meanwhile), and go back after.
+        let mut flows = match (&feet, domains.as_mut()) {
+            (Some(_), Some(d)) => {
+                let mut f = std::mem::take(&mut d.flows);
+                f.resize(n, ContactFlow::default());
+                Some(f)
+            }
+            _ => None,
+        };
+        let inp = ContactInputs { blocks, corners, sdef, fdef, corner_velocity, materials, domains: domains.as_ref(), damping: *damping, dt, limit };
         assert_eq!(forces.len(), n, "one gather record per contact");
         let first = AtomicUsize::new(usize::MAX);
         assert!(features.is_empty() || features.len() == n, "a corner and feature per contact, or none");
@@ -137,6 +158,7 @@ pub(super) fn contact_stage(
         });
         let zoned = !features.is_empty();
         let shared_features = SharedMut::new(features);
+        let shared_flows = flows.as_deref_mut().map(SharedMut::new);
         team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
             // SAFETY: the chunks are disjoint ranges of `contacts` and of `forces` and `feet` (as
             // long), mutably borrowed here.
@@ -145,10 +167,15 @@ pub(super) fn contact_stage(
             let features = if zoned { unsafe { shared_features.range(r.clone()) } } else { &mut [] };
             // SAFETY: as above.
             let feet = shared_feet.as_ref().map(|f| unsafe { f.range(r.clone()) });
-            if let Some(k) = contact_piece(r.start, piece, forces, features, feet, &inp) {
+            // SAFETY: as above.
+            let flows = shared_flows.as_ref().map(|f| unsafe { f.range(r.clone()) });
+            if let Some(k) = contact_piece(r.start, piece, forces, features, feet, flows, &inp) {
                 first.fetch_min(k, Ordering::Relaxed);
             }
         });
+        if let (Some(f), Some(d)) = (flows, domains.as_mut()) {
+            d.flows = f;
+        }
         first.into_inner()
     };
     if failure == usize::MAX {

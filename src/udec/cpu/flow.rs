@@ -5,24 +5,33 @@
 //!
 //! Each contact's flow and feet, each domain's area and each block's load is computed alone, on
 //! the team's threads as the contact stage is; every sum is taken serially in a fixed order
-//! (the domains' inflows in contact order, each block's load over its adjacency list), so a
-//! run repeats bit for bit whatever the number of threads, and gives what a serial loop gives.
+//! (each domain's inflow over its contacts in ascending contact order, each block's load over
+//! its adjacency list), so a run repeats bit for bit whatever the number of threads, and gives
+//! what a serial loop gives. The contacts' flows are taken by stage 4 itself, each right after
+//! its contact's force (`cpu::contact_forces`): one walk of the contacts a cycle, not two; each
+//! domain then sums its inflow, takes its area and steps its pressure in one pass over the
+//! domains, and the blocks their loads in one over the blocks.
 
 use super::team::Team;
-use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK, MIN_CONTACTS_PER_THREAD};
-use crate::udec::model::fluid::{
-    contact_flow, contact_foot, deformable_pressure_loads, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step, sum_inflows,
-};
+use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK};
+use crate::udec::model::domain::{Domains, NO_DOMAIN};
+use crate::udec::model::fluid::{contact_foot, deformable_pressure_loads, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step};
 use crate::udec::model::{BlockKind, Model};
 use crate::udec::topology::Adjacency;
 
 /// What stage 5 keeps between cycles.
 #[derive(Default)]
 pub struct FluidScratch {
-    /// Each domain's net inflow Q in this cycle.
-    inflow: Vec<f64>,
-    /// Each domain's area this cycle.
-    areas: Vec<f64>,
+    /// Each domain's flows, ascending by contact (CSR: domain d's entries are
+    /// `inflow_entries[inflow_offsets[d]..inflow_offsets[d + 1]]`, each `k << 1 | side`, side 0
+    /// where d is the contact's first domain, whose flow leaves it): the order
+    /// `model::fluid::sum_inflows` adds them in, so each domain sums its own inflow as that loop
+    /// would. Built with the domains (`all_pressure_loads`, after each change of topology).
+    inflow_offsets: Vec<u32>,
+    inflow_entries: Vec<u32>,
+    /// Each domain's new area and its inflow times Δt this cycle (0 for a domain whose pressure
+    /// does not step).
+    steps: Vec<(f64, f64)>,
     /// Each block's load from the domain pressures and buoyancy (force x, y, moment), as the next
     /// gather adds it.
     pub loads: Vec<[f64; 3]>,
@@ -56,34 +65,84 @@ fn fill_on_team<T: Send>(team: &mut Team, out: &mut [T], min_per_thread: usize, 
     });
 }
 
-/// Stage 5: each contact's flow (¶6), each free domain's pressure from its inflow and its change
-/// of volume (¶7), and the blocks' loads at the new pressures, with the contacts' feet stage 4
-/// has just taken (`scratch.feet`). Nothing in a dry scene.
+/// Each domain's flows in ascending contact order (`FluidScratch::inflow_entries`), from the
+/// contacts' sides.
+fn build_inflow_lists(domains: &Domains, offsets: &mut Vec<u32>, entries: &mut Vec<u32>) {
+    let n = domains.list.len();
+    let live = |k: usize| domains.sides[k][0] != NO_DOMAIN && domains.sides[k][0] != domains.sides[k][1];
+    offsets.clear();
+    offsets.resize(n + 1, 0);
+    for k in (0..domains.sides.len()).filter(|&k| live(k)) {
+        for d in domains.sides[k] {
+            offsets[d as usize + 1] += 1;
+        }
+    }
+    for d in 0..n {
+        offsets[d + 1] += offsets[d];
+    }
+    entries.clear();
+    entries.resize(offsets[n] as usize, 0);
+    let mut next: Vec<u32> = offsets[..n].to_vec();
+    // Contacts in ascending order, so each domain's run is ascending too.
+    for k in (0..domains.sides.len()).filter(|&k| live(k)) {
+        for (side, d) in domains.sides[k].into_iter().enumerate() {
+            let at = &mut next[d as usize];
+            entries[*at as usize] = ((k as u32) << 1) | side as u32;
+            *at += 1;
+        }
+    }
+}
+
+/// Domain `d`'s net inflow Q from the flows stage 4 took, over its contacts in ascending order:
+/// the sum `model::fluid::sum_inflows` makes for it, term by term.
+fn domain_inflow(domains: &Domains, offsets: &[u32], entries: &[u32], d: usize) -> f64 {
+    let mut q = 0.0;
+    for &e in &entries[offsets[d] as usize..offsets[d + 1] as usize] {
+        let f = domains.flows[(e >> 1) as usize].flow;
+        if e & 1 == 0 {
+            q -= f;
+        } else {
+            q += f;
+        }
+    }
+    q
+}
+
+/// Stage 5, after stage 4 has taken each contact's flow (¶6) and feet: each free domain's
+/// pressure from its inflow and its change of volume (¶7), then the blocks' loads at the new
+/// pressures. Nothing in a dry scene.
 pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidScratch, team: &mut Team) {
-    // Counted with stage 4, whose contacts it walks again.
+    // Counted with stage 4, whose contacts it follows.
     let _p = crate::profile::scope(crate::profile::Stage::ContactForces);
     let (Some(fluid), Some(mut domains)) = (model.fluid, model.domains.take()) else { return };
     let nk = model.contacts.len();
-    let mut flows = std::mem::take(&mut domains.flows);
-    flows.resize(nk, Default::default());
-    fill_on_team(team, &mut flows, MIN_CONTACTS_PER_THREAD, &|k| contact_flow(model, &domains, k));
-    domains.flows = flows;
-    sum_inflows(&domains, &mut scratch.inflow);
     debug_assert_eq!(scratch.feet.len(), nk, "stage 4 took every contact's feet");
+    debug_assert_eq!(domains.flows.len(), nk, "stage 4 took every contact's flow");
+    if scratch.inflow_offsets.len() != domains.list.len() + 1 {
+        // (Built with the domains; here only where a caller changed them without
+        // `all_pressure_loads`.)
+        build_inflow_lists(&domains, &mut scratch.inflow_offsets, &mut scratch.inflow_entries);
+    }
     let feet = &scratch.feet;
     let foot = |k: usize, side: u32| feet[k][side as usize];
-    scratch.areas.resize(domains.list.len(), 0.0);
     // A joint's aperture as its flow has just taken it (the same number).
     let joint = |k: usize| {
         let f = &domains.flows[k];
         (f.length > 0.0).then_some(f.aperture)
     };
-    fill_on_team(team, &mut scratch.areas, MIN_BLOCKS_PER_THREAD, &|d| fluid_area_with(model, &domains, d, &foot, &joint));
     let dt = model.timestep;
+    let (offsets, entries) = (&scratch.inflow_offsets, &scratch.inflow_entries);
+    scratch.steps.resize(domains.list.len(), (0.0, 0.0));
+    // Each domain alone: its area now, and its inflow over the step where its pressure steps.
+    fill_on_team(team, &mut scratch.steps, MIN_BLOCKS_PER_THREAD, &|d| {
+        let area = fluid_area_with(model, &domains, d, &foot, &joint);
+        let dom = &domains.list[d];
+        let q = if is_free(dom.kind, dom.fixed) { domain_inflow(&domains, offsets, entries, d) * dt } else { 0.0 };
+        (area, q)
+    });
     let mut inflow = 0.0;
-    for (d, (dom, &area)) in domains.list.iter_mut().zip(&scratch.areas).enumerate() {
+    for (dom, &(area, q)) in domains.list.iter_mut().zip(&scratch.steps) {
         if is_free(dom.kind, dom.fixed) {
-            let q = scratch.inflow[d] * dt;
             inflow += q;
             dom.pressure = pressure_step(dom.pressure, dom.area, area, q, fluid.bulk);
         }
@@ -108,10 +167,13 @@ pub fn all_pressure_loads(model: &Model, adjacency: &Adjacency, scratch: &mut Fl
     pressure_loads(model, adjacency, &mut scratch.loads);
     match model.domains.as_ref().filter(|_| model.fluid.is_some()) {
         Some(domains) => {
+            build_inflow_lists(domains, &mut scratch.inflow_offsets, &mut scratch.inflow_entries);
             let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
             deformable_pressure_loads(model, domains, &foot, &mut scratch.applied, &mut scratch.gridpoint);
         }
         None => {
+            scratch.inflow_offsets.clear();
+            scratch.inflow_entries.clear();
             scratch.applied.clear();
             scratch.gridpoint.clear();
         }

@@ -464,8 +464,14 @@ pub fn contact_flows(model: &Model, domains: &mut Domains, inflow: &mut Vec<f64>
 /// aperture and length: each contact alone (stage 5 takes them on its threads).
 #[inline]
 pub fn contact_flow(model: &Model, domains: &Domains, k: usize) -> ContactFlow {
-    let c = &model.contacts[k];
-    let mat = &model.materials[material_slot(c.material, model.materials.len())];
+    contact_flow_of(&model.contacts[k], &model.materials, domains, k)
+}
+
+/// [`contact_flow`] of contact `c`, the `k`-th, from the materials (stage 4 takes each contact's
+/// flow right after its force, `cpu::contact_forces`: the joint's aperture reads that force).
+#[inline]
+pub fn contact_flow_of(c: &Contact, materials: &[Material], domains: &Domains, k: usize) -> ContactFlow {
+    let mat = &materials[material_slot(c.material, materials.len())];
     let a = aperture(c, mat);
     let mut f = ContactFlow { flow: 0.0, aperture: a, length: c.joint_length };
     if let Some(&[d0, d1]) = domains.sides.get(k) {
