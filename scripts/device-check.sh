@@ -57,6 +57,6 @@ for deck in examples/udec1_point_load_cracking.dat examples/udec3_deformable_blo
         tail -n 25 "$work/$name.txt" >> "$work/check.log"
     done
 done
-step verify-quick 120 .devbin/blockdem verify --quick --out "$work/verify"
+step verify-quick 200 .devbin/blockdem verify --quick --out "$work/verify"
 cp "$work/verify-quick.txt" "$work/verify.log" 2>/dev/null
 echo "total: $(( $(date +%s) - began )) s" | tee -a "$work/check.log"
