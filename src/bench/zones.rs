@@ -212,23 +212,10 @@ pub fn table(rows: &[ZoneRow]) -> String {
                 let _ = writeln!(s, "{:<6} {:<28} {:>9} failed: {e}", r.scene, r.backend, r.zones);
             }
             None => {
-                let _ = writeln!(
-                    s,
-                    "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} {:>8} {:>12.3e} {:>12.3e} {:>9.3} {:>8} {:>6.1}% {:>6.1}%",
-                    r.scene,
-                    r.backend,
-                    r.zones,
-                    r.gridpoints,
-                    r.blocks,
-                    r.contacts,
-                    r.cycles,
-                    r.s_per_cycle,
-                    r.zone_cycles_per_s,
-                    r.roofline,
-                    r.updates,
-                    100.0 * r.topology_share,
-                    100.0 * r.transfer_share
-                );
+                let (sizes, rates) = ((r.zones, r.gridpoints, r.blocks, r.contacts), (r.cycles, r.s_per_cycle, r.zone_cycles_per_s, r.roofline));
+                let _ = write!(s, "{:<6} {:<28} {:>9} {:>9} {:>7} {:>9} ", r.scene, r.backend, sizes.0, sizes.1, sizes.2, sizes.3);
+                let _ = write!(s, "{:>8} {:>12.3e} {:>12.3e} {:>9.3} ", rates.0, rates.1, rates.2, rates.3);
+                let _ = writeln!(s, "{:>8} {:>6.1}% {:>6.1}%", r.updates, 100.0 * r.topology_share, 100.0 * r.transfer_share);
             }
         }
     }
