@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs on a lent GPU machine after scripts/device-prep.sh (carry [".gl", ".devbin"]): the bench
-# scene by scene (each `blockdem bench --scene S --backend all --rounds 3` into its own folder, so
-# that a scene cut off by its time limit costs only itself), then the checks a hardware GPU adds
+# a few scenes at a time (each `blockdem bench --scene S1,S2 --backend all --rounds 3` into its own
+# folder, so that a step cut off by its time limit costs only itself), then the checks a hardware GPU adds
 # to CI's software adapters: `blockdem compare` of the sample decks and the reference scenes
 # against the f64 CPU in f32 and f64, and the quick verification suite on every backend found.
 #
@@ -16,6 +16,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 final="${OUT:-out}"
 work=/tmp/blockdem-check
+rm -rf "$work"
 mkdir -p "$final" "$work"
 began=$(date +%s)
 deadline=$(( began + ${DEADLINE:-540} ))
@@ -41,20 +42,21 @@ step() {
 source scripts/device-env.sh
 { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader; .devbin/blockdem adapters; } \
     > "$work/adapters.log" 2>&1
-# scene:limit, in order of need: the scaling walls (the per-kernel profile at 10^6 blocks), the
-# zoned family, D3 on the GPU, the SDEF walls to 10^6, then the reference scenes.
-for item in ${SCENES:-scaling:130 zones:80 d3-wall:60 d3-cubes:30 sdef-scaling:80 settle:25 impact:25 sdef:25 fluid:35}; do
+# scenes:limit, in order of need: the scaling walls, rigid and SDEF in one run (the per-kernel
+# profile at 10^6 blocks; the SDEF rows against the rigid ones), the zoned family, D3 on the GPU,
+# then the reference scenes (each measured against the dry settle of the same run).
+for item in ${SCENES:-scaling,sdef-scaling:170 zones:80 d3-wall,d3-cubes:80 settle,impact,sdef,fluid:80}; do
     scene="${item%%:*}"
-    step "bench-$scene" "${item##*:}" .devbin/blockdem bench --scene "$scene" --backend all --rounds 3 \
-        --out "$work/bench-$scene"
-    grep -v "^bench \[" "$work/bench-$scene.txt" >> "$work/bench.log" 2>/dev/null
+    name="bench-${scene//,/-}"
+    step "$name" "${item##*:}" .devbin/blockdem bench --scene "$scene" --backend all --rounds 3 --out "$work/$name"
+    grep -v "^bench \[" "$work/$name.txt" >> "$work/bench.log" 2>/dev/null
 done
 for deck in examples/udec1_point_load_cracking.dat examples/udec3_deformable_block.dat \
     examples/udec4_projectile_beam.dat examples/brick_wall_sdef.dat examples/brick_wall_impact.dat; do
     for p in f32 f64; do
         name="compare-$(basename "$deck" .dat)-$p"
         step "$name" 30 .devbin/blockdem compare "$deck" --adapter vulkan --precision "$p" --out "$work/compare/$name"
-        tail -n 25 "$work/$name.txt" >> "$work/check.log"
+        tail -n 25 "$work/$name.txt" >> "$work/check.log" 2>/dev/null
     done
 done
 step verify-quick 200 .devbin/blockdem verify --quick --out "$work/verify"

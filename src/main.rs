@@ -197,11 +197,12 @@ enum Cmd {
         /// Folder for the CSV, JSON and PNG files.
         #[arg(long, default_value = "bench-out")]
         out: PathBuf,
-        /// Which scenes: the reference settle or impact, the settle with simply-deformable bricks
-        /// (sdef) or with fluid in its joints (fluid, with the dry settle), the scaling family, or
-        /// all.
-        #[arg(long, value_enum, default_value_t = BenchScene::All)]
-        scene: BenchScene,
+        /// Which scenes, one or several separated by commas (e.g. `scaling,sdef-scaling`): the
+        /// reference settle or impact, the settle with simply-deformable bricks (sdef) or with
+        /// fluid in its joints (fluid), each with the dry settle it is measured against, the
+        /// scaling families, the zoned family, D3's scenes, or all.
+        #[arg(long, value_enum, value_delimiter = ',', default_value = "all")]
+        scene: Vec<BenchScene>,
         /// Which backends: all present, the CPU, or the GPU adapters.
         #[arg(long, value_enum, default_value_t = BenchBackends::All)]
         backend: BenchBackends,
@@ -247,7 +248,8 @@ enum Cmd {
 enum BenchScene {
     Settle,
     Impact,
-    /// The settle scene with simply-deformable bricks (its cost per cycle against settle's).
+    /// The settle scene with simply-deformable bricks, and the dry settle scene it is measured
+    /// against (its cost per cycle against settle's).
     Sdef,
     /// The settle scene with fluid in the wall's joints, and the dry settle scene it is measured
     /// against back to back.
@@ -275,7 +277,7 @@ enum BenchBackends {
 fn bench(
     quick: bool,
     out: PathBuf,
-    scene: BenchScene,
+    scenes: Vec<BenchScene>,
     backend: BenchBackends,
     adapter: String,
     precision: Option<PrecisionChoice>,
@@ -310,16 +312,19 @@ fn bench(
         note!("blockdem: benchmarking the CPU only: {why}");
     }
     let mut options = blockdem::bench::BenchOptions::new(quick, specs);
-    options.settle = matches!(scene, BenchScene::Settle | BenchScene::Fluid | BenchScene::All);
-    options.impact = matches!(scene, BenchScene::Impact | BenchScene::All);
-    options.sdef = matches!(scene, BenchScene::Sdef | BenchScene::All);
-    options.fluid = matches!(scene, BenchScene::Fluid | BenchScene::All);
-    options.scaling = matches!(scene, BenchScene::Scaling | BenchScene::All);
-    options.sdef_scaling = matches!(scene, BenchScene::SdefScaling | BenchScene::All);
-    options.zones = matches!(scene, BenchScene::Zones | BenchScene::All);
-    options.d3_cubes = matches!(scene, BenchScene::D3Cubes | BenchScene::All);
-    options.d3_wall = matches!(scene, BenchScene::D3Wall | BenchScene::All);
-    if let (true, Some(sizes)) = (scene == BenchScene::D3Wall, &sizes) {
+    // Whether any scene asked for is one of `these` (or all).
+    let wanted = |these: &[BenchScene]| scenes.iter().any(|s| *s == BenchScene::All || these.contains(s));
+    options.settle = wanted(&[BenchScene::Settle, BenchScene::Sdef, BenchScene::Fluid]);
+    options.impact = wanted(&[BenchScene::Impact]);
+    options.sdef = wanted(&[BenchScene::Sdef]);
+    options.fluid = wanted(&[BenchScene::Fluid]);
+    options.scaling = wanted(&[BenchScene::Scaling]);
+    options.sdef_scaling = wanted(&[BenchScene::SdefScaling]);
+    options.zones = wanted(&[BenchScene::Zones]);
+    options.d3_cubes = wanted(&[BenchScene::D3Cubes]);
+    options.d3_wall = wanted(&[BenchScene::D3Wall]);
+    // --sizes: the D3 wall's brick counts when that is the only family of sizes asked for.
+    if let (true, Some(sizes)) = (scenes == [BenchScene::D3Wall], &sizes) {
         options.d3_wall_sizes = sizes.clone();
     }
     options.max_zones = max_zones;

@@ -693,3 +693,36 @@ fn ignored_options_and_text_after_end_are_said_to_be_ignored() {
     let (code, _, stderr) = blockdem(&["run", &deck, "--backend", "cpu", "--out", out.to_str().unwrap()]);
     assert!(code == 0 && !stderr.contains("ignored"), "{stderr}");
 }
+
+/// `bench --scene` takes several scenes separated by commas, and the SDEF wall brings the dry
+/// settle it is measured against (so its TARGETS row is there when asked for alone); an unknown
+/// scene is refused with the list of those that exist.
+#[test]
+fn bench_scenes_combine_and_sdef_brings_its_dry_wall() {
+    let dir = temp("bench-scenes");
+    let out = dir.join("out");
+    let (code, stdout, stderr) = blockdem(&[
+        "bench",
+        "--quick",
+        "--backend",
+        "cpu",
+        "--scene",
+        "sdef,impact",
+        "--settle-time",
+        "0.02",
+        "--impact-time",
+        "0.02",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let rows: Vec<&str> =
+        stdout.lines().filter(|l| l.ends_with(|c: char| c.is_ascii_digit()) && l.contains("cpu f64")).map(|l| l.split_whitespace().next().unwrap()).collect();
+    for scene in ["settle", "impact", "sdef"] {
+        assert!(rows.contains(&scene), "no {scene} row in {stdout}");
+    }
+    assert!(stdout.lines().any(|l| l.starts_with("SDEF wall vs rigid wall") && l.contains("cpu f64")), "{stdout}");
+    let (code, _, stderr) = blockdem(&["bench", "--scene", "sdef,bogus"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("invalid value 'bogus'") && stderr.contains("sdef-scaling"), "{stderr}");
+}
