@@ -36,7 +36,8 @@ use crate::udec::model::{Model, MAX_MATERIALS};
 
 use super::kernels::{FluidSizes, WetDeformableSizes};
 use super::layout::{
-    ContactFlow, Domain, FluidLoad, FluidMaterial, FluidParams, Real, DOMAIN_JOINT, DOMAIN_OUTER, DOMAIN_REGULAR, DOMAIN_REGULAR_DEFORMED, LINK_CORNER, LINK_LOOP_START, LINK_SIDE,
+    ContactFlow, Domain, FluidLoad, FluidMaterial, FluidParams, Real, DOMAIN_JOINT, DOMAIN_OUTER, DOMAIN_REGULAR, DOMAIN_REGULAR_DEFORMED, LINK_CORNER,
+    LINK_LOOP_START, LINK_SIDE,
 };
 use super::{r, Engine, GpuError, Uploaded};
 
@@ -323,8 +324,6 @@ impl<R: Real> Engine<R> {
         Some((self.pipelines.fluid.as_ref()?, groups)).filter(|_| self.fluid_scene)
     }
 }
-
-
 
 /// A zoned block's external force as the CPU's gather sums it includes its grid points' fluid
 /// loads (`cpu::zones::gather_fdef`), which `convert_fdef` (from the device's grid points, before

@@ -13,8 +13,8 @@
 
 use super::device::GpuDevice;
 use super::layout::{
-    Block, BlockFluid, Contact, ContactFlow, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, Domain, EnergySum, FdefBlock, Flags,
-    FluidLoad, FluidMaterial, FluidParams, FluidPiece, GridPoint, GridPointFluid, Material, Params, Real, Sdef, Zone,
+    Block, BlockFluid, Contact, ContactFlow, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, Domain, EnergySum, FdefBlock, Flags, FluidLoad,
+    FluidMaterial, FluidParams, FluidPiece, GridPoint, GridPointFluid, Material, Params, Real, Sdef, Zone,
 };
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};

@@ -404,20 +404,11 @@ pub fn deformable_pressure_loads(
         if p == 0.0 {
             continue;
         }
-        pressure_pieces(
-            model,
-            domains,
-            d,
-            p,
-            foot,
-            ring,
-            &mut |b, a| to_applied[b as usize].iter_mut().zip(a).for_each(|(x, y)| *x += y),
-            &mut |g, f| {
-                let x = &mut to_point[g as usize];
-                x[0] += f[0];
-                x[1] += f[1];
-            },
-        );
+        pressure_pieces(model, domains, d, p, foot, ring, &mut |b, a| to_applied[b as usize].iter_mut().zip(a).for_each(|(x, y)| *x += y), &mut |g, f| {
+            let x = &mut to_point[g as usize];
+            x[0] += f[0];
+            x[1] += f[1];
+        });
     }
     *applied = to_applied;
     *gridpoint = to_point;
@@ -429,6 +420,7 @@ pub fn deformable_pressure_loads(
 /// block with its share f of the piece's force; in circuit order. The GPU's twin is
 /// `pressure_pieces` in flow.wgsl (each piece stored at its link, the blocks and grid points
 /// gathering theirs in the same order: `fluid_block_loads`, `gridpoint_fluid_loads`).
+#[allow(clippy::too_many_arguments)]
 pub fn pressure_pieces(
     model: &Model,
     domains: &Domains,
