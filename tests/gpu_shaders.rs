@@ -171,7 +171,65 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         // pass over the blocks, and the block pass reads the pressures from the contacts' flow
         // slots, within the 8 storage buffers.
         let (flow, _) = shaders::validate(&shaders::source("flow", precision).unwrap(), precision).unwrap();
-        assert_eq!(flow.entry_points.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(), ["flow", "domain_pressures"]);
+        assert_eq!(flow.entry_points.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(), ["flow", "domain_pressures", "pressure_pieces"]);
+        // The pressures' push on deformable blocks: only the kernels of fluid with deformable
+        // blocks bind its slots (a dry scene, and a scene with fluid and rigid blocks only, bind
+        // nothing of them), each within the 8 storage buffers.
+        let wet_slots = [FluidPieces, BlockPieces, BlockFluid, GridPointFluid];
+        for (file, entry) in [
+            ("law_of_motion", "law_of_motion"),
+            ("law_of_motion", "law_of_motion_sdef"),
+            ("law_of_motion", "law_of_motion_fdef"),
+            ("law_of_motion", "law_of_motion_fluid"),
+            ("contact_forces", "contact_forces"),
+            ("contact_forces", "contact_forces_sdef"),
+            ("contact_forces", "contact_forces_fdef"),
+            ("gather", "gather"),
+            ("gather", "gather_sdef"),
+            ("gather", "gather_fdef"),
+            ("gather", "gather_fluid"),
+            ("gather", "gather_heavy"),
+            ("zones", "gather_gridpoints"),
+            ("zones", "step_gridpoints"),
+            ("flow", "flow"),
+            ("flow", "domain_pressures"),
+            ("energy_sums", "energy_sums_fluid"),
+        ] {
+            let s = slots(file, entry);
+            assert!(!s.iter().any(|x| wet_slots.contains(x)), "{entry} binds a slot of fluid with deformable blocks: {s:?}");
+        }
+        assert_eq!(slots("flow", "pressure_pieces"), [Blocks, Corners, Contacts, FluidParams, Domains, DomainLinks, ContactFlows, FluidPieces]);
+        assert_eq!(
+            slots("gather", "fluid_block_loads"),
+            [Params, Blocks, AdjOffsets, AdjEntries, ContactFlows, FluidLoads, FluidPieces, BlockPieces, BlockFluid]
+        );
+        assert_eq!(slots("gather", "gather_sdef_fluid"), [Params, Blocks, Sdefs, BlockFluid]);
+        assert_eq!(slots("gather", "gather_fdef_fluid"), [Params, Blocks, BlockFluid]);
+        assert_eq!(slots("law_of_motion", "law_of_motion_sdef_fluid"), [Params, Blocks, Corners, Flags, Sdefs, FluidLoads, BlockFluid]);
+        assert_eq!(
+            slots("law_of_motion", "law_of_motion_fdef_fluid"),
+            [Params, Blocks, Corners, Flags, GridPoints, FdefBlocks, FluidLoads, BlockFluid, GridPointFluid]
+        );
+        assert_eq!(slots("zones", "gridpoint_fluid_loads"), [Params, Blocks, GridPoints, FdefBlocks, FluidLoads, FluidPieces, BlockPieces, GridPointFluid]);
+        assert_eq!(
+            slots("zones", "gather_gridpoints_fluid"),
+            [Params, AdjOffsets, AdjEntries, ContactForces, GridPoints, Zones, GridPointZones, ContactShares, GridPointFluid]
+        );
+        assert_eq!(slots("zones", "step_gridpoints_fluid"), [Params, Flags, GridPoints, GridPointFluid]);
+        for (file, entry) in [
+            ("flow", "pressure_pieces"),
+            ("gather", "fluid_block_loads"),
+            ("gather", "gather_sdef_fluid"),
+            ("gather", "gather_fdef_fluid"),
+            ("law_of_motion", "law_of_motion_sdef_fluid"),
+            ("law_of_motion", "law_of_motion_fdef_fluid"),
+            ("zones", "gridpoint_fluid_loads"),
+            ("zones", "gather_gridpoints_fluid"),
+            ("zones", "step_gridpoints_fluid"),
+        ] {
+            let s = slots(file, entry);
+            assert!(s.iter().filter(|x| x.kind() != SlotKind::Uniform).count() <= 8, "{entry}: {s:?}");
+        }
         for (file, entry) in [("flow", "flow"), ("flow", "domain_pressures"), ("law_of_motion", "law_of_motion_fluid"), ("gather", "gather_fluid")] {
             let s = slots(file, entry);
             assert!(s.iter().filter(|x| x.kind() != SlotKind::Uniform).count() <= 8, "{entry}: {s:?}");

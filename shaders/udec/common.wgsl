@@ -44,6 +44,14 @@
 @group(0) @binding(23) var<storage, read> contact_sides: array<u32>;
 @group(0) @binding(24) var<storage, read_write> contact_flows_out: array<ContactFlow>;
 @group(0) @binding(25) var<storage, read_write> fluid_loads: array<FluidLoad>;
+// Scenes with fluid and deformable blocks only (`gpu::flow`, the `_fluid` entry points of the
+// SDEF and FDEF kernels): each domain link's piece of block boundary, each block's pieces (CSR:
+// offsets for blocks 0 ..= n into this array, then the link indices, ascending: the CPU's order
+// of domains and circuits), each block's fluid load, and each grid point's (zoned blocks only).
+@group(0) @binding(26) var<storage, read_write> fluid_pieces: array<FluidPiece>;
+@group(0) @binding(27) var<storage, read> block_pieces: array<u32>;
+@group(0) @binding(28) var<storage, read_write> block_fluid: array<BlockFluid>;
+@group(0) @binding(29) var<storage, read_write> gridpoint_fluid: array<GridPointFluid>;
 
 // Centroid of block a minus centroid of block b, from the compensated pairs: the large parts
 // cancel exactly when the blocks are near each other (Sterbenz), so the difference keeps full

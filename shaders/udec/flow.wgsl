@@ -114,6 +114,36 @@ fn link_vertex(l: u32, t: u32, reference: Block) -> vec2<real> {
     return centroid_difference(blocks[domain_links[4u * l + 2u + side]], reference) + foot;
 }
 
+// `link_vertex` at its blocks' whole rotations: in f32 a block's corners are placed at a
+// multiple of ROTATION_STEP and its turn since (`rotation_lo`) is applied by whoever reads them
+// (as the contact stage does, to second order: R(δ)x ≈ x + δ·x⊥ − δ²x/2). A void measured from
+// its outline every step (`DOMAIN_REGULAR_DEFORMED`) takes its vertices so, lest the outline
+// jump by the corners' re-placing (a turn of ROTATION_STEP moves a corner a metre out by 2e-4
+// m: in a void of a few litres a jump of bulkw·ΔA/A in its pressure).
+fn link_vertex_turned(l: u32, t: u32, reference: Block) -> vec2<real> {
+    let bits = domain_links[4u * l];
+    let index = domain_links[4u * l + 1u];
+    var b = domain_links[4u * l + 2u];
+    var r = vec2<real>(0.0, 0.0);
+    if ((bits & LINK_CORNER) != 0u) {
+        r = corner_at(index);
+    } else {
+        var side = bits & LINK_SIDE;
+        if (t == 0u) {
+            side = 1u - side;
+        }
+        r = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
+        if (side == 1u) {
+            r = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
+        }
+        b = domain_links[4u * l + 2u + side];
+    }
+    let blk = blocks[b];
+    let delta = blk.rotation_lo;
+    let turn = delta * vec2<real>(-r.y, r.x) - (0.5 * delta * delta) * r;
+    return centroid_difference(blk, reference) + (r + turn);
+}
+
 fn cross2(p: vec2<real>, q: vec2<real>) -> real {
     return p.x * q.y - q.x * p.y;
 }
@@ -156,6 +186,7 @@ fn fluid_area(dom: Domain) -> real {
         return fluid_params.min_area;
     }
     let reference = blocks[domain_links[4u * first + 2u]];
+    let turned = EXACT_CIRCLE && dom.kind == DOMAIN_REGULAR_DEFORMED;
     var void_area = real(0.0);
     var s = real(0.0);
     var start = vec2<real>(0.0, 0.0);
@@ -175,7 +206,12 @@ fn fluid_area(dom: Domain) -> real {
             count = 1u;
         }
         for (var t = 0u; t < count; t += 1u) {
-            let v = link_vertex(l, t, reference);
+            var v = vec2<real>(0.0, 0.0);
+            if (turned) {
+                v = link_vertex_turned(l, t, reference);
+            } else {
+                v = link_vertex(l, t, reference);
+            }
             if (open) {
                 s += cross2(prev, v);
             } else {
@@ -367,4 +403,108 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
         }
     }
     domains[d].area = area;
+}
+
+// The pressures' push on deformable blocks (a scene with fluid and simply-deformable or zoned
+// blocks only; twin of `model::fluid::pressure_pieces`, the CPU's `deformable_pressure_loads`):
+// per domain, at the start of a cycle (the feet of the last `flow` pass, the corners as the last
+// block pass placed them, the pressures of the last `domain_pressures`, as the CPU's stage 5
+// took them), each piece of block boundary around it, one per link: from the link's last vertex
+// to the next vertex of its loop, on the link's own block (the circuit keeps the void on its
+// right, the block on its left). A uniform pressure p on a piece from a to b is the force
+// p·perp(b − a), perp(v) = (−v_y, v_x), spread evenly along it (¶19):
+// - on a simply-deformable block its Σ r ⊗ f is exactly (m − c) ⊗ p·perp(b − a), m the piece's
+//   midpoint, c the centroid: the piece's share of the block's applied stress times area (KSA);
+// - on a zoned block the force is split between the grid points of the piece's edge k, k + 1 by
+//   the edge's linear shape functions, 1 − t̄ and t̄ with t̄ the mean of the ends' parameters
+//   along the edge, so that the grid points' loads do the work the pressure does.
+// Each piece is written at its link's index; `fluid_block_loads` (gather.wgsl) and
+// `gridpoint_fluid_loads` (zones.wgsl) gather a block's pieces in ascending link order, which is
+// the CPU's order of domains and of each circuit: a rerun repeats bit for bit.
+
+// The block the piece after link l lies on: a contact's own side's block, a corner's block.
+fn piece_block(l: u32) -> u32 {
+    let bits = domain_links[4u * l];
+    if ((bits & LINK_CORNER) != 0u) {
+        return domain_links[4u * l + 2u];
+    }
+    return domain_links[4u * l + 2u + (bits & LINK_SIDE)];
+}
+
+// The edge of block `blk` the piece after link l lies on (the index within the block of the
+// corner the edge starts at): a corner's own edge; a contact's, on side 0 block 1's corner's
+// edge, on side 1 the edge of block 2 it touches.
+fn piece_edge(l: u32, blk: Block) -> u32 {
+    let bits = domain_links[4u * l];
+    let index = domain_links[4u * l + 1u];
+    if ((bits & LINK_CORNER) != 0u) {
+        return index - blk.corner_start;
+    }
+    let c = contacts[index];
+    if ((bits & LINK_SIDE) == 0u) {
+        return c.corner - blk.corner_start;
+    }
+    return (c.feature / 2u) % max(blk.corner_count, 1u);
+}
+
+// A point's parameter along the edge p → q, within the edge (½ for an edge of no length).
+fn edge_parameter(x: vec2<real>, p: vec2<real>, q: vec2<real>) -> real {
+    let e = q - p;
+    let len2 = e.x * e.x + e.y * e.y;
+    if (len2 > 0.0) {
+        return clamp(((x.x - p.x) * e.x + (x.y - p.y) * e.y) / len2, 0.0, 1.0);
+    }
+    return 0.5;
+}
+
+// The piece after link l, which ends at the first vertex of link `next`, at pressure p.
+fn write_piece(l: u32, next: u32, p: real) {
+    let b = piece_block(l);
+    let blk = blocks[b];
+    if (p == 0.0 || (blk.kind != BLOCK_SDEF && blk.kind != BLOCK_FDEF)) {
+        fluid_pieces[l].edge = NO_INDEX;
+        return;
+    }
+    var last = 1u;
+    if ((domain_links[4u * l] & LINK_CORNER) != 0u) {
+        last = 0u;
+    }
+    // Both ends from the block's own centroid.
+    let start = link_vertex(l, last, blk);
+    let end = link_vertex(next, 0u, blk);
+    let f = vec2<real>(-p * (end.y - start.y), p * (end.x - start.x));
+    let edge = piece_edge(l, blk);
+    if (blk.kind == BLOCK_SDEF) {
+        let m = 0.5 * (start + end);
+        fluid_pieces[l] = FluidPiece(m.x * f.x, m.x * f.y, m.y * f.x, m.y * f.y, edge, 0u);
+        return;
+    }
+    let n = max(blk.corner_count, 1u);
+    let pi = corner_at(blk.corner_start + edge % n);
+    let pj = corner_at(blk.corner_start + (edge + 1u) % n);
+    let tm = 0.5 * (edge_parameter(start, pi, pj) + edge_parameter(end, pi, pj));
+    fluid_pieces[l] = FluidPiece((1.0 - tm) * f.x, (1.0 - tm) * f.y, tm * f.x, tm * f.y, edge, 0u);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn pressure_pieces(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let d = item_index(wg, li);
+    if (d >= fluid_params.n_domains) {
+        return;
+    }
+    let dom = domains[d];
+    let p = dom.pressure;
+    let end = dom.link_start + dom.link_count;
+    var loop_first = dom.link_start;
+    for (var l = dom.link_start; l < end; l += 1u) {
+        if ((domain_links[4u * l] & LINK_LOOP_START) != 0u) {
+            loop_first = l;
+        }
+        // The next link of the loop, or back to the loop's first.
+        var next = l + 1u;
+        if (next >= end || (domain_links[4u * next] & LINK_LOOP_START) != 0u) {
+            next = loop_first;
+        }
+        write_piece(l, next, p);
+    }
 }

@@ -252,3 +252,74 @@ fn gather_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
     blocks[b].fy = f.y;
     blocks[b].moment = f.z;
 }
+
+// Stage 5's loads in a scene with fluid and deformable blocks (twin of `cpu::flow::block_load`
+// and the blocks' share of `model::fluid::deformable_pressure_loads`), each block's stored for
+// the block pass, which adds it to the contact sums that `gather_sdef` or `gather_fdef` stored
+// (`law_of_motion_sdef_fluid`, `law_of_motion_fdef_fluid`: their kernels are at the limit of 8
+// storage buffers, so the sums reach them stored): a rigid or simply-deformable block's
+// buoyancy and pressure jumps (`pressure_load_sum`), a zoned block's buoyancy alone (its grid
+// points take the pressures, `gridpoint_fluid_loads`); and a simply-deformable block's applied
+// stress times area from the pieces of its boundary (`pressure_pieces`, flow.wgsl), summed in
+// ascending link order (`block_pieces`: the CPU's order), pieces that load nothing passed over.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn fluid_block_loads(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let kind = blocks[b].kind;
+    var l = buoyancy(b);
+    if (kind != BLOCK_FDEF) {
+        l = pressure_load_sum(b, adj_offsets[b], adj_offsets[b + 1u]);
+    }
+    var a = array<real, 4>(0.0, 0.0, 0.0, 0.0);
+    if (kind == BLOCK_SDEF) {
+        for (var e = block_pieces[b]; e < block_pieces[b + 1u]; e += 1u) {
+            let piece = fluid_pieces[block_pieces[e]];
+            if (piece.edge == NO_INDEX) {
+                continue;
+            }
+            a[0] += piece.a0;
+            a[1] += piece.a1;
+            a[2] += piece.a2;
+            a[3] += piece.a3;
+        }
+    }
+    block_fluid[b] = BlockFluid(l.x, l.y, l.z, a[0], a[1], a[2], a[3]);
+}
+
+// `gather_sdef` in a scene with fluid (before a read-back or the energy check, after
+// `gather_sdef` and `fluid_block_loads`): each block's fluid load added to its stored sums, an
+// SDEF block's applied stress from the pressures to its stored applied stress (the CPU's
+// `gather_sdef` with its fluid).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather_sdef_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let l = block_fluid[b];
+    blocks[b].fx = blocks[b].fx + l.fx;
+    blocks[b].fy = blocks[b].fy + l.fy;
+    blocks[b].moment = blocks[b].moment + l.moment;
+    if (blocks[b].kind == BLOCK_SDEF) {
+        let a = sdefs[b].applied;
+        sdefs[b].applied = array<real, 4>(a[0] + l.a11, a[1] + l.a12, a[2] + l.a21, a[3] + l.a22);
+    }
+}
+
+// `gather_fdef` in a scene with fluid (before a read-back or the energy check, after
+// `gather_fdef` and `fluid_block_loads`): each rigid block's fluid load added to its stored sums
+// (a zoned block's record stays zero: its grid points carry its loads).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather_fdef_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks || blocks[b].kind == BLOCK_FDEF) {
+        return;
+    }
+    let l = block_fluid[b];
+    blocks[b].fx = blocks[b].fx + l.fx;
+    blocks[b].fy = blocks[b].fy + l.fy;
+    blocks[b].moment = blocks[b].moment + l.moment;
+}

@@ -334,3 +334,103 @@ fn law_of_motion_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invo
     }
     fluid_loads[b].work += (l.x * s.blk.vx + l.y * s.blk.vy + l.z * s.blk.w) * params.dt;
 }
+
+// A rigid block's stage 1 and 2 in a scene with fluid and deformable blocks, on its contact sums
+// as stored this cycle (`gather_sdef`, `gather_fdef`, `gather_heavy`) and its fluid load `l`
+// (`fluid_block_loads`, gather.wgsl), the load's work over the step booked as
+// `law_of_motion_fluid` books it.
+fn rigid_block_wet(b: u32, blk: Block, l: vec3<real>) {
+    let s = rigid_step(blk, vec3<real>(blk.fx, blk.fy, blk.moment) + l);
+    store_step(b, s);
+    if (s.place) {
+        geometry_update(s.blk);
+    }
+    fluid_loads[b].work += (l.x * s.blk.vx + l.y * s.blk.vy + l.z * s.blk.w) * params.dt;
+}
+
+// Stages 1 and 2 in a scene with fluid and simply-deformable blocks (twin of the CPU's
+// `block_piece_sdef` with its fluid, `cpu::gather::gather_sdef`): each block's contact sums as
+// `gather_sdef` stored them this cycle, with its fluid load added (a rigid block as
+// `law_of_motion_fluid` moves it); an SDEF block's applied stress with the pressures' share
+// added, then its step as `law_of_motion_sdef` takes it, and the fluid's work over the step
+// booked, F·Δx + M·Δθ and A : Δε (`cpu::flow::fluid_work`).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn law_of_motion_sdef_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    if (blk.fixed != 0u) {
+        hold_still(b);
+        if (blk.kind == BLOCK_SDEF) {
+            sdefs[b].strain_rate = array<real, 3>(0.0, 0.0, 0.0);
+        }
+        return;
+    }
+    let wet = block_fluid[b];
+    let l = vec3<real>(wet.fx, wet.fy, wet.moment);
+    if (blk.kind != BLOCK_SDEF) {
+        rigid_block_wet(b, blk, l);
+        return;
+    }
+    var x = sdefs[b];
+    x.applied = array<real, 4>(x.applied[0] + wet.a11, x.applied[1] + wet.a12, x.applied[2] + wet.a21, x.applied[3] + wet.a22);
+    var s = rigid_step(blk, vec3<real>(blk.fx, blk.fy, blk.moment) + l);
+    var theta = s.blk.rotation;
+    if (EXACT_CIRCLE) {
+        theta += s.blk.rotation_lo;
+    }
+    x = internal_step(x, theta);
+    let dt = params.dt;
+    s.travel += strain_travel(vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]) * dt, s.blk.radius);
+    let since = vec3<real>(x.strain[0] - x.update_strain[0], x.strain[1] - x.update_strain[1], x.strain[2] - x.update_strain[2]);
+    s.blk.moved = max(s.blk.moved, s.net + strain_travel(since, s.blk.radius));
+    store_step(b, s);
+    geometry_update_strained(s.blk, x.strain);
+    sdefs[b].strain = x.strain;
+    sdefs[b].strain_rate = x.strain_rate;
+    sdefs[b].stress = x.stress;
+    sdefs[b].applied = x.applied;
+    sdefs[b].damping_work = x.damping_work;
+    if (x.griffith_tf > 0.0 && griffith_stress(x.stress) >= x.griffith_tf) {
+        atomicOr(&flags.crack_due, 1u);
+    }
+    let e = x.strain_rate;
+    var work = fluid_loads[b].work + (l.x * s.blk.vx + l.y * s.blk.vy + l.z * s.blk.w) * dt;
+    work += (wet.a11 * e[0] + (wet.a12 + wet.a21) * e[1] + wet.a22 * e[2]) * dt;
+    fluid_loads[b].work = work;
+}
+
+// Stages 1 and 2 in a scene with fluid and zoned blocks (twin of the CPU's `block_piece_fdef`
+// with its fluid): a rigid block on its contact sums as `gather_fdef` stored them this cycle,
+// with its fluid load added; a zoned block's corners placed on its grid points, which have
+// moved already (`step_gridpoints_fluid`), and their fluid work over the step added to its
+// block's, grid point by grid point in order (`cpu::zones::step_fdef`).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn law_of_motion_fdef_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    if (blk.kind == BLOCK_FDEF) {
+        if (blk.fixed != 0u) {
+            return;
+        }
+        let fb = fdef_blocks[b];
+        place_corners_fdef(b, blk, fb);
+        var w = real(0.0);
+        for (var g = fb.gp_start; g < fb.gp_start + fb.gp_count; g += 1u) {
+            w += gridpoint_fluid[g].step_work;
+        }
+        fluid_loads[b].work += w;
+        return;
+    }
+    if (blk.fixed != 0u) {
+        hold_still(b);
+        return;
+    }
+    let wet = block_fluid[b];
+    rigid_block_wet(b, blk, vec3<real>(wet.fx, wet.fy, wet.moment));
+}

@@ -120,6 +120,7 @@ struct Domain {
 const DOMAIN_REGULAR: u32 = 0u;
 const DOMAIN_JOINT: u32 = 1u;
 const DOMAIN_OUTER: u32 = 2u;
+const DOMAIN_REGULAR_DEFORMED: u32 = 3u;
 // A domain link is four words in `domain_links`: bits (LINK_*), the contact or corner index, the
 // block of the contact's side 0 (block 1) or the corner's block, the block of its side 1.
 const LINK_SIDE: u32 = 1u;
@@ -132,6 +133,18 @@ const LINK_CORNER: u32 = 4u;
 struct ContactFlow { flow: real, aperture: real, length: real, f0x: real, f0y: real, f1x: real, f1y: real, p0: real, p1: real }
 // 12 / 24 bytes. A block's buoyancy and the work of its fluid load since the upload.
 struct FluidLoad { buoy_x: real, buoy_y: real, work: real }
+
+// Scenes with fluid and deformable blocks only (twins of `layout::FluidPiece` etc.).
+// 24 / 40 bytes. A piece of block boundary around a domain (one per domain link): a
+// simply-deformable block's applied stress times area from it, or a zoned block's force from
+// it at the edge's first grid point (a0, a1) and second (a2, a3); its edge, NO_INDEX where it
+// loads nothing.
+struct FluidPiece { a0: real, a1: real, a2: real, a3: real, edge: u32, _pad: u32 }
+// 28 / 56 bytes. A block's fluid load (buoyancy and pressure jumps) and a simply-deformable
+// block's applied stress times area from its pieces.
+struct BlockFluid { fx: real, fy: real, moment: real, a11: real, a12: real, a21: real, a22: real }
+// 12 / 24 bytes. A grid point's fluid load and its work over the last step.
+struct GridPointFluid { fx: real, fy: real, step_work: real }
 
 // 32 / 64 bytes (a multiple of the 16-byte stride a uniform array needs, in both precisions):
 // the point contact's KN, KS, COHESION, FRICTION, then the joint's JKN, JKS, JCOH, JFRIC.

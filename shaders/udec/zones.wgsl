@@ -55,7 +55,13 @@ fn stress_increment(d: vec3<real>, lambda: real, shear: real) -> vec3<real> {
 
 // Stage 6 for grid point g (twin of `cpu::zones::gather_fdef`, for one grid point).
 fn gridpoint_force(g: u32, gp: GridPoint) -> vec2<real> {
-    var f = vec2<real>(gp.mass * params.gx + gp.load_x, gp.mass * params.gy + gp.load_y);
+    return gridpoint_force_from(g, gp, vec2<real>(gp.mass * params.gx + gp.load_x, gp.mass * params.gy + gp.load_y));
+}
+
+// `gridpoint_force` from `f_in`: gravity's and the load's share, and in a scene with fluid the
+// grid point's fluid load after them (`gather_gridpoints_fluid`).
+fn gridpoint_force_from(g: u32, gp: GridPoint, f_in: vec2<real>) -> vec2<real> {
+    var f = f_in;
     if (gp.boundary != 0u) {
         let b = gp.block;
         for (var e = adj_offsets[b]; e < adj_offsets[b + 1u]; e += 1u) {
@@ -105,14 +111,20 @@ fn step_gridpoints(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocati
     if (g >= arrayLength(&gridpoints)) {
         return;
     }
+    step_gridpoint(g);
+}
+
+// `step_gridpoints`' step of grid point g; whether it moved (not where its block is fixed or it
+// has no mass).
+fn step_gridpoint(g: u32) -> bool {
     var gp = gridpoints[g];
     if (gp.fixed != 0u) {
         gridpoints[g].vx = 0.0;
         gridpoints[g].vy = 0.0;
-        return;
+        return false;
     }
     if (!(gp.mass > 0.0)) {
-        return;
+        return false;
     }
     let dt = params.dt;
     let con1 = 1.0 - 0.5 * params.alpha * dt;
@@ -144,6 +156,7 @@ fn step_gridpoints(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocati
         atomicOr(&flags.errors, ERR_TOO_FAST);
         atomicMin(&flags.toofast_block, gp.block);
     }
+    return true;
 }
 
 // Stage 3 for zone z (twin of `cpu::zones::zones`, for one zone).
@@ -173,4 +186,88 @@ fn zones(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
     );
     let ds = stress_increment(strain_rate(p, v, a2) * params.dt, fb.lambda, fb.shear);
     zone_list[z].stress = array<real, 3>(zone.stress[0] + ds.x, zone.stress[1] + ds.y, zone.stress[2] + ds.z);
+}
+
+// Stage 5's loads on zoned blocks' grid points in a scene with fluid (twin of the grid points'
+// share of `model::fluid::deformable_pressure_loads` and of `cpu::zones::gather_fdef`'s fluid),
+// one invocation per zoned block, after `fluid_block_loads`: the pieces of its boundary
+// (`pressure_pieces`, flow.wgsl) in ascending link order (`block_pieces`: the CPU's order),
+// each adding its two shares to its edge's grid points; then each grid point's load, its share
+// of the block's buoyancy by mass plus, on the boundary, its pressures' shares.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gridpoint_fluid_loads(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks || blocks[b].kind != BLOCK_FDEF) {
+        return;
+    }
+    let blk = blocks[b];
+    let fb = fdef_blocks[b];
+    let end = fb.gp_start + fb.gp_count;
+    for (var g = fb.gp_start; g < end; g += 1u) {
+        gridpoint_fluid[g].fx = 0.0;
+        gridpoint_fluid[g].fy = 0.0;
+    }
+    let n = max(blk.corner_count, 1u);
+    for (var e = block_pieces[b]; e < block_pieces[b + 1u]; e += 1u) {
+        let piece = fluid_pieces[block_pieces[e]];
+        if (piece.edge == NO_INDEX) {
+            continue;
+        }
+        let gi = fb.gp_start + piece.edge % n;
+        let gj = fb.gp_start + (piece.edge + 1u) % n;
+        gridpoint_fluid[gi].fx += piece.a0;
+        gridpoint_fluid[gi].fy += piece.a1;
+        gridpoint_fluid[gj].fx += piece.a2;
+        gridpoint_fluid[gj].fy += piece.a3;
+    }
+    // The CPU's share of the load: by mass over the block's (never zero).
+    let total = max(blk.mass, real(1e-30));
+    let buoy = vec2<real>(fluid_loads[b].buoy_x, fluid_loads[b].buoy_y);
+    for (var g = fb.gp_start; g < end; g += 1u) {
+        let share = gridpoints[g].mass / total;
+        var p = vec2<real>(0.0, 0.0);
+        if (g - fb.gp_start < fb.boundary) {
+            p = vec2<real>(gridpoint_fluid[g].fx, gridpoint_fluid[g].fy);
+        }
+        gridpoint_fluid[g].fx = buoy.x * share + p.x;
+        gridpoint_fluid[g].fy = buoy.y * share + p.y;
+    }
+}
+
+// `gather_gridpoints` in a scene with fluid: each grid point's fluid load
+// (`gridpoint_fluid_loads`) added after gravity's and the load's share, before its contacts and
+// zones (`cpu::zones::gather_fdef`'s order).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn gather_gridpoints_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let g = item_index(wg, li);
+    if (g >= arrayLength(&gridpoints)) {
+        return;
+    }
+    let gp = gridpoints[g];
+    let l = vec2<real>(gridpoint_fluid[g].fx, gridpoint_fluid[g].fy);
+    var f = vec2<real>(gp.mass * params.gx + gp.load_x, gp.mass * params.gy + gp.load_y);
+    f += l;
+    f = gridpoint_force_from(g, gp, f);
+    gridpoints[g].fx = f.x;
+    gridpoints[g].fy = f.y;
+}
+
+// `step_gridpoints` in a scene with fluid: the step, and the work the grid point's fluid load
+// did over it at the mean velocity, F·½(v_old + v_new)·Δt (`cpu::zones::step_fdef`: the grid
+// points' fluid springs are stiff and light, and the forward product would leave the ledger off
+// by ½ΣΔF·Δx), kept for its block's pass (`law_of_motion_fdef_fluid`); none where it did not move.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn step_gridpoints_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let g = item_index(wg, li);
+    if (g >= arrayLength(&gridpoints)) {
+        return;
+    }
+    let v0 = vec2<real>(gridpoints[g].vx, gridpoints[g].vy);
+    var w = real(0.0);
+    if (step_gridpoint(g)) {
+        let v = vec2<real>(gridpoints[g].vx, gridpoints[g].vy);
+        let l = vec2<real>(gridpoint_fluid[g].fx, gridpoint_fluid[g].fy);
+        w = 0.5 * params.dt * (l.x * (v0.x + v.x) + l.y * (v0.y + v.y));
+    }
+    gridpoint_fluid[g].step_work = w;
 }

@@ -48,6 +48,8 @@ pub struct FluidScratch {
     /// the areas and the loads, where each domain's area and each block's load would take them
     /// again.
     pub(super) feet: Vec<[[f64; 2]; 2]>,
+    /// `model::fluid::boundary_pieces`' scratch (one loop's vertices), kept between cycles.
+    ring: Vec<crate::udec::model::fluid::PieceVertex>,
 }
 
 /// `out[i] = f(i)` for every `i`, on the team's threads: each element alone, so the result is
@@ -157,7 +159,7 @@ pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidS
     let model = &*model;
     fill_on_team(team, &mut scratch.loads, MIN_BLOCKS_PER_THREAD, &|b| block_load(model, adjacency, b, &|k, side| feet[k][side as usize]));
     if let Some(domains) = model.domains.as_ref() {
-        deformable_pressure_loads(model, domains, &|k, side| feet[k][side as usize], &mut scratch.applied, &mut scratch.gridpoint);
+        deformable_pressure_loads(model, domains, &|k, side| feet[k][side as usize], &mut scratch.applied, &mut scratch.gridpoint, &mut scratch.ring);
     }
 }
 
@@ -169,7 +171,7 @@ pub fn all_pressure_loads(model: &Model, adjacency: &Adjacency, scratch: &mut Fl
         Some(domains) => {
             build_inflow_lists(domains, &mut scratch.inflow_offsets, &mut scratch.inflow_entries);
             let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
-            deformable_pressure_loads(model, domains, &foot, &mut scratch.applied, &mut scratch.gridpoint);
+            deformable_pressure_loads(model, domains, &foot, &mut scratch.applied, &mut scratch.gridpoint, &mut scratch.ring);
         }
         None => {
             scratch.inflow_offsets.clear();

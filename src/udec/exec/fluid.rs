@@ -90,8 +90,7 @@ impl Executor<'_> {
     /// Before CYCLE in a scene with fluid: every material in use has a flow law (¶6): CPERM for
     /// its point contacts, and where its contacts may be joints (a joint constitutive number with
     /// JKN and JKS) JPERM with AZERO > 0 if it gives JPERM. Deformable blocks take the pressures
-    /// too (`model::fluid::deformable_pressure_loads`); the GPU runs fluid with rigid blocks only
-    /// and says so (`gpu::flow`).
+    /// too (`model::fluid::deformable_pressure_loads`, on the GPU `gpu::flow`).
     pub(super) fn check_fluid(&self, cmd: &Located) -> Result<(), RunError> {
         if self.model.fluid.is_none() {
             return Ok(());

@@ -39,6 +39,12 @@ impl<R: Real> Engine<R> {
         let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
         let cycle = |label, pipeline, bind_group, g: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) };
         let mut stages = Vec::with_capacity(4);
+        if let (Some(fdef), Some(fluid), Some(wet)) = (self.fdef_kernels(), self.fluid_kernels(), self.wet_fdef_kernels()) {
+            return self.stages_fdef_fluid(fdef, fluid, wet, gather_only);
+        }
+        if let (Some(sdef), Some(fluid), Some(wet)) = (self.sdef_kernels(), self.fluid_kernels(), self.wet_sdef_kernels()) {
+            return self.stages_sdef_fluid(sdef, fluid, wet, gather_only);
+        }
         if let Some((k, g)) = self.fdef_kernels() {
             return self.stages_fdef(k, g, gather_only);
         }
@@ -123,6 +129,90 @@ impl<R: Real> Engine<R> {
             stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
             stages.push(cycle("flow", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts));
             stages.push(cycle("domain_pressures", &k.domain_pressures.pipeline, &g.domain_pressures, Grid::Domains));
+            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
+            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+        }
+        stages.retain(|d| d.grid.0 > 0);
+        stages
+    }
+
+    /// `stages` in a scene with fluid and simply-deformable blocks (`gpu::flow`): the blocks'
+    /// contact sums stored (`gather_heavy`, `gather_sdef`), the pieces of block boundary around
+    /// each domain at its pressure (`pressure_pieces`) and each block's fluid load from them
+    /// (`fluid_block_loads`), all from the state the last cycle left as the CPU's stage 5 took
+    /// it; then before a read-back those added to the stored sums (`gather_sdef_fluid`), or in a
+    /// cycle the blocks' motion on them (`law_of_motion_sdef_fluid`), the contact stage and
+    /// stage 5's flows and pressures.
+    fn stages_sdef_fluid<'a>(
+        &'a self,
+        sdef: (&'a kernels::SdefKernels, &'a kernels::SdefBindGroups),
+        fluid: (&'a kernels::FluidKernels, &'a kernels::FluidBindGroups),
+        wet: (&'a kernels::WetSdefKernels, &'a kernels::WetSdefBindGroups),
+        gather_only: bool,
+    ) -> Vec<Dispatch<'a>> {
+        let p = &self.pipelines;
+        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
+        let cycle =
+            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let ((sk, sg), (fk, fg), (wk, wg)) = (sdef, fluid, wet);
+        let mut stages = Vec::with_capacity(9);
+        if self.heavy_blocks(gather_only) > 0 {
+            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
+        }
+        stages.push(cycle("gather_sdef", &sk.gather.pipeline, &sg.gather, Grid::Blocks));
+        stages.push(cycle("pressure_pieces", &wk.pressure_pieces.pipeline, &wg.pressure_pieces, Grid::Domains));
+        stages.push(cycle("fluid_block_loads", &wk.fluid_block_loads.pipeline, &wg.fluid_block_loads, Grid::Blocks));
+        if gather_only {
+            stages.push(cycle("gather_sdef_fluid", &wk.gather.pipeline, &wg.gather, Grid::Blocks));
+        } else {
+            stages.push(cycle("law_of_motion_sdef_fluid", &wk.law_of_motion.pipeline, &wg.law_of_motion, Grid::Blocks));
+            stages.push(cycle("contact_forces_sdef", &sk.contact_forces.pipeline, &sg.contact_forces, Grid::Contacts));
+            stages.push(cycle("flow", &fk.contact_flows.pipeline, &fg.contact_flows, Grid::Contacts));
+            stages.push(cycle("domain_pressures", &fk.domain_pressures.pipeline, &fg.domain_pressures, Grid::Domains));
+            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
+            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+        }
+        stages.retain(|d| d.grid.0 > 0);
+        stages
+    }
+
+    /// `stages` in a scene with fluid and zoned blocks (`gpu::flow`): the rigid blocks' contact
+    /// sums stored (`gather_heavy`, `gather_fdef`), the pieces of block boundary around each
+    /// domain (`pressure_pieces`), each block's fluid load (`fluid_block_loads`) and each zoned
+    /// block's grid points' (`gridpoint_fluid_loads`), the grid points' gather with theirs;
+    /// then before a read-back the rigid blocks' loads added to their stored sums
+    /// (`gather_fdef_fluid`), or in a cycle the grid points' step with their fluid work, the
+    /// zones, the blocks' motion (`law_of_motion_fdef_fluid`), the contact stage and stage 5.
+    fn stages_fdef_fluid<'a>(
+        &'a self,
+        fdef: (&'a kernels::FdefKernels, &'a kernels::FdefBindGroups),
+        fluid: (&'a kernels::FluidKernels, &'a kernels::FluidBindGroups),
+        wet: (&'a kernels::WetFdefKernels, &'a kernels::WetFdefBindGroups),
+        gather_only: bool,
+    ) -> Vec<Dispatch<'a>> {
+        let p = &self.pipelines;
+        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
+        let cycle =
+            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let ((dk, dg), (fk, fg), (wk, wg)) = (fdef, fluid, wet);
+        let mut stages = Vec::with_capacity(13);
+        if self.heavy_blocks(gather_only) > 0 {
+            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
+        }
+        stages.push(cycle("gather_fdef", &dk.gather.pipeline, &dg.gather, Grid::Blocks));
+        stages.push(cycle("pressure_pieces", &wk.pressure_pieces.pipeline, &wg.pressure_pieces, Grid::Domains));
+        stages.push(cycle("fluid_block_loads", &wk.fluid_block_loads.pipeline, &wg.fluid_block_loads, Grid::Blocks));
+        stages.push(cycle("gridpoint_fluid_loads", &wk.gridpoint_fluid_loads.pipeline, &wg.gridpoint_fluid_loads, Grid::Blocks));
+        stages.push(cycle("gather_gridpoints_fluid", &wk.gather_gridpoints.pipeline, &wg.gather_gridpoints, Grid::GridPoints));
+        if gather_only {
+            stages.push(cycle("gather_fdef_fluid", &wk.gather.pipeline, &wg.gather, Grid::Blocks));
+        } else {
+            stages.push(cycle("step_gridpoints_fluid", &wk.step_gridpoints.pipeline, &wg.step_gridpoints, Grid::GridPoints));
+            stages.push(cycle("zones", &dk.zones.pipeline, &dg.zones, Grid::Zones));
+            stages.push(cycle("law_of_motion_fdef_fluid", &wk.law_of_motion.pipeline, &wg.law_of_motion, Grid::Blocks));
+            stages.push(cycle("contact_forces_fdef", &dk.contact_forces.pipeline, &dg.contact_forces, Grid::Contacts));
+            stages.push(cycle("flow", &fk.contact_flows.pipeline, &fg.contact_flows, Grid::Contacts));
+            stages.push(cycle("domain_pressures", &fk.domain_pressures.pipeline, &fg.domain_pressures, Grid::Domains));
             let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
             stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
         }

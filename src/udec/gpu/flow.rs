@@ -16,13 +16,28 @@
 //! and partial read-backs are off. A read-back gives the model each domain's pressure and area,
 //! each contact's flow and the ledger's fluid work and inflow (accumulated on the device from
 //! zero since the upload, added to their f64 bases as the external work is).
+//!
+//! With simply-deformable or zoned blocks the pressures also push on their boundaries (the
+//! CPU's `model::fluid::deformable_pressure_loads`): at each cycle's start `pressure_pieces`
+//! (flow.wgsl) writes, per domain, each piece of block boundary around it at the link it follows
+//! (`layout::FluidPiece`: an SDEF block's Σ r⊗f, a zoned block's force split to its edge's grid
+//! points), `fluid_block_loads` sums each block's fluid load and an SDEF block's pieces, and for
+//! zoned blocks `gridpoint_fluid_loads` its grid points' (each block's pieces as a CSR list in
+//! ascending link order, the CPU's order: reruns repeat bit for bit); the block pass
+//! (`law_of_motion_sdef_fluid`, `law_of_motion_fdef_fluid`) adds them to the contact sums that
+//! `gather_sdef` or `gather_fdef` stored, and books their work as the CPU does (A : Δε, and a
+//! grid point's F·½(v_old + v_new)·Δt from `step_gridpoints_fluid`). A void with a deformable
+//! block on its boundary is measured from its outline each step (`DOMAIN_REGULAR_DEFORMED`; in
+//! f32 at its blocks' whole rotations), not followed by rigid motion. None of this is made,
+//! bound or dispatched in a scene without both fluid and deformable blocks.
 
 use crate::udec::model::domain::{DomainKind, DomainLink, NO_DOMAIN};
 use crate::udec::model::{Model, MAX_MATERIALS};
 
-use super::kernels::FluidSizes;
+use super::kernels::{FluidSizes, WetDeformableSizes};
 use super::layout::{
-    ContactFlow, Domain, FluidLoad, FluidMaterial, FluidParams, Real, DOMAIN_JOINT, DOMAIN_OUTER, DOMAIN_REGULAR, LINK_CORNER, LINK_LOOP_START, LINK_SIDE,
+    ContactFlow, Domain, FluidLoad, FluidMaterial, FluidParams, Real, DOMAIN_JOINT, DOMAIN_OUTER, DOMAIN_REGULAR, DOMAIN_REGULAR_DEFORMED, LINK_CORNER,
+    LINK_LOOP_START, LINK_SIDE,
 };
 use super::{r, Engine, GpuError, Uploaded};
 
@@ -38,12 +53,20 @@ struct FluidUpload<R: Real> {
     /// blocks' centroids and its two domains' pressures now, which the first cycle's gather reads
     /// for the pressure loads (`add_pressure_load`, gather.wgsl).
     contact_flows: Vec<ContactFlow<R>>,
+    /// In a scene with deformable blocks: each deformable block's pieces of boundary around the
+    /// domains (the indices of the links they follow), as CSR words (offsets for blocks 0 ..= n
+    /// into the same array, then the entries, ascending: domain by domain in list order, each
+    /// circuit in order, the CPU's order of `model::fluid::deformable_pressure_loads`). Empty
+    /// in a scene of rigid blocks.
+    block_pieces: Vec<u32>,
 }
 
 impl<R: Real> FluidUpload<R> {
-    fn of(model: &Model) -> Self {
+    fn of(model: &Model, deformable: bool) -> Self {
         let domains = model.domains.as_ref().expect("a scene with fluid has its domains");
         let n = domains.list.len();
+        let is_deformable = |b: u32| model.sdef_of(b as usize).is_some() || super::fdef::is_zoned(model, b as usize);
+        let mut pieces: Vec<Vec<u32>> = vec![Vec::new(); if deformable { model.blocks.len() } else { 0 }];
         // Each domain's flows, ascending by contact: the order the CPU sums them in
         // (`model::fluid::contact_flows`).
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n];
@@ -63,22 +86,40 @@ impl<R: Real> FluidUpload<R> {
         for (d, (dom, list)) in domains.list.iter().zip(lists).enumerate() {
             let link_start = (links.len() / 4) as u32;
             let first = dom.link_start as usize;
+            // Whether a deformable block bounds this void (its outline is then measured each
+            // step: `DOMAIN_REGULAR_DEFORMED`).
+            let mut wet_outline = false;
             for (j, link) in domains.links_of(dom).iter().enumerate() {
                 let bits = domains.link_sides.get(first + j).copied().unwrap_or(0);
                 let mut word = if bits & crate::udec::model::domain::LOOP_START != 0 { LINK_LOOP_START } else { 0 };
-                match *link {
+                let l = (links.len() / 4) as u32;
+                // The block the piece after the link lies on (`piece_block`, flow.wgsl).
+                let own = match *link {
                     DomainLink::Contact { index, .. } => {
                         let c = &model.contacts[index as usize];
                         word |= u32::from(bits & 1) * LINK_SIDE;
                         links.extend([word, index, c.block1, c.block2]);
+                        if bits & 1 == 0 {
+                            c.block1
+                        } else {
+                            c.block2
+                        }
                     }
                     DomainLink::Corner { corner } => {
                         let block = model.corners[corner as usize].block;
                         links.extend([word | LINK_CORNER, corner, block, block]);
+                        block
                     }
+                };
+                if deformable && is_deformable(own) {
+                    pieces[own as usize].push(l);
+                }
+                if deformable && is_deformable(own) && dom.kind == DomainKind::Regular {
+                    wet_outline = true;
                 }
             }
             let kind = match dom.kind {
+                DomainKind::Regular if wet_outline => DOMAIN_REGULAR_DEFORMED,
                 DomainKind::Regular => DOMAIN_REGULAR,
                 DomainKind::Joint => DOMAIN_JOINT,
                 DomainKind::Outer => DOMAIN_OUTER,
@@ -136,7 +177,18 @@ impl<R: Real> FluidUpload<R> {
                 ContactFlow { flow: r(f.flow), aperture: r(f.aperture), length: r(f.length), f0x, f0y, f1x, f1y, p0, p1 }
             })
             .collect();
-        FluidUpload { domains: out, flows, links, sides, loads, contact_flows }
+        let mut block_pieces = Vec::new();
+        if deformable {
+            let mut at = (pieces.len() + 1) as u32;
+            block_pieces.reserve(pieces.len() + 1 + links.len() / 4);
+            for p in &pieces {
+                block_pieces.push(at);
+                at += p.len() as u32;
+            }
+            block_pieces.push(at);
+            block_pieces.extend(pieces.into_iter().flatten());
+        }
+        FluidUpload { domains: out, flows, links, sides, loads, contact_flows, block_pieces }
     }
 }
 
@@ -154,7 +206,16 @@ impl<R: Real> Engine<R> {
         }
         let had_kernels = self.pipelines.fluid.is_some();
         self.pipelines.with_fluid(&self.dev)?;
-        let up = FluidUpload::<R>::of(model);
+        // With deformable blocks (their kinds uploaded before: `upload_sdef`, `upload_fdef`),
+        // the kernels and slots of the pressures' push on them.
+        let deformable = self.sdef_scene || self.fdef_scene;
+        let had_wet = if self.sdef_scene { self.pipelines.wet_sdef.is_some() } else { self.pipelines.wet_fdef.is_some() };
+        if self.sdef_scene {
+            self.pipelines.with_wet_sdef(&self.dev)?;
+        } else if self.fdef_scene {
+            self.pipelines.with_wet_fdef(&self.dev)?;
+        }
+        let up = FluidUpload::<R>::of(model, deformable);
         let sizes = FluidSizes {
             domains: up.domains.len(),
             flows: up.flows.len(),
@@ -163,7 +224,11 @@ impl<R: Real> Engine<R> {
             blocks: model.blocks.len(),
         };
         let b = self.buffers.as_mut().expect("buffers exist");
-        let made = b.ensure_fluid::<R>(&self.dev, sizes)?;
+        let mut made = b.ensure_fluid::<R>(&self.dev, sizes)?;
+        if deformable {
+            let wet = WetDeformableSizes { links: sizes.links, csr: up.block_pieces.len(), blocks: sizes.blocks, gridpoints: self.fdef_counts.0 };
+            made |= b.ensure_wet_deformable::<R>(&self.dev, wet)?;
+        }
         let fluid = model.fluid.expect("checked above");
         let domains = model.domains.as_ref().expect("checked above");
         let params = FluidParams::<R> { bulk: r(fluid.bulk), min_area: r(domains.min_area), n_domains: up.domains.len() as u32, ..Default::default() };
@@ -187,10 +252,13 @@ impl<R: Real> Engine<R> {
         write(&b.contact_sides, bytemuck::cast_slice(&up.sides));
         write(&b.fluid_loads, bytemuck::cast_slice(&up.loads));
         write(&b.contact_flows, bytemuck::cast_slice(&up.contact_flows));
+        if deformable {
+            write(&b.block_pieces, bytemuck::cast_slice(&up.block_pieces));
+        }
         let base = std::rc::Rc::make_mut(&mut self.uploaded);
         base.fluid_base = [fluid.work, fluid.inflow];
         self.n_domains = up.domains.len();
-        Ok(made || !had_kernels)
+        Ok(made || !had_kernels || (deformable && !had_wet))
     }
 
     /// What a read-back reads of the fluid's slots: every domain, each contact's flow and each
@@ -233,6 +301,20 @@ impl<R: Real> Engine<R> {
             f.work = up.fluid_base[0] + work;
             f.inflow = up.fluid_base[1] + inflow;
         }
+        zoned_fluid_forces(model);
+    }
+
+    /// The kernels of fluid with simply-deformable blocks and their bind groups, in a scene with
+    /// both.
+    pub(super) fn wet_sdef_kernels(&self) -> Option<(&super::kernels::WetSdefKernels, &super::kernels::WetSdefBindGroups)> {
+        let groups = self.bind_groups.as_ref()?.wet_sdef.as_ref()?;
+        Some((self.pipelines.wet_sdef.as_ref()?, groups)).filter(|_| self.fluid_scene && self.sdef_scene)
+    }
+
+    /// The kernels of fluid with zoned blocks and their bind groups, in a scene with both.
+    pub(super) fn wet_fdef_kernels(&self) -> Option<(&super::kernels::WetFdefKernels, &super::kernels::WetFdefBindGroups)> {
+        let groups = self.bind_groups.as_ref()?.wet_fdef.as_ref()?;
+        Some((self.pipelines.wet_fdef.as_ref()?, groups)).filter(|_| self.fluid_scene && self.fdef_scene)
     }
 
     /// The fluid's kernels and their bind groups, in a scene with fluid (the cycle, the gather
@@ -243,16 +325,34 @@ impl<R: Real> Engine<R> {
     }
 }
 
-/// Refuses what the GPU does not run of fluid: fluid with simply- or fully-deformable blocks
-/// (their kernels and the fluid's are apart: the CPU backend runs it).
-pub(super) fn check_supported(model: &Model) -> Result<(), GpuError> {
-    if model.fluid.is_none() {
-        return Ok(());
+/// A zoned block's external force as the CPU's gather sums it includes its grid points' fluid
+/// loads (`cpu::zones::gather_fdef`), which `convert_fdef` (from the device's grid points, before
+/// the domains are read) leaves out: added here with the pressures just read, each grid point's
+/// share of its block's buoyancy by mass and its boundary's pressure pieces
+/// (`model::fluid::deformable_pressure_loads`, the loads the device's grid points carry now).
+fn zoned_fluid_forces(model: &mut Model) {
+    let (Some(fluid), Some(domains)) = (model.fluid, model.domains.as_ref()) else { return };
+    let zoned: Vec<usize> = (0..model.blocks.len()).filter(|&b| super::fdef::is_zoned(model, b)).collect();
+    if zoned.is_empty() {
+        return;
     }
-    if model.blocks.iter().any(|b| b.kind != crate::udec::model::BlockKind::Rigid) {
-        return Err(GpuError::DoesNotFit(
-            "fluid flow with simply- or fully-deformable blocks runs on the CPU backend only in this version; use --backend cpu or --backend auto".into(),
-        ));
+    let (mut applied, mut points, mut ring) = (Vec::new(), Vec::new(), Vec::new());
+    let foot = |k: usize, side: u32| crate::udec::model::fluid::contact_foot(model, &model.contacts[k], side);
+    crate::udec::model::fluid::deformable_pressure_loads(model, domains, &foot, &mut applied, &mut points, &mut ring);
+    let g = model.gravity;
+    for b in zoned {
+        let (blk, f) = (&model.blocks[b], &model.fdef[b]);
+        let buoyancy = [-fluid.density * blk.area * g[0], -fluid.density * blk.area * g[1]];
+        let total = blk.mass.max(f64::MIN_POSITIVE);
+        let mut sum = [0.0; 2];
+        for (k, gp) in f.gridpoints.iter().enumerate() {
+            let share = gp.mass / total;
+            let p = if (k as u32) < f.boundary { points.get(blk.corner_start as usize + k).copied().unwrap_or([0.0; 2]) } else { [0.0; 2] };
+            sum[0] += buoyancy[0] * share + p[0];
+            sum[1] += buoyancy[1] * share + p[1];
+        }
+        let blk = &mut model.blocks[b];
+        blk.force[0] += sum[0];
+        blk.force[1] += sum[1];
     }
-    Ok(())
 }

@@ -13,8 +13,8 @@
 
 use super::device::GpuDevice;
 use super::layout::{
-    Block, Contact, ContactFlow, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, Domain, EnergySum, FdefBlock, Flags, FluidLoad,
-    FluidMaterial, FluidParams, GridPoint, Material, Params, Real, Sdef, Zone,
+    Block, BlockFluid, Contact, ContactFlow, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, Domain, EnergySum, FdefBlock, Flags, FluidLoad,
+    FluidMaterial, FluidParams, FluidPiece, GridPoint, GridPointFluid, Material, Params, Real, Sdef, Zone,
 };
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};
@@ -59,6 +59,14 @@ pub enum StateSlot {
     ContactSides = 23,
     ContactFlows = 24,
     FluidLoads = 25,
+    /// Scenes with fluid and deformable blocks only (`gpu::flow`): each domain link's piece of
+    /// block boundary (`layout::FluidPiece`), each block's pieces (CSR words), each block's
+    /// fluid load (`layout::BlockFluid`) and, with zoned blocks, each grid point's
+    /// (`layout::GridPointFluid`).
+    FluidPieces = 26,
+    BlockPieces = 27,
+    BlockFluid = 28,
+    GridPointFluid = 29,
 }
 
 /// How a slot is bound: a uniform, or a storage buffer read only or read and written.
@@ -70,7 +78,7 @@ pub enum SlotKind {
 }
 
 impl StateSlot {
-    pub const ALL: [StateSlot; 25] = [
+    pub const ALL: [StateSlot; 29] = [
         StateSlot::Params,
         StateSlot::Blocks,
         StateSlot::Corners,
@@ -96,6 +104,10 @@ impl StateSlot {
         StateSlot::ContactSides,
         StateSlot::ContactFlows,
         StateSlot::FluidLoads,
+        StateSlot::FluidPieces,
+        StateSlot::BlockPieces,
+        StateSlot::BlockFluid,
+        StateSlot::GridPointFluid,
     ];
 
     pub fn binding(self) -> u32 {
@@ -135,6 +147,10 @@ impl StateSlot {
             StateSlot::ContactSides => "contact_sides",
             StateSlot::ContactFlows => "contact_flows_out",
             StateSlot::FluidLoads => "fluid_loads",
+            StateSlot::FluidPieces => "fluid_pieces",
+            StateSlot::BlockPieces => "block_pieces",
+            StateSlot::BlockFluid => "block_fluid",
+            StateSlot::GridPointFluid => "gridpoint_fluid",
         }
     }
 
@@ -147,7 +163,8 @@ impl StateSlot {
             | StateSlot::GridPointZones
             | StateSlot::DomainFlows
             | StateSlot::DomainLinks
-            | StateSlot::ContactSides => SlotKind::StorageRead,
+            | StateSlot::ContactSides
+            | StateSlot::BlockPieces => SlotKind::StorageRead,
             _ => SlotKind::StorageReadWrite,
         }
     }
@@ -204,6 +221,29 @@ pub struct CycleBindGroups {
     pub fdef: Option<FdefBindGroups>,
     /// The fluid's kernels' (`FluidKernels`), in a scene with fluid.
     pub fluid: Option<FluidBindGroups>,
+    /// The kernels' of fluid with simply-deformable blocks (`WetSdefKernels`).
+    pub wet_sdef: Option<WetSdefBindGroups>,
+    /// The kernels' of fluid with zoned blocks (`WetFdefKernels`).
+    pub wet_fdef: Option<WetFdefBindGroups>,
+}
+
+/// The bind groups of `WetSdefKernels`.
+pub struct WetSdefBindGroups {
+    pub pressure_pieces: wgpu::BindGroup,
+    pub fluid_block_loads: wgpu::BindGroup,
+    pub law_of_motion: wgpu::BindGroup,
+    pub gather: wgpu::BindGroup,
+}
+
+/// The bind groups of `WetFdefKernels`.
+pub struct WetFdefBindGroups {
+    pub pressure_pieces: wgpu::BindGroup,
+    pub fluid_block_loads: wgpu::BindGroup,
+    pub gridpoint_fluid_loads: wgpu::BindGroup,
+    pub gather_gridpoints: wgpu::BindGroup,
+    pub step_gridpoints: wgpu::BindGroup,
+    pub law_of_motion: wgpu::BindGroup,
+    pub gather: wgpu::BindGroup,
 }
 
 /// The bind groups of `FluidKernels`.
@@ -259,10 +299,28 @@ impl CycleBindGroups {
             gather: make(&k.gather, "gather_fluid"),
             energy_sums: make(&k.energy_sums, "energy_sums_fluid"),
         });
+        let wet = b.fluid_pieces.is_some();
+        let wet_sdef = p.wet_sdef.as_ref().filter(|_| wet && b.sdefs.is_some()).map(|k| WetSdefBindGroups {
+            pressure_pieces: make(&k.pressure_pieces, "pressure_pieces"),
+            fluid_block_loads: make(&k.fluid_block_loads, "fluid_block_loads"),
+            law_of_motion: make(&k.law_of_motion, "law_of_motion_sdef_fluid"),
+            gather: make(&k.gather, "gather_sdef_fluid"),
+        });
+        let wet_fdef = p.wet_fdef.as_ref().filter(|_| wet && b.gridpoints.is_some() && b.gridpoint_fluid.is_some()).map(|k| WetFdefBindGroups {
+            pressure_pieces: make(&k.pressure_pieces, "pressure_pieces"),
+            fluid_block_loads: make(&k.fluid_block_loads, "fluid_block_loads"),
+            gridpoint_fluid_loads: make(&k.gridpoint_fluid_loads, "gridpoint_fluid_loads"),
+            gather_gridpoints: make(&k.gather_gridpoints, "gather_gridpoints_fluid"),
+            step_gridpoints: make(&k.step_gridpoints, "step_gridpoints_fluid"),
+            law_of_motion: make(&k.law_of_motion, "law_of_motion_fdef_fluid"),
+            gather: make(&k.gather, "gather_fdef_fluid"),
+        });
         CycleBindGroups {
             sdef,
             fdef,
             fluid,
+            wet_sdef,
+            wet_fdef,
             law_of_motion: make(&p.law_of_motion, "law_of_motion"),
             contact_forces: make(&p.contact_forces, "contact_forces"),
             contact_points: make(&p.contact_points, "contact_points"),
@@ -313,6 +371,70 @@ pub struct Pipelines {
     /// The fluid's kernels, made at the first upload of a scene with fluid
     /// (`Pipelines::with_fluid`): a dry scene never compiles them.
     pub fluid: Option<FluidKernels>,
+    /// The kernels of fluid with simply-deformable or zoned blocks, made at the first upload of
+    /// a scene with both (`Pipelines::with_wet_sdef`, `with_wet_fdef`).
+    pub wet_sdef: Option<WetSdefKernels>,
+    pub wet_fdef: Option<WetFdefKernels>,
+}
+
+/// The entry points a scene with fluid and simply-deformable blocks runs besides the fluid's
+/// and the SDEF kernels (`gpu::flow`): flow.wgsl's `pressure_pieces` (each domain's pieces of
+/// block boundary at its pressure), gather.wgsl's `fluid_block_loads` (each block's fluid load
+/// and an SDEF block's applied stress from its pieces) and `gather_sdef_fluid` (those added to
+/// the stored sums before a read-back), and `law_of_motion_sdef_fluid` (the block pass on the
+/// stored sums of `gather_sdef` with the fluid's added, its work booked). Only they bind the
+/// slots of fluid with deformable blocks.
+pub struct WetSdefKernels {
+    pub pressure_pieces: CycleKernel,
+    pub fluid_block_loads: CycleKernel,
+    pub law_of_motion: CycleKernel,
+    pub gather: CycleKernel,
+}
+
+impl WetSdefKernels {
+    pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        in_error_scopes(dev, || {
+            Ok(WetSdefKernels {
+                pressure_pieces: cycle_kernel(dev, "flow", "pressure_pieces")?,
+                fluid_block_loads: cycle_kernel(dev, "gather", "fluid_block_loads")?,
+                law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_sdef_fluid")?,
+                gather: cycle_kernel(dev, "gather", "gather_sdef_fluid")?,
+            })
+        })
+    }
+}
+
+/// The entry points a scene with fluid and zoned blocks runs besides the fluid's and the FDEF
+/// kernels: `pressure_pieces` and `fluid_block_loads` as with SDEF blocks, zones.wgsl's
+/// `gridpoint_fluid_loads` (each zoned block's grid points' shares of its buoyancy and pieces),
+/// `gather_gridpoints_fluid` and `step_gridpoints_fluid` in place of their dry twins (the
+/// grid points' loads added, their work over the step kept), `law_of_motion_fdef_fluid` (the
+/// rigid blocks on the stored sums of `gather_fdef` with their fluid load, a zoned block's
+/// grid points' fluid work booked) and `gather_fdef_fluid` before a read-back.
+pub struct WetFdefKernels {
+    pub pressure_pieces: CycleKernel,
+    pub fluid_block_loads: CycleKernel,
+    pub gridpoint_fluid_loads: CycleKernel,
+    pub gather_gridpoints: CycleKernel,
+    pub step_gridpoints: CycleKernel,
+    pub law_of_motion: CycleKernel,
+    pub gather: CycleKernel,
+}
+
+impl WetFdefKernels {
+    pub fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+        in_error_scopes(dev, || {
+            Ok(WetFdefKernels {
+                pressure_pieces: cycle_kernel(dev, "flow", "pressure_pieces")?,
+                fluid_block_loads: cycle_kernel(dev, "gather", "fluid_block_loads")?,
+                gridpoint_fluid_loads: cycle_kernel(dev, "zones", "gridpoint_fluid_loads")?,
+                gather_gridpoints: cycle_kernel(dev, "zones", "gather_gridpoints_fluid")?,
+                step_gridpoints: cycle_kernel(dev, "zones", "step_gridpoints_fluid")?,
+                law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fdef_fluid")?,
+                gather: cycle_kernel(dev, "gather", "gather_fdef_fluid")?,
+            })
+        })
+    }
 }
 
 /// The entry points a scene with fluid runs (stage 5, `gpu::flow`): flow.wgsl's `flow` (each
@@ -442,6 +564,22 @@ impl Pipelines {
     }
 
     /// Makes the FDEF kernels if they are not made yet.
+    pub fn with_wet_sdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
+        if self.wet_sdef.is_none() {
+            let _p = crate::profile::scope(crate::profile::Stage::KernelBuild);
+            self.wet_sdef = Some(WetSdefKernels::new(dev)?);
+        }
+        Ok(())
+    }
+
+    pub fn with_wet_fdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
+        if self.wet_fdef.is_none() {
+            let _p = crate::profile::scope(crate::profile::Stage::KernelBuild);
+            self.wet_fdef = Some(WetFdefKernels::new(dev)?);
+        }
+        Ok(())
+    }
+
     pub fn with_fdef(&mut self, dev: &GpuDevice) -> Result<(), GpuError> {
         if self.fdef.is_none() {
             let _p = crate::profile::scope(crate::profile::Stage::KernelBuild);
@@ -530,6 +668,8 @@ impl Pipelines {
             sdef: None,
             fdef: None,
             fluid: None,
+            wet_sdef: None,
+            wet_fdef: None,
         };
         Ok(pipelines)
     }
@@ -589,6 +729,12 @@ pub struct Buffers {
     pub contact_sides: Option<Slab>,
     pub contact_flows: Option<Slab>,
     pub fluid_loads: Option<Slab>,
+    /// Scenes with fluid and deformable blocks only (`StateSlot::FluidPieces` …
+    /// `GridPointFluid`; the grid points' with zoned blocks only).
+    pub fluid_pieces: Option<Slab>,
+    pub block_pieces: Option<Slab>,
+    pub block_fluid: Option<Slab>,
+    pub gridpoint_fluid: Option<Slab>,
     /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
     pub summaries: Option<Slab>,
 }
@@ -710,6 +856,10 @@ impl Buffers {
             contact_sides: None,
             contact_flows: None,
             fluid_loads: None,
+            fluid_pieces: None,
+            block_pieces: None,
+            block_fluid: None,
+            gridpoint_fluid: None,
             summaries: None,
         })
     }
@@ -809,6 +959,24 @@ impl Buffers {
     }
 
     /// Makes sure the summaries buffer holds `count` contacts.
+    /// Room for the slots of fluid with deformable blocks (`WetDeformableSizes`); whether one
+    /// was re-created.
+    pub fn ensure_wet_deformable<R: Real>(&mut self, dev: &GpuDevice, sizes: WetDeformableSizes) -> Result<bool, GpuError> {
+        let mut made = false;
+        for (slot, label, item, count) in [
+            (&mut self.fluid_pieces, "fluid pieces", std::mem::size_of::<FluidPiece<R>>(), sizes.links),
+            (&mut self.block_pieces, "block pieces", 4, sizes.csr),
+            (&mut self.block_fluid, "block fluid loads", std::mem::size_of::<BlockFluid<R>>(), sizes.blocks),
+            (&mut self.gridpoint_fluid, "grid-point fluid loads", std::mem::size_of::<GridPointFluid<R>>(), sizes.gridpoints),
+        ] {
+            if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
+                ensure_slot(dev, slot, label, item, count.max(1))?;
+                made = true;
+            }
+        }
+        Ok(made)
+    }
+
     pub fn ensure_summaries<R: Real>(&mut self, dev: &GpuDevice, count: usize) -> Result<(), GpuError> {
         ensure_slot(dev, &mut self.summaries, "contact summaries", std::mem::size_of::<ContactSummary<R>>(), count)
     }
@@ -883,6 +1051,10 @@ impl Buffers {
             StateSlot::ContactSides => &self.contact_sides.as_ref().expect(FLUID_ONLY).buffer,
             StateSlot::ContactFlows => &self.contact_flows.as_ref().expect(FLUID_ONLY).buffer,
             StateSlot::FluidLoads => &self.fluid_loads.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::FluidPieces => &self.fluid_pieces.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
+            StateSlot::BlockPieces => &self.block_pieces.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
+            StateSlot::BlockFluid => &self.block_fluid.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
+            StateSlot::GridPointFluid => &self.gridpoint_fluid.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
         }
     }
 
@@ -896,6 +1068,18 @@ impl Buffers {
 
 const FDEF_ONLY: &str = "the FDEF kernels are bound only in a scene with zoned blocks";
 const FLUID_ONLY: &str = "the fluid's kernels are bound only in a scene with fluid";
+const WET_DEFORMABLE_ONLY: &str = "the kernels of fluid with deformable blocks are bound only in a scene with both";
+
+/// How many of each slot of fluid with deformable blocks a scene needs
+/// (`Buffers::ensure_wet_deformable`): domain links (one piece each), CSR words of the blocks'
+/// pieces, blocks, grid points (0 without zoned blocks).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WetDeformableSizes {
+    pub links: usize,
+    pub csr: usize,
+    pub blocks: usize,
+    pub gridpoints: usize,
+}
 
 /// How many of each fluid slot's items a scene needs (`Buffers::ensure_fluid`): domains, domain
 /// flow words, domain links, contacts, blocks.

@@ -273,6 +273,10 @@ gpu_struct! {
 pub const DOMAIN_REGULAR: u32 = 0;
 pub const DOMAIN_JOINT: u32 = 1;
 pub const DOMAIN_OUTER: u32 = 2;
+/// `Domain::kind` of a regular domain with a deformable block on its boundary: its void is
+/// measured from its outline every step (`fluid_area`, flow.wgsl), never followed by the rigid
+/// motion of its blocks (`void_step`), which a strained outline does not follow.
+pub const DOMAIN_REGULAR_DEFORMED: u32 = 3;
 /// Bits of a domain link's first word (`domain_links`): the contact's side whose piece of block
 /// boundary follows it (`Domains::link_sides` bit 0), the link opens a loop (`LOOP_START`), the
 /// link is a corner (else a contact).
@@ -300,6 +304,38 @@ gpu_struct! {
     /// jumps across its contacts, is summed by its gather (`law_of_motion_fluid`,
     /// `gather_fluid`) and never stored.
     FluidLoad { buoy_x: R, buoy_y: R, work: R }
+}
+
+gpu_struct! {
+    /// One piece of block boundary around a domain in a scene with fluid and deformable blocks
+    /// (`model::fluid::pressure_pieces`): one per domain link (`domain_links`, same index), the
+    /// piece that starts at the link's last vertex and runs to the next vertex of its loop, on
+    /// the link's own block; 24 bytes in f32, 40 in f64. Written each cycle by
+    /// `pressure_pieces` (flow.wgsl) at its domain's pressure p, where its block is deformable:
+    /// on a simply-deformable block its applied stress times area Σ r⊗f (11, 12, 21, 22), on a
+    /// zoned block its force p·perp(b − a) split to the edge's two grid points (x, y at the edge's
+    /// first grid point, then at its second); `edge` the edge it lies on (the index within its
+    /// block of the corner the edge starts at), `NO_INDEX` where the piece loads nothing (a rigid
+    /// block, or a domain at zero pressure, which the CPU skips).
+    FluidPiece { a0: R, a1: R, a2: R, a3: R, edge: u32, _pad: u32 }
+}
+
+gpu_struct! {
+    /// One block's fluid load in a scene with fluid and deformable blocks (`fluid_block_loads`,
+    /// gather.wgsl): 28 bytes in f32, 56 in f64. Its buoyancy and pressure jumps (force x, y,
+    /// moment; a zoned block's buoyancy alone, which its grid points share by mass), and a
+    /// simply-deformable block's applied stress times area from the pieces of its boundary
+    /// (11, 12, 21, 22). The block pass adds them to the stored contact sums.
+    BlockFluid { fx: R, fy: R, moment: R, a11: R, a12: R, a21: R, a22: R }
+}
+
+gpu_struct! {
+    /// One grid point's fluid load in a scene with fluid and zoned blocks
+    /// (`gridpoint_fluid_loads`, zones.wgsl): 12 bytes in f32, 24 in f64. Its share of its
+    /// block's buoyancy by mass plus, on the boundary, its shares of the pressure pieces; and the
+    /// work the load did over the last step, F·½(v_old + v_new)·Δt (`step_gridpoints_fluid`),
+    /// which the block pass adds to its block's fluid work.
+    GridPointFluid { fx: R, fy: R, step_work: R }
 }
 
 gpu_struct! {
@@ -447,6 +483,9 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         Domain::<R>::layout(),
         ContactFlow::<R>::layout(),
         FluidLoad::<R>::layout(),
+        FluidPiece::<R>::layout(),
+        BlockFluid::<R>::layout(),
+        GridPointFluid::<R>::layout(),
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),

@@ -321,9 +321,6 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
     /// now, not after the full detection (seconds at 10⁶ blocks); so is one with values the
     /// kernel precision cannot hold (`representable`).
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        // Fluid with deformable blocks stays on the CPU (`gpu::flow`): `--backend auto` goes on
-        // there, `--backend gpu` says so.
-        super::flow::check_supported(model).map_err(device_error)?;
         let e = &self.engine;
         let cap = kernels::binding_cap(&e.dev);
         let sdef_blocks = if model.has_sdef() { model.blocks.len() } else { 0 };

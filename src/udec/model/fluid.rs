@@ -309,20 +309,20 @@ fn regular_void(model: &Model, domains: &Domains, d: usize, foot: &impl Fn(usize
 /// the block lies on the piece's left, the circuit keeping the void on its right) on its edge
 /// `edge` (the index within the block of the corner the edge starts at). The contacts' feet come
 /// from `foot` (contact index, side). The vertices are [`domain_loops`]' own: a piece never spans
-/// a corner, whose link the circuit passes.
+/// a corner, whose link the circuit passes. `ring` is scratch for one loop's vertices (kept by
+/// the caller, so that a cycle's walk of every domain allocates nothing).
 pub fn boundary_pieces(
     model: &Model,
     domains: &Domains,
     d: usize,
     foot: &impl Fn(usize, u32) -> [f64; 2],
+    ring: &mut Vec<PieceVertex>,
     visit: &mut impl FnMut(u32, u32, [f64; 2], [f64; 2]),
 ) {
     let dom = &domains.list[d];
     let start = dom.link_start as usize;
-    // One loop's vertices, each with the block piece it starts (block, edge), if any.
-    type Vertex = ([f64; 2], Option<(u32, u32)>);
-    let mut ring: Vec<Vertex> = Vec::new();
-    let mut flush = |ring: &mut Vec<Vertex>| {
+    ring.clear();
+    let mut flush = |ring: &mut Vec<PieceVertex>| {
         for i in 0..ring.len() {
             if let (p, Some((b, e))) = ring[i] {
                 visit(b, e, p, ring[(i + 1) % ring.len()].0);
@@ -333,7 +333,7 @@ pub fn boundary_pieces(
     for (k, link) in domains.links_of(dom).iter().enumerate() {
         let bits = domains.link_sides.get(start + k).copied().unwrap_or(0);
         if bits & LOOP_START != 0 {
-            flush(&mut ring);
+            flush(ring);
         }
         match *link {
             DomainLink::Contact { index, .. } => {
@@ -354,8 +354,12 @@ pub fn boundary_pieces(
             }
         }
     }
-    flush(&mut ring);
+    flush(ring);
 }
+
+/// One vertex of a loop of a domain's boundary as [`boundary_pieces`] walks it, with the piece of
+/// block boundary it starts (block, edge), if any.
+pub type PieceVertex = ([f64; 2], Option<(u32, u32)>);
 
 /// The share of the domain pressures that a deformable block takes beyond its force and moment
 /// (the module's "Loads", which `cpu::flow` sums for every block by the pressure jumps at the
@@ -373,13 +377,15 @@ pub fn boundary_pieces(
 /// `applied` is indexed like the blocks (empty where the scene has no simply-deformable block),
 /// `gridpoint` like the corners (a zoned block's corner k is its grid point k; empty where the
 /// scene has no fully-deformable block). Summed serially, domain by domain in list order and
-/// each domain's pieces in circuit order, so a run repeats bit for bit.
+/// each domain's pieces in circuit order, so a run repeats bit for bit. `ring` is
+/// [`boundary_pieces`]' scratch.
 pub fn deformable_pressure_loads(
     model: &Model,
     domains: &Domains,
     foot: &impl Fn(usize, u32) -> [f64; 2],
     applied: &mut Vec<[f64; 4]>,
     gridpoint: &mut Vec<[f64; 2]>,
+    ring: &mut Vec<PieceVertex>,
 ) {
     applied.clear();
     gridpoint.clear();
@@ -398,19 +404,11 @@ pub fn deformable_pressure_loads(
         if p == 0.0 {
             continue;
         }
-        deformable_pressure_loads_at(
-            model,
-            domains,
-            d,
-            p,
-            foot,
-            &mut |b, a| to_applied[b as usize].iter_mut().zip(a).for_each(|(x, y)| *x += y),
-            &mut |g, f| {
-                let x = &mut to_point[g as usize];
-                x[0] += f[0];
-                x[1] += f[1];
-            },
-        );
+        pressure_pieces(model, domains, d, p, foot, ring, &mut |b, a| to_applied[b as usize].iter_mut().zip(a).for_each(|(x, y)| *x += y), &mut |g, f| {
+            let x = &mut to_point[g as usize];
+            x[0] += f[0];
+            x[1] += f[1];
+        });
     }
     *applied = to_applied;
     *gridpoint = to_point;
@@ -419,17 +417,21 @@ pub fn deformable_pressure_loads(
 /// The pieces of [`deformable_pressure_loads`] of domain `d` at pressure `p`: `sdef(b, a)` for
 /// each piece on simply-deformable block b with its applied stress times area a (11, 12, 21,
 /// 22), `point(g, f)` for each of the two grid points g (a corner index) of a piece on a zoned
-/// block with its share f of the piece's force; in circuit order.
-fn deformable_pressure_loads_at(
+/// block with its share f of the piece's force; in circuit order. The GPU's twin is
+/// `pressure_pieces` in flow.wgsl (each piece stored at its link, the blocks and grid points
+/// gathering theirs in the same order: `fluid_block_loads`, `gridpoint_fluid_loads`).
+#[allow(clippy::too_many_arguments)]
+pub fn pressure_pieces(
     model: &Model,
     domains: &Domains,
     d: usize,
     p: f64,
     foot: &impl Fn(usize, u32) -> [f64; 2],
+    ring: &mut Vec<PieceVertex>,
     sdef: &mut impl FnMut(u32, [f64; 4]),
     point: &mut impl FnMut(u32, [f64; 2]),
 ) {
-    boundary_pieces(model, domains, d, foot, &mut |b, edge, from, to| {
+    boundary_pieces(model, domains, d, foot, ring, &mut |b, edge, from, to| {
         let block = &model.blocks[b as usize];
         let f = [-p * (to[1] - from[1]), p * (to[0] - from[0])];
         if model.sdef_of(b as usize).is_some() {
@@ -541,6 +543,7 @@ pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
     let mut k_strain = vec![0.0f64; if deformable { model.blocks.len() } else { 0 }];
     let mut k_point = vec![0.0f64; if deformable { model.corners.len() } else { 0 }];
     let zoned = |b: usize| model.fdef_of(b).is_some_and(|f| !f.zones.is_empty());
+    let mut ring = Vec::new();
     for (d, dom) in domains.list.iter().enumerate() {
         if !is_free(dom.kind, dom.fixed) {
             continue;
@@ -578,12 +581,13 @@ pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
             let mut strain: Vec<(u32, [f64; 4])> = Vec::new();
             let mut points: Vec<(u32, f64)> = Vec::new();
             let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
-            deformable_pressure_loads_at(
+            pressure_pieces(
                 model,
                 domains,
                 d,
                 1.0,
                 &foot,
+                &mut ring,
                 &mut |b, a| match strain.iter_mut().find(|(x, _)| *x == b) {
                     Some(e) => e.1.iter_mut().zip(a).for_each(|(x, y)| *x += y),
                     None => strain.push((b, a)),
