@@ -47,11 +47,24 @@
 //! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
 //! repeats bit for bit.
 //!
+//! # f32: each contact in a frame of its own
+//!
+//! The f64 kernels work in global axes, as the CPU does. In f32 a coordinate's round-off is
+//! ulp(|x|), and a normal force kn·gap from positions in global axes moved in steps of
+//! kn·ulp(|x|) a logical contact: a settled stack at z = 1…4 m rang in a limit cycle of such steps
+//! under heavy damping (4.9e-2 of the weight on an H100), and at 1000 m a step (6e4 N at 1e9 N/m)
+//! outweighed the blocks. So the f32 kernels (the prelude's RELATIVE) keep each centroid as a
+//! compensated pair, each vertex as its offset R·l from its centroid (stage 2), and work each
+//! contact in a frame at the midpoint of its blocks' centroids (`track_contact.wgsl`), where a gap
+//! is resolved at the round-off of the offsets near the contact; a logical contact's point is kept
+//! from its block 1's centroid (`point_origin`), which the read-back adds.
+//!
 //! # SAVE and RESTART
 //!
 //! The device holds more than the model it reads back: the logical contacts of the last
 //! detection (dead ones in place), the energy sums since the last upload, the time step of the
-//! batch, and in f32 each centroid's compensated pair. SAVE after a GPU run keeps them as the
+//! batch, and in f32 each centroid's compensated pair (and the points from block 1's centroid,
+//! save format 4: a format-3 file's f32 state is not taken). SAVE after a GPU run keeps them as the
 //! device holds them (`restart::DeviceState`, read by `device_state_as`); RESTART on a GPU of the
 //! same precision checks them against the model and uploads them as they were (`restore_as`),
 //! so the run goes on as the saving run would have, bit for bit (tests/d3_gpu.rs). Each CYCLE's
