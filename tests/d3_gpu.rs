@@ -191,13 +191,13 @@ fn a_stack_carries_its_weight_on_the_gpu_as_on_the_cpu() {
 #[test]
 fn a_stack_far_from_the_origin_carries_its_weight_in_f32() {
     let shift = 1000.0;
-    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\n");
-    let boxes = [[-1.0, 2.0, -1.0, 2.0, -1.0, 0.0], [0.0, 1.0, 0.0, 1.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0, 1.0, 2.0], [0.0, 1.0, 0.0, 1.0, 2.0, 3.0], [0.0, 1.0, 0.0, 1.0, 3.0, 4.0]];
-    for b in boxes {
-        let b = b.map(|x| x + shift);
-        deck += &format!("BOX {} {} {} {} {} {}\n", b[0], b[1], b[2], b[3], b[4], b[5]);
+    // A range (or a box's extent) moved by `shift` along each axis.
+    let at = |r: [f64; 6]| r.map(|x| (x + shift).to_string()).join(" ");
+    let mut deck = format!("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nBOX {}\n", at([-1.0, 2.0, -1.0, 2.0, -1.0, 0.0]));
+    for k in 0..4 {
+        deck += &format!("BOX {}\n", at([0.0, 1.0, 0.0, 1.0, k as f64, k as f64 + 1.0]));
     }
-    deck += &format!("FIX {} {} {} {} {} {}\nGRAV 0 0 -10\nDAMP 1 160 MASS\nFRAC 0.1\nCYCLE 3317\n", shift - 1.0, shift + 2.0, shift - 1.0, shift + 2.0, shift - 1.0, shift - 0.1);
+    deck += &format!("FIX {}\nGRAV 0 0 -10\nDAMP 1 160 MASS\nFRAC 0.1\nCYCLE 3317\n", at([-1.0, 2.0, -1.0, 2.0, -1.0, -0.1]));
     let weight = 2000.0 * 10.0;
     let error = |m: &Model| -> (f64, Vec<f64>) {
         let forces: Vec<f64> = (0..4u32).map(|k| m.contacts.iter().filter(|c| c.blocks == [k, k + 1]).map(|c| c.normal_force()).sum()).collect();
