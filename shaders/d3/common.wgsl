@@ -104,15 +104,54 @@ fn orientation(i: u32) -> vec4<real> {
     return vec4<real>(blocks[i].qx, blocks[i].qy, blocks[i].qz, blocks[i].qw);
 }
 
+// Vertex i as stage 2 placed it: in f64 its position, in f32 (RELATIVE) its offset R·l from its
+// block's centroid.
 fn vertex(i: u32) -> vec3<real> {
     return vec3<real>(vertices[i].x, vertices[i].y, vertices[i].z);
 }
 
-// The velocity of block i's material point at p (eq. 11; `Block::velocity_at`): v + ω × (p − c).
-fn velocity_at(i: u32, p: vec3<real>) -> vec3<real> {
+// Block i's centroid less block `origin`'s, as a pair hi + lo of reals (f32, RELATIVE): the high
+// parts' difference and its rounding error (`two_sum`, exact), the low parts' difference added to
+// that error. Used where the f32 kernels work in a contact's frame (`centroid_from`,
+// track_contact.wgsl's `block_vertex`).
+struct Pair {
+    hi: vec3<real>,
+    lo: vec3<real>,
+}
+
+fn centroid_pair_from(i: u32, origin: u32) -> Pair {
+    let one = params.one;
+    let x = two_sum(blocks[i].cx, -blocks[origin].cx, one);
+    let y = two_sum(blocks[i].cy, -blocks[origin].cy, one);
+    let z = two_sum(blocks[i].cz, -blocks[origin].cz, one);
+    let lo = vec3<real>(blocks[i].cx_lo - blocks[origin].cx_lo, blocks[i].cy_lo - blocks[origin].cy_lo, blocks[i].cz_lo - blocks[origin].cz_lo);
+    return Pair(vec3<real>(x.x, y.x, z.x), vec3<real>(x.y, y.y, z.y) + lo);
+}
+
+// Block i's centroid in the frame of block `origin` (the read-back: `gpu::point_origin`). In f32
+// (RELATIVE) a contact's geometry is worked in a frame of its own (track_contact.wgsl) and its
+// points are kept from its block 1's centroid, so that a gap's resolution is set by the blocks'
+// size rather than their distance from the origin (a normal force kn·gap quantised at
+// kn·ulp(|x|) rang a settled stack at z = 1…4 m, and at 1000 m the quantum is kn·6e-5 m): the
+// centroids' difference (`centroid_pair_from`) rounded once, at its own size. In f64 (absolute
+// geometry): block i's centroid.
+fn centroid_from(i: u32, origin: u32) -> vec3<real> {
+    if (RELATIVE) {
+        if (i == origin) {
+            return vec3<real>(0.0, 0.0, 0.0);
+        }
+        let d = centroid_pair_from(i, origin);
+        return d.hi + d.lo;
+    }
+    return centroid(i);
+}
+
+// The velocity of block i's material point at p (eq. 11; `Block::velocity_at`): v + ω × (p − c),
+// with p in the frame of block `origin` (`centroid_from`; in f64 global axes).
+fn velocity_at(i: u32, p: vec3<real>, origin: u32) -> vec3<real> {
     let v = vec3<real>(blocks[i].vx, blocks[i].vy, blocks[i].vz);
     let w = vec3<real>(blocks[i].wx, blocks[i].wy, blocks[i].wz);
-    return v + cross3(w, p - centroid(i));
+    return v + cross3(w, p - centroid_from(i, origin));
 }
 
 fn normal_of(c: Contact) -> vec3<real> {

@@ -11,7 +11,7 @@ fn logical_force(l: Logical, c: Contact, beta: real) -> vec3<real> {
     var f = n * l.normal_force + shear_of(l);
     if (beta > 0.0 && l.gap <= 0.0) {
         let p = point_of(l);
-        let u = velocity_at(c.block2, p) - velocity_at(c.block1, p);
+        let u = velocity_at(c.block2, p, c.block1) - velocity_at(c.block1, p, c.block1);
         let un = dot3(u, n);
         f = f - beta * (c.kn * un * n + c.ks * (u - un * n));
     }
@@ -31,7 +31,6 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     var force = mass * g + vec3<real>(blocks[i].load_x, blocks[i].load_y, blocks[i].load_z);
     var moment = vec3<real>(0.0, 0.0, 0.0);
     var dashpots: real = 0.0;
-    let c0 = centroid(i);
     let start = blocks[i].adjacency_start;
     let count = blocks[i].adjacency_count;
     for (var k = 0u; k < count; k++) {
@@ -39,6 +38,8 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
         let c = contacts[entry >> 1u];
         let second = (entry & 1u) == 1u;
         let n = normal_of(c);
+        // The block's centroid in the frame of the contact's points (`centroid_from`).
+        let c0 = centroid_from(i, c.block1);
         var fc = vec3<real>(0.0, 0.0, 0.0);
         var mc = vec3<real>(0.0, 0.0, 0.0);
         for (var j = 0u; j < c.logical_count; j++) {
@@ -49,7 +50,7 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
             let f = logical_force(l, c, beta);
             let p = point_of(l);
             if (!second && beta > 0.0 && l.gap <= 0.0) {
-                let u = velocity_at(c.block2, p) - velocity_at(c.block1, p);
+                let u = velocity_at(c.block2, p, c.block1) - velocity_at(c.block1, p, c.block1);
                 let un = dot3(u, n);
                 let us = u - un * n;
                 dashpots += beta * (c.kn * un * un + c.ks * dot3(us, us)) * dt;

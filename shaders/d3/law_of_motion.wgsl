@@ -90,11 +90,16 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         b.cz_lo = sz.y;
     }
     let turn = rotate(q0, inv, l, dt);
-    // Stage 2: the vertices placed from the centroid and the orientation.
+    // Stage 2: the vertices placed from the centroid and the orientation; in f32 (RELATIVE) as
+    // their offsets R·l from the centroid, which the contact kernels add to the centroid's place
+    // in each contact's frame (`centroid_from`), so that no vertex is rounded at ulp(|c|).
     let r = rotation_matrix(turn.q);
     for (var k = 0u; k < b.vertex_count; k++) {
         let j = b.vertex_start + k;
-        let p = c + mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
+        var p = mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
+        if (!RELATIVE) {
+            p = c + p;
+        }
         vertices[j].x = p.x;
         vertices[j].y = p.y;
         vertices[j].z = p.z;

@@ -28,8 +28,9 @@ struct Block {
     edge_dir_count: u32, feature_count: u32, adjacency_start: u32, adjacency_count: u32, finite: u32, spare: u32,
 }
 
-// A vertex: (lx, ly, lz) in the block's reference frame about its centroid, (x, y, z) placed in
-// global axes by stage 2.
+// A vertex: (lx, ly, lz) in the block's reference frame about its centroid, (x, y, z) placed by
+// stage 2: in f64 its position, in f32 (RELATIVE) its offset R·l from the centroid (`block_vertex`
+// in track_contact.wgsl puts it in a contact's frame).
 struct Vertex {
     lx: real, ly: real, lz: real,
     x: real, y: real, z: real,
@@ -53,7 +54,8 @@ struct Contact {
     block1: u32, block2: u32, logical_start: u32, logical_count: u32,
 }
 
-// A logical contact (¶24, ¶32): point, gap along the normal (negative: overlap), normal force
+// A logical contact (¶24, ¶32): point (in f64 global; in f32, RELATIVE, from its contact's
+// block 1's centroid), gap along the normal (negative: overlap), normal force
 // (compression positive) and shear force vector, on block 2. `kind`: LOGICAL_VERTEX_FIRST (vertex
 // v1 of block 1 against block 2), LOGICAL_VERTEX_SECOND (vertex v1 of block 2 against block 1),
 // LOGICAL_EDGE_EDGE (edge v1 v2 of block 1 across edge v3 v4 of block 2). `live` is 0 once its

@@ -3,6 +3,44 @@
 // (keyed by its blocks' vertices) placed on it with its gap (`place_logical`), then the
 // force–displacement law (`force_law`, eqs. 13–20). Which logical contacts a contact has changes
 // only at a detection, on the CPU between cycles (module doc of `d3::gpu`).
+//
+// In f32 (RELATIVE) the contact's geometry is worked in a frame at the midpoint of its blocks'
+// centroids: a vertex is its offset from its centroid (stage 2) less or plus half the centroids'
+// difference, that half kept as a pair hi + lo (`centroid_pair_from`; halving is exact), the
+// offset and the high part added first. Near the contact the two nearly cancel (for two unit
+// boxes face to face, ∓(d/2) ± h with d the centroids' distance and h the half-height), exactly
+// where they lie within a factor 2 of each other (Sterbenz), and the low part then adds at the
+// size of what is left. So a gap is resolved at the round-off of the offsets and of the
+// coordinates near the contact, not at ulp(distance from the origin), nor at ulp(block size) as
+// in a frame at block 1's centroid with the difference rounded (there a stack at z = 1…4 m
+// settled no better than in global axes: each corner's force still moved in steps of
+// kn·ulp(1 m) = 60…120 N). The points are stored from block 1's centroid (read by `velocity_at`,
+// the gather and the read-back, which adds that centroid). Sums whose rounding matters are
+// multiplied by `params.one` so that no compiler reassociates them (math.wgsl's `two_sum`). In
+// f64 the frame is the global one, as on the CPU.
+
+// The contact's frame: its block 1, and half block 2's centroid less block 1's as a pair (f32;
+// unused in f64).
+var<private> frame_origin: u32;
+var<private> frame_half: Pair;
+
+// Vertex k (the block's own numbering) of block i, a block of the contact, in the contact's frame.
+fn block_vertex(i: u32, k: u32) -> vec3<real> {
+    let x = vertex(blocks[i].vertex_start + k);
+    if (RELATIVE) {
+        let one = params.one;
+        if (i == frame_origin) {
+            return (x - frame_half.hi) * one - frame_half.lo;
+        }
+        return (x + frame_half.hi) * one + frame_half.lo;
+    }
+    return x;
+}
+
+// The frame's origin from block 1's centroid (f32): half block 2's centroid less block 1's.
+fn midpoint_from_first() -> vec3<real> {
+    return frame_half.hi + frame_half.lo;
+}
 
 // The outward normal of face plane k of block i, in global axes (`Block::face_normal`).
 fn plane_normal(i: u32, k: u32) -> vec3<real> {
@@ -12,10 +50,9 @@ fn plane_normal(i: u32, k: u32) -> vec3<real> {
 
 // The greatest n·x over block i's vertices (`lowest`: the least).
 fn support(i: u32, n: vec3<real>, lowest: bool) -> real {
-    let start = blocks[i].vertex_start;
-    var s = dot3(n, vertex(start));
+    var s = dot3(n, block_vertex(i, 0u));
     for (var k = 1u; k < blocks[i].vertex_count; k++) {
-        let d = dot3(n, vertex(start + k));
+        let d = dot3(n, block_vertex(i, k));
         s = select(max(s, d), min(s, d), lowest);
     }
     return s;
@@ -54,12 +91,10 @@ fn common_plane(a: u32, b: u32, reach: real) -> Plane3 {
     }
     let ea0 = blocks[a].edge_start;
     let eb0 = blocks[b].edge_start;
-    let va0 = blocks[a].vertex_start;
-    let vb0 = blocks[b].vertex_start;
     for (var i = 0u; i < blocks[a].edge_dir_count; i++) {
-        let da = vertex(va0 + edges[2u * (ea0 + i) + 1u]) - vertex(va0 + edges[2u * (ea0 + i)]);
+        let da = block_vertex(a, edges[2u * (ea0 + i) + 1u]) - block_vertex(a, edges[2u * (ea0 + i)]);
         for (var j = 0u; j < blocks[b].edge_dir_count; j++) {
-            let db = vertex(vb0 + edges[2u * (eb0 + j) + 1u]) - vertex(vb0 + edges[2u * (eb0 + j)]);
+            let db = block_vertex(b, edges[2u * (eb0 + j) + 1u]) - block_vertex(b, edges[2u * (eb0 + j)]);
             let c = cross3(da, db);
             if (dot3(c, c) <= 1e-12 * dot3(da, da) * dot3(db, db)) {
                 continue;
@@ -83,17 +118,15 @@ fn common_plane(a: u32, b: u32, reach: real) -> Plane3 {
             let dst = select(a, b, side == 0u);
             let sign = select(real(-1.0), real(1.0), side == 0u);
             let e0 = blocks[src].edge_start + blocks[src].edge_dir_count;
-            let vf0 = blocks[src].vertex_start;
-            let vt0 = blocks[dst].vertex_start;
             for (var k = 0u; k < blocks[src].feature_count; k++) {
-                let p = vertex(vf0 + edges[2u * (e0 + k)]);
-                let q = vertex(vf0 + edges[2u * (e0 + k) + 1u]);
+                let p = block_vertex(src, edges[2u * (e0 + k)]);
+                let q = block_vertex(src, edges[2u * (e0 + k) + 1u]);
                 if (!near(side == 0u, dot3(n, p), hi_a, lo_b, reach) && !near(side == 0u, dot3(n, q), hi_a, lo_b, reach)) {
                     continue;
                 }
                 let d = q - p;
                 for (var m = 0u; m < blocks[dst].vertex_count; m++) {
-                    let v = vertex(vt0 + m);
+                    let v = block_vertex(dst, m);
                     if (!near(side != 0u, dot3(n, v), hi_a, lo_b, reach)) {
                         continue;
                     }
@@ -109,12 +142,12 @@ fn common_plane(a: u32, b: u32, reach: real) -> Plane3 {
             }
         }
         for (var i = 0u; i < blocks[a].vertex_count; i++) {
-            let va = vertex(va0 + i);
+            let va = block_vertex(a, i);
             if (!near(true, dot3(n, va), hi_a, lo_b, reach)) {
                 continue;
             }
             for (var j = 0u; j < blocks[b].vertex_count; j++) {
-                let vb = vertex(vb0 + j);
+                let vb = block_vertex(b, j);
                 if (!near(false, dot3(n, vb), hi_a, lo_b, reach)) {
                     continue;
                 }
@@ -154,11 +187,10 @@ struct Crossing {
 
 fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool) -> Crossing {
     var out = Crossing(0.0, false);
-    let v0 = blocks[i].vertex_start;
     for (var k = 0u; k < blocks[i].plane_count; k++) {
         let nf = plane_normal(i, k);
         let d = dot3(nf, n);
-        let x = vertex(v0 + planes[blocks[i].plane_start + k].vertex);
+        let x = block_vertex(i, planes[blocks[i].plane_start + k].vertex);
         if ((entering && d < -GRAZING) || (!entering && d > GRAZING)) {
             let s = dot3(nf, x - p) / d;
             if (!out.found || (entering && s > out.s) || (!entering && s < out.s)) {
@@ -182,14 +214,14 @@ fn place_logical(l: Logical, a: u32, b: u32, n: vec3<real>, hi_a: real, lo_b: re
     let mid = 0.5 * (hi_a + lo_b);
     var x: vec3<real>;
     if (l.kind == LOGICAL_VERTEX_FIRST) {
-        x = vertex(blocks[a].vertex_start + l.v1);
+        x = block_vertex(a, l.v1);
     } else if (l.kind == LOGICAL_VERTEX_SECOND) {
-        x = vertex(blocks[b].vertex_start + l.v1);
+        x = block_vertex(b, l.v1);
     } else {
-        let p0 = vertex(blocks[a].vertex_start + l.v1);
-        let r = vertex(blocks[a].vertex_start + l.v2) - p0;
-        let q0 = vertex(blocks[b].vertex_start + l.v3);
-        let s = vertex(blocks[b].vertex_start + l.v4) - q0;
+        let p0 = block_vertex(a, l.v1);
+        let r = block_vertex(a, l.v2) - p0;
+        let q0 = block_vertex(b, l.v3);
+        let s = block_vertex(b, l.v4) - q0;
         let den = dot3(cross3(r, s), n);
         var t: real = 0.5;
         if (abs(den) > 1e-12 * length3(r) * length3(s)) {
@@ -236,7 +268,7 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
         }
         // Eq. (13): block 2's point relative to block 1's; eqs. (14)–(15).
         let p = point_of(l);
-        let u = velocity_at(c.block2, p) - velocity_at(c.block1, p);
+        let u = velocity_at(c.block2, p, c.block1) - velocity_at(c.block1, p, c.block1);
         let un = dot3(u, n);
         let us = u - un * n;
         // Eq. (16), integrated: the overlap is known.
@@ -302,18 +334,23 @@ fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     let a = c.block1;
     let b = c.block2;
     let tol = params.tol;
+    frame_origin = a;
+    if (RELATIVE) {
+        let d = centroid_pair_from(b, a);
+        frame_half = Pair(d.hi * 0.5, d.lo * 0.5);
+    }
     // Boxes apart by more than the contact-forming distance: the blocks are.
-    var a0 = vertex(blocks[a].vertex_start);
+    var a0 = block_vertex(a, 0u);
     var a1 = a0;
     for (var k = 1u; k < blocks[a].vertex_count; k++) {
-        let v = vertex(blocks[a].vertex_start + k);
+        let v = block_vertex(a, k);
         a0 = min(a0, v);
         a1 = max(a1, v);
     }
-    var b0 = vertex(blocks[b].vertex_start);
+    var b0 = block_vertex(b, 0u);
     var b1 = b0;
     for (var k = 1u; k < blocks[b].vertex_count; k++) {
-        let v = vertex(blocks[b].vertex_start + k);
+        let v = block_vertex(b, k);
         b0 = min(b0, v);
         b1 = max(b1, v);
     }
@@ -354,9 +391,14 @@ fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
             continue;
         }
         let placed = place_logical(logicals[k], a, b, n, hi_a, lo_b, plane.separation);
-        logicals[k].px = placed.point.x;
-        logicals[k].py = placed.point.y;
-        logicals[k].pz = placed.point.z;
+        var point = placed.point;
+        if (RELATIVE) {
+            // From the midpoint to block 1's centroid, where the points are kept.
+            point = point + midpoint_from_first();
+        }
+        logicals[k].px = point.x;
+        logicals[k].py = point.y;
+        logicals[k].pz = point.z;
         logicals[k].gap = placed.gap;
     }
     c.friction_work += force_law(c, old, params.dt);

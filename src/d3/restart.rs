@@ -46,8 +46,14 @@ pub const MAGIC: [u8; 8] = *b"BLOCKD3\0";
 const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// The D3 save format this program writes and reads.
 /// (Version 2: the model keeps the energy dissipated, `d3::model::Dissipation`; version 3: the GPU
-/// backend's device state, [`DeviceState`]; an older file is refused by name.)
-pub const FORMAT_VERSION: u32 = 3;
+/// backend's device state, [`DeviceState`]; version 4: the f32 kernels keep vertices as offsets
+/// from their centroids and logical contacts' points from their contact's block 1's centroid
+/// (`d3::gpu`, RELATIVE), where version 3's kept them in global axes. A version-3 file is read,
+/// its model as it was, but its f32 device state is marked [`DeviceState::absolute_f32`] and not
+/// taken (the run detects afresh, and says so); an older file is refused by name.)
+pub const FORMAT_VERSION: u32 = 4;
+/// The oldest save format this program reads (its payload is version 4's).
+pub const OLDEST_VERSION: u32 = 3;
 const HEADER_LEN: usize = 8 + 4 + 8 + 8;
 
 /// Everything SAVE keeps.
@@ -83,6 +89,11 @@ pub struct DeviceState {
     pub vertices: Vec<u8>,
     pub contacts: Vec<u8>,
     pub logicals: Vec<u8>,
+    /// Read from a version-3 file and of f32 kernels: its vertices and points are in global axes,
+    /// which the kernels no longer read (`FORMAT_VERSION`); a GPU backend does not take it. Not
+    /// written: a file this program writes never holds such a state.
+    #[serde(skip)]
+    pub absolute_f32: bool,
 }
 
 /// Why a save file could not be written or read (each names the file).
@@ -98,7 +109,7 @@ pub enum RestartError {
     NotASaveFile { path: PathBuf },
     #[error("{path} is a 2D (UDEC) save file: RESTART it from a 2D deck")]
     TwoDimensional { path: PathBuf },
-    #[error("{path} is D3 save format version {found}; this program reads version {FORMAT_VERSION}")]
+    #[error("{path} is D3 save format version {found}; this program reads versions {OLDEST_VERSION} to {FORMAT_VERSION}")]
     UnsupportedVersion { path: PathBuf, found: u32 },
     #[error("save file {path} is corrupt: {reason}")]
     Corrupt { path: PathBuf, reason: String },
@@ -149,7 +160,7 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
         return Err(RestartError::Corrupt { path: p(), reason: format!("the header is truncated ({} of {HEADER_LEN} bytes)", header.len()) });
     }
     let version = u32::from_le_bytes(header[8..12].try_into().expect("4 bytes"));
-    if version != FORMAT_VERSION {
+    if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
         return Err(RestartError::UnsupportedVersion { path: p(), found: version });
     }
     let length = u64::from_le_bytes(header[12..20].try_into().expect("8 bytes"));
@@ -169,7 +180,10 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
     if crc32fast::hash(&payload) as u64 != checksum {
         return Err(RestartError::Corrupt { path: p(), reason: "the payload checksum does not match".into() });
     }
-    let saved: SaveFile = postcard::from_bytes(&payload).map_err(|e| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") })?;
+    let mut saved: SaveFile = postcard::from_bytes(&payload).map_err(|e| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") })?;
+    if let Some(device) = saved.device.as_mut().filter(|d| version < 4 && !d.f64_kernels) {
+        device.absolute_f32 = true;
+    }
     check(&saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     Ok(saved)
 }

@@ -36,8 +36,10 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A vertex: in the block's reference frame about its centroid (`l*`), and placed in global
-    /// axes by stage 2.
+    /// A vertex: in the block's reference frame about its centroid (`l*`), and placed by stage 2
+    /// (`x`, `y`, `z`): in f64 its position in global axes, in f32 its offset R·l from the
+    /// centroid, which the contact kernels add to the centroid's place in each contact's frame
+    /// (`centroid_from`).
     Vertex {
         lx: R, ly: R, lz: R,
         x: R, y: R, z: R,
@@ -65,7 +67,8 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A logical contact (`model::Logical`): point, gap, normal force, shear force; its kind and
+    /// A logical contact (`model::Logical`): point (f64: global; f32: from the contact's block
+    /// 1's centroid, `point_from`), gap, normal force, shear force; its kind and
     /// vertices (the key its shear force is carried by); `live` 0 once its contact parted.
     Logical {
         px: R, py: R, pz: R, gap: R, normal_force: R,

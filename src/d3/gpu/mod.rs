@@ -47,11 +47,24 @@
 //! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
 //! repeats bit for bit.
 //!
+//! # f32: each contact in a frame of its own
+//!
+//! The f64 kernels work in global axes, as the CPU does. In f32 a coordinate's round-off is
+//! ulp(|x|), and a normal force kn·gap from positions in global axes moved in steps of
+//! kn·ulp(|x|) a logical contact: a settled stack at z = 1…4 m rang in a limit cycle of such steps
+//! under heavy damping (4.9e-2 of the weight on an H100), and at 1000 m a step (6e4 N at 1e9 N/m)
+//! outweighed the blocks. So the f32 kernels (the prelude's RELATIVE) keep each centroid as a
+//! compensated pair, each vertex as its offset R·l from its centroid (stage 2), and work each
+//! contact in a frame at the midpoint of its blocks' centroids (`track_contact.wgsl`), where a gap
+//! is resolved at the round-off of the offsets near the contact; a logical contact's point is kept
+//! from its block 1's centroid (`point_origin`), which the read-back adds.
+//!
 //! # SAVE and RESTART
 //!
 //! The device holds more than the model it reads back: the logical contacts of the last
 //! detection (dead ones in place), the energy sums since the last upload, the time step of the
-//! batch, and in f32 each centroid's compensated pair. SAVE after a GPU run keeps them as the
+//! batch, and in f32 each centroid's compensated pair (and the points from block 1's centroid,
+//! save format 4: a format-3 file's f32 state is not taken). SAVE after a GPU run keeps them as the
 //! device holds them (`restart::DeviceState`, read by `device_state_as`); RESTART on a GPU of the
 //! same precision checks them against the model and uploads them as they were (`restore_as`),
 //! so the run goes on as the saving run would have, bit for bit (tests/d3_gpu.rs). Each CYCLE's
@@ -273,6 +286,7 @@ impl GpuBackend {
             vertices,
             contacts,
             logicals,
+            absolute_f32: false,
         }))
     }
 
@@ -466,7 +480,9 @@ impl GpuBackend {
         )?;
         let f = |x: R| x.to_f64();
         let (mut friction, mut released) = (0.0, 0.0);
-        for ((c, g), keys) in model.contacts.iter_mut().zip(&contacts).zip(&s.keys) {
+        // The points' origins: block 1's centroid in f32 (read back with the blocks, before).
+        let origins: Vec<DVec3> = model.contacts.iter().map(|c| point_origin::<R>(model, c)).collect();
+        for (((c, g), keys), origin) in model.contacts.iter_mut().zip(&contacts).zip(&s.keys).zip(origins) {
             c.normal = DVec3::new(f(g.nx), f(g.ny), f(g.nz));
             friction += f(g.friction_work);
             released += f(g.released_work);
@@ -477,7 +493,7 @@ impl GpuBackend {
                 .filter(|(l, _)| l.live != 0)
                 .map(|(l, kind)| Logical {
                     kind: *kind,
-                    point: DVec3::new(f(l.px), f(l.py), f(l.pz)),
+                    point: if relative::<R>() { origin + DVec3::new(f(l.px), f(l.py), f(l.pz)) } else { DVec3::new(f(l.px), f(l.py), f(l.pz)) },
                     gap: f(l.gap),
                     normal_force: f(l.normal_force),
                     shear_force: DVec3::new(f(l.sx), f(l.sy), f(l.sz)),
@@ -515,8 +531,27 @@ impl GpuBackend {
     }
 }
 
-/// The shapes as the kernels take them: each block's vertices (reference frame and placed), its
-/// face planes and its edges (the directions', then the feature edges).
+/// Whether kernels of precision `R` work each contact in a frame at its block 1's centroid (the
+/// prelude's RELATIVE, f32): their vertices are offsets from the centroid and their logical
+/// contacts' points are from block 1's centroid (`point_origin`). The f64 kernels work in global
+/// axes, as the CPU does.
+fn relative<R: Real>() -> bool {
+    R::PRECISION == Precision::F32
+}
+
+/// Where the kernels of precision `R` measure contact `c`'s logical contacts' points from: its
+/// block 1's centroid in f32 (`relative`), the origin in f64.
+fn point_origin<R: Real>(model: &Model, c: &super::model::Contact) -> DVec3 {
+    if relative::<R>() {
+        model.blocks[c.blocks[0] as usize].centroid
+    } else {
+        DVec3::ZERO
+    }
+}
+
+/// The shapes as the kernels take them: each block's vertices (reference frame and placed: in
+/// f32 as offsets from the centroid, `relative`), its face planes and its edges (the
+/// directions', then the feature edges).
 fn shape_pods<R: Real>(model: &Model) -> (Vec<layout::Vertex<R>>, Vec<layout::Plane<R>>, Vec<u32>) {
     let mut vertices = Vec::new();
     let mut planes = Vec::new();
@@ -524,6 +559,7 @@ fn shape_pods<R: Real>(model: &Model) -> (Vec<layout::Vertex<R>>, Vec<layout::Pl
     for b in &model.blocks {
         for (l, g) in b.shape.vertices.iter().zip(&b.vertices) {
             let r = |x: f64| R::from_f64(x);
+            let g = if relative::<R>() { *g - b.centroid } else { *g };
             vertices.push(layout::Vertex::<R> { lx: r(l.x), ly: r(l.y), lz: r(l.z), x: r(g.x), y: r(g.y), z: r(g.z) });
         }
         for &f in &b.shape.planes {
@@ -647,12 +683,14 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
             ..Default::default()
         });
         keys.push(c.logical.iter().map(|l| l.kind).collect());
+        let origin = point_origin::<R>(model, c);
         for l in &c.logical {
             let [kind, v1, v2, v3, v4] = logical_words(l.kind);
+            let point = if relative::<R>() { l.point - origin } else { l.point };
             logicals.push(layout::Logical::<R> {
-                px: r(l.point.x),
-                py: r(l.point.y),
-                pz: r(l.point.z),
+                px: r(point.x),
+                py: r(point.y),
+                pz: r(point.z),
                 gap: r(l.gap),
                 normal_force: r(l.normal_force),
                 sx: r(l.shear_force.x),
@@ -849,6 +887,20 @@ impl super::backend::Backend for GpuBackend {
         // model afresh (a detection at its start, as after any command).
         self.last_good.clone_from(model);
         self.state = None;
+        // A version-3 file's f32 state holds vertices and points in global axes, which the f32
+        // kernels no longer read (`restart::FORMAT_VERSION`): dropped, so that neither this run
+        // nor a SAVE before it takes it.
+        let device = device.filter(|d| {
+            if d.absolute_f32 {
+                use std::io::Write as _;
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "blockdem: the saved GPU state is not taken (it is save format 3's, whose f32 kernels kept vertices and contact points in \
+                     global axes where these keep them from each contact's block 1); the run starts with a contact detection"
+                );
+            }
+            !d.absolute_f32
+        });
         self.resumable = device.is_some();
         self.pending = device.cloned();
     }

@@ -23,6 +23,11 @@ pub fn prelude(precision: Precision) -> String {
     // COMPENSATED: the f32 kernels keep the centroid as a compensated pair (law_of_motion.wgsl);
     // the f64 ones add as the CPU does, so that they follow it to round-off.
     //
+    // RELATIVE: the f32 kernels keep the vertices as offsets from their centroids and work each
+    // contact's geometry (vertices, points, lever arms) in a frame at its block 1's centroid
+    // (`centroid_from`, common.wgsl), so that a gap is resolved at ulp(block size) rather than
+    // ulp(distance from the origin); the f64 ones work in global axes, as the CPU does.
+    //
     // GRAZING: `ray_crossing` passes over a face plane whose normal is within GRAZING (the
     // cosine) of perpendicular to the ray; the CPU takes 1e-9. The ray through a block's corner
     // meets every face at the corner at one point, and for a face nearly parallel to the ray
@@ -34,7 +39,7 @@ pub fn prelude(precision: Precision) -> String {
         Precision::F64 => ("f64", false, "1e-9"),
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst GRAZING: real = {grazing};\n{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\n{}",
         workgroup_size(),
         math_constants(precision)
     )
