@@ -237,6 +237,41 @@ fn internal_step(x_in: Sdef, theta: real) -> Sdef {
     return x;
 }
 
+// A simply-deformable block's step on the sum of its forces `force` (x, y, moment), its
+// applied stress already in `x` (twin of the CPU's `block_piece_sdef`): the rigid motion, the
+// internal step at the new rotation, the update tolerance with the strain's travel, the
+// geometry at the new strain, the extension stored and the Griffith check (¶17). Returns the
+// step and the new strain rate (a caller booking work over the step needs them).
+struct SdefStepped {
+    step: Step,
+    strain_rate: array<real, 3>,
+}
+
+fn step_sdef_block(b: u32, blk: Block, x_in: Sdef, force: vec3<real>) -> SdefStepped {
+    var x = x_in;
+    var s = rigid_step(blk, force);
+    var theta = s.blk.rotation;
+    if (EXACT_CIRCLE) {
+        theta += s.blk.rotation_lo;
+    }
+    x = internal_step(x, theta);
+    let dt = params.dt;
+    s.travel += strain_travel(vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]) * dt, s.blk.radius);
+    let since = vec3<real>(x.strain[0] - x.update_strain[0], x.strain[1] - x.update_strain[1], x.strain[2] - x.update_strain[2]);
+    s.blk.moved = max(s.blk.moved, s.net + strain_travel(since, s.blk.radius));
+    store_step(b, s);
+    geometry_update_strained(s.blk, x.strain);
+    sdefs[b].strain = x.strain;
+    sdefs[b].strain_rate = x.strain_rate;
+    sdefs[b].stress = x.stress;
+    sdefs[b].applied = x.applied;
+    sdefs[b].damping_work = x.damping_work;
+    if (x.griffith_tf > 0.0 && griffith_stress(x.stress) >= x.griffith_tf) {
+        atomicOr(&flags.crack_due, 1u);
+    }
+    return SdefStepped(s, x.strain_rate);
+}
+
 // Stage 1 in a scene with simply-deformable blocks (twin of the CPU's `block_piece_sdef`): a
 // rigid block as `law_of_motion` moves it; an SDEF block sums its force and applied stress in
 // list order (whatever its list's length), takes the rigid step, then its strain's step, counts
@@ -264,26 +299,7 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
     var x = sdefs[b];
     let sums = force_sum_sdef(blk, first, end);
     x.applied = sums.applied;
-    var s = rigid_step(blk, sums.force);
-    var theta = s.blk.rotation;
-    if (EXACT_CIRCLE) {
-        theta += s.blk.rotation_lo;
-    }
-    x = internal_step(x, theta);
-    let dt = params.dt;
-    s.travel += strain_travel(vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]) * dt, s.blk.radius);
-    let since = vec3<real>(x.strain[0] - x.update_strain[0], x.strain[1] - x.update_strain[1], x.strain[2] - x.update_strain[2]);
-    s.blk.moved = max(s.blk.moved, s.net + strain_travel(since, s.blk.radius));
-    store_step(b, s);
-    geometry_update_strained(s.blk, x.strain);
-    sdefs[b].strain = x.strain;
-    sdefs[b].strain_rate = x.strain_rate;
-    sdefs[b].stress = x.stress;
-    sdefs[b].applied = x.applied;
-    sdefs[b].damping_work = x.damping_work;
-    if (x.griffith_tf > 0.0 && griffith_stress(x.stress) >= x.griffith_tf) {
-        atomicOr(&flags.crack_due, 1u);
-    }
+    step_sdef_block(b, blk, x, sums.force);
 }
 
 // Stages 1 and 2 in a scene with zoned fully-deformable blocks (twin of the CPU's
@@ -376,27 +392,10 @@ fn law_of_motion_sdef_fluid(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local
     }
     var x = sdefs[b];
     x.applied = array<real, 4>(x.applied[0] + wet.a11, x.applied[1] + wet.a12, x.applied[2] + wet.a21, x.applied[3] + wet.a22);
-    var s = rigid_step(blk, vec3<real>(blk.fx, blk.fy, blk.moment) + l);
-    var theta = s.blk.rotation;
-    if (EXACT_CIRCLE) {
-        theta += s.blk.rotation_lo;
-    }
-    x = internal_step(x, theta);
+    let stepped = step_sdef_block(b, blk, x, vec3<real>(blk.fx, blk.fy, blk.moment) + l);
+    let s = stepped.step;
+    let e = stepped.strain_rate;
     let dt = params.dt;
-    s.travel += strain_travel(vec3<real>(x.strain_rate[0], x.strain_rate[1], x.strain_rate[2]) * dt, s.blk.radius);
-    let since = vec3<real>(x.strain[0] - x.update_strain[0], x.strain[1] - x.update_strain[1], x.strain[2] - x.update_strain[2]);
-    s.blk.moved = max(s.blk.moved, s.net + strain_travel(since, s.blk.radius));
-    store_step(b, s);
-    geometry_update_strained(s.blk, x.strain);
-    sdefs[b].strain = x.strain;
-    sdefs[b].strain_rate = x.strain_rate;
-    sdefs[b].stress = x.stress;
-    sdefs[b].applied = x.applied;
-    sdefs[b].damping_work = x.damping_work;
-    if (x.griffith_tf > 0.0 && griffith_stress(x.stress) >= x.griffith_tf) {
-        atomicOr(&flags.crack_due, 1u);
-    }
-    let e = x.strain_rate;
     var work = fluid_loads[b].work + (l.x * s.blk.vx + l.y * s.blk.vy + l.z * s.blk.w) * dt;
     work += (wet.a11 * e[0] + (wet.a12 + wet.a21) * e[1] + wet.a22 * e[2]) * dt;
     fluid_loads[b].work = work;

@@ -28,6 +28,40 @@ pub(crate) struct Dispatch<'a> {
 pub(super) const CYCLES_PER_SUBMIT: u64 = 10;
 
 impl<R: Real> Engine<R> {
+    /// One pass of a cycle (or of a gather before a read-back) over `g`'s live count, dispatched
+    /// indirectly from it.
+    fn pass<'a>(
+        &'a self,
+        label: &'static str,
+        pipeline: &'a wgpu::ComputePipeline,
+        bind_group: &'a wgpu::BindGroup,
+        g: Grid,
+        gather_only: bool,
+    ) -> Dispatch<'a> {
+        Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) }
+    }
+
+    /// `gather_heavy` where there are blocks with long lists to sum (free ones in a cycle, fixed
+    /// ones too before a read-back).
+    fn gather_heavy_pass(&self, gather_only: bool) -> Option<Dispatch<'_>> {
+        let (p, bg) = (&self.pipelines, self.bind_groups.as_ref().expect("bind groups built on upload"));
+        (self.heavy_blocks(gather_only) > 0).then(|| self.pass("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks, gather_only))
+    }
+
+    /// The cycle's last pass: the step's flags and counts (`end_cycle.wgsl`), one invocation.
+    fn end_cycle_pass(&self) -> Dispatch<'_> {
+        let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
+        Dispatch { label: "end_cycle", pipeline: &self.pipelines.end_cycle, bind_group: end, grid: (1, 1), indirect: None }
+    }
+
+    /// Stage 5 after the contact stage: each contact's flow, then each domain's pressure.
+    fn stage_5_passes<'a>(&'a self, k: &'a kernels::FluidKernels, g: &'a kernels::FluidBindGroups) -> [Dispatch<'a>; 2] {
+        [
+            self.pass("flow", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts, false),
+            self.pass("domain_pressures", &k.domain_pressures.pipeline, &g.domain_pressures, Grid::Domains, false),
+        ]
+    }
+
     /// The dispatches of one cycle over the live counts; with `gather_only`, stage 6 alone, its
     /// sums stored on the blocks (fixed ones too). Stages with nothing to do are left out.
     ///
@@ -37,7 +71,7 @@ impl<R: Real> Engine<R> {
     pub(crate) fn stages(&self, gather_only: bool) -> Vec<Dispatch<'_>> {
         let p = &self.pipelines;
         let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
-        let cycle = |label, pipeline, bind_group, g: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(g, gather_only), indirect: Some(g) };
+        let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
         let mut stages = Vec::with_capacity(4);
         if let (Some(fdef), Some(fluid), Some(wet)) = (self.fdef_kernels(), self.fluid_kernels(), self.wet_fdef_kernels()) {
             return self.stages_fdef_fluid(fdef, fluid, wet, gather_only);
@@ -57,9 +91,7 @@ impl<R: Real> Engine<R> {
                 None => stages.push(cycle("gather", &p.gather.pipeline, &bg.gather, Grid::Blocks)),
             }
         }
-        if self.heavy_blocks(gather_only) > 0 {
-            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
-        }
+        stages.extend(self.gather_heavy_pass(gather_only));
         if !gather_only {
             match self.sdef_kernels() {
                 Some((k, g)) => {
@@ -71,8 +103,7 @@ impl<R: Real> Engine<R> {
                     stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
                 }
             }
-            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
-            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+            stages.push(self.end_cycle_pass());
         }
         stages.retain(|d| d.grid.0 > 0);
         stages
@@ -84,25 +115,19 @@ impl<R: Real> Engine<R> {
     /// its grid points) and the contact stage, each a pass of its own: no invocation reads what
     /// another of its pass writes.
     fn stages_fdef<'a>(&'a self, k: &'a kernels::FdefKernels, g: &'a kernels::FdefBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
-        let p = &self.pipelines;
-        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
-        let cycle =
-            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
         let mut stages = Vec::with_capacity(7);
         if gather_only {
             stages.push(cycle("gather_fdef", &k.gather.pipeline, &g.gather, Grid::Blocks));
         }
-        if self.heavy_blocks(gather_only) > 0 {
-            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
-        }
+        stages.extend(self.gather_heavy_pass(gather_only));
         stages.push(cycle("gather_gridpoints", &k.gather_gridpoints.pipeline, &g.gather_gridpoints, Grid::GridPoints));
         if !gather_only {
             stages.push(cycle("step_gridpoints", &k.step_gridpoints.pipeline, &g.step_gridpoints, Grid::GridPoints));
             stages.push(cycle("zones", &k.zones.pipeline, &g.zones, Grid::Zones));
             stages.push(cycle("law_of_motion_fdef", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces_fdef", &k.contact_forces.pipeline, &g.contact_forces, Grid::Contacts));
-            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
-            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+            stages.push(self.end_cycle_pass());
         }
         stages.retain(|d| d.grid.0 > 0);
         stages
@@ -116,21 +141,16 @@ impl<R: Real> Engine<R> {
     fn stages_fluid<'a>(&'a self, k: &'a kernels::FluidKernels, g: &'a kernels::FluidBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
         let p = &self.pipelines;
         let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
-        let cycle =
-            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
         let mut stages = Vec::with_capacity(7);
-        if self.heavy_blocks(gather_only) > 0 {
-            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
-        }
+        stages.extend(self.gather_heavy_pass(gather_only));
         if gather_only {
             stages.push(cycle("gather_fluid", &k.gather.pipeline, &g.gather, Grid::Blocks));
         } else {
             stages.push(cycle("law_of_motion_fluid", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces", &p.contact_forces.pipeline, &bg.contact_forces, Grid::Contacts));
-            stages.push(cycle("flow", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts));
-            stages.push(cycle("domain_pressures", &k.domain_pressures.pipeline, &g.domain_pressures, Grid::Domains));
-            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
-            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+            stages.extend(self.stage_5_passes(k, g));
+            stages.push(self.end_cycle_pass());
         }
         stages.retain(|d| d.grid.0 > 0);
         stages
@@ -150,15 +170,10 @@ impl<R: Real> Engine<R> {
         wet: (&'a kernels::WetSdefKernels, &'a kernels::WetSdefBindGroups),
         gather_only: bool,
     ) -> Vec<Dispatch<'a>> {
-        let p = &self.pipelines;
-        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
-        let cycle =
-            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
         let ((sk, sg), (fk, fg), (wk, wg)) = (sdef, fluid, wet);
         let mut stages = Vec::with_capacity(9);
-        if self.heavy_blocks(gather_only) > 0 {
-            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
-        }
+        stages.extend(self.gather_heavy_pass(gather_only));
         stages.push(cycle("gather_sdef", &sk.gather.pipeline, &sg.gather, Grid::Blocks));
         stages.push(cycle("pressure_pieces", &wk.pressure_pieces.pipeline, &wg.pressure_pieces, Grid::Domains));
         stages.push(cycle("fluid_block_loads", &wk.fluid_block_loads.pipeline, &wg.fluid_block_loads, Grid::Blocks));
@@ -167,10 +182,8 @@ impl<R: Real> Engine<R> {
         } else {
             stages.push(cycle("law_of_motion_sdef_fluid", &wk.law_of_motion.pipeline, &wg.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces_sdef", &sk.contact_forces.pipeline, &sg.contact_forces, Grid::Contacts));
-            stages.push(cycle("flow", &fk.contact_flows.pipeline, &fg.contact_flows, Grid::Contacts));
-            stages.push(cycle("domain_pressures", &fk.domain_pressures.pipeline, &fg.domain_pressures, Grid::Domains));
-            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
-            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+            stages.extend(self.stage_5_passes(fk, fg));
+            stages.push(self.end_cycle_pass());
         }
         stages.retain(|d| d.grid.0 > 0);
         stages
@@ -190,15 +203,10 @@ impl<R: Real> Engine<R> {
         wet: (&'a kernels::WetFdefKernels, &'a kernels::WetFdefBindGroups),
         gather_only: bool,
     ) -> Vec<Dispatch<'a>> {
-        let p = &self.pipelines;
-        let bg = self.bind_groups.as_ref().expect("bind groups built on upload");
-        let cycle =
-            |label, pipeline, bind_group, grid: Grid| Dispatch { label, pipeline, bind_group, grid: self.grid(grid, gather_only), indirect: Some(grid) };
+        let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
         let ((dk, dg), (fk, fg), (wk, wg)) = (fdef, fluid, wet);
         let mut stages = Vec::with_capacity(13);
-        if self.heavy_blocks(gather_only) > 0 {
-            stages.push(cycle("gather_heavy", &p.gather_heavy.pipeline, &bg.gather_heavy, Grid::HeavyBlocks));
-        }
+        stages.extend(self.gather_heavy_pass(gather_only));
         stages.push(cycle("gather_fdef", &dk.gather.pipeline, &dg.gather, Grid::Blocks));
         stages.push(cycle("pressure_pieces", &wk.pressure_pieces.pipeline, &wg.pressure_pieces, Grid::Domains));
         stages.push(cycle("fluid_block_loads", &wk.fluid_block_loads.pipeline, &wg.fluid_block_loads, Grid::Blocks));
@@ -211,10 +219,8 @@ impl<R: Real> Engine<R> {
             stages.push(cycle("zones", &dk.zones.pipeline, &dg.zones, Grid::Zones));
             stages.push(cycle("law_of_motion_fdef_fluid", &wk.law_of_motion.pipeline, &wg.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces_fdef", &dk.contact_forces.pipeline, &dg.contact_forces, Grid::Contacts));
-            stages.push(cycle("flow", &fk.contact_flows.pipeline, &fg.contact_flows, Grid::Contacts));
-            stages.push(cycle("domain_pressures", &fk.domain_pressures.pipeline, &fg.domain_pressures, Grid::Domains));
-            let end = self.end_cycle_bind_group.as_ref().expect("made with the buffers");
-            stages.push(Dispatch { label: "end_cycle", pipeline: &p.end_cycle, bind_group: end, grid: (1, 1), indirect: None });
+            stages.extend(self.stage_5_passes(fk, fg));
+            stages.push(self.end_cycle_pass());
         }
         stages.retain(|d| d.grid.0 > 0);
         stages
