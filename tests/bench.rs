@@ -431,3 +431,30 @@ fn the_zoned_scenes_time_their_kernels_on_a_gpu() {
     let gpu_kernels: usize = report.zones.iter().map(|r| r.kernels.len()).sum();
     assert_eq!(csv.lines().count(), 1 + gpu_kernels, "{csv}");
 }
+
+/// A reference scene on a GPU says where its cycle goes, kernel by kernel (the scene's passes
+/// among them), and the table prints them; the CPU's row has none.
+#[test]
+fn the_reference_scenes_time_their_kernels_on_a_gpu() {
+    let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
+        return;
+    };
+    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
+    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones, options.d3_cubes, options.d3_wall) =
+        (true, false, false, true, false, false, false, false, false);
+    options.settle_time = 0.01;
+    let report = blockdem::bench::run(&options);
+    assert_eq!(report.reference.len(), 4, "settle and fluid on two backends: {:?}", report.reference);
+    for r in &report.reference {
+        assert!(r.error.is_none(), "{r:?}");
+        let names: Vec<&str> = r.kernels.iter().map(|k| k.0.as_str()).collect();
+        match (r.backend.starts_with("cpu"), r.scene.as_str()) {
+            (true, _) => assert!(names.is_empty(), "{r:?}"),
+            (false, "settle") => assert!(names.contains(&"law_of_motion") && names.contains(&"contact_forces"), "{names:?}"),
+            (false, _) => assert!(names.contains(&"flow") && names.contains(&"domain_pressures"), "{names:?}"),
+        }
+        assert!(r.kernels.iter().all(|k| k.1 > 0.0), "{r:?}");
+    }
+    let table = blockdem::bench::table(&report);
+    assert!(table.contains("fluid on vulkan") && table.contains("kernels (us/cycle"), "{table}");
+}

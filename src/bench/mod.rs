@@ -268,6 +268,9 @@ pub struct ReferenceRow {
     pub stages: Vec<(String, String, f64)>,
     /// Contact updates (stage 7 runs) during the CYCLE.
     pub topology_updates: u64,
+    /// On a GPU: each kernel's time per cycle (pass timestamps over a short run from the state
+    /// the deck left, `GpuBackend::profile_stages`), in dispatch order.
+    pub kernels: Vec<(String, f64)>,
     pub error: Option<String>,
 }
 
@@ -550,9 +553,16 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         for (i, engine) in engines.iter_mut() {
             let label = report.backends[*i].label.clone();
             say(&format!("{} ({time} s) on {label}", scene.name()));
-            let row = run_reference(scene, time, opts.frac, engine.backend(), &label);
+            let mut row = run_reference(scene, time, opts.frac, engine.backend(), &label);
             if let Some(e) = &row.error {
                 say(&format!("  failed: {e}"));
+            } else if let Engine::Gpu(g) = engine {
+                // Where a GPU cycle of the scene goes, kernel by kernel (the scenes are small:
+                // their cycles are a few dispatches each, so this says which one holds them).
+                match g.profile_stages(if opts.quick { 20 } else { 200 }) {
+                    Ok(p) => row.kernels = p.stages.iter().map(|(name, t)| (name.to_string(), *t)).collect(),
+                    Err(e) => say(&format!("  kernels not timed: {e}")),
+                }
             }
             report.reference.push(row);
         }

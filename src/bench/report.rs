@@ -366,6 +366,20 @@ pub fn table(r: &BenchReport) -> String {
                 parts.join(", ")
             );
         }
+        // Each GPU run's kernels, microseconds a cycle.
+        for x in r.reference.iter().filter(|x| !x.kernels.is_empty()) {
+            let parts: Vec<String> = x.kernels.iter().map(|(name, t)| format!("{name} {:.2}", t * 1e6)).collect();
+            let sum: f64 = x.kernels.iter().map(|k| k.1).sum();
+            let _ = writeln!(
+                s,
+                "  {} on {}: kernels (us/cycle, {:.1} of the {:.1} a cycle took) {}",
+                x.scene,
+                x.backend,
+                sum * 1e6,
+                1e6 * x.wall_s / x.cycles.max(1) as f64,
+                parts.join(", ")
+            );
+        }
         for scene in ["settle", "impact"] {
             let cpu = r.reference.iter().find(|x| x.backend == "cpu f64" && x.scene == scene && x.error.is_none());
             for x in r.reference.iter().filter(|x| x.backend != "cpu f64" && x.scene == scene && x.error.is_none()) {
