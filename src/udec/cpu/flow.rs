@@ -100,7 +100,9 @@ fn build_inflow_lists(domains: &Domains, offsets: &mut Vec<u32>, entries: &mut V
 fn domain_inflow(domains: &Domains, offsets: &[u32], entries: &[u32], d: usize) -> f64 {
     let mut q = 0.0;
     for &e in &entries[offsets[d] as usize..offsets[d + 1] as usize] {
-        let f = domains.flows[(e >> 1) as usize].flow;
+        // (A side past the flows, which a consistent model never has, adds nothing, as in
+        // `sum_inflows`.)
+        let Some(f) = domains.flows.get((e >> 1) as usize).map(|f| f.flow) else { continue };
         if e & 1 == 0 {
             q -= f;
         } else {
