@@ -323,8 +323,10 @@ fn bench(
     options.zones = wanted(&[BenchScene::Zones]);
     options.d3_cubes = wanted(&[BenchScene::D3Cubes]);
     options.d3_wall = wanted(&[BenchScene::D3Wall]);
-    // --sizes: the D3 wall's brick counts when that is the only family of sizes asked for.
-    if let (true, Some(sizes)) = (scenes == [BenchScene::D3Wall], &sizes) {
+    // --sizes: the D3 wall's brick counts when it is asked for and no scaling family is (the
+    // families' sizes otherwise).
+    let d3_sizes = scenes.contains(&BenchScene::D3Wall) && !options.scaling && !options.sdef_scaling;
+    if let (true, Some(sizes)) = (d3_sizes, &sizes) {
         options.d3_wall_sizes = sizes.clone();
     }
     options.max_zones = max_zones;

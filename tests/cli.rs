@@ -722,6 +722,25 @@ fn bench_scenes_combine_and_sdef_brings_its_dry_wall() {
         assert!(rows.contains(&scene), "no {scene} row in {stdout}");
     }
     assert!(stdout.lines().any(|l| l.starts_with("SDEF wall vs rigid wall") && l.contains("cpu f64")), "{stdout}");
+    // --sizes goes to the D3 wall when no scaling family is asked for, whatever else is.
+    let out = dir.join("d3");
+    let (code, _, stderr) = blockdem(&[
+        "bench",
+        "--quick",
+        "--backend",
+        "cpu",
+        "--scene",
+        "d3-wall,settle",
+        "--settle-time",
+        "0.02",
+        "--sizes",
+        "20",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let csv = std::fs::read_to_string(out.join("bench_d3.csv")).unwrap();
+    assert!(csv.lines().skip(1).all(|l| l.starts_with("d3-wall") && l.split(',').any(|f| f == "21")) && csv.lines().count() == 2, "{csv}");
     let (code, _, stderr) = blockdem(&["bench", "--scene", "sdef,bogus"]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("invalid value 'bogus'") && stderr.contains("sdef-scaling"), "{stderr}");
