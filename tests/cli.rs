@@ -701,20 +701,13 @@ fn ignored_options_and_text_after_end_are_said_to_be_ignored() {
 fn bench_scenes_combine_and_sdef_brings_its_dry_wall() {
     let dir = temp("bench-scenes");
     let out = dir.join("out");
-    let (code, stdout, stderr) = blockdem(&[
-        "bench",
-        "--quick",
-        "--backend",
-        "cpu",
-        "--scene",
-        "sdef,impact",
-        "--settle-time",
-        "0.02",
-        "--impact-time",
-        "0.02",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    // A short bench on the CPU of `scenes` into `out`, with the further `args`.
+    let quick = |scenes: &str, args: &[&str], out: &std::path::Path| {
+        let mut all = vec!["bench", "--quick", "--backend", "cpu", "--scene", scenes, "--settle-time", "0.02", "--out", out.to_str().unwrap()];
+        all.extend_from_slice(args);
+        blockdem(&all)
+    };
+    let (code, stdout, stderr) = quick("sdef,impact", &["--impact-time", "0.02"], &out);
     assert_eq!(code, 0, "{stderr}");
     let rows: Vec<&str> =
         stdout.lines().filter(|l| l.ends_with(|c: char| c.is_ascii_digit()) && l.contains("cpu f64")).map(|l| l.split_whitespace().next().unwrap()).collect();
@@ -724,20 +717,7 @@ fn bench_scenes_combine_and_sdef_brings_its_dry_wall() {
     assert!(stdout.lines().any(|l| l.starts_with("SDEF wall vs rigid wall") && l.contains("cpu f64")), "{stdout}");
     // --sizes goes to the D3 wall when no scaling family is asked for, whatever else is.
     let out = dir.join("d3");
-    let (code, _, stderr) = blockdem(&[
-        "bench",
-        "--quick",
-        "--backend",
-        "cpu",
-        "--scene",
-        "d3-wall,settle",
-        "--settle-time",
-        "0.02",
-        "--sizes",
-        "20",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, _, stderr) = quick("d3-wall,settle", &["--sizes", "20"], &out);
     assert_eq!(code, 0, "{stderr}");
     let csv = std::fs::read_to_string(out.join("bench_d3.csv")).unwrap();
     assert!(csv.lines().skip(1).all(|l| l.starts_with("d3-wall") && l.split(',').any(|f| f == "21")) && csv.lines().count() == 2, "{csv}");

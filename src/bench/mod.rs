@@ -559,8 +559,8 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             } else if let Engine::Gpu(g) = engine {
                 // Where a GPU cycle of the scene goes, kernel by kernel (the scenes are small:
                 // their cycles are a few dispatches each, so this says which one holds them).
-                match g.profile_stages(if opts.quick { 20 } else { 200 }) {
-                    Ok(p) => row.kernels = p.stages.iter().map(|(name, t)| (name.to_string(), *t)).collect(),
+                match kernel_times(g, if opts.quick { 20 } else { 200 }) {
+                    Ok((_, kernels)) => row.kernels = kernels,
                     Err(e) => say(&format!("  kernels not timed: {e}")),
                 }
             }
@@ -653,6 +653,13 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
     }
     report.targets = report::targets(&report);
     report
+}
+
+/// Each kernel's time per cycle over `cycles` cycles from the state the last run left (pass
+/// timestamps, `GpuBackend::profile_stages`), in dispatch order, and how they were timed.
+pub(super) fn kernel_times(g: &mut GpuBackend, cycles: u32) -> Result<(String, Vec<(String, f64)>), crate::udec::gpu::GpuError> {
+    let p = g.profile_stages(cycles)?;
+    Ok((format!("{} over {} cycles", p.method, p.cycles), p.stages.iter().map(|(name, t)| (name.to_string(), *t)).collect()))
 }
 
 /// Why a wall of `blocks` blocks should not be built here, if it should not: the host model (and

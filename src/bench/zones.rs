@@ -174,11 +174,8 @@ pub(super) fn measure(
                     // Where a GPU cycle of zones goes, kernel by kernel (a fifth of the
                     // measurement's time more), as the scaling walls report it.
                     let reps = ((0.2 * measure_s / row.s_per_cycle.max(1e-7)) as u32).clamp(3, 400);
-                    match g.profile_stages(reps) {
-                        Ok(p) => {
-                            row.device_timing = Some(format!("{} over {} cycles", p.method, p.cycles));
-                            row.kernels = p.stages.iter().map(|(name, t)| (name.to_string(), *t)).collect();
-                        }
+                    match super::kernel_times(g, reps) {
+                        Ok((how, kernels)) => (row.device_timing, row.kernels) = (Some(how), kernels),
                         Err(e) => row.device_timing = Some(format!("not measured: {e}")),
                     }
                 }
