@@ -69,7 +69,11 @@ pub type PlaneNormals = Few<DVec3>;
 
 /// [`PlaneNormals`] of `block`.
 pub fn plane_normals(block: &Block) -> PlaneNormals {
-    block.shape.planes.iter().map(|&f| block.face_normal(f as usize)).collect()
+    match block.normal_map() {
+        // A simply-deformable block's stretch inverted once for all its planes.
+        Some(m) => block.shape.planes.iter().map(|&f| (m * block.shape.normals[f as usize]).normalize()).collect(),
+        None => block.shape.planes.iter().map(|&f| block.face_normal(f as usize)).collect(),
+    }
 }
 
 /// The common plane of two blocks and the features of each that touch it.
@@ -470,6 +474,7 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
             let left = fs.length();
             fs = if left > 0.0 { fs * (magnitude / left) } else { DVec3::ZERO };
         }
+        let held = fs;
         fs -= us * (mat.ks * dt);
         // Eq. (20): Coulomb's limit with cohesion.
         let limit = mat.cohesion + mat.friction * l.normal_force;
@@ -478,9 +483,12 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
             let kept = limit.max(0.0);
             if mat.ks > 0.0 {
                 friction += kept * (size - kept) / mat.ks;
-                // Below a zero limit (tension) the spring's whole energy goes.
+                // At a zero limit (no friction, or tension) the spring lets go of what it held:
+                // the energy it had at the step's start (the trial force's ½|Fs|²/ks would book
+                // the step's increment, energy the spring never took, ½ks|u̇sΔt|² a step, as
+                // dissipated).
                 if kept == 0.0 {
-                    friction += 0.5 * size * size / mat.ks;
+                    friction += 0.5 * held.length_squared() / mat.ks;
                 }
             }
             fs *= if size > 0.0 { kept / size } else { 0.0 };

@@ -18,6 +18,7 @@ use rayon::prelude::*;
 use super::contact::{self, spring_energy};
 use super::model::{Contact, Logical, Model};
 use super::motion;
+use super::sdef;
 use super::topology;
 use crate::driver::{self, CycleError, CycleReport, Position};
 
@@ -208,6 +209,9 @@ pub fn gather(model: &mut Model, dt: f64) {
     for b in &mut model.blocks {
         b.force = b.mass * g + b.load;
         b.moment = DVec3::ZERO;
+        if let Some(s) = &mut b.sdef {
+            s.applied = glam::DMat3::ZERO;
+        }
     }
     let beta = model.damping.beta;
     let mut dashpots = 0.0;
@@ -219,6 +223,11 @@ pub fn gather(model: &mut Model, dt: f64) {
         let mut ma = DVec3::ZERO;
         let mut fb = DVec3::ZERO;
         let mut mb = DVec3::ZERO;
+        // A simply-deformable block's applied stress times volume, Σ r fᵀ (`d3::sdef`), summed
+        // in the same order.
+        let (sdef_a, sdef_b) = (a.is_sdef(), b.is_sdef());
+        let mut applied_a = glam::DMat3::ZERO;
+        let mut applied_b = glam::DMat3::ZERO;
         for l in &c.logical {
             let f = contact::logical_force(l, c.normal, a, b, &mat, beta);
             if beta > 0.0 && l.gap <= 0.0 {
@@ -231,11 +240,23 @@ pub fn gather(model: &mut Model, dt: f64) {
             mb += (l.point - b.centroid).cross(f);
             fa -= f;
             ma -= (l.point - a.centroid).cross(f);
+            if sdef_b {
+                applied_b += sdef::applied(l.point - b.centroid, f);
+            }
+            if sdef_a {
+                applied_a += sdef::applied(l.point - a.centroid, -f);
+            }
         }
         model.blocks[ia].force += fa;
         model.blocks[ia].moment += ma;
         model.blocks[ib].force += fb;
         model.blocks[ib].moment += mb;
+        if let Some(s) = &mut model.blocks[ia].sdef {
+            s.applied += applied_a;
+        }
+        if let Some(s) = &mut model.blocks[ib].sdef {
+            s.applied += applied_b;
+        }
     }
     model.dissipated.contact_damping += dashpots;
 }
@@ -305,8 +326,17 @@ pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model
 pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
     let dt = model.timestep();
     gather(model, dt);
-    let (gravity, alpha) = (model.gravity, model.damping.alpha);
-    let outcomes: Vec<motion::StepOutcome> = model.blocks.par_iter_mut().map(|b| motion::law_of_motion(b, gravity, alpha, dt)).collect();
+    let (gravity, alpha, alpha_internal) = (model.gravity, model.damping.alpha, model.damping.alpha_internal);
+    let materials = &model.materials;
+    let outcomes: Vec<motion::StepOutcome> = model
+        .blocks
+        .par_iter_mut()
+        .map(|b| {
+            // A simply-deformable block steps its strain with its material's moduli.
+            let mat = b.sdef.is_some().then(|| materials.get(b.material as usize - 1).copied().unwrap_or_default());
+            motion::law_of_motion_with(b, gravity, alpha, dt, mat.as_ref().map(|m| (m, alpha_internal)))
+        })
+        .collect();
     let tol = model.contact_tolerance();
     let fastest = outcomes.iter().map(|o| o.travel).fold(0.0, f64::max);
     for (k, o) in outcomes.iter().enumerate() {

@@ -42,9 +42,12 @@
 //!   main array's addresses, have no meaning here).
 //! * `VTK` (extension, as in 2D): a frame of the blocks and contacts for ParaView in the output
 //!   folder's `vtk/` (`d3::vtk`).
-//! * CHANGE (SDEF) and DAMPING INTERNAL are read by the language but their physics is not in
-//!   this version of the D3 engine: each is refused at its line as "not available yet". RSET is
-//!   refused as in 2D: there is no main array to poke.
+//! * `CHANGE x1 x2 y1 y2 z1 z2 [SDEF] [MATERIAL n] [CONSTITUTIVE m]` makes the blocks in the
+//!   range simply deformable (`d3::sdef`) and/or changes their material and constitutive numbers,
+//!   as Appendix B says; it asks for at least one of the three. Turning a simply-deformable block
+//!   back into a rigid one is not in the report and has no keyword. `DAMPING fcrit freq
+//!   INTERNAL` damps the simply-deformable blocks' strain (the report's ALPB, mass-proportional
+//!   only, as UDEC 1.2 noted). RSET is refused as in 2D: there is no main array to poke.
 
 use crate::deck::lexer::{self, lookup, name, Name, NumberError, Statement, Token};
 use crate::deck::props::PROP_KEYS;
@@ -96,6 +99,9 @@ pub enum DampMode {
     Mass,
     /// "Stiffness eliminates the mass-proportional dashpots".
     Stiffness,
+    /// "Internal causes the specific damping to be applied to the 3 internal degrees of freedom of
+    /// simply-deformable blocks" (six in 3D): mass-proportional.
+    Internal,
 }
 
 /// A D3 command.
@@ -138,6 +144,15 @@ pub enum Command {
         fcrit: f64,
         freq: f64,
         mode: DampMode,
+    },
+    /// CHANGE x1 x2 y1 y2 z1 z2 [SDEF] [MATERIAL n] [CONSTITUTIVE m]: the blocks whose centroid
+    /// lies in the range made simply deformable (`sdef`) and/or given the material and
+    /// constitutive numbers.
+    Change {
+        range: Range3,
+        sdef: bool,
+        material: Option<u32>,
+        constitutive: Option<u32>,
     },
     Fraction {
         f: f64,
@@ -258,8 +273,8 @@ const PRINT_ITEMS: &[Name<PrintItem>] = &[
     name("CONTACTS", "C", PrintItem::Contacts),
 ];
 
-const DAMP_MODES: &[Name<Option<DampMode>>] =
-    &[name("MASS", "M", Some(DampMode::Mass)), name("STIFFNESS", "S", Some(DampMode::Stiffness)), name("INTERNAL", "I", None)];
+const DAMP_MODES: &[Name<DampMode>] =
+    &[name("MASS", "M", DampMode::Mass), name("STIFFNESS", "S", DampMode::Stiffness), name("INTERNAL", "I", DampMode::Internal)];
 
 /// BLOCK/BOX keywords.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -268,6 +283,20 @@ enum BlockKey {
     Constitutive,
 }
 const BLOCK_KEYS: &[Name<BlockKey>] = &[name("MATERIAL", "M", BlockKey::Material), name("CONSTITUTIVE", "CO", BlockKey::Constitutive)];
+
+/// CHANGE's keywords: the block kind and BLOCK's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ChangeKey {
+    Sdef,
+    Fdef,
+    Block(BlockKey),
+}
+const CHANGE_KEYS: &[Name<ChangeKey>] = &[
+    name("SDEF", "S", ChangeKey::Sdef),
+    name("FDEF", "F", ChangeKey::Fdef),
+    name("MATERIAL", "M", ChangeKey::Block(BlockKey::Material)),
+    name("CONSTITUTIVE", "CO", ChangeKey::Block(BlockKey::Constitutive)),
+];
 
 /// Why a deck is read as D3 (the engine rule of `blockdem run`, README): the line and what was
 /// seen there.
@@ -502,7 +531,6 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
         }
         return Err(a.at(word, format!("unknown command '{}'", word.shown())));
     };
-    let not_yet = |what: &str| Err(a.at(word, format!("not available yet in the D3 engine: {what}")));
     let command = match w {
         Word::Start => {
             a.done()?;
@@ -510,7 +538,35 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
         }
         Word::Restart => Command::Restart { file: file_name(&mut a) },
         Word::Save => Command::Save { file: file_name(&mut a) },
-        Word::Change => return not_yet("CHANGE (simply-deformable 3D blocks, SL-85-1 ¶35d)"),
+        Word::Change => {
+            let toks = a.numbers();
+            if toks.len() == 4 {
+                return Err(a.at(toks[0], "CHANGE takes a 3D range x1 x2 y1 y2 z1 z2; found 4 numbers, a 2D range (x1 x2 y1 y2) — this is a 3D (D3) deck"));
+            }
+            if toks.len() != 6 {
+                let msg = format!("CHANGE takes x1 x2 y1 y2 z1 z2 [SDEF] [MATERIAL n] [CONSTITUTIVE m]: 6 numbers, found {}", toks.len());
+                return Err(if toks.len() > 6 { a.at(toks[6], msg) } else { a.at_end(msg) });
+            }
+            let range = a.range(&toks)?;
+            let (mut material, mut constitutive, mut sdef) = (None, None, false);
+            while let Some(t) = a.next() {
+                match (!t.is_numeric()).then(|| lookup(&t.text, CHANGE_KEYS)).flatten() {
+                    Some(ChangeKey::Sdef) if sdef => return Err(a.at(t, "SDEF given twice")),
+                    Some(ChangeKey::Sdef) => sdef = true,
+                    Some(ChangeKey::Fdef) => {
+                        return Err(
+                            a.at(t, "FDEF (fully-deformable, zoned blocks) belongs to the 2D language; D3 has rigid and simply-deformable (SDEF) blocks")
+                        )
+                    }
+                    Some(ChangeKey::Block(k)) => a.block_keys(t, k, &mut material, &mut constitutive)?,
+                    None => return Err(a.at(t, format!("expected SDEF, MATERIAL or CONSTITUTIVE, found '{}'", t.shown()))),
+                }
+            }
+            if !sdef && material.is_none() && constitutive.is_none() {
+                return Err(a.at_end("CHANGE changes nothing: give SDEF, MATERIAL n or CONSTITUTIVE m after the range"));
+            }
+            Command::Change { range, sdef, material, constitutive }
+        }
         Word::Dump => {
             let toks = a.numbers();
             if toks.len() > 2 {
@@ -603,12 +659,7 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
             let mode = match a.next() {
                 None => DampMode::Full,
                 Some(t) => match (!t.is_numeric()).then(|| lookup(&t.text, DAMP_MODES)).flatten() {
-                    Some(Some(m)) => m,
-                    Some(None) => {
-                        return Err(
-                            a.at(t, "not available yet in the D3 engine: DAMPING INTERNAL (it damps simply-deformable blocks, which D3 does not have yet)")
-                        )
-                    }
+                    Some(m) => m,
                     None => return Err(a.at(t, format!("expected MASS, STIFFNESS or INTERNAL, found '{}'", t.shown()))),
                 },
             };

@@ -193,18 +193,26 @@ impl<'a> Executor<'a> {
                 if !(alpha.is_finite() && beta.is_finite()) {
                     return Err(self.error(cmd, format!("DAMPING: fcrit {fcrit:e} at freq {freq:e} gives damping constants that are not finite numbers")));
                 }
+                let d = &mut self.model.damping;
                 match mode {
-                    DampMode::Full => self.model.damping = super::model::Damping { alpha, beta },
+                    DampMode::Full => (d.alpha, d.beta) = (alpha, beta),
                     DampMode::Mass => {
-                        self.model.damping = super::model::Damping { alpha, beta: 0.0 };
+                        (d.alpha, d.beta) = (alpha, 0.0);
                         self.echo("STIFFNESS-DAMPING TERM SET TO ZERO")?;
                     }
                     DampMode::Stiffness => {
-                        self.model.damping = super::model::Damping { alpha: 0.0, beta };
+                        (d.alpha, d.beta) = (0.0, beta);
                         self.echo("MASS-DAMPING TERM SET TO ZERO")?;
+                    }
+                    DampMode::Internal => {
+                        // The strain's own mass damping (ALPB); the blocks' Rayleigh damping is
+                        // left as it was (as in 2D).
+                        d.alpha_internal = alpha;
+                        self.echo("NOTE - ONLY MASS-DAMPING USED")?;
                     }
                 }
             }
+            Command::Change { range, sdef, material, constitutive } => self.change(cmd, range, *sdef, *material, *constitutive)?,
             Command::Fraction { f } => self.model.frac = *f,
             Command::Cycle { n } => self.cycle(cmd, *n)?,
             Command::Print { items } => {
@@ -328,6 +336,59 @@ impl<'a> Executor<'a> {
                 b.set_density(old_density, density);
             }
         }
+    }
+
+    /// CHANGE: the blocks in the range take the material and constitutive numbers given (a new
+    /// material's density their mass) and, with SDEF, become simply deformable from the state
+    /// they are in (no strain, no stress: their present shape is the unstrained one).
+    fn change(&mut self, cmd: &Located, range: &Range3, sdef: bool, material: Option<u32>, constitutive: Option<u32>) -> Result<(), RunError> {
+        let chosen = self.in_range(range);
+        if chosen.is_empty() {
+            self.echo("WARNING: CHANGE: no block has its centroid in the range")?;
+            return Ok(());
+        }
+        if sdef {
+            // The strain needs both moduli (checked before anything changes).
+            for &b in &chosen {
+                let n = material.unwrap_or(self.model.blocks[b].material);
+                let m = self.model.material(n);
+                if !(m.bulk > 0.0 && m.shear > 0.0) {
+                    let id = self.model.blocks[b].id;
+                    return Err(self.error(
+                        cmd,
+                        format!("CHANGE SDEF: block {id}'s material {n} has no BULK and G (a simply-deformable block's strain needs both moduli): give them with PROPERTY first"),
+                    ));
+                }
+            }
+        }
+        if let Some(n) = material {
+            let density = self.model.material(n).density;
+            if density <= 0.0 {
+                self.echo(&format!("WARNING: CHANGE: material {n} has no DENSITY yet: the blocks have no mass until PROPERTY gives it"))?;
+            }
+        }
+        for b in chosen {
+            if let Some(n) = material {
+                let old = self.model.material(self.model.blocks[b].material).density;
+                let new = self.model.material(n).density;
+                let blk = &mut self.model.blocks[b];
+                blk.material = n;
+                if new != old {
+                    blk.set_density(old, new);
+                }
+            }
+            let blk = &mut self.model.blocks[b];
+            if let Some(m) = constitutive {
+                blk.constitutive = m;
+            }
+            if sdef && blk.sdef.is_none() {
+                // The strain is measured from the shape the block has now: its vertices are
+                // already placed, so nothing moves.
+                blk.sdef = Some(super::sdef::Sdef::default());
+            }
+        }
+        self.model.neighbours_stale = true;
+        Ok(())
     }
 
     /// The blocks whose centroid lies in the open range.

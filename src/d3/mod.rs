@@ -9,6 +9,7 @@
 //! | [`model`] | blocks, materials, contacts (real with their logical contacts, or degenerate), the clock |
 //! | [`motion`] | stages 1–2: central differences for translation and for the angular momentum, the orientation a unit quaternion (¶17) |
 //! | [`contact`] | stage 4: the common plane, the six physical categories, the logical vertex–face and edge–edge contacts, ¶23's normal prescription, the force–displacement law (¶18–24, ¶35) |
+//! | [`sdef`] | simply-deformable blocks (¶35d): six internal degrees of freedom of uniform strain, their stress, inertia and step |
 //! | [`split`] | SPLIT: a plane cuts the convex blocks it crosses in two, mass properties afresh, momentum kept |
 //! | [`topology`] | stage 7: the neighbour lists on a uniform grid, rebuilt past a travel threshold (¶26) |
 //! | [`backend`] | what the executor asks of a backend, the CPU's or the GPU's |
@@ -30,6 +31,7 @@ pub mod model;
 pub mod motion;
 pub mod output;
 pub mod restart;
+pub mod sdef;
 pub mod split;
 pub mod topology;
 pub mod vtk;

@@ -6,6 +6,7 @@ use glam::{DMat3, DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::geometry::{MassProperties, Shape};
+use super::sdef::{self, Sdef};
 
 /// A material's properties (PROPERTY; the keys of the 2D language less the fluid's).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -81,6 +82,11 @@ pub struct Block {
     pub vertices: Vec<DVec3>,
     /// How far any vertex can have moved since the last neighbour update (¶26).
     pub travel: f64,
+    /// The simply-deformable extension (CHANGE … SDEF, ¶35d; `d3::sdef`): the block's uniform
+    /// strain, its rate and stress. None for a rigid block. Saved after the model, as the
+    /// report's extension array (`d3::restart`, format 5).
+    #[serde(skip)]
+    pub sdef: Option<Sdef>,
 }
 
 impl Block {
@@ -106,7 +112,13 @@ impl Block {
             load: DVec3::ZERO,
             vertices,
             travel: 0.0,
+            sdef: None,
         }
+    }
+
+    /// Whether the block is simply deformable.
+    pub fn is_sdef(&self) -> bool {
+        self.sdef.is_some()
     }
 
     /// The inertia tensor about the centroid in global axes: R I Rᵀ.
@@ -138,22 +150,43 @@ impl Block {
         }
     }
 
-    /// Velocity of the material point at `p` (eq. 11): v + ω × (p − c).
+    /// Velocity of the material point at `p` (eq. 11): v + ω × (p − c), and ε̇·(p − c) of a
+    /// simply-deformable block's strain rate.
     pub fn velocity_at(&self, p: DVec3) -> DVec3 {
-        self.velocity + self.angular_velocity.cross(p - self.centroid)
+        let r = p - self.centroid;
+        let rigid = self.velocity + self.angular_velocity.cross(r);
+        match &self.sdef {
+            Some(s) => rigid + s.strain_velocity(r),
+            None => rigid,
+        }
     }
 
-    /// Places the vertices from centroid and orientation (stage 2, the geometry update).
+    /// Places the vertices from centroid and orientation (stage 2, the geometry update), each
+    /// stretched by a simply-deformable block's strain: c + (I + ε)·R·x_ref.
     pub fn place_vertices(&mut self) {
         let r = DMat3::from_quat(self.orientation);
+        let r = match &self.sdef {
+            Some(s) => s.stretch() * r,
+            None => r,
+        };
         for (g, l) in self.vertices.iter_mut().zip(&self.shape.vertices) {
             *g = self.centroid + r * *l;
         }
     }
 
+    /// The map of reference normals to global ones, up to length: R, or (I + ε)⁻¹·R for a
+    /// simply-deformable block (normals map by the inverse transpose of the stretch, which is
+    /// symmetric). None for a rigid block (its normals turn with the orientation alone).
+    pub fn normal_map(&self) -> Option<DMat3> {
+        self.sdef.as_ref().map(|s| s.stretch().inverse() * DMat3::from_quat(self.orientation))
+    }
+
     /// The outward unit normal of face `f` in global axes.
     pub fn face_normal(&self, f: usize) -> DVec3 {
-        self.orientation * self.shape.normals[f]
+        match self.normal_map() {
+            Some(m) => (m * self.shape.normals[f]).normalize(),
+            None => self.orientation * self.shape.normals[f],
+        }
     }
 
     /// Kinetic energy: ½mv² + ½ω·L.
@@ -264,6 +297,10 @@ impl Contact {
 pub struct Damping {
     pub alpha: f64,
     pub beta: f64,
+    /// Internal mass damping of simply-deformable blocks' strain (DAMPING … INTERNAL, the
+    /// report's ALPB). Saved with the extension array (`d3::restart`, format 5).
+    #[serde(skip)]
+    pub alpha_internal: f64,
 }
 
 /// The D3 model.
@@ -418,13 +455,21 @@ impl Model {
         // Each free block's least principal moment (zero for a fixed or massless block, which
         // does not give at a contact).
         let least: Vec<f64> = self.blocks.iter().map(|b| if b.fixed || b.mass <= 0.0 { 0.0 } else { least_eigenvalue(b.inertia_ref) }).collect();
+        // A simply-deformable block gives at a lever arm r by its strain too: by r²/M_min, M_min
+        // the least principal second moment of its mass (no strain mode has less inertia).
+        let least_second: Vec<f64> = self
+            .blocks
+            .iter()
+            .map(|b| if b.is_sdef() && !b.fixed && b.mass > 0.0 { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 })
+            .collect();
         // The compliance of block i at a lever arm r (r² given).
         let compliance = |i: usize, r2: f64| -> f64 {
             let b = &self.blocks[i];
             if b.fixed || b.mass <= 0.0 {
                 return 0.0;
             }
-            1.0 / b.mass + if least[i] > 0.0 { r2 / least[i] } else { 0.0 }
+            let strain = if least_second[i] > 0.0 { r2 / least_second[i] } else { 0.0 };
+            1.0 / b.mass + if least[i] > 0.0 { r2 / least[i] } else { 0.0 } + strain
         };
         let mut row: Vec<f64> = (0..self.blocks.len()).map(|i| k_max * compliance(i, self.blocks[i].shape.radius.powi(2))).collect();
         let mut contact_rows = vec![0.0f64; self.blocks.len()];
@@ -455,15 +500,35 @@ impl Model {
         Some(2.0 / (omega * ((1.0 + xi * xi).sqrt() + xi)))
     }
 
-    /// The time step the run takes: FRACTION × the critical one.
+    /// The time step the run takes: FRACTION × the critical one, and no more than the
+    /// simply-deformable blocks' own limit ([`Model::internal_timestep`]).
     pub fn timestep(&self) -> f64 {
-        self.critical_timestep().map_or(0.0, |dt| self.frac * dt)
+        let dt = self.critical_timestep().map_or(0.0, |dt| self.frac * dt);
+        match self.internal_timestep() {
+            Some(limit) if dt > 0.0 => dt.min(limit),
+            _ => dt,
+        }
+    }
+
+    /// The simply-deformable blocks' own limit on the step (`d3::sdef`, "Time step"): √(M_min/k)
+    /// over the free SDEF blocks, half the stiffest internal mode's 2/ω, with M_min the least
+    /// principal second moment of the block's mass and k = 3K·V. None without such blocks.
+    pub fn internal_timestep(&self) -> Option<f64> {
+        self.blocks
+            .iter()
+            .filter(|b| b.is_sdef() && !b.fixed && b.mass > 0.0)
+            .filter_map(|b| {
+                let k = sdef::internal_stiffness(&self.material(b.material), b.volume);
+                let m = least_eigenvalue(sdef::second_moments(b.inertia_ref));
+                (k > 0.0 && m > 0.0).then(|| (m / k).sqrt())
+            })
+            .reduce(f64::min)
     }
 
     /// The energy ledger now (see [`Energies`]).
     pub fn energies(&self) -> Energies {
         let h = 0.5 * self.timestep();
-        let kinetic = self
+        let kinetic: f64 = self
             .blocks
             .iter()
             .filter(|b| !b.fixed && b.mass > 0.0)
@@ -479,7 +544,19 @@ impl Model {
                 }
             })
             .sum();
+        // The simply-deformable blocks' strain modes: their kinetic energy at the whole step and
+        // the strain energy of their internal stress (`d3::sdef`).
+        let mut internal_kinetic = 0.0;
         let mut strain = 0.0;
+        for b in &self.blocks {
+            let Some(s) = &b.sdef else { continue };
+            strain += sdef::strain_energy(s, b.volume);
+            if !b.fixed && b.mass > 0.0 {
+                let j = sdef::strain_inertia(sdef::second_moments(b.inertia()));
+                internal_kinetic += sdef::internal_kinetic_energy(sdef::rate_at_whole_step(s, b.volume, j, 2.0 * h), j);
+            }
+        }
+        let kinetic: f64 = kinetic + internal_kinetic;
         for c in &self.contacts {
             let m = self.contact_material(c);
             for l in &c.logical {

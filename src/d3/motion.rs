@@ -22,7 +22,8 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::model::Block;
+use super::model::{Block, Material};
+use super::sdef;
 
 /// Fixed-point iterations of the midpoint orientation (each contracts the error by ~|ω|Δt).
 const MIDPOINT_ITERATIONS: usize = 4;
@@ -41,10 +42,22 @@ pub struct StepOutcome {
 /// Advances one block by one step (stages 1 and 2). `force` and `moment` on the block are the
 /// sums of the contact forces, gravity and load (stage 6).
 pub fn law_of_motion(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64) -> StepOutcome {
+    law_of_motion_with(block, gravity, alpha, dt, None)
+}
+
+/// [`law_of_motion`] with a simply-deformable block's strain (`d3::sdef`): `internal` gives its
+/// material and the internal damping (DAMPING … INTERNAL). Its strain is stepped after the rigid
+/// motion and before the vertices are placed; the strain's motion of the vertices counts towards
+/// the step's travel, the internal damping's work towards `damping_work`. A fixed block's strain
+/// stays as it is, its rate zero (as in 2D).
+pub fn law_of_motion_with(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64, internal: Option<(&Material, f64)>) -> StepOutcome {
     if block.fixed {
         block.velocity = DVec3::ZERO;
         block.angular_momentum = DVec3::ZERO;
         block.angular_velocity = DVec3::ZERO;
+        if let Some(s) = &mut block.sdef {
+            s.strain_rate = [0.0; 6];
+        }
         return StepOutcome::default();
     }
     let con1 = 1.0 - 0.5 * alpha * dt;
@@ -66,8 +79,15 @@ pub fn law_of_motion(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64) -> 
     let (orientation, omega) = rotate(block.orientation, block.inertia_ref, block.angular_momentum, dt);
     block.orientation = orientation;
     block.angular_velocity = omega;
+    let (mut damping_work, mut strain_travel) = (damping_work, 0.0);
+    if let (Some((mat, alpha_internal)), Some(mut s)) = (internal, block.sdef) {
+        let (work, travel) = sdef::internal_step(&mut s, mat, block.inertia(), block.volume, alpha_internal, dt, block.shape.radius);
+        block.sdef = Some(s);
+        damping_work += work;
+        strain_travel = travel;
+    }
     block.place_vertices();
-    let travel = dx.length() + omega.length() * dt * block.shape.radius;
+    let travel = dx.length() + omega.length() * dt * block.shape.radius + strain_travel;
     block.travel += travel;
     let applied = block.mass * gravity + block.load;
     StepOutcome { external_work: applied.dot(dx), travel, damping_work }

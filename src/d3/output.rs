@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use serde_json::{json, Value};
 
 use super::model::{principal_moments, Model};
+use super::sdef;
 use crate::output::format::fmt_e;
 
 /// A row of numbers in the listings' columns.
@@ -18,7 +19,8 @@ fn row(out: &mut String, head: &str, values: &[f64]) {
 }
 
 /// PRINT BLOCKS: block, material, constitutive number, centroid, volume, mass, the principal
-/// moments of inertia, and the force sums.
+/// moments of inertia, and the force sums; under a simply-deformable block its strain rate (ED),
+/// internal stress (SI) and applied stress times volume (SA), as 2D's SDEF rows.
 pub fn blocks_table(model: &Model) -> String {
     let mut out = String::from("\nBLOCK DATA\n");
     out.push_str("  BLOCK  MAT CONST   CENTROID X   CENTROID Y   CENTROID Z     VOLUME       MASS        I1         I2         I3     \n");
@@ -26,10 +28,15 @@ pub fn blocks_table(model: &Model) -> String {
         let i = principal_moments(b.inertia_ref);
         let head = format!("{:>7} {:>4} {:>5}", b.id, b.material, b.constitutive);
         row(&mut out, &head, &[b.centroid.x, b.centroid.y, b.centroid.z, b.volume, b.mass, i[0], i[1], i[2]]);
+        let kind = match (b.fixed, b.is_sdef()) {
+            (true, false) => "FIXED",
+            (false, false) => "RIGID",
+            (true, true) => "SDEF, FIXED",
+            (false, true) => "SDEF",
+        };
         let _ = writeln!(
             out,
-            "  ({}) FORCE {} {} {}  MOMENT {} {} {}",
-            if b.fixed { "FIXED" } else { "RIGID" },
+            "  ({kind}) FORCE {} {} {}  MOMENT {} {} {}",
             fmt_e(b.force.x),
             fmt_e(b.force.y),
             fmt_e(b.force.z),
@@ -37,6 +44,14 @@ pub fn blocks_table(model: &Model) -> String {
             fmt_e(b.moment.y),
             fmt_e(b.moment.z)
         );
+        if let Some(s) = &b.sdef {
+            // As 2D's SDEF rows (ED, SI, SA: strain rate, internal stress, applied stress times
+            // size), each tensor's nine components row by row: 11 12 13 21 22 23 31 32 33.
+            for (name, t) in [("ED", sdef::tensor(s.strain_rate)), ("SI", sdef::tensor(s.stress)), ("SA", s.applied)] {
+                let r = [t.row(0), t.row(1), t.row(2)];
+                row(&mut out, &format!("  {name}"), &r.iter().flat_map(|v| v.to_array()).collect::<Vec<_>>());
+            }
+        }
     }
     out
 }
@@ -150,7 +165,8 @@ fn vec3(v: glam::DVec3) -> Value {
 
 /// The state JSON of a D3 model: `"dim": 3`, the clock, the blocks (centroid, velocity,
 /// angular_velocity, mass, volume, inertia 3 × 3 in global axes, vertices, faces as vertex
-/// numbers from 0 counter-clockwise seen from outside, fixed) and the real contacts (kind,
+/// numbers from 0 counter-clockwise seen from outside, fixed, kind `rigid` or `sdef`, and a
+/// simply-deformable block's `stress` and `strain`) and the real contacts (kind,
 /// blocks, point, normal, normal_force, shear_force as a vector, area, and their logical
 /// contacts).
 pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::Provenance>) -> Value {
@@ -159,7 +175,7 @@ pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::
         .iter()
         .map(|b| {
             let i = b.inertia();
-            json!({
+            let mut v = json!({
                 "id": b.id,
                 "material": b.material,
                 "constitutive": b.constitutive,
@@ -176,7 +192,16 @@ pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::
                 "force": vec3(b.force),
                 "moment": vec3(b.moment),
                 "load": vec3(b.load),
-            })
+            });
+            // The block's kind, and a simply-deformable block's strain and internal stress (Pa,
+            // tension positive) in Voigt's order (11, 22, 33, 12, 13, 23).
+            v["kind"] = json!(if b.is_sdef() { "sdef" } else { "rigid" });
+            if let Some(s) = &b.sdef {
+                v["stress"] = json!(s.stress.map(num));
+                v["strain"] = json!(s.strain.map(num));
+                v["strain_rate"] = json!(s.strain_rate.map(num));
+            }
+            v
         })
         .collect();
     let contacts: Vec<Value> = model

@@ -39,6 +39,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::model::{LogicalKind, Model};
+use super::sdef::Sdef;
 
 /// The first eight bytes of every D3 save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKD3\0";
@@ -50,9 +51,12 @@ const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// from their centroids and logical contacts' points from their contact's block 1's centroid
 /// (`d3::gpu`, RELATIVE), where version 3's kept them in global axes. A version-3 file is read,
 /// its model as it was, but its f32 device state is marked [`DeviceState::absolute_f32`] and not
-/// taken (the run detects afresh, and says so); an older file is refused by name.)
-pub const FORMAT_VERSION: u32 = 4;
-/// The oldest save format this program reads (its payload is version 4's).
+/// taken (the run detects afresh, and says so); an older file is refused by name. Version 5: the
+/// payload ends with the [`Extension`], the simply-deformable blocks' strain and the internal
+/// damping; a version-3 or -4 file has none, its blocks rigid as they were.)
+pub const FORMAT_VERSION: u32 = 5;
+/// The oldest save format this program reads (its payload is version 4's, without the
+/// extension).
 pub const OLDEST_VERSION: u32 = 3;
 const HEADER_LEN: usize = 8 + 4 + 8 + 8;
 
@@ -64,6 +68,41 @@ pub struct SaveFile {
     pub resumable: bool,
     /// The GPU backend's device state, when a GPU run left the model (and `resumable`).
     pub device: Option<DeviceState>,
+}
+
+/// The simply-deformable extension array (the report's, Appendix B; `d3::sdef`), written after
+/// the [`SaveFile`] in the payload (format 5): each SDEF block's state by its index, and
+/// DAMPING … INTERNAL's constant. Kept apart from the model's own fields so that the files of
+/// formats 3 and 4, which end before it, read as they were.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Extension {
+    pub sdef: Vec<(u32, Sdef)>,
+    pub alpha_internal: f64,
+}
+
+impl Extension {
+    /// The extension of `model`.
+    pub fn of(model: &Model) -> Extension {
+        Extension {
+            sdef: model.blocks.iter().enumerate().filter_map(|(i, b)| b.sdef.map(|s| (i as u32, s))).collect(),
+            alpha_internal: model.damping.alpha_internal,
+        }
+    }
+
+    /// Puts the extension back into `model`; an index past its blocks is an error.
+    pub fn apply(self, model: &mut Model) -> Result<(), String> {
+        for (i, s) in self.sdef {
+            let n = model.blocks.len();
+            let b = model.blocks.get_mut(i as usize).ok_or_else(|| format!("a simply-deformable state names block index {i} of {n}"))?;
+            let finite = s.strain.iter().chain(&s.strain_rate).chain(&s.stress).all(|x| x.is_finite());
+            if !finite {
+                return Err(format!("block {} has a non-finite strain or stress", b.id));
+            }
+            b.sdef = Some(s);
+        }
+        model.damping.alpha_internal = self.alpha_internal;
+        Ok(())
+    }
 }
 
 /// What a D3 GPU backend holds beyond the model (`d3::gpu`), as the device holds it: a RESTART
@@ -130,7 +169,8 @@ pub fn is_save_file(path: &Path) -> bool {
 
 /// SAVE: writes `file` to `path` atomically (a temporary file renamed into place).
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
-    let payload = postcard::to_stdvec(file).map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
+    let payload =
+        postcard::to_stdvec(&(file, Extension::of(&file.model))).map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     let crc = crc32fast::hash(&payload) as u64;
     crate::output::write_atomically(path, |w| {
         w.write_all(&MAGIC)?;
@@ -180,7 +220,10 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
     if crc32fast::hash(&payload) as u64 != checksum {
         return Err(RestartError::Corrupt { path: p(), reason: "the payload checksum does not match".into() });
     }
-    let mut saved: SaveFile = postcard::from_bytes(&payload).map_err(|e| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") })?;
+    let bad = |e: postcard::Error| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") };
+    let (mut saved, extension): (SaveFile, Extension) =
+        if version >= 5 { postcard::from_bytes(&payload).map_err(bad)? } else { (postcard::from_bytes(&payload).map_err(bad)?, Extension::default()) };
+    extension.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     if let Some(device) = saved.device.as_mut().filter(|d| version < 4 && !d.f64_kernels) {
         device.absolute_f32 = true;
     }

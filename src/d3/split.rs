@@ -22,6 +22,7 @@ use rustc_hash::FxHashMap;
 
 use super::geometry;
 use super::model::{Block, Model};
+use super::sdef::{strain_energy, Sdef};
 
 /// What a SPLIT did.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -108,8 +109,9 @@ pub fn cut_faces(vertices: &[DVec3], faces: &[[u32; 3]], point: DVec3, normal: D
 }
 
 /// SPLIT: cuts every block the plane through `point` with normal `normal` crosses. `material`
-/// and `constitutive`, where given, are the pieces' (else the parent's). Refuses (Err, nothing
-/// cut) when a block the plane crosses is not convex.
+/// and `constitutive`, where given, are the pieces' (else the parent's). A simply-deformable
+/// block's pieces are simply deformable, unstressed. Refuses (Err, nothing cut) when a block the
+/// plane crosses is not convex.
 pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u32>, constitutive: Option<u32>) -> Result<SplitOutcome, String> {
     let n = normal.normalize();
     let crossed: Vec<usize> = (0..model.blocks.len())
@@ -168,9 +170,18 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
                     piece.angular_momentum = piece.inertia() * parent.angular_velocity;
                 }
                 piece.load = if parent.volume > 0.0 { parent.load * (props.volume / parent.volume) } else { DVec3::ZERO };
+                // A simply-deformable parent's pieces stay simply deformable, their present
+                // shape unstrained (stress zero, as 2D's cracked halves) and the parent's strain
+                // rate kept: with the velocity at their centroids it gives each piece the
+                // parent's motion at every point, so momentum is kept.
+                piece.sdef = parent.sdef.map(|s| Sdef { strain_rate: if parent.fixed { [0.0; 6] } else { s.strain_rate }, ..Sdef::default() });
                 piece
             })
             .collect();
+        // The strain energy the parent's stress held is released (the ledger's `released`).
+        if let Some(s) = &parent.sdef {
+            model.dissipated.released += strain_energy(s, parent.volume);
+        }
         let [back, front]: [Block; 2] = pieces.try_into().unwrap_or_else(|_| unreachable!("two pieces were built"));
         outcome.split.push((parent.id, next_id));
         next_id += 1;

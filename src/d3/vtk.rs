@@ -7,7 +7,8 @@
 //!   through them (counter-clockwise seen from outside, so ParaView's normals point out). Cell
 //!   data, each face carrying its block's: `id`, `material`, `fixed` (1 or 0), `velocity` (m/s,
 //!   vector), `angular_velocity` (rad/s, vector), `mass` (kg), `force` and `moment` (the sums of
-//!   the last cycle, N and N·m, vectors).
+//!   the last cycle, N and N·m, vectors); in a scene with simply-deformable blocks, `stress`
+//!   (Pa, tension positive, a 3 × 3 tensor, zero on rigid blocks).
 //! - `contacts_<cycle>.vtk`: one point a real contact (degenerate ones, neighbour links, are left
 //!   out), at its contact point. Point data: `normal_force` (N, compression positive, the logical
 //!   contacts' sum), `shear_force` (N, vector), `normal` (unit, from block 1 into block 2),
@@ -73,6 +74,20 @@ pub fn blocks_vtk(model: &Model) -> Vtk {
         Attribute::vectors("force").with_data(vector(&|b| b.force)),
         Attribute::vectors("moment").with_data(vector(&|b| b.moment)),
     ];
+    let mut cell = cell;
+    if model.blocks.iter().any(|b| b.is_sdef()) {
+        // Simply-deformable blocks: their internal stress (Pa, tension positive) as a 3 × 3
+        // tensor, zero for the rigid ones.
+        let stress: Vec<f32> = owner
+            .iter()
+            .flat_map(|b| {
+                let t = b.sdef.map_or(glam::DMat3::ZERO, |s| super::sdef::tensor(s.stress));
+                [t.row(0), t.row(1), t.row(2)].map(|r| r.to_array().map(|x| x as f32))
+            })
+            .flatten()
+            .collect();
+        cell.push(Attribute::tensors("stress").with_data(stress));
+    }
     let piece = PolyDataPiece {
         points: points.into(),
         polys: Some(VertexNumbers::Legacy { num_cells: owner.len() as u32, vertices }),

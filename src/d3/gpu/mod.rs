@@ -776,7 +776,15 @@ impl driver::Start<Model> for GpuBackend {
     }
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        cpu::preflight(model)
+        cpu::preflight(model)?;
+        // Simply-deformable 3D blocks' strain (`d3::sdef`) is in the CPU's cycle only so far.
+        if let Some(b) = model.blocks.iter().find(|b| b.is_sdef()) {
+            return Err(CycleError::Setup(format!(
+                "block {} is simply deformable (CHANGE … SDEF): the D3 GPU kernels have no strain stage yet; run this deck with --backend cpu (--backend auto picks the CPU for it)",
+                b.id
+            )));
+        }
+        Ok(())
     }
 
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
