@@ -744,15 +744,8 @@ fn run_d3(
     let choice: AdapterChoice = adapter.parse().unwrap_or(AdapterChoice::Any);
     let precision = Precision::from(precision);
     let mut runs_on = ("cpu", None, "f64");
-    // Simply-deformable 3D blocks run on the CPU only (`d3::sdef`): `auto` picks it for a deck
-    // that makes them.
-    let sdef = commands.iter().any(|c| matches!(c.command, blockdem::d3::deck::Command::Change { sdef: true, .. }));
     let engine: Box<dyn blockdem::d3::backend::Backend> = match backend {
         BackendChoice::Cpu => Box::new(blockdem::d3::cpu::CpuBackend::new()),
-        BackendChoice::Auto if sdef => {
-            note!("blockdem: a 3D deck with simply-deformable blocks: the D3 engine, on the CPU (f64) (the D3 GPU kernels have no strain stage yet)");
-            Box::new(blockdem::d3::cpu::CpuBackend::new())
-        }
         BackendChoice::Auto if !matching_adapters(&choice).into_iter().any(|a| a.compute && !a.is_software()) => {
             note!("blockdem: a 3D deck: the D3 engine, on the CPU (f64) (no hardware GPU adapter; software adapters are used only with --backend gpu)");
             Box::new(blockdem::d3::cpu::CpuBackend::new())

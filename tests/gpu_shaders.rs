@@ -278,9 +278,13 @@ fn every_d3_kernel_parses_and_validates_in_every_precision() {
 
 fn check_d3_layouts<R: Real>(precision: Precision) {
     use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
-    let src = d3::source("track_contact", precision).unwrap();
-    let (module, _) = shaders::validate(&src, precision).unwrap();
-    for rust in d3_layout::layouts::<R>() {
+    check_layouts_in(&d3::source("track_contact", precision).unwrap(), precision, d3_layout::layouts::<R>());
+}
+
+/// Each of `layouts` (Rust's) against the WGSL struct of its name in `src`: size and offsets.
+fn check_layouts_in(src: &str, precision: Precision, layouts: Vec<StructLayout>) {
+    let (module, _) = shaders::validate(src, precision).unwrap();
+    for rust in layouts {
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).unwrap();
         let (handle, ty) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some(rust.name)).unwrap_or_else(|| panic!("no WGSL struct {}", rust.name));
@@ -304,4 +308,30 @@ fn every_d3_gpu_struct_matches_its_rust_twin_in_f32() {
 #[test]
 fn every_d3_gpu_struct_matches_its_rust_twin_in_f64() {
     check_d3_layouts::<f64>(Precision::F64);
+}
+
+/// D3's kernels with the strain stage of simply-deformable blocks (`shaders/d3/sdef.wgsl`) parse
+/// and validate in both precisions, and bind the strain buffer where the rigid ones do not.
+#[test]
+fn every_d3_kernel_with_the_strain_stage_parses_and_validates() {
+    use blockdem::d3::gpu::shaders as d3;
+    for precision in [Precision::F32, Precision::F64] {
+        for (name, _) in d3::KERNELS {
+            let src = d3::source_for(name, precision, true).unwrap();
+            shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/{name}.wgsl with SDEF ({precision}):\n{e}"));
+            assert!(src.contains("@binding(8)") && !d3::source(name, precision).unwrap().contains("@binding(8)"));
+        }
+    }
+}
+
+fn check_d3_sdef_layout<R: Real>(precision: Precision) {
+    use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
+    check_layouts_in(&d3::source_for("law_of_motion", precision, true).unwrap(), precision, d3_layout::sdef_layouts::<R>());
+}
+
+/// The strain buffer's struct (`d3::gpu::layout::SdefBlock`) has its WGSL twin's size and offsets.
+#[test]
+fn the_d3_strain_struct_matches_its_rust_twin() {
+    check_d3_sdef_layout::<f32>(Precision::F32);
+    check_d3_sdef_layout::<f64>(Precision::F64);
 }

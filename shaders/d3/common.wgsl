@@ -75,6 +75,19 @@ fn mat_mul(m: Mat3, v: vec3<real>) -> vec3<real> {
     return r;
 }
 
+// r fᵀ by columns (`sdef::applied`: a simply-deformable block's applied stress times volume).
+fn outer(r: vec3<real>, f: vec3<real>) -> Mat3 {
+    return Mat3(r * f.x, r * f.y, r * f.z);
+}
+
+fn mat_add(a: Mat3, b: Mat3) -> Mat3 {
+    return Mat3(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+
+fn mat_sub(a: Mat3, b: Mat3) -> Mat3 {
+    return Mat3(a.x - b.x, a.y - b.y, a.z - b.z);
+}
+
 // The rotation matrix of a unit quaternion (glam's `DMat3::from_quat`).
 fn rotation_matrix(q: vec4<real>) -> Mat3 {
     let x2 = q.x + q.x;
@@ -147,10 +160,15 @@ fn centroid_from(i: u32, origin: u32) -> vec3<real> {
 }
 
 // The velocity of block i's material point at p (eq. 11; `Block::velocity_at`): v + ω × (p − c),
-// with p in the frame of block `origin` (`centroid_from`; in f64 global axes).
+// with p in the frame of block `origin` (`centroid_from`; in f64 global axes); and ε̇·(p − c) of a
+// simply-deformable block's strain rate (SDEF scenes, sdef.wgsl).
 fn velocity_at(i: u32, p: vec3<real>, origin: u32) -> vec3<real> {
     let v = vec3<real>(blocks[i].vx, blocks[i].vy, blocks[i].vz);
     let w = vec3<real>(blocks[i].wx, blocks[i].wy, blocks[i].wz);
+    if (SDEF) {
+        let r = p - centroid_from(i, origin);
+        return v + cross3(w, r) + strain_velocity(i, r);
+    }
     return v + cross3(w, p - centroid_from(i, origin));
 }
 

@@ -31,6 +31,10 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     var force = mass * g + vec3<real>(blocks[i].load_x, blocks[i].load_y, blocks[i].load_z);
     var moment = vec3<real>(0.0, 0.0, 0.0);
     var dashpots: real = 0.0;
+    // A simply-deformable block's applied stress times volume, Σ r fᵀ (sdef.wgsl), contact by
+    // contact in the same order (`cpu::gather`).
+    let zero = vec3<real>(0.0, 0.0, 0.0);
+    var applied = Mat3(zero, zero, zero);
     let start = blocks[i].adjacency_start;
     let count = blocks[i].adjacency_count;
     for (var k = 0u; k < count; k++) {
@@ -42,6 +46,7 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
         let c0 = centroid_from(i, c.block1);
         var fc = vec3<real>(0.0, 0.0, 0.0);
         var mc = vec3<real>(0.0, 0.0, 0.0);
+        var ac = Mat3(zero, zero, zero);
         for (var j = 0u; j < c.logical_count; j++) {
             let l = logicals[c.logical_start + j];
             if (l.live == 0u) {
@@ -63,9 +68,22 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
                 fc = fc - f;
                 mc = mc - cross3(p - c0, f);
             }
+            if (SDEF) {
+                if (second) {
+                    ac = mat_add(ac, outer(p - c0, f));
+                } else {
+                    ac = mat_sub(ac, outer(p - c0, f));
+                }
+            }
         }
         force = force + fc;
         moment = moment + mc;
+        if (SDEF) {
+            applied = mat_add(applied, ac);
+        }
+    }
+    if (SDEF) {
+        store_applied(i, applied);
     }
     blocks[i].fx = force.x;
     blocks[i].fy = force.y;

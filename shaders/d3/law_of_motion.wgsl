@@ -43,6 +43,10 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     }
     var b = blocks[i];
     if (b.fixed != 0u) {
+        if (SDEF) {
+            // A fixed block's strain stays, its rate zero (`motion::law_of_motion_with`).
+            freeze_strain(i);
+        }
         blocks[i].vx = 0.0;
         blocks[i].vy = 0.0;
         blocks[i].vz = 0.0;
@@ -90,10 +94,19 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         b.cz_lo = sz.y;
     }
     let turn = rotate(q0, inv, l, dt);
+    // A simply-deformable block's strain steps after its rigid motion, before its vertices are
+    // placed stretched (`motion::law_of_motion_with`, sdef.wgsl): its damping's work and its
+    // strain's travel join the block's.
+    var r = rotation_matrix(turn.q);
+    var strained = vec2<real>(0.0, 0.0);
+    if (SDEF) {
+        strained = internal_step(i, r, dt, b.radius);
+        r = stretched_rotation(i, r);
+        damping += strained.x;
+    }
     // Stage 2: the vertices placed from the centroid and the orientation; in f32 (RELATIVE) as
     // their offsets R·l from the centroid, which the contact kernels add to the centroid's place
     // in each contact's frame (`centroid_from`), so that no vertex is rounded at ulp(|c|).
-    let r = rotation_matrix(turn.q);
     for (var k = 0u; k < b.vertex_count; k++) {
         let j = b.vertex_start + k;
         var p = mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
@@ -104,7 +117,10 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         vertices[j].y = p.y;
         vertices[j].z = p.z;
     }
-    let travel = length3(dx) + length3(turn.omega) * dt * b.radius;
+    var travel = length3(dx) + length3(turn.omega) * dt * b.radius;
+    if (SDEF) {
+        travel += strained.y;
+    }
     let applied = b.mass * g + vec3<real>(b.load_x, b.load_y, b.load_z);
     let work = dot3(applied, dx);
     b.vx = v.x;

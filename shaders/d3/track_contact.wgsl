@@ -42,10 +42,15 @@ fn midpoint_from_first() -> vec3<real> {
     return frame_half.hi + frame_half.lo;
 }
 
-// The outward normal of face plane k of block i, in global axes (`Block::face_normal`).
+// The outward normal of face plane k of block i, in global axes (`Block::face_normal`; a
+// simply-deformable block's strained, sdef.wgsl).
 fn plane_normal(i: u32, k: u32) -> vec3<real> {
     let pl = planes[blocks[i].plane_start + k];
-    return quat_rotate(orientation(i), vec3<real>(pl.nx, pl.ny, pl.nz));
+    let n = quat_rotate(orientation(i), vec3<real>(pl.nx, pl.ny, pl.nz));
+    if (SDEF) {
+        return stretched_normal(i, n);
+    }
+    return n;
 }
 
 // The greatest n·x over block i's vertices (`lowest`: the least).
@@ -285,6 +290,7 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
                 fs = vec3<real>(0.0, 0.0, 0.0);
             }
         }
+        let held = fs;
         fs = fs - us * (c.ks * dt);
         // Eq. (20): Coulomb's limit with cohesion.
         let limit = c.cohesion + c.friction * l.normal_force;
@@ -293,8 +299,10 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
             let kept = max(limit, 0.0);
             if (c.ks > 0.0) {
                 friction += kept * (size - kept) / c.ks;
+                // At a zero limit the spring lets go of what it held at the step's start
+                // (`contact::force_law`).
                 if (kept == 0.0) {
-                    friction += 0.5 * size * size / c.ks;
+                    friction += 0.5 * dot3(held, held) / c.ks;
                 }
             }
             if (size > 0.0) {

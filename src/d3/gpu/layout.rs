@@ -87,6 +87,25 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// A simply-deformable block's strain state (`d3::sdef::Sdef`), one per block in a scene
+    /// with such blocks (binding 8, `shaders/d3/sdef.wgsl`; `live` 0 for a rigid block), none
+    /// bound otherwise. Symmetric tensors in Voigt's order (11, 22, 33, 12, 13, 23): strain `e*`,
+    /// its rate `r*` (half step) and the stress `s*`; the applied stress times volume `a*`
+    /// (A_ij row by row, written by the gather); the second moments of the mass in the reference
+    /// frame `m*` (`sdef::second_moments` of the reference inertia); volume, Lamé's λ, G and the
+    /// internal damping α (DAMPING … INTERNAL); `live` 1 for a simply-deformable block.
+    SdefBlock {
+        e0: R, e1: R, e2: R, e3: R, e4: R, e5: R,
+        r0: R, r1: R, r2: R, r3: R, r4: R, r5: R,
+        s0: R, s1: R, s2: R, s3: R, s4: R, s5: R,
+        a0: R, a1: R, a2: R, a3: R, a4: R, a5: R, a6: R, a7: R, a8: R,
+        m0: R, m1: R, m2: R, m3: R, m4: R, m5: R,
+        volume: R, lambda: R, shear: R, alpha: R,
+        live: u32, spare: u32,
+    }
+}
+
 /// `Logical::kind`: a vertex of block 1 against block 2.
 pub const LOGICAL_VERTEX_FIRST: u32 = 0;
 /// `Logical::kind`: a vertex of block 2 against block 1.
@@ -97,4 +116,10 @@ pub const LOGICAL_EDGE_EDGE: u32 = 2;
 /// Every D3 GPU struct's layout, for the naga check.
 pub fn layouts<R: Real>() -> Vec<StructLayout> {
     vec![Block::<R>::layout(), Vertex::<R>::layout(), Plane::<R>::layout(), Contact::<R>::layout(), Logical::<R>::layout(), Params::<R>::layout()]
+}
+
+/// The simply-deformable scenes' struct's layout (declared by `shaders/d3/sdef.wgsl`), for the
+/// naga check.
+pub fn sdef_layouts<R: Real>() -> Vec<StructLayout> {
+    vec![SdefBlock::<R>::layout()]
 }

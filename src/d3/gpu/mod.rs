@@ -104,14 +104,16 @@ struct Kernels {
 }
 
 impl Kernels {
-    fn new(dev: &GpuDevice) -> Result<Self, GpuError> {
+    /// The kernels of a rigid scene, or with `sdef` those of a scene with simply-deformable
+    /// blocks (the strain stage, and the strain buffer at binding 8).
+    fn new(dev: &GpuDevice, sdef: bool) -> Result<Self, GpuError> {
         let mut entries = vec![uniform(0)];
-        entries.extend((1..=7).map(|b| storage(b, false)));
-        let (group, pipeline_layout) = layouts(&dev.device, "d3", &entries);
+        entries.extend((1..=if sdef { 8 } else { 7 }).map(|b| storage(b, false)));
+        let (group, pipeline_layout) = layouts(&dev.device, if sdef { "d3 sdef" } else { "d3" }, &entries);
         let scopes = dev.creation_scopes();
         let mut pipelines = Vec::new();
         for (name, _) in shaders::KERNELS {
-            let src = shaders::source(name, dev.precision).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+            let src = shaders::source_for(name, dev.precision, sdef).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
             validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/{name}.wgsl: {e}")))?;
             let module = dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
             pipelines.push(dev.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -150,6 +152,9 @@ struct State {
     contacts: wgpu::Buffer,
     logicals: wgpu::Buffer,
     adjacency: wgpu::Buffer,
+    /// The simply-deformable blocks' strain state (`layout::SdefBlock`, one per block), in a
+    /// scene with such blocks; the kernels are then `GpuBackend::sdef_kernels`.
+    sdef: Option<wgpu::Buffer>,
     bind: wgpu::BindGroup,
     /// The logical contacts' kinds as uploaded, contact by contact (the read-back's keys).
     keys: Vec<Vec<LogicalKind>>,
@@ -163,6 +168,9 @@ struct State {
 pub struct GpuBackend {
     dev: GpuDevice,
     kernels: Kernels,
+    /// The kernels with the strain stage, compiled when a scene first has simply-deformable
+    /// blocks.
+    sdef_kernels: Option<Kernels>,
     state: Option<State>,
     last_good: Model,
     resumable: bool,
@@ -181,8 +189,8 @@ impl GpuBackend {
     /// Opens the adapter `choice` names in `precision` and compiles the kernels.
     pub fn new(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
         let dev = GpuDevice::open(choice, precision)?;
-        let kernels = Kernels::new(&dev)?;
-        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false, pending: None })
+        let kernels = Kernels::new(&dev, false)?;
+        Ok(GpuBackend { dev, kernels, sdef_kernels: None, state: None, last_good: Model::default(), resumable: false, pending: None })
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -234,8 +242,7 @@ impl GpuBackend {
         let vertices = self.buffer("d3 vertices", bytemuck::cast_slice(&vertices), storage_usage);
         let (blocks, contacts, logicals, adjacency, keys, logical_count) = self.topology_buffers::<R>(model);
         let dt = model.timestep();
-        self.install::<R>(model, dt, vertices, [blocks, contacts, logicals, adjacency], keys, logical_count, (&planes, &edges), bases(model));
-        Ok(())
+        self.install::<R>(model, dt, vertices, [blocks, contacts, logicals, adjacency], keys, logical_count, (&planes, &edges), bases(model))
     }
 
     /// The state made of its buffers: the shapes' planes and edges and the params (with the time
@@ -251,14 +258,21 @@ impl GpuBackend {
         logical_count: usize,
         (planes, edges): (&[layout::Plane<R>], &[u32]),
         bases: Bases,
-    ) {
+    ) -> Result<(), GpuError> {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let params = self.buffer("d3 params", bytemuck::bytes_of(&params::<R>(model, dt)), uniform_usage);
         let planes = self.buffer("d3 planes", bytemuck::cast_slice(planes), storage_usage);
         let edges = self.buffer("d3 edges", bytemuck::cast_slice(edges), storage_usage);
-        let bind = self.bind(&[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency]);
-        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, bind, keys, logical_count, bases, dt });
+        // The strain buffer where the scene has simply-deformable blocks (its kernels compiled
+        // the first time one has).
+        let sdef = sdef_pods::<R>(model).map(|pods| self.buffer("d3 sdef", bytemuck::cast_slice(&pods), storage_usage));
+        if sdef.is_some() && self.sdef_kernels.is_none() {
+            self.sdef_kernels = Some(Kernels::new(&self.dev, true)?);
+        }
+        let bind = self.bind(&[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency], sdef.as_ref());
+        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, bind, keys, logical_count, bases, dt });
+        Ok(())
     }
 
     /// The device state a SAVE keeps (`restart::DeviceState`): the blocks, vertices, contacts and
@@ -343,14 +357,28 @@ impl GpuBackend {
         let vertices = self.buffer("d3 vertices", &device.vertices, storage_usage);
         let [external_work, mass_damping, contact_damping, friction, released] = device.bases;
         let bases = Bases { external_work, mass_damping, contact_damping, friction, released };
-        self.install::<R>(model, device.dt, vertices, buffers, device.keys.clone(), logical_count, (&planes, &edges), bases);
-        Ok(())
+        self.install::<R>(model, device.dt, vertices, buffers, device.keys.clone(), logical_count, (&planes, &edges), bases).map_err(|e| e.to_string())
     }
 
-    fn bind(&self, buffers: &[&wgpu::Buffer; 8]) -> wgpu::BindGroup {
+    /// The bind group of the buffers, with the strain buffer `sdef` at binding 8 where the scene
+    /// has one (the strain stage's kernels' group).
+    fn bind(&self, buffers: &[&wgpu::Buffer; 8], sdef: Option<&wgpu::Buffer>) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> =
-            buffers.iter().enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
-        self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("d3"), layout: &self.kernels.group, entries: &entries })
+            buffers.iter().copied().chain(sdef).enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
+        let group = match (sdef, &self.sdef_kernels) {
+            (Some(_), Some(k)) => &k.group,
+            _ => &self.kernels.group,
+        };
+        self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("d3"), layout: group, entries: &entries })
+    }
+
+    /// The kernels of the scene on the device: with the strain stage where it has a strain
+    /// buffer.
+    fn scene_kernels(&self) -> &Kernels {
+        match (self.state.as_ref().and_then(|s| s.sdef.as_ref()), &self.sdef_kernels) {
+            (Some(_), Some(k)) => k,
+            _ => &self.kernels,
+        }
     }
 
     /// The buffers a detection changes: blocks (their travel reset and adjacency lists),
@@ -377,7 +405,7 @@ impl GpuBackend {
             Precision::F64 => self.topology_buffers::<f64>(model),
         };
         let Some(s) = self.state.as_ref() else { return };
-        let bind = self.bind(&[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency]);
+        let bind = self.bind(&[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency], s.sdef.as_ref());
         let s = self.state.as_mut().expect("state");
         (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) = (blocks, contacts, logicals, adjacency, bind, keys, logical_count);
         s.bases = bases(model);
@@ -406,9 +434,10 @@ impl GpuBackend {
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("d3 cycles"), timestamp_writes: None });
             pass.set_bind_group(0, &s.bind, &[]);
+            let kernels = self.scene_kernels();
             for _ in 0..n {
                 for (k, grid) in [blocks, blocks, contacts].into_iter().enumerate() {
-                    pass.set_pipeline(&self.kernels.pipelines[k]);
+                    pass.set_pipeline(&kernels.pipelines[k]);
                     pass.dispatch_workgroups(grid.0, grid.1, 1);
                 }
             }
@@ -430,6 +459,18 @@ impl GpuBackend {
         let Some(s) = self.state.as_ref() else { return Ok((None, Vec::new())) };
         let gpu: Vec<layout::Block<R>> = self.dev.read_pod(&s.blocks, model.blocks.len())?;
         let f = |x: R| x.to_f64();
+        // The strain state first: the vertices are placed with it.
+        if let Some(buffer) = &s.sdef {
+            let strains: Vec<layout::SdefBlock<R>> = self.dev.read_pod(buffer, model.blocks.len())?;
+            for (b, g) in model.blocks.iter_mut().zip(&strains) {
+                if let Some(st) = &mut b.sdef {
+                    st.strain = [g.e0, g.e1, g.e2, g.e3, g.e4, g.e5].map(f);
+                    st.strain_rate = [g.r0, g.r1, g.r2, g.r3, g.r4, g.r5].map(f);
+                    st.stress = [g.s0, g.s1, g.s2, g.s3, g.s4, g.s5].map(f);
+                    st.applied = DMat3::from_cols_array(&[g.a0, g.a3, g.a6, g.a1, g.a4, g.a7, g.a2, g.a5, g.a8].map(f));
+                }
+            }
+        }
         let mut bad = None;
         let mut peaks = Vec::with_capacity(gpu.len());
         let (mut work, mut damping, mut dashpots) = (0.0, 0.0, 0.0);
@@ -708,6 +749,72 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
     (blocks, contacts, logicals, adjacency, keys)
 }
 
+/// The strain state as the kernels take it (`layout::SdefBlock`, one per block, `live` 0 for a
+/// rigid block), where the model has simply-deformable blocks; None where it has none (nothing
+/// of the strain is bound then).
+fn sdef_pods<R: Real>(model: &Model) -> Option<Vec<layout::SdefBlock<R>>> {
+    if !model.blocks.iter().any(|b| b.is_sdef()) {
+        return None;
+    }
+    let r = |x: f64| R::from_f64(x);
+    let pods = model
+        .blocks
+        .iter()
+        .map(|b| {
+            let Some(s) = &b.sdef else { return layout::SdefBlock::<R>::default() };
+            let mat = model.material(b.material);
+            let [e0, e1, e2, e3, e4, e5] = s.strain.map(r);
+            let [r0, r1, r2, r3, r4, r5] = s.strain_rate.map(r);
+            let [s0, s1, s2, s3, s4, s5] = s.stress.map(r);
+            // A_ij row by row.
+            let a = s.applied.transpose().to_cols_array().map(r);
+            let [m0, m1, m2, m3, m4, m5] = super::sdef::voigt(super::sdef::second_moments(b.inertia_ref)).map(r);
+            layout::SdefBlock::<R> {
+                e0,
+                e1,
+                e2,
+                e3,
+                e4,
+                e5,
+                r0,
+                r1,
+                r2,
+                r3,
+                r4,
+                r5,
+                s0,
+                s1,
+                s2,
+                s3,
+                s4,
+                s5,
+                a0: a[0],
+                a1: a[1],
+                a2: a[2],
+                a3: a[3],
+                a4: a[4],
+                a5: a[5],
+                a6: a[6],
+                a7: a[7],
+                a8: a[8],
+                m0,
+                m1,
+                m2,
+                m3,
+                m4,
+                m5,
+                volume: r(b.volume),
+                lambda: r(super::sdef::lame_lambda(mat.bulk, mat.shear)),
+                shear: r(mat.shear),
+                alpha: r(model.damping.alpha_internal),
+                live: 1,
+                spare: 0,
+            }
+        })
+        .collect();
+    Some(pods)
+}
+
 /// A logical contact's kind and vertices as `layout::Logical` holds them.
 fn logical_words(kind: LogicalKind) -> [u32; 5] {
     match kind {
@@ -764,7 +871,9 @@ pub fn cycles_to_detection(model: &Model) -> Option<u64> {
         .iter()
         .filter(|b| !b.fixed)
         .filter_map(|b| {
-            let s = b.velocity.length() * dt + b.angular_velocity.length() * dt * b.shape.radius;
+            // A simply-deformable block's vertices move by its strain rate too.
+            let strain = b.sdef.map_or(0.0, |s| super::sdef::strain_travel(s.strain_rate.map(|r| r * dt), b.shape.radius));
+            let s = b.velocity.length() * dt + b.angular_velocity.length() * dt * b.shape.radius + strain;
             (s > 0.0 && s.is_finite()).then(|| ((limit - b.travel).max(0.0) / s).floor().min(1e9) as u64 + 1)
         })
         .min()
@@ -776,15 +885,7 @@ impl driver::Start<Model> for GpuBackend {
     }
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        cpu::preflight(model)?;
-        // Simply-deformable 3D blocks' strain (`d3::sdef`) is in the CPU's cycle only so far.
-        if let Some(b) = model.blocks.iter().find(|b| b.is_sdef()) {
-            return Err(CycleError::Setup(format!(
-                "block {} is simply deformable (CHANGE … SDEF): the D3 GPU kernels have no strain stage yet; run this deck with --backend cpu (--backend auto picks the CPU for it)",
-                b.id
-            )));
-        }
-        Ok(())
+        cpu::preflight(model)
     }
 
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {

@@ -9,6 +9,12 @@ use crate::gpu::Precision;
 
 pub const LAYOUT: &str = include_str!("../../../shaders/d3/layout.wgsl");
 pub const COMMON: &str = include_str!("../../../shaders/d3/common.wgsl");
+/// The strain stage of simply-deformable blocks (`d3::sdef`): its struct, binding 8 and
+/// functions, in the kernels of a scene with such blocks.
+pub const SDEF: &str = include_str!("../../../shaders/d3/sdef.wgsl");
+/// The stand-ins for [`SDEF`]'s functions in a rigid scene's kernels (never called; nothing
+/// more bound).
+pub const RIGID: &str = include_str!("../../../shaders/d3/rigid.wgsl");
 
 /// The cycle's kernels in the order they run, each with its Rust twin's name: stage 6
 /// (`cpu::gather`), stages 1–2 (`motion::law_of_motion`), stage 4 (`contact::track_contact`).
@@ -18,8 +24,9 @@ pub const KERNELS: &[(&str, &str)] = &[
     ("track_contact", include_str!("../../../shaders/d3/track_contact.wgsl")),
 ];
 
-/// The prelude: the precision switch and the constants.
-pub fn prelude(precision: Precision) -> String {
+/// The prelude: the precision switch and the constants; `sdef` for a scene with simply-deformable
+/// blocks (the SDEF switch: the kernels then run the strain stage, `shaders/d3/sdef.wgsl`).
+pub fn prelude(precision: Precision, sdef: bool) -> String {
     // COMPENSATED: the f32 kernels keep the centroid as a compensated pair (law_of_motion.wgsl);
     // the f64 ones add as the CPU does, so that they follow it to round-off.
     //
@@ -39,14 +46,21 @@ pub fn prelude(precision: Precision) -> String {
         Precision::F64 => ("f64", false, "1e-9"),
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\n{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst SDEF: bool = {sdef};\n{}",
         workgroup_size(),
         math_constants(precision)
     )
 }
 
-/// The full source of one kernel in one precision.
+/// The full source of one kernel in one precision, for a rigid scene.
 pub fn source(kernel: &str, precision: Precision) -> Option<String> {
+    source_for(kernel, precision, false)
+}
+
+/// The full source of one kernel in one precision; with `sdef`, for a scene with
+/// simply-deformable blocks.
+pub fn source_for(kernel: &str, precision: Precision, sdef: bool) -> Option<String> {
     let body = KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
-    Some(format!("{}\n{MATH}\n{LAYOUT}\n{COMMON}\n{body}", prelude(precision)))
+    let strain = if sdef { SDEF } else { RIGID };
+    Some(format!("{}\n{MATH}\n{LAYOUT}\n{strain}\n{COMMON}\n{body}", prelude(precision, sdef)))
 }
