@@ -21,8 +21,8 @@ fn quick_suite_passes_every_check() {
     let d3 = cases::all().iter().filter(|c| c.name.starts_with(verify::d3::D3_PREFIX)).count();
     let expected: usize = backends.len() * cases::all().len();
     assert!(fluid == 4 && table.contains("fluid_cubic_law"), "{table}");
-    assert_eq!(d3, 6, "{table}");
-    for name in ["d3_tumbling", "d3_slide", "d3_stick", "d3_stack", "d3_topple", "d3_wedge"] {
+    assert_eq!(d3, 8, "{table}");
+    for name in ["d3_tumbling", "d3_slide", "d3_stick", "d3_stack", "d3_topple", "d3_wedge", "d3_sdef_column", "d3_sdef_breathing"] {
         let rows: Vec<_> = suite.rows.iter().filter(|r| r.case == name).collect();
         assert!(rows.len() == backends.len() && rows.iter().all(|r| r.is_check), "{name}: {} rows\n{table}", rows.len());
         // A GPU row (lavapipe f32 and f64, llvmpipe f32 here) carries the CPU's error beside its
@@ -46,6 +46,8 @@ fn quick_suite_passes_every_check() {
     let tumbling = detail("d3_tumbling");
     assert!(tumbling.contains("y (intermediate)") && tumbling.contains("flips, period") && tumbling.matches("keeps its spin").count() == 2, "{tumbling}");
     assert!(detail("d3_topple").matches("Topples").count() == 1 && detail("d3_topple").matches("Slides").count() == 1, "{table}");
+    // The simply-deformable column carries its mean stress; the free cube breathes, unsheared.
+    assert!(detail("d3_sdef_column").contains("σzz") && detail("d3_sdef_breathing").contains("shear strain ≤ 0.0e0"), "{table}");
     assert_eq!(suite.checks().count(), expected, "one check per case and backend\n{table}");
     assert!(table.contains("sdef_uniaxial") && table.contains("griffith_threshold"), "{table}");
     for r in suite.checks() {

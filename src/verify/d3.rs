@@ -95,6 +95,28 @@ pub fn cases() -> Vec<Case> {
                   2% of the slide covers that transient",
             run: wedge,
         },
+        Case {
+            name: "d3_sdef_column",
+            closed_form: "a simply-deformable 1 × 1 × 2 m column (ρ = 2000, K = 1e8, G = 6e7 Pa) on a fixed frictionless \
+                          slab under gravity, damped to rest: its uniform stress is the column's mean, σzz = −ρ g h/2, \
+                          σxx = σyy = 0, no shear; its strain εzz = σzz/E, εxx = εyy = −ν εzz (E = 9KG/(3K + G), \
+                          ν = (3K − 2G)/(2(3K + G))) (largest relative error)",
+            tolerance: 1e-3,
+            why: "mass and internal damping at ξ = 1 (80 Hz) over 0.15 s leave e^(−38) of the settling; the lever arms \
+                  of the applied stress are the strained ones, so σzz = −ρgh/2·(1 + εzz), 1.3e-4 off the small-strain \
+                  closed form (measured 1.4e-4 on every backend)",
+            run: sdef_column,
+        },
+        Case {
+            name: "d3_sdef_breathing",
+            closed_form: "a free simply-deformable 1 m cube (ρ = 2500, K = 2e9 Pa) given a volumetric strain rate breathes at \
+                          ω² = 3K·V/M₁₁ = 36 K/(ρ a²), its shear strains untouched (relative error of the period, \
+                          from the strain's zero crossings over two periods)",
+            tolerance: 5e-2,
+            why: "central differences lengthen a period by (ωΔt)²/24: 8e-4 at FRAC 0.1; the strain's own step limit \
+                  Δt ≤ √(M/k) (ωΔt ≤ 1, not scaled by FRACTION) caps it at 4.2e-2 at any FRACTION",
+            run: sdef_breathing,
+        },
     ]
 }
 
@@ -128,6 +150,14 @@ pub fn gpu_tolerance(case: &str, f32: bool) -> (f64, &'static str) {
              6.6e-10 (lavapipe, llvmpipe)",
         ),
         ("d3_wedge", false) => (1e-3, "the slide's ringing start follows the tracked contacts: measured 8.1e-5"),
+        ("d3_sdef_column", false) => (1e-8, "settled, the strain stage's kernels are the CPU's twins to round-off: measured 8.3e-13"),
+        ("d3_sdef_column", true) => (
+            5e-4,
+            "f32 round-off of the strain (~1e-7 of εzz = 1.3e-4) and one corner force's quantum kn·ulp(1 m) = 60 N of the \
+             column's 40 kN over four corners (upright corners meet exactly: measured 1.7e-7)",
+        ),
+        ("d3_sdef_breathing", false) => (1e-9, "no contacts: the strain's step is the CPU's to round-off (measured 0)"),
+        ("d3_sdef_breathing", true) => (1e-6, "f32 round-off of the strain rate's step, interpolated crossings: measured 2.5e-10"),
         ("d3_wedge", true) => (5e-4, "f32 contacts on planes oblique to the axes: measured 1.1e-4"),
         // Regimes: the same on every backend.
         _ => (0.0, "a regime count: every backend must judge every scene as the CPU does"),
@@ -197,9 +227,13 @@ fn cycles_for(setup: &str, time: f64) -> Result<u64, Failure> {
 /// Runs `setup`, then `cycles` single cycles on the row's backend, calling `observe` after each
 /// (each cycle a run of its own: on the GPU the device state is kept from one to the next, a
 /// read-back after each).
-fn run_observed(ctx: &Ctx, setup: &str, cycles: u64, mut observe: impl FnMut(&Model)) -> Result<(Model, Cost), Failure> {
+fn run_observed(ctx: &Ctx, setup: &str, cycles: u64, observe: impl FnMut(&Model)) -> Result<(Model, Cost), Failure> {
+    run_model_observed(ctx, set_up(setup)?, cycles, observe)
+}
+
+/// [`run_observed`] from a model already set up (and perhaps given a state no command sets).
+fn run_model_observed(ctx: &Ctx, mut model: Model, cycles: u64, mut observe: impl FnMut(&Model)) -> Result<(Model, Cost), Failure> {
     let t = Instant::now();
-    let mut model = set_up(setup)?;
     let mut backend = backend(ctx)?;
     for _ in 0..cycles {
         backend
@@ -379,6 +413,73 @@ fn tumbling(ctx: &Ctx) -> Result<Measured, Failure> {
             let _ = write!(detail, "keeps its spin (least ω/ω₀ {least:.3}); ");
         }
     }
+    Ok(Measured { error, detail, cost, energy_balance: None })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Simply-deformable blocks (`d3::sdef`)
+
+fn sdef_column(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (rho, g, h, k, shear) = (2000.0, 10.0, 2.0, 1e8, 6e7);
+    let setup = format!(
+        "START\nPROP MAT=1 D={rho} KN=1E9 KS=1E9 F=0.0\nPROP MAT=2 D={rho} K={k:e} G={shear:e} KN=1E9 KS=1E9 F=0.0\n\
+         BOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 {h}\nCHANGE 0 1 0 1 0 {h} MAT 2 SDEF\nFIX -1 2 -1 2 -1 -0.1\nGRAV 0 0 -{g}\n\
+         DAMP 1 80 MASS\nDAMP 1 80 INTERNAL\n{}",
+        ctx.frac_line()
+    );
+    let n = cycles_for(&setup, 0.15)?;
+    let (m, cost) = run(ctx, &format!("{setup}CYCLE {n}\n"))?;
+    let s = m.blocks[1].sdef.ok_or_else(|| Failure { message: "the column is not simply deformable".into(), cost })?;
+    let szz = -rho * g * h / 2.0;
+    let young = 9.0 * k * shear / (3.0 * k + shear);
+    let nu = (3.0 * k - 2.0 * shear) / (2.0 * (3.0 * k + shear));
+    let (ezz, exx) = (szz / young, -nu * szz / young);
+    let others = [s.stress[0], s.stress[1], s.stress[3], s.stress[4], s.stress[5]].iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let errors = [
+        (s.stress[2] - szz).abs() / szz.abs(),
+        others / szz.abs(),
+        (s.strain[2] - ezz).abs() / ezz.abs(),
+        (s.strain[0] - exx).abs().max((s.strain[1] - exx).abs()) / exx.abs(),
+    ];
+    let error = errors.iter().copied().fold(0.0, f64::max);
+    let detail = format!(
+        "σzz {:.1} Pa of {szz:.0}, |σ others| ≤ {others:.1e}, εzz {:.4e} of {ezz:.4e}, εxx {:.4e} of {exx:.4e}",
+        s.stress[2], s.strain[2], s.strain[0]
+    );
+    Ok(Measured { error, detail, cost, energy_balance: None })
+}
+
+fn sdef_breathing(ctx: &Ctx) -> Result<Measured, Failure> {
+    let (rho, k, a): (f64, f64, f64) = (2500.0, 2e9, 1.0);
+    let setup = format!("START\nPROP MAT=1 D={rho} K={k:e} G=1.2E9 KN=1E10 KS=1E10\nBOX 0 {a} 0 {a} 0 {a}\nCHANGE -1 2 -1 2 -1 2 SDEF\n{}", ctx.frac_line());
+    let mut model = set_up(&setup)?;
+    if let Some(s) = model.blocks[0].sdef.as_mut() {
+        s.strain_rate = [1e-3, 1e-3, 1e-3, 0.0, 0.0, 0.0];
+    }
+    let omega = (36.0 * k / (rho * a * a)).sqrt();
+    let period = 2.0 * PI / omega;
+    let dt = model.timestep();
+    let n = (2.7 * period / dt).ceil() as u64;
+    let mut crossings: Vec<f64> = Vec::new();
+    let mut last = (0.0, 0.0);
+    let mut sheared: f64 = 0.0;
+    let (m, cost) = run_model_observed(ctx, model, n, |m| {
+        let Some(s) = m.blocks[0].sdef else { return };
+        let (t, e) = (m.time, s.strain[0]);
+        if (last.1 > 0.0 && e <= 0.0) || (last.1 < 0.0 && e >= 0.0) {
+            crossings.push(last.0 + (t - last.0) * last.1 / (last.1 - e));
+        }
+        last = (t, e);
+        sheared = sheared.max(s.strain[3].abs()).max(s.strain[4].abs()).max(s.strain[5].abs());
+    })?;
+    if crossings.len() < 5 {
+        return Ok(Measured { error: 1.0, detail: format!("{} zero crossings of the strain in 2.7 periods", crossings.len()), cost, energy_balance: None });
+    }
+    // Crossings every half period from the first, half a period in (the strain starts at 0).
+    let measured = (crossings[4] - crossings[0]) / 2.0;
+    let still = (m.blocks[0].centroid - DVec3::splat(0.5 * a)).length();
+    let error = ((measured - period).abs() / period).max(sheared / 1e-3).max(still / a);
+    let detail = format!("period {measured:.6e} s vs {period:.6e} s, shear strain ≤ {sheared:.1e}, centroid moved {still:.1e} m");
     Ok(Measured { error, detail, cost, energy_balance: None })
 }
 
