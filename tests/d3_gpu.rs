@@ -420,3 +420,27 @@ fn a_deformable_column_strains_on_the_gpu_as_on_the_cpu() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Griffith's cracking of a simply-deformable column on the GPU: the criterion read back after
+/// each cycle, the cut on the CPU, the state uploaded afresh. The column cracks at the cycle the
+/// CPU's does; the crack is vertical on every target (its direction within the horizontal plane
+/// is round-off's: the two lateral stresses are equal).
+#[test]
+fn a_deformable_column_cracks_on_the_gpu_at_the_cpus_cycle() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.0\nPROP MAT=2 D=2000 K=1E8 G=6E7 KN=1E9 KS=1E9 F=0.0 TF=2000\n\
+                BOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 2 MAT 2 CONS 3\nFIX -1 2 -1 2 -1 -0.1\nCHANGE 0 1 0 1 0 2 SDEF\nGRAV 0 0 -10\n\
+                DAMP 1 80 MASS\nDAMP 1 80 INTERNAL\nCYCLE 400\n";
+    let cpu = run(deck, None);
+    assert_eq!(cpu.blocks.len(), 3, "the CPU's column cracked once");
+    for o in targets() {
+        let gpu = run(deck, Some(&o));
+        assert_eq!(gpu.blocks.len(), 3, "{:?}: one crack", o.precision);
+        for b in &gpu.blocks[1..] {
+            let (lo, hi) = b.bounds();
+            assert!(b.is_sdef() && hi.z - lo.z > 1.99, "{:?}: block {} spans {} m", o.precision, b.id, hi.z - lo.z);
+        }
+        // The halves are cut from the strained column: their volume is its strained one, the CPU's.
+        let volume = |m: &Model| m.blocks[1..].iter().map(|b| b.volume).sum::<f64>();
+        assert!((volume(&gpu) - volume(&cpu)).abs() < 1e-6, "{:?}: the halves' volume {} vs the cpu's {}", o.precision, volume(&gpu), volume(&cpu));
+    }
+}

@@ -247,3 +247,42 @@ fn bad_change_and_damping_input_is_refused_at_its_line() {
     assert_eq!((m.blocks[0].material, m.blocks[0].mass), (2, 3000.0));
     assert!(m.blocks[0].is_sdef());
 }
+
+/// The column of constitutive number 3 in uniaxial compression, σzz = −ρgh/2 = −20 kPa and the
+/// sides free: Griffith's equivalent tension is −(s1 − s3)²/(8(s1 + s3)) = σc/8 = 2.5 kPa. With TF
+/// = 2 kPa it cracks, as settling brings its stress past TF, through its centroid along the
+/// compression (a vertical plane: its normal the major principal stress's direction, horizontal);
+/// the halves are simply deformable, of its material and constitutive number, and the ledger
+/// books what the crack released. With TF = 3 kPa it stands.
+#[test]
+fn griffith_cracks_a_compressed_column_along_its_axis() {
+    let deck = |tf: f64| {
+        format!(
+            "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.0\nPROP MAT=2 D=2000 K=1E8 G=6E7 KN=1E9 KS=1E9 F=0.0 TF={tf}\n\
+             BOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 2 MAT 2 CONS 3\nFIX -1 2 -1 2 -1 -0.1\nCHANGE 0 1 0 1 0 2 SDEF\nGRAV 0 0 -10\n\
+             DAMP 1 80 MASS\nDAMP 1 80 INTERNAL\nCYCLE 600\n"
+        )
+    };
+    let (m, log) = run(&deck(2000.0));
+    let line = log.lines().find(|l| l.contains("CRACKED")).unwrap_or_else(|| panic!("no crack:\n{log}"));
+    assert!(line.starts_with("BLOCK 2 CRACKED AT CYCLE") && line.contains("GRIFFITH") && line.contains("NEW BLOCK 3"), "{line}");
+    assert!(m.blocks.len() >= 3);
+    for b in &m.blocks[1..] {
+        assert!(b.is_sdef() && b.material == 2 && b.constitutive == 3, "block {}", b.id);
+        // Each piece spans the column's height: the crack is vertical.
+        let (lo, hi) = b.bounds();
+        assert!(hi.z - lo.z > 1.99, "block {} spans {} m", b.id, hi.z - lo.z);
+    }
+    let e = m.energies();
+    assert!(e.released != 0.0);
+    assert!(e.ledger().abs() < 0.02 * e.scale(), "ledger {} of {}", e.ledger(), e.scale());
+    // Below the criterion nothing cracks.
+    let (m, log) = run(&deck(3000.0));
+    assert!(!log.contains("CRACKED") && m.blocks.len() == 2, "{log}");
+    // A rigid block cannot crack by Griffith: an input error at CYCLE, suggesting CHANGE SDEF.
+    let rigid = deck(2000.0).replace("CHANGE 0 1 0 1 0 2 SDEF\n", "");
+    let commands = parse_deck(&rigid, "t.dat").unwrap();
+    let mut exec = Executor::new(Box::new(std::io::sink()), "t.dat");
+    let e = exec.run(&commands).expect_err("refused").to_string();
+    assert!(e.contains("t.dat:10") && e.contains("block 2 is rigid") && e.contains("SDEF"), "{e}");
+}

@@ -57,7 +57,7 @@ impl driver::RunModel for Model {
     }
 
     fn has_crack_candidates(&self) -> bool {
-        false
+        self.blocks.iter().any(|b| b.is_sdef() && sdef::griffith_applies(b.constitutive, &self.material(b.material)))
     }
 }
 
@@ -363,5 +363,44 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
         report.contacts_dropped += dropped;
     }
     contact_stage(model, dt);
-    overlap_check(model)
+    overlap_check(model)?;
+    griffith_cracks(model, report);
+    Ok(())
+}
+
+/// Griffith's cracking (stage 7's, after the cycle; `split::crack`): each simply-deformable block
+/// of constitutive 3–5 whose principal stresses meet its material's tensile strength TF
+/// (`sdef::griffith_stress`) splits through its centroid across its major principal stress.
+/// Each crack goes into `report` (`from`: the plane's point, the centroid; `to`: its unit normal).
+pub fn griffith_cracks(model: &mut Model, report: &mut CycleReport) {
+    let due: Vec<(usize, DVec3, f64)> = model
+        .blocks
+        .iter()
+        .enumerate()
+        .filter_map(|(k, b)| {
+            let s = b.sdef.as_ref()?;
+            let mat = model.material(b.material);
+            if !sdef::griffith_applies(b.constitutive, &mat) {
+                return None;
+            }
+            let (p, n) = sdef::principal_stresses(s.stress);
+            let value = sdef::griffith_stress(p[0], p[2]);
+            (value >= mat.tf).then_some((k, n, value))
+        })
+        .collect();
+    // Each crack keeps the indices of the blocks before it (the new piece goes at the end).
+    for (k, n, value) in due {
+        let centroid = model.blocks[k].centroid;
+        if let Some((block, new_block)) = super::split::crack(model, k, n) {
+            report.cracks.push(crate::driver::CrackEvent {
+                cycle: model.cycle,
+                block,
+                new_block,
+                criterion: "GRIFFITH",
+                value,
+                from: Position::xyz(centroid.to_array()),
+                to: Position::xyz(n.to_array()),
+            });
+        }
+    }
 }

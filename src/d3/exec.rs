@@ -407,11 +407,37 @@ impl<'a> Executor<'a> {
                 "CYCLE: the time step cannot be found: the free blocks need a DENSITY and the contacts the stiffnesses KN and KS (PROPERTY MATERIAL n ...)",
             ));
         };
+        // Griffith's law reads a block's stress: a rigid block has none (as in 2D).
+        if let Some(b) = self.model.blocks.iter().find(|b| !b.is_sdef() && super::sdef::griffith_applies(b.constitutive, &self.model.material(b.material))) {
+            let (id, cons, mat) = (b.id, b.constitutive, b.material);
+            let tf = self.model.material(mat).tf;
+            return Err(self.error(
+                cmd,
+                format!(
+                    "CYCLE: block {id} is rigid, but its constitutive number {cons} cracks it by Griffith's criterion (material {mat} has TF = {tf}), \
+                     which needs the block's stress: make it simply deformable (CHANGE x1 x2 y1 y2 z1 z2 SDEF) or give it constitutive number 1 or 2"
+                ),
+            ));
+        }
         self.echo(&format!("TIMESTEP = {}", fmt_e(self.model.timestep())))?;
         let mut ticker = Ticker::new(&self.options, n);
         self.log.flush()?;
-        let (_, result) = crate::driver::run::run_in_pieces(self, n, &mut ticker);
+        let (report, result) = crate::driver::run::run_in_pieces(self, n, &mut ticker);
         let stopped = ticker.finish();
+        // The cracks, as 2D's log lines, the crack a plane through the block's centroid.
+        for c in &report.cracks {
+            let p = |x: &[f64]| x.iter().map(|&v| fmt_e(v)).collect::<Vec<_>>().join(", ");
+            self.echo(&format!(
+                "BLOCK {} CRACKED AT CYCLE {} ({} {}): NEW BLOCK {} ACROSS THE PLANE THROUGH ({}) WITH NORMAL ({})",
+                c.block,
+                c.cycle,
+                c.criterion,
+                fmt_e(c.value),
+                c.new_block,
+                p(c.from.coords()),
+                p(c.to.coords())
+            ))?;
+        }
         match result {
             Ok(()) => {}
             Err(CycleError::Setup(why)) => return Err(self.error(cmd, format!("CYCLE: cannot cycle: {why}"))),

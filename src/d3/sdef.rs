@@ -232,12 +232,61 @@ pub fn rate_at_whole_step(s: &Sdef, volume: f64, j: [f64; 6], dt: f64) -> [f64; 
     std::array::from_fn(|k| s.strain_rate[k] + q[k] / j[k] * 0.5 * dt)
 }
 
+/// Griffith's criterion (SL-85-1 Appendix A ¶17, as the 2D engine takes it, tension positive)
+/// on the major and minor principal stresses s1 ≥ s3: the uniaxial tensile stress they are
+/// equivalent to,
+///
+///   s1                              if 3 s1 + s3 ≥ 0,
+///   −(s1 − s3)² / (8 (s1 + s3))     otherwise;
+///
+/// the block cracks where it reaches the tensile strength TF. (The intermediate principal
+/// stress plays no part, as in Griffith's own theory of the most dangerous crack.)
+pub fn griffith_stress(s1: f64, s3: f64) -> f64 {
+    if 3.0 * s1 + s3 >= 0.0 {
+        s1
+    } else {
+        -(s1 - s3).powi(2) / (8.0 * (s1 + s3))
+    }
+}
+
+/// The principal stresses of `stress` (Voigt), greatest first, and the unit direction of the
+/// greatest: the crack's normal. The direction is the null vector of σ − s1·1, the largest cross
+/// product of two of its rows (any of them where s1 is repeated).
+pub fn principal_stresses(stress: [f64; 6]) -> ([f64; 3], DVec3) {
+    let t = tensor(stress);
+    let [s3, s2, s1] = super::model::principal_moments(t);
+    let m = t - DMat3::from_diagonal(DVec3::splat(s1));
+    let rows = [m.row(0), m.row(1), m.row(2)];
+    let candidates = [rows[0].cross(rows[1]), rows[0].cross(rows[2]), rows[1].cross(rows[2])];
+    let best = candidates.into_iter().max_by(|a, b| a.length_squared().total_cmp(&b.length_squared())).unwrap_or(DVec3::X);
+    let direction = if best.length_squared() > 0.0 { best.normalize() } else { DVec3::X };
+    ([s1, s2, s3], direction)
+}
+
+/// Whether a block of constitutive number `constitutive` and material `mat` is checked for
+/// Griffith's cracking: constitutive 3, 4 or 5 with a tensile strength TF (as in 2D).
+pub fn griffith_applies(constitutive: u32, mat: &Material) -> bool {
+    (3..=5).contains(&constitutive) && mat.tf > 0.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn rock() -> Material {
         Material { density: 2500.0, bulk: 2e9, shear: 1.2e9, ..Material::default() }
+    }
+
+    #[test]
+    fn the_major_principal_stress_and_its_direction() {
+        // A uniaxial tension of 5 along a direction d.
+        let d = DVec3::new(1.0, 2.0, 2.0) / 3.0;
+        let t = DMat3::from_cols(d * d.x, d * d.y, d * d.z) * 5.0;
+        let (s, n) = principal_stresses(voigt(t));
+        assert!((s[0] - 5.0).abs() < 1e-12 && s[1].abs() < 1e-12 && s[2].abs() < 1e-12, "{s:?}");
+        assert!((n.dot(d).abs() - 1.0).abs() < 1e-12, "{n} against {d}");
+        assert_eq!(griffith_stress(2.0, -1.0), 2.0);
+        assert!((griffith_stress(0.0, -8.0) - 1.0).abs() < 1e-12, "an eighth in uniaxial compression");
     }
 
     #[test]

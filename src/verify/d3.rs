@@ -442,10 +442,8 @@ fn sdef_column(ctx: &Ctx) -> Result<Measured, Failure> {
         (s.strain[0] - exx).abs().max((s.strain[1] - exx).abs()) / exx.abs(),
     ];
     let error = errors.iter().copied().fold(0.0, f64::max);
-    let detail = format!(
-        "σzz {:.1} Pa of {szz:.0}, |σ others| ≤ {others:.1e}, εzz {:.4e} of {ezz:.4e}, εxx {:.4e} of {exx:.4e}",
-        s.stress[2], s.strain[2], s.strain[0]
-    );
+    let detail =
+        format!("σzz {:.1} Pa of {szz:.0}, |σ others| ≤ {others:.1e}, εzz {:.4e} of {ezz:.4e}, εxx {:.4e} of {exx:.4e}", s.stress[2], s.strain[2], s.strain[0]);
     Ok(Measured { error, detail, cost, energy_balance: None })
 }
 

@@ -919,8 +919,11 @@ impl driver::Start<Model> for GpuBackend {
 }
 
 impl driver::Stages<Model> for GpuBackend {
-    fn advance(&mut self, model: &mut Model, max: u64, _cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
-        let n = cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1));
+    fn advance(&mut self, model: &mut Model, max: u64, cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
+        // Where a block may crack (Griffith's law on a simply-deformable block), cycle by cycle:
+        // the criterion is checked on the stresses read back after each (`cpu::griffith_cracks`,
+        // at the cycle the CPU checks it).
+        let n = if cracking { 1 } else { cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1)) };
         // The time step as the CPU takes it (`Model::timestep`, from the contacts there are), at
         // the batch's start: the kernels hold it over the batch (the CPU renews it each cycle,
         // as the logical contacts' lever arms move).
@@ -948,6 +951,16 @@ impl driver::Stages<Model> for GpuBackend {
         let limit = DETECTION_SHARE * tol;
         if model.neighbours_stale || model.blocks.iter().any(|b| b.travel >= limit) {
             self.detect(model, report)?;
+        }
+        if cracking {
+            // A crack changes the shapes: the cut is the CPU's (topology between cycles), then
+            // the whole state is uploaded afresh.
+            self.read_contacts(model).map_err(device_error)?;
+            let before = report.cracks.len();
+            cpu::griffith_cracks(model, report);
+            if report.cracks.len() > before {
+                self.upload(model).map_err(device_error)?;
+            }
         }
         Ok(n)
     }
