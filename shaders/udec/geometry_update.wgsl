@@ -93,53 +93,146 @@ fn gridpoint_travel(g: u32) -> real {
     return sqrt(d.x * d.x + d.y * d.y);
 }
 
-// Stage 2 of a zoned fully-deformable block b (twin of `model::corners::place_corners_fdef`):
-// corner k on boundary grid point k, each rounding circle fitted again tangent to its corner's
-// two edges (centre on the bisector at radius / cos(½ turn), as `fit_circles_to_edges` does),
-// the body frame the world's (its rotation stays 0); and the update tolerance: the largest
-// travel of a boundary grid point since the last contact update (report ¶26).
-fn place_corners_fdef(b: u32, blk: Block, fb: FdefBlock) {
+// Corner k of zoned block `blk` on its boundary grid point k, given the boundary's n points
+// (twin of one step of `model::corners::place_corners_fdef`): the rounding circle fitted again
+// tangent to the corner's two edges (centre on the bisector at radius / cos(½ turn), as
+// `fit_circles_to_edges` does), the body frame the world's (its rotation stays 0). Its
+// neighbours are found by index (k − 1 and k + 1 round the boundary), so each corner is placed
+// on its own, by the same arithmetic whichever invocation places it.
+fn place_fdef_corner(blk: Block, fb: FdefBlock, k: u32) {
     let n = fb.boundary;
-    var prev = gridpoint_offset(blk, fb.gp_start + n - 1u);
-    var p = gridpoint_offset(blk, fb.gp_start);
-    let first = p;
-    var moved = real(0.0);
-    for (var k = 0u; k < n; k += 1u) {
-        var next = first;
-        if (k + 1u < n) {
-            next = gridpoint_offset(blk, fb.gp_start + k + 1u);
+    let prev = gridpoint_offset(blk, fb.gp_start + (k + n - 1u) % n);
+    let p = gridpoint_offset(blk, fb.gp_start + k);
+    let next = gridpoint_offset(blk, fb.gp_start + (k + 1u) % n);
+    let i = blk.corner_start + k;
+    let e1 = p - prev;
+    let e2 = next - p;
+    let l1 = sqrt(e1.x * e1.x + e1.y * e1.y);
+    let l2 = sqrt(e2.x * e2.x + e2.y * e2.y);
+    let radius = corners[i].radius;
+    var circle = p;
+    if (radius > 0.0 && l1 > 0.0 && l2 > 0.0) {
+        let half = sqrt(max(0.5 * (1.0 + (e1.x * e2.x + e1.y * e2.y) / (l1 * l2)), 0.0));
+        let bis = vec2<real>(e2.x / l2 - e1.x / l1, e2.y / l2 - e1.y / l1);
+        let lb = sqrt(bis.x * bis.x + bis.y * bis.y);
+        if (lb > 0.0 && half > 0.0) {
+            let offset = radius / half;
+            circle = vec2<real>(p.x + bis.x / lb * offset, p.y + bis.y / lb * offset);
         }
-        let i = blk.corner_start + k;
-        let e1 = p - prev;
-        let e2 = next - p;
-        let l1 = sqrt(e1.x * e1.x + e1.y * e1.y);
-        let l2 = sqrt(e2.x * e2.x + e2.y * e2.y);
-        let radius = corners[i].radius;
-        var circle = p;
-        if (radius > 0.0 && l1 > 0.0 && l2 > 0.0) {
-            let half = sqrt(max(0.5 * (1.0 + (e1.x * e2.x + e1.y * e2.y) / (l1 * l2)), 0.0));
-            let bis = vec2<real>(e2.x / l2 - e1.x / l1, e2.y / l2 - e1.y / l1);
-            let lb = sqrt(bis.x * bis.x + bis.y * bis.y);
-            if (lb > 0.0 && half > 0.0) {
-                let offset = radius / half;
-                circle = vec2<real>(p.x + bis.x / lb * offset, p.y + bis.y / lb * offset);
-            }
-        }
-        corners[i].lx = p.x;
-        corners[i].ly = p.y;
-        corners[i].px = p.x;
-        corners[i].py = p.y;
-        corners[i].qx = circle.x;
-        corners[i].qy = circle.y;
-        corners[i].ox = circle.x;
-        corners[i].oy = circle.y;
-        moved = max(moved, gridpoint_travel(fb.gp_start + k));
-        prev = p;
-        p = next;
     }
+    corners[i].lx = p.x;
+    corners[i].ly = p.y;
+    corners[i].px = p.x;
+    corners[i].py = p.y;
+    corners[i].qx = circle.x;
+    corners[i].qy = circle.y;
+    corners[i].ox = circle.x;
+    corners[i].oy = circle.y;
+}
+
+// The update tolerance of zoned block b once its boundary has moved `moved` (the largest travel
+// of a boundary grid point since the last contact update, report ¶26): kept on the block, and
+// an update due when it passes ETOL and the block's margin.
+fn fdef_block_moved(b: u32, blk: Block, moved: real) {
     let m = max(blk.moved, moved);
     blocks[b].moved = m;
     if (m > params.etol + blk.update_margin) {
         atomicOr(&flags.update_due, 1u);
+    }
+}
+
+// Stage 2 of a zoned fully-deformable block b (twin of `model::corners::place_corners_fdef`)
+// in one invocation: its corners in boundary order (`place_fdef_corner`) and the update
+// tolerance. The fluid scene's `law_of_motion_fdef_fluid` places a zoned block's corners so; a
+// dry scene has `place_fdef_corners`, a workgroup per block.
+fn place_corners_fdef(b: u32, blk: Block, fb: FdefBlock) {
+    var moved = real(0.0);
+    for (var k = 0u; k < fb.boundary; k += 1u) {
+        place_fdef_corner(blk, fb, k);
+        moved = max(moved, gridpoint_travel(fb.gp_start + k));
+    }
+    fdef_block_moved(b, blk, moved);
+}
+
+var<workgroup> fdef_moved: array<real, WORKGROUP_SIZE>;
+
+// How far (in edges round the boundary) a contact's feature on a zoned block may move from where
+// it was when the grid points' contact lists were built (`gpu::fdef::LIST_REACH`): an entry is
+// on the lists of the grid points of the edges within this reach of that feature, and a contact
+// stage moves a feature by one edge at most.
+const LIST_REACH: u32 = 2u;
+
+// Whether a contact of zoned block b (boundary of n grid points, its first fb.gp_start) on its
+// side 2 has a feature that the next contact stage could move out of its lists' reach (`LIST_REACH`
+// edges from its feature when they were built, stored after the lists: `GridPointContacts`),
+// over the entries ≡ li of the block's list. Then its grid points gather from the block's whole
+// list (`gather_gridpoints`) until the lists are built again: the sums stay those of the walk.
+fn fdef_lists_outrun(b: u32, fb: FdefBlock, li: u32) -> bool {
+    let n = fb.boundary;
+    if (n <= 2u * LIST_REACH + 2u) {
+        // The lists hold the block's every entry on its side 2.
+        return false;
+    }
+    let n_gp = arrayLength(&gridpoints);
+    let homes = gridpoint_zones[gridpoint_zones[n_gp] + n_gp];
+    var out = false;
+    for (var e = adj_offsets[b] + li; e < adj_offsets[b + 1u]; e += WORKGROUP_SIZE) {
+        let entry = adj_entries[e];
+        if (entry_side(entry) == 1u) {
+            let k = entry_contact(entry);
+            let j = min(contacts[k].feature, 2u * n - 1u) / 2u;
+            let j0 = gridpoint_zones[homes + k];
+            let d = select(j0 - j, j - j0, j >= j0);
+            out = out || min(d, n - d) + 1u > LIST_REACH;
+        }
+    }
+    return out;
+}
+
+// Stage 2 of the zoned blocks in a dry scene (twin of `gpu::fdef::place_fdef_corners`; the
+// physics of `model::corners::place_corners_fdef`), one workgroup per block (rigid blocks' and
+// fixed zoned blocks' workgroups do nothing): each invocation places the corners k ≡ its index
+// (mod the workgroup's size) and keeps the largest travel of their grid points, and a max
+// reduction over the workgroup gives the block's. A block of a thousand boundary grid points
+// was one invocation's serial walk; the corners do not depend on one another, and the largest
+// travel is the same whatever order it is taken in, so the result is that walk's bit for bit.
+// The workgroup also checks the block's grid-point contact lists against its contacts'
+// features (`fdef_lists_outrun`). After `step_gridpoints` (the grid points' new positions),
+// before the contact stage.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn place_fdef_corners(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = workgroup_index(wg);
+    var moving = false;
+    var blk: Block;
+    var fb: FdefBlock;
+    if (b < params.n_blocks) {
+        blk = blocks[b];
+        fb = fdef_blocks[b];
+        moving = blk.kind == BLOCK_FDEF && blk.fixed == 0u;
+    }
+    var moved = real(0.0);
+    if (moving) {
+        for (var k = li; k < fb.boundary; k += WORKGROUP_SIZE) {
+            place_fdef_corner(blk, fb, k);
+            moved = max(moved, gridpoint_travel(fb.gp_start + k));
+        }
+    }
+    // A fixed zoned block's grid points gather too: its lists are checked as well.
+    if (b < params.n_blocks && blk.kind == BLOCK_FDEF && gridpoints[fb.gp_start].listed != 0u) {
+        if (fdef_lists_outrun(b, fb, li)) {
+            gridpoints[fb.gp_start].listed = 0u;
+        }
+    }
+    // Every invocation reaches every barrier (the loop's bounds are constants).
+    fdef_moved[li] = moved;
+    workgroupBarrier();
+    for (var s = WORKGROUP_SIZE / 2u; s > 0u; s = s >> 1u) {
+        if (li < s) {
+            fdef_moved[li] = max(fdef_moved[li], fdef_moved[li + s]);
+        }
+        workgroupBarrier();
+    }
+    if (moving && li == 0u) {
+        fdef_block_moved(b, blk, fdef_moved[0]);
     }
 }

@@ -304,9 +304,8 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
 
 // Stages 1 and 2 in a scene with zoned fully-deformable blocks (twin of the CPU's
 // `block_piece_fdef`): a rigid block as `law_of_motion` moves it; a zoned block's grid points
-// have moved already (`step_gridpoints`, zones.wgsl), so its invocation places its corners on
-// them and measures its boundary's travel for the update tolerance (`place_corners_fdef`). A
-// fixed zoned block's corners stay as uploaded.
+// have moved already (`step_gridpoints`, zones.wgsl), and its corners are placed on them by a
+// workgroup of its own (`place_fdef_corners`, geometry_update.wgsl).
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);
@@ -316,12 +315,7 @@ fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
     let blk = blocks[b];
     if (blk.kind != BLOCK_FDEF) {
         rigid_block(b, blk);
-        return;
     }
-    if (blk.fixed != 0u) {
-        return;
-    }
-    place_corners_fdef(b, blk, fdef_blocks[b]);
 }
 
 // Stages 6, 1 and 2 in a scene with fluid (twin of the CPU's `block_piece` with

@@ -93,7 +93,7 @@ macro_rules! on_engine {
 
 mod batch;
 mod checkpoint;
-mod fdef;
+pub mod fdef;
 mod flow;
 pub mod kernels;
 pub mod layout;
