@@ -7,7 +7,7 @@
 mod common;
 
 use blockdem::udec::contact::gather::AdjacencyEntry;
-use blockdem::udec::gpu::fdef::{feature_edge, gridpoint_starts, GridPointContacts, LIST_REACH, WALK_BLOCK_LISTS};
+use blockdem::udec::gpu::fdef::{feature_edge, gridpoint_starts, GridPointContacts, LIST_REACH, WALK_BLOCK_LISTS, WIDE_BOUNDARY};
 use blockdem::udec::gpu::layout::NO_INDEX;
 use blockdem::udec::model::{BlockKind, Model};
 use blockdem::udec::topology::adjacency::Adjacency;
@@ -100,6 +100,10 @@ fn lists_hold_every_contact_that_acts(m: &Model) {
         }
     }
     assert_eq!(words[n_gp] as usize + m.contacts.len(), words.len());
+    let wide: Vec<u32> = (0..m.blocks.len()).filter(|&b| starts[b] != NO_INDEX && m.fdef[b].boundary > WIDE_BOUNDARY).map(|b| b as u32).collect();
+    assert_eq!(words[n_gp + 1] as usize, wide.len());
+    assert_eq!(&words[n_gp + 2..n_gp + 2 + wide.len()], &wide[..], "the wide blocks");
+    assert_eq!(words[0] as usize, n_gp + 2 + wide.len(), "the entries after the wide blocks");
     for (k, c) in m.contacts.iter().enumerate() {
         let b2 = c.block2 as usize;
         let want = if starts[b2] == NO_INDEX { 0 } else { feature_edge(c.feature, m.fdef[b2].boundary) };
@@ -107,6 +111,14 @@ fn lists_hold_every_contact_that_acts(m: &Model) {
     }
     assert!(checked > 0, "no contact on a zoned block");
     assert!(listed < walked, "the lists ({listed} entries) are no shorter than the walks ({walked})");
+}
+
+/// The lists' reach and the wide blocks' bound are the kernels' (geometry_update.wgsl).
+#[test]
+fn the_kernels_take_the_same_reach_and_bound() {
+    let src = blockdem::udec::gpu::shaders::source("law_of_motion", blockdem::udec::gpu::Precision::F32).unwrap();
+    assert!(src.contains(&format!("const LIST_REACH: u32 = {LIST_REACH}u;")));
+    assert!(src.contains(&format!("const WIDE_BOUNDARY: u32 = {WIDE_BOUNDARY}u;")));
 }
 
 #[test]

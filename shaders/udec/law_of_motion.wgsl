@@ -304,8 +304,10 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
 
 // Stages 1 and 2 in a scene with zoned fully-deformable blocks (twin of the CPU's
 // `block_piece_fdef`): a rigid block as `law_of_motion` moves it; a zoned block's grid points
-// have moved already (`step_gridpoints`, zones.wgsl), and its corners are placed on them by a
-// workgroup of its own (`place_fdef_corners`, geometry_update.wgsl).
+// have moved already (`step_gridpoints`, zones.wgsl), so its invocation places its corners on
+// them and measures its boundary's travel for the update tolerance (`place_narrow_fdef_block`),
+// unless the block has so many that a workgroup of its own does (`place_fdef_corners`, both in
+// geometry_update.wgsl). A fixed zoned block's corners stay as uploaded.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);
@@ -315,6 +317,11 @@ fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
     let blk = blocks[b];
     if (blk.kind != BLOCK_FDEF) {
         rigid_block(b, blk);
+        return;
+    }
+    let fb = fdef_blocks[b];
+    if (fb.boundary <= WIDE_BOUNDARY) {
+        place_narrow_fdef_block(b, blk, fb);
     }
 }
 

@@ -111,8 +111,9 @@ impl<R: Real> Engine<R> {
 
     /// `stages` in a scene with zoned fully-deformable blocks (`gpu::fdef`): the gather of the
     /// rigid blocks (before a read-back) and of the grid points, then in a cycle the grid
-    /// points' step, the zones' stresses, the rigid blocks' motion, the zoned blocks' corners
-    /// placed on their grid points (a workgroup per block) and the contact stage, each a pass of its own: no invocation reads what
+    /// points' step, the zones' stresses, the blocks' motion (a zoned block's corners placed on
+    /// its grid points), the corners of the zoned blocks of many (a workgroup per block) and the
+    /// contact stage, each a pass of its own: no invocation reads what
     /// another of its pass writes.
     fn stages_fdef<'a>(&'a self, k: &'a kernels::FdefKernels, g: &'a kernels::FdefBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
         let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
@@ -238,7 +239,7 @@ impl<R: Real> Engine<R> {
             Grid::GridPoints => items(self.fdef_counts.0),
             Grid::Zones => items(self.fdef_counts.1),
             Grid::Domains => items(self.n_domains),
-            Grid::BlockGroups => shaders::dispatch_grid(self.counts.0 as u32),
+            Grid::BlockGroups => shaders::dispatch_grid(self.fdef_wide as u32),
         }
     }
 

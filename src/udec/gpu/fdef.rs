@@ -6,7 +6,10 @@
 //!
 //! What differs in such a scene (`Engine::stages`): each cycle runs `gather_gridpoints`,
 //! `step_gridpoints` and `zones` (zones.wgsl) before `law_of_motion_fdef` (rigid blocks
-//! as before; a zoned block's corners on its grid points) and `contact_forces_fdef`. A zoned
+//! as before, and a zoned block's corners on its grid points), `place_fdef_corners` (those of a
+//! zoned block of many boundary grid points, a workgroup per block) and `contact_forces_fdef`. Each boundary grid point gathers its contacts from a list of
+//! its own (`GridPointContacts`), not its block's whole list: no invocation walks a whole block,
+//! which on a GPU runs one thread for as long as the block is large (issue 29). A zoned
 //! block's record keeps its velocity and force at zero on the device and its centroid where the
 //! upload put it (the reference its corners are placed from); a read-back gives the model its
 //! grid points and zones and places its corners, centroid and velocity from them as the CPU
@@ -173,6 +176,14 @@ fn zone_csr(n_gp: usize, zones: impl Iterator<Item = [u32; 3]> + Clone) -> Vec<u
 /// whole list from the next gather on.
 pub const LIST_REACH: u32 = 2;
 
+/// Zoned blocks of more boundary grid points than this have their corners placed by a
+/// workgroup each (`place_fdef_corners`: `GridPointContacts` lists them), the others by their
+/// invocation of `law_of_motion_fdef` as before (`WIDE_BOUNDARY` in geometry_update.wgsl, which a
+/// test checks against this): on a GPU one invocation's walk round a large block is the cycle's
+/// longest thread, while a workgroup for a brick's few corners is mostly idle lanes, and on a
+/// software adapter a workgroup with a barrier costs far more than a short walk.
+pub const WIDE_BOUNDARY: u32 = 32;
+
 /// The edge (or corner arc) index a contact's feature on a block of `n` corners lies at, as the
 /// contact stage takes it (`zoned_of` in contact_forces.wgsl).
 pub fn feature_edge(feature: u32, n: u32) -> u32 {
@@ -182,8 +193,9 @@ pub fn feature_edge(feature: u32, n: u32) -> u32 {
 /// Each boundary grid point's contact list (`gather_gridpoints`), built by the CPU whenever the
 /// contact list changes, stored after the zone CSR in the `gridpoint_zones` slot from word
 /// `base`: offsets for grid points 0 ..= n (absolute indices into the same array), then the
-/// entries, then per contact the edge its feature on its block 2 was at (`feature_edge`, 0
-/// where block 2 is not zoned).
+/// zoned blocks of more than `WIDE_BOUNDARY` boundary grid points (their count, then each: the
+/// workgroups of `place_fdef_corners`), then the entries, then per contact the edge its feature
+/// on its block 2 was at (`feature_edge`, 0 where block 2 is not zoned).
 ///
 /// A grid point's list is the subsequence of its block's adjacency list (`Adjacency`, the order
 /// the CPU's `gather_fdef` adds the contacts in) that may act on it: on side 1 (block 1, the
@@ -194,6 +206,8 @@ pub fn feature_edge(feature: u32, n: u32) -> u32 {
 /// bit: each grid point's list drops only entries that add nothing to it.
 pub struct GridPointContacts {
     pub words: Vec<u32>,
+    /// How many zoned blocks are wide (`place_fdef_corners`' grid).
+    pub wide: usize,
 }
 
 impl GridPointContacts {
@@ -228,13 +242,16 @@ impl GridPointContacts {
                 }
             }
         }
-        let mut words = Vec::with_capacity(n_gp + 1);
-        let mut at = base + (n_gp + 1) as u32;
+        let wide: Vec<u32> = zoned.iter().filter(|&&b| model.fdef[b].boundary > WIDE_BOUNDARY).map(|&b| b as u32).collect();
+        let mut words = Vec::with_capacity(n_gp + 2 + wide.len());
+        let mut at = base + (n_gp + 2 + wide.len()) as u32;
         for c in &count[1..] {
             words.push(at);
             at += c;
         }
         words.push(at);
+        words.push(wide.len() as u32);
+        words.extend(&wide);
         let mut fill: Vec<u32> = words[..n_gp].iter().map(|&w| w - base).collect();
         words.resize((at - base) as usize, 0);
         for &b in &zoned {
@@ -255,7 +272,7 @@ impl GridPointContacts {
                 feature_edge(c.feature, model.fdef[b2].boundary)
             }
         }));
-        GridPointContacts { words }
+        GridPointContacts { words, wide: wide.len() }
     }
 }
 
@@ -294,6 +311,7 @@ impl<R: Real> Engine<R> {
         self.fdef_scene = (0..model.blocks.len()).any(|b| is_zoned(model, b));
         if !self.fdef_scene {
             self.fdef_counts = (0, 0);
+            self.fdef_wide = 0;
             self.fdef_gp_start.clear();
             self.last_gridpoints.clear();
             return Ok(false);
@@ -351,6 +369,7 @@ impl<R: Real> Engine<R> {
         for &start in self.fdef_gp_start.iter().filter(|&&g| g != NO_INDEX) {
             self.last_gridpoints[start as usize].listed = listed;
         }
+        self.fdef_wide = lists.wide;
         let b = self.buffers();
         let q = &self.dev.queue;
         q.write_buffer(&b.contact_shares.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&shares));

@@ -468,8 +468,9 @@ impl FluidKernels {
 
 /// The entry points a scene with zoned fully-deformable blocks runs: zones.wgsl's
 /// `gather_gridpoints`, `step_gridpoints` and `zones` (stages 6, 1 and 3 of the grid
-/// points and zones), and in the files of their rigid twins `law_of_motion_fdef` (rigid blocks),
-/// `place_fdef_corners` (a zoned block's corners on its grid points, a workgroup per block),
+/// points and zones), and in the files of their rigid twins `law_of_motion_fdef` (rigid blocks,
+/// and a zoned block's corners on its grid points), `place_fdef_corners` (those of a zoned block
+/// of many, a workgroup per block),
 /// `contact_forces_fdef` (a zoned boundary's
 /// velocity, the force shares), `gather_fdef` (the rigid blocks' sums before a read-back) and
 /// `energy_sums_fdef` after `energy_sums`. Only they bind the FDEF slots.
@@ -1133,7 +1134,8 @@ pub enum Grid {
     Zones,
     /// Scenes with fluid: one invocation per domain (`domain_pressures`).
     Domains,
-    /// Scenes with zoned blocks: one workgroup per block (`place_fdef_corners`).
+    /// Scenes with zoned blocks: one workgroup per zoned block of many boundary grid points
+    /// (`place_fdef_corners`).
     BlockGroups,
 }
 
