@@ -113,12 +113,13 @@ fn lists_hold_every_contact_that_acts(m: &Model) {
     assert!(listed < walked, "the lists ({listed} entries) are no shorter than the walks ({walked})");
 }
 
-/// The lists' reach and the wide blocks' bound are the kernels' (geometry_update.wgsl).
+/// The lists' reach and the wide blocks' bound are the kernels' (zones.wgsl,
+/// geometry_update.wgsl).
 #[test]
 fn the_kernels_take_the_same_reach_and_bound() {
-    let src = blockdem::udec::gpu::shaders::source("law_of_motion", blockdem::udec::gpu::Precision::F32).unwrap();
-    assert!(src.contains(&format!("const LIST_REACH: u32 = {LIST_REACH}u;")));
-    assert!(src.contains(&format!("const WIDE_BOUNDARY: u32 = {WIDE_BOUNDARY}u;")));
+    let src = |file| blockdem::udec::gpu::shaders::source(file, blockdem::udec::gpu::Precision::F32).unwrap();
+    assert!(src("zones").contains(&format!("const LIST_REACH: u32 = {LIST_REACH}u;")));
+    assert!(src("law_of_motion").contains(&format!("const WIDE_BOUNDARY: u32 = {WIDE_BOUNDARY}u;")));
 }
 
 #[test]
@@ -133,10 +134,7 @@ fn zoned_stack_lists_hold_every_contact_that_acts() {
     let m = cpu_run(&zoned_stack(200));
     let zoned = (0..m.blocks.len()).filter(|&b| m.fdef_of(b).is_some_and(|f| !f.zones.is_empty())).count();
     assert_eq!(zoned, 3);
-    assert!(
-        m.contacts.iter().any(|c| m.fdef_of(c.block1 as usize).is_some() && m.fdef_of(c.block2 as usize).is_some()),
-        "contacts between zoned blocks"
-    );
+    assert!(m.contacts.iter().any(|c| m.fdef_of(c.block1 as usize).is_some() && m.fdef_of(c.block2 as usize).is_some()), "contacts between zoned blocks");
     lists_hold_every_contact_that_acts(&m);
 }
 

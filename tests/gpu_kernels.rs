@@ -1453,7 +1453,6 @@ fn gather_gridpoints_matches_rust<R: Real>(dev: &GpuDevice) {
             (8, vec![0; 4 * std::mem::size_of::<R>()], false),
             (12, bytemuck::cast_slice(&p.gridpoints).to_vec(), true),
             (13, bytemuck::cast_slice(&p.zones).to_vec(), false),
-            (14, bytemuck::bytes_of(&p.block).to_vec(), false),
             (16, words(&p.csr), false),
             (17, vec![0; 32], false),
         ],

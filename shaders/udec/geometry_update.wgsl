@@ -144,7 +144,7 @@ fn fdef_block_moved(b: u32, blk: Block, moved: real) {
 // Stage 2 of a zoned fully-deformable block b (twin of `model::corners::place_corners_fdef`)
 // in one invocation: its corners in boundary order (`place_fdef_corner`) and the update
 // tolerance. The fluid scene's `law_of_motion_fdef_fluid` places a zoned block's corners so, as
-// does a dry scene's `law_of_motion_fdef` those of a block of few (`place_narrow_fdef_block`).
+// does a dry scene's `law_of_motion_fdef` those of a block of few (at most `WIDE_BOUNDARY`).
 fn place_corners_fdef(b: u32, blk: Block, fb: FdefBlock) {
     var moved = real(0.0);
     for (var k = 0u; k < fb.boundary; k += 1u) {
@@ -156,68 +156,10 @@ fn place_corners_fdef(b: u32, blk: Block, fb: FdefBlock) {
 
 var<workgroup> fdef_moved: array<real, WORKGROUP_SIZE>;
 
-// How far (in edges round the boundary) a contact's feature on a zoned block may move from where
-// it was when the grid points' contact lists were built (`gpu::fdef::LIST_REACH`): an entry is
-// on the lists of the grid points of the edges within this reach of that feature, and a contact
-// stage moves a feature by one edge at most.
-const LIST_REACH: u32 = 2u;
-
 // Zoned blocks of more boundary grid points than this are placed by a workgroup each
 // (`place_fdef_corners`), the others by their invocation of `law_of_motion_fdef`
 // (`gpu::fdef::WIDE_BOUNDARY`): a brick's few corners cost a workgroup more than its walk.
 const WIDE_BOUNDARY: u32 = 32u;
-
-// Where the grid points' contact lists begin in `gridpoint_zones` (`GridPointContacts`, after
-// the zone CSR): offsets for every grid point, the wide blocks (their count, then each), the
-// entries, each contact's feature edge.
-fn fdef_lists_start() -> u32 {
-    return gridpoint_zones[arrayLength(&gridpoints)];
-}
-
-// Whether a contact of zoned block b (boundary of n grid points, its first fb.gp_start) on its
-// side 2 has a feature that the next contact stage could move out of its lists' reach (`LIST_REACH`
-// edges from its feature when they were built, stored after the lists: `GridPointContacts`),
-// over the entries first, first + stride, … of the block's list. Then its grid points gather
-// from the block's whole list (`gather_gridpoints`) until the lists are built again: the sums
-// stay those of the walk.
-fn fdef_lists_outrun(b: u32, fb: FdefBlock, first: u32, stride: u32) -> bool {
-    let n = fb.boundary;
-    if (n <= 2u * LIST_REACH + 2u) {
-        // The lists hold the block's every entry on its side 2.
-        return false;
-    }
-    let homes = gridpoint_zones[fdef_lists_start() + arrayLength(&gridpoints)];
-    var out = false;
-    for (var e = adj_offsets[b] + first; e < adj_offsets[b + 1u]; e += stride) {
-        let entry = adj_entries[e];
-        if (entry_side(entry) == 1u) {
-            let k = entry_contact(entry);
-            let j = min(contacts[k].feature, 2u * n - 1u) / 2u;
-            let j0 = gridpoint_zones[homes + k];
-            let d = select(j0 - j, j - j0, j >= j0);
-            out = out || min(d, n - d) + 1u > LIST_REACH;
-        }
-    }
-    return out;
-}
-
-// `fdef_lists_outrun` for zoned block b, its lists given up (`GridPoint::listed` on its first
-// grid point cleared) if a feature outruns them.
-fn check_fdef_lists(b: u32, fb: FdefBlock, first: u32, stride: u32) {
-    if (gridpoints[fb.gp_start].listed != 0u && fdef_lists_outrun(b, fb, first, stride)) {
-        gridpoints[fb.gp_start].listed = 0u;
-    }
-}
-
-// Stage 2 of a zoned block of few boundary grid points (at most `WIDE_BOUNDARY`) by its
-// invocation of `law_of_motion_fdef`: its corners in order if it is free, and the check of its
-// contact lists (a fixed block's grid points gather too).
-fn place_narrow_fdef_block(b: u32, blk: Block, fb: FdefBlock) {
-    if (blk.fixed == 0u) {
-        place_corners_fdef(b, blk, fb);
-    }
-    check_fdef_lists(b, fb, 0u, 1u);
-}
 
 // Stage 2 of the zoned blocks of many boundary grid points in a dry scene (twin of
 // `model::corners::place_corners_fdef`), one workgroup per such block (`GridPointContacts`
@@ -225,13 +167,14 @@ fn place_narrow_fdef_block(b: u32, blk: Block, fb: FdefBlock) {
 // keeps the largest travel of their grid points, and the first takes the largest of the
 // workgroup's. A block of a thousand boundary grid points was one invocation's serial walk; the
 // corners do not depend on one another, and the largest travel is the same whatever order it is
-// taken in, so the result is that walk's bit for bit. The workgroup also checks the block's
-// grid-point contact lists against its contacts' features (`fdef_lists_outrun`). After
-// `step_gridpoints` (the grid points' new positions), before the contact stage.
+// taken in, so the result is that walk's bit for bit. After `step_gridpoints` (the grid points'
+// new positions), before the contact stage.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn place_fdef_corners(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let i = workgroup_index(wg);
-    let wide = fdef_lists_start() + arrayLength(&gridpoints) + 1u;
+    // The wide blocks' count and list, after the grid points' list offsets (`GridPointContacts`).
+    let n_gp = arrayLength(&gridpoints);
+    let wide = gridpoint_zones[n_gp] + n_gp + 1u;
     // Uniform across the workgroup (read-only words at a uniform index): every invocation
     // returns here, or reaches the barrier.
     if (i >= gridpoint_zones[wide]) {
@@ -248,7 +191,6 @@ fn place_fdef_corners(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
             moved = max(moved, gridpoint_travel(fb.gp_start + k));
         }
     }
-    check_fdef_lists(b, fb, li, WORKGROUP_SIZE);
     fdef_moved[li] = moved;
     workgroupBarrier();
     if (moving && li == 0u) {

@@ -305,7 +305,7 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
 // Stages 1 and 2 in a scene with zoned fully-deformable blocks (twin of the CPU's
 // `block_piece_fdef`): a rigid block as `law_of_motion` moves it; a zoned block's grid points
 // have moved already (`step_gridpoints`, zones.wgsl), so its invocation places its corners on
-// them and measures its boundary's travel for the update tolerance (`place_narrow_fdef_block`),
+// them and measures its boundary's travel for the update tolerance (`place_corners_fdef`),
 // unless the block has so many that a workgroup of its own does (`place_fdef_corners`, both in
 // geometry_update.wgsl). A fixed zoned block's corners stay as uploaded.
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -320,8 +320,8 @@ fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
         return;
     }
     let fb = fdef_blocks[b];
-    if (fb.boundary <= WIDE_BOUNDARY) {
-        place_narrow_fdef_block(b, blk, fb);
+    if (blk.fixed == 0u && fb.boundary <= WIDE_BOUNDARY) {
+        place_corners_fdef(b, blk, fb);
     }
 }
 

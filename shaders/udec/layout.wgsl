@@ -88,8 +88,8 @@ struct ContactLever { r1x: real, r1y: real, r2x: real, r2y: real }
 // position relative to the run's origin as a compensated pair, velocity, force of the last
 // gather, lumped mass, gravity's and the load's share (m·g + load·m/M), the position at its
 // block's last contact update, the work and damping since the upload; its block, whether it is a
-// boundary grid point (its block's corner), whether its block is fixed and (its block's first
-// grid point) whether its block's grid points gather from their own contact lists.
+// boundary grid point (its block's corner), whether its block is fixed and whether it gathers
+// from its own contact list.
 struct GridPoint {
     x: real, y: real, x_lo: real, y_lo: real,
     vx: real, vy: real, fx: real, fy: real, mass: real,

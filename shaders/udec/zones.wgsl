@@ -8,7 +8,7 @@
 //   contacts in its block's list order (boundary grid points only: the contact stage wrote each
 //   contact's shares, `ContactShare`; each grid point walks its own list of the entries that may
 //   act on it, `gpu::fdef::GridPointContacts`, or its block's whole list where a contact's
-//   feature has moved out of the lists' reach), then its zones in ascending order (`gridpoint_zones`): the
+//   feature has moved out of the lists' reach, `check_fdef_lists`), then its zones in ascending order (`gridpoint_zones`): the
 //   order the CPU's `gather_fdef` adds them in for that grid point, so a run repeats bit for bit
 //   and sums as the CPU does. Stored on the grid point (the step reads it, as do a read-back
 //   and the energy check).
@@ -66,7 +66,7 @@ fn gridpoint_force_from(g: u32, gp: GridPoint, f_in: vec2<real>) -> vec2<real> {
     var f = f_in;
     if (gp.boundary != 0u) {
         let b = gp.block;
-        if (gridpoints[fdef_blocks[b].gp_start].listed != 0u) {
+        if (gp.listed != 0u) {
             // Its own list (`GridPointContacts`): the entries of its block's list that may act
             // on it, in the block's order, after the zone CSR in the same array.
             let lists = gridpoint_zones[arrayLength(&gridpoints)];
@@ -107,6 +107,44 @@ fn add_entry_share(g: u32, entry: u32, f: ptr<function, vec2<real>>) {
         }
         if (share.g2b == g && share.wb != 0.0) {
             *f += share.wb * fk;
+        }
+    }
+}
+
+// How far (in edges round the boundary) a contact's feature on a zoned block may move from where
+// it was when the grid points' contact lists were built (`gpu::fdef::LIST_REACH`): an entry is
+// on the lists of the grid points of the edges within this reach of that feature, and a contact
+// stage moves a feature by one edge at most.
+const LIST_REACH: u32 = 2u;
+
+// Whether contact k's feature on its block 2, if that block is zoned and its boundary grid
+// points gather from their own lists (`GridPointContacts`), could be moved out of its lists'
+// reach by the next contact stage (`LIST_REACH` edges from the feature's edge when they were
+// built, stored after the lists); if so its block's boundary grid points walk the block's whole
+// list (`GridPoint::listed` cleared) until the lists are built again, and the sums stay the
+// walk's. One invocation per contact, each cycle before the contact stage (after the last one:
+// its features); twin of the lists' reach in `gpu::fdef::GridPointContacts::of`.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn check_fdef_lists(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
+        return;
+    }
+    // A block that is not zoned has a zero record (no boundary).
+    let fb = fdef_blocks[contacts[k].block2];
+    let n = fb.boundary;
+    // A block of few corners has every entry of its side 2 on every list.
+    if (n <= 2u * LIST_REACH + 2u || gridpoints[fb.gp_start].listed == 0u) {
+        return;
+    }
+    let n_gp = arrayLength(&gridpoints);
+    let homes = gridpoint_zones[gridpoint_zones[n_gp] + n_gp];
+    let j = min(contacts[k].feature, 2u * n - 1u) / 2u;
+    let j0 = gridpoint_zones[homes + k];
+    let d = select(j0 - j, j - j0, j >= j0);
+    if (min(d, n - d) + 1u > LIST_REACH) {
+        for (var g = fb.gp_start; g < fb.gp_start + n; g += 1u) {
+            gridpoints[g].listed = 0u;
         }
     }
 }

@@ -112,8 +112,8 @@ impl<R: Real> Engine<R> {
     /// `stages` in a scene with zoned fully-deformable blocks (`gpu::fdef`): the gather of the
     /// rigid blocks (before a read-back) and of the grid points, then in a cycle the grid
     /// points' step, the zones' stresses, the blocks' motion (a zoned block's corners placed on
-    /// its grid points), the corners of the zoned blocks of many (a workgroup per block) and the
-    /// contact stage, each a pass of its own: no invocation reads what
+    /// its grid points), the corners of the zoned blocks of many (a workgroup per block), the
+    /// check of the grid points' contact lists against the features and the contact stage, each a pass of its own: no invocation reads what
     /// another of its pass writes.
     fn stages_fdef<'a>(&'a self, k: &'a kernels::FdefKernels, g: &'a kernels::FdefBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
         let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
@@ -128,6 +128,7 @@ impl<R: Real> Engine<R> {
             stages.push(cycle("zones", &k.zones.pipeline, &g.zones, Grid::Zones));
             stages.push(cycle("law_of_motion_fdef", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
             stages.push(cycle("place_fdef_corners", &k.place_corners.pipeline, &g.place_corners, Grid::BlockGroups));
+            stages.push(cycle("check_fdef_lists", &k.check_lists.pipeline, &g.check_lists, Grid::Contacts));
             stages.push(cycle("contact_forces_fdef", &k.contact_forces.pipeline, &g.contact_forces, Grid::Contacts));
             stages.push(self.end_cycle_pass());
         }

@@ -55,6 +55,13 @@ pub fn gridpoint_starts(model: &Model) -> Vec<u32> {
 /// uploaded on; a run must come out bit for bit the same either way.
 pub static WALK_BLOCK_LISTS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+/// Whether `model`'s zoned blocks' grid points walk their block's whole contact list: in a scene
+/// with fluid (its cycle does not check the lists, `check_fdef_lists`), or when a test asks
+/// (`WALK_BLOCK_LISTS`).
+fn walk_block_lists(model: &Model) -> bool {
+    WALK_BLOCK_LISTS.load(std::sync::atomic::Ordering::Relaxed) || (model.fluid.is_some() && model.domains.is_some())
+}
+
 /// A coordinate relative to the origin as the device's compensated pair (large part, rest).
 fn split<R: Real>(x: f64) -> (R, R) {
     let hi = r::<R>(x);
@@ -124,7 +131,7 @@ impl<R: Real> FdefUpload<R> {
                     block: b as u32,
                     boundary: ((k as u32) < f.boundary) as u32,
                     fixed: blk.fixed as u32,
-                    listed: 0,
+                    listed: ((k as u32) < f.boundary && !walk_block_lists(model)) as u32,
                 });
             }
             for z in &f.zones {
@@ -169,11 +176,11 @@ fn zone_csr(n_gp: usize, zones: impl Iterator<Item = [u32; 3]> + Clone) -> Vec<u
 
 /// How far (in edges round a zoned block's boundary) a contact's feature on the block may move
 /// from where it was when the grid points' contact lists were built before the lists no longer
-/// hold every grid point it acts on (`LIST_REACH` in geometry_update.wgsl, which a test checks
-/// against this). A contact stage moves a feature by one edge at most (it searches the
-/// feature's neighbourhood), so `place_fdef_corners`, which sees the features before each
-/// contact stage, finds a feature at this reach in time and its block's grid points walk the
-/// whole list from the next gather on.
+/// hold every grid point it acts on (`LIST_REACH` in zones.wgsl, which a test checks against
+/// this). A contact stage moves a feature by one edge at most (it searches the feature's
+/// neighbourhood), so `check_fdef_lists`, which sees the features before each contact stage,
+/// finds a feature at this reach in time and its block's boundary grid points walk the whole
+/// list from the next gather on.
 pub const LIST_REACH: u32 = 2;
 
 /// Zoned blocks of more boundary grid points than this have their corners placed by a
@@ -364,10 +371,17 @@ impl<R: Real> Engine<R> {
         let b = self.buffers.as_mut().expect("buffers exist");
         let made = b.ensure_fdef::<R>(&self.dev, sizes)?;
         let shares: Vec<ContactShare<R>> = model.contacts.iter().map(|c| ContactShare::of(model, c, &self.fdef_gp_start)).collect();
-        let walk = WALK_BLOCK_LISTS.load(std::sync::atomic::Ordering::Relaxed) || (model.fluid.is_some() && model.domains.is_some());
-        let listed = u32::from(!walk);
-        for &start in self.fdef_gp_start.iter().filter(|&&g| g != NO_INDEX) {
-            self.last_gridpoints[start as usize].listed = listed;
+        let listed = u32::from(!walk_block_lists(model));
+        // The blocks whose boundary grid points' flags differ from the lists' (a block that
+        // walked since its lists were built, `check_fdef_lists`): their boundary records as last
+        // read back, which are the device's (no cycle ran since), with the flags set.
+        let mut stale = Vec::new();
+        for (k, &start) in self.fdef_gp_start.iter().enumerate().filter(|&(_, &g)| g != NO_INDEX) {
+            let range = start as usize..(start + model.fdef[k].boundary) as usize;
+            if self.last_gridpoints[range.clone()].iter().any(|g| g.listed != listed) {
+                self.last_gridpoints[range.clone()].iter_mut().for_each(|g| g.listed = listed);
+                stale.push(range);
+            }
         }
         self.fdef_wide = lists.wide;
         let b = self.buffers();
@@ -382,12 +396,10 @@ impl<R: Real> Engine<R> {
             q.write_buffer(csr, 0, bytemuck::cast_slice(&zone_csr(n_gp, zones.collect::<Vec<_>>().into_iter())));
         }
         q.write_buffer(csr, (zones_len * 4) as u64, bytemuck::cast_slice(&lists.words));
-        // Each zoned block's lists hold from here on (`place_fdef_corners` clears the flag on
-        // its block's first grid point when a feature outruns them).
         let gridpoints = &b.gridpoints.as_ref().expect("a scene with zoned blocks has them").buffer;
-        for &start in self.fdef_gp_start.iter().filter(|&&g| g != NO_INDEX) {
-            let at = start as usize * std::mem::size_of::<GridPoint<R>>() + std::mem::offset_of!(GridPoint<R>, listed);
-            q.write_buffer(gridpoints, at as u64, bytemuck::bytes_of(&listed));
+        for range in stale {
+            let at = range.start * std::mem::size_of::<GridPoint<R>>();
+            q.write_buffer(gridpoints, at as u64, bytemuck::cast_slice(&self.last_gridpoints[range]));
         }
         Ok(made)
     }

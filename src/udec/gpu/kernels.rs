@@ -261,6 +261,7 @@ pub struct FdefBindGroups {
     pub step_gridpoints: wgpu::BindGroup,
     pub zones: wgpu::BindGroup,
     pub place_corners: wgpu::BindGroup,
+    pub check_lists: wgpu::BindGroup,
     pub law_of_motion: wgpu::BindGroup,
     pub contact_forces: wgpu::BindGroup,
     pub gather: wgpu::BindGroup,
@@ -289,6 +290,7 @@ impl CycleBindGroups {
             step_gridpoints: make(&k.step_gridpoints, "step_gridpoints"),
             zones: make(&k.zones, "zones"),
             place_corners: make(&k.place_corners, "place_fdef_corners"),
+            check_lists: make(&k.check_lists, "check_fdef_lists"),
             law_of_motion: make(&k.law_of_motion, "law_of_motion_fdef"),
             contact_forces: make(&k.contact_forces, "contact_forces_fdef"),
             gather: make(&k.gather, "gather_fdef"),
@@ -470,7 +472,8 @@ impl FluidKernels {
 /// `gather_gridpoints`, `step_gridpoints` and `zones` (stages 6, 1 and 3 of the grid
 /// points and zones), and in the files of their rigid twins `law_of_motion_fdef` (rigid blocks,
 /// and a zoned block's corners on its grid points), `place_fdef_corners` (those of a zoned block
-/// of many, a workgroup per block),
+/// of many, a workgroup per block), `check_fdef_lists` (whether a contact's feature outruns the
+/// grid points' contact lists),
 /// `contact_forces_fdef` (a zoned boundary's
 /// velocity, the force shares), `gather_fdef` (the rigid blocks' sums before a read-back) and
 /// `energy_sums_fdef` after `energy_sums`. Only they bind the FDEF slots.
@@ -479,6 +482,7 @@ pub struct FdefKernels {
     pub step_gridpoints: CycleKernel,
     pub zones: CycleKernel,
     pub place_corners: CycleKernel,
+    pub check_lists: CycleKernel,
     pub law_of_motion: CycleKernel,
     pub contact_forces: CycleKernel,
     pub gather: CycleKernel,
@@ -493,6 +497,7 @@ impl FdefKernels {
                 step_gridpoints: cycle_kernel(dev, "zones", "step_gridpoints")?,
                 zones: cycle_kernel(dev, "zones", "zones")?,
                 place_corners: cycle_kernel(dev, "law_of_motion", "place_fdef_corners")?,
+                check_lists: cycle_kernel(dev, "zones", "check_fdef_lists")?,
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fdef")?,
                 contact_forces: cycle_kernel(dev, "contact_forces", "contact_forces_fdef")?,
                 gather: cycle_kernel(dev, "gather", "gather_fdef")?,
