@@ -136,6 +136,10 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         );
         assert_eq!(slots("zones", "gather_gridpoints"), [Params, AdjOffsets, AdjEntries, ContactForces, GridPoints, Zones, GridPointZones, ContactShares]);
         assert_eq!(slots("zones", "step_gridpoints"), [Params, Flags, GridPoints]);
+        // A large zoned block's corners (a workgroup each) and the check of the grid points'
+        // contact lists against the contacts' features.
+        assert_eq!(slots("law_of_motion", "place_fdef_corners"), [Params, Blocks, Corners, Flags, GridPoints, FdefBlocks, GridPointZones]);
+        assert_eq!(slots("zones", "check_fdef_lists"), [Params, Contacts, GridPoints, FdefBlocks, GridPointZones]);
         assert_eq!(slots("zones", "zones"), [Params, Flags, GridPoints, Zones, FdefBlocks]);
         assert!(slots("contact_forces", "contact_forces_fdef").contains(&ContactShares));
         assert_eq!(slots("gather", "gather_fdef"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces]);

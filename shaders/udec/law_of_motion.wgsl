@@ -305,8 +305,9 @@ fn law_of_motion_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
 // Stages 1 and 2 in a scene with zoned fully-deformable blocks (twin of the CPU's
 // `block_piece_fdef`): a rigid block as `law_of_motion` moves it; a zoned block's grid points
 // have moved already (`step_gridpoints`, zones.wgsl), so its invocation places its corners on
-// them and measures its boundary's travel for the update tolerance (`place_corners_fdef`). A
-// fixed zoned block's corners stay as uploaded.
+// them and measures its boundary's travel for the update tolerance (`place_corners_fdef`),
+// unless the block has so many that a workgroup of its own does (`place_fdef_corners`, both in
+// geometry_update.wgsl). A fixed zoned block's corners stay as uploaded.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let b = item_index(wg, li);
@@ -318,10 +319,10 @@ fn law_of_motion_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invoc
         rigid_block(b, blk);
         return;
     }
-    if (blk.fixed != 0u) {
-        return;
+    let fb = fdef_blocks[b];
+    if (blk.fixed == 0u && fb.boundary <= WIDE_BOUNDARY) {
+        place_corners_fdef(b, blk, fb);
     }
-    place_corners_fdef(b, blk, fdef_blocks[b]);
 }
 
 // Stages 6, 1 and 2 in a scene with fluid (twin of the CPU's `block_piece` with

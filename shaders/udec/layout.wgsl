@@ -88,14 +88,15 @@ struct ContactLever { r1x: real, r1y: real, r2x: real, r2y: real }
 // position relative to the run's origin as a compensated pair, velocity, force of the last
 // gather, lumped mass, gravity's and the load's share (m·g + load·m/M), the position at its
 // block's last contact update, the work and damping since the upload; its block, whether it is a
-// boundary grid point (its block's corner) and whether its block is fixed.
+// boundary grid point (its block's corner), whether its block is fixed and whether it gathers
+// from its own contact list.
 struct GridPoint {
     x: real, y: real, x_lo: real, y_lo: real,
     vx: real, vy: real, fx: real, fy: real, mass: real,
     load_x: real, load_y: real,
     ux: real, uy: real, ux_lo: real, uy_lo: real,
     work: real, damping_work: real,
-    block: u32, boundary: u32, fixed: u32, _pad: u32,
+    block: u32, boundary: u32, fixed: u32, listed: u32,
 }
 // 28 / 40 bytes. A constant-strain triangle: stress (11, 12, 22), its grid points (global,
 // counter-clockwise) and its block.

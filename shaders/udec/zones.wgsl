@@ -6,7 +6,9 @@
 //
 // - `gather_gridpoints`: each grid point's force, gravity and the load's share first, then its
 //   contacts in its block's list order (boundary grid points only: the contact stage wrote each
-//   contact's shares, `ContactShare`), then its zones in ascending order (`gridpoint_zones`): the
+//   contact's shares, `ContactShare`; each grid point walks its own list of the entries that may
+//   act on it, `gpu::fdef::GridPointContacts`, or its block's whole list where a contact's
+//   feature has moved out of the lists' reach, `check_fdef_lists`), then its zones in ascending order (`gridpoint_zones`): the
 //   order the CPU's `gather_fdef` adds them in for that grid point, so a run repeats bit for bit
 //   and sums as the CPU does. Stored on the grid point (the step reads it, as do a read-back
 //   and the energy check).
@@ -64,24 +66,16 @@ fn gridpoint_force_from(g: u32, gp: GridPoint, f_in: vec2<real>) -> vec2<real> {
     var f = f_in;
     if (gp.boundary != 0u) {
         let b = gp.block;
-        for (var e = adj_offsets[b]; e < adj_offsets[b + 1u]; e += 1u) {
-            let entry = adj_entries[e];
-            let k = entry_contact(entry);
-            let side = entry_side(entry);
-            let sign = select(real(1.0), real(-1.0), side == 1u);
-            let fk = vec2<real>(sign * contact_forces_out[k].fx, sign * contact_forces_out[k].fy);
-            let share = contact_shares[k];
-            if (side == 0u) {
-                if (share.g1 == g) {
-                    f += fk;
-                }
-            } else {
-                if (share.g2a == g && share.wa != 0.0) {
-                    f += share.wa * fk;
-                }
-                if (share.g2b == g && share.wb != 0.0) {
-                    f += share.wb * fk;
-                }
+        if (gp.listed != 0u) {
+            // Its own list (`GridPointContacts`): the entries of its block's list that may act
+            // on it, in the block's order, after the zone CSR in the same array.
+            let lists = gridpoint_zones[arrayLength(&gridpoints)];
+            for (var e = gridpoint_zones[lists + g]; e < gridpoint_zones[lists + g + 1u]; e += 1u) {
+                add_entry_share(g, gridpoint_zones[e], &f);
+            }
+        } else {
+            for (var e = adj_offsets[b]; e < adj_offsets[b + 1u]; e += 1u) {
+                add_entry_share(g, adj_entries[e], &f);
             }
         }
     }
@@ -91,6 +85,68 @@ fn gridpoint_force_from(g: u32, gp: GridPoint, f_in: vec2<real>) -> vec2<real> {
         f += nodal_forces(zone_points(z), z.stress, entry & 3u);
     }
     return f;
+}
+
+// Adds to `f` what the adjacency entry `entry` of grid point g's block gives g of its contact's
+// force (twin of the contact term of `cpu::zones::gather_fdef`): on block 1 all of it where g is
+// the corner, on block 2 the reaction's shares where g is one of the feature's grid points (a
+// share of zero adds nothing, as on the CPU); nothing where the contact does not act on g.
+fn add_entry_share(g: u32, entry: u32, f: ptr<function, vec2<real>>) {
+    let k = entry_contact(entry);
+    let side = entry_side(entry);
+    let sign = select(real(1.0), real(-1.0), side == 1u);
+    let fk = vec2<real>(sign * contact_forces_out[k].fx, sign * contact_forces_out[k].fy);
+    let share = contact_shares[k];
+    if (side == 0u) {
+        if (share.g1 == g) {
+            *f += fk;
+        }
+    } else {
+        if (share.g2a == g && share.wa != 0.0) {
+            *f += share.wa * fk;
+        }
+        if (share.g2b == g && share.wb != 0.0) {
+            *f += share.wb * fk;
+        }
+    }
+}
+
+// How far (in edges round the boundary) a contact's feature on a zoned block may move from where
+// it was when the grid points' contact lists were built (`gpu::fdef::LIST_REACH`): an entry is
+// on the lists of the grid points of the edges within this reach of that feature, and a contact
+// stage moves a feature by one edge at most.
+const LIST_REACH: u32 = 2u;
+
+// Whether contact k's feature on its block 2, if that block is zoned and its boundary grid
+// points gather from their own lists (`GridPointContacts`), could be moved out of its lists'
+// reach by the next contact stage (`LIST_REACH` edges from the feature's edge when they were
+// built, stored after the lists); if so its block's boundary grid points walk the block's whole
+// list (`GridPoint::listed` cleared) until the lists are built again, and the sums stay the
+// walk's. One invocation per contact, each cycle before the contact stage (after the last one:
+// its features); twin of the lists' reach in `gpu::fdef::GridPointContacts::of`.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn check_fdef_lists(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let k = item_index(wg, li);
+    if (k >= params.n_contacts) {
+        return;
+    }
+    // A block that is not zoned has a zero record (no boundary).
+    let fb = fdef_blocks[contacts[k].block2];
+    let n = fb.boundary;
+    // A block of few corners has every entry of its side 2 on every list.
+    if (n <= 2u * LIST_REACH + 2u || gridpoints[fb.gp_start].listed == 0u) {
+        return;
+    }
+    let n_gp = arrayLength(&gridpoints);
+    let homes = gridpoint_zones[gridpoint_zones[n_gp] + n_gp];
+    let j = min(contacts[k].feature, 2u * n - 1u) / 2u;
+    let j0 = gridpoint_zones[homes + k];
+    let d = select(j0 - j, j - j0, j >= j0);
+    if (min(d, n - d) + 1u > LIST_REACH) {
+        for (var g = fb.gp_start; g < fb.gp_start + n; g += 1u) {
+            gridpoints[g].listed = 0u;
+        }
+    }
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

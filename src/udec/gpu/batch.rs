@@ -112,7 +112,8 @@ impl<R: Real> Engine<R> {
     /// `stages` in a scene with zoned fully-deformable blocks (`gpu::fdef`): the gather of the
     /// rigid blocks (before a read-back) and of the grid points, then in a cycle the grid
     /// points' step, the zones' stresses, the blocks' motion (a zoned block's corners placed on
-    /// its grid points) and the contact stage, each a pass of its own: no invocation reads what
+    /// its grid points), the corners of the zoned blocks of many (a workgroup per block), the
+    /// check of the grid points' contact lists against the features and the contact stage, each a pass of its own: no invocation reads what
     /// another of its pass writes.
     fn stages_fdef<'a>(&'a self, k: &'a kernels::FdefKernels, g: &'a kernels::FdefBindGroups, gather_only: bool) -> Vec<Dispatch<'a>> {
         let cycle = |label, pipeline, bind_group, g: Grid| self.pass(label, pipeline, bind_group, g, gather_only);
@@ -126,6 +127,8 @@ impl<R: Real> Engine<R> {
             stages.push(cycle("step_gridpoints", &k.step_gridpoints.pipeline, &g.step_gridpoints, Grid::GridPoints));
             stages.push(cycle("zones", &k.zones.pipeline, &g.zones, Grid::Zones));
             stages.push(cycle("law_of_motion_fdef", &k.law_of_motion.pipeline, &g.law_of_motion, Grid::Blocks));
+            stages.push(cycle("place_fdef_corners", &k.place_corners.pipeline, &g.place_corners, Grid::BlockGroups));
+            stages.push(cycle("check_fdef_lists", &k.check_lists.pipeline, &g.check_lists, Grid::Contacts));
             stages.push(cycle("contact_forces_fdef", &k.contact_forces.pipeline, &g.contact_forces, Grid::Contacts));
             stages.push(self.end_cycle_pass());
         }
@@ -237,6 +240,7 @@ impl<R: Real> Engine<R> {
             Grid::GridPoints => items(self.fdef_counts.0),
             Grid::Zones => items(self.fdef_counts.1),
             Grid::Domains => items(self.n_domains),
+            Grid::BlockGroups => shaders::dispatch_grid(self.fdef_wide as u32),
         }
     }
 

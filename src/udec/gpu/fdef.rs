@@ -6,7 +6,10 @@
 //!
 //! What differs in such a scene (`Engine::stages`): each cycle runs `gather_gridpoints`,
 //! `step_gridpoints` and `zones` (zones.wgsl) before `law_of_motion_fdef` (rigid blocks
-//! as before; a zoned block's corners on its grid points) and `contact_forces_fdef`. A zoned
+//! as before, and a zoned block's corners on its grid points), `place_fdef_corners` (those of a
+//! zoned block of many boundary grid points, a workgroup per block) and `contact_forces_fdef`. Each boundary grid point gathers its contacts from a list of
+//! its own (`GridPointContacts`), not its block's whole list: no invocation walks a whole block,
+//! which on a GPU runs one thread for as long as the block is large (issue 29). A zoned
 //! block's record keeps its velocity and force at zero on the device and its centroid where the
 //! upload put it (the reference its corners are placed from); a read-back gives the model its
 //! grid points and zones and places its corners, centroid and velocity from them as the CPU
@@ -18,6 +21,9 @@
 use crate::udec::backend::CycleError;
 use crate::udec::model::{BlockKind, Model};
 
+use crate::udec::contact::gather::AdjacencyEntry;
+use crate::udec::topology::adjacency::Adjacency;
+
 use super::kernels::FdefSizes;
 use super::layout::{ContactShare, FdefBlock, GridPoint, Real, Zone, BLOCK_FDEF, NO_INDEX};
 use super::{r, Engine, GpuError, Uploaded};
@@ -26,6 +32,34 @@ use super::{r, Engine, GpuError, Uploaded};
 /// kernels move; a fully-deformable block not yet zoned moves as a rigid one, as on the CPU.
 pub fn is_zoned(model: &Model, b: usize) -> bool {
     model.fdef_of(b).is_some_and(|f| !f.zones.is_empty())
+}
+
+/// Each block's first grid point in the device's grid-point slot (the zoned blocks' grid points
+/// in block order), `NO_INDEX` for a block that is not zoned.
+pub fn gridpoint_starts(model: &Model) -> Vec<u32> {
+    let mut at = 0u32;
+    (0..model.blocks.len())
+        .map(|b| {
+            if !is_zoned(model, b) {
+                return NO_INDEX;
+            }
+            let start = at;
+            at += model.fdef[b].gridpoints.len() as u32;
+            start
+        })
+        .collect()
+}
+
+/// For tests: the zoned blocks' grid points gather by walking their block's whole contact list
+/// (as before `GridPointContacts`) rather than their own lists, from the next contact list
+/// uploaded on; a run must come out bit for bit the same either way.
+pub static WALK_BLOCK_LISTS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether `model`'s zoned blocks' grid points walk their block's whole contact list: in a scene
+/// with fluid (its cycle does not check the lists, `check_fdef_lists`), or when a test asks
+/// (`WALK_BLOCK_LISTS`).
+fn walk_block_lists(model: &Model) -> bool {
+    WALK_BLOCK_LISTS.load(std::sync::atomic::Ordering::Relaxed) || (model.fluid.is_some() && model.domains.is_some())
 }
 
 /// A coordinate relative to the origin as the device's compensated pair (large part, rest).
@@ -97,7 +131,7 @@ impl<R: Real> FdefUpload<R> {
                     block: b as u32,
                     boundary: ((k as u32) < f.boundary) as u32,
                     fixed: blk.fixed as u32,
-                    _pad: 0,
+                    listed: ((k as u32) < f.boundary && !walk_block_lists(model)) as u32,
                 });
             }
             for z in &f.zones {
@@ -105,23 +139,147 @@ impl<R: Real> FdefUpload<R> {
                 up.zones.push(Zone { stress: z.stress.map(r::<R>), g0, g1, g2, block: b as u32 });
             }
         }
-        // Each grid point's zones in ascending order: the order the CPU adds them in.
-        let n_gp = up.gridpoints.len();
-        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_gp];
-        for (z, zone) in up.zones.iter().enumerate() {
-            for (place, g) in [zone.g0, zone.g1, zone.g2].into_iter().enumerate() {
-                lists[g as usize].push(((z as u32) << 2) | place as u32);
+        up.csr = zone_csr(up.gridpoints.len(), up.zones.iter().map(|z| [z.g0, z.g1, z.g2]));
+        up
+    }
+}
+
+/// Each grid point's zones as CSR (`FdefUpload::csr`) from the zones' grid points (global
+/// indices) in zone order: ascending by zone, the order the CPU adds them in.
+fn zone_csr(n_gp: usize, zones: impl Iterator<Item = [u32; 3]> + Clone) -> Vec<u32> {
+    let mut count = vec![0u32; n_gp + 1];
+    let mut n_zones = 0usize;
+    for z in zones.clone() {
+        n_zones += 1;
+        for g in z {
+            count[g as usize + 1] += 1;
+        }
+    }
+    let mut csr = Vec::with_capacity(n_gp + 1 + 3 * n_zones);
+    let mut at = (n_gp + 1) as u32;
+    for c in &count[1..] {
+        csr.push(at);
+        at += c;
+    }
+    csr.push(at);
+    let mut fill: Vec<u32> = csr[..n_gp].to_vec();
+    csr.resize(at as usize, 0);
+    for (z, zone) in zones.enumerate() {
+        for (place, g) in zone.into_iter().enumerate() {
+            let f = &mut fill[g as usize];
+            csr[*f as usize] = ((z as u32) << 2) | place as u32;
+            *f += 1;
+        }
+    }
+    csr
+}
+
+/// How far (in edges round a zoned block's boundary) a contact's feature on the block may move
+/// from where it was when the grid points' contact lists were built before the lists no longer
+/// hold every grid point it acts on (`LIST_REACH` in zones.wgsl, which a test checks against
+/// this). A contact stage moves a feature by one edge at most (it searches the feature's
+/// neighbourhood), so `check_fdef_lists`, which sees the features before each contact stage,
+/// finds a feature at this reach in time and its block's boundary grid points walk the whole
+/// list from the next gather on.
+pub const LIST_REACH: u32 = 2;
+
+/// Zoned blocks of more boundary grid points than this have their corners placed by a
+/// workgroup each (`place_fdef_corners`: `GridPointContacts` lists them), the others by their
+/// invocation of `law_of_motion_fdef` as before (`WIDE_BOUNDARY` in geometry_update.wgsl, which a
+/// test checks against this): on a GPU one invocation's walk round a large block is the cycle's
+/// longest thread, while a workgroup for a brick's few corners is mostly idle lanes, and on a
+/// software adapter a workgroup with a barrier costs far more than a short walk.
+pub const WIDE_BOUNDARY: u32 = 32;
+
+/// The edge (or corner arc) index a contact's feature on a block of `n` corners lies at, as the
+/// contact stage takes it (`zoned_of` in contact_forces.wgsl).
+pub fn feature_edge(feature: u32, n: u32) -> u32 {
+    feature.min(2 * n - 1) / 2
+}
+
+/// Each boundary grid point's contact list (`gather_gridpoints`), built by the CPU whenever the
+/// contact list changes, stored after the zone CSR in the `gridpoint_zones` slot from word
+/// `base`: offsets for grid points 0 ..= n (absolute indices into the same array), then the
+/// zoned blocks of more than `WIDE_BOUNDARY` boundary grid points (their count, then each: the
+/// workgroups of `place_fdef_corners`), then the entries, then per contact the edge its feature
+/// on its block 2 was at (`feature_edge`, 0 where block 2 is not zoned).
+///
+/// A grid point's list is the subsequence of its block's adjacency list (`Adjacency`, the order
+/// the CPU's `gather_fdef` adds the contacts in) that may act on it: on side 1 (block 1, the
+/// corner) the entries whose corner is the grid point; on side 2 the entries whose feature's
+/// edge lies within `LIST_REACH` of it (all of them on a block of at most 2·reach + 2
+/// corners). The gather checks each entry's shares as the walk of the whole list did, and an
+/// entry that does not act on a grid point adds nothing to it, so the sums are the walk's bit for
+/// bit: each grid point's list drops only entries that add nothing to it.
+pub struct GridPointContacts {
+    pub words: Vec<u32>,
+    /// How many zoned blocks are wide (`place_fdef_corners`' grid).
+    pub wide: usize,
+}
+
+impl GridPointContacts {
+    /// The lists of `model`'s zoned blocks (`gp_start`: each block's first grid point,
+    /// `NO_INDEX` where it is not zoned; `n_gp` grid points in all) over the adjacency lists
+    /// `offsets`, `entries`, stored from word `base`.
+    pub fn of(model: &Model, offsets: &[u32], entries: &[AdjacencyEntry], gp_start: &[u32], n_gp: usize, base: u32) -> Self {
+        // The grid points (block-local) an entry of block b goes to, in ascending order.
+        let targets = |b: usize, e: AdjacencyEntry, out: &mut Vec<u32>| {
+            out.clear();
+            let c = &model.contacts[e.contact() as usize];
+            let n = model.fdef[b].boundary;
+            if e.side() == 0 {
+                out.push(c.corner - model.blocks[b].corner_start);
+            } else if n <= 2 * LIST_REACH + 2 {
+                out.extend(0..n);
+            } else {
+                let j0 = feature_edge(c.feature, n);
+                out.extend((0..=2 * LIST_REACH + 1).map(|d| (j0 + n - LIST_REACH + d) % n));
+                out.sort_unstable();
+            }
+        };
+        let zoned: Vec<usize> = (0..model.blocks.len()).filter(|&b| gp_start.get(b).is_some_and(|&g| g != NO_INDEX)).collect();
+        let block_entries = |b: usize| entries[offsets[b] as usize..offsets[b + 1] as usize].iter().copied();
+        let mut count = vec![0u32; n_gp + 1];
+        let mut out = Vec::new();
+        for &b in &zoned {
+            for e in block_entries(b) {
+                targets(b, e, &mut out);
+                for &g in &out {
+                    count[(gp_start[b] + g) as usize + 1] += 1;
+                }
             }
         }
-        let mut at = (n_gp + 1) as u32;
-        up.csr.reserve(n_gp + 1 + 3 * up.zones.len());
-        for l in &lists {
-            up.csr.push(at);
-            at += l.len() as u32;
+        let wide: Vec<u32> = zoned.iter().filter(|&&b| model.fdef[b].boundary > WIDE_BOUNDARY).map(|&b| b as u32).collect();
+        let mut words = Vec::with_capacity(n_gp + 2 + wide.len());
+        let mut at = base + (n_gp + 2 + wide.len()) as u32;
+        for c in &count[1..] {
+            words.push(at);
+            at += c;
         }
-        up.csr.push(at);
-        up.csr.extend(lists.into_iter().flatten());
-        up
+        words.push(at);
+        words.push(wide.len() as u32);
+        words.extend(&wide);
+        let mut fill: Vec<u32> = words[..n_gp].iter().map(|&w| w - base).collect();
+        words.resize((at - base) as usize, 0);
+        for &b in &zoned {
+            for e in block_entries(b) {
+                targets(b, e, &mut out);
+                for &g in &out {
+                    let f = &mut fill[(gp_start[b] + g) as usize];
+                    words[*f as usize] = bytemuck::cast(e);
+                    *f += 1;
+                }
+            }
+        }
+        words.extend(model.contacts.iter().map(|c| {
+            let b2 = c.block2 as usize;
+            if gp_start[b2] == NO_INDEX {
+                0
+            } else {
+                feature_edge(c.feature, model.fdef[b2].boundary)
+            }
+        }));
+        GridPointContacts { words, wide: wide.len() }
     }
 }
 
@@ -160,6 +318,7 @@ impl<R: Real> Engine<R> {
         self.fdef_scene = (0..model.blocks.len()).any(|b| is_zoned(model, b));
         if !self.fdef_scene {
             self.fdef_counts = (0, 0);
+            self.fdef_wide = 0;
             self.fdef_gp_start.clear();
             self.last_gridpoints.clear();
             return Ok(false);
@@ -195,19 +354,53 @@ impl<R: Real> Engine<R> {
         Ok(made || !had_kernels)
     }
 
-    /// With a new contact list in a scene with zoned blocks: room for its force shares and
-    /// theirs from the model. Returns whether the buffer was re-created.
-    pub(super) fn upload_shares(&mut self, model: &Model) -> Result<bool, GpuError> {
+    /// With a new contact list (`adjacency` its blocks' lists) in a scene with zoned blocks:
+    /// room for its force shares and theirs from the model, and the boundary grid points'
+    /// contact lists (`GridPointContacts`, after the zone CSR), which their blocks' grid points
+    /// gather from (`GridPoint::listed`) except in a scene with fluid, whose cycle does not check
+    /// them (`place_fdef_corners` is the dry cycle's). Returns whether a buffer was re-created.
+    pub(super) fn upload_shares(&mut self, model: &Model, adjacency: &Adjacency) -> Result<bool, GpuError> {
         if !self.fdef_scene {
             return Ok(false);
         }
         let (n_gp, n_zones) = self.fdef_counts;
-        let sizes = FdefSizes { gridpoints: n_gp, zones: n_zones, blocks: model.blocks.len(), csr: 0, contacts: model.contacts.len() };
+        let zones_len = n_gp + 1 + 3 * n_zones;
+        let lists = GridPointContacts::of(model, &adjacency.offsets, &adjacency.entries, &self.fdef_gp_start, n_gp, zones_len as u32);
+        let sizes =
+            FdefSizes { gridpoints: n_gp, zones: n_zones, blocks: model.blocks.len(), csr: zones_len + lists.words.len(), contacts: model.contacts.len() };
         let b = self.buffers.as_mut().expect("buffers exist");
         let made = b.ensure_fdef::<R>(&self.dev, sizes)?;
         let shares: Vec<ContactShare<R>> = model.contacts.iter().map(|c| ContactShare::of(model, c, &self.fdef_gp_start)).collect();
+        let listed = u32::from(!walk_block_lists(model));
+        // The blocks whose boundary grid points' flags differ from the lists' (a block that
+        // walked since its lists were built, `check_fdef_lists`): their boundary records as last
+        // read back, which are the device's (no cycle ran since), with the flags set.
+        let mut stale = Vec::new();
+        for (k, &start) in self.fdef_gp_start.iter().enumerate().filter(|&(_, &g)| g != NO_INDEX) {
+            let range = start as usize..(start + model.fdef[k].boundary) as usize;
+            if self.last_gridpoints[range.clone()].iter().any(|g| g.listed != listed) {
+                self.last_gridpoints[range.clone()].iter_mut().for_each(|g| g.listed = listed);
+                stale.push(range);
+            }
+        }
+        self.fdef_wide = lists.wide;
         let b = self.buffers();
-        self.dev.queue.write_buffer(&b.contact_shares.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&shares));
+        let q = &self.dev.queue;
+        q.write_buffer(&b.contact_shares.as_ref().expect("made above").buffer, 0, bytemuck::cast_slice(&shares));
+        let csr = &b.gridpoint_zones.as_ref().expect("made above").buffer;
+        if made {
+            // A re-created slot lost the zone CSR before the lists.
+            let gp_start = &self.fdef_gp_start;
+            let zoned = (0..model.blocks.len()).filter(|&k| gp_start[k] != NO_INDEX);
+            let zones = zoned.flat_map(|k| model.fdef[k].zones.iter().map(move |z| z.gridpoints.map(|g| gp_start[k] + g)));
+            q.write_buffer(csr, 0, bytemuck::cast_slice(&zone_csr(n_gp, zones.collect::<Vec<_>>().into_iter())));
+        }
+        q.write_buffer(csr, (zones_len * 4) as u64, bytemuck::cast_slice(&lists.words));
+        let gridpoints = &b.gridpoints.as_ref().expect("a scene with zoned blocks has them").buffer;
+        for range in stale {
+            let at = range.start * std::mem::size_of::<GridPoint<R>>();
+            q.write_buffer(gridpoints, at as u64, bytemuck::cast_slice(&self.last_gridpoints[range]));
+        }
         Ok(made)
     }
 

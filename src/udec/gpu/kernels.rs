@@ -260,6 +260,8 @@ pub struct FdefBindGroups {
     pub gather_gridpoints: wgpu::BindGroup,
     pub step_gridpoints: wgpu::BindGroup,
     pub zones: wgpu::BindGroup,
+    pub place_corners: wgpu::BindGroup,
+    pub check_lists: wgpu::BindGroup,
     pub law_of_motion: wgpu::BindGroup,
     pub contact_forces: wgpu::BindGroup,
     pub gather: wgpu::BindGroup,
@@ -287,6 +289,8 @@ impl CycleBindGroups {
             gather_gridpoints: make(&k.gather_gridpoints, "gather_gridpoints"),
             step_gridpoints: make(&k.step_gridpoints, "step_gridpoints"),
             zones: make(&k.zones, "zones"),
+            place_corners: make(&k.place_corners, "place_fdef_corners"),
+            check_lists: make(&k.check_lists, "check_fdef_lists"),
             law_of_motion: make(&k.law_of_motion, "law_of_motion_fdef"),
             contact_forces: make(&k.contact_forces, "contact_forces_fdef"),
             gather: make(&k.gather, "gather_fdef"),
@@ -467,13 +471,18 @@ impl FluidKernels {
 /// The entry points a scene with zoned fully-deformable blocks runs: zones.wgsl's
 /// `gather_gridpoints`, `step_gridpoints` and `zones` (stages 6, 1 and 3 of the grid
 /// points and zones), and in the files of their rigid twins `law_of_motion_fdef` (rigid blocks,
-/// and a zoned block's corners on its grid points), `contact_forces_fdef` (a zoned boundary's
+/// and a zoned block's corners on its grid points), `place_fdef_corners` (those of a zoned block
+/// of many, a workgroup per block), `check_fdef_lists` (whether a contact's feature outruns the
+/// grid points' contact lists),
+/// `contact_forces_fdef` (a zoned boundary's
 /// velocity, the force shares), `gather_fdef` (the rigid blocks' sums before a read-back) and
 /// `energy_sums_fdef` after `energy_sums`. Only they bind the FDEF slots.
 pub struct FdefKernels {
     pub gather_gridpoints: CycleKernel,
     pub step_gridpoints: CycleKernel,
     pub zones: CycleKernel,
+    pub place_corners: CycleKernel,
+    pub check_lists: CycleKernel,
     pub law_of_motion: CycleKernel,
     pub contact_forces: CycleKernel,
     pub gather: CycleKernel,
@@ -487,6 +496,8 @@ impl FdefKernels {
                 gather_gridpoints: cycle_kernel(dev, "zones", "gather_gridpoints")?,
                 step_gridpoints: cycle_kernel(dev, "zones", "step_gridpoints")?,
                 zones: cycle_kernel(dev, "zones", "zones")?,
+                place_corners: cycle_kernel(dev, "law_of_motion", "place_fdef_corners")?,
+                check_lists: cycle_kernel(dev, "zones", "check_fdef_lists")?,
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fdef")?,
                 contact_forces: cycle_kernel(dev, "contact_forces", "contact_forces_fdef")?,
                 gather: cycle_kernel(dev, "gather", "gather_fdef")?,
@@ -1128,10 +1139,13 @@ pub enum Grid {
     Zones,
     /// Scenes with fluid: one invocation per domain (`domain_pressures`).
     Domains,
+    /// Scenes with zoned blocks: one workgroup per zoned block of many boundary grid points
+    /// (`place_fdef_corners`).
+    BlockGroups,
 }
 
 impl Grid {
-    pub const ALL: [Grid; 6] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks, Grid::GridPoints, Grid::Zones, Grid::Domains];
+    pub const ALL: [Grid; 7] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks, Grid::GridPoints, Grid::Zones, Grid::Domains, Grid::BlockGroups];
 
     /// Byte offset of this grid's (x, y, z) in `Buffers::dispatch_args`.
     pub fn offset(self) -> u64 {

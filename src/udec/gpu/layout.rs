@@ -207,8 +207,10 @@ gpu_struct! {
         /// Work of gravity and load on it, and the mass damping's dissipation, since the upload.
         work: R, damping_work: R,
         /// Its block's index; 1 if it is a boundary grid point (a corner of its block), 0 if not;
-        /// 1 if its block is fixed.
-        block: u32, boundary: u32, fixed: u32, _pad: u32,
+        /// 1 if its block is fixed. `listed`: 1 while it (a boundary grid point) may gather from
+        /// its own contact list (`gpu::fdef`, `GridPointContacts`), 0 where it walks its block's
+        /// whole list.
+        block: u32, boundary: u32, fixed: u32, listed: u32,
     }
 }
 

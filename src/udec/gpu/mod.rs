@@ -93,7 +93,7 @@ macro_rules! on_engine {
 
 mod batch;
 mod checkpoint;
-mod fdef;
+pub mod fdef;
 mod flow;
 pub mod kernels;
 pub mod layout;
@@ -316,6 +316,8 @@ struct Engine<R: Real> {
     fdef_counts: (usize, usize),
     /// Each block's first grid point on the device (`layout::NO_INDEX` where it is not zoned).
     fdef_gp_start: Vec<u32>,
+    /// Zoned blocks whose corners a workgroup each places (`fdef::WIDE_BOUNDARY`).
+    fdef_wide: usize,
     /// The grid points as last uploaded or read back (to reset their update positions).
     last_gridpoints: Vec<layout::GridPoint<R>>,
     /// The scene has fluid: the cycle runs the fluid's kernels (`flow`).
@@ -382,6 +384,7 @@ impl<R: Real> Engine<R> {
             fdef_scene: false,
             fdef_counts: (0, 0),
             fdef_gp_start: Vec::new(),
+            fdef_wide: 0,
             last_gridpoints: Vec::new(),
             fluid_scene: false,
             n_domains: 0,

@@ -161,7 +161,7 @@ impl<R: Real> Engine<R> {
         g |= Buffers::ensure(d, &mut b.contact_forces, "contact forces", std::mem::size_of::<ContactForce<R>>(), contacts.len())?;
         g |= self.upload_adjacency(&model.blocks, contacts.len(), adjacency)?;
         g |= self.upload_levers(model)?;
-        g |= self.upload_shares(model)?;
+        g |= self.upload_shares(model, adjacency)?;
         g |= self.upload_fluid(model)?;
         if g {
             self.bind_groups = None;
