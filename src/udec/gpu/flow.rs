@@ -59,6 +59,8 @@ struct FluidUpload<R: Real> {
     /// circuit in order, the CPU's order of `model::fluid::deformable_pressure_loads`). Empty
     /// in a scene of rigid blocks.
     block_pieces: Vec<u32>,
+    /// The items of `domain_terms` (`term_items`).
+    term_items: Vec<u32>,
 }
 
 impl<R: Real> FluidUpload<R> {
@@ -188,7 +190,8 @@ impl<R: Real> FluidUpload<R> {
             block_pieces.push(at);
             block_pieces.extend(pieces.into_iter().flatten());
         }
-        FluidUpload { domains: out, flows, links, sides, loads, contact_flows, block_pieces }
+        let term_items = term_items(&out, &links, long_walk());
+        FluidUpload { domains: out, flows, links, sides, loads, contact_flows, block_pieces, term_items }
     }
 }
 
@@ -202,6 +205,7 @@ impl<R: Real> Engine<R> {
         self.fluid_scene = model.fluid.is_some() && model.domains.is_some();
         if !self.fluid_scene {
             self.n_domains = 0;
+            self.n_term_items = 0;
             return Ok(false);
         }
         let had_kernels = self.pipelines.fluid.is_some();
@@ -222,6 +226,7 @@ impl<R: Real> Engine<R> {
             links: up.links.len() / 4,
             contacts: model.contacts.len(),
             blocks: model.blocks.len(),
+            term_items: up.term_items.len() / 4,
         };
         let b = self.buffers.as_mut().expect("buffers exist");
         let mut made = b.ensure_fluid::<R>(&self.dev, sizes)?;
@@ -231,7 +236,15 @@ impl<R: Real> Engine<R> {
         }
         let fluid = model.fluid.expect("checked above");
         let domains = model.domains.as_ref().expect("checked above");
-        let params = FluidParams::<R> { bulk: r(fluid.bulk), min_area: r(domains.min_area), n_domains: up.domains.len() as u32, ..Default::default() };
+        let params = FluidParams::<R> {
+            bulk: r(fluid.bulk),
+            min_area: r(domains.min_area),
+            n_domains: up.domains.len() as u32,
+            n_links: sizes.links as u32,
+            n_term_items: sizes.term_items as u32,
+            long_walk: long_walk(),
+            ..Default::default()
+        };
         let mut materials = vec![FluidMaterial::<R>::default(); MAX_MATERIALS];
         for (g, m) in materials.iter_mut().zip(&model.materials) {
             let f = &m.fluid;
@@ -252,12 +265,14 @@ impl<R: Real> Engine<R> {
         write(&b.contact_sides, bytemuck::cast_slice(&up.sides));
         write(&b.fluid_loads, bytemuck::cast_slice(&up.loads));
         write(&b.contact_flows, bytemuck::cast_slice(&up.contact_flows));
+        write(&b.term_items, bytemuck::cast_slice(&up.term_items));
         if deformable {
             write(&b.block_pieces, bytemuck::cast_slice(&up.block_pieces));
         }
         let base = std::rc::Rc::make_mut(&mut self.uploaded);
         base.fluid_base = [fluid.work, fluid.inflow];
         self.n_domains = up.domains.len();
+        self.n_term_items = sizes.term_items;
         Ok(made || !had_kernels || (deformable && !had_wet))
     }
 
@@ -323,6 +338,53 @@ impl<R: Real> Engine<R> {
         let groups = self.bind_groups.as_ref()?.fluid.as_ref()?;
         Some((self.pipelines.fluid.as_ref()?, groups)).filter(|_| self.fluid_scene)
     }
+}
+
+/// The length of boundary (links) or of flow list past which a domain's sums are taken over terms
+/// computed in parallel (`domain_terms`, flow.wgsl) rather than walked by one invocation of
+/// `domain_pressures`: the wall's voids have 3 or 7 links and joints 2, the void along a row's
+/// foot hundreds. Either way the sums are the same to the bit (tests/fluid.rs runs the bench
+/// wall both ways); `BLOCKDEM_LONG_WALK` sets it (0: every sum from terms).
+pub const LONG_WALK: u32 = 16;
+
+/// `LONG_WALK`, or `BLOCKDEM_LONG_WALK` where set to a number.
+pub fn long_walk() -> u32 {
+    std::env::var("BLOCKDEM_LONG_WALK").ok().and_then(|v| v.trim().parse().ok()).unwrap_or(LONG_WALK)
+}
+
+/// `TERM_FLOW` of flow.wgsl: an item of `domain_terms` that signs one flow of a domain's list.
+pub const TERM_FLOW: u32 = 16;
+
+/// The items of `domain_terms` (flow.wgsl; four words each) for the domains `domains` with their
+/// boundary `links` (four words a link), those past `long_walk` only: for a void (a regular
+/// domain, deformed or not) of more links, one item per link, [its kind, the link, the link
+/// before it in its loop (for the loop's first, its last: the closing edge), the reference block
+/// (the domain's first link's block, from whose centroid `fluid_area` and `void_step` measure)];
+/// for a free domain of more flows, one per flow, [`TERM_FLOW`, its entry in `domain_flows`, 0,
+/// 0]. A loop opens at the domain's first link and at each link marked `LINK_LOOP_START`, as
+/// the walks of flow.wgsl take it.
+pub fn term_items<R: Real>(domains: &[Domain<R>], links: &[u32], long_walk: u32) -> Vec<u32> {
+    let mut items = Vec::new();
+    for dom in domains {
+        let (start, end) = (dom.link_start, dom.link_start + dom.link_count);
+        if matches!(dom.kind, DOMAIN_REGULAR | DOMAIN_REGULAR_DEFORMED) && dom.link_count > long_walk {
+            let reference = links[4 * start as usize + 2];
+            let mut first = start;
+            while first < end {
+                // The loop from `first` to the link before the next one that opens a loop.
+                let last = (first + 1..end).find(|&l| links[4 * l as usize] & LINK_LOOP_START != 0).unwrap_or(end) - 1;
+                for l in first..=last {
+                    let before = if l == first { last } else { l - 1 };
+                    items.extend([dom.kind, l, before, reference]);
+                }
+                first = last + 1;
+            }
+        }
+        if dom.free != 0 && dom.flow_count > long_walk {
+            items.extend((dom.flow_start..dom.flow_start + dom.flow_count).flat_map(|e| [TERM_FLOW, e, 0, 0]));
+        }
+    }
+    items
 }
 
 /// A zoned block's external force as the CPU's gather sums it includes its grid points' fluid
