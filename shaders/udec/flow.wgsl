@@ -1,12 +1,14 @@
 // Stage 5: fluid flow in joints and voids (SL-85-1 Appendix A ¶6–9, ¶19). Twin of
 // src/udec/cpu/flow.rs on the pure pieces of `model::fluid`; compiled and dispatched only in a
 // scene with fluid (`gpu::flow`), after the contact stage (the joints' apertures read the normal
-// forces it has just set), in two passes, neither reading what its own pass writes:
+// forces it has just set), in three passes, none reading what its own pass writes:
 //
 // 1. `flow`, per contact (the entry point named after the file; the loop body of
 //    `model::fluid::contact_flows`): its aperture, its flow q = k_c·Δp across a point contact or
 //    k_j·a³·Δp/l along a joint (¶6) at the pressures of the last step, and its feet;
-// 2. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
+// 2. `domain_terms`, per term of a long domain's sums (a void of many links, a long flow list:
+//    see there), only where there are such domains;
+// 3. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
 //    (the CPU's order: reruns repeat bit for bit, and f64 agrees with the CPU to round-off), its
 //    area now, and the pressure update with its change of volume (¶7); a PFIX domain and the
 //    outer domain keep theirs. A free domain then copies its new pressure into each of its
@@ -144,15 +146,6 @@ fn link_vertex_turned(l: u32, t: u32, reference: Block) -> vec2<real> {
     return centroid_difference(blk, reference) + (r + turn);
 }
 
-// A void's vertex as `fluid_area` takes it: `link_vertex`, or at its blocks' whole rotations
-// where the outline is measured each step in f32 (`turned`).
-fn area_vertex(l: u32, t: u32, reference: Block, turned: bool) -> vec2<real> {
-    if (turned) {
-        return link_vertex_turned(l, t, reference);
-    }
-    return link_vertex(l, t, reference);
-}
-
 fn cross2(p: vec2<real>, q: vec2<real>) -> real {
     return p.x * q.y - q.x * p.y;
 }
@@ -194,7 +187,7 @@ fn fluid_area(dom: Domain) -> real {
     if (dom.link_count == 0u) {
         return fluid_params.min_area;
     }
-    if (dom.link_count > fluid_params.long_walk) {
+    if (dom.kind == DOMAIN_REGULAR && dom.link_count > fluid_params.long_walk) {
         return max(summed_terms(dom), fluid_params.min_area);
     }
     let reference = blocks[domain_links[4u * first + 2u]];
@@ -218,7 +211,12 @@ fn fluid_area(dom: Domain) -> real {
             count = 1u;
         }
         for (var t = 0u; t < count; t += 1u) {
-            let v = area_vertex(l, t, reference, turned);
+            var v = vec2<real>(0.0, 0.0);
+            if (turned) {
+                v = link_vertex_turned(l, t, reference);
+            } else {
+                v = link_vertex(l, t, reference);
+            }
             if (open) {
                 s += cross2(prev, v);
             } else {
@@ -362,17 +360,23 @@ fn void_step(dom: Domain) -> real {
 // other voids have 3 or 7 links) made that pass one thread's chain of dependent loads, a
 // link's feet, blocks and corners after its word, the whole of a small wall's cycle on a GPU.
 // `domain_terms` computes each term of those sums in parallel, one item each, and
-// `domain_pressures` adds them in the walk's order, which is the CPU's (a rerun repeats bit for
-// bit, and the result is the walk's to the bit: each term is the walk's own expression on the
-// same operands). An item is four words in `term_items` (`gpu::flow::TermItems`):
+// `domain_pressures` adds them in the walk's order, which is the CPU's: a rerun repeats bit for
+// bit, and each term is the walk's own expression on the same operands, so the result is the
+// walk's (to the byte on lavapipe for the bench wall, f32 and f64, even with every void split;
+// sample 2 in f64 with every void split, `BLOCKDEM_LONG_WALK=0`, moved by 2e-12 of its
+// pressure: the compiler may fuse a vertex's products otherwise in the two passes). An item is
+// four words in `term_items` (`gpu::flow::term_items`):
 // - TERM_FLOW, entry e of `domain_flows`: the flow signed as the domain gathers it, at
 //   2·n_links + e (q − f is q + (−f), exactly);
-// - the domain's kind (DOMAIN_REGULAR or DOMAIN_REGULAR_DEFORMED), link l, the link before it in
-//   its loop (the loop's last for its first), the domain's reference block: at 2·l the term of
-//   the edge from the last vertex of the link before to l's first (for a loop's first link, the
-//   loop's closing edge, added last), at 2·l + 1 a contact's own edge, from its first vertex to
-//   its second: `edge_change` on the vertices' motion in f32 (`void_step`), `cross2` on their
-//   positions in f64 and for a deformed void (`fluid_area`).
+// - DOMAIN_REGULAR, link l, the link before it in its loop (the loop's last for its first), the
+//   domain's reference block: at 2·l the term of the edge from the last vertex of the link
+//   before to l's first (for a loop's first link, the loop's closing edge, added last), at
+//   2·l + 1 a contact's own edge, from its first vertex to its second: `edge_change` on the
+//   vertices' motion in f32 (`void_step`), `cross2` on their positions in f64 (`fluid_area`).
+// A void bounded by a deformable block (DOMAIN_REGULAR_DEFORMED) is walked whatever its length:
+// in f32 its vertices at their blocks' whole rotations (`link_vertex_turned`) came out of this
+// pass different in their last bits from the walk's (lavapipe, the SDEF cavity's two voids of
+// 20 and 34 links), and the walk is what its runs have been measured with.
 const TERM_FLOW: u32 = 16u;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -401,15 +405,14 @@ fn domain_terms(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
         }
         return;
     }
-    let turned = EXACT_CIRCLE && tag == DOMAIN_REGULAR_DEFORMED;
     var last = 1u;
     if ((domain_links[4u * before] & LINK_CORNER) != 0u) {
         last = 0u;
     }
-    let v0 = area_vertex(l, 0u, reference, turned);
-    sum_terms[2u * l] = cross2(area_vertex(before, last, reference, turned), v0);
+    let v0 = link_vertex(l, 0u, reference);
+    sum_terms[2u * l] = cross2(link_vertex(before, last, reference), v0);
     if (!corner) {
-        sum_terms[2u * l + 1u] = cross2(v0, area_vertex(l, 1u, reference, turned));
+        sum_terms[2u * l + 1u] = cross2(v0, link_vertex(l, 1u, reference));
     }
 }
 
