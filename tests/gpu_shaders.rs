@@ -167,7 +167,10 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         assert_eq!(slots("energy_sums", "energy_sums_fluid"), [Params, EnergySums, FluidLoads]);
         assert_eq!(slots("flow", "flow"), [Params, Blocks, Corners, Contacts, Materials, FluidMaterials, Domains, ContactSides, ContactFlows]);
         // A long domain's sums from the terms `domain_terms` computed (`gpu::flow::LONG_WALK`).
-        assert_eq!(slots("flow", "domain_terms"), [Params, Blocks, Corners, Contacts, FluidParams, DomainFlows, DomainLinks, ContactFlows, DomainTerms, TermItems]);
+        assert_eq!(
+            slots("flow", "domain_terms"),
+            [Params, Blocks, Corners, Contacts, FluidParams, DomainFlows, DomainLinks, ContactFlows, DomainTerms, TermItems]
+        );
         assert_eq!(
             slots("flow", "domain_pressures"),
             [Params, Blocks, Corners, Contacts, FluidParams, Domains, DomainFlows, DomainLinks, ContactFlows, DomainTerms]
