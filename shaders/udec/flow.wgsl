@@ -362,9 +362,10 @@ fn void_step(dom: Domain) -> real {
 // `domain_terms` computes each term of those sums in parallel, one item each, and
 // `domain_pressures` adds them in the walk's order, which is the CPU's: a rerun repeats bit for
 // bit, and each term is the walk's own expression on the same operands, so the result is the
-// walk's (to the byte on lavapipe for the bench wall, f32 and f64, even with every void split;
-// sample 2 in f64 with every void split, `BLOCKDEM_LONG_WALK=0`, moved by 2e-12 of its
-// pressure: the compiler may fuse a vertex's products otherwise in the two passes). An item is
+// walk's (to the byte on lavapipe for the bench wall, f32 and f64, and for sample 2's pressurized
+// voids in f32 with every void split, `BLOCKDEM_LONG_WALK=0`; sample 2 in f64 so split moved by
+// 2e-12 of its pressure: the compiler may fuse a vertex's products otherwise in the two passes,
+// and the default splits none of its domains). An item is
 // four words in `term_items` (`gpu::flow::term_items`):
 // - TERM_FLOW, entry e of `domain_flows`: the flow signed as the domain gathers it, at
 //   2·n_links + e (q − f is q + (−f), exactly);
