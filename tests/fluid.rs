@@ -253,6 +253,57 @@ fn the_energy_check_counts_the_fluid_work_since_the_cycle_began(t: &Target) {
     assert!(done.is_finite(), "{}: fluid work {done}", t.name());
 }
 
+/// A run's state JSON on lavapipe with `BLOCKDEM_LONG_WALK` set (`gpu::flow::LONG_WALK`: the
+/// length past which a domain's sums are taken over terms computed in parallel, `domain_terms`),
+/// its provenance left out; None without the adapter.
+fn run_with_long_walk(deck: &str, precision: blockdem::udec::gpu::Precision, long_walk: &str) -> Option<serde_json::Value> {
+    use std::process::Command;
+    Target::gpu("vulkan", precision)?;
+    let dir = std::env::temp_dir().join(format!("blockdem-fluid-long-walk-{}-{precision}-{long_walk}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (path, json) = (dir.join("deck.dat"), dir.join("state.json"));
+    std::fs::write(&path, deck).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_blockdem"))
+        .args(["run", path.to_str().unwrap(), "--backend", "gpu", "--adapter", "vulkan", "--precision", &precision.to_string()])
+        .args(["--out", dir.to_str().unwrap(), "--state-json", json.to_str().unwrap()])
+        .env("BLOCKDEM_LONG_WALK", long_walk)
+        .output()
+        .expect("runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut state: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    state.as_object_mut().unwrap().remove("provenance");
+    let _ = std::fs::remove_dir_all(&dir);
+    Some(state)
+}
+
+/// A domain's sums split over `domain_terms` (flow.wgsl) are its walk's to the byte: the bench's
+/// fluid wall (`examples/brick_wall_fluid.dat`, 150 cycles; its void along the ground block has
+/// 197 links and 120 flows, split by default) against every domain walked by one invocation
+/// (the largest u32), f32 and f64; and sample 2 in f32 (500 cycles; voids of 12 links at most,
+/// pressurized, followed by their boundary's motion) with every void and flow list split
+/// (`BLOCKDEM_LONG_WALK=0`) against walked. The sums are taken in the walk's order from the
+/// walk's own terms. (Sample 2 in f64 with every void split moved by 2e-12 of its pressure on
+/// lavapipe, the compiler fusing a vertex's products otherwise in the two passes: the default
+/// splits none of its domains.)
+#[test]
+fn long_domains_split_or_walked_give_the_same_run_bit_for_bit() {
+    let wall = std::fs::read_to_string(format!("{}/examples/brick_wall_fluid.dat", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let wall = wall.lines().map(|l| if l.starts_with("CYCLE ") { "CYCLE 150" } else { l }).collect::<Vec<_>>().join("\n") + "\n";
+    let walked = u32::MAX.to_string();
+    for precision in [blockdem::udec::gpu::Precision::F32, blockdem::udec::gpu::Precision::F64] {
+        let Some(split) = run_with_long_walk(&wall, precision, "16") else { continue };
+        let domains = split["domains"].as_array().unwrap();
+        assert!(domains.iter().any(|d| d["contacts"].as_array().unwrap().len() > 16 && d["kind"] == "regular"), "a long void");
+        assert_eq!(Some(split), run_with_long_walk(&wall, precision, &walked), "{precision}: the wall, every domain walked");
+    }
+    let s2 = sample("udec2_pressurized_cavity.dat").replace("CYCLE 3000", "CYCLE 500");
+    let f32 = blockdem::udec::gpu::Precision::F32;
+    if let Some(split) = run_with_long_walk(&s2, f32, "0") {
+        assert!(split["domains"].as_array().unwrap().iter().any(|d| d["pressure"].as_f64().unwrap() > 1e4), "the cavity is pressurized");
+        assert_eq!(Some(split), run_with_long_walk(&s2, f32, &walked), "sample 2 f32, every sum split and every domain walked");
+    }
+}
+
 common::every_backend!(
     sample_2_agrees_with_the_cpu,
     sample_2_pressures_follow_the_cpu_along_the_run,

@@ -148,7 +148,7 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         assert!(slots("energy_sums", "energy_sums_sdef").contains(&Sdefs));
         // Only the fluid's entry points bind the fluid's slots (a dry scene binds nothing of
         // them), each at most 8 storage buffers.
-        let fluid_slots = [FluidParams, FluidMaterials, Domains, DomainFlows, DomainLinks, ContactSides, ContactFlows, FluidLoads];
+        let fluid_slots = [FluidParams, FluidMaterials, Domains, DomainFlows, DomainLinks, ContactSides, ContactFlows, FluidLoads, DomainTerms, TermItems];
         for (file, entry) in [
             ("law_of_motion", "law_of_motion"),
             ("law_of_motion", "law_of_motion_sdef"),
@@ -170,12 +170,20 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         assert_eq!(slots("gather", "gather_fluid"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces, ContactFlows, FluidLoads]);
         assert_eq!(slots("energy_sums", "energy_sums_fluid"), [Params, EnergySums, FluidLoads]);
         assert_eq!(slots("flow", "flow"), [Params, Blocks, Corners, Contacts, Materials, FluidMaterials, Domains, ContactSides, ContactFlows]);
-        assert_eq!(slots("flow", "domain_pressures"), [Params, Blocks, Corners, Contacts, FluidParams, Domains, DomainFlows, DomainLinks, ContactFlows]);
+        // A long domain's sums from the terms `domain_terms` computed (`gpu::flow::LONG_WALK`).
+        assert_eq!(
+            slots("flow", "domain_terms"),
+            [Params, Blocks, Corners, Contacts, FluidParams, DomainFlows, DomainLinks, ContactFlows, DomainTerms, TermItems]
+        );
+        assert_eq!(
+            slots("flow", "domain_pressures"),
+            [Params, Blocks, Corners, Contacts, FluidParams, Domains, DomainFlows, DomainLinks, ContactFlows, DomainTerms]
+        );
         // The pressure loads are summed in the block pass (`force_sum_fluid`): flow.wgsl has no
         // pass over the blocks, and the block pass reads the pressures from the contacts' flow
         // slots, within the 8 storage buffers.
         let (flow, _) = shaders::validate(&shaders::source("flow", precision).unwrap(), precision).unwrap();
-        assert_eq!(flow.entry_points.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(), ["flow", "domain_pressures", "pressure_pieces"]);
+        assert_eq!(flow.entry_points.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(), ["flow", "domain_terms", "domain_pressures", "pressure_pieces"]);
         // The pressures' push on deformable blocks: only the kernels of fluid with deformable
         // blocks bind its slots (a dry scene, and a scene with fluid and rigid blocks only, bind
         // nothing of them), each within the 8 storage buffers.
@@ -234,7 +242,9 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             let s = slots(file, entry);
             assert!(s.iter().filter(|x| x.kind() != SlotKind::Uniform).count() <= 8, "{entry}: {s:?}");
         }
-        for (file, entry) in [("flow", "flow"), ("flow", "domain_pressures"), ("law_of_motion", "law_of_motion_fluid"), ("gather", "gather_fluid")] {
+        for (file, entry) in
+            [("flow", "flow"), ("flow", "domain_terms"), ("flow", "domain_pressures"), ("law_of_motion", "law_of_motion_fluid"), ("gather", "gather_fluid")]
+        {
             let s = slots(file, entry);
             assert!(s.iter().filter(|x| x.kind() != SlotKind::Uniform).count() <= 8, "{entry}: {s:?}");
         }

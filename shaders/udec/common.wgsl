@@ -44,6 +44,11 @@
 @group(0) @binding(23) var<storage, read> contact_sides: array<u32>;
 @group(0) @binding(24) var<storage, read_write> contact_flows_out: array<ContactFlow>;
 @group(0) @binding(25) var<storage, read_write> fluid_loads: array<FluidLoad>;
+// Scenes with fluid and a domain of a long boundary or flow list (`gpu::flow`, `domain_terms`):
+// each such domain's terms, two per link (at 2·link) and one per flow (at 2·n_links + entry),
+// and what each invocation of `domain_terms` computes (four words an item).
+@group(0) @binding(30) var<storage, read_write> sum_terms: array<real>;
+@group(0) @binding(31) var<storage, read> term_items: array<u32>;
 // Scenes with fluid and deformable blocks only (`gpu::flow`, the `_fluid` entry points of the
 // SDEF and FDEF kernels): each domain link's piece of block boundary, each block's pieces (CSR:
 // offsets for blocks 0 ..= n into this array, then the link indices, ascending: the CPU's order

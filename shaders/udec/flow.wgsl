@@ -1,12 +1,14 @@
 // Stage 5: fluid flow in joints and voids (SL-85-1 Appendix A ¶6–9, ¶19). Twin of
 // src/udec/cpu/flow.rs on the pure pieces of `model::fluid`; compiled and dispatched only in a
 // scene with fluid (`gpu::flow`), after the contact stage (the joints' apertures read the normal
-// forces it has just set), in two passes, neither reading what its own pass writes:
+// forces it has just set), in three passes, none reading what its own pass writes:
 //
 // 1. `flow`, per contact (the entry point named after the file; the loop body of
 //    `model::fluid::contact_flows`): its aperture, its flow q = k_c·Δp across a point contact or
 //    k_j·a³·Δp/l along a joint (¶6) at the pressures of the last step, and its feet;
-// 2. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
+// 2. `domain_terms`, per term of a long domain's sums (a void of many links, a long flow list:
+//    see there), only where there are such domains;
+// 3. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
 //    (the CPU's order: reruns repeat bit for bit, and f64 agrees with the CPU to round-off), its
 //    area now, and the pressure update with its change of volume (¶7); a PFIX domain and the
 //    outer domain keep theirs. A free domain then copies its new pressure into each of its
@@ -185,6 +187,9 @@ fn fluid_area(dom: Domain) -> real {
     if (dom.link_count == 0u) {
         return fluid_params.min_area;
     }
+    if (dom.kind == DOMAIN_REGULAR && dom.link_count > fluid_params.long_walk) {
+        return max(summed_terms(dom), fluid_params.min_area);
+    }
     let reference = blocks[domain_links[4u * first + 2u]];
     let turned = EXACT_CIRCLE && dom.kind == DOMAIN_REGULAR_DEFORMED;
     var void_area = real(0.0);
@@ -285,6 +290,34 @@ fn walk_to(w_in: VoidWalk, v: vec4<real>) -> VoidWalk {
     return w;
 }
 
+// Link l's vertices in circuit order (a corner's one twice), each with how far it moved in this
+// step, from the centroid of block `reference` (see `void_step`).
+fn moving_vertices(l: u32, reference: Block) -> array<vec4<real>, 2> {
+    let bits = domain_links[4u * l];
+    let index = domain_links[4u * l + 1u];
+    let b1 = domain_links[4u * l + 2u];
+    if ((bits & LINK_CORNER) != 0u) {
+        let r = corner_at(index);
+        let v = vec4<real>(centroid_difference(blocks[b1], reference) + r, moved_by(motion(b1), r));
+        return array<vec4<real>, 2>(v, v);
+    }
+    let b2 = domain_links[4u * l + 3u];
+    let f0 = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
+    let f1 = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
+    let d0 = moved_by(motion(b1), f0);
+    var d1 = moved_by(motion(b2), f1);
+    if (contacts[index].feature % 2u == 1u) {
+        let rel = d0 - d1;
+        let n = vec2<real>(contacts[index].nx, contacts[index].ny);
+        d1 += rel - dot(rel, n) * n;
+    }
+    let v0 = vec4<real>(centroid_difference(blocks[b1], reference) + f0, d0);
+    let v1 = vec4<real>(centroid_difference(blocks[b2], reference) + f1, d1);
+    // The foot the circuit arrives at (the other side's), then its own side's.
+    let own_is_1 = (bits & LINK_SIDE) != 0u;
+    return array<vec4<real>, 2>(select(v1, v0, own_is_1), select(v0, v1, own_is_1));
+}
+
 // The change of regular domain `dom`'s void in this step, from its boundary's motion
 // (AREA_BY_MOTION): with each vertex v_i now and d_i how far it moved, each loop's area before
 // the step is A(v − d), so A(v) − A(v − d) = −½·Σ (v_i × d_i+1 + d_i × v_i+1 − d_i × d_i+1) over its
@@ -309,34 +342,111 @@ fn void_step(dom: Domain) -> real {
             w.s = 0.0;
             w.open = false;
         }
-        let index = domain_links[4u * l + 1u];
-        let b1 = domain_links[4u * l + 2u];
-        if ((bits & LINK_CORNER) != 0u) {
-            let r = corner_at(index);
-            w = walk_to(w, vec4<real>(centroid_difference(blocks[b1], reference) + r, moved_by(motion(b1), r)));
-            continue;
+        let v = moving_vertices(l, reference);
+        w = walk_to(w, v[0]);
+        if ((bits & LINK_CORNER) == 0u) {
+            w = walk_to(w, v[1]);
         }
-        let b2 = domain_links[4u * l + 3u];
-        let f0 = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
-        let f1 = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
-        let d0 = moved_by(motion(b1), f0);
-        var d1 = moved_by(motion(b2), f1);
-        if (contacts[index].feature % 2u == 1u) {
-            let rel = d0 - d1;
-            let n = vec2<real>(contacts[index].nx, contacts[index].ny);
-            d1 += rel - dot(rel, n) * n;
-        }
-        let v0 = vec4<real>(centroid_difference(blocks[b1], reference) + f0, d0);
-        let v1 = vec4<real>(centroid_difference(blocks[b2], reference) + f1, d1);
-        // The foot the circuit arrives at (the other side's), then its own side's.
-        let own_is_1 = (bits & LINK_SIDE) != 0u;
-        w = walk_to(w, select(v1, v0, own_is_1));
-        w = walk_to(w, select(v0, v1, own_is_1));
     }
     if (w.open) {
         change += -(0.5 * (w.s + edge_change(w.prev, w.start)));
     }
     return change;
+}
+
+// A domain whose boundary has more than `fluid_params.long_walk` links, or whose free pressure
+// gathers more flows than that, does not walk them in one invocation of `domain_pressures`: the
+// bench wall's void along the ground block's top (197 links and 120 flows, where the wall's
+// other voids have 3 or 7 links) made that pass one thread's chain of dependent loads, a
+// link's feet, blocks and corners after its word, the whole of a small wall's cycle on a GPU.
+// `domain_terms` computes each term of those sums in parallel, one item each, and
+// `domain_pressures` adds them in the walk's order, which is the CPU's: a rerun repeats bit for
+// bit, and each term is the walk's own expression on the same operands, so the result is the
+// walk's (to the byte on lavapipe for the bench wall, f32 and f64, and for sample 2's pressurized
+// voids in f32 with every void split, `BLOCKDEM_LONG_WALK=0`; sample 2 in f64 so split moved by
+// 2e-12 of its pressure: the compiler may fuse a vertex's products otherwise in the two passes,
+// and the default splits none of its domains). An item is
+// four words in `term_items` (`gpu::flow::term_items`):
+// - TERM_FLOW, entry e of `domain_flows`: the flow signed as the domain gathers it, at
+//   2·n_links + e (q − f is q + (−f), exactly);
+// - DOMAIN_REGULAR, link l, the link before it in its loop (the loop's last for its first), the
+//   domain's reference block: at 2·l the term of the edge from the last vertex of the link
+//   before to l's first (for a loop's first link, the loop's closing edge, added last), at
+//   2·l + 1 a contact's own edge, from its first vertex to its second: `edge_change` on the
+//   vertices' motion in f32 (`void_step`), `cross2` on their positions in f64 (`fluid_area`).
+// A void bounded by a deformable block (DOMAIN_REGULAR_DEFORMED) is walked whatever its length:
+// in f32 its vertices at their blocks' whole rotations (`link_vertex_turned`) came out of this
+// pass different in their last bits from the walk's (lavapipe, the SDEF cavity's two voids of
+// 20 and 34 links), and the walk is what its runs have been measured with.
+const TERM_FLOW: u32 = 16u;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn domain_terms(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let i = item_index(wg, li);
+    if (i >= fluid_params.n_term_items) {
+        return;
+    }
+    let tag = term_items[4u * i];
+    let l = term_items[4u * i + 1u];
+    if (tag == TERM_FLOW) {
+        let entry = domain_flows[l];
+        let flow = contact_flows_out[entry >> 1u].flow;
+        sum_terms[2u * fluid_params.n_links + l] = select(-flow, flow, (entry & 1u) != 0u);
+        return;
+    }
+    let before = term_items[4u * i + 2u];
+    let reference = blocks[term_items[4u * i + 3u]];
+    let corner = (domain_links[4u * l] & LINK_CORNER) != 0u;
+    if (AREA_BY_MOTION && tag == DOMAIN_REGULAR) {
+        let p = moving_vertices(before, reference);
+        let v = moving_vertices(l, reference);
+        sum_terms[2u * l] = edge_change(p[1], v[0]);
+        if (!corner) {
+            sum_terms[2u * l + 1u] = edge_change(v[0], v[1]);
+        }
+        return;
+    }
+    var last = 1u;
+    if ((domain_links[4u * before] & LINK_CORNER) != 0u) {
+        last = 0u;
+    }
+    let v0 = link_vertex(l, 0u, reference);
+    sum_terms[2u * l] = cross2(link_vertex(before, last, reference), v0);
+    if (!corner) {
+        sum_terms[2u * l + 1u] = cross2(v0, link_vertex(l, 1u, reference));
+    }
+}
+
+// A long domain's void or its change in this step (`void_step`'s sum, or `fluid_area`'s before
+// A_d(min)) from its terms, in the walk's order: each loop's edges as the walk meets them, its
+// closing edge last, −½ times the loop's sum added loop by loop.
+fn summed_terms(dom: Domain) -> real {
+    let end = dom.link_start + dom.link_count;
+    var total = real(0.0);
+    var s = real(0.0);
+    var close = real(0.0);
+    var open = false;
+    for (var l = dom.link_start; l < end; l += 1u) {
+        let bits = domain_links[4u * l];
+        if ((bits & LINK_LOOP_START) != 0u && open) {
+            total += -(0.5 * (s + close));
+            s = 0.0;
+            open = false;
+        }
+        if (open) {
+            s += sum_terms[2u * l];
+        } else {
+            close = sum_terms[2u * l];
+            open = true;
+        }
+        if ((bits & LINK_CORNER) == 0u) {
+            s += sum_terms[2u * l + 1u];
+        }
+    }
+    if (open) {
+        total += -(0.5 * (s + close));
+    }
+    return total;
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -352,7 +462,12 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
     if (AREA_BY_MOTION && dom.kind == DOMAIN_REGULAR && dom.link_count > 0u) {
         // The void followed by its boundary's motion from the upload's (`void_step`); the
         // change is the step's own, unless A_d(min) held the area before or after it.
-        let step = void_step(dom);
+        var step = real(0.0);
+        if (dom.link_count > fluid_params.long_walk) {
+            step = summed_terms(dom);
+        } else {
+            step = void_step(dom);
+        }
         let before = dom.void_base + dom.void_change;
         let change = dom.void_change + step;
         let now = dom.void_base + change;
@@ -369,13 +484,20 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
     if (dom.free != 0u) {
         var q = real(0.0);
         let end = dom.flow_start + dom.flow_count;
-        for (var e = dom.flow_start; e < end; e += 1u) {
-            let entry = domain_flows[e];
-            let flow = contact_flows_out[entry >> 1u].flow;
-            if ((entry & 1u) != 0u) {
-                q += flow;
-            } else {
-                q -= flow;
+        if (dom.flow_count > fluid_params.long_walk) {
+            // The flows signed by `domain_terms`, in the same order.
+            for (var e = dom.flow_start; e < end; e += 1u) {
+                q += sum_terms[2u * fluid_params.n_links + e];
+            }
+        } else {
+            for (var e = dom.flow_start; e < end; e += 1u) {
+                let entry = domain_flows[e];
+                let flow = contact_flows_out[entry >> 1u].flow;
+                if ((entry & 1u) != 0u) {
+                    q += flow;
+                } else {
+                    q -= flow;
+                }
             }
         }
         q = q * params.dt;

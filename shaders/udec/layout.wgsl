@@ -107,8 +107,9 @@ struct FdefBlock { lambda: real, shear: real, gp_start: u32, gp_count: u32, boun
 // g2a and g2b with weights wa, wb), NO_INDEX where the block is not zoned.
 struct ContactShare { wa: real, wb: real, g1: u32, g2a: u32, g2b: u32, _pad: u32 }
 // Scenes with fluid only (twins of `layout::FluidParams` etc., flow.wgsl).
-// 32 / 48 bytes (a uniform): bulkw, A_d(min), the number of domains.
-struct FluidParams { bulk: real, min_area: real, _r0: real, _r1: real, n_domains: u32, _p0: u32, _p1: u32, _p2: u32 }
+// 32 / 48 bytes (a uniform): bulkw, A_d(min), the number of domains, of domain links and of
+// `domain_terms` items, and the length past which a domain's walk is split (`domain_terms`).
+struct FluidParams { bulk: real, min_area: real, _r0: real, _r1: real, n_domains: u32, n_links: u32, n_term_items: u32, long_walk: u32 }
 // 16 / 32 bytes (a uniform array of MAX_MATERIALS): JPERM, CPERM, AZERO, ARES.
 struct FluidMaterial { jperm: real, cperm: real, azero: real, ares: real }
 // 48 / 72 bytes. A domain: pressure, area at the last step, a joint's length, inflow since the

@@ -54,10 +54,12 @@ impl<R: Real> Engine<R> {
         Dispatch { label: "end_cycle", pipeline: &self.pipelines.end_cycle, bind_group: end, grid: (1, 1), indirect: None }
     }
 
-    /// Stage 5 after the contact stage: each contact's flow, then each domain's pressure.
-    fn stage_5_passes<'a>(&'a self, k: &'a kernels::FluidKernels, g: &'a kernels::FluidBindGroups) -> [Dispatch<'a>; 2] {
+    /// Stage 5 after the contact stage: each contact's flow, the terms of the long domains' sums
+    /// (none where there are no such domains: the pass is left out), then each domain's pressure.
+    fn stage_5_passes<'a>(&'a self, k: &'a kernels::FluidKernels, g: &'a kernels::FluidBindGroups) -> [Dispatch<'a>; 3] {
         [
             self.pass("flow", &k.contact_flows.pipeline, &g.contact_flows, Grid::Contacts, false),
+            self.pass("domain_terms", &k.domain_terms.pipeline, &g.domain_terms, Grid::DomainTerms, false),
             self.pass("domain_pressures", &k.domain_pressures.pipeline, &g.domain_pressures, Grid::Domains, false),
         ]
     }
@@ -241,6 +243,7 @@ impl<R: Real> Engine<R> {
             Grid::Zones => items(self.fdef_counts.1),
             Grid::Domains => items(self.n_domains),
             Grid::BlockGroups => shaders::dispatch_grid(self.fdef_wide as u32),
+            Grid::DomainTerms => items(self.n_term_items),
         }
     }
 

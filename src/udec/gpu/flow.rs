@@ -9,9 +9,10 @@
 //! them whole (`upload_fluid`), with each domain's flows as a CSR list in ascending contact
 //! order, so that its inflow is summed in the CPU's order and a rerun repeats bit for bit. Each
 //! cycle runs `law_of_motion_fluid` (each block's fluid load summed in the same walk of its list
-//! as its contact forces), the contact stage, then flow.wgsl's `flow` (per contact) and
-//! `domain_pressures` (per domain, which leaves each contact's two pressures next to its feet
-//! for the next gather). What differs
+//! as its contact forces), the contact stage, then flow.wgsl's `flow` (per contact),
+//! `domain_terms` (the terms of the long domains' sums, one invocation each: `term_items`,
+//! `LONG_WALK`) and `domain_pressures` (per domain, which leaves each contact's two pressures
+//! next to its feet for the next gather). What differs
 //! otherwise, as in an SDEF scene: contact updates upload the contact list whole, so the splice
 //! and partial read-backs are off. A read-back gives the model each domain's pressure and area,
 //! each contact's flow and the ledger's fluid work and inflow (accumulated on the device from
@@ -59,6 +60,8 @@ struct FluidUpload<R: Real> {
     /// circuit in order, the CPU's order of `model::fluid::deformable_pressure_loads`). Empty
     /// in a scene of rigid blocks.
     block_pieces: Vec<u32>,
+    /// The items of `domain_terms` (`term_items`).
+    term_items: Vec<u32>,
 }
 
 impl<R: Real> FluidUpload<R> {
@@ -188,7 +191,8 @@ impl<R: Real> FluidUpload<R> {
             block_pieces.push(at);
             block_pieces.extend(pieces.into_iter().flatten());
         }
-        FluidUpload { domains: out, flows, links, sides, loads, contact_flows, block_pieces }
+        let term_items = term_items(&out, &links, long_walk());
+        FluidUpload { domains: out, flows, links, sides, loads, contact_flows, block_pieces, term_items }
     }
 }
 
@@ -202,6 +206,7 @@ impl<R: Real> Engine<R> {
         self.fluid_scene = model.fluid.is_some() && model.domains.is_some();
         if !self.fluid_scene {
             self.n_domains = 0;
+            self.n_term_items = 0;
             return Ok(false);
         }
         let had_kernels = self.pipelines.fluid.is_some();
@@ -222,6 +227,7 @@ impl<R: Real> Engine<R> {
             links: up.links.len() / 4,
             contacts: model.contacts.len(),
             blocks: model.blocks.len(),
+            term_items: up.term_items.len() / 4,
         };
         let b = self.buffers.as_mut().expect("buffers exist");
         let mut made = b.ensure_fluid::<R>(&self.dev, sizes)?;
@@ -231,7 +237,15 @@ impl<R: Real> Engine<R> {
         }
         let fluid = model.fluid.expect("checked above");
         let domains = model.domains.as_ref().expect("checked above");
-        let params = FluidParams::<R> { bulk: r(fluid.bulk), min_area: r(domains.min_area), n_domains: up.domains.len() as u32, ..Default::default() };
+        let params = FluidParams::<R> {
+            bulk: r(fluid.bulk),
+            min_area: r(domains.min_area),
+            n_domains: up.domains.len() as u32,
+            n_links: sizes.links as u32,
+            n_term_items: sizes.term_items as u32,
+            long_walk: long_walk(),
+            ..Default::default()
+        };
         let mut materials = vec![FluidMaterial::<R>::default(); MAX_MATERIALS];
         for (g, m) in materials.iter_mut().zip(&model.materials) {
             let f = &m.fluid;
@@ -252,12 +266,14 @@ impl<R: Real> Engine<R> {
         write(&b.contact_sides, bytemuck::cast_slice(&up.sides));
         write(&b.fluid_loads, bytemuck::cast_slice(&up.loads));
         write(&b.contact_flows, bytemuck::cast_slice(&up.contact_flows));
+        write(&b.term_items, bytemuck::cast_slice(&up.term_items));
         if deformable {
             write(&b.block_pieces, bytemuck::cast_slice(&up.block_pieces));
         }
         let base = std::rc::Rc::make_mut(&mut self.uploaded);
         base.fluid_base = [fluid.work, fluid.inflow];
         self.n_domains = up.domains.len();
+        self.n_term_items = sizes.term_items;
         Ok(made || !had_kernels || (deformable && !had_wet))
     }
 
@@ -325,6 +341,55 @@ impl<R: Real> Engine<R> {
     }
 }
 
+/// The length of boundary (links) or of flow list past which a domain's sums are taken over terms
+/// computed in parallel (`domain_terms`, flow.wgsl) rather than walked by one invocation of
+/// `domain_pressures`: the wall's voids have 3 or 7 links and joints 2, the void along a row's
+/// foot hundreds. The sums are taken in the walk's order from the walk's own terms (the bench
+/// wall's run is the same to the byte both ways: tests/fluid.rs); `BLOCKDEM_LONG_WALK` sets it
+/// (0: every void and free flow list from terms).
+pub const LONG_WALK: u32 = 16;
+
+/// `LONG_WALK`, or `BLOCKDEM_LONG_WALK` where set to a number.
+pub fn long_walk() -> u32 {
+    std::env::var("BLOCKDEM_LONG_WALK").ok().and_then(|v| v.trim().parse().ok()).unwrap_or(LONG_WALK)
+}
+
+/// `TERM_FLOW` of flow.wgsl: an item of `domain_terms` that signs one flow of a domain's list.
+pub const TERM_FLOW: u32 = 16;
+
+/// The items of `domain_terms` (flow.wgsl; four words each) for the domains `domains` with their
+/// boundary `links` (four words a link), those past `long_walk` only: for a void of rigid blocks
+/// (`DOMAIN_REGULAR`; a deformed void is walked, see flow.wgsl) of more links, one item per link,
+/// [its kind, the link, the link
+/// before it in its loop (for the loop's first, its last: the closing edge), the reference block
+/// (the domain's first link's block, from whose centroid `fluid_area` and `void_step` measure)];
+/// for a free domain of more flows, one per flow, [`TERM_FLOW`, its entry in `domain_flows`, 0,
+/// 0]. A loop opens at the domain's first link and at each link marked `LINK_LOOP_START`, as
+/// the walks of flow.wgsl take it.
+pub fn term_items<R: Real>(domains: &[Domain<R>], links: &[u32], long_walk: u32) -> Vec<u32> {
+    let mut items = Vec::new();
+    for dom in domains {
+        let (start, end) = (dom.link_start, dom.link_start + dom.link_count);
+        if dom.kind == DOMAIN_REGULAR && dom.link_count > long_walk {
+            let reference = links[4 * start as usize + 2];
+            let mut first = start;
+            while first < end {
+                // The loop from `first` to the link before the next one that opens a loop.
+                let last = (first + 1..end).find(|&l| links[4 * l as usize] & LINK_LOOP_START != 0).unwrap_or(end) - 1;
+                for l in first..=last {
+                    let before = if l == first { last } else { l - 1 };
+                    items.extend([dom.kind, l, before, reference]);
+                }
+                first = last + 1;
+            }
+        }
+        if dom.free != 0 && dom.flow_count > long_walk {
+            items.extend((dom.flow_start..dom.flow_start + dom.flow_count).flat_map(|e| [TERM_FLOW, e, 0, 0]));
+        }
+    }
+    items
+}
+
 /// A zoned block's external force as the CPU's gather sums it includes its grid points' fluid
 /// loads (`cpu::zones::gather_fdef`), which `convert_fdef` (from the device's grid points, before
 /// the domains are read) leaves out: added here with the pressures just read, each grid point's
@@ -354,5 +419,173 @@ fn zoned_fluid_forces(model: &mut Model) {
         let blk = &mut model.blocks[b];
         blk.force[0] += sum[0];
         blk.force[1] += sum[1];
+    }
+}
+
+/// Twin of flow.wgsl's `domain_terms` (checked against the walk by the tests below; the device
+/// runs the WGSL) for one void's items (`term_items`, four words each) on
+/// its boundary `links` (four words a link, indexed from 0 as the items' link words are) and
+/// each link's vertices in circuit order (a corner's one twice), with the term of each edge
+/// `edge` (`cross2` on positions, `edge_change` on positions and motion): at 2·l the edge from
+/// the last vertex of the link before to l's first, at 2·l + 1 a contact's own edge (0 for a
+/// corner, which has none).
+#[cfg(test)]
+pub fn domain_terms<V: Copy, T: Copy + Default>(items: &[u32], links: &[u32], vertices: &[[V; 2]], edge: impl Fn(V, V) -> T) -> Vec<T> {
+    let mut terms = vec![T::default(); 2 * vertices.len()];
+    for item in items.chunks_exact(4).filter(|i| i[0] != TERM_FLOW) {
+        let (l, before) = (item[1] as usize, item[2] as usize);
+        let last = if links[4 * before] & LINK_CORNER != 0 { 0 } else { 1 };
+        terms[2 * l] = edge(vertices[before][last], vertices[l][0]);
+        if links[4 * l] & LINK_CORNER == 0 {
+            terms[2 * l + 1] = edge(vertices[l][0], vertices[l][1]);
+        }
+    }
+    terms
+}
+
+/// Twin of flow.wgsl's `summed_terms` (tests only, as `domain_terms`): a void of boundary `links` (four words a link) from its
+/// `terms` (`domain_terms`), in the order of the walk that measures it: each loop's edges as the
+/// walk meets them, its closing edge last, −½ times each loop's sum added loop by loop.
+#[cfg(test)]
+pub fn summed_terms<T>(links: &[u32], terms: &[T]) -> T
+where
+    T: Copy + Default + std::ops::Add<Output = T> + std::ops::Mul<Output = T> + std::ops::Neg<Output = T> + From<f32>,
+{
+    let (mut total, mut s, mut close, mut open) = (T::default(), T::default(), T::default(), false);
+    for l in 0..links.len() / 4 {
+        let bits = links[4 * l];
+        if bits & LINK_LOOP_START != 0 && open {
+            total = total + -(T::from(0.5) * (s + close));
+            s = T::default();
+            open = false;
+        }
+        if open {
+            s = s + terms[2 * l];
+        } else {
+            close = terms[2 * l];
+            open = true;
+        }
+        if bits & LINK_CORNER == 0 {
+            s = s + terms[2 * l + 1];
+        }
+    }
+    if open {
+        total = total + -(T::from(0.5) * (s + close));
+    }
+    total
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A regular domain's words for `term_items`: kind, flows and links.
+    fn domain(kind: u32, free: u32, flows: (u32, u32), links: (u32, u32)) -> Domain<f32> {
+        Domain { kind, free, flow_start: flows.0, flow_count: flows.1, link_start: links.0, link_count: links.1, ..Default::default() }
+    }
+
+    /// Links of one domain: (corner?, opens a loop?) each, block 10 + the link's index.
+    fn links_of(shape: &[(bool, bool)]) -> Vec<u32> {
+        let mut words = Vec::new();
+        for (i, &(corner, start)) in shape.iter().enumerate() {
+            let bits = if corner { LINK_CORNER } else { 0 } | if start { LINK_LOOP_START } else { 0 };
+            words.extend([bits, i as u32, 10 + i as u32, 20 + i as u32]);
+        }
+        words
+    }
+
+    #[test]
+    fn long_domains_get_an_item_per_link_with_the_link_before_it_in_its_loop_and_per_flow_if_free() {
+        // Domain 0: a void of two loops (links 0–2 and 3–4); domain 1 a joint of 2 links; domain
+        // 2 a short void of 2 links; domain 3 the outer (fixed) with 3 flows.
+        let shape = [(true, true), (false, false), (true, false), (false, true), (true, false), (false, true), (false, false), (true, true), (true, false)];
+        let links = links_of(&shape);
+        let domains = [
+            domain(DOMAIN_REGULAR, 1, (0, 3), (0, 5)),
+            domain(DOMAIN_JOINT, 1, (3, 2), (5, 2)),
+            domain(DOMAIN_REGULAR_DEFORMED, 1, (5, 1), (7, 2)),
+            domain(DOMAIN_OUTER, 0, (6, 3), (0, 0)),
+        ];
+        let items = term_items(&domains, &links, 2);
+        #[rustfmt::skip]
+        assert_eq!(items, [
+            DOMAIN_REGULAR, 0, 2, 10, DOMAIN_REGULAR, 1, 0, 10, DOMAIN_REGULAR, 2, 1, 10,
+            DOMAIN_REGULAR, 3, 4, 10, DOMAIN_REGULAR, 4, 3, 10,
+            TERM_FLOW, 0, 0, 0, TERM_FLOW, 1, 0, 0, TERM_FLOW, 2, 0, 0,
+        ]);
+        // At 1, the joint's links and the deformed void's are still walked (the joint's mean
+        // aperture; the deformed outline, see flow.wgsl), and the fixed outer domain gathers no
+        // flows.
+        let items = term_items(&domains, &links, 1);
+        assert!(items.chunks(4).all(|i| i[0] == TERM_FLOW || i[0] == DOMAIN_REGULAR), "{items:?}");
+        assert_eq!(items.chunks(4).filter(|i| i[0] == TERM_FLOW).count(), 5, "{items:?}");
+        assert!(items.chunks(4).all(|i| i[0] == TERM_FLOW || i[1] < 5 || i[1] >= 7), "{items:?}");
+        assert!(term_items(&domains, &links, LONG_WALK).is_empty());
+    }
+
+    /// `fluid_area`'s walk (flow.wgsl) on the same vertices: each vertex after a loop's first adds
+    /// the edge from the one before, the loop closes back to its first.
+    fn walked(links: &[u32], vertices: &[[[f32; 2]; 2]]) -> f32 {
+        let cross = |p: [f32; 2], q: [f32; 2]| p[0] * q[1] - q[0] * p[1];
+        let (mut total, mut s, mut start, mut prev, mut open) = (0.0f32, 0.0f32, [0.0; 2], [0.0; 2], false);
+        for (l, v) in vertices.iter().enumerate() {
+            if links[4 * l] & LINK_LOOP_START != 0 && open {
+                s += cross(prev, start);
+                total += -(0.5 * s);
+                s = 0.0;
+                open = false;
+            }
+            let count = if links[4 * l] & LINK_CORNER != 0 { 1 } else { 2 };
+            for &x in &v[..count] {
+                if open {
+                    s += cross(prev, x);
+                } else {
+                    start = x;
+                    open = true;
+                }
+                prev = x;
+            }
+        }
+        if open {
+            s += cross(prev, start);
+            total += -(0.5 * s);
+        }
+        total
+    }
+
+    #[test]
+    fn a_void_summed_from_its_terms_is_its_walk_to_the_bit() {
+        // Pseudo-random loops of corners and contacts around a few centres, f32 positions of a
+        // few metres (the kernels' precision, where the order of the sum shows).
+        let mut seed = 0x9e37_79b9_u32;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32
+        };
+        for case in 0..200 {
+            let n = 1 + (next() * 40.0) as usize;
+            let shape: Vec<(bool, bool)> = (0..n).map(|i| (next() < 0.4, i == 0 || next() < 0.1)).collect();
+            let links = links_of(&shape);
+            // A corner's one vertex twice, as `moving_vertices` gives it.
+            let vertices: Vec<[[f32; 2]; 2]> = shape
+                .iter()
+                .map(|&(corner, _)| {
+                    let a = [3.0 + next() * 2.0, -1.0 + next()];
+                    if corner {
+                        [a, a]
+                    } else {
+                        [a, [3.0 + next() * 2.0, -1.0 + next()]]
+                    }
+                })
+                .collect();
+            let domains = [domain(DOMAIN_REGULAR, 1, (0, 0), (0, n as u32))];
+            let items = term_items(&domains, &links, 0);
+            assert_eq!(items.len(), 4 * n);
+            let terms = domain_terms(&items, &links, &vertices, |p: [f32; 2], q: [f32; 2]| p[0] * q[1] - q[0] * p[1]);
+            let (a, b) = (summed_terms(&links, &terms), walked(&links, &vertices));
+            assert_eq!(a.to_bits(), b.to_bits(), "case {case}: {a} vs {b}");
+        }
     }
 }

@@ -67,6 +67,10 @@ pub enum StateSlot {
     BlockPieces = 27,
     BlockFluid = 28,
     GridPointFluid = 29,
+    /// Scenes with fluid only (`gpu::flow`, flow.wgsl's `domain_terms`): the terms of the long
+    /// domains' sums and the items that compute them (four words each).
+    DomainTerms = 30,
+    TermItems = 31,
 }
 
 /// How a slot is bound: a uniform, or a storage buffer read only or read and written.
@@ -78,7 +82,7 @@ pub enum SlotKind {
 }
 
 impl StateSlot {
-    pub const ALL: [StateSlot; 29] = [
+    pub const ALL: [StateSlot; 31] = [
         StateSlot::Params,
         StateSlot::Blocks,
         StateSlot::Corners,
@@ -108,6 +112,8 @@ impl StateSlot {
         StateSlot::BlockPieces,
         StateSlot::BlockFluid,
         StateSlot::GridPointFluid,
+        StateSlot::DomainTerms,
+        StateSlot::TermItems,
     ];
 
     pub fn binding(self) -> u32 {
@@ -151,6 +157,8 @@ impl StateSlot {
             StateSlot::BlockPieces => "block_pieces",
             StateSlot::BlockFluid => "block_fluid",
             StateSlot::GridPointFluid => "gridpoint_fluid",
+            StateSlot::DomainTerms => "sum_terms",
+            StateSlot::TermItems => "term_items",
         }
     }
 
@@ -164,7 +172,8 @@ impl StateSlot {
             | StateSlot::DomainFlows
             | StateSlot::DomainLinks
             | StateSlot::ContactSides
-            | StateSlot::BlockPieces => SlotKind::StorageRead,
+            | StateSlot::BlockPieces
+            | StateSlot::TermItems => SlotKind::StorageRead,
             _ => SlotKind::StorageReadWrite,
         }
     }
@@ -250,6 +259,7 @@ pub struct WetFdefBindGroups {
 pub struct FluidBindGroups {
     pub law_of_motion: wgpu::BindGroup,
     pub contact_flows: wgpu::BindGroup,
+    pub domain_terms: wgpu::BindGroup,
     pub domain_pressures: wgpu::BindGroup,
     pub gather: wgpu::BindGroup,
     pub energy_sums: wgpu::BindGroup,
@@ -299,6 +309,7 @@ impl CycleBindGroups {
         let fluid = p.fluid.as_ref().filter(|_| b.domains.is_some()).map(|k| FluidBindGroups {
             law_of_motion: make(&k.law_of_motion, "law_of_motion_fluid"),
             contact_flows: make(&k.contact_flows, "flow"),
+            domain_terms: make(&k.domain_terms, "domain_terms"),
             domain_pressures: make(&k.domain_pressures, "domain_pressures"),
             gather: make(&k.gather, "gather_fluid"),
             energy_sums: make(&k.energy_sums, "energy_sums_fluid"),
@@ -442,13 +453,15 @@ impl WetFdefKernels {
 }
 
 /// The entry points a scene with fluid runs (stage 5, `gpu::flow`): flow.wgsl's `flow` (each
-/// contact's flow, field `contact_flows`) and `domain_pressures` after the contact stage, and in
+/// contact's flow, field `contact_flows`), `domain_terms` (the long domains' terms, where there
+/// are such domains) and `domain_pressures` after the contact stage, and in
 /// the files of their rigid twins `law_of_motion_fluid` (a block's fluid load summed with its
 /// contact forces in its gather, its work booked), `gather_fluid` (before a read-back) and
 /// `energy_sums_fluid` after `energy_sums`. Only they bind the fluid's slots.
 pub struct FluidKernels {
     pub law_of_motion: CycleKernel,
     pub contact_flows: CycleKernel,
+    pub domain_terms: CycleKernel,
     pub domain_pressures: CycleKernel,
     pub gather: CycleKernel,
     pub energy_sums: CycleKernel,
@@ -460,6 +473,7 @@ impl FluidKernels {
             Ok(FluidKernels {
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fluid")?,
                 contact_flows: cycle_kernel(dev, "flow", "flow")?,
+                domain_terms: cycle_kernel(dev, "flow", "domain_terms")?,
                 domain_pressures: cycle_kernel(dev, "flow", "domain_pressures")?,
                 gather: cycle_kernel(dev, "gather", "gather_fluid")?,
                 energy_sums: cycle_kernel(dev, "energy_sums", "energy_sums_fluid")?,
@@ -740,6 +754,9 @@ pub struct Buffers {
     pub contact_sides: Option<Slab>,
     pub contact_flows: Option<Slab>,
     pub fluid_loads: Option<Slab>,
+    /// The long domains' terms and their items (`StateSlot::DomainTerms`, `TermItems`).
+    pub domain_terms: Option<Slab>,
+    pub term_items: Option<Slab>,
     /// Scenes with fluid and deformable blocks only (`StateSlot::FluidPieces` …
     /// `GridPointFluid`; the grid points' with zoned blocks only).
     pub fluid_pieces: Option<Slab>,
@@ -867,6 +884,8 @@ impl Buffers {
             contact_sides: None,
             contact_flows: None,
             fluid_loads: None,
+            domain_terms: None,
+            term_items: None,
             fluid_pieces: None,
             block_pieces: None,
             block_fluid: None,
@@ -960,6 +979,8 @@ impl Buffers {
             (&mut self.contact_sides, "contact domains", 8, sizes.contacts),
             (&mut self.contact_flows, "contact flows", std::mem::size_of::<ContactFlow<R>>(), sizes.contacts),
             (&mut self.fluid_loads, "fluid loads", std::mem::size_of::<FluidLoad<R>>(), sizes.blocks),
+            (&mut self.domain_terms, "domain terms", std::mem::size_of::<R>(), 2 * sizes.links + sizes.flows),
+            (&mut self.term_items, "domain term items", 16, sizes.term_items),
         ] {
             if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
                 ensure_slot(dev, slot, label, item, count.max(1))?;
@@ -1062,6 +1083,8 @@ impl Buffers {
             StateSlot::ContactSides => &self.contact_sides.as_ref().expect(FLUID_ONLY).buffer,
             StateSlot::ContactFlows => &self.contact_flows.as_ref().expect(FLUID_ONLY).buffer,
             StateSlot::FluidLoads => &self.fluid_loads.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::DomainTerms => &self.domain_terms.as_ref().expect(FLUID_ONLY).buffer,
+            StateSlot::TermItems => &self.term_items.as_ref().expect(FLUID_ONLY).buffer,
             StateSlot::FluidPieces => &self.fluid_pieces.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
             StateSlot::BlockPieces => &self.block_pieces.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
             StateSlot::BlockFluid => &self.block_fluid.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
@@ -1101,6 +1124,8 @@ pub struct FluidSizes {
     pub links: usize,
     pub contacts: usize,
     pub blocks: usize,
+    /// `domain_terms`' items (`gpu::flow::TermItems`).
+    pub term_items: usize,
 }
 
 /// How many of each FDEF slot's items a scene needs (`Buffers::ensure_fdef`).
@@ -1137,15 +1162,18 @@ pub enum Grid {
     /// Scenes with zoned blocks: one invocation per grid point, per zone.
     GridPoints,
     Zones,
-    /// Scenes with fluid: one invocation per domain (`domain_pressures`).
+    /// Scenes with fluid: one invocation per domain (`domain_pressures`), per item of
+    /// `domain_terms`.
     Domains,
     /// Scenes with zoned blocks: one workgroup per zoned block of many boundary grid points
     /// (`place_fdef_corners`).
     BlockGroups,
+    DomainTerms,
 }
 
 impl Grid {
-    pub const ALL: [Grid; 7] = [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks, Grid::GridPoints, Grid::Zones, Grid::Domains, Grid::BlockGroups];
+    pub const ALL: [Grid; 8] =
+        [Grid::Blocks, Grid::Contacts, Grid::HeavyBlocks, Grid::GridPoints, Grid::Zones, Grid::Domains, Grid::BlockGroups, Grid::DomainTerms];
 
     /// Byte offset of this grid's (x, y, z) in `Buffers::dispatch_args`.
     pub fn offset(self) -> u64 {

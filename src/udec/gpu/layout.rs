@@ -241,8 +241,11 @@ gpu_struct! {
 
 gpu_struct! {
     /// The fluid's run constants (a uniform), in a scene with fluid only: 32 bytes in f32, 48 in
-    /// f64. bulkw (¶7), A_d(min) (`Domains::min_area`), the live count of domains.
-    FluidParams { bulk: R, min_area: R, _r0: R, _r1: R, n_domains: u32, _p0: u32, _p1: u32, _p2: u32 }
+    /// f64. bulkw (¶7), A_d(min) (`Domains::min_area`), the live count of domains, of domain
+    /// links and of the items of `domain_terms` (flow.wgsl), and the length of boundary or flow
+    /// list past which a domain's sums are taken over terms computed in parallel
+    /// (`gpu::flow::long_walk`).
+    FluidParams { bulk: R, min_area: R, _r0: R, _r1: R, n_domains: u32, n_links: u32, n_term_items: u32, long_walk: u32 }
 }
 
 gpu_struct! {

@@ -322,8 +322,9 @@ struct Engine<R: Real> {
     last_gridpoints: Vec<layout::GridPoint<R>>,
     /// The scene has fluid: the cycle runs the fluid's kernels (`flow`).
     fluid_scene: bool,
-    /// Domains on the device (0 in a dry scene).
+    /// Domains on the device (0 in a dry scene), and the items of `domain_terms` (`gpu::flow`).
     n_domains: usize,
+    n_term_items: usize,
     counts: (usize, usize, usize),
     /// Blocks gathered by `gather_heavy` (more than `HEAVY_DEGREE` contacts), and how many of
     /// them (listed first) are free: a cycle skips fixed blocks, so it dispatches only those.
@@ -388,6 +389,7 @@ impl<R: Real> Engine<R> {
             last_gridpoints: Vec::new(),
             fluid_scene: false,
             n_domains: 0,
+            n_term_items: 0,
             counts: (0, 0, 0),
             n_heavy: 0,
             n_heavy_free: 0,
