@@ -32,6 +32,16 @@ fn run(deck: &str, gpu: Option<&GpuOptions>) -> Model {
     exec.model
 }
 
+/// Runs a D3 deck on the GPU with `options`, its files (SAVE, RESTART) in `dir`.
+fn run_in_dir(deck: &str, o: &GpuOptions, dir: &std::path::Path) -> Model {
+    let commands = blockdem::d3::deck::parse_deck(deck, "<test>").unwrap();
+    let backend = Box::new(GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}")));
+    let mut exec = Executor::with_backend(Box::new(std::io::sink()), "<test>", backend);
+    exec.set_out_dir(dir);
+    exec.run(&commands).unwrap_or_else(|e| panic!("deck failed: {e}"));
+    std::mem::take(&mut exec.model)
+}
+
 /// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32.
 fn targets() -> Vec<GpuOptions> {
     common::GPU_TARGETS
@@ -317,14 +327,7 @@ fn a_gpu_run_saved_and_restarted_goes_on_bit_for_bit() {
     let dir = std::env::temp_dir().join(format!("blockdem-d3gpu-restart-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let run_in = |deck: &str, o: &GpuOptions| -> Model {
-        let commands = blockdem::d3::deck::parse_deck(deck, "<test>").unwrap();
-        let backend = Box::new(GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}")));
-        let mut exec = Executor::with_backend(Box::new(std::io::sink()), "<test>", backend);
-        exec.set_out_dir(&dir);
-        exec.run(&commands).unwrap_or_else(|e| panic!("deck failed: {e}"));
-        std::mem::take(&mut exec.model)
-    };
+    let run_in = |deck: &str, o: &GpuOptions| run_in_dir(deck, o, &dir);
     for o in targets() {
         let whole = run_in(&format!("{scene}CYCLE 1200\n"), &o);
         let saved = run_in(&format!("{scene}CYCLE 600\nSAVE gpu.sav\n"), &o);
@@ -389,14 +392,7 @@ fn a_deformable_column_strains_on_the_gpu_as_on_the_cpu() {
     let dir = std::env::temp_dir().join(format!("blockdem-d3gpu-sdef-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let run_in = |deck: &str, o: &GpuOptions| -> Model {
-        let commands = blockdem::d3::deck::parse_deck(deck, "<test>").unwrap();
-        let backend = Box::new(GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}")));
-        let mut exec = Executor::with_backend(Box::new(std::io::sink()), "<test>", backend);
-        exec.set_out_dir(&dir);
-        exec.run(&commands).unwrap_or_else(|e| panic!("deck failed: {e}"));
-        std::mem::take(&mut exec.model)
-    };
+    let run_in = |deck: &str, o: &GpuOptions| run_in_dir(deck, o, &dir);
     for o in targets() {
         let gpu = run_in(&deck, &o);
         let s = stress(&gpu);
