@@ -57,7 +57,7 @@ impl driver::RunModel for Model {
     }
 
     fn has_crack_candidates(&self) -> bool {
-        self.blocks.iter().any(|b| b.is_sdef() && sdef::griffith_applies(b.constitutive, &self.material(b.material)))
+        self.blocks.iter().any(|b| b.is_sdef() && sdef::griffith_applies(b.constitutive, self.material(b.material).tf))
     }
 }
 
@@ -333,7 +333,7 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
         .par_iter_mut()
         .map(|b| {
             // A simply-deformable block steps its strain with its material's moduli.
-            let mat = b.sdef.is_some().then(|| materials.get(b.material as usize - 1).copied().unwrap_or_default());
+            let mat = b.sdef.is_some().then(|| materials.get(b.material as usize - 1).copied().unwrap_or_default().elastic());
             motion::law_of_motion_with(b, gravity, alpha, dt, mat.as_ref().map(|m| (m, alpha_internal)))
         })
         .collect();
@@ -380,7 +380,7 @@ pub fn griffith_cracks(model: &mut Model, report: &mut CycleReport) {
         .filter_map(|(k, b)| {
             let s = b.sdef.as_ref()?;
             let mat = model.material(b.material);
-            if !sdef::griffith_applies(b.constitutive, &mat) {
+            if !sdef::griffith_applies(b.constitutive, mat.tf) {
                 return None;
             }
             let (p, n) = sdef::principal_stresses(s.stress);
@@ -391,7 +391,19 @@ pub fn griffith_cracks(model: &mut Model, report: &mut CycleReport) {
     // Each crack keeps the indices of the blocks before it (the new piece goes at the end).
     for (k, n, value) in due {
         let centroid = model.blocks[k].centroid;
-        if let Some((block, new_block)) = super::split::crack(model, k, n) {
+        // The contacts and neighbour lists found afresh at once (stage 7, stage 4 with Δt = 0),
+        // and what the crack took from the kinetic and strain energies booked as released (the
+        // parent's stress, the contacts' shear springs dropped with their keys).
+        let before = model.energies();
+        let released = model.dissipated.released;
+        let cut = super::split::crack(model, k, n);
+        if cut.is_some() {
+            topology::update_neighbours(model);
+            contact_stage(model, 0.0);
+            let after = model.energies();
+            model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);
+        }
+        if let Some((block, new_block)) = cut {
             report.cracks.push(crate::driver::CrackEvent {
                 cycle: model.cycle,
                 block,

@@ -408,7 +408,7 @@ impl<'a> Executor<'a> {
             ));
         };
         // Griffith's law reads a block's stress: a rigid block has none (as in 2D).
-        if let Some(b) = self.model.blocks.iter().find(|b| !b.is_sdef() && super::sdef::griffith_applies(b.constitutive, &self.model.material(b.material))) {
+        if let Some(b) = self.model.blocks.iter().find(|b| !b.is_sdef() && super::sdef::griffith_applies(b.constitutive, self.model.material(b.material).tf)) {
             let (id, cons, mat) = (b.id, b.constitutive, b.material);
             let tf = self.model.material(mat).tf;
             return Err(self.error(

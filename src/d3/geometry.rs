@@ -263,6 +263,34 @@ pub fn box_faces(min: [f64; 3], max: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
     out
 }
 
+/// The least eigenvalue of a symmetric 3 × 3 matrix (the least principal moment of inertia), by
+/// the trigonometric solution of its characteristic cubic.
+pub fn least_eigenvalue(m: DMat3) -> f64 {
+    principal_moments(m)[0]
+}
+
+/// The eigenvalues of a symmetric 3 × 3 matrix, ascending (Smith's closed form).
+pub fn principal_moments(m: DMat3) -> [f64; 3] {
+    let (a11, a22, a33) = (m.x_axis.x, m.y_axis.y, m.z_axis.z);
+    let (a12, a13, a23) = (m.y_axis.x, m.z_axis.x, m.z_axis.y);
+    let p1 = a12 * a12 + a13 * a13 + a23 * a23;
+    let mut e = if p1 <= 1e-30 * (a11 * a11 + a22 * a22 + a33 * a33) {
+        [a11, a22, a33]
+    } else {
+        let q = (a11 + a22 + a33) / 3.0;
+        let p2 = (a11 - q).powi(2) + (a22 - q).powi(2) + (a33 - q).powi(2) + 2.0 * p1;
+        let p = (p2 / 6.0).sqrt();
+        let b = (m - DMat3::from_diagonal(DVec3::splat(q))) * (1.0 / p);
+        let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
+        let phi = r.acos() / 3.0;
+        let e1 = q + 2.0 * p * phi.cos();
+        let e3 = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
+        [e3, 3.0 * q - e1 - e3, e1]
+    };
+    e.sort_by(f64::total_cmp);
+    e
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,8 +5,9 @@
 use glam::{DMat3, DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
+pub use super::geometry::{least_eigenvalue, principal_moments};
 use super::geometry::{MassProperties, Shape};
-use super::sdef::{self, Sdef};
+use super::sdef::{self, Elastic, Sdef};
 
 /// A material's properties (PROPERTY; the keys of the 2D language less the fluid's).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -25,6 +26,13 @@ pub struct Material {
     pub jcohesion: f64,
     pub jfriction: f64,
     pub tf: f64,
+}
+
+impl Material {
+    /// Its elastic moduli, what a simply-deformable block's strain needs (`d3::sdef`).
+    pub fn elastic(&self) -> Elastic {
+        Elastic { bulk: self.bulk, shear: self.shear }
+    }
 }
 
 impl Default for Material {
@@ -518,7 +526,7 @@ impl Model {
             .iter()
             .filter(|b| b.is_sdef() && !b.fixed && b.mass > 0.0)
             .filter_map(|b| {
-                let k = sdef::internal_stiffness(&self.material(b.material), b.volume);
+                let k = sdef::internal_stiffness(&self.material(b.material).elastic(), b.volume);
                 let m = least_eigenvalue(sdef::second_moments(b.inertia_ref));
                 (k > 0.0 && m > 0.0).then(|| (m / k).sqrt())
             })
@@ -579,32 +587,4 @@ impl Model {
             released: d.released,
         }
     }
-}
-
-/// The least eigenvalue of a symmetric 3 × 3 matrix (the least principal moment of inertia), by
-/// the trigonometric solution of its characteristic cubic.
-pub fn least_eigenvalue(m: DMat3) -> f64 {
-    principal_moments(m)[0]
-}
-
-/// The eigenvalues of a symmetric 3 × 3 matrix, ascending (Smith's closed form).
-pub fn principal_moments(m: DMat3) -> [f64; 3] {
-    let (a11, a22, a33) = (m.x_axis.x, m.y_axis.y, m.z_axis.z);
-    let (a12, a13, a23) = (m.y_axis.x, m.z_axis.x, m.z_axis.y);
-    let p1 = a12 * a12 + a13 * a13 + a23 * a23;
-    let mut e = if p1 <= 1e-30 * (a11 * a11 + a22 * a22 + a33 * a33) {
-        [a11, a22, a33]
-    } else {
-        let q = (a11 + a22 + a33) / 3.0;
-        let p2 = (a11 - q).powi(2) + (a22 - q).powi(2) + (a33 - q).powi(2) + 2.0 * p1;
-        let p = (p2 / 6.0).sqrt();
-        let b = (m - DMat3::from_diagonal(DVec3::splat(q))) * (1.0 / p);
-        let r = (b.determinant() / 2.0).clamp(-1.0, 1.0);
-        let phi = r.acos() / 3.0;
-        let e1 = q + 2.0 * p * phi.cos();
-        let e3 = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
-        [e3, 3.0 * q - e1 - e3, e1]
-    };
-    e.sort_by(f64::total_cmp);
-    e
 }

@@ -22,7 +22,7 @@
 
 use glam::{DMat3, DQuat, DVec3};
 
-use super::model::{Block, Material};
+use super::model::Block;
 use super::sdef;
 
 /// Fixed-point iterations of the midpoint orientation (each contracts the error by ~|ω|Δt).
@@ -50,7 +50,7 @@ pub fn law_of_motion(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64) -> 
 /// motion and before the vertices are placed; the strain's motion of the vertices counts towards
 /// the step's travel, the internal damping's work towards `damping_work`. A fixed block's strain
 /// stays as it is, its rate zero (as in 2D).
-pub fn law_of_motion_with(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64, internal: Option<(&Material, f64)>) -> StepOutcome {
+pub fn law_of_motion_with(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64, internal: Option<(&sdef::Elastic, f64)>) -> StepOutcome {
     if block.fixed {
         block.velocity = DVec3::ZERO;
         block.angular_momentum = DVec3::ZERO;

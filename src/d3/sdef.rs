@@ -54,7 +54,12 @@
 use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 
-use super::model::Material;
+/// A simply-deformable block's elastic moduli (its material's BULK and G; `Material::elastic`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Elastic {
+    pub bulk: f64,
+    pub shear: f64,
+}
 
 /// The internal state of one simply-deformable block (the report's extension array). Symmetric
 /// tensors are in global axes as six numbers in Voigt's order (11, 22, 33, 12, 13, 23).
@@ -109,7 +114,7 @@ pub fn lame_lambda(bulk: f64, shear: f64) -> f64 {
 
 /// The internal stress of the strain `e` by isotropic elasticity: λ tr(ε) + 2Gε.
 #[inline]
-pub fn elastic_stress(mat: &Material, e: [f64; 6]) -> [f64; 6] {
+pub fn elastic_stress(mat: &Elastic, e: [f64; 6]) -> [f64; 6] {
     let (l, g) = (lame_lambda(mat.bulk, mat.shear), mat.shear);
     let volumetric = l * (e[0] + e[1] + e[2]);
     std::array::from_fn(|k| if k < 3 { volumetric + 2.0 * g * e[k] } else { 2.0 * g * e[k] })
@@ -135,7 +140,7 @@ pub fn strain_inertia(m: DMat3) -> [f64; 6] {
 /// 3K·V (the largest eigenvalue of the elastic law, 3λ + 2G), or the shear modes' 2G·V where
 /// that is larger (a negative Poisson's ratio).
 #[inline]
-pub fn internal_stiffness(mat: &Material, volume: f64) -> f64 {
+pub fn internal_stiffness(mat: &Elastic, volume: f64) -> f64 {
     volume * (3.0 * mat.bulk).max(2.0 * mat.shear)
 }
 
@@ -160,7 +165,7 @@ fn generalised_force(s: &Sdef, volume: f64) -> [f64; 6] {
 /// energy the internal damping took and how far the step's strain moved any point within
 /// `radius` of the centroid (at most).
 #[inline]
-pub fn internal_step(s: &mut Sdef, mat: &Material, inertia: DMat3, volume: f64, alpha: f64, dt: f64, radius: f64) -> (f64, f64) {
+pub fn internal_step(s: &mut Sdef, mat: &Elastic, inertia: DMat3, volume: f64, alpha: f64, dt: f64, radius: f64) -> (f64, f64) {
     let j = strain_inertia(second_moments(inertia));
     if !j.iter().all(|&x| x > 0.0) {
         return (0.0, 0.0);
@@ -254,7 +259,7 @@ pub fn griffith_stress(s1: f64, s3: f64) -> f64 {
 /// product of two of its rows (any of them where s1 is repeated).
 pub fn principal_stresses(stress: [f64; 6]) -> ([f64; 3], DVec3) {
     let t = tensor(stress);
-    let [s3, s2, s1] = super::model::principal_moments(t);
+    let [s3, s2, s1] = super::geometry::principal_moments(t);
     let m = t - DMat3::from_diagonal(DVec3::splat(s1));
     let rows = [m.row(0), m.row(1), m.row(2)];
     let candidates = [rows[0].cross(rows[1]), rows[0].cross(rows[2]), rows[1].cross(rows[2])];
@@ -263,18 +268,20 @@ pub fn principal_stresses(stress: [f64; 6]) -> ([f64; 3], DVec3) {
     ([s1, s2, s3], direction)
 }
 
-/// Whether a block of constitutive number `constitutive` and material `mat` is checked for
-/// Griffith's cracking: constitutive 3, 4 or 5 with a tensile strength TF (as in 2D).
-pub fn griffith_applies(constitutive: u32, mat: &Material) -> bool {
-    (3..=5).contains(&constitutive) && mat.tf > 0.0
+/// Whether a block of constitutive number `constitutive` whose material's tensile strength is
+/// `tf` is checked for Griffith's cracking: constitutive 3, 4 or 5 with a TF (as in 2D).
+pub fn griffith_applies(constitutive: u32, tf: f64) -> bool {
+    (3..=5).contains(&constitutive) && tf > 0.0
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn rock() -> Material {
-        Material { density: 2500.0, bulk: 2e9, shear: 1.2e9, ..Material::default() }
+    const DENSITY: f64 = 2500.0;
+
+    fn rock() -> Elastic {
+        Elastic { bulk: 2e9, shear: 1.2e9 }
     }
 
     #[test]
@@ -324,9 +331,9 @@ mod tests {
         let m = rock();
         let a = 1.0;
         let v = a * a * a;
-        let mass = m.density * v;
+        let mass = DENSITY * v;
         let i = DMat3::from_diagonal(DVec3::splat(mass * (2.0 * a * a) / 12.0));
-        let omega = (36.0 * m.bulk / (m.density * a * a)).sqrt();
+        let omega = (36.0 * m.bulk / (DENSITY * a * a)).sqrt();
         let dt = 0.01 / omega;
         let mut s = Sdef { strain_rate: [1e-3, 1e-3, 1e-3, 0.0, 0.0, 0.0], ..Sdef::default() };
         let j = strain_inertia(second_moments(i));

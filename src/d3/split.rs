@@ -131,22 +131,12 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
 /// Griffith's cracking of a simply-deformable block (SL-85-1 Part I ¶17, Part III ¶35f; the
 /// 2D engine's law in 3D): block `b` splits through its centroid across its major principal
 /// stress's direction `normal`; both pieces keep its material and constitutive number and stay
-/// simply deformable, unstressed (`cut`). Its contacts and its neighbours' lists are found
-/// afresh at once (stage 7 and stage 4 with Δt = 0), and the ledger books as released what the
-/// crack took from the kinetic and strain energies (the parent's stress, the contacts' shear
-/// springs dropped with their keys). Returns the two pieces' ids, or None where the cut would
-/// not give two valid convex pieces (the block is left whole).
+/// simply deformable, unstressed (`cut`); its contacts go, for the caller to find afresh
+/// (`cpu::griffith_cracks`, which books the ledger). Returns the two pieces' ids, or None where
+/// the cut would not give two valid convex pieces (the block is left whole).
 pub fn crack(model: &mut Model, b: usize, normal: DVec3) -> Option<(u32, u32)> {
-    let before = model.energies();
-    let released = model.dissipated.released;
     let centroid = model.blocks[b].centroid;
-    let outcome = cut(model, &[b], centroid, normal.normalize(), None, None);
-    let pieces = outcome.split.first().copied()?;
-    super::topology::update_neighbours(model);
-    super::cpu::contact_stage(model, 0.0);
-    let after = model.energies();
-    model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);
-    Some(pieces)
+    cut(model, &[b], centroid, normal.normalize(), None, None).split.first().copied()
 }
 
 /// Cuts the blocks `crossed` by the plane through `point` with unit normal `n` (the body of
