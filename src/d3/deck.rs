@@ -145,7 +145,7 @@ pub enum Command {
         freq: f64,
         mode: DampMode,
     },
-    /// CHANGE x1 x2 y1 y2 z1 z2 [SDEF] [MATERIAL n] [CONSTITUTIVE m]: the blocks whose centroid
+    /// CHANGE x1 x2 y1 y2 z1 z2 \[SDEF\] \[MATERIAL n\] \[CONSTITUTIVE m\]: the blocks whose centroid
     /// lies in the range made simply deformable (`sdef`) and/or given the material and
     /// constitutive numbers.
     Change {
