@@ -180,6 +180,15 @@ fn split_keeps_pieces_deformable_unstressed_and_the_motion() {
     for b in &m.blocks[1..] {
         assert!(b.is_sdef(), "block {} stays simply deformable", b.id);
     }
+    // Right after the cut: the pieces are unstressed and carry the parent's momentum (its
+    // strain rate adds none: ∫ρ ε̇ r dV = 0 about the centroid).
+    let (cut, _) = run(&format!("{}SPLIT 0.5 0.5 1.0 0 0 1\n", column("", 400)));
+    let momentum = |bs: &[blockdem::d3::model::Block]| bs.iter().map(|b| b.velocity * b.mass).sum::<DVec3>();
+    let (p0, p1) = (momentum(&before.blocks[1..]), momentum(&cut.blocks[1..]));
+    assert!((p1 - p0).length() <= 1e-9 * p0.length().max(1e-12), "momentum {p1} against {p0}");
+    for b in &cut.blocks[1..] {
+        assert_eq!(b.sdef.unwrap().stress, [0.0; 6], "block {} is unstressed", b.id);
+    }
     // What the parent's stress held is released, booked in the ledger.
     let held = sdef::strain_energy(&before.blocks[1].sdef.unwrap(), before.blocks[1].volume);
     assert!(held > 0.0);

@@ -373,7 +373,15 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
 /// (`sdef::griffith_stress`) splits through its centroid across its major principal stress.
 /// Each crack goes into `report` (`from`: the plane's point, the centroid; `to`: its unit normal).
 pub fn griffith_cracks(model: &mut Model, report: &mut CycleReport) {
-    let due: Vec<(usize, DVec3, f64)> = model
+    let due = griffith_due(model);
+    crack_blocks(model, due, report);
+}
+
+/// The blocks Griffith's criterion cracks now (`griffith_cracks`): index, the crack plane's
+/// normal (the major principal stress's direction) and the criterion's value. It reads the
+/// blocks' stresses alone (the GPU reads the contacts back only where one is due).
+pub fn griffith_due(model: &Model) -> Vec<(usize, DVec3, f64)> {
+    model
         .blocks
         .iter()
         .enumerate()
@@ -387,32 +395,32 @@ pub fn griffith_cracks(model: &mut Model, report: &mut CycleReport) {
             let value = sdef::griffith_stress(p[0], p[2]);
             (value >= mat.tf).then_some((k, n, value))
         })
-        .collect();
-    // Each crack keeps the indices of the blocks before it (the new piece goes at the end).
+        .collect()
+}
+
+/// Cracks the blocks `due` ([`griffith_due`]) in turn, each crack keeping the indices of the
+/// blocks before it (the new piece goes at the end): the contacts and neighbour lists found
+/// afresh at once (stage 7, stage 4 with Δt = 0), and what the crack took from the kinetic and
+/// strain energies booked as released (the parent's stress, the contacts' shear springs dropped
+/// with their keys).
+pub fn crack_blocks(model: &mut Model, due: Vec<(usize, DVec3, f64)>, report: &mut CycleReport) {
     for (k, n, value) in due {
         let centroid = model.blocks[k].centroid;
-        // The contacts and neighbour lists found afresh at once (stage 7, stage 4 with Δt = 0),
-        // and what the crack took from the kinetic and strain energies booked as released (the
-        // parent's stress, the contacts' shear springs dropped with their keys).
         let before = model.energies();
         let released = model.dissipated.released;
-        let cut = super::split::crack(model, k, n);
-        if cut.is_some() {
-            topology::update_neighbours(model);
-            contact_stage(model, 0.0);
-            let after = model.energies();
-            model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);
-        }
-        if let Some((block, new_block)) = cut {
-            report.cracks.push(crate::driver::CrackEvent {
-                cycle: model.cycle,
-                block,
-                new_block,
-                criterion: "GRIFFITH",
-                value,
-                from: Position::xyz(centroid.to_array()),
-                to: Position::xyz(n.to_array()),
-            });
-        }
+        let Some((block, new_block)) = super::split::crack(model, k, n) else { continue };
+        topology::update_neighbours(model);
+        contact_stage(model, 0.0);
+        let after = model.energies();
+        model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);
+        report.cracks.push(crate::driver::CrackEvent {
+            cycle: model.cycle,
+            block,
+            new_block,
+            criterion: "GRIFFITH",
+            value,
+            from: Position::xyz(centroid.to_array()),
+            to: Position::xyz(n.to_array()),
+        });
     }
 }

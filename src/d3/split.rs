@@ -172,7 +172,12 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
         }
         let mat = material.unwrap_or(parent.material);
         let cons = constitutive.unwrap_or(parent.constitutive);
-        let density = model.material(mat).density;
+        // A simply-deformable parent is cut in its strained shape, whose volume is its own times
+        // (1 + tr ε) to first order: its pieces' density is scaled so that they keep its mass
+        // (and so its momentum); a rigid parent's pieces take the material's.
+        let strained = built.iter().map(|(_, props)| props.volume).sum::<f64>();
+        let scale = if parent.sdef.is_some() && strained > 0.0 { parent.volume / strained } else { 1.0 };
+        let density = model.material(mat).density * scale;
         let pieces: Vec<Block> = built
             .into_iter()
             .enumerate()
