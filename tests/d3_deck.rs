@@ -126,6 +126,10 @@ fn ranges_load_and_velocity_take_three_components() {
     result.unwrap();
     assert!(log.contains("1.000E+00  0.000E+00  0.000E+00  0.000E+00  0.000E+00  2.000E+00"), "{log}");
     assert!(error_of("START\nBOX 0 1 0 1 0 1\nLOAD 0 1 0 1 0 1 1 2\nSTOP\n").contains("9 numbers, found 8"));
+    // Two blocks whose kinetic energies f64 holds one by one but not summed: refused at the
+    // VELOCITY line, the blocks left at rest.
+    let e = error_of("START\nPROP MAT 1 D 1000 KN 1E8 KS 1E8\nBOX 0 1 0 1 0 1\nBOX 3 4 0 1 0 1\nVEL -1 5 -1 2 -1 2 4.5E152 0 0\nSTOP\n");
+    assert!(e.contains(":5:") && e.contains("VELOCITY: the blocks would move so fast together"), "{e}");
 }
 
 #[test]

@@ -440,3 +440,28 @@ fn a_deformable_column_cracks_on_the_gpu_at_the_cpus_cycle() {
         assert!((volume(&gpu) - volume(&cpu)).abs() < 1e-6, "{:?}: the halves' volume {} vs the cpu's {}", o.precision, volume(&gpu), volume(&cpu));
     }
 }
+
+/// The point-load law on the GPU (constitutive 1, SL-85-1 ¶35f): the contact forces read back
+/// after every cycle, the criterion and the cut on the CPU. The squeezed block of
+/// tests/d3_split.rs, settled, then given a TF it exceeds, splits at the CPU's cycle along the
+/// CPU's plane (y = 1: two unit cubes) on every target.
+#[test]
+fn a_squeezed_block_splits_by_the_point_load_law_on_the_gpu_as_on_the_cpu() {
+    let deck = "START\nPROP MAT=1 D=1000 KN=1E10 KS=1E10 F=0.5\nPROP MAT=2 D=1000 KN=1E10 KS=1E10 F=0.5 TF=1E9\n\
+                BOX -1 2 -1 3 -1 0\nBOX 0 1 0 2 0 1 MAT 2 CONS 1\nBOX 0 1 0 2 1 2\nFIX -1 2 -1 3 -1 -0.1\n\
+                LOAD 0 1 0 2 1 2 0 0 -1E6\nGRAV 0 0 -10\nDAMP 1 700 MASS\nCYCLE 3000\nPROP MAT=2 TF=5E5\nCYCLE 1\n";
+    let cpu = run(deck, None);
+    assert_eq!(cpu.blocks.len(), 4, "the CPU's block cracked once");
+    let halves = |m: &Model| -> Vec<(f64, f64)> {
+        let mut h: Vec<(f64, f64)> = m.blocks.iter().filter(|b| b.id == 2 || b.id == 4).map(|b| (b.bounds().0.y, b.bounds().1.y)).collect();
+        h.sort_by(|a, b| a.0.total_cmp(&b.0));
+        h
+    };
+    for o in targets() {
+        let gpu = run(deck, Some(&o));
+        assert_eq!((gpu.blocks.len(), gpu.cycle), (4, cpu.cycle), "{:?}: one crack", o.precision);
+        for ((g0, g1), (c0, c1)) in halves(&gpu).into_iter().zip(halves(&cpu)) {
+            assert!((g0 - c0).abs() < 1e-4 && (g1 - c1).abs() < 1e-4, "{:?}: a half spans y {g0}..{g1}, the CPU's {c0}..{c1}", o.precision);
+        }
+    }
+}

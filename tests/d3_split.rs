@@ -217,3 +217,41 @@ fn concave_parents_and_bad_split_input_are_refused_at_their_line() {
         assert!(e.contains("t.dat:4") && e.contains(expect), "{text}: {e}");
     }
 }
+
+/// The point-load law's specimen (SL-85-1 ¶35f, constitutive 1): a 1 × 2 × 1 m block squeezed
+/// between a fixed base and a platen carrying 1 MN, settled under a TF it cannot reach, then given
+/// TF = 0.5 MPa. The loads are the two face–face contacts' resultants at the centres of its top
+/// and bottom faces, 1 m apart: (F_top + F_bottom)/(2 d²) = (1.02 + 1.04) MN / 2 m² = 1.03 MPa.
+/// The crack holds the load line, its normal across it where the block is longest (y): the plane
+/// y = 1 halves it into two unit cubes.
+fn squeezed_block(tf_after: f64) -> String {
+    format!(
+        "START\nPROP MAT=1 D=1000 KN=1E10 KS=1E10 F=0.5\nPROP MAT=2 D=1000 KN=1E10 KS=1E10 F=0.5 TF=1E9\n\
+         BOX -1 2 -1 3 -1 0\nBOX 0 1 0 2 0 1 MAT 2 CONS 1\nBOX 0 1 0 2 1 2\nFIX -1 2 -1 3 -1 -0.1\n\
+         LOAD 0 1 0 2 1 2 0 0 -1E6\nGRAV 0 0 -10\nDAMP 1 700 MASS\nCYCLE 3000\nPROP MAT=2 TF={tf_after}\nCYCLE 1\n"
+    )
+}
+
+#[test]
+fn the_point_load_law_splits_a_squeezed_block_across_its_length() {
+    let (m, log) = ok(&squeezed_block(5e5));
+    let line = log.lines().find(|l| l.contains("CRACKED")).unwrap_or_else(|| panic!("no crack:\n{log}"));
+    assert!(line.starts_with("BLOCK 2 CRACKED AT CYCLE 3001 (POINT-LOAD ") && line.contains("NEW BLOCK 4"), "{line}");
+    let value: f64 = line.split("(POINT-LOAD ").nth(1).and_then(|s| s.split(')').next()).and_then(|s| s.trim().parse().ok()).unwrap();
+    assert!((value - 1.03e6).abs() < 0.01 * 1.03e6, "value {value}");
+    assert!(line.contains("WITH NORMAL (0.000E+00, 1.000E+00, 0.000E+00)") || line.contains("WITH NORMAL (0.000E+00, -1.000E+00, 0.000E+00)"), "{line}");
+    assert_eq!(m.blocks.len(), 4);
+    let halves: Vec<_> = m.blocks.iter().filter(|b| b.id == 2 || b.id == 4).collect();
+    assert_eq!(halves.len(), 2);
+    for b in &halves {
+        let (lo, hi) = b.bounds();
+        assert!(close(b.volume, 1.0, 1e-9) && close(hi.y - lo.y, 1.0, 1e-6) && close(hi.z - lo.z, 1.0, 1e-6), "block {}: {lo} {hi}", b.id);
+        assert_eq!((b.material, b.constitutive), (2, 1));
+        assert!(!b.is_sdef(), "a rigid block's pieces are rigid");
+    }
+    let e = m.energies();
+    assert!(e.ledger().abs() < 0.02 * e.scale(), "ledger {} of {}", e.ledger(), e.scale());
+    // Below the criterion nothing cracks.
+    let (m, log) = ok(&squeezed_block(1.2e6));
+    assert!(!log.contains("CRACKED") && m.blocks.len() == 3, "{log}");
+}

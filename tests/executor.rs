@@ -279,6 +279,15 @@ fn models_the_engine_cannot_run_are_refused_at_cycle_with_their_line() {
         assert!(e.starts_with(&format!("<scene>:{line}: ")) && e.contains(needle), "{e}");
         assert!(!log.contains("INITIAL TIMESTEP"), "{log}");
     }
+    // Two blocks each given a kinetic energy f64 holds, whose sum it does not (found by
+    // tests/random_decks.rs: the ledger booked ∞, and the stopped run's model could not be
+    // restarted): refused at the VELOCITY, nothing changed.
+    let deck = "START\nPROP MAT=1 D=3.548 KN=1E8 KS=1E8\nBLOCK 0,1 0,1.5 1.6,1.5 1.6,1\nBLOCK 3,1 3,1.73 3.34,1.73 3.34,1\n\
+                VELOCITY -1E300 1E300 -1E300 1E300 1E154 0 0\nCYCLE 1\n";
+    let (r, log) = run_logged(deck);
+    let e = r.unwrap_err().to_string();
+    assert!(e.starts_with("<scene>:5: VELOCITY: the blocks would move so fast together") && e.contains("overflows f64"), "{e}");
+    assert!(!log.contains("TIMESTEP"), "{log}");
     // A BLOCK outline whose area overflows f64 is refused on its own line, saying so.
     let (r, _) = run_logged("START\nBLOCK 0,0 0,1E200 1E200,1E200 1E200,0\n");
     let e = r.unwrap_err().to_string();

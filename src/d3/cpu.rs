@@ -16,6 +16,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::contact::{self, spring_energy};
+use super::cracking;
 use super::model::{Contact, Logical, Model};
 use super::motion;
 use super::sdef;
@@ -57,7 +58,7 @@ impl driver::RunModel for Model {
     }
 
     fn has_crack_candidates(&self) -> bool {
-        self.blocks.iter().any(|b| b.is_sdef() && sdef::griffith_applies(b.constitutive, self.material(b.material).tf))
+        (0..self.blocks.len()).any(|b| cracking::is_candidate(self, b))
     }
 }
 
@@ -333,7 +334,7 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
         .par_iter_mut()
         .map(|b| {
             // A simply-deformable block steps its strain with its material's moduli.
-            let mat = b.sdef.is_some().then(|| materials.get(b.material as usize - 1).copied().unwrap_or_default().elastic());
+            let mat = b.sdef.is_some().then(|| super::model::material_of(materials, b.material).elastic());
             motion::law_of_motion_with(b, gravity, alpha, dt, mat.as_ref().map(|m| (m, alpha_internal)))
         })
         .collect();
@@ -364,51 +365,31 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
     }
     contact_stage(model, dt);
     overlap_check(model)?;
-    griffith_cracks(model, report);
+    cracks(model, report);
     Ok(())
 }
 
-/// Griffith's cracking (stage 7's, after the cycle; `split::crack`): each simply-deformable block
-/// of constitutive 3–5 whose principal stresses meet its material's tensile strength TF
-/// (`sdef::griffith_stress`) splits through its centroid across its major principal stress.
-/// Each crack goes into `report` (`from`: the plane's point, the centroid; `to`: its unit normal).
-pub fn griffith_cracks(model: &mut Model, report: &mut CycleReport) {
-    let due = griffith_due(model);
+/// Stage 7's cracking, after the cycle (SL-85-1 ¶35f): the cracks `cracking::due` finds
+/// (Griffith's law on simply-deformable blocks, the point-load law on the contact forces), each
+/// cut by `split::crack` ([`crack_blocks`]).
+pub fn cracks(model: &mut Model, report: &mut CycleReport) {
+    let due = cracking::due(model);
     crack_blocks(model, due, report);
 }
 
-/// The blocks Griffith's criterion cracks now (`griffith_cracks`): index, the crack plane's
-/// normal (the major principal stress's direction) and the criterion's value. It reads the
-/// blocks' stresses alone (the GPU reads the contacts back only where one is due).
-pub fn griffith_due(model: &Model) -> Vec<(usize, DVec3, f64)> {
-    model
-        .blocks
-        .iter()
-        .enumerate()
-        .filter_map(|(k, b)| {
-            let s = b.sdef.as_ref()?;
-            let mat = model.material(b.material);
-            if !sdef::griffith_applies(b.constitutive, mat.tf) {
-                return None;
-            }
-            let (p, n) = sdef::principal_stresses(s.stress);
-            let value = sdef::griffith_stress(p[0], p[2]);
-            (value >= mat.tf).then_some((k, n, value))
-        })
-        .collect()
-}
-
-/// Cracks the blocks `due` ([`griffith_due`]) in turn, each crack keeping the indices of the
+/// Cracks the blocks `due` ([`cracking::due`]) in turn, each crack keeping the indices of the
 /// blocks before it (the new piece goes at the end): the contacts and neighbour lists found
 /// afresh at once (stage 7, stage 4 with Δt = 0), and what the crack took from the kinetic and
 /// strain energies booked as released (the parent's stress, the contacts' shear springs dropped
-/// with their keys).
-pub fn crack_blocks(model: &mut Model, due: Vec<(usize, DVec3, f64)>, report: &mut CycleReport) {
-    for (k, n, value) in due {
-        let centroid = model.blocks[k].centroid;
+/// with their keys; negative where the pieces' new corners press on a neighbour: D3's logical
+/// contacts are the corners of the touching region, so a neighbour pressed along the crack gets
+/// more of them). Each crack goes into `report` (`from`: a point of the crack plane; `to`: its
+/// unit normal).
+pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut CycleReport) {
+    for c in due {
         let before = model.energies();
         let released = model.dissipated.released;
-        let Some((block, new_block)) = super::split::crack(model, k, n) else { continue };
+        let Some((block, new_block)) = super::split::crack(model, c.block, c.point, c.normal) else { continue };
         topology::update_neighbours(model);
         contact_stage(model, 0.0);
         let after = model.energies();
@@ -417,10 +398,10 @@ pub fn crack_blocks(model: &mut Model, due: Vec<(usize, DVec3, f64)>, report: &m
             cycle: model.cycle,
             block,
             new_block,
-            criterion: "GRIFFITH",
-            value,
-            from: Position::xyz(centroid.to_array()),
-            to: Position::xyz(n.to_array()),
+            criterion: c.criterion,
+            value: c.value,
+            from: Position::xyz(c.point.to_array()),
+            to: Position::xyz(c.normal.normalize().to_array()),
         });
     }
 }

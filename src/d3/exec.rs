@@ -167,7 +167,23 @@ impl<'a> Executor<'a> {
                 }
             }
             Command::Velocity { range, velocity, angular } => {
-                for b in self.in_range(range) {
+                // Each block's kinetic energy may be finite and their sum not: the ledger would
+                // book ∞. The energy now plus what the command gives must stay finite.
+                let blocks = self.in_range(range);
+                let (v, w) = (DVec3::from_array(*velocity), DVec3::from_array(angular.unwrap_or([0.0; 3])));
+                let given: f64 = blocks
+                    .iter()
+                    .map(|&b| &self.model.blocks[b])
+                    .filter(|blk| !blk.fixed)
+                    .map(|blk| 0.5 * blk.mass * v.length_squared() + 0.5 * w.dot(blk.inertia() * w))
+                    .sum();
+                if !(given + self.model.energies().kinetic + self.model.external_work.abs()).is_finite() {
+                    return Err(self.error(
+                        cmd,
+                        "VELOCITY: the blocks would move so fast together that their kinetic energy overflows f64; check the values and the units",
+                    ));
+                }
+                for b in blocks {
                     let blk = &mut self.model.blocks[b];
                     if blk.fixed {
                         continue;

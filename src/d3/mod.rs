@@ -10,6 +10,7 @@
 //! | [`motion`] | stages 1–2: central differences for translation and for the angular momentum, the orientation a unit quaternion (¶17) |
 //! | [`contact`] | stage 4: the common plane, the six physical categories, the logical vertex–face and edge–edge contacts, ¶23's normal prescription, the force–displacement law (¶18–24, ¶35) |
 //! | [`sdef`] | simply-deformable blocks (¶35d): six internal degrees of freedom of uniform strain, their stress, inertia and step |
+//! | [`cracking`] | stage 7's cracking criteria (¶35f): Griffith's law on simply-deformable blocks, the point-load law on the contact forces |
 //! | [`split`] | SPLIT: a plane cuts the convex blocks it crosses in two, mass properties afresh, momentum kept |
 //! | [`topology`] | stage 7: the neighbour lists on a uniform grid, rebuilt past a travel threshold (¶26) |
 //! | [`backend`] | what the executor asks of a backend, the CPU's or the GPU's |
@@ -23,6 +24,7 @@
 pub mod backend;
 pub mod contact;
 pub mod cpu;
+pub mod cracking;
 pub mod deck;
 pub mod exec;
 pub mod geometry;

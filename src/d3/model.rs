@@ -144,7 +144,9 @@ impl Block {
             let props = super::geometry::mass_properties(&self.shape.vertices, &self.shape.faces);
             self.inertia_ref = props.inertia * new;
         }
-        self.mass = new * self.volume;
+        // A cracked simply-deformable block's piece weighs its share of its parent's mass, not
+        // ρ·V (`split::cut`): its mass scales with the density too.
+        self.mass = if old > 0.0 && self.mass != old * self.volume { self.mass * (new / old) } else { new * self.volume };
         self.angular_velocity = self.angular_velocity_from(self.angular_momentum);
     }
 
@@ -411,7 +413,7 @@ impl Energies {
 impl Model {
     /// Material `n` (the default, all zero, where not given).
     pub fn material(&self, n: u32) -> Material {
-        self.materials.get(n as usize - 1).copied().unwrap_or_default()
+        material_of(&self.materials, n)
     }
 
     /// The material of a contact: its first block's.
@@ -587,4 +589,10 @@ impl Model {
             released: d.released,
         }
     }
+}
+
+/// Material `n` (numbered from 1) of `materials`, the default where there is none: the lookup of
+/// [`Model::material`] for a caller that holds the blocks mutably (the CPU's block pass).
+pub fn material_of(materials: &[Material], n: u32) -> Material {
+    materials.get(n as usize - 1).copied().unwrap_or_default()
 }

@@ -32,6 +32,10 @@ pub struct SplitOutcome {
     pub split: Vec<(u32, u32)>,
     /// Blocks the plane crosses that were left whole, with the reason.
     pub rejected: Vec<(u32, String)>,
+    /// The strain energy the cut simply-deformable parents' stresses held, which their
+    /// unstressed pieces no longer hold (SPLIT books it as released; a crack books the whole
+    /// change of the energies instead, `cpu::crack_blocks`).
+    pub released: f64,
 }
 
 /// The faces (as a deck types them: counter-clockwise looking along the outward normal) of the
@@ -125,18 +129,20 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
     if let Some(&b) = crossed.iter().find(|&&b| !model.blocks[b].shape.convex) {
         return Err(format!("block {} is not convex: SPLIT cuts convex blocks only (build a concave block from convex ones)", model.blocks[b].id));
     }
-    Ok(cut(model, &crossed, point, n, material, constitutive))
+    let outcome = cut(model, &crossed, point, n, material, constitutive);
+    // The strain energy the parents' stresses held is released (the ledger's `released`).
+    model.dissipated.released += outcome.released;
+    Ok(outcome)
 }
 
-/// Griffith's cracking of a simply-deformable block (SL-85-1 Part I ¶17, Part III ¶35f; the
-/// 2D engine's law in 3D): block `b` splits through its centroid across its major principal
-/// stress's direction `normal`; both pieces keep its material and constitutive number and stay
-/// simply deformable, unstressed (`cut`); its contacts go, for the caller to find afresh
-/// (`cpu::griffith_cracks`, which books the ledger). Returns the two pieces' ids, or None where
-/// the cut would not give two valid convex pieces (the block is left whole).
-pub fn crack(model: &mut Model, b: usize, normal: DVec3) -> Option<(u32, u32)> {
-    let centroid = model.blocks[b].centroid;
-    cut(model, &[b], centroid, normal.normalize(), None, None).split.first().copied()
+/// A crack (SL-85-1 Part III ¶35f; `d3::cracking` finds it): block `b` splits along the plane
+/// through `point` with normal `normal`; both pieces keep its material and constitutive number, a
+/// simply-deformable block's pieces stay simply deformable, unstressed (`cut`); its contacts go,
+/// for the caller to find afresh (`cpu::crack_blocks`, which books the ledger). Returns the two
+/// pieces' ids, or None where the cut would not give two valid convex pieces (the block is left
+/// whole).
+pub fn crack(model: &mut Model, b: usize, point: DVec3, normal: DVec3) -> Option<(u32, u32)> {
+    cut(model, &[b], point, normal.normalize(), None, None).split.first().copied()
 }
 
 /// Cuts the blocks `crossed` by the plane through `point` with unit normal `n` (the body of
@@ -200,9 +206,8 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
                 piece
             })
             .collect();
-        // The strain energy the parent's stress held is released (the ledger's `released`).
         if let Some(s) = &parent.sdef {
-            model.dissipated.released += strain_energy(s, parent.volume);
+            outcome.released += strain_energy(s, parent.volume);
         }
         let [back, front]: [Block; 2] = pieces.try_into().unwrap_or_else(|_| unreachable!("two pieces were built"));
         outcome.split.push((parent.id, next_id));

@@ -920,9 +920,9 @@ impl driver::Start<Model> for GpuBackend {
 
 impl driver::Stages<Model> for GpuBackend {
     fn advance(&mut self, model: &mut Model, max: u64, cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
-        // Where a block may crack (Griffith's law on a simply-deformable block), cycle by cycle:
-        // the criterion is checked on the stresses read back after each (`cpu::griffith_cracks`,
-        // at the cycle the CPU checks it).
+        // Where a block may crack (Griffith's or the point-load law), cycle by cycle: the criteria
+        // are checked on the state read back after each (`cpu::cracks`, at the cycle the CPU
+        // checks them).
         let n = if cracking { 1 } else { cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1)) };
         // The time step as the CPU takes it (`Model::timestep`, from the contacts there are), at
         // the batch's start: the kernels hold it over the batch (the CPU renews it each cycle,
@@ -954,12 +954,18 @@ impl driver::Stages<Model> for GpuBackend {
         }
         if cracking {
             // A crack changes the shapes: the cut is the CPU's (topology between cycles), then
-            // the whole state is uploaded afresh.
-            // The criterion reads the stresses read back with the blocks; the contacts come back
-            // only where a block cracks.
-            let due = cpu::griffith_due(model);
-            if !due.is_empty() {
+            // the whole state is uploaded afresh. Griffith's law reads the stresses read back
+            // with the blocks; the point-load law reads the contact forces, which come back every
+            // cycle where a block obeys it, and otherwise only where a block cracks.
+            let point_load = super::cracking::has_point_load_candidates(model);
+            if point_load {
                 self.read_contacts(model).map_err(device_error)?;
+            }
+            let due = super::cracking::due(model);
+            if !due.is_empty() {
+                if !point_load {
+                    self.read_contacts(model).map_err(device_error)?;
+                }
                 cpu::crack_blocks(model, due, report);
                 self.upload(model).map_err(device_error)?;
             }

@@ -49,6 +49,24 @@ impl Executor<'_> {
                 ),
             ));
         }
+        // Each block's energy may be finite and their sum not: the ledger would book ∞ (and a
+        // run stopped at once could not be saved and restarted). The blocks' kinetic energy
+        // now, plus what the command gives, must stay a finite number.
+        let given: f64 = blocks
+            .iter()
+            .map(|&b| &self.model.blocks[b])
+            .filter(|blk| !blk.fixed)
+            .map(|blk| 0.5 * blk.mass * (velocity[0] * velocity[0] + velocity[1] * velocity[1]) + 0.5 * blk.inertia * w * w)
+            .sum();
+        if !(given + self.model.energies().kinetic + self.model.external_work.abs()).is_finite() {
+            return Err(self.command_error(
+                cmd,
+                format!(
+                    "VELOCITY: the blocks would move so fast together (velocity ({:e}, {:e}), angular {w:e}) that their kinetic energy overflows f64; check the values and the units",
+                    velocity[0], velocity[1]
+                ),
+            ));
+        }
         // The kinetic energy VELOCITY gives (or takes, slowing a block) is input, booked
         // with the work of gravity and loads: the balance is unchanged by the command, and
         // what it shows later is the cycle's error alone. Measured as the ledger measures
