@@ -284,7 +284,9 @@ fn griffith_cracks_a_compressed_column_along_its_axis() {
     }
     let e = m.energies();
     assert!(e.released != 0.0);
-    assert!(e.ledger().abs() < 0.02 * e.scale(), "ledger {} of {}", e.ledger(), e.scale());
+    // Measured: 7.8e-4 J of 5.04 J (1.5e-4), the damped settling's own error; the crack books
+    // its change of the energies exactly.
+    assert!(e.ledger().abs() < 1e-3 * e.scale(), "ledger {} of {}", e.ledger(), e.scale());
     // Below the criterion nothing cracks.
     let (m, log) = run(&deck(3000.0));
     assert!(!log.contains("CRACKED") && m.blocks.len() == 2, "{log}");
