@@ -376,7 +376,7 @@ fn verify(quick: bool, out: PathBuf, only: Option<String>) -> anyhow::Result<()>
         }
     }
     check_out_dir(&out)?;
-    let options = blockdem::verify::VerifyOptions { quick, out: Some(out.clone()), only };
+    let options = blockdem::verify::VerifyOptions { quick, out: Some(out.clone()), only, side_by_side: false };
     let suite = blockdem::verify::run_suite(&options);
     let _ = write!(Stdout, "{}", blockdem::verify::table(&suite));
     let (files, chart_problem) = blockdem::verify::write_outputs(&suite, &out).with_context(|| format!("cannot write into {}", out.display()))?;

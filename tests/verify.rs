@@ -12,7 +12,8 @@ const LEDGER_CASES: [&str; 4] = ["slide", "bounce_dashpot", "vibration_mass", "c
 
 #[test]
 fn quick_suite_passes_every_check() {
-    let suite = verify::run_suite(&VerifyOptions { quick: true, out: None, only: None });
+    // The backends side by side: the suite is most of this file's time on CI's two cores.
+    let suite = verify::run_suite(&VerifyOptions { quick: true, out: None, only: None, side_by_side: true });
     let table = verify::table(&suite);
     let backends = verify::backends();
     // Every case on every backend (the SDEF, FDEF, fluid and D3 cases too); D3's at the check

@@ -44,7 +44,7 @@ pub const QUICK_FRACS_GPU: &[f64] = &[CHECK_FRAC];
 pub const QUICK_FRACS_D3: &[f64] = &[CHECK_FRAC];
 
 /// A fresh D3 backend, or why none opens (the case's row then says it).
-pub type MakeD3 = Box<dyn Fn() -> Result<Box<dyn crate::d3::backend::Backend>, String>>;
+pub type MakeD3 = Box<dyn Fn() -> Result<Box<dyn crate::d3::backend::Backend>, String> + Send + Sync>;
 
 /// One backend the suite runs on: a label, its precision, and a factory (a fresh backend per run)
 /// for each engine: the 2D engine's, and D3's for the 3D cases (`verify::d3`).
@@ -53,13 +53,13 @@ pub struct BackendEntry {
     pub precision: String,
     /// A GPU adapter (the quick suite runs fewer FRACTIONs there, [`QUICK_FRACS_GPU`]).
     pub gpu: bool,
-    pub make: Box<dyn Fn() -> Box<dyn Backend>>,
+    pub make: Box<dyn Fn() -> Box<dyn Backend> + Send + Sync>,
     pub make_d3: MakeD3,
 }
 
 impl BackendEntry {
     /// An entry whose 3D cases run on D3's CPU backend ([`BackendEntry::with_d3`] gives another).
-    pub fn new(label: &str, precision: &str, make: impl Fn() -> Box<dyn Backend> + 'static) -> Self {
+    pub fn new(label: &str, precision: &str, make: impl Fn() -> Box<dyn Backend> + Send + Sync + 'static) -> Self {
         BackendEntry {
             label: label.to_string(),
             precision: precision.to_string(),
@@ -70,7 +70,7 @@ impl BackendEntry {
     }
 
     /// The entry with D3's backend made by `make_d3`.
-    pub fn with_d3(mut self, make_d3: impl Fn() -> Result<Box<dyn crate::d3::backend::Backend>, String> + 'static) -> Self {
+    pub fn with_d3(mut self, make_d3: impl Fn() -> Result<Box<dyn crate::d3::backend::Backend>, String> + Send + Sync + 'static) -> Self {
         self.make_d3 = Box::new(make_d3);
         self
     }
@@ -135,11 +135,16 @@ pub struct VerifyOptions {
     pub out: Option<PathBuf>,
     /// Run only the cases whose name contains this.
     pub only: Option<String>,
+    /// Run the backends side by side, a thread each (the tests: a 2-core CI machine otherwise
+    /// idles a core while one backend's cases run one after the other). The rows come in the
+    /// same order and with the same errors; their costs (wall time, cycles/s) are then not
+    /// comparable, so `blockdem verify`, whose charts plot them, runs the backends in turn.
+    pub side_by_side: bool,
 }
 
 impl Default for VerifyOptions {
     fn default() -> Self {
-        VerifyOptions { quick: true, out: None, only: None }
+        VerifyOptions { quick: true, out: None, only: None, side_by_side: false }
     }
 }
 
@@ -238,24 +243,46 @@ pub fn fracs_for(backend: &BackendEntry, quick: bool) -> &'static [f64] {
 pub fn run_suite(options: &VerifyOptions) -> Suite {
     let start = Instant::now();
     let mut suite = Suite { quick: options.quick, ..Suite::default() };
-    for backend in backends() {
-        for case in cases::all() {
-            if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
-                continue;
-            }
-            let fracs = if options.quick && case.name.starts_with(d3::D3_PREFIX) { QUICK_FRACS_D3 } else { fracs_for(&backend, options.quick) };
-            for &frac in fracs {
-                suite.rows.push(run_case(&case, &backend, frac));
-            }
-        }
-        if options.only.is_none() && !(options.quick && backend.gpu) {
-            suite.stability.extend(stability::thresholds(&backend, options.quick));
-            suite.extremes.extend(stability::extreme_limits(&backend, options.quick));
-        }
+    let backends = backends();
+    let parts: Vec<BackendPart> = if options.side_by_side {
+        std::thread::scope(|scope| {
+            let handles: Vec<_> = backends.iter().map(|b| scope.spawn(move || run_backend(options, b))).collect();
+            handles.into_iter().map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))).collect()
+        })
+    } else {
+        backends.iter().map(|b| run_backend(options, b)).collect()
+    };
+    for (rows, stability, extremes) in parts {
+        suite.rows.extend(rows);
+        suite.stability.extend(stability);
+        suite.extremes.extend(extremes);
     }
     d3::against_cpu(&mut suite.rows);
     suite.wall_s = start.elapsed().as_secs_f64();
     suite
+}
+
+/// One backend's share of a suite: its rows, stability thresholds and extreme-ratio limits.
+type BackendPart = (Vec<Row>, Vec<stability::Threshold>, Vec<stability::ExtremeLimit>);
+
+/// The suite's cases (and, on the CPU and in the full suite, the stability bisections) on one
+/// backend.
+fn run_backend(options: &VerifyOptions, backend: &BackendEntry) -> BackendPart {
+    let mut part: BackendPart = Default::default();
+    for case in cases::all() {
+        if options.only.as_deref().is_some_and(|o| !case.name.contains(o)) {
+            continue;
+        }
+        let fracs = if options.quick && case.name.starts_with(d3::D3_PREFIX) { QUICK_FRACS_D3 } else { fracs_for(backend, options.quick) };
+        for &frac in fracs {
+            part.0.push(run_case(&case, backend, frac));
+        }
+    }
+    if options.only.is_none() && !(options.quick && backend.gpu) {
+        part.1 = stability::thresholds(backend, options.quick);
+        part.2 = stability::extreme_limits(backend, options.quick);
+    }
+    part
 }
 
 /// Runs one case at one FRACTION on one backend.
