@@ -441,14 +441,17 @@ fn a_deformable_column_cracks_on_the_gpu_at_the_cpus_cycle() {
     }
 }
 
-/// The point-load law on the GPU (constitutive 1, SL-85-1 ¶35f): the contact forces read back
-/// after every cycle, the criterion and the cut on the CPU. The squeezed block of
-/// tests/d3_split.rs, settled, then given a TF it exceeds, splits at the CPU's cycle along the
-/// CPU's plane (y = 1: two unit cubes) on every target.
+/// The point-load law on the GPU (SL-85-1 ¶35f), with the joint law's contacts (constitutive 2:
+/// each contact's stiffness JKN over its area, shared by its corners, uploaded with it): the
+/// contact forces read back after every cycle, the criterion and the cut on the CPU. The squeezed
+/// block of tests/d3_split.rs, settled, then given a TF it exceeds, splits at the CPU's cycle
+/// along the CPU's plane (y = 1: two unit cubes) on every target, and the crack leaves the
+/// springs' energy as it was (the joint law), as on the CPU.
 #[test]
 fn a_squeezed_block_splits_by_the_point_load_law_on_the_gpu_as_on_the_cpu() {
-    let deck = "START\nPROP MAT=1 D=1000 KN=1E10 KS=1E10 F=0.5\nPROP MAT=2 D=1000 KN=1E10 KS=1E10 F=0.5 TF=1E9\n\
-                BOX -1 2 -1 3 -1 0\nBOX 0 1 0 2 0 1 MAT 2 CONS 1\nBOX 0 1 0 2 1 2\nFIX -1 2 -1 3 -1 -0.1\n\
+    let deck =
+        "START\nPROP MAT=1 D=1000 KN=1E10 KS=1E10 F=0.5 JKN=1E10 JKS=1E10 JF=0.5\nPROP MAT=2 D=1000 KN=1E10 KS=1E10 F=0.5 JKN=1E10 JKS=1E10 JF=0.5 TF=1E9\n\
+                BOX -1 2 -1 3 -1 0 CONS 2\nBOX 0 1 0 2 0 1 MAT 2 CONS 2\nBOX 0 1 0 2 1 2 CONS 2\nFIX -1 2 -1 3 -1 -0.1\n\
                 LOAD 0 1 0 2 1 2 0 0 -1E6\nGRAV 0 0 -10\nDAMP 1 700 MASS\nCYCLE 3000\nPROP MAT=2 TF=5E5\nCYCLE 1\n";
     let cpu = run(deck, None);
     assert_eq!(cpu.blocks.len(), 4, "the CPU's block cracked once");
@@ -463,5 +466,7 @@ fn a_squeezed_block_splits_by_the_point_load_law_on_the_gpu_as_on_the_cpu() {
         for ((g0, g1), (c0, c1)) in halves(&gpu).into_iter().zip(halves(&cpu)) {
             assert!((g0 - c0).abs() < 1e-4 && (g1 - c1).abs() < 1e-4, "{:?}: a half spans y {g0}..{g1}, the CPU's {c0}..{c1}", o.precision);
         }
+        let e = gpu.energies();
+        assert!(e.strain > 0.0 && e.released.abs() < 1e-3 * e.strain, "{:?}: released {} of the springs' {}", o.precision, e.released, e.strain);
     }
 }

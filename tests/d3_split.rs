@@ -259,3 +259,31 @@ fn the_point_load_law_splits_a_squeezed_block_across_its_length() {
     let (m, log) = ok(&squeezed_block(1.2e6));
     assert!(!log.contains("CRACKED") && m.blocks.len() == 3, "{log}");
 }
+
+/// The joint law (constitutive 2: point-load cracking, joint contacts; SL-85-1 Table A1) on the
+/// squeezed block: its face contacts' stiffness is JKN per unit area over their area, shared by
+/// their corners, so the halves' contacts (four corners each, on half the area) carry what the
+/// whole face carried, where the point law doubled it: the crack changes the springs' energy by
+/// less than 1e-3 of it. A joint-law block whose material lacks JKN is refused at CYCLE.
+#[test]
+fn the_joint_law_keeps_a_cracked_faces_stiffness() {
+    let deck = squeezed_block(5e5)
+        .replace("CONS 1", "CONS 2")
+        .replace("BOX -1 2 -1 3 -1 0", "BOX -1 2 -1 3 -1 0 CONS 2")
+        .replace("BOX 0 1 0 2 1 2\n", "BOX 0 1 0 2 1 2 CONS 2\n");
+    let deck = deck.replace("F=0.5 TF=1E9", "F=0.5 JKN=1E10 JKS=1E10 JF=0.5 TF=1E9").replace("F=0.5\nPROP MAT=2", "F=0.5 JKN=1E10 JKS=1E10 JF=0.5\nPROP MAT=2");
+    let (m, log) = ok(&deck);
+    let line = log.lines().find(|l| l.contains("CRACKED")).unwrap_or_else(|| panic!("no crack:\n{log}"));
+    assert!(line.starts_with("BLOCK 2 CRACKED AT CYCLE 3001 (POINT-LOAD ") && line.contains("NEW BLOCK 4"), "{line}");
+    let e = m.energies();
+    assert!(e.strain > 0.0 && e.released.abs() < 1e-3 * e.strain, "released {} of the springs' {}", e.released, e.strain);
+    assert!(e.ledger().abs() < 1e-6 * e.scale(), "ledger {} of {}", e.ledger(), e.scale());
+    // Without JKN: refused at the first CYCLE, naming the block and the material.
+    let bad = deck.replace("JKN=1E10 JKS=1E10 JF=0.5\nPROP MAT=2", "\nPROP MAT=2");
+    let (_, _, r) = run(&bad);
+    let e = r.unwrap_err();
+    assert!(
+        e.contains("t.dat:11:") && e.contains("constitutive number 2 gives its face contacts the joint law") && e.contains("material 1 needs JKN and JKS"),
+        "{e}"
+    );
+}

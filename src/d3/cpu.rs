@@ -267,14 +267,23 @@ pub fn gather(model: &mut Model, dt: f64) {
 pub fn contact_stage(model: &mut Model, dt: f64) {
     let tol = model.contact_tolerance();
     let blocks = &model.blocks;
-    let materials: Vec<_> = model.contacts.iter().map(|c| model.material(blocks[c.blocks[0] as usize].material)).collect();
+    // Each contact's first block's material and whether its law is the joint law (the law's
+    // parameters follow from the touching region found below).
+    let materials: Vec<_> = model
+        .contacts
+        .iter()
+        .map(|c| {
+            let first = &blocks[c.blocks[0] as usize];
+            (model.material(first.material), super::model::joint_contacts(first.constitutive))
+        })
+        .collect();
     let energy: Vec<(f64, f64)> = model
         .contacts
         .par_iter_mut()
         .zip(materials)
-        .map(|(c, mat)| {
+        .map(|(c, (mat, joint))| {
             let (a, b) = (&blocks[c.blocks[0] as usize], &blocks[c.blocks[1] as usize]);
-            update_contact(c, a, b, &mat, tol, dt)
+            update_contact(c, a, b, &mat, joint, tol, dt)
         })
         .collect();
     // Summed in the contacts' order: reruns repeat bit for bit.
@@ -285,8 +294,19 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
 }
 
 /// One contact's stage 4. Returns the energy friction took and that released by logical
-/// contacts that went while loaded (for the ledger).
-pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model::Block, mat: &super::model::Material, tol: f64, dt: f64) -> (f64, f64) {
+/// contacts that went while loaded (for the ledger). `mat` is the first block's material and
+/// `joint` whether its law is the joint law (`Material::contact_law`): the parameters follow
+/// the touching region, the last cycle's for the springs that go, this cycle's for the law.
+pub fn update_contact(
+    c: &mut Contact,
+    a: &super::model::Block,
+    b: &super::model::Block,
+    mat: &super::model::Material,
+    joint: bool,
+    tol: f64,
+    dt: f64,
+) -> (f64, f64) {
+    let old_law = mat.contact_law(joint, c.area, c.logical.len());
     // Boxes apart by more than the contact-forming distance: the blocks are (a lower bound of
     // their distance), and the common plane is not needed.
     let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
@@ -300,7 +320,7 @@ pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model
         c.normal = p.normal;
     }
     let Some(plane) = plane.filter(|p| p.separation <= tol) else {
-        let released = c.logical.iter().map(|l| spring_energy(l, mat)).sum();
+        let released = c.logical.iter().map(|l| spring_energy(l, &old_law)).sum();
         c.category = None;
         c.area = 0.0;
         c.logical.clear();
@@ -317,10 +337,11 @@ pub fn update_contact(c: &mut Contact, a: &super::model::Block, b: &super::model
     }));
     // The strain of logical contacts not found again (their shear springs; their normal ones
     // too, where the touching region lost a loaded corner).
-    let released = previous.iter().filter(|l| !c.logical.iter().any(|n| n.kind == l.kind)).map(|l| spring_energy(l, mat)).sum();
+    let released = previous.iter().filter(|l| !c.logical.iter().any(|n| n.kind == l.kind)).map(|l| spring_energy(l, &old_law)).sum();
     c.category = Some(category);
     c.area = area;
-    (contact::force_law(c, old_normal, a, b, mat, dt), released)
+    let law = mat.contact_law(joint, area, c.logical.len());
+    (contact::force_law(c, old_normal, a, b, &law, dt), released)
 }
 
 /// One cycle: stages 6, 1–2, 7 as due, 4.

@@ -435,6 +435,21 @@ impl<'a> Executor<'a> {
                 ),
             ));
         }
+        // The joint law's stiffnesses are per unit area: a block whose constitutive number
+        // asks for it needs them (its strength, JCOHESION and JFRICTION, may be zero).
+        if let Some(b) = self.model.blocks.iter().find(|b| {
+            let m = self.model.material(b.material);
+            super::model::joint_contacts(b.constitutive) && !(m.jkn > 0.0 && m.jks > 0.0)
+        }) {
+            let (id, cons, mat) = (b.id, b.constitutive, b.material);
+            return Err(self.error(
+                cmd,
+                format!(
+                    "CYCLE: block {id}'s constitutive number {cons} gives its face contacts the joint law, whose stiffnesses are per unit area: \
+                     material {mat} needs JKN and JKS (PROPERTY MAT {mat} JKN k JKS k; JCOHESION and JFRICTION its strength), or give the block constitutive number 1 or 3"
+                ),
+            ));
+        }
         self.echo(&format!("TIMESTEP = {}", fmt_e(self.model.timestep())))?;
         let mut ticker = Ticker::new(&self.options, n);
         self.log.flush()?;

@@ -33,6 +33,31 @@ impl Material {
     pub fn elastic(&self) -> Elastic {
         Elastic { bulk: self.bulk, shear: self.shear }
     }
+
+    /// The force–displacement law's parameters for each logical contact of a contact whose
+    /// touching region has `area` and `logical` logical contacts. The point law (constitutive
+    /// 1 and 3; and every contact without an area: vertex–face, edge–edge, edge–edge crossing)
+    /// takes KN, KS, COHESION and FRICTION as they are, per logical contact. The **joint law**
+    /// (`joint`: constitutive 2, 4 and 5, 2D's joint contacts of Table A1, as 3DEC's joints)
+    /// gives a face–face or face–edge contact JKN, JKS and JCOHESION per unit area over its
+    /// area, shared equally by its logical contacts (each takes area/n), and JFRICTION: the
+    /// contact's stiffness is JKN·area however many corners its touching region has, so that a
+    /// block cracked across a pressed face, whose halves' contacts have four corners each, carry
+    /// what the whole face carried (the point law doubles it), and its strength is
+    /// JCOHESION·area + JFRICTION·N, Coulomb's for a joint.
+    pub fn contact_law(&self, joint: bool, area: f64, logical: usize) -> Material {
+        if !(joint && area > 0.0 && logical > 0) {
+            return *self;
+        }
+        let share = area / logical as f64;
+        Material { kn: self.jkn * share, ks: self.jks * share, cohesion: self.jcohesion * share, friction: self.jfriction, ..*self }
+    }
+}
+
+/// Whether blocks of constitutive number `constitutive` give their face contacts the joint law
+/// ([`Material::contact_law`]): 2, 4 and 5, the numbers of 2D's joint contacts (Table A1).
+pub fn joint_contacts(constitutive: u32) -> bool {
+    matches!(constitutive, 2 | 4 | 5)
 }
 
 impl Default for Material {
@@ -416,9 +441,11 @@ impl Model {
         material_of(&self.materials, n)
     }
 
-    /// The material of a contact: its first block's.
+    /// The law's parameters of a contact: its first block's material, by its constitutive
+    /// number's law ([`Material::contact_law`]) over the touching region the contact holds.
     pub fn contact_material(&self, c: &Contact) -> Material {
-        self.material(self.blocks[c.blocks[0] as usize].material)
+        let first = &self.blocks[c.blocks[0] as usize];
+        self.material(first.material).contact_law(joint_contacts(first.constitutive), c.area, c.logical.len())
     }
 
     /// The contact-forming distance: a logical contact whose gap is within it is kept (its
@@ -458,7 +485,13 @@ impl Model {
     /// run stable there (`blockdem verify`, README). Returns None when no free block has mass or
     /// no stiffness is defined.
     pub fn critical_timestep(&self) -> Option<f64> {
-        let k_max = self.blocks.iter().map(|b| self.material(b.material)).fold(0.0f64, |k, m| k.max(m.kn).max(m.ks));
+        // A joint-law block's face contact is stiffer the larger its area: no more than its
+        // radius squared (a touching region shared by three or more corners).
+        let k_max = self.blocks.iter().fold(0.0f64, |k, b| {
+            let m = self.material(b.material);
+            let joint = if joint_contacts(b.constitutive) { m.jkn.max(m.jks) * b.shape.radius * b.shape.radius } else { 0.0 };
+            k.max(m.kn).max(m.ks).max(joint)
+        });
         if k_max <= 0.0 {
             return None;
         }
