@@ -15,7 +15,7 @@
 use super::team::Team;
 use super::{SharedMut, MIN_BLOCKS_PER_THREAD, MIN_CHUNK};
 use crate::udec::model::domain::{Domains, NO_DOMAIN};
-use crate::udec::model::fluid::{contact_foot, deformable_pressure_loads, fluid_area_with, is_free, pressure_jump, pressure_load, pressure_step};
+use crate::udec::model::fluid::{contact_foot, deformable_pressure_loads, fluid_area_with, is_free, pressure_jump_with, pressure_load, pressure_step};
 use crate::udec::model::{BlockKind, Model};
 use crate::udec::topology::Adjacency;
 
@@ -29,9 +29,15 @@ pub struct FluidScratch {
     /// would. Built with the domains (`all_pressure_loads`, after each change of topology).
     inflow_offsets: Vec<u32>,
     inflow_entries: Vec<u32>,
-    /// Each domain's new area and its inflow times Δt this cycle (0 for a domain whose pressure
-    /// does not step).
-    steps: Vec<(f64, f64)>,
+    /// Each domain's new area, its inflow times Δt this cycle (0 for a domain whose pressure
+    /// does not step) and its new pressure (¶7's step, or the pressure it keeps): each domain's
+    /// own, taken on the team's threads, so that the serial pass after them only adds up the
+    /// inflow and writes the domains.
+    steps: Vec<[f64; 3]>,
+    /// Each domain's pressure after this cycle's step, indexed like `Domains::list`: the same
+    /// numbers as the list's, packed (8 bytes a domain, not a whole `Domain`), for the blocks'
+    /// loads, which read two of them at each contact round each block.
+    pressures: Vec<f64>,
     /// Each block's load from the domain pressures and buoyancy (force x, y, moment), as the next
     /// gather adds it.
     pub loads: Vec<[f64; 3]>,
@@ -134,32 +140,42 @@ pub fn flow_stage(model: &mut Model, adjacency: &Adjacency, scratch: &mut FluidS
         let f = &domains.flows[k];
         (f.length > 0.0).then_some(f.aperture)
     };
-    let dt = model.timestep;
+    let (dt, bulk) = (model.timestep, fluid.bulk);
     let (offsets, entries) = (&scratch.inflow_offsets, &scratch.inflow_entries);
-    scratch.steps.resize(domains.list.len(), (0.0, 0.0));
-    // Each domain alone: its area now, and its inflow over the step where its pressure steps.
+    scratch.steps.resize(domains.list.len(), [0.0; 3]);
+    // Each domain alone: its area now, its inflow over the step and its pressure after it, where
+    // its pressure steps (¶7); a held or outer domain keeps its pressure.
     fill_on_team(team, &mut scratch.steps, MIN_BLOCKS_PER_THREAD, &|d| {
         let area = fluid_area_with(model, &domains, d, &foot, &joint);
         let dom = &domains.list[d];
-        let q = if is_free(dom.kind, dom.fixed) { domain_inflow(&domains, offsets, entries, d) * dt } else { 0.0 };
-        (area, q)
+        if is_free(dom.kind, dom.fixed) {
+            let q = domain_inflow(&domains, offsets, entries, d) * dt;
+            [area, q, pressure_step(dom.pressure, dom.area, area, q, bulk)]
+        } else {
+            [area, 0.0, dom.pressure]
+        }
     });
+    // The fluid that flowed in, summed in domain order (so a run repeats bit for bit).
     let mut inflow = 0.0;
-    for (dom, &(area, q)) in domains.list.iter_mut().zip(&scratch.steps) {
+    scratch.pressures.clear();
+    for (dom, &[area, q, pressure]) in domains.list.iter_mut().zip(&scratch.steps) {
         if is_free(dom.kind, dom.fixed) {
             inflow += q;
-            dom.pressure = pressure_step(dom.pressure, dom.area, area, q, fluid.bulk);
         }
+        dom.pressure = pressure;
         dom.area = area;
+        scratch.pressures.push(pressure);
     }
     model.domains = Some(domains);
     if let Some(f) = model.fluid.as_mut() {
         f.inflow += inflow;
     }
-    let feet = &scratch.feet;
+    let (feet, pressures) = (&scratch.feet, &scratch.pressures);
     scratch.loads.resize(model.blocks.len(), [0.0; 3]);
     let model = &*model;
-    fill_on_team(team, &mut scratch.loads, MIN_BLOCKS_PER_THREAD, &|b| block_load(model, adjacency, b, &|k, side| feet[k][side as usize]));
+    fill_on_team(team, &mut scratch.loads, MIN_BLOCKS_PER_THREAD, &|b| {
+        block_load(model, adjacency, b, &|k, side| feet[k][side as usize], &|d| pressures[d as usize])
+    });
     if let Some(domains) = model.domains.as_ref() {
         deformable_pressure_loads(model, domains, &|k, side| feet[k][side as usize], &mut scratch.applied, &mut scratch.gridpoint, &mut scratch.ring);
     }
@@ -194,14 +210,16 @@ pub fn pressure_loads(model: &Model, adjacency: &Adjacency, loads: &mut Vec<[f64
         return;
     }
     let foot = |k: usize, side: u32| contact_foot(model, &model.contacts[k], side);
-    loads.extend((0..model.blocks.len()).map(|b| block_load(model, adjacency, b, &foot)));
+    let domains = model.domains.as_ref().expect("checked above");
+    loads.extend((0..model.blocks.len()).map(|b| block_load(model, adjacency, b, &foot, &|d| domains.list[d as usize].pressure)));
 }
 
 /// Block `b`'s load ([`pressure_loads`]) with the contacts' feet from `foot` (contact index,
-/// side); 0 without fluid or domains. A zoned block's is its buoyancy alone (its grid points
+/// side) and the domains' pressures from `pressure` (index in `Domains::list`: the list's own,
+/// or stage 5's packed copy of them, `FluidScratch::pressures`); 0 without fluid or domains. A zoned block's is its buoyancy alone (its grid points
 /// take the pressures, `FluidScratch::gridpoint`), which its gather shares out by mass as it
 /// does its LOAD.
-fn block_load(model: &Model, adjacency: &Adjacency, b: usize, foot: &impl Fn(usize, u32) -> [f64; 2]) -> [f64; 3] {
+fn block_load(model: &Model, adjacency: &Adjacency, b: usize, foot: &impl Fn(usize, u32) -> [f64; 2], pressure: &impl Fn(u32) -> f64) -> [f64; 3] {
     let (Some(fluid), Some(domains)) = (model.fluid.as_ref(), model.domains.as_ref()) else { return [0.0; 3] };
     let (block, g) = (&model.blocks[b], model.gravity);
     let mut l = [-fluid.density * block.area * g[0], -fluid.density * block.area * g[1], 0.0];
@@ -210,7 +228,7 @@ fn block_load(model: &Model, adjacency: &Adjacency, b: usize, foot: &impl Fn(usi
     }
     for e in adjacency.entries(b) {
         let k = e.contact() as usize;
-        let jump = pressure_jump(domains, k, e.side());
+        let jump = pressure_jump_with(domains, k, e.side(), pressure);
         if jump != 0.0 {
             let p = pressure_load(jump, foot(k, e.side()), block.centroid);
             l = [l[0] + p[0], l[1] + p[1], l[2] + p[2]];

@@ -136,12 +136,16 @@ pub fn contact_foot_in(corners: &[super::Corner], b2: &super::Block, c: &Contact
         return corner;
     }
     let n = b2.corner_count.max(1);
-    let k = (c.feature / 2) % n;
+    // (k mod n and k + 1 mod n without a division where k < n, as it always is: stage 4 takes
+    // this for every contact every cycle.)
+    let k = c.feature / 2;
+    let k = if k < n { k } else { k % n };
     let p = corners[(b2.corner_start + k) as usize].position;
     if c.feature % 2 == 0 {
         return p;
     }
-    let q = corners[(b2.corner_start + (k + 1) % n) as usize].position;
+    let next = if k + 1 < n { k + 1 } else { 0 };
+    let q = corners[(b2.corner_start + next) as usize].position;
     let e = [q[0] - p[0], q[1] - p[1]];
     let len2 = e[0] * e[0] + e[1] * e[1];
     let t = if len2 > 0.0 { (((corner[0] - p[0]) * e[0] + (corner[1] - p[1]) * e[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
@@ -162,11 +166,18 @@ pub fn pressure_load(jump: f64, foot: [f64; 2], centroid: [f64; 2]) -> [f64; 3] 
 /// link.
 #[inline]
 pub fn pressure_jump(domains: &Domains, k: usize, side: u32) -> f64 {
+    pressure_jump_with(domains, k, side, &|d| domains.list[d as usize].pressure)
+}
+
+/// [`pressure_jump`] with the domains' pressures from `pressure` (index in `Domains::list`):
+/// stage 5 reads them from a packed copy (`cpu::flow`), the same numbers.
+#[inline]
+pub fn pressure_jump_with(domains: &Domains, k: usize, side: u32, pressure: &impl Fn(u32) -> f64) -> f64 {
     let Some(&[d0, d1]) = domains.sides.get(k) else { return 0.0 };
     if d0 == NO_DOMAIN || d0 == d1 {
         return 0.0;
     }
-    let dp = domains.list[d1 as usize].pressure - domains.list[d0 as usize].pressure;
+    let dp = pressure(d1) - pressure(d0);
     if side == 0 {
         dp
     } else {
