@@ -270,8 +270,9 @@ fn split_keeps_loaded_faces_and_holds_the_pieces() {
     assert!((total - glam::DVec3::new(0.0, 0.0, -1e4)).length() < 1e-9, "{total}");
     for b in &m.blocks {
         assert!(b.held && !b.boundary_stress.is_empty());
-        // Every loaded face lies in the top, z = 1 (at the step's start, before the cycle's move).
-        let expect = glam::DVec3::new(0.0, 0.0, 0.5) + glam::DVec3::new(0.0, 0.0, 1.0).cross(b.centroid - b.velocity * m.time - glam::DVec3::new(0.5, 0.5, 0.5));
+        // Held at the parent's motion at its centroid when cut (before the cycle's move).
+        let expect =
+            glam::DVec3::new(0.0, 0.0, 0.5) + glam::DVec3::new(0.0, 0.0, 1.0).cross(b.centroid - b.velocity * m.time - glam::DVec3::new(0.5, 0.5, 0.5));
         assert!((b.velocity - expect).length() < 1e-12, "{} against {expect}", b.velocity);
         assert_eq!(b.angular_velocity, glam::DVec3::new(0.0, 0.0, 1.0));
     }
@@ -281,7 +282,9 @@ fn split_keeps_loaded_faces_and_holds_the_pieces() {
 
 #[test]
 fn the_state_json_shows_the_boundary_conditions() {
-    let (m, _) = run(&format!("START\n{ROCK}BOX 0 1 0 1 0 1\nBOX 2 3 0 1 0 1\nBOUNDARY STRESS -1 1.5 -1 2 0.9 1.1 0 0 -5 0 0 0\nBOUNDARY VELOCITY 1.5 4 -1 2 -1 2 1 2 3\nSTOP\n"));
+    let (m, _) = run(&format!(
+        "START\n{ROCK}BOX 0 1 0 1 0 1\nBOX 2 3 0 1 0 1\nBOUNDARY STRESS -1 1.5 -1 2 0.9 1.1 0 0 -5 0 0 0\nBOUNDARY VELOCITY 1.5 4 -1 2 -1 2 1 2 3\nSTOP\n"
+    ));
     let v = blockdem::d3::output::state_json(&m, None);
     assert_eq!(v["blocks"][0]["boundary_stress"].as_array().unwrap().len(), 2);
     assert_eq!(v["blocks"][0]["boundary_stress"][0]["stress"][2], -5.0);
@@ -350,13 +353,23 @@ fn the_boundary_conditions_run_on_the_gpu_as_on_the_cpu() {
                 assert!(dv < 100.0 * tol, "{name} deck {k}: block {} at {} against {}", a.id, b.velocity, a.velocity);
                 if let (Some(s), Some(t)) = (&a.sdef, &b.sdef) {
                     let scale = s.strain.iter().fold(0.0f64, |m, e| m.max(e.abs()));
-                    assert!(s.strain.iter().zip(&t.strain).all(|(x, y)| (x - y).abs() < tol.max(1e-6) * scale), "{name}: {:?} against {:?}", t.strain, s.strain);
+                    assert!(
+                        s.strain.iter().zip(&t.strain).all(|(x, y)| (x - y).abs() < tol.max(1e-6) * scale),
+                        "{name}: {:?} against {:?}",
+                        t.strain,
+                        s.strain
+                    );
                 }
             }
             let (ec, eg) = (c.energies(), g.energies());
             eprintln!("{name} deck {k}: work {:.6e} against {:.6e}, ledger {:.2e} of {:.2e}", eg.external_work, ec.external_work, eg.ledger(), eg.scale());
             let work_tol = if f32 || k == 2 { 2e-4 } else { 1e-6 };
-            assert!((ec.external_work - eg.external_work).abs() < work_tol * ec.scale(), "{name} deck {k}: work {} against {}", eg.external_work, ec.external_work);
+            assert!(
+                (ec.external_work - eg.external_work).abs() < work_tol * ec.scale(),
+                "{name} deck {k}: work {} against {}",
+                eg.external_work,
+                ec.external_work
+            );
             assert!(eg.ledger().abs() < 1e-2 * eg.scale(), "{name} deck {k}: ledger {} of {}", eg.ledger(), eg.scale());
             last = g;
         }
@@ -368,4 +381,26 @@ fn the_boundary_conditions_run_on_the_gpu_as_on_the_cpu() {
         assert_eq!(held.velocity, glam::DVec3::new(0.0, 0.0, vz), "{name}");
         assert!((held.centroid.z - (1.25 + vz * g.time)).abs() < if o.precision == Precision::F32 { 1e-6 } else { 1e-12 }, "{name}: {}", held.centroid.z);
     }
+}
+
+/// A file of format 5 (before the boundary conditions: the model and the simply-deformable
+/// extension) still reads, its blocks neither held nor loaded.
+#[test]
+fn a_format_5_file_reads_without_boundary_conditions() {
+    use blockdem::d3::restart::{load, Extension, SaveFile, MAGIC};
+    let (mut m, _) = run(&format!("START\n{ROCK}BOX 0 1 0 1 0 1\nCHANGE -1 2 -1 2 -1 2 SDEF\nCYCLE 3\nSTOP\n"));
+    m.damping.alpha_internal = 7.0;
+    let file = SaveFile { model: m.clone(), resumable: false, device: None };
+    let payload = postcard::to_stdvec(&(&file, Extension::of(&m))).unwrap();
+    let mut bytes = MAGIC.to_vec();
+    bytes.extend(5u32.to_le_bytes());
+    bytes.extend((payload.len() as u64).to_le_bytes());
+    bytes.extend((crc32fast::hash(&payload) as u64).to_le_bytes());
+    bytes.extend(&payload);
+    let path = std::env::temp_dir().join(format!("blockdem-d3-v5-{}.sav", std::process::id()));
+    std::fs::write(&path, bytes).unwrap();
+    let read = load(&path).unwrap();
+    let _ = std::fs::remove_file(&path);
+    assert_eq!(read.model, m);
+    assert!(read.model.blocks.iter().all(|b| !b.held && b.boundary_stress.is_empty()));
 }

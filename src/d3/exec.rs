@@ -442,7 +442,7 @@ impl<'a> Executor<'a> {
             self.echo("WARNING: BOUNDARY VELOCITY: no block has its centroid in the range")?;
             return Ok(());
         }
-        if let Some(&b) = chosen.iter().find(|&&b| !(self.model.blocks[b].mass > 0.0)) {
+        if let Some(&b) = chosen.iter().find(|&&b| self.model.blocks[b].mass.is_nan() || self.model.blocks[b].mass <= 0.0) {
             let (id, mat) = (self.model.blocks[b].id, self.model.blocks[b].material);
             return Err(self.error(cmd, format!("BOUNDARY VELOCITY: block {id} has no mass: give its material (MATERIAL {mat}) a DENSITY first")));
         }

@@ -122,7 +122,13 @@ impl Boundaries {
     pub fn of(model: &Model) -> Boundaries {
         Boundaries {
             held: model.blocks.iter().enumerate().filter(|(_, b)| b.held).map(|(i, _)| i as u32).collect(),
-            stress: model.blocks.iter().enumerate().filter(|(_, b)| !b.boundary_stress.is_empty()).map(|(i, b)| (i as u32, b.boundary_stress.clone())).collect(),
+            stress: model
+                .blocks
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| !b.boundary_stress.is_empty())
+                .map(|(i, b)| (i as u32, b.boundary_stress.clone()))
+                .collect(),
         }
     }
 
@@ -217,8 +223,8 @@ pub fn is_save_file(path: &Path) -> bool {
 
 /// SAVE: writes `file` to `path` atomically (a temporary file renamed into place).
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
-    let payload =
-        postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model))).map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
+    let payload = postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model)))
+        .map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     let crc = crc32fast::hash(&payload) as u64;
     crate::output::write_atomically(path, |w| {
         w.write_all(&MAGIC)?;

@@ -307,7 +307,8 @@ impl GpuBackend {
             }
         };
         let bind = self.bind(variant, &[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency], sdef.as_ref());
-        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, variant, bind, keys, logical_count, bases, dt });
+        self.state =
+            Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, variant, bind, keys, logical_count, bases, dt });
         Ok(())
     }
 
