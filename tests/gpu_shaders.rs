@@ -349,3 +349,24 @@ fn the_d3_strain_struct_matches_its_rust_twin() {
     check_d3_sdef_layout::<f32>(Precision::F32);
     check_d3_sdef_layout::<f64>(Precision::F64);
 }
+
+/// D3's kernels with the boundary conditions (BOUNDARY, `d3::gpu::shaders::source_with`) parse
+/// and validate in both precisions, with and without the strain stage, and bind no buffer more
+/// than the kernels without them (the loaded faces are records in the plane buffer): at most
+/// eight storage buffers.
+#[test]
+fn every_d3_kernel_with_the_boundary_conditions_parses_and_validates() {
+    use blockdem::d3::gpu::shaders as d3;
+    for precision in [Precision::F32, Precision::F64] {
+        for sdef in [false, true] {
+            for (name, _) in d3::KERNELS {
+                let src = d3::source_with(name, precision, sdef, true).unwrap();
+                assert!(src.contains("const BOUNDARY: bool = true;"));
+                shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/{name}.wgsl with BOUNDARY, SDEF {sdef} ({precision}):\n{e}"));
+                let storage = src.matches("var<storage").count();
+                assert_eq!(storage, d3::source_for(name, precision, sdef).unwrap().matches("var<storage").count());
+                assert!(storage <= 8, "d3/{name}.wgsl binds {storage} storage buffers");
+            }
+        }
+    }
+}

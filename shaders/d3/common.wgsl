@@ -183,3 +183,50 @@ fn point_of(l: Logical) -> vec3<real> {
 fn shear_of(l: Logical) -> vec3<real> {
     return vec3<real>(l.sx, l.sy, l.sz);
 }
+
+// A face of block i loaded by BOUNDARY STRESS (¶35e): the lever r of its centroid from `c0` and
+// the resultant t = σ·a of its uniform traction, a = ½ (p₁ − p₀) × (p₂ − p₀) its outward area
+// vector (faces run counter-clockwise from outside) from its vertices as placed; its two records
+// from `k` in the plane buffer (`Plane`). `c0` is the block's centroid in the frame of its
+// vertices: the centroid in f64, 0 in f32 (RELATIVE: the vertices are offsets from it). Rust
+// twin: `Block::face_traction`.
+struct FaceLoad {
+    r: vec3<real>,
+    t: vec3<real>,
+}
+
+fn face_load(k: u32, c0: vec3<real>) -> FaceLoad {
+    let a = planes[k];
+    let b = planes[k + 1u];
+    let p0 = vertex(a.vertex);
+    let p1 = vertex(a.spare);
+    let p2 = vertex(b.vertex);
+    let area = cross3(p1 - p0, p2 - p0) * 0.5;
+    let r = (p0 + p1 + p2) / 3.0 - c0;
+    // σ by columns from its Voigt components (`sdef::tensor`).
+    let sigma = Mat3(vec3<real>(a.nx, b.nx, b.ny), vec3<real>(b.nx, a.ny, b.nz), vec3<real>(b.ny, b.nz, a.nz));
+    return FaceLoad(r, mat_mul(sigma, area));
+}
+
+// The first record of block i's loaded faces: after its face planes.
+fn stress_records(i: u32) -> u32 {
+    return blocks[i].plane_start + blocks[i].plane_count;
+}
+
+// The work block i's boundary stresses do over a step that moves it by dx, turns it at omega and
+// strains it at its strain rate, its vertices still where the step began about c0 (`face_load`):
+// each face's resultant times its centroid's travel, t·(Δx + (ω × r + ε̇ r) Δt). Rust twin:
+// `Block::boundary_work`.
+fn boundary_work(i: u32, c0: vec3<real>, dx: vec3<real>, omega: vec3<real>, dt: real) -> real {
+    var work: real = 0.0;
+    let start = stress_records(i);
+    for (var k = 0u; k < blocks[i].stress_faces; k++) {
+        let l = face_load(start + 2u * k, c0);
+        var u = cross3(omega, l.r);
+        if (SDEF) {
+            u = u + strain_velocity(i, l.r);
+        }
+        work += dot3(l.t, dx + u * dt);
+    }
+    return work;
+}

@@ -1,5 +1,5 @@
 // Stage 6 for D3, one invocation per block (Rust twin: `d3::cpu::gather`): the block's force and
-// moment, its weight and load plus the forces of its contacts' logical contacts with eq. (12)'s
+// moment, its weight and load, the boundary stresses on its faces (BOUNDARY scenes) plus the forces of its contacts' logical contacts with eq. (12)'s
 // moments about its centroid, summed in the contacts' order (its adjacency list, built in that
 // order), so that the sum is the CPU's, term for term, with no atomics. The dashpots' work over
 // the coming step is booked on the contact's block 1.
@@ -35,6 +35,31 @@ fn gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index)
     // contact in the same order (`cpu::gather`).
     let zero = vec3<real>(0.0, 0.0, 0.0);
     var applied = Mat3(zero, zero, zero);
+    if (BOUNDARY) {
+        // BOUNDARY STRESS on its faces, before its contacts (`Block::boundary_load`): each face's
+        // resultant at its centroid, with its moment and its applied stress times volume.
+        let faces = blocks[i].stress_faces;
+        if (faces > 0u) {
+            let c0 = centroid_from(i, i);
+            let records = stress_records(i);
+            var bf = zero;
+            var bm = zero;
+            var ba = Mat3(zero, zero, zero);
+            for (var k = 0u; k < faces; k++) {
+                let l = face_load(records + 2u * k, c0);
+                bf = bf + l.t;
+                bm = bm + cross3(l.r, l.t);
+                if (SDEF) {
+                    ba = mat_add(ba, outer(l.r, l.t));
+                }
+            }
+            force = force + bf;
+            moment = moment + bm;
+            if (SDEF) {
+                applied = mat_add(applied, ba);
+            }
+        }
+    }
     let start = blocks[i].adjacency_start;
     let count = blocks[i].adjacency_count;
     for (var k = 0u; k < count; k++) {

@@ -1,8 +1,9 @@
 // Stages 1 and 2 for D3, one invocation per block (Rust twin: `d3::motion::law_of_motion`):
 // central differences for the velocity and the angular momentum with mass-proportional damping
 // (eqs. 9–10, UDEC's CON1/CON2), the orientation by the implicit midpoint rule (`rotate`), and
-// the vertices placed (`Block::place_vertices`). The work of gravity and load, the damping's
-// dissipation and the travel (¶26) are added to the block's sums.
+// the vertices placed (`Block::place_vertices`). The work of gravity, load and boundary
+// stresses, the damping's dissipation and the travel (¶26) are added to the block's sums; a block
+// held by BOUNDARY VELOCITY steps by `held_motion` (BOUNDARY scenes).
 
 // Fixed-point iterations of the midpoint orientation (`motion::MIDPOINT_ITERATIONS`).
 const MIDPOINT_ITERATIONS: u32 = 4u;
@@ -35,6 +36,91 @@ fn all_finite(v: vec3<real>) -> bool {
     return is_finite(v.x) && is_finite(v.y) && is_finite(v.z);
 }
 
+// The centroid c of a block at the step's start in the frame of its vertices (`face_load`): c
+// in f64, 0 in f32 (RELATIVE: the vertices are offsets from it).
+fn vertex_frame_centroid(b: Block) -> vec3<real> {
+    if (RELATIVE) {
+        return vec3<real>(0.0, 0.0, 0.0);
+    }
+    return vec3<real>(b.cx, b.cy, b.cz);
+}
+
+// One step of block i held by BOUNDARY VELOCITY (Rust twin: `motion::held_motion`): it moves at
+// its velocity and spin whatever the forces on it (its angular momentum, I(t)ω, is the CPU's to
+// renew at the read-back: the kernels keep only the inverse inertia), a simply-deformable
+// block's strain kept, its rate zero. The work booked is its weight's, load's and boundary
+// stresses' less the boundary's holding, F·Δx + M·ωΔt.
+fn held_motion(i: u32) {
+    var b = blocks[i];
+    if (SDEF) {
+        freeze_strain(i);
+    }
+    let dt = params.dt;
+    let g = vec3<real>(params.gx, params.gy, params.gz);
+    let v = vec3<real>(b.vx, b.vy, b.vz);
+    let omega = vec3<real>(b.wx, b.wy, b.wz);
+    let dx = v * dt;
+    let c0 = vertex_frame_centroid(b);
+    var c = vec3<real>(b.cx, b.cy, b.cz) + dx;
+    if (COMPENSATED) {
+        // The compensated pair, as for a free block.
+        let one = params.one;
+        let sx = two_sum(b.cx, dx.x + b.cx_lo, one);
+        let sy = two_sum(b.cy, dx.y + b.cy_lo, one);
+        let sz = two_sum(b.cz, dx.z + b.cz_lo, one);
+        c = vec3<real>(sx.x, sy.x, sz.x);
+        b.cx_lo = sx.y;
+        b.cy_lo = sy.y;
+        b.cz_lo = sz.y;
+    }
+    var q = vec4<real>(b.qx, b.qy, b.qz, b.qw);
+    if (!(omega.x == 0.0 && omega.y == 0.0 && omega.z == 0.0)) {
+        q = quat_normalize(quat_mul(quat_from_scaled_axis(omega * dt), q));
+    }
+    // The boundary stresses' work, from the faces where the step began (placed below).
+    var stress_work: real = 0.0;
+    if (b.stress_faces > 0u) {
+        stress_work = boundary_work(i, c0, dx, omega, dt);
+    }
+    var r = rotation_matrix(q);
+    if (SDEF) {
+        r = stretched_rotation(i, r);
+    }
+    for (var k = 0u; k < b.vertex_count; k++) {
+        let j = b.vertex_start + k;
+        var p = mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
+        if (!RELATIVE) {
+            p = c + p;
+        }
+        vertices[j].x = p.x;
+        vertices[j].y = p.y;
+        vertices[j].z = p.z;
+    }
+    let travel = length3(dx) + length3(omega) * dt * b.radius;
+    let applied = b.mass * g + vec3<real>(b.load_x, b.load_y, b.load_z);
+    var work = dot3(applied, dx);
+    if (b.stress_faces > 0u) {
+        work += stress_work;
+    }
+    let force = vec3<real>(b.fx, b.fy, b.fz);
+    let moment = vec3<real>(b.mx, b.my, b.mz);
+    work -= dot3(force, dx) + dot3(moment, omega) * dt;
+    b.qx = q.x;
+    b.qy = q.y;
+    b.qz = q.z;
+    b.qw = q.w;
+    b.cx = c.x;
+    b.cy = c.y;
+    b.cz = c.z;
+    b.travel += travel;
+    b.peak_travel = max(b.peak_travel, travel);
+    b.work += work;
+    if (!(is_finite(work) && all_finite(c))) {
+        b.finite = 0u;
+    }
+    blocks[i] = b;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let i = item_index(wg, li);
@@ -42,6 +128,12 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         return;
     }
     var b = blocks[i];
+    if (BOUNDARY) {
+        if (b.fixed == BLOCK_HELD) {
+            held_motion(i);
+            return;
+        }
+    }
     if (b.fixed != 0u) {
         if (SDEF) {
             // A fixed block's strain stays, its rate zero (`motion::law_of_motion_with`).
@@ -104,6 +196,14 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         r = stretched_rotation(i, r);
         damping += strained.x;
     }
+    // The boundary stresses' work (BOUNDARY scenes), from the faces where the step began (the
+    // vertices are placed below) at the step's motion and strain rate (`Block::boundary_work`).
+    var stress_work: real = 0.0;
+    if (BOUNDARY) {
+        if (b.stress_faces > 0u) {
+            stress_work = boundary_work(i, vertex_frame_centroid(b), dx, turn.omega, dt);
+        }
+    }
     // Stage 2: the vertices placed from the centroid and the orientation; in f32 (RELATIVE) as
     // their offsets R·l from the centroid, which the contact kernels add to the centroid's place
     // in each contact's frame (`centroid_from`), so that no vertex is rounded at ulp(|c|).
@@ -122,7 +222,12 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         travel += strained.y;
     }
     let applied = b.mass * g + vec3<real>(b.load_x, b.load_y, b.load_z);
-    let work = dot3(applied, dx);
+    var work = dot3(applied, dx);
+    if (BOUNDARY) {
+        if (b.stress_faces > 0u) {
+            work += stress_work;
+        }
+    }
     b.vx = v.x;
     b.vy = v.y;
     b.vz = v.z;

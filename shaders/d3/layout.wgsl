@@ -12,7 +12,8 @@
 // upload. `vertex_start`: its vertices; `plane_start`: its face planes (one per distinct normal);
 // `edge_start`: its edge directions (`edge_dir_count`), then its feature edges (`feature_count`);
 // `adjacency_start`: its contacts, in the contacts' order. `finite` is cleared by a step that
-// leaves a non-finite value.
+// leaves a non-finite value. `stress_faces`: its faces loaded by BOUNDARY STRESS, two records
+// each in the plane buffer after its planes (`Plane`).
 struct Block {
     cx: real, cy: real, cz: real, cx_lo: real, cy_lo: real, cz_lo: real,
     vx: real, vy: real, vz: real,
@@ -25,8 +26,13 @@ struct Block {
     fx: real, fy: real, fz: real, mx: real, my: real, mz: real,
     travel: real, peak_travel: real, work: real, damping_work: real, dashpot_work: real,
     fixed: u32, vertex_start: u32, vertex_count: u32, plane_start: u32, plane_count: u32, edge_start: u32,
-    edge_dir_count: u32, feature_count: u32, adjacency_start: u32, adjacency_count: u32, finite: u32, spare: u32,
+    edge_dir_count: u32, feature_count: u32, adjacency_start: u32, adjacency_count: u32, finite: u32, stress_faces: u32,
 }
+
+// `Block::fixed`: free, fixed (FIX), or held by BOUNDARY VELOCITY at its velocity and spin.
+const BLOCK_FREE: u32 = 0u;
+const BLOCK_FIXED: u32 = 1u;
+const BLOCK_HELD: u32 = 2u;
 
 // A vertex: (lx, ly, lz) in the block's reference frame about its centroid, (x, y, z) placed by
 // stage 2: in f64 its position, in f32 (RELATIVE) its offset R·l from the centroid (`block_vertex`
@@ -37,7 +43,10 @@ struct Vertex {
 }
 
 // A face plane of a block: its outward normal in the reference frame and one of its vertices
-// (the block's own numbering).
+// (the block's own numbering). After a block's planes, in a scene with boundary conditions
+// (BOUNDARY), two records for each face loaded by BOUNDARY STRESS: (σ11, σ22, σ33 | its first
+// vertex, second vertex), (σ12, σ13, σ23 | third vertex, 0), vertices numbered in `vertices`
+// (`face_load`, common.wgsl).
 struct Plane {
     nx: real, ny: real, nz: real,
     vertex: u32, spare: u32,

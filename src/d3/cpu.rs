@@ -202,7 +202,8 @@ impl driver::Stages<Model> for Stages {
     }
 }
 
-/// Stage 6: each block's force and moment sums, gravity, load and contacts, in a fixed order;
+/// Stage 6: each block's force and moment sums, gravity, load, boundary stress and contacts, in
+/// a fixed order;
 /// the contact dashpots' work over the step `dt` to come (their power β(kn u̇n² + ks|u̇s|²) at
 /// the half-step velocities) booked in the ledger.
 pub fn gather(model: &mut Model, dt: f64) {
@@ -212,6 +213,15 @@ pub fn gather(model: &mut Model, dt: f64) {
         b.moment = DVec3::ZERO;
         if let Some(s) = &mut b.sdef {
             s.applied = glam::DMat3::ZERO;
+        }
+        // BOUNDARY STRESS on its faces (`Block::boundary_load`), before its contacts.
+        if !b.boundary_stress.is_empty() {
+            let (f, m, a) = b.boundary_load();
+            b.force += f;
+            b.moment += m;
+            if let Some(s) = &mut b.sdef {
+                s.applied += a;
+            }
         }
     }
     let beta = model.damping.beta;

@@ -8,6 +8,7 @@
 //! | command | min | | command | min | | command | min |
 //! |---|---|---|---|---|---|---|---|
 //! | BLOCK | `B` | | FIX | `F` | | PROPERTY | `PRO` |
+//! | BOUNDARY (extension) | `BOU` | | | | | | |
 //! | BOX (extension) | `BO` | | FRACTION | `FRA` | | RESTART | `R` |
 //! | CHANGE | `CH` | | FREE | `FR` | | RSET | `RS` |
 //! | CYCLE | `C` | | GRAVITY | `G` | | SAVE | `SA` |
@@ -30,6 +31,12 @@
 //!   an empty range (x1 ≥ x2, …) is an error, and so is a range of four numbers (a 2D range).
 //! * `LOAD x1 x2 y1 y2 z1 z2 fx fy fz`, `VELOCITY x1 x2 y1 y2 z1 z2 vx vy vz [wx wy wz]` and
 //!   `BOX x1 x2 y1 y2 z1 z2 [MAT n] [CONS m]` (twelve faces) are extensions, as the issue asks.
+//! * `BOUNDARY STRESS x1 x2 y1 y2 z1 z2 sxx syy szz sxy sxz syz` and `BOUNDARY VELOCITY x1 x2 y1
+//!   y2 z1 z2 vx vy vz [wx wy wz]` (extensions, Part IV ¶35e's "comprehensive boundary
+//!   conditions: stress tensor, arbitrary velocity prescription"): STRESS (`S`) loads every face
+//!   whose centroid lies in the range with the traction σ·n (σ in global axes, tension
+//!   positive); VELOCITY (`V`) holds the blocks whose centroid lies in the range at that velocity
+//!   and spin (`d3::motion::held_motion`).
 //! * A 2D (UDEC) command in a 3D deck is refused at its line, naming it as such: a BLOCK of
 //!   (x,y) pairs, GRAVITY of two components, ROUND, GENERATE, PLOT, … .
 //! * `SPLIT x y z nx ny nz [MAT n] [CONS m]` (extension): the plane through (x, y, z) with normal
@@ -140,6 +147,19 @@ pub enum Command {
         velocity: [f64; 3],
         angular: Option<[f64; 3]>,
     },
+    /// BOUNDARY STRESS x1 x2 y1 y2 z1 z2 sxx syy szz sxy sxz syz (extension, ¶35e): the faces
+    /// whose centroid lies in the range take the traction σ·n; σ in Voigt's order.
+    BoundaryStress {
+        range: Range3,
+        stress: [f64; 6],
+    },
+    /// BOUNDARY VELOCITY x1 x2 y1 y2 z1 z2 vx vy vz [wx wy wz] (extension, ¶35e): the blocks
+    /// whose centroid lies in the range held at the velocity and spin.
+    BoundaryVelocity {
+        range: Range3,
+        velocity: [f64; 3],
+        angular: Option<[f64; 3]>,
+    },
     Damping {
         fcrit: f64,
         freq: f64,
@@ -202,6 +222,7 @@ pub struct Located {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Word {
     Block,
+    Boundary,
     Box,
     Change,
     Cycle,
@@ -227,6 +248,7 @@ enum Word {
 
 const COMMANDS: &[Name<Word>] = &[
     name("BLOCK", "B", Word::Block),
+    name("BOUNDARY", "BOU", Word::Boundary),
     name("BOX", "BO", Word::Box),
     name("CHANGE", "CH", Word::Change),
     name("CYCLE", "C", Word::Cycle),
@@ -275,6 +297,14 @@ const PRINT_ITEMS: &[Name<PrintItem>] = &[
 
 const DAMP_MODES: &[Name<DampMode>] =
     &[name("MASS", "M", DampMode::Mass), name("STIFFNESS", "S", DampMode::Stiffness), name("INTERNAL", "I", DampMode::Internal)];
+
+/// BOUNDARY's kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum BoundaryKind {
+    Stress,
+    Velocity,
+}
+const BOUNDARY_KINDS: &[Name<BoundaryKind>] = &[name("STRESS", "S", BoundaryKind::Stress), name("VELOCITY", "V", BoundaryKind::Velocity)];
 
 /// BLOCK/BOX keywords.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -647,6 +677,26 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
             let angular = (v.len() == 6).then(|| [v[3], v[4], v[5]]);
             Command::Velocity { range, velocity: [v[0], v[1], v[2]], angular }
         }
+        Word::Boundary => {
+            let kind = match a.next() {
+                Some(t) => match (!t.is_numeric()).then(|| lookup(&t.text, BOUNDARY_KINDS)).flatten() {
+                    Some(k) => k,
+                    None => return Err(a.at(t, format!("BOUNDARY takes STRESS or VELOCITY first, found '{}'", t.shown()))),
+                },
+                None => return Err(a.at_end("BOUNDARY takes STRESS or VELOCITY, then a range x1 x2 y1 y2 z1 z2 and their values")),
+            };
+            match kind {
+                BoundaryKind::Stress => {
+                    let (range, v) = a.range_then("BOUNDARY STRESS", &["sxx", "syy", "szz", "sxy", "sxz", "syz"], &[])?;
+                    Command::BoundaryStress { range, stress: [v[0], v[1], v[2], v[3], v[4], v[5]] }
+                }
+                BoundaryKind::Velocity => {
+                    let (range, v) = a.range_then("BOUNDARY VELOCITY", &["vx", "vy", "vz"], &["wx", "wy", "wz"])?;
+                    let angular = (v.len() == 6).then(|| [v[3], v[4], v[5]]);
+                    Command::BoundaryVelocity { range, velocity: [v[0], v[1], v[2]], angular }
+                }
+            }
+        }
         Word::Damping => {
             let (fcrit, t) = a.real("fcrit (the fraction of critical damping)")?;
             if fcrit.is_nan() || fcrit < 0.0 {
@@ -842,6 +892,8 @@ mod tests {
     #[test]
     fn abbreviations() {
         assert_eq!(lookup("BO", COMMANDS), Some(Word::Box));
+        assert_eq!(lookup("BOU", COMMANDS), Some(Word::Boundary));
+        assert_eq!(lookup("S", BOUNDARY_KINDS), Some(BoundaryKind::Stress));
         assert_eq!(lookup("B", COMMANDS), Some(Word::Block));
         assert_eq!(lookup("VERT", PRINT_ITEMS), Some(PrintItem::Vertices));
         assert_eq!(lookup("VEL", PRINT_ITEMS), Some(PrintItem::Velocities));

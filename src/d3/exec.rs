@@ -148,7 +148,9 @@ impl<'a> Executor<'a> {
             Command::Fix { range } => {
                 for b in self.in_range(range) {
                     let blk = &mut self.model.blocks[b];
+                    // A held block (BOUNDARY VELOCITY) is held at rest instead.
                     blk.fixed = true;
+                    blk.held = false;
                     blk.velocity = DVec3::ZERO;
                     blk.angular_momentum = DVec3::ZERO;
                     blk.angular_velocity = DVec3::ZERO;
@@ -157,7 +159,9 @@ impl<'a> Executor<'a> {
             }
             Command::Free { range } => {
                 for b in self.in_range(range) {
+                    // A held block (BOUNDARY VELOCITY) goes on from its velocity, free.
                     self.model.blocks[b].fixed = false;
+                    self.model.blocks[b].held = false;
                 }
                 self.model.neighbours_stale = true;
             }
@@ -202,6 +206,8 @@ impl<'a> Executor<'a> {
                     self.model.external_work += after - before;
                 }
             }
+            Command::BoundaryStress { range, stress } => self.boundary_stress(range, stress)?,
+            Command::BoundaryVelocity { range, velocity, angular } => self.boundary_velocity(cmd, range, velocity, angular)?,
             Command::Damping { fcrit, freq, mode } => {
                 // Rayleigh damping with its least ξ at ω = 2πf: α = ξω, β = ξ/ω (as in 2D).
                 let omega = 2.0 * std::f64::consts::PI * freq;
@@ -403,6 +409,84 @@ impl<'a> Executor<'a> {
                 blk.sdef = Some(super::sdef::Sdef::default());
             }
         }
+        self.model.neighbours_stale = true;
+        Ok(())
+    }
+
+    /// BOUNDARY STRESS (extension, ¶35e): every face of every block whose centroid (as the
+    /// vertices are placed now) lies in the open range takes the stress σ; a face loaded before
+    /// has its stress replaced, and the log says how many were.
+    fn boundary_stress(&mut self, range: &Range3, stress: &[f64; 6]) -> Result<(), RunError> {
+        let (mut faces, mut blocks, mut replaced) = (0usize, 0usize, 0usize);
+        for b in &mut self.model.blocks {
+            let caught: Vec<u32> = (0..b.shape.faces.len() as u32)
+                .filter(|&f| {
+                    let [p0, p1, p2] = b.shape.faces[f as usize].map(|k| b.vertices[k as usize]);
+                    range.contains(((p0 + p1 + p2) / 3.0).to_array())
+                })
+                .collect();
+            if caught.is_empty() {
+                continue;
+            }
+            blocks += 1;
+            faces += caught.len();
+            for face in caught {
+                match b.boundary_stress.binary_search_by_key(&face, |l| l.face) {
+                    Ok(k) => {
+                        b.boundary_stress[k].stress = *stress;
+                        replaced += 1;
+                    }
+                    Err(k) => b.boundary_stress.insert(k, super::model::FaceStress { face, stress: *stress }),
+                }
+            }
+        }
+        if faces == 0 {
+            self.echo("WARNING: BOUNDARY STRESS: no face has its centroid in the range")?;
+        } else {
+            let again = if replaced > 0 { format!(", {replaced} OF THEM LOADED BEFORE: THEIR STRESS REPLACED") } else { String::new() };
+            self.echo(&format!("BOUNDARY STRESS ON {faces} FACES OF {blocks} BLOCKS{again}"))?;
+        }
+        Ok(())
+    }
+
+    /// BOUNDARY VELOCITY (extension, ¶35e): the blocks whose centroid lies in the range, fixed or
+    /// free, are held at the velocity and spin (`motion::held_motion`); the kinetic energy this
+    /// gives them is booked as external work, as VELOCITY's is.
+    fn boundary_velocity(&mut self, cmd: &Located, range: &Range3, velocity: &[f64; 3], angular: &Option<[f64; 3]>) -> Result<(), RunError> {
+        let chosen = self.in_range(range);
+        if chosen.is_empty() {
+            self.echo("WARNING: BOUNDARY VELOCITY: no block has its centroid in the range")?;
+            return Ok(());
+        }
+        if let Some(&b) = chosen.iter().find(|&&b| self.model.blocks[b].mass.is_nan() || self.model.blocks[b].mass <= 0.0) {
+            let (id, mat) = (self.model.blocks[b].id, self.model.blocks[b].material);
+            return Err(self.error(cmd, format!("BOUNDARY VELOCITY: block {id} has no mass: give its material (MATERIAL {mat}) a DENSITY first")));
+        }
+        for &b in &chosen {
+            let blk = &mut self.model.blocks[b];
+            // The kinetic energy it had, its strain modes' too (their rate is stopped).
+            let mut before = if blk.fixed { 0.0 } else { blk.kinetic_energy() };
+            if let (Some(s), false) = (&blk.sdef, blk.fixed || blk.held) {
+                let j = super::sdef::strain_inertia(super::sdef::second_moments(blk.inertia()));
+                before += super::sdef::internal_kinetic_energy(s.strain_rate, j);
+            }
+            blk.fixed = false;
+            blk.held = true;
+            blk.velocity = DVec3::from_array(*velocity);
+            let w = DVec3::from_array(angular.unwrap_or([0.0; 3]));
+            blk.angular_momentum = blk.inertia() * w;
+            blk.angular_velocity = w;
+            if let Some(s) = &mut blk.sdef {
+                s.strain_rate = [0.0; 6];
+            }
+            let after = blk.kinetic_energy();
+            if !after.is_finite() {
+                let id = blk.id;
+                return Err(self.error(cmd, format!("BOUNDARY VELOCITY: block {id} would move so fast that its kinetic energy overflows f64")));
+            }
+            self.model.external_work += after - before;
+        }
+        self.echo(&format!("BOUNDARY VELOCITY: {} BLOCKS HELD", chosen.len()))?;
         self.model.neighbours_stale = true;
         Ok(())
     }

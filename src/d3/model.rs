@@ -120,6 +120,27 @@ pub struct Block {
     /// report's extension array (`d3::restart`, format 5).
     #[serde(skip)]
     pub sdef: Option<Sdef>,
+    /// BOUNDARY VELOCITY (¶35e, extension): the block is held at its `velocity` and
+    /// `angular_velocity` whatever the forces on it (its angular momentum I(t)ω follows its
+    /// turn). FIX holds it at rest instead, FREE lets it go on from its velocity. Saved after
+    /// the model (`d3::restart`, format 6).
+    #[serde(skip)]
+    pub held: bool,
+    /// BOUNDARY STRESS (¶35e, extension): its faces loaded by a stress tensor, by face number,
+    /// ascending (a later BOUNDARY STRESS on a face replaces its stress). Saved after the model
+    /// (`d3::restart`, format 6).
+    #[serde(skip)]
+    pub boundary_stress: Vec<FaceStress>,
+}
+
+/// A face loaded by BOUNDARY STRESS: its number in the block's shape and the stress tensor σ in
+/// global axes (Pa, tension positive, Voigt's order 11, 22, 33, 12, 13, 23). The face takes the
+/// traction σ·n, n its outward unit normal as it is now (the load follows the face as the block
+/// turns and strains).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FaceStress {
+    pub face: u32,
+    pub stress: [f64; 6],
 }
 
 impl Block {
@@ -146,6 +167,84 @@ impl Block {
             vertices,
             travel: 0.0,
             sdef: None,
+            held: false,
+            boundary_stress: Vec::new(),
+        }
+    }
+
+    /// The resultant of the boundary stresses on the block's loaded faces (BOUNDARY STRESS) as
+    /// its vertices are placed now: force, moment about the centroid, and applied stress times
+    /// volume Σ r fᵀ (what a simply-deformable block's strain reads, `d3::sdef`). A uniform
+    /// traction σ·n on a planar triangle has the resultant σ·a, a = ½ (p₁ − p₀) × (p₂ − p₀) its
+    /// outward area vector (faces run counter-clockwise from outside), acting at its centroid
+    /// r = (p₀ + p₁ + p₂)/3, and its ∫ r tᵀ dA is r (σ·a)ᵀ exactly (r is linear over the face).
+    /// Summed face by face in the order of `boundary_stress` (the GPU's `boundary_load` is its
+    /// twin).
+    pub fn boundary_load(&self) -> (DVec3, DVec3, DMat3) {
+        let (mut force, mut moment, mut applied) = (DVec3::ZERO, DVec3::ZERO, DMat3::ZERO);
+        for l in &self.boundary_stress {
+            let (r, t) = self.face_traction(l, self.centroid);
+            force += t;
+            moment += r.cross(t);
+            applied += sdef::applied(r, t);
+        }
+        (force, moment, applied)
+    }
+
+    /// A loaded face's lever from `centroid` (its centroid's) and the resultant σ·a of its
+    /// traction, from the vertices as placed.
+    #[inline]
+    fn face_traction(&self, l: &FaceStress, centroid: DVec3) -> (DVec3, DVec3) {
+        let [p0, p1, p2] = self.shape.faces[l.face as usize].map(|k| self.vertices[k as usize]);
+        let area = (p1 - p0).cross(p2 - p0) * 0.5;
+        let r = (p0 + p1 + p2) / 3.0 - centroid;
+        (r, sdef::tensor(l.stress) * area)
+    }
+
+    /// The work the boundary stresses do over a step in which the block moves by `dx`, turns at
+    /// `omega` and strains at its strain rate (as stepped), the vertices still where the step
+    /// began about the centroid `centroid` (then): each face's resultant times its centroid's
+    /// travel, t·(Δx + (ω × r + ε̇ r) Δt), which sums to F·Δx + M·ωΔt + A:ε̇ Δt.
+    pub fn boundary_work(&self, centroid: DVec3, dx: DVec3, omega: DVec3, dt: f64) -> f64 {
+        let mut work = 0.0;
+        for l in &self.boundary_stress {
+            let (r, t) = self.face_traction(l, centroid);
+            let mut u = omega.cross(r);
+            if let Some(s) = &self.sdef {
+                u += s.strain_velocity(r);
+            }
+            work += t.dot(dx + u * dt);
+        }
+        work
+    }
+
+    /// SPLIT's piece `self` of `parent`: held as the parent was, and each of its faces lying on a
+    /// loaded face of the parent's (its three vertices on that face's plane, its centroid within
+    /// the triangle) loaded by the same stress. Both blocks' vertices as placed, the piece's
+    /// faces then numbered as its shape's.
+    pub fn inherit_boundary(&mut self, parent: &Block) {
+        self.held = parent.held;
+        if parent.boundary_stress.is_empty() {
+            return;
+        }
+        let eps = 1e-9 * parent.shape.radius;
+        for (k, f) in self.shape.faces.iter().enumerate() {
+            let p = f.map(|v| self.vertices[v as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            let centre = (p[0] + p[1] + p[2]) / 3.0;
+            let on = parent.boundary_stress.iter().find(|l| {
+                let q = parent.shape.faces[l.face as usize].map(|v| parent.vertices[v as usize]);
+                let m = (q[1] - q[0]).cross(q[2] - q[0]);
+                let unit = m.normalize_or_zero();
+                if n.dot(m) <= 0.0 || p.iter().any(|x| (*x - q[0]).dot(unit).abs() > eps) {
+                    return false;
+                }
+                // Within the triangle: on the inner side of each of its edges.
+                (0..3).all(|e| (q[(e + 1) % 3] - q[e]).cross(centre - q[e]).dot(unit) >= -eps * (q[(e + 1) % 3] - q[e]).length())
+            });
+            if let Some(l) = on {
+                self.boundary_stress.push(FaceStress { face: k as u32, stress: l.stress });
+            }
         }
     }
 
@@ -351,7 +450,7 @@ pub struct Model {
     pub frac: f64,
     pub cycle: u64,
     pub time: f64,
-    /// Work done by gravity, loads and VELOCITY since the start.
+    /// Work done by gravity, loads, VELOCITY and the boundary conditions (BOUNDARY) since the start.
     pub external_work: f64,
     /// The energy dissipated and released since the start (the ledger's other terms).
     pub dissipated: Dissipation,
@@ -408,7 +507,7 @@ pub struct Energies {
     pub kinetic: f64,
     /// Fn²/2kn + |Fs|²/2ks over the logical contacts.
     pub strain: f64,
-    /// Work of gravity, loads and VELOCITY since START: the energy put in.
+    /// Work of gravity, loads, VELOCITY and BOUNDARY since START: the energy put in.
     pub external_work: f64,
     pub mass_damping: f64,
     pub contact_damping: f64,
@@ -576,6 +675,10 @@ impl Model {
             .iter()
             .filter(|b| !b.fixed && b.mass > 0.0)
             .map(|b| {
+                // A held block (BOUNDARY VELOCITY) moves at its velocity at every step.
+                if b.held {
+                    return b.kinetic_energy();
+                }
                 let v = b.velocity + b.force / b.mass * h;
                 let l = b.angular_momentum + b.moment * h;
                 let at_t = 0.5 * b.mass * v.length_squared() + 0.5 * l.dot(b.angular_velocity_from(l));
@@ -594,7 +697,7 @@ impl Model {
         for b in &self.blocks {
             let Some(s) = &b.sdef else { continue };
             strain += sdef::strain_energy(s, b.volume);
-            if !b.fixed && b.mass > 0.0 {
+            if !b.fixed && !b.held && b.mass > 0.0 {
                 let j = sdef::strain_inertia(sdef::second_moments(b.inertia()));
                 internal_kinetic += sdef::internal_kinetic_energy(sdef::rate_at_whole_step(s, b.volume, j, 2.0 * h), j);
             }

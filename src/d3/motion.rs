@@ -19,6 +19,15 @@
 //! midpoint orientation R̄ = R(exp(ω̄Δt/2) q(t)), found by a few fixed-point iterations. The scheme is time-reversible:
 //! without a moment L is kept exactly and the energy ½ω·L stays within O(Δt²) of its start, with no
 //! drift, so the tumbling of a free block (the intermediate-axis flip) comes out right.
+//!
+//! **Boundary conditions (¶35e, extensions).** A block held by BOUNDARY VELOCITY moves at its
+//! velocity v and spin ω whatever the forces on it: x(t+Δt) = x(t) + vΔt, q(t+Δt) = exp(ωΔt) q(t),
+//! L = I(t)ω (constant ω keeps ½ω·I(t)ω constant: İω = ω × Iω is normal to ω). The boundary does
+//! the work that holds it, −(F·vΔt + M·ωΔt) with F and M the whole force and moment on the block
+//! (its weight, load, boundary stress and contacts), on top of what the ledger books for the
+//! weight, load and stress as on a free block, so the held block's kinetic energy stays and the
+//! contacts' work on it is balanced in `external_work`. The boundary stresses (BOUNDARY STRESS)
+//! on a block's faces do the work `Block::boundary_work` over the step, booked as external work.
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -31,7 +40,7 @@ const MIDPOINT_ITERATIONS: usize = 4;
 /// What one block's step did.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct StepOutcome {
-    /// Work done by gravity and the load over the step.
+    /// Work done by gravity, the load and the boundary conditions over the step.
     pub external_work: f64,
     /// How far any vertex can have moved in the step: |Δx| + |Δθ|·R.
     pub travel: f64,
@@ -49,8 +58,11 @@ pub fn law_of_motion(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64) -> 
 /// material and the internal damping (DAMPING … INTERNAL). Its strain is stepped after the rigid
 /// motion and before the vertices are placed; the strain's motion of the vertices counts towards
 /// the step's travel, the internal damping's work towards `damping_work`. A fixed block's strain
-/// stays as it is, its rate zero (as in 2D).
+/// stays as it is, its rate zero (as in 2D); a held one's too ([`held_motion`]).
 pub fn law_of_motion_with(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64, internal: Option<(&sdef::Elastic, f64)>) -> StepOutcome {
+    if block.held && !block.fixed {
+        return held_motion(block, gravity, dt);
+    }
     if block.fixed {
         block.velocity = DVec3::ZERO;
         block.angular_momentum = DVec3::ZERO;
@@ -75,6 +87,7 @@ pub fn law_of_motion_with(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64
         0.0
     };
     let dx = block.velocity * dt;
+    let start = block.centroid;
     block.centroid += dx;
     let (orientation, omega) = rotate(block.orientation, block.inertia_ref, block.angular_momentum, dt);
     block.orientation = orientation;
@@ -86,11 +99,46 @@ pub fn law_of_motion_with(block: &mut Block, gravity: DVec3, alpha: f64, dt: f64
         damping_work += work;
         strain_travel = travel;
     }
+    // The boundary stresses' work, from the faces where the step began (placed below).
+    let stress_work = (!block.boundary_stress.is_empty()).then(|| block.boundary_work(start, dx, omega, dt));
     block.place_vertices();
     let travel = dx.length() + omega.length() * dt * block.shape.radius + strain_travel;
     block.travel += travel;
     let applied = block.mass * gravity + block.load;
-    StepOutcome { external_work: applied.dot(dx), travel, damping_work }
+    let mut external_work = applied.dot(dx);
+    if let Some(w) = stress_work {
+        external_work += w;
+    }
+    StepOutcome { external_work, travel, damping_work }
+}
+
+/// One step of a block held by BOUNDARY VELOCITY (module doc): it moves at its velocity and
+/// spin, its angular momentum I(t)ω at its new turn, a simply-deformable block's strain kept and
+/// its rate zero. The work booked is its weight's, load's and boundary stresses' (as for a free
+/// block) less the boundary's holding, F·Δx + M·ωΔt.
+pub fn held_motion(block: &mut Block, gravity: DVec3, dt: f64) -> StepOutcome {
+    if let Some(s) = &mut block.sdef {
+        s.strain_rate = [0.0; 6];
+    }
+    let (v, omega) = (block.velocity, block.angular_velocity);
+    let dx = v * dt;
+    let start = block.centroid;
+    block.centroid += dx;
+    if omega != DVec3::ZERO {
+        block.orientation = (DQuat::from_scaled_axis(omega * dt) * block.orientation).normalize();
+    }
+    block.angular_momentum = block.inertia() * omega;
+    let stress_work = (!block.boundary_stress.is_empty()).then(|| block.boundary_work(start, dx, omega, dt));
+    block.place_vertices();
+    let travel = dx.length() + omega.length() * dt * block.shape.radius;
+    block.travel += travel;
+    let applied = block.mass * gravity + block.load;
+    let mut external_work = applied.dot(dx);
+    if let Some(w) = stress_work {
+        external_work += w;
+    }
+    external_work -= block.force.dot(dx) + block.moment.dot(omega) * dt;
+    StepOutcome { external_work, travel, damping_work: 0.0 }
 }
 
 /// The angular velocity ω = R I₀⁻¹ Rᵀ L of a block at orientation `q`.

@@ -19,7 +19,8 @@ fn row(out: &mut String, head: &str, values: &[f64]) {
 }
 
 /// PRINT BLOCKS: block, material, constitutive number, centroid, volume, mass, the principal
-/// moments of inertia, and the force sums; under a simply-deformable block its strain rate (ED),
+/// moments of inertia, and the force sums (the kind HELD for a block held by BOUNDARY VELOCITY);
+/// a row BS for each face loaded by BOUNDARY STRESS; under a simply-deformable block its strain rate (ED),
 /// internal stress (SI) and applied stress times volume (SA), as 2D's SDEF rows.
 pub fn blocks_table(model: &Model) -> String {
     let mut out = String::from("\nBLOCK DATA\n");
@@ -28,11 +29,13 @@ pub fn blocks_table(model: &Model) -> String {
         let i = principal_moments(b.inertia_ref);
         let head = format!("{:>7} {:>4} {:>5}", b.id, b.material, b.constitutive);
         row(&mut out, &head, &[b.centroid.x, b.centroid.y, b.centroid.z, b.volume, b.mass, i[0], i[1], i[2]]);
-        let kind = match (b.fixed, b.is_sdef()) {
-            (true, false) => "FIXED",
-            (false, false) => "RIGID",
-            (true, true) => "SDEF, FIXED",
-            (false, true) => "SDEF",
+        let kind = match (b.fixed, b.is_sdef(), b.held) {
+            (true, false, _) => "FIXED",
+            (false, false, false) => "RIGID",
+            (false, false, true) => "HELD",
+            (true, true, _) => "SDEF, FIXED",
+            (false, true, false) => "SDEF",
+            (false, true, true) => "SDEF, HELD",
         };
         let _ = writeln!(
             out,
@@ -44,6 +47,10 @@ pub fn blocks_table(model: &Model) -> String {
             fmt_e(b.moment.y),
             fmt_e(b.moment.z)
         );
+        // Its faces loaded by BOUNDARY STRESS: the face (from 1) and σ (11 22 33 12 13 23).
+        for l in &b.boundary_stress {
+            row(&mut out, &format!("  BS FACE {:>4}", l.face + 1), &l.stress);
+        }
         if let Some(s) = &b.sdef {
             // As 2D's SDEF rows (ED, SI, SA: strain rate, internal stress, applied stress times
             // size), each tensor's nine components row by row: 11 12 13 21 22 23 31 32 33.
@@ -166,7 +173,8 @@ fn vec3(v: glam::DVec3) -> Value {
 /// The state JSON of a D3 model: `"dim": 3`, the clock, the blocks (centroid, velocity,
 /// angular_velocity, mass, volume, inertia 3 × 3 in global axes, vertices, faces as vertex
 /// numbers from 0 counter-clockwise seen from outside, fixed, kind `rigid` or `sdef`, and a
-/// simply-deformable block's `stress` and `strain`) and the real contacts (kind,
+/// simply-deformable block's `stress` and `strain`; a held block's `boundary_velocity` and a
+/// loaded block's `boundary_stress`, its faces (from 0) and their σ) and the real contacts (kind,
 /// blocks, point, normal, normal_force, shear_force as a vector, area, and their logical
 /// contacts).
 pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::Provenance>) -> Value {
@@ -200,6 +208,13 @@ pub fn state_json(model: &Model, provenance: Option<&crate::output::provenance::
                 v["stress"] = json!(s.stress.map(num));
                 v["strain"] = json!(s.strain.map(num));
                 v["strain_rate"] = json!(s.strain_rate.map(num));
+            }
+            // The boundary conditions (BOUNDARY, ¶35e), where the block has them.
+            if b.held {
+                v["boundary_velocity"] = json!({"velocity": vec3(b.velocity), "angular_velocity": vec3(b.angular_velocity)});
+            }
+            if !b.boundary_stress.is_empty() {
+                v["boundary_stress"] = b.boundary_stress.iter().map(|l| json!({"face": l.face, "stress": l.stress.map(num)})).collect::<Vec<_>>().into();
             }
             v
         })

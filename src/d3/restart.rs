@@ -38,7 +38,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::model::{LogicalKind, Model};
+use super::model::{FaceStress, LogicalKind, Model};
 use super::sdef::Sdef;
 
 /// The first eight bytes of every D3 save file.
@@ -53,8 +53,10 @@ const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// its model as it was, but its f32 device state is marked [`DeviceState::absolute_f32`] and not
 /// taken (the run detects afresh, and says so); an older file is refused by name. Version 5: the
 /// payload ends with the [`Extension`], the simply-deformable blocks' strain and the internal
-/// damping; a version-3 or -4 file has none, its blocks rigid as they were.)
-pub const FORMAT_VERSION: u32 = 5;
+/// damping; a version-3 or -4 file has none, its blocks rigid as they were. Version 6: after
+/// that, the [`Boundaries`], the blocks held by BOUNDARY VELOCITY and the faces loaded by
+/// BOUNDARY STRESS; a file of an older version has none.)
+pub const FORMAT_VERSION: u32 = 6;
 /// The oldest save format this program reads (its payload is version 4's, without the
 /// extension).
 pub const OLDEST_VERSION: u32 = 3;
@@ -101,6 +103,58 @@ impl Extension {
             b.sdef = Some(s);
         }
         model.damping.alpha_internal = self.alpha_internal;
+        Ok(())
+    }
+}
+
+/// The boundary conditions (BOUNDARY, Part IV ¶35e; extension), written after the
+/// [`Extension`] in the payload (format 6): the indices of the blocks held by BOUNDARY VELOCITY
+/// (their velocity and spin are the model's), and each block's faces loaded by BOUNDARY STRESS
+/// by its index.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Boundaries {
+    pub held: Vec<u32>,
+    pub stress: Vec<(u32, Vec<FaceStress>)>,
+}
+
+impl Boundaries {
+    /// The boundary conditions of `model`.
+    pub fn of(model: &Model) -> Boundaries {
+        Boundaries {
+            held: model.blocks.iter().enumerate().filter(|(_, b)| b.held).map(|(i, _)| i as u32).collect(),
+            stress: model
+                .blocks
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| !b.boundary_stress.is_empty())
+                .map(|(i, b)| (i as u32, b.boundary_stress.clone()))
+                .collect(),
+        }
+    }
+
+    /// Puts the boundary conditions back into `model`; an index past its blocks or faces, a
+    /// face listed twice or out of order, a held block that is fixed or a non-finite stress is
+    /// an error.
+    pub fn apply(self, model: &mut Model) -> Result<(), String> {
+        let n = model.blocks.len();
+        for i in self.held {
+            let b = model.blocks.get_mut(i as usize).ok_or_else(|| format!("a held block names block index {i} of {n}"))?;
+            if b.fixed {
+                return Err(format!("block {} is both fixed and held", b.id));
+            }
+            b.held = true;
+        }
+        for (i, faces) in self.stress {
+            let b = model.blocks.get_mut(i as usize).ok_or_else(|| format!("a boundary stress names block index {i} of {n}"))?;
+            let count = b.shape.faces.len() as u32;
+            if faces.iter().any(|l| l.face >= count) || faces.windows(2).any(|w| w[0].face >= w[1].face) {
+                return Err(format!("block {}'s boundary stresses name faces out of order or past its {count}", b.id));
+            }
+            if !faces.iter().all(|l| l.stress.iter().all(|x| x.is_finite())) {
+                return Err(format!("block {} has a non-finite boundary stress", b.id));
+            }
+            b.boundary_stress = faces;
+        }
         Ok(())
     }
 }
@@ -169,8 +223,8 @@ pub fn is_save_file(path: &Path) -> bool {
 
 /// SAVE: writes `file` to `path` atomically (a temporary file renamed into place).
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
-    let payload =
-        postcard::to_stdvec(&(file, Extension::of(&file.model))).map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
+    let payload = postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model)))
+        .map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     let crc = crc32fast::hash(&payload) as u64;
     crate::output::write_atomically(path, |w| {
         w.write_all(&MAGIC)?;
@@ -221,9 +275,16 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
         return Err(RestartError::Corrupt { path: p(), reason: "the payload checksum does not match".into() });
     }
     let bad = |e: postcard::Error| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") };
-    let (mut saved, extension): (SaveFile, Extension) =
-        if version >= 5 { postcard::from_bytes(&payload).map_err(bad)? } else { (postcard::from_bytes(&payload).map_err(bad)?, Extension::default()) };
+    let (mut saved, extension, boundaries): (SaveFile, Extension, Boundaries) = match version {
+        6.. => postcard::from_bytes(&payload).map_err(bad)?,
+        5 => {
+            let (saved, extension) = postcard::from_bytes(&payload).map_err(bad)?;
+            (saved, extension, Boundaries::default())
+        }
+        _ => (postcard::from_bytes(&payload).map_err(bad)?, Extension::default(), Boundaries::default()),
+    };
     extension.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
+    boundaries.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     if let Some(device) = saved.device.as_mut().filter(|d| version < 4 && !d.f64_kernels) {
         device.absolute_f32 = true;
     }

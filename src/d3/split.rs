@@ -15,7 +15,9 @@
 //!
 //! Momentum is kept: both pieces take the parent's angular velocity ω and the velocity of the
 //! parent's motion at their own centroids, v + ω × (cᵢ − c), so that Σ mᵢvᵢ = m v and
-//! Σ (Iᵢω + mᵢ (cᵢ − c) × vᵢ) = I ω (parallel axes). A load (LOAD) is shared by mass.
+//! Σ (Iᵢω + mᵢ (cᵢ − c) × vᵢ) = I ω (parallel axes). A load (LOAD) is shared by mass. A held
+//! block's pieces are held at that motion; a piece's faces within a face loaded by BOUNDARY
+//! STRESS keep its stress (`Block::inherit_boundary`).
 
 use glam::DVec3;
 use rustc_hash::FxHashMap;
@@ -197,6 +199,9 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
                     piece.angular_velocity = parent.angular_velocity;
                     piece.angular_momentum = piece.inertia() * parent.angular_velocity;
                 }
+                // Held as the parent (at its motion at the piece's centroid, above), and its
+                // faces on a loaded face of the parent's loaded as that face (BOUNDARY, ¶35e).
+                piece.inherit_boundary(&parent);
                 piece.load = if parent.volume > 0.0 { parent.load * (props.volume / parent.volume) } else { DVec3::ZERO };
                 // A simply-deformable parent's pieces stay simply deformable, their present
                 // shape unstrained (stress zero, as 2D's cracked halves) and the parent's strain

@@ -12,7 +12,7 @@ gpu_struct! {
     /// moment sums of stage 6; and the sums since the upload of the block buffer: `travel` since
     /// the last detection (reset at each), `peak_travel` (the largest step), `work` of gravity
     /// and load, `damping_work` (mass damping) and `dashpot_work` (contact dashpots, booked on
-    /// block 1 of each contact).
+    /// block 1 of each contact). `fixed`: [`BLOCK_FREE`], [`BLOCK_FIXED`] or [`BLOCK_HELD`].
     Block {
         cx: R, cy: R, cz: R,
         /// The centroid's low parts (f32: a compensated pair, so that steps below the
@@ -31,7 +31,9 @@ gpu_struct! {
         edge_dir_count: u32, feature_count: u32, adjacency_start: u32, adjacency_count: u32,
         /// 1, cleared by a step that leaves a non-finite value.
         finite: u32,
-        spare: u32,
+        /// Its faces loaded by BOUNDARY STRESS: two records each in the plane buffer after its
+        /// face planes (`Plane`).
+        stress_faces: u32,
     }
 }
 
@@ -48,7 +50,12 @@ gpu_struct! {
 
 gpu_struct! {
     /// A face plane of a block (one per distinct outward normal, `Shape::planes`): its normal in
-    /// the reference frame and one of its vertices (the block's numbering).
+    /// the reference frame and one of its vertices (the block's numbering). After a block's
+    /// `plane_count` planes come, in a scene with boundary conditions, two records for each of its
+    /// faces loaded by BOUNDARY STRESS (`Block::stress_faces`; `face_load` in `shaders/d3/common.wgsl`):
+    /// (σ11, σ22, σ33, first vertex, second vertex) and (σ12, σ13, σ23, third vertex, 0), the
+    /// vertices numbered in the vertex buffer, so the stresses bind no buffer of their own (the
+    /// kernels keep to eight storage buffers with the strain stage's).
     Plane {
         nx: R, ny: R, nz: R,
         vertex: u32, spare: u32,
@@ -105,6 +112,13 @@ gpu_struct! {
         live: u32, spare: u32,
     }
 }
+
+/// `Block::fixed`: a free block.
+pub const BLOCK_FREE: u32 = 0;
+/// `Block::fixed`: a fixed block (FIX).
+pub const BLOCK_FIXED: u32 = 1;
+/// `Block::fixed`: a block held by BOUNDARY VELOCITY at its velocity and spin (`motion::held_motion`).
+pub const BLOCK_HELD: u32 = 2;
 
 /// `Logical::kind`: a vertex of block 1 against block 2.
 pub const LOGICAL_VERTEX_FIRST: u32 = 0;

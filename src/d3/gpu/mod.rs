@@ -73,6 +73,17 @@
 //! multiple of that interval therefore continues the straight run exactly, another cuts a batch
 //! the straight run would not have cut (as two CYCLEs do on one backend without a SAVE).
 //!
+//! # Boundary conditions (BOUNDARY, ¶35e)
+//!
+//! A scene with held blocks or loaded faces runs the kernels compiled with the prelude's BOUNDARY
+//! (a scene without runs kernels without their code, `Variant`). A held block is `fixed` =
+//! `BLOCK_HELD`: `law_of_motion` steps it at its velocity and spin (`held_motion`, the twin of
+//! `motion::held_motion`), and the read-back renews its angular momentum I(t)ω on the CPU. A
+//! block's loaded faces are records in the plane buffer after its face planes (`layout::Plane`),
+//! read by `gather` (their resultants, `Block::boundary_load`) and by `law_of_motion` (their work,
+//! `Block::boundary_work`) from the vertices as placed; they bind no buffer of their own, so the
+//! kernels stay at eight storage buffers with the strain stage's.
+//!
 //! # The energy ledger
 //!
 //! The kernels add the work of gravity and loads, the mass damping's and the dashpots'
@@ -97,23 +108,42 @@ use crate::gpu::{AdapterChoice, AdapterSummary, GpuDevice, GpuError, Precision};
 /// The share of the contact-forming distance a block may travel between detections.
 pub const DETECTION_SHARE: f64 = 0.5;
 
+/// What a scene's kernels run beyond the rigid blocks' cycle: the strain stage of
+/// simply-deformable blocks (`sdef`, the strain buffer at binding 8) and the boundary conditions
+/// (`boundary`: held blocks and loaded faces, BOUNDARY; nothing more bound). A scene without
+/// them runs kernels without their code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Variant {
+    sdef: bool,
+    boundary: bool,
+}
+
+impl Variant {
+    /// The variant `model` needs.
+    fn of(model: &Model) -> Variant {
+        Variant { sdef: model.blocks.iter().any(|b| b.is_sdef()), boundary: model.blocks.iter().any(|b| b.held || !b.boundary_stress.is_empty()) }
+    }
+}
+
 /// The kernels of the cycle, compiled for the device's precision.
 struct Kernels {
+    variant: Variant,
     group: wgpu::BindGroupLayout,
     pipelines: Vec<wgpu::ComputePipeline>,
 }
 
 impl Kernels {
-    /// The kernels of a rigid scene, or with `sdef` those of a scene with simply-deformable
-    /// blocks (the strain stage, and the strain buffer at binding 8).
-    fn new(dev: &GpuDevice, sdef: bool) -> Result<Self, GpuError> {
+    /// The kernels of a scene of `variant`: a rigid scene's, or with the strain stage and its
+    /// buffer at binding 8, and/or the boundary conditions.
+    fn new(dev: &GpuDevice, variant: Variant) -> Result<Self, GpuError> {
+        let Variant { sdef, boundary } = variant;
         let mut entries = vec![uniform(0)];
         entries.extend((1..=if sdef { 8 } else { 7 }).map(|b| storage(b, false)));
         let (group, pipeline_layout) = layouts(&dev.device, if sdef { "d3 sdef" } else { "d3" }, &entries);
         let scopes = dev.creation_scopes();
         let mut pipelines = Vec::new();
         for (name, _) in shaders::KERNELS {
-            let src = shaders::source_for(name, dev.precision, sdef).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
+            let src = shaders::source_with(name, dev.precision, sdef, boundary).ok_or_else(|| GpuError::Shader(format!("no kernel {name}")))?;
             validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/{name}.wgsl: {e}")))?;
             let module = dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
             pipelines.push(dev.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -126,7 +156,7 @@ impl Kernels {
             }));
         }
         scopes.check(dev)?;
-        Ok(Kernels { group, pipelines })
+        Ok(Kernels { variant, group, pipelines })
     }
 }
 
@@ -153,8 +183,10 @@ struct State {
     logicals: wgpu::Buffer,
     adjacency: wgpu::Buffer,
     /// The simply-deformable blocks' strain state (`layout::SdefBlock`, one per block), in a
-    /// scene with such blocks; the kernels are then `GpuBackend::sdef_kernels`.
+    /// scene with such blocks.
     sdef: Option<wgpu::Buffer>,
+    /// The kernels the scene runs: `GpuBackend::kernels[variant]`.
+    variant: usize,
     bind: wgpu::BindGroup,
     /// The logical contacts' kinds as uploaded, contact by contact (the read-back's keys).
     keys: Vec<Vec<LogicalKind>>,
@@ -167,10 +199,9 @@ struct State {
 /// The GPU backend for D3.
 pub struct GpuBackend {
     dev: GpuDevice,
-    kernels: Kernels,
-    /// The kernels with the strain stage, compiled when a scene first has simply-deformable
-    /// blocks.
-    sdef_kernels: Option<Kernels>,
+    /// The kernels compiled: the rigid scene's first, then each [`Variant`] the first time a
+    /// scene needs it.
+    kernels: Vec<Kernels>,
     state: Option<State>,
     last_good: Model,
     resumable: bool,
@@ -189,8 +220,8 @@ impl GpuBackend {
     /// Opens the adapter `choice` names in `precision` and compiles the kernels.
     pub fn new(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
         let dev = GpuDevice::open(choice, precision)?;
-        let kernels = Kernels::new(&dev, false)?;
-        Ok(GpuBackend { dev, kernels, sdef_kernels: None, state: None, last_good: Model::default(), resumable: false, pending: None })
+        let kernels = vec![Kernels::new(&dev, Variant { sdef: false, boundary: false })?];
+        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false, pending: None })
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -267,11 +298,17 @@ impl GpuBackend {
         // The strain buffer where the scene has simply-deformable blocks (its kernels compiled
         // the first time one has).
         let sdef = sdef_pods::<R>(model).map(|pods| self.buffer("d3 sdef", bytemuck::cast_slice(&pods), storage_usage));
-        if sdef.is_some() && self.sdef_kernels.is_none() {
-            self.sdef_kernels = Some(Kernels::new(&self.dev, true)?);
-        }
-        let bind = self.bind(&[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency], sdef.as_ref());
-        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, bind, keys, logical_count, bases, dt });
+        let wanted = Variant::of(model);
+        let variant = match self.kernels.iter().position(|k| k.variant == wanted) {
+            Some(k) => k,
+            None => {
+                self.kernels.push(Kernels::new(&self.dev, wanted)?);
+                self.kernels.len() - 1
+            }
+        };
+        let bind = self.bind(variant, &[&params, &blocks, &vertices, &planes, &edges, &contacts, &logicals, &adjacency], sdef.as_ref());
+        self.state =
+            Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, variant, bind, keys, logical_count, bases, dt });
         Ok(())
     }
 
@@ -328,6 +365,7 @@ impl GpuBackend {
                 b.feature_count,
                 b.adjacency_start,
                 b.adjacency_count,
+                b.stress_faces,
             ]
         };
         if let Some(k) = (0..blocks.len()).find(|&k| ranges(&blocks[k]) != ranges(&saved_blocks[k])) {
@@ -360,25 +398,17 @@ impl GpuBackend {
         self.install::<R>(model, device.dt, vertices, buffers, device.keys.clone(), logical_count, (&planes, &edges), bases).map_err(|e| e.to_string())
     }
 
-    /// The bind group of the buffers, with the strain buffer `sdef` at binding 8 where the scene
-    /// has one (the strain stage's kernels' group).
-    fn bind(&self, buffers: &[&wgpu::Buffer; 8], sdef: Option<&wgpu::Buffer>) -> wgpu::BindGroup {
+    /// The bind group of the buffers for the kernels `variant`, with the strain buffer `sdef` at
+    /// binding 8 where the scene has one (the strain stage's kernels' group).
+    fn bind(&self, variant: usize, buffers: &[&wgpu::Buffer; 8], sdef: Option<&wgpu::Buffer>) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> =
             buffers.iter().copied().chain(sdef).enumerate().map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() }).collect();
-        let group = match (sdef, &self.sdef_kernels) {
-            (Some(_), Some(k)) => &k.group,
-            _ => &self.kernels.group,
-        };
-        self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("d3"), layout: group, entries: &entries })
+        self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("d3"), layout: &self.kernels[variant].group, entries: &entries })
     }
 
-    /// The kernels of the scene on the device: with the strain stage where it has a strain
-    /// buffer.
+    /// The kernels of the scene on the device.
     fn scene_kernels(&self) -> &Kernels {
-        match (self.state.as_ref().and_then(|s| s.sdef.as_ref()), &self.sdef_kernels) {
-            (Some(_), Some(k)) => k,
-            _ => &self.kernels,
-        }
+        &self.kernels[self.state.as_ref().map_or(0, |s| s.variant)]
     }
 
     /// The buffers a detection changes: blocks (their travel reset and adjacency lists),
@@ -405,7 +435,7 @@ impl GpuBackend {
             Precision::F64 => self.topology_buffers::<f64>(model),
         };
         let Some(s) = self.state.as_ref() else { return };
-        let bind = self.bind(&[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency], s.sdef.as_ref());
+        let bind = self.bind(s.variant, &[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency], s.sdef.as_ref());
         let s = self.state.as_mut().expect("state");
         (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) = (blocks, contacts, logicals, adjacency, bind, keys, logical_count);
         s.bases = bases(model);
@@ -480,6 +510,11 @@ impl GpuBackend {
             b.angular_momentum = DVec3::new(f(g.lx), f(g.ly), f(g.lz));
             b.angular_velocity = DVec3::new(f(g.wx), f(g.wy), f(g.wz));
             b.orientation = DQuat::from_xyzw(f(g.qx), f(g.qy), f(g.qz), f(g.qw));
+            if b.held {
+                // A held block's angular momentum I(t)ω at its turn (`motion::held_motion`): the
+                // kernels, which keep only the inverse inertia, leave it.
+                b.angular_momentum = b.inertia() * b.angular_velocity;
+            }
             b.force = DVec3::new(f(g.fx), f(g.fy), f(g.fz));
             b.moment = DVec3::new(f(g.mx), f(g.my), f(g.mz));
             b.travel = f(g.travel);
@@ -598,6 +633,7 @@ fn shape_pods<R: Real>(model: &Model) -> (Vec<layout::Vertex<R>>, Vec<layout::Pl
     let mut planes = Vec::new();
     let mut edges = Vec::new();
     for b in &model.blocks {
+        let vertex_base = vertices.len() as u32;
         for (l, g) in b.shape.vertices.iter().zip(&b.vertices) {
             let r = |x: f64| R::from_f64(x);
             let g = if relative::<R>() { *g - b.centroid } else { *g };
@@ -612,6 +648,14 @@ fn shape_pods<R: Real>(model: &Model) -> (Vec<layout::Vertex<R>>, Vec<layout::Pl
                 vertex: b.shape.faces[f as usize][0],
                 spare: 0,
             });
+        }
+        // Its faces loaded by BOUNDARY STRESS, two records each (`layout::Plane`), their
+        // vertices numbered in the vertex buffer.
+        for l in &b.boundary_stress {
+            let [v0, v1, v2] = b.shape.faces[l.face as usize].map(|v| vertex_base + v);
+            let s = l.stress.map(R::from_f64);
+            planes.push(layout::Plane::<R> { nx: s[0], ny: s[1], nz: s[2], vertex: v0, spare: v1 });
+            planes.push(layout::Plane::<R> { nx: s[3], ny: s[4], nz: s[5], vertex: v2, spare: 0 });
         }
         for &e in &b.shape.edge_directions {
             let e = b.shape.edges[e as usize];
@@ -685,7 +729,13 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
             my: r(b.moment.y),
             mz: r(b.moment.z),
             travel: r(b.travel),
-            fixed: b.fixed as u32,
+            fixed: if b.fixed {
+                layout::BLOCK_FIXED
+            } else if b.held {
+                layout::BLOCK_HELD
+            } else {
+                layout::BLOCK_FREE
+            },
             vertex_start,
             vertex_count: b.shape.vertices.len() as u32,
             plane_start,
@@ -696,11 +746,13 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
             adjacency_start: adjacency.len() as u32,
             adjacency_count: list.len() as u32,
             finite: 1,
+            stress_faces: b.boundary_stress.len() as u32,
             ..Default::default()
         });
         adjacency.extend_from_slice(list);
         vertex_start += b.shape.vertices.len() as u32;
-        plane_start += b.shape.planes.len() as u32;
+        // Its planes, then two records for each loaded face (`shape_pods`).
+        plane_start += (b.shape.planes.len() + 2 * b.boundary_stress.len()) as u32;
         edge_start += b.shape.edge_directions.len() as u32 + feature_count;
     }
     let mut contacts = Vec::with_capacity(model.contacts.len());

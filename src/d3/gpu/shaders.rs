@@ -25,8 +25,10 @@ pub const KERNELS: &[(&str, &str)] = &[
 ];
 
 /// The prelude: the precision switch and the constants; `sdef` for a scene with simply-deformable
-/// blocks (the SDEF switch: the kernels then run the strain stage, `shaders/d3/sdef.wgsl`).
-pub fn prelude(precision: Precision, sdef: bool) -> String {
+/// blocks (the SDEF switch: the kernels then run the strain stage, `shaders/d3/sdef.wgsl`);
+/// `boundary` for a scene with boundary conditions (the BOUNDARY switch: held blocks and loaded
+/// faces, BOUNDARY VELOCITY and STRESS; a scene without runs kernels without their code).
+pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
     // COMPENSATED: the f32 kernels keep the centroid as a compensated pair (law_of_motion.wgsl);
     // the f64 ones add as the CPU does, so that they follow it to round-off.
     //
@@ -46,7 +48,7 @@ pub fn prelude(precision: Precision, sdef: bool) -> String {
         Precision::F64 => ("f64", false, "1e-9"),
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst SDEF: bool = {sdef};\n{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{}",
         workgroup_size(),
         math_constants(precision)
     )
@@ -60,7 +62,13 @@ pub fn source(kernel: &str, precision: Precision) -> Option<String> {
 /// The full source of one kernel in one precision; with `sdef`, for a scene with
 /// simply-deformable blocks.
 pub fn source_for(kernel: &str, precision: Precision, sdef: bool) -> Option<String> {
+    source_with(kernel, precision, sdef, false)
+}
+
+/// The full source of one kernel in one precision; with `sdef`, for a scene with
+/// simply-deformable blocks; with `boundary`, for a scene with boundary conditions (BOUNDARY).
+pub fn source_with(kernel: &str, precision: Precision, sdef: bool, boundary: bool) -> Option<String> {
     let body = KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
     let strain = if sdef { SDEF } else { RIGID };
-    Some(format!("{}\n{MATH}\n{LAYOUT}\n{strain}\n{COMMON}\n{body}", prelude(precision, sdef)))
+    Some(format!("{}\n{MATH}\n{LAYOUT}\n{strain}\n{COMMON}\n{body}", prelude(precision, sdef, boundary)))
 }
