@@ -19,7 +19,6 @@ use blockdem::d3::exec::Executor;
 use blockdem::d3::gpu::GpuBackend;
 use blockdem::d3::model::Model;
 use blockdem::udec::gpu::{GpuOptions, Precision};
-use common::Target;
 
 /// Runs a D3 deck on `backend`, its files in `dir` (if any): the model and the run log.
 fn run_on(deck: &str, backend: Box<dyn blockdem::d3::backend::Backend>, dir: Option<&std::path::Path>) -> (Model, String) {
@@ -51,16 +50,9 @@ fn error_of(deck: &str) -> String {
     }
 }
 
-/// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32; a failure, not a skip,
-/// under `BLOCKDEM_REQUIRE_GPU=1`.
+/// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32.
 fn targets() -> Vec<GpuOptions> {
-    common::GPU_TARGETS
-        .into_iter()
-        .filter_map(|(api, p)| match Target::gpu(api, p) {
-            Some(Target::Gpu(o)) => Some(o),
-            _ => None,
-        })
-        .collect()
+    common::gpu_options()
 }
 
 fn gpu(o: &GpuOptions) -> Box<dyn blockdem::d3::backend::Backend> {

@@ -44,13 +44,7 @@ fn run_in_dir(deck: &str, o: &GpuOptions, dir: &std::path::Path) -> Model {
 
 /// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32.
 fn targets() -> Vec<GpuOptions> {
-    common::GPU_TARGETS
-        .into_iter()
-        .filter_map(|(api, p)| match Target::gpu(api, p) {
-            Some(Target::Gpu(o)) => Some(o),
-            _ => None,
-        })
-        .collect()
+    common::gpu_options()
 }
 
 fn is_f32(o: &GpuOptions) -> bool {

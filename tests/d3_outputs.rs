@@ -127,8 +127,20 @@ fn dump_writes_the_whole_state() {
     let json = de.next().unwrap().unwrap();
     assert_eq!(json["blocks"].as_array().unwrap().len(), 3);
     assert_eq!(json["cycle"], 50);
+    // A rigid scene has no extension arrays to show.
+    assert!(!log.contains("EXTENSION ("), "{log}");
     let e = parse_deck(&format!("{SCENE}DUMP 1 2 3\n"), "t.dat").unwrap_err().to_string();
     assert!(e.contains("t.dat:9") && e.contains("DUMP takes [n m]"), "{e}");
+    // A simply-deformable block's strain and a held block, which the model's own fields leave to
+    // the save file's extension arrays, follow the model.
+    let deck = "START\nPROP MAT=1 D=1000 K=1E8 G=6E7 KN=1E8 KS=1E8\nBOX 0 1 0 1 0 1\nBOX 2 3 0 1 0 1\nCHANGE 0 1 0 1 0 1 SDEF\n\
+                BOUNDARY VELOCITY 2 3 0 1 0 1 1 0 0\nCYCLE 5\nDUMP\n";
+    let (_, log) = ok(deck, &dir);
+    let start = log.find("EXTENSION (").unwrap_or_else(|| panic!("{log}"));
+    let at = start + log[start..].find('{').unwrap();
+    let json: serde_json::Value = serde_json::Deserializer::from_str(&log[at..]).into_iter().next().unwrap().unwrap();
+    assert_eq!(json["extension"]["sdef"][0][0], 0, "{json}");
+    assert_eq!(json["boundaries"]["held"], serde_json::json!([1]), "{json}");
 }
 
 #[test]

@@ -45,6 +45,23 @@ fn vertex_frame_centroid(b: Block) -> vec3<real> {
     return vec3<real>(b.cx, b.cy, b.cz);
 }
 
+// Block b's centroid moved by dx (its low parts updated). In f32 the centroid is a compensated
+// pair: a step below the coordinate's ulp (a slow slide, a settling stack) is kept in the low
+// part rather than lost.
+fn advance_centroid(b: ptr<function, Block>, dx: vec3<real>) -> vec3<real> {
+    if (COMPENSATED) {
+        let one = params.one;
+        let sx = two_sum((*b).cx, dx.x + (*b).cx_lo, one);
+        let sy = two_sum((*b).cy, dx.y + (*b).cy_lo, one);
+        let sz = two_sum((*b).cz, dx.z + (*b).cz_lo, one);
+        (*b).cx_lo = sx.y;
+        (*b).cy_lo = sy.y;
+        (*b).cz_lo = sz.y;
+        return vec3<real>(sx.x, sy.x, sz.x);
+    }
+    return vec3<real>((*b).cx, (*b).cy, (*b).cz) + dx;
+}
+
 // One step of block i held by BOUNDARY VELOCITY (Rust twin: `motion::held_motion`): it moves at
 // its velocity and spin whatever the forces on it (its angular momentum, I(t)ω, is the CPU's to
 // renew at the read-back: the kernels keep only the inverse inertia), a simply-deformable
@@ -61,18 +78,7 @@ fn held_motion(i: u32) {
     let omega = vec3<real>(b.wx, b.wy, b.wz);
     let dx = v * dt;
     let c0 = vertex_frame_centroid(b);
-    var c = vec3<real>(b.cx, b.cy, b.cz) + dx;
-    if (COMPENSATED) {
-        // The compensated pair, as for a free block.
-        let one = params.one;
-        let sx = two_sum(b.cx, dx.x + b.cx_lo, one);
-        let sy = two_sum(b.cy, dx.y + b.cy_lo, one);
-        let sz = two_sum(b.cz, dx.z + b.cz_lo, one);
-        c = vec3<real>(sx.x, sy.x, sz.x);
-        b.cx_lo = sx.y;
-        b.cy_lo = sy.y;
-        b.cz_lo = sz.y;
-    }
+    let c = advance_centroid(&b, dx);
     var q = vec4<real>(b.qx, b.qy, b.qz, b.qw);
     if (!(omega.x == 0.0 && omega.y == 0.0 && omega.z == 0.0)) {
         q = quat_normalize(quat_mul(quat_from_scaled_axis(omega * dt), q));
@@ -172,19 +178,7 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         damping = alpha * dt * (b.mass * dot3(vm, vm) + dot3(lm, angular_velocity(q0, inv, lm)));
     }
     let dx = v * dt;
-    var c = vec3<real>(b.cx, b.cy, b.cz) + dx;
-    if (COMPENSATED) {
-        // In f32 the centroid is a compensated pair: a step below the coordinate's ulp (a slow
-        // slide, a settling stack) is kept in the low part rather than lost.
-        let one = params.one;
-        let sx = two_sum(b.cx, dx.x + b.cx_lo, one);
-        let sy = two_sum(b.cy, dx.y + b.cy_lo, one);
-        let sz = two_sum(b.cz, dx.z + b.cz_lo, one);
-        c = vec3<real>(sx.x, sy.x, sz.x);
-        b.cx_lo = sx.y;
-        b.cy_lo = sy.y;
-        b.cz_lo = sz.y;
-    }
+    let c = advance_centroid(&b, dx);
     let turn = rotate(q0, inv, l, dt);
     // A simply-deformable block's strain steps after its rigid motion, before its vertices are
     // placed stretched (`motion::law_of_motion_with`, sdef.wgsl): its damping's work and its

@@ -154,7 +154,16 @@ pub fn dump(model: &Model, out: &mut dyn std::io::Write) -> std::io::Result<()> 
     )?;
     writeln!(out)?;
     serde_json::to_writer_pretty(&mut *out, model)?;
-    writeln!(out)
+    writeln!(out)?;
+    // What the model's own fields leave to the save file's extension arrays (restart.rs):
+    // the simply-deformable blocks' strain and the boundary conditions, where there are any.
+    let (extension, boundaries) = (super::restart::Extension::of(model), super::restart::Boundaries::of(model));
+    if !extension.sdef.is_empty() || extension.alpha_internal != 0.0 || !boundaries.held.is_empty() || !boundaries.stress.is_empty() {
+        writeln!(out, "EXTENSION (SIMPLY-DEFORMABLE BLOCKS BY INDEX, DAMPING INTERNAL; BOUNDARY: HELD BLOCKS, LOADED FACES)")?;
+        serde_json::to_writer_pretty(&mut *out, &json!({"extension": extension, "boundaries": boundaries}))?;
+        writeln!(out)?;
+    }
+    Ok(())
 }
 
 /// A finite number, or null.

@@ -28,6 +28,19 @@ impl std::io::Write for SharedLog {
 /// The GPU targets of `every_backend!` (its modules `vulkan_f32`, `vulkan_f64`, `gl_f32`).
 pub const GPU_TARGETS: [(&str, Precision); 3] = [("vulkan", Precision::F32), ("vulkan", Precision::F64), ("gl", Precision::F32)];
 
+/// The options of each GPU target present (Vulkan f32 and f64, GL f32): what the D3 tests open
+/// their backend with. Under `BLOCKDEM_REQUIRE_GPU=1` a target absent is a failure, not a skip
+/// (`Target::gpu`).
+pub fn gpu_options() -> Vec<GpuOptions> {
+    GPU_TARGETS
+        .into_iter()
+        .filter_map(|(api, p)| match Target::gpu(api, p) {
+            Some(Target::Gpu(o)) => Some(o),
+            _ => None,
+        })
+        .collect()
+}
+
 /// Where a scene runs.
 #[derive(Clone, Debug)]
 pub enum Target {
