@@ -146,8 +146,13 @@ fn point_load_crack(model: &Model, b: usize, loads: &[(DVec3, DVec3, f64)], tf: 
     if loads.len() < 2 {
         return None;
     }
-    let (corners, clearance) = corners(model, b);
-    let clear = |p: DVec3| corners.iter().all(|c| (*c - p).length() >= clearance);
+    // The corners depend on the shape alone; found only once a pair reaches TF (this runs after
+    // every cycle for every candidate).
+    let mut found: Option<(Vec<DVec3>, f64)> = None;
+    let mut clear = |p: DVec3| {
+        let (corners, clearance) = found.get_or_insert_with(|| corners(model, b));
+        corners.iter().all(|c| (*c - p).length() >= *clearance)
+    };
     let mut best: Option<(usize, usize, f64)> = None;
     for i in 0..loads.len() {
         for j in i + 1..loads.len() {
