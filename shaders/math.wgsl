@@ -11,7 +11,7 @@ fn is_finite(x: real) -> bool {
 // it): Mesa folds (a + b) − a to b, and the error term to 0, so in f32 every position step lost
 // the bits below the coordinate's ulp (at 10 m, 1e-6 m a step) and a wave in a chain of stiff
 // contacts gained 40% energy in 120 cycles. Multiplying by `one` (= 1, exact, read from the
-// params at run time) hides the identities from the compiler. Twin test: tests/gpu_kernels.rs.
+// params at run time) hides the identities from the compiler. Twin test: tests/suite/gpu_kernels.rs.
 fn two_sum(a: real, b: real, one: real) -> vec2<real> {
     let s = (a + b) * one;
     let bb = (s - a) * one;

@@ -1,6 +1,6 @@
 //! `blockdem compare`: one deck on the f64 CPU reference and on a GPU backend, and how far the
 //! GPU's final state lies from the reference's. For a user who checks the GPU against the CPU
-//! on their own model (the test suite does it on its scenes, tests/physics.rs): the largest
+//! on their own model (the test suite does it on its scenes, tests/suite/physics.rs): the largest
 //! difference in block position (against the rounding length, the scale contacts resolve
 //! overlaps on), rotation, velocity (against the top speed, or √(2E/M) for a model at rest) and
 //! the energy terms (against the largest), each naming its block, with the wall times of the two

@@ -4,7 +4,7 @@
 //! on the CPU in f64 (the accuracy reference) and, through wgpu, on the GPU.
 //!
 //! ## Module map (it mirrors the cycle, DESIGN.md §1; the layers and the stage-by-stage file
-//! table are in docs/ARCHITECTURE.md, and `tests/architecture.rs` keeps the modules acyclic and
+//! table are in docs/ARCHITECTURE.md, and `tests/suite/architecture.rs` keeps the modules acyclic and
 //! the chassis free of any engine)
 //!
 //! The chassis, dimension-free, from the bottom layer up:

@@ -1,5 +1,5 @@
 // D3's GPU structs and bindings, twins of src/d3/gpu/layout.rs (naga checks the layouts,
-// tests/gpu_shaders.rs). The prelude in front (src/d3/gpu/shaders.rs) defines `alias real = f32;`
+// tests/suite/gpu_shaders.rs). The prelude in front (src/d3/gpu/shaders.rs) defines `alias real = f32;`
 // or `f64` and the constants. Storage structs hold reals first and then an even number of u32
 // words, so both precisions have the same field order and no padding; no vectors in storage.
 

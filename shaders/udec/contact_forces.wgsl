@@ -757,7 +757,7 @@ fn feature_geometry(nb: Neighbourhood, c: vec2<real>, radius: real) -> ContactGe
 // feature it chose. The cycle does not store them (four stores a contact a cycle that nothing on
 // the device reads); this runs before a read-back or checkpoint of whole contacts. The CPU's twin
 // is the point and normal its stage 4 stores (`cpu::contact_forces`, from `track_feature`);
-// tests/contact_rules.rs checks the read-back ones against it.
+// tests/suite/contact_rules.rs checks the read-back ones against it.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn contact_points(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let k = item_index(wg, li);

@@ -29,7 +29,7 @@
 //! # The report's normal prescription (¶23) and why the common plane is the default
 //!
 //! [`prescribed_normal`] is ¶23's rule: the faces around the vertex of the block nearest the
-//! contact point, their normals averaged with weights 1/d. `tests/d3_contacts.rs` compares it with
+//! contact point, their normals averaged with weights 1/d. `tests/suite/d3_contacts.rs` compares it with
 //! the common plane, as ¶35a asks. It agrees for a vertex pressed into the middle of a face, and
 //! fails (1) for an edge–edge contact, where the true normal is the cross product of the two
 //! edges and the prescription gives a mean of face normals of one block, off by up to half the

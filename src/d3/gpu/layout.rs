@@ -1,5 +1,5 @@
 //! D3's GPU state: flat storage buffers of `#[repr(C)]` Pod structs (`gpu_struct!`), mirrored in
-//! `shaders/d3/layout.wgsl` and checked against it with naga (tests/gpu_shaders.rs). Reals first,
+//! `shaders/d3/layout.wgsl` and checked against it with naga (tests/suite/gpu_shaders.rs). Reals first,
 //! then an even number of u32 words (`gpu::real`); no vectors in storage.
 
 pub use crate::gpu::real::{Real, StructLayout};

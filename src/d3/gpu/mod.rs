@@ -38,7 +38,7 @@
 //! that slides off its face keeps its logical contact (with the gap the ray through the other
 //! block finds), and an edge–edge contact whose edges stop crossing is held at the nearer end,
 //! until the next detection, within half the contact-forming distance of travel. The twins and
-//! tests/d3_gpu.rs measure the difference.
+//! tests/suite/d3_gpu.rs measure the difference.
 //!
 //! Cycles run in batches sized to the next detection at the velocities of the batch's start
 //! (`cycles_to_detection`); after each the blocks are read back (travel, finiteness, the
@@ -67,7 +67,7 @@
 //! save format 4: a format-3 file's f32 state is not taken). SAVE after a GPU run keeps them as the
 //! device holds them (`restart::DeviceState`, read by `device_state_as`); RESTART on a GPU of the
 //! same precision checks them against the model and uploads them as they were (`restore_as`),
-//! so the run goes on as the saving run would have, bit for bit (tests/d3_gpu.rs). Each CYCLE's
+//! so the run goes on as the saving run would have, bit for bit (tests/suite/d3_gpu.rs). Each CYCLE's
 //! batches end at its energy checks (every `driver::CHECK_INTERVAL` cycles of the run), where the
 //! next batch takes its time step and length afresh; a SAVE after a number of cycles that is a
 //! multiple of that interval therefore continues the straight run exactly, another cuts a batch

@@ -2,7 +2,7 @@
 //! feature of block 2 a corner circle of block 1 touches, the gap between the two rounded
 //! surfaces, the normal and the contact point. Topology (detection) and both backends' contact
 //! stage use it; the GPU's twin is `shaders/udec/contact_forces.wgsl`, checked against it in
-//! `tests/gpu_kernels.rs`.
+//! `tests/suite/gpu_kernels.rs`.
 //!
 //! A contact is a corner of block 1 (a circle of radius r about `circle`) against one *feature* of
 //! block 2's rounded boundary: the arc of corner k (feature 2k) or the straight part of the edge

@@ -1,7 +1,7 @@
 //! The force–displacement law of a contact (SL-85-1 eqs. 13–20), a pure function of the contact's
 //! current geometry and its blocks' motion. The CPU's contact stage (`cpu::contact_forces`)
 //! applies it to every contact; topology uses its normal part for the contacts a crack re-makes;
-//! the GPU's twin is `shaders/udec/contact_forces.wgsl`, checked against it in `tests/gpu_kernels.rs`.
+//! the GPU's twin is `shaders/udec/contact_forces.wgsl`, checked against it in `tests/suite/gpu_kernels.rs`.
 
 use super::joint::law_parameters;
 use crate::udec::model::geometry::{dot, sub};

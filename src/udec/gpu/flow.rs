@@ -345,7 +345,7 @@ impl<R: Real> Engine<R> {
 /// computed in parallel (`domain_terms`, flow.wgsl) rather than walked by one invocation of
 /// `domain_pressures`: the wall's voids have 3 or 7 links and joints 2, the void along a row's
 /// foot hundreds. The sums are taken in the walk's order from the walk's own terms (the bench
-/// wall's run is the same to the byte both ways: tests/fluid.rs); `BLOCKDEM_LONG_WALK` sets it
+/// wall's run is the same to the byte both ways: tests/suite/fluid.rs); `BLOCKDEM_LONG_WALK` sets it
 /// (0: every void and free flow list from terms).
 pub const LONG_WALK: u32 = 16;
 

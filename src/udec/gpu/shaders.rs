@@ -78,7 +78,7 @@ pub fn kernel_names() -> impl Iterator<Item = &'static str> {
 /// border of the arc's wedge and the edge's slab; exact arithmetic (and the CPU, whose round-off
 /// happens to cancel there) finds it inside both, so the arc wins from both sides and the touch
 /// counts once. Without the tolerance, GPU round-off (fused multiply–adds) flipped one side to
-/// corner–edge after ~2800 cycles of tests/physics.rs's column and the touch counted twice.
+/// corner–edge after ~2800 cycles of tests/suite/physics.rs's column and the touch counted twice.
 ///
 /// EXACT_CIRCLE (f32 only) has the contact stage measure a gap from the rounding circle's exact
 /// position (`circle_parts` in contact_forces.wgsl), the blocks' turns since their corners were

@@ -1,6 +1,6 @@
 //! The GPU configurations a suite runs on (STYLE.md item 8): every adapter with compute shaders
 //! that wgpu finds, in f32 and, where it has `SHADER_F64`, in f64. One list for the scenario
-//! tests (tests/common) and for `blockdem verify`, so both cover the same backends. On a machine
+//! tests (tests/suite/common) and for `blockdem verify`, so both cover the same backends. On a machine
 //! with Mesa's software adapters only, that is Vulkan (lavapipe) f32 and f64 and GL (llvmpipe)
 //! f32.
 

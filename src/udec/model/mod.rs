@@ -500,7 +500,7 @@ impl Tolerances {
     /// (etol + m_a + s_a) + (etol + m_b + s_b), less than that distance while each step s stays
     /// under the too-fast limit atol/2 − etol, as before. The contacts found early are open (a
     /// positive gap carries no force, eq. 16), so the motion is the same as without the margin,
-    /// bit for bit (tests/contact_rules.rs); only the contact list is longer by the few pairs in
+    /// bit for bit (tests/suite/contact_rules.rs); only the contact list is longer by the few pairs in
     /// the margin of fast blocks. Slow blocks (m = 0) are examined exactly as before.
     pub fn speed_margin(&self, travel: f64) -> f64 {
         let m = self.margin_steps * travel - self.etol;

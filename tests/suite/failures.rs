@@ -1,8 +1,8 @@
-//! Numerical failures on every backend (tests/common): the same error as the CPU reference, at
+//! Numerical failures on every backend (tests/suite/common): the same error as the CPU reference, at
 //! the same cycle, and the model left at its last good state (the checkpoint of the energy check,
 //! every 100 cycles), finite throughout.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::backend::CycleError;
 use blockdem::udec::exec::{Executor, RunError, RunOptions};

@@ -5,7 +5,7 @@ use blockdem::d3::deck::{parse_deck, three_dimensional, Command, PrintItem};
 use blockdem::d3::exec::Executor;
 use blockdem::deck::lexer::split;
 
-const SAMPLE: &str = include_str!("../examples/d3_two_tetrahedra.dat");
+const SAMPLE: &str = include_str!("../../examples/d3_two_tetrahedra.dat");
 
 /// Runs a deck's commands; the run log and the error, if any.
 fn run(deck: &str) -> (String, Result<(), String>) {

@@ -430,7 +430,7 @@ fn an_input_of_nul_bytes_is_refused_at_its_start_even_without_an_end() {
 #[test]
 fn verify_quick_passes_and_writes_csv_and_charts() {
     // The binary's side of verify (its options, its table, its files) on one cheap case: the
-    // whole quick suite, stability table included, is tests/verify.rs's (it takes minutes).
+    // whole quick suite, stability table included, is tests/suite/verify.rs's (it takes minutes).
     let dir = temp("verify");
     let (code, stdout, stderr) = blockdem(&["verify", "--quick", "--only", "free_flight", "--out", dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{stdout}\n{stderr}");
@@ -486,7 +486,7 @@ fn every_bad_input_names_file_line_and_what_was_expected() {
 #[test]
 fn every_sample_deck_runs_unchanged() {
     // Samples 1 to 4 run to their end (2 since fluid came, issue 30; 4 prints DLIST, the
-    // domains); the D3 deck runs on the D3 engine to its end (its tables: tests/d3_deck.rs).
+    // domains); the D3 deck runs on the D3 engine to its end (its tables: tests/suite/d3_deck.rs).
     let dir = temp("samples");
     for name in
         ["udec1_point_load_cracking.dat", "udec2_pressurized_cavity.dat", "udec3_deformable_block.dat", "udec4_projectile_beam.dat", "d3_two_tetrahedra.dat"]

@@ -1,7 +1,7 @@
 //! The GPU options of the `blockdem` binary: `adapters`, `--backend gpu|auto`, `--adapter`,
 //! `--precision`, and their errors.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 

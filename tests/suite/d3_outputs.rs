@@ -2,7 +2,7 @@
 //! a damaged or foreign file is refused naming it), DUMP (the whole state), VTK frames and their
 //! series, and `blockdem run`, which tells a deck that restarts a D3 file for a D3 deck.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

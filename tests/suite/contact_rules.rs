@@ -3,7 +3,7 @@
 //! material), contact detection driven by displacement, flying blocks finding new contacts, shear
 //! history kept through a contact update, cohesion and no tension beyond it. CPU f64.
 
-mod common;
+use crate::common;
 
 use blockdem::scenes::run_deck_on;
 use blockdem::udec::backend::{Backend, CycleReport};

@@ -6,7 +6,7 @@
 //! volumetric strain is −p/(K + G/3)); a pressurized cavity between deformable blocks in a fixed
 //! frame keeps its ledger and its mass balance. The GPU runs both cavities as the CPU does.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::model::domain::DomainKind;
 use blockdem::udec::model::fluid::stored_volume;

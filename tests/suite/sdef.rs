@@ -3,7 +3,7 @@
 //! threshold, the ledger, the outputs and the input errors, on every backend (`every_backend!`)
 //! where a deck runs them; the free vibration and SAVE/RESTART drive the CPU backend directly.
 
-mod common;
+use crate::common;
 
 use blockdem::scenes::{run_deck_on, sdef_platen_deck, SDEF_G as G, SDEF_K as K};
 use blockdem::udec::backend::Backend;

@@ -3,7 +3,7 @@
 //! creation and deletion, SPLIT, DELETE and cracking; sample 4 runs to its end. The domains are
 //! the CPU topology's on every backend: one scene checks them after cycling on each.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::exec::RunError;
 use blockdem::udec::model::domain::{DomainKind, DomainLink, Domains, NO_DOMAIN};

@@ -1,6 +1,6 @@
-//! The report's sample decks, determinism, and SAVE/RESTART, on every backend (tests/common).
+//! The report's sample decks, determinism, and SAVE/RESTART, on every backend (tests/suite/common).
 
-mod common;
+use crate::common;
 
 use blockdem::scenes::{run_deck_logged, run_deck_on};
 use common::{every_backend, SharedLog, Target};

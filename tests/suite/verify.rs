@@ -3,7 +3,7 @@
 //! present), the energy ledger balances, and the stable-FRAC estimate is safe against the
 //! measured threshold of instability.
 
-mod common;
+use crate::common;
 
 use blockdem::verify::{self, cases, VerifyOptions};
 

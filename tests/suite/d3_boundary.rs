@@ -12,7 +12,7 @@
 //! lavapipe contracts some products), in f32 a position's round-off, 1e-7 relative, grown over
 //! the run (2e-4).
 
-mod common;
+use crate::common;
 
 use blockdem::d3::cpu::CpuBackend;
 use blockdem::d3::exec::Executor;
@@ -50,7 +50,7 @@ fn error_of(deck: &str) -> String {
     }
 }
 
-/// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32.
+/// The GPU targets present (tests/suite/common's): Vulkan f32 and f64, GL f32.
 fn targets() -> Vec<GpuOptions> {
     common::gpu_options()
 }

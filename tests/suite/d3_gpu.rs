@@ -1,5 +1,5 @@
 //! D3 on the GPU (`d3::gpu`) against the CPU reference (`d3::cpu`), on Vulkan f32 and f64 and GL
-//! f32 (lavapipe and llvmpipe here; the GPU tests' convention, tests/common: skipped without the
+//! f32 (lavapipe and llvmpipe here; the GPU tests' convention, tests/suite/common: skipped without the
 //! adapter, a failure under `BLOCKDEM_REQUIRE_GPU=1`).
 //!
 //! Tolerances, and why: the GPU keeps each contact's logical contacts between detections and
@@ -10,7 +10,7 @@
 //! contact stiffness of 1e8–1e9 N/m that is a force of 10–100 N on a contact, a few thousandths
 //! of the loads here. Each test states what it measured; the bounds are a few times that.
 
-mod common;
+use crate::common;
 
 use blockdem::d3::exec::Executor;
 use blockdem::d3::gpu::GpuBackend;
@@ -18,7 +18,7 @@ use blockdem::d3::model::Model;
 use blockdem::udec::gpu::{GpuOptions, Precision};
 use common::Target;
 
-const SAMPLE: &str = include_str!("../examples/d3_two_tetrahedra.dat");
+const SAMPLE: &str = include_str!("../../examples/d3_two_tetrahedra.dat");
 
 /// Runs a D3 deck on the CPU (None) or on the GPU with `options`.
 fn run(deck: &str, gpu: Option<&GpuOptions>) -> Model {
@@ -42,7 +42,7 @@ fn run_in_dir(deck: &str, o: &GpuOptions, dir: &std::path::Path) -> Model {
     std::mem::take(&mut exec.model)
 }
 
-/// The GPU targets present (tests/common's): Vulkan f32 and f64, GL f32.
+/// The GPU targets present (tests/suite/common's): Vulkan f32 and f64, GL f32.
 fn targets() -> Vec<GpuOptions> {
     common::gpu_options()
 }
@@ -438,7 +438,7 @@ fn a_deformable_column_cracks_on_the_gpu_at_the_cpus_cycle() {
 /// The point-load law on the GPU (SL-85-1 ¶35f), with the joint law's contacts (constitutive 2:
 /// each contact's stiffness JKN over its area, shared by its corners, uploaded with it): the
 /// contact forces read back after every cycle, the criterion and the cut on the CPU. The squeezed
-/// block of tests/d3_split.rs, settled, then given a TF it exceeds, splits at the CPU's cycle
+/// block of tests/suite/d3_split.rs, settled, then given a TF it exceeds, splits at the CPU's cycle
 /// along the CPU's plane (y = 1: two unit cubes) on every target, and the crack leaves the
 /// springs' energy as it was (the joint law), as on the CPU.
 #[test]

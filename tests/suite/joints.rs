@@ -1,10 +1,10 @@
 //! Joints (SL-85-1 Appendix A ¶5, issue 28 item 3): an edge-to-edge contact between planar block
 //! faces in opposition, with a joint constitutive number (2, 4, 5), follows a stress-based law
 //! (JKN, JKS, JCOH, JFRIC over its length); it reverts to the point-contact law when the faces
-//! stop being in opposition and where JKN·l_j < KN. Scenes on every backend (tests/common), the
+//! stop being in opposition and where JKN·l_j < KN. Scenes on every backend (tests/suite/common), the
 //! topology and the inputs on the CPU.
 
-mod common;
+use crate::common;
 
 use blockdem::scenes::{run_deck_logged, run_deck_on};
 use blockdem::udec::cpu::CpuBackend;

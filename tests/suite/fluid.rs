@@ -3,9 +3,9 @@
 //! contact updates, a dry scene that builds nothing, bad input naming its line, and sample 2 on
 //! every backend against the CPU (the fluid's kernels, issue 30 item 7). The closed forms (cubic
 //! law, drainage, buoyancy, a pressurized joint, the mass balance) are `blockdem verify`'s fluid
-//! cases, run here on the CPU (tests/verify.rs runs them on every backend).
+//! cases, run here on the CPU (tests/suite/verify.rs runs them on every backend).
 
-mod common;
+use crate::common;
 
 use blockdem::udec::model::domain::DomainKind;
 use blockdem::udec::output::state_json;
@@ -157,7 +157,7 @@ fn bad_fluid_input_names_its_line_and_what_was_expected() {
     assert_error_at(&body("PFIX OUTER 0\n"), 4, &["PFIX", "FLUID"]);
     assert_error_at(&format!("{PINWHEEL}CYCLE 0\nPFIX 999 1E5\n"), 10, &["PFIX: there is no domain 999", "PRINT DOMAINS"]);
     assert_error_at(&format!("{PINWHEEL}CYCLE 0\nPFREE AT 0.5 0.5\n"), 10, &["PFREE: there is no domain at (0.5, 0.5)"]);
-    // Deformable blocks take the pressures on the CPU (tests/fluid_deformable.rs); their flow laws
+    // Deformable blocks take the pressures on the CPU (tests/suite/fluid_deformable.rs); their flow laws
     // are checked as a rigid block's.
     assert_error_at(&body("PROP MAT=1 K=1E8 G=1E8\nCHANGE 0 1 0 1 SDEF\nFLUID 1000 1E9\nCYCLE 1\n"), 7, &["material 1 has no flow law"]);
 }

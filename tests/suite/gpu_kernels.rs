@@ -24,7 +24,7 @@
 //! its threshold (a tie between two features, |Fs| at the Coulomb limit) may go the other way in
 //! f32 for a small share of the random cases, bounded below.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::contact::gather::AdjacencyEntry;
 use blockdem::udec::contact::geometry::track_feature;

@@ -1,9 +1,9 @@
-//! The rigid-block engine against closed-form solutions, on every backend (tests/common): the f64
+//! The rigid-block engine against closed-form solutions, on every backend (tests/suite/common): the f64
 //! CPU reference, Vulkan f32 and f64, GL f32. Each test states its tolerance and why; GPU f64
 //! kernels agree with the CPU to rounding, so they keep the CPU's tolerances, and f32 tolerances
 //! are widened only where f32 round-off enters and say by how much.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::model::Model;
 use common::{every_backend, Target};

@@ -1,7 +1,7 @@
 //! `blockdem bench`: the reference wall, its decks in examples/, and a quick bench on every backend
 //! whose outputs must exist, parse and make physical sense.
 
-mod common;
+use crate::common;
 
 use blockdem::bench::scene::{self, RefScene};
 use blockdem::bench::{BackendSpec, BenchOptions};
@@ -53,7 +53,7 @@ fn example_decks_equal_the_generator() {
             std::fs::write(&path, &text).unwrap();
         }
         let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
-        assert!(on_disk == text, "{} differs from scene::example_deck (run BLOCKDEM_BLESS=1 cargo test --release --test bench)", path.display());
+        assert!(on_disk == text, "{} differs from scene::example_deck (run BLOCKDEM_BLESS=1 cargo test --release --test suite bench::)", path.display());
         let cycles: u64 = text.lines().find_map(|l| l.strip_prefix("CYCLE ")).unwrap().trim().parse().unwrap();
         let expected = if s == RefScene::Impact { 7072 } else { 14143 };
         if s == RefScene::Fluid {

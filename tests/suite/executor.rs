@@ -4,7 +4,7 @@
 //! physics comes later stopping with "not supported yet" and their line (the report's samples 2–4
 //! included), and the input errors found only when the model is built or cycled. CPU only.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::cpu::CpuBackend;
 use blockdem::udec::exec::RunError;
@@ -47,7 +47,7 @@ fn damping_sets_rayleigh_coefficients_and_prints_the_reports_messages() {
 
 #[test]
 fn damping_constants_that_are_not_numbers_are_refused_at_their_line() {
-    // Found by tests/random_decks.rs: ω = 2π·1E308 overflows and α = 0·∞ is NaN; β = 1E300/ω at
+    // Found by tests/suite/random_decks.rs: ω = 2π·1E308 overflows and α = 0·∞ is NaN; β = 1E300/ω at
     // 1E-300 Hz is infinite. The run diverged at once and neither its SAVE nor its last good
     // state could be restarted (RESTART refuses a model with damping that is not finite).
     for damp in ["DAMP 0 1E308", "DAMP 1E300 1E-300", "DAMP 1E300 1E-300 STIFF", "DAMP 100 1E308 MASS"] {
@@ -266,7 +266,7 @@ fn models_the_engine_cannot_run_are_refused_at_cycle_with_their_line() {
         ("PROP MAT=1 D=1000 KN=1E8 KS=1E8\nCYCLE 10\n", "there are no blocks"),
         // m_min/k_max underflows f64: Δt = 0 would hang or divide by zero.
         ("PROP MAT=1 D=1E-300 KN=1E300 KS=1E300\nROUND 0.01\nBLOCK 0,0 0,1 1,1 1,0\nCYCLE 10\n", "time step FRAC·2√(m_min/k_max) is 0e0"),
-        // A weight, or weight and load, that overflows f64 (found by tests/random_decks.rs): the
+        // A weight, or weight and load, that overflows f64 (found by tests/suite/random_decks.rs): the
         // first force sum stored it, and a CYCLE 0 or a failing CYCLE left a model holding an
         // infinite force, which SAVE wrote and RESTART refused.
         ("PROP MAT=1 D=1000 KN=1E8 KS=1E8\nBLOCK 0,0 0,1 1,1 1,0\nGRAV 0 -1E308\nCYCLE 0\n", "block 1 (mass 1e3 × gravity"),
@@ -280,7 +280,7 @@ fn models_the_engine_cannot_run_are_refused_at_cycle_with_their_line() {
         assert!(!log.contains("INITIAL TIMESTEP"), "{log}");
     }
     // Two blocks each given a kinetic energy f64 holds, whose sum it does not (found by
-    // tests/random_decks.rs: the ledger booked ∞, and the stopped run's model could not be
+    // tests/suite/random_decks.rs: the ledger booked ∞, and the stopped run's model could not be
     // restarted): refused at the VELOCITY, nothing changed.
     let deck = "START\nPROP MAT=1 D=3.548 KN=1E8 KS=1E8\nBLOCK 0,1 0,1.5 1.6,1.5 1.6,1\nBLOCK 3,1 3,1.73 3.34,1.73 3.34,1\n\
                 VELOCITY -1E300 1E300 -1E300 1E300 1E154 0 0\nCYCLE 1\n";
@@ -430,7 +430,7 @@ fn block_outline_errors_count_corners_from_one() {
 
 #[test]
 fn a_mass_that_overflows_f64_is_refused_at_the_command_that_makes_it() {
-    // Found by tests/random_decks.rs (a block 8 km wide, DENSITY 1E300): the mass stood at ∞,
+    // Found by tests/suite/random_decks.rs (a block 8 km wide, DENSITY 1E300): the mass stood at ∞,
     // CYCLE said it could not compute a time step "(no block mass …)", and SAVE wrote a model
     // RESTART refused. Each command now fails whole, naming the block, and leaves the model as
     // it was (a restartable one: the driver saves it as the state before the failing command).
@@ -454,7 +454,7 @@ fn a_mass_that_overflows_f64_is_refused_at_the_command_that_makes_it() {
 
 #[test]
 fn a_block_flung_so_far_that_its_edges_vanish_in_round_off_stays_restartable() {
-    // Found by tests/random_decks.rs: GRAVITY 1E154 flings a 5 cm block to 2.5e147 m, where its
+    // Found by tests/suite/random_decks.rs: GRAVITY 1E154 flings a 5 cm block to 2.5e147 m, where its
     // corners' world positions coincide; the edge directions measured from them were 0/0, and
     // the model (SAVE, the state JSON) held NaN that RESTART refused.
     let (m, _) = run_ok("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nBLOCK 0,1 0,1.05 0.05,1.05 0.05,1\nROUND 1E300\nGRAV 1E154 0\nCYCLE 50\n");

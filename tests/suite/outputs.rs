@@ -3,7 +3,7 @@
 //! The models are built by hand (two rectangles and one contact) so these tests do not depend on
 //! the geometry or topology code.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

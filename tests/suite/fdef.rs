@@ -3,7 +3,7 @@
 //! weight, the outputs, the input errors and sample 3 on the CPU backend; sample 3, reruns, the
 //! ledger and the inverted-zone failure on every backend (`every_backend!`).
 
-mod common;
+use crate::common;
 
 use blockdem::scenes::run_deck_on;
 use blockdem::udec::backend::Backend;

@@ -1,14 +1,14 @@
 //! Random decks of valid-looking commands on every backend: nothing panics, every error names
 //! the deck's file and a line of it, and whatever stops a run leaves a finite model (the last
 //! good state after a numerical failure). The parser's own fuzzing (random text, token soup) is
-//! in tests/deck_parser.rs; these decks parse, and go on to build, split, delete, load, damp,
+//! in tests/suite/deck_parser.rs; these decks parse, and go on to build, split, delete, load, damp,
 //! cycle, plot (any window and view) and write out blocks with ordinary and extreme values
 //! (1e-300 … 1e300), which is where the executor and the backends meet input nobody wrote a
 //! test for. Found this way and fixed: an energy growth that named "about NaN" as the safe
 //! FRACTION, blocks given overlapping reported as driven through each other, and damping the
 //! f32 kernels cannot hold going non-finite.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::exec::{Executor, RunError, RunOptions};
 use common::{every_backend, Target};

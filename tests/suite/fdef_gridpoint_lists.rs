@@ -4,7 +4,7 @@
 //! (`cpu::zones::force_shares`) on zoned scenes, and a GPU run gathering from them against one
 //! walking the block lists, bit for bit.
 
-mod common;
+use crate::common;
 
 use blockdem::udec::contact::gather::AdjacencyEntry;
 use blockdem::udec::gpu::fdef::{feature_edge, gridpoint_starts, GridPointContacts, LIST_REACH, WALK_BLOCK_LISTS, WIDE_BOUNDARY};

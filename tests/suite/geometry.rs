@@ -9,7 +9,7 @@ use blockdem::udec::model::split::{split_block_along, split_line};
 use blockdem::udec::model::{Contact, ContactKind, Link, Model};
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 use common::Rng;
 
 fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<[f64; 2]> {
