@@ -28,6 +28,20 @@ fn zoned_stack(cycles: u32) -> String {
     )
 }
 
+/// A rigid block sliding at 20 m/s over a zoned slab on a fixed base, frictionless: the slab's
+/// boundary edges (≤ 0.01 m) are well under the update tolerance (¶26: ROUND/4 = 0.025 m), so the
+/// slider's corners cross more than `LIST_REACH` of them between two contact updates and
+/// `check_fdef_lists` sends the slab's grid points back to walking its whole list (the lists'
+/// fallback) until the lists are built again.
+fn slide_over_zones(cycles: u32) -> String {
+    format!(
+        "START\nPROP MAT=1 DENS=2000 K=1E6 G=6E5 KN=1E7 KS=1E7 FRIC=0\nROUND 0.1\nBLOCK (0,0) (0,0.4) (1.2,0.4) (1.2,0)\n\
+         SPLIT 0,0.1 1.2,0.1\nSPLIT 0,0.2 1.2,0.2\nSPLIT 0.3,0.2 0.3,0.4\nSPLIT 0.6,0.2 0.6,0.4\nDELETE 0 0.3 0.2 0.4\n\
+         DELETE 0.6 1.2 0.2 0.4\nCHANGE 0 1.2 0.1 0.2 FDEF\nGENERATE 0 1.2 0.1 0.2 AUTO 0.01\nFIX 0 1.2 0 0.1\nGRAV 0 -10\n\
+         VELOCITY 0.3 0.6 0.2 0.4 20 0\nCYCLE {cycles}\nSTOP\n"
+    )
+}
+
 fn cpu_run(deck: &str) -> Model {
     blockdem::scenes::run_deck_on(deck, Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap()
 }
@@ -113,6 +127,44 @@ fn lists_hold_every_contact_that_acts(m: &Model) {
     assert!(listed < walked, "the lists ({listed} entries) are no shorter than the walks ({walked})");
 }
 
+/// The sliding scene does reach the lists' fallback: run on the CPU a cycle at a time, some
+/// contact's feature on the slab lies `LIST_REACH` edges or more from where it was at the last
+/// contact update (where the lists were built), which is where `check_fdef_lists` clears the
+/// slab's `listed` flags; the GPU runs of `lists_gather_as_the_walk` take that path.
+#[test]
+fn a_sliding_corner_outruns_the_lists_between_updates() {
+    use blockdem::udec::backend::Backend as _;
+    let mut m = cpu_run(&slide_over_zones(1));
+    let slab = (0..m.blocks.len()).find(|&b| m.fdef_of(b).is_some_and(|f| !f.zones.is_empty())).expect("the zoned slab");
+    let n = m.fdef[slab].boundary;
+    assert!(n > 2 * LIST_REACH + 2, "the slab's boundary ({n} grid points) is long enough to have lists");
+    // Each contact's feature edge on the slab, by contact id.
+    let homes = |m: &Model| -> std::collections::HashMap<u32, u32> {
+        m.contacts.iter().filter(|c| c.block2 as usize == slab).map(|c| (c.id, feature_edge(c.feature, n))).collect()
+    };
+    let mut built = homes(&m);
+    let mut cpu = blockdem::udec::cpu::CpuBackend::new();
+    let (mut farthest, mut updates) = (0u32, 0u32);
+    for _ in 0..599 {
+        let report = cpu.run(&mut m, 1, &mut |_| true).expect("the slide runs");
+        if report.topology_updates > 0 {
+            updates += 1;
+            built = homes(&m);
+            continue;
+        }
+        for (id, j) in homes(&m) {
+            if let Some(&j0) = built.get(&id) {
+                let d = j.abs_diff(j0);
+                farthest = farthest.max(d.min(n - d));
+            }
+        }
+    }
+    assert!(!built.is_empty(), "the slider's corners touch the slab");
+    assert!(updates >= 2, "contact updates while sliding: {updates}");
+    eprintln!("{updates} contact updates, a feature {farthest} edges from its lists at most");
+    assert!(farthest >= LIST_REACH, "a feature moved {farthest} edges between updates, under the lists' reach {LIST_REACH}");
+}
+
 /// The lists' reach and the wide blocks' bound are the kernels' (zones.wgsl,
 /// geometry_update.wgsl).
 #[test]
@@ -145,13 +197,13 @@ static TURNS: std::sync::Mutex<()> = std::sync::Mutex::new(());
 /// whole lists (`WALK_BLOCK_LISTS`): the same zones, grid points, blocks and contacts bit for bit.
 fn lists_gather_as_the_walk(t: &Target) {
     let _turn = TURNS.lock().unwrap_or_else(|e| e.into_inner());
-    for deck in [sample3(300), zoned_stack(300)] {
+    for (deck, cycles) in [(sample3(300), 300), (zoned_stack(300), 300), (slide_over_zones(600), 600)] {
         WALK_BLOCK_LISTS.store(true, std::sync::atomic::Ordering::Relaxed);
         let walked = std::panic::catch_unwind(|| t.run(&deck));
         WALK_BLOCK_LISTS.store(false, std::sync::atomic::Ordering::Relaxed);
         let walked = walked.unwrap_or_else(|_| panic!("{}: the walk's run failed", t.name()));
         let listed = t.run(&deck);
-        assert_eq!(listed.cycle, 300);
+        assert_eq!(listed.cycle, cycles);
         assert_eq!(listed.fdef, walked.fdef, "{}: zones and grid points", t.name());
         assert_eq!(listed.blocks, walked.blocks, "{}: blocks", t.name());
         assert_eq!(listed.contacts, walked.contacts, "{}: contacts", t.name());
