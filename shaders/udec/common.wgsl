@@ -57,6 +57,9 @@
 @group(0) @binding(27) var<storage, read> block_pieces: array<u32>;
 @group(0) @binding(28) var<storage, read_write> block_fluid: array<BlockFluid>;
 @group(0) @binding(29) var<storage, read_write> gridpoint_fluid: array<GridPointFluid>;
+// In f32 only, with deformable blocks on a void's boundary: each corner's move in this step
+// (`corner_moves_sdef`, `corner_moves_fdef`), whose sum `deformed_terms` follows the void by.
+@group(0) @binding(32) var<storage, read_write> corner_moves: array<CornerMove>;
 
 // Centroid of block a minus centroid of block b, from the compensated pairs: the large parts
 // cancel exactly when the blocks are near each other (Sterbenz), so the difference keeps full

@@ -7,7 +7,9 @@
 //    `model::fluid::contact_flows`): its aperture, its flow q = k_c·Δp across a point contact or
 //    k_j·a³·Δp/l along a joint (¶6) at the pressures of the last step, and its feet;
 // 2. `domain_terms`, per term of a long domain's sums (a void of many links, a long flow list:
-//    see there), only where there are such domains;
+//    see there), only where there are such domains; in f32 with deformable blocks, then
+//    `corner_moves_sdef` or `corner_moves_fdef` (per block) and `deformed_terms` (per link of a
+//    void they bound: the change of its area by its boundary's motion, see there);
 // 3. `domain_pressures`, per domain: its inflow summed over its flows in ascending contact order
 //    (the CPU's order: reruns repeat bit for bit, and f64 agrees with the CPU to round-off), its
 //    area now, and the pressure update with its change of volume (¶7); a PFIX domain and the
@@ -116,36 +118,6 @@ fn link_vertex(l: u32, t: u32, reference: Block) -> vec2<real> {
     return centroid_difference(blocks[domain_links[4u * l + 2u + side]], reference) + foot;
 }
 
-// `link_vertex` at its blocks' whole rotations: in f32 a block's corners are placed at a
-// multiple of ROTATION_STEP and its turn since (`rotation_lo`) is applied by whoever reads them
-// (as the contact stage does, to second order: R(δ)x ≈ x + δ·x⊥ − δ²x/2). A void measured from
-// its outline every step (`DOMAIN_REGULAR_DEFORMED`) takes its vertices so, lest the outline
-// jump by the corners' re-placing (a turn of ROTATION_STEP moves a corner a metre out by 2e-4
-// m: in a void of a few litres a jump of bulkw·ΔA/A in its pressure).
-fn link_vertex_turned(l: u32, t: u32, reference: Block) -> vec2<real> {
-    let bits = domain_links[4u * l];
-    let index = domain_links[4u * l + 1u];
-    var b = domain_links[4u * l + 2u];
-    var r = vec2<real>(0.0, 0.0);
-    if ((bits & LINK_CORNER) != 0u) {
-        r = corner_at(index);
-    } else {
-        var side = bits & LINK_SIDE;
-        if (t == 0u) {
-            side = 1u - side;
-        }
-        r = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
-        if (side == 1u) {
-            r = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
-        }
-        b = domain_links[4u * l + 2u + side];
-    }
-    let blk = blocks[b];
-    let delta = blk.rotation_lo;
-    let turn = delta * vec2<real>(-r.y, r.x) - (0.5 * delta * delta) * r;
-    return centroid_difference(blk, reference) + (r + turn);
-}
-
 fn cross2(p: vec2<real>, q: vec2<real>) -> real {
     return p.x * q.y - q.x * p.y;
 }
@@ -191,7 +163,6 @@ fn fluid_area(dom: Domain) -> real {
         return max(summed_terms(dom), fluid_params.min_area);
     }
     let reference = blocks[domain_links[4u * first + 2u]];
-    let turned = EXACT_CIRCLE && dom.kind == DOMAIN_REGULAR_DEFORMED;
     var void_area = real(0.0);
     var s = real(0.0);
     var start = vec2<real>(0.0, 0.0);
@@ -211,12 +182,7 @@ fn fluid_area(dom: Domain) -> real {
             count = 1u;
         }
         for (var t = 0u; t < count; t += 1u) {
-            var v = vec2<real>(0.0, 0.0);
-            if (turned) {
-                v = link_vertex_turned(l, t, reference);
-            } else {
-                v = link_vertex(l, t, reference);
-            }
+            let v = link_vertex(l, t, reference);
             if (open) {
                 s += cross2(prev, v);
             } else {
@@ -374,10 +340,8 @@ fn void_step(dom: Domain) -> real {
 //   before to l's first (for a loop's first link, the loop's closing edge, added last), at
 //   2·l + 1 a contact's own edge, from its first vertex to its second: `edge_change` on the
 //   vertices' motion in f32 (`void_step`), `cross2` on their positions in f64 (`fluid_area`).
-// A void bounded by a deformable block (DOMAIN_REGULAR_DEFORMED) is walked whatever its length:
-// in f32 its vertices at their blocks' whole rotations (`link_vertex_turned`) came out of this
-// pass different in their last bits from the walk's (lavapipe, the SDEF cavity's two voids of
-// 20 and 34 links), and the walk is what its runs have been measured with.
+// A void bounded by a deformable block (DOMAIN_REGULAR_DEFORMED) is walked in f64 whatever its
+// length; in f32 its items (tagged so) are `deformed_terms`', which this pass leaves.
 const TERM_FLOW: u32 = 16u;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -392,6 +356,10 @@ fn domain_terms(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
         let entry = domain_flows[l];
         let flow = contact_flows_out[entry >> 1u].flow;
         sum_terms[2u * fluid_params.n_links + l] = select(-flow, flow, (entry & 1u) != 0u);
+        return;
+    }
+    // A deformed void's items are `deformed_terms`' (f32 only).
+    if (tag == DOMAIN_REGULAR_DEFORMED) {
         return;
     }
     let before = term_items[4u * i + 2u];
@@ -414,6 +382,142 @@ fn domain_terms(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_
     sum_terms[2u * l] = cross2(link_vertex(before, last, reference), v0);
     if (!corner) {
         sum_terms[2u * l + 1u] = cross2(v0, link_vertex(l, 1u, reference));
+    }
+}
+
+// Voids with a deformable block on their boundary, in f32 (AREA_BY_MOTION): measured from their
+// outline each step, such a void's area carried the outline's round-off (each vertex at ~1e-7
+// of its distance from the reference centroid), and the pressure update takes bulkw/A times the
+// area's change each step: in the zoned cavity's small void (tests/suite/fluid_deformable.rs) a
+// noise of 2 % of the pressure. Followed instead by its boundary's motion, as the voids of rigid
+// blocks are (`void_step`), the change is as small as the motion and keeps its own digits. The
+// motion of each corner first (`corner_moves_sdef`, `corner_moves_fdef`, per block; twin
+// `gpu::flow::corner_moves`), then each edge's term of the change (`deformed_terms`, one item
+// per link of such a void), which `domain_pressures` adds in the walk's order (`summed_terms`).
+
+// Rigid and simply-deformable blocks' corners: the block's rigid motion at the corner
+// (`moved_by`) and, for an SDEF block, the strain's increment ε̇·Δt at the corner's offset r
+// (its corners sit at c + (I + ε)R·x, so the increment is Δε·R·x = Δε·(I + ε)⁻¹·r: r for
+// R·x, a relative error of the strain's order, ~1e-4, in a move that is itself a step's).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn corner_moves_sdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    let m = motion(b);
+    let sdef = blk.kind == BLOCK_SDEF && blk.fixed == 0u;
+    var rate = array<real, 3>(0.0, 0.0, 0.0);
+    if (sdef) {
+        rate = sdefs[b].strain_rate;
+    }
+    let dt = params.dt;
+    for (var i = blk.corner_start; i < blk.corner_start + blk.corner_count; i += 1u) {
+        let r = corner_at(i);
+        var d = moved_by(m, r);
+        if (sdef) {
+            d += dt * vec2<real>(rate[0] * r.x + rate[1] * r.y, rate[1] * r.x + rate[2] * r.y);
+        }
+        corner_moves[i] = CornerMove(d.x, d.y);
+    }
+}
+
+// Zoned blocks' corners, which are their boundary grid points (corner k is grid point
+// gp_start + k): each grid point's v·Δt, the step its law of motion took (`step_gridpoints`);
+// rigid blocks' as `corner_moves_sdef`.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn corner_moves_fdef(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let b = item_index(wg, li);
+    if (b >= params.n_blocks) {
+        return;
+    }
+    let blk = blocks[b];
+    let dt = params.dt;
+    if (blk.kind == BLOCK_FDEF) {
+        let fb = fdef_blocks[b];
+        for (var k = 0u; k < fb.boundary; k += 1u) {
+            var d = vec2<real>(0.0, 0.0);
+            if (fb.fixed == 0u) {
+                let g = gridpoints[fb.gp_start + k];
+                d = vec2<real>(g.vx * dt, g.vy * dt);
+            }
+            corner_moves[blk.corner_start + k] = CornerMove(d.x, d.y);
+        }
+        return;
+    }
+    let m = motion(b);
+    for (var i = blk.corner_start; i < blk.corner_start + blk.corner_count; i += 1u) {
+        let d = moved_by(m, corner_at(i));
+        corner_moves[i] = CornerMove(d.x, d.y);
+    }
+}
+
+fn corner_move(i: u32) -> vec2<real> {
+    return vec2<real>(corner_moves[i].dx, corner_moves[i].dy);
+}
+
+// `moving_vertices` on any blocks, the corners' moves from `corner_moves`: a corner and a foot
+// at a corner move with it; a foot on block 2's edge (an odd feature) with the edge's point
+// under it, the edge's two corners' moves interpolated (exact for a rigid or SDEF block's
+// motion, linear in the point, and for a zoned block's edge, along which its zone's displacement
+// is linear), and it slides along the edge with the corner it is the foot of, as there.
+fn moving_vertices_deformed(l: u32, reference: Block) -> array<vec4<real>, 2> {
+    let bits = domain_links[4u * l];
+    let index = domain_links[4u * l + 1u];
+    let b1 = domain_links[4u * l + 2u];
+    if ((bits & LINK_CORNER) != 0u) {
+        let v = vec4<real>(centroid_difference(blocks[b1], reference) + corner_at(index), corner_move(index));
+        return array<vec4<real>, 2>(v, v);
+    }
+    let b2 = domain_links[4u * l + 3u];
+    let c = contacts[index];
+    let f0 = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
+    let f1 = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
+    let d0 = corner_move(c.corner);
+    let blk2 = blocks[b2];
+    let n = max(blk2.corner_count, 1u);
+    let k = (c.feature / 2u) % n;
+    var d1 = corner_move(blk2.corner_start + k);
+    if (c.feature % 2u == 1u) {
+        let next = blk2.corner_start + (k + 1u) % n;
+        let p = corner_at(blk2.corner_start + k);
+        let e = corner_at(next) - p;
+        let len2 = e.x * e.x + e.y * e.y;
+        var t = real(0.0);
+        if (len2 > 0.0) {
+            t = clamp(((f1.x - p.x) * e.x + (f1.y - p.y) * e.y) / len2, 0.0, 1.0);
+        }
+        d1 += t * (corner_move(next) - d1);
+        let rel = d0 - d1;
+        let nn = vec2<real>(c.nx, c.ny);
+        d1 += rel - dot(rel, nn) * nn;
+    }
+    let v0 = vec4<real>(centroid_difference(blocks[b1], reference) + f0, d0);
+    let v1 = vec4<real>(centroid_difference(blk2, reference) + f1, d1);
+    // The foot the circuit arrives at (the other side's), then its own side's.
+    let own_is_1 = (bits & LINK_SIDE) != 0u;
+    return array<vec4<real>, 2>(select(v1, v0, own_is_1), select(v0, v1, own_is_1));
+}
+
+// Each edge's term of a deformed void's change in this step (f32), one invocation per item of
+// `term_items` tagged DOMAIN_REGULAR_DEFORMED (the others are `domain_terms`'): at 2·l the edge
+// from the last vertex of the link before to l's first, at 2·l + 1 a contact's own edge, as
+// `domain_terms` writes a long rigid void's.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn deformed_terms(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
+    let i = item_index(wg, li);
+    if (i >= fluid_params.n_term_items || term_items[4u * i] != DOMAIN_REGULAR_DEFORMED) {
+        return;
+    }
+    let l = term_items[4u * i + 1u];
+    let before = term_items[4u * i + 2u];
+    let reference = blocks[term_items[4u * i + 3u]];
+    let p = moving_vertices_deformed(before, reference);
+    let v = moving_vertices_deformed(l, reference);
+    sum_terms[2u * l] = edge_change(p[1], v[0]);
+    if ((domain_links[4u * l] & LINK_CORNER) == 0u) {
+        sum_terms[2u * l + 1u] = edge_change(v[0], v[1]);
     }
 }
 
@@ -459,11 +563,13 @@ fn domain_pressures(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocat
     var area = real(0.0);
     // The change of area in this step.
     var da = real(0.0);
-    if (AREA_BY_MOTION && dom.kind == DOMAIN_REGULAR && dom.link_count > 0u) {
-        // The void followed by its boundary's motion from the upload's (`void_step`); the
-        // change is the step's own, unless A_d(min) held the area before or after it.
+    let by_motion = dom.kind == DOMAIN_REGULAR || dom.kind == DOMAIN_REGULAR_DEFORMED;
+    if (AREA_BY_MOTION && by_motion && dom.link_count > 0u) {
+        // The void followed by its boundary's motion from the upload's (`void_step`; a deformed
+        // void's terms are `deformed_terms`'); the change is the step's own, unless A_d(min)
+        // held the area before or after it.
         var step = real(0.0);
-        if (dom.link_count > fluid_params.long_walk) {
+        if (dom.kind == DOMAIN_REGULAR_DEFORMED || dom.link_count > fluid_params.long_walk) {
             step = summed_terms(dom);
         } else {
             step = void_step(dom);

@@ -147,6 +147,10 @@ struct FluidPiece { a0: real, a1: real, a2: real, a3: real, edge: u32, _pad: u32
 struct BlockFluid { fx: real, fy: real, moment: real, a11: real, a12: real, a21: real, a22: real }
 // 12 / 24 bytes. A grid point's fluid load and its work over the last step.
 struct GridPointFluid { fx: real, fy: real, step_work: real }
+// 8 / 16 bytes. How far a corner moved in this step (the f32 kernels' deformed voids followed by
+// their boundary's motion: `corner_moves_*`, flow.wgsl), from the block's own velocities: a rigid
+// or simply-deformable block's motion at the corner, a zoned block's grid point's v·Δt.
+struct CornerMove { dx: real, dy: real }
 
 // 32 / 64 bytes (a multiple of the 16-byte stride a uniform array needs, in both precisions):
 // the point contact's KN, KS, COHESION, FRICTION, then the joint's JKN, JKS, JCOH, JFRIC.

@@ -183,11 +183,14 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         // pass over the blocks, and the block pass reads the pressures from the contacts' flow
         // slots, within the 8 storage buffers.
         let (flow, _) = shaders::validate(&shaders::source("flow", precision).unwrap(), precision).unwrap();
-        assert_eq!(flow.entry_points.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(), ["flow", "domain_terms", "domain_pressures", "pressure_pieces"]);
+        assert_eq!(
+            flow.entry_points.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(),
+            ["flow", "domain_terms", "corner_moves_sdef", "corner_moves_fdef", "deformed_terms", "domain_pressures", "pressure_pieces"]
+        );
         // The pressures' push on deformable blocks: only the kernels of fluid with deformable
         // blocks bind its slots (a dry scene, and a scene with fluid and rigid blocks only, bind
         // nothing of them), each within the 8 storage buffers.
-        let wet_slots = [FluidPieces, BlockPieces, BlockFluid, GridPointFluid];
+        let wet_slots = [FluidPieces, BlockPieces, BlockFluid, GridPointFluid, CornerMoves];
         for (file, entry) in [
             ("law_of_motion", "law_of_motion"),
             ("law_of_motion", "law_of_motion_sdef"),
@@ -228,7 +231,15 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
             [Params, AdjOffsets, AdjEntries, ContactForces, GridPoints, Zones, GridPointZones, ContactShares, GridPointFluid]
         );
         assert_eq!(slots("zones", "step_gridpoints_fluid"), [Params, Flags, GridPoints, GridPointFluid]);
+        // The f32 voids of deformable blocks followed by their boundary's motion: each corner's
+        // move, then each edge's term of the change, within the 8 storage buffers.
+        assert_eq!(slots("flow", "corner_moves_sdef"), [Params, Blocks, Corners, Sdefs, CornerMoves]);
+        assert_eq!(slots("flow", "corner_moves_fdef"), [Params, Blocks, Corners, GridPoints, FdefBlocks, CornerMoves]);
+        assert_eq!(slots("flow", "deformed_terms"), [Blocks, Corners, Contacts, FluidParams, DomainLinks, ContactFlows, DomainTerms, TermItems, CornerMoves]);
         for (file, entry) in [
+            ("flow", "corner_moves_sdef"),
+            ("flow", "corner_moves_fdef"),
+            ("flow", "deformed_terms"),
             ("flow", "pressure_pieces"),
             ("gather", "fluid_block_loads"),
             ("gather", "gather_sdef_fluid"),

@@ -64,6 +64,25 @@ impl<R: Real> Engine<R> {
         ]
     }
 
+    /// `stage_5_passes` with deformable blocks: in f32, before the pressures, each corner's move
+    /// in this step (`corner_moves_sdef` or `_fdef`) and the terms of the deformed voids' changes
+    /// (`deformed_terms`), by which `domain_pressures` follows those voids.
+    fn wet_stage_5_passes<'a>(
+        &'a self,
+        (k, g): (&'a kernels::FluidKernels, &'a kernels::FluidBindGroups),
+        moves: (&'a kernels::CycleKernel, &'a wgpu::BindGroup),
+        terms: (&'a kernels::CycleKernel, &'a wgpu::BindGroup),
+    ) -> Vec<Dispatch<'a>> {
+        let [flow, domain_terms, pressures] = self.stage_5_passes(k, g);
+        let mut passes = vec![flow, domain_terms];
+        if self.dev.precision == crate::gpu::Precision::F32 {
+            passes.push(self.pass("corner_moves", &moves.0.pipeline, moves.1, Grid::Blocks, false));
+            passes.push(self.pass("deformed_terms", &terms.0.pipeline, terms.1, Grid::DomainTerms, false));
+        }
+        passes.push(pressures);
+        passes
+    }
+
     /// The dispatches of one cycle over the live counts; with `gather_only`, stage 6 alone, its
     /// sums stored on the blocks (fixed ones too). Stages with nothing to do are left out.
     ///
@@ -187,7 +206,7 @@ impl<R: Real> Engine<R> {
         } else {
             stages.push(cycle("law_of_motion_sdef_fluid", &wk.law_of_motion.pipeline, &wg.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces_sdef", &sk.contact_forces.pipeline, &sg.contact_forces, Grid::Contacts));
-            stages.extend(self.stage_5_passes(fk, fg));
+            stages.extend(self.wet_stage_5_passes((fk, fg), (&wk.corner_moves, &wg.corner_moves), (&wk.deformed_terms, &wg.deformed_terms)));
             stages.push(self.end_cycle_pass());
         }
         stages.retain(|d| d.grid.0 > 0);
@@ -224,7 +243,7 @@ impl<R: Real> Engine<R> {
             stages.push(cycle("zones", &dk.zones.pipeline, &dg.zones, Grid::Zones));
             stages.push(cycle("law_of_motion_fdef_fluid", &wk.law_of_motion.pipeline, &wg.law_of_motion, Grid::Blocks));
             stages.push(cycle("contact_forces_fdef", &dk.contact_forces.pipeline, &dg.contact_forces, Grid::Contacts));
-            stages.extend(self.stage_5_passes(fk, fg));
+            stages.extend(self.wet_stage_5_passes((fk, fg), (&wk.corner_moves, &wg.corner_moves), (&wk.deformed_terms, &wg.deformed_terms)));
             stages.push(self.end_cycle_pass());
         }
         stages.retain(|d| d.grid.0 > 0);

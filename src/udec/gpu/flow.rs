@@ -28,8 +28,11 @@
 //! (`law_of_motion_sdef_fluid`, `law_of_motion_fdef_fluid`) adds them to the contact sums that
 //! `gather_sdef` or `gather_fdef` stored, and books their work as the CPU does (A : Δε, and a
 //! grid point's F·½(v_old + v_new)·Δt from `step_gridpoints_fluid`). A void with a deformable
-//! block on its boundary is measured from its outline each step (`DOMAIN_REGULAR_DEFORMED`; in
-//! f32 at its blocks' whole rotations), not followed by rigid motion. None of this is made,
+//! block on its boundary (`DOMAIN_REGULAR_DEFORMED`) is measured from its outline each step in
+//! f64; in f32 it is followed by its boundary's motion as the voids of rigid blocks are, each
+//! corner's move in the step (`corner_moves_sdef`, `corner_moves_fdef`: the rigid motion, an
+//! SDEF block's strain increment, a zoned block's grid points' v·Δt) summed edge by edge
+//! (`deformed_terms`), since its outline's round-off, times bulkw/A, was noise in its pressure. None of this is made,
 //! bound or dispatched in a scene without both fluid and deformable blocks.
 
 use crate::udec::model::domain::{DomainKind, DomainLink, NO_DOMAIN};
@@ -65,7 +68,9 @@ struct FluidUpload<R: Real> {
 }
 
 impl<R: Real> FluidUpload<R> {
-    fn of(model: &Model, deformable: bool) -> Self {
+    /// `deformed_by_motion`: the f32 kernels follow the voids of deformable blocks by their
+    /// boundary's motion (`deformed_terms`, items for each of their links).
+    fn of(model: &Model, deformable: bool, deformed_by_motion: bool) -> Self {
         let domains = model.domains.as_ref().expect("a scene with fluid has its domains");
         let n = domains.list.len();
         let is_deformable = |b: u32| model.sdef_of(b as usize).is_some() || super::fdef::is_zoned(model, b as usize);
@@ -191,7 +196,7 @@ impl<R: Real> FluidUpload<R> {
             block_pieces.push(at);
             block_pieces.extend(pieces.into_iter().flatten());
         }
-        let term_items = term_items(&out, &links, long_walk());
+        let term_items = term_items(&out, &links, long_walk(), deformed_by_motion);
         FluidUpload { domains: out, flows, links, sides, loads, contact_flows, block_pieces, term_items }
     }
 }
@@ -220,7 +225,10 @@ impl<R: Real> Engine<R> {
         } else if self.fdef_scene {
             self.pipelines.with_wet_fdef(&self.dev)?;
         }
-        let up = FluidUpload::<R>::of(model, deformable);
+        // In f32 the voids of deformable blocks are followed by their boundary's motion
+        // (`corner_moves_*`, `deformed_terms`; in f64 their outline is exact enough).
+        let deformed_by_motion = deformable && self.dev.precision == super::Precision::F32;
+        let up = FluidUpload::<R>::of(model, deformable, deformed_by_motion);
         let sizes = FluidSizes {
             domains: up.domains.len(),
             flows: up.flows.len(),
@@ -232,7 +240,13 @@ impl<R: Real> Engine<R> {
         let b = self.buffers.as_mut().expect("buffers exist");
         let mut made = b.ensure_fluid::<R>(&self.dev, sizes)?;
         if deformable {
-            let wet = WetDeformableSizes { links: sizes.links, csr: up.block_pieces.len(), blocks: sizes.blocks, gridpoints: self.fdef_counts.0 };
+            let wet = WetDeformableSizes {
+                links: sizes.links,
+                csr: up.block_pieces.len(),
+                blocks: sizes.blocks,
+                gridpoints: self.fdef_counts.0,
+                corners: model.corners.len(),
+            };
             made |= b.ensure_wet_deformable::<R>(&self.dev, wet)?;
         }
         let fluid = model.fluid.expect("checked above");
@@ -359,18 +373,20 @@ pub const TERM_FLOW: u32 = 16;
 
 /// The items of `domain_terms` (flow.wgsl; four words each) for the domains `domains` with their
 /// boundary `links` (four words a link), those past `long_walk` only: for a void of rigid blocks
-/// (`DOMAIN_REGULAR`; a deformed void is walked, see flow.wgsl) of more links, one item per link,
+/// (`DOMAIN_REGULAR`) of more links, and with `deformed` for every void of deformable blocks
+/// (`DOMAIN_REGULAR_DEFORMED`, `deformed_terms`' items, in f32), one item per link,
 /// [its kind, the link, the link
 /// before it in its loop (for the loop's first, its last: the closing edge), the reference block
 /// (the domain's first link's block, from whose centroid `fluid_area` and `void_step` measure)];
 /// for a free domain of more flows, one per flow, [`TERM_FLOW`, its entry in `domain_flows`, 0,
 /// 0]. A loop opens at the domain's first link and at each link marked `LINK_LOOP_START`, as
 /// the walks of flow.wgsl take it.
-pub fn term_items<R: Real>(domains: &[Domain<R>], links: &[u32], long_walk: u32) -> Vec<u32> {
+pub fn term_items<R: Real>(domains: &[Domain<R>], links: &[u32], long_walk: u32, deformed: bool) -> Vec<u32> {
     let mut items = Vec::new();
     for dom in domains {
         let (start, end) = (dom.link_start, dom.link_start + dom.link_count);
-        if dom.kind == DOMAIN_REGULAR && dom.link_count > long_walk {
+        let long = dom.kind == DOMAIN_REGULAR && dom.link_count > long_walk;
+        if long || (deformed && dom.kind == DOMAIN_REGULAR_DEFORMED && dom.link_count > 0) {
             let reference = links[4 * start as usize + 2];
             let mut first = start;
             while first < end {
@@ -388,6 +404,42 @@ pub fn term_items<R: Real>(domains: &[Domain<R>], links: &[u32], long_walk: u32)
         }
     }
     items
+}
+
+/// Twin of flow.wgsl's `corner_moves_sdef` and `corner_moves_fdef`: how far each corner of
+/// `model` moves in a step of `dt` at the velocities it has now (those of the step just taken: the
+/// central-difference velocity at the half step). A rigid or simply-deformable block's corner at
+/// r from its centroid by the block's turn Δθ = ωΔt and shift vΔt, r − R(−Δθ)·r + vΔt (exact for
+/// its rigid motion), plus for an SDEF block the strain's increment ε̇Δt·r (its corners sit at
+/// c + (I + ε)R·x: first order in ε); a zoned block's corner, its boundary grid point, by that
+/// grid point's vΔt; a fixed block's not at all.
+pub fn corner_moves(model: &Model, dt: f64) -> Vec<[f64; 2]> {
+    let mut moves = vec![[0.0; 2]; model.corners.len()];
+    for (b, blk) in model.blocks.iter().enumerate() {
+        let range = blk.corner_start as usize..(blk.corner_start + blk.corner_count) as usize;
+        if blk.fixed {
+            continue;
+        }
+        if super::fdef::is_zoned(model, b) {
+            for (m, g) in moves[range].iter_mut().zip(&model.fdef[b].gridpoints) {
+                *m = [g.velocity[0] * dt, g.velocity[1] * dt];
+            }
+            continue;
+        }
+        let a = blk.angular_velocity * dt;
+        let (sin, one_less_cos) = (a.sin(), 1.0 - a.cos());
+        let rate = model.sdef_of(b).map(|x| x.strain_rate);
+        for (m, c) in moves[range].iter_mut().zip(&model.corners[blk.corner_start as usize..]) {
+            let r = [c.position[0] - blk.centroid[0], c.position[1] - blk.centroid[1]];
+            let mut d = [blk.velocity[0] * dt + one_less_cos * r[0] - sin * r[1], blk.velocity[1] * dt + sin * r[0] + one_less_cos * r[1]];
+            if let Some(e) = rate {
+                d[0] += dt * (e[0] * r[0] + e[1] * r[1]);
+                d[1] += dt * (e[1] * r[0] + e[2] * r[1]);
+            }
+            *m = d;
+        }
+    }
+    moves
 }
 
 /// A zoned block's external force as the CPU's gather sums it includes its grid points' fluid
@@ -506,7 +558,7 @@ mod tests {
             domain(DOMAIN_REGULAR_DEFORMED, 1, (5, 1), (7, 2)),
             domain(DOMAIN_OUTER, 0, (6, 3), (0, 0)),
         ];
-        let items = term_items(&domains, &links, 2);
+        let items = term_items(&domains, &links, 2, false);
         #[rustfmt::skip]
         assert_eq!(items, [
             DOMAIN_REGULAR, 0, 2, 10, DOMAIN_REGULAR, 1, 0, 10, DOMAIN_REGULAR, 2, 1, 10,
@@ -516,11 +568,11 @@ mod tests {
         // At 1, the joint's links and the deformed void's are still walked (the joint's mean
         // aperture; the deformed outline, see flow.wgsl), and the fixed outer domain gathers no
         // flows.
-        let items = term_items(&domains, &links, 1);
+        let items = term_items(&domains, &links, 1, false);
         assert!(items.chunks(4).all(|i| i[0] == TERM_FLOW || i[0] == DOMAIN_REGULAR), "{items:?}");
         assert_eq!(items.chunks(4).filter(|i| i[0] == TERM_FLOW).count(), 5, "{items:?}");
         assert!(items.chunks(4).all(|i| i[0] == TERM_FLOW || i[1] < 5 || i[1] >= 7), "{items:?}");
-        assert!(term_items(&domains, &links, LONG_WALK).is_empty());
+        assert!(term_items(&domains, &links, LONG_WALK, false).is_empty());
     }
 
     /// `fluid_area`'s walk (flow.wgsl) on the same vertices: each vertex after a loop's first adds
@@ -581,7 +633,7 @@ mod tests {
                 })
                 .collect();
             let domains = [domain(DOMAIN_REGULAR, 1, (0, 0), (0, n as u32))];
-            let items = term_items(&domains, &links, 0);
+            let items = term_items(&domains, &links, 0, false);
             assert_eq!(items.len(), 4 * n);
             let terms = domain_terms(&items, &links, &vertices, |p: [f32; 2], q: [f32; 2]| p[0] * q[1] - q[0] * p[1]);
             let (a, b) = (summed_terms(&links, &terms), walked(&links, &vertices));

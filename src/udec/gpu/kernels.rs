@@ -13,8 +13,8 @@
 
 use super::device::GpuDevice;
 use super::layout::{
-    Block, BlockFluid, Contact, ContactFlow, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, Domain, EnergySum, FdefBlock, Flags, FluidLoad,
-    FluidMaterial, FluidParams, FluidPiece, GridPoint, GridPointFluid, Material, Params, Real, Sdef, Zone,
+    Block, BlockFluid, Contact, ContactFlow, ContactForce, ContactLever, ContactShare, ContactSummary, Corner, CornerMove, Domain, EnergySum, FdefBlock, Flags,
+    FluidLoad, FluidMaterial, FluidParams, FluidPiece, GridPoint, GridPointFluid, Material, Params, Real, Sdef, Zone,
 };
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};
@@ -71,6 +71,9 @@ pub enum StateSlot {
     /// domains' sums and the items that compute them (four words each).
     DomainTerms = 30,
     TermItems = 31,
+    /// Scenes with fluid and deformable blocks, in f32 (flow.wgsl's `corner_moves_*`,
+    /// `deformed_terms`): each corner's move in this step (`layout::CornerMove`).
+    CornerMoves = 32,
 }
 
 /// How a slot is bound: a uniform, or a storage buffer read only or read and written.
@@ -82,7 +85,7 @@ pub enum SlotKind {
 }
 
 impl StateSlot {
-    pub const ALL: [StateSlot; 31] = [
+    pub const ALL: [StateSlot; 32] = [
         StateSlot::Params,
         StateSlot::Blocks,
         StateSlot::Corners,
@@ -114,6 +117,7 @@ impl StateSlot {
         StateSlot::GridPointFluid,
         StateSlot::DomainTerms,
         StateSlot::TermItems,
+        StateSlot::CornerMoves,
     ];
 
     pub fn binding(self) -> u32 {
@@ -159,6 +163,7 @@ impl StateSlot {
             StateSlot::GridPointFluid => "gridpoint_fluid",
             StateSlot::DomainTerms => "sum_terms",
             StateSlot::TermItems => "term_items",
+            StateSlot::CornerMoves => "corner_moves",
         }
     }
 
@@ -242,6 +247,8 @@ pub struct WetSdefBindGroups {
     pub fluid_block_loads: wgpu::BindGroup,
     pub law_of_motion: wgpu::BindGroup,
     pub gather: wgpu::BindGroup,
+    pub corner_moves: wgpu::BindGroup,
+    pub deformed_terms: wgpu::BindGroup,
 }
 
 /// The bind groups of `WetFdefKernels`.
@@ -253,6 +260,8 @@ pub struct WetFdefBindGroups {
     pub step_gridpoints: wgpu::BindGroup,
     pub law_of_motion: wgpu::BindGroup,
     pub gather: wgpu::BindGroup,
+    pub corner_moves: wgpu::BindGroup,
+    pub deformed_terms: wgpu::BindGroup,
 }
 
 /// The bind groups of `FluidKernels`.
@@ -320,6 +329,8 @@ impl CycleBindGroups {
             fluid_block_loads: make(&k.fluid_block_loads, "fluid_block_loads"),
             law_of_motion: make(&k.law_of_motion, "law_of_motion_sdef_fluid"),
             gather: make(&k.gather, "gather_sdef_fluid"),
+            corner_moves: make(&k.corner_moves, "corner_moves_sdef"),
+            deformed_terms: make(&k.deformed_terms, "deformed_terms"),
         });
         let wet_fdef = p.wet_fdef.as_ref().filter(|_| wet && b.gridpoints.is_some() && b.gridpoint_fluid.is_some()).map(|k| WetFdefBindGroups {
             pressure_pieces: make(&k.pressure_pieces, "pressure_pieces"),
@@ -329,6 +340,8 @@ impl CycleBindGroups {
             step_gridpoints: make(&k.step_gridpoints, "step_gridpoints_fluid"),
             law_of_motion: make(&k.law_of_motion, "law_of_motion_fdef_fluid"),
             gather: make(&k.gather, "gather_fdef_fluid"),
+            corner_moves: make(&k.corner_moves, "corner_moves_fdef"),
+            deformed_terms: make(&k.deformed_terms, "deformed_terms"),
         });
         CycleBindGroups {
             sdef,
@@ -397,13 +410,16 @@ pub struct Pipelines {
 /// block boundary at its pressure), gather.wgsl's `fluid_block_loads` (each block's fluid load
 /// and an SDEF block's applied stress from its pieces) and `gather_sdef_fluid` (those added to
 /// the stored sums before a read-back), and `law_of_motion_sdef_fluid` (the block pass on the
-/// stored sums of `gather_sdef` with the fluid's added, its work booked). Only they bind the
-/// slots of fluid with deformable blocks.
+/// stored sums of `gather_sdef` with the fluid's added, its work booked); in f32, flow.wgsl's
+/// `corner_moves_sdef` and `deformed_terms` (the voids they bound followed by their motion).
+/// Only they bind the slots of fluid with deformable blocks.
 pub struct WetSdefKernels {
     pub pressure_pieces: CycleKernel,
     pub fluid_block_loads: CycleKernel,
     pub law_of_motion: CycleKernel,
     pub gather: CycleKernel,
+    pub corner_moves: CycleKernel,
+    pub deformed_terms: CycleKernel,
 }
 
 impl WetSdefKernels {
@@ -414,6 +430,8 @@ impl WetSdefKernels {
                 fluid_block_loads: cycle_kernel(dev, "gather", "fluid_block_loads")?,
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_sdef_fluid")?,
                 gather: cycle_kernel(dev, "gather", "gather_sdef_fluid")?,
+                corner_moves: cycle_kernel(dev, "flow", "corner_moves_sdef")?,
+                deformed_terms: cycle_kernel(dev, "flow", "deformed_terms")?,
             })
         })
     }
@@ -425,7 +443,8 @@ impl WetSdefKernels {
 /// `gather_gridpoints_fluid` and `step_gridpoints_fluid` in place of their dry twins (the
 /// grid points' loads added, their work over the step kept), `law_of_motion_fdef_fluid` (the
 /// rigid blocks on the stored sums of `gather_fdef` with their fluid load, a zoned block's
-/// grid points' fluid work booked) and `gather_fdef_fluid` before a read-back.
+/// grid points' fluid work booked) and `gather_fdef_fluid` before a read-back; in f32,
+/// `corner_moves_fdef` and `deformed_terms` as with SDEF blocks.
 pub struct WetFdefKernels {
     pub pressure_pieces: CycleKernel,
     pub fluid_block_loads: CycleKernel,
@@ -434,6 +453,8 @@ pub struct WetFdefKernels {
     pub step_gridpoints: CycleKernel,
     pub law_of_motion: CycleKernel,
     pub gather: CycleKernel,
+    pub corner_moves: CycleKernel,
+    pub deformed_terms: CycleKernel,
 }
 
 impl WetFdefKernels {
@@ -447,6 +468,8 @@ impl WetFdefKernels {
                 step_gridpoints: cycle_kernel(dev, "zones", "step_gridpoints_fluid")?,
                 law_of_motion: cycle_kernel(dev, "law_of_motion", "law_of_motion_fdef_fluid")?,
                 gather: cycle_kernel(dev, "gather", "gather_fdef_fluid")?,
+                corner_moves: cycle_kernel(dev, "flow", "corner_moves_fdef")?,
+                deformed_terms: cycle_kernel(dev, "flow", "deformed_terms")?,
             })
         })
     }
@@ -763,6 +786,9 @@ pub struct Buffers {
     pub block_pieces: Option<Slab>,
     pub block_fluid: Option<Slab>,
     pub gridpoint_fluid: Option<Slab>,
+    /// Each corner's move in this step (`StateSlot::CornerMoves`), in a scene with fluid and
+    /// deformable blocks.
+    pub corner_moves: Option<Slab>,
     /// `ContactSummary` per contact, the packed read-back of a contact update (made at the first).
     pub summaries: Option<Slab>,
 }
@@ -890,6 +916,7 @@ impl Buffers {
             block_pieces: None,
             block_fluid: None,
             gridpoint_fluid: None,
+            corner_moves: None,
             summaries: None,
         })
     }
@@ -1000,6 +1027,7 @@ impl Buffers {
             (&mut self.block_pieces, "block pieces", 4, sizes.csr),
             (&mut self.block_fluid, "block fluid loads", std::mem::size_of::<BlockFluid<R>>(), sizes.blocks),
             (&mut self.gridpoint_fluid, "grid-point fluid loads", std::mem::size_of::<GridPointFluid<R>>(), sizes.gridpoints),
+            (&mut self.corner_moves, "corner moves", std::mem::size_of::<CornerMove<R>>(), sizes.corners),
         ] {
             if slot.as_ref().is_none_or(|s| s.capacity < count.max(1)) {
                 ensure_slot(dev, slot, label, item, count.max(1))?;
@@ -1089,6 +1117,7 @@ impl Buffers {
             StateSlot::BlockPieces => &self.block_pieces.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
             StateSlot::BlockFluid => &self.block_fluid.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
             StateSlot::GridPointFluid => &self.gridpoint_fluid.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
+            StateSlot::CornerMoves => &self.corner_moves.as_ref().expect(WET_DEFORMABLE_ONLY).buffer,
         }
     }
 
@@ -1113,6 +1142,7 @@ pub struct WetDeformableSizes {
     pub csr: usize,
     pub blocks: usize,
     pub gridpoints: usize,
+    pub corners: usize,
 }
 
 /// How many of each fluid slot's items a scene needs (`Buffers::ensure_fluid`): domains, domain

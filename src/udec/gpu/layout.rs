@@ -344,6 +344,14 @@ gpu_struct! {
 }
 
 gpu_struct! {
+    /// How far one corner moved in this step, in a scene with fluid and deformable blocks in f32
+    /// (`corner_moves_sdef`, `corner_moves_fdef`, flow.wgsl; twin [`crate::udec::gpu::flow::corner_moves`]):
+    /// 8 bytes in f32, 16 in f64. The voids with a deformable block on their boundary are
+    /// followed by these moves (`deformed_terms`), as those of rigid blocks by their motion.
+    CornerMove { dx: R, dy: R }
+}
+
+gpu_struct! {
     /// Contact properties of one material: 32 bytes in f32, 64 in f64, the point contact's
     /// (KN, KS, COHESION, FRICTION) and the joint's (JKN, JKS, JCOH, JFRIC, ¶5). A uniform array
     /// of `MAX_MATERIALS` (a stride of a multiple of 16 bytes in both precisions, as uniform
@@ -491,6 +499,7 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
         FluidPiece::<R>::layout(),
         BlockFluid::<R>::layout(),
         GridPointFluid::<R>::layout(),
+        CornerMove::<R>::layout(),
         Material::<R>::layout(),
         EnergySum::<R>::layout(),
         Params::<R>::layout(),

@@ -94,7 +94,7 @@ macro_rules! on_engine {
 mod batch;
 mod checkpoint;
 pub mod fdef;
-mod flow;
+pub mod flow;
 pub mod kernels;
 pub mod layout;
 pub mod partial;
