@@ -48,7 +48,7 @@ impl GpuOrCpu {
     }
 
     /// Goes on on the CPU, saying why.
-    fn to_cpu(&mut self, why: &str) -> &mut Box<dyn Backend> {
+    fn switch_to_cpu(&mut self, why: &str) -> &mut Box<dyn Backend> {
         use std::io::Write as _;
         let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
         self.cpu.insert(Box::new(super::cpu::CpuBackend::new()))
@@ -62,11 +62,11 @@ impl Backend for GpuOrCpu {
         }
         if let Some(b) = model.blocks.iter().find(|b| !b.parts.is_empty()) {
             let why = format!("block {} is concave (made of convex parts), which the GPU backend does not run", b.id);
-            return self.to_cpu(&why).run(model, cycles, progress);
+            return self.switch_to_cpu(&why).run(model, cycles, progress);
         }
         match self.gpu.run(model, cycles, progress) {
             // Refused before any cycle, the model at its state before the run.
-            Err(CycleError::DoesNotFit(why)) => self.to_cpu(&why).run(model, cycles, progress),
+            Err(CycleError::DoesNotFit(why)) => self.switch_to_cpu(&why).run(model, cycles, progress),
             result => result,
         }
     }

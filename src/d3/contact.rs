@@ -104,7 +104,7 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
 /// [`common_plane`] of two convex bodies (blocks, or parts of concave ones) given their
 /// [`PlaneNormals`] (`na` of `a`, `nb` of `b`).
 pub fn common_plane_with(a: Body, b: Body, na: &[DVec3], nb: &[DVec3], reach: f64) -> CommonPlane {
-    let sep = |n: DVec3| -> f64 { least(&b.vertices, n) - greatest(&a.vertices, n) };
+    let sep = |n: DVec3| -> f64 { least(b.vertices, n) - greatest(a.vertices, n) };
     let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY };
     let slack = 1e-12 * (a.shape.radius + b.shape.radius);
     let offer = |best: &mut CommonPlane, n: DVec3, s: f64| {
@@ -133,8 +133,8 @@ pub fn common_plane_with(a: Body, b: Body, na: &[DVec3], nb: &[DVec3], reach: f6
             // is exactly the negative of its value along n, so the support of one block along
             // −n is minus its least projection along n, bit for bit.
             let n = c.normalize();
-            let (lo_a, hi_a) = extent(&a.vertices, n);
-            let (lo_b, hi_b) = extent(&b.vertices, n);
+            let (lo_a, hi_a) = extent(a.vertices, n);
+            let (lo_b, hi_b) = extent(b.vertices, n);
             offer(&mut best, n, lo_b - hi_a);
             offer(&mut best, -n, lo_a - hi_b);
         }
@@ -348,8 +348,8 @@ pub fn logical_contacts_with(
     let near_b: Few<u32> = (0..b.vertices.len() as u32).filter(|&i| n.dot(b.vertices[i as usize]) <= lo_b + tolerance).collect();
     let size = a.shape.radius.min(b.shape.radius);
     let flat = 1e-6 * size;
-    let ha = hull(&near_a, &a.vertices, t1, t2, flat);
-    let hb = hull(&near_b, &b.vertices, t1, t2, flat);
+    let ha = hull(&near_a, a.vertices, t1, t2, flat);
+    let hb = hull(&near_b, b.vertices, t1, t2, flat);
     let category = [ha.feature(), hb.feature()];
 
     let mut found: Few<(LogicalKind, DVec2)> = Few::new();

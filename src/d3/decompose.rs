@@ -169,13 +169,12 @@ fn single_fans(mesh: &Mesh, half: &FxHashMap<(u32, u32), u32>) -> bool {
     }
     let mut seen = vec![false; mesh.vertices.len()];
     for (k, f) in mesh.faces.iter().enumerate() {
-        for e in 0..3 {
-            let v = f[e];
+        for &v in f {
             if std::mem::replace(&mut seen[v as usize], true) {
                 continue;
             }
-            // Walk around v: from face k across its edge leaving v... into the face across the
-            // edge arriving at v, until back at k.
+            // Walk around v from face k: across each face's edge arriving at v (prev → v) into
+            // the face running along it the other way, until back at k.
             let (mut face, mut count) = (k as u32, 0usize);
             loop {
                 count += 1;
@@ -201,7 +200,18 @@ fn single_fans(mesh: &Mesh, half: &FxHashMap<(u32, u32), u32>) -> bool {
 /// possibly in several connected parts).
 fn cut(mesh: &Mesh, n: DVec3, d: f64, eps: f64) -> Result<Vec<Mesh>, String> {
     let s: Vec<f64> = mesh.vertices.iter().map(|v| n.dot(*v) - d).collect();
-    let class: Vec<i8> = s.iter().map(|&x| if x > eps { 1 } else if x < -eps { -1 } else { 0 }).collect();
+    let class: Vec<i8> = s
+        .iter()
+        .map(|&x| {
+            if x > eps {
+                1
+            } else if x < -eps {
+                -1
+            } else {
+                0
+            }
+        })
+        .collect();
     let mut vertices = mesh.vertices.clone();
     let mut crossings: FxHashMap<(u32, u32), u32> = FxHashMap::default();
     let mut sides: [Vec<[u32; 3]>; 2] = [Vec::new(), Vec::new()];
@@ -417,7 +427,12 @@ pub fn parts_of(shape: &Shape, volume: f64) -> Result<Vec<Part>, String> {
     let mut total = 0.0;
     for (k, piece) in pieces.into_iter().enumerate() {
         let (part, props) = geometry::shape_from_mesh(piece.vertices, piece.faces, size).map_err(|e| {
-            format!("its convex part {} comes out malformed ({}{}): the surface may touch or cross itself", k + 1, e.face.map_or(String::new(), |f| format!("face {f}: ")), e.message)
+            format!(
+                "its convex part {} comes out malformed ({}{}): the surface may touch or cross itself",
+                k + 1,
+                e.face.map_or(String::new(), |f| format!("face {f}: ")),
+                e.message
+            )
         })?;
         if !part.convex {
             return Err(format!("its part {} does not come out convex: the surface may touch or cross itself", k + 1));

@@ -191,11 +191,17 @@ impl Parts {
             let b = model.blocks.get_mut(i as usize).ok_or_else(|| format!("a block's parts name block index {i} of {n}"))?;
             for p in &parts {
                 let m = p.shape.vertices.len();
-                if p.vertices.len() != m || p.shape.faces.iter().flatten().any(|&v| v as usize >= m) || p.shape.edges.iter().any(|e| e.a as usize >= m || e.b as usize >= m) {
+                if p.vertices.len() != m
+                    || p.shape.faces.iter().flatten().any(|&v| v as usize >= m)
+                    || p.shape.edges.iter().any(|e| e.a as usize >= m || e.b as usize >= m)
+                {
                     return Err(format!("block {}'s parts do not match their lists", b.id));
                 }
                 let faces = p.shape.faces.len();
-                if p.shape.normals.len() != faces || p.shape.planes.iter().any(|&f| f as usize >= faces) || p.shape.edge_directions.iter().any(|&e| e as usize >= p.shape.edges.len()) {
+                if p.shape.normals.len() != faces
+                    || p.shape.planes.iter().any(|&f| f as usize >= faces)
+                    || p.shape.edge_directions.iter().any(|&e| e as usize >= p.shape.edges.len())
+                {
                     return Err(format!("block {}'s parts name a face or edge past their lists", b.id));
                 }
                 if !(p.offset.is_finite() && p.vertices.iter().all(|v| v.is_finite())) {

@@ -6,8 +6,8 @@
 //! refusals (a self-touching surface at BLOCK, SPLIT, SDEF and cracking of a concave block, the
 //! GPU backend).
 
-use blockdem::d3::decompose;
 use blockdem::d3::deck::parse_deck;
+use blockdem::d3::decompose;
 use blockdem::d3::exec::{Executor, RunError};
 use blockdem::d3::geometry::{shape_from_faces, MassProperties, Shape};
 use blockdem::d3::model::{Model, Part};
@@ -195,7 +195,8 @@ fn an_l_block_has_the_mass_properties_of_its_three_cubes() {
     let mut inertia = DMat3::ZERO;
     for c in &centres {
         let r = *c - centroid;
-        inertia += DMat3::from_diagonal(DVec3::splat(m * h * h / 6.0)) + (DMat3::from_diagonal(DVec3::splat(r.length_squared())) - DMat3::from_cols(r * r.x, r * r.y, r * r.z)) * m;
+        inertia += DMat3::from_diagonal(DVec3::splat(m * h * h / 6.0))
+            + (DMat3::from_diagonal(DVec3::splat(r.length_squared())) - DMat3::from_cols(r * r.x, r * r.y, r * r.z)) * m;
     }
     assert!((b.volume - 3.0 * h * h * h).abs() < 1e-14, "{}", b.volume);
     assert!((b.mass - 3.0 * m).abs() < 1e-9, "{}", b.mass);
