@@ -16,7 +16,9 @@
 //! face and the cap, at an angle below 180°, or flat. A plane cut never makes a reflex edge (where
 //! it crosses a face, the solid left is the meeting of two half-spaces), so the reflex edges only
 //! go, and the cuts end. Of the candidate planes the one on which most reflex edges lie is taken
-//! first (a U-shaped block's notch floor resolves both its inner edges at once: three parts).
+//! first (a U-shaped block's notch floor resolves both its inner edges at once: three parts);
+//! where a cut does not come out clean (a plane through another reflex edge whose faces both lie
+//! behind it pinches the piece along that edge), the next candidate is tried.
 //!
 //! Cutting a closed mesh by a plane: each vertex is in front, behind or on the plane (within
 //! 10⁻⁹ of the block's size); each triangle is clipped into the part behind and the part in front
@@ -25,8 +27,9 @@
 //! open where the plane cut it: its half-edges without a twin bound the hole, which a cap closes.
 //! The cap lies in the plane and may be non-convex or have holes (the cross-section of a concave
 //! solid), so it is a constrained Delaunay triangulation (`spade`) of the hole's edges, of which
-//! the triangles inside the hole are kept (inside: the winding number of the hole's boundary,
-//! run the way the cap's faces run, is positive at the triangle's centroid). Each side is finally
+//! the triangles inside the hole are kept: those along a boundary edge on its inner side, and
+//! their neighbours across edges that are no boundary (decided from the boundary's edges, not by
+//! a point test, which a sliver along nearly collinear corners defeats). Each side is finally
 //! split into its connected parts (across shared edges).
 //!
 //! The parts must come out closed, convex, and with volumes that sum to the block's: a surface
@@ -322,53 +325,78 @@ fn cap(vertices: &[DVec3], faces: &[[u32; 3]], m: DVec3) -> Result<Vec<[u32; 3]>
     if cdt.num_vertices() != ids.len() {
         return Err("two corners of the cut's cross-section coincide".into());
     }
-    let winding = |p: DVec2| -> i32 {
-        let mut w = 0;
-        for &(a, b) in &boundary {
-            let (u, v) = (flat[at[&a]], flat[at[&b]]);
-            let left = (v - u).perp_dot(p - u);
-            if u.y <= p.y && v.y > p.y && left > 0.0 {
-                w += 1;
-            } else if v.y <= p.y && u.y > p.y && left < 0.0 {
-                w -= 1;
+    // Which triangles fill the hole, found from its boundary rather than by a point test (a
+    // sliver along a boundary of nearly collinear corners has its centroid within round-off of
+    // the boundary): a triangle running along a boundary edge the cap's way (b → a) is in, one
+    // running along it the other way is out, and the others take the side of their neighbours
+    // across edges that are no boundary (the triangulation's faces run counter-clockwise).
+    let on_boundary: rustc_hash::FxHashSet<(u32, u32)> = boundary.iter().copied().collect();
+    let tris: Vec<[u32; 3]> = cdt.inner_faces().map(|f| f.vertices().map(|v| v.data().id)).collect();
+    let mut inside: Vec<Option<bool>> = vec![None; tris.len()];
+    let mut across: FxHashMap<(u32, u32), Vec<usize>> = FxHashMap::default();
+    let conflict = || "the cut's cross-section does not close consistently (the surface may touch itself)".to_string();
+    for (k, t) in tris.iter().enumerate() {
+        for e in 0..3 {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            let side = if on_boundary.contains(&(a, b)) {
+                Some(true)
+            } else if on_boundary.contains(&(b, a)) {
+                Some(false)
+            } else {
+                across.entry((a.min(b), a.max(b))).or_default().push(k);
+                None
+            };
+            if let Some(side) = side {
+                if inside[k].is_some_and(|s| s != side) {
+                    return Err(conflict());
+                }
+                inside[k] = Some(side);
             }
         }
-        w
-    };
-    let mut out = Vec::new();
-    for face in cdt.inner_faces() {
-        let v = face.vertices().map(|v| *v.data());
-        let p = v.map(|x| DVec2::new(x.p.x, x.p.y));
-        if winding((p[0] + p[1] + p[2]) / 3.0) <= 0 {
-            continue;
-        }
-        if (p[1] - p[0]).perp_dot(p[2] - p[0]) > 0.0 {
-            out.push([v[0].id, v[1].id, v[2].id]);
-        } else {
-            out.push([v[0].id, v[2].id, v[1].id]);
+    }
+    let mut stack: Vec<usize> = (0..tris.len()).filter(|&k| inside[k].is_some()).collect();
+    while let Some(k) = stack.pop() {
+        let side = inside[k];
+        let t = tris[k];
+        for e in 0..3 {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            for &g in across.get(&(a.min(b), a.max(b))).map_or(&[][..], |v| &v[..]) {
+                match inside[g] {
+                    None => {
+                        inside[g] = side;
+                        stack.push(g);
+                    }
+                    Some(s) if Some(s) != side => return Err(conflict()),
+                    Some(_) => {}
+                }
+            }
         }
     }
+    let mut out: Vec<[u32; 3]> = tris.iter().zip(&inside).filter(|(_, s)| **s == Some(true)).map(|(t, _)| *t).collect();
     out.sort_unstable();
     Ok(out)
 }
 
-/// The plane to cut `mesh` by: of the planes of the faces along its reflex edges, the one on which
-/// most reflex edges lie (the first such in face order). As (unit normal, offset).
-fn best_plane(mesh: &Mesh, reflex: &[(u32, u32, u32, u32)], eps: f64) -> (DVec3, f64) {
-    let mut best: Option<(usize, DVec3, f64)> = None;
+/// The planes to cut `mesh` by, best first: the planes of the faces along its reflex edges, those
+/// on which most reflex edges lie first (in face order among equals), each once. As (unit
+/// normal, offset).
+fn candidate_planes(mesh: &Mesh, reflex: &[(u32, u32, u32, u32)], eps: f64) -> Vec<(DVec3, f64)> {
+    let mut out: Vec<(usize, DVec3, f64)> = Vec::new();
     for &(f, g, _, _) in reflex {
         for face in [f, g] {
             let n = mesh.normal(face as usize).normalize();
             let d = n.dot(mesh.vertices[mesh.faces[face as usize][0] as usize]);
+            if out.iter().any(|&(_, m, e)| m.dot(n) > 1.0 - 1e-12 && (e - d).abs() <= eps) {
+                continue;
+            }
             let on = |v: u32| (n.dot(mesh.vertices[v as usize]) - d).abs() <= eps;
             let score = reflex.iter().filter(|&&(_, _, a, b)| on(a) && on(b)).count();
-            if best.is_none_or(|(s, _, _)| score > s) {
-                best = Some((score, n, d));
-            }
+            out.push((score, n, d));
         }
     }
-    let (_, n, d) = best.expect("a mesh with a reflex edge has a candidate plane");
-    (n, d)
+    // Stable: among planes of one score, the first found first.
+    out.sort_by(|a, b| b.0.cmp(&a.0));
+    out.into_iter().map(|(_, n, d)| (n, d)).collect()
 }
 
 /// The convex pieces of the closed, outward surface `mesh` (any shape; a convex one is returned
@@ -405,11 +433,20 @@ pub fn convex_pieces(mesh: &Mesh) -> Result<Vec<Mesh>, String> {
         if cuts > MAX_CUTS {
             return Err(format!("more than {MAX_CUTS} cuts would be needed to make it of convex parts"));
         }
-        let (n, d) = best_plane(&piece, &reflex, eps);
-        let pieces = cut(&piece, n, d, eps)?;
-        if pieces.len() < 2 {
-            return Err("a cut along a reflex edge left the piece whole (the surface intersects itself)".into());
+        // The best plane first; where its cut does not come out clean (a plane through a
+        // reflex edge elsewhere pinches a side along it), the next.
+        let mut pieces = Err("a cut along a reflex edge left the piece whole (the surface intersects itself)".to_string());
+        for (n, d) in candidate_planes(&piece, &reflex, eps) {
+            pieces = match cut(&piece, n, d, eps) {
+                Ok(p) if p.len() >= 2 => Ok(p),
+                Ok(_) => Err("a cut along a reflex edge left the piece whole (the surface intersects itself)".into()),
+                Err(e) => Err(e),
+            };
+            if pieces.is_ok() {
+                break;
+            }
         }
+        let pieces = pieces?;
         // In reverse, so that the pieces come out in the order cut (the stack pops the last).
         todo.extend(pieces.into_iter().rev());
     }

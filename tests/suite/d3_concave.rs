@@ -181,6 +181,64 @@ fn a_cube_less_a_corner_is_cut_into_convex_parts_that_fill_it() {
 }
 
 #[test]
+fn a_turned_star_prism_is_cut_into_convex_parts_that_fill_it() {
+    // A five-pointed star (tips at radius 1, notches at 0.4: its sides' planes pass close to
+    // other corners, so the cuts leave slivers), 0.5 high, turned about an oblique axis: its top
+    // and bottom fanned from their centres.
+    let star: Vec<DVec3> = (0..10)
+        .map(|k| {
+            let (r, a) = (if k % 2 == 0 { 1.0 } else { 0.4 }, std::f64::consts::TAU * k as f64 / 10.0);
+            DVec3::new(r * a.cos(), r * a.sin(), 0.0)
+        })
+        .collect();
+    let q = glam::DQuat::from_axis_angle(DVec3::new(0.3, -0.5, 0.8).normalize(), 0.7);
+    let at = |p: DVec3| (q * p + DVec3::new(10.0, -3.0, 5.0)).to_array();
+    let up = DVec3::Z * 0.5;
+    let mut faces = Vec::new();
+    for k in 0..10 {
+        let (a, b) = (star[k], star[(k + 1) % 10]);
+        // Counter-clockwise from outside (p, q, r) is typed (p, r, q).
+        faces.push([at(up), at(b + up), at(a + up)]);
+        faces.push([at(DVec3::ZERO), at(a), at(b)]);
+        faces.push([at(a), at(b + up), at(b)]);
+        faces.push([at(a), at(a + up), at(b + up)]);
+    }
+    let (shape, props) = shape_from_faces(&faces).unwrap();
+    assert!(!shape.convex);
+    let parts = decompose::parts_of(&shape, props.volume).unwrap();
+    assert!(parts.len() >= 6, "five arms and a core at least: {}", parts.len());
+    let total: f64 = parts.iter().map(|p| blockdem::d3::geometry::mass_properties(&p.shape.vertices, &p.shape.faces).volume).sum();
+    assert!((total - props.volume).abs() < 1e-9 * props.volume, "{total} vs {}", props.volume);
+    // Points of the star (in its own axes) are in exactly one part.
+    let inside_star = |p: DVec3| {
+        // Turned into the sector of the tip at angle 0, ±π/5 either side; the polygon runs
+        // counter-clockwise, so inside is left of the edge on the point's side of the tip.
+        let h = std::f64::consts::PI / 5.0;
+        let a = (p.y.atan2(p.x) + h).rem_euclid(2.0 * h) - h;
+        let x = p.truncate().length() * glam::DVec2::new(a.cos(), a.sin());
+        let tip = glam::DVec2::X;
+        let notch = 0.4 * glam::DVec2::new(h.cos(), h.sin().copysign(a));
+        if a >= 0.0 {
+            (notch - tip).perp_dot(x - tip) > 0.0
+        } else {
+            (tip - notch).perp_dot(x - notch) > 0.0
+        }
+    };
+    let mut rng = Rng(12345);
+    let mut hits = 0;
+    for _ in 0..3000 {
+        let p = DVec3::new(rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0, rng.next() * 0.5);
+        let local = q * p + DVec3::new(10.0, -3.0, 5.0) - props.centroid;
+        if parts.iter().any(|part| near_boundary(part, local, 1e-9)) || !inside_star(p) {
+            continue;
+        }
+        hits += 1;
+        assert_eq!(parts.iter().filter(|part| inside(part, local, 1e-9)).count(), 1, "{p}");
+    }
+    assert!(hits > 300, "{hits}");
+}
+
+#[test]
 fn an_l_block_has_the_mass_properties_of_its_three_cubes() {
     // Density 2000, cubes of side 0.5 at (1, 2, 3): each cube's inertia about its centre is
     // m a²/6, shifted to the block's centroid by the parallel axes.
