@@ -395,7 +395,7 @@ fn candidate_planes(mesh: &Mesh, reflex: &[(u32, u32, u32, u32)], eps: f64) -> V
         }
     }
     // Stable: among planes of one score, the first found first.
-    out.sort_by(|a, b| b.0.cmp(&a.0));
+    out.sort_by_key(|c| std::cmp::Reverse(c.0));
     out.into_iter().map(|(_, n, d)| (n, d)).collect()
 }
 
