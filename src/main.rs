@@ -755,7 +755,12 @@ fn run_d3(
                 note!("blockdem: a 3D deck: the D3 engine, on {}", blockdem::d3::backend::Backend::describe(&gpu));
                 let a = gpu.adapter();
                 runs_on = ("gpu", Some(format!("{} ({}, {})", a.name, a.backend, a.driver_name())), if precision == Precision::F32 { "f32" } else { "f64" });
-                Box::new(gpu)
+                if backend == BackendChoice::Auto {
+                    // A concave block, or a model past the adapter's limits, runs on the CPU instead.
+                    Box::new(blockdem::d3::backend::GpuOrCpu::new(Box::new(gpu)))
+                } else {
+                    Box::new(gpu)
+                }
             }
             Err(e) if backend == BackendChoice::Auto => {
                 note!("blockdem: {e}; running on the CPU (f64)");

@@ -26,3 +26,74 @@ pub trait Backend {
     /// The backend in words, e.g. `cpu (f64)`.
     fn describe(&self) -> String;
 }
+
+/// `--backend auto`'s D3 backend where a GPU was found (as 2D's `udec::backend::GpuOrCpu`): the
+/// GPU, until a run comes that it does not take, a model with a concave block (whose convex
+/// parts only the CPU's contact detection knows, `d3::decompose`) or one past its limits
+/// (`CycleError::DoesNotFit`, refused before any cycle); that run and every later one go to the
+/// CPU backend, which starts from the model as it is (a full contact detection).
+pub struct GpuOrCpu {
+    gpu: Box<dyn Backend>,
+    cpu: Option<Box<dyn Backend>>,
+}
+
+impl GpuOrCpu {
+    pub fn new(gpu: Box<dyn Backend>) -> Self {
+        GpuOrCpu { gpu, cpu: None }
+    }
+
+    /// The backend the runs go to now.
+    fn active(&self) -> &dyn Backend {
+        self.cpu.as_deref().unwrap_or(&*self.gpu)
+    }
+
+    /// Goes on on the CPU, saying why.
+    fn switch_to_cpu(&mut self, why: &str) -> &mut Box<dyn Backend> {
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
+        self.cpu.insert(Box::new(super::cpu::CpuBackend::new()))
+    }
+}
+
+impl Backend for GpuOrCpu {
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        if let Some(cpu) = &mut self.cpu {
+            return cpu.run(model, cycles, progress);
+        }
+        if let Some(b) = model.blocks.iter().find(|b| !b.parts.is_empty()) {
+            let why = format!("block {} is concave (made of convex parts), which the GPU backend does not run", b.id);
+            return self.switch_to_cpu(&why).run(model, cycles, progress);
+        }
+        match self.gpu.run(model, cycles, progress) {
+            // Refused before any cycle, the model at its state before the run.
+            Err(CycleError::DoesNotFit(why)) => self.switch_to_cpu(&why).run(model, cycles, progress),
+            result => result,
+        }
+    }
+
+    fn resumes_from(&self, model: &Model) -> bool {
+        self.active().resumes_from(model)
+    }
+
+    fn device_state(&self) -> Option<DeviceState> {
+        self.active().device_state()
+    }
+
+    fn resume_from(&mut self, model: &Model, device: Option<&DeviceState>) {
+        match &mut self.cpu {
+            Some(cpu) => cpu.resume_from(model, device),
+            None => self.gpu.resume_from(model, device),
+        }
+    }
+
+    fn forget(&mut self) {
+        match &mut self.cpu {
+            Some(cpu) => cpu.forget(),
+            None => self.gpu.forget(),
+        }
+    }
+
+    fn describe(&self) -> String {
+        self.active().describe()
+    }
+}

@@ -55,7 +55,7 @@
 use glam::{DVec2, DVec3};
 use smallvec::SmallVec;
 
-use super::model::{Block, Contact, Feature, Logical, LogicalKind, Material};
+use super::model::{Block, Body, Contact, Feature, Logical, LogicalKind, Material};
 
 /// A short list kept on the stack: stage 4 builds several per contact every cycle (the features
 /// near the plane, their hulls, the logical contacts), and a heap list each was a third of the
@@ -67,8 +67,8 @@ type Few<T> = SmallVec<[T; 8]>;
 /// logical contact's ray crossings.
 pub type PlaneNormals = Few<DVec3>;
 
-/// [`PlaneNormals`] of `block`.
-pub fn plane_normals(block: &Block) -> PlaneNormals {
+/// [`PlaneNormals`] of `block` (a convex block, or a part of a concave one).
+pub fn plane_normals(block: Body) -> PlaneNormals {
     match block.normal_map() {
         // A simply-deformable block's stretch inverted once for all its planes.
         Some(m) => block.shape.planes.iter().map(|&f| (m * block.shape.normals[f as usize]).normalize()).collect(),
@@ -97,12 +97,14 @@ pub struct CommonPlane {
 /// about to touch is recognised as such). Once they overlap, a vertex pressed into an edge's
 /// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
 pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
+    let (a, b) = (Body::from(a), Body::from(b));
     common_plane_with(a, b, &plane_normals(a), &plane_normals(b), reach)
 }
 
-/// [`common_plane`] given the blocks' [`PlaneNormals`] (`na` of `a`, `nb` of `b`).
-pub fn common_plane_with(a: &Block, b: &Block, na: &[DVec3], nb: &[DVec3], reach: f64) -> CommonPlane {
-    let sep = |n: DVec3| -> f64 { least(&b.vertices, n) - greatest(&a.vertices, n) };
+/// [`common_plane`] of two convex bodies (blocks, or parts of concave ones) given their
+/// [`PlaneNormals`] (`na` of `a`, `nb` of `b`).
+pub fn common_plane_with(a: Body, b: Body, na: &[DVec3], nb: &[DVec3], reach: f64) -> CommonPlane {
+    let sep = |n: DVec3| -> f64 { least(b.vertices, n) - greatest(a.vertices, n) };
     let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY };
     let slack = 1e-12 * (a.shape.radius + b.shape.radius);
     let offer = |best: &mut CommonPlane, n: DVec3, s: f64| {
@@ -131,8 +133,8 @@ pub fn common_plane_with(a: &Block, b: &Block, na: &[DVec3], nb: &[DVec3], reach
             // is exactly the negative of its value along n, so the support of one block along
             // −n is minus its least projection along n, bit for bit.
             let n = c.normalize();
-            let (lo_a, hi_a) = extent(&a.vertices, n);
-            let (lo_b, hi_b) = extent(&b.vertices, n);
+            let (lo_a, hi_a) = extent(a.vertices, n);
+            let (lo_b, hi_b) = extent(b.vertices, n);
             offer(&mut best, n, lo_b - hi_a);
             offer(&mut best, -n, lo_a - hi_b);
         }
@@ -155,7 +157,7 @@ pub fn common_plane_with(a: &Block, b: &Block, na: &[DVec3], nb: &[DVec3], reach
             }
         };
         for (from, to, sign, near_from, near_to) in
-            [(a, b, 1.0, &near_a as &dyn Fn(&DVec3) -> bool, &near_b as &dyn Fn(&DVec3) -> bool), (b, a, -1.0, &near_b, &near_a)]
+            [(&a, &b, 1.0, &near_a as &dyn Fn(&DVec3) -> bool, &near_b as &dyn Fn(&DVec3) -> bool), (&b, &a, -1.0, &near_b, &near_a)]
         {
             for e in from.shape.edges.iter().filter(|e| e.feature) {
                 let (p, q) = (from.vertices[e.a as usize], from.vertices[e.b as usize]);
@@ -207,7 +209,7 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
 ///
 /// Only one face of each plane is tried (`Shape::planes`): the faces of a convex block that
 /// share an outward normal lie in one supporting plane, so the others give the same crossing.
-fn ray_crossing(block: &Block, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool) -> f64 {
+fn ray_crossing(block: Body, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool) -> f64 {
     let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
     for (&f, &nf) in block.shape.planes.iter().zip(normals) {
         let d = nf.dot(n);
@@ -323,13 +325,16 @@ fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2) -> Option<(f64, f64)> {
 /// contacts' kinds, points (on the plane, between the surfaces) and gaps, and the region's area.
 /// `tolerance` is the contact-forming distance (features within it of the plane touch).
 pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Few<(LogicalKind, DVec3, f64)>, f64) {
+    let (a, b) = (Body::from(a), Body::from(b));
     logical_contacts_with(a, b, &plane_normals(a), &plane_normals(b), plane, tolerance)
 }
 
-/// [`logical_contacts`] given the blocks' [`PlaneNormals`] (`na` of `a`, `nb` of `b`).
+/// [`logical_contacts`] of two convex bodies (blocks, or parts of concave ones) given their
+/// [`PlaneNormals`] (`na` of `a`, `nb` of `b`). The vertex numbers of the logical contacts'
+/// keys are the bodies'.
 pub fn logical_contacts_with(
-    a: &Block,
-    b: &Block,
+    a: Body,
+    b: Body,
     na: &[DVec3],
     nb: &[DVec3],
     plane: &CommonPlane,
@@ -343,8 +348,8 @@ pub fn logical_contacts_with(
     let near_b: Few<u32> = (0..b.vertices.len() as u32).filter(|&i| n.dot(b.vertices[i as usize]) <= lo_b + tolerance).collect();
     let size = a.shape.radius.min(b.shape.radius);
     let flat = 1e-6 * size;
-    let ha = hull(&near_a, &a.vertices, t1, t2, flat);
-    let hb = hull(&near_b, &b.vertices, t1, t2, flat);
+    let ha = hull(&near_a, a.vertices, t1, t2, flat);
+    let hb = hull(&near_b, b.vertices, t1, t2, flat);
     let category = [ha.feature(), hb.feature()];
 
     let mut found: Few<(LogicalKind, DVec2)> = Few::new();
@@ -535,6 +540,7 @@ pub fn place_logical(kind: LogicalKind, a: &Block, b: &Block, n: DVec3, hi_a: f6
         }
     };
     let p = x + n * (mid - n.dot(x));
+    let (a, b) = (Body::from(a), Body::from(b));
     let leave = ray_crossing(a, &plane_normals(a), p, n, false);
     let enter = ray_crossing(b, &plane_normals(b), p, n, true);
     let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };

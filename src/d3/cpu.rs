@@ -124,12 +124,20 @@ impl super::backend::Backend for CpuBackend {
     }
 }
 
-/// The preconditions of a D3 run on any backend: convex blocks, and a mass for every free one.
+/// The preconditions of a D3 run on any backend: each block convex or made of convex parts
+/// (`d3::decompose`), a concave one not cracked, and a mass for every free one.
 pub fn preflight(model: &Model) -> Result<(), CycleError> {
-    if let Some(b) = model.blocks.iter().find(|b| !b.shape.convex) {
+    if let Some(b) = model.blocks.iter().find(|b| !b.shape.convex && b.parts.is_empty()) {
         return Err(CycleError::Setup(format!(
-            "block {} is not convex; contact detection in D3 handles convex blocks (build a concave block from convex ones)",
+            "block {} is not convex and has no convex parts; contact detection in D3 handles convex bodies (build a concave block from convex ones)",
             b.id
+        )));
+    }
+    if let Some(k) = (0..model.blocks.len()).find(|&k| !model.blocks[k].parts.is_empty() && cracking::is_candidate(model, k)) {
+        let b = &model.blocks[k];
+        return Err(CycleError::Setup(format!(
+            "block {} is concave (made of convex parts) and would be checked for cracking (TF of material {}): cracking cuts convex blocks only",
+            b.id, b.material
         )));
     }
     if let Some(b) = model.blocks.iter().find(|b| !b.fixed && (b.mass.is_nan() || b.mass <= 0.0)) {
@@ -292,7 +300,8 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
         .par_iter_mut()
         .zip(materials)
         .map(|(c, (mat, joint))| {
-            let (a, b) = (&blocks[c.blocks[0] as usize], &blocks[c.blocks[1] as usize]);
+            // The parts in touch (a convex block is its own one part).
+            let (a, b) = (blocks[c.blocks[0] as usize].body(c.parts[0]), blocks[c.blocks[1] as usize].body(c.parts[1]));
             update_contact(c, a, b, &mat, joint, tol, dt)
         })
         .collect();
@@ -307,10 +316,12 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
 /// contacts that went while loaded (for the ledger). `mat` is the first block's material and
 /// `joint` whether its law is the joint law (`Material::contact_law`): the parameters follow
 /// the touching region, the last cycle's for the springs that go, this cycle's for the law.
+/// `a` and `b` are the contact's convex bodies: its blocks, or the parts of concave ones in
+/// touch (`Contact::parts`).
 pub fn update_contact(
     c: &mut Contact,
-    a: &super::model::Block,
-    b: &super::model::Block,
+    a: super::model::Body,
+    b: super::model::Body,
     mat: &super::model::Material,
     joint: bool,
     tol: f64,
@@ -351,7 +362,7 @@ pub fn update_contact(
     c.category = Some(category);
     c.area = area;
     let law = mat.contact_law(joint, area, c.logical.len());
-    (contact::force_law(c, old_normal, a, b, &law, dt), released)
+    (contact::force_law(c, old_normal, a.block, b.block, &law, dt), released)
 }
 
 /// One cycle: stages 6, 1–2, 7 as due, 4.

@@ -321,7 +321,14 @@ impl<'a> Executor<'a> {
         let density = self.model.material(material).density;
         // Ids from 1 in the order built; SPLIT's pieces take ids past the largest.
         let id = self.model.blocks.iter().map(|b| b.id).max().unwrap_or(0) + 1;
-        self.model.blocks.push(Block::new(id, material, constitutive, shape, &props, density));
+        // A concave block (¶13) is cut once into the convex parts contact detection sees.
+        let parts = if shape.convex {
+            Vec::new()
+        } else {
+            super::decompose::parts_of(&shape, props.volume)
+                .map_err(|why| self.error(cmd, format!("BLOCK: block {id} is concave and cannot be made of convex parts: {why}")))?
+        };
+        self.model.blocks.push(Block::new(id, material, constitutive, shape, &props, density).with_parts(parts));
         self.model.neighbours_stale = true;
         Ok(())
     }
@@ -370,7 +377,12 @@ impl<'a> Executor<'a> {
             return Ok(());
         }
         if sdef {
-            // The strain needs both moduli (checked before anything changes).
+            // The strain needs both moduli (checked before anything changes), and a uniform
+            // strain of a concave block would stretch its convex parts apart.
+            if let Some(&b) = chosen.iter().find(|&&b| !self.model.blocks[b].parts.is_empty()) {
+                let id = self.model.blocks[b].id;
+                return Err(self.error(cmd, format!("CHANGE SDEF: block {id} is concave (made of convex parts): simply-deformable blocks must be convex")));
+            }
             for &b in &chosen {
                 let n = material.unwrap_or(self.model.blocks[b].material);
                 let m = self.model.material(n);

@@ -147,6 +147,16 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
         }
         faces.push([idx[0], idx[2], idx[1]]);
     }
+    shape_from_mesh(vertices, faces, size)
+}
+
+/// Builds and checks a surface given as merged vertices and faces counter-clockwise seen from
+/// outside (the rest of [`shape_from_faces`]; a concave block's convex parts are built by it,
+/// `d3::decompose`). `size` is the extent the tolerances scale with; the errors' face numbers
+/// are 1-based positions in `faces`.
+pub fn shape_from_mesh(vertices: Vec<DVec3>, faces: Vec<[u32; 3]>, size: f64) -> Result<(Shape, MassProperties), SurfaceError> {
+    let err = |face: usize, message: String| SurfaceError { face: Some(face + 1), message };
+    let whole = |message: &str| SurfaceError { face: None, message: message.into() };
 
     // Degenerate faces: coincident or collinear vertices.
     let mut normals = Vec::with_capacity(faces.len());

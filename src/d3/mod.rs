@@ -6,6 +6,7 @@
 //! |---|---|
 //! | [`deck`] | Appendix B's commands on the chassis lexer: tokens → [`deck::Command`]s; which decks are 3D |
 //! | [`geometry`] | a block's closed surface checked, its volume, centroid and exact inertia tensor (¶12–16) |
+//! | [`decompose`] | a concave block cut into the convex parts contact detection sees (¶13) |
 //! | [`model`] | blocks, materials, contacts (real with their logical contacts, or degenerate), the clock |
 //! | [`motion`] | stages 1–2: central differences for translation and for the angular momentum, the orientation a unit quaternion (¶17) |
 //! | [`contact`] | stage 4: the common plane, the six physical categories, the logical vertex–face and edge–edge contacts, ¶23's normal prescription, the force–displacement law (¶18–24, ¶35) |
@@ -26,6 +27,7 @@ pub mod contact;
 pub mod cpu;
 pub mod cracking;
 pub mod deck;
+pub mod decompose;
 pub mod exec;
 pub mod geometry;
 pub mod gpu;

@@ -131,6 +131,72 @@ pub struct Block {
     /// (`d3::restart`, format 6).
     #[serde(skip)]
     pub boundary_stress: Vec<FaceStress>,
+    /// A concave block's convex parts (SL-85-1 ¶13: any shape built of triangles, concave
+    /// regions included; `d3::decompose`), which move as one body with it: contact detection
+    /// runs between parts of different blocks, and a part's contact forces act on its block.
+    /// Empty for a convex block, which is its own one part (its `shape` and `vertices`). Saved
+    /// after the model (`d3::restart`, format 7).
+    #[serde(skip)]
+    pub parts: Vec<Part>,
+}
+
+/// A convex part of a concave block (`Block::parts`): its surface about its own centroid in the
+/// block's reference frame, that centroid's offset from the block's, and its vertices placed
+/// from the block's centroid and orientation as the block's own are (stage 2). Its mass
+/// properties are not used: the block's, of the whole surface, are exact.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Part {
+    pub shape: Shape,
+    /// The part's centroid from the block's, reference frame.
+    pub offset: DVec3,
+    /// Vertices in global coordinates.
+    pub vertices: Vec<DVec3>,
+}
+
+/// What contact detection sees of a block (`d3::contact`): the block itself where it is convex,
+/// or one convex part of a concave block, with the block whose motion it shares (its velocity
+/// field, its orientation, the normal map of a simply-deformable block's stretch).
+#[derive(Clone, Copy, Debug)]
+pub struct Body<'a> {
+    pub block: &'a Block,
+    pub shape: &'a Shape,
+    pub vertices: &'a [DVec3],
+}
+
+impl<'a> From<&'a Block> for Body<'a> {
+    /// The whole block (a convex block's one part).
+    #[inline]
+    fn from(block: &'a Block) -> Body<'a> {
+        Body { block, shape: &block.shape, vertices: &block.vertices }
+    }
+}
+
+impl Body<'_> {
+    /// The block's [`Block::normal_map`].
+    #[inline]
+    pub fn normal_map(&self) -> Option<DMat3> {
+        self.block.normal_map()
+    }
+
+    /// The outward unit normal of face `f` of this body in global axes.
+    #[inline]
+    pub fn face_normal(&self, f: usize) -> DVec3 {
+        match self.normal_map() {
+            Some(m) => (m * self.shape.normals[f]).normalize(),
+            None => self.block.orientation * self.shape.normals[f],
+        }
+    }
+
+    /// The velocity of the block's material point at `p` ([`Block::velocity_at`]).
+    #[inline]
+    pub fn velocity_at(&self, p: DVec3) -> DVec3 {
+        self.block.velocity_at(p)
+    }
+
+    /// The axis-aligned box around the body's vertices.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.vertices.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
+    }
 }
 
 /// A face loaded by BOUNDARY STRESS: its number in the block's shape and the stress tensor σ in
@@ -169,6 +235,29 @@ impl Block {
             sdef: None,
             held: false,
             boundary_stress: Vec::new(),
+            parts: Vec::new(),
+        }
+    }
+
+    /// The block made of the convex `parts` (`d3::decompose`), their vertices placed.
+    pub fn with_parts(mut self, parts: Vec<Part>) -> Block {
+        self.parts = parts;
+        self.place_parts();
+        self
+    }
+
+    /// How many convex parts contact detection sees: 1 for a convex block.
+    #[inline]
+    pub fn part_count(&self) -> usize {
+        self.parts.len().max(1)
+    }
+
+    /// Part `k` as contact detection sees it (the block itself where it is convex).
+    #[inline]
+    pub fn body(&self, k: u32) -> Body<'_> {
+        match self.parts.get(k as usize) {
+            Some(p) => Body { block: self, shape: &p.shape, vertices: &p.vertices },
+            None => Body::from(self),
         }
     }
 
@@ -306,6 +395,30 @@ impl Block {
         for (g, l) in self.vertices.iter_mut().zip(&self.shape.vertices) {
             *g = self.centroid + r * *l;
         }
+        self.place_parts_with(r);
+    }
+
+    /// Places a concave block's parts' vertices from its centroid and orientation (as
+    /// [`Block::place_vertices`] does with its own).
+    pub fn place_parts(&mut self) {
+        if !self.parts.is_empty() {
+            let r = DMat3::from_quat(self.orientation);
+            let r = match &self.sdef {
+                Some(s) => s.stretch() * r,
+                None => r,
+            };
+            self.place_parts_with(r);
+        }
+    }
+
+    /// The parts move with the block, rigidly: c + R·(offset + x_part), `r` the block's map.
+    #[inline]
+    fn place_parts_with(&mut self, r: DMat3) {
+        for p in &mut self.parts {
+            for (g, l) in p.vertices.iter_mut().zip(&p.shape.vertices) {
+                *g = self.centroid + r * (p.offset + *l);
+            }
+        }
     }
 
     /// The map of reference normals to global ones, up to length: R, or (I + ε)⁻¹·R for a
@@ -391,6 +504,11 @@ pub struct Contact {
     /// for the others).
     pub area: f64,
     pub logical: Vec<Logical>,
+    /// The convex parts of block 1 and block 2 in touch (`Block::parts`; 0 for a convex
+    /// block): two concave blocks have a contact for each pair of their parts that are
+    /// neighbours. Saved after the model (`d3::restart`, format 7).
+    #[serde(skip)]
+    pub parts: [u32; 2],
 }
 
 impl Contact {

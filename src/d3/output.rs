@@ -163,6 +163,13 @@ pub fn dump(model: &Model, out: &mut dyn std::io::Write) -> std::io::Result<()> 
         serde_json::to_writer_pretty(&mut *out, &json!({"extension": extension, "boundaries": boundaries}))?;
         writeln!(out)?;
     }
+    // The concave blocks' convex parts and the parts each contact is between (format 7).
+    let parts = super::restart::Parts::of(model);
+    if !parts.blocks.is_empty() {
+        writeln!(out, "CONCAVE BLOCKS' CONVEX PARTS (BY BLOCK INDEX; CONTACTS' PARTS BY CONTACT INDEX)")?;
+        serde_json::to_writer_pretty(&mut *out, &parts)?;
+        writeln!(out)?;
+    }
     Ok(())
 }
 

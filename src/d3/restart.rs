@@ -38,7 +38,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::model::{FaceStress, LogicalKind, Model};
+use super::model::{FaceStress, LogicalKind, Model, Part};
 use super::sdef::Sdef;
 
 /// The first eight bytes of every D3 save file.
@@ -55,8 +55,10 @@ const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// payload ends with the [`Extension`], the simply-deformable blocks' strain and the internal
 /// damping; a version-3 or -4 file has none, its blocks rigid as they were. Version 6: after
 /// that, the [`Boundaries`], the blocks held by BOUNDARY VELOCITY and the faces loaded by
-/// BOUNDARY STRESS; a file of an older version has none.)
-pub const FORMAT_VERSION: u32 = 6;
+/// BOUNDARY STRESS; a file of an older version has none. Version 7: after that, the [`Parts`],
+/// the concave blocks' convex parts and the parts each contact is between; a concave block of an
+/// older file, built but never cycled, is cut into its parts as it is read.)
+pub const FORMAT_VERSION: u32 = 7;
 /// The oldest save format this program reads (its payload is version 4's, without the
 /// extension).
 pub const OLDEST_VERSION: u32 = 3;
@@ -159,6 +161,76 @@ impl Boundaries {
     }
 }
 
+/// The concave blocks' convex parts (`Block::parts`, `d3::decompose`) by block index, and the
+/// parts of the contacts that are not between parts 0 (by contact index), written after the
+/// [`Boundaries`] in the payload (format 7). The parts are kept as built (their vertices as
+/// placed) rather than cut again, so that a file reads the same whatever cut a later program
+/// would make.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Parts {
+    pub blocks: Vec<(u32, Vec<Part>)>,
+    pub contacts: Vec<(u32, [u32; 2])>,
+}
+
+impl Parts {
+    /// The parts of `model`.
+    pub fn of(model: &Model) -> Parts {
+        Parts {
+            blocks: model.blocks.iter().enumerate().filter(|(_, b)| !b.parts.is_empty()).map(|(i, b)| (i as u32, b.parts.clone())).collect(),
+            contacts: model.contacts.iter().enumerate().filter(|(_, c)| c.parts != [0, 0]).map(|(i, c)| (i as u32, c.parts)).collect(),
+        }
+    }
+
+    /// Puts the parts back into `model`; an index past its blocks, contacts or a block's parts,
+    /// or a part whose lists do not match, is an error. A concave block left without parts (a
+    /// file older than format 7) is cut into them now; where that fails it stays without, and
+    /// CYCLE says why.
+    pub fn apply(self, model: &mut Model) -> Result<(), String> {
+        let n = model.blocks.len();
+        for (i, parts) in self.blocks {
+            let b = model.blocks.get_mut(i as usize).ok_or_else(|| format!("a block's parts name block index {i} of {n}"))?;
+            for p in &parts {
+                let m = p.shape.vertices.len();
+                if p.vertices.len() != m
+                    || p.shape.faces.iter().flatten().any(|&v| v as usize >= m)
+                    || p.shape.edges.iter().any(|e| e.a as usize >= m || e.b as usize >= m)
+                {
+                    return Err(format!("block {}'s parts do not match their lists", b.id));
+                }
+                let faces = p.shape.faces.len();
+                if p.shape.normals.len() != faces
+                    || p.shape.planes.iter().any(|&f| f as usize >= faces)
+                    || p.shape.edge_directions.iter().any(|&e| e as usize >= p.shape.edges.len())
+                {
+                    return Err(format!("block {}'s parts name a face or edge past their lists", b.id));
+                }
+                if !(p.offset.is_finite() && p.vertices.iter().all(|v| v.is_finite())) {
+                    return Err(format!("block {} has a part with a non-finite position", b.id));
+                }
+            }
+            b.parts = parts;
+        }
+        let m = model.contacts.len();
+        for (i, parts) in self.contacts {
+            let c = model.contacts.get_mut(i as usize).ok_or_else(|| format!("a contact's parts name contact index {i} of {m}"))?;
+            for (k, &p) in parts.iter().enumerate() {
+                let count = model.blocks.get(c.blocks[k] as usize).map_or(0, |b| b.part_count());
+                if p as usize >= count {
+                    return Err(format!("contact {} names part {p} of a block of {count}", c.id));
+                }
+            }
+            c.parts = parts;
+        }
+        for b in model.blocks.iter_mut().filter(|b| !b.shape.convex && b.parts.is_empty()) {
+            if let Ok(parts) = super::decompose::parts_of(&b.shape, b.volume) {
+                b.parts = parts;
+                b.place_parts();
+            }
+        }
+        Ok(())
+    }
+}
+
 /// What a D3 GPU backend holds beyond the model (`d3::gpu`), as the device holds it: a RESTART
 /// on a GPU backend of the same precision uploads it as it was, so that the run goes on bit for
 /// bit. The buffers are the kernels' structs (`d3::gpu::layout`) as bytes; the backend checks
@@ -223,7 +295,7 @@ pub fn is_save_file(path: &Path) -> bool {
 
 /// SAVE: writes `file` to `path` atomically (a temporary file renamed into place).
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
-    let payload = postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model)))
+    let payload = postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model), Parts::of(&file.model)))
         .map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     let crc = crc32fast::hash(&payload) as u64;
     crate::output::write_atomically(path, |w| {
@@ -275,16 +347,21 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
         return Err(RestartError::Corrupt { path: p(), reason: "the payload checksum does not match".into() });
     }
     let bad = |e: postcard::Error| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") };
-    let (mut saved, extension, boundaries): (SaveFile, Extension, Boundaries) = match version {
-        6.. => postcard::from_bytes(&payload).map_err(bad)?,
+    let (mut saved, extension, boundaries, parts): (SaveFile, Extension, Boundaries, Parts) = match version {
+        7.. => postcard::from_bytes(&payload).map_err(bad)?,
+        6 => {
+            let (saved, extension, boundaries) = postcard::from_bytes(&payload).map_err(bad)?;
+            (saved, extension, boundaries, Parts::default())
+        }
         5 => {
             let (saved, extension) = postcard::from_bytes(&payload).map_err(bad)?;
-            (saved, extension, Boundaries::default())
+            (saved, extension, Boundaries::default(), Parts::default())
         }
-        _ => (postcard::from_bytes(&payload).map_err(bad)?, Extension::default(), Boundaries::default()),
+        _ => (postcard::from_bytes(&payload).map_err(bad)?, Extension::default(), Boundaries::default(), Parts::default()),
     };
     extension.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     boundaries.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
+    parts.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     if let Some(device) = saved.device.as_mut().filter(|d| version < 4 && !d.f64_kernels) {
         device.absolute_f32 = true;
     }

@@ -129,7 +129,7 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
         })
         .collect();
     if let Some(&b) = crossed.iter().find(|&&b| !model.blocks[b].shape.convex) {
-        return Err(format!("block {} is not convex: SPLIT cuts convex blocks only (build a concave block from convex ones)", model.blocks[b].id));
+        return Err(format!("block {} is not convex (made of convex parts, which move as one body): SPLIT cuts convex blocks only", model.blocks[b].id));
     }
     let outcome = cut(model, &crossed, point, n, material, constitutive);
     // The strain energy the parents' stresses held is released (the ledger's `released`).

@@ -85,24 +85,55 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
 
 /// Rebuilds the neighbour lists: the contacts of pairs still neighbours are kept (id, normal,
 /// logical contacts), new pairs come in as degenerate contacts, pairs no longer neighbours go.
+/// A concave block is seen as its convex parts (`Block::parts`): a pair of neighbour blocks of
+/// which one or both are concave has a contact for each pair of their parts whose boxes, widened
+/// as the blocks' are, overlap (never one between two parts of one block: they move as one).
 /// Returns (created, dropped).
 pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
     let margin = neighbour_margin(model);
     let pairs = neighbour_pairs(model, margin);
-    let mut old: FxHashMap<(u32, u32), Contact> = std::mem::take(&mut model.contacts).into_iter().map(|c| ((c.blocks[0], c.blocks[1]), c)).collect();
+    let mut old: FxHashMap<(u32, u32, [u32; 2]), Contact> =
+        std::mem::take(&mut model.contacts).into_iter().map(|c| ((c.blocks[0], c.blocks[1], c.parts), c)).collect();
     let mut created = 0;
     let mut contacts = Vec::with_capacity(pairs.len());
+    let mut part_pairs: Vec<[u32; 2]> = Vec::new();
     for (a, b) in pairs {
+        let (ba, bb) = (&model.blocks[a as usize], &model.blocks[b as usize]);
         // Two fixed blocks never act on each other.
-        if model.blocks[a as usize].fixed && model.blocks[b as usize].fixed {
+        if ba.fixed && bb.fixed {
             continue;
         }
-        match old.remove(&(a, b)) {
-            Some(c) => contacts.push(c),
-            None => {
-                created += 1;
-                contacts.push(Contact { id: model.next_contact_id, blocks: [a, b], category: None, normal: DVec3::Z, area: 0.0, logical: Vec::new() });
-                model.next_contact_id += 1;
+        part_pairs.clear();
+        if ba.parts.is_empty() && bb.parts.is_empty() {
+            part_pairs.push([0, 0]);
+        } else {
+            let widen = |(lo, hi): (DVec3, DVec3)| (lo - DVec3::splat(0.5 * margin), hi + DVec3::splat(0.5 * margin));
+            let boxes_b: Vec<_> = (0..bb.part_count() as u32).map(|k| widen(bb.body(k).bounds())).collect();
+            for pa in 0..ba.part_count() as u32 {
+                let (lo, hi) = widen(ba.body(pa).bounds());
+                for (pb, (lo_b, hi_b)) in boxes_b.iter().enumerate() {
+                    if lo.cmple(*hi_b).all() && lo_b.cmple(hi).all() {
+                        part_pairs.push([pa, pb as u32]);
+                    }
+                }
+            }
+        }
+        for &parts in &part_pairs {
+            match old.remove(&(a, b, parts)) {
+                Some(c) => contacts.push(c),
+                None => {
+                    created += 1;
+                    contacts.push(Contact {
+                        id: model.next_contact_id,
+                        blocks: [a, b],
+                        category: None,
+                        normal: DVec3::Z,
+                        area: 0.0,
+                        logical: Vec::new(),
+                        parts,
+                    });
+                    model.next_contact_id += 1;
+                }
             }
         }
     }

@@ -12,6 +12,7 @@ mod cli;
 mod compare;
 mod contact_rules;
 mod d3_boundary;
+mod d3_concave;
 mod d3_contacts;
 mod d3_deck;
 mod d3_geometry;

@@ -937,6 +937,14 @@ impl driver::Start<Model> for GpuBackend {
     }
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
+        // The kernels know a block as one convex body: a concave block's parts are the CPU's.
+        if let Some(b) = model.blocks.iter().find(|b| !b.parts.is_empty()) {
+            return Err(CycleError::Setup(format!(
+                "block {} is concave (made of {} convex parts): concave blocks run on the CPU backend for now (--backend cpu)",
+                b.id,
+                b.parts.len()
+            )));
+        }
         cpu::preflight(model)
     }
 
