@@ -757,7 +757,7 @@ fn run_d3(
                 runs_on = ("gpu", Some(format!("{} ({}, {})", a.name, a.backend, a.driver_name())), if precision == Precision::F32 { "f32" } else { "f64" });
                 if backend == BackendChoice::Auto {
                     // A concave block, or a model past the adapter's limits, runs on the CPU instead.
-                    Box::new(blockdem::d3::backend::GpuOrCpu::new(Box::new(gpu)))
+                    Box::new(blockdem::d3::backend::GpuOrCpu::new(Box::new(gpu), || Box::new(blockdem::d3::cpu::CpuBackend::new())))
                 } else {
                     Box::new(gpu)
                 }

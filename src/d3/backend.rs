@@ -35,11 +35,14 @@ pub trait Backend {
 pub struct GpuOrCpu {
     gpu: Box<dyn Backend>,
     cpu: Option<Box<dyn Backend>>,
+    make_cpu: fn() -> Box<dyn Backend>,
 }
 
 impl GpuOrCpu {
-    pub fn new(gpu: Box<dyn Backend>) -> Self {
-        GpuOrCpu { gpu, cpu: None }
+    /// `make_cpu` opens the CPU backend when the first run the GPU does not take comes (a
+    /// factory, as 2D's, so that this trait's module does not depend on the CPU backend's).
+    pub fn new(gpu: Box<dyn Backend>, make_cpu: fn() -> Box<dyn Backend>) -> Self {
+        GpuOrCpu { gpu, cpu: None, make_cpu }
     }
 
     /// The backend the runs go to now.
@@ -51,7 +54,7 @@ impl GpuOrCpu {
     fn switch_to_cpu(&mut self, why: &str) -> &mut Box<dyn Backend> {
         use std::io::Write as _;
         let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
-        self.cpu.insert(Box::new(super::cpu::CpuBackend::new()))
+        self.cpu.insert((self.make_cpu)())
     }
 }
 

@@ -466,7 +466,11 @@ fn auto_goes_on_on_the_cpu_with_a_concave_block() {
     for o in crate::common::gpu_options() {
         let commands = parse_deck(&l_drop("CYCLE 50\n"), "t.dat").unwrap();
         let gpu = Box::new(blockdem::d3::gpu::GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}")));
-        let mut exec = Executor::with_backend(Box::new(std::io::sink()), "t.dat", Box::new(blockdem::d3::backend::GpuOrCpu::new(gpu)));
+        let mut exec = Executor::with_backend(
+            Box::new(std::io::sink()),
+            "t.dat",
+            Box::new(blockdem::d3::backend::GpuOrCpu::new(gpu, || Box::new(blockdem::d3::cpu::CpuBackend::new()))),
+        );
         exec.run(&commands).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(exec.model, run(&l_drop("CYCLE 50\n")));
     }
