@@ -270,15 +270,25 @@ fn moving_vertices(l: u32, reference: Block) -> array<vec4<real>, 2> {
     let b2 = domain_links[4u * l + 3u];
     let f0 = vec2<real>(contact_flows_out[index].f0x, contact_flows_out[index].f0y);
     let f1 = vec2<real>(contact_flows_out[index].f1x, contact_flows_out[index].f1y);
-    let d0 = moved_by(motion(b1), f0);
-    var d1 = moved_by(motion(b2), f1);
+    return feet_moving(l, reference, f0, moved_by(motion(b1), f0), f1, moved_by(motion(b2), f1));
+}
+
+// Contact link l's two feet f0 (from block 1's centroid) and f1 (from block 2's) in circuit
+// order, from the centroid of block `reference`, with their moves: d0 block 1's corner's, d1 block
+// 2's material point's under the foot, to which a foot on block 2's edge (an odd feature) adds
+// its slide along the edge with the corner it is the foot of (the tangential part of the
+// corner's move relative to that point; `contact_feet`).
+fn feet_moving(l: u32, reference: Block, f0: vec2<real>, d0: vec2<real>, f1: vec2<real>, d1_point: vec2<real>) -> array<vec4<real>, 2> {
+    let bits = domain_links[4u * l];
+    let index = domain_links[4u * l + 1u];
+    var d1 = d1_point;
     if (contacts[index].feature % 2u == 1u) {
         let rel = d0 - d1;
         let n = vec2<real>(contacts[index].nx, contacts[index].ny);
         d1 += rel - dot(rel, n) * n;
     }
-    let v0 = vec4<real>(centroid_difference(blocks[b1], reference) + f0, d0);
-    let v1 = vec4<real>(centroid_difference(blocks[b2], reference) + f1, d1);
+    let v0 = vec4<real>(centroid_difference(blocks[domain_links[4u * l + 2u]], reference) + f0, d0);
+    let v1 = vec4<real>(centroid_difference(blocks[domain_links[4u * l + 3u]], reference) + f1, d1);
     // The foot the circuit arrives at (the other side's), then its own side's.
     let own_is_1 = (bits & LINK_SIDE) != 0u;
     return array<vec4<real>, 2>(select(v1, v0, own_is_1), select(v0, v1, own_is_1));
@@ -461,7 +471,7 @@ fn corner_move(i: u32) -> vec2<real> {
 // at a corner move with it; a foot on block 2's edge (an odd feature) with the edge's point
 // under it, the edge's two corners' moves interpolated (exact for a rigid or SDEF block's
 // motion, linear in the point, and for a zoned block's edge, along which its zone's displacement
-// is linear), and it slides along the edge with the corner it is the foot of, as there.
+// is linear), and its slide along the edge (`feet_moving`).
 fn moving_vertices_deformed(l: u32, reference: Block) -> array<vec4<real>, 2> {
     let bits = domain_links[4u * l];
     let index = domain_links[4u * l + 1u];
@@ -489,15 +499,8 @@ fn moving_vertices_deformed(l: u32, reference: Block) -> array<vec4<real>, 2> {
             t = clamp(((f1.x - p.x) * e.x + (f1.y - p.y) * e.y) / len2, 0.0, 1.0);
         }
         d1 += t * (corner_move(next) - d1);
-        let rel = d0 - d1;
-        let nn = vec2<real>(c.nx, c.ny);
-        d1 += rel - dot(rel, nn) * nn;
     }
-    let v0 = vec4<real>(centroid_difference(blocks[b1], reference) + f0, d0);
-    let v1 = vec4<real>(centroid_difference(blk2, reference) + f1, d1);
-    // The foot the circuit arrives at (the other side's), then its own side's.
-    let own_is_1 = (bits & LINK_SIDE) != 0u;
-    return array<vec4<real>, 2>(select(v1, v0, own_is_1), select(v0, v1, own_is_1));
+    return feet_moving(l, reference, f0, d0, f1, d1);
 }
 
 // Each edge's term of a deformed void's change in this step (f32), one invocation per item of

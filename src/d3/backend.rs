@@ -63,10 +63,6 @@ impl Backend for GpuOrCpu {
         if let Some(cpu) = &mut self.cpu {
             return cpu.run(model, cycles, progress);
         }
-        if let Some(b) = model.blocks.iter().find(|b| !b.parts.is_empty()) {
-            let why = format!("block {} is concave (made of convex parts), which the GPU backend does not run", b.id);
-            return self.switch_to_cpu(&why).run(model, cycles, progress);
-        }
         match self.gpu.run(model, cycles, progress) {
             // Refused before any cycle, the model at its state before the run.
             Err(CycleError::DoesNotFit(why)) => self.switch_to_cpu(&why).run(model, cycles, progress),

@@ -443,7 +443,7 @@ impl Block {
 
     /// The axis-aligned box around the vertices.
     pub fn bounds(&self) -> (DVec3, DVec3) {
-        self.vertices.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
+        Body::from(self).bounds()
     }
 }
 

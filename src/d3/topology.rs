@@ -39,14 +39,7 @@ pub fn alone(model: &Model, k: usize, reach: f64) -> bool {
 /// The pairs of blocks (indices, lower first, ascending) whose boxes widened by half `margin`
 /// each overlap, by a uniform grid.
 pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
-    let boxes: Vec<(DVec3, DVec3)> = model
-        .blocks
-        .iter()
-        .map(|b| {
-            let (lo, hi) = b.bounds();
-            (lo - DVec3::splat(0.5 * margin), hi + DVec3::splat(0.5 * margin))
-        })
-        .collect();
+    let boxes: Vec<(DVec3, DVec3)> = model.blocks.iter().map(|b| widened(b.bounds(), margin)).collect();
     let cell = boxes.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(0.0, f64::max);
     if boxes.len() < 2 || !(cell > 0.0 && cell.is_finite()) {
         return Vec::new();
@@ -63,10 +56,7 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
             }
         }
     }
-    let overlap = |i: usize, j: usize| {
-        let (a, b) = (boxes[i], boxes[j]);
-        a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
-    };
+    let overlap = |i: usize, j: usize| boxes_overlap(boxes[i], boxes[j]);
     let mut pairs = Vec::new();
     for members in grid.values() {
         for (k, &i) in members.iter().enumerate() {
@@ -81,6 +71,17 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
     pairs.sort_unstable();
     pairs.dedup();
     pairs
+}
+
+/// A box `(lo, hi)` widened by half the neighbour margin on every side (two boxes so widened
+/// overlap where their bodies are within the margin along each axis).
+fn widened((lo, hi): (DVec3, DVec3), margin: f64) -> (DVec3, DVec3) {
+    (lo - DVec3::splat(0.5 * margin), hi + DVec3::splat(0.5 * margin))
+}
+
+/// Whether two axis-aligned boxes overlap (touching counts).
+fn boxes_overlap(a: (DVec3, DVec3), b: (DVec3, DVec3)) -> bool {
+    a.0.cmple(b.1).all() && b.0.cmple(a.1).all()
 }
 
 /// Rebuilds the neighbour lists: the contacts of pairs still neighbours are kept (id, normal,
@@ -107,12 +108,11 @@ pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
         if ba.parts.is_empty() && bb.parts.is_empty() {
             part_pairs.push([0, 0]);
         } else {
-            let widen = |(lo, hi): (DVec3, DVec3)| (lo - DVec3::splat(0.5 * margin), hi + DVec3::splat(0.5 * margin));
-            let boxes_b: Vec<_> = (0..bb.part_count() as u32).map(|k| widen(bb.body(k).bounds())).collect();
+            let boxes_b: Vec<_> = (0..bb.part_count() as u32).map(|k| widened(bb.body(k).bounds(), margin)).collect();
             for pa in 0..ba.part_count() as u32 {
-                let (lo, hi) = widen(ba.body(pa).bounds());
-                for (pb, (lo_b, hi_b)) in boxes_b.iter().enumerate() {
-                    if lo.cmple(*hi_b).all() && lo_b.cmple(hi).all() {
+                let box_a = widened(ba.body(pa).bounds(), margin);
+                for (pb, box_b) in boxes_b.iter().enumerate() {
+                    if boxes_overlap(box_a, *box_b) {
                         part_pairs.push([pa, pb as u32]);
                     }
                 }

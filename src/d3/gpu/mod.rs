@@ -938,8 +938,10 @@ impl driver::Start<Model> for GpuBackend {
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
         // The kernels know a block as one convex body: a concave block's parts are the CPU's.
+        // The model does not fit this backend, another runs it (`--backend auto` goes on on the
+        // CPU, `backend::GpuOrCpu`).
         if let Some(b) = model.blocks.iter().find(|b| !b.parts.is_empty()) {
-            return Err(CycleError::Setup(format!(
+            return Err(CycleError::DoesNotFit(format!(
                 "block {} is concave (made of {} convex parts): concave blocks run on the CPU backend for now (--backend cpu)",
                 b.id,
                 b.parts.len()
