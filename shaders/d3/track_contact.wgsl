@@ -246,6 +246,15 @@ fn place_logical(l: Logical, a: u32, b: u32, n: vec3<real>, hi_a: real, lo_b: re
     return Placed(p + n * (0.5 * (ls + es)), es - ls);
 }
 
+// The energy a shear spring gave up to slip in one step (Rust twin: `contact::slip_work`): the
+// trapezoidal work the blocks did on it, −½(held + new)·slide, less what it stored.
+fn slip_work(held: vec3<real>, new_force: vec3<real>, slide: vec3<real>, ks: real) -> real {
+    if (ks <= 0.0) {
+        return 0.0;
+    }
+    return -0.5 * dot3(held + new_force, slide) - (dot3(new_force, new_force) - dot3(held, held)) / (2.0 * ks);
+}
+
 // The force–displacement law for the contact's live logical contacts (Rust twin:
 // `contact::force_law`), at its normal n; `old` is the normal of the cycle before. Returns the
 // energy friction took.
@@ -297,19 +306,12 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
         let size = length3(fs);
         if (size > limit) {
             let kept = max(limit, 0.0);
-            if (c.ks > 0.0) {
-                friction += kept * (size - kept) / c.ks;
-                // At a zero limit the spring lets go of what it held at the step's start
-                // (`contact::force_law`).
-                if (kept == 0.0) {
-                    friction += 0.5 * dot3(held, held) / c.ks;
-                }
-            }
             if (size > 0.0) {
                 fs = fs * (kept / size);
             } else {
                 fs = fs * 0.0;
             }
+            friction += slip_work(held, fs, us * dt, c.ks);
         }
         l.sx = fs.x;
         l.sy = fs.y;

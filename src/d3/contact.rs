@@ -450,8 +450,8 @@ pub fn prescribed_normal(block: &Block, p: DVec3) -> DVec3 {
 /// The force–displacement law for the logical contacts of `contact` (eqs. 13–20), at the
 /// contact's current normal; `old_normal` is the normal of the previous cycle (for the rotation
 /// of the shear force). The forces are stored in the logical contacts; returns the energy
-/// friction took (the ledger's `friction`): at the Coulomb limit L the spring slips by
-/// (|Fs_trial| − L)/ks, at the force L, and a contact that opens loses its shear spring's energy.
+/// friction took (the ledger's `friction`): what a spring at the Coulomb limit gives up
+/// ([`slip_work`]), and the shear spring's energy of a contact that opens.
 pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block, mat: &Material, dt: f64) -> f64 {
     let n = contact.normal;
     let mut friction = 0.0;
@@ -486,21 +486,30 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
         let size = fs.length();
         if size > limit {
             let kept = limit.max(0.0);
-            if mat.ks > 0.0 {
-                friction += kept * (size - kept) / mat.ks;
-                // At a zero limit (no friction, or tension) the spring lets go of what it held:
-                // the energy it had at the step's start (the trial force's ½|Fs|²/ks would book
-                // the step's increment, energy the spring never took, ½ks|u̇sΔt|² a step, as
-                // dissipated).
-                if kept == 0.0 {
-                    friction += 0.5 * held.length_squared() / mat.ks;
-                }
-            }
             fs *= if size > 0.0 { kept / size } else { 0.0 };
+            friction += slip_work(held, fs, us * dt, mat.ks);
         }
         l.shear_force = fs;
     }
     friction
+}
+
+/// The energy a shear spring gave up to slip in one step (as 2D's `law::slip_dissipation`, in
+/// vectors): the trapezoidal work the blocks did on it while block 2 slid `slide` relative to
+/// block 1, −½(held + new)·slide, less what it stored, (|new|² − |held|²)/2ks. Zero for an
+/// elastic step (new = held − ks·slide); at the Coulomb limit the friction force times the slip,
+/// and where the limit fell under the force held (a contact unloading in its normal, as a block
+/// rebounds or rocks), the stored energy (|held|² − |new|²)/2ks let go with it: booking only the
+/// limit times the slip (kept·(|trial| − kept)/ks) misses ½(|held| − kept)²/ks a step there, and a
+/// rocking block's ledger fell by 4 % of its friction. `held` is the step's starting force turned
+/// into the new plane (magnitude kept, so the turn stores nothing). WGSL twin: `slip_work` in
+/// `shaders/d3/track_contact.wgsl`.
+#[inline]
+pub fn slip_work(held: DVec3, new: DVec3, slide: DVec3, ks: f64) -> f64 {
+    if ks <= 0.0 {
+        return 0.0;
+    }
+    -0.5 * (held + new).dot(slide) - (new.length_squared() - held.length_squared()) / (2.0 * ks)
 }
 
 /// The total force each logical contact puts on block 2 (block 1 takes its opposite), the
@@ -586,4 +595,31 @@ pub fn spring_energy(l: &Logical, mat: &Material) -> f64 {
         e += 0.5 * l.shear_force.length_squared() / mat.ks;
     }
     e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a shear spring gives up (`slip_work`): nothing in an elastic step; the limit times
+    /// the slip when it slides at a steady limit; all it let go of where the limit fell under
+    /// the force held with no slide.
+    #[test]
+    fn slip_work_is_zero_elastic_and_books_the_unloading() {
+        let ks = 2e8;
+        let held = DVec3::new(3e4, -1e4, 0.0);
+        let slide = DVec3::new(-1e-5, 2e-5, 0.0);
+        assert!(slip_work(held, held - slide * ks, slide, ks).abs() < 1e-9);
+        // Steady sliding at the limit L along x: the spring keeps L, the slip is |slide|.
+        let l = 5e4;
+        let along = DVec3::new(-3e-5, 0.0, 0.0);
+        let w = slip_work(DVec3::new(l, 0.0, 0.0), DVec3::new(l, 0.0, 0.0), along, ks);
+        assert!((w - l * 3e-5).abs() < 1e-9 * w, "{w}");
+        // The limit falls from |held| to 1e4 with no slide: the stored energy difference.
+        let kept = held.normalize() * 1e4;
+        let w = slip_work(held, kept, DVec3::ZERO, ks);
+        assert!((w - (held.length_squared() - 1e8) / (2.0 * ks)).abs() < 1e-12, "{w}");
+        assert!(w > kept.length() * (held.length() - kept.length()) / ks, "more than the limit times the spring's give");
+        assert_eq!(slip_work(held, kept, slide, 0.0), 0.0);
+    }
 }

@@ -17,7 +17,8 @@
 //! | END | `E` | | VELOCITY (extension) | `VE` | | STOP | `S` |
 //! | | | | VTK (extension) | `VT` | | | |
 //!
-//! PRINT's keywords: BLOCKS `B`, FACES `F`, VELOCITIES `V`, VERTICES `VERT`, CONTACTS `C`.
+//! PRINT's keywords: BLOCKS `B`, FACES `F`, VELOCITIES `V`, VERTICES `VERT`, CONTACTS `C`, and
+//! ENERGY `E` (an extension, the energy ledger as 2D's).
 //! PROPERTY's: those of the 2D language (MATERIAL `M` first, BULK `B` or `K`, G, DENSITY `D`, KN,
 //! KS, COHESION `C`, FRICTION `F`, JKN, JKS, JCOHESION `JC`, JFRICTION `JF`, TF `T`); the fluid
 //! keys (JPERM, CPERM, AZERO, ARES) belong to UDEC's fluid flow and are refused in a 3D deck.
@@ -95,6 +96,8 @@ pub enum PrintItem {
     Velocities,
     Vertices,
     Contacts,
+    /// The energy ledger (an extension, as 2D's PRINT ENERGY).
+    Energy,
 }
 
 /// DAMPING's qualifier.
@@ -293,6 +296,7 @@ const PRINT_ITEMS: &[Name<PrintItem>] = &[
     name("VELOCITIES", "V", PrintItem::Velocities),
     name("VERTICES", "VERT", PrintItem::Vertices),
     name("CONTACTS", "C", PrintItem::Contacts),
+    name("ENERGY", "E", PrintItem::Energy),
 ];
 
 const DAMP_MODES: &[Name<DampMode>] =
@@ -742,7 +746,7 @@ fn parse_statement(st: &Statement, file: &str) -> Result<Command> {
                 }
             }
             if items.is_empty() {
-                return Err(a.at_end("PRINT needs what to print: BLOCKS, FACES, VELOCITIES, VERTICES or CONTACTS"));
+                return Err(a.at_end("PRINT needs what to print: BLOCKS, FACES, VELOCITIES, VERTICES, CONTACTS or ENERGY"));
             }
             Command::Print { items }
         }

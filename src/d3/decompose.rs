@@ -407,7 +407,10 @@ pub fn convex_pieces(mesh: &Mesh) -> Result<Vec<Mesh>, String> {
     if !(size > 0.0 && size.is_finite()) {
         return Err("the surface has no size".into());
     }
+    // Vertices within `eps` of a cut plane lie on it; bends under `flat` are no reflex edges
+    // (`geometry::FLAT`: typed coordinates carry a few digits).
     let eps = 1e-9 * size;
+    let flat = geometry::FLAT * size;
     let half = mesh.half_edges()?;
     if !single_fans(mesh, &half) {
         return Err("the surface touches itself at a vertex (its faces around the vertex make more than one fan)".into());
@@ -421,9 +424,9 @@ pub fn convex_pieces(mesh: &Mesh) -> Result<Vec<Mesh>, String> {
     let mut cuts = 0;
     while let Some(piece) = todo.pop() {
         let half = piece.half_edges()?;
-        let reflex = piece.reflex_edges(&half, eps);
+        let reflex = piece.reflex_edges(&half, flat);
         if reflex.is_empty() {
-            if !piece.is_convex(eps) {
+            if !piece.is_convex(flat) {
                 return Err("a piece without reflex edges is not convex (the surface intersects itself)".into());
             }
             done.push(piece);

@@ -245,6 +245,7 @@ impl<'a> Executor<'a> {
                         PrintItem::Velocities => output::velocities_table(&self.model),
                         PrintItem::Vertices => output::vertices_table(&self.model),
                         PrintItem::Contacts => output::contacts_table(&self.model),
+                        PrintItem::Energy => output::energy_table(&self.model),
                     };
                     self.log.write_all(table.as_bytes())?;
                 }

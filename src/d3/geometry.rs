@@ -150,6 +150,15 @@ pub fn shape_from_faces(typed: &[[[f64; 3]; 3]]) -> Result<(Shape, MassPropertie
     shape_from_mesh(vertices, faces, size)
 }
 
+/// A surface bent by less than `FLAT` times its size counts as flat: a block is convex where no
+/// vertex stands in front of a face's plane by more (`Shape::convex`), and only bends past it are
+/// reflex edges to cut a concave block along (`d3::decompose`). Typed coordinates carry a few
+/// digits: a box turned and typed to nine digits has faces split into triangles bent by ~10⁻⁹ of
+/// its size, and it is a box, not a concave block of two parts. Contact geometry that takes such a
+/// surface as convex errs by at most this much, far under the contact tolerance (2 % of the
+/// smallest block's radius).
+pub const FLAT: f64 = 1e-6;
+
 /// Builds and checks a surface given as merged vertices and faces counter-clockwise seen from
 /// outside (the rest of [`shape_from_faces`]; a concave block's convex parts are built by it,
 /// `d3::decompose`). `size` is the extent the tolerances scale with; the errors' face numbers
@@ -230,7 +239,7 @@ pub fn shape_from_mesh(vertices: Vec<DVec3>, faces: Vec<[u32; 3]>, size: f64) ->
     let local: Vec<DVec3> = vertices.iter().map(|v| *v - props.centroid).collect();
     let convex = faces.iter().zip(&normals).all(|(f, n)| {
         let p = local[f[0] as usize];
-        local.iter().all(|v| n.dot(*v - p) <= 1e-9 * size)
+        local.iter().all(|v| n.dot(*v - p) <= FLAT * size)
     });
     let radius = local.iter().map(|v| v.length()).fold(0.0, f64::max);
     let same = 1.0 - 1e-9;

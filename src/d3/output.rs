@@ -108,6 +108,26 @@ pub fn vertices_table(model: &Model) -> String {
     out
 }
 
+/// PRINT ENERGY (an extension, as 2D's): the ledger's terms since START, and its balance
+/// (`Energies::ledger`: kinetic + strain + dissipated + released − work, which stays at the
+/// starting energy up to the O(Δt) errors of central differences).
+pub fn energy_table(model: &Model) -> String {
+    let e = model.energies();
+    let mut out = String::from("\nENERGY\n");
+    let strain = if model.blocks.iter().any(|b| b.sdef.is_some()) { "STRAIN (CONTACTS AND SDEF BLOCKS)" } else { "STRAIN (CONTACTS)" };
+    let _ = writeln!(out, "  KINETIC {}   {strain} {}   WORK OF GRAVITY, LOADS, VELOCITY AND BOUNDARY {}", fmt_e(e.kinetic), fmt_e(e.strain), fmt_e(e.external_work));
+    let _ = writeln!(
+        out,
+        "  DISSIPATED: MASS DAMPING {}   CONTACT DASHPOTS {}   FRICTION {}   RELEASED (CONTACTS GONE WHILE LOADED, CRACKS) {}",
+        fmt_e(e.mass_damping),
+        fmt_e(e.contact_damping),
+        fmt_e(e.friction),
+        fmt_e(e.released)
+    );
+    let _ = writeln!(out, "  BALANCE: KINETIC + STRAIN + DISSIPATED + RELEASED - WORK = {}", fmt_e(e.ledger()));
+    out
+}
+
 /// PRINT CONTACTS: CONTACT, TYPE, BLOCK-1, BLOCK-2, X(1) X(2) X(3), FS(1) FS(2) FS(3), FM. A
 /// contact of several logical contacts (face–face, …) prints its sums on its line, then each
 /// logical contact (VERTEX-FACE, FACE-VERTEX or EDGE-EDGE) on a line of its own.

@@ -87,6 +87,29 @@ fn a_rotated_box_turns_its_tensor() {
     }
 }
 
+/// A turned box typed to seven decimals: each side's two triangles are bent by the rounding
+/// (~10⁻⁷ m), and it is still a box, convex (`geometry::FLAT`), not a concave block to cut into
+/// parts (at the old tolerance of 10⁻⁹ of its size the deck's block was refused as "concave and
+/// cannot be made of convex parts").
+#[test]
+fn a_turned_box_typed_to_a_few_digits_is_convex() {
+    let q = DQuat::from_axis_angle(DVec3::new(0.3, 1.0, 0.2).normalize(), 0.61);
+    let typed = |x: f64| (x * 1e7).round() / 1e7;
+    let faces: Vec<[[f64; 3]; 3]> = box_faces([0.0; 3], [1.0, 2.0, 3.0]).iter().map(|f| f.map(|v| (q * DVec3::from_array(v)).to_array().map(typed))).collect();
+    let bent = faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(DVec3::from_array);
+            let n = (b - a).cross(c - a).normalize();
+            faces.iter().flatten().map(|v| n.dot(DVec3::from_array(*v) - a)).fold(f64::NEG_INFINITY, f64::max)
+        })
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(bent > 1e-9 * 3.0, "the rounding bends the sides past the old tolerance: {bent:e}");
+    let (shape, p) = shape_from_faces(&faces).unwrap();
+    assert!(shape.convex, "bent by {bent:e}");
+    assert!(close(p.volume, 6.0, 1e-6));
+}
+
 #[test]
 fn mass_properties_of_a_concave_block() {
     // A concave L-prism, the union of [0,2]×[0,1]×[0,1] and [0,1]×[1,2]×[0,1]: volume 3,
