@@ -125,19 +125,12 @@ impl super::backend::Backend for CpuBackend {
 }
 
 /// The preconditions of a D3 run on any backend: each block convex or made of convex parts
-/// (`d3::decompose`), a concave one not cracked, and a mass for every free one.
+/// (`d3::decompose`), and a mass for every free one.
 pub fn preflight(model: &Model) -> Result<(), CycleError> {
     if let Some(b) = model.blocks.iter().find(|b| !b.shape.convex && b.parts.is_empty()) {
         return Err(CycleError::Setup(format!(
             "block {} is not convex and has no convex parts; contact detection in D3 handles convex bodies (build a concave block from convex ones)",
             b.id
-        )));
-    }
-    if let Some(k) = (0..model.blocks.len()).find(|&k| !model.blocks[k].parts.is_empty() && cracking::is_candidate(model, k)) {
-        let b = &model.blocks[k];
-        return Err(CycleError::Setup(format!(
-            "block {} is concave (made of convex parts) and would be checked for cracking (TF of material {}): cracking cuts convex blocks only",
-            b.id, b.material
         )));
     }
     if let Some(b) = model.blocks.iter().find(|b| !b.fixed && (b.mass.is_nan() || b.mass <= 0.0)) {

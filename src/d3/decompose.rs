@@ -202,6 +202,13 @@ fn single_fans(mesh: &Mesh, half: &FxHashMap<(u32, u32), u32>) -> bool {
 /// Cuts `mesh` by the plane n·x = d: the closed pieces behind it and in front of it (each
 /// possibly in several connected parts).
 fn cut(mesh: &Mesh, n: DVec3, d: f64, eps: f64) -> Result<Vec<Mesh>, String> {
+    Ok(cut_sides(mesh, n, d, eps)?.into_iter().flatten().collect())
+}
+
+/// The cut of a mesh by a plane (`cut`), the pieces by side: first those behind the plane (n·x < d), then those in front,
+/// each side's closed pieces connected across edges (a concave solid may leave several on a
+/// side: a U cut across its arms). SPLIT of a concave block (`d3::split`) takes them as blocks.
+pub fn cut_sides(mesh: &Mesh, n: DVec3, d: f64, eps: f64) -> Result<[Vec<Mesh>; 2], String> {
     let s: Vec<f64> = mesh.vertices.iter().map(|v| n.dot(*v) - d).collect();
     let class: Vec<i8> = s
         .iter()
@@ -259,7 +266,7 @@ fn cut(mesh: &Mesh, n: DVec3, d: f64, eps: f64) -> Result<Vec<Mesh>, String> {
             }
         }
     }
-    let mut out = Vec::new();
+    let mut out: [Vec<Mesh>; 2] = [Vec::new(), Vec::new()];
     for (side, faces) in sides.into_iter().enumerate() {
         if faces.is_empty() {
             continue;
@@ -269,7 +276,7 @@ fn cut(mesh: &Mesh, n: DVec3, d: f64, eps: f64) -> Result<Vec<Mesh>, String> {
         let mut closed = faces.clone();
         closed.extend(cap(&vertices, &faces, m)?);
         let piece = Mesh { vertices: vertices.clone(), faces: closed };
-        out.extend(piece.components()?);
+        out[side] = piece.components()?;
     }
     Ok(out)
 }

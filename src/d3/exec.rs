@@ -378,12 +378,10 @@ impl<'a> Executor<'a> {
             return Ok(());
         }
         if sdef {
-            // The strain needs both moduli (checked before anything changes), and a uniform
-            // strain of a concave block would stretch its convex parts apart.
-            if let Some(&b) = chosen.iter().find(|&&b| !self.model.blocks[b].parts.is_empty()) {
-                let id = self.model.blocks[b].id;
-                return Err(self.error(cmd, format!("CHANGE SDEF: block {id} is concave (made of convex parts): simply-deformable blocks must be convex")));
-            }
+            // The strain needs both moduli (checked before anything changes). A concave block
+            // may take one: its uniform strain maps every point of it by the one affine map
+            // c + (I + ε)·R·x, so its convex parts stay convex and still fill it, face to face
+            // (`Block::place_parts`).
             for &b in &chosen {
                 let n = material.unwrap_or(self.model.blocks[b].material);
                 let m = self.model.material(n);

@@ -115,7 +115,13 @@ pub fn energy_table(model: &Model) -> String {
     let e = model.energies();
     let mut out = String::from("\nENERGY\n");
     let strain = if model.blocks.iter().any(|b| b.sdef.is_some()) { "STRAIN (CONTACTS AND SDEF BLOCKS)" } else { "STRAIN (CONTACTS)" };
-    let _ = writeln!(out, "  KINETIC {}   {strain} {}   WORK OF GRAVITY, LOADS, VELOCITY AND BOUNDARY {}", fmt_e(e.kinetic), fmt_e(e.strain), fmt_e(e.external_work));
+    let _ = writeln!(
+        out,
+        "  KINETIC {}   {strain} {}   WORK OF GRAVITY, LOADS, VELOCITY AND BOUNDARY {}",
+        fmt_e(e.kinetic),
+        fmt_e(e.strain),
+        fmt_e(e.external_work)
+    );
     let _ = writeln!(
         out,
         "  DISSIPATED: MASS DAMPING {}   CONTACT DASHPOTS {}   FRICTION {}   RELEASED (CONTACTS GONE WHILE LOADED, CRACKS) {}",

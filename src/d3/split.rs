@@ -1,7 +1,10 @@
 //! SPLIT for D3 (an extension, issue 31): a plane cuts every block it crosses into two convex
-//! polyhedra, the 3D form of UDEC's SPLIT (SL-85-1 Appendix A ¶13–14).
+//! polyhedra (a concave block into as many pieces as the plane leaves), the 3D form of UDEC's
+//! SPLIT (SL-85-1 Appendix A ¶13–14).
 //!
-//! The cut assumes a convex parent (D3's contact detection does too): each of the parent's
+//! A concave parent (made of convex parts, `d3::decompose`) is cut as a closed mesh
+//! ([`concave_pieces`]): each side's connected pieces become blocks, cut into convex parts afresh
+//! where concave. A convex parent is cut as follows: each of the parent's
 //! triangular faces is clipped to either side of the plane (a triangle stays a triangle or
 //! becomes a quadrilateral, cut into two triangles), and each piece is closed by the **cap**,
 //! the convex polygon where the plane meets the block, fanned from its centroid into triangles so
@@ -22,8 +25,9 @@
 use glam::DVec3;
 use rustc_hash::FxHashMap;
 
+use super::decompose::{self, Mesh};
 use super::geometry;
-use super::model::{Block, Model};
+use super::model::{Block, Model, Part};
 use super::sdef::{strain_energy, Sdef};
 
 /// What a SPLIT did.
@@ -114,10 +118,41 @@ pub fn cut_faces(vertices: &[DVec3], faces: &[[u32; 3]], point: DVec3, normal: D
     Some(pieces)
 }
 
+/// The pieces of a concave block (one made of convex parts, `d3::decompose`) cut by the plane
+/// through `point` with unit normal `n`: its whole surface cut as a closed mesh
+/// (`decompose::cut_sides`, the cross-section capped by a constrained triangulation, as it may be
+/// non-convex or have holes), each side's connected pieces a block of their own, those behind
+/// the plane first. A concave solid may leave more than one piece on a side (a U cut across its
+/// arms leaves the two arms' tops in front). Each piece goes through the checks of a BLOCK's
+/// surface and, where it is concave, is cut into convex parts afresh. None where the plane
+/// does not cross the block; Err with the reason where a piece is not a valid block.
+#[allow(clippy::type_complexity)]
+pub fn concave_pieces(parent: &Block, point: DVec3, n: DVec3) -> Result<Option<Vec<(geometry::Shape, geometry::MassProperties, Vec<Part>)>>, String> {
+    let size = 2.0 * parent.shape.radius;
+    let mesh = Mesh { vertices: parent.vertices.clone(), faces: parent.shape.faces.clone() };
+    let [back, front] = decompose::cut_sides(&mesh, n, n.dot(point), 1e-9 * parent.shape.radius)?;
+    if back.is_empty() || front.is_empty() {
+        return Ok(None);
+    }
+    let mut out = Vec::with_capacity(back.len() + front.len());
+    for (side, piece) in back.into_iter().map(|p| (0, p)).chain(front.into_iter().map(|p| (1, p))) {
+        let side = ["back", "front"][side];
+        let (shape, props) =
+            geometry::shape_from_mesh(piece.vertices, piece.faces, size).map_err(|e| format!("a {side} piece is not a valid block: {}", e.message))?;
+        let parts = if shape.convex {
+            Vec::new()
+        } else {
+            decompose::parts_of(&shape, props.volume).map_err(|why| format!("a {side} piece is concave and cannot be made of convex parts: {why}"))?
+        };
+        out.push((shape, props, parts));
+    }
+    Ok(Some(out))
+}
+
 /// SPLIT: cuts every block the plane through `point` with normal `normal` crosses. `material`
 /// and `constitutive`, where given, are the pieces' (else the parent's). A simply-deformable
-/// block's pieces are simply deformable, unstressed. Refuses (Err, nothing cut) when a block the
-/// plane crosses is not convex.
+/// block's pieces are simply deformable, unstressed. A concave block may come apart in more than
+/// two pieces ([`concave_pieces`]).
 pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u32>, constitutive: Option<u32>) -> Result<SplitOutcome, String> {
     let n = normal.normalize();
     let crossed: Vec<usize> = (0..model.blocks.len())
@@ -128,9 +163,6 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
             lo < -eps && hi > eps
         })
         .collect();
-    if let Some(&b) = crossed.iter().find(|&&b| !model.blocks[b].shape.convex) {
-        return Err(format!("block {} is not convex (made of convex parts, which move as one body): SPLIT cuts convex blocks only", model.blocks[b].id));
-    }
     let outcome = cut(model, &crossed, point, n, material, constitutive);
     // The strain energy the parents' stresses held is released (the ledger's `released`).
     model.dissipated.released += outcome.released;
@@ -140,9 +172,9 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
 /// A crack (SL-85-1 Part III ¶35f; `d3::cracking` finds it): block `b` splits along the plane
 /// through `point` with normal `normal`; both pieces keep its material and constitutive number, a
 /// simply-deformable block's pieces stay simply deformable, unstressed (`cut`); its contacts go,
-/// for the caller to find afresh (`cpu::crack_blocks`, which books the ledger). Returns the two
-/// pieces' ids, or None where the cut would not give two valid convex pieces (the block is left
-/// whole).
+/// for the caller to find afresh (`cpu::crack_blocks`, which books the ledger). Returns the ids
+/// of the piece that keeps the block's and of the first new one (a concave block may come apart
+/// in more), or None where the cut would not give valid pieces (the block is left whole).
 pub fn crack(model: &mut Model, b: usize, point: DVec3, normal: DVec3) -> Option<(u32, u32)> {
     cut(model, &[b], point, normal.normalize(), None, None).split.first().copied()
 }
@@ -155,43 +187,55 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
     let mut touched = Vec::new();
     for &b in crossed {
         let parent = model.blocks[b].clone();
-        let faces: Vec<[u32; 3]> = parent.shape.faces.clone();
-        let Some(typed) = cut_faces(&parent.vertices, &faces, point, n, parent.shape.radius) else {
-            continue;
-        };
         let mut built = Vec::with_capacity(2);
-        for (side, faces) in typed.iter().enumerate() {
-            match geometry::shape_from_faces(faces) {
-                Ok((shape, props)) if shape.convex => built.push((shape, props)),
-                Ok(_) => {
-                    built.clear();
-                    outcome.rejected.push((parent.id, format!("its {} piece comes out not convex within round-off", ["back", "front"][side])));
-                    break;
-                }
-                Err(e) => {
-                    built.clear();
-                    outcome.rejected.push((parent.id, format!("its {} piece is not a valid block: {}", ["back", "front"][side], e.message)));
-                    break;
+        if parent.parts.is_empty() {
+            let faces: Vec<[u32; 3]> = parent.shape.faces.clone();
+            let Some(typed) = cut_faces(&parent.vertices, &faces, point, n, parent.shape.radius) else {
+                continue;
+            };
+            for (side, faces) in typed.iter().enumerate() {
+                match geometry::shape_from_faces(faces) {
+                    Ok((shape, props)) if shape.convex => built.push((shape, props, Vec::new())),
+                    Ok(_) => {
+                        built.clear();
+                        outcome.rejected.push((parent.id, format!("its {} piece comes out not convex within round-off", ["back", "front"][side])));
+                        break;
+                    }
+                    Err(e) => {
+                        built.clear();
+                        outcome.rejected.push((parent.id, format!("its {} piece is not a valid block: {}", ["back", "front"][side], e.message)));
+                        break;
+                    }
                 }
             }
-        }
-        if built.len() != 2 {
-            continue;
+            if built.len() != 2 {
+                continue;
+            }
+        } else {
+            match concave_pieces(&parent, point, n) {
+                Ok(Some(pieces)) => built = pieces,
+                Ok(None) => continue,
+                Err(why) => {
+                    outcome.rejected.push((parent.id, why));
+                    continue;
+                }
+            }
         }
         let mat = material.unwrap_or(parent.material);
         let cons = constitutive.unwrap_or(parent.constitutive);
         // A simply-deformable parent is cut in its strained shape, whose volume is its own times
         // (1 + tr ε) to first order: its pieces' density is scaled so that they keep its mass
         // (and so its momentum); a rigid parent's pieces take the material's.
-        let strained = built.iter().map(|(_, props)| props.volume).sum::<f64>();
+        let strained = built.iter().map(|(_, props, _)| props.volume).sum::<f64>();
         let scale = if parent.sdef.is_some() && strained > 0.0 { parent.volume / strained } else { 1.0 };
         let density = model.material(mat).density * scale;
+        let first_new = next_id;
         let pieces: Vec<Block> = built
             .into_iter()
             .enumerate()
-            .map(|(k, (shape, props))| {
-                let id = if k == 0 { parent.id } else { next_id };
-                let mut piece = Block::new(id, mat, cons, shape, &props, density);
+            .map(|(k, (shape, props, parts))| {
+                let id = if k == 0 { parent.id } else { first_new + k as u32 - 1 };
+                let mut piece = Block::new(id, mat, cons, shape, &props, density).with_parts(parts);
                 piece.fixed = parent.fixed;
                 if !parent.fixed {
                     // The parent's motion at the piece's centroid; its spin.
@@ -214,13 +258,16 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
         if let Some(s) = &parent.sdef {
             outcome.released += strain_energy(s, parent.volume);
         }
-        let [back, front]: [Block; 2] = pieces.try_into().unwrap_or_else(|_| unreachable!("two pieces were built"));
-        outcome.split.push((parent.id, next_id));
-        next_id += 1;
+        let mut pieces = pieces.into_iter();
+        let Some(back) = pieces.next() else { continue };
         model.blocks[b] = back;
         touched.push(b as u32);
-        touched.push(model.blocks.len() as u32);
-        model.blocks.push(front);
+        for piece in pieces {
+            outcome.split.push((parent.id, piece.id));
+            next_id = piece.id + 1;
+            touched.push(model.blocks.len() as u32);
+            model.blocks.push(piece);
+        }
     }
     if !outcome.split.is_empty() {
         // The split blocks' contacts go (their logical contacts were keyed by the parents'

@@ -3,8 +3,8 @@
 //! volumes summing to the block's, every point of the block in exactly one part), the mass
 //! properties of the whole block, an L-shaped block resting on a slab on its whole base, a cube
 //! carried by the floor of a U-shaped block's notch, the energy ledger, SAVE/RESTART, and the
-//! refusals (a self-touching surface at BLOCK, SPLIT, SDEF and cracking of a concave block, the
-//! GPU backend).
+//! refusals (a self-touching surface at BLOCK, the GPU backend); SPLIT of a concave block (as
+//! many blocks as the plane leaves), a simply-deformable one, and one cracking.
 
 use blockdem::d3::deck::parse_deck;
 use blockdem::d3::decompose;
@@ -439,14 +439,120 @@ fn a_self_touching_surface_is_an_error_naming_the_block() {
     assert!(message.contains("block 1") && message.contains("separate closed surfaces"), "{message}");
 }
 
+/// The total momentum and angular momentum (about the origin) of the free blocks.
+fn momenta(model: &Model) -> (DVec3, DVec3) {
+    let free = model.blocks.iter().filter(|b| !b.fixed);
+    let p: DVec3 = free.clone().map(|b| b.velocity * b.mass).sum();
+    let l: DVec3 = free.map(|b| b.angular_momentum + b.centroid.cross(b.velocity * b.mass)).sum();
+    (p, l)
+}
+
 #[test]
-fn split_sdef_and_cracking_of_a_concave_block_are_refused_naming_it() {
-    let message = error_of(&l_drop("SPLIT 0.5 0.5 0.5 1 0 0\n"));
-    assert!(message.contains("block 2") && message.contains("convex"), "{message}");
-    let message = error_of(&l_drop("PROP MAT=1 K=1E8 G=6E7\nCHANGE 0 1 0 1 0 1.1 SDEF\n"));
-    assert!(message.contains("block 2") && message.contains("concave"), "{message}");
-    let message = error_of(&l_drop("PROP MAT=1 TF=1E6\nCYCLE 1\n"));
-    assert!(message.contains("block 2") && message.contains("cracking"), "{message}");
+fn split_cuts_a_concave_block_into_as_many_blocks_as_the_plane_leaves() {
+    // The U (fixed, cubes of side 1) cut across its prongs at z = 1.5: behind the plane a U of
+    // shorter prongs (concave, 3 parts), in front the prongs' two tops (convex): three blocks,
+    // the volumes 3 + 2·0.5 and 2 · 0.5, the first keeping the U's id.
+    let deck = format!("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\n{}SPLIT 0 0 1.5 0 0 1\n", block_command(&voxel_faces(&U, 1.0, [0.0; 3]), 1));
+    let model = run(&deck);
+    assert_eq!(model.blocks.len(), 3);
+    assert_eq!(model.blocks.iter().map(|b| b.id).collect::<Vec<_>>(), [1, 2, 3]);
+    let (base, tops) = (&model.blocks[0], &model.blocks[1..]);
+    assert!((base.volume - 4.0).abs() < 1e-12 && base.parts.len() == 3, "{} in {} parts", base.volume, base.parts.len());
+    let part_volumes: f64 = base.parts.iter().map(|p| blockdem::d3::geometry::mass_properties(&p.shape.vertices, &p.shape.faces).volume).sum();
+    assert!((part_volumes - 4.0).abs() < 1e-12);
+    for t in tops {
+        assert!(t.parts.is_empty() && t.shape.convex && (t.volume - 0.5).abs() < 1e-12, "{}", t.volume);
+        assert!((t.centroid.z - 1.75).abs() < 1e-12 && ((t.centroid.x - 0.5).abs() < 1e-12 || (t.centroid.x - 2.5).abs() < 1e-12), "{}", t.centroid);
+    }
+    // The L cut at x = 1 between its cubes: two convex blocks, a 1 × 2 × 1 bar and a cube.
+    let deck = format!("START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8\n{}SPLIT 1 0 0 1 0 0\n", block_command(&voxel_faces(&L, 1.0, [0.0; 3]), 1));
+    let model = run(&deck);
+    assert_eq!(model.blocks.len(), 2);
+    assert!(model.blocks.iter().all(|b| b.parts.is_empty() && b.shape.convex));
+    assert!((model.blocks[0].volume - 2.0).abs() < 1e-12 && (model.blocks[1].volume - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn a_spinning_concave_block_split_keeps_its_momenta_and_its_pieces_run() {
+    // The L thrown spinning, cut along its height on a plane oblique to its sides (clear of the
+    // slab, which a SPLIT's plane would cut too): two L-shaped pieces, both concave, each cut
+    // into convex parts afresh; they move with the parent's motion at their centroids (momentum
+    // and angular momentum kept), and fall onto the slab and settle as blocks of their own.
+    let deck = l_drop("VELOCITY -1 3 -1 3 0 2 0.3 -0.2 0.1 0.5 -0.4 1.0\nCYCLE 0\n");
+    let before = momenta(&run(&deck));
+    let cut = run(&format!("{deck}SPLIT 0.5 0.5 0.6 0.1 0.05 1\n"));
+    assert_eq!(cut.blocks.len(), 3, "the slab and two pieces");
+    assert!(cut.blocks[1..].iter().all(|b| b.parts.len() == 2), "both L-shaped");
+    let after = momenta(&cut);
+    assert!((after.0 - before.0).length() < 1e-9 * before.0.length(), "{:?} vs {:?}", after.0, before.0);
+    assert!((after.1 - before.1).length() < 1e-9 * before.1.length(), "{:?} vs {:?}", after.1, before.1);
+    let total: f64 = cut.blocks[1..].iter().map(|b| b.volume).sum();
+    assert!((total - 3.0).abs() < 1e-12, "{total}");
+    let settled = run(&format!("{deck}SPLIT 0.5 0.5 0.6 0.1 0.05 1\nDAMP 0.5 50 MASS\nCYCLE 12000\n"));
+    for b in &settled.blocks[1..] {
+        assert!(b.velocity.length() < 1e-6 && b.centroid.z > 0.0, "block {} at {} moving {}", b.id, b.centroid, b.velocity);
+    }
+    // The lower piece carries the upper on the cut, the slab carries both.
+    let weight = |k: usize| settled.blocks[k].mass * 10.0;
+    // (The force on a contact's second block: n·Fn + Fs, its shear carrying part of the weight
+    // on the tilted cut.)
+    let carried =
+        |a: u32, b: u32| -> f64 { settled.contacts.iter().filter(|c| c.blocks == [a, b]).map(|c| (c.normal * c.normal_force() + c.shear_force()).z).sum() };
+    assert!((carried(1, 2) - weight(2)).abs() < 1e-3 * weight(2), "{} vs {}", carried(1, 2), weight(2));
+    assert!((carried(0, 1) + carried(0, 2) - weight(1) - weight(2)).abs() < 1e-3 * (weight(1) + weight(2)));
+}
+
+#[test]
+fn a_simply_deformable_concave_block_strains_as_one_body() {
+    // The L made simply deformable and dropped: its parts are placed by the one map
+    // c + (I + ε)·R·x, so each corner the parts share with the block's surface stays where the
+    // block's own vertex is (the parts fill the strained block, no gap opens between them), and
+    // the ledger balances with the strain's energy in it.
+    let model = run(&l_drop("PROP MAT=1 K=5E7 G=3E7\nCHANGE -1 3 -1 3 0 2 SDEF\nDAMP 0.2 50 MASS\nCYCLE 3000\n"));
+    let b = &model.blocks[1];
+    let s = b.sdef.expect("simply deformable");
+    assert!(s.strain.iter().any(|e| e.abs() > 1e-7), "it strains under its weight: {:?}", s.strain);
+    let mut shared = 0;
+    for p in &b.parts {
+        for (g, l) in p.vertices.iter().zip(&p.shape.vertices) {
+            let reference = p.offset + *l;
+            if let Some(k) = b.shape.vertices.iter().position(|v| (*v - reference).length() < 1e-12) {
+                assert!((b.vertices[k] - *g).length() < 1e-12, "a part's corner {g} off the block's {}", b.vertices[k]);
+                shared += 1;
+            }
+        }
+    }
+    assert!(shared >= 12, "{shared}");
+    let real: Vec<_> = model.contacts.iter().filter(|c| c.category.is_some()).collect();
+    assert_eq!(real.len(), 2, "both parts stand on the slab");
+    let e = model.energies();
+    assert!(e.ledger().abs() < 1e-2 * e.scale(), "{e:?}");
+}
+
+#[test]
+fn a_concave_block_cracks_by_the_point_load_law() {
+    // The L, its material given a tensile strength (constitutive 1: the point-load law), is
+    // squeezed between the slab and a heavy block pressed down on its corner cube: the crack
+    // cuts it, and the run goes on with its pieces (the concave parent's cut, `split::crack`).
+    let deck = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nPROP MAT=2 D=2000 KN=1E9 KS=1E9 F=0.5 TF=1E4\nBOX -1 3 -1 3 -1 0\n{}\
+         BOX 0.25 0.75 0.25 0.75 1.0 1.5\nFIX -1 3 -1 3 -1 -0.1\nGRAV 0 0 -10\nLOAD 0.25 0.75 0.25 0.75 1 1.5 0 0 -2E5\nDAMP 0.5 100 MASS\nCYCLE 0\n",
+        block_command(&voxel_faces(&L, 1.0, [0.0; 3]), 2)
+    );
+    let mut model = run(&deck);
+    let mut backend = blockdem::d3::cpu::CpuBackend::new();
+    // Up to the first crack (its pieces, squeezed as the parent was, crack on: a cascade, as
+    // 2D's point-load law gives).
+    let mut report = blockdem::driver::CycleReport::default();
+    while model.blocks.len() == 3 && model.cycle < 2000 {
+        report = backend.run(&mut model, 1, &mut |_| true).unwrap();
+    }
+    assert!(model.blocks.len() >= 4, "the L cracked: {} blocks at cycle {}", model.blocks.len(), model.cycle);
+    assert_eq!(report.cracks.len(), 1, "{:?}", report.cracks);
+    assert_eq!(report.cracks[0].criterion, "POINT-LOAD");
+    assert!(report.cracks[0].value >= 1e4);
+    let l_volume: f64 = model.blocks.iter().filter(|b| b.material == 2).map(|b| b.volume).sum();
+    assert!((l_volume - 3.0).abs() < 1e-9, "its pieces make the L: {l_volume}");
 }
 
 #[test]

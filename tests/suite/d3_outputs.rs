@@ -210,3 +210,20 @@ fn vtk_frames_hold_the_faces_with_their_blocks_motion_and_the_contacts_forces() 
         (m.blocks[c.blocks[0] as usize].id as f64, m.blocks[c.blocks[1] as usize].id as f64)
     );
 }
+
+/// PRINT ENERGY (an extension, as 2D's): the ledger's terms as `Model::energies` has them, and
+/// the balance.
+#[test]
+fn print_energy_lists_the_ledger() {
+    let dir = scratch("energy");
+    let (model, log) = ok(&format!("{SCENE}CYCLE 300\nP E\n"), &dir);
+    let e = model.energies();
+    let f = blockdem::output::format::fmt_e;
+    let table = &log[log.find("\nENERGY\n").expect("the ENERGY table")..];
+    for (what, value) in [("KINETIC", e.kinetic), ("FRICTION", e.friction), ("WORK OF GRAVITY, LOADS, VELOCITY AND BOUNDARY", e.external_work)] {
+        assert!(table.contains(&format!("{what} {}", f(value))), "{what} {}: {table}", f(value));
+    }
+    assert!(e.friction > 0.0 && e.mass_damping > 0.0, "{e:?}");
+    assert!(table.contains(&format!("BALANCE: KINETIC + STRAIN + DISSIPATED + RELEASED - WORK = {}", f(e.ledger()))), "{table}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
