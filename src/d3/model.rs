@@ -699,9 +699,17 @@ impl Model {
     /// k_max·(1/m + R²/I_min), so FRACTION means the same from the first cycle. Stiffness-
     /// proportional damping narrows the range to (2/ω)(√(1+ξ²) − ξ), ξ = βω/2, as in 2D. At
     /// FRACTION 1 the step is at the bound, which lies at or below the true limit: the D3 cases
-    /// run stable there (`blockdem verify`, README). Returns None when no free block has mass or
-    /// no stiffness is defined.
+    /// run stable there (`blockdem verify`, README). A block held by BOUNDARY VELOCITY gives no
+    /// more than a fixed one (its neighbours meet a moving wall); where every block is fixed or
+    /// held, the held ones are bounded as free ones, so that their prescribed motion is still
+    /// followed at the contacts' pace. Returns None when no free or held block has mass or no
+    /// stiffness is defined.
     pub fn critical_timestep(&self) -> Option<f64> {
+        self.critical_timestep_with(true).or_else(|| self.critical_timestep_with(false))
+    }
+
+    /// [`Model::critical_timestep`], a held block counted as unyielding (`held_stiff`) or free.
+    fn critical_timestep_with(&self, held_stiff: bool) -> Option<f64> {
         // A joint-law block's face contact is stiffer the larger its area: no more than its
         // radius squared (a touching region shared by three or more corners).
         let k_max = self.blocks.iter().fold(0.0f64, |k, b| {
@@ -713,19 +721,21 @@ impl Model {
             return None;
         }
         // Each free block's least principal moment (zero for a fixed or massless block, which
-        // does not give at a contact).
-        let least: Vec<f64> = self.blocks.iter().map(|b| if b.fixed || b.mass <= 0.0 { 0.0 } else { least_eigenvalue(b.inertia_ref) }).collect();
+        // does not give at a contact, nor a held one: BOUNDARY VELOCITY moves it whatever the
+        // forces on it, its strain held as it is, so it is a moving wall to its neighbours).
+        let unyielding = |b: &Block| b.fixed || (held_stiff && b.held) || b.mass <= 0.0;
+        let least: Vec<f64> = self.blocks.iter().map(|b| if unyielding(b) { 0.0 } else { least_eigenvalue(b.inertia_ref) }).collect();
         // A simply-deformable block gives at a lever arm r by its strain too: by r²/M_min, M_min
         // the least principal second moment of its mass (no strain mode has less inertia).
         let least_second: Vec<f64> = self
             .blocks
             .iter()
-            .map(|b| if b.is_sdef() && !b.fixed && b.mass > 0.0 { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 })
+            .map(|b| if b.is_sdef() && !unyielding(b) { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 })
             .collect();
         // The compliance of block i at a lever arm r (r² given).
         let compliance = |i: usize, r2: f64| -> f64 {
             let b = &self.blocks[i];
-            if b.fixed || b.mass <= 0.0 {
+            if unyielding(b) {
                 return 0.0;
             }
             let strain = if least_second[i] > 0.0 { r2 / least_second[i] } else { 0.0 };
@@ -771,12 +781,12 @@ impl Model {
     }
 
     /// The simply-deformable blocks' own limit on the step (`d3::sdef`, "Time step"): √(M_min/k)
-    /// over the free SDEF blocks, half the stiffest internal mode's 2/ω, with M_min the least
+    /// over the free SDEF blocks (not a held one, whose strain is held), half the stiffest internal mode's 2/ω, with M_min the least
     /// principal second moment of the block's mass and k = 3K·V. None without such blocks.
     pub fn internal_timestep(&self) -> Option<f64> {
         self.blocks
             .iter()
-            .filter(|b| b.is_sdef() && !b.fixed && b.mass > 0.0)
+            .filter(|b| b.is_sdef() && !b.fixed && !b.held && b.mass > 0.0)
             .filter_map(|b| {
                 let k = sdef::internal_stiffness(&self.material(b.material).elastic(), b.volume);
                 let m = least_eigenvalue(sdef::second_moments(b.inertia_ref));

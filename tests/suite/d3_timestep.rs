@@ -46,6 +46,20 @@ fn the_step_falls_as_contacts_are_added() {
 }
 
 #[test]
+fn a_held_block_bounds_the_step_as_a_fixed_one() {
+    // A block held by BOUNDARY VELOCITY moves whatever the forces on it: to the cube on it, it
+    // is a moving wall, as the fixed base is, and its own mass sets no bound.
+    let base = |hold: &str| run(&format!("{}{hold}CYCLE 0\n", stack(2, 1.0, "").replace("FIX -1 2 -1 2 -1 -0.1\n", ""))).unwrap();
+    let fixed = base("FIX -1 2 -1 2 -1 -0.1\nFIX 0 1 0 1 0 1\n");
+    let held = base("FIX -1 2 -1 2 -1 -0.1\nBOUNDARY VELOCITY 0 1 0 1 0 1 0 0 0.01\n");
+    assert!(held.blocks[1].held && !held.blocks[1].fixed);
+    assert_eq!(held.timestep(), fixed.timestep());
+    // The upper cube on a fixed one, as the single cube on the base: 2√(m/22k).
+    let expected = 2.0 * (2000.0 / (22.0 * 1e9f64)).sqrt();
+    assert!((held.timestep() - expected).abs() < 1e-9 * expected, "{:e} vs {expected:e}", held.timestep());
+}
+
+#[test]
 fn a_stack_of_cubes_at_fraction_0_9_stays_stable() {
     // Dropped onto each other undamped from unstressed contacts: they ring, and nothing grows.
     let deck = stack(4, 0.9, "");
