@@ -727,11 +727,8 @@ impl Model {
         let least: Vec<f64> = self.blocks.iter().map(|b| if unyielding(b) { 0.0 } else { least_eigenvalue(b.inertia_ref) }).collect();
         // A simply-deformable block gives at a lever arm r by its strain too: by r²/M_min, M_min
         // the least principal second moment of its mass (no strain mode has less inertia).
-        let least_second: Vec<f64> = self
-            .blocks
-            .iter()
-            .map(|b| if b.is_sdef() && !unyielding(b) { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 })
-            .collect();
+        let least_second: Vec<f64> =
+            self.blocks.iter().map(|b| if b.is_sdef() && !unyielding(b) { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 }).collect();
         // The compliance of block i at a lever arm r (r² given).
         let compliance = |i: usize, r2: f64| -> f64 {
             let b = &self.blocks[i];
