@@ -152,10 +152,12 @@ fn an_l_block_rocks_on_the_slab_on_the_gpu_as_on_the_cpu() {
         let (dx, dv, dw) = block_difference(&cpu, &gpu, 1);
         let df = force_difference(&cpu, &gpu, weight, &format!("{:?}", o.precision));
         let (v, w) = (cpu.blocks[1].velocity.length(), cpu.blocks[1].angular_velocity.length());
-        eprintln!("{} {:?}: centroid {dx:.2e} m, velocity {:.2e}, angular velocity {:.2e} (relative), forces {df:.2e} of the weight", o.adapter, o.precision, dv / v, dw / w);
-        // Measured (lavapipe, llvmpipe): f64 centroid 0 m, velocity 0, angular velocity 0,
-        // forces 0 of the weight... (see the report); f32 a few 1e-3 in the velocities.
-        let tol = if is_f32(&o) { (1e-6, 5e-2, 5e-2, 1e-2) } else { (1e-9, 1e-5, 1e-5, 1e-6) };
+        eprintln!("{:?} {:?}: centroid {dx:.2e} m, velocity {:.2e}, angular velocity {:.2e} (relative), forces {df:.2e} of the weight", o.adapter, o.precision, dv / v, dw / w);
+        // Measured (lavapipe; llvmpipe's f32 the same): f64 centroid 2.4e-9 m, velocity 1.8e-5
+        // and angular velocity 2.0e-4 of the CPU's, forces 1.6e-5 of the weight (the logical
+        // contacts tracked between detections and the time step held over a batch, as for the
+        // convex sample, d3_gpu.rs: 3e-5 and 3e-4 there); f32 6.3e-9 m, 1.8e-4, 4.0e-3, 1.2e-4.
+        let tol = if is_f32(&o) { (3e-8, 1e-3, 2e-2, 1e-3) } else { (1e-8, 1e-4, 1e-3, 1e-4) };
         assert!(dx < tol.0 && dv < tol.1 * v && dw < tol.2 * w && df < tol.3, "{:?}: {dx:e} m, {dv:e} m/s, {dw:e} rad/s, forces {df:e}", o.precision);
     }
 }
@@ -177,8 +179,12 @@ fn a_cube_rests_on_the_notch_floor_of_a_u_block_on_the_gpu() {
         let carried = (c[0].2 - weight).abs() / weight;
         let (dx, dv, _) = block_difference(&cpu, &gpu, 1);
         let df = force_difference(&cpu, &gpu, weight, &format!("{:?}", o.precision));
-        eprintln!("{} {:?}: carries the weight to {carried:.2e}; centroid {dx:.2e} m, velocity {dv:.2e} m/s, forces {df:.2e} of the weight off the cpu's", o.adapter, o.precision);
-        let tol = if is_f32(&o) { (1e-3, 1e-6, 1e-5, 1e-3) } else { (1e-6, 1e-9, 1e-8, 1e-6) };
+        eprintln!("{:?} {:?}: carries the weight to {carried:.2e}; centroid {dx:.2e} m, velocity {dv:.2e} m/s, forces {df:.2e} of the weight off the cpu's", o.adapter, o.precision);
+        // Measured (lavapipe; llvmpipe's f32 the same): f64 the weight to 4.9e-11, centroid 0 m,
+        // velocity 1.4e-20 m/s, forces 5e-18 of the weight off the CPU's (a face–face contact at
+        // rest: its logical contacts stay where the detection found them); f32 3.8e-5, 1.0e-8 m,
+        // 2.5e-7 m/s, 3.8e-5 (kn·ulp of the corners' gaps, 12 N over 3.5 kN).
+        let tol = if is_f32(&o) { (2e-4, 1e-7, 2e-6, 2e-4) } else { (1e-9, 1e-12, 1e-12, 1e-12) };
         assert!(carried < tol.0 && dx < tol.1 && dv < tol.2 && df < tol.3, "{:?}: {carried:e}, {dx:e} m, {dv:e} m/s, forces {df:e}", o.precision);
         assert!((gpu.blocks[1].centroid - DVec3::new(1.5, 0.5, 1.3)).length() < 1e-4, "{}", gpu.blocks[1].centroid);
     }
@@ -204,9 +210,10 @@ fn the_ledger_balances_on_the_gpu_with_an_l_block_rocking() {
         }
         let e = model.energies();
         assert!(e.external_work > 0.0 && e.strain > 0.0 && e.friction > 0.0, "{:?}: {e:?}", o.precision);
-        eprintln!("{} {:?}: ledger drift {:.2e} of the largest term", o.adapter, o.precision, worst / scale);
-        // The CPU's drift on this scene is 6.5e-3 (d3_concave.rs).
-        assert!(worst < 1e-2 * scale, "{:?}: ledger drift {:e}", o.precision, worst / scale);
+        eprintln!("{:?} {:?}: ledger drift {:.2e} of the largest term", o.adapter, o.precision, worst / scale);
+        // Measured (lavapipe, llvmpipe): 1.4e-3 in f64 and f32; the CPU's over the same 3000
+        // cycles is 6.5e-3 (d3_concave.rs, which bounds it by 1e-2).
+        assert!(worst < 5e-3 * scale, "{:?}: ledger drift {:e}", o.precision, worst / scale);
     }
 }
 
@@ -237,9 +244,9 @@ fn the_parts_vertices_on_the_device_lie_where_the_cpu_places_them() {
             let g = if is_f32(&o) { b.centroid + *g } else { *g };
             worst = worst.max((g - *want).length());
         }
-        eprintln!("{} {:?}: parts' vertices {worst:.2e} m from the CPU's placing", o.adapter, o.precision);
-        // f32: the offsets R·l rounded, |l| ≤ 1.2 m; f64 to round-off.
-        let tol = if is_f32(&o) { 1e-6 } else { 1e-14 };
+        eprintln!("{:?} {:?}: parts' vertices {worst:.2e} m from the CPU's placing", o.adapter, o.precision);
+        // Measured: f32 6.3e-8 m (the offsets R·l rounded, |l| ≤ 1.2 m, ulp 1.2e-7), f64 0.
+        let tol = if is_f32(&o) { 3e-7 } else { 1e-14 };
         assert!(worst < tol, "{:?}: {worst:e}", o.precision);
     }
     let _ = std::fs::remove_dir_all(&dir);
