@@ -201,7 +201,8 @@ fn near(first: bool, h: real, hi_a: real, lo_b: real, reach: real) -> bool {
 // The distance along n from p at which the line p + s·n leaves body i (the least s over the
 // planes it heads out through), or enters it (`entering`: the greatest over those it heads in
 // through) (Rust twin: `contact::ray_crossing`); `found` false where no plane qualifies. Planes
-// within GRAZING of parallel to n are passed over (the prelude says why).
+// within GRAZING of parallel to n are passed over (the prelude says why; PART_GRAZING for a part
+// of a concave block, whose record lies after the blocks).
 struct Crossing {
     s: real,
     found: bool,
@@ -209,11 +210,12 @@ struct Crossing {
 
 fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool) -> Crossing {
     var out = Crossing(0.0, false);
+    let grazing = select(GRAZING, PART_GRAZING, i >= params.blocks);
     for (var k = 0u; k < blocks[i].plane_count; k++) {
         let nf = plane_normal(i, k);
         let d = dot3(nf, n);
         let x = block_vertex(i, planes[blocks[i].plane_start + k].vertex);
-        if ((entering && d < -GRAZING) || (!entering && d > GRAZING)) {
+        if ((entering && d < -grazing) || (!entering && d > grazing)) {
             let s = dot3(nf, x - p) / d;
             if (!out.found || (entering && s > out.s) || (!entering && s < out.s)) {
                 out = Crossing(s, true);
