@@ -390,7 +390,7 @@ impl GpuBackend {
         if let Some(k) = (0..blocks.len()).find(|&k| ranges(&blocks[k]) != ranges(&saved_blocks[k])) {
             return Err(match model.blocks.get(k) {
                 Some(b) => format!("block {}'s lists are not the model's", b.id),
-                None => format!("the record of part {} of the concave blocks' is not the model's", k - model.blocks.len() + 1),
+                None => format!("the concave blocks' part record {} (after the blocks) is not the model's", k - model.blocks.len() + 1),
             });
         }
         if device.keys.len() != contacts.len() {
