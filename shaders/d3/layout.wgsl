@@ -11,7 +11,10 @@
 // and load, mass-damping and contact-dashpot dissipation (as block 1 of its contacts) since the
 // upload. `vertex_start`: its vertices; `plane_start`: its face planes (one per distinct normal);
 // `edge_start`: its edge directions (`edge_dir_count`), then its feature edges (`feature_count`);
-// `adjacency_start`: its contacts, in the contacts' order. `finite` is cleared by a step that
+// `adjacency_start`: its contacts, in the contacts' order. A concave block's vertex range holds
+// its own vertices and then its convex parts' (in its reference frame about its centroid, so
+// stage 2 places them with its own); each part has a record of its own after the blocks, which
+// only the contact stage reads (`contact_bodies`). `finite` is cleared by a step that
 // leaves a non-finite value. `stress_faces`: its faces loaded by BOUNDARY STRESS, two records
 // each in the plane buffer after its planes (`Plane`).
 struct Block {
@@ -95,8 +98,19 @@ struct Params {
 @group(0) @binding(4) var<storage, read_write> edges: array<u32>;
 @group(0) @binding(5) var<storage, read_write> contacts: array<Contact>;
 @group(0) @binding(6) var<storage, read_write> logicals: array<Logical>;
-// Each block's contacts: contact index × 2 + 1 where the block is the contact's block 2.
+// Each block's contacts: contact index × 2 + 1 where the block is the contact's block 2 (the
+// lists, 2 × params.contacts words in all); then each contact's two bodies (`contact_bodies`).
 @group(0) @binding(7) var<storage, read_write> adjacency: array<u32>;
+
+// Where contact ci's two bodies are named in `adjacency`, after the blocks' lists: the records
+// in `blocks` of the convex bodies its geometry is between (`track_contact`), its block 1's
+// then its block 2's. A convex block is its own body (its record is the block's); a concave
+// block's convex parts (`Block::parts`) have records after the params.blocks blocks, with their
+// ranges of vertices (within their block's, placed with it), face planes and edges and their
+// radius, the rest of the record unused. So the parts bind no buffer of their own.
+fn contact_bodies(ci: u32) -> u32 {
+    return 2u * params.contacts + 2u * ci;
+}
 
 // The item of this invocation over a dispatch of `dispatch_grid` rows (gpu::wgsl).
 fn item_index(wg: vec3<u32>, local: u32) -> u32 {

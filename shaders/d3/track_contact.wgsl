@@ -4,6 +4,16 @@
 // force–displacement law (`force_law`, eqs. 13–20). Which logical contacts a contact has changes
 // only at a detection, on the CPU between cycles (module doc of `d3::gpu`).
 //
+// The geometry is between the contact's two convex bodies: a convex block is its own one body,
+// a concave block's are its convex parts (`Block::parts`), and a contact is between one part of
+// each (`Contact::parts`). A body is a record in `blocks` (a convex block's own; a part's after
+// the blocks) holding its ranges of vertices, face planes and edges and its radius, named for
+// each contact in `adjacency` (`contact_bodies`); below, `a`, `b` and `i` name those records.
+// The motion a body shares (its orientation, a simply-deformable block's stretch) and the
+// velocities, points and forces are the contact's blocks' (`owner`): a part's vertices are
+// placed with its block's (stage 2), in f32 as offsets from the block's centroid, so the
+// contact's frame is its blocks' as for convex blocks.
+//
 // In f32 (RELATIVE) the contact's geometry is worked in a frame at the midpoint of its blocks'
 // centroids: a vertex is its offset from its centroid (stage 2) less or plus half the centroids'
 // difference, that half kept as a pair hi + lo (`centroid_pair_from`; halving is exact), the
@@ -19,12 +29,19 @@
 // multiplied by `params.one` so that no compiler reassociates them (math.wgsl's `two_sum`). In
 // f64 the frame is the global one, as on the CPU.
 
-// The contact's frame: its block 1, and half block 2's centroid less block 1's as a pair (f32;
-// unused in f64).
+// The contact's frame: its block 1's body (its record), and half block 2's centroid less block
+// 1's as a pair (f32; unused in f64).
 var<private> frame_origin: u32;
 var<private> frame_half: Pair;
+// The contact's blocks, block 1 then block 2.
+var<private> owners: vec2<u32>;
 
-// Vertex k (the block's own numbering) of block i, a block of the contact, in the contact's frame.
+// The block whose motion body i (a record of the contact's) shares.
+fn owner(i: u32) -> u32 {
+    return select(owners.y, owners.x, i == frame_origin);
+}
+
+// Vertex k (the body's own numbering) of body i, a body of the contact, in the contact's frame.
 fn block_vertex(i: u32, k: u32) -> vec3<real> {
     let x = vertex(blocks[i].vertex_start + k);
     if (RELATIVE) {
@@ -42,18 +59,18 @@ fn midpoint_from_first() -> vec3<real> {
     return frame_half.hi + frame_half.lo;
 }
 
-// The outward normal of face plane k of block i, in global axes (`Block::face_normal`; a
+// The outward normal of face plane k of body i, in global axes (`Body::face_normal`; a
 // simply-deformable block's strained, sdef.wgsl).
 fn plane_normal(i: u32, k: u32) -> vec3<real> {
     let pl = planes[blocks[i].plane_start + k];
-    let n = quat_rotate(orientation(i), vec3<real>(pl.nx, pl.ny, pl.nz));
+    let n = quat_rotate(orientation(owner(i)), vec3<real>(pl.nx, pl.ny, pl.nz));
     if (SDEF) {
-        return stretched_normal(i, n);
+        return stretched_normal(owner(i), n);
     }
     return n;
 }
 
-// The greatest n·x over block i's vertices (`lowest`: the least).
+// The greatest n·x over body i's vertices (`lowest`: the least).
 fn support(i: u32, n: vec3<real>, lowest: bool) -> real {
     var s = dot3(n, block_vertex(i, 0u));
     for (var k = 1u; k < blocks[i].vertex_count; k++) {
@@ -63,7 +80,7 @@ fn support(i: u32, n: vec3<real>, lowest: bool) -> real {
     return s;
 }
 
-// The separation of blocks a and b along n: least n·x over b less greatest over a.
+// The separation of bodies a and b along n: least n·x over b less greatest over a.
 fn separation_along(a: u32, b: u32, n: vec3<real>) -> real {
     return support(b, n, true) - support(a, n, false);
 }
@@ -81,8 +98,8 @@ fn consider(best: Plane3, a: u32, b: u32, n: vec3<real>, slack: real) -> Plane3 
     return best;
 }
 
-// The common plane of convex blocks a and b (Rust twin: `contact::common_plane`): of the face
-// normals of either block and the cross products of an edge direction of each, the one of
+// The common plane of convex bodies a and b (Rust twin: `contact::common_plane_with`): of the
+// face normals of either body and the cross products of an edge direction of each, the one of
 // greatest separation; where they are apart by no more than `reach`, the directions between
 // their nearest vertex and edge or vertex and vertex too.
 fn common_plane(a: u32, b: u32, reach: real) -> Plane3 {
@@ -181,10 +198,11 @@ fn near(first: bool, h: real, hi_a: real, lo_b: real, reach: real) -> bool {
     return h <= lo_b + reach;
 }
 
-// The distance along n from p at which the line p + s·n leaves block i (the least s over the
+// The distance along n from p at which the line p + s·n leaves body i (the least s over the
 // planes it heads out through), or enters it (`entering`: the greatest over those it heads in
 // through) (Rust twin: `contact::ray_crossing`); `found` false where no plane qualifies. Planes
-// within GRAZING of parallel to n are passed over (the prelude says why).
+// within GRAZING of parallel to n are passed over (the prelude says why; PART_GRAZING for a part
+// of a concave block, whose record lies after the blocks).
 struct Crossing {
     s: real,
     found: bool,
@@ -192,11 +210,12 @@ struct Crossing {
 
 fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool) -> Crossing {
     var out = Crossing(0.0, false);
+    let grazing = select(GRAZING, PART_GRAZING, i >= params.blocks);
     for (var k = 0u; k < blocks[i].plane_count; k++) {
         let nf = plane_normal(i, k);
         let d = dot3(nf, n);
         let x = block_vertex(i, planes[blocks[i].plane_start + k].vertex);
-        if ((entering && d < -GRAZING) || (!entering && d > GRAZING)) {
+        if ((entering && d < -grazing) || (!entering && d > grazing)) {
             let s = dot3(nf, x - p) / d;
             if (!out.found || (entering && s > out.s) || (!entering && s < out.s)) {
                 out = Crossing(s, true);
@@ -341,15 +360,17 @@ fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         return;
     }
     var c = contacts[ci];
-    let a = c.block1;
-    let b = c.block2;
     let tol = params.tol;
-    frame_origin = a;
     if (RELATIVE) {
-        let d = centroid_pair_from(b, a);
+        let d = centroid_pair_from(c.block2, c.block1);
         frame_half = Pair(d.hi * 0.5, d.lo * 0.5);
     }
-    // Boxes apart by more than the contact-forming distance: the blocks are.
+    // The bodies' records: the geometry's (`contact_bodies`).
+    owners = vec2<u32>(c.block1, c.block2);
+    let a = adjacency[contact_bodies(ci)];
+    let b = adjacency[contact_bodies(ci) + 1u];
+    frame_origin = a;
+    // Boxes apart by more than the contact-forming distance: the bodies are.
     var a0 = block_vertex(a, 0u);
     var a1 = a0;
     for (var k = 1u; k < blocks[a].vertex_count; k++) {

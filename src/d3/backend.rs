@@ -28,10 +28,10 @@ pub trait Backend {
 }
 
 /// `--backend auto`'s D3 backend where a GPU was found (as 2D's `udec::backend::GpuOrCpu`): the
-/// GPU, until a run comes that it does not take, a model with a concave block (whose convex
-/// parts only the CPU's contact detection knows, `d3::decompose`) or one past its limits
-/// (`CycleError::DoesNotFit`, refused before any cycle); that run and every later one go to the
-/// CPU backend, which starts from the model as it is (a full contact detection).
+/// GPU, until a run comes that it does not take, a model past its limits
+/// (`CycleError::DoesNotFit`, refused before any cycle; a concave block's convex parts run on
+/// the GPU as on the CPU, `d3::gpu`); that run and every later one go to the CPU backend, which
+/// starts from the model as it is (a full contact detection).
 pub struct GpuOrCpu {
     gpu: Box<dyn Backend>,
     cpu: Option<Box<dyn Backend>>,

@@ -3,8 +3,9 @@
 //! volumes summing to the block's, every point of the block in exactly one part), the mass
 //! properties of the whole block, an L-shaped block resting on a slab on its whole base, a cube
 //! carried by the floor of a U-shaped block's notch, the energy ledger, SAVE/RESTART, and the
-//! refusals (a self-touching surface at BLOCK, the GPU backend); SPLIT of a concave block (as
-//! many blocks as the plane leaves), a simply-deformable one, and one cracking.
+//! refusals (a self-touching surface at BLOCK); SPLIT of a concave block (as many blocks as the
+//! plane leaves), a simply-deformable one, and one cracking. On the GPU backend:
+//! tests/suite/d3_concave_gpu.rs.
 
 use blockdem::d3::deck::parse_deck;
 use blockdem::d3::decompose;
@@ -553,31 +554,4 @@ fn a_concave_block_cracks_by_the_point_load_law() {
     assert!(report.cracks[0].value >= 1e4);
     let l_volume: f64 = model.blocks.iter().filter(|b| b.material == 2).map(|b| b.volume).sum();
     assert!((l_volume - 3.0).abs() < 1e-9, "its pieces make the L: {l_volume}");
-}
-
-#[test]
-fn the_gpu_backend_refuses_a_concave_block() {
-    for o in crate::common::gpu_options() {
-        let commands = parse_deck(&l_drop("CYCLE 1\n"), "t.dat").unwrap();
-        let backend = Box::new(blockdem::d3::gpu::GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}")));
-        let mut exec = Executor::with_backend(Box::new(std::io::sink()), "t.dat", backend);
-        let message = exec.run(&commands).expect_err("a concave block on the GPU").to_string();
-        assert!(message.contains("block 2") && message.contains("concave blocks run on the CPU backend"), "{message}");
-    }
-}
-
-#[test]
-fn auto_goes_on_on_the_cpu_with_a_concave_block() {
-    // `--backend auto` on a GPU wraps it so (`d3::backend::GpuOrCpu`): the run is the CPU's.
-    for o in crate::common::gpu_options() {
-        let commands = parse_deck(&l_drop("CYCLE 50\n"), "t.dat").unwrap();
-        let gpu = Box::new(blockdem::d3::gpu::GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}")));
-        let mut exec = Executor::with_backend(
-            Box::new(std::io::sink()),
-            "t.dat",
-            Box::new(blockdem::d3::backend::GpuOrCpu::new(gpu, || Box::new(blockdem::d3::cpu::CpuBackend::new()))),
-        );
-        exec.run(&commands).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(exec.model, run(&l_drop("CYCLE 50\n")));
-    }
 }

@@ -13,6 +13,7 @@ mod compare;
 mod contact_rules;
 mod d3_boundary;
 mod d3_concave;
+mod d3_concave_gpu;
 mod d3_contacts;
 mod d3_deck;
 mod d3_geometry;

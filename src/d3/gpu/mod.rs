@@ -59,6 +59,23 @@
 //! is resolved at the round-off of the offsets near the contact; a logical contact's point is kept
 //! from its block 1's centroid (`point_origin`), which the read-back adds.
 //!
+//! # Concave blocks
+//!
+//! A concave block is cut into convex parts when it is built (`d3::decompose`, `Block::parts`),
+//! and contact detection and the contact law run between parts of different blocks, as on the
+//! CPU: the CPU's detection finds the part pairs (`Contact::parts`), and `track_contact` works
+//! each contact's geometry between its two convex bodies, a convex block or one part of a
+//! concave one (`layout.wgsl`'s `contact_bodies`). A part's vertices lie in its block's vertex
+//! range, in the block's reference frame about the block's centroid, so `law_of_motion` places
+//! them as any vertex of the block (in f32 as offsets from the block's centroid, so the
+//! contact's frame is its blocks' midpoint as for convex blocks); each part has a record of its
+//! ranges (vertices, face planes, edges) and radius after the blocks in the block buffer, and
+//! each contact's two bodies are named after the blocks' lists in the adjacency buffer, so the
+//! kernels keep to their eight storage buffers. The points and forces are the contact's blocks':
+//! `gather` sums each part-contact's force, with its moment about the block's centroid, into its
+//! block. The read-back places the parts' vertices with the block's on the CPU
+//! (`Block::place_vertices`), and the contacts keep the parts the detection gave them.
+//!
 //! # SAVE and RESTART
 //!
 //! The device holds more than the model it reads back: the logical contacts of the last
@@ -72,6 +89,8 @@
 //! next batch takes its time step and length afresh; a SAVE after a number of cycles that is a
 //! multiple of that interval therefore continues the straight run exactly, another cuts a batch
 //! the straight run would not have cut (as two CYCLEs do on one backend without a SAVE).
+//! A concave scene's saved blocks and vertices hold its parts' records and vertices as the
+//! device does (the format is unchanged: a convex scene's buffers are as they were).
 //!
 //! # Boundary conditions (BOUNDARY, ¶35e)
 //!
@@ -97,6 +116,7 @@ pub mod shaders;
 use glam::{DMat3, DQuat, DVec3};
 
 use super::cpu::{self, contact_stage};
+use super::geometry::Shape;
 use super::model::{Logical, LogicalKind, Model};
 use super::restart::DeviceState;
 use super::topology;
@@ -316,10 +336,9 @@ impl GpuBackend {
     /// logical contacts as the device holds them, the keys, the time step and the bases.
     fn device_state_as<R: Real>(&self, model: &Model) -> Result<Option<DeviceState>, GpuError> {
         let Some(s) = self.state.as_ref() else { return Ok(None) };
-        let vertex_count: usize = model.blocks.iter().map(|b| b.shape.vertices.len()).sum();
         let sizes = [
-            model.blocks.len() * std::mem::size_of::<layout::Block<R>>(),
-            vertex_count * std::mem::size_of::<layout::Vertex<R>>(),
+            record_count(model) * std::mem::size_of::<layout::Block<R>>(),
+            vertex_count(model) * std::mem::size_of::<layout::Vertex<R>>(),
             model.contacts.len() * std::mem::size_of::<layout::Contact<R>>(),
             s.logical_count * std::mem::size_of::<layout::Logical<R>>(),
         ];
@@ -369,7 +388,10 @@ impl GpuBackend {
             ]
         };
         if let Some(k) = (0..blocks.len()).find(|&k| ranges(&blocks[k]) != ranges(&saved_blocks[k])) {
-            return Err(format!("block {}'s lists are not the model's", model.blocks[k].id));
+            return Err(match model.blocks.get(k) {
+                Some(b) => format!("block {}'s lists are not the model's", b.id),
+                None => format!("the concave blocks' part record {} (after the blocks) is not the model's", k - model.blocks.len() + 1),
+            });
         }
         if device.keys.len() != contacts.len() {
             return Err(format!("{} contacts' keys for {} contacts", device.keys.len(), contacts.len()));
@@ -627,28 +649,29 @@ fn point_origin<R: Real>(model: &Model, c: &super::model::Contact) -> DVec3 {
 
 /// The shapes as the kernels take them: each block's vertices (reference frame and placed: in
 /// f32 as offsets from the centroid, `relative`), its face planes and its edges (the
-/// directions', then the feature edges).
+/// directions', then the feature edges); a concave block's convex parts' after its own, each
+/// part's vertices in the block's reference frame about its centroid (the part's offset added),
+/// so that stage 2 places them as the block's own (`Block::place_vertices`), and its planes and
+/// edges numbered in the part's own vertices, as the logical contacts' keys are.
 fn shape_pods<R: Real>(model: &Model) -> (Vec<layout::Vertex<R>>, Vec<layout::Plane<R>>, Vec<u32>) {
     let mut vertices = Vec::new();
     let mut planes = Vec::new();
     let mut edges = Vec::new();
     for b in &model.blocks {
         let vertex_base = vertices.len() as u32;
+        let r = |x: f64| R::from_f64(x);
+        let offset_from = |g: DVec3| if relative::<R>() { g - b.centroid } else { g };
         for (l, g) in b.shape.vertices.iter().zip(&b.vertices) {
-            let r = |x: f64| R::from_f64(x);
-            let g = if relative::<R>() { *g - b.centroid } else { *g };
+            let g = offset_from(*g);
             vertices.push(layout::Vertex::<R> { lx: r(l.x), ly: r(l.y), lz: r(l.z), x: r(g.x), y: r(g.y), z: r(g.z) });
         }
-        for &f in &b.shape.planes {
-            let n = b.shape.normals[f as usize];
-            planes.push(layout::Plane::<R> {
-                nx: R::from_f64(n.x),
-                ny: R::from_f64(n.y),
-                nz: R::from_f64(n.z),
-                vertex: b.shape.faces[f as usize][0],
-                spare: 0,
-            });
+        for p in &b.parts {
+            for (l, g) in p.shape.vertices.iter().zip(&p.vertices) {
+                let (l, g) = (p.offset + *l, offset_from(*g));
+                vertices.push(layout::Vertex::<R> { lx: r(l.x), ly: r(l.y), lz: r(l.z), x: r(g.x), y: r(g.y), z: r(g.z) });
+            }
         }
+        face_planes(&b.shape, &mut planes);
         // Its faces loaded by BOUNDARY STRESS, two records each (`layout::Plane`), their
         // vertices numbered in the vertex buffer.
         for l in &b.boundary_stress {
@@ -657,19 +680,50 @@ fn shape_pods<R: Real>(model: &Model) -> (Vec<layout::Vertex<R>>, Vec<layout::Pl
             planes.push(layout::Plane::<R> { nx: s[0], ny: s[1], nz: s[2], vertex: v0, spare: v1 });
             planes.push(layout::Plane::<R> { nx: s[3], ny: s[4], nz: s[5], vertex: v2, spare: 0 });
         }
-        for &e in &b.shape.edge_directions {
-            let e = b.shape.edges[e as usize];
-            edges.extend([e.a, e.b]);
+        for p in &b.parts {
+            face_planes(&p.shape, &mut planes);
         }
-        for e in b.shape.edges.iter().filter(|e| e.feature) {
-            edges.extend([e.a, e.b]);
+        for shape in std::iter::once(&b.shape).chain(b.parts.iter().map(|p| &p.shape)) {
+            for &e in &shape.edge_directions {
+                let e = shape.edges[e as usize];
+                edges.extend([e.a, e.b]);
+            }
+            for e in shape.edges.iter().filter(|e| e.feature) {
+                edges.extend([e.a, e.b]);
+            }
         }
     }
     (vertices, planes, edges)
 }
 
+/// A convex shape's face planes (one per distinct normal, `Shape::planes`), each with one of its
+/// vertices in the shape's own numbering.
+fn face_planes<R: Real>(shape: &Shape, planes: &mut Vec<layout::Plane<R>>) {
+    for &f in &shape.planes {
+        let n = shape.normals[f as usize];
+        planes.push(layout::Plane::<R> { nx: R::from_f64(n.x), ny: R::from_f64(n.y), nz: R::from_f64(n.z), vertex: shape.faces[f as usize][0], spare: 0 });
+    }
+}
+
+/// How many feature edges a shape has (after its edge directions in the edge buffer).
+fn features_of(shape: &Shape) -> u32 {
+    shape.edges.iter().filter(|e| e.feature).count() as u32
+}
+
+/// How many records the block buffer holds: the blocks, then a record for each convex part of
+/// a concave block (`layout.wgsl`'s `contact_bodies`).
+fn record_count(model: &Model) -> usize {
+    model.blocks.len() + model.blocks.iter().map(|b| b.parts.len()).sum::<usize>()
+}
+
+/// How many vertices the vertex buffer holds: each block's, then its parts'.
+fn vertex_count(model: &Model) -> usize {
+    model.blocks.iter().map(|b| b.shape.vertices.len() + b.parts.iter().map(|p| p.shape.vertices.len()).sum::<usize>()).sum()
+}
+
 /// What a detection changes, as the kernels take it: the blocks (their travel and adjacency
-/// lists), the contacts, their logical contacts, the adjacency, and each contact's keys.
+/// lists) and the parts' records after them, the contacts, their logical contacts, the adjacency
+/// (the blocks' lists, then the contacts' bodies), and each contact's keys.
 #[allow(clippy::type_complexity)]
 fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Vec<u32>, Vec<Vec<LogicalKind>>) {
     // Adjacency: each block's contacts in the contacts' order.
@@ -679,13 +733,17 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
         lists[c.blocks[1] as usize].push(2 * k as u32 + 1);
     }
     let mut adjacency = Vec::new();
-    let mut blocks = Vec::with_capacity(model.blocks.len());
+    let mut blocks = Vec::with_capacity(record_count(model));
+    // The parts' records, after the blocks', and the first of each block's (`body_record`).
+    let mut part_records = Vec::new();
+    let mut first_part = Vec::with_capacity(model.blocks.len());
     let (mut vertex_start, mut plane_start, mut edge_start) = (0u32, 0u32, 0u32);
     for (b, list) in model.blocks.iter().zip(&lists) {
         let inv = if b.inertia_ref.determinant() > 0.0 { b.inertia_ref.inverse() } else { DMat3::ZERO };
         let r = |x: f64| R::from_f64(x);
         let cols = inv.to_cols_array();
-        let feature_count = b.shape.edges.iter().filter(|e| e.feature).count() as u32;
+        let feature_count = features_of(&b.shape);
+        let part_vertices: usize = b.parts.iter().map(|p| p.shape.vertices.len()).sum();
         // The centroid in the kernel precision and what that leaves (the compensated pair).
         let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
         blocks.push(layout::Block::<R> {
@@ -737,7 +795,8 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
                 layout::BLOCK_FREE
             },
             vertex_start,
-            vertex_count: b.shape.vertices.len() as u32,
+            // A concave block's parts' vertices too: stage 2 places them with its own.
+            vertex_count: (b.shape.vertices.len() + part_vertices) as u32,
             plane_start,
             plane_count: b.shape.planes.len() as u32,
             edge_start,
@@ -750,10 +809,39 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
             ..Default::default()
         });
         adjacency.extend_from_slice(list);
+        // Its vertices, planes (then two records for each loaded face) and edges, then its
+        // parts' (`shape_pods`), each part a record of its ranges and its radius.
         vertex_start += b.shape.vertices.len() as u32;
-        // Its planes, then two records for each loaded face (`shape_pods`).
         plane_start += (b.shape.planes.len() + 2 * b.boundary_stress.len()) as u32;
         edge_start += b.shape.edge_directions.len() as u32 + feature_count;
+        first_part.push((model.blocks.len() + part_records.len()) as u32);
+        for p in &b.parts {
+            let feature_count = features_of(&p.shape);
+            part_records.push(layout::Block::<R> {
+                radius: r(p.shape.radius),
+                vertex_start,
+                vertex_count: p.shape.vertices.len() as u32,
+                plane_start,
+                plane_count: p.shape.planes.len() as u32,
+                edge_start,
+                edge_dir_count: p.shape.edge_directions.len() as u32,
+                feature_count,
+                finite: 1,
+                ..Default::default()
+            });
+            vertex_start += p.shape.vertices.len() as u32;
+            plane_start += p.shape.planes.len() as u32;
+            edge_start += p.shape.edge_directions.len() as u32 + feature_count;
+        }
+    }
+    blocks.extend(part_records);
+    // After the lists, each contact's two bodies' records (`layout.wgsl`'s `contact_bodies`): a
+    // convex block's own, or the record of the part of a concave one it is between.
+    for c in &model.contacts {
+        for (i, part) in c.blocks.into_iter().zip(c.parts) {
+            let b = &model.blocks[i as usize];
+            adjacency.push(if b.parts.is_empty() { i } else { first_part[i as usize] + part });
+        }
     }
     let mut contacts = Vec::with_capacity(model.contacts.len());
     let mut logicals = Vec::new();
@@ -937,16 +1025,8 @@ impl driver::Start<Model> for GpuBackend {
     }
 
     fn preflight(&mut self, model: &Model) -> Result<(), CycleError> {
-        // The kernels know a block as one convex body: a concave block's parts are the CPU's.
-        // The model does not fit this backend, another runs it (`--backend auto` goes on on the
-        // CPU, `backend::GpuOrCpu`).
-        if let Some(b) = model.blocks.iter().find(|b| !b.parts.is_empty()) {
-            return Err(CycleError::DoesNotFit(format!(
-                "block {} is concave (made of {} convex parts): concave blocks run on the CPU backend for now (--backend cpu)",
-                b.id,
-                b.parts.len()
-            )));
-        }
+        // A concave block runs as its convex parts, each a body of the contact stage (`layout.wgsl`'s
+        // `contact_bodies`), as on the CPU.
         cpu::preflight(model)
     }
 

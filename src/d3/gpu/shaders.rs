@@ -43,12 +43,21 @@ pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
     // the crossing is round-off over that cosine: in f32, 1e-7 m over a box tilted by 1e-5 rad
     // put the crossing centimetres off, and a sliding box's corners took forces of kilonewtons
     // at random and rocked it. The faces across the ray give the crossing to round-off.
+    //
+    // PART_GRAZING: GRAZING for a convex part of a concave block (`d3::gpu`, "Concave blocks"),
+    // in both precisions. A part's cut faces run through the seams of its block, where the
+    // logical contacts of a stacked concave block's seam lie: the ray along a contact's normal
+    // through such a point meets a cut face that the block's rocking tilts off parallel by a
+    // little, and at GRAZING = 1e-9 the crossing is that point's small offset from the face over
+    // the tilt, far off the surfaces; kept between detections (the CPU finds its contacts
+    // afresh each cycle), such gaps spun an L stacked on an L in f64 to 0.28 rad/s (the CPU's:
+    // 2e-3) and the run blew up at cycle 1000 (energy growing without a source). f32's GRAZING.
     let (real, compensated, grazing) = match precision {
         Precision::F32 => ("f32", true, "1e-3"),
         Precision::F64 => ("f64", false, "1e-9"),
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst PART_GRAZING: real = 1e-3;\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{}",
         workgroup_size(),
         math_constants(precision)
     )
