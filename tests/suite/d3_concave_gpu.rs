@@ -14,63 +14,13 @@
 //! few times that.
 
 use crate::common;
+use crate::common::voxels::{block_command, voxel_faces, L, U};
 
 use blockdem::d3::exec::Executor;
 use blockdem::d3::gpu::{layout, GpuBackend};
 use blockdem::d3::model::Model;
 use blockdem::udec::gpu::{GpuOptions, Precision};
 use glam::DVec3;
-
-/// The closed surface of a set of unit voxels scaled by `h` and moved by `origin`, as a deck
-/// types its faces (tests/suite/d3_concave.rs's `voxel_faces`).
-fn voxel_faces(voxels: &[[i32; 3]], h: f64, origin: [f64; 3]) -> Vec<[[f64; 3]; 3]> {
-    let mut out = Vec::new();
-    for v in voxels {
-        for axis in 0..3 {
-            for dir in [-1i32, 1] {
-                let mut n = *v;
-                n[axis] += dir;
-                if voxels.contains(&n) {
-                    continue;
-                }
-                let lo = [v[0] as f64, v[1] as f64, v[2] as f64];
-                let (u, w) = ((axis + 1) % 3, (axis + 2) % 3);
-                let corner = |a: f64, b: f64| {
-                    let mut p = lo;
-                    p[axis] += if dir > 0 { 1.0 } else { 0.0 };
-                    p[u] += a;
-                    p[w] += b;
-                    [origin[0] + h * p[0], origin[1] + h * p[1], origin[2] + h * p[2]]
-                };
-                let mut quad = [corner(0.0, 0.0), corner(1.0, 0.0), corner(1.0, 1.0), corner(0.0, 1.0)];
-                if dir < 0 {
-                    quad.reverse();
-                }
-                out.push([quad[0], quad[2], quad[1]]);
-                out.push([quad[0], quad[3], quad[2]]);
-            }
-        }
-    }
-    out
-}
-
-/// A BLOCK command of the typed faces.
-fn block_command(faces: &[[[f64; 3]; 3]], material: u32) -> String {
-    let mut s = format!("BLOCK MAT={material}");
-    for f in faces {
-        s.push_str("\n+");
-        for v in f {
-            s.push_str(&format!(" ({},{},{})", v[0], v[1], v[2]));
-        }
-    }
-    s.push('\n');
-    s
-}
-
-/// An L of three unit voxels in the xy plane (one high): two convex parts.
-const L: [[i32; 3]; 3] = [[0, 0, 0], [1, 0, 0], [0, 1, 0]];
-/// A U in the xz plane, its notch the voxel [1, 0, 1]: three convex parts.
-const U: [[i32; 3]; 5] = [[0, 0, 0], [1, 0, 0], [2, 0, 0], [0, 0, 1], [2, 0, 1]];
 
 /// The L (density 2000) set `lift` above a fixed slab, undamped: it sinks onto its springs and
 /// rocks (their mean lies off its centroid), its corners slipping (d3_concave.rs).
@@ -324,5 +274,36 @@ fn auto_runs_a_concave_deck_on_the_gpu() {
         let gpu = run(&deck, Some(&o));
         assert!(exec.model == gpu, "{:?}: auto's run is the GPU's", o.precision);
         assert!(exec.model != run(&deck, None), "{:?}: and not the CPU's", o.precision);
+    }
+}
+
+/// A simply-deformable L dropped on the slab (its parts placed by the one map c + (I + ε)·R·x,
+/// `d3::sdef`), and an L cut by SPLIT into two L-shaped pieces that fall on one another: on every
+/// GPU target as on the CPU (the device places a strained block's part vertices with its own;
+/// the pieces, concave, are uploaded afresh after the SPLIT).
+#[test]
+fn a_strained_and_a_split_concave_block_run_on_the_gpu_as_on_the_cpu() {
+    let strained = l_on_slab(0.02, "PROP MAT=1 K=5E7 G=3E7\nCHANGE -1 3 -1 3 0 2 SDEF\nDAMP 0.2 50 MASS\nCYCLE 2000\n");
+    let split = l_on_slab(0.02, "VELOCITY -1 3 -1 3 0 2 0.3 -0.2 0.1 0.5 -0.4 1.0\nSPLIT 0.5 0.5 0.6 0.1 0.05 1\nDAMP 0.5 50 MASS\nCYCLE 3000\n");
+    let (cpu_strained, cpu_split) = (run(&strained, None), run(&split, None));
+    let s = cpu_strained.blocks[1].sdef.expect("simply deformable");
+    assert!(s.strain.iter().any(|e| e.abs() > 1e-7), "{:?}", s.strain);
+    assert_eq!(cpu_split.blocks.len(), 3);
+    for o in common::gpu_options() {
+        let gpu = run(&strained, Some(&o));
+        let (dx, _, _) = block_difference(&cpu_strained, &gpu, 1);
+        let g = gpu.blocks[1].sdef.expect("simply deformable on the GPU");
+        let de = (0..6).map(|k| (g.strain[k] - s.strain[k]).abs()).fold(0.0, f64::max);
+        let e_scale = s.strain.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+        let gpu_split = run(&split, Some(&o));
+        assert_eq!(gpu_split.blocks.len(), 3);
+        let dy = (1..3).map(|k| block_difference(&cpu_split, &gpu_split, k).0).fold(0.0, f64::max);
+        eprintln!("{:?} {:?}: strained L {dx:.2e} m, strain {:.2e} of its largest; split pieces {dy:.2e} m", o.adapter, o.precision, de / e_scale);
+        // Measured (lavapipe f64 and f32, llvmpipe): the strained L 1.8e-7 m after 2000 cycles,
+        // its ringing strain 1.5e-2 of its largest in f64 as in f32 (the logical contacts tracked
+        // between detections, not the precision); the pieces 5.1e-5 m after settling one on the
+        // other (as the L stacked on an L above, 1.1e-5 m).
+        assert!(dx < 1e-6 && de < 5e-2 * e_scale, "{:?}: {dx:e} m, strain {de:e}", o.precision);
+        assert!(dy < 2e-4, "{:?}: the pieces {dy:e} m off the CPU's", o.precision);
     }
 }

@@ -7,6 +7,8 @@
 //! it fails instead.
 #![allow(dead_code)]
 
+pub mod voxels;
+
 use blockdem::udec::backend::Backend;
 use blockdem::udec::cpu::CpuBackend;
 use blockdem::udec::gpu::{find_target, AdapterChoice, GpuBackend, GpuOptions, Precision};
