@@ -210,13 +210,27 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
 /// Only one face of each plane is tried (`Shape::planes`): the faces of a convex block that
 /// share an outward normal lie in one supporting plane, so the others give the same crossing.
 fn ray_crossing(block: Body, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool) -> f64 {
+    ray_crossing_grazing(block, normals, p, n, entering, 1e-9)
+}
+
+/// How near parallel to a tracked contact's normal a face of a concave block's convex part may
+/// lie and still be crossed ([`place_logical`], the GPU's stage 4 between detections; the
+/// kernels' PART_GRAZING, `d3::gpu::shaders`): a part's cut faces run through its block's seams,
+/// where a stacked concave block's logical contacts lie, and a ray crossing a cut face the
+/// rocking tilts off parallel by a little lands far off the surfaces. The CPU's detection, which
+/// finds the logical contacts afresh each cycle, keeps 1e-9.
+pub const PART_GRAZING: f64 = 1e-3;
+
+/// [`ray_crossing`], passing over the faces whose normal is within `grazing` (the cosine) of
+/// perpendicular to the ray.
+fn ray_crossing_grazing(block: Body, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool, grazing: f64) -> f64 {
     let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
     for (&f, &nf) in block.shape.planes.iter().zip(normals) {
         let d = nf.dot(n);
         let x = block.vertices[block.shape.faces[f as usize][0] as usize];
-        if entering && d < -1e-9 {
+        if entering && d < -grazing {
             s_best = s_best.max(nf.dot(x - p) / d);
-        } else if !entering && d > 1e-9 {
+        } else if !entering && d > grazing {
             s_best = s_best.min(nf.dot(x - p) / d);
         }
     }
@@ -532,7 +546,7 @@ pub fn logical_force(l: &Logical, n: DVec3, a: &Block, b: &Block, mat: &Material
 /// along n leaves block 1 and enters block 2, as [`logical_contacts`] places the contacts it
 /// finds. The GPU's stage 4 between detections (`track_contact`; WGSL twin in
 /// `shaders/d3/track_contact.wgsl`).
-pub fn place_logical(kind: LogicalKind, a: &Block, b: &Block, n: DVec3, hi_a: f64, lo_b: f64, separation: f64) -> (DVec3, f64) {
+pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, lo_b: f64, separation: f64) -> (DVec3, f64) {
     let mid = 0.5 * (hi_a + lo_b);
     let x = match kind {
         LogicalKind::VertexFace { on_first: true, vertex } => a.vertices[vertex as usize],
@@ -549,9 +563,9 @@ pub fn place_logical(kind: LogicalKind, a: &Block, b: &Block, n: DVec3, hi_a: f6
         }
     };
     let p = x + n * (mid - n.dot(x));
-    let (a, b) = (Body::from(a), Body::from(b));
-    let leave = ray_crossing(a, &plane_normals(a), p, n, false);
-    let enter = ray_crossing(b, &plane_normals(b), p, n, true);
+    let grazing = |body: Body| if body.block.parts.is_empty() { 1e-9 } else { PART_GRAZING };
+    let leave = ray_crossing_grazing(a, &plane_normals(a), p, n, false, grazing(a));
+    let enter = ray_crossing_grazing(b, &plane_normals(b), p, n, true, grazing(b));
     let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };
     (p + n * (0.5 * (leave + enter)), enter - leave)
 }
@@ -562,11 +576,12 @@ pub fn place_logical(kind: LogicalKind, a: &Block, b: &Block, n: DVec3, hi_a: f6
 /// released; otherwise each logical contact the last detection found is placed anew
 /// ([`place_logical`]) and the force–displacement law applied ([`force_law`]). The set of
 /// logical contacts changes only at a detection ([`logical_contacts`], on the CPU between
-/// cycles). Returns the energy friction took and that released.
-pub fn track_contact(c: &mut Contact, a: &Block, b: &Block, mat: &Material, tol: f64, dt: f64) -> (f64, f64) {
+/// cycles). `a` and `b` are the contact's bodies (its blocks, or the parts of concave ones in
+/// touch, `Contact::parts`). Returns the energy friction took and that released.
+pub fn track_contact(c: &mut Contact, a: Body, b: Body, mat: &Material, tol: f64, dt: f64) -> (f64, f64) {
     let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
     let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
-    let plane = (!apart).then(|| common_plane(a, b, tol));
+    let plane = (!apart).then(|| common_plane_with(a, b, &plane_normals(a), &plane_normals(b), tol));
     let old_normal = c.normal;
     if let Some(p) = &plane {
         c.normal = p.normal;
@@ -582,7 +597,7 @@ pub fn track_contact(c: &mut Contact, a: &Block, b: &Block, mat: &Material, tol:
     for l in &mut c.logical {
         (l.point, l.gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
     }
-    (force_law(c, old_normal, a, b, mat, dt), 0.0)
+    (force_law(c, old_normal, a.block, b.block, mat, dt), 0.0)
 }
 
 /// The strain energy of a logical contact's springs, Fn²/2kn + |Fs|²/2ks.

@@ -307,3 +307,38 @@ fn a_strained_and_a_split_concave_block_run_on_the_gpu_as_on_the_cpu() {
         assert!(dy < 2e-4, "{:?}: the pieces {dy:e} m off the CPU's", o.precision);
     }
 }
+
+/// The Rust twin of the kernel's stage 4 between detections (`contact::track_contact`,
+/// `place_logical`) works between a contact's bodies, as the kernel does: right after a
+/// detection it places each logical contact of the L's parts on the slab, and of the cube on the
+/// U's base part, where the detection found it, to round-off, and its law gives the detection's
+/// normal forces.
+#[test]
+fn the_rust_twin_tracks_a_concave_blocks_contacts_between_its_parts() {
+    use blockdem::d3::contact::{common_plane_with, place_logical, plane_normals, track_contact};
+    let mut checked = 0;
+    for deck in [l_on_slab(-1e-4, "CYCLE 0\n"), notch("CYCLE 0\n")] {
+        let m = run(&deck, None);
+        let tol = m.contact_tolerance();
+        for c in m.contacts.iter().filter(|c| !c.logical.is_empty()) {
+            let (a, b) = (m.blocks[c.blocks[0] as usize].body(c.parts[0]), m.blocks[c.blocks[1] as usize].body(c.parts[1]));
+            let plane = common_plane_with(a, b, &plane_normals(a), &plane_normals(b), tol);
+            let n = plane.normal;
+            let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+            let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+            let scale = a.shape.radius.min(b.shape.radius);
+            for l in &c.logical {
+                let (p, gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
+                assert!((p - l.point).length() < 1e-12 * scale && (gap - l.gap).abs() < 1e-12 * scale, "{:?}: {p} {gap} vs {} {}", l.kind, l.point, l.gap);
+                checked += 1;
+            }
+            let mut tracked = c.clone();
+            let mat = m.contact_material(c);
+            track_contact(&mut tracked, a, b, &mat, tol, 0.0);
+            for (t, l) in tracked.logical.iter().zip(&c.logical) {
+                assert!((t.normal_force - l.normal_force).abs() <= 1e-9 * l.normal_force.abs().max(1.0), "{} vs {}", t.normal_force, l.normal_force);
+            }
+        }
+    }
+    assert!(checked >= 12, "{checked} logical contacts");
+}

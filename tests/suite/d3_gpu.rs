@@ -293,7 +293,7 @@ fn a_logical_contact_is_placed_by_its_key_where_detection_found_it() {
             let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
             let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
             for l in &c.logical {
-                let (p, gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
+                let (p, gap) = place_logical(l.kind, a.into(), b.into(), n, hi_a, lo_b, plane.separation);
                 match l.kind {
                     LogicalKind::VertexFace { .. } => kinds.0 += 1,
                     LogicalKind::EdgeEdge { .. } => kinds.1 += 1,

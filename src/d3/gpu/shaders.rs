@@ -51,7 +51,8 @@ pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
     // little, and at GRAZING = 1e-9 the crossing is that point's small offset from the face over
     // the tilt, far off the surfaces; kept between detections (the CPU finds its contacts
     // afresh each cycle), such gaps spun an L stacked on an L in f64 to 0.28 rad/s (the CPU's:
-    // 2e-3) and the run blew up at cycle 1000 (energy growing without a source). f32's GRAZING.
+    // 2e-3) and the run blew up at cycle 1000 (energy growing without a source). f32's GRAZING;
+    // the Rust twin's `contact::PART_GRAZING`.
     let (real, compensated, grazing) = match precision {
         Precision::F32 => ("f32", true, "1e-3"),
         Precision::F64 => ("f64", false, "1e-9"),
