@@ -210,15 +210,19 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
 /// Only one face of each plane is tried (`Shape::planes`): the faces of a convex block that
 /// share an outward normal lie in one supporting plane, so the others give the same crossing.
 fn ray_crossing(block: Body, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool) -> f64 {
-    ray_crossing_grazing(block, normals, p, n, entering, 1e-9)
+    ray_crossing_grazing(block, normals, p, n, entering, GRAZING)
 }
+
+/// How near parallel to the ray a face may lie and still be crossed (the cosine): the f64
+/// kernels' GRAZING (`d3::gpu::shaders`).
+const GRAZING: f64 = 1e-9;
 
 /// How near parallel to a tracked contact's normal a face of a concave block's convex part may
 /// lie and still be crossed ([`place_logical`], the GPU's stage 4 between detections; the
 /// kernels' PART_GRAZING, `d3::gpu::shaders`): a part's cut faces run through its block's seams,
 /// where a stacked concave block's logical contacts lie, and a ray crossing a cut face the
 /// rocking tilts off parallel by a little lands far off the surfaces. The CPU's detection, which
-/// finds the logical contacts afresh each cycle, keeps 1e-9.
+/// finds the logical contacts afresh each cycle, keeps `GRAZING` (1e-9).
 pub const PART_GRAZING: f64 = 1e-3;
 
 /// [`ray_crossing`], passing over the faces whose normal is within `grazing` (the cosine) of
@@ -563,7 +567,7 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
         }
     };
     let p = x + n * (mid - n.dot(x));
-    let grazing = |body: Body| if body.block.parts.is_empty() { 1e-9 } else { PART_GRAZING };
+    let grazing = |body: Body| if body.block.parts.is_empty() { GRAZING } else { PART_GRAZING };
     let leave = ray_crossing_grazing(a, &plane_normals(a), p, n, false, grazing(a));
     let enter = ray_crossing_grazing(b, &plane_normals(b), p, n, true, grazing(b));
     let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };

@@ -463,6 +463,16 @@ pub fn convex_pieces(mesh: &Mesh) -> Result<Vec<Mesh>, String> {
     Ok(done)
 }
 
+/// The convex parts a block of `shape` and `volume` needs: none where it is convex, else
+/// [`parts_of`]'s (a BLOCK, a SPLIT's or a crack's piece, a block read from an older save).
+pub fn parts_if_concave(shape: &Shape, volume: f64) -> Result<Vec<Part>, String> {
+    if shape.convex {
+        Ok(Vec::new())
+    } else {
+        parts_of(shape, volume)
+    }
+}
+
 /// The convex parts of a concave block's `shape` (its vertices about its centroid, reference
 /// frame), as the block keeps them (`Block::parts`; their vertices still to be placed): each
 /// part closed and convex, their volumes summing to `volume`, the block's, to round-off.

@@ -251,8 +251,7 @@ impl<'a> Executor<'a> {
                 }
             }
             Command::Split { point, normal, material, constitutive } => {
-                let outcome = super::split::split(&mut self.model, DVec3::from_array(*point), DVec3::from_array(*normal), *material, *constitutive)
-                    .map_err(|why| self.error(cmd, format!("SPLIT: {why}")))?;
+                let outcome = super::split::split(&mut self.model, DVec3::from_array(*point), DVec3::from_array(*normal), *material, *constitutive);
                 if let Some(n) = material {
                     if self.model.material(*n).density <= 0.0 && !outcome.split.is_empty() {
                         self.echo(&format!("WARNING: SPLIT: material {n} has no DENSITY yet: the pieces have no mass until PROPERTY gives it"))?;
@@ -323,12 +322,8 @@ impl<'a> Executor<'a> {
         // Ids from 1 in the order built; SPLIT's pieces take ids past the largest.
         let id = self.model.blocks.iter().map(|b| b.id).max().unwrap_or(0) + 1;
         // A concave block (¶13) is cut once into the convex parts contact detection sees.
-        let parts = if shape.convex {
-            Vec::new()
-        } else {
-            super::decompose::parts_of(&shape, props.volume)
-                .map_err(|why| self.error(cmd, format!("BLOCK: block {id} is concave and cannot be made of convex parts: {why}")))?
-        };
+        let parts = super::decompose::parts_if_concave(&shape, props.volume)
+            .map_err(|why| self.error(cmd, format!("BLOCK: block {id} is concave and cannot be made of convex parts: {why}")))?;
         self.model.blocks.push(Block::new(id, material, constitutive, shape, &props, density).with_parts(parts));
         self.model.neighbours_stale = true;
         Ok(())

@@ -139,11 +139,8 @@ pub fn concave_pieces(parent: &Block, point: DVec3, n: DVec3) -> Result<Option<V
         let side = ["back", "front"][side];
         let (shape, props) =
             geometry::shape_from_mesh(piece.vertices, piece.faces, size).map_err(|e| format!("a {side} piece is not a valid block: {}", e.message))?;
-        let parts = if shape.convex {
-            Vec::new()
-        } else {
-            decompose::parts_of(&shape, props.volume).map_err(|why| format!("a {side} piece is concave and cannot be made of convex parts: {why}"))?
-        };
+        let parts =
+            decompose::parts_if_concave(&shape, props.volume).map_err(|why| format!("a {side} piece is concave and cannot be made of convex parts: {why}"))?;
         out.push((shape, props, parts));
     }
     Ok(Some(out))
@@ -153,7 +150,7 @@ pub fn concave_pieces(parent: &Block, point: DVec3, n: DVec3) -> Result<Option<V
 /// and `constitutive`, where given, are the pieces' (else the parent's). A simply-deformable
 /// block's pieces are simply deformable, unstressed. A concave block may come apart in more than
 /// two pieces ([`concave_pieces`]).
-pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u32>, constitutive: Option<u32>) -> Result<SplitOutcome, String> {
+pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u32>, constitutive: Option<u32>) -> SplitOutcome {
     let n = normal.normalize();
     let crossed: Vec<usize> = (0..model.blocks.len())
         .filter(|&b| {
@@ -166,7 +163,7 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
     let outcome = cut(model, &crossed, point, n, material, constitutive);
     // The strain energy the parents' stresses held is released (the ledger's `released`).
     model.dissipated.released += outcome.released;
-    Ok(outcome)
+    outcome
 }
 
 /// A crack (SL-85-1 Part III ¶35f; `d3::cracking` finds it): block `b` splits along the plane
