@@ -27,47 +27,16 @@ pub trait Backend {
     fn describe(&self) -> String;
 }
 
-/// `--backend auto`'s D3 backend where a GPU was found (as 2D's `udec::backend::GpuOrCpu`): the
-/// GPU, until a run comes that it does not take, a model past its limits
-/// (`CycleError::DoesNotFit`, refused before any cycle; a concave block's convex parts run on
-/// the GPU as on the CPU, `d3::gpu`); that run and every later one go to the CPU backend, which
-/// starts from the model as it is (a full contact detection).
-pub struct GpuOrCpu {
-    gpu: Box<dyn Backend>,
-    cpu: Option<Box<dyn Backend>>,
-    make_cpu: fn() -> Box<dyn Backend>,
-}
-
-impl GpuOrCpu {
-    /// `make_cpu` opens the CPU backend when the first run the GPU does not take comes (a
-    /// factory, as 2D's, so that this trait's module does not depend on the CPU backend's).
-    pub fn new(gpu: Box<dyn Backend>, make_cpu: fn() -> Box<dyn Backend>) -> Self {
-        GpuOrCpu { gpu, cpu: None, make_cpu }
-    }
-
-    /// The backend the runs go to now.
-    fn active(&self) -> &dyn Backend {
-        self.cpu.as_deref().unwrap_or(&*self.gpu)
-    }
-
-    /// Goes on on the CPU, saying why.
-    fn switch_to_cpu(&mut self, why: &str) -> &mut Box<dyn Backend> {
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
-        self.cpu.insert((self.make_cpu)())
-    }
-}
+/// `--backend auto`'s D3 backend where a GPU was found (`driver::auto`, as 2D's): the GPU,
+/// until a run comes that it does not take, a model past its limits (`CycleError::DoesNotFit`,
+/// refused before any cycle; a concave block's convex parts run on the GPU as on the CPU,
+/// `d3::gpu`); that run and every later one go to the CPU backend, which starts from the model
+/// as it is (a full contact detection).
+pub type GpuOrCpu = crate::driver::auto::GpuOrCpu<dyn Backend>;
 
 impl Backend for GpuOrCpu {
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        if let Some(cpu) = &mut self.cpu {
-            return cpu.run(model, cycles, progress);
-        }
-        match self.gpu.run(model, cycles, progress) {
-            // Refused before any cycle, the model at its state before the run.
-            Err(CycleError::DoesNotFit(why)) => self.switch_to_cpu(&why).run(model, cycles, progress),
-            result => result,
-        }
+        self.run_with(model, |backend, model| backend.run(model, cycles, progress))
     }
 
     fn resumes_from(&self, model: &Model) -> bool {
@@ -79,17 +48,11 @@ impl Backend for GpuOrCpu {
     }
 
     fn resume_from(&mut self, model: &Model, device: Option<&DeviceState>) {
-        match &mut self.cpu {
-            Some(cpu) => cpu.resume_from(model, device),
-            None => self.gpu.resume_from(model, device),
-        }
+        self.active_mut().resume_from(model, device)
     }
 
     fn forget(&mut self) {
-        match &mut self.cpu {
-            Some(cpu) => cpu.forget(),
-            None => self.gpu.forget(),
-        }
+        self.active_mut().forget()
     }
 
     fn describe(&self) -> String {

@@ -328,7 +328,7 @@ pub fn update_contact(
     // The blocks' face-plane normals in global axes, turned once for the common plane's axes and
     // the logical contacts' ray crossings.
     let normals = (!apart).then(|| (contact::plane_normals(a), contact::plane_normals(b)));
-    let plane = normals.as_ref().map(|(na, nb)| contact::common_plane_with(a, b, na, nb, tol));
+    let plane = normals.as_ref().map(|(na, nb)| contact::common_plane_with(a, b, na, nb, tol, Some(c.normal)));
     let old_normal = c.normal;
     if let Some(p) = &plane {
         c.normal = p.normal;

@@ -64,6 +64,35 @@ pub struct Shape {
     pub convex: bool,
     /// The largest distance from the centroid to a vertex.
     pub radius: f64,
+    /// The radius of a ball about the mean of the vertices that lies inside the block: the least
+    /// distance from that point to a face plane (for a convex block, or a concave one whose
+    /// faces all see the point). Where the point lies behind some face's plane, minus the
+    /// largest distance from it to a vertex instead, so that in either case the support of the
+    /// block along any unit n is at least n·(mean) + `inradius` (the common plane's bound,
+    /// `contact::common_plane_with`). Computed from the rest of the shape, not saved
+    /// (`Shape::with_inradius`; RESTART computes it afresh), so the save format is unchanged.
+    #[serde(skip)]
+    pub inradius: f64,
+}
+
+impl Shape {
+    /// The shape with its [`Shape::inradius`] computed from its vertices, faces and normals.
+    pub fn with_inradius(mut self) -> Shape {
+        self.inradius = self.compute_inradius();
+        self
+    }
+
+    /// [`Shape::inradius`] of this shape.
+    pub fn compute_inradius(&self) -> f64 {
+        let n = self.vertices.len().max(1) as f64;
+        let mean = self.vertices.iter().copied().sum::<DVec3>() / n;
+        let inside = self.faces.iter().zip(&self.normals).map(|(f, nf)| nf.dot(self.vertices[f[0] as usize] - mean)).fold(f64::INFINITY, f64::min);
+        if inside > 0.0 && inside.is_finite() {
+            inside
+        } else {
+            -self.vertices.iter().map(|v| (*v - mean).length()).fold(0.0, f64::max)
+        }
+    }
 }
 
 /// Mass properties of a closed surface, per unit density: volume, centroid and the inertia tensor
@@ -257,7 +286,7 @@ pub fn shape_from_mesh(vertices: Vec<DVec3>, faces: Vec<[u32; 3]>, size: f64) ->
             edge_directions.push(k as u32);
         }
     }
-    Ok((Shape { vertices: local, faces, neighbours, normals, edges, planes, edge_directions, convex, radius }, props))
+    Ok((Shape { vertices: local, faces, neighbours, normals, edges, planes, edge_directions, convex, radius, inradius: 0.0 }.with_inradius(), props))
 }
 
 /// The twelve faces of the box `[x1,x2]×[y1,y2]×[z1,z2]`, as a deck would type them (each

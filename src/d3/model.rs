@@ -193,6 +193,29 @@ impl Body<'_> {
         self.block.velocity_at(p)
     }
 
+    /// The mean of the body's vertices as placed, and the radius of a ball about it inside the
+    /// body ([`Shape::inradius`] as placed: a simply-deformable block's stretch ε scales it by
+    /// at least 1 − |ε|, the Frobenius norm bounding the largest principal strain), or minus a
+    /// radius about it holding the body (a negative [`Shape::inradius`], scaled by 1 + |ε|).
+    /// `contact::common_plane_with` bounds a candidate axis's separation with them.
+    pub fn inner_ball(&self) -> (DVec3, f64) {
+        let mean = self.vertices.iter().copied().sum::<DVec3>() / self.vertices.len().max(1) as f64;
+        let r = self.shape.inradius;
+        let r = match &self.block.sdef {
+            Some(s) => {
+                let e = super::sdef::tensor(s.strain);
+                let norm = (e.x_axis.length_squared() + e.y_axis.length_squared() + e.z_axis.length_squared()).sqrt();
+                if r > 0.0 {
+                    r * (1.0 - norm).max(0.0)
+                } else {
+                    r * (1.0 + norm)
+                }
+            }
+            None => r,
+        };
+        (mean, r)
+    }
+
     /// The axis-aligned box around the body's vertices.
     pub fn bounds(&self) -> (DVec3, DVec3) {
         self.vertices.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), v| (lo.min(*v), hi.max(*v)))

@@ -322,7 +322,7 @@ fn the_rust_twin_tracks_a_concave_blocks_contacts_between_its_parts() {
         let tol = m.contact_tolerance();
         for c in m.contacts.iter().filter(|c| !c.logical.is_empty()) {
             let (a, b) = (m.blocks[c.blocks[0] as usize].body(c.parts[0]), m.blocks[c.blocks[1] as usize].body(c.parts[1]));
-            let plane = common_plane_with(a, b, &plane_normals(a), &plane_normals(b), tol);
+            let plane = common_plane_with(a, b, &plane_normals(a), &plane_normals(b), tol, None);
             let n = plane.normal;
             let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
             let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);

@@ -4,11 +4,12 @@
 //! box sliding (and one sticking) on an incline whose dip direction is oblique to the axes:
 //! s = ½gt²(sin ψ − cos ψ tan φ).
 
-use blockdem::d3::contact::{common_plane, logical_contacts, prescribed_normal};
+use blockdem::d3::contact::{common_plane, common_plane_with, logical_contacts, plane_normals, prescribed_normal};
 use blockdem::d3::deck::parse_deck;
 use blockdem::d3::exec::Executor;
 use blockdem::d3::geometry::{box_faces, shape_from_faces};
-use blockdem::d3::model::{Block, Feature, LogicalKind, Model};
+use blockdem::d3::model::{Block, Body, Feature, LogicalKind, Model};
+use blockdem::d3::sdef::Sdef;
 use blockdem::d3::topology::neighbour_pairs;
 use glam::{DQuat, DVec3};
 
@@ -260,4 +261,122 @@ fn a_box_sticks_on_an_incline_flatter_than_its_friction() {
     let (error, across) = incline(15.0, 20.0, 0.3);
     assert!(error.abs() < 1e-4, "it crept {error} m");
     assert!(across < 1e-5, "{across}");
+}
+
+/// The common plane's search passes over the axes whose bound lies under the best found or under
+/// the floor a hint gives (`contact::common_plane_with`): the answer must be the full search's
+/// bit for bit whatever the hint (the last cycle's answer, a direction near it, a random one,
+/// the opposite one), for bodies overlapping, touching, a shade apart and far apart, near the
+/// origin and 10 km from it, rigid and simply deformable (stretched by a strain of up to 2 %),
+/// and a tetrahedron against a box (axes that are no face's normal win there).
+#[test]
+fn the_common_planes_search_is_the_full_one_whatever_the_hint() {
+    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut uniform = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let unit = |uniform: &mut dyn FnMut() -> f64| DVec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize();
+    let tetrahedron = |q: DQuat, shift: DVec3| -> Vec<[[f64; 3]; 3]> {
+        let v = [[0.0, 0.0, 0.0], [0.7, 0.0, 0.0], [0.1, 0.6, 0.0], [0.2, 0.2, 0.8]].map(|p| (q * DVec3::from_array(p) + shift).to_array());
+        // Counter-clockwise looking along the outward normal (the volume is positive).
+        vec![[v[0], v[1], v[2]], [v[0], v[3], v[1]], [v[1], v[3], v[2]], [v[2], v[3], v[0]]]
+    };
+    let (mut cases, mut hinted) = (0, 0);
+    for k in 0..400 {
+        let (qa, qb) = (DQuat::from_scaled_axis(unit(&mut uniform) * 3.0), DQuat::from_scaled_axis(unit(&mut uniform) * 3.0));
+        let origin = if k % 4 == 3 { DVec3::new(1e4, -7e3, 3e3) } else { DVec3::ZERO };
+        let size = DVec3::new(0.2 + uniform(), 0.2 + uniform(), 0.2 + uniform());
+        let a_faces = turned_box((-0.5 * size).to_array(), (0.5 * size).to_array(), qa, origin);
+        let direction = unit(&mut uniform);
+        // Apart by the distance `gap` (negative: overlapping) along `direction`, about: the
+        // second body is moved until the full search says so.
+        let gap = [-0.05, -1e-4, 1e-5, 3e-3, 0.5][k % 5];
+        let b_first = if k % 3 == 0 { tetrahedron(qb, origin) } else { turned_box([-0.3, -0.2, -0.25], [0.3, 0.2, 0.25], qb, origin) };
+        let mut a = block(1, &a_faces);
+        let mut b = block(2, &b_first);
+        if k % 5 == 2 {
+            // Simply deformable, strained.
+            let strain =
+                [0.02 * (uniform() - 0.5), 0.02 * (uniform() - 0.5), 0.02 * (uniform() - 0.5), 0.01 * (uniform() - 0.5), 0.0, 0.01 * (uniform() - 0.5)];
+            for blk in [&mut a, &mut b] {
+                blk.sdef = Some(Sdef { strain, ..Sdef::default() });
+                blk.place_vertices();
+            }
+        }
+        // Move b along `direction` until the full search finds the gap asked.
+        let search = |a: &Block, b: &Block, hint: Option<DVec3>| {
+            let (a, b) = (Body::from(a), Body::from(b));
+            common_plane_with(a, b, &plane_normals(a), &plane_normals(b), 0.01, hint)
+        };
+        for _ in 0..4 {
+            let s = search(&a, &b, None);
+            b.centroid += direction * (gap - s.separation).min(5.0);
+            b.place_vertices();
+        }
+        let full = search(&a, &b, None);
+        assert!(full.separation.is_finite(), "case {k}: {full:?}");
+        // Without the refinement of bodies a shade apart (reach 0), every axis worked out.
+        let (body_a, body_b) = (Body::from(&a), Body::from(&b));
+        let reference = every_axis(body_a, body_b);
+        for hint in [None, Some(full.normal)] {
+            let found = common_plane_with(body_a, body_b, &plane_normals(body_a), &plane_normals(body_b), 0.0, hint);
+            assert!(
+                found.normal.to_array().map(f64::to_bits) == reference.0.to_array().map(f64::to_bits) && found.separation.to_bits() == reference.1.to_bits(),
+                "case {k} (gap {gap}), hint {hint:?}: {found:?} against every axis's {reference:?}"
+            );
+        }
+        let near = (full.normal + unit(&mut uniform) * 0.05).normalize();
+        let random = unit(&mut uniform);
+        for hint in [full.normal, near, random, -full.normal, DVec3::Z] {
+            let found = search(&a, &b, Some(hint));
+            assert!(
+                found.normal.to_array().map(f64::to_bits) == full.normal.to_array().map(f64::to_bits)
+                    && found.separation.to_bits() == full.separation.to_bits(),
+                "case {k} (gap {gap}), hint {hint}: {found:?} against the full search's {full:?}"
+            );
+            hinted += 1;
+        }
+        cases += 1;
+    }
+    assert_eq!((cases, hinted), (400, 2000));
+}
+
+/// The common plane's axes (the face normals of each body, the cross products of their edge
+/// directions) every one worked out, in `common_plane_with`'s order and with its rule for near
+/// ties: the normal and separation of the greatest separation.
+fn every_axis(a: Body, b: Body) -> (DVec3, f64) {
+    let least = |xs: &[DVec3], n: DVec3| xs.iter().map(|x| n.dot(*x)).fold(f64::INFINITY, |m, p| if p < m { p } else { m });
+    let greatest = |xs: &[DVec3], n: DVec3| xs.iter().map(|x| n.dot(*x)).fold(f64::NEG_INFINITY, |m, p| if p > m { p } else { m });
+    let slack = 1e-12 * (a.shape.radius + b.shape.radius);
+    let mut best = (DVec3::Z, f64::NEG_INFINITY);
+    let mut offer = |n: DVec3, s: f64| {
+        if s > best.1 + slack {
+            best = (n, s);
+        }
+    };
+    for n in plane_normals(a) {
+        offer(n, least(b.vertices, n) - greatest(a.vertices, n));
+    }
+    for n in plane_normals(b) {
+        offer(-n, least(b.vertices, -n) - greatest(a.vertices, -n));
+    }
+    for &i in &a.shape.edge_directions {
+        let ea = a.shape.edges[i as usize];
+        let da = a.vertices[ea.b as usize] - a.vertices[ea.a as usize];
+        for &j in &b.shape.edge_directions {
+            let eb = b.shape.edges[j as usize];
+            let db = b.vertices[eb.b as usize] - b.vertices[eb.a as usize];
+            let c = da.cross(db);
+            if c.length_squared() <= 1e-12 * da.length_squared() * db.length_squared() {
+                continue;
+            }
+            let n = c.normalize();
+            offer(n, least(b.vertices, n) - greatest(a.vertices, n));
+            offer(-n, -greatest(b.vertices, n) + least(a.vertices, n));
+        }
+    }
+    best
 }
