@@ -27,6 +27,7 @@
 //! step, the energy terms), not how a stage runs nor what a block is. The 2D engine's model
 //! implements [`RunModel`] in `udec::backend`.
 
+pub mod auto;
 pub mod report;
 pub mod run;
 

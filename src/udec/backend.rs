@@ -92,42 +92,16 @@ impl CycleError {
 }
 
 /// `--backend auto` on a GPU: the GPU backend while the models fit it, the CPU backend (f64)
-/// from the first run whose model is past its limits (said once on stderr) to the end. The CPU
-/// backend comes from `make_cpu`, so that this trait's layer names no backend (no module cycle).
-pub struct GpuOrCpu {
-    gpu: Box<dyn Backend>,
-    cpu: Option<Box<dyn Backend>>,
-    make_cpu: fn() -> Box<dyn Backend>,
-}
-
-impl GpuOrCpu {
-    /// `make_cpu` opens the CPU backend when the first model past the GPU's limits comes.
-    pub fn new(gpu: Box<dyn Backend>, make_cpu: fn() -> Box<dyn Backend>) -> Self {
-        GpuOrCpu { gpu, cpu: None, make_cpu }
-    }
-}
+/// from the first run whose model is past its limits to the end (`driver::auto`).
+pub type GpuOrCpu = crate::driver::auto::GpuOrCpu<dyn Backend>;
 
 impl Backend for GpuOrCpu {
     fn describe(&self) -> String {
-        match &self.cpu {
-            Some(cpu) => cpu.describe(),
-            None => self.gpu.describe(),
-        }
+        self.active().describe()
     }
 
     fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        if let Some(cpu) = &mut self.cpu {
-            return cpu.run(model, cycles, progress);
-        }
-        match self.gpu.run(model, cycles, progress) {
-            // Refused before any cycle, the model at its state before the run.
-            Err(CycleError::DoesNotFit(why)) => {
-                use std::io::Write as _;
-                let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
-                self.cpu.insert((self.make_cpu)()).run(model, cycles, progress)
-            }
-            result => result,
-        }
+        self.run_with(model, |backend, model| backend.run(model, cycles, progress))
     }
 }
 
