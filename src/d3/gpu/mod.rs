@@ -286,6 +286,12 @@ pub struct GpuBackend {
     /// Batches submitted since the backend was made (each a submission and a read-back of the
     /// blocks): with [`GpuBackend::batches`], how a run's cost is seen from outside.
     batches: u64,
+    /// The longest batch of a scene with Griffith's candidates: a halted batch still submits
+    /// the (empty) dispatches of the cycles after its halt, so where screens fire batch after
+    /// batch (a stress within the margin below TF) the batches shrink to twice the cycles the
+    /// last one ran, and grow back by doubling (as the 2D engine's `batch_cap`); each run starts
+    /// at the energy checks' interval.
+    screened_cap: u64,
 }
 
 fn device_error(e: GpuError) -> CycleError {
@@ -300,7 +306,7 @@ impl GpuBackend {
     pub fn new(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
         let dev = GpuDevice::open(choice, precision)?;
         let kernels = vec![Kernels::new(&dev, Variant { sdef: false, boundary: false })?];
-        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false, pending: None, batches: 0 })
+        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false, pending: None, batches: 0, screened_cap: driver::CHECK_INTERVAL })
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -1185,6 +1191,8 @@ impl driver::Start<Model> for GpuBackend {
     }
 
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        // Each run starts with batches as long as its detections and energy checks allow.
+        self.screened_cap = driver::CHECK_INTERVAL;
         let pending = self.pending.take();
         if resume && self.state.is_some() {
             return Ok(());
@@ -1225,17 +1233,22 @@ impl driver::Stages<Model> for GpuBackend {
         // forces together, so such a scene runs cycle by cycle, its contacts read back after each.
         let point_load = cracking && super::cracking::has_point_load_candidates(model);
         let screened = cracking && !point_load && self.state.as_ref().is_some_and(|s| s.halt.is_some());
-        let n = if cracking && !screened { 1 } else { cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1)) };
+        let mut n = if cracking && !screened { 1 } else { cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1)) };
+        if screened {
+            n = n.min(self.screened_cap);
+        }
         // The time step as the CPU takes it (`Model::timestep`, from the contacts there are), at
         // the batch's start: the kernels hold it over the batch (the CPU renews it each cycle,
         // as the logical contacts' lever arms move).
         let dt = model.timestep();
         self.set_timestep(model, dt);
         let (ran, halted) = if screened {
-            match self.dispatch_halting(model, n).map_err(device_error)? {
+            let (ran, halted) = match self.dispatch_halting(model, n).map_err(device_error)? {
                 Some(h) => (h.cycles_done as u64, h.halted != 0),
                 None => return Err(CycleError::Setup("GPU: the scene's halting record is missing".into())),
-            }
+            };
+            self.screened_cap = if halted { (2 * ran).max(1) } else { (2 * self.screened_cap).min(driver::CHECK_INTERVAL) };
+            (ran, halted)
         } else {
             self.dispatch(model, n);
             (n, false)
