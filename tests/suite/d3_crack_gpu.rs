@@ -134,7 +134,11 @@ fn stresses<R: Real>(rng: &mut Rng) -> Vec<[f64; 6]> {
             _ => [0.0, 0.0, -a.abs()],
         }
         .map(|v| v * scale);
-        let s = if k % 50 == 0 { sdef::voigt(DMat3::from_diagonal(DVec3::from_array(values))).map(|x| R::from_f64(x).to_f64()) } else { stress_in::<R>(rng, values) };
+        let s = if k % 50 == 0 {
+            sdef::voigt(DMat3::from_diagonal(DVec3::from_array(values))).map(|x| R::from_f64(x).to_f64())
+        } else {
+            stress_in::<R>(rng, values)
+        };
         if griffith_value(s) > 0.0 {
             out.push(s);
         }
@@ -212,7 +216,11 @@ fn end_cycle_halts_the_batch_as_its_twin() {
                 "",
                 "end_cycle",
                 1,
-                &[(0, bytemuck::bytes_of(&params).to_vec(), false), (8, bytemuck::cast_slice(&strain).to_vec(), false), (9, bytemuck::bytes_of(&before).to_vec(), true)],
+                &[
+                    (0, bytemuck::bytes_of(&params).to_vec(), false),
+                    (8, bytemuck::cast_slice(&strain).to_vec(), false),
+                    (9, bytemuck::bytes_of(&before).to_vec(), true),
+                ],
             );
             let gpu: Halt = bytemuck::pod_read_unaligned(&out[0]);
             let mut rust = before;

@@ -215,7 +215,8 @@ impl Kernels {
             let src = shaders::end_cycle_source(dev.precision);
             validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/end_cycle.wgsl: {e}")))?;
             let (group, layout) = layouts(&dev.device, "d3 end_cycle", &[uniform(0), storage(8, false), storage(9, false)]);
-            let module = dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("end_cycle"), source: wgpu::ShaderSource::Wgsl(src.into()) });
+            let module =
+                dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("end_cycle"), source: wgpu::ShaderSource::Wgsl(src.into()) });
             let pipeline = dev.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some("end_cycle"),
                 layout: Some(&layout),
@@ -306,7 +307,16 @@ impl GpuBackend {
     pub fn new(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
         let dev = GpuDevice::open(choice, precision)?;
         let kernels = vec![Kernels::new(&dev, Variant { sdef: false, boundary: false })?];
-        Ok(GpuBackend { dev, kernels, state: None, last_good: Model::default(), resumable: false, pending: None, batches: 0, screened_cap: driver::CHECK_INTERVAL })
+        Ok(GpuBackend {
+            dev,
+            kernels,
+            state: None,
+            last_good: Model::default(),
+            resumable: false,
+            pending: None,
+            batches: 0,
+            screened_cap: driver::CHECK_INTERVAL,
+        })
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -414,24 +424,8 @@ impl GpuBackend {
             }
             _ => None,
         };
-        self.state = Some(State {
-            params,
-            blocks,
-            vertices,
-            planes,
-            edges,
-            contacts,
-            logicals,
-            adjacency,
-            sdef,
-            halt,
-            variant,
-            bind,
-            keys,
-            logical_count,
-            bases,
-            dt,
-        });
+        self.state =
+            Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, halt, variant, bind, keys, logical_count, bases, dt });
         Ok(())
     }
 
