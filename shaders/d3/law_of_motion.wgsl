@@ -62,6 +62,24 @@ fn advance_centroid(b: ptr<function, Block>, dx: vec3<real>) -> vec3<real> {
     return vec3<real>((*b).cx, (*b).cy, (*b).cz) + dx;
 }
 
+// Stage 2 for a block (Rust twin: `Block::place_vertices`): its `count` vertices from `start` (a
+// concave block's parts' too, in its range) placed by r, its rotation (stretched for a
+// simply-deformable block), about its new centroid c; in f32 (RELATIVE) as their offsets R·l
+// from the centroid, which the contact kernels add to the centroid's place in each contact's
+// frame (`centroid_from`), so that no vertex is rounded at ulp(|c|).
+fn place_vertices(start: u32, count: u32, r: Mat3, c: vec3<real>) {
+    for (var k = 0u; k < count; k++) {
+        let j = start + k;
+        var p = mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
+        if (!RELATIVE) {
+            p = c + p;
+        }
+        vertices[j].x = p.x;
+        vertices[j].y = p.y;
+        vertices[j].z = p.z;
+    }
+}
+
 // One step of block i held by BOUNDARY VELOCITY (Rust twin: `motion::held_motion`): it moves at
 // its velocity and spin whatever the forces on it (its angular momentum, I(t)ω, is the CPU's to
 // renew at the read-back: the kernels keep only the inverse inertia), a simply-deformable
@@ -92,16 +110,7 @@ fn held_motion(i: u32) {
     if (SDEF) {
         r = stretched_rotation(i, r);
     }
-    for (var k = 0u; k < b.vertex_count; k++) {
-        let j = b.vertex_start + k;
-        var p = mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
-        if (!RELATIVE) {
-            p = c + p;
-        }
-        vertices[j].x = p.x;
-        vertices[j].y = p.y;
-        vertices[j].z = p.z;
-    }
+    place_vertices(b.vertex_start, b.vertex_count, r, c);
     let travel = length3(dx) + length3(omega) * dt * b.radius;
     let applied = b.mass * g + vec3<real>(b.load_x, b.load_y, b.load_z);
     var work = dot3(applied, dx);
@@ -137,13 +146,19 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     if (BOUNDARY) {
         if (b.fixed == BLOCK_HELD) {
             held_motion(i);
+            if (SDEF) {
+                crack_screen(i);
+            }
             return;
         }
     }
     if (b.fixed != 0u) {
         if (SDEF) {
-            // A fixed block's strain stays, its rate zero (`motion::law_of_motion_with`).
+            // A fixed block's strain stays, its rate zero (`motion::law_of_motion_with`); it is
+            // screened all the same (the CPU checks every candidate after each cycle, and a TF
+            // lowered since the last run may be below its stress now).
             freeze_strain(i);
+            crack_screen(i);
         }
         blocks[i].vx = 0.0;
         blocks[i].vy = 0.0;
@@ -198,19 +213,8 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
             stress_work = boundary_work(i, vertex_frame_centroid(b), dx, turn.omega, dt);
         }
     }
-    // Stage 2: the vertices placed from the centroid and the orientation; in f32 (RELATIVE) as
-    // their offsets R·l from the centroid, which the contact kernels add to the centroid's place
-    // in each contact's frame (`centroid_from`), so that no vertex is rounded at ulp(|c|).
-    for (var k = 0u; k < b.vertex_count; k++) {
-        let j = b.vertex_start + k;
-        var p = mat_mul(r, vec3<real>(vertices[j].lx, vertices[j].ly, vertices[j].lz));
-        if (!RELATIVE) {
-            p = c + p;
-        }
-        vertices[j].x = p.x;
-        vertices[j].y = p.y;
-        vertices[j].z = p.z;
-    }
+    // Stage 2: the vertices placed from the centroid and the orientation.
+    place_vertices(b.vertex_start, b.vertex_count, r, c);
     var travel = length3(dx) + length3(turn.omega) * dt * b.radius;
     if (SDEF) {
         travel += strained.y;
@@ -246,4 +250,8 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         b.finite = 0u;
     }
     blocks[i] = b;
+    if (SDEF) {
+        // Stage 7's Griffith check on the stress this step left (sdef.wgsl).
+        crack_screen(i);
+    }
 }

@@ -20,3 +20,5 @@ fn freeze_strain(i: u32) {}
 fn internal_step(i: u32, r: Mat3, dt: real, radius: real) -> vec2<real> {
     return vec2<real>(0.0, 0.0);
 }
+
+fn crack_screen(i: u32) {}

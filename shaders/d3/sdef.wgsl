@@ -1,17 +1,20 @@
 // Simply-deformable blocks (Rust twin: `d3::sdef`), in the kernels of a scene that has them
 // (the prelude's SDEF; a rigid scene's kernels take `rigid.wgsl`'s stand-ins, never called, and
 // bind nothing more). A block's six strain degrees of freedom, Voigt order (11, 22, 33, 12, 13,
-// 23); `live` 0 for a rigid block of the scene. Twin of `d3::gpu::layout::SdefBlock`.
+// 23); `live` 0 for a rigid block of the scene; `tf` its tensile strength where Griffith's law
+// cracks it (0: never screened). Twin of `d3::gpu::layout::SdefBlock`.
 struct SdefBlock {
     e0: real, e1: real, e2: real, e3: real, e4: real, e5: real,
     r0: real, r1: real, r2: real, r3: real, r4: real, r5: real,
     s0: real, s1: real, s2: real, s3: real, s4: real, s5: real,
     a0: real, a1: real, a2: real, a3: real, a4: real, a5: real, a6: real, a7: real, a8: real,
     m0: real, m1: real, m2: real, m3: real, m4: real, m5: real,
-    volume: real, lambda: real, shear: real, alpha: real,
+    volume: real, lambda: real, shear: real, alpha: real, tf: real,
     live: u32, spare: u32,
 }
 
+// One record per block, then the screen's record (`crack_screen`: its `spare` is the flag; it is
+// no block, `live` 0).
 @group(0) @binding(8) var<storage, read_write> sdef: array<SdefBlock>;
 
 // The symmetric matrix of six Voigt components (`sdef::tensor`), by columns.
@@ -173,4 +176,95 @@ fn internal_step(i: u32, r: Mat3, dt: real, radius: real) -> vec2<real> {
     s.s5 = g2 * s.e5;
     sdef[i] = s;
     return vec2<real>(work * alpha * dt, sqrt(sq) * radius);
+}
+
+// Griffith's equivalent tensile stress of the principal stresses s1 ≥ s3, tension positive
+// (SL-85-1 Appendix A ¶17; Rust twin: `sdef::griffith_stress`).
+fn griffith_stress(s1: real, s3: real) -> real {
+    if (3.0 * s1 + s3 >= 0.0) {
+        return s1;
+    }
+    let d = s1 - s3;
+    return -(d * d) / (8.0 * (s1 + s3));
+}
+
+// One Jacobi rotation of a symmetric matrix in the plane (p, q), zeroing a_pq (left where
+// |a_pq| ≤ tiny): the new a_pp, a_qq, a_pq and the third row's a_rp, a_rq (Rust twin:
+// `sdef::jacobi_rotation`).
+struct Rotated {
+    pp: real,
+    qq: real,
+    pq: real,
+    rp: real,
+    rq: real,
+}
+
+fn jacobi_rotation(pp: real, qq: real, pq: real, rp: real, rq: real, tiny: real) -> Rotated {
+    if (abs(pq) <= tiny) {
+        return Rotated(pp, qq, pq, rp, rq);
+    }
+    let theta = (qq - pp) / (2.0 * pq);
+    let towards = select(real(-1.0), real(1.0), theta >= 0.0);
+    let t = towards / (abs(theta) + sqrt(theta * theta + 1.0));
+    let c = 1.0 / sqrt(t * t + 1.0);
+    let s = t * c;
+    return Rotated(pp - t * pq, qq + t * pq, 0.0, c * rp - s * rq, s * rp + c * rq);
+}
+
+// Griffith's screen of a block's stress s against its strength tf (Rust twin:
+// `sdef::griffith_screen`, which gives the bounds' derivation): Jacobi sweeps bring the stress
+// near diagonal form, the principal stresses are bounded by the diagonal's extremes widened by
+// the off-diagonal part left and GRIFFITH_MARGIN·|σ| (the prelude's: the round-off of this and of
+// the CPU's exact check), and Griffith's stress on the bounds, at least the exact one, is held
+// against TF less the margin. True where the CPU's check may find the block cracked.
+fn griffith_screen(s: SdefBlock) -> bool {
+    var d0 = s.s0;
+    var d1 = s.s1;
+    var d2 = s.s2;
+    var o01 = s.s3;
+    var o02 = s.s4;
+    var o12 = s.s5;
+    let norm = sqrt(d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * (o01 * o01 + o02 * o02 + o12 * o12));
+    let m = GRIFFITH_MARGIN * norm;
+    let tiny = 1e-3 * m;
+    for (var k = 0u; k < SCREEN_SWEEPS; k++) {
+        // (p, q) = (0, 1), (0, 2), (1, 2), the third row r's elements rotated with them.
+        let a = jacobi_rotation(d0, d1, o01, o02, o12, tiny);
+        d0 = a.pp;
+        d1 = a.qq;
+        o01 = a.pq;
+        o02 = a.rp;
+        o12 = a.rq;
+        let b = jacobi_rotation(d0, d2, o02, o01, o12, tiny);
+        d0 = b.pp;
+        d2 = b.qq;
+        o02 = b.pq;
+        o01 = b.rp;
+        o12 = b.rq;
+        let c = jacobi_rotation(d1, d2, o12, o01, o02, tiny);
+        d1 = c.pp;
+        d2 = c.qq;
+        o12 = c.pq;
+        o01 = c.rp;
+        o02 = c.rq;
+    }
+    let off = sqrt(2.0 * (o01 * o01 + o02 * o02 + o12 * o12));
+    let hi = max(max(d0, d1), d2) + off + m;
+    let lo = min(min(d0, d1), d2) - off - m;
+    return griffith_stress(hi, lo) >= s.tf - m;
+}
+
+// Stage 7's Griffith check on the device, after block i's strain step (the state the CPU's
+// `cracking::due` reads after the cycle: stage 4 does not change the stress): where block i is a
+// Griffith candidate (tf > 0) and its screen fires, the flag in the record after the blocks is
+// raised, and `end_cycle` halts the batch at the cycle's end. Every writer stores the same 1 and
+// no invocation of the pass reads it, so the plain store needs no atomic.
+fn crack_screen(i: u32) {
+    let s = sdef[i];
+    if (s.live == 0u || !(s.tf > 0.0)) {
+        return;
+    }
+    if (griffith_screen(s)) {
+        sdef[params.blocks].spare = 1u;
+    }
 }

@@ -254,6 +254,58 @@ pub fn griffith_stress(s1: f64, s3: f64) -> f64 {
     }
 }
 
+/// Jacobi sweeps of Griffith's screen ([`griffith_screen`]): a 3×3 symmetric matrix converges
+/// quadratically, four sweeps (twelve rotations) leave its off-diagonal part at round-off, and
+/// whatever is left is added to the bounds.
+pub const SCREEN_SWEEPS: u32 = 4;
+
+/// Griffith's screen (the GPU's, sdef.wgsl's `griffith_screen`, computed here in f64 as the f64
+/// kernels do): whether the block whose internal stress is `stress` (Voigt) may have reached the
+/// tensile strength `tf` by Griffith's law (SL-85-1 Appendix A ¶17, [`griffith_stress`]), on
+/// bounds of its principal stresses rather than the stresses themselves, so that it never says
+/// no where the exact check (`cracking::due`) says yes. [`SCREEN_SWEEPS`] sweeps of Jacobi
+/// rotations bring the tensor near diagonal form D + E; by Weyl's inequality its eigenvalues lie
+/// within |E|₂ ≤ |E|_F of D's, so s1 ≤ max D + |E|_F and s3 ≥ min D − |E|_F. Each bound is
+/// widened further by `margin`·|σ|_F (the round-off of both computations, `gpu::shaders::
+/// griffith_margin`), and as Griffith's stress grows with s1 and falls with s3 (its partial
+/// derivatives in the compressive branch are (s1 − s3)(−s1 − 3 s3) / (8 (s1 + s3)²) ≥ 0 and
+/// (s1 − s3)(3 s1 + s3) / (8 (s1 + s3)²) ≤ 0), its value on the bounds is at least the exact
+/// one; the screen fires where that reaches TF less the margin. Only arithmetic and square
+/// roots (the f64 kernels have no arccosine).
+pub fn griffith_screen(stress: [f64; 6], tf: f64, margin: f64) -> bool {
+    let [mut d0, mut d1, mut d2, mut o01, mut o02, mut o12] = stress;
+    let norm = (d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * (o01 * o01 + o02 * o02 + o12 * o12)).sqrt();
+    let m = margin * norm;
+    // A rotation is skipped where its element is this small (its θ² would overflow f32); what it
+    // leaves is in the residual.
+    let tiny = 1e-3 * m;
+    for _ in 0..SCREEN_SWEEPS {
+        // (p, q) = (0, 1), (0, 2), (1, 2), the third row r's elements rotated with them.
+        (d0, d1, o01, o02, o12) = jacobi_rotation(d0, d1, o01, o02, o12, tiny);
+        (d0, d2, o02, o01, o12) = jacobi_rotation(d0, d2, o02, o01, o12, tiny);
+        (d1, d2, o12, o01, o02) = jacobi_rotation(d1, d2, o12, o01, o02, tiny);
+    }
+    let off = (2.0 * (o01 * o01 + o02 * o02 + o12 * o12)).sqrt();
+    let hi = d0.max(d1).max(d2) + off + m;
+    let lo = d0.min(d1).min(d2) - off - m;
+    griffith_stress(hi, lo) >= tf - m
+}
+
+/// One Jacobi rotation of a symmetric matrix in the plane (p, q) (sdef.wgsl's twin): zeroes
+/// a_pq (left where |a_pq| ≤ `tiny`) and returns the new a_pp, a_qq, a_pq and the third row's
+/// a_rp, a_rq (Numerical Recipes' form: t the tangent of the angle, the smaller root).
+pub fn jacobi_rotation(pp: f64, qq: f64, pq: f64, rp: f64, rq: f64, tiny: f64) -> (f64, f64, f64, f64, f64) {
+    if pq.abs() <= tiny {
+        return (pp, qq, pq, rp, rq);
+    }
+    let theta = (qq - pp) / (2.0 * pq);
+    let sign = if theta >= 0.0 { 1.0 } else { -1.0 };
+    let t = sign / (theta.abs() + (theta * theta + 1.0).sqrt());
+    let c = 1.0 / (t * t + 1.0).sqrt();
+    let s = t * c;
+    (pp - t * pq, qq + t * pq, 0.0, c * rp - s * rq, s * rp + c * rq)
+}
+
 /// The principal stresses of `stress` (Voigt), greatest first, and the unit direction of the
 /// greatest: the crack's normal. The direction is the null vector of σ − s1·1, the largest cross
 /// product of two of its rows (any of them where s1 is repeated).

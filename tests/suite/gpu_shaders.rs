@@ -361,6 +361,22 @@ fn the_d3_strain_struct_matches_its_rust_twin() {
     check_d3_sdef_layout::<f64>(Precision::F64);
 }
 
+/// D3's `end_cycle` (shaders/d3/end_cycle.wgsl, the cycle's last kernel in a scene with
+/// Griffith's cracking candidates) parses and validates in both precisions with its entry point,
+/// its halting record has the Rust twin's layout (`d3::gpu::layout::Halt`), and it binds the
+/// params, the strain buffer (the screen's flag) and its record alone.
+#[test]
+fn the_d3_end_cycle_kernel_and_its_halting_record_match_their_twins() {
+    use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
+    for precision in [Precision::F32, Precision::F64] {
+        let src = d3::end_cycle_source(precision);
+        let (module, _) = shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/end_cycle.wgsl ({precision}):\n{e}"));
+        assert!(module.entry_points.iter().any(|e| e.name == "end_cycle"));
+        check_layouts_in(&src, precision, d3_layout::halt_layouts());
+        assert!(src.contains("@binding(9) var<storage, read_write> halt: Halt"));
+    }
+}
+
 /// D3's kernels with the boundary conditions (BOUNDARY, `d3::gpu::shaders::source_with`) parse
 /// and validate in both precisions, with and without the strain stage, and bind no buffer more
 /// than the kernels without them (the loaded faces are records in the plane buffer): at most

@@ -15,6 +15,7 @@ mod d3_boundary;
 mod d3_concave;
 mod d3_concave_gpu;
 mod d3_contacts;
+mod d3_crack_gpu;
 mod d3_deck;
 mod d3_geometry;
 mod d3_gpu;

@@ -101,15 +101,94 @@ gpu_struct! {
     /// its rate `r*` (half step) and the stress `s*`; the applied stress times volume `a*`
     /// (A_ij row by row, written by the gather); the second moments of the mass in the reference
     /// frame `m*` (`sdef::second_moments` of the reference inertia); volume, Lamé's λ, G and the
-    /// internal damping α (DAMPING … INTERNAL); `live` 1 for a simply-deformable block.
+    /// internal damping α (DAMPING … INTERNAL); `tf` the material's tensile strength where
+    /// Griffith's law cracks the block (`sdef::griffith_applies`), else 0 (the kernels screen it
+    /// then, `crack_screen`); `live` 1 for a simply-deformable block. After the blocks' records
+    /// one more, no block's (`live` 0), whose `spare` is the screen's flag ([`screen_flag_offset`]).
+    /// 160 bytes in f32, 312 in f64.
     SdefBlock {
         e0: R, e1: R, e2: R, e3: R, e4: R, e5: R,
         r0: R, r1: R, r2: R, r3: R, r4: R, r5: R,
         s0: R, s1: R, s2: R, s3: R, s4: R, s5: R,
         a0: R, a1: R, a2: R, a3: R, a4: R, a5: R, a6: R, a7: R, a8: R,
         m0: R, m1: R, m2: R, m3: R, m4: R, m5: R,
-        volume: R, lambda: R, shear: R, alpha: R,
+        volume: R, lambda: R, shear: R, alpha: R, tf: R,
         live: u32, spare: u32,
+    }
+}
+
+/// The byte offset of the screen's flag in the strain buffer of a scene of `blocks` blocks: the
+/// `spare` word of the record after theirs, raised by a block whose Griffith screen fires
+/// (sdef.wgsl's `crack_screen`), read by `end_cycle`, cleared by the CPU at each batch's start.
+pub fn screen_flag_offset<R: Real>(blocks: usize) -> u64 {
+    (blocks * std::mem::size_of::<SdefBlock<R>>() + std::mem::offset_of!(SdefBlock<R>, spare)) as u64
+}
+
+/// The batch's halting record (`shaders/d3/end_cycle.wgsl`, its own binding 9) in a scene with
+/// Griffith's cracking candidates: the grids (x, y, z) the batch's kernels are dispatched with
+/// indirectly (gather, law_of_motion, track_contact), which `end_cycle` zeroes to halt the
+/// batch; the cycles it counted; `halted`, 1 once it halted (the screen fired). 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Halt {
+    pub gather_x: u32,
+    pub gather_y: u32,
+    pub gather_z: u32,
+    pub law_of_motion_x: u32,
+    pub law_of_motion_y: u32,
+    pub law_of_motion_z: u32,
+    pub track_contact_x: u32,
+    pub track_contact_y: u32,
+    pub track_contact_z: u32,
+    pub cycles_done: u32,
+    pub halted: u32,
+    pub spare: u32,
+}
+
+impl Halt {
+    /// A batch's start: the kernels' grids, (x, y) each, nothing counted, not halted.
+    pub fn start(gather: (u32, u32), law_of_motion: (u32, u32), track_contact: (u32, u32)) -> Self {
+        Halt {
+            gather_x: gather.0,
+            gather_y: gather.1,
+            gather_z: 1,
+            law_of_motion_x: law_of_motion.0,
+            law_of_motion_y: law_of_motion.1,
+            law_of_motion_z: 1,
+            track_contact_x: track_contact.0,
+            track_contact_y: track_contact.1,
+            track_contact_z: 1,
+            ..Default::default()
+        }
+    }
+
+    /// The byte offset of kernel `k`'s grid (0 gather, 1 law_of_motion, 2 track_contact), for
+    /// `dispatch_workgroups_indirect`.
+    pub fn grid_offset(k: usize) -> u64 {
+        (12 * k) as u64
+    }
+
+    /// The WGSL struct name and each field with its byte offset (for the naga layout test).
+    pub fn layout() -> StructLayout {
+        use std::mem::offset_of;
+        StructLayout {
+            name: "Halt",
+            size: std::mem::size_of::<Self>(),
+            fields: vec![
+                ("gather_x", offset_of!(Self, gather_x)),
+                ("gather_y", offset_of!(Self, gather_y)),
+                ("gather_z", offset_of!(Self, gather_z)),
+                ("law_of_motion_x", offset_of!(Self, law_of_motion_x)),
+                ("law_of_motion_y", offset_of!(Self, law_of_motion_y)),
+                ("law_of_motion_z", offset_of!(Self, law_of_motion_z)),
+                ("track_contact_x", offset_of!(Self, track_contact_x)),
+                ("track_contact_y", offset_of!(Self, track_contact_y)),
+                ("track_contact_z", offset_of!(Self, track_contact_z)),
+                ("cycles_done", offset_of!(Self, cycles_done)),
+                ("halted", offset_of!(Self, halted)),
+                ("spare", offset_of!(Self, spare)),
+            ],
+        }
     }
 }
 
@@ -136,4 +215,9 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
 /// naga check.
 pub fn sdef_layouts<R: Real>() -> Vec<StructLayout> {
     vec![SdefBlock::<R>::layout()]
+}
+
+/// `end_cycle`'s struct's layout (declared by `shaders/d3/end_cycle.wgsl`), for the naga check.
+pub fn halt_layouts() -> Vec<StructLayout> {
+    vec![Halt::layout()]
 }

@@ -52,16 +52,62 @@ pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
     // the tilt, far off the surfaces; kept between detections (the CPU finds its contacts
     // afresh each cycle), such gaps spun an L stacked on an L in f64 to 0.28 rad/s (the CPU's:
     // 2e-3) and the run blew up at cycle 1000 (energy growing without a source). f32's GRAZING;
-    // the Rust twin's `contact::PART_GRAZING`.
+    // one constant with the Rust twin's, `contact::PART_GRAZING` (written as `1e-3`).
     let (real, compensated, grazing) = match precision {
         Precision::F32 => ("f32", true, "1e-3"),
         Precision::F64 => ("f64", false, "1e-9"),
     };
+    let part_grazing = crate::d3::contact::PART_GRAZING;
+    // GRIFFITH_MARGIN and SCREEN_SWEEPS: Griffith's screen in the strain stage (sdef.wgsl's
+    // `griffith_screen`, "Cracking on the device" in `d3::gpu`); only the kernels of a scene with
+    // simply-deformable blocks declare them, so a rigid scene's kernels are as they were.
+    let screen = if sdef {
+        format!("const GRIFFITH_MARGIN: real = {:e};\nconst SCREEN_SWEEPS: u32 = {}u;\n", griffith_margin(precision), crate::d3::sdef::SCREEN_SWEEPS)
+    } else {
+        String::new()
+    };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst PART_GRAZING: real = 1e-3;\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst PART_GRAZING: real = {part_grazing:e};\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{screen}{}",
         workgroup_size(),
         math_constants(precision)
     )
+}
+
+/// The margin of Griffith's screen on the device (`sdef::griffith_screen`, sdef.wgsl), as a share
+/// of the stress's Frobenius norm |σ|: the screen fires where Griffith's stress of the principal
+/// stresses widened by it reaches TF less it, so that it never misses a crack the CPU's exact
+/// check (`cracking::due`, f64, on the stresses read back) finds. It covers two round-offs:
+///
+/// * the kernel's own: its Jacobi rotations in the kernel precision move the eigenvalues by a few
+///   ε|σ| each (twelve rotations; f32's ε = 1.2e-7, so ~1e-5|σ| at worst, and the residual
+///   off-diagonal part is added to the bounds outright);
+/// * the CPU's: `geometry::principal_moments` takes the eigenvalues by the trigonometric method,
+///   whose arccosine is ill-conditioned at a double eigenvalue: a rounding δ of its argument moves
+///   the largest (or smallest) eigenvalue by ~0.8 p √δ (p the deviator's size), up to ~1e-7|σ|
+///   in f64 for a nearly hydrostatic stress.
+///
+/// Hence f32 1e-4 and f64 1e-6 (ten times the larger of the two); tests/suite/d3_crack_gpu.rs
+/// checks the kernel's screen in both against the exact check on 4000 stresses (double and
+/// near-double eigenvalues, nearly hydrostatic ones among them): it fires at TF, never three
+/// margins below it. A
+/// block whose stress lies within the margin below TF halts its batch each cycle (the CPU's check
+/// then says no): as before, where every cycle was read back.
+pub fn griffith_margin(precision: Precision) -> f64 {
+    match precision {
+        Precision::F32 => 1e-4,
+        Precision::F64 => 1e-6,
+    }
+}
+
+/// `end_cycle`, the cycle's last kernel in a scene with Griffith's cracking candidates: it counts
+/// the cycle and, where a block's screen fired, halts the rest of the batch (`d3::gpu`, "Cracking
+/// on the device"). Not in [`KERNELS`]: it has bindings of its own (`end_cycle_source`).
+pub const END_CYCLE: &str = include_str!("../../../shaders/d3/end_cycle.wgsl");
+
+/// The full source of `end_cycle` in one precision: the strain stage's prelude and structs (it
+/// reads the screen's flag after the blocks' strain records), then its own bindings.
+pub fn end_cycle_source(precision: Precision) -> String {
+    format!("{}\n{MATH}\n{LAYOUT}\n{SDEF}\n{COMMON}\n{END_CYCLE}", prelude(precision, true, false))
 }
 
 /// The full source of one kernel in one precision, for a rigid scene.
