@@ -98,18 +98,46 @@ fn consider(best: Plane3, a: u32, b: u32, n: vec3<real>, slack: real) -> Plane3 
     return best;
 }
 
-// The common plane of convex bodies a and b (Rust twin: `contact::common_plane_with`): of the
-// face normals of either body and the cross products of an edge direction of each, the one of
-// greatest separation; where they are apart by no more than `reach`, the directions between
-// their nearest vertex and edge or vertex and vertex too.
-fn common_plane(a: u32, b: u32, reach: real) -> Plane3 {
-    var best = Plane3(vec3<real>(0.0, 0.0, 1.0), -FINITE_MAX);
-    let slack = 1e-12 * (blocks[a].radius + blocks[b].radius);
-    for (var k = 0u; k < blocks[a].plane_count; k++) {
-        best = consider(best, a, b, plane_normal(a, k), slack);
+// The radius of a ball about `mean` (the mean of body i's vertices, in the contact's frame) inside
+// the body: the least distance from it to a face plane, as placed (a simply-deformable block's
+// strained); -FINITE_MAX where the mean is not inside every plane (no bound then).
+fn inradius(i: u32, mean: vec3<real>) -> real {
+    var r = FINITE_MAX;
+    for (var k = 0u; k < blocks[i].plane_count; k++) {
+        let v = block_vertex(i, planes[blocks[i].plane_start + k].vertex);
+        r = min(r, dot3(plane_normal(i, k), v - mean));
     }
-    for (var k = 0u; k < blocks[b].plane_count; k++) {
-        best = consider(best, a, b, -plane_normal(b, k), slack);
+    return select(-FINITE_MAX, r, r > 0.0);
+}
+
+// What the search passes over (`common_plane`'s bound): the centres' difference, the two radii's
+// sum, the margin and the floor.
+struct Bound {
+    d: vec3<real>,
+    r: real,
+    margin: real,
+    floor: real,
+}
+
+// Whether an axis whose bound is `bound` can still win against `best`.
+fn open_axis(bound: real, best: Plane3, k: Bound) -> bool {
+    return bound >= max(k.floor, best.separation - k.margin);
+}
+
+// The axes of `common_plane` in their order, those that cannot win passed over.
+fn search_axes(a: u32, b: u32, slack: real, k: Bound) -> Plane3 {
+    var best = Plane3(vec3<real>(0.0, 0.0, 1.0), -FINITE_MAX);
+    for (var p = 0u; p < blocks[a].plane_count; p++) {
+        let n = plane_normal(a, p);
+        if (open_axis(dot3(n, k.d) - k.r, best, k)) {
+            best = consider(best, a, b, n, slack);
+        }
+    }
+    for (var p = 0u; p < blocks[b].plane_count; p++) {
+        let n = -plane_normal(b, p);
+        if (open_axis(dot3(n, k.d) - k.r, best, k)) {
+            best = consider(best, a, b, n, slack);
+        }
     }
     let ea0 = blocks[a].edge_start;
     let eb0 = blocks[b].edge_start;
@@ -122,9 +150,41 @@ fn common_plane(a: u32, b: u32, reach: real) -> Plane3 {
                 continue;
             }
             let n = normalize3(c);
+            if (!open_axis(abs(dot3(n, k.d)) - k.r, best, k)) {
+                continue;
+            }
             best = consider(best, a, b, n, slack);
             best = consider(best, a, b, -n, slack);
         }
+    }
+    return best;
+}
+
+// The common plane of convex bodies a and b (Rust twin: `contact::common_plane_with`): of the
+// face normals of either body and the cross products of an edge direction of each, the one of
+// greatest separation; where they are apart by no more than `reach`, the directions between
+// their nearest vertex and edge or vertex and vertex too. `mean_a`, `mean_b`: the means of the
+// bodies' vertices; `hint`: the contact's last normal.
+//
+// An axis's separation is at most n·(mean_b − mean_a) − (r_a + r_b), r a ball's radius about the
+// mean inside the body (`inradius`); an axis whose bound lies under the best found so far, or
+// under the floor the hint gives (its separation, or 0 where greater), less a margin, cannot win
+// and is passed over, its support loops (the vertices' loads) not run. The margin covers the
+// runs of near ties (the slack, and the kernel's round-off of a comparison, once per axis) and
+// the round-off of the projections (ROUNDOFF times the distances in the contact's frame), so the
+// axis found is the full search's bit for bit, as the CPU's (the argument is in
+// `contact::common_plane_with`'s doc); where no axis reaches the floor, the search runs again
+// without it.
+fn common_plane(a: u32, b: u32, reach: real, hint: vec3<real>, mean_a: vec3<real>, mean_b: vec3<real>) -> Plane3 {
+    let slack = 1e-12 * (blocks[a].radius + blocks[b].radius);
+    let axes = blocks[a].plane_count + blocks[b].plane_count + 2u * blocks[a].edge_dir_count * blocks[b].edge_dir_count;
+    let size = length(mean_a) + length(mean_b) + blocks[a].radius + blocks[b].radius;
+    let margin = 2.0 * real(axes + 2u) * (slack + ROUNDOFF * size) + 180.0 * ROUNDOFF * size;
+    let r = inradius(a, mean_a) + inradius(b, mean_b);
+    let floor = min(separation_along(a, b, hint), 0.0) - margin;
+    var best = search_axes(a, b, slack, Bound(mean_b - mean_a, r, margin, floor));
+    if (best.separation < floor + 0.5 * margin) {
+        best = search_axes(a, b, slack, Bound(mean_b - mean_a, r, margin, -FINITE_MAX));
     }
     if (best.separation > 0.0 && best.separation <= reach) {
         let n = best.normal;
@@ -371,25 +431,30 @@ fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     let b = adjacency[contact_bodies(ci) + 1u];
     frame_origin = a;
     // Boxes apart by more than the contact-forming distance: the bodies are.
+    // (And the means of the bodies' vertices, for the common plane's bound.)
     var a0 = block_vertex(a, 0u);
     var a1 = a0;
+    var sum_a = a0;
     for (var k = 1u; k < blocks[a].vertex_count; k++) {
         let v = block_vertex(a, k);
         a0 = min(a0, v);
         a1 = max(a1, v);
+        sum_a += v;
     }
     var b0 = block_vertex(b, 0u);
     var b1 = b0;
+    var sum_b = b0;
     for (var k = 1u; k < blocks[b].vertex_count; k++) {
         let v = block_vertex(b, k);
         b0 = min(b0, v);
         b1 = max(b1, v);
+        sum_b += v;
     }
     let gaps = max(b0 - a1, a0 - b1);
     let apart = max(max(gaps.x, gaps.y), gaps.z) > tol;
     var plane = Plane3(normal_of(c), FINITE_MAX);
     if (!apart) {
-        plane = common_plane(a, b, tol);
+        plane = common_plane(a, b, tol, normal_of(c), sum_a / real(blocks[a].vertex_count), sum_b / real(blocks[b].vertex_count));
     }
     let old = normal_of(c);
     c.nx = plane.normal.x;

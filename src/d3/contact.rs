@@ -120,9 +120,9 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
 /// complete), and the bodies apart have a candidate with s > 0; so s(hint), or 0 where that is
 /// greater, is a floor under the answer, and an axis whose bound lies under it is passed over
 /// from the start. Passing over is exact: the axes are still offered in their order, and the
-/// ones passed over lie below the floor by a margin (`margin`: twice the slack of a near tie
-/// times the number of axes, plus the round-off of the projections at the bodies' distance
-/// from the origin) that no run of near ties accepted in their place can climb once an axis at
+/// ones passed over lie below the floor by a margin (`margin`: twice the slack of a near tie,
+/// and the round-off of its comparison, times the number of axes, plus the round-off of the
+/// projections at the bodies' distance from the origin) that no run of near ties accepted in their place can climb once an axis at
 /// the floor is offered, so the axis found, and its separation, are those of the full search
 /// bit for bit (where no axis reaches the floor, the search is made again without it). On settled blocks
 /// (the hint the last cycle's answer, a face–face contact between cubes) about four axes of
@@ -140,7 +140,8 @@ pub fn common_plane_with(a: Body, b: Body, na: &[DVec3], nb: &[DVec3], reach: f6
     let ((pa, ra), (pb, rb)) = (a.inner_ball(), b.inner_ball());
     let (d, r) = (pb - pa, ra + rb);
     let axes = na.len() + nb.len() + 2 * a.shape.edge_directions.len() * b.shape.edge_directions.len();
-    let margin = 2.0 * (axes + 2) as f64 * slack + 4e-14 * (pa.length() + pb.length() + a.shape.radius + b.shape.radius);
+    let size = pa.length() + pb.length() + a.shape.radius + b.shape.radius;
+    let margin = 2.0 * (axes + 2) as f64 * (slack + f64::EPSILON * size) + 4e-14 * size;
     // The axes in their order, those whose bound lies under `floor` or under the best found so
     // far (less the margin) passed over.
     let search = |floor: f64| -> CommonPlane {

@@ -58,6 +58,11 @@ pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
         Precision::F64 => ("f64", false, "1e-9"),
     };
     let part_grazing = crate::d3::contact::PART_GRAZING;
+    // ROUNDOFF: the kernel precision's machine epsilon (the common plane's margin, track_contact.wgsl).
+    let roundoff = match precision {
+        Precision::F32 => f32::EPSILON as f64,
+        Precision::F64 => f64::EPSILON,
+    };
     // GRIFFITH_MARGIN and SCREEN_SWEEPS: Griffith's screen in the strain stage (sdef.wgsl's
     // `griffith_screen`, "Cracking on the device" in `d3::gpu`); only the kernels of a scene with
     // simply-deformable blocks declare them, so a rigid scene's kernels are as they were.
@@ -67,7 +72,7 @@ pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
         String::new()
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst PART_GRAZING: real = {part_grazing:e};\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{screen}{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst PART_GRAZING: real = {part_grazing:e};\nconst ROUNDOFF: real = {roundoff:e};\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{screen}{}",
         workgroup_size(),
         math_constants(precision)
     )
