@@ -42,41 +42,7 @@ fn run_snippet(dev: &GpuDevice, with_end_cycle: bool, snippet: &str, entry: &str
     };
     let src = format!("{base}\n{snippet}");
     wgsl::validate(&src, dev.precision).unwrap_or_else(|e| panic!("{e}"));
-    let device = &dev.device;
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(entry), source: wgpu::ShaderSource::Wgsl(src.into()) });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module: &module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let bufs: Vec<wgpu::Buffer> = buffers
-        .iter()
-        .map(|(b, bytes, _)| {
-            let buf = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(&format!("binding {b}")),
-                size: bytes.len().max(16) as u64,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            dev.queue.write_buffer(&buf, 0, bytes);
-            buf
-        })
-        .collect();
-    let entries: Vec<wgpu::BindGroupEntry> =
-        buffers.iter().zip(&bufs).map(|((b, _, _), buf)| wgpu::BindGroupEntry { binding: *b, resource: buf.as_entire_binding() }).collect();
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(entry), layout: &pipeline.get_bind_group_layout(0), entries: &entries });
-    let mut enc = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(entry), timestamp_writes: None });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups((cases as u32).div_ceil(64), 1, 1);
-    }
-    dev.queue.submit([enc.finish()]);
-    buffers.iter().zip(&bufs).filter(|((_, _, out), _)| *out).map(|((_, bytes, _), buf)| dev.read_buffer(buf, bytes.len() as u64).unwrap()).collect()
+    crate::common::run_wgsl(dev, &src, entry, cases, buffers)
 }
 
 const SCREEN: &str = r#"
