@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 use super::{BenchReport, ScalingRow};
-use crate::verify::chart::{ensure_font, PALETTE};
+use crate::verify::chart::{chart_png, PALETTE};
 
 /// Legend entries (in black) for the solid and the dashed line of each colour.
 fn style_legend<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
@@ -271,10 +271,7 @@ pub fn draw(r: &BenchReport, path: &Path) -> Result<PathBuf, String> {
     if r.scaling.iter().all(|x| x.error.is_some()) {
         return Err("no scaling measurement to chart".into());
     }
-    ensure_font()?;
-    {
-        let root = BitMapBackend::new(path, (1600, 1150)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
+    chart_png(path, (1600, 1150), |root| {
         let title = format!(
             "blockdem bench, {} ({} cores){}",
             r.machine.cpu_model,
@@ -286,8 +283,6 @@ pub fn draw(r: &BenchReport, path: &Path) -> Result<PathBuf, String> {
         throughput(&panels[0], r)?;
         per_block_cycle(&panels[1], r)?;
         stages(&panels[2], r)?;
-        shares(&panels[3], r)?;
-        root.present().map_err(err)?;
-    }
-    Ok(path.to_path_buf())
+        shares(&panels[3], r)
+    })
 }

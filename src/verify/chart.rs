@@ -28,6 +28,33 @@ pub(crate) fn ensure_font() -> Result<(), String> {
     .clone()
 }
 
+/// Draws a chart of `size` pixels (`draw` gets its white page) and writes it to `path` as a PNG.
+/// plotters draws into an RGB buffer and the `png` crate (tiny-skia's encoder, which PLOT's
+/// pictures use) writes it: plotters' own file output would bring the `image` crate and its
+/// decoders into the build.
+pub(crate) fn chart_png(path: &Path, size: (u32, u32), draw: impl FnOnce(&Panel) -> Result<(), String>) -> Result<PathBuf, String> {
+    ensure_font()?;
+    let mut rgb = vec![0u8; 3 * size.0 as usize * size.1 as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        draw(&root)?;
+        root.present().map_err(|e| e.to_string())?;
+    }
+    let mut bytes = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut bytes, size.0, size.1);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_compression(png::Compression::Best);
+        encoder.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
+        let mut writer = encoder.write_header().map_err(|e| format!("PNG encoding failed: {e}"))?;
+        writer.write_image_data(&rgb).map_err(|e| format!("PNG encoding failed: {e}"))?;
+    }
+    std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(path.to_path_buf())
+}
+
 /// Pixels a legend entry takes (12-point text and its spacing), and the legend box's margins.
 const LEGEND_ENTRY_PX: f64 = 17.0;
 const LEGEND_MARGIN_PX: f64 = 24.0;
@@ -236,28 +263,18 @@ fn draw_panel(area: &Panel, suite: &Suite, title: &str, x_label: &str, x_of: &dy
 /// Error against wall time (left) and against cycles per second (right), log axes, one line per
 /// case through the FRACTION sweep (FRAC grows with falling wall time).
 pub fn accuracy_vs_speed(suite: &Suite, path: &Path) -> Result<PathBuf, String> {
-    ensure_font()?;
-    {
-        let root = BitMapBackend::new(path, (1500, 650)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
+    chart_png(path, (1500, 650), |root| {
         let (left, right) = root.split_horizontally(750);
         draw_panel(&left, suite, "Accuracy against wall time (FRAC sweep)", "wall time of the run [s]", &|r| r.cost.wall_s, true)?;
-        draw_panel(&right, suite, "Accuracy against speed", "cycles per second", &|r| r.cost.cycles_per_s(), false)?;
-        root.present().map_err(|e| e.to_string())?;
-    }
-    Ok(path.to_path_buf())
+        draw_panel(&right, suite, "Accuracy against speed", "cycles per second", &|r| r.cost.cycles_per_s(), false)
+    })
 }
 
 /// Error against FRACTION, log axes: where the error grows and where runs fail.
 pub fn error_vs_frac(suite: &Suite, path: &Path) -> Result<PathBuf, String> {
-    ensure_font()?;
-    {
-        let root = BitMapBackend::new(path, (900, 650)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        draw_panel(&root, suite, "Error against FRACTION (ring: the default 0.1)", "FRACTION of the UDEC time step", &|r| r.frac, true)?;
-        root.present().map_err(|e| e.to_string())?;
-    }
-    Ok(path.to_path_buf())
+    chart_png(path, (900, 650), |root| {
+        draw_panel(root, suite, "Error against FRACTION (ring: the default 0.1)", "FRACTION of the UDEC time step", &|r| r.frac, true)
+    })
 }
 
 #[cfg(test)]

@@ -227,3 +227,61 @@ fn velocity_is_booked_in_the_ledger_on_the_gpu() {
         assert!(value.abs() < 1e-3 * 5e4, "{b}");
     }
 }
+
+/// The test command runs Mesa's software adapters with `LP_NUM_THREADS=0` (scripts/test.sh): the
+/// workgroups of a dispatch run one after another on the thread that submits them, which takes
+/// about a third less time for the suite's small scenes on CI's two cores. The kernels' results
+/// must not depend on that: with the adapter's worker threads running workgroups at once (a race
+/// between workgroups, a gather whose order follows the schedule, would show here), a run's final
+/// state (less the run's date) is byte for byte the serial run's, and a threaded rerun's too. Both engines, each
+/// struck by its projectile (the 2D wall of 1012 bricks, D3's wall of 1000), on Vulkan f32, and
+/// the 2D one on GL.
+#[test]
+fn gpu_runs_do_not_depend_on_the_adapters_worker_threads() {
+    let dir = std::path::PathBuf::from(out_dir("threads"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let example = std::fs::read_to_string(format!("{}/examples/brick_wall_impact.dat", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    assert!(example.contains("CYCLE 7072\n"), "the impact example's CYCLE line moved");
+    // 300 cycles: the projectile (fired from x = -2 at 50 m/s) meets the wall's contacts from
+    // its first steps' detection on; every brick's contacts are loaded by gravity.
+    let decks = [
+        ("wall2d", example.replace("CYCLE 7072\n", "CYCLE 300\n"), &["vulkan", "gl"][..]),
+        ("wall3d", format!("{}CYCLE 60\nSTOP\n", blockdem::bench::d3::wall_deck(1000, 0.1)), &["vulkan"][..]),
+    ];
+    for (name, deck, adapters) in decks {
+        let path = dir.join(format!("{name}.dat"));
+        std::fs::write(&path, deck).unwrap();
+        for &adapter in adapters {
+            if Target::gpu(adapter, Precision::F32).is_none() {
+                continue;
+            }
+            let state = |threads: &str, run: &str| {
+                let json = dir.join(format!("{name}-{adapter}-{run}.json"));
+                let (code, _, stderr) = blockdem(
+                    &[
+                        "run",
+                        path.to_str().unwrap(),
+                        "--backend",
+                        "gpu",
+                        "--adapter",
+                        adapter,
+                        "--out",
+                        dir.to_str().unwrap(),
+                        "--state-json",
+                        json.to_str().unwrap(),
+                    ],
+                    &[("LP_NUM_THREADS", threads)],
+                );
+                assert_eq!(code, 0, "{name} on {adapter} with LP_NUM_THREADS={threads}: {stderr}");
+                // The state less its provenance (which carries the run's date).
+                let mut state: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+                assert!(state.as_object_mut().unwrap().remove("provenance").is_some());
+                serde_json::to_string(&state).unwrap()
+            };
+            let serial = state("0", "serial");
+            let threaded = state("4", "threaded");
+            assert!(serial.len() > 1000 && serial == threaded, "{name} on {adapter}: the threaded run's state differs from the serial one's");
+            assert!(state("3", "rerun") == threaded, "{name} on {adapter}: a threaded rerun differs");
+        }
+    }
+}
