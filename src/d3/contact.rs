@@ -312,6 +312,19 @@ struct Hull {
 }
 
 impl Hull {
+    /// The hull of the corners `chain` (position, vertex number), in their order.
+    fn of(chain: &[(DVec2, u32)]) -> Hull {
+        let (mut ids, mut pts) = ([0u32; 8], [DVec2::ZERO; 8]);
+        if chain.len() > ids.len() {
+            return Hull { ids: chain.iter().map(|p| p.1).collect(), pts: chain.iter().map(|p| p.0).collect() };
+        }
+        // Filled in place (a SmallVec's pushes cost more than the rest of a small hull).
+        for (k, &(p, id)) in chain.iter().enumerate() {
+            (ids[k], pts[k]) = (id, p);
+        }
+        Hull { ids: Few::from_buf_and_len(ids, chain.len()), pts: Few::from_buf_and_len(pts, chain.len()) }
+    }
+
     fn feature(&self) -> Feature {
         match self.ids.len() {
             1 => Feature::Vertex,
@@ -320,16 +333,41 @@ impl Hull {
         }
     }
 
-    /// Whether `p` lies on the feature (within `tol`).
-    fn covers(&self, p: DVec2, tol: f64) -> bool {
-        match self.pts.len() {
-            1 => (p - self.pts[0]).length() <= tol,
-            2 => segment_distance(p, self.pts[0], self.pts[1]) <= tol,
-            n => (0..n).all(|i| {
-                let (a, b) = (self.pts[i], self.pts[(i + 1) % n]);
-                (b - a).perp_dot(p - a) >= -tol * (b - a).length()
-            }),
+    /// Whether `p` lies on the feature (within `tol`). `lengths`: [`Hull::edge_lengths`].
+    fn covers(&self, p: DVec2, tol: f64, lengths: &[f64]) -> bool {
+        let pts: &[DVec2] = &self.pts;
+        match pts.len() {
+            1 => (p - pts[0]).length() <= tol,
+            2 => segment_distance(p, pts[0], pts[1]) <= tol,
+            n => {
+                // Each edge from its corner a to the next, b.
+                for i in 0..n {
+                    let (a, b) = (pts[i], pts[if i + 1 == n { 0 } else { i + 1 }]);
+                    let inside = (b - a).perp_dot(p - a) >= -tol * lengths[i];
+                    if !inside {
+                        return false;
+                    }
+                }
+                true
+            }
         }
+    }
+
+    /// The length of each of its [`Hull::edges`], in their order (worked out once for the
+    /// covering and crossing tests, which ask each many times).
+    fn edge_lengths(&self) -> Few<f64> {
+        let pts: &[DVec2] = &self.pts;
+        let mut inline = [0.0; 8];
+        if pts.len() <= inline.len() {
+            // Filled in place (a SmallVec's pushes cost more than the square roots here).
+            let mut count = 0;
+            for (i, j) in self.edges() {
+                inline[count] = (pts[j] - pts[i]).length();
+                count += 1;
+            }
+            return Few::from_buf_and_len(inline, count);
+        }
+        self.edges().map(|(i, j)| (pts[j] - pts[i]).length()).collect()
     }
 
     /// Its edges as pairs of positions in `ids`: none for a point, one for a segment, n for a
@@ -341,7 +379,7 @@ impl Hull {
             2 => 1,
             n => n,
         };
-        (0..count).map(move |i| (i, (i + 1) % n))
+        (0..count).map(move |i| (i, if i + 1 == n { 0 } else { i + 1 }))
     }
 }
 
@@ -351,44 +389,77 @@ fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     (p - (a + d * t)).length()
 }
 
+/// A vertex projected on the common plane: its position there and its number.
+type Projected = (DVec2, u32);
+
 /// The convex hull (counter-clockwise) of the vertices `ids` of a block projected on the plane
-/// (t1, t2); collinear points dropped, so that a line of points is its two ends.
+/// (t1, t2); collinear points (within `tol` ≥ 0) dropped, so that a line of points is its two ends.
 fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
-    let mut pts: Few<(DVec2, u32)> = ids.iter().map(|&i| (DVec2::new(t1.dot(verts[i as usize]), t2.dot(verts[i as usize])), i)).collect();
+    // The points and the chain in arrays on the stack for a feature of up to STACK vertices (a
+    // face of the blocks one meets), on the heap beyond: plain slices in the loops below.
+    const STACK: usize = 16;
+    let (mut on_stack, mut chain_on_stack) = ([(DVec2::ZERO, 0u32); STACK], [(DVec2::ZERO, 0u32); 2 * STACK]);
+    let (mut on_heap, mut chain_on_heap) = (Vec::new(), Vec::new());
+    let (pts, chain): (&mut [Projected], &mut [Projected]) = if ids.len() <= STACK {
+        (&mut on_stack[..ids.len()], &mut chain_on_stack)
+    } else {
+        on_heap.resize(ids.len(), (DVec2::ZERO, 0));
+        chain_on_heap.resize(2 * ids.len(), (DVec2::ZERO, 0));
+        (&mut on_heap, &mut chain_on_heap)
+    };
+    for (slot, &i) in pts.iter_mut().zip(ids) {
+        let v = verts[i as usize];
+        *slot = (DVec2::new(t1.dot(v), t2.dot(v)), i);
+    }
     pts.sort_by(|a, b| a.0.x.total_cmp(&b.0.x).then(a.0.y.total_cmp(&b.0.y)));
-    pts.dedup_by(|a, b| (a.0 - b.0).length() <= tol);
-    if pts.len() <= 2 {
-        return Hull { ids: pts.iter().map(|p| p.1).collect(), pts: pts.iter().map(|p| p.0).collect() };
+    // Points within `tol` of the last one kept dropped (as `Vec::dedup_by`).
+    let mut m = pts.len().min(1);
+    for r in 1..pts.len() {
+        if (pts[r].0 - pts[m - 1].0).length() > tol {
+            pts[m] = pts[r];
+            m += 1;
+        }
+    }
+    let pts = &pts[..m];
+    if m <= 2 {
+        return Hull::of(pts);
     }
     // Andrew's monotone chain, dropping points within `tol` of the line of their neighbours.
-    let turn = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o) / (b - o).length().max(f64::MIN_POSITIVE);
-    let mut chain: SmallVec<[(DVec2, u32); 32]> = SmallVec::with_capacity(pts.len() * 2);
-    let m = pts.len();
+    // Whether a turns by no more than `tol` off the line from o to b (its distance from the line,
+    // signed): a turn to the right (a cross product ≤ 0) needs no distance worked out, as
+    // tol ≥ 0 (the same answer, bit for bit, as the division would give).
+    let straight_or_right = |o: DVec2, a: DVec2, b: DVec2| {
+        let cross = (a - o).perp_dot(b - o);
+        cross <= 0.0 || cross / (b - o).length().max(f64::MIN_POSITIVE) <= tol
+    };
+    let mut top = 0;
     for pass in 0..2 {
-        let start = chain.len();
+        let start = top;
         for i in 0..m {
             let p = if pass == 0 { pts[i] } else { pts[m - 1 - i] };
-            while chain.len() >= start + 2 && turn(chain[chain.len() - 2].0, chain[chain.len() - 1].0, p.0) <= tol {
-                chain.pop();
+            while top >= start + 2 && straight_or_right(chain[top - 2].0, chain[top - 1].0, p.0) {
+                top -= 1;
             }
-            chain.push(p);
+            chain[top] = p;
+            top += 1;
         }
-        chain.pop();
+        top -= 1;
     }
-    if chain.len() < 3 {
+    if top < 3 {
         // All on a line: its two ends.
-        let (first, last) = (pts[0], pts[pts.len() - 1]);
+        let (first, last) = (pts[0], pts[m - 1]);
         return Hull { ids: smallvec::smallvec![first.1, last.1], pts: smallvec::smallvec![first.0, last.0] };
     }
-    Hull { ids: chain.iter().map(|p| p.1).collect(), pts: chain.iter().map(|p| p.0).collect() }
+    Hull::of(&chain[..top])
 }
 
-/// The crossing of segments p0p1 and q0q1 strictly inside both (parameters on each), if any.
-fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2) -> Option<(f64, f64)> {
+/// The crossing of segments p0p1 and q0q1 strictly inside both (parameters on each), if any;
+/// `lengths`: |p1 − p0| and |q1 − q0|.
+fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2, lengths: (f64, f64)) -> Option<(f64, f64)> {
     let r = p1 - p0;
     let s = q1 - q0;
     let den = r.perp_dot(s);
-    if den.abs() <= 1e-12 * r.length() * s.length() {
+    if den.abs() <= 1e-12 * lengths.0 * lengths.1 {
         return None;
     }
     let t = (q0 - p0).perp_dot(s) / den;
@@ -426,24 +497,25 @@ pub fn logical_contacts_with(
     let ha = hull(&near_a, a.vertices, t1, t2, flat);
     let hb = hull(&near_b, b.vertices, t1, t2, flat);
     let category = [ha.feature(), hb.feature()];
+    let (la, lb) = (ha.edge_lengths(), hb.edge_lengths());
 
     let mut found: Few<(LogicalKind, DVec2)> = Few::new();
     for (k, &p) in ha.pts.iter().enumerate() {
-        if hb.covers(p, flat) {
+        if hb.covers(p, flat, &lb) {
             found.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[k] }, p));
         }
     }
     for (k, &p) in hb.pts.iter().enumerate() {
         // A vertex of each at one place is one logical contact (vertex–vertex, or the corner
         // of two faces matching): keep block 1's.
-        if ha.covers(p, flat) && !found.iter().any(|(_, q)| (*q - p).length() <= flat) {
+        if ha.covers(p, flat, &la) && !found.iter().any(|(_, q)| (*q - p).length() <= flat) {
             found.push((LogicalKind::VertexFace { on_first: false, vertex: hb.ids[k] }, p));
         }
     }
     let key = |x: u32, y: u32| (x.min(y), x.max(y));
-    for (i, j) in ha.edges() {
-        for (k, l) in hb.edges() {
-            if let Some((t, _)) = crossing(ha.pts[i], ha.pts[j], hb.pts[k], hb.pts[l]) {
+    for (e, (i, j)) in ha.edges().enumerate() {
+        for (f, (k, l)) in hb.edges().enumerate() {
+            if let Some((t, _)) = crossing(ha.pts[i], ha.pts[j], hb.pts[k], hb.pts[l], (la[e], lb[f])) {
                 let p = ha.pts[i] + (ha.pts[j] - ha.pts[i]) * t;
                 if !found.iter().any(|(_, q)| (*q - p).length() <= flat) {
                     found.push((LogicalKind::EdgeEdge { first: key(ha.ids[i], ha.ids[j]), second: key(hb.ids[k], hb.ids[l]) }, p));
