@@ -189,26 +189,25 @@ fn griffith_stress(s1: real, s3: real) -> real {
 }
 
 // One Jacobi rotation of a symmetric matrix in the plane (p, q), zeroing a_pq (left where
-// |a_pq| ≤ tiny): the new a_pp, a_qq, a_pq and the third row's a_rp, a_rq (Rust twin:
-// `sdef::jacobi_rotation`).
-struct Rotated {
-    pp: real,
-    qq: real,
-    pq: real,
-    rp: real,
-    rq: real,
-}
-
-fn jacobi_rotation(pp: real, qq: real, pq: real, rp: real, rq: real, tiny: real) -> Rotated {
-    if (abs(pq) <= tiny) {
-        return Rotated(pp, qq, pq, rp, rq);
+// |a_pq| ≤ tiny): a_pp, a_qq, a_pq and the third row's a_rp, a_rq updated in place (Rust twin:
+// `sdef::jacobi_rotation`, which returns them).
+fn jacobi_rotation(pp: ptr<function, real>, qq: ptr<function, real>, pq: ptr<function, real>, rp: ptr<function, real>, rq: ptr<function, real>, tiny: real) {
+    let apq = *pq;
+    if (abs(apq) <= tiny) {
+        return;
     }
-    let theta = (qq - pp) / (2.0 * pq);
+    let theta = (*qq - *pp) / (2.0 * apq);
     let towards = select(real(-1.0), real(1.0), theta >= 0.0);
     let t = towards / (abs(theta) + sqrt(theta * theta + 1.0));
     let c = 1.0 / sqrt(t * t + 1.0);
     let s = t * c;
-    return Rotated(pp - t * pq, qq + t * pq, 0.0, c * rp - s * rq, s * rp + c * rq);
+    let arp = *rp;
+    let arq = *rq;
+    *pp = *pp - t * apq;
+    *qq = *qq + t * apq;
+    *pq = 0.0;
+    *rp = c * arp - s * arq;
+    *rq = s * arp + c * arq;
 }
 
 // Griffith's screen of a block's stress s against its strength tf (Rust twin:
@@ -229,24 +228,9 @@ fn griffith_screen(s: SdefBlock) -> bool {
     let tiny = 1e-3 * m;
     for (var k = 0u; k < SCREEN_SWEEPS; k++) {
         // (p, q) = (0, 1), (0, 2), (1, 2), the third row r's elements rotated with them.
-        let a = jacobi_rotation(d0, d1, o01, o02, o12, tiny);
-        d0 = a.pp;
-        d1 = a.qq;
-        o01 = a.pq;
-        o02 = a.rp;
-        o12 = a.rq;
-        let b = jacobi_rotation(d0, d2, o02, o01, o12, tiny);
-        d0 = b.pp;
-        d2 = b.qq;
-        o02 = b.pq;
-        o01 = b.rp;
-        o12 = b.rq;
-        let c = jacobi_rotation(d1, d2, o12, o01, o02, tiny);
-        d1 = c.pp;
-        d2 = c.qq;
-        o12 = c.pq;
-        o01 = c.rp;
-        o02 = c.rq;
+        jacobi_rotation(&d0, &d1, &o01, &o02, &o12, tiny);
+        jacobi_rotation(&d0, &d2, &o02, &o01, &o12, tiny);
+        jacobi_rotation(&d1, &d2, &o12, &o01, &o02, tiny);
     }
     let off = sqrt(2.0 * (o01 * o01 + o02 * o02 + o12 * o12));
     let hi = max(max(d0, d1), d2) + off + m;

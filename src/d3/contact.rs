@@ -313,7 +313,7 @@ struct Hull {
 
 impl Hull {
     /// The hull of the corners `chain` (position, vertex number), in their order.
-    fn of(chain: &[(DVec2, u32)]) -> Hull {
+    fn of(chain: &[Projected]) -> Hull {
         let (mut ids, mut pts) = ([0u32; 8], [DVec2::ZERO; 8]);
         if chain.len() > ids.len() {
             return Hull { ids: chain.iter().map(|p| p.1).collect(), pts: chain.iter().map(|p| p.0).collect() };
@@ -447,8 +447,7 @@ fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
     }
     if top < 3 {
         // All on a line: its two ends.
-        let (first, last) = (pts[0], pts[m - 1]);
-        return Hull { ids: smallvec::smallvec![first.1, last.1], pts: smallvec::smallvec![first.0, last.0] };
+        return Hull::of(&[pts[0], pts[m - 1]]);
     }
     Hull::of(&chain[..top])
 }

@@ -19,7 +19,7 @@ const FLOOR: f64 = 1e-4;
 const FAILED_AT: f64 = 1e3;
 
 /// Registers the font of `output::font` with plotters (once).
-pub(crate) fn ensure_font() -> Result<(), String> {
+fn ensure_font() -> Result<(), String> {
     static FONT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT.get_or_init(|| {
         let bytes = crate::output::font::font_bytes()?;

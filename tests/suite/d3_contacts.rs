@@ -284,7 +284,6 @@ fn the_common_planes_search_is_the_full_one_whatever_the_hint() {
         // Counter-clockwise looking along the outward normal (the volume is positive).
         vec![[v[0], v[1], v[2]], [v[0], v[3], v[1]], [v[1], v[3], v[2]], [v[2], v[3], v[0]]]
     };
-    let (mut cases, mut hinted) = (0, 0);
     for k in 0..400 {
         let (qa, qb) = (DQuat::from_scaled_axis(unit(&mut uniform) * 3.0), DQuat::from_scaled_axis(unit(&mut uniform) * 3.0));
         let origin = if k % 4 == 3 { DVec3::new(1e4, -7e3, 3e3) } else { DVec3::ZERO };
@@ -337,11 +336,8 @@ fn the_common_planes_search_is_the_full_one_whatever_the_hint() {
                     && found.separation.to_bits() == full.separation.to_bits(),
                 "case {k} (gap {gap}), hint {hint}: {found:?} against the full search's {full:?}"
             );
-            hinted += 1;
         }
-        cases += 1;
     }
-    assert_eq!((cases, hinted), (400, 2000));
 }
 
 /// The common plane's axes (the face normals of each body, the cross products of their edge
