@@ -69,10 +69,69 @@ pub type PlaneNormals = Few<DVec3>;
 
 /// [`PlaneNormals`] of `block` (a convex block, or a part of a concave one).
 pub fn plane_normals(block: Body) -> PlaneNormals {
+    let mut normals = PlaneNormals::new();
+    turn_planes(block, &mut normals);
+    normals
+}
+
+/// Appends [`PlaneNormals`] of `block` to `normals`.
+fn turn_planes(block: Body, normals: &mut PlaneNormals) {
+    let planes = block.shape.planes.iter().map(|&f| block.shape.normals[f as usize]);
     match block.normal_map() {
         // A simply-deformable block's stretch inverted once for all its planes.
-        Some(m) => block.shape.planes.iter().map(|&f| (m * block.shape.normals[f as usize]).normalize()).collect(),
-        None => block.shape.planes.iter().map(|&f| block.face_normal(f as usize)).collect(),
+        Some(m) => normals.extend(planes.map(|n| (m * n).normalize())),
+        None => normals.extend(planes.map(|n| block.block.orientation * n)),
+    }
+}
+
+/// A body as stage 4 reads it: its vertices, its [`PlaneNormals`], its box ([`Body::bounds`])
+/// and its inner ball ([`Body::inner_ball`]). The contact stage works these out once a cycle
+/// for each body ([`Placement`]) rather than at each of its contacts (a block of a wall has six
+/// to ten).
+#[derive(Clone, Copy, Debug)]
+pub struct Placed<'a> {
+    pub body: Body<'a>,
+    pub normals: &'a [DVec3],
+    pub bounds: (DVec3, DVec3),
+    pub ball: (DVec3, f64),
+}
+
+impl<'a> Placed<'a> {
+    /// `body` placed, given its [`PlaneNormals`].
+    pub fn new(body: Body<'a>, normals: &'a [DVec3]) -> Placed<'a> {
+        Placed { body, normals, bounds: body.bounds(), ball: body.inner_ball() }
+    }
+}
+
+/// Each body of a block ([`Block::body`]) as [`Placed`] this cycle: worked out once per block,
+/// in parallel over the blocks, before the contacts read them.
+pub struct Placement {
+    /// The plane normals of its bodies, one body after another.
+    normals: PlaneNormals,
+    /// Each body's first plane normal in `normals`, box and inner ball.
+    bodies: SmallVec<[(usize, (DVec3, DVec3), (DVec3, f64)); 1]>,
+}
+
+impl Placement {
+    /// The placement of `block`'s bodies as its vertices lie now.
+    pub fn of(block: &Block) -> Placement {
+        let mut normals = PlaneNormals::new();
+        let bodies = (0..block.part_count() as u32)
+            .map(|k| {
+                let body = block.body(k);
+                let start = normals.len();
+                turn_planes(body, &mut normals);
+                (start, body.bounds(), body.inner_ball())
+            })
+            .collect();
+        Placement { normals, bodies }
+    }
+
+    /// Body `k` of `block`, the block this is the placement of.
+    pub fn placed<'a>(&'a self, block: &'a Block, k: u32) -> Placed<'a> {
+        let body = block.body(k);
+        let (start, bounds, ball) = self.bodies[(k as usize).min(self.bodies.len() - 1)];
+        Placed { body, normals: &self.normals[start..start + body.shape.planes.len()], bounds, ball }
     }
 }
 
@@ -98,11 +157,10 @@ pub struct CommonPlane {
 /// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
 pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
     let (a, b) = (Body::from(a), Body::from(b));
-    common_plane_with(a, b, &plane_normals(a), &plane_normals(b), reach, None)
+    common_plane_with(&Placed::new(a, &plane_normals(a)), &Placed::new(b, &plane_normals(b)), reach, None)
 }
 
-/// [`common_plane`] of two convex bodies (blocks, or parts of concave ones) given their
-/// [`PlaneNormals`] (`na` of `a`, `nb` of `b`). `hint`: a unit vector likely near the answer
+/// [`common_plane`] of two convex bodies (blocks, or parts of concave ones) as [`Placed`]. `hint`: a unit vector likely near the answer
 /// (the contact's normal of the last cycle), which makes the search cheaper, never different.
 ///
 /// # Which axes are worked out
@@ -127,7 +185,10 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
 /// bit for bit (where no axis reaches the floor, the search is made again without it). On settled blocks
 /// (the hint the last cycle's answer, a face–face contact between cubes) about four axes of
 /// thirty are worked out.
-pub fn common_plane_with(a: Body, b: Body, na: &[DVec3], nb: &[DVec3], reach: f64, hint: Option<DVec3>) -> CommonPlane {
+pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>) -> CommonPlane {
+    let (na, nb) = (a.normals, b.normals);
+    let ((pa, ra), (pb, rb)) = (a.ball, b.ball);
+    let (a, b) = (a.body, b.body);
     let sep = |n: DVec3| -> f64 { least(b.vertices, n) - greatest(a.vertices, n) };
     let slack = 1e-12 * (a.shape.radius + b.shape.radius);
     let offer = |best: &mut CommonPlane, n: DVec3, s: f64| {
@@ -137,7 +198,6 @@ pub fn common_plane_with(a: Body, b: Body, na: &[DVec3], nb: &[DVec3], reach: f6
     };
     let consider = |best: &mut CommonPlane, n: DVec3| offer(best, n, sep(n));
     // The bound on each axis's separation (see above): s(n) ≤ n·d − r.
-    let ((pa, ra), (pb, rb)) = (a.inner_ball(), b.inner_ball());
     let (d, r) = (pb - pa, ra + rb);
     let axes = na.len() + nb.len() + 2 * a.shape.edge_directions.len() * b.shape.edge_directions.len();
     let size = pa.length() + pb.length() + a.shape.radius + b.shape.radius;
@@ -260,14 +320,36 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
     xs.iter().map(|x| n.dot(*x)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (if p < lo { p } else { lo }, if p > hi { p } else { hi }))
 }
 
+/// The face planes of a convex body that bound where a line along `n` leaves it (`entering`
+/// false: those it heads out through, n·normal > `grazing`) or enters it (`entering`: those it
+/// heads in through, n·normal < −`grazing`), as (outward normal, a point of the plane,
+/// n·normal). Only these give [`ray_crossing`] its distance; they are sorted out once for all
+/// the points of a contact (one plane of the four to ten of a block, where a face lies along
+/// the contact). Only one face of each plane is tried (`Shape::planes`): the faces of a convex
+/// block that share an outward normal lie in one supporting plane, so the others give the same
+/// crossing. `normals`: the body's [`PlaneNormals`].
+fn facing(block: Body, normals: &[DVec3], n: DVec3, entering: bool, grazing: f64) -> Few<(DVec3, DVec3, f64)> {
+    let mut planes = Few::new();
+    for (&f, &nf) in block.shape.planes.iter().zip(normals) {
+        let d = nf.dot(n);
+        if (entering && d < -grazing) || (!entering && d > grazing) {
+            planes.push((nf, block.vertices[block.shape.faces[f as usize][0] as usize], d));
+        }
+    }
+    planes
+}
+
 /// The distance along `n` from `p` at which the line p + s·n leaves the convex block (the least
-/// s over the faces it heads out through), or enters it (`entering`: the greatest s over the faces
-/// it heads in through). `normals`: the block's [`PlaneNormals`].
-///
-/// Only one face of each plane is tried (`Shape::planes`): the faces of a convex block that
-/// share an outward normal lie in one supporting plane, so the others give the same crossing.
-fn ray_crossing(block: Body, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool) -> f64 {
-    ray_crossing_grazing(block, normals, p, n, entering, GRAZING)
+/// s over the planes it heads out through), or enters it (`entering`: the greatest s over the
+/// planes it heads in through); `planes`: those of [`facing`] along `n`, the same `entering`.
+/// ±∞ where there are none.
+fn ray_crossing(planes: &[(DVec3, DVec3, f64)], p: DVec3, entering: bool) -> f64 {
+    let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
+    for &(nf, x, d) in planes {
+        let s = nf.dot(x - p) / d;
+        s_best = if entering { s_best.max(s) } else { s_best.min(s) };
+    }
+    s_best
 }
 
 /// How near parallel to the ray a face may lie and still be crossed (the cosine): the f64
@@ -281,22 +363,6 @@ const GRAZING: f64 = 1e-9;
 /// rocking tilts off parallel by a little lands far off the surfaces. The CPU's detection, which
 /// finds the logical contacts afresh each cycle, keeps `GRAZING` (1e-9).
 pub const PART_GRAZING: f64 = 1e-3;
-
-/// [`ray_crossing`], passing over the faces whose normal is within `grazing` (the cosine) of
-/// perpendicular to the ray.
-fn ray_crossing_grazing(block: Body, normals: &[DVec3], p: DVec3, n: DVec3, entering: bool, grazing: f64) -> f64 {
-    let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
-    for (&f, &nf) in block.shape.planes.iter().zip(normals) {
-        let d = nf.dot(n);
-        let x = block.vertices[block.shape.faces[f as usize][0] as usize];
-        if entering && d < -grazing {
-            s_best = s_best.max(nf.dot(x - p) / d);
-        } else if !entering && d > grazing {
-            s_best = s_best.min(nf.dot(x - p) / d);
-        }
-    }
-    s_best
-}
 
 /// Orthonormal axes (t1, t2) of the plane normal to `n`.
 fn plane_axes(n: DVec3) -> (DVec3, DVec3) {
@@ -392,26 +458,49 @@ fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
 /// A vertex projected on the common plane: its position there and its number.
 type Projected = (DVec2, u32);
 
-/// The convex hull (counter-clockwise) of the vertices `ids` of a block projected on the plane
-/// (t1, t2); collinear points (within `tol` ≥ 0) dropped, so that a line of points is its two ends.
-fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
-    // The points and the chain in arrays on the stack for a feature of up to STACK vertices (a
-    // face of the blocks one meets), on the heap beyond: plain slices in the loops below.
-    const STACK: usize = 16;
-    let (mut on_stack, mut chain_on_stack) = ([(DVec2::ZERO, 0u32); STACK], [(DVec2::ZERO, 0u32); 2 * STACK]);
-    let (mut on_heap, mut chain_on_heap) = (Vec::new(), Vec::new());
-    let (pts, chain): (&mut [Projected], &mut [Projected]) = if ids.len() <= STACK {
-        (&mut on_stack[..ids.len()], &mut chain_on_stack)
-    } else {
-        on_heap.resize(ids.len(), (DVec2::ZERO, 0));
-        chain_on_heap.resize(2 * ids.len(), (DVec2::ZERO, 0));
-        (&mut on_heap, &mut chain_on_heap)
-    };
-    for (slot, &i) in pts.iter_mut().zip(ids) {
-        let v = verts[i as usize];
-        *slot = (DVec2::new(t1.dot(v), t2.dot(v)), i);
+/// Stage 4's working lists, kept from one contact to the next (a set per worker thread, rayon's
+/// `map_init`): each contact projects its touching features' vertices and chains their hulls
+/// every cycle, and lists of its own (on the stack) had to be cleared first for every one.
+#[derive(Default)]
+pub struct Scratch {
+    pts: Vec<Projected>,
+    chain: Vec<Projected>,
+    /// The last cycle's logical contacts of the contact in hand (`cpu::update_contact`).
+    pub previous: Vec<Logical>,
+}
+
+/// The order of `f64::total_cmp` as an integer's: x before y exactly where key(x) < key(y).
+#[inline]
+fn order_key(x: f64) -> i64 {
+    let bits = x.to_bits() as i64;
+    bits ^ ((((bits >> 63) as u64) >> 1) as i64)
+}
+
+/// Sorts projected points by x, then y, in `f64::total_cmp`'s order, keeping the order of
+/// equal ones: a stable sort's result is fixed by its comparison, so this is the standard
+/// library's `sort_by` to the bit, by insertion for the few points of a feature.
+fn sort_points(pts: &mut [Projected]) {
+    let before = |p: &Projected, q: &Projected| (order_key(p.0.x), order_key(p.0.y)) < (order_key(q.0.x), order_key(q.0.y));
+    if pts.len() > 16 {
+        pts.sort_by(|p, q| order_key(p.0.x).cmp(&order_key(q.0.x)).then_with(|| order_key(p.0.y).cmp(&order_key(q.0.y))));
+        return;
     }
-    pts.sort_by(|a, b| a.0.x.total_cmp(&b.0.x).then(a.0.y.total_cmp(&b.0.y)));
+    for i in 1..pts.len() {
+        let p = pts[i];
+        let mut j = i;
+        while j > 0 && before(&p, &pts[j - 1]) {
+            pts[j] = pts[j - 1];
+            j -= 1;
+        }
+        pts[j] = p;
+    }
+}
+
+/// The convex hull (counter-clockwise) of the projected points `pts` (sorted and thinned in
+/// place; `chain` is working space); collinear points (within `tol` ≥ 0) dropped, so that a
+/// line of points is its two ends.
+fn hull(pts: &mut [Projected], chain: &mut Vec<Projected>, tol: f64) -> Hull {
+    sort_points(pts);
     // Points within `tol` of the last one kept dropped (as `Vec::dedup_by`).
     let mut m = pts.len().min(1);
     for r in 1..pts.len() {
@@ -432,6 +521,8 @@ fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
         let cross = (a - o).perp_dot(b - o);
         cross <= 0.0 || cross / (b - o).length().max(f64::MIN_POSITIVE) <= tol
     };
+    chain.clear();
+    chain.resize(2 * m, (DVec2::ZERO, 0));
     let mut top = 0;
     for pass in 0..2 {
         let start = top;
@@ -450,6 +541,19 @@ fn hull(ids: &[u32], verts: &[DVec3], t1: DVec3, t2: DVec3, tol: f64) -> Hull {
         return Hull::of(&[pts[0], pts[m - 1]]);
     }
     Hull::of(&chain[..top])
+}
+
+/// Puts in `pts` the vertices of `verts` whose projection on `n` lies on the near side of
+/// `bound` (at or above it where `above`, at or below otherwise), projected on the plane
+/// (t1, t2), with their numbers.
+fn project_near(pts: &mut Vec<Projected>, verts: &[DVec3], n: DVec3, bound: f64, above: bool, (t1, t2): (DVec3, DVec3)) {
+    pts.clear();
+    for (i, &v) in verts.iter().enumerate() {
+        let along = n.dot(v);
+        if (above && along >= bound) || (!above && along <= bound) {
+            pts.push((DVec2::new(t1.dot(v), t2.dot(v)), i as u32));
+        }
+    }
 }
 
 /// The crossing of segments p0p1 and q0q1 strictly inside both (parameters on each), if any;
@@ -471,30 +575,32 @@ fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2, lengths: (f64, f64)) -> 
 /// `tolerance` is the contact-forming distance (features within it of the plane touch).
 pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Few<(LogicalKind, DVec3, f64)>, f64) {
     let (a, b) = (Body::from(a), Body::from(b));
-    logical_contacts_with(a, b, &plane_normals(a), &plane_normals(b), plane, tolerance)
+    logical_contacts_with(&Placed::new(a, &plane_normals(a)), &Placed::new(b, &plane_normals(b)), plane, tolerance, &mut Scratch::default())
 }
 
-/// [`logical_contacts`] of two convex bodies (blocks, or parts of concave ones) given their
-/// [`PlaneNormals`] (`na` of `a`, `nb` of `b`). The vertex numbers of the logical contacts'
-/// keys are the bodies'.
+/// [`logical_contacts`] of two convex bodies (blocks, or parts of concave ones) as [`Placed`].
+/// The vertex numbers of the logical contacts' keys are the bodies'. `scratch`: working space.
 pub fn logical_contacts_with(
-    a: Body,
-    b: Body,
-    na: &[DVec3],
-    nb: &[DVec3],
+    a: &Placed,
+    b: &Placed,
     plane: &CommonPlane,
     tolerance: f64,
+    scratch: &mut Scratch,
 ) -> ([Feature; 2], Few<(LogicalKind, DVec3, f64)>, f64) {
     let n = plane.normal;
+    let (leaving_a, entering_b) = (facing(a.body, a.normals, n, false, GRAZING), facing(b.body, b.normals, n, true, GRAZING));
+    let (a, b) = (a.body, b.body);
     let (t1, t2) = plane_axes(n);
     let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
     let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
-    let near_a: Few<u32> = (0..a.vertices.len() as u32).filter(|&i| n.dot(a.vertices[i as usize]) >= hi_a - tolerance).collect();
-    let near_b: Few<u32> = (0..b.vertices.len() as u32).filter(|&i| n.dot(b.vertices[i as usize]) <= lo_b + tolerance).collect();
     let size = a.shape.radius.min(b.shape.radius);
     let flat = 1e-6 * size;
-    let ha = hull(&near_a, a.vertices, t1, t2, flat);
-    let hb = hull(&near_b, b.vertices, t1, t2, flat);
+    // The features of each within the tolerance of the plane, their hulls on it.
+    let Scratch { pts, chain, .. } = scratch;
+    project_near(pts, a.vertices, n, hi_a - tolerance, true, (t1, t2));
+    let ha = hull(pts, chain, flat);
+    project_near(pts, b.vertices, n, lo_b + tolerance, false, (t1, t2));
+    let hb = hull(pts, chain, flat);
     let category = [ha.feature(), hb.feature()];
     let (la, lb) = (ha.edge_lengths(), hb.edge_lengths());
 
@@ -545,20 +651,17 @@ pub fn logical_contacts_with(
         .iter()
         .map(|(kind, p2)| {
             let p = origin + t1 * p2.x + t2 * p2.y;
-            let leave = ray_crossing(a, na, p, n, false);
-            let enter = ray_crossing(b, nb, p, n, true);
+            let leave = ray_crossing(&leaving_a, p, false);
+            let enter = ray_crossing(&entering_b, p, true);
             let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, plane.separation) };
             (*kind, p + n * (0.5 * (leave + enter)), enter - leave)
         })
         .collect();
     let area = if found.len() >= 3 {
-        let region = hull(
-            &(0..found.len() as u32).collect::<Few<_>>(),
-            &found.iter().map(|(_, p)| DVec3::new(p.x, p.y, 0.0)).collect::<Few<_>>(),
-            DVec3::X,
-            DVec3::Y,
-            flat,
-        );
+        // (x + 0, y + 0): the points as the plane (x, y) projects them, a −0 made +0.
+        pts.clear();
+        pts.extend(found.iter().enumerate().map(|(k, (_, p))| (DVec2::new(p.x + 0.0, p.y + 0.0), k as u32)));
+        let region = hull(pts, chain, flat);
         let m = region.pts.len();
         if m >= 3 {
             0.5 * (0..m).map(|i| region.pts[i].perp_dot(region.pts[(i + 1) % m])).sum::<f64>()
@@ -696,8 +799,8 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
     };
     let p = x + n * (mid - n.dot(x));
     let grazing = |body: Body| if body.block.parts.is_empty() { GRAZING } else { PART_GRAZING };
-    let leave = ray_crossing_grazing(a, &plane_normals(a), p, n, false, grazing(a));
-    let enter = ray_crossing_grazing(b, &plane_normals(b), p, n, true, grazing(b));
+    let leave = ray_crossing(&facing(a, &plane_normals(a), n, false, grazing(a)), p, false);
+    let enter = ray_crossing(&facing(b, &plane_normals(b), n, true, grazing(b)), p, true);
     let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };
     (p + n * (0.5 * (leave + enter)), enter - leave)
 }
@@ -713,7 +816,7 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
 pub fn track_contact(c: &mut Contact, a: Body, b: Body, mat: &Material, tol: f64, dt: f64) -> (f64, f64) {
     let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
     let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
-    let plane = (!apart).then(|| common_plane_with(a, b, &plane_normals(a), &plane_normals(b), tol, Some(c.normal)));
+    let plane = (!apart).then(|| common_plane_with(&Placed::new(a, &plane_normals(a)), &Placed::new(b, &plane_normals(b)), tol, Some(c.normal)));
     let old_normal = c.normal;
     if let Some(p) = &plane {
         c.normal = p.normal;

@@ -288,14 +288,18 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
             (model.material(first.material), super::model::joint_contacts(first.constitutive))
         })
         .collect();
+    // Each block's bodies placed (their plane normals turned, boxes, inner balls) once for all
+    // their contacts.
+    let placements: Vec<contact::Placement> = blocks.par_iter().map(contact::Placement::of).collect();
     let energy: Vec<(f64, f64)> = model
         .contacts
         .par_iter_mut()
         .zip(materials)
-        .map(|(c, (mat, joint))| {
+        .map_init(contact::Scratch::default, |scratch, (c, (mat, joint))| {
             // The parts in touch (a convex block is its own one part).
-            let (a, b) = (blocks[c.blocks[0] as usize].body(c.parts[0]), blocks[c.blocks[1] as usize].body(c.parts[1]));
-            update_contact(c, a, b, &mat, joint, tol, dt)
+            let [i, j] = c.blocks.map(|k| k as usize);
+            let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
+            update_contact(c, a, b, &mat, joint, tol, dt, scratch)
         })
         .collect();
     // Summed in the contacts' order: reruns repeat bit for bit.
@@ -309,26 +313,25 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
 /// contacts that went while loaded (for the ledger). `mat` is the first block's material and
 /// `joint` whether its law is the joint law (`Material::contact_law`): the parameters follow
 /// the touching region, the last cycle's for the springs that go, this cycle's for the law.
-/// `a` and `b` are the contact's convex bodies: its blocks, or the parts of concave ones in
-/// touch (`Contact::parts`).
+/// `a` and `b` are the contact's convex bodies as placed: its blocks, or the parts of concave
+/// ones in touch (`Contact::parts`). `scratch`: working space.
+#[allow(clippy::too_many_arguments)]
 pub fn update_contact(
     c: &mut Contact,
-    a: super::model::Body,
-    b: super::model::Body,
+    a: contact::Placed,
+    b: contact::Placed,
     mat: &super::model::Material,
     joint: bool,
     tol: f64,
     dt: f64,
+    scratch: &mut contact::Scratch,
 ) -> (f64, f64) {
     let old_law = mat.contact_law(joint, c.area, c.logical.len());
     // Boxes apart by more than the contact-forming distance: the blocks are (a lower bound of
     // their distance), and the common plane is not needed.
-    let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
+    let ((a0, a1), (b0, b1)) = (a.bounds, b.bounds);
     let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
-    // The blocks' face-plane normals in global axes, turned once for the common plane's axes and
-    // the logical contacts' ray crossings.
-    let normals = (!apart).then(|| (contact::plane_normals(a), contact::plane_normals(b)));
-    let plane = normals.as_ref().map(|(na, nb)| contact::common_plane_with(a, b, na, nb, tol, Some(c.normal)));
+    let plane = (!apart).then(|| contact::common_plane_with(&a, &b, tol, Some(c.normal)));
     let old_normal = c.normal;
     if let Some(p) = &plane {
         c.normal = p.normal;
@@ -340,10 +343,11 @@ pub fn update_contact(
         c.logical.clear();
         return (0.0, released);
     };
-    let (na, nb) = normals.as_ref().expect("a plane was found, so the normals were turned");
-    let (category, found, area) = contact::logical_contacts_with(a, b, na, nb, &plane, tol);
-    // The last cycle's logical contacts (copied aside; the list keeps its allocation).
-    let previous: smallvec::SmallVec<[Logical; 16]> = c.logical.iter().copied().collect();
+    let (category, found, area) = contact::logical_contacts_with(&a, &b, &plane, tol, scratch);
+    // The last cycle's logical contacts (copied aside; the lists keep their allocations).
+    let previous = &mut scratch.previous;
+    previous.clear();
+    previous.extend_from_slice(&c.logical);
     c.logical.clear();
     c.logical.extend(found.into_iter().map(|(kind, point, gap)| {
         let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
@@ -355,7 +359,7 @@ pub fn update_contact(
     c.category = Some(category);
     c.area = area;
     let law = mat.contact_law(joint, area, c.logical.len());
-    (contact::force_law(c, old_normal, a.block, b.block, &law, dt), released)
+    (contact::force_law(c, old_normal, a.body.block, b.body.block, &law, dt), released)
 }
 
 /// One cycle: stages 6, 1–2, 7 as due, 4.
