@@ -84,23 +84,41 @@ fn turn_planes(block: Body, normals: &mut PlaneNormals) {
     }
 }
 
-/// A body as stage 4 reads it: its vertices, its [`PlaneNormals`], its box ([`Body::bounds`])
-/// and its inner ball ([`Body::inner_ball`]). The contact stage works these out once a cycle
+/// A body as stage 4 reads it: its vertices, its [`PlaneNormals`], its feature edges'
+/// directions ([`edge_directions`]), its box ([`Body::bounds`]) and its inner ball
+/// ([`Body::inner_ball`]). The contact stage works these out once a cycle
 /// for each body ([`Placement`]) rather than at each of its contacts (a block of a wall has six
 /// to ten).
 #[derive(Clone, Copy, Debug)]
 pub struct Placed<'a> {
     pub body: Body<'a>,
     pub normals: &'a [DVec3],
+    pub edges: &'a [DVec3],
     pub bounds: (DVec3, DVec3),
     pub ball: (DVec3, f64),
 }
 
 impl<'a> Placed<'a> {
-    /// `body` placed, given its [`PlaneNormals`].
-    pub fn new(body: Body<'a>, normals: &'a [DVec3]) -> Placed<'a> {
-        Placed { body, normals, bounds: body.bounds(), ball: body.inner_ball() }
+    /// `body` placed, given its [`PlaneNormals`] and [`edge_directions`].
+    pub fn new(body: Body<'a>, normals: &'a [DVec3], edges: &'a [DVec3]) -> Placed<'a> {
+        Placed { body, normals, edges, bounds: body.bounds(), ball: body.inner_ball() }
     }
+}
+
+/// The directions of a body's feature edges (`Shape::edge_directions`, in that order), from
+/// its vertices as placed: end minus start of each.
+pub fn edge_directions(block: Body) -> PlaneNormals {
+    let mut edges = PlaneNormals::new();
+    turn_edges(block, &mut edges);
+    edges
+}
+
+/// Appends [`edge_directions`] of `block` to `edges`.
+fn turn_edges(block: Body, edges: &mut PlaneNormals) {
+    edges.extend(block.shape.edge_directions.iter().map(|&i| {
+        let e = block.shape.edges[i as usize];
+        block.vertices[e.b as usize] - block.vertices[e.a as usize]
+    }));
 }
 
 /// Each body of a block ([`Block::body`]) as [`Placed`] this cycle: worked out once per block,
@@ -108,30 +126,48 @@ impl<'a> Placed<'a> {
 pub struct Placement {
     /// The plane normals of its bodies, one body after another.
     normals: PlaneNormals,
-    /// Each body's first plane normal in `normals`, box and inner ball.
-    bodies: SmallVec<[(usize, (DVec3, DVec3), (DVec3, f64)); 1]>,
+    /// Their edge directions, one body after another.
+    edges: PlaneNormals,
+    bodies: SmallVec<[BodyPlacement; 1]>,
+}
+
+/// A body's part of a [`Placement`].
+#[derive(Clone, Copy)]
+struct BodyPlacement {
+    /// Its first plane normal in `Placement::normals` and first edge in `Placement::edges`.
+    planes: usize,
+    edges: usize,
+    bounds: (DVec3, DVec3),
+    ball: (DVec3, f64),
 }
 
 impl Placement {
     /// The placement of `block`'s bodies as its vertices lie now.
     pub fn of(block: &Block) -> Placement {
-        let mut normals = PlaneNormals::new();
+        let (mut normals, mut edges) = (PlaneNormals::new(), PlaneNormals::new());
         let bodies = (0..block.part_count() as u32)
             .map(|k| {
                 let body = block.body(k);
-                let start = normals.len();
+                let placed = BodyPlacement { planes: normals.len(), edges: edges.len(), bounds: body.bounds(), ball: body.inner_ball() };
                 turn_planes(body, &mut normals);
-                (start, body.bounds(), body.inner_ball())
+                turn_edges(body, &mut edges);
+                placed
             })
             .collect();
-        Placement { normals, bodies }
+        Placement { normals, edges, bodies }
     }
 
     /// Body `k` of `block`, the block this is the placement of.
     pub fn placed<'a>(&'a self, block: &'a Block, k: u32) -> Placed<'a> {
         let body = block.body(k);
-        let (start, bounds, ball) = self.bodies[(k as usize).min(self.bodies.len() - 1)];
-        Placed { body, normals: &self.normals[start..start + body.shape.planes.len()], bounds, ball }
+        let at = self.bodies[(k as usize).min(self.bodies.len() - 1)];
+        Placed {
+            body,
+            normals: &self.normals[at.planes..at.planes + body.shape.planes.len()],
+            edges: &self.edges[at.edges..at.edges + body.shape.edge_directions.len()],
+            bounds: at.bounds,
+            ball: at.ball,
+        }
     }
 }
 
@@ -157,7 +193,7 @@ pub struct CommonPlane {
 /// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
 pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
     let (a, b) = (Body::from(a), Body::from(b));
-    common_plane_with(&Placed::new(a, &plane_normals(a)), &Placed::new(b, &plane_normals(b)), reach, None)
+    common_plane_with(&Placed::new(a, &plane_normals(a), &edge_directions(a)), &Placed::new(b, &plane_normals(b), &edge_directions(b)), reach, None)
 }
 
 /// [`common_plane`] of two convex bodies (blocks, or parts of concave ones) as [`Placed`]. `hint`: a unit vector likely near the answer
@@ -187,6 +223,7 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
 /// thirty are worked out.
 pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>) -> CommonPlane {
     let (na, nb) = (a.normals, b.normals);
+    let (edges_a, edges_b) = (a.edges, b.edges);
     let ((pa, ra), (pb, rb)) = (a.ball, b.ball);
     let (a, b) = (a.body, b.body);
     let sep = |n: DVec3| -> f64 { least(b.vertices, n) - greatest(a.vertices, n) };
@@ -217,12 +254,8 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
                 consider(&mut best, -n);
             }
         }
-        for &i in &a.shape.edge_directions {
-            let ea = a.shape.edges[i as usize];
-            let da = a.vertices[ea.b as usize] - a.vertices[ea.a as usize];
-            for &j in &b.shape.edge_directions {
-                let eb = b.shape.edges[j as usize];
-                let db = b.vertices[eb.b as usize] - b.vertices[eb.a as usize];
+        for &da in edges_a {
+            for &db in edges_b {
                 let c = da.cross(db);
                 if c.length_squared() <= 1e-12 * da.length_squared() * db.length_squared() {
                     continue;
@@ -328,22 +361,25 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
 /// the contact). Only one face of each plane is tried (`Shape::planes`): the faces of a convex
 /// block that share an outward normal lie in one supporting plane, so the others give the same
 /// crossing. `normals`: the body's [`PlaneNormals`].
-fn facing(block: Body, normals: &[DVec3], n: DVec3, entering: bool, grazing: f64) -> Few<(DVec3, DVec3, f64)> {
-    let mut planes = Few::new();
+fn facing(block: Body, normals: &[DVec3], n: DVec3, entering: bool, grazing: f64, planes: &mut Vec<Facing>) {
+    planes.clear();
     for (&f, &nf) in block.shape.planes.iter().zip(normals) {
         let d = nf.dot(n);
         if (entering && d < -grazing) || (!entering && d > grazing) {
             planes.push((nf, block.vertices[block.shape.faces[f as usize][0] as usize], d));
         }
     }
-    planes
 }
+
+/// A face plane a line crosses ([`facing`]): its outward normal, a point of it, and the line's
+/// direction dotted with the normal.
+type Facing = (DVec3, DVec3, f64);
 
 /// The distance along `n` from `p` at which the line p + s·n leaves the convex block (the least
 /// s over the planes it heads out through), or enters it (`entering`: the greatest s over the
 /// planes it heads in through); `planes`: those of [`facing`] along `n`, the same `entering`.
 /// ±∞ where there are none.
-fn ray_crossing(planes: &[(DVec3, DVec3, f64)], p: DVec3, entering: bool) -> f64 {
+fn ray_crossing(planes: &[Facing], p: DVec3, entering: bool) -> f64 {
     let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
     for &(nf, x, d) in planes {
         let s = nf.dot(x - p) / d;
@@ -372,23 +408,22 @@ fn plane_axes(n: DVec3) -> (DVec3, DVec3) {
 
 /// A touching feature projected on the common plane: its vertices (block numbers) in
 /// counter-clockwise order about n, as 2D points; one (a vertex), two (an edge) or more (a face).
+/// Its lists are kept from contact to contact ([`Scratch`]).
+#[derive(Default)]
 struct Hull {
-    ids: Few<u32>,
-    pts: Few<DVec2>,
+    ids: Vec<u32>,
+    pts: Vec<DVec2>,
+    /// The length of each of its [`Hull::edges`], in their order ([`Hull::measure`]).
+    lengths: Vec<f64>,
 }
 
 impl Hull {
-    /// The hull of the corners `chain` (position, vertex number), in their order.
-    fn of(chain: &[Projected]) -> Hull {
-        let (mut ids, mut pts) = ([0u32; 8], [DVec2::ZERO; 8]);
-        if chain.len() > ids.len() {
-            return Hull { ids: chain.iter().map(|p| p.1).collect(), pts: chain.iter().map(|p| p.0).collect() };
-        }
-        // Filled in place (a SmallVec's pushes cost more than the rest of a small hull).
-        for (k, &(p, id)) in chain.iter().enumerate() {
-            (ids[k], pts[k]) = (id, p);
-        }
-        Hull { ids: Few::from_buf_and_len(ids, chain.len()), pts: Few::from_buf_and_len(pts, chain.len()) }
+    /// Makes it the hull of the corners `chain` (position, vertex number), in their order.
+    fn set(&mut self, chain: &[Projected]) {
+        self.ids.clear();
+        self.ids.extend(chain.iter().map(|p| p.1));
+        self.pts.clear();
+        self.pts.extend(chain.iter().map(|p| p.0));
     }
 
     fn feature(&self) -> Feature {
@@ -399,9 +434,9 @@ impl Hull {
         }
     }
 
-    /// Whether `p` lies on the feature (within `tol`). `lengths`: [`Hull::edge_lengths`].
-    fn covers(&self, p: DVec2, tol: f64, lengths: &[f64]) -> bool {
-        let pts: &[DVec2] = &self.pts;
+    /// Whether `p` lies on the feature (within `tol`), once [`Hull::measure`]d.
+    fn covers(&self, p: DVec2, tol: f64) -> bool {
+        let (pts, lengths) = (&self.pts[..], &self.lengths[..]);
         match pts.len() {
             1 => (p - pts[0]).length() <= tol,
             2 => segment_distance(p, pts[0], pts[1]) <= tol,
@@ -419,33 +454,31 @@ impl Hull {
         }
     }
 
-    /// The length of each of its [`Hull::edges`], in their order (worked out once for the
-    /// covering and crossing tests, which ask each many times).
-    fn edge_lengths(&self) -> Few<f64> {
-        let pts: &[DVec2] = &self.pts;
-        let mut inline = [0.0; 8];
-        if pts.len() <= inline.len() {
-            // Filled in place (a SmallVec's pushes cost more than the square roots here).
-            let mut count = 0;
-            for (i, j) in self.edges() {
-                inline[count] = (pts[j] - pts[i]).length();
-                count += 1;
-            }
-            return Few::from_buf_and_len(inline, count);
+    /// Works out the length of each of its [`Hull::edges`] (once for the covering and crossing
+    /// tests, which ask each many times).
+    fn measure(&mut self) {
+        let n = self.pts.len();
+        self.lengths.clear();
+        for i in 0..Hull::edge_count(n) {
+            self.lengths.push((self.pts[if i + 1 == n { 0 } else { i + 1 }] - self.pts[i]).length());
         }
-        self.edges().map(|(i, j)| (pts[j] - pts[i]).length()).collect()
+    }
+
+    /// How many edges a hull of `n` corners has: none for a point, one for a segment, n for a
+    /// polygon.
+    fn edge_count(n: usize) -> usize {
+        match n {
+            0 | 1 => 0,
+            2 => 1,
+            n => n,
+        }
     }
 
     /// Its edges as pairs of positions in `ids`: none for a point, one for a segment, n for a
     /// polygon of n corners.
     fn edges(&self) -> impl Iterator<Item = (usize, usize)> {
         let n = self.pts.len();
-        let count = match n {
-            0 | 1 => 0,
-            2 => 1,
-            n => n,
-        };
-        (0..count).map(move |i| (i, if i + 1 == n { 0 } else { i + 1 }))
+        (0..Hull::edge_count(n)).map(move |i| (i, if i + 1 == n { 0 } else { i + 1 }))
     }
 }
 
@@ -460,11 +493,21 @@ type Projected = (DVec2, u32);
 
 /// Stage 4's working lists, kept from one contact to the next (a set per worker thread, rayon's
 /// `map_init`): each contact projects its touching features' vertices and chains their hulls
-/// every cycle, and lists of its own (on the stack) had to be cleared first for every one.
+/// every cycle, and lists of its own (on the stack) had to be cleared first, and copied out,
+/// for every one.
 #[derive(Default)]
 pub struct Scratch {
     pts: Vec<Projected>,
     chain: Vec<Projected>,
+    /// The touching features' hulls (block 1's, block 2's) and that of the touching region.
+    hulls: [Hull; 3],
+    /// The planes the line along the normal leaves block 1 and enters block 2 through.
+    leaving: Vec<Facing>,
+    entering: Vec<Facing>,
+    /// The logical contacts found, on the plane.
+    on_plane: Vec<(LogicalKind, DVec2)>,
+    /// The logical contacts found ([`logical_contacts_with`]): kind, point, gap.
+    pub found: Vec<(LogicalKind, DVec3, f64)>,
     /// The last cycle's logical contacts of the contact in hand (`cpu::update_contact`).
     pub previous: Vec<Logical>,
 }
@@ -496,10 +539,10 @@ fn sort_points(pts: &mut [Projected]) {
     }
 }
 
-/// The convex hull (counter-clockwise) of the projected points `pts` (sorted and thinned in
-/// place; `chain` is working space); collinear points (within `tol` ≥ 0) dropped, so that a
-/// line of points is its two ends.
-fn hull(pts: &mut [Projected], chain: &mut Vec<Projected>, tol: f64) -> Hull {
+/// Makes `out` the convex hull (counter-clockwise) of the projected points `pts` (sorted and
+/// thinned in place; `chain` is working space); collinear points (within `tol` ≥ 0) dropped, so
+/// that a line of points is its two ends.
+fn hull(pts: &mut [Projected], chain: &mut Vec<Projected>, tol: f64, out: &mut Hull) {
     sort_points(pts);
     // Points within `tol` of the last one kept dropped (as `Vec::dedup_by`).
     let mut m = pts.len().min(1);
@@ -511,7 +554,7 @@ fn hull(pts: &mut [Projected], chain: &mut Vec<Projected>, tol: f64) -> Hull {
     }
     let pts = &pts[..m];
     if m <= 2 {
-        return Hull::of(pts);
+        return out.set(pts);
     }
     // Andrew's monotone chain, dropping points within `tol` of the line of their neighbours.
     // Whether a turns by no more than `tol` off the line from o to b (its distance from the line,
@@ -538,9 +581,9 @@ fn hull(pts: &mut [Projected], chain: &mut Vec<Projected>, tol: f64) -> Hull {
     }
     if top < 3 {
         // All on a line: its two ends.
-        return Hull::of(&[pts[0], pts[m - 1]]);
+        return out.set(&[pts[0], pts[m - 1]]);
     }
-    Hull::of(&chain[..top])
+    out.set(&chain[..top])
 }
 
 /// Puts in `pts` the vertices of `verts` whose projection on `n` lies on the near side of
@@ -573,22 +616,27 @@ fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2, lengths: (f64, f64)) -> 
 /// The touching region of two blocks whose common plane is `plane`: the category, the logical
 /// contacts' kinds, points (on the plane, between the surfaces) and gaps, and the region's area.
 /// `tolerance` is the contact-forming distance (features within it of the plane touch).
-pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Few<(LogicalKind, DVec3, f64)>, f64) {
+pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Vec<(LogicalKind, DVec3, f64)>, f64) {
     let (a, b) = (Body::from(a), Body::from(b));
-    logical_contacts_with(&Placed::new(a, &plane_normals(a)), &Placed::new(b, &plane_normals(b)), plane, tolerance, &mut Scratch::default())
+    let mut scratch = Scratch::default();
+    let (category, area) = logical_contacts_with(
+        &Placed::new(a, &plane_normals(a), &edge_directions(a)),
+        &Placed::new(b, &plane_normals(b), &edge_directions(b)),
+        plane,
+        tolerance,
+        &mut scratch,
+    );
+    (category, scratch.found, area)
 }
 
-/// [`logical_contacts`] of two convex bodies (blocks, or parts of concave ones) as [`Placed`].
-/// The vertex numbers of the logical contacts' keys are the bodies'. `scratch`: working space.
-pub fn logical_contacts_with(
-    a: &Placed,
-    b: &Placed,
-    plane: &CommonPlane,
-    tolerance: f64,
-    scratch: &mut Scratch,
-) -> ([Feature; 2], Few<(LogicalKind, DVec3, f64)>, f64) {
+/// [`logical_contacts`] of two convex bodies (blocks, or parts of concave ones) as [`Placed`],
+/// the logical contacts left in `scratch.found` ([`Scratch::found`]). The vertex numbers of the
+/// logical contacts' keys are the bodies'.
+pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolerance: f64, scratch: &mut Scratch) -> ([Feature; 2], f64) {
+    let Scratch { pts, chain, hulls: [ha, hb, region], leaving, entering, on_plane, found, .. } = scratch;
     let n = plane.normal;
-    let (leaving_a, entering_b) = (facing(a.body, a.normals, n, false, GRAZING), facing(b.body, b.normals, n, true, GRAZING));
+    facing(a.body, a.normals, n, false, GRAZING, leaving);
+    facing(b.body, b.normals, n, true, GRAZING, entering);
     let (a, b) = (a.body, b.body);
     let (t1, t2) = plane_axes(n);
     let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
@@ -596,39 +644,40 @@ pub fn logical_contacts_with(
     let size = a.shape.radius.min(b.shape.radius);
     let flat = 1e-6 * size;
     // The features of each within the tolerance of the plane, their hulls on it.
-    let Scratch { pts, chain, .. } = scratch;
     project_near(pts, a.vertices, n, hi_a - tolerance, true, (t1, t2));
-    let ha = hull(pts, chain, flat);
+    hull(pts, chain, flat, ha);
     project_near(pts, b.vertices, n, lo_b + tolerance, false, (t1, t2));
-    let hb = hull(pts, chain, flat);
+    hull(pts, chain, flat, hb);
     let category = [ha.feature(), hb.feature()];
-    let (la, lb) = (ha.edge_lengths(), hb.edge_lengths());
+    ha.measure();
+    hb.measure();
+    let (ha, hb) = (&*ha, &*hb);
 
-    let mut found: Few<(LogicalKind, DVec2)> = Few::new();
+    on_plane.clear();
     for (k, &p) in ha.pts.iter().enumerate() {
-        if hb.covers(p, flat, &lb) {
-            found.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[k] }, p));
+        if hb.covers(p, flat) {
+            on_plane.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[k] }, p));
         }
     }
     for (k, &p) in hb.pts.iter().enumerate() {
         // A vertex of each at one place is one logical contact (vertex–vertex, or the corner
         // of two faces matching): keep block 1's.
-        if ha.covers(p, flat, &la) && !found.iter().any(|(_, q)| (*q - p).length() <= flat) {
-            found.push((LogicalKind::VertexFace { on_first: false, vertex: hb.ids[k] }, p));
+        if ha.covers(p, flat) && !on_plane.iter().any(|(_, q)| (*q - p).length() <= flat) {
+            on_plane.push((LogicalKind::VertexFace { on_first: false, vertex: hb.ids[k] }, p));
         }
     }
     let key = |x: u32, y: u32| (x.min(y), x.max(y));
     for (e, (i, j)) in ha.edges().enumerate() {
         for (f, (k, l)) in hb.edges().enumerate() {
-            if let Some((t, _)) = crossing(ha.pts[i], ha.pts[j], hb.pts[k], hb.pts[l], (la[e], lb[f])) {
+            if let Some((t, _)) = crossing(ha.pts[i], ha.pts[j], hb.pts[k], hb.pts[l], (ha.lengths[e], hb.lengths[f])) {
                 let p = ha.pts[i] + (ha.pts[j] - ha.pts[i]) * t;
-                if !found.iter().any(|(_, q)| (*q - p).length() <= flat) {
-                    found.push((LogicalKind::EdgeEdge { first: key(ha.ids[i], ha.ids[j]), second: key(hb.ids[k], hb.ids[l]) }, p));
+                if !on_plane.iter().any(|(_, q)| (*q - p).length() <= flat) {
+                    on_plane.push((LogicalKind::EdgeEdge { first: key(ha.ids[i], ha.ids[j]), second: key(hb.ids[k], hb.ids[l]) }, p));
                 }
             }
         }
     }
-    if found.is_empty() {
+    if on_plane.is_empty() {
         // Features that touch without their projections meeting within the tolerance of the
         // tests (an edge and a vertex at a grazing angle): one contact at the nearest pair.
         let (mut best, mut at) = (f64::INFINITY, (0, 0));
@@ -642,26 +691,24 @@ pub fn logical_contacts_with(
             }
         }
         let p = 0.5 * (ha.pts[at.0] + hb.pts[at.1]);
-        found.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[at.0] }, p));
+        on_plane.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[at.0] }, p));
     }
     // Each point on the plane: the gap along n between where the line leaves block 1 and enters
     // block 2, and the point halfway between the two surfaces.
     let origin = n * (0.5 * (hi_a + lo_b));
-    let out = found
-        .iter()
-        .map(|(kind, p2)| {
-            let p = origin + t1 * p2.x + t2 * p2.y;
-            let leave = ray_crossing(&leaving_a, p, false);
-            let enter = ray_crossing(&entering_b, p, true);
-            let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, plane.separation) };
-            (*kind, p + n * (0.5 * (leave + enter)), enter - leave)
-        })
-        .collect();
-    let area = if found.len() >= 3 {
+    found.clear();
+    found.extend(on_plane.iter().map(|(kind, p2)| {
+        let p = origin + t1 * p2.x + t2 * p2.y;
+        let leave = ray_crossing(leaving, p, false);
+        let enter = ray_crossing(entering, p, true);
+        let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, plane.separation) };
+        (*kind, p + n * (0.5 * (leave + enter)), enter - leave)
+    }));
+    let area = if on_plane.len() >= 3 {
         // (x + 0, y + 0): the points as the plane (x, y) projects them, a −0 made +0.
         pts.clear();
-        pts.extend(found.iter().enumerate().map(|(k, (_, p))| (DVec2::new(p.x + 0.0, p.y + 0.0), k as u32)));
-        let region = hull(pts, chain, flat);
+        pts.extend(on_plane.iter().enumerate().map(|(k, (_, p))| (DVec2::new(p.x + 0.0, p.y + 0.0), k as u32)));
+        hull(pts, chain, flat, region);
         let m = region.pts.len();
         if m >= 3 {
             0.5 * (0..m).map(|i| region.pts[i].perp_dot(region.pts[(i + 1) % m])).sum::<f64>()
@@ -671,7 +718,7 @@ pub fn logical_contacts_with(
     } else {
         0.0
     };
-    (category, out, area)
+    (category, area)
 }
 
 /// ¶23's prescription for the normal at a point `p` inside (or on) block `block`: the vertex of
@@ -799,8 +846,11 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
     };
     let p = x + n * (mid - n.dot(x));
     let grazing = |body: Body| if body.block.parts.is_empty() { GRAZING } else { PART_GRAZING };
-    let leave = ray_crossing(&facing(a, &plane_normals(a), n, false, grazing(a)), p, false);
-    let enter = ray_crossing(&facing(b, &plane_normals(b), n, true, grazing(b)), p, true);
+    let mut planes = Vec::new();
+    facing(a, &plane_normals(a), n, false, grazing(a), &mut planes);
+    let leave = ray_crossing(&planes, p, false);
+    facing(b, &plane_normals(b), n, true, grazing(b), &mut planes);
+    let enter = ray_crossing(&planes, p, true);
     let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };
     (p + n * (0.5 * (leave + enter)), enter - leave)
 }
@@ -816,7 +866,9 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
 pub fn track_contact(c: &mut Contact, a: Body, b: Body, mat: &Material, tol: f64, dt: f64) -> (f64, f64) {
     let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
     let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
-    let plane = (!apart).then(|| common_plane_with(&Placed::new(a, &plane_normals(a)), &Placed::new(b, &plane_normals(b)), tol, Some(c.normal)));
+    let plane = (!apart).then(|| {
+        common_plane_with(&Placed::new(a, &plane_normals(a), &edge_directions(a)), &Placed::new(b, &plane_normals(b), &edge_directions(b)), tol, Some(c.normal))
+    });
     let old_normal = c.normal;
     if let Some(p) = &plane {
         c.normal = p.normal;

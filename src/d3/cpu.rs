@@ -209,7 +209,7 @@ impl driver::Stages<Model> for Stages {
 /// the half-step velocities) booked in the ledger.
 pub fn gather(model: &mut Model, dt: f64) {
     let g = model.gravity;
-    for b in &mut model.blocks {
+    model.blocks.par_iter_mut().for_each(|b| {
         b.force = b.mass * g + b.load;
         b.moment = DVec3::ZERO;
         if let Some(s) = &mut b.sdef {
@@ -224,53 +224,76 @@ pub fn gather(model: &mut Model, dt: f64) {
                 s.applied += a;
             }
         }
-    }
+    });
+    // Each contact's sums over its logical contacts, worked out in parallel and added to its
+    // blocks below in the contacts' order: bit for bit what one pass in that order gives.
     let beta = model.damping.beta;
+    let (blocks, contacts) = (&model.blocks, &model.contacts);
+    let sums: Vec<ContactSums> = contacts
+        .par_iter()
+        .map(|c| {
+            let mat = model.contact_material(c);
+            let (a, b) = (&blocks[c.blocks[0] as usize], &blocks[c.blocks[1] as usize]);
+            let mut sums = ContactSums { fa: DVec3::ZERO, ma: DVec3::ZERO, fb: DVec3::ZERO, mb: DVec3::ZERO, applied: None, dashpots: Default::default() };
+            // A simply-deformable block's applied stress times volume, Σ r fᵀ (`d3::sdef`),
+            // summed in the same order.
+            let (sdef_a, sdef_b) = (a.is_sdef(), b.is_sdef());
+            let (mut applied_a, mut applied_b) = (glam::DMat3::ZERO, glam::DMat3::ZERO);
+            for l in &c.logical {
+                let f = contact::logical_force(l, c.normal, a, b, &mat, beta);
+                if beta > 0.0 && l.gap <= 0.0 {
+                    let u = b.velocity_at(l.point) - a.velocity_at(l.point);
+                    let un = u.dot(c.normal);
+                    sums.dashpots.push(beta * (mat.kn * un * un + mat.ks * (u - un * c.normal).length_squared()) * dt);
+                }
+                // Eq. (12) on each block: positive on block 2, negative on block 1 (¶19).
+                sums.fb += f;
+                sums.mb += (l.point - b.centroid).cross(f);
+                sums.fa -= f;
+                sums.ma -= (l.point - a.centroid).cross(f);
+                if sdef_b {
+                    applied_b += sdef::applied(l.point - b.centroid, f);
+                }
+                if sdef_a {
+                    applied_a += sdef::applied(l.point - a.centroid, -f);
+                }
+            }
+            if sdef_a || sdef_b {
+                sums.applied = Some(Box::new((applied_a, applied_b)));
+            }
+            sums
+        })
+        .collect();
     let mut dashpots = 0.0;
-    for c in &model.contacts {
+    for (c, sums) in model.contacts.iter().zip(sums) {
         let [ia, ib] = c.blocks.map(|i| i as usize);
-        let mat = model.contact_material(c);
-        let (a, b) = (&model.blocks[ia], &model.blocks[ib]);
-        let mut fa = DVec3::ZERO;
-        let mut ma = DVec3::ZERO;
-        let mut fb = DVec3::ZERO;
-        let mut mb = DVec3::ZERO;
-        // A simply-deformable block's applied stress times volume, Σ r fᵀ (`d3::sdef`), summed
-        // in the same order.
-        let (sdef_a, sdef_b) = (a.is_sdef(), b.is_sdef());
-        let mut applied_a = glam::DMat3::ZERO;
-        let mut applied_b = glam::DMat3::ZERO;
-        for l in &c.logical {
-            let f = contact::logical_force(l, c.normal, a, b, &mat, beta);
-            if beta > 0.0 && l.gap <= 0.0 {
-                let u = b.velocity_at(l.point) - a.velocity_at(l.point);
-                let un = u.dot(c.normal);
-                dashpots += beta * (mat.kn * un * un + mat.ks * (u - un * c.normal).length_squared()) * dt;
+        dashpots = sums.dashpots.iter().fold(dashpots, |total, d| total + d);
+        model.blocks[ia].force += sums.fa;
+        model.blocks[ia].moment += sums.ma;
+        model.blocks[ib].force += sums.fb;
+        model.blocks[ib].moment += sums.mb;
+        if let Some(applied) = sums.applied {
+            if let Some(s) = &mut model.blocks[ia].sdef {
+                s.applied += applied.0;
             }
-            // Eq. (12) on each block: positive on block 2, negative on block 1 (¶19).
-            fb += f;
-            mb += (l.point - b.centroid).cross(f);
-            fa -= f;
-            ma -= (l.point - a.centroid).cross(f);
-            if sdef_b {
-                applied_b += sdef::applied(l.point - b.centroid, f);
+            if let Some(s) = &mut model.blocks[ib].sdef {
+                s.applied += applied.1;
             }
-            if sdef_a {
-                applied_a += sdef::applied(l.point - a.centroid, -f);
-            }
-        }
-        model.blocks[ia].force += fa;
-        model.blocks[ia].moment += ma;
-        model.blocks[ib].force += fb;
-        model.blocks[ib].moment += mb;
-        if let Some(s) = &mut model.blocks[ia].sdef {
-            s.applied += applied_a;
-        }
-        if let Some(s) = &mut model.blocks[ib].sdef {
-            s.applied += applied_b;
         }
     }
     model.dissipated.contact_damping += dashpots;
+}
+
+/// One contact's part of stage 6 ([`gather`]): the force and moment on each block, the applied
+/// stress times volume of a simply-deformable one (on each block, where either is one), and
+/// the dashpots' work over the step, one term per logical contact (summed in their order).
+struct ContactSums {
+    fa: DVec3,
+    ma: DVec3,
+    fb: DVec3,
+    mb: DVec3,
+    applied: Option<Box<(glam::DMat3, glam::DMat3)>>,
+    dashpots: smallvec::SmallVec<[f64; 4]>,
 }
 
 /// Stage 4 over every contact: common plane, logical contacts (their shear forces carried by
@@ -343,13 +366,13 @@ pub fn update_contact(
         c.logical.clear();
         return (0.0, released);
     };
-    let (category, found, area) = contact::logical_contacts_with(&a, &b, &plane, tol, scratch);
+    let (category, area) = contact::logical_contacts_with(&a, &b, &plane, tol, scratch);
     // The last cycle's logical contacts (copied aside; the lists keep their allocations).
-    let previous = &mut scratch.previous;
+    let contact::Scratch { previous, found, .. } = scratch;
     previous.clear();
     previous.extend_from_slice(&c.logical);
     c.logical.clear();
-    c.logical.extend(found.into_iter().map(|(kind, point, gap)| {
+    c.logical.extend(found.iter().map(|&(kind, point, gap)| {
         let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
         Logical { kind, point, gap, normal_force: 0.0, shear_force }
     }));

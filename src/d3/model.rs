@@ -3,6 +3,7 @@
 //! ones: neighbour links), gravity, damping and the clock. Authoritative, in f64.
 
 use glam::{DMat3, DQuat, DVec3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 pub use super::geometry::{least_eigenvalue, principal_moments};
@@ -747,11 +748,19 @@ impl Model {
         // does not give at a contact, nor a held one: BOUNDARY VELOCITY moves it whatever the
         // forces on it, its strain held as it is, so it is a moving wall to its neighbours).
         let unyielding = |b: &Block| b.fixed || (held_stiff && b.held) || b.mass <= 0.0;
-        let least: Vec<f64> = self.blocks.iter().map(|b| if unyielding(b) { 0.0 } else { least_eigenvalue(b.inertia_ref) }).collect();
-        // A simply-deformable block gives at a lever arm r by its strain too: by r²/M_min, M_min
-        // the least principal second moment of its mass (no strain mode has less inertia).
-        let least_second: Vec<f64> =
-            self.blocks.iter().map(|b| if b.is_sdef() && !unyielding(b) { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 }).collect();
+        // Each block's least principal moment and, for a simply-deformable block, the least
+        // principal second moment of its mass, M_min: it gives at a lever arm r by its strain too,
+        // by r²/M_min (no strain mode has less inertia). Block by block, in parallel (the
+        // eigenvalues are most of this).
+        let (least, least_second): (Vec<f64>, Vec<f64>) = self
+            .blocks
+            .par_iter()
+            .map(|b| {
+                let least = if unyielding(b) { 0.0 } else { least_eigenvalue(b.inertia_ref) };
+                let second = if b.is_sdef() && !unyielding(b) { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 };
+                (least, second)
+            })
+            .unzip();
         // The compliance of block i at a lever arm r (r² given).
         let compliance = |i: usize, r2: f64| -> f64 {
             let b = &self.blocks[i];
