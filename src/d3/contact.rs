@@ -178,6 +178,9 @@ pub struct CommonPlane {
     pub normal: DVec3,
     /// Their separation along it (negative: overlap).
     pub separation: f64,
+    /// Block 1's greatest projection on the normal and block 2's least (their supports; the
+    /// separation is the second less the first), kept for the logical contacts.
+    pub supports: (f64, f64),
 }
 
 /// The common plane of convex blocks `a` and `b` (the separating axis of greatest separation).
@@ -228,12 +231,14 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
     let (a, b) = (a.body, b.body);
     let sep = |n: DVec3| -> f64 { least(b.vertices, n) - greatest(a.vertices, n) };
     let slack = 1e-12 * (a.shape.radius + b.shape.radius);
-    let offer = |best: &mut CommonPlane, n: DVec3, s: f64| {
+    // An axis and the supports along it (block 1's greatest projection, block 2's least).
+    let offer = |best: &mut CommonPlane, n: DVec3, (hi_a, lo_b): (f64, f64)| {
+        let s = lo_b - hi_a;
         if s > best.separation + slack {
-            *best = CommonPlane { normal: n, separation: s };
+            *best = CommonPlane { normal: n, separation: s, supports: (hi_a, lo_b) };
         }
     };
-    let consider = |best: &mut CommonPlane, n: DVec3| offer(best, n, sep(n));
+    let consider = |best: &mut CommonPlane, n: DVec3| offer(best, n, (greatest(a.vertices, n), least(b.vertices, n)));
     // The bound on each axis's separation (see above): s(n) ≤ n·d − r.
     let (d, r) = (pb - pa, ra + rb);
     let axes = na.len() + nb.len() + 2 * a.shape.edge_directions.len() * b.shape.edge_directions.len();
@@ -242,7 +247,7 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
     // The axes in their order, those whose bound lies under `floor` or under the best found so
     // far (less the margin) passed over.
     let search = |floor: f64| -> CommonPlane {
-        let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY };
+        let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY, supports: (f64::INFINITY, f64::NEG_INFINITY) };
         let open = |best: &CommonPlane, bound: f64| bound >= floor.max(best.separation - margin);
         for &n in na {
             if open(&best, n.dot(d) - r) {
@@ -269,8 +274,8 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
                 }
                 let (lo_a, hi_a) = extent(a.vertices, n);
                 let (lo_b, hi_b) = extent(b.vertices, n);
-                offer(&mut best, n, lo_b - hi_a);
-                offer(&mut best, -n, lo_a - hi_b);
+                offer(&mut best, n, (hi_a, lo_b));
+                offer(&mut best, -n, (-lo_a, -hi_b));
             }
         }
         best
@@ -294,9 +299,7 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
         // those that can be within `reach` (near the plane found so far): its direction's
         // separation is the blocks' distance where those are their nearest features, and less
         // than what the axes above found otherwise.
-        let n = best.normal;
-        let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
-        let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+        let (n, (hi_a, lo_b)) = (best.normal, best.supports);
         let near_a = |v: &DVec3| n.dot(*v) >= hi_a - reach;
         let near_b = |v: &DVec3| n.dot(*v) <= lo_b + reach;
         let mut nearest: Option<(f64, DVec3)> = None;
@@ -499,8 +502,10 @@ type Projected = (DVec2, u32);
 pub struct Scratch {
     pts: Vec<Projected>,
     chain: Vec<Projected>,
-    /// The touching features' hulls (block 1's, block 2's) and that of the touching region.
-    hulls: [Hull; 3],
+    /// The touching features' hulls (block 1's, block 2's).
+    hulls: [Hull; 2],
+    /// The touching region's corners about their mean ([`region_area`]).
+    around: Vec<(f64, DVec2)>,
     /// The planes the line along the normal leaves block 1 and enters block 2 through.
     leaving: Vec<Facing>,
     entering: Vec<Facing>,
@@ -633,14 +638,13 @@ pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f6
 /// the logical contacts left in `scratch.found` ([`Scratch::found`]). The vertex numbers of the
 /// logical contacts' keys are the bodies'.
 pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolerance: f64, scratch: &mut Scratch) -> ([Feature; 2], f64) {
-    let Scratch { pts, chain, hulls: [ha, hb, region], leaving, entering, on_plane, found, .. } = scratch;
+    let Scratch { pts, chain, hulls: [ha, hb], around, leaving, entering, on_plane, found, .. } = scratch;
     let n = plane.normal;
     facing(a.body, a.normals, n, false, GRAZING, leaving);
     facing(b.body, b.normals, n, true, GRAZING, entering);
     let (a, b) = (a.body, b.body);
     let (t1, t2) = plane_axes(n);
-    let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
-    let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+    let (hi_a, lo_b) = plane.supports;
     let size = a.shape.radius.min(b.shape.radius);
     let flat = 1e-6 * size;
     // The features of each within the tolerance of the plane, their hulls on it.
@@ -704,21 +708,31 @@ pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolera
         let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, plane.separation) };
         (*kind, p + n * (0.5 * (leave + enter)), enter - leave)
     }));
-    let area = if on_plane.len() >= 3 {
-        // (x + 0, y + 0): the points as the plane (x, y) projects them, a −0 made +0.
-        pts.clear();
-        pts.extend(on_plane.iter().enumerate().map(|(k, (_, p))| (DVec2::new(p.x + 0.0, p.y + 0.0), k as u32)));
-        hull(pts, chain, flat, region);
-        let m = region.pts.len();
-        if m >= 3 {
-            0.5 * (0..m).map(|i| region.pts[i].perp_dot(region.pts[(i + 1) % m])).sum::<f64>()
-        } else {
-            0.0
-        }
-    } else {
-        0.0
-    };
-    (category, area)
+    (category, region_area(on_plane, around))
+}
+
+/// The area of the touching region whose corners are the logical contacts `on_plane` (points
+/// on the plane, in the order found): the corners of the intersection of two convex polygons,
+/// so in convex position; taken in order of their angle about their mean (a pseudo-angle,
+/// monotonic in the true one, needs no trigonometry) and summed as triangles from the mean. Of
+/// two or fewer corners, none. `around`: working space.
+fn region_area(on_plane: &[(LogicalKind, DVec2)], around: &mut Vec<(f64, DVec2)>) -> f64 {
+    if on_plane.len() < 3 {
+        return 0.0;
+    }
+    let mean = on_plane.iter().map(|(_, p)| *p).sum::<DVec2>() / on_plane.len() as f64;
+    around.clear();
+    for (_, p) in on_plane {
+        let d = *p - mean;
+        // In [0, 4) counter-clockwise from +x: 1 − x/(|x| + |y|) above the axis, 3 + x/… below.
+        let l1 = d.x.abs() + d.y.abs();
+        let along = if l1 > 0.0 { d.x / l1 } else { 1.0 };
+        let angle = if d.y >= 0.0 { 1.0 - along } else { 3.0 + along };
+        let at = around.iter().position(|(a, _)| *a > angle).unwrap_or(around.len());
+        around.insert(at, (angle, d));
+    }
+    let m = around.len();
+    0.5 * (0..m).map(|i| around[i].1.perp_dot(around[if i + 1 == m { 0 } else { i + 1 }].1)).sum::<f64>()
 }
 
 /// ¶23's prescription for the normal at a point `p` inside (or on) block `block`: the vertex of
