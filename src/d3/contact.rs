@@ -524,6 +524,16 @@ fn order_key(x: f64) -> i64 {
     bits ^ ((((bits >> 63) as u64) >> 1) as i64)
 }
 
+/// Whether |d| > `tol` (≥ 0), as `d.length() > tol` decides it, bit for bit: a square root only
+/// where |d|² lies within 4 tol² (the points of a feature are mostly far apart next to the
+/// tolerance, and a square root costs as much as the rest of the test).
+#[inline]
+fn farther_than(d: DVec2, tol: f64) -> bool {
+    let d2 = d.length_squared();
+    // |d|² > 4 tol² (rounded) puts |d| past tol with room for the roundings.
+    d2 > 4.0 * (tol * tol) || d2.sqrt() > tol
+}
+
 /// Sorts projected points by x, then y, in `f64::total_cmp`'s order, keeping the order of
 /// equal ones: a stable sort's result is fixed by its comparison, so this is the standard
 /// library's `sort_by` to the bit, by insertion for the few points of a feature.
@@ -552,7 +562,7 @@ fn hull(pts: &mut [Projected], chain: &mut Vec<Projected>, tol: f64, out: &mut H
     // Points within `tol` of the last one kept dropped (as `Vec::dedup_by`).
     let mut m = pts.len().min(1);
     for r in 1..pts.len() {
-        if (pts[r].0 - pts[m - 1].0).length() > tol {
+        if farther_than(pts[r].0 - pts[m - 1].0, tol) {
             pts[m] = pts[r];
             m += 1;
         }
@@ -666,7 +676,7 @@ pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolera
     for (k, &p) in hb.pts.iter().enumerate() {
         // A vertex of each at one place is one logical contact (vertex–vertex, or the corner
         // of two faces matching): keep block 1's.
-        if ha.covers(p, flat) && !on_plane.iter().any(|(_, q)| (*q - p).length() <= flat) {
+        if ha.covers(p, flat) && !on_plane.iter().any(|(_, q)| !farther_than(*q - p, flat)) {
             on_plane.push((LogicalKind::VertexFace { on_first: false, vertex: hb.ids[k] }, p));
         }
     }
@@ -675,7 +685,7 @@ pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolera
         for (f, (k, l)) in hb.edges().enumerate() {
             if let Some((t, _)) = crossing(ha.pts[i], ha.pts[j], hb.pts[k], hb.pts[l], (ha.lengths[e], hb.lengths[f])) {
                 let p = ha.pts[i] + (ha.pts[j] - ha.pts[i]) * t;
-                if !on_plane.iter().any(|(_, q)| (*q - p).length() <= flat) {
+                if !on_plane.iter().any(|(_, q)| !farther_than(*q - p, flat)) {
                     on_plane.push((LogicalKind::EdgeEdge { first: key(ha.ids[i], ha.ids[j]), second: key(hb.ids[k], hb.ids[l]) }, p));
                 }
             }

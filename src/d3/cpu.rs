@@ -142,22 +142,24 @@ pub fn preflight(model: &Model) -> Result<(), CycleError> {
 /// A contact driven through: a logical contact's overlap past half the smaller block's radius
 /// (checked after each stage 4).
 pub fn overlap_check(model: &Model) -> Result<(), CycleError> {
-    for c in &model.contacts {
-        if let Some((l, overlap)) = c.logical.iter().map(|l| (l, -l.gap)).max_by(|x, y| x.1.total_cmp(&y.1)) {
-            let limit = 0.5 * model.blocks[c.blocks[0] as usize].shape.radius.min(model.blocks[c.blocks[1] as usize].shape.radius);
-            if overlap > limit {
-                return Err(CycleError::Overlap {
-                    cycle: model.cycle,
-                    block1: model.blocks[c.blocks[0] as usize].id,
-                    block2: model.blocks[c.blocks[1] as usize].id,
-                    overlap,
-                    limit,
-                    at: Box::new(Position::xyz(l.point.to_array())),
-                });
-            }
-        }
+    // The deepest logical contact of a contact, and the limit of its blocks.
+    fn deepest<'c>(model: &Model, c: &'c Contact) -> Option<(&'c Logical, f64, f64)> {
+        let (l, overlap) = c.logical.iter().map(|l| (l, -l.gap)).max_by(|x, y| x.1.total_cmp(&y.1))?;
+        let limit = 0.5 * model.blocks[c.blocks[0] as usize].shape.radius.min(model.blocks[c.blocks[1] as usize].shape.radius);
+        (overlap > limit).then_some((l, overlap, limit))
     }
-    Ok(())
+    // The first contact driven through, in the contacts' order (searched in parallel).
+    match model.contacts.par_iter().find_map_first(|c| deepest(model, c).map(|found| (c, found))) {
+        Some((c, (l, overlap, limit))) => Err(CycleError::Overlap {
+            cycle: model.cycle,
+            block1: model.blocks[c.blocks[0] as usize].id,
+            block2: model.blocks[c.blocks[1] as usize].id,
+            overlap,
+            limit,
+            at: Box::new(Position::xyz(l.point.to_array())),
+        }),
+        None => Ok(()),
+    }
 }
 
 impl driver::Start<Model> for CpuBackend {
@@ -300,27 +302,20 @@ struct ContactSums {
 /// key), force–displacement law. With `dt` = 0 only the geometry and normal forces are renewed.
 pub fn contact_stage(model: &mut Model, dt: f64) {
     let tol = model.contact_tolerance();
-    let blocks = &model.blocks;
-    // Each contact's first block's material and whether its law is the joint law (the law's
-    // parameters follow from the touching region found below).
-    let materials: Vec<_> = model
-        .contacts
-        .iter()
-        .map(|c| {
-            let first = &blocks[c.blocks[0] as usize];
-            (model.material(first.material), super::model::joint_contacts(first.constitutive))
-        })
-        .collect();
+    let (blocks, materials) = (&model.blocks, &model.materials);
     // Each block's bodies placed (their plane normals turned, boxes, inner balls) once for all
     // their contacts.
     let placements: Vec<contact::Placement> = blocks.par_iter().map(contact::Placement::of).collect();
     let energy: Vec<(f64, f64)> = model
         .contacts
         .par_iter_mut()
-        .zip(materials)
-        .map_init(contact::Scratch::default, |scratch, (c, (mat, joint))| {
-            // The parts in touch (a convex block is its own one part).
+        .map_init(contact::Scratch::default, |scratch, c| {
             let [i, j] = c.blocks.map(|k| k as usize);
+            // The first block's material and whether its law is the joint law (the law's
+            // parameters follow from the touching region found).
+            let mat = super::model::material_of(materials, blocks[i].material);
+            let joint = super::model::joint_contacts(blocks[i].constitutive);
+            // The parts in touch (a convex block is its own one part).
             let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
             update_contact(c, a, b, &mat, joint, tol, dt, scratch)
         })
