@@ -4,13 +4,15 @@
 //! block pass, as in 2D):
 //!
 //! 6. gather: each block's force and moment, gravity and load plus its contacts' forces summed in
-//!    the contacts' order (eq. 12 for the moments; the order is fixed, so reruns repeat bit for
-//!    bit);
+//!    the contacts' order (eq. 12 for the moments; each contact's sums worked out in parallel,
+//!    the order of the additions fixed, so reruns repeat bit for bit);
 //! 1. law of motion and 2. geometry update (`d3::motion`);
 //! 7. the neighbour lists, when a block has moved past the contact-forming distance
 //!    (`d3::topology`);
-//! 4. each contact's common plane, logical contacts and force–displacement law (`d3::contact`),
-//!    in parallel over the contacts.
+//! 4. each block's bodies placed for their contacts (`contact::Placement`: plane normals, edge
+//!    directions, box, inner ball), then each contact's common plane, logical contacts and
+//!    force–displacement law (`d3::contact`), in parallel over the contacts, each worker thread
+//!    with its working lists (`contact::Scratch`).
 
 use glam::DVec3;
 use rayon::prelude::*;
