@@ -57,9 +57,10 @@ use smallvec::SmallVec;
 
 use super::model::{Block, Body, Contact, Feature, Logical, LogicalKind, Material};
 
-/// A short list kept on the stack: stage 4 builds several per contact every cycle (the features
-/// near the plane, their hulls, the logical contacts), and a heap list each was a third of the
-/// cubes' cycle in malloc and free. Longer lists (blocks of many faces) spill to the heap.
+/// A short list kept on the stack: a block's plane normals and edge directions, made for every
+/// block every cycle ([`Placement`]), and a heap list each would cost more in malloc and free
+/// than the turning. Longer lists (blocks of many faces) spill to the heap. (The lists stage 4
+/// builds per contact live in [`Scratch`], kept from contact to contact.)
 type Few<T> = SmallVec<[T; 8]>;
 
 /// The outward normals of a block's face planes (`Shape::planes`, in that order) in global axes,
@@ -574,10 +575,19 @@ fn hull(pts: &mut [Projected], chain: &mut Vec<Projected>, tol: f64, out: &mut H
     // Andrew's monotone chain, dropping points within `tol` of the line of their neighbours.
     // Whether a turns by no more than `tol` off the line from o to b (its distance from the line,
     // signed): a turn to the right (a cross product ≤ 0) needs no distance worked out, as
-    // tol ≥ 0 (the same answer, bit for bit, as the division would give).
+    // tol ≥ 0, nor does a turn to the left by more than twice `tol` times a bound over |b − o|
+    // (|Δx| + |Δy| ≥ |b − o|, with a margin for the roundings): the same answer, bit for bit,
+    // as the division would give, without its square root and division on the chain's path.
     let straight_or_right = |o: DVec2, a: DVec2, b: DVec2| {
         let cross = (a - o).perp_dot(b - o);
-        cross <= 0.0 || cross / (b - o).length().max(f64::MIN_POSITIVE) <= tol
+        if cross <= 0.0 {
+            return true;
+        }
+        let w = b - o;
+        if cross > 2.0 * tol * ((w.x.abs() + w.y.abs()) * (1.0 + 1e-14)) {
+            return false;
+        }
+        cross / w.length().max(f64::MIN_POSITIVE) <= tol
     };
     chain.clear();
     chain.resize(2 * m, (DVec2::ZERO, 0));
