@@ -260,7 +260,8 @@ fn near(first: bool, h: real, hi_a: real, lo_b: real, reach: real) -> bool {
 
 // The distance along n from p at which the line p + s·n leaves body i (the least s over the
 // planes it heads out through), or enters it (`entering`: the greatest over those it heads in
-// through) (Rust twin: `contact::ray_crossing`); `found` false where no plane qualifies. Planes
+// through) (Rust twin: `contact::ray_crossing` over the planes `contact::facing` sorts out once
+// per contact); `found` false where no plane qualifies. Planes
 // within GRAZING of parallel to n are passed over (the prelude says why; PART_GRAZING for a part
 // of a concave block, whose record lies after the blocks).
 struct Crossing {
