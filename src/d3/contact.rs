@@ -937,6 +937,41 @@ pub fn spring_energy(l: &Logical, mat: &Material) -> f64 {
 mod tests {
     use super::*;
 
+    /// The touching region's area (`region_area`) whatever the order its corners were found in:
+    /// the corners of random convex polygons (on ellipses), shuffled, against the shoelace sum
+    /// in their order; a line of points, and a square with a corner found twice.
+    #[test]
+    fn region_area_is_the_convex_polygons_whatever_the_order() {
+        let mut around = Vec::new();
+        let kind = LogicalKind::VertexFace { on_first: true, vertex: 0 };
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = move || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..300 {
+            let k = 3 + case % 6;
+            let centre = DVec2::new(10.0 * uniform() - 5.0, 10.0 * uniform() - 5.0);
+            let (rx, ry) = (0.1 + uniform(), 0.1 + uniform());
+            let mut angles: Vec<f64> = (0..k).map(|_| std::f64::consts::TAU * uniform()).collect();
+            angles.sort_by(f64::total_cmp);
+            let corners: Vec<DVec2> = angles.iter().map(|t| centre + DVec2::new(rx * t.cos(), ry * t.sin())).collect();
+            let expected = 0.5 * (0..k).map(|i| (corners[i] - centre).perp_dot(corners[(i + 1) % k] - centre)).sum::<f64>();
+            let mut found: Vec<(LogicalKind, DVec2)> = corners.iter().map(|p| (kind, *p)).collect();
+            for i in (1..k).rev() {
+                let j = ((uniform() * (i + 1) as f64) as usize).min(i);
+                found.swap(i, j);
+            }
+            let area = region_area(&found, &mut around);
+            assert!(expected > 0.0 && (area - expected).abs() <= 1e-12 * expected.max(1.0), "case {case}: {area} against {expected}");
+        }
+        let line: Vec<_> = (0..4).map(|i| (kind, DVec2::new(i as f64, 2.0 * i as f64))).collect();
+        assert_eq!(region_area(&line, &mut around), 0.0);
+        let square: Vec<_> = [(0.0, 0.0), (1.0, 1.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)].iter().map(|&(x, y)| (kind, DVec2::new(x, y))).collect();
+        assert!((region_area(&square, &mut around) - 1.0).abs() < 1e-15);
+        assert_eq!(region_area(&square[..2], &mut around), 0.0, "two corners hold no area");
+    }
+
     /// What a shear spring gives up (`slip_work`): nothing in an elastic step; the limit times
     /// the slip when it slides at a steady limit; all it let go of where the limit fell under
     /// the force held with no slide.
