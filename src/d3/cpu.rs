@@ -191,10 +191,16 @@ struct Stages;
 
 impl driver::Stages<Model> for Stages {
     fn advance(&mut self, model: &mut Model, max: u64, _cracking: bool, report: &mut CycleReport) -> Result<u64, CycleError> {
-        for _ in 0..max {
-            cycle(model, report)?;
-        }
-        Ok(max)
+        // The cycles run on one of rayon's worker threads (a scope's body does): each of a
+        // cycle's parallel passes then splits on that worker, the other workers stealing, rather
+        // than being handed from this thread to the pool and back, a sleep and a wake-up each,
+        // eight times a cycle.
+        rayon::scope(|_| {
+            for _ in 0..max {
+                cycle(model, report)?;
+            }
+            Ok(max)
+        })
     }
 
     fn energy(&mut self, model: &mut Model) -> Result<(f64, f64), CycleError> {
