@@ -912,9 +912,7 @@ pub fn track_contact(c: &mut Contact, a: Body, b: Body, mat: &Material, tol: f64
         c.logical.clear();
         return (0.0, released);
     };
-    let n = plane.normal;
-    let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
-    let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+    let (n, (hi_a, lo_b)) = (plane.normal, plane.supports);
     for l in &mut c.logical {
         (l.point, l.gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
     }
