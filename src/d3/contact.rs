@@ -191,7 +191,9 @@ pub struct CommonPlane {
 /// features are a vertex and an edge, or two vertices, are further apart than any of those axes
 /// shows. So where the blocks are apart by no more than `reach` (the contact-forming distance)
 /// the directions from each vertex to the nearest point of each feature edge of the other block,
-/// and between vertices, are tried too: the separation is then the blocks' distance, and the
+/// and between vertices, are tried too (not where a vertex of one block at the plane lies over
+/// a face of the other: the face's axis is their distance then, `face_meets`): the separation
+/// is then the blocks' distance, and the
 /// normal the direction between their nearest features (an edge–vertex or vertex–vertex contact
 /// about to touch is recognised as such). Once they overlap, a vertex pressed into an edge's
 /// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
@@ -226,6 +228,7 @@ pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
 /// (the hint the last cycle's answer, a face–face contact between cubes) about four axes of
 /// thirty are worked out.
 pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>) -> CommonPlane {
+    let placed = (a, b);
     let (na, nb) = (a.normals, b.normals);
     let (edges_a, edges_b) = (a.edges, b.edges);
     let ((pa, ra), (pb, rb)) = (a.ball, b.ball);
@@ -233,11 +236,14 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
     let sep = |n: DVec3| -> f64 { least(b.vertices, n) - greatest(a.vertices, n) };
     let slack = 1e-12 * (a.shape.radius + b.shape.radius);
     // An axis and the supports along it (block 1's greatest projection, block 2's least).
-    let offer = |best: &mut CommonPlane, n: DVec3, (hi_a, lo_b): (f64, f64)| {
+    // Whether it is taken (the best so far by more than the slack of a near tie).
+    let offer = |best: &mut CommonPlane, n: DVec3, (hi_a, lo_b): (f64, f64)| -> bool {
         let s = lo_b - hi_a;
-        if s > best.separation + slack {
+        let taken = s > best.separation + slack;
+        if taken {
             *best = CommonPlane { normal: n, separation: s, supports: (hi_a, lo_b) };
         }
+        taken
     };
     let consider = |best: &mut CommonPlane, n: DVec3| offer(best, n, (greatest(a.vertices, n), least(b.vertices, n)));
     // The bound on each axis's separation (see above): s(n) ≤ n·d − r.
@@ -247,17 +253,19 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
     let margin = 2.0 * (axes + 2) as f64 * (slack + f64::EPSILON * size) + 4e-14 * size;
     // The axes in their order, those whose bound lies under `floor` or under the best found so
     // far (less the margin) passed over.
-    let search = |floor: f64| -> CommonPlane {
+    // Which axis it was, as well: a face plane of a body, or an edge pair.
+    let search = |floor: f64| -> (CommonPlane, Axis) {
         let mut best = CommonPlane { normal: DVec3::Z, separation: f64::NEG_INFINITY, supports: (f64::INFINITY, f64::NEG_INFINITY) };
+        let mut axis = Axis::Edges;
         let open = |best: &CommonPlane, bound: f64| bound >= floor.max(best.separation - margin);
-        for &n in na {
-            if open(&best, n.dot(d) - r) {
-                consider(&mut best, n);
+        for (k, &n) in na.iter().enumerate() {
+            if open(&best, n.dot(d) - r) && consider(&mut best, n) {
+                axis = Axis::FaceA(k);
             }
         }
-        for &n in nb {
-            if open(&best, -n.dot(d) - r) {
-                consider(&mut best, -n);
+        for (k, &n) in nb.iter().enumerate() {
+            if open(&best, -n.dot(d) - r) && consider(&mut best, -n) {
+                axis = Axis::FaceB(k);
             }
         }
         for &da in edges_a {
@@ -275,19 +283,21 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
                 }
                 let (lo_a, hi_a) = extent(a.vertices, n);
                 let (lo_b, hi_b) = extent(b.vertices, n);
-                offer(&mut best, n, (hi_a, lo_b));
-                offer(&mut best, -n, (-lo_a, -hi_b));
+                // (Both offered: `|` rather than `||`.)
+                if offer(&mut best, n, (hi_a, lo_b)) | offer(&mut best, -n, (-lo_a, -hi_b)) {
+                    axis = Axis::Edges;
+                }
             }
         }
-        best
+        (best, axis)
     };
-    let mut best = match hint {
+    let (mut best, axis) = match hint {
         Some(h) => {
             let floor = sep(h).min(0.0) - margin;
             let found = search(floor);
             // The floor holds only where an axis reaches it: one of two nearly parallel edges
             // (passed over above) may be what the hint was near. Then the full search.
-            if found.separation >= floor + 0.5 * margin {
+            if found.0.separation >= floor + 0.5 * margin {
                 found
             } else {
                 search(f64::NEG_INFINITY)
@@ -295,14 +305,16 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
         }
         None => search(f64::NEG_INFINITY),
     };
-    if best.separation > 0.0 && best.separation <= reach {
+    if best.separation > 0.0 && best.separation <= reach && !face_meets(&placed, &best, axis, 0.25 * slack) {
         // The nearest pair of a vertex and a vertex or feature edge of the other block, among
         // those that can be within `reach` (near the plane found so far): its direction's
         // separation is the blocks' distance where those are their nearest features, and less
         // than what the axes above found otherwise.
         let (n, (hi_a, lo_b)) = (best.normal, best.supports);
-        let near_a = |v: &DVec3| n.dot(*v) >= hi_a - reach;
-        let near_b = |v: &DVec3| n.dot(*v) <= lo_b + reach;
+        // Which vertices of each block lie near the plane, decided once each (a projection a
+        // vertex; the loops below ask of each vertex many times).
+        let near_a: SmallVec<[bool; 64]> = a.vertices.iter().map(|v| n.dot(*v) >= hi_a - reach).collect();
+        let near_b: SmallVec<[bool; 64]> = b.vertices.iter().map(|v| n.dot(*v) <= lo_b + reach).collect();
         let mut nearest: Option<(f64, DVec3)> = None;
         let mut offer = |d: DVec3| {
             let l = d.length_squared();
@@ -310,23 +322,21 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
                 nearest = Some((l, d));
             }
         };
-        for (from, to, sign, near_from, near_to) in
-            [(&a, &b, 1.0, &near_a as &dyn Fn(&DVec3) -> bool, &near_b as &dyn Fn(&DVec3) -> bool), (&b, &a, -1.0, &near_b, &near_a)]
-        {
+        for (from, to, sign, near_from, near_to) in [(&a, &b, 1.0, &near_a, &near_b), (&b, &a, -1.0, &near_b, &near_a)] {
             for e in from.shape.edges.iter().filter(|e| e.feature) {
-                let (p, q) = (from.vertices[e.a as usize], from.vertices[e.b as usize]);
-                if !near_from(&p) && !near_from(&q) {
+                if !near_from[e.a as usize] && !near_from[e.b as usize] {
                     continue;
                 }
+                let (p, q) = (from.vertices[e.a as usize], from.vertices[e.b as usize]);
                 let d = q - p;
-                for v in to.vertices.iter().filter(|v| near_to(v)) {
+                for (v, _) in to.vertices.iter().zip(near_to.iter()).filter(|(_, near)| **near) {
                     let t = ((*v - p).dot(d) / d.length_squared()).clamp(0.0, 1.0);
                     offer((*v - (p + d * t)) * sign);
                 }
             }
         }
-        for va in a.vertices.iter().filter(|v| near_a(v)) {
-            for vb in b.vertices.iter().filter(|v| near_b(v)) {
+        for (va, _) in a.vertices.iter().zip(near_a.iter()).filter(|(_, near)| **near) {
+            for (vb, _) in b.vertices.iter().zip(near_b.iter()).filter(|(_, near)| **near) {
                 offer(*vb - *va);
             }
         }
@@ -335,6 +345,48 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
         }
     }
     best
+}
+
+/// The axis a common plane was found on ([`common_plane_with`]'s search).
+#[derive(Clone, Copy)]
+enum Axis {
+    /// Block 1's face plane of that number (its [`PlaneNormals`]' order).
+    FaceA(usize),
+    /// Block 2's, reversed.
+    FaceB(usize),
+    /// The cross product of two edges' directions.
+    Edges,
+}
+
+/// Whether the separation `plane` found on a face plane's axis is the bodies' distance, to
+/// within `within`: some vertex of the other body at the support (within `within` of it),
+/// moved along the normal onto the face's plane, lands in the face's body (behind all its
+/// other planes; a convex body is the meet of its planes' half-spaces). That point and the
+/// vertex are then `separation` (+ `within`) apart, and no direction separates the bodies by
+/// more than any pair of their points is apart: no nearest pair of vertex and edge can give a
+/// greater separation, and [`common_plane_with`] need not look for one (where the columns of a
+/// stack rock and hop, nearly half the contacts of a cycle are apart by a little, face on face).
+/// False for an edge pair's axis, or where no vertex lands inside.
+fn face_meets(placed: &(&Placed, &Placed), plane: &CommonPlane, axis: Axis, within: f64) -> bool {
+    let (n, (hi_a, lo_b)) = (plane.normal, plane.supports);
+    // The face's body, its plane's number, the other body, and the sense along n from the
+    // other body towards the face.
+    let (face, k, other, towards) = match axis {
+        Axis::FaceA(k) => (placed.0, k, placed.1.body, -1.0),
+        Axis::FaceB(k) => (placed.1, k, placed.0.body, 1.0),
+        Axis::Edges => return false,
+    };
+    let (support, level) = if towards < 0.0 { (lo_b, hi_a) } else { (hi_a, lo_b) };
+    let shape = face.body.shape;
+    other.vertices.iter().any(|&w| {
+        let h = n.dot(w);
+        // Its distance from the support, on the far side from the face: within `within`.
+        if (h - support) * -towards > within {
+            return false;
+        }
+        let on = w + n * (level - h);
+        face.normals.iter().enumerate().all(|(j, &nf)| j == k || nf.dot(on) <= nf.dot(face.body.vertices[shape.faces[shape.planes[j] as usize][0] as usize]))
+    })
 }
 
 /// The least of n·x over the points `xs` (+∞ for none). A plain comparison rather than
