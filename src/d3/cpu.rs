@@ -25,6 +25,25 @@ use super::sdef;
 use super::topology;
 use crate::driver::{self, CycleError, CycleReport, Position};
 
+/// The fewest items one parallel task of the cycle takes, by the work an item is: handing a
+/// task to the other thread and joining it costs some microseconds (a cycle of eight cubes took
+/// 22 µs on one thread and 60 µs on two of this machine's, its passes split to the last item),
+/// so each pass splits only where a task's share is well over that, and a small scene's cycle
+/// runs on one thread. Where the tasks fall changes no result: each item's work is its own, and
+/// what is summed is summed in order after the pass.
+pub mod grain {
+    /// A block's forces reset (tens of instructions).
+    pub const RESET: usize = 1024;
+    /// A contact's sums for gather (hundreds).
+    pub const SUMS: usize = 256;
+    /// A block's law of motion, its placement, its principal moments (about a thousand).
+    pub const BLOCK: usize = 128;
+    /// A contact's stage 4 (about ten thousand).
+    pub const CONTACT: usize = 8;
+    /// A contact's deepest overlap (tens).
+    pub const CHECK: usize = 1024;
+}
+
 impl driver::RunModel for Model {
     fn cycle(&self) -> u64 {
         self.cycle
@@ -151,7 +170,7 @@ pub fn overlap_check(model: &Model) -> Result<(), CycleError> {
         (overlap > limit).then_some((l, overlap, limit))
     }
     // The first contact driven through, in the contacts' order (searched in parallel).
-    match model.contacts.par_iter().find_map_first(|c| deepest(model, c).map(|found| (c, found))) {
+    match model.contacts.par_iter().with_min_len(grain::CHECK).find_map_first(|c| deepest(model, c).map(|found| (c, found))) {
         Some((c, (l, overlap, limit))) => Err(CycleError::Overlap {
             cycle: model.cycle,
             block1: model.blocks[c.blocks[0] as usize].id,
@@ -219,7 +238,7 @@ impl driver::Stages<Model> for Stages {
 /// the half-step velocities) booked in the ledger.
 pub fn gather(model: &mut Model, dt: f64) {
     let g = model.gravity;
-    model.blocks.par_iter_mut().for_each(|b| {
+    model.blocks.par_iter_mut().with_min_len(grain::RESET).for_each(|b| {
         b.force = b.mass * g + b.load;
         b.moment = DVec3::ZERO;
         if let Some(s) = &mut b.sdef {
@@ -241,6 +260,7 @@ pub fn gather(model: &mut Model, dt: f64) {
     let (blocks, contacts) = (&model.blocks, &model.contacts);
     let sums: Vec<ContactSums> = contacts
         .par_iter()
+        .with_min_len(grain::SUMS)
         .map(|c| {
             let mat = model.contact_material(c);
             let (a, b) = (&blocks[c.blocks[0] as usize], &blocks[c.blocks[1] as usize]);
@@ -313,10 +333,11 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
     let (blocks, materials) = (&model.blocks, &model.materials);
     // Each block's bodies placed (their plane normals turned, boxes, inner balls) once for all
     // their contacts.
-    let placements: Vec<contact::Placement> = blocks.par_iter().map(contact::Placement::of).collect();
+    let placements: Vec<contact::Placement> = blocks.par_iter().with_min_len(grain::BLOCK).map(contact::Placement::of).collect();
     let energy: Vec<(f64, f64)> = model
         .contacts
         .par_iter_mut()
+        .with_min_len(grain::CONTACT)
         .map_init(contact::Scratch::default, |scratch, c| {
             let [i, j] = c.blocks.map(|k| k as usize);
             // The first block's material and whether its law is the joint law (the law's
@@ -397,6 +418,7 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
     let outcomes: Vec<motion::StepOutcome> = model
         .blocks
         .par_iter_mut()
+        .with_min_len(grain::BLOCK)
         .map(|b| {
             // A simply-deformable block steps its strain with its material's moduli.
             let mat = b.sdef.is_some().then(|| super::model::material_of(materials, b.material).elastic());

@@ -755,6 +755,7 @@ impl Model {
         let (least, least_second): (Vec<f64>, Vec<f64>) = self
             .blocks
             .par_iter()
+            .with_min_len(super::cpu::grain::BLOCK)
             .map(|b| {
                 let least = if unyielding(b) { 0.0 } else { least_eigenvalue(b.inertia_ref) };
                 let second = if b.is_sdef() && !unyielding(b) { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 };
