@@ -5,7 +5,8 @@
 // stresses, the damping's dissipation and the travel (¶26) are added to the block's sums; a block
 // held by BOUNDARY VELOCITY steps by `held_motion` (BOUNDARY scenes).
 
-// Fixed-point iterations of the midpoint orientation (`motion::MIDPOINT_ITERATIONS`).
+// Fixed-point iterations of the midpoint orientation (`motion::MIDPOINT_ITERATIONS`; the CPU
+// stops early where an iteration repeats its input bit for bit, which gives the same answer).
 const MIDPOINT_ITERATIONS: u32 = 4u;
 
 // ω = R I₀⁻¹ Rᵀ L at orientation q (Rust twin: `motion::angular_velocity`).

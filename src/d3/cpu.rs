@@ -237,28 +237,19 @@ impl driver::Stages<Model> for Stages {
 /// the contact dashpots' work over the step `dt` to come (their power β(kn u̇n² + ks|u̇s|²) at
 /// the half-step velocities) booked in the ledger.
 pub fn gather(model: &mut Model, dt: f64) {
-    let g = model.gravity;
-    model.blocks.par_iter_mut().with_min_len(grain::RESET).for_each(|b| {
-        b.force = b.mass * g + b.load;
-        b.moment = DVec3::ZERO;
-        if let Some(s) = &mut b.sdef {
-            s.applied = glam::DMat3::ZERO;
-        }
-        // BOUNDARY STRESS on its faces (`Block::boundary_load`), before its contacts.
-        if !b.boundary_stress.is_empty() {
-            let (f, m, a) = b.boundary_load();
-            b.force += f;
-            b.moment += m;
-            if let Some(s) = &mut b.sdef {
-                s.applied += a;
-            }
-        }
-    });
-    // Each contact's sums over its logical contacts, worked out in parallel and added to its
-    // blocks below in the contacts' order: bit for bit what one pass in that order gives.
+    let sums = contact_sums(model);
+    add_sums(model, sums, dt);
+}
+
+/// Each contact's sums over its logical contacts ([`ContactSums`]), worked out in parallel, to
+/// be added to its blocks in the contacts' order ([`add_sums`]): bit for bit what one pass in
+/// that order gives. They read the blocks' velocities and places, not their sums, nor the step
+/// (the dashpots' power is kept, times the step when added), so that a cycle works them out
+/// while it finds its step ([`cycle`]).
+fn contact_sums(model: &Model) -> Vec<ContactSums> {
     let beta = model.damping.beta;
     let (blocks, contacts) = (&model.blocks, &model.contacts);
-    let sums: Vec<ContactSums> = contacts
+    contacts
         .par_iter()
         .with_min_len(grain::SUMS)
         .map(|c| {
@@ -274,7 +265,7 @@ pub fn gather(model: &mut Model, dt: f64) {
                 if beta > 0.0 && l.gap <= 0.0 {
                     let u = b.velocity_at(l.point) - a.velocity_at(l.point);
                     let un = u.dot(c.normal);
-                    sums.dashpots.push(beta * (mat.kn * un * un + mat.ks * (u - un * c.normal).length_squared()) * dt);
+                    sums.dashpots.push(beta * (mat.kn * un * un + mat.ks * (u - un * c.normal).length_squared()));
                 }
                 // Eq. (12) on each block: positive on block 2, negative on block 1 (¶19).
                 sums.fb += f;
@@ -293,11 +284,34 @@ pub fn gather(model: &mut Model, dt: f64) {
             }
             sums
         })
-        .collect();
+        .collect()
+}
+
+/// The rest of stage 6 ([`gather`]): each block's sums renewed (gravity, load, boundary
+/// stress), then the contacts' `sums` added in the contacts' order, the dashpots' work over
+/// the step `dt` booked.
+fn add_sums(model: &mut Model, sums: Vec<ContactSums>, dt: f64) {
+    let g = model.gravity;
+    model.blocks.par_iter_mut().with_min_len(grain::RESET).for_each(|b| {
+        b.force = b.mass * g + b.load;
+        b.moment = DVec3::ZERO;
+        if let Some(s) = &mut b.sdef {
+            s.applied = glam::DMat3::ZERO;
+        }
+        // BOUNDARY STRESS on its faces (`Block::boundary_load`), before its contacts.
+        if !b.boundary_stress.is_empty() {
+            let (f, m, a) = b.boundary_load();
+            b.force += f;
+            b.moment += m;
+            if let Some(s) = &mut b.sdef {
+                s.applied += a;
+            }
+        }
+    });
     let mut dashpots = 0.0;
     for (c, sums) in model.contacts.iter().zip(sums) {
         let [ia, ib] = c.blocks.map(|i| i as usize);
-        dashpots = sums.dashpots.iter().fold(dashpots, |total, d| total + d);
+        dashpots = sums.dashpots.iter().fold(dashpots, |total, d| total + d * dt);
         model.blocks[ia].force += sums.fa;
         model.blocks[ia].moment += sums.ma;
         model.blocks[ib].force += sums.fb;
@@ -316,7 +330,8 @@ pub fn gather(model: &mut Model, dt: f64) {
 
 /// One contact's part of stage 6 ([`gather`]): the force and moment on each block, the applied
 /// stress times volume of a simply-deformable one (on each block, where either is one), and
-/// the dashpots' work over the step, one term per logical contact (summed in their order).
+/// the dashpots' power, one term per logical contact (times the step and summed in their
+/// order).
 struct ContactSums {
     fa: DVec3,
     ma: DVec3,
@@ -411,8 +426,10 @@ pub fn update_contact(
 
 /// One cycle: stages 6, 1–2, 7 as due, 4.
 pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
-    let dt = model.timestep();
-    gather(model, dt);
+    // The step and the contacts' sums of stage 6 at once: the step's sums over the logical
+    // contacts run on one thread (they are added in order), the contacts' sums beside them.
+    let (dt, sums) = rayon::join(|| model.timestep(), || contact_sums(model));
+    add_sums(model, sums, dt);
     let (gravity, alpha, alpha_internal) = (model.gravity, model.damping.alpha, model.damping.alpha_internal);
     let materials = &model.materials;
     let outcomes: Vec<motion::StepOutcome> = model

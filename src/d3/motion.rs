@@ -157,7 +157,13 @@ pub fn rotate(q: DQuat, inertia_ref: DMat3, l: DVec3, dt: f64) -> (DQuat, DVec3)
     let mut omega = angular_velocity(q, inv, l);
     for _ in 0..MIDPOINT_ITERATIONS {
         let mid = (DQuat::from_scaled_axis(omega * (0.5 * dt)) * q).normalize();
-        omega = angular_velocity(mid, inv, l);
+        let next = angular_velocity(mid, inv, l);
+        // At the fixed point to the last bit (a slow turn gets there in one or two): each
+        // iteration left would give the same again.
+        if next == omega {
+            break;
+        }
+        omega = next;
     }
     ((DQuat::from_scaled_axis(omega * dt) * q).normalize(), omega)
 }
