@@ -106,6 +106,26 @@ impl<'a> Placed<'a> {
     }
 }
 
+/// A body with its [`PlaneNormals`] and [`edge_directions`] turned on their own, outside a
+/// cycle's [`Placement`] (the Block-level wrappers, the GPU stage's Rust twin, tests).
+pub struct Turned<'a> {
+    body: Body<'a>,
+    normals: PlaneNormals,
+    edges: PlaneNormals,
+}
+
+impl<'a> Turned<'a> {
+    /// `body`'s normals and edges as its vertices lie now.
+    pub fn of(body: Body<'a>) -> Turned<'a> {
+        Turned { body, normals: plane_normals(body), edges: edge_directions(body) }
+    }
+
+    /// The body as [`Placed`].
+    pub fn placed(&self) -> Placed<'_> {
+        Placed::new(self.body, &self.normals, &self.edges)
+    }
+}
+
 /// The directions of a body's feature edges (`Shape::edge_directions`, in that order), from
 /// its vertices as placed: end minus start of each.
 pub fn edge_directions(block: Body) -> PlaneNormals {
@@ -198,8 +218,13 @@ pub struct CommonPlane {
 /// about to touch is recognised as such). Once they overlap, a vertex pressed into an edge's
 /// wedge takes the normal of the face it is nearer to leaving through (the least penetration).
 pub fn common_plane(a: &Block, b: &Block, reach: f64) -> CommonPlane {
-    let (a, b) = (Body::from(a), Body::from(b));
-    common_plane_with(&Placed::new(a, &plane_normals(a), &edge_directions(a)), &Placed::new(b, &plane_normals(b), &edge_directions(b)), reach, None)
+    common_plane_of(Body::from(a), Body::from(b), reach, None)
+}
+
+/// [`common_plane_with`] of two bodies not placed in a cycle's [`Placement`]: their normals and
+/// edges turned here ([`Turned`]).
+pub fn common_plane_of(a: Body, b: Body, reach: f64, hint: Option<DVec3>) -> CommonPlane {
+    common_plane_with(&Turned::of(a).placed(), &Turned::of(b).placed(), reach, hint)
 }
 
 /// [`common_plane`] of two convex bodies (blocks, or parts of concave ones) as [`Placed`]. `hint`: a unit vector likely near the answer
@@ -696,13 +721,7 @@ fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2, lengths: (f64, f64)) -> 
 pub fn logical_contacts(a: &Block, b: &Block, plane: &CommonPlane, tolerance: f64) -> ([Feature; 2], Vec<(LogicalKind, DVec3, f64)>, f64) {
     let (a, b) = (Body::from(a), Body::from(b));
     let mut scratch = Scratch::default();
-    let (category, area) = logical_contacts_with(
-        &Placed::new(a, &plane_normals(a), &edge_directions(a)),
-        &Placed::new(b, &plane_normals(b), &edge_directions(b)),
-        plane,
-        tolerance,
-        &mut scratch,
-    );
+    let (category, area) = logical_contacts_with(&Turned::of(a).placed(), &Turned::of(b).placed(), plane, tolerance, &mut scratch);
     (category, scratch.found, area)
 }
 
@@ -952,9 +971,7 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
 pub fn track_contact(c: &mut Contact, a: Body, b: Body, mat: &Material, tol: f64, dt: f64) -> (f64, f64) {
     let ((a0, a1), (b0, b1)) = (a.bounds(), b.bounds());
     let apart = (b0 - a1).max(a0 - b1).max_element() > tol;
-    let plane = (!apart).then(|| {
-        common_plane_with(&Placed::new(a, &plane_normals(a), &edge_directions(a)), &Placed::new(b, &plane_normals(b), &edge_directions(b)), tol, Some(c.normal))
-    });
+    let plane = (!apart).then(|| common_plane_of(a, b, tol, Some(c.normal)));
     let old_normal = c.normal;
     if let Some(p) = &plane {
         c.normal = p.normal;

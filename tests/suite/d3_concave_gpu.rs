@@ -367,15 +367,14 @@ fn a_strained_and_a_split_concave_block_run_on_the_gpu_as_on_the_cpu() {
 /// normal forces.
 #[test]
 fn the_rust_twin_tracks_a_concave_blocks_contacts_between_its_parts() {
-    use blockdem::d3::contact::{common_plane_with, edge_directions, place_logical, plane_normals, track_contact, Placed};
+    use blockdem::d3::contact::{common_plane_of, place_logical, track_contact};
     let mut checked = 0;
     for deck in [l_on_slab(-1e-4, "CYCLE 0\n"), notch("CYCLE 0\n")] {
         let m = run(&deck, None);
         let tol = m.contact_tolerance();
         for c in m.contacts.iter().filter(|c| !c.logical.is_empty()) {
             let (a, b) = (m.blocks[c.blocks[0] as usize].body(c.parts[0]), m.blocks[c.blocks[1] as usize].body(c.parts[1]));
-            let plane =
-                common_plane_with(&Placed::new(a, &plane_normals(a), &edge_directions(a)), &Placed::new(b, &plane_normals(b), &edge_directions(b)), tol, None);
+            let plane = common_plane_of(a, b, tol, None);
             let n = plane.normal;
             let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
             let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);

@@ -4,7 +4,7 @@
 //! box sliding (and one sticking) on an incline whose dip direction is oblique to the axes:
 //! s = ½gt²(sin ψ − cos ψ tan φ).
 
-use blockdem::d3::contact::{common_plane, common_plane_with, edge_directions, logical_contacts, plane_normals, prescribed_normal, Placed};
+use blockdem::d3::contact::{common_plane, common_plane_of, logical_contacts, plane_normals, prescribed_normal};
 use blockdem::d3::deck::parse_deck;
 use blockdem::d3::exec::Executor;
 use blockdem::d3::geometry::{box_faces, shape_from_faces};
@@ -308,7 +308,7 @@ fn the_common_planes_search_is_the_full_one_whatever_the_hint() {
         // Move b along `direction` until the full search finds the gap asked.
         let search = |a: &Block, b: &Block, hint: Option<DVec3>| {
             let (a, b) = (Body::from(a), Body::from(b));
-            common_plane_with(&Placed::new(a, &plane_normals(a), &edge_directions(a)), &Placed::new(b, &plane_normals(b), &edge_directions(b)), 0.01, hint)
+            common_plane_of(a, b, 0.01, hint)
         };
         for _ in 0..4 {
             let s = search(&a, &b, None);
@@ -321,12 +321,7 @@ fn the_common_planes_search_is_the_full_one_whatever_the_hint() {
         let (body_a, body_b) = (Body::from(&a), Body::from(&b));
         let reference = every_axis(body_a, body_b);
         for hint in [None, Some(full.normal)] {
-            let found = common_plane_with(
-                &Placed::new(body_a, &plane_normals(body_a), &edge_directions(body_a)),
-                &Placed::new(body_b, &plane_normals(body_b), &edge_directions(body_b)),
-                0.0,
-                hint,
-            );
+            let found = common_plane_of(body_a, body_b, 0.0, hint);
             assert!(
                 found.normal.to_array().map(f64::to_bits) == reference.0.to_array().map(f64::to_bits) && found.separation.to_bits() == reference.1.to_bits(),
                 "case {k} (gap {gap}), hint {hint:?}: {found:?} against every axis's {reference:?}"
@@ -403,7 +398,7 @@ fn the_common_plane_of_bodies_a_shade_apart_is_their_distance() {
     let reach = 0.01;
     let plane = |a: &Block, b: &Block| {
         let (a, b) = (Body::from(a), Body::from(b));
-        common_plane_with(&Placed::new(a, &plane_normals(a), &edge_directions(a)), &Placed::new(b, &plane_normals(b), &edge_directions(b)), reach, None)
+        common_plane_of(a, b, reach, None)
     };
     let mut kinds = [0usize; 3];
     for k in 0..450 {
