@@ -144,6 +144,7 @@ fn turn_edges(block: Body, edges: &mut PlaneNormals) {
 
 /// Each body of a block ([`Block::body`]) as [`Placed`] this cycle: worked out once per block,
 /// in parallel over the blocks, before the contacts read them.
+#[derive(Default)]
 pub struct Placement {
     /// The plane normals of its bodies, one body after another.
     normals: PlaneNormals,
@@ -165,17 +166,25 @@ struct BodyPlacement {
 impl Placement {
     /// The placement of `block`'s bodies as its vertices lie now.
     pub fn of(block: &Block) -> Placement {
-        let (mut normals, mut edges) = (PlaneNormals::new(), PlaneNormals::new());
-        let bodies = (0..block.part_count() as u32)
-            .map(|k| {
-                let body = block.body(k);
-                let placed = BodyPlacement { planes: normals.len(), edges: edges.len(), bounds: body.bounds(), ball: body.inner_ball() };
-                turn_planes(body, &mut normals);
-                turn_edges(body, &mut edges);
-                placed
-            })
-            .collect();
-        Placement { normals, edges, bodies }
+        let mut placement = Placement::default();
+        placement.renew(block);
+        placement
+    }
+
+    /// Makes this the placement of `block` as its vertices lie now, in place (the cycle keeps
+    /// its placements from cycle to cycle: a placement is some hundreds of bytes, and building
+    /// each afresh moved them twice).
+    pub fn renew(&mut self, block: &Block) {
+        let Placement { normals, edges, bodies } = self;
+        normals.clear();
+        edges.clear();
+        bodies.clear();
+        for k in 0..block.part_count() as u32 {
+            let body = block.body(k);
+            bodies.push(BodyPlacement { planes: normals.len(), edges: edges.len(), bounds: body.bounds(), ball: body.inner_ball() });
+            turn_planes(body, normals);
+            turn_edges(body, edges);
+        }
     }
 
     /// Body `k` of `block`, the block this is the placement of.

@@ -341,6 +341,13 @@ struct ContactSums {
     dashpots: smallvec::SmallVec<[f64; 4]>,
 }
 
+thread_local! {
+    /// The blocks' placements of the last stage 4 run on this thread, their lists' room kept for
+    /// the next ([`contact_stage`] takes them out and puts them back: a stage 4 of another model
+    /// that a worker thread picks up while it waits gets lists of its own).
+    static PLACEMENTS: std::cell::Cell<Vec<contact::Placement>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
 /// Stage 4 over every contact: common plane, logical contacts (their shear forces carried by
 /// key), force–displacement law. With `dt` = 0 only the geometry and normal forces are renewed.
 pub fn contact_stage(model: &mut Model, dt: f64) {
@@ -348,7 +355,10 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
     let (blocks, materials) = (&model.blocks, &model.materials);
     // Each block's bodies placed (their plane normals turned, boxes, inner balls) once for all
     // their contacts.
-    let placements: Vec<contact::Placement> = blocks.par_iter().with_min_len(grain::BLOCK).map(contact::Placement::of).collect();
+    // Kept from cycle to cycle on the thread that runs them ([`PLACEMENTS`]), renewed in place.
+    let mut placements = PLACEMENTS.take();
+    placements.resize_with(blocks.len(), contact::Placement::default);
+    placements.par_iter_mut().zip(blocks.par_iter()).with_min_len(grain::BLOCK).for_each(|(p, b)| p.renew(b));
     let energy: Vec<(f64, f64)> = model
         .contacts
         .par_iter_mut()
@@ -364,6 +374,7 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
             update_contact(c, a, b, &mat, joint, tol, dt, scratch)
         })
         .collect();
+    PLACEMENTS.set(placements);
     // Summed in the contacts' order: reruns repeat bit for bit.
     for (friction, released) in energy {
         model.dissipated.friction += friction;
