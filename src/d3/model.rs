@@ -676,6 +676,19 @@ impl Energies {
     }
 }
 
+/// What the critical step reads of a block, gathered in one pass (`Model::critical_timestep`):
+/// its centroid, whether it gives at a contact, 1/m, its least principal moment and, for a
+/// simply-deformable block, the least principal second moment of its mass. The step's sums
+/// over the logical contacts (added in order, on one thread) then read these few words a
+/// block, not the block, and divide once less.
+struct Give {
+    centroid: DVec3,
+    unyielding: bool,
+    inverse_mass: f64,
+    least: f64,
+    least_second: f64,
+}
+
 impl Model {
     /// Material `n` (the default, all zero, where not given).
     pub fn material(&self, n: u32) -> Material {
@@ -752,24 +765,25 @@ impl Model {
         // principal second moment of its mass, M_min: it gives at a lever arm r by its strain too,
         // by r²/M_min (no strain mode has less inertia). Block by block, in parallel (the
         // eigenvalues are most of this).
-        let (least, least_second): (Vec<f64>, Vec<f64>) = self
+        let gives: Vec<Give> = self
             .blocks
             .par_iter()
             .with_min_len(super::cpu::grain::BLOCK)
             .map(|b| {
-                let least = if unyielding(b) { 0.0 } else { least_eigenvalue(b.inertia_ref) };
-                let second = if b.is_sdef() && !unyielding(b) { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 };
-                (least, second)
+                let stiff = unyielding(b);
+                let least = if stiff { 0.0 } else { least_eigenvalue(b.inertia_ref) };
+                let least_second = if b.is_sdef() && !stiff { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 };
+                Give { centroid: b.centroid, unyielding: stiff, inverse_mass: 1.0 / b.mass, least, least_second }
             })
-            .unzip();
+            .collect();
         // The compliance of block i at a lever arm r (r² given).
         let compliance = |i: usize, r2: f64| -> f64 {
-            let b = &self.blocks[i];
-            if unyielding(b) {
+            let g = &gives[i];
+            if g.unyielding {
                 return 0.0;
             }
-            let strain = if least_second[i] > 0.0 { r2 / least_second[i] } else { 0.0 };
-            1.0 / b.mass + if least[i] > 0.0 { r2 / least[i] } else { 0.0 } + strain
+            let strain = if g.least_second > 0.0 { r2 / g.least_second } else { 0.0 };
+            g.inverse_mass + if g.least > 0.0 { r2 / g.least } else { 0.0 } + strain
         };
         let mut row: Vec<f64> = (0..self.blocks.len()).map(|i| k_max * compliance(i, self.blocks[i].shape.radius.powi(2))).collect();
         let mut contact_rows = vec![0.0f64; self.blocks.len()];
@@ -781,8 +795,8 @@ impl Model {
             let k = mat.kn.max(mat.ks);
             let [i, j] = c.blocks.map(|b| b as usize);
             for l in &c.logical {
-                let ai = compliance(i, (l.point - self.blocks[i].centroid).length_squared());
-                let aj = compliance(j, (l.point - self.blocks[j].centroid).length_squared());
+                let ai = compliance(i, (l.point - gives[i].centroid).length_squared());
+                let aj = compliance(j, (l.point - gives[j].centroid).length_squared());
                 let shared = (ai * aj).sqrt();
                 contact_rows[i] += k * (ai + shared);
                 contact_rows[j] += k * (aj + shared);
