@@ -417,18 +417,29 @@ pub fn update_contact(
         return (0.0, released);
     };
     let (category, area) = contact::logical_contacts_with(&a, &b, &plane, tol, scratch);
-    // The last cycle's logical contacts (copied aside; the lists keep their allocations).
     let contact::Scratch { previous, found, .. } = scratch;
-    previous.clear();
-    previous.extend_from_slice(&c.logical);
-    c.logical.clear();
-    c.logical.extend(found.iter().map(|&(kind, point, gap)| {
-        let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
-        Logical { kind, point, gap, normal_force: 0.0, shear_force }
-    }));
-    // The strain of logical contacts not found again (their shear springs; their normal ones
-    // too, where the touching region lost a loaded corner).
-    let released = previous.iter().filter(|l| !c.logical.iter().any(|n| n.kind == l.kind)).map(|l| spring_energy(l, &old_law)).sum();
+    let released = if found.len() == c.logical.len() && found.iter().zip(&c.logical).all(|(f, l)| f.0 == l.kind) {
+        // The same logical contacts in the same order (a settled contact, most cycles): each
+        // keeps its shear force, none is released. (A contact's logical contacts have distinct
+        // keys, so the search below would pair them so too.)
+        for (&(_, point, gap), l) in found.iter().zip(c.logical.iter_mut()) {
+            (l.point, l.gap, l.normal_force) = (point, gap, 0.0);
+        }
+        std::iter::empty::<f64>().sum()
+    } else {
+        // The last cycle's logical contacts (copied aside; the lists keep their allocations),
+        // each new one taking the shear force of the old one of its key.
+        previous.clear();
+        previous.extend_from_slice(&c.logical);
+        c.logical.clear();
+        c.logical.extend(found.iter().map(|&(kind, point, gap)| {
+            let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
+            Logical { kind, point, gap, normal_force: 0.0, shear_force }
+        }));
+        // The strain of logical contacts not found again (their shear springs; their normal
+        // ones too, where the touching region lost a loaded corner).
+        previous.iter().filter(|l| !c.logical.iter().any(|n| n.kind == l.kind)).map(|l| spring_energy(l, &old_law)).sum()
+    };
     c.category = Some(category);
     c.area = area;
     let law = mat.contact_law(joint, area, c.logical.len());
