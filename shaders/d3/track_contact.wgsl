@@ -85,15 +85,24 @@ fn separation_along(a: u32, b: u32, n: vec3<real>) -> real {
     return support(b, n, true) - support(a, n, false);
 }
 
+// A common plane: its normal, its separation, and the axis it was found on: face plane `face`
+// of block 1 (`on_b` false) or of block 2, or NO_FACE (an edge pair's axis, a nearest pair's
+// direction, the last cycle's normal).
 struct Plane3 {
     normal: vec3<real>,
     separation: real,
+    face: u32,
+    on_b: bool,
 }
 
-fn consider(best: Plane3, a: u32, b: u32, n: vec3<real>, slack: real) -> Plane3 {
+const NO_FACE: u32 = 0xffffffffu;
+
+// `best`, or the axis n where its separation beats it by more than the slack (found on face
+// plane `face` of block 2 where `on_b`, of block 1 otherwise; NO_FACE for no face's axis).
+fn consider(best: Plane3, a: u32, b: u32, n: vec3<real>, slack: real, face: u32, on_b: bool) -> Plane3 {
     let s = separation_along(a, b, n);
     if (s > best.separation + slack) {
-        return Plane3(n, s);
+        return Plane3(n, s, face, on_b);
     }
     return best;
 }
@@ -126,17 +135,17 @@ fn open_axis(bound: real, best: Plane3, k: Bound) -> bool {
 
 // The axes of `common_plane` in their order, those that cannot win passed over.
 fn search_axes(a: u32, b: u32, slack: real, k: Bound) -> Plane3 {
-    var best = Plane3(vec3<real>(0.0, 0.0, 1.0), -FINITE_MAX);
+    var best = Plane3(vec3<real>(0.0, 0.0, 1.0), -FINITE_MAX, NO_FACE, false);
     for (var p = 0u; p < blocks[a].plane_count; p++) {
         let n = plane_normal(a, p);
         if (open_axis(dot3(n, k.d) - k.r, best, k)) {
-            best = consider(best, a, b, n, slack);
+            best = consider(best, a, b, n, slack, p, false);
         }
     }
     for (var p = 0u; p < blocks[b].plane_count; p++) {
         let n = -plane_normal(b, p);
         if (open_axis(dot3(n, k.d) - k.r, best, k)) {
-            best = consider(best, a, b, n, slack);
+            best = consider(best, a, b, n, slack, p, true);
         }
     }
     let ea0 = blocks[a].edge_start;
@@ -153,8 +162,8 @@ fn search_axes(a: u32, b: u32, slack: real, k: Bound) -> Plane3 {
             if (!open_axis(abs(dot3(n, k.d)) - k.r, best, k)) {
                 continue;
             }
-            best = consider(best, a, b, n, slack);
-            best = consider(best, a, b, -n, slack);
+            best = consider(best, a, b, n, slack, NO_FACE, false);
+            best = consider(best, a, b, -n, slack, NO_FACE, false);
         }
     }
     return best;
@@ -190,6 +199,9 @@ fn common_plane(a: u32, b: u32, reach: real, hint: vec3<real>, mean_a: vec3<real
         let n = best.normal;
         let hi_a = support(a, n, false);
         let lo_b = support(b, n, true);
+        if (face_meets(a, b, best, hi_a, lo_b, 0.25 * slack)) {
+            return best;
+        }
         var found = false;
         var nearest_l: real = 0.0;
         var nearest = vec3<real>(0.0, 0.0, 0.0);
@@ -243,10 +255,51 @@ fn common_plane(a: u32, b: u32, reach: real, hint: vec3<real>, mean_a: vec3<real
             }
         }
         if (found) {
-            best = consider(best, a, b, normalize3(nearest), slack);
+            best = consider(best, a, b, normalize3(nearest), slack, NO_FACE, false);
         }
     }
     return best;
+}
+
+// Whether the separation of `plane`, found on a face plane's axis, is the bodies' distance to
+// within `within` (Rust twin: `contact::face_meets`): some vertex of the other body at its
+// support (`hi_a`, `lo_b`: block 1's greatest projection on the normal, block 2's least),
+// moved along the normal onto the face's plane, lands behind all the face's body's other
+// planes. Then no nearest pair of vertex and edge can give a greater separation.
+fn face_meets(a: u32, b: u32, plane: Plane3, hi_a: real, lo_b: real, within: real) -> bool {
+    if (plane.face == NO_FACE) {
+        return false;
+    }
+    let n = plane.normal;
+    let body = select(a, b, plane.on_b);
+    let other = select(b, a, plane.on_b);
+    // The other body's support, the face's plane, and the sense from the other towards it.
+    let at = select(lo_b, hi_a, plane.on_b);
+    let level = select(hi_a, lo_b, plane.on_b);
+    let towards = select(real(-1.0), real(1.0), plane.on_b);
+    for (var m = 0u; m < blocks[other].vertex_count; m++) {
+        let w = block_vertex(other, m);
+        let h = dot3(n, w);
+        if ((h - at) * -towards > within) {
+            continue;
+        }
+        let on = w + n * (level - h);
+        var inside = true;
+        for (var j = 0u; j < blocks[body].plane_count; j++) {
+            if (j == plane.face) {
+                continue;
+            }
+            let nf = plane_normal(body, j);
+            if (dot3(nf, on) > dot3(nf, block_vertex(body, planes[blocks[body].plane_start + j].vertex))) {
+                inside = false;
+                break;
+            }
+        }
+        if (inside) {
+            return true;
+        }
+    }
+    return false;
 }
 
 // Whether a vertex at height h along the normal is near the plane: within `reach` of block 1's
@@ -453,7 +506,7 @@ fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     }
     let gaps = max(b0 - a1, a0 - b1);
     let apart = max(max(gaps.x, gaps.y), gaps.z) > tol;
-    var plane = Plane3(normal_of(c), FINITE_MAX);
+    var plane = Plane3(normal_of(c), FINITE_MAX, NO_FACE, false);
     if (!apart) {
         plane = common_plane(a, b, tol, normal_of(c), sum_a / real(blocks[a].vertex_count), sum_b / real(blocks[b].vertex_count));
     }

@@ -400,7 +400,8 @@ enum Axis {
 /// more than any pair of their points is apart: no nearest pair of vertex and edge can give a
 /// greater separation, and [`common_plane_with`] need not look for one (where the columns of a
 /// stack rock and hop, nearly half the contacts of a cycle are apart by a little, face on face).
-/// False for an edge pair's axis, or where no vertex lands inside.
+/// False for an edge pair's axis, or where no vertex lands inside. (WGSL twin: `face_meets` in
+/// `track_contact.wgsl`.)
 fn face_meets(placed: &(&Placed, &Placed), plane: &CommonPlane, axis: Axis, within: f64) -> bool {
     let (n, (hi_a, lo_b)) = (plane.normal, plane.supports);
     // The face's body, its plane's number, the other body, and the sense along n from the
