@@ -14,6 +14,7 @@
 //! | [`cracking`] | stage 7's cracking criteria (¶35f): Griffith's law on simply-deformable blocks, the point-load law on the contact forces |
 //! | [`split`] | SPLIT: a plane cuts the convex blocks it crosses in two, mass properties afresh, momentum kept |
 //! | [`topology`] | stage 7: the neighbour lists on a uniform grid, rebuilt past a travel threshold (¶26) |
+//! | [`grain`] | how finely the CPU cycle's parallel passes split (the fewest items a task takes) |
 //! | [`backend`] | what the executor asks of a backend, the CPU's or the GPU's |
 //! | [`cpu`] | the cycle on the CPU in f64 through the chassis's run driver |
 //! | [`gpu`] | the cycle on the GPU (WGSL in `shaders/d3/`, f32 or f64), detection on the CPU between cycles |
@@ -31,6 +32,7 @@ pub mod decompose;
 pub mod exec;
 pub mod geometry;
 pub mod gpu;
+pub mod grain;
 pub mod model;
 pub mod motion;
 pub mod output;

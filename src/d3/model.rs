@@ -768,7 +768,7 @@ impl Model {
         let gives: Vec<Give> = self
             .blocks
             .par_iter()
-            .with_min_len(super::cpu::grain::BLOCK)
+            .with_min_len(super::grain::BLOCK)
             .map(|b| {
                 let stiff = unyielding(b);
                 let least = if stiff { 0.0 } else { least_eigenvalue(b.inertia_ref) };

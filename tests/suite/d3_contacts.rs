@@ -263,6 +263,22 @@ fn a_box_sticks_on_an_incline_flatter_than_its_friction() {
     assert!(across < 1e-5, "{across}");
 }
 
+/// Uniform numbers in [0, 1) from a xorshift generator seeded with `seed` (the random cases of
+/// the common-plane tests, the same on every run).
+fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A random unit vector from `uniform`.
+fn unit(uniform: &mut dyn FnMut() -> f64) -> DVec3 {
+    DVec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize()
+}
+
 /// The common plane's search passes over the axes whose bound lies under the best found or under
 /// the floor a hint gives (`contact::common_plane_with`): the answer must be the full search's
 /// bit for bit whatever the hint (the last cycle's answer, a direction near it, a random one,
@@ -271,14 +287,7 @@ fn a_box_sticks_on_an_incline_flatter_than_its_friction() {
 /// and a tetrahedron against a box (axes that are no face's normal win there).
 #[test]
 fn the_common_planes_search_is_the_full_one_whatever_the_hint() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-    let mut uniform = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let unit = |uniform: &mut dyn FnMut() -> f64| DVec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize();
+    let mut uniform = xorshift(0x9e37_79b9_7f4a_7c15);
     let tetrahedron = |q: DQuat, shift: DVec3| -> Vec<[[f64; 3]; 3]> {
         let v = [[0.0, 0.0, 0.0], [0.7, 0.0, 0.0], [0.1, 0.6, 0.0], [0.2, 0.2, 0.8]].map(|p| (q * DVec3::from_array(p) + shift).to_array());
         // Counter-clockwise looking along the outward normal (the volume is positive).
@@ -387,14 +396,7 @@ fn every_axis(a: Body, b: Body) -> (DVec3, f64) {
 /// the least distance of the two surfaces' triangles, pair by pair.
 #[test]
 fn the_common_plane_of_bodies_a_shade_apart_is_their_distance() {
-    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-    let mut uniform = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let unit = |uniform: &mut dyn FnMut() -> f64| DVec3::new(uniform() - 0.5, uniform() - 0.5, uniform() - 0.5).normalize();
+    let mut uniform = xorshift(0x2545_f491_4f6c_dd1d);
     let reach = 0.01;
     let plane = |a: &Block, b: &Block| {
         let (a, b) = (Body::from(a), Body::from(b));
