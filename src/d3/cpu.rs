@@ -217,7 +217,8 @@ impl driver::Stages<Model> for Stages {
 /// Stage 6: each block's force and moment sums, gravity, load, boundary stress and contacts, in
 /// a fixed order;
 /// the contact dashpots' work over the step `dt` to come (their power β(kn u̇n² + ks|u̇s|²) at
-/// the half-step velocities) booked in the ledger.
+/// the half-step velocities) booked in the ledger. The WGSL `gather`'s twin; [`cycle`] runs its
+/// two halves itself, the first beside the step.
 pub fn gather(model: &mut Model, dt: f64) {
     let sums = contact_sums(model);
     add_sums(model, sums, dt);
@@ -407,6 +408,8 @@ pub fn update_contact(
         for (&(_, point, gap), l) in found.iter().zip(c.logical.iter_mut()) {
             (l.point, l.gap, l.normal_force) = (point, gap, 0.0);
         }
+        // Nothing released: the empty sum, as the search's branch gives it (the sign of its
+        // zero too).
         std::iter::empty::<f64>().sum()
     } else {
         // The last cycle's logical contacts (copied aside; the lists keep their allocations),

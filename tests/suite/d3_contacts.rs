@@ -520,3 +520,35 @@ fn segment_segment(p1: DVec3, q1: DVec3, p2: DVec3, q2: DVec3) -> f64 {
     };
     ((p1 + d1 * s) - (p2 + d2 * t)).length()
 }
+
+/// A contact's logical contacts have distinct keys (`LogicalKind`), whatever the blocks' turn and
+/// overlap: `cpu::update_contact` renews a contact's list in place where the keys come back in
+/// the same order, which pairs old and new as its search by key does only where no key repeats.
+/// Boxes turned at random against a cube, overlapping, touching and a shade apart.
+#[test]
+fn a_contacts_logical_contacts_have_distinct_keys() {
+    let mut uniform = xorshift(0x6a09_e667_f3bc_c908);
+    let mut touching = 0;
+    for k in 0..300 {
+        let q = if k % 3 == 0 { DQuat::IDENTITY } else { DQuat::from_scaled_axis(unit(&mut uniform) * 3.0) };
+        let a = block(1, &turned_box([-0.5; 3], [0.5; 3], DQuat::IDENTITY, DVec3::ZERO));
+        let mut b = block(2, &turned_box([-0.3, -0.2, -0.25], [0.3, 0.2, 0.25], q, DVec3::ZERO));
+        let direction = if k % 3 == 0 { DVec3::Z } else { unit(&mut uniform) };
+        let gap = [-1e-3, 0.0, 1e-3][k % 3];
+        // Moved out along `direction` until the common plane says `gap`.
+        b.centroid += direction * 2.0;
+        b.place_vertices();
+        for _ in 0..20 {
+            let s = common_plane(&a, &b, 0.01).separation;
+            b.centroid -= direction * (s - gap);
+            b.place_vertices();
+        }
+        let plane = common_plane(&a, &b, 0.01);
+        let (_, logical, _) = logical_contacts(&a, &b, &plane, 0.01);
+        for (i, l) in logical.iter().enumerate() {
+            assert!(logical[..i].iter().all(|m| m.0 != l.0), "case {k}: key {:?} twice in {logical:?}", l.0);
+        }
+        touching += usize::from(!logical.is_empty());
+    }
+    assert!(touching > 250, "{touching} of 300 cases touching");
+}
