@@ -489,22 +489,24 @@ pub fn cracks(model: &mut Model, report: &mut CycleReport) {
 }
 
 /// Cracks the blocks `due` ([`cracking::due`]) in turn, each crack keeping the indices of the
-/// blocks before it (the new piece goes at the end): the contacts and neighbour lists found
-/// afresh at once (stage 7, stage 4 with Δt = 0), and what the crack took from the kinetic and
-/// strain energies booked as released (the parent's stress, the contacts' shear springs dropped
-/// with their keys; negative where the pieces' new corners press on a neighbour: D3's logical
-/// contacts are the corners of the touching region, so a neighbour pressed along the crack gets
-/// more of them). Each crack goes into `report` (`from`: a point of the crack plane; `to`: its
-/// unit normal).
+/// blocks before it (the new piece goes at the end), then finds the contacts and neighbour lists
+/// afresh once for them all (stage 7, stage 4 with Δt = 0: each cut depends on its own block
+/// alone, and a contact update per crack made a cycle of many cracks cost as many passes over
+/// the whole model), and books as released what the cracks took from the kinetic and strain
+/// energies (the parents' stresses, the contacts' shear springs dropped with their keys; negative
+/// where the pieces' new corners press on a neighbour: D3's logical contacts are the corners of
+/// the touching region, so a neighbour pressed along a crack gets more of them). Each crack goes
+/// into `report` (`from`: a point of the crack plane; `to`: its unit normal).
 pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut CycleReport) {
+    if due.is_empty() {
+        return;
+    }
+    let before = model.energies();
+    let released = model.dissipated.released;
+    let mut cracked = false;
     for c in due {
-        let before = model.energies();
-        let released = model.dissipated.released;
         let Some((block, new_block)) = super::split::crack(model, c.block, c.point, c.normal) else { continue };
-        topology::update_neighbours(model);
-        contact_stage(model, 0.0);
-        let after = model.energies();
-        model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);
+        cracked = true;
         report.cracks.push(crate::driver::CrackEvent {
             cycle: model.cycle,
             block,
@@ -515,4 +517,11 @@ pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut C
             to: Position::xyz(c.normal.normalize().to_array()),
         });
     }
+    if !cracked {
+        return;
+    }
+    topology::update_neighbours(model);
+    contact_stage(model, 0.0);
+    let after = model.energies();
+    model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);
 }

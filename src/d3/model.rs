@@ -139,6 +139,12 @@ pub struct Block {
     /// after the model (`d3::restart`, format 7).
     #[serde(skip)]
     pub parts: Vec<Part>,
+    /// The volume of the block as the deck built it (BLOCK, BOX, SPLIT): a crack's pieces keep
+    /// their parent's, so that a block cracks only while it holds at least
+    /// [`super::cracking::FRAGMENT_FLOOR`] of it (`cracking::due`). Saved after the model
+    /// (`d3::restart`, format 8).
+    #[serde(skip)]
+    pub built_volume: f64,
 }
 
 /// A convex part of a concave block (`Block::parts`): its surface about its own centroid in the
@@ -260,6 +266,7 @@ impl Block {
             held: false,
             boundary_stress: Vec::new(),
             parts: Vec::new(),
+            built_volume: props.volume,
         }
     }
 

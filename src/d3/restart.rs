@@ -57,8 +57,10 @@ const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// that, the [`Boundaries`], the blocks held by BOUNDARY VELOCITY and the faces loaded by
 /// BOUNDARY STRESS; a file of an older version has none. Version 7: after that, the [`Parts`],
 /// the concave blocks' convex parts and the parts each contact is between; a concave block of an
-/// older file, built but never cycled, is cut into its parts as it is read.)
-pub const FORMAT_VERSION: u32 = 7;
+/// older file, built but never cycled, is cut into its parts as it is read. Version 8: after
+/// that, the [`Lineage`], the volume as built of each crack's piece; in an older file every
+/// block counts as built as it is.)
+pub const FORMAT_VERSION: u32 = 8;
 /// The oldest save format this program reads (its payload is version 4's, without the
 /// extension).
 pub const OLDEST_VERSION: u32 = 3;
@@ -282,6 +284,38 @@ pub enum RestartError {
     Inconsistent { path: PathBuf, reason: String },
 }
 
+/// The volume as built (`Block::built_volume`, the cracking floor's measure) of each block that
+/// a crack made, by block index, written after the [`Parts`] in the payload (format 8); every
+/// other block's is its own volume.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Lineage {
+    pub built_volume: Vec<(u32, f64)>,
+}
+
+impl Lineage {
+    /// The lineage of `model`.
+    pub fn of(model: &Model) -> Lineage {
+        Lineage { built_volume: model.blocks.iter().enumerate().filter(|(_, b)| b.built_volume != b.volume).map(|(i, b)| (i as u32, b.built_volume)).collect() }
+    }
+
+    /// Puts the lineage back into `model` (each block otherwise counted as built as it is); an
+    /// index past its blocks or a volume that is not positive and finite is an error.
+    pub fn apply(self, model: &mut Model) -> Result<(), String> {
+        for b in &mut model.blocks {
+            b.built_volume = b.volume;
+        }
+        let n = model.blocks.len();
+        for (i, v) in self.built_volume {
+            let b = model.blocks.get_mut(i as usize).ok_or_else(|| format!("a volume as built names block index {i} of {n}"))?;
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("block {} has a volume as built of {v}", b.id));
+            }
+            b.built_volume = v;
+        }
+        Ok(())
+    }
+}
+
 /// Whether the file at `path` starts as a D3 save file does (for `blockdem run`'s engine rule).
 /// Only a regular file is looked into: reading the head of a FIFO would take bytes its writer
 /// meant for the RESTART that follows (and could leave that one waiting for a writer gone).
@@ -295,7 +329,7 @@ pub fn is_save_file(path: &Path) -> bool {
 
 /// SAVE: writes `file` to `path` atomically (a temporary file renamed into place).
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
-    let payload = postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model), Parts::of(&file.model)))
+    let payload = postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model), Parts::of(&file.model), Lineage::of(&file.model)))
         .map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     let crc = crc32fast::hash(&payload) as u64;
     crate::output::write_atomically(path, |w| {
@@ -347,21 +381,26 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
         return Err(RestartError::Corrupt { path: p(), reason: "the payload checksum does not match".into() });
     }
     let bad = |e: postcard::Error| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") };
-    let (mut saved, extension, boundaries, parts): (SaveFile, Extension, Boundaries, Parts) = match version {
-        7.. => postcard::from_bytes(&payload).map_err(bad)?,
+    let (mut saved, extension, boundaries, parts, lineage): (SaveFile, Extension, Boundaries, Parts, Lineage) = match version {
+        8.. => postcard::from_bytes(&payload).map_err(bad)?,
+        7 => {
+            let (saved, extension, boundaries, parts) = postcard::from_bytes(&payload).map_err(bad)?;
+            (saved, extension, boundaries, parts, Lineage::default())
+        }
         6 => {
             let (saved, extension, boundaries) = postcard::from_bytes(&payload).map_err(bad)?;
-            (saved, extension, boundaries, Parts::default())
+            (saved, extension, boundaries, Parts::default(), Lineage::default())
         }
         5 => {
             let (saved, extension) = postcard::from_bytes(&payload).map_err(bad)?;
-            (saved, extension, Boundaries::default(), Parts::default())
+            (saved, extension, Boundaries::default(), Parts::default(), Lineage::default())
         }
-        _ => (postcard::from_bytes(&payload).map_err(bad)?, Extension::default(), Boundaries::default(), Parts::default()),
+        _ => (postcard::from_bytes(&payload).map_err(bad)?, Extension::default(), Boundaries::default(), Parts::default(), Lineage::default()),
     };
     extension.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     boundaries.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     parts.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
+    lineage.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     if let Some(device) = saved.device.as_mut().filter(|d| version < 4 && !d.f64_kernels) {
         device.absolute_f32 = true;
     }

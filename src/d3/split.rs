@@ -118,6 +118,71 @@ pub fn cut_faces(vertices: &[DVec3], faces: &[[u32; 3]], point: DVec3, normal: D
     Some(pieces)
 }
 
+/// The faces of a convex piece (typed as a deck types them, [`cut_faces`]'s) with each of its
+/// planar sides in as few triangles as it needs: the triangles in one plane merged into the side's
+/// polygon, of its corners only (the points along its edges and inside it, such as the crossings
+/// of the parent's diagonals with the cut and the cap's centre, dropped: a point within `eps` of
+/// the line of two others), fanned from one corner. Without this each cut would keep every point
+/// it made, and a crack's pieces, cut again and again, would carry hundreds of vertices on their
+/// flat sides (each a logical contact's corner: a stiffer contact, a smaller time step, a slower
+/// cycle). Where a side's polygon comes out degenerate it is left out, and the piece's checks
+/// (`geometry::shape_from_faces`) refuse the cut.
+pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
+    // The sides: outward unit normal, offset along it, and the points of their triangles.
+    let mut sides: Vec<(DVec3, f64, Vec<DVec3>)> = Vec::new();
+    for t in typed {
+        let [a, b, c] = t.map(DVec3::from_array);
+        // Typed (a, b, c) runs clockwise seen from outside: (a, c, b) counter-clockwise.
+        let cross = (c - a).cross(b - a);
+        let length = cross.length();
+        if !(length > 0.0) {
+            continue;
+        }
+        let n = cross / length;
+        let d = n.dot(a);
+        match sides.iter_mut().find(|(m, e, _)| m.dot(n) > 1.0 - 1e-9 && (e - d).abs() <= 100.0 * eps) {
+            Some((_, _, points)) => points.extend([a, b, c]),
+            None => sides.push((n, d, vec![a, b, c])),
+        }
+    }
+    let mut out = Vec::with_capacity(2 * sides.len());
+    for (n, _, points) in &sides {
+        // The side's convex hull in its plane (u × w = n: counter-clockwise about n is
+        // counter-clockwise seen from outside), by Andrew's monotone chain, a point that makes no
+        // left turn by more than `eps` dropped.
+        let u = n.any_orthonormal_vector();
+        let w = n.cross(u);
+        let mut flat: Vec<(f64, f64, DVec3)> = points.iter().map(|&p| (p.dot(u), p.dot(w), p)).collect();
+        flat.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.total_cmp(&q.1)));
+        // Whether a lies within eps of the line o–b or right of it (o → a → b no left turn).
+        let straight_or_right = |o: &(f64, f64, DVec3), a: &(f64, f64, DVec3), b: &(f64, f64, DVec3)| {
+            let turn = (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
+            turn <= eps * (b.0 - o.0).hypot(b.1 - o.1)
+        };
+        let mut hull: Vec<(f64, f64, DVec3)> = Vec::with_capacity(flat.len() + 1);
+        for pass in 0..2 {
+            let start = hull.len();
+            let chain: Box<dyn Iterator<Item = &(f64, f64, DVec3)>> = if pass == 0 { Box::new(flat.iter()) } else { Box::new(flat.iter().rev()) };
+            for p in chain {
+                while hull.len() >= start + 2 && straight_or_right(&hull[hull.len() - 2], &hull[hull.len() - 1], p) {
+                    hull.pop();
+                }
+                hull.push(*p);
+            }
+            // The chain's last point is the next chain's first.
+            hull.pop();
+        }
+        if hull.len() < 3 {
+            continue;
+        }
+        // Counter-clockwise (h0, hk, hk+1) is typed (h0, hk+1, hk).
+        for k in 1..hull.len() - 1 {
+            out.push([hull[0].2.to_array(), hull[k + 1].2.to_array(), hull[k].2.to_array()]);
+        }
+    }
+    out
+}
+
 /// The pieces of a concave block (one made of convex parts, `d3::decompose`) cut by the plane
 /// through `point` with unit normal `n`: its whole surface cut as a closed mesh
 /// (`decompose::cut_sides`, the cross-section capped by a constrained triangulation, as it may be
@@ -160,7 +225,7 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
             lo < -eps && hi > eps
         })
         .collect();
-    let outcome = cut(model, &crossed, point, n, material, constitutive);
+    let outcome = cut(model, &crossed, point, n, material, constitutive, 0.0);
     // The strain energy the parents' stresses held is released (the ledger's `released`).
     model.dissipated.released += outcome.released;
     outcome
@@ -173,12 +238,24 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
 /// of the piece that keeps the block's and of the first new one (a concave block may come apart
 /// in more), or None where the cut would not give valid pieces (the block is left whole).
 pub fn crack(model: &mut Model, b: usize, point: DVec3, normal: DVec3) -> Option<(u32, u32)> {
-    cut(model, &[b], point, normal.normalize(), None, None).split.first().copied()
+    let built = model.blocks[b].built_volume;
+    let outcome = cut(model, &[b], point, normal.normalize(), None, None, super::cracking::FRAGMENT_FLOOR * built);
+    // The pieces are the block's as built (the cracking floor, `cracking::FRAGMENT_FLOOR`): the
+    // one that keeps its index and the new ones at the end.
+    if !outcome.split.is_empty() {
+        let n = model.blocks.len();
+        model.blocks[b].built_volume = built;
+        for piece in &mut model.blocks[n - outcome.split.len()..] {
+            piece.built_volume = built;
+        }
+    }
+    outcome.split.first().copied()
 }
 
 /// Cuts the blocks `crossed` by the plane through `point` with unit normal `n` (the body of
-/// [`split`] and [`crack`]).
-fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: Option<u32>, constitutive: Option<u32>) -> SplitOutcome {
+/// [`split`] and [`crack`]); a block a piece of which would have a volume under `floor` is left
+/// whole.
+fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: Option<u32>, constitutive: Option<u32>, floor: f64) -> SplitOutcome {
     let mut outcome = SplitOutcome::default();
     let mut next_id = model.blocks.iter().map(|b| b.id).max().unwrap_or(0) + 1;
     let mut touched = Vec::new();
@@ -191,7 +268,7 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
                 continue;
             };
             for (side, faces) in typed.iter().enumerate() {
-                match geometry::shape_from_faces(faces) {
+                match geometry::shape_from_faces(&fewest_faces(faces, 1e-9 * parent.shape.radius)) {
                     Ok((shape, props)) if shape.convex => built.push((shape, props, Vec::new())),
                     Ok(_) => {
                         built.clear();
@@ -217,6 +294,10 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
                     continue;
                 }
             }
+        }
+        if let Some((_, props, _)) = built.iter().find(|(_, props, _)| props.volume < floor) {
+            outcome.rejected.push((parent.id, format!("a piece would hold {:.3E} of its volume, under the floor of {floor:.3E}", props.volume)));
+            continue;
         }
         let mat = material.unwrap_or(parent.material);
         let cons = constitutive.unwrap_or(parent.constitutive);

@@ -54,13 +54,15 @@ fn a_plane_across_a_box_gives_two_boxes_with_exact_mass_properties() {
         for k in 0..3 {
             assert!((i.col(k) - expected.col(k)).length() <= 1e-9 * mass, "{i:?} vs {expected:?}");
         }
-        // Every vertex of the piece lies on its box's surface: its corners, the crossings of the
-        // sides' diagonals with the cut, and the cap's centre.
+        // The piece is a box: its eight corners, no more (the crossings of the sides' diagonals
+        // with the cut and the cap's centre are no vertices, `split::fewest_faces`), each on
+        // its box's surface.
         for v in &blk.vertices {
             let inside = v.x >= x0 - 1e-12 && v.x <= x1 + 1e-12 && (-1e-12..=2.0 + 1e-12).contains(&v.y) && (-1e-12..=3.0 + 1e-12).contains(&v.z);
             let on_side = [v.x - x0, v.x - x1, v.y, v.y - 2.0, v.z, v.z - 3.0].iter().any(|d| d.abs() < 1e-12);
             assert!(inside && on_side, "{v}");
         }
+        assert_eq!(blk.vertices.len(), 8);
     }
 }
 
@@ -70,8 +72,10 @@ fn a_plane_through_vertices_cuts_a_cube_into_two_prisms() {
     let (m, _) = ok(&format!("{PROPS}BOX 0 1 0 1 0 1\nSPLIT 0 0 0 1 -1 0\n"));
     assert_eq!(m.blocks.len(), 2);
     for b in &m.blocks {
-        // Six corners and the cap's centre.
-        assert!(close(b.volume, 0.5, 1e-12) && b.shape.convex && b.vertices.len() == 7, "{} {}", b.volume, b.vertices.len());
+        // Six corners: the cut's points are the cap's corners, its centre no vertex
+        // (`split::fewest_faces`), and each square side's diagonal the cut crosses leaves no
+        // point on the side's edge.
+        assert!(close(b.volume, 0.5, 1e-12) && b.shape.convex && b.vertices.len() == 6, "{} {}", b.volume, b.vertices.len());
     }
     // x − y < 0 behind: the prism with centroid (1/3, 2/3, 1/2).
     assert!((m.blocks[0].centroid - DVec3::new(1.0 / 3.0, 2.0 / 3.0, 0.5)).length() < 1e-12);
@@ -289,4 +293,46 @@ fn the_joint_law_keeps_a_cracked_faces_stiffness() {
         e.contains("t.dat:11:") && e.contains("constitutive number 2 gives its face contacts the joint law") && e.contains("material 1 needs JKN and JKS"),
         "{e}"
     );
+}
+
+/// A press far beyond the rock's strength (`cracking`, "The fragment floor"): a column of three
+/// rigid cubes of TF = 2·10⁴ Pa (point-load law) on a fixed slab, a fourth held by BOUNDARY
+/// VELOCITY driving down into them at 0.5 m/s. Each crack's pieces crack in turn, each generation
+/// sooner than the last (the value grows as 1/d²); before the floor the blocks doubled every
+/// cycle or two and 200 cycles never ended. Now every crack's pieces keep at least 1/64 of the
+/// cube they came from, the cascade stops, and the fragments are convex blocks of few corners
+/// (their flat sides merged, `split::fewest_faces`; they had hundreds of vertices). The floor
+/// survives SAVE and RESTART: the restarted run goes on as the straight one, bit for bit.
+#[test]
+fn a_press_crushes_blocks_down_to_the_fragment_floor_and_no_further() {
+    use blockdem::d3::cracking::FRAGMENT_FLOOR;
+    let dir = std::env::temp_dir().join(format!("blockdem-d3-floor-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let setup = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5 TF=2E4\nBOX -2 3 -2 3 -1 0\nBOX 0 1 0 1 0 1\n\
+                 BOX 0.1 0.9 0.1 0.9 1 2\nBOX 0 1 0 1 2 3\nBOX 0.2 1.2 0 1 3 4\nFIX -2 3 -2 3 -0.6 -0.4\n\
+                 BOUNDARY VELOCITY 0 1.2 0 1 3.4 3.6 0 0 -0.5\nGRAV 0 0 -10\n";
+    let save = dir.join("floor.sav");
+    let (m, log) = ok(&format!("{setup}CYCLE 100\nSAVE {}\nCYCLE 100\n", save.display()));
+    let cracks = log.matches("CRACKED").count();
+    // The three cubes under the press and the press itself crack, again and again.
+    assert!(cracks >= 12, "{cracks} cracks\n{log}");
+    // Built: the slab, three cubes of 1, 0.64 and 1 m³, and the press (1 m³).
+    let built: Vec<f64> = vec![25.0, 1.0, 0.64, 1.0, 1.0];
+    assert!(m.blocks.len() <= 5 + 4 * 63, "{} blocks", m.blocks.len());
+    for b in &m.blocks {
+        assert!(built.iter().any(|v| close(b.built_volume, *v, 1e-9)), "block {}'s volume as built {}", b.id, b.built_volume);
+        assert!(b.volume >= FRAGMENT_FLOOR * b.built_volume * (1.0 - 1e-12), "block {}: {} of {}", b.id, b.volume, b.built_volume);
+        assert!(b.shape.convex && b.vertices.len() <= 16, "block {}: {} vertices", b.id, b.vertices.len());
+    }
+    // Some piece is down at the floor's generation (a cube halved five times or more).
+    assert!(m.blocks.iter().any(|b| b.volume < 4.0 * FRAGMENT_FLOOR * b.built_volume), "no fragment near the floor");
+    // The last 100 cycles crack less than the first (the cascade ends).
+    let late = log.lines().filter(|l| l.contains("CRACKED") && l.split("AT CYCLE ").nth(1).and_then(|s| s.split(' ').next()).and_then(|c| c.parse::<u64>().ok()).is_some_and(|c| c > 100)).count();
+    assert!(late < cracks - late, "{late} of {cracks} cracks after cycle 100");
+    // RESTART keeps each piece's volume as built.
+    let file = blockdem::d3::restart::load(&save).unwrap();
+    assert!(file.model.blocks.iter().any(|b| b.built_volume != b.volume), "the file keeps the pieces' volumes as built");
+    let (restarted, _) = ok(&format!("RESTART {}\nCYCLE 100\n", save.display()));
+    assert_eq!(restarted, m, "restarted run against the straight one");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1097,8 +1097,9 @@ fn sdef_pods<R: Real>(model: &Model) -> Option<Vec<layout::SdefBlock<R>>> {
                 lambda: r(super::sdef::lame_lambda(mat.bulk, mat.shear)),
                 shear: r(mat.shear),
                 alpha: r(model.damping.alpha_internal),
-                // Screened on the device where Griffith's law may crack it (`crack_screen`).
-                tf: r(if super::sdef::griffith_applies(b.constitutive, mat.tf) { mat.tf } else { 0.0 }),
+                // Screened on the device where Griffith's law may crack it (`crack_screen`):
+                // not a fragment at the floor (`cracking::above_floor`).
+                tf: r(if super::sdef::griffith_applies(b.constitutive, mat.tf) && super::cracking::above_floor(b) { mat.tf } else { 0.0 }),
                 live: 1,
                 spare: 0,
             }
