@@ -135,7 +135,8 @@ pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
         // Typed (a, b, c) runs clockwise seen from outside: (a, c, b) counter-clockwise.
         let cross = (c - a).cross(b - a);
         let length = cross.length();
-        if !(length > 0.0) {
+        // (A zero or NaN length: a degenerate triangle, whose points other triangles hold.)
+        if length.is_nan() || length <= 0.0 {
             continue;
         }
         let n = cross / length;

@@ -327,7 +327,12 @@ fn a_press_crushes_blocks_down_to_the_fragment_floor_and_no_further() {
     // Some piece is down at the floor's generation (a cube halved five times or more).
     assert!(m.blocks.iter().any(|b| b.volume < 4.0 * FRAGMENT_FLOOR * b.built_volume), "no fragment near the floor");
     // The last 100 cycles crack less than the first (the cascade ends).
-    let late = log.lines().filter(|l| l.contains("CRACKED") && l.split("AT CYCLE ").nth(1).and_then(|s| s.split(' ').next()).and_then(|c| c.parse::<u64>().ok()).is_some_and(|c| c > 100)).count();
+    let late = log
+        .lines()
+        .filter(|l| {
+            l.contains("CRACKED") && l.split("AT CYCLE ").nth(1).and_then(|s| s.split(' ').next()).and_then(|c| c.parse::<u64>().ok()).is_some_and(|c| c > 100)
+        })
+        .count();
     assert!(late < cracks - late, "{late} of {cracks} cracks after cycle 100");
     // RESTART keeps each piece's volume as built.
     let file = blockdem::d3::restart::load(&save).unwrap();
