@@ -145,23 +145,32 @@ pub fn preflight(model: &Model) -> Result<(), CycleError> {
 /// A contact driven through: a logical contact's overlap past half the smaller block's radius
 /// (checked after each stage 4).
 pub fn overlap_check(model: &Model) -> Result<(), CycleError> {
-    // The deepest logical contact of a contact, and the limit of its blocks.
-    fn deepest<'c>(model: &Model, c: &'c Contact) -> Option<(&'c Logical, f64, f64)> {
-        let (l, overlap) = c.logical.iter().map(|l| (l, -l.gap)).max_by(|x, y| x.1.total_cmp(&y.1))?;
-        let limit = 0.5 * model.blocks[c.blocks[0] as usize].shape.radius.min(model.blocks[c.blocks[1] as usize].shape.radius);
-        (overlap > limit).then_some((l, overlap, limit))
-    }
     // The first contact driven through, in the contacts' order (searched in parallel).
-    match model.contacts.par_iter().with_min_len(grain::CHECK).find_map_first(|c| deepest(model, c).map(|found| (c, found))) {
-        Some((c, (l, overlap, limit))) => Err(CycleError::Overlap {
-            cycle: model.cycle,
-            block1: model.blocks[c.blocks[0] as usize].id,
-            block2: model.blocks[c.blocks[1] as usize].id,
-            overlap,
-            limit,
-            at: Box::new(Position::xyz(l.point.to_array())),
-        }),
+    match model.contacts.par_iter().enumerate().with_min_len(grain::CHECK).find_map_first(|(k, c)| driven_through(&model.blocks, c).map(|_| k)) {
+        Some(k) => Err(overlap_error(model, k)),
         None => Ok(()),
+    }
+}
+
+/// The deepest logical contact of contact `c` where its overlap is past half the smaller of its
+/// blocks' radii (that limit): the logical contact, its overlap and the limit.
+fn driven_through<'c>(blocks: &[super::model::Block], c: &'c Contact) -> Option<(&'c Logical, f64, f64)> {
+    let (l, overlap) = c.logical.iter().map(|l| (l, -l.gap)).max_by(|x, y| x.1.total_cmp(&y.1))?;
+    let limit = 0.5 * blocks[c.blocks[0] as usize].shape.radius.min(blocks[c.blocks[1] as usize].shape.radius);
+    (overlap > limit).then_some((l, overlap, limit))
+}
+
+/// The failure of contact `k`, driven through ([`driven_through`]).
+fn overlap_error(model: &Model, k: usize) -> CycleError {
+    let c = &model.contacts[k];
+    let (l, overlap, limit) = driven_through(&model.blocks, c).expect("a contact driven through");
+    CycleError::Overlap {
+        cycle: model.cycle,
+        block1: model.blocks[c.blocks[0] as usize].id,
+        block2: model.blocks[c.blocks[1] as usize].id,
+        overlap,
+        limit,
+        at: Box::new(Position::xyz(l.point.to_array())),
     }
 }
 
@@ -333,16 +342,24 @@ thread_local! {
 
 /// Stage 4 over every contact: common plane, logical contacts (their shear forces carried by
 /// key), force–displacement law. With `dt` = 0 only the geometry and normal forces are renewed.
-pub fn contact_stage(model: &mut Model, dt: f64) {
-    let tol = model.contact_tolerance();
-    let (blocks, materials) = (&model.blocks, &model.materials);
+/// Returns the first contact (its index) driven through ([`overlap_check`]'s check, made in the
+/// same pass).
+pub fn contact_stage(model: &mut Model, dt: f64) -> Option<usize> {
     // Each block's bodies placed (their plane normals turned, boxes, inner balls) once for all
     // their contacts.
     // Kept from cycle to cycle on the thread that runs them ([`PLACEMENTS`]), renewed in place.
     let mut placements = PLACEMENTS.take();
-    placements.resize_with(blocks.len(), contact::Placement::default);
-    placements.par_iter_mut().zip(blocks.par_iter()).with_min_len(grain::BLOCK).for_each(|(p, b)| p.renew(b));
-    let energy: Vec<(f64, f64)> = model
+    placements.resize_with(model.blocks.len(), contact::Placement::default);
+    placements.par_iter_mut().zip(model.blocks.par_iter()).with_min_len(grain::BLOCK).for_each(|(p, b)| p.renew(b));
+    contact_stage_placed(model, dt, placements)
+}
+
+/// [`contact_stage`] with the blocks' bodies `placements` renewed where they are (by the cycle's
+/// block pass); they go back to [`PLACEMENTS`] after.
+fn contact_stage_placed(model: &mut Model, dt: f64, placements: Vec<contact::Placement>) -> Option<usize> {
+    let tol = model.contact_tolerance();
+    let (blocks, materials) = (&model.blocks, &model.materials);
+    let energy: Vec<(f64, f64, bool)> = model
         .contacts
         .par_iter_mut()
         .with_min_len(grain::CONTACT)
@@ -354,15 +371,21 @@ pub fn contact_stage(model: &mut Model, dt: f64) {
             let joint = super::model::joint_contacts(blocks[i].constitutive);
             // The parts in touch (a convex block is its own one part).
             let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
-            update_contact(c, a, b, &mat, joint, tol, dt, scratch)
+            let (friction, released) = update_contact(c, a, b, &mat, joint, tol, dt, scratch);
+            (friction, released, driven_through(blocks, c).is_some())
         })
         .collect();
     PLACEMENTS.set(placements);
     // Summed in the contacts' order: reruns repeat bit for bit.
-    for (friction, released) in energy {
+    let mut first_through = None;
+    for (k, (friction, released, through)) in energy.into_iter().enumerate() {
         model.dissipated.friction += friction;
         model.dissipated.released += released;
+        if through && first_through.is_none() {
+            first_through = Some(k);
+        }
     }
+    first_through
 }
 
 /// One contact's stage 4. Returns the energy friction took and that released by logical
@@ -439,14 +462,21 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
     add_sums(model, sums, dt);
     let (gravity, alpha, alpha_internal) = (model.gravity, model.damping.alpha, model.damping.alpha_internal);
     let materials = &model.materials;
+    // Each block's step, and its bodies placed for stage 4 where it now is, in one pass (stage 7
+    // between them moves no block).
+    let mut placements = PLACEMENTS.take();
+    placements.resize_with(model.blocks.len(), contact::Placement::default);
     let outcomes: Vec<motion::StepOutcome> = model
         .blocks
         .par_iter_mut()
+        .zip(placements.par_iter_mut())
         .with_min_len(grain::BLOCK)
-        .map(|b| {
+        .map(|(b, p)| {
             // A simply-deformable block steps its strain with its material's moduli.
             let mat = b.sdef.is_some().then(|| super::model::material_of(materials, b.material).elastic());
-            motion::law_of_motion_with(b, gravity, alpha, dt, mat.as_ref().map(|m| (m, alpha_internal)))
+            let outcome = motion::law_of_motion_with(b, gravity, alpha, dt, mat.as_ref().map(|m| (m, alpha_internal)));
+            p.renew(b);
+            outcome
         })
         .collect();
     let tol = model.contact_tolerance();
@@ -474,8 +504,9 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
         report.contacts_created += created;
         report.contacts_dropped += dropped;
     }
-    contact_stage(model, dt);
-    overlap_check(model)?;
+    if let Some(k) = contact_stage_placed(model, dt, placements) {
+        return Err(overlap_error(model, k));
+    }
     cracks(model, report);
     Ok(())
 }

@@ -793,20 +793,40 @@ impl Model {
             g.inverse_mass + if g.least > 0.0 { r2 / g.least } else { 0.0 } + strain
         };
         let mut row: Vec<f64> = (0..self.blocks.len()).map(|i| k_max * compliance(i, self.blocks[i].shape.radius.powi(2))).collect();
-        let mut contact_rows = vec![0.0f64; self.blocks.len()];
+        // Each logical contact's terms on its two blocks' rows, k(a_i + √(a_i a_j)) and
+        // k(a_j + √(a_i a_j)), worked out in parallel into one list in the contacts' order (each
+        // contact its own stretch of it), then added to the rows in that order: bit for bit the
+        // sums of one pass in order, with the square roots and divisions shared out.
+        let mut stretches: Vec<&mut [(f64, f64)]> = Vec::with_capacity(self.contacts.len());
+        let mut terms = vec![(0.0f64, 0.0f64); self.contacts.iter().map(|c| c.logical.len()).sum()];
+        let mut rest = terms.as_mut_slice();
         for c in &self.contacts {
+            let (stretch, after) = rest.split_at_mut(c.logical.len());
+            stretches.push(stretch);
+            rest = after;
+        }
+        self.contacts.par_iter().zip(stretches.par_iter_mut()).with_min_len(super::grain::SUMS).for_each(|(c, stretch)| {
             if c.logical.is_empty() {
-                continue;
+                return;
             }
             let mat = self.contact_material(c);
             let k = mat.kn.max(mat.ks);
             let [i, j] = c.blocks.map(|b| b as usize);
-            for l in &c.logical {
+            for (l, t) in c.logical.iter().zip(stretch.iter_mut()) {
                 let ai = compliance(i, (l.point - gives[i].centroid).length_squared());
                 let aj = compliance(j, (l.point - gives[j].centroid).length_squared());
                 let shared = (ai * aj).sqrt();
-                contact_rows[i] += k * (ai + shared);
-                contact_rows[j] += k * (aj + shared);
+                *t = (k * (ai + shared), k * (aj + shared));
+            }
+        });
+        drop(stretches);
+        let mut contact_rows = vec![0.0f64; self.blocks.len()];
+        let mut next = terms.iter();
+        for c in &self.contacts {
+            let [i, j] = c.blocks.map(|b| b as usize);
+            for (ti, tj) in next.by_ref().take(c.logical.len()) {
+                contact_rows[i] += ti;
+                contact_rows[j] += tj;
             }
         }
         for (r, c) in row.iter_mut().zip(&contact_rows) {
