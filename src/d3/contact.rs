@@ -262,7 +262,7 @@ pub fn common_plane_of(a: Body, b: Body, reach: f64, hint: Option<DVec3>) -> Com
 /// (the hint the last cycle's answer, a face–face contact between cubes) about four axes of
 /// thirty are worked out.
 pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>) -> CommonPlane {
-    let placed = (a, b);
+    let (placed_a, placed_b) = (a, b);
     let (na, nb) = (a.normals, b.normals);
     let (edges_a, edges_b) = (a.edges, b.edges);
     let ((pa, ra), (pb, rb)) = (a.ball, b.ball);
@@ -339,7 +339,7 @@ pub fn common_plane_with(a: &Placed, b: &Placed, reach: f64, hint: Option<DVec3>
         }
         None => search(f64::NEG_INFINITY),
     };
-    if best.separation > 0.0 && best.separation <= reach && !face_meets(&placed, &best, axis, 0.25 * slack) {
+    if best.separation > 0.0 && best.separation <= reach && !face_meets(placed_a, placed_b, &best, axis, 0.25 * slack) {
         // The nearest pair of a vertex and a vertex or feature edge of the other block, among
         // those that can be within `reach` (near the plane found so far): its direction's
         // separation is the blocks' distance where those are their nearest features, and less
@@ -400,15 +400,16 @@ enum Axis {
 /// more than any pair of their points is apart: no nearest pair of vertex and edge can give a
 /// greater separation, and [`common_plane_with`] need not look for one (where the columns of a
 /// stack rock and hop, nearly half the contacts of a cycle are apart by a little, face on face).
-/// False for an edge pair's axis, or where no vertex lands inside. (WGSL twin: `face_meets` in
-/// `track_contact.wgsl`.)
-fn face_meets(placed: &(&Placed, &Placed), plane: &CommonPlane, axis: Axis, within: f64) -> bool {
+/// False for an edge pair's axis, or where no vertex lands inside. `a` and `b` are the two
+/// bodies as placed (block 1's and block 2's, as [`common_plane_with`] takes them). (WGSL twin:
+/// `face_meets` in `track_contact.wgsl`.)
+fn face_meets(a: &Placed, b: &Placed, plane: &CommonPlane, axis: Axis, within: f64) -> bool {
     let (n, (hi_a, lo_b)) = (plane.normal, plane.supports);
     // The face's body, its plane's number, the other body, and the sense along n from the
     // other body towards the face.
     let (face, k, other, towards) = match axis {
-        Axis::FaceA(k) => (placed.0, k, placed.1.body, -1.0),
-        Axis::FaceB(k) => (placed.1, k, placed.0.body, 1.0),
+        Axis::FaceA(k) => (a, k, b.body, -1.0),
+        Axis::FaceB(k) => (b, k, a.body, 1.0),
         Axis::Edges => return false,
     };
     let (support, level) = if towards < 0.0 { (lo_b, hi_a) } else { (hi_a, lo_b) };
