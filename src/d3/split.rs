@@ -205,6 +205,19 @@ pub fn concave_pieces(parent: &Block, point: DVec3, n: DVec3) -> Result<Option<V
         let side = ["back", "front"][side];
         let (shape, props) =
             geometry::shape_from_mesh(piece.vertices, piece.faces, size).map_err(|e| format!("a {side} piece is not a valid block: {}", e.message))?;
+        // A convex piece keeps its flat sides' corners only, as a convex parent's pieces do
+        // ([`fewest_faces`]; its mesh's faces, counter-clockwise from outside, typed the other
+        // way round).
+        let (shape, props) = if shape.convex {
+            let typed: Vec<[[f64; 3]; 3]> =
+                shape.faces.iter().map(|f| [f[0], f[2], f[1]].map(|v| (shape.vertices[v as usize] + props.centroid).to_array())).collect();
+            geometry::shape_from_faces(&fewest_faces(&typed, 1e-9 * parent.shape.radius))
+                .ok()
+                .filter(|(s, _)| s.convex)
+                .ok_or_else(|| format!("a {side} piece's sides do not close when merged"))?
+        } else {
+            (shape, props)
+        };
         let parts =
             decompose::parts_if_concave(&shape, props.volume).map_err(|why| format!("a {side} piece is concave and cannot be made of convex parts: {why}"))?;
         out.push((shape, props, parts));

@@ -341,3 +341,21 @@ fn a_press_crushes_blocks_down_to_the_fragment_floor_and_no_further() {
     assert_eq!(restarted, m, "restarted run against the straight one");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A concave parent's convex piece keeps its flat sides' corners only, as a convex parent's do
+/// (`split::concave_pieces`, `split::fewest_faces`): the L of three unit voxels cut across its
+/// long arm leaves a box of eight vertices (the cross-section's triangulation and the voxel
+/// sides' diagonals add none) and an L of its parts.
+#[test]
+fn a_concave_blocks_convex_piece_has_only_its_corners() {
+    use crate::common::voxels::{block_command, voxel_faces, L};
+    let block = block_command(&voxel_faces(&L, 1.0, [0.0; 3]), 1);
+    let (m, _) = ok(&format!("{PROPS}{block}SPLIT 1.5 0 0 1 0 0\n"));
+    assert_eq!(m.blocks.len(), 2);
+    let front = m.blocks.iter().find(|b| b.centroid.x > 1.5).expect("the piece in front of the plane");
+    assert!(front.shape.convex && front.parts.is_empty() && close(front.volume, 0.5, 1e-12), "{}", front.volume);
+    assert_eq!(front.vertices.len(), 8);
+    assert_eq!(front.shape.faces.len(), 12);
+    let back = m.blocks.iter().find(|b| b.centroid.x < 1.5).expect("the piece behind");
+    assert!(!back.shape.convex && !back.parts.is_empty() && close(back.volume, 2.5, 1e-12), "{}", back.volume);
+}
