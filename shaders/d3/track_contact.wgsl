@@ -316,13 +316,14 @@ fn near(first: bool, h: real, hi_a: real, lo_b: real, reach: real) -> bool {
 // through) (Rust twin: `contact::ray_crossing` over the planes `contact::facing` sorts out once
 // per contact); `found` false where no plane qualifies. Planes
 // within GRAZING of parallel to n are passed over (the prelude says why; PART_GRAZING for a part
-// of a concave block, whose record lies after the blocks).
+// of a concave block, whose record lies after the blocks), and so are crossings farther along the
+// line than `reach`.
 struct Crossing {
     s: real,
     found: bool,
 }
 
-fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool) -> Crossing {
+fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool, reach: real) -> Crossing {
     var out = Crossing(0.0, false);
     let grazing = select(GRAZING, PART_GRAZING, i >= params.blocks);
     for (var k = 0u; k < blocks[i].plane_count; k++) {
@@ -331,6 +332,11 @@ fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool) -> Crossin
         let x = block_vertex(i, planes[blocks[i].plane_start + k].vertex);
         if ((entering && d < -grazing) || (!entering && d > grazing)) {
             let s = dot3(nf, x - p) / d;
+            // Farther than `reach`: a face nearly parallel to the line, seen from just outside
+            // (Rust twin's doc).
+            if (abs(s) > reach) {
+                continue;
+            }
             if (!out.found || (entering && s > out.s) || (!entering && s < out.s)) {
                 out = Crossing(s, true);
             }
@@ -368,8 +374,9 @@ fn place_logical(l: Logical, a: u32, b: u32, n: vec3<real>, hi_a: real, lo_b: re
         x = p0 + r * t;
     }
     let p = x + n * (mid - dot3(n, x));
-    let leave = ray_crossing(a, p, n, false);
-    let enter = ray_crossing(b, p, n, true);
+    let reach = 2.0 * (blocks[a].radius + blocks[b].radius);
+    let leave = ray_crossing(a, p, n, false, reach);
+    let enter = ray_crossing(b, p, n, true, reach);
     var ls: real = 0.0;
     var es: real = separation;
     if (leave.found && enter.found) {

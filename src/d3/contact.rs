@@ -471,10 +471,20 @@ type Facing = (DVec3, DVec3, f64);
 /// s over the planes it heads out through), or enters it (`entering`: the greatest s over the
 /// planes it heads in through); `planes`: those of [`facing`] along `n`, the same `entering`.
 /// ±∞ where there are none.
-fn ray_crossing(planes: &[Facing], p: DVec3, entering: bool) -> f64 {
+///
+/// A crossing farther along the line than `reach` is passed over: the line leaves or enters a
+/// body it meets near the contact within the two bodies' sizes of the mid-plane, and such a
+/// crossing is a face nearly parallel to the line that the point, on the touching region's edge
+/// and up to the hulls' tolerance outside it, sees from outside: n·normal of 10⁻⁸ and 10⁻⁶ of the
+/// size outside put it a hundred sizes off (a crushed pile's fragments had logical contacts 79 m
+/// from their 0.5 m blocks, an open gap, and a lever arm that cut the critical step 20-fold).
+fn ray_crossing(planes: &[Facing], p: DVec3, entering: bool, reach: f64) -> f64 {
     let mut s_best = if entering { f64::NEG_INFINITY } else { f64::INFINITY };
     for &(nf, x, d) in planes {
         let s = nf.dot(x - p) / d;
+        if s.abs() > reach {
+            continue;
+        }
         s_best = if entering { s_best.max(s) } else { s_best.min(s) };
     }
     s_best
@@ -800,13 +810,15 @@ pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolera
         on_plane.push((LogicalKind::VertexFace { on_first: true, vertex: ha.ids[at.0] }, p));
     }
     // Each point on the plane: the gap along n between where the line leaves block 1 and enters
-    // block 2, and the point halfway between the two surfaces.
+    // block 2 (no farther than `reach`, [`ray_crossing`]), and the point halfway between the two
+    // surfaces.
+    let reach = 2.0 * (a.shape.radius + b.shape.radius);
     let origin = n * (0.5 * (hi_a + lo_b));
     found.clear();
     found.extend(on_plane.iter().map(|(kind, p2)| {
         let p = origin + t1 * p2.x + t2 * p2.y;
-        let leave = ray_crossing(leaving, p, false);
-        let enter = ray_crossing(entering, p, true);
+        let leave = ray_crossing(leaving, p, false, reach);
+        let enter = ray_crossing(entering, p, true, reach);
         let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, plane.separation) };
         (*kind, p + n * (0.5 * (leave + enter)), enter - leave)
     }));
@@ -964,9 +976,10 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
     let grazing = |body: Body| if body.block.parts.is_empty() { GRAZING } else { PART_GRAZING };
     let mut planes = Vec::new();
     facing(a, &plane_normals(a), n, false, grazing(a), &mut planes);
-    let leave = ray_crossing(&planes, p, false);
+    let reach = 2.0 * (a.shape.radius + b.shape.radius);
+    let leave = ray_crossing(&planes, p, false, reach);
     facing(b, &plane_normals(b), n, true, grazing(b), &mut planes);
-    let enter = ray_crossing(&planes, p, true);
+    let enter = ray_crossing(&planes, p, true, reach);
     let (leave, enter) = if leave.is_finite() && enter.is_finite() { (leave, enter) } else { (0.0, separation) };
     (p + n * (0.5 * (leave + enter)), enter - leave)
 }

@@ -552,3 +552,28 @@ fn a_contacts_logical_contacts_have_distinct_keys() {
     }
     assert!(touching > 250, "{touching} of 300 cases touching");
 }
+
+/// Two corners of the upper block just outside the lower one's side face (within the hulls'
+/// tolerance), the common normal turned off that face's plane by 10⁻⁷ rad: the line along the
+/// normal through the corner crosses the side face's plane 5 m down (5·10⁻⁷ outside over 10⁻⁷),
+/// which used to be taken as where it leaves the lower block: a logical contact 2.5 m off the
+/// blocks with a 5 m gap (a crushed pile's fragments had them 79 m off, and their lever arm cut
+/// the critical step 20-fold). A crossing farther than the two blocks' sizes is passed over
+/// (`contact::ray_crossing`): every logical contact lies on the touching region.
+#[test]
+fn a_corner_just_outside_a_face_along_the_normal_stays_on_the_contact() {
+    use blockdem::d3::contact::CommonPlane;
+    let a = block(1, &turned_box([-0.5, -0.5, -1.0], [0.5, 0.5, 0.0], DQuat::IDENTITY, DVec3::ZERO));
+    let q = DQuat::from_rotation_y(1e-7);
+    // Narrower in y than the lower block, so that its corners are no corners of the other.
+    let b = block(2, &turned_box([-0.5, -0.3, 0.0], [0.5, 0.3, 1.0], q, DVec3::new(5e-7, 0.0, -1e-5)));
+    let n = q * DVec3::Z;
+    let hi_a = a.vertices.iter().map(|v| n.dot(*v)).fold(f64::NEG_INFINITY, f64::max);
+    let lo_b = b.vertices.iter().map(|v| n.dot(*v)).fold(f64::INFINITY, f64::min);
+    let plane = CommonPlane { normal: n, separation: lo_b - hi_a, supports: (hi_a, lo_b) };
+    let (_, logical, _) = logical_contacts(&a, &b, &plane, 0.01);
+    assert_eq!(logical.len(), 4, "{logical:?}");
+    for (kind, p, gap) in &logical {
+        assert!(p.z.abs() < 1e-4 && p.x.abs() < 0.5 + 1e-5 && gap.abs() < 1e-4, "{kind:?} at {p}, gap {gap}");
+    }
+}
