@@ -208,16 +208,13 @@ pub fn concave_pieces(parent: &Block, point: DVec3, n: DVec3) -> Result<Option<V
         // A convex piece keeps its flat sides' corners only, as a convex parent's pieces do
         // ([`fewest_faces`]; its mesh's faces, counter-clockwise from outside, typed the other
         // way round).
-        let (shape, props) = if shape.convex {
+        // (Where the merged sides do not make a valid convex block, the piece stays as cut.)
+        let merged = shape.convex.then(|| {
             let typed: Vec<[[f64; 3]; 3]> =
                 shape.faces.iter().map(|f| [f[0], f[2], f[1]].map(|v| (shape.vertices[v as usize] + props.centroid).to_array())).collect();
-            geometry::shape_from_faces(&fewest_faces(&typed, 1e-9 * parent.shape.radius))
-                .ok()
-                .filter(|(s, _)| s.convex)
-                .ok_or_else(|| format!("a {side} piece's sides do not close when merged"))?
-        } else {
-            (shape, props)
-        };
+            geometry::shape_from_faces(&fewest_faces(&typed, 1e-9 * parent.shape.radius)).ok().filter(|(s, _)| s.convex)
+        });
+        let (shape, props) = merged.flatten().unwrap_or((shape, props));
         let parts =
             decompose::parts_if_concave(&shape, props.volume).map_err(|why| format!("a {side} piece is concave and cannot be made of convex parts: {why}"))?;
         out.push((shape, props, parts));
@@ -282,7 +279,10 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
                 continue;
             };
             for (side, faces) in typed.iter().enumerate() {
-                match geometry::shape_from_faces(&fewest_faces(faces, 1e-9 * parent.shape.radius)) {
+                // The sides merged to their corners (`fewest_faces`), or, where that does not
+                // make a valid convex block, the piece as cut.
+                let merged = geometry::shape_from_faces(&fewest_faces(faces, 1e-9 * parent.shape.radius)).ok().filter(|(s, _)| s.convex);
+                match merged.map_or_else(|| geometry::shape_from_faces(faces), Ok) {
                     Ok((shape, props)) if shape.convex => built.push((shape, props, Vec::new())),
                     Ok(_) => {
                         built.clear();
@@ -310,7 +310,7 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
             }
         }
         if let Some((_, props, _)) = built.iter().find(|(_, props, _)| props.volume < floor) {
-            outcome.rejected.push((parent.id, format!("a piece would hold {:.3E} of its volume, under the floor of {floor:.3E}", props.volume)));
+            outcome.rejected.push((parent.id, format!("a piece would have a volume of {:.3E}, under the floor of {floor:.3E}", props.volume)));
             continue;
         }
         let mat = material.unwrap_or(parent.material);
