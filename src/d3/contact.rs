@@ -490,6 +490,13 @@ fn ray_crossing(planes: &[Facing], p: DVec3, entering: bool, reach: f64) -> f64 
     s_best
 }
 
+/// How far along the normal from the mid-plane a face crossing of bodies `a` and `b` may lie and
+/// still count ([`ray_crossing`]'s `reach`): twice their radii together (the WGSL
+/// `place_logical`'s `reach`).
+fn crossing_reach(a: Body, b: Body) -> f64 {
+    2.0 * (a.shape.radius + b.shape.radius)
+}
+
 /// How near parallel to the ray a face may lie and still be crossed (the cosine): the f64
 /// kernels' GRAZING (`d3::gpu::shaders`).
 const GRAZING: f64 = 1e-9;
@@ -812,7 +819,7 @@ pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolera
     // Each point on the plane: the gap along n between where the line leaves block 1 and enters
     // block 2 (no farther than `reach`, [`ray_crossing`]), and the point halfway between the two
     // surfaces.
-    let reach = 2.0 * (a.shape.radius + b.shape.radius);
+    let reach = crossing_reach(a, b);
     let origin = n * (0.5 * (hi_a + lo_b));
     found.clear();
     found.extend(on_plane.iter().map(|(kind, p2)| {
@@ -976,7 +983,7 @@ pub fn place_logical(kind: LogicalKind, a: Body, b: Body, n: DVec3, hi_a: f64, l
     let grazing = |body: Body| if body.block.parts.is_empty() { GRAZING } else { PART_GRAZING };
     let mut planes = Vec::new();
     facing(a, &plane_normals(a), n, false, grazing(a), &mut planes);
-    let reach = 2.0 * (a.shape.radius + b.shape.radius);
+    let reach = crossing_reach(a, b);
     let leave = ray_crossing(&planes, p, false, reach);
     facing(b, &plane_normals(b), n, true, grazing(b), &mut planes);
     let enter = ray_crossing(&planes, p, true, reach);

@@ -126,7 +126,7 @@ pub fn cut_faces(vertices: &[DVec3], faces: &[[u32; 3]], point: DVec3, normal: D
 /// it made, and a crack's pieces, cut again and again, would carry hundreds of vertices on their
 /// flat sides (each a logical contact's corner: a stiffer contact, a smaller time step, a slower
 /// cycle). Where a side's polygon comes out degenerate it is left out, and the piece's checks
-/// (`geometry::shape_from_faces`) refuse the cut.
+/// (`geometry::shape_from_faces`) refuse the merged surface ([`merged`]).
 pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
     // The sides: outward unit normal, offset along it, and the points of their triangles.
     let mut sides: Vec<(DVec3, f64, Vec<DVec3>)> = Vec::new();
@@ -184,6 +184,13 @@ pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
     out
 }
 
+/// The convex block of the typed faces `typed` with its flat sides merged ([`fewest_faces`],
+/// points within `eps` of a line dropped), or None where that does not make a valid convex block
+/// (the caller keeps the piece as cut).
+fn merged(typed: &[[[f64; 3]; 3]], eps: f64) -> Option<(geometry::Shape, geometry::MassProperties)> {
+    geometry::shape_from_faces(&fewest_faces(typed, eps)).ok().filter(|(shape, _)| shape.convex)
+}
+
 /// The pieces of a concave block (one made of convex parts, `d3::decompose`) cut by the plane
 /// through `point` with unit normal `n`: its whole surface cut as a closed mesh
 /// (`decompose::cut_sides`, the cross-section capped by a constrained triangulation, as it may be
@@ -212,7 +219,7 @@ pub fn concave_pieces(parent: &Block, point: DVec3, n: DVec3) -> Result<Option<V
         let merged = shape.convex.then(|| {
             let typed: Vec<[[f64; 3]; 3]> =
                 shape.faces.iter().map(|f| [f[0], f[2], f[1]].map(|v| (shape.vertices[v as usize] + props.centroid).to_array())).collect();
-            geometry::shape_from_faces(&fewest_faces(&typed, 1e-9 * parent.shape.radius)).ok().filter(|(s, _)| s.convex)
+            merged(&typed, 1e-9 * parent.shape.radius)
         });
         let (shape, props) = merged.flatten().unwrap_or((shape, props));
         let parts =
@@ -281,8 +288,7 @@ fn cut(model: &mut Model, crossed: &[usize], point: DVec3, n: DVec3, material: O
             for (side, faces) in typed.iter().enumerate() {
                 // The sides merged to their corners (`fewest_faces`), or, where that does not
                 // make a valid convex block, the piece as cut.
-                let merged = geometry::shape_from_faces(&fewest_faces(faces, 1e-9 * parent.shape.radius)).ok().filter(|(s, _)| s.convex);
-                match merged.map_or_else(|| geometry::shape_from_faces(faces), Ok) {
+                match merged(faces, 1e-9 * parent.shape.radius).map_or_else(|| geometry::shape_from_faces(faces), Ok) {
                     Ok((shape, props)) if shape.convex => built.push((shape, props, Vec::new())),
                     Ok(_) => {
                         built.clear();
