@@ -126,7 +126,7 @@ pub fn cut_faces(vertices: &[DVec3], faces: &[[u32; 3]], point: DVec3, normal: D
 /// it made, and a crack's pieces, cut again and again, would carry hundreds of vertices on their
 /// flat sides (each a logical contact's corner: a stiffer contact, a smaller time step, a slower
 /// cycle). Where a side's polygon comes out degenerate it is left out, and the piece's checks
-/// (`geometry::shape_from_faces`) refuse the merged surface ([`merged`]).
+/// (`geometry::shape_from_faces`) refuse the merged surface (`merged`).
 pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
     // The sides: outward unit normal, offset along it, and the points of their triangles.
     let mut sides: Vec<(DVec3, f64, Vec<DVec3>)> = Vec::new();
