@@ -149,29 +149,44 @@ pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
     let mut out = Vec::with_capacity(2 * sides.len());
     for (n, _, points) in &sides {
         // The side's convex hull in its plane (u × w = n: counter-clockwise about n is
-        // counter-clockwise seen from outside), by Andrew's monotone chain, a point that makes no
-        // left turn by more than `eps` dropped.
+        // counter-clockwise seen from outside), by Andrew's monotone chain.
         let u = n.any_orthonormal_vector();
         let w = n.cross(u);
         let mut flat: Vec<(f64, f64, DVec3)> = points.iter().map(|&p| (p.dot(u), p.dot(w), p)).collect();
         flat.sort_by(|p, q| p.0.total_cmp(&q.0).then(p.1.total_cmp(&q.1)));
-        // Whether a lies within eps of the line o–b or right of it (o → a → b no left turn).
-        let straight_or_right = |o: &(f64, f64, DVec3), a: &(f64, f64, DVec3), b: &(f64, f64, DVec3)| {
-            let turn = (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
-            turn <= eps * (b.0 - o.0).hypot(b.1 - o.1)
-        };
+        // How far o → a → b turns left: twice the triangle's area (a's distance from the line
+        // o–b times |b − o|).
+        let turn = |o: &(f64, f64, DVec3), a: &(f64, f64, DVec3), b: &(f64, f64, DVec3)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
+        // The chains drop only points that make no left turn at all: a tolerance here would
+        // test a point against the line of two others that need not lie on either side of it
+        // (three points along an edge running across u, sorted out of their order along it by
+        // round-off in u), and drop a true corner.
         let mut hull: Vec<(f64, f64, DVec3)> = Vec::with_capacity(flat.len() + 1);
         for pass in 0..2 {
             let start = hull.len();
             let chain: Box<dyn Iterator<Item = &(f64, f64, DVec3)>> = if pass == 0 { Box::new(flat.iter()) } else { Box::new(flat.iter().rev()) };
             for p in chain {
-                while hull.len() >= start + 2 && straight_or_right(&hull[hull.len() - 2], &hull[hull.len() - 1], p) {
+                while hull.len() >= start + 2 && turn(&hull[hull.len() - 2], &hull[hull.len() - 1], p) <= 0.0 {
                     hull.pop();
                 }
                 hull.push(*p);
             }
             // The chain's last point is the next chain's first.
             hull.pop();
+        }
+        // Then, round the closed polygon (its first point too), each point within `eps` of the
+        // line of its two neighbours is dropped, the one nearest its line first: the side across
+        // the edge drops that point too, so the two sides meet corner to corner.
+        while hull.len() >= 3 {
+            let n = hull.len();
+            let height = |k: usize| {
+                let (o, b) = (&hull[(k + n - 1) % n], &hull[(k + 1) % n]);
+                turn(o, &hull[k], b) / (b.0 - o.0).hypot(b.1 - o.1)
+            };
+            match (0..n).map(|k| (height(k), k)).filter(|(h, _)| !(*h > eps)).min_by(|x, y| x.0.total_cmp(&y.0)) {
+                Some((_, k)) => drop(hull.remove(k)),
+                None => break,
+            }
         }
         if hull.len() < 3 {
             continue;

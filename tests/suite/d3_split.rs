@@ -359,3 +359,45 @@ fn a_concave_blocks_convex_piece_has_only_its_corners() {
     let back = m.blocks.iter().find(|b| b.centroid.x < 1.5).expect("the piece behind");
     assert!(!back.shape.convex && !back.parts.is_empty() && close(back.volume, 2.5, 1e-12), "{}", back.volume);
 }
+
+/// A point that two flat sides share, within round-off of the line of their common edge, is a
+/// corner of neither: `split::fewest_faces` drops it from both sides, so the merged surface is
+/// closed. (The crushed L of issue 31's press lost merges this way: the monotone chain keeps each
+/// side's first point in its sort order, and where an edge ran across the sort axis that point was
+/// the one bulging by round-off; the side across the edge dropped it.) The box
+/// [0,1]×[0,0.5]×[0,1] with an extra point on the edge between its y = 0.5 side and its top, 1e-13
+/// above the edge: that side's sort axis (glam's `any_orthonormal_vector` of +y) is −z, so the
+/// point comes first in its sort.
+#[test]
+fn a_point_on_a_sides_edge_within_round_off_is_dropped_by_both_sides() {
+    use blockdem::d3::split::fewest_faces;
+    let centre = DVec3::new(0.5, 0.25, 0.5);
+    let m = DVec3::new(0.5, 0.5, 1.0 + 1e-13);
+    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    // Each side's polygon, fanned from its first point, every triangle typed clockwise seen
+    // from outside ((c − a) × (b − a) outward).
+    let sides: [Vec<DVec3>; 6] = [
+        vec![v(0., 0., 0.), v(1., 0., 0.), v(1., 0., 1.), v(0., 0., 1.)],
+        vec![v(0., 0.5, 0.), v(1., 0.5, 0.), v(1., 0.5, 1.), m, v(0., 0.5, 1.)],
+        vec![v(0., 0., 1.), v(1., 0., 1.), v(1., 0.5, 1.), m, v(0., 0.5, 1.)],
+        vec![v(0., 0., 0.), v(1., 0., 0.), v(1., 0.5, 0.), v(0., 0.5, 0.)],
+        vec![v(0., 0., 0.), v(0., 0.5, 0.), v(0., 0.5, 1.), v(0., 0., 1.)],
+        vec![v(1., 0., 0.), v(1., 0.5, 0.), v(1., 0.5, 1.), v(1., 0., 1.)],
+    ];
+    let mut typed = Vec::new();
+    for side in &sides {
+        for k in 1..side.len() - 1 {
+            let [a, mut b, mut c] = [side[0], side[k], side[k + 1]];
+            if (c - a).cross(b - a).dot(a - centre) < 0.0 {
+                std::mem::swap(&mut b, &mut c);
+            }
+            typed.push([a, b, c].map(|p| p.to_array()));
+        }
+    }
+    let merged = fewest_faces(&typed, 1e-9 * 0.75);
+    let (shape, props) = blockdem::d3::geometry::shape_from_faces(&merged).unwrap_or_else(|e| panic!("the merged sides: {}", e.message));
+    assert!(shape.convex);
+    assert_eq!(shape.vertices.len(), 8, "the box's corners only");
+    assert_eq!(shape.faces.len(), 12);
+    assert!(close(props.volume, 0.5, 1e-12), "{}", props.volume);
+}
