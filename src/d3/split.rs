@@ -183,7 +183,7 @@ pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
                 let (o, b) = (&hull[(k + n - 1) % n], &hull[(k + 1) % n]);
                 turn(o, &hull[k], b) / (b.0 - o.0).hypot(b.1 - o.1)
             };
-            match (0..n).map(|k| (height(k), k)).filter(|(h, _)| !(*h > eps)).min_by(|x, y| x.0.total_cmp(&y.0)) {
+            match (0..n).map(|k| (height(k), k)).filter(|(h, _)| h.is_nan() || *h <= eps).min_by(|x, y| x.0.total_cmp(&y.0)) {
                 Some((_, k)) => drop(hull.remove(k)),
                 None => break,
             }
