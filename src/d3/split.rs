@@ -179,6 +179,7 @@ pub fn fewest_faces(typed: &[[[f64; 3]; 3]], eps: f64) -> Vec<[[f64; 3]; 3]> {
         // the edge drops that point too, so the two sides meet corner to corner.
         while hull.len() >= 3 {
             let n = hull.len();
+            // (A NaN height: the neighbours coincide; the point goes too.)
             let height = |k: usize| {
                 let (o, b) = (&hull[(k + n - 1) % n], &hull[(k + 1) % n]);
                 turn(o, &hull[k], b) / (b.0 - o.0).hypot(b.1 - o.1)
