@@ -417,8 +417,8 @@ impl Backend for Borrowed<'_> {
     fn describe(&self) -> String {
         self.0.describe()
     }
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        self.0.run(model, cycles, progress)
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        self.0.run_into(model, cycles, progress, report)
     }
 }
 
@@ -684,10 +684,11 @@ impl<B: Backend> Backend for Counting<B> {
     fn describe(&self) -> String {
         self.0.describe()
     }
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        let report = self.0.run(model, cycles, progress)?;
-        self.1.set(self.1.get() + report.topology_updates);
-        Ok(report)
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        let before = report.topology_updates;
+        let result = self.0.run_into(model, cycles, progress, report);
+        self.1.set(self.1.get() + report.topology_updates - before);
+        result
     }
 }
 

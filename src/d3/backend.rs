@@ -6,9 +6,17 @@ use super::restart::DeviceState;
 use crate::driver::{CycleError, CycleReport};
 
 pub trait Backend {
-    /// Runs `cycles` cycles of `model`. `progress` is told the cycles done at each check and may
-    /// end the run there (false).
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError>;
+    /// Runs `cycles` cycles of `model`, what it does added to `report`. `progress` is told the
+    /// cycles done at each check and may end the run there (false). On error the model is left
+    /// at its last good state, and `report` holds what the run did up to it (the cracks the
+    /// state holds, for the log).
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError>;
+    /// [`Backend::run_into`] into a report of its own.
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        let mut report = CycleReport::default();
+        self.run_into(model, cycles, progress, &mut report)?;
+        Ok(report)
+    }
     /// Whether the backend would go on from `model` as the state its last run left (SAVE
     /// records it, `d3::restart`).
     fn resumes_from(&self, model: &Model) -> bool;
@@ -35,8 +43,8 @@ pub trait Backend {
 pub type GpuOrCpu = crate::driver::auto::GpuOrCpu<dyn Backend>;
 
 impl Backend for GpuOrCpu {
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        self.run_with(model, |backend, model| backend.run(model, cycles, progress))
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        self.run_with(model, |backend, model| backend.run_into(model, cycles, progress, report))
     }
 
     fn resumes_from(&self, model: &Model) -> bool {

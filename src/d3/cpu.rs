@@ -94,19 +94,26 @@ impl CpuBackend {
     /// at each check and may end the run there (false).
     pub fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let mut report = CycleReport::default();
-        let resume = driver::prepare(self, model, &mut report)?;
+        self.run_into(model, cycles, progress, &mut report)?;
+        Ok(report)
+    }
+
+    /// [`CpuBackend::run`], what the run does added to `report` (on error: up to the last good
+    /// state, which the model is left at).
+    pub fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        let resume = driver::prepare(self, model, report)?;
         let mut kept = std::mem::take(&mut self.last_good);
-        let result = driver::cycles(&mut Stages, model, cycles, resume, &mut kept, &mut report, progress);
+        let result = driver::cycles(&mut Stages, model, cycles, resume, &mut kept, report, progress);
         self.last_good = kept;
         result?;
         self.resumable = cycles > 0;
-        Ok(report)
+        Ok(())
     }
 }
 
 impl super::backend::Backend for CpuBackend {
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        CpuBackend::run(self, model, cycles, progress)
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        CpuBackend::run_into(self, model, cycles, progress, report)
     }
 
     fn resumes_from(&self, model: &Model) -> bool {

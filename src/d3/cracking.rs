@@ -20,8 +20,9 @@
 //! splits the block where it reaches TF. In 3D this is the point-load strength index of rock
 //! mechanics, Is = P/D² (Franklin's test: a lump squeezed between two cones), so TF is that
 //! index's strength. Each force is a contact's resultant normal force at its point (the logical
-//! contacts' points weighted by their forces), and "opposing" means each pushes towards the other
-//! point. As 2D keeps a crack's ends half the block's smallest edge from every corner, a load
+//! contacts' points weighted by their forces), and "opposing" means the two point against each
+//! other (more than a right angle apart: two blocks resting on this one, both pressing down, are
+//! no pair however their normals tilt) and each pushes towards the other point. As 2D keeps a crack's ends half the block's smallest edge from every corner, a load
 //! point must lie that far (half the shortest distance between two of the block's corners) from
 //! every corner, a corner being a vertex where three or more distinct face planes meet (the
 //! vertices a SPLIT's cap or a face's triangulation adds in the middle of a planar side are not
@@ -185,8 +186,12 @@ fn point_load_crack(model: &Model, b: usize, loads: &[(DVec3, DVec3, f64)], tf: 
             let ((p1, f1, m1), (p2, f2, m2)) = (loads[i], loads[j]);
             let d = p2 - p1;
             let dist2 = d.length_squared();
-            // Opposing: each force pushes towards the other point.
-            if dist2 <= 0.0 || f1.dot(d) <= 0.0 || f2.dot(d) >= 0.0 {
+            // Opposing: the forces point against each other (more than a right angle apart)
+            // and each pushes towards the other point. (Without the first, two bricks resting
+            // on this one either side of their joint, both pressing down, their normals tilted
+            // towards each other by a hair, were a "pair" 10⁻⁷ m apart: a value of 10¹⁵ that
+            // cracked a wall under its own weight.)
+            if dist2 <= 0.0 || f1.dot(f2) >= 0.0 || f1.dot(d) <= 0.0 || f2.dot(d) >= 0.0 {
                 continue;
             }
             let value = (m1 + m2) / (2.0 * dist2);

@@ -577,8 +577,8 @@ impl<'a> Executor<'a> {
 }
 
 impl Pieces for Executor<'_> {
-    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        self.backend.run(&mut self.model, cycles, tick)
+    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        self.backend.run_into(&mut self.model, cycles, tick, report)
     }
 
     fn write_frame(&mut self) {

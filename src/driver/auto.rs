@@ -5,7 +5,7 @@
 //! `d3::backend::Backend`) is implemented for `GpuOrCpu<dyn ThatTrait>` in the engine's module,
 //! passing its calls to [`GpuOrCpu::active`] and its runs through [`GpuOrCpu::run_with`].
 
-use super::{CycleError, CycleReport};
+use super::CycleError;
 
 /// The GPU backend, and the CPU backend once a run has gone to it. `B` is an engine's backend
 /// trait object; the CPU backend comes from `make_cpu`, so that the engines' backend-trait
@@ -38,7 +38,7 @@ impl<B: ?Sized> GpuOrCpu<B> {
     /// One run, `run` called on the backend that takes it: the CPU once the runs have gone to
     /// it; otherwise the GPU, and where the GPU refuses the model before any cycle (the model
     /// is then as it was before the run), the CPU from then on.
-    pub fn run_with<M>(&mut self, model: &mut M, mut run: impl FnMut(&mut B, &mut M) -> Result<CycleReport, CycleError>) -> Result<CycleReport, CycleError> {
+    pub fn run_with<M>(&mut self, model: &mut M, mut run: impl FnMut(&mut B, &mut M) -> Result<(), CycleError>) -> Result<(), CycleError> {
         if let Some(cpu) = &mut self.cpu {
             return run(&mut **cpu, model);
         }

@@ -182,7 +182,13 @@ pub fn cycles<M: RunModel, S: Stages<M> + ?Sized>(
         Ok(()) => Ok(()),
         Err(e) => {
             stages.recover(last_good)?;
-            Err(energy_check.roll_back(e, model, std::mem::take(last_good)))
+            let e = energy_check.roll_back(e, model, std::mem::take(last_good));
+            // The report keeps what the state it went back to holds: the cracks and smaller
+            // steps after it are undone (a crack at the last good cycle is in its state).
+            let at = model.cycle();
+            report.cracks.retain(|c| c.cycle <= at);
+            report.timestep_changes.retain(|&(c, _)| c <= at);
+            Err(e)
         }
     }
 }

@@ -156,9 +156,10 @@ impl Ticker {
 
 /// What [`run_in_pieces`] asks of an engine's executor.
 pub trait Pieces {
-    /// Runs `cycles` cycles (0: the contact detection alone) through the backend, `tick` told the
-    /// cycles done at each energy check (false stops the run there).
-    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError>;
+    /// Runs `cycles` cycles (0: the contact detection alone) through the backend, what they do
+    /// added to `report` (on a failure, up to the last good state), `tick` told the cycles done
+    /// at each energy check (false stops the run there).
+    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError>;
     /// A VTK frame of [`RunOptions::vtk_every`]; one that cannot be written does not stop the run.
     fn write_frame(&mut self);
     /// The running restart file of [`RunOptions::checkpoint_every`]; one that cannot be written
@@ -180,11 +181,8 @@ pub fn run_in_pieces(engine: &mut (impl Pieces + ?Sized), n: u64, ticker: &mut T
         // The frame of the CYCLE's start shows the contacts the CYCLE starts from: a run of no
         // cycles detects them (the run that follows finds nothing changed and does not detect
         // again, so the cycles are the same).
-        match engine.run_piece(0, &mut |done| ticker.tick(done)) {
-            Ok(r) => {
-                report.extend(r);
-                engine.write_frame();
-            }
+        match engine.run_piece(0, &mut |done| ticker.tick(done), &mut report) {
+            Ok(()) => engine.write_frame(),
             Err(e) => return (report, Err(e)),
         }
     }
@@ -197,9 +195,8 @@ pub fn run_in_pieces(engine: &mut (impl Pieces + ?Sized), n: u64, ticker: &mut T
         if let Some(f) = frame_every {
             k = k.min(f - base % f);
         }
-        match engine.run_piece(k, &mut |done| ticker.tick(base + done)) {
-            Ok(r) => report.extend(r),
-            Err(e) => return (report, Err(e)),
+        if let Err(e) = engine.run_piece(k, &mut |done| ticker.tick(base + done), &mut report) {
+            return (report, Err(e));
         }
         if frame_every.is_some_and(|f| report.cycles > base && report.cycles % f == 0) {
             engine.write_frame();

@@ -100,8 +100,8 @@ impl Backend for GpuOrCpu {
         self.active().describe()
     }
 
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        self.run_with(model, |backend, model| backend.run(model, cycles, progress))
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        self.run_with(model, |backend, model| backend.run_into(model, cycles, progress, report))
     }
 }
 
@@ -113,6 +113,13 @@ pub trait Backend {
     /// energy check (every `CHECK_INTERVAL` cycles) and at the end. `progress` returns whether to
     /// go on: `false` ends the run there, with the model at that cycle as after a run of that
     /// many cycles (`CycleReport::cycles` says how many ran; an interrupted run). `model.timestep`
-    /// is set by the caller. On error the model is left at its last good state.
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError>;
+    /// is set by the caller. On error the model is left at its last good state, and `report`
+    /// holds what the run did up to it (the cracks the state holds, for the log).
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError>;
+    /// [`Backend::run_into`] into a report of its own.
+    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
+        let mut report = CycleReport::default();
+        self.run_into(model, cycles, progress, &mut report)?;
+        Ok(report)
+    }
 }

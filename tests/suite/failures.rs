@@ -384,7 +384,7 @@ impl blockdem::udec::backend::Backend for TooSmallAdapter {
     fn describe(&self) -> String {
         "gpu (a small adapter)".into()
     }
-    fn run(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool) -> Result<blockdem::udec::backend::CycleReport, CycleError> {
+    fn run_into(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool, _: &mut blockdem::udec::backend::CycleReport) -> Result<(), CycleError> {
         self.0.set(self.0.get() + 1);
         Err(CycleError::DoesNotFit("GPU set-up: the corners buffer would need more than one binding may hold".into()))
     }

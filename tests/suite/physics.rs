@@ -618,13 +618,14 @@ impl blockdem::udec::backend::Backend for CountedRuns {
     fn describe(&self) -> String {
         self.0.describe()
     }
-    fn run(
+    fn run_into(
         &mut self,
         model: &mut Model,
         cycles: u64,
         progress: &mut dyn FnMut(u64) -> bool,
-    ) -> Result<blockdem::udec::backend::CycleReport, blockdem::udec::backend::CycleError> {
+        report: &mut blockdem::udec::backend::CycleReport,
+    ) -> Result<(), blockdem::udec::backend::CycleError> {
         self.1.set(self.1.get() + 1);
-        self.0.run(model, cycles, progress)
+        self.0.run_into(model, cycles, progress, report)
     }
 }

@@ -336,9 +336,16 @@ impl GpuBackend {
     /// Runs `cycles` cycles of `model` through the run driver.
     pub fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
         let mut report = CycleReport::default();
-        let resume = driver::prepare(self, model, &mut report)?;
+        self.run_into(model, cycles, progress, &mut report)?;
+        Ok(report)
+    }
+
+    /// [`GpuBackend::run`], what the run does added to `report` (on error: up to the last good
+    /// state, which the model is left at).
+    pub fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        let resume = driver::prepare(self, model, report)?;
         let mut kept = std::mem::take(&mut self.last_good);
-        let result = driver::cycles(self, model, cycles, resume, &mut kept, &mut report, progress);
+        let result = driver::cycles(self, model, cycles, resume, &mut kept, report, progress);
         self.last_good = kept;
         if result.is_err() {
             // The device holds a state past the last good one: the next run starts afresh.
@@ -348,7 +355,7 @@ impl GpuBackend {
         // A run of no cycles that started afresh changed the model (its detection) but is no
         // state to go on from; one that resumed still is.
         self.resumable = (cycles > 0 || resume) && self.state.is_some();
-        Ok(report)
+        Ok(())
     }
 
     fn buffer(&self, label: &str, bytes: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -1316,8 +1323,8 @@ impl driver::Stages<Model> for GpuBackend {
 }
 
 impl super::backend::Backend for GpuBackend {
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        GpuBackend::run(self, model, cycles, progress)
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        GpuBackend::run_into(self, model, cycles, progress, report)
     }
 
     fn resumes_from(&self, model: &Model) -> bool {

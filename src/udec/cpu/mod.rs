@@ -491,8 +491,7 @@ impl Backend for CpuBackend {
 
     /// A run through the run driver (`driver`): the CPU's stages are one cycle at a time on a
     /// team of threads sized to the model the start's detection leaves.
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        let mut report = CycleReport::default();
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
         let mut start = CpuStart {
             topology: &mut self.topology,
             forces: &mut self.scratch.forces,
@@ -501,20 +500,20 @@ impl Backend for CpuBackend {
             last_good: &self.last_good,
             resumable: &mut self.resumable,
         };
-        let resume = driver::prepare(&mut start, model, &mut report)?;
+        let resume = driver::prepare(&mut start, model, report)?;
         let mut kept = std::mem::take(&mut self.last_good);
         let mut topology = std::mem::take(&mut self.topology);
         let scratch = &mut self.scratch;
         let result = team::with_team(team_size(model), |team| {
             let mut stages = CpuStages { topology: &mut topology, scratch, team, gathered: true };
-            driver::cycles(&mut stages, model, cycles, resume, &mut kept, &mut report, progress)
+            driver::cycles(&mut stages, model, cycles, resume, &mut kept, report, progress)
         });
         self.last_good = kept;
         result?;
         // The last check copied the final state (its cycle is the last).
         self.resumable = cycles > 0;
         self.topology = topology;
-        Ok(report)
+        Ok(())
     }
 }
 

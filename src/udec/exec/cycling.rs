@@ -12,8 +12,8 @@ use crate::udec::model::{BlockKind, Model};
 use crate::udec::output;
 
 impl crate::driver::run::Pieces for Executor<'_> {
-    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        self.backend.run(&mut self.model, cycles, tick)
+    fn run_piece(&mut self, cycles: u64, tick: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        self.backend.run_into(&mut self.model, cycles, tick, report)
     }
 
     fn write_frame(&mut self) {

@@ -241,8 +241,8 @@ impl Backend for GpuBackend {
         format!("gpu ({}, {} [{}], {})", a.backend, a.name, a.driver_name(), self.precision())
     }
 
-    fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        on_engine!(&mut self.engine, e => e.run(model, cycles, progress))
+    fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+        on_engine!(&mut self.engine, e => e.run_into(model, cycles, progress, report))
     }
 }
 

@@ -253,8 +253,7 @@ impl<R: Real> Engine<R> {
 
     /// A run through the run driver (`driver`), the GPU supplying its stages in batches
     /// (`GpuRun`).
-    pub(super) fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        let mut report = CycleReport::default();
+    pub(super) fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
         let mut run = GpuRun {
             engine: self,
             topology: Topology::default(),
@@ -267,16 +266,16 @@ impl<R: Real> Engine<R> {
         // Refused before the start (the time step, a model past the binding limit or the
         // precision's range), the backend is as it was; a start that failed (an upload) leaves
         // no contact lists to go on from.
-        let resume = driver::prepare(&mut run, model, &mut report)?;
+        let resume = driver::prepare(&mut run, model, report)?;
         let mut last_good = std::mem::take(&mut run.engine.last_good);
-        let result = driver::cycles(&mut run, model, cycles, resume, &mut last_good, &mut report, progress);
+        let result = driver::cycles(&mut run, model, cycles, resume, &mut last_good, report, progress);
         let GpuRun { topology, .. } = run;
         // (On a failure the last good state went back into the model, and nothing is kept.)
         result?;
         self.last_good = last_good;
         self.topology = topology;
         self.resumable = true;
-        Ok(report)
+        Ok(())
     }
 }
 

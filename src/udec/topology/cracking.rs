@@ -173,8 +173,12 @@ fn find_point_load_crack(model: &Model, adjacency: &Adjacency, b: usize) -> Opti
             if dist2 <= 0.0 {
                 continue;
             }
-            // Opposing: each force pushes towards the other point (a point-load test).
-            if f1[0] * d[0] + f1[1] * d[1] <= 0.0 || f2[0] * d[0] + f2[1] * d[1] >= 0.0 {
+            // Opposing (a point-load test): the forces point against each other (more than a
+            // right angle apart) and each pushes towards the other point. (Without the first,
+            // two blocks resting on this one either side of their joint, both pressing down,
+            // their normals tilted towards each other by round-off, were a "pair" a hair
+            // apart: a value of 1/d² that cracked walls under their own weight.)
+            if f1[0] * f2[0] + f1[1] * f2[1] >= 0.0 || f1[0] * d[0] + f1[1] * d[1] <= 0.0 || f2[0] * d[0] + f2[1] * d[1] >= 0.0 {
                 continue;
             }
             let value = (m1 + m2) / (2.0 * dist2);
