@@ -121,7 +121,13 @@ impl Backend for Unavailable {
         format!("unavailable ({})", self.0)
     }
 
-    fn run_into(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool, _: &mut crate::udec::backend::CycleReport) -> Result<(), crate::udec::backend::CycleError> {
+    fn run_into(
+        &mut self,
+        _: &mut Model,
+        _: u64,
+        _: &mut dyn FnMut(u64) -> bool,
+        _: &mut crate::udec::backend::CycleReport,
+    ) -> Result<(), crate::udec::backend::CycleError> {
         Err(crate::udec::backend::CycleError::Setup(self.0.clone()))
     }
 }

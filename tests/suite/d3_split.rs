@@ -436,11 +436,7 @@ fn a_run_that_fails_lists_the_cracks_its_last_good_state_holds() {
     let e = result.expect_err("the loaded block is driven through the slab");
     assert!(e.contains("overlap") || e.contains("energy") || e.contains("too fast"), "{e}");
     assert!(m.cycle > 0 && m.cycle < 400 && m.cycle % 100 == 0, "rolled back to a check: cycle {}", m.cycle);
-    let cracks: Vec<u64> = log
-        .lines()
-        .filter_map(|l| l.split(" CRACKED AT CYCLE ").nth(1))
-        .map(|s| s.split(' ').next().unwrap().parse().unwrap())
-        .collect();
+    let cracks: Vec<u64> = log.lines().filter_map(|l| l.split(" CRACKED AT CYCLE ").nth(1)).map(|s| s.split(' ').next().unwrap().parse().unwrap()).collect();
     assert!(!cracks.is_empty(), "{log}");
     // Each crack made one block, and each listed is in the state the run went back to.
     assert_eq!(cracks.len(), m.blocks.len() - 4, "{log}");
@@ -465,7 +461,8 @@ fn a_cycle_whose_cracks_make_energy_says_so() {
             deck += &format!("BOX {x:.3} {:.3} 0 0.2 {z:.3} {:.3} CONS 2\n", x + 0.4, z + 0.2);
         }
     }
-    deck += "BOX 1.950 2.250 -0.5 -0.2 0.450 0.750 MAT 2\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\nVELOCITY 1.9 2.3 -0.6 -0.1 0.4 0.8 0 30 0\nCYCLE 4000\n";
+    deck +=
+        "BOX 1.950 2.250 -0.5 -0.2 0.450 0.750 MAT 2\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\nVELOCITY 1.9 2.3 -0.6 -0.1 0.4 0.8 0 30 0\nCYCLE 4000\n";
     let (m, log, result) = run(&deck);
     let e = result.expect_err("the cracks' energy ends the run");
     assert!(e.contains("energy growing without a source"), "{e}");

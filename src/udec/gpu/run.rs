@@ -253,7 +253,13 @@ impl<R: Real> Engine<R> {
 
     /// A run through the run driver (`driver`), the GPU supplying its stages in batches
     /// (`GpuRun`).
-    pub(super) fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
+    pub(super) fn run_into(
+        &mut self,
+        model: &mut Model,
+        cycles: u64,
+        progress: &mut dyn FnMut(u64) -> bool,
+        report: &mut CycleReport,
+    ) -> Result<(), CycleError> {
         let mut run = GpuRun {
             engine: self,
             topology: Topology::default(),
