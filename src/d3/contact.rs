@@ -887,8 +887,9 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
     let n = contact.normal;
     let mut friction = 0.0;
     for l in &mut contact.logical {
-        if l.gap > 0.0 {
-            // Open: no force, and the shear history is lost.
+        if l.gap > l.offset {
+            // Open: no force, and the shear history is lost; the spring reloads from here.
+            l.offset = l.gap.min(0.0);
             if mat.ks > 0.0 {
                 friction += 0.5 * l.shear_force.length_squared() / mat.ks;
             }
@@ -901,7 +902,7 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
         let un = u.dot(n);
         let us = u - un * n;
         // Eq. (16), integrated: the overlap is known.
-        l.normal_force = -mat.kn * l.gap;
+        l.normal_force = -mat.kn * (l.gap - l.offset);
         // Eq. (17): the previous shear force turned into the new plane, magnitude kept.
         let mut fs = l.shear_force;
         if old_normal != n {

@@ -448,8 +448,12 @@ pub fn update_contact(
         previous.extend_from_slice(&c.logical);
         c.logical.clear();
         c.logical.extend(found.iter().map(|&(kind, point, gap)| {
-            let shear_force = previous.iter().find(|l| l.kind == kind).map_or(DVec3::ZERO, |l| l.shear_force);
-            Logical { kind, point, gap, normal_force: 0.0, shear_force }
+            let old = previous.iter().find(|l| l.kind == kind);
+            let shear_force = old.map_or(DVec3::ZERO, |l| l.shear_force);
+            // A logical contact that appears in a cycle (dt > 0) inside an overlapped face starts
+            // unloaded; at a detection between cycles (dt = 0: the start, a crack) as before.
+            let offset = old.map_or(if dt > 0.0 { gap.min(0.0) } else { 0.0 }, |l| l.offset);
+            Logical { kind, point, gap, normal_force: 0.0, shear_force, offset }
         }));
         // The strain of logical contacts not found again (their shear springs; their normal
         // ones too, where the touching region lost a loaded corner).

@@ -518,6 +518,10 @@ pub struct Logical {
     pub gap: f64,
     pub normal_force: f64,
     pub shear_force: DVec3,
+    /// The gap at which its normal spring is unloaded (≤ 0): the overlap it had when it first
+    /// appeared inside a loaded face, ratcheted up as it opens (eq. 16 as an increment).
+    #[serde(default)]
+    pub offset: f64,
 }
 
 /// A contact between two blocks (indices `blocks`, the lower first): a real one with its

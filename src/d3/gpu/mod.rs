@@ -731,6 +731,7 @@ impl GpuBackend {
                     gap: f(l.gap),
                     normal_force: f(l.normal_force),
                     shear_force: DVec3::new(f(l.sx), f(l.sy), f(l.sz)),
+                    offset: 0.0,
                 })
                 .collect();
             if c.logical.is_empty() {
