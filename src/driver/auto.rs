@@ -5,7 +5,7 @@
 //! `d3::backend::Backend`) is implemented for `GpuOrCpu<dyn ThatTrait>` in the engine's module,
 //! passing its calls to [`GpuOrCpu::active`] and its runs through [`GpuOrCpu::run_with`].
 
-use super::CycleError;
+use super::{CycleError, CycleReport};
 
 /// The GPU backend, and the CPU backend once a run has gone to it. `B` is an engine's backend
 /// trait object; the CPU backend comes from `make_cpu`, so that the engines' backend-trait
@@ -35,19 +35,27 @@ impl<B: ?Sized> GpuOrCpu<B> {
         }
     }
 
-    /// One run, `run` called on the backend that takes it: the CPU once the runs have gone to
-    /// it; otherwise the GPU, and where the GPU refuses the model before any cycle (the model
-    /// is then as it was before the run), the CPU from then on.
-    pub fn run_with<M>(&mut self, model: &mut M, mut run: impl FnMut(&mut B, &mut M) -> Result<(), CycleError>) -> Result<(), CycleError> {
+    /// One run, `run` called on the backend that takes it, adding to `report`: the CPU once the
+    /// runs have gone to it; otherwise the GPU, and where the GPU refuses the model before any
+    /// cycle (the model is then as it was before the run), the CPU from then on, `report` as it
+    /// was before the GPU's try (whose start may have counted a detection).
+    pub fn run_with<M>(
+        &mut self,
+        model: &mut M,
+        report: &mut CycleReport,
+        mut run: impl FnMut(&mut B, &mut M, &mut CycleReport) -> Result<(), CycleError>,
+    ) -> Result<(), CycleError> {
         if let Some(cpu) = &mut self.cpu {
-            return run(&mut **cpu, model);
+            return run(&mut **cpu, model, report);
         }
-        match run(&mut *self.gpu, model) {
+        let before = report.clone();
+        match run(&mut *self.gpu, model, report) {
             Err(CycleError::DoesNotFit(why)) => {
                 use std::io::Write as _;
                 let _ = writeln!(std::io::stderr(), "blockdem: {why}; --backend auto goes on on the CPU (f64)");
+                *report = before;
                 let cpu = self.cpu.insert((self.make_cpu)());
-                run(&mut **cpu, model)
+                run(&mut **cpu, model, report)
             }
             result => result,
         }

@@ -22,7 +22,7 @@
 //! [`Start::take_resumable`]), so a run refused there leaves the backend as it was with nothing
 //! to restore; a backend takes its last good state for `cycles` once `prepare` has passed.
 //!
-//! The driver sits below the backends (they call it from `Backend::run`) and below the engines:
+//! The driver sits below the backends (they call it from `Backend::run_into`) and below the engines:
 //! it knows the stages' contract and what it asks of a model ([`RunModel`]: the cycle, the time
 //! step, the energy terms), not how a stage runs nor what a block is. The 2D engine's model
 //! implements [`RunModel`] in `udec::backend`.

@@ -101,7 +101,7 @@ impl Backend for GpuOrCpu {
     }
 
     fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
-        self.run_with(model, |backend, model| backend.run_into(model, cycles, progress, report))
+        self.run_with(model, report, |backend, model, report| backend.run_into(model, cycles, progress, report))
     }
 }
 

@@ -384,8 +384,10 @@ impl blockdem::udec::backend::Backend for TooSmallAdapter {
     fn describe(&self) -> String {
         "gpu (a small adapter)".into()
     }
-    fn run_into(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool, _: &mut blockdem::udec::backend::CycleReport) -> Result<(), CycleError> {
+    fn run_into(&mut self, _: &mut Model, _: u64, _: &mut dyn FnMut(u64) -> bool, report: &mut blockdem::udec::backend::CycleReport) -> Result<(), CycleError> {
         self.0.set(self.0.get() + 1);
+        // (As a start that counted its detection before its upload failed.)
+        report.topology_updates += 1000;
         Err(CycleError::DoesNotFit("GPU set-up: the corners buffer would need more than one binding may hold".into()))
     }
 }
@@ -404,6 +406,16 @@ fn auto_goes_on_on_the_cpu_when_the_model_is_past_the_gpus_limits() {
     assert_eq!(asked.get(), 1, "the GPU is asked once");
     let err = blockdem::scenes::run_deck_on(deck, Box::new(TooSmallAdapter(asked.clone()))).unwrap_err();
     assert!(matches!(err, RunError::Numerical { failure: CycleError::DoesNotFit(_), .. }), "{err:?}");
+    // The report of the run that went on on the CPU is the CPU's alone: what the GPU's try
+    // added before it refused is taken back.
+    use blockdem::udec::backend::Backend;
+    let start = blockdem::scenes::run_deck_on(&deck.replace("CYCLE 300\nCYCLE 200\n", "CYCLE 1\n"), Box::new(blockdem::udec::cpu::CpuBackend::new())).unwrap();
+    assert!(start.timestep > 0.0);
+    let mut auto = blockdem::udec::backend::GpuOrCpu::new(Box::new(TooSmallAdapter(asked.clone())), || Box::new(blockdem::udec::cpu::CpuBackend::new()));
+    let (mut a, mut c) = (start.clone(), start);
+    let on_auto = auto.run(&mut a, 50, &mut |_| true).unwrap();
+    let on_cpu = blockdem::udec::cpu::CpuBackend::new().run(&mut c, 50, &mut |_| true).unwrap();
+    assert_eq!(on_auto, on_cpu);
 }
 
 /// The overlap failure names the contact that overlaps most, not the first one past the limit

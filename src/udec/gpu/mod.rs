@@ -7,7 +7,7 @@
 //! - `kernels`: `Pipelines` (one per entry point) and `Buffers`.
 //!
 //! The `Engine` (one per precision) that drives them, in the order of a run:
-//! - `run`: `Backend::run` — set-up or resumption, batches, contact updates, the energy check,
+//! - `run`: `Backend::run_into` — set-up or resumption, batches, contact updates, the energy check,
 //!   the failure paths.
 //! - `upload`: host to device, whole at the start and only what a contact update changed after.
 //! - `batch`: batches of cycles with no round trip, the flags after them, the energy sums.

@@ -1,4 +1,4 @@
-//! A run on the GPU backend (`Backend::run`): the GPU's stages for the run driver (`driver`,
+//! A run on the GPU backend (`Backend::run_into`): the GPU's stages for the run driver (`driver`,
 //! which owns the loop, the checks and the roll-back): set-up (detection, upload) or resumption,
 //! batches of cycles sized to the expected contact updates, stage 7 between them, the energy
 //! sums on the device and its checkpoint, the state handed back. See "How a run goes" in the
