@@ -73,7 +73,7 @@ struct Contact {
 // LOGICAL_EDGE_EDGE (edge v1 v2 of block 1 across edge v3 v4 of block 2). `live` is 0 once its
 // contact has parted (until the next detection).
 struct Logical {
-    px: real, py: real, pz: real, gap: real, normal_force: real,
+    px: real, py: real, pz: real, gap: real, normal_force: real, offset: real,
     sx: real, sy: real, sz: real,
     kind: u32, v1: u32, v2: u32, v3: u32, v4: u32, live: u32,
 }

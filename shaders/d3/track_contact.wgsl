@@ -407,8 +407,9 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
         if (l.live == 0u) {
             continue;
         }
-        if (l.gap > 0.0) {
-            // Open: no force, and the shear history is lost.
+        if (l.gap > l.offset) {
+            // Open: no force, and the shear history is lost; the spring reloads from here.
+            l.offset = min(l.gap, 0.0);
             let fs = shear_of(l);
             if (c.ks > 0.0) {
                 friction += 0.5 * dot3(fs, fs) / c.ks;
@@ -425,8 +426,8 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
         let u = velocity_at(c.block2, p, c.block1) - velocity_at(c.block1, p, c.block1);
         let un = dot3(u, n);
         let us = u - un * n;
-        // Eq. (16), integrated: the overlap is known.
-        l.normal_force = -c.kn * l.gap;
+        // Eq. (16) as an increment: from the gap the spring is unloaded at.
+        l.normal_force = -c.kn * (l.gap - l.offset);
         // Eq. (17): the previous shear force turned into the new plane, magnitude kept.
         var fs = shear_of(l);
         if (any(old != n)) {

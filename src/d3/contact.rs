@@ -621,6 +621,10 @@ pub struct Scratch {
     pub found: Vec<(LogicalKind, DVec3, f64)>,
     /// The last cycle's logical contacts of the contact in hand (`cpu::update_contact`).
     pub previous: Vec<Logical>,
+    /// Whether a logical contact found now that was not there before starts unloaded (its
+    /// offset its gap: a running detection, in a cycle or the GPU's between batches) or at its
+    /// whole overlap (the run's first detection, a crack's).
+    pub unloaded: bool,
 }
 
 /// The order of `f64::total_cmp` as an integer's: x before y exactly where key(x) < key(y).
@@ -901,7 +905,7 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
         let u = b.velocity_at(l.point) - a.velocity_at(l.point);
         let un = u.dot(n);
         let us = u - un * n;
-        // Eq. (16), integrated: the overlap is known.
+        // Eq. (16) as an increment: from the gap the spring is unloaded at.
         l.normal_force = -mat.kn * (l.gap - l.offset);
         // Eq. (17): the previous shear force turned into the new plane, magnitude kept.
         let mut fs = l.shear_force;

@@ -352,35 +352,49 @@ thread_local! {
 /// Returns the first contact (its index) driven through ([`overlap_check`]'s check, made in the
 /// same pass).
 pub fn contact_stage(model: &mut Model, dt: f64) -> Option<usize> {
+    contact_stage_with(model, dt, dt > 0.0)
+}
+
+/// [`contact_stage`], the logical contacts that appear starting unloaded where `unloaded`
+/// (`contact::Scratch::unloaded`): the GPU's detections between batches, at Δt = 0, are running
+/// ones as the CPU's cycles are.
+pub fn contact_stage_with(model: &mut Model, dt: f64, unloaded: bool) -> Option<usize> {
     // Each block's bodies placed (their plane normals turned, boxes, inner balls) once for all
     // their contacts.
     // Kept from cycle to cycle on the thread that runs them ([`PLACEMENTS`]), renewed in place.
     let mut placements = PLACEMENTS.take();
     placements.resize_with(model.blocks.len(), contact::Placement::default);
     placements.par_iter_mut().zip(model.blocks.par_iter()).with_min_len(grain::BLOCK).for_each(|(p, b)| p.renew(b));
-    contact_stage_placed(model, dt, placements)
+    contact_stage_placed(model, dt, unloaded, placements)
 }
 
 /// [`contact_stage`] with the blocks' bodies `placements` renewed where they are (by the cycle's
 /// block pass); they go back to [`PLACEMENTS`] after.
-fn contact_stage_placed(model: &mut Model, dt: f64, placements: Vec<contact::Placement>) -> Option<usize> {
+fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: Vec<contact::Placement>) -> Option<usize> {
     let tol = model.contact_tolerance();
     let (blocks, materials) = (&model.blocks, &model.materials);
     let energy: Vec<(f64, f64, bool)> = model
         .contacts
         .par_iter_mut()
         .with_min_len(grain::CONTACT)
-        .map_init(contact::Scratch::default, |scratch, c| {
-            let [i, j] = c.blocks.map(|k| k as usize);
-            // The first block's material and whether its law is the joint law (the law's
-            // parameters follow from the touching region found).
-            let mat = super::model::material_of(materials, blocks[i].material);
-            let joint = super::model::joint_contacts(blocks[i].constitutive);
-            // The parts in touch (a convex block is its own one part).
-            let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
-            let (friction, released) = update_contact(c, a, b, &mat, joint, tol, dt, scratch);
-            (friction, released, driven_through(blocks, c).is_some())
-        })
+        .map_init(
+            || {
+                let mut s = contact::Scratch::default();
+                s.unloaded = unloaded;
+                s
+            },
+            |scratch, c| {
+                let [i, j] = c.blocks.map(|k| k as usize);
+                // The first block's material and whether its law is the joint law (the law's
+                // parameters follow from the touching region found).
+                let mat = super::model::material_of(materials, blocks[i].material);
+                let joint = super::model::joint_contacts(blocks[i].constitutive);
+                // The parts in touch (a convex block is its own one part).
+                let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
+                let (friction, released) = update_contact(c, a, b, &mat, joint, tol, dt, scratch);
+                (friction, released, driven_through(blocks, c).is_some())
+            },
+        )
         .collect();
     PLACEMENTS.set(placements);
     // Summed in the contacts' order: reruns repeat bit for bit.
@@ -430,7 +444,8 @@ pub fn update_contact(
         return (0.0, released);
     };
     let (category, area) = contact::logical_contacts_with(&a, &b, &plane, tol, scratch);
-    let contact::Scratch { previous, found, .. } = scratch;
+    let contact::Scratch { previous, found, unloaded: scratch_unloaded, .. } = scratch;
+    let scratch_unloaded = *scratch_unloaded;
     let released = if found.len() == c.logical.len() && found.iter().zip(&c.logical).all(|(f, l)| f.0 == l.kind) {
         // The same logical contacts in the same order (a settled contact, most cycles): each
         // keeps its shear force, none is released. (A contact's logical contacts have distinct
@@ -452,7 +467,7 @@ pub fn update_contact(
             let shear_force = old.map_or(DVec3::ZERO, |l| l.shear_force);
             // A logical contact that appears in a cycle (dt > 0) inside an overlapped face starts
             // unloaded; at a detection between cycles (dt = 0: the start, a crack) as before.
-            let offset = old.map_or(if dt > 0.0 { gap.min(0.0) } else { 0.0 }, |l| l.offset);
+            let offset = old.map_or(if scratch_unloaded { gap.min(0.0) } else { 0.0 }, |l| l.offset);
             Logical { kind, point, gap, normal_force: 0.0, shear_force, offset }
         }));
         // The strain of logical contacts not found again (their shear springs; their normal
@@ -515,7 +530,7 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
         report.contacts_created += created;
         report.contacts_dropped += dropped;
     }
-    if let Some(k) = contact_stage_placed(model, dt, placements) {
+    if let Some(k) = contact_stage_placed(model, dt, true, placements) {
         return Err(overlap_error(model, k));
     }
     cracks(model, report);

@@ -519,8 +519,9 @@ pub struct Logical {
     pub normal_force: f64,
     pub shear_force: DVec3,
     /// The gap at which its normal spring is unloaded (≤ 0): the overlap it had when it first
-    /// appeared inside a loaded face, ratcheted up as it opens (eq. 16 as an increment).
-    #[serde(default)]
+    /// appeared inside a loaded face, ratcheted up as it opens (eq. 16 as an increment). Saved
+    /// after the model (`d3::restart::Offsets`, format 9).
+    #[serde(skip)]
     pub offset: f64,
 }
 

@@ -59,8 +59,9 @@ const UDEC_MAGIC: [u8; 8] = *b"BLOCKDEM";
 /// the concave blocks' convex parts and the parts each contact is between; a concave block of an
 /// older file, built but never cycled, is cut into its parts as it is read. Version 8: after
 /// that, the [`Lineage`], the volume as built of each crack's piece; in an older file every
-/// block counts as built as it is.)
-pub const FORMAT_VERSION: u32 = 8;
+/// block counts as built as it is. Version 9: after that, the [`Offsets`] of the logical
+/// contacts' normal springs; in an older file every one is 0.)
+pub const FORMAT_VERSION: u32 = 9;
 /// The oldest save format this program reads (its payload is version 4's, without the
 /// extension).
 pub const OLDEST_VERSION: u32 = 3;
@@ -316,6 +317,44 @@ impl Lineage {
     }
 }
 
+/// The offsets of the logical contacts' normal springs (`Logical::offset`) that are not 0, as
+/// (contact index, logical index, offset), written after the [`Lineage`] (format 9); in an older
+/// file every one is 0.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Offsets {
+    pub offsets: Vec<(u32, u32, f64)>,
+}
+
+impl Offsets {
+    /// The offsets of `model`.
+    pub fn of(model: &Model) -> Offsets {
+        let mut offsets = Vec::new();
+        for (k, c) in model.contacts.iter().enumerate() {
+            for (j, l) in c.logical.iter().enumerate().filter(|(_, l)| l.offset != 0.0) {
+                offsets.push((k as u32, j as u32, l.offset));
+            }
+        }
+        Offsets { offsets }
+    }
+
+    /// Puts the offsets back into `model`; an index past its contacts or their logical contacts,
+    /// or an offset that is not finite and ≤ 0, is an error.
+    pub fn apply(self, model: &mut Model) -> Result<(), String> {
+        for (k, j, o) in self.offsets {
+            let l = model
+                .contacts
+                .get_mut(k as usize)
+                .and_then(|c| c.logical.get_mut(j as usize))
+                .ok_or_else(|| format!("an offset names logical contact {j} of contact index {k}, which the model does not have"))?;
+            if !(o.is_finite() && o <= 0.0) {
+                return Err(format!("a logical contact's offset is {o}"));
+            }
+            l.offset = o;
+        }
+        Ok(())
+    }
+}
+
 /// Whether the file at `path` starts as a D3 save file does (for `blockdem run`'s engine rule).
 /// Only a regular file is looked into: reading the head of a FIFO would take bytes its writer
 /// meant for the RESTART that follows (and could leave that one waiting for a writer gone).
@@ -329,8 +368,15 @@ pub fn is_save_file(path: &Path) -> bool {
 
 /// SAVE: writes `file` to `path` atomically (a temporary file renamed into place).
 pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
-    let payload = postcard::to_stdvec(&(file, Extension::of(&file.model), Boundaries::of(&file.model), Parts::of(&file.model), Lineage::of(&file.model)))
-        .map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
+    let payload = postcard::to_stdvec(&(
+        file,
+        Extension::of(&file.model),
+        Boundaries::of(&file.model),
+        Parts::of(&file.model),
+        Lineage::of(&file.model),
+        Offsets::of(&file.model),
+    ))
+    .map_err(|e| RestartError::Io { path: path.to_path_buf(), source: io::Error::other(e) })?;
     let crc = crc32fast::hash(&payload) as u64;
     crate::output::write_atomically(path, |w| {
         w.write_all(&MAGIC)?;
@@ -381,26 +427,38 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
         return Err(RestartError::Corrupt { path: p(), reason: "the payload checksum does not match".into() });
     }
     let bad = |e: postcard::Error| RestartError::Corrupt { path: p(), reason: format!("bad payload: {e}") };
-    let (mut saved, extension, boundaries, parts, lineage): (SaveFile, Extension, Boundaries, Parts, Lineage) = match version {
-        8.. => postcard::from_bytes(&payload).map_err(bad)?,
+    let (mut saved, extension, boundaries, parts, lineage, offsets): (SaveFile, Extension, Boundaries, Parts, Lineage, Offsets) = match version {
+        9.. => postcard::from_bytes(&payload).map_err(bad)?,
+        8 => {
+            let (saved, extension, boundaries, parts, lineage) = postcard::from_bytes(&payload).map_err(bad)?;
+            (saved, extension, boundaries, parts, lineage, Offsets::default())
+        }
         7 => {
             let (saved, extension, boundaries, parts) = postcard::from_bytes(&payload).map_err(bad)?;
-            (saved, extension, boundaries, parts, Lineage::default())
+            (saved, extension, boundaries, parts, Lineage::default(), Offsets::default())
         }
         6 => {
             let (saved, extension, boundaries) = postcard::from_bytes(&payload).map_err(bad)?;
-            (saved, extension, boundaries, Parts::default(), Lineage::default())
+            (saved, extension, boundaries, Parts::default(), Lineage::default(), Offsets::default())
         }
         5 => {
             let (saved, extension) = postcard::from_bytes(&payload).map_err(bad)?;
-            (saved, extension, Boundaries::default(), Parts::default(), Lineage::default())
+            (saved, extension, Boundaries::default(), Parts::default(), Lineage::default(), Offsets::default())
         }
-        _ => (postcard::from_bytes(&payload).map_err(bad)?, Extension::default(), Boundaries::default(), Parts::default(), Lineage::default()),
+        _ => (
+            postcard::from_bytes(&payload).map_err(bad)?,
+            Extension::default(),
+            Boundaries::default(),
+            Parts::default(),
+            Lineage::default(),
+            Offsets::default(),
+        ),
     };
     extension.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     boundaries.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     parts.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     lineage.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
+    offsets.apply(&mut saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     if let Some(device) = saved.device.as_mut().filter(|d| version < 4 && !d.f64_kernels) {
         device.absolute_f32 = true;
     }

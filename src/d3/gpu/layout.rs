@@ -75,10 +75,11 @@ gpu_struct! {
 
 gpu_struct! {
     /// A logical contact (`model::Logical`): point (f64: global; f32: from the contact's block
-    /// 1's centroid, `point_from`), gap, normal force, shear force; its kind and
-    /// vertices (the key its shear force is carried by); `live` 0 once its contact parted.
+    /// 1's centroid, `point_from`), gap, normal force, the gap its normal spring is unloaded at
+    /// (`model::Logical::offset`), shear force; its kind and vertices (the key its shear force
+    /// and offset are carried by); `live` 0 once its contact parted.
     Logical {
-        px: R, py: R, pz: R, gap: R, normal_force: R,
+        px: R, py: R, pz: R, gap: R, normal_force: R, offset: R,
         sx: R, sy: R, sz: R,
         kind: u32, v1: u32, v2: u32, v3: u32, v4: u32, live: u32,
     }

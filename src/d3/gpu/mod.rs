@@ -731,7 +731,7 @@ impl GpuBackend {
                     gap: f(l.gap),
                     normal_force: f(l.normal_force),
                     shear_force: DVec3::new(f(l.sx), f(l.sy), f(l.sz)),
-                    offset: 0.0,
+                    offset: f(l.offset),
                 })
                 .collect();
             if c.logical.is_empty() {
@@ -759,7 +759,7 @@ impl GpuBackend {
         report.topology_updates += 1;
         report.contacts_created += created;
         report.contacts_dropped += dropped;
-        contact_stage(model, 0.0);
+        cpu::contact_stage_with(model, 0.0, true);
         cpu::overlap_check(model)?;
         self.reupload(model);
         Ok(())
@@ -1032,6 +1032,7 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
                 pz: r(point.z),
                 gap: r(l.gap),
                 normal_force: r(l.normal_force),
+                offset: r(l.offset),
                 sx: r(l.shear_force.x),
                 sy: r(l.shear_force.y),
                 sz: r(l.shear_force.z),
