@@ -583,20 +583,23 @@ impl<'a> Executor<'a> {
 impl Executor<'_> {
     /// Where a CYCLE that cracked blocks ends in energy growth, what the cracks had to do with it
     /// (the error itself asks for a lower FRACTION, which is the cure of an unstable step, not of
-    /// this): under the point-contact law a logical contact's force is kn times its overlap, so a
-    /// crack whose plane runs through a loaded face gives each piece's part of that face corner
-    /// springs of its own (four each where the whole face had four), and a logical contact that
-    /// comes into a loaded face carries its spring at once. The first is booked (the ledger's
-    /// `released`, negative), the second is not; a lower FRACTION removes neither (a wall of 60
-    /// bricks cracking under a projectile grew its ledger by the same 4e4 J over the same time
-    /// at FRACTION 0.1, 0.05 and 0.025). `released_before`: the ledger's released energy at the CYCLE's start.
+    /// this): a crack whose plane runs through a loaded face gives each piece's part of that face
+    /// corner springs of its own (four each where the whole face had four), which take the
+    /// overlap they are made at whole (booked: the ledger's `released`, negative); under the joint
+    /// law a face's stiffness is JKN times the touching area shared among its corners, and the
+    /// cracks change both. A lower FRACTION does not remove what the cracks put in (a wall of 60
+    /// bricks cracking under a projectile, its normal force then in total form, grew its ledger
+    /// by the same 4e4 J over the same time at FRACTION 0.1, 0.05 and 0.025); the error's own
+    /// advice stands beside it (the same wall under the joint law, with eq. 16 as an increment,
+    /// stops at cycle 2400 at FRACTION 0.1 and runs the same time at 0.05). `released_before`:
+    /// the ledger's released energy at the CYCLE's start.
     fn crack_energy_note(&mut self, cracks: usize, released_before: f64) -> Result<(), RunError> {
         let put_in = released_before - self.model.dissipated.released;
         let booked = if put_in > 0.0 { format!(", WHICH THE LEDGER BOOKS AS {} PUT IN,", fmt_e(put_in)) } else { String::new() };
         self.echo(&format!(
             "NOTE: THE {cracks} CRACKS OF THIS CYCLE UP TO ITS LAST GOOD STATE GAVE THEIR PIECES' NEW CORNERS SPRINGS OF THEIR OWN ON LOADED FACES{booked} \
-             AND CORNERS THAT COME INTO A LOADED FACE CARRY THEIR SPRING AT ONCE (EACH CORNER'S NORMAL FORCE IS ITS STIFFNESS TIMES ITS OVERLAP); \
-             A LOWER FRACTION DOES NOT REMOVE THAT ENERGY"
+             (A CRACK'S CORNERS TAKE THE OVERLAP THEY ARE MADE AT WHOLE; UNDER THE JOINT LAW A FACE'S STIFFNESS IS SHARED AMONG ITS CORNERS BY THE TOUCHING AREA, \
+             WHICH THE CRACKS CHANGE); A LOWER FRACTION DOES NOT REMOVE THE ENERGY THE CRACKS PUT IN"
         ))
     }
 }
