@@ -349,10 +349,11 @@ thread_local! {
 
 /// Stage 4 over every contact: common plane, logical contacts (their shear forces carried by
 /// key), force–displacement law. With `dt` = 0 only the geometry and normal forces are renewed.
-/// Returns the first contact (its index) driven through ([`overlap_check`]'s check, made in the
-/// same pass).
+/// A detection outside a run's cycles (its first, a crack's): the logical contacts that appear
+/// take their overlap whole. Returns the first contact (its index) driven through
+/// ([`overlap_check`]'s check, made in the same pass).
 pub fn contact_stage(model: &mut Model, dt: f64) -> Option<usize> {
-    contact_stage_with(model, dt, dt > 0.0)
+    contact_stage_with(model, dt, false)
 }
 
 /// [`contact_stage`], the logical contacts that appear starting unloaded where `unloaded`
@@ -444,8 +445,8 @@ pub fn update_contact(
         return (0.0, released);
     };
     let (category, area) = contact::logical_contacts_with(&a, &b, &plane, tol, scratch);
-    let contact::Scratch { previous, found, unloaded: scratch_unloaded, .. } = scratch;
-    let scratch_unloaded = *scratch_unloaded;
+    let contact::Scratch { previous, found, unloaded, .. } = scratch;
+    let unloaded = *unloaded;
     let released = if found.len() == c.logical.len() && found.iter().zip(&c.logical).all(|(f, l)| f.0 == l.kind) {
         // The same logical contacts in the same order (a settled contact, most cycles): each
         // keeps its shear force, none is released. (A contact's logical contacts have distinct
@@ -465,9 +466,10 @@ pub fn update_contact(
         c.logical.extend(found.iter().map(|&(kind, point, gap)| {
             let old = previous.iter().find(|l| l.kind == kind);
             let shear_force = old.map_or(DVec3::ZERO, |l| l.shear_force);
-            // A logical contact that appears in a cycle (dt > 0) inside an overlapped face starts
-            // unloaded; at a detection between cycles (dt = 0: the start, a crack) as before.
-            let offset = old.map_or(if scratch_unloaded { gap.min(0.0) } else { 0.0 }, |l| l.offset);
+            // A logical contact that appears during a run (`Scratch::unloaded`: a cycle, the
+            // GPU's detection between batches) inside an overlapped face starts unloaded (eq. 16
+            // as an increment); at the run's first detection or a crack's, at its whole overlap.
+            let offset = old.map_or(if unloaded { gap.min(0.0) } else { 0.0 }, |l| l.offset);
             Logical { kind, point, gap, normal_force: 0.0, shear_force, offset }
         }));
         // The strain of logical contacts not found again (their shear springs; their normal

@@ -18,18 +18,6 @@ pub struct CycleReport {
     pub timestep_changes: Vec<(u64, f64)>,
 }
 
-impl CycleReport {
-    /// Adds the report of the run that followed this one (a CYCLE run in pieces).
-    pub fn extend(&mut self, next: CycleReport) {
-        self.cycles += next.cycles;
-        self.topology_updates += next.topology_updates;
-        self.contacts_created += next.contacts_created;
-        self.contacts_dropped += next.contacts_dropped;
-        self.cracks.extend(next.cracks);
-        self.timestep_changes.extend(next.timestep_changes);
-    }
-}
-
 /// A point in a report, of the engine's dimension: two coordinates (the 2D engine) or three (D3).
 /// Indexing gives a coordinate; `Display` writes `(x, y)` or `(x, y, z)` each to four decimals in
 /// exponent form, as the error messages print positions.
