@@ -386,10 +386,11 @@ fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: 
             },
             |scratch, c| {
                 let [i, j] = c.blocks.map(|k| k as usize);
-                // The first block's material and whether its law is the joint law (the law's
+                // The law block's material and whether its law is the joint law (the law's
                 // parameters follow from the touching region found).
-                let mat = super::model::material_of(materials, blocks[i].material);
-                let joint = super::model::joint_contacts(blocks[i].constitutive);
+                let by = &blocks[super::model::law_block(blocks, c.blocks)];
+                let mat = super::model::material_of(materials, by.material);
+                let joint = super::model::joint_contacts(by.constitutive);
                 // The parts in touch (a convex block is its own one part).
                 let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
                 let (friction, released) = update_contact(c, a, b, &mat, joint, tol, dt, scratch);
@@ -411,7 +412,7 @@ fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: 
 }
 
 /// One contact's stage 4. Returns the energy friction took and that released by logical
-/// contacts that went while loaded (for the ledger). `mat` is the first block's material and
+/// contacts that went while loaded (for the ledger). `mat` is the law block's material and
 /// `joint` whether its law is the joint law (`Material::contact_law`): the parameters follow
 /// the touching region, the last cycle's for the springs that go, this cycle's for the law.
 /// `a` and `b` are the contact's convex bodies as placed: its blocks, or the parts of concave
@@ -551,21 +552,36 @@ pub fn cracks(model: &mut Model, report: &mut CycleReport) {
 /// blocks before it (the new piece goes at the end), then finds the contacts and neighbour lists
 /// afresh once for them all (stage 7, stage 4 with Δt = 0: each cut depends on its own block
 /// alone, and a contact update per crack made a cycle of many cracks cost as many passes over
-/// the whole model), and books as released what the cracks took from the kinetic and strain
-/// energies (the parents' stresses, the contacts' shear springs dropped with their keys; negative
-/// where the pieces' new corners press on a neighbour: D3's logical contacts are the corners of
-/// the touching region, so a neighbour pressed along a crack gets more of them). Each crack goes
-/// into `report` (`from`: a point of the crack plane; `to`: its unit normal).
+/// the whole model), carries the cracked blocks' contact state over to their pieces
+/// ([`carry_across_cracks`]), and books as released what the cracks took from the kinetic and
+/// strain energies (the parents' stresses, what the contacts' springs lost or gained with
+/// their share of a halved face). Each crack goes into `report` (`from`: a point of the crack
+/// plane; `to`: its unit normal).
 pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut CycleReport) {
     if due.is_empty() {
         return;
     }
     let before = model.energies();
     let released = model.dissipated.released;
-    let mut cracked = false;
+    // What the contacts of the blocks to crack carry, by the blocks' indices (which a crack
+    // keeps: the piece that keeps the parent's index, the new ones at the end, their parent's
+    // index in `origin`).
+    let carried: Vec<Carried> = model
+        .contacts
+        .iter()
+        .filter(|c| !c.logical.is_empty() && due.iter().any(|d| c.blocks.contains(&(d.block as u32))))
+        .map(|c| {
+            let by = &model.blocks[super::model::law_block(&model.blocks, c.blocks)];
+            let joint = model.material(by.material).joint_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
+            Carried { blocks: c.blocks, law: model.contact_material(c), joint, logical: c.logical.clone() }
+        })
+        .collect();
+    let mut origin: Vec<u32> = (0..model.blocks.len() as u32).collect();
+    let mut cracked = Vec::new();
     for c in due {
         let Some((block, new_block)) = super::split::crack(model, c.block, c.point, c.normal) else { continue };
-        cracked = true;
+        cracked.push(c.block as u32);
+        origin.resize(model.blocks.len(), c.block as u32);
         report.cracks.push(crate::driver::CrackEvent {
             cycle: model.cycle,
             block,
@@ -576,11 +592,105 @@ pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut C
             to: Position::xyz(c.normal.normalize().to_array()),
         });
     }
-    if !cracked {
+    if cracked.is_empty() {
         return;
     }
     topology::update_neighbours(model);
-    contact_stage(model, 0.0);
+    // The logical contacts the cracks make start unloaded, as those that appear in a cycle;
+    // those the parents had take their state back below.
+    contact_stage_with(model, 0.0, true);
+    carry_across_cracks(model, &origin, &cracked, &carried);
     let after = model.energies();
     model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);
+}
+
+/// A contact of a block about to crack, as it was: its blocks (indices), its law and its
+/// logical contacts.
+struct Carried {
+    blocks: [u32; 2],
+    law: super::model::Material,
+    joint: bool,
+    logical: Vec<Logical>,
+}
+
+/// The state of the cracked blocks' contacts carried over to their pieces' (`origin`: each
+/// block's index before the cracks, a new piece's its parent's; `cracked`: the parents'
+/// indices, which their first pieces keep). A crack moves nothing, so each logical contact of a
+/// piece's contact that lies where one of the parent's did (a corner of the old touching region)
+/// is that one: under the same law it takes its offset (eq. 16 as an increment) and its shear
+/// displacement (the shear force over the shear stiffness: the joint law's per-corner stiffness
+/// follows its share of the region, which the crack halves); where the piece's region is too
+/// small for the joint law (`Material::joint_law`) it keeps its forces. A logical contact the
+/// crack made (a piece's new corner on the crack plane, inside a face the parent pressed) is a
+/// new spring:
+/// - under the point law (a stiffness per corner) it starts unloaded, so that the force across
+///   the face is what it was and only its stiffness grows (the face has more corners): before
+///   this it took its whole overlap, and a crack through a loaded face put that spring energy
+///   in (the squeezed block of `tests/suite/d3_split.rs` doubled its springs' energy);
+/// - under the joint law (a stiffness per unit area) it takes the state of the old region's
+///   side it lies on (interpolated along it), so that the joint carries the stress it carried:
+///   its corners' shares halve and they are twice as many.
+///
+/// Each such contact's normal forces are then renewed (the law at Δt = 0).
+fn carry_across_cracks(model: &mut Model, origin: &[u32], cracked: &[u32], carried: &[Carried]) {
+    let eps = 1e-6 * model.contact_tolerance();
+    let Model { contacts, blocks, materials, .. } = model;
+    let touched = |k: u32| origin[k as usize] != k || cracked.contains(&k);
+    for c in contacts.iter_mut().filter(|c| !c.logical.is_empty() && (touched(c.blocks[0]) || touched(c.blocks[1]))) {
+        let o = c.blocks.map(|k| origin[k as usize]);
+        let Some((old, sign)) = carried.iter().find_map(|x| {
+            if x.blocks == o {
+                Some((x, 1.0))
+            } else if x.blocks == [o[1], o[0]] {
+                // Block 1 and block 2 swapped: the shear force acts on the other block.
+                Some((x, -1.0))
+            } else {
+                None
+            }
+        }) else {
+            continue;
+        };
+        let [i, j] = c.blocks.map(|k| k as usize);
+        let by = &blocks[super::model::law_block(blocks, c.blocks)];
+        let mat = super::model::material_of(materials, by.material);
+        let joint = mat.joint_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
+        let law = mat.contact_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
+        // Under the same law, a shear force of the old law as one of the new: the same shear
+        // displacement (the joint law's corners' stiffness follows their share of the region).
+        let same = joint == old.joint;
+        let shear = |f: DVec3| if !same || law.ks == old.law.ks || old.law.ks <= 0.0 { sign * f } else { sign * f * (law.ks / old.law.ks) };
+        for l in &mut c.logical {
+            if let Some(m) = old.logical.iter().find(|m| m.point.distance(l.point) <= eps) {
+                l.shear_force = shear(m.shear_force);
+                // A joint whose piece is too small for it (JKN·area < KN) turns point contact:
+                // each old corner keeps its force (an offset that gives it at the new stiffness).
+                l.offset = if same || law.kn <= 0.0 { m.offset } else { (l.gap + m.normal_force / law.kn).min(0.0) };
+            } else if joint && old.joint {
+                if let Some((m, n, t)) = on_a_side(&old.logical, l.point, eps) {
+                    l.offset = m.offset + t * (n.offset - m.offset);
+                    l.shear_force = shear(m.shear_force.lerp(n.shear_force, t));
+                }
+            }
+        }
+        contact::force_law(c, c.normal, &blocks[i], &blocks[j], &law, 0.0);
+    }
+}
+
+/// The two logical contacts of `old` on whose segment `p` lies (within `eps`), and where along
+/// it (0 at the first): a side of the old touching region a crack crossed.
+fn on_a_side(old: &[Logical], p: DVec3, eps: f64) -> Option<(&Logical, &Logical, f64)> {
+    for (k, m) in old.iter().enumerate() {
+        for n in &old[k + 1..] {
+            let d = n.point - m.point;
+            let len2 = d.length_squared();
+            if len2 <= eps * eps {
+                continue;
+            }
+            let t = (p - m.point).dot(d) / len2;
+            if (0.0..=1.0).contains(&t) && (m.point + t * d).distance(p) <= eps {
+                return Some((m, n, t));
+            }
+        }
+    }
+    None
 }

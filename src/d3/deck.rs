@@ -43,7 +43,7 @@
 //! * `SPLIT x y z nx ny nz [MAT n] [CONS m]` (extension): the plane through (x, y, z) with normal
 //!   (nx, ny, nz) cuts every block it crosses (`d3::split`); MAT and CONS give the pieces'
 //!   material and constitutive number (else they keep the parent's; in the 2D language they tag
-//!   the new joint, which D3's contacts, taking their first block's material, have no place for).
+//!   the new joint, which D3's contacts, taking their law block's material (`model::law_block`), have no place for).
 //! * `SAVE [file]` and `RESTART [file]` write and read D3's own save file (`d3::restart`; the
 //!   name as in 2D, `blockdem.sav` in the output folder when none is given); `DUMP [n m]` writes
 //!   the whole state as JSON under a heading with Appendix B's pointers as counts (n and m, the

@@ -543,7 +543,6 @@ impl<'a> Executor<'a> {
         self.echo(&format!("TIMESTEP = {}", fmt_e(self.model.timestep())))?;
         let mut ticker = Ticker::new(&self.options, n);
         self.log.flush()?;
-        let released_before = self.model.dissipated.released;
         let (report, result) = crate::driver::run::run_in_pieces(self, n, &mut ticker);
         let stopped = ticker.finish();
         // The cracks, as 2D's log lines, the crack a plane through the block's centroid.
@@ -565,9 +564,6 @@ impl<'a> Executor<'a> {
             Err(CycleError::Setup(why)) => return Err(self.error(cmd, format!("CYCLE: cannot cycle: {why}"))),
             Err(e) => {
                 self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
-                if matches!(e, CycleError::EnergyGrowth { .. }) && !report.cracks.is_empty() {
-                    self.crack_energy_note(report.cracks.len(), released_before)?;
-                }
                 return Err(RunError::Cycle(e));
             }
         }
@@ -577,30 +573,6 @@ impl<'a> Executor<'a> {
             return Err(RunError::Interrupted(self.model.cycle));
         }
         Ok(())
-    }
-}
-
-impl Executor<'_> {
-    /// Where a CYCLE that cracked blocks ends in energy growth, what the cracks had to do with it
-    /// (the error itself asks for a lower FRACTION, which is the cure of an unstable step, not of
-    /// this): a crack whose plane runs through a loaded face gives each piece's part of that face
-    /// corner springs of its own (four each where the whole face had four), which take the
-    /// overlap they are made at whole (booked: the ledger's `released`, negative); under the joint
-    /// law a face's stiffness is JKN times the touching area shared among its corners, and the
-    /// cracks change both. A lower FRACTION does not remove what the cracks put in (a wall of 60
-    /// bricks cracking under a projectile, its normal force then in total form, grew its ledger
-    /// by the same 4e4 J over the same time at FRACTION 0.1, 0.05 and 0.025); the error's own
-    /// advice stands beside it (the same wall under the joint law, with eq. 16 as an increment,
-    /// stops at cycle 2400 at FRACTION 0.1 and runs the same time at 0.05). `released_before`:
-    /// the ledger's released energy at the CYCLE's start.
-    fn crack_energy_note(&mut self, cracks: usize, released_before: f64) -> Result<(), RunError> {
-        let put_in = released_before - self.model.dissipated.released;
-        let booked = if put_in > 0.0 { format!(", WHICH THE LEDGER BOOKS AS {} PUT IN,", fmt_e(put_in)) } else { String::new() };
-        self.echo(&format!(
-            "NOTE: THE {cracks} CRACKS OF THIS CYCLE UP TO ITS LAST GOOD STATE GAVE THEIR PIECES' NEW CORNERS SPRINGS OF THEIR OWN ON LOADED FACES{booked} \
-             (A CRACK'S CORNERS TAKE THE OVERLAP THEY ARE MADE AT WHOLE; UNDER THE JOINT LAW A FACE'S STIFFNESS IS SHARED AMONG ITS CORNERS BY THE TOUCHING AREA, \
-             WHICH THE CRACKS CHANGE); A LOWER FRACTION DOES NOT REMOVE THE ENERGY THE CRACKS PUT IN"
-        ))
     }
 }
 

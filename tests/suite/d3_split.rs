@@ -256,12 +256,24 @@ fn the_point_load_law_splits_a_squeezed_block_across_its_length() {
         assert_eq!((b.material, b.constitutive), (2, 1));
         assert!(!b.is_sdef(), "a rigid block's pieces are rigid");
     }
-    // The crack doubles the springs' energy (53.05 J from 26.5 J: each half's face takes four
-    // corner springs where the whole face had four), booked as a negative release; the ledger
-    // balances to 4.9e-7 J of 53 J.
+    // The crack keeps the contacts' state (`cpu::carry_across_cracks`): each half's parts of the
+    // pressed faces keep their old corners' forces, and their new corners on the crack plane
+    // start unloaded (point law: a spring per corner), so the springs hold what they held
+    // (26.5 J; before, the new corners took their overlap whole and the energy doubled) and the
+    // blocks above and below are pushed as they were.
     let e = m.energies();
-    assert!(e.released < -26.0 && e.strain > 52.0, "released {}, strain {}", e.released, e.strain);
+    assert!(e.released.abs() < 1e-9 * e.strain && close(e.strain, 26.525, 1e-3), "released {}, strain {}", e.released, e.strain);
     assert!(e.ledger().abs() < 1e-6 * e.scale(), "ledger {} of {}", e.ledger(), e.scale());
+    let (whole, _) = ok(&squeezed_block(1.2e6));
+    assert_eq!(whole.cycle, m.cycle);
+    for top in [0usize, 2] {
+        let push = |m: &Model| -> f64 { m.contacts.iter().filter(|c| c.blocks.contains(&(top as u32))).flat_map(|c| &c.logical).map(|l| l.normal_force).sum() };
+        assert!(close(push(&m), push(&whole), 1e-9), "block {top}: {} after the crack, {} uncracked", push(&m), push(&whole));
+    }
+    // Blocks 1 and 3 are the halves; 0 and 2 the slab and the block above.
+    let pressed = m.contacts.iter().filter(|c| c.blocks.iter().any(|b| [1, 3].contains(b)) && c.blocks.iter().any(|b| [0, 2].contains(b)));
+    let unloaded = pressed.flat_map(|c| &c.logical).filter(|l| l.gap < 0.0 && l.normal_force == 0.0).count();
+    assert_eq!(unloaded, 8, "the halves' new corners on the pressed faces (two on each face of each half)");
     // Below the criterion nothing cracks.
     let (m, log) = ok(&squeezed_block(1.2e6));
     assert!(!log.contains("CRACKED") && m.blocks.len() == 3, "{log}");
@@ -269,24 +281,40 @@ fn the_point_load_law_splits_a_squeezed_block_across_its_length() {
 
 /// The joint law (constitutive 2: point-load cracking, joint contacts; SL-85-1 Table A1) on the
 /// squeezed block: its face contacts' stiffness is JKN per unit area over their area, shared by
-/// their corners, so the halves' contacts (four corners each, on half the area) carry what the
-/// whole face carried, where the point law doubled it: the crack changes the springs' energy by
-/// less than 1e-3 of it. A joint-law block whose material lacks JKN is refused at CYCLE.
+/// their corners, so the halves' contacts (four corners each, on half the area, the new ones
+/// taking the state of the old region's side they lie on) carry what the whole face carried: the
+/// crack changes the springs' energy by less than 1e-3 of it and the push on the blocks above
+/// and below not at all. (JKN·area stays above KN on the halves: ¶5's rule keeps the joint law.)
+/// A joint-law block whose material lacks JKN is refused at CYCLE.
 #[test]
 fn the_joint_law_keeps_a_cracked_faces_stiffness() {
     let deck = squeezed_block(5e5)
         .replace("CONS 1", "CONS 2")
         .replace("BOX -1 2 -1 3 -1 0", "BOX -1 2 -1 3 -1 0 CONS 2")
         .replace("BOX 0 1 0 2 1 2\n", "BOX 0 1 0 2 1 2 CONS 2\n");
-    let deck = deck.replace("F=0.5 TF=1E9", "F=0.5 JKN=1E10 JKS=1E10 JF=0.5 TF=1E9").replace("F=0.5\nPROP MAT=2", "F=0.5 JKN=1E10 JKS=1E10 JF=0.5\nPROP MAT=2");
+    let joints = |deck: &str| {
+        deck.replace("F=0.5 TF=1E9", "F=0.5 JKN=2E10 JKS=2E10 JF=0.5 TF=1E9").replace("F=0.5\nPROP MAT=2", "F=0.5 JKN=2E10 JKS=2E10 JF=0.5\nPROP MAT=2")
+    };
+    let deck = joints(&deck);
     let (m, log) = ok(&deck);
     let line = log.lines().find(|l| l.contains("CRACKED")).unwrap_or_else(|| panic!("no crack:\n{log}"));
     assert!(line.starts_with("BLOCK 2 CRACKED AT CYCLE 3001 (POINT-LOAD ") && line.contains("NEW BLOCK 4"), "{line}");
     let e = m.energies();
     assert!(e.strain > 0.0 && e.released.abs() < 1e-3 * e.strain, "released {} of the springs' {}", e.released, e.strain);
     assert!(e.ledger().abs() < 1e-6 * e.scale(), "ledger {} of {}", e.ledger(), e.scale());
+    let whole_deck = joints(
+        &squeezed_block(1.2e6)
+            .replace("CONS 1", "CONS 2")
+            .replace("BOX -1 2 -1 3 -1 0", "BOX -1 2 -1 3 -1 0 CONS 2")
+            .replace("BOX 0 1 0 2 1 2\n", "BOX 0 1 0 2 1 2 CONS 2\n"),
+    );
+    let (whole, _) = ok(&whole_deck);
+    for other in [0u32, 2] {
+        let push = |m: &Model| -> f64 { m.contacts.iter().filter(|c| c.blocks.contains(&other)).flat_map(|c| &c.logical).map(|l| l.normal_force).sum() };
+        assert!(push(&whole) > 1e5 && close(push(&m), push(&whole), 1e-9), "block {other}: {} after the crack, {} uncracked", push(&m), push(&whole));
+    }
     // Without JKN: refused at the first CYCLE, naming the block and the material.
-    let bad = deck.replace("JKN=1E10 JKS=1E10 JF=0.5\nPROP MAT=2", "\nPROP MAT=2");
+    let bad = deck.replace("JKN=2E10 JKS=2E10 JF=0.5\nPROP MAT=2", "\nPROP MAT=2");
     let (_, _, r) = run(&bad);
     let e = r.unwrap_err();
     assert!(
@@ -443,17 +471,11 @@ fn a_run_that_fails_lists_the_cracks_its_last_good_state_holds() {
     assert!(cracks.iter().all(|&c| c <= m.cycle), "{cracks:?} past cycle {}", m.cycle);
 }
 
-/// A CYCLE that cracked blocks and ends in energy growth says in its log what the cracks put in:
-/// each crack's plane runs through loaded faces, whose parts on the pieces take corner springs of
-/// their own at their whole overlap (booked as a negative release), which a lower FRACTION does
-/// not remove. A wall of 60 bricks (point-load cracking, joint contacts) struck by a steel cube at
-/// 30 m/s, which stops at cycle 2400 at FRACTION 0.1 (at 0.05 it runs the same time: the growth
-/// there is not the cracks' alone).
-#[test]
-fn a_cycle_whose_cracks_make_energy_says_so() {
-    let mut deck = String::from(
-        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6 JKN=1E10 JKS=1E10 JF=0.6 TF=2E5\nPROP MAT=2 D=7800 KN=1E10 KS=1E10 F=0.3\nBOX -1 5.2 -1 1.2 -1 0\n",
-    );
+/// A wall of 60 bricks (constitutive 2: joint contacts) on a fixed slab, struck at mid-height by a
+/// 0.3 m steel cube at 30 m/s, `jkn` its material's JKN = JKS (Pa/m), at FRACTION 0.1.
+fn struck_wall(jkn: &str, cycles: u64) -> String {
+    let mut deck =
+        format!("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6 JKN={jkn} JKS={jkn} JF=0.6\nPROP MAT=2 D=7800 KN=1E10 KS=1E10 F=0.3\nBOX -1 5.2 -1 1.2 -1 0\n");
     for course in 0..6 {
         let shift = if course % 2 == 1 { 0.2 } else { 0.0 };
         for k in 0..10 {
@@ -461,17 +483,63 @@ fn a_cycle_whose_cracks_make_energy_says_so() {
             deck += &format!("BOX {x:.3} {:.3} 0 0.2 {z:.3} {:.3} CONS 2\n", x + 0.4, z + 0.2);
         }
     }
-    deck +=
-        "BOX 1.950 2.250 -0.5 -0.2 0.450 0.750 MAT 2\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\nVELOCITY 1.9 2.3 -0.6 -0.1 0.4 0.8 0 30 0\nCYCLE 4000\n";
-    let (m, log, result) = run(&deck);
-    let e = result.expect_err("the cracks' energy ends the run");
-    assert!(e.contains("energy growing without a source"), "{e}");
-    let cracks = log.matches(" CRACKED AT CYCLE ").count();
-    assert!(cracks > 0 && cracks == m.blocks.len() - 62, "{cracks} cracks, {} blocks", m.blocks.len());
-    let note = log.lines().find(|l| l.starts_with("NOTE: THE ")).unwrap_or_else(|| panic!("no note:\n{log}"));
-    assert!(note.starts_with(&format!("NOTE: THE {cracks} CRACKS OF THIS CYCLE")), "{note}");
-    assert!(note.contains("WHICH THE LEDGER BOOKS AS ") && note.ends_with("A LOWER FRACTION DOES NOT REMOVE THE ENERGY THE CRACKS PUT IN"), "{note}");
-    assert!(m.energies().released < 0.0);
+    deck + &format!(
+        "BOX 1.950 2.250 -0.5 -0.2 0.450 0.750 MAT 2\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\nVELOCITY 1.9 2.3 -0.6 -0.1 0.4 0.8 0 30 0\nCYCLE {cycles}\n"
+    )
+}
+
+/// ¶5's rule, as in 2D (`Material::contact_law`): a contact whose joint would be softer than one
+/// point contact, JKN·area < KN, takes the point law. The struck wall's bricks have JKN·area =
+/// 4·10⁸ and 8·10⁸ N/m on their faces against KN = 10⁹: before the rule their contacts switched,
+/// as the bricks rocked between face and edge, from four corners of JKN·area/4 to corners of KN at
+/// the same overlaps, each switch putting spring energy in, and the run stopped with `energy
+/// growing without a source` at the same simulated time at FRACTION 0.1, 0.05 and 0.025 (cycle
+/// 2100 at 0.1). With the rule it runs. With JKN = 10¹¹ (the joint law on the bricks' faces) it
+/// runs too. The ledger: 9.7 % and 7.3 % of the cube's energy put in by the impact (as the same
+/// wall under the point law, constitutive 1; not the step's: 8.7 %, 9.7 %, 11.6 % at FRACTION
+/// 0.2, 0.1, 0.05; docs/BENCHMARKS.md), so the bound below is loose.
+#[test]
+fn a_joint_softer_than_a_point_contact_is_one_and_a_struck_wall_keeps_its_energy() {
+    let m = blockdem::d3::model::Material { kn: 1e9, ks: 1e9, jkn: 1e10, jks: 1e10, ..Default::default() };
+    assert!(!m.joint_law(true, 0.08, 4) && m.contact_law(true, 0.08, 4).kn == 1e9);
+    assert!(m.joint_law(true, 0.1, 4) && close(m.contact_law(true, 0.2, 4).kn, 1e10 * 0.05, 1e-15));
+    assert!(!m.joint_law(false, 0.2, 4) && !m.joint_law(true, 0.0, 4));
+    for jkn in ["1E10", "1E11"] {
+        let (m, log) = ok(&struck_wall(jkn, 8000));
+        let e = m.energies();
+        // The cube (210.6 kg at 30 m/s) struck the wall: the bricks move, friction took some.
+        assert!(e.external_work > 9e4 && e.friction > 1e3, "JKN {jkn}: {e:?}\n{log}");
+        assert!(e.ledger().abs() < 0.15 * e.external_work, "JKN {jkn}: ledger {} of {}", e.ledger(), e.external_work);
+        let faces =
+            m.contacts.iter().filter(|c| c.area > 0.01 && m.blocks[c.blocks[0] as usize].constitutive == 2 && m.blocks[c.blocks[1] as usize].constitutive == 2);
+        let joints = faces.filter(|c| m.contact_material(c).kn != 1e9).count();
+        assert_eq!(joints > 0, jkn == "1E11", "JKN {jkn}: {joints} brick face contacts under the joint law");
+    }
+}
+
+/// A contact's law comes from its block of the lower material number, then constitutive number
+/// (`model::law_block`), whatever the blocks' order. A crack's new piece goes at the end of the
+/// list: when the law was block 1's, the squeezed block's piece took the stiffer material of the
+/// block above (KN 10¹¹ where its own gives 10¹⁰) at its contact with it, and the crack put that
+/// spring energy in. Now every contact of the halves keeps its parent's law, and the springs hold
+/// what they held.
+#[test]
+fn a_cracks_piece_keeps_its_contacts_law_against_another_material() {
+    use blockdem::d3::model::law_block;
+    let deck = squeezed_block(5e5)
+        .replace("PROP MAT=2", "PROP MAT=3 D=1000 KN=1E11 KS=1E11 F=0.5\nPROP MAT=2")
+        .replace("BOX 0 1 0 2 1 2\n", "BOX 0 1 0 2 1 2 MAT 3\n");
+    let (m, log) = ok(&deck);
+    assert!(log.contains("BLOCK 2 CRACKED AT CYCLE 3001") && m.blocks.len() == 4, "{log}");
+    // The block above (index 2, material 3) on both halves (indices 1 and 3, material 2).
+    let above: Vec<_> = m.contacts.iter().filter(|c| c.blocks.contains(&2) && !c.logical.is_empty()).collect();
+    assert_eq!(above.len(), 2);
+    for c in above {
+        assert_eq!(m.contact_material(c).kn, 1e10, "{:?}", c.blocks);
+    }
+    assert_eq!((law_block(&m.blocks, [2, 3]), law_block(&m.blocks, [3, 2])), (3, 3));
+    let e = m.energies();
+    assert!(e.released.abs() < 1e-9 * e.strain, "released {} of {}", e.released, e.strain);
 }
 
 /// Eq. (16) as the report gives it, an increment (`contact::force_law`): a logical contact's

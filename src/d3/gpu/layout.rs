@@ -63,7 +63,7 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A contact: its common-plane normal, block 1's material and the energy friction took and
+    /// A contact: its common-plane normal, its law block's material (`model::law_block`) and the energy friction took and
     /// springs released since the upload; its logical contacts are a run of the logical buffer.
     Contact {
         nx: R, ny: R, nz: R,

@@ -6,7 +6,7 @@
 //! The state lives in storage buffers (`layout`): blocks (centroid, velocity, angular momentum
 //! and velocity, orientation quaternion, mass, the inverse reference-frame inertia, load,
 //! fixity, the stage-6 sums), their vertices, face planes and edges, the contacts (normal,
-//! block 1's material) and their logical contacts (kind and vertices, point, gap, normal and shear
+//! its law block's material) and their logical contacts (kind and vertices, point, gap, normal and shear
 //! force). One cycle is three kernels, each the twin of the CPU function of its name:
 //!
 //! 1. `gather` (stage 6, `cpu::gather`): per block, its weight and load and its contacts' forces
