@@ -553,7 +553,7 @@ pub fn cracks(model: &mut Model, report: &mut CycleReport) {
 /// afresh once for them all (stage 7, stage 4 with Δt = 0: each cut depends on its own block
 /// alone, and a contact update per crack made a cycle of many cracks cost as many passes over
 /// the whole model), carries the cracked blocks' contact state over to their pieces
-/// ([`carry_across_cracks`]), and books as released what the cracks took from the kinetic and
+/// (`carry_across_cracks`), and books as released what the cracks took from the kinetic and
 /// strain energies (the parents' stresses, what the contacts' springs lost or gained with
 /// their share of a halved face). Each crack goes into `report` (`from`: a point of the crack
 /// plane; `to`: its unit normal).

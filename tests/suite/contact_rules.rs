@@ -113,6 +113,46 @@ fn no_crack_within_half_the_smallest_edge_of_a_corner() {
     assert_eq!(cycle(&mut m, 5).cracks.len(), 1, "0.6 m from the corners the beam cracks");
 }
 
+/// A pair of loads is a point load only where the forces oppose (more than a right angle apart),
+/// not merely where each pushes towards the other's point: a roof-shaped block (material 2, TF
+/// 1 kPa; slopes of 0.3, 16.7°) carrying a block on each slope under gravity (damped to rest)
+/// is pressed from above, its two loads tilted towards each other (down and towards the ridge).
+/// The inner pair's value, (F1 + F2)/(2d²) = 4.3 kPa over d = 1.24 m, is four times TF and their points lie clear of the
+/// corners, so the old test alone ("each towards the other") split the roof; now nothing cracks.
+/// (The D3 wall that cracked under its own weight had two such loads a hair apart:
+/// `d3_split::two_blocks_pressing_down_side_by_side_are_no_point_load_pair`.)
+#[test]
+fn two_loads_pressing_down_towards_each_other_are_no_point_load_pair() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.8\nPROP MAT=2 D=2000 KN=1E9 KS=1E9 F=0.8 TF=1E3\nROUND 0.02\n\
+                BLOCK MAT=2 CONS=1 0,0 0,1 2,1.6 4,1 4,0\n\
+                BLOCK 0.6,1.18 0.6,2.2 1.4,2.2 1.4,1.42\nBLOCK 2.6,1.42 2.6,2.2 3.4,2.2 3.4,1.18\n\
+                BLOCK -1,-1 -1,0 5,0 5,-1\nFIX -2 6 -2 -0.3\nGRAV 0 -10\nDAMP 0.5 190\nCYCLE 3000\n";
+    let m = run(deck);
+    assert_eq!(m.blocks.len(), 4, "the roof cracked");
+    let roof = m.blocks.iter().position(|b| b.material == 2).unwrap() as u32;
+    // The two slopes' loads on the roof, each the force pressing into it (downwards).
+    let loads: Vec<([f64; 2], [f64; 2], f64)> = m
+        .contacts
+        .iter()
+        .filter(|c| (c.block1 == roof || c.block2 == roof) && c.normal_force > 0.0 && c.point[1] > 1.05)
+        .map(|c| {
+            let f = [c.normal_force * c.normal[0], c.normal_force * c.normal[1]];
+            let f = if f[1] < 0.0 { f } else { [-f[0], -f[1]] };
+            (c.point, f, c.normal_force)
+        })
+        .collect();
+    assert_eq!(loads.len(), 4, "two corners on each slope: {loads:?}");
+    // The nearest pair across the ridge: each towards the other, not opposing, over TF.
+    let left = loads.iter().filter(|l| l.0[0] < 2.0).max_by(|a, b| a.0[0].total_cmp(&b.0[0])).unwrap();
+    let right = loads.iter().filter(|l| l.0[0] > 2.0).min_by(|a, b| a.0[0].total_cmp(&b.0[0])).unwrap();
+    let d = [right.0[0] - left.0[0], right.0[1] - left.0[1]];
+    let dot = |a: [f64; 2], b: [f64; 2]| a[0] * b[0] + a[1] * b[1];
+    assert!(dot(left.1, d) > 0.0 && dot(right.1, d) < 0.0, "each pushes towards the other: {left:?} {right:?}");
+    assert!(dot(left.1, right.1) > 0.0, "the two forces are less than a right angle apart");
+    let value = (left.2 + right.2) / (2.0 * dot(d, d));
+    assert!(value > 4e3 && (d[0] - 1.24).abs() < 0.01, "value {value} over d = {d:?}");
+}
+
 // ---------------------------------------------------------------------------------------------
 // Contact detection
 // ---------------------------------------------------------------------------------------------

@@ -1381,3 +1381,33 @@ impl super::backend::Backend for GpuBackend {
         format!("gpu ({}, {} [{}], {})", a.backend, a.name, a.driver_name(), self.precision())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The device's Griffith screen (`crack_screen`) is given a TF only where the CPU may crack
+    /// the block: a simply-deformable block of constitutive 3–5 with a TF, not a fragment at the
+    /// floor (`cracking::above_floor`). A fragment at the floor, screened, would halt its batch
+    /// at every cycle its stress passed TF for the CPU to refuse the crack.
+    #[test]
+    fn a_fragment_at_the_floor_is_not_screened_on_the_device() {
+        let deck = "START\nPROP MAT=1 D=2000 K=1E8 G=6E7 KN=1E9 KS=1E9 TF=2E3\nBOX 0 1 0 1 0 1 CONS 3\nBOX 5 6 5 6 0 1 CONS 1\n\
+                    CHANGE -1 7 -1 7 -1 2 SDEF\n";
+        let commands = super::super::deck::parse_deck(deck, "<test>").unwrap();
+        let mut exec = super::super::exec::Executor::new(Box::new(std::io::sink()), "<test>");
+        exec.run(&commands).unwrap_or_else(|e| panic!("{e}"));
+        let mut model = std::mem::take(&mut exec.model);
+        assert!(model.blocks.iter().all(|b| b.is_sdef()));
+        let tf = |model: &Model| sdef_pods::<f64>(model).unwrap()[..2].iter().map(|p| p.tf).collect::<Vec<_>>();
+        // Griffith's block is screened, the point-load one (constitutive 1) is not.
+        assert_eq!(tf(&model), [2e3, 0.0]);
+        // The same block as a piece of 1/32 of the block built (two pieces at the floor of 1/64):
+        // still screened; under it, not.
+        model.blocks[0].built_volume = 32.0 * model.blocks[0].volume;
+        assert_eq!(tf(&model), [2e3, 0.0]);
+        model.blocks[0].built_volume = 33.0 * model.blocks[0].volume;
+        assert_eq!(tf(&model)[0], 0.0);
+        assert_eq!(sdef_pods::<f32>(&model).unwrap()[0].tf, 0.0);
+    }
+}
