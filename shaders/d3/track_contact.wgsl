@@ -426,8 +426,16 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
         let u = velocity_at(c.block2, p, c.block1) - velocity_at(c.block1, p, c.block1);
         let un = dot3(u, n);
         let us = u - un * n;
-        // Eq. (16) as an increment: from the gap the spring is unloaded at.
-        l.normal_force = -c.kn * (l.gap - l.offset);
+        // Eq. (16), ΔFn = −kn·Δun, in compression only (`contact::force_law`): the CPU's detection
+        // between batches gives each logical contact it found its first force.
+        let loaded = -c.kn * (l.gap - l.offset);
+        if (l.kind != LOGICAL_EDGE_EDGE) {
+            l.normal_force = loaded;
+        } else if (l.normal_force == 0.0) {
+            l.normal_force = max(min(loaded, -c.kn * un * dt), 0.0);
+        } else {
+            l.normal_force = max(l.normal_force - c.kn * un * dt, 0.0);
+        }
         // Eq. (17): the previous shear force turned into the new plane, magnitude kept.
         var fs = shear_of(l);
         if (any(old != n)) {

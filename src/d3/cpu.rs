@@ -453,7 +453,7 @@ pub fn update_contact(
         // keeps its shear force, none is released. (A contact's logical contacts have distinct
         // keys, so the search below would pair them so too.)
         for (&(_, point, gap), l) in found.iter().zip(c.logical.iter_mut()) {
-            (l.point, l.gap, l.normal_force) = (point, gap, 0.0);
+            (l.point, l.gap) = (point, gap);
         }
         // Nothing released: the empty sum, as the search's branch gives it (the sign of its
         // zero too).
@@ -471,7 +471,10 @@ pub fn update_contact(
             // GPU's detection between batches) inside an overlapped face starts unloaded (eq. 16
             // as an increment); at the run's first detection or a crack's, at its whole overlap.
             let offset = old.map_or(if unloaded { gap.min(0.0) } else { 0.0 }, |l| l.offset);
-            Logical { kind, point, gap, normal_force: 0.0, shear_force, offset }
+            // Its normal force: the old one's, carried and stepped by eq. (16); a new one's is
+            // not yet known (`contact::force_law` loads it from its offset).
+            let normal_force = old.map_or(contact::NEW_NORMAL_FORCE, |l| l.normal_force);
+            Logical { kind, point, gap, normal_force, shear_force, offset }
         }));
         // The strain of logical contacts not found again (their shear springs; their normal
         // ones too, where the touching region lost a loaded corner).
@@ -617,12 +620,11 @@ struct Carried {
 /// block's index before the cracks, a new piece's its parent's; `cracked`: the parents'
 /// indices, which their first pieces keep). A crack moves nothing, so each logical contact of a
 /// piece's contact that lies where one of the parent's did (a corner of the old touching region)
-/// is that one: under the same law it takes its offset (eq. 16 as an increment) and its shear
-/// displacement (the shear force over the shear stiffness: the joint law's per-corner stiffness
-/// follows its share of the region, which the crack halves); where the piece's region is too
-/// small for the joint law (`Material::joint_law`) it keeps its forces. A logical contact the
-/// crack made (a piece's new corner on the crack plane, inside a face the parent pressed) is a
-/// new spring:
+/// is that one: under the same law it takes its offset and its normal and shear displacements
+/// (its forces over its stiffnesses: the joint law's per-corner stiffness follows its share of
+/// the region, which the crack halves); where the piece's region is too small for the joint law
+/// (`Material::joint_law`) it keeps its forces. A logical contact the crack made (a piece's new
+/// corner on the crack plane, inside a face the parent pressed) is a new spring:
 /// - under the point law (a stiffness per corner) it starts unloaded, so that the force across
 ///   the face is what it was and only its stiffness grows (the face has more corners): before
 ///   this it took its whole overlap, and a crack through a loaded face put that spring energy
@@ -631,7 +633,7 @@ struct Carried {
 ///   side it lies on (interpolated along it), so that the joint carries the stress it carried:
 ///   its corners' shares halve and they are twice as many.
 ///
-/// Each such contact's normal forces are then renewed (the law at Δt = 0).
+/// Each such contact's law is then applied at Δt = 0 (an opened spring let go, Coulomb's cap).
 fn carry_across_cracks(model: &mut Model, origin: &[u32], cracked: &[u32], carried: &[Carried]) {
     let eps = 1e-6 * model.contact_tolerance();
     let Model { contacts, blocks, materials, .. } = model;
@@ -655,20 +657,21 @@ fn carry_across_cracks(model: &mut Model, origin: &[u32], cracked: &[u32], carri
         let mat = super::model::material_of(materials, by.material);
         let joint = mat.joint_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
         let law = mat.contact_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
-        // Under the same law, a shear force of the old law as one of the new: the same shear
-        // displacement (the joint law's corners' stiffness follows their share of the region).
+        // Under the same law, a force of the old law as one of the new: the same displacement
+        // (the joint law's corners' stiffness follows their share of the region); under another
+        // (a piece's region too small for the joint law) the same force.
         let same = joint == old.joint;
-        let shear = |f: DVec3| if !same || law.ks == old.law.ks || old.law.ks <= 0.0 { sign * f } else { sign * f * (law.ks / old.law.ks) };
+        let scaled = |f: f64, k_new: f64, k_old: f64| if !same || k_new == k_old || k_old <= 0.0 { f } else { f * (k_new / k_old) };
         for l in &mut c.logical {
             if let Some(m) = old.logical.iter().find(|m| m.point.distance(l.point) <= eps) {
-                l.shear_force = shear(m.shear_force);
-                // A joint whose piece is too small for it (JKN·area < KN) turns point contact:
-                // each old corner keeps its force (an offset that gives it at the new stiffness).
-                l.offset = if same || law.kn <= 0.0 { m.offset } else { (l.gap + m.normal_force / law.kn).min(0.0) };
+                l.offset = m.offset;
+                l.normal_force = scaled(m.normal_force, law.kn, old.law.kn);
+                l.shear_force = sign * scaled(1.0, law.ks, old.law.ks) * m.shear_force;
             } else if joint && old.joint {
                 if let Some((m, n, t)) = on_a_side(&old.logical, l.point, eps) {
                     l.offset = m.offset + t * (n.offset - m.offset);
-                    l.shear_force = shear(m.shear_force.lerp(n.shear_force, t));
+                    l.normal_force = scaled(m.normal_force + t * (n.normal_force - m.normal_force), law.kn, old.law.kn);
+                    l.shear_force = sign * scaled(1.0, law.ks, old.law.ks) * m.shear_force.lerp(n.shear_force, t);
                 }
             }
         }
