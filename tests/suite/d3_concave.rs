@@ -8,6 +8,7 @@
 //! tests/suite/d3_concave_gpu.rs.
 
 use crate::common::voxels::{block_command, voxel_faces, L, U};
+use blockdem::d3::backend::Backend as _;
 use blockdem::d3::deck::parse_deck;
 use blockdem::d3::decompose;
 use blockdem::d3::exec::{Executor, RunError};

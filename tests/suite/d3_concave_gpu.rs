@@ -17,6 +17,7 @@
 use crate::common;
 use crate::common::voxels::{block_command, voxel_faces, L, U};
 
+use blockdem::d3::backend::Backend as _;
 use blockdem::d3::exec::Executor;
 use blockdem::d3::gpu::{layout, GpuBackend};
 use blockdem::d3::model::Model;

@@ -8,6 +8,7 @@
 
 use crate::common;
 
+use blockdem::d3::backend::Backend as _;
 use blockdem::d3::cpu::CpuBackend;
 use blockdem::d3::exec::Executor;
 use blockdem::d3::gpu::layout::{Halt, SdefBlock};

@@ -7,6 +7,7 @@ use std::process::Command;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
+use blockdem::d3::backend::Backend as _;
 use blockdem::d3::deck::parse_deck;
 use blockdem::d3::exec::{Executor, RunError};
 use blockdem::d3::model::Model;

@@ -4,6 +4,7 @@
 
 use std::path::PathBuf;
 
+use blockdem::d3::backend::Backend as _;
 use blockdem::d3::deck::parse_deck;
 use blockdem::d3::exec::{Executor, RunError};
 use blockdem::d3::model::Model;

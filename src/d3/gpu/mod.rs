@@ -333,15 +333,9 @@ impl GpuBackend {
         self.batches
     }
 
-    /// Runs `cycles` cycles of `model` through the run driver.
-    pub fn run(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool) -> Result<CycleReport, CycleError> {
-        let mut report = CycleReport::default();
-        self.run_into(model, cycles, progress, &mut report)?;
-        Ok(report)
-    }
-
-    /// [`GpuBackend::run`], what the run does added to `report` (on error: up to the last good
-    /// state, which the model is left at).
+    /// Runs `cycles` cycles of `model` through the run driver (`progress` is told the cycles done
+    /// at each check and may end the run there: false), what the run does added to `report` (on
+    /// error: up to the last good state, which the model is left at). `Backend::run` returns it.
     pub fn run_into(&mut self, model: &mut Model, cycles: u64, progress: &mut dyn FnMut(u64) -> bool, report: &mut CycleReport) -> Result<(), CycleError> {
         let resume = driver::prepare(self, model, report)?;
         let mut kept = std::mem::take(&mut self.last_good);
