@@ -381,9 +381,7 @@ fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: 
                 let [i, j] = c.blocks.map(|k| k as usize);
                 // The law block's material and whether its law is the joint law (the law's
                 // parameters follow from the touching region found).
-                let by = &blocks[super::model::law_block(blocks, c.blocks)];
-                let mat = super::model::material_of(materials, by.material);
-                let joint = super::model::joint_contacts(by.constitutive);
+                let (mat, joint) = super::model::law_material(blocks, materials, c.blocks);
                 // The parts in touch (a convex block is its own one part).
                 let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
                 let (friction, released) = update_contact(c, a, b, &mat, joint, tol, dt, scratch);
@@ -567,9 +565,9 @@ pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut C
         .iter()
         .filter(|c| !c.logical.is_empty() && due.iter().any(|d| c.blocks.contains(&(d.block as u32))))
         .map(|c| {
-            let by = &model.blocks[super::model::law_block(&model.blocks, c.blocks)];
-            let joint = model.material(by.material).joint_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
-            Carried { blocks: c.blocks, law: model.contact_material(c), joint, logical: c.logical.clone() }
+            let (mat, joint) = super::model::law_material(&model.blocks, &model.materials, c.blocks);
+            let n = c.logical.len();
+            Carried { blocks: c.blocks, law: mat.contact_law(joint, c.area, n), joint: mat.joint_law(joint, c.area, n), logical: c.logical.clone() }
         })
         .collect();
     let mut origin: Vec<u32> = (0..model.blocks.len() as u32).collect();
@@ -646,10 +644,8 @@ fn carry_across_cracks(model: &mut Model, origin: &[u32], cracked: &[u32], carri
             continue;
         };
         let [i, j] = c.blocks.map(|k| k as usize);
-        let by = &blocks[super::model::law_block(blocks, c.blocks)];
-        let mat = super::model::material_of(materials, by.material);
-        let joint = mat.joint_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
-        let law = mat.contact_law(super::model::joint_contacts(by.constitutive), c.area, c.logical.len());
+        let (mat, joint_number) = super::model::law_material(blocks, materials, c.blocks);
+        let (joint, law) = (mat.joint_law(joint_number, c.area, c.logical.len()), mat.contact_law(joint_number, c.area, c.logical.len()));
         // Under the same law, a force of the old law as one of the new: the same displacement
         // (the joint law's corners' stiffness follows their share of the region); under another
         // (a piece's region too small for the joint law) the same force.

@@ -86,6 +86,14 @@ pub fn law_block(all: &[Block], blocks: [u32; 2]) -> usize {
     }
 }
 
+/// The material of the law block of a contact between `blocks` ([`law_block`]) and whether its
+/// constitutive number gives face contacts the joint law ([`joint_contacts`]): what
+/// [`Material::contact_law`] takes with the touching region.
+pub fn law_material(all: &[Block], materials: &[Material], blocks: [u32; 2]) -> (Material, bool) {
+    let by = &all[law_block(all, blocks)];
+    (material_of(materials, by.material), joint_contacts(by.constitutive))
+}
+
 /// Whether blocks of constitutive number `constitutive` give their face contacts the joint law
 /// ([`Material::contact_law`]): 2, 4 and 5, the numbers of 2D's joint contacts (Table A1).
 pub fn joint_contacts(constitutive: u32) -> bool {
@@ -742,8 +750,8 @@ impl Model {
     /// constitutive number's law ([`Material::contact_law`]) over the touching region the contact
     /// holds.
     pub fn contact_material(&self, c: &Contact) -> Material {
-        let by = &self.blocks[law_block(&self.blocks, c.blocks)];
-        self.material(by.material).contact_law(joint_contacts(by.constitutive), c.area, c.logical.len())
+        let (mat, joint) = law_material(&self.blocks, &self.materials, c.blocks);
+        mat.contact_law(joint, c.area, c.logical.len())
     }
 
     /// The contact-forming distance: a logical contact whose gap is within it is kept (its

@@ -544,7 +544,9 @@ fn a_cracks_piece_keeps_its_contacts_law_against_another_material() {
 /// Eq. (16) as the report gives it, an increment (`contact::force_law`): a logical contact's
 /// normal spring is unloaded at its offset (the overlap it had when it appeared inside a face
 /// already overlapped), loads from there, and as it opens past the offset the offset follows it
-/// back up to 0, so that it reloads from where it is and, once apart, as a fresh contact would.
+/// back up to 0, so that it reloads from where it is and, once apart, as a fresh contact would
+/// (a vertex–face contact, kn times its overlap beyond the offset); an edge–edge contact's force
+/// is stepped by the blocks' approach at its point (below).
 #[test]
 fn a_logical_contacts_normal_force_is_an_increment_from_where_it_appeared() {
     use blockdem::d3::contact::force_law;
