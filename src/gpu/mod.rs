@@ -45,7 +45,7 @@ pub enum GpuError {
     #[error("GPU set-up: {0}")]
     Setup(String),
     /// The model does not fit the adapter or the kernel precision: a buffer past the binding
-    /// limit (`kernels::check_fits`), a value outside f32's range (`run::representable`).
+    /// limit (`device::check_fits`), a value outside f32's range (`run::representable`).
     #[error("GPU set-up: {0}")]
     DoesNotFit(String),
     #[error("GPU shader: {0}")]

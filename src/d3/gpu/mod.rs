@@ -370,6 +370,7 @@ impl GpuBackend {
     }
 
     fn upload_as<R: Real>(&mut self, model: &Model) -> Result<(), GpuError> {
+        fits::<R>(model, crate::gpu::device::binding_cap(&self.dev))?;
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let (vertices, planes, edges) = shape_pods::<R>(model);
         let vertices = self.buffer("d3 vertices", bytemuck::cast_slice(&vertices), storage_usage);
@@ -463,6 +464,7 @@ impl GpuBackend {
     /// gives them, each contact's blocks and a run of logical contacts whose kinds and vertices
     /// are its keys. Err says what does not fit (the run then detects afresh).
     fn restore_as<R: Real>(&mut self, model: &Model, device: &DeviceState) -> Result<(), String> {
+        fits::<R>(model, crate::gpu::device::binding_cap(&self.dev)).map_err(|e| e.to_string())?;
         let (vertices, planes, edges) = shape_pods::<R>(model);
         let (blocks, contacts, _, adjacency, _) = topology_pods::<R>(model);
         let saved_blocks: Vec<layout::Block<R>> = pods(&device.blocks, blocks.len(), "blocks")?;
@@ -549,16 +551,22 @@ impl GpuBackend {
 
     /// After a detection: the blocks, contacts, logical contacts and adjacency re-uploaded (the
     /// shapes stay), the bases moved to the model's totals now.
-    fn reupload(&mut self, model: &Model) {
+    fn reupload(&mut self, model: &Model) -> Result<(), GpuError> {
+        let cap = crate::gpu::device::binding_cap(&self.dev);
+        match self.dev.precision {
+            Precision::F32 => fits::<f32>(model, cap)?,
+            Precision::F64 => fits::<f64>(model, cap)?,
+        }
         let (blocks, contacts, logicals, adjacency, keys, logical_count) = match self.dev.precision {
             Precision::F32 => self.topology_buffers::<f32>(model),
             Precision::F64 => self.topology_buffers::<f64>(model),
         };
-        let Some(s) = self.state.as_ref() else { return };
+        let Some(s) = self.state.as_ref() else { return Ok(()) };
         let bind = self.bind(s.variant, &[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency], s.sdef.as_ref());
         let s = self.state.as_mut().expect("state");
         (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) = (blocks, contacts, logicals, adjacency, bind, keys, logical_count);
         s.bases = bases(model);
+        Ok(())
     }
 
     /// Writes the time step `dt` into the params where it changed.
@@ -755,9 +763,40 @@ impl GpuBackend {
         report.contacts_dropped += dropped;
         cpu::contact_stage_with(model, 0.0, true);
         cpu::overlap_check(model)?;
-        self.reupload(model);
-        Ok(())
+        self.reupload(model).map_err(device_error)
     }
+}
+
+/// The items of each buffer a D3 scene's kernels bind (`State`), as the upload makes them from
+/// `model`: (what it holds, bytes an item, items).
+pub fn buffer_items<R: Real>(model: &Model) -> Vec<(&'static str, usize, usize)> {
+    let shapes = || model.blocks.iter().flat_map(|b| std::iter::once(&b.shape).chain(b.parts.iter().map(|p| &p.shape)));
+    let planes = shapes().map(|s| s.planes.len()).sum::<usize>() + 2 * model.blocks.iter().map(|b| b.boundary_stress.len()).sum::<usize>();
+    let edge_words = shapes().map(|s| 2 * (s.edge_directions.len() + features_of(s) as usize)).sum();
+    let mut items = vec![
+        ("blocks", std::mem::size_of::<layout::Block<R>>(), record_count(model)),
+        ("vertices", std::mem::size_of::<layout::Vertex<R>>(), vertex_count(model)),
+        ("face planes", std::mem::size_of::<layout::Plane<R>>(), planes),
+        ("edges", 4, edge_words),
+        ("contacts", std::mem::size_of::<layout::Contact<R>>(), model.contacts.len()),
+        ("logical contacts", std::mem::size_of::<layout::Logical<R>>(), model.contacts.iter().map(|c| c.logical.len()).sum()),
+        // The blocks' adjacency lists (two entries a contact), then each contact's two bodies.
+        ("adjacency", 4, 4 * model.contacts.len()),
+    ];
+    if model.blocks.iter().any(|b| b.is_sdef()) {
+        items.push(("simply-deformable blocks", std::mem::size_of::<layout::SdefBlock<R>>(), model.blocks.len() + 1));
+    }
+    items
+}
+
+/// Whether every buffer of `model`'s scene fits one binding of `cap` bytes (the adapter's,
+/// `gpu::device::binding_cap`): a model past it is refused before any buffer is made
+/// (`CycleError::DoesNotFit`, naming the buffer), not left to the device's validation.
+fn fits<R: Real>(model: &Model, cap: u64) -> Result<(), GpuError> {
+    for (label, item, count) in buffer_items::<R>(model) {
+        crate::gpu::device::check_fits(label, item, count, cap, R::PRECISION)?;
+    }
+    Ok(())
 }
 
 /// The dispatch grids of the cycle's kernels: over the blocks (gather, law_of_motion) and over
@@ -1403,5 +1442,43 @@ mod tests {
         model.blocks[0].built_volume = 33.0 * model.blocks[0].volume;
         assert_eq!(tf(&model)[0], 0.0);
         assert_eq!(sdef_pods::<f32>(&model).unwrap()[0].tf, 0.0);
+    }
+
+    /// A scene past the adapter's binding limit is refused before any buffer is made, naming the
+    /// buffer and the way out, not left to wgpu's validation (which panics off an error scope).
+    /// Its buffers' items are those the upload makes.
+    #[test]
+    fn a_scene_past_the_binding_limit_is_refused_naming_its_buffer() {
+        // Four cubes side by side on a fixed slab.
+        let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nBOX -1 3 -1 3 -1 0\nBOX 0 1 0 1 0 1\nBOX 1 2 0 1 0 1\nBOX 0 1 1 2 0 1\nBOX 1 2 1 2 0 1\n\
+                    FIX -1 3 -1 3 -0.6 -0.4\nCYCLE 0\n";
+        let commands = super::super::deck::parse_deck(deck, "<test>").unwrap();
+        let mut exec = super::super::exec::Executor::new(Box::new(std::io::sink()), "<test>");
+        exec.run(&commands).unwrap_or_else(|e| panic!("{e}"));
+        let model = std::mem::take(&mut exec.model);
+        fn check<R: Real>(model: &Model, advice: &str) {
+            let items = buffer_items::<R>(model);
+            let count = |what: &str| items.iter().find(|(label, _, _)| *label == what).map(|&(_, _, n)| n).unwrap();
+            // As the upload makes them.
+            let (_, _, logicals, adjacency, _) = topology_pods::<R>(model);
+            let (vertices, planes, edges) = shape_pods::<R>(model);
+            assert_eq!((count("blocks"), count("vertices"), count("face planes"), count("edges")), (5, vertices.len(), planes.len(), edges.len()));
+            assert_eq!((count("contacts"), count("logical contacts"), count("adjacency")), (model.contacts.len(), logicals.len(), adjacency.len()));
+            // Every buffer fits a binding of 128 MiB. The logical contacts' is the largest (four
+            // a face–face contact): a binding a byte short of it refuses that buffer alone,
+            // named, with the way out.
+            assert!(fits::<R>(model, 128 << 20).is_ok());
+            let bytes = |what: &str| items.iter().filter(|(label, _, _)| *label == what).map(|&(_, item, n)| (item * n) as u64).sum::<u64>();
+            let need = bytes("logical contacts");
+            assert!(items.iter().all(|(label, _, _)| *label == "logical contacts" || bytes(label) < need), "{items:?}");
+            match fits::<R>(model, need - 1) {
+                Err(GpuError::DoesNotFit(why)) => {
+                    assert!(why.contains(&format!("the logical contacts buffer would need {need} bytes")) && why.contains(advice), "{why}")
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+        check::<f32>(&model, "--backend cpu");
+        check::<f64>(&model, "--precision f32");
     }
 }

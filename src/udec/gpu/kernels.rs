@@ -18,7 +18,7 @@ use super::layout::{
 };
 use super::shaders;
 use crate::gpu::wgsl::{layouts, storage, uniform};
-use crate::gpu::{GpuError, Precision};
+use crate::gpu::GpuError;
 
 /// The state's bindings as `shaders/udec/common.wgsl` declares them (group 0; binding = the
 /// discriminant). A test checks this table against the WGSL declarations through naga.
@@ -793,35 +793,7 @@ pub struct Buffers {
     pub summaries: Option<Slab>,
 }
 
-/// The largest storage binding this device may hold: the adapter's own limit (128 MiB on Mesa's
-/// software adapters, 2 GiB on NVIDIA's Vulkan driver), within its largest buffer.
-pub fn binding_cap(dev: &GpuDevice) -> u64 {
-    dev.summary.max_storage_buffer_binding_size.min(dev.summary.max_buffer_size)
-}
-
-/// Why a buffer cannot be made, with advice that fits the run: f32 halves most buffers; in f32
-/// only a smaller model (at most cap / item of these items), an adapter with larger bindings or
-/// the CPU backend helps.
-fn too_large(label: &str, need: u64, cap: u64, item: usize, precision: Precision) -> String {
-    let advice = match precision {
-        Precision::F64 => "use a smaller model or --precision f32 (about half the bytes)".to_string(),
-        Precision::F32 => format!(
-            "use a smaller model (at most {} {label} here), an adapter with larger bindings (hardware GPUs allow 2 GiB and more) or --backend cpu (no such limit)",
-            cap / item as u64
-        ),
-    };
-    format!("the {label} buffer would need {need} bytes, more than one binding may hold on this adapter ({cap} bytes); {advice}")
-}
-
-/// Whether `count` items of `item` bytes fit one binding of `cap` bytes; if not, the error that
-/// making their buffer would give.
-pub(crate) fn check_fits(label: &str, item: usize, count: usize, cap: u64, precision: Precision) -> Result<(), GpuError> {
-    let need = (count.max(1) * item) as u64;
-    if need > cap {
-        return Err(GpuError::DoesNotFit(too_large(label, need, cap, item, precision)));
-    }
-    Ok(())
-}
+pub use crate::gpu::device::{binding_cap, check_fits};
 
 /// A uniform buffer of `size` bytes, written from the CPU.
 pub(crate) fn uniform_buffer(dev: &GpuDevice, label: &str, size: usize) -> wgpu::Buffer {
@@ -1290,29 +1262,5 @@ pub fn sin_cos(theta: f64) -> (f64, f64) {
         1 => (-s, c),
         2 => (-c, -s),
         _ => (s, -c),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A model too large for one binding is refused with advice that fits the run: f32 only where
-    /// the run is in f64, and in f32 how many items the adapter's binding holds.
-    #[test]
-    fn a_buffer_past_the_binding_limit_gets_advice_for_its_precision() {
-        let cap = 134_217_728;
-        let f32_msg = too_large("corners", 160_000_560, cap, 40, Precision::F32);
-        assert!(f32_msg.contains("160000560 bytes") && f32_msg.contains("(134217728 bytes)"), "{f32_msg}");
-        assert!(f32_msg.contains("at most 3355443 corners here") && !f32_msg.contains("--precision f32"), "{f32_msg}");
-        let f64_msg = too_large("contacts", 960_000_000, cap, 120, Precision::F64);
-        assert!(f64_msg.contains("--precision f32"), "{f64_msg}");
-        // The check a run makes before its full detection gives the same refusal, and passes
-        // what fits.
-        match check_fits("corners", 40, 4_000_014, cap, Precision::F32) {
-            Err(GpuError::DoesNotFit(m)) => assert!(m.contains("160000560 bytes") && m.contains("at most 3355443 corners here"), "{m}"),
-            other => panic!("{other:?}"),
-        }
-        assert!(check_fits("corners", 40, 3_355_443, cap, Precision::F32).is_ok());
     }
 }
