@@ -11,7 +11,12 @@
 //!   every cycle, × cycles / s).
 //!
 //! Each scene is built by its deck (`CYCLE 0`: the contacts detected), then run for a few cycles
-//! to find its pace, then timed over about `measure_s` of cycles.
+//! to find its pace, then timed over about `measure_s` of cycles. Each row has its roofline
+//! ratio: the bytes the cycle must move by D3's byte model (`d3::gpu::profile`; in f64 on the
+//! CPU) over the cycle's time, against the backend's bandwidth yardstick (the streaming kernel
+//! on a GPU, the host's copy on the CPU); on a GPU each kernel's time too (pass timestamps), and
+//! the roofline of the kernels alone. The D3 wall's targets on a hardware GPU (10⁸
+//! contact-cycles/s at 10⁶ bricks, 40 % of the roofline) are `TargetRow`s (`report::targets`).
 
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -21,6 +26,11 @@ use crate::d3::model::Model;
 
 /// The body-steps per second D3's CPU cycle should reach on the cubes (issue 31).
 pub const CUBES_TARGET: f64 = 1e6;
+
+/// The contact-cycles per second D3's GPU cycle should reach on the 10⁶-brick wall, one H100
+/// (issue 31), and the share of the roofline.
+pub const WALL_GPU_TARGET: f64 = 1e8;
+pub const WALL_ROOFLINE_TARGET: f64 = 0.4;
 
 /// One measurement of a D3 scene.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -38,6 +48,20 @@ pub struct D3Row {
     pub s_per_cycle: f64,
     pub body_steps_per_s: f64,
     pub contact_cycles_per_s: f64,
+    /// A hardware GPU's row (not the CPU's, not a software adapter's).
+    pub hardware_gpu: bool,
+    /// The byte model's bytes a cycle (`d3::gpu::profile`), kernel by kernel, and in all.
+    pub stage_bytes: Vec<crate::gpu::profile::StageBytes>,
+    pub bytes_per_cycle: u64,
+    /// The backend's bandwidth yardstick, bytes read + written per second (0: not measured).
+    pub bandwidth_bytes_per_s: f64,
+    /// The byte model over the cycle's time, against the yardstick (0: not measured).
+    pub roofline: f64,
+    /// GPU: each kernel's time per cycle (how timed, and (kernel, seconds)), and the byte model
+    /// over the kernels' time alone against the yardstick.
+    pub kernel_timing: Option<String>,
+    pub kernels: Vec<(String, f64)>,
+    pub roofline_kernels: Option<f64>,
     pub error: Option<String>,
 }
 
@@ -97,16 +121,32 @@ pub fn wall_deck(n: usize, frac: f64) -> String {
     deck
 }
 
-/// A D3 backend for the bench: the CPU's, or the GPU's on an adapter in a precision.
-pub fn backend_for(spec: &super::BackendSpec) -> (String, Result<Box<dyn d3::backend::Backend>, String>) {
+/// A D3 backend of the bench: the CPU's, or the GPU's (which also times its kernels).
+enum D3Engine {
+    Cpu(d3::cpu::CpuBackend),
+    Gpu(Box<d3::gpu::GpuBackend>),
+}
+
+impl D3Engine {
+    fn backend(&mut self) -> &mut dyn d3::backend::Backend {
+        match self {
+            D3Engine::Cpu(c) => c,
+            D3Engine::Gpu(g) => g.as_mut(),
+        }
+    }
+}
+
+/// A D3 backend for the bench: the CPU's, or the GPU's on an adapter in a precision; its label,
+/// and whether it is a hardware GPU.
+fn backend_for(spec: &super::BackendSpec) -> (String, bool, Result<D3Engine, String>) {
     match spec {
-        super::BackendSpec::Cpu => (format!("cpu f64 ({} threads)", rayon::current_num_threads()), Ok(Box::new(d3::cpu::CpuBackend::new()))),
+        super::BackendSpec::Cpu => (format!("cpu f64 ({} threads)", rayon::current_num_threads()), false, Ok(D3Engine::Cpu(d3::cpu::CpuBackend::new()))),
         super::BackendSpec::Gpu(o) => match d3::gpu::GpuBackend::new(&o.adapter, o.precision) {
             Ok(g) => {
                 let a = g.adapter();
-                (format!("gpu {} {} ({})", a.backend, o.precision, a.driver_name()), Ok(Box::new(g)))
+                (format!("gpu {} {} ({})", a.backend, o.precision, a.driver_name()), !a.is_software(), Ok(D3Engine::Gpu(Box::new(g))))
             }
-            Err(e) => (format!("gpu {:?} {}", o.adapter, o.precision), Err(e.to_string())),
+            Err(e) => (format!("gpu {:?} {}", o.adapter, o.precision), false, Err(e.to_string())),
         },
     }
 }
@@ -114,10 +154,10 @@ pub fn backend_for(spec: &super::BackendSpec) -> (String, Result<Box<dyn d3::bac
 /// Builds `deck` (`CYCLE 0`), runs it a few cycles to find its pace, then times `rounds` runs of
 /// about `measure_s` of cycles each on `backend` (`cycles`: all of them; `s_per_cycle`: the best
 /// run's).
-pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spec: &super::BackendSpec) -> D3Row {
-    let (label, backend) = backend_for(spec);
-    let mut row = D3Row { scene, backend: label, ..Default::default() };
-    let mut backend = match backend {
+pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spec: &super::BackendSpec, bandwidth: Option<f64>) -> D3Row {
+    let (label, hardware_gpu, backend) = backend_for(spec);
+    let mut row = D3Row { scene, backend: label, hardware_gpu, ..Default::default() };
+    let mut engine = match backend {
         Ok(b) => b,
         Err(e) => {
             row.error = Some(e);
@@ -139,7 +179,7 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
     let mut model: Model = std::mem::take(&mut exec.model);
     let mut run = |model: &mut Model, cycles: u64| -> Result<f64, String> {
         let t = Instant::now();
-        backend.run(model, cycles, &mut |_| true).map_err(|e| e.to_string())?;
+        engine.backend().run(model, cycles, &mut |_| true).map_err(|e| e.to_string())?;
         Ok(t.elapsed().as_secs_f64())
     };
     // The pace: 10 cycles (the first run's contact detection included), then the rest timed.
@@ -172,6 +212,30 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
     row.logical = model.contacts.iter().map(|c| c.logical.len()).sum();
     row.body_steps_per_s = row.blocks as f64 / row.s_per_cycle;
     row.contact_cycles_per_s = row.contacts as f64 / row.s_per_cycle;
+    // The roofline: the byte model of the scene as it ended (in f64 on the CPU).
+    row.stage_bytes = match &engine {
+        D3Engine::Cpu(_) => d3::gpu::profile::bytes_per_cycle::<f64>(&model),
+        D3Engine::Gpu(g) => g.bytes_per_cycle(&model),
+    };
+    row.bytes_per_cycle = row.stage_bytes.iter().map(|b| b.read + b.written).sum();
+    if let Some(bw) = bandwidth.filter(|&bw| bw > 0.0) {
+        row.bandwidth_bytes_per_s = bw;
+        row.roofline = row.bytes_per_cycle as f64 / row.s_per_cycle / bw;
+    }
+    if let D3Engine::Gpu(g) = &mut engine {
+        // Each kernel's time, on the state the timed runs left (a short run's worth of cycles).
+        match g.profile_kernels(&model, cycles.clamp(1, 100) as u32) {
+            Ok(p) => {
+                let kernels: f64 = p.stages.iter().map(|(_, t)| t).sum();
+                row.kernel_timing = Some(format!("{} over {} cycles", p.method, p.cycles));
+                row.kernels = p.stages.iter().map(|(k, t)| (k.to_string(), *t)).collect();
+                if row.bandwidth_bytes_per_s > 0.0 && kernels > 0.0 {
+                    row.roofline_kernels = Some(row.bytes_per_cycle as f64 / kernels / row.bandwidth_bytes_per_s);
+                }
+            }
+            Err(e) => row.kernel_timing = Some(format!("not timed: {e}")),
+        }
+    }
     row
 }
 
@@ -184,9 +248,10 @@ pub fn table(rows: &[D3Row]) -> String {
     let _ = writeln!(s, "\nD3 (3D): cubes in a lattice falling on a slab; a brick wall struck by a cube");
     let _ = writeln!(
         s,
-        "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11} {:>13} {:>13}",
-        "scene", "backend", "blocks", "contacts", "touching", "logical", "cycles", "s/cycle", "body-steps/s", "contact-c/s"
+        "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11} {:>13} {:>13} {:>10} {:>9}",
+        "scene", "backend", "blocks", "contacts", "touching", "logical", "cycles", "s/cycle", "body-steps/s", "contact-c/s", "B/cycle", "roofline"
     );
+    let pct = |x: f64| if x > 0.0 { format!("{:.1}%", 100.0 * x) } else { "-".into() };
     for r in rows {
         if let Some(e) = &r.error {
             let _ = writeln!(s, "{:<9} {:<34} failed: {e}", r.scene, r.backend);
@@ -194,20 +259,7 @@ pub fn table(rows: &[D3Row]) -> String {
         }
         let _ = writeln!(
             s,
-            "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11.3e} {:>13.3e} {:>13.3e}",
-            r.scene, r.backend, r.blocks, r.contacts, r.touching, r.logical, r.cycles, r.s_per_cycle, r.body_steps_per_s, r.contact_cycles_per_s
-        );
-    }
-    s
-}
-
-/// The rows as CSV.
-pub fn csv(rows: &[D3Row]) -> String {
-    let mut s = String::from("scene,backend,blocks,contacts,touching,logical,cycles,s_per_cycle,body_steps_per_s,contact_cycles_per_s,error\n");
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{},{},{},{},{},{},{},{:e},{:e},{:e},{}",
+            "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11.3e} {:>13.3e} {:>13.3e} {:>10.3e} {:>9}",
             r.scene,
             r.backend,
             r.blocks,
@@ -218,8 +270,60 @@ pub fn csv(rows: &[D3Row]) -> String {
             r.s_per_cycle,
             r.body_steps_per_s,
             r.contact_cycles_per_s,
-            r.error.as_deref().unwrap_or("").replace(',', ";")
+            r.bytes_per_cycle as f64,
+            pct(r.roofline)
         );
+        if let Some(timing) = &r.kernel_timing {
+            let kernels: Vec<String> = r.kernels.iter().map(|(k, t)| format!("{k} {:.3e} s", t)).collect();
+            let alone = r.roofline_kernels.map(|x| format!("; roofline of the kernels alone {}", pct(x))).unwrap_or_default();
+            let _ = writeln!(s, "{:<9}   kernels ({timing}): {}{alone}", "", kernels.join(", "));
+        }
+    }
+    s
+}
+
+/// The rows as CSV (each kernel's time a column `kernel:<name>_s`, in the first row's order).
+pub fn csv(rows: &[D3Row]) -> String {
+    let mut names: Vec<String> = Vec::new();
+    for r in rows {
+        for (k, _) in &r.kernels {
+            if !names.contains(k) {
+                names.push(k.clone());
+            }
+        }
+    }
+    let mut s = String::from(
+        "scene,backend,hardware_gpu,blocks,contacts,touching,logical,cycles,s_per_cycle,body_steps_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels",
+    );
+    for k in &names {
+        let _ = write!(s, ",kernel:{k}_s");
+    }
+    s.push_str(",error\n");
+    for r in rows {
+        let _ = write!(
+            s,
+            "{},{},{},{},{},{},{},{},{:e},{:e},{:e},{},{:e},{:e},{}",
+            r.scene,
+            r.backend,
+            r.hardware_gpu,
+            r.blocks,
+            r.contacts,
+            r.touching,
+            r.logical,
+            r.cycles,
+            r.s_per_cycle,
+            r.body_steps_per_s,
+            r.contact_cycles_per_s,
+            r.bytes_per_cycle,
+            r.bandwidth_bytes_per_s,
+            r.roofline,
+            r.roofline_kernels.map(|x| format!("{x:e}")).unwrap_or_default()
+        );
+        for k in &names {
+            let t = r.kernels.iter().find(|(n, _)| n == k).map(|(_, t)| format!("{t:e}")).unwrap_or_default();
+            let _ = write!(s, ",{t}");
+        }
+        let _ = writeln!(s, ",{}", r.error.as_deref().unwrap_or("").replace(',', ";"));
     }
     s
 }

@@ -522,15 +522,17 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         rounds: opts.rounds,
     };
     let mut engines: Vec<(usize, Engine)> = Vec::new();
-    let mut seen: Vec<String> = Vec::new();
+    // Each backend asked for, its entry in `report.backends` (D3's rows take its yardstick).
+    let mut info_of: Vec<usize> = Vec::new();
     for spec in &opts.backends {
         let (mut info, engine) = open(spec, opts);
-        if seen.contains(&info.label) {
+        if let Some(k) = report.backends.iter().position(|b| b.label == info.label) {
+            info_of.push(k);
             continue;
         }
-        seen.push(info.label.clone());
+        info_of.push(report.backends.len());
         if let Some(e) = engine {
-            if opts.scaling || opts.sdef_scaling || opts.zones {
+            if opts.scaling || opts.sdef_scaling || opts.zones || opts.d3_cubes || opts.d3_wall {
                 measure_bandwidth(&mut info, &e, &say);
             }
             say(&format!("{} opened ({}), {}", info.label, info.driver, report::bandwidth_summary(&info)));
@@ -635,19 +637,20 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         }
     }
     // D3 on every backend asked for, one after the other (the GPU/CPU ratio from one run).
-    for spec in &opts.backends {
+    for (spec, &info) in opts.backends.iter().zip(&info_of) {
+        let bandwidth = report.backends[info].bandwidth_bytes_per_s;
         let on = match spec {
             BackendSpec::Cpu => "the CPU".to_string(),
             BackendSpec::Gpu(o) => format!("the GPU ({})", o.precision),
         };
         if opts.d3_cubes {
             say(&format!("d3-cubes ({} cubes) on {on}", opts.d3_cubes_n));
-            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s, opts.rounds, spec));
+            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s, opts.rounds, spec, bandwidth));
         }
         if opts.d3_wall {
             for &n in &opts.d3_wall_sizes {
                 say(&format!("d3-wall ({n} bricks) on {on}"));
-                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s, opts.rounds, spec));
+                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s, opts.rounds, spec, bandwidth));
             }
         }
     }

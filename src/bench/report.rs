@@ -269,6 +269,57 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
             note: if ok { format!("{:.2} of the target", row.body_steps_per_s / super::d3::CUBES_TARGET) } else { row.error.clone().unwrap_or_default() },
         });
     }
+    // D3's wall on a hardware GPU (issue 31): 10⁸ contact-cycles/s on the 10⁶-brick wall, at 40 %
+    // of the roofline; judged at the largest wall each hardware GPU ran.
+    let d3_targets = [
+        ("D3 wall contact-cycles/s, 10^6 bricks, one H100".to_string(), format!(">= {:.0e}", super::d3::WALL_GPU_TARGET)),
+        ("D3 wall cycle vs streaming-kernel bandwidth (roofline), H100".to_string(), format!(">= {:.0}%", 100.0 * super::d3::WALL_ROOFLINE_TARGET)),
+    ];
+    if r.options.scenes.iter().any(|x| x == "d3-wall") {
+        let hw: Vec<&super::d3::D3Row> = r.d3.iter().filter(|x| x.scene == "d3-wall" && x.hardware_gpu).collect();
+        if hw.is_empty() {
+            for (target, goal) in &d3_targets {
+                t.push(none_here(target, goal));
+            }
+        }
+        let mut labels: Vec<&str> = hw.iter().map(|x| x.backend.as_str()).collect();
+        labels.dedup();
+        for label in labels {
+            let largest = hw.iter().filter(|x| x.backend == label && x.error.is_none()).max_by_key(|x| x.blocks);
+            let Some(row) = largest else {
+                for (target, goal) in &d3_targets {
+                    t.push(TargetRow {
+                        target: target.clone(),
+                        backend: label.into(),
+                        goal: goal.clone(),
+                        measured: "-".into(),
+                        met: None,
+                        note: "no wall measured".into(),
+                    });
+                }
+                continue;
+            };
+            let full = row.blocks >= 1_000_000;
+            let at = format!("at {} bricks", row.blocks);
+            let note = |extra: String| if full { format!("{at}{extra}") } else { format!("{at}: the 10^6 wall was not reached{extra}") };
+            t.push(TargetRow {
+                target: d3_targets[0].0.clone(),
+                backend: label.into(),
+                goal: d3_targets[0].1.clone(),
+                measured: sci(row.contact_cycles_per_s),
+                met: full.then_some(row.contact_cycles_per_s >= super::d3::WALL_GPU_TARGET),
+                note: note(String::new()),
+            });
+            t.push(TargetRow {
+                target: d3_targets[1].0.clone(),
+                backend: label.into(),
+                goal: d3_targets[1].1.clone(),
+                measured: pct(row.roofline),
+                met: (row.roofline > 0.0).then_some(row.roofline >= super::d3::WALL_ROOFLINE_TARGET),
+                note: note(row.roofline_kernels.map(|k| format!("; kernels alone {}", pct(k))).unwrap_or_default()),
+            });
+        }
+    }
     t
 }
 

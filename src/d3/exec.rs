@@ -52,6 +52,10 @@ pub struct Executor<'a> {
     /// folder, VTK frames, running restart files), progress, Ctrl-C, `--checkpoint-every`,
     /// `--vtk-every`.
     options: RunOptions,
+    /// After a BLOCK or BOX: the number of blocks, the last block's id and the largest id then,
+    /// so that a deck of 10⁵ BOXes does not look through every block for the largest id at each
+    /// (taken where the count and the last id are still those; any other command drops it).
+    id_hint: Option<(usize, u32, u32)>,
 }
 
 /// SAVE's and RESTART's file when the command names none (as in 2D).
@@ -67,7 +71,7 @@ impl<'a> Executor<'a> {
 
     /// An executor running its CYCLEs on `backend` (the CPU's or the GPU's).
     pub fn with_backend(log: Box<dyn Write + 'a>, file: &str, backend: Box<dyn Backend>) -> Self {
-        Executor { model: Model::default(), backend, log, file: file.to_string(), options: RunOptions::default() }
+        Executor { model: Model::default(), backend, log, file: file.to_string(), options: RunOptions::default(), id_hint: None }
     }
 
     /// The backend in words.
@@ -129,6 +133,9 @@ impl<'a> Executor<'a> {
     }
 
     fn execute(&mut self, cmd: &Located) -> Result<(), RunError> {
+        if !matches!(cmd.command, Command::Block { .. } | Command::Box { .. }) {
+            self.id_hint = None;
+        }
         match &cmd.command {
             Command::Start => {
                 self.echo("PROGRAM D3: THREE-DIMENSIONAL DISTINCT ELEMENT CODE (VERSION 1.0)")?;
@@ -320,11 +327,16 @@ impl<'a> Executor<'a> {
         };
         let density = self.model.material(material).density;
         // Ids from 1 in the order built; SPLIT's pieces take ids past the largest.
-        let id = self.model.blocks.iter().map(|b| b.id).max().unwrap_or(0) + 1;
+        let largest = match self.id_hint {
+            Some((count, last, largest)) if count == self.model.blocks.len() && self.model.blocks.last().map(|b| b.id) == Some(last) => largest,
+            _ => self.model.blocks.iter().map(|b| b.id).max().unwrap_or(0),
+        };
+        let id = largest + 1;
         // A concave block (¶13) is cut once into the convex parts contact detection sees.
         let parts = super::decompose::parts_if_concave(&shape, props.volume)
             .map_err(|why| self.error(cmd, format!("BLOCK: block {id} is concave and cannot be made of convex parts: {why}")))?;
         self.model.blocks.push(Block::new(id, material, constitutive, shape, &props, density).with_parts(parts));
+        self.id_hint = Some((self.model.blocks.len(), id, id));
         self.model.neighbours_stale = true;
         Ok(())
     }

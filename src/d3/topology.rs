@@ -1,8 +1,8 @@
 //! Stage 7 for D3: the neighbour lists (SL-85-1 ¶26, ¶31–32). Every pair of blocks whose boxes,
 //! widened by the neighbour margin, overlap is a contact: a degenerate one (a link between nearby
-//! blocks) until they touch. The pairs come from a uniform grid of cells at least as large as the
-//! largest widened block, so the search costs a number of operations proportional to the number of
-//! blocks N, not N². The lists are rebuilt only once some block has moved, since the last
+//! blocks) until they touch. The pairs come from a uniform grid of cells as large as nearly every
+//! widened block, the few larger ones (a slab under a wall) tested against every block, so the
+//! search costs a number of operations proportional to the number of blocks N, not N². The lists are rebuilt only once some block has moved, since the last
 //! rebuild, by as much as the contact-forming distance (`Block::travel`): a pair further apart
 //! than the margin (four times that distance) cannot come within touching distance before then.
 //! A contact kept across a rebuild keeps its id and its logical contacts (their shear forces).
@@ -37,16 +37,26 @@ pub fn alone(model: &Model, k: usize, reach: f64) -> bool {
 }
 
 /// The pairs of blocks (indices, lower first, ascending) whose boxes widened by half `margin`
-/// each overlap, by a uniform grid.
+/// each overlap, by a uniform grid whose cells are as large as nearly every block: each such
+/// block lies in at most two cells along each axis, and each cell holds a bounded number of
+/// them. The few blocks larger than a cell (at most [`LARGE_SHARE`] of them, at least 16: the
+/// slab a wall stands on, a projectile) are each tested against every block, a pass over N each,
+/// not put in the grid: a cell as large as the largest block (a slab under the whole wall) would
+/// hold every block, and the search would cost N².
 pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
     let boxes: Vec<(DVec3, DVec3)> = model.blocks.iter().map(|b| widened(b.bounds(), margin)).collect();
-    let cell = boxes.iter().map(|(lo, hi)| (*hi - *lo).max_element()).fold(0.0, f64::max);
-    if boxes.len() < 2 || !(cell > 0.0 && cell.is_finite()) {
+    let n = boxes.len();
+    if n < 2 {
         return Vec::new();
     }
+    let sizes: Vec<f64> = boxes.iter().map(|(lo, hi)| (*hi - *lo).max_element()).collect();
+    let Some((cell, large)) = grid_cell(&sizes) else { return Vec::new() };
     let cell_of = |p: DVec3| (p / cell).floor().as_i64vec3();
     let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
     for (i, (lo, hi)) in boxes.iter().enumerate() {
+        if !(sizes[i] <= cell) {
+            continue;
+        }
         let (a, b) = (cell_of(*lo), cell_of(*hi));
         for x in a.x..=b.x {
             for y in a.y..=b.y {
@@ -68,10 +78,38 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
             }
         }
     }
+    for &i in &large {
+        for j in (0..n).filter(|&j| j != i && overlap(i, j)) {
+            pairs.push((i.min(j) as u32, i.max(j) as u32));
+        }
+    }
     pairs.sort_unstable();
     pairs.dedup();
     pairs
 }
+
+/// The grid's cell for widened boxes of these `sizes` (their largest extents), and the large
+/// blocks, left out of the grid ([`neighbour_pairs`]): the cell is the size of the largest block
+/// but [`LARGE_SHARE`]'s share (at least 16), and the large blocks are those larger (or without a
+/// size: a box of NaNs overlaps nothing). None where the cell has no size.
+pub fn grid_cell(sizes: &[f64]) -> Option<(f64, Vec<usize>)> {
+    let n = sizes.len();
+    if n < 2 {
+        return None;
+    }
+    let mut sorted = sizes.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let few = (n / LARGE_SHARE).max(16).min(n - 1);
+    let cell = sorted[n - 1 - few];
+    if !(cell > 0.0 && cell.is_finite()) {
+        return None;
+    }
+    Some((cell, (0..n).filter(|&i| !(sizes[i] <= cell)).collect()))
+}
+
+/// The broad phase leaves out of its grid at most one block in this many (and at least 16), the
+/// largest ([`neighbour_pairs`]).
+pub const LARGE_SHARE: usize = 1000;
 
 /// A box `(lo, hi)` widened by half the neighbour margin on every side (two boxes so widened
 /// overlap where their bodies are within the margin along each axis).

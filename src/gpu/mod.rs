@@ -11,6 +11,7 @@
 //! The 2D engine's kernels, buffers and run are in `udec::gpu`.
 
 pub mod device;
+pub mod profile;
 pub mod real;
 pub mod stream;
 pub mod wgsl;

@@ -165,6 +165,53 @@ fn the_neighbour_grid_finds_every_pair_a_search_of_all_finds() {
     assert_eq!(pairs, all);
 }
 
+/// A wall of small blocks on a slab as long as the wall, and a few blocks of other sizes: the
+/// grid's cells are the small blocks' size (a cell as large as the slab held every block: the
+/// search cost N², 25 s for a wall of 10⁵ bricks), the slab is tested against every block
+/// apart, and the pairs are those a search of all pairs finds.
+#[test]
+fn a_slab_under_a_wall_is_kept_out_of_the_neighbour_grid_and_no_pair_is_lost() {
+    let mut model = Model::default();
+    let q = DQuat::IDENTITY;
+    model.blocks.push(block(1, &turned_box([0.0; 3], [61.0, 1.0, 0.5], q, DVec3::new(-0.5, 0.0, -0.51))));
+    let mut id = 2;
+    for row in 0..30 {
+        for k in 0..60 {
+            let x = k as f64 + if row % 2 == 1 { 0.5 } else { 0.0 };
+            let at = DVec3::new(x, 0.3, row as f64 * 0.5);
+            model.blocks.push(block(id, &turned_box([0.0; 3], [0.999, 0.4, 0.499], q, at)));
+            id += 1;
+        }
+    }
+    // A projectile and two long beams across the wall's face.
+    model.blocks.push(block(id, &turned_box([0.0; 3], [2.0, 2.0, 2.0], q, DVec3::new(29.0, -1.7, 6.0))));
+    model.blocks.push(block(id + 1, &turned_box([0.0; 3], [20.0, 0.3, 0.3], q, DVec3::new(10.0, -0.005, 3.0))));
+    model.blocks.push(block(id + 2, &turned_box([0.0; 3], [0.3, 0.3, 14.0], DQuat::from_rotation_y(0.3), DVec3::new(40.0, -0.005, 1.0))));
+    let margin = 0.02;
+    let boxes: Vec<(DVec3, DVec3)> =
+        model.blocks.iter().map(|b| b.bounds()).map(|(lo, hi)| (lo - DVec3::splat(0.5 * margin), hi + DVec3::splat(0.5 * margin))).collect();
+    let sizes: Vec<f64> = boxes.iter().map(|(lo, hi)| (*hi - *lo).max_element()).collect();
+    let (cell, large) = blockdem::d3::topology::grid_cell(&sizes).unwrap();
+    assert!(cell < 1.1, "a cell of {cell} m");
+    for k in [0, model.blocks.len() - 3, model.blocks.len() - 2, model.blocks.len() - 1] {
+        assert!(large.contains(&k), "block {} is in the grid ({large:?})", k + 1);
+    }
+    assert!(large.len() <= 16, "{large:?}");
+    let pairs = neighbour_pairs(&model, margin);
+    let mut all = Vec::new();
+    for i in 0..boxes.len() {
+        for j in i + 1..boxes.len() {
+            let ((a0, a1), (b0, b1)) = (boxes[i], boxes[j]);
+            if a0.cmple(b1).all() && b0.cmple(a1).all() {
+                all.push((i as u32, j as u32));
+            }
+        }
+    }
+    // The slab under the 60 bricks of the first course, the beams across many.
+    assert!(all.iter().filter(|p| p.0 == 0).count() >= 60, "{}", all.len());
+    assert_eq!(pairs, all);
+}
+
 /// Runs a deck; the model at its end.
 fn run(deck: &str) -> Model {
     let commands = parse_deck(deck, "t.dat").unwrap();

@@ -143,6 +143,7 @@
 //! (`Bases`) plus the accumulators, summed in f64 on the CPU at each read-back.
 
 pub mod layout;
+pub mod profile;
 pub mod shaders;
 
 use glam::{DMat3, DQuat, DVec3};

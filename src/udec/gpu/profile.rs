@@ -20,31 +20,11 @@
 //!   them, so whole structs are counted as read; stores count the fields a stage writes every
 //!   cycle (a contact's four changing state fields are one sector in f64).
 
-use std::time::Instant;
-
 use super::layout::{Block, Contact, ContactForce, Corner, Flags, Material, Params, Real};
 use super::{Engine, GpuBackend, GpuDevice, GpuError};
+use crate::gpu::profile::{time_passes, Pass};
+pub use crate::gpu::profile::{DeviceProfile, StageBytes};
 pub use crate::gpu::stream::{copy_bandwidth, stream_bandwidth, StreamBandwidth};
-
-/// Per-stage device time of one cycle.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DeviceProfile {
-    /// "timestamps" (pass timestamps of whole cycles) or "isolated dispatches" (each stage alone,
-    /// timed on the host).
-    pub method: &'static str,
-    /// (kernel, seconds per cycle), in cycle order.
-    pub stages: Vec<(&'static str, f64)>,
-    /// Cycles (or dispatches per stage) measured.
-    pub cycles: u32,
-}
-
-/// Bytes one stage must read and write per cycle (see the module doc).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StageBytes {
-    pub stage: &'static str,
-    pub read: u64,
-    pub written: u64,
-}
 
 /// The compulsory traffic of each kernel per cycle in precision `R`, for `nb` blocks, `nc`
 /// corners and `nk` contacts (the buffers each kernel touches are in its WGSL file).
@@ -71,12 +51,6 @@ pub fn bytes_per_cycle<R: Real>(nb: usize, nc: usize, nk: usize, materials: usiz
     ]
 }
 
-/// `BLOCKDEM_STAGE_TIMING=isolated` asks for isolated dispatches even where timestamps exist (to
-/// compare the two methods on one adapter).
-fn isolated_asked() -> bool {
-    std::env::var("BLOCKDEM_STAGE_TIMING").is_ok_and(|v| v.eq_ignore_ascii_case("isolated"))
-}
-
 impl<R: Real> Engine<R> {
     fn profile_stages(&mut self, cycles: u32) -> Result<DeviceProfile, GpuError> {
         // The profiled cycles move the device's state on: the next run must start from the model.
@@ -84,76 +58,20 @@ impl<R: Real> Engine<R> {
         let (Some(buffers), Some(_)) = (self.buffers.as_ref(), self.bind_groups.as_ref()) else {
             return Err(GpuError::Setup("profile_stages needs a run first (no state on the device)".into()));
         };
-        let cycles = cycles.max(1);
         let dev = &self.dev;
         let stages = self.stages(false);
         dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
         // The cycle's own gather (fixed blocks skipped), whatever pass ran last.
         self.write_pass_params(false);
-        let timestamps = dev.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked();
-        let mut sums = vec![0.0f64; stages.len()];
-        if timestamps {
-            let period_s = dev.queue.get_timestamp_period() as f64 * 1e-9;
-            let per_cycle = 2 * stages.len() as u32;
-            let cycles_per_set = (wgpu::QUERY_SET_MAX_QUERIES / per_cycle).max(1);
-            let mut done = 0;
-            while done < cycles {
-                let n = (cycles - done).min(cycles_per_set);
-                let count = n * per_cycle;
-                let set = dev.device.create_query_set(&wgpu::QuerySetDescriptor { label: Some("stage timestamps"), ty: wgpu::QueryType::Timestamp, count });
-                let resolve = dev.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("stage timestamps"),
-                    size: count as u64 * 8,
-                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                    mapped_at_creation: false,
-                });
-                let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("profiled cycles") });
-                for c in 0..n {
-                    for (i, d) in stages.iter().enumerate() {
-                        let q = (c * stages.len() as u32 + i as u32) * 2;
-                        let writes =
-                            wgpu::ComputePassTimestampWrites { query_set: &set, beginning_of_pass_write_index: Some(q), end_of_pass_write_index: Some(q + 1) };
-                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(d.label), timestamp_writes: Some(writes) });
-                        pass.set_pipeline(d.pipeline);
-                        pass.set_bind_group(0, d.bind_group, &[]);
-                        pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
-                    }
-                    // A halt raised by end_cycle (stage 7 due) would idle the later cycles: clear it.
-                    enc.clear_buffer(&buffers.flags, 0, None);
-                }
-                enc.resolve_query_set(&set, 0..count, &resolve, 0);
-                dev.queue.submit([enc.finish()]);
-                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&dev.read_buffer(&resolve, count as u64 * 8)?);
-                for (q, pair) in ticks.chunks_exact(2).enumerate() {
-                    sums[q % stages.len()] += pair[1].saturating_sub(pair[0]) as f64 * period_s;
-                }
-                done += n;
-            }
-        } else {
-            for (i, d) in stages.iter().enumerate() {
-                let batch = |reps: u32| -> Result<f64, GpuError> {
-                    let start = Instant::now();
-                    let mut enc = dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("isolated stage") });
-                    for _ in 0..reps {
-                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(d.label), timestamp_writes: None });
-                        pass.set_pipeline(d.pipeline);
-                        pass.set_bind_group(0, d.bind_group, &[]);
-                        pass.dispatch_workgroups(d.grid.0, d.grid.1, 1);
-                    }
-                    dev.queue.submit([enc.finish()]);
-                    dev.wait()?;
-                    Ok(start.elapsed().as_secs_f64())
-                };
-                batch(1)?;
-                dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared()));
-                sums[i] = batch(cycles)?;
-            }
-        }
-        Ok(DeviceProfile {
-            method: if timestamps { "timestamps" } else { "isolated dispatches" },
-            stages: stages.iter().zip(&sums).map(|(d, s)| (d.label, s / cycles as f64)).collect(),
+        let passes: Vec<Pass> = stages.iter().map(|d| Pass { label: d.label, pipeline: d.pipeline, bind_group: d.bind_group, grid: d.grid }).collect();
+        time_passes(
+            dev,
+            &passes,
             cycles,
-        })
+            // A halt raised by end_cycle (stage 7 due) would idle the later cycles: clear it.
+            &|enc| enc.clear_buffer(&buffers.flags, 0, None),
+            &|| dev.queue.write_buffer(&buffers.flags, 0, bytemuck::bytes_of(&Flags::cleared())),
+        )
     }
 }
 
@@ -164,7 +82,7 @@ impl GpuBackend {
 
     /// Whether the device writes pass timestamps (stage times are then measured inside cycles).
     pub fn has_timestamps(&self) -> bool {
-        self.device().device.features().contains(wgpu::Features::TIMESTAMP_QUERY) && !isolated_asked()
+        crate::gpu::profile::has_timestamps(self.device())
     }
 
     /// The device time of each kernel stage over `cycles` cycles (or dispatches), on the state the
