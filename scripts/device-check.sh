@@ -43,12 +43,23 @@ source scripts/device-env.sh
 { nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader; .devbin/blockdem adapters; } \
     > "$work/adapters.log" 2>&1
 # scenes:limit, in order of need: the scaling walls, rigid and SDEF in one run (the per-kernel
-# profile at 10^6 blocks; the SDEF rows against the rigid ones), the zoned family, D3 on the GPU,
-# then the reference scenes (each measured against the dry settle of the same run).
-for item in ${SCENES:-scaling,sdef-scaling:170 zones:80 d3-wall,d3-cubes:80 settle,impact,sdef,fluid:80}; do
-    scene="${item%%:*}"
+# profile at 10^6 blocks; the SDEF rows against the rigid ones), the zoned family, D3 on every
+# backend, D3's wall of 10^5 and 10^6 bricks on the GPU alone (issue 31's H100 target: its
+# contact-cycles/s, roofline and kernel times), then the reference scenes (each measured against
+# the dry settle of the same run). An item scenes/backend/sizes:limit runs only that backend,
+# at those sizes, one round.
+for item in ${SCENES:-scaling,sdef-scaling:170 zones:80 d3-wall,d3-cubes:80 d3-wall/gpu/100000,1000000:120 settle,impact,sdef,fluid:80}; do
+    spec="${item%%:*}"
+    scene="${spec%%/*}"
     name="bench-${scene//,/-}"
-    step "$name" "${item##*:}" .devbin/blockdem bench --scene "$scene" --backend all --rounds 3 --out "$work/$name"
+    args=(--backend all --rounds 3)
+    if [[ "$spec" == */*/* ]]; then
+        rest="${spec#*/}"
+        args=(--backend "${rest%%/*}" --sizes "${rest#*/}" --rounds 1)
+        name="$name-${rest#*/}"
+        name="${name//,/-}"
+    fi
+    step "$name" "${item##*:}" .devbin/blockdem bench --scene "$scene" "${args[@]}" --out "$work/$name"
     grep -v "^bench \[" "$work/$name.txt" >> "$work/bench.log" 2>/dev/null
 done
 for deck in examples/udec1_point_load_cracking.dat examples/udec3_deformable_block.dat \

@@ -62,6 +62,12 @@ pub struct D3Row {
     pub kernel_timing: Option<String>,
     pub kernels: Vec<(String, f64)>,
     pub roofline_kernels: Option<f64>,
+    /// GPU: the detections between batches (read-back of the contacts, stage 7, the CPU's stage
+    /// 4, the re-upload) in the timed runs, and the shares of the timed runs' time they and the
+    /// batches' read-backs of the blocks took.
+    pub detections: u64,
+    pub detection_share: f64,
+    pub readback_share: f64,
     pub error: Option<String>,
 }
 
@@ -177,13 +183,19 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
         return row;
     }
     let mut model: Model = std::mem::take(&mut exec.model);
-    let mut run = |model: &mut Model, cycles: u64| -> Result<f64, String> {
+    // The host's share of a GPU's runs (read-backs, detections), from before the pace's run.
+    let host = |engine: &D3Engine| match engine {
+        D3Engine::Gpu(g) => g.host_times(),
+        D3Engine::Cpu(_) => Default::default(),
+    };
+    let mut timed_s = 0.0;
+    let run = |engine: &mut D3Engine, model: &mut Model, cycles: u64| -> Result<f64, String> {
         let t = Instant::now();
         engine.backend().run(model, cycles, &mut |_| true).map_err(|e| e.to_string())?;
         Ok(t.elapsed().as_secs_f64())
     };
     // The pace: 10 cycles (the first run's contact detection included), then the rest timed.
-    let pace = match run(&mut model, 10) {
+    let pace = match run(&mut engine, &mut model, 10) {
         Ok(s) => s / 10.0,
         Err(e) => {
             row.error = Some(e);
@@ -191,20 +203,28 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
         }
     };
     let cycles = ((measure_s / pace.max(1e-9)) as u64).clamp(10, 1_000_000);
+    let host_before = host(&engine);
     // The best of `rounds` timed runs (this machine's two cores are shared: the least time is
     // the cycle's own).
     row.s_per_cycle = f64::INFINITY;
     for _ in 0..rounds.max(1) {
-        match run(&mut model, cycles) {
+        match run(&mut engine, &mut model, cycles) {
             Ok(s) => {
                 row.cycles += cycles;
                 row.s_per_cycle = row.s_per_cycle.min(s / cycles as f64);
+                timed_s += s;
             }
             Err(e) => {
                 row.error = Some(e);
                 return row;
             }
         }
+    }
+    let host_after = host(&engine);
+    row.detections = host_after.detections - host_before.detections;
+    if timed_s > 0.0 {
+        row.detection_share = (host_after.detection_s - host_before.detection_s) / timed_s;
+        row.readback_share = (host_after.readback_s - host_before.readback_s) / timed_s;
     }
     row.blocks = model.blocks.iter().filter(|b| !b.fixed).count();
     row.contacts = model.contacts.len();
@@ -277,6 +297,15 @@ pub fn table(rows: &[D3Row]) -> String {
             let kernels: Vec<String> = r.kernels.iter().map(|(k, t)| format!("{k} {:.3e} s", t)).collect();
             let alone = r.roofline_kernels.map(|x| format!("; roofline of the kernels alone {}", pct(x))).unwrap_or_default();
             let _ = writeln!(s, "{:<9}   kernels ({timing}): {}{alone}", "", kernels.join(", "));
+            let _ = writeln!(
+                s,
+                "{:<9}   host: {} detections in {} cycles, {} of the time; read-backs of the blocks {}",
+                "",
+                r.detections,
+                r.cycles,
+                pct(r.detection_share),
+                pct(r.readback_share)
+            );
         }
     }
     s
@@ -293,7 +322,7 @@ pub fn csv(rows: &[D3Row]) -> String {
         }
     }
     let mut s = String::from(
-        "scene,backend,hardware_gpu,blocks,contacts,touching,logical,cycles,s_per_cycle,body_steps_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels",
+        "scene,backend,hardware_gpu,blocks,contacts,touching,logical,cycles,s_per_cycle,body_steps_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,detections,detection_share,readback_share",
     );
     for k in &names {
         let _ = write!(s, ",kernel:{k}_s");
@@ -302,7 +331,7 @@ pub fn csv(rows: &[D3Row]) -> String {
     for r in rows {
         let _ = write!(
             s,
-            "{},{},{},{},{},{},{},{},{:e},{:e},{:e},{},{:e},{:e},{}",
+            "{},{},{},{},{},{},{},{},{:e},{:e},{:e},{},{:e},{:e},{},{},{:e},{:e}",
             r.scene,
             r.backend,
             r.hardware_gpu,
@@ -317,7 +346,10 @@ pub fn csv(rows: &[D3Row]) -> String {
             r.bytes_per_cycle,
             r.bandwidth_bytes_per_s,
             r.roofline,
-            r.roofline_kernels.map(|x| format!("{x:e}")).unwrap_or_default()
+            r.roofline_kernels.map(|x| format!("{x:e}")).unwrap_or_default(),
+            r.detections,
+            r.detection_share,
+            r.readback_share
         );
         for k in &names {
             let t = r.kernels.iter().find(|(n, _)| n == k).map(|(_, t)| format!("{t:e}")).unwrap_or_default();

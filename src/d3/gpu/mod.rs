@@ -294,6 +294,20 @@ pub struct GpuBackend {
     /// last one ran, and grow back by doubling (as the 2D engine's `batch_cap`); each run starts
     /// at the energy checks' interval.
     screened_cap: u64,
+    /// Host time the batches took outside the kernels, since the backend was made: each batch's
+    /// read-back of the blocks, and the detections (their read-back of the contacts, stage 7,
+    /// the CPU's stage 4 and the re-upload), with how many (`host_times`, the bench's shares).
+    host: HostTimes,
+}
+
+/// What a D3 GPU backend's runs spent on the host ([`GpuBackend::host_times`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HostTimes {
+    /// Seconds reading the blocks back after each batch (travel, finiteness, the too-fast check).
+    pub readback_s: f64,
+    /// Seconds in detections between batches, and how many there were.
+    pub detection_s: f64,
+    pub detections: u64,
 }
 
 fn device_error(e: GpuError) -> CycleError {
@@ -317,6 +331,7 @@ impl GpuBackend {
             pending: None,
             batches: 0,
             screened_cap: driver::CHECK_INTERVAL,
+            host: HostTimes::default(),
         })
     }
 
@@ -332,6 +347,12 @@ impl GpuBackend {
     /// back): a run of n cycles cracked cycle by cycle takes n, one in batches fewer.
     pub fn batches(&self) -> u64 {
         self.batches
+    }
+
+    /// The host time the runs since the backend was made spent outside the kernels (read-backs,
+    /// detections): with a run's wall time, the share a bench reports.
+    pub fn host_times(&self) -> HostTimes {
+        self.host
     }
 
     /// Runs `cycles` cycles of `model` through the run driver (`progress` is told the cycles done
@@ -1295,7 +1316,11 @@ impl driver::Stages<Model> for GpuBackend {
         if ran == 0 || ran > n {
             return Err(CycleError::Setup(format!("GPU: a batch of {n} cycles ran {ran}")));
         }
+        // (The batch's kernels finished first: the read-back's time is the transfer's.)
+        self.dev.wait().map_err(device_error)?;
+        let read = std::time::Instant::now();
         let (bad, peaks) = self.read_blocks(model).map_err(device_error)?;
+        self.host.readback_s += read.elapsed().as_secs_f64();
         let first = model.cycle + 1;
         for _ in 0..ran {
             model.cycle += 1;
@@ -1315,7 +1340,10 @@ impl driver::Stages<Model> for GpuBackend {
         }
         let limit = DETECTION_SHARE * tol;
         if model.neighbours_stale || model.blocks.iter().any(|b| b.travel >= limit) {
+            let detection = std::time::Instant::now();
             self.detect(model, report)?;
+            self.host.detection_s += detection.elapsed().as_secs_f64();
+            self.host.detections += 1;
         }
         // The exact check where a crack may be due: after each cycle of a point-load scene, and
         // after a batch its screen halted (the screen fires wherever the exact check would, so a
