@@ -552,7 +552,6 @@ impl<'a> Executor<'a> {
                 ),
             ));
         }
-        self.echo(&format!("TIMESTEP = {}", fmt_e(self.model.timestep())))?;
         let mut ticker = Ticker::new(&self.options, n);
         self.log.flush()?;
         let (report, result) = crate::driver::run::run_in_pieces(self, n, &mut ticker);
@@ -571,14 +570,21 @@ impl<'a> Executor<'a> {
                 p(c.to.coords())
             ))?;
         }
+        // The time step after the run, as the 1985 program printed it after each CYCLE: D3's is
+        // renewed every cycle from the logical contacts there are (`Model::timestep`), and before
+        // a run's first detection there are none (a deck's first CYCLE printed the step of blocks
+        // without contacts, six times the one its wall of bricks then took).
+        let step = format!("TIMESTEP = {}", fmt_e(self.model.timestep()));
         match result {
             Ok(()) => {}
             Err(CycleError::Setup(why)) => return Err(self.error(cmd, format!("CYCLE: cannot cycle: {why}"))),
             Err(e) => {
+                self.echo(&step)?;
                 self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
                 return Err(RunError::Cycle(e));
             }
         }
+        self.echo(&step)?;
         self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
         if stopped || self.options.interrupted() {
             self.echo(&format!("CYCLE INTERRUPTED AT CYCLE {}", self.model.cycle))?;

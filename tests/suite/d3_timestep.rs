@@ -107,3 +107,35 @@ fn a_box_tumbling_alone_at_fraction_1_is_not_stopped_as_too_fast() {
     let e = run(&near).unwrap_err();
     assert!(e.contains("fast") || e.contains("travel"), "{e}");
 }
+
+/// The log's TIMESTEP comes after each CYCLE (the 1985 layout) and is the step the run took: a
+/// deck's first CYCLE printed the step of blocks without contacts before the run (its first
+/// detection), 1.1e-5 s for a wall that then stepped at 1.9e-6 s.
+#[test]
+fn the_logged_step_is_the_one_the_run_took() {
+    let deck = format!("{}CYCLE 20\nCYCLE 20\n", stack(3, 0.1, ""));
+    let commands = parse_deck(&deck, "t.dat").unwrap();
+    let mut log = Vec::new();
+    let mut exec = Executor::new(Box::new(&mut log), "t.dat");
+    exec.run(&commands).unwrap_or_else(|e| panic!("{e}"));
+    let (time, cycle, dt) = (exec.model.time, exec.model.cycle, exec.model.timestep());
+    // The contacts' step, well under the lone blocks' (no contacts: one spring at the farthest
+    // vertex) the first CYCLE's log used to give.
+    let lone = run(&stack(3, 0.1, "")).unwrap().timestep();
+    drop(exec);
+    let log = String::from_utf8(log).unwrap();
+    assert!(dt < 0.7 * lone, "{dt} against {lone}");
+    // Each CYCLE's lines: its echo, then TIMESTEP, then CURRENT CYCLE COUNT.
+    let lines: Vec<&str> = log.lines().collect();
+    let cycles: Vec<usize> = lines.iter().enumerate().filter(|(_, l)| l.starts_with(">CYCLE")).map(|(k, _)| k).collect();
+    assert_eq!(cycles.len(), 2, "{log}");
+    for &k in &cycles {
+        assert!(lines[k + 1].starts_with("TIMESTEP = ") && lines[k + 2].starts_with("CURRENT CYCLE COUNT = "), "{log}");
+    }
+    let logged: f64 = lines[cycles[0] + 1].trim_start_matches("TIMESTEP = ").trim().parse().unwrap();
+    // The runs stepped at it: the stack settles little in 40 cycles, the step stays (to the
+    // print's four figures).
+    assert_eq!(cycle, 40);
+    assert!(((time / 40.0) - logged).abs() < 1e-3 * logged, "{} per cycle, logged {logged}", time / 40.0);
+    assert!((dt - logged).abs() < 1e-3 * logged, "{dt} now, logged {logged}");
+}
