@@ -321,41 +321,43 @@ pub fn csv(rows: &[D3Row]) -> String {
             }
         }
     }
-    let mut s = String::from(
-        "scene,backend,hardware_gpu,blocks,contacts,touching,logical,cycles,s_per_cycle,body_steps_per_s,contact_cycles_per_s,bytes_per_cycle,bandwidth_bytes_per_s,roofline,roofline_kernels,detections,detection_share,readback_share",
-    );
-    for k in &names {
-        let _ = write!(s, ",kernel:{k}_s");
-    }
-    s.push_str(",error\n");
+    let Some(first) = rows.first() else { return String::new() };
+    let mut header: Vec<String> = first.csv_fields().into_iter().map(|(name, _)| name.to_string()).collect();
+    header.extend(names.iter().map(|k| format!("kernel:{k}_s")));
+    header.push("error".into());
+    let mut s = header.join(",") + "\n";
     for r in rows {
-        let _ = write!(
-            s,
-            "{},{},{},{},{},{},{},{},{:e},{:e},{:e},{},{:e},{:e},{},{},{:e},{:e}",
-            r.scene,
-            r.backend,
-            r.hardware_gpu,
-            r.blocks,
-            r.contacts,
-            r.touching,
-            r.logical,
-            r.cycles,
-            r.s_per_cycle,
-            r.body_steps_per_s,
-            r.contact_cycles_per_s,
-            r.bytes_per_cycle,
-            r.bandwidth_bytes_per_s,
-            r.roofline,
-            r.roofline_kernels.map(|x| format!("{x:e}")).unwrap_or_default(),
-            r.detections,
-            r.detection_share,
-            r.readback_share
-        );
-        for k in &names {
-            let t = r.kernels.iter().find(|(n, _)| n == k).map(|(_, t)| format!("{t:e}")).unwrap_or_default();
-            let _ = write!(s, ",{t}");
-        }
-        let _ = writeln!(s, ",{}", r.error.as_deref().unwrap_or("").replace(',', ";"));
+        let mut cells: Vec<String> = r.csv_fields().into_iter().map(|(_, v)| v).collect();
+        cells.extend(names.iter().map(|k| r.kernels.iter().find(|(n, _)| n == k).map(|(_, t)| format!("{t:e}")).unwrap_or_default()));
+        cells.push(r.error.as_deref().unwrap_or("").replace(',', ";"));
+        let _ = writeln!(s, "{}", cells.join(","));
     }
     s
+}
+
+impl D3Row {
+    /// The row's CSV columns (name, value), the kernels' and the error's apart.
+    fn csv_fields(&self) -> Vec<(&'static str, String)> {
+        let e = |x: f64| format!("{x:e}");
+        vec![
+            ("scene", self.scene.to_string()),
+            ("backend", self.backend.clone()),
+            ("hardware_gpu", self.hardware_gpu.to_string()),
+            ("blocks", self.blocks.to_string()),
+            ("contacts", self.contacts.to_string()),
+            ("touching", self.touching.to_string()),
+            ("logical", self.logical.to_string()),
+            ("cycles", self.cycles.to_string()),
+            ("s_per_cycle", e(self.s_per_cycle)),
+            ("body_steps_per_s", e(self.body_steps_per_s)),
+            ("contact_cycles_per_s", e(self.contact_cycles_per_s)),
+            ("bytes_per_cycle", self.bytes_per_cycle.to_string()),
+            ("bandwidth_bytes_per_s", e(self.bandwidth_bytes_per_s)),
+            ("roofline", e(self.roofline)),
+            ("roofline_kernels", self.roofline_kernels.map(e).unwrap_or_default()),
+            ("detections", self.detections.to_string()),
+            ("detection_share", e(self.detection_share)),
+            ("readback_share", e(self.readback_share)),
+        ]
+    }
 }

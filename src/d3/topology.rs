@@ -54,7 +54,7 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
     let cell_of = |p: DVec3| (p / cell).floor().as_i64vec3();
     let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
     for (i, (lo, hi)) in boxes.iter().enumerate() {
-        if !(sizes[i] <= cell) {
+        if large.binary_search(&i).is_ok() {
             continue;
         }
         let (a, b) = (cell_of(*lo), cell_of(*hi));
@@ -104,7 +104,8 @@ pub fn grid_cell(sizes: &[f64]) -> Option<(f64, Vec<usize>)> {
     if !(cell > 0.0 && cell.is_finite()) {
         return None;
     }
-    Some((cell, (0..n).filter(|&i| !(sizes[i] <= cell)).collect()))
+    let within = |size: f64| size <= cell;
+    Some((cell, (0..n).filter(|&i| !within(sizes[i])).collect()))
 }
 
 /// The broad phase leaves out of its grid at most one block in this many (and at least 16), the

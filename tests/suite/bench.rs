@@ -391,6 +391,45 @@ fn the_d3_scenes_run_and_write_their_files() {
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap();
     assert_eq!(json["d3"].as_array().unwrap().len(), 2);
     assert!(blockdem::bench::table(&report).contains("d3-wall"));
+    // The roofline on the CPU: D3's byte model in f64 against the host's copy bandwidth.
+    for r in &report.d3 {
+        let stages: Vec<&str> = r.stage_bytes.iter().map(|b| b.stage).collect();
+        assert_eq!(stages, ["gather", "law_of_motion", "track_contact"], "{r:?}");
+        assert_eq!(r.bytes_per_cycle, r.stage_bytes.iter().map(|b| b.read + b.written).sum::<u64>());
+        assert!(r.bandwidth_bytes_per_s > 0.0 && r.roofline > 0.0 && r.roofline < 1.0, "{r:?}");
+        assert!(r.kernels.is_empty() && r.kernel_timing.is_none() && r.detections == 0, "{r:?}");
+    }
+    assert!(csv.lines().next().unwrap().contains("roofline,roofline_kernels,detections"), "{csv}");
+    // No hardware GPU here: the D3 wall's H100 targets are said not judged.
+    let h100: Vec<_> = report.targets.iter().filter(|t| t.target.starts_with("D3 wall")).collect();
+    assert_eq!(h100.len(), 2, "{:?}", report.targets);
+    assert!(h100.iter().all(|t| t.met.is_none() && t.backend == "hardware GPU"), "{h100:?}");
+}
+
+/// D3's wall on a GPU adapter: each kernel timed (pass timestamps or isolated dispatches), the
+/// byte model in the adapter's precision over the kernels alone and the whole cycle against the
+/// streaming kernel's bandwidth, and the host's share (detections, read-backs) of the timed runs.
+#[test]
+fn the_d3_wall_times_its_kernels_and_gives_its_roofline_on_a_gpu() {
+    let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
+        return;
+    };
+    let mut options = BenchOptions::new(true, vec![BackendSpec::Gpu(gpu)]);
+    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones, options.d3_cubes) =
+        (false, false, false, false, false, false, false, false);
+    options.d3_wall_sizes = vec![20];
+    options.measure_s = 0.1;
+    let report = blockdem::bench::run(&options);
+    assert_eq!(report.d3.len(), 1, "{:?}", report.d3);
+    let r = &report.d3[0];
+    assert!(r.error.is_none() && r.s_per_cycle > 0.0 && !r.hardware_gpu, "{r:?}");
+    let names: Vec<&str> = r.kernels.iter().map(|k| k.0.as_str()).collect();
+    assert_eq!(names, ["gather", "law_of_motion", "track_contact"], "{r:?}");
+    assert!(r.kernels.iter().all(|k| k.1 > 0.0) && r.kernel_timing.as_deref().is_some_and(|t| t.contains("over")), "{r:?}");
+    assert!(r.bytes_per_cycle > 0 && r.bandwidth_bytes_per_s > 0.0 && r.roofline > 0.0, "{r:?}");
+    assert!(r.roofline_kernels.is_some_and(|k| k > 0.0), "{r:?}");
+    assert!((0.0..=1.0).contains(&r.detection_share) && (0.0..=1.0).contains(&r.readback_share), "{r:?}");
+    assert!(blockdem::bench::table(&report).contains("kernels ("));
 }
 
 /// The zoned family (`--scene zones`) at 10³ zones on the CPU and a GPU adapter: each GPU row

@@ -127,3 +127,39 @@ impl GpuBackend {
         time_passes(&self.dev, &passes, cycles, &|_| {}, &|| {})
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model_of(deck: &str) -> Model {
+        let commands = super::super::super::deck::parse_deck(deck, "<test>").unwrap();
+        let mut exec = super::super::super::exec::Executor::new(Box::new(std::io::sink()), "<test>");
+        exec.run(&commands).unwrap_or_else(|e| panic!("{e}"));
+        std::mem::take(&mut exec.model)
+    }
+
+    /// The byte model counts what the scene holds: two stacks apart move twice one stack's bytes
+    /// in every kernel (less the params, read once), f64 more than f32, and a simply-deformable
+    /// scene adds its strain records and `end_cycle`.
+    #[test]
+    fn the_byte_model_grows_with_the_scene() {
+        let stack = |x: f64| format!("BOX {x} {} -1 2 -1 0\nBOX {} {} 0 1 0 1\nBOX {} {} 0 1 1 2\n", x + 3.0, x + 1.0, x + 2.0, x + 1.0, x + 2.0);
+        let head = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 K=1E9 G=1E9\n";
+        let tail = "FIX -9 99 -9 9 -0.6 -0.4\nGRAV 0 0 -10\nCYCLE 0\n";
+        let one = model_of(&format!("{head}{}{tail}", stack(0.0)));
+        let two = model_of(&format!("{head}{}{}{tail}", stack(0.0), stack(10.0)));
+        let params = std::mem::size_of::<layout::Params<f32>>() as u64;
+        let (b1, b2) = (bytes_per_cycle::<f32>(&one), bytes_per_cycle::<f32>(&two));
+        assert_eq!(b1.iter().map(|b| b.stage).collect::<Vec<_>>(), ["gather", "law_of_motion", "track_contact"]);
+        for (a, b) in b1.iter().zip(&b2) {
+            assert_eq!((b.read - params, b.written), (2 * (a.read - params), 2 * a.written), "{}", a.stage);
+        }
+        let total = |v: &[StageBytes]| v.iter().map(|b| b.read + b.written).sum::<u64>();
+        assert!(total(&bytes_per_cycle::<f64>(&one)) > total(&b1));
+        let sdef = model_of(&format!("{head}{}CHANGE -9 99 -9 9 0 9 SDEF\n{tail}", stack(0.0)));
+        let bs = bytes_per_cycle::<f32>(&sdef);
+        assert_eq!(bs.last().map(|b| b.stage), Some("end_cycle"));
+        assert!(bs[1].read > b1[1].read && bs[1].written > b1[1].written);
+    }
+}
