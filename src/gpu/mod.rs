@@ -1,12 +1,15 @@
 //! The GPU chassis, dimension-free: what every engine's GPU backend stands on (DESIGN.md §1–3).
 //!
-//! - `device`: adapters, device set-up with the adapter's own limits, bounded waits.
+//! - `device`: adapters, device set-up with the adapter's own limits, bounded waits, whether a
+//!   buffer fits one binding (`check_fits`).
 //! - `real`: the kernel precision as a sealed Rust type (`Real`: f32 or f64) and `gpu_struct!`,
 //!   which defines a Pod struct generic over it with the field offsets naga checks.
 //! - `wgsl`: the pieces of a WGSL prelude every engine's kernels share (workgroup size,
 //!   dispatch grids) and naga validation.
 //! - `stream`: the streaming-kernel yardstick of the card's memory bandwidth
 //!   (`shaders/stream_copy.wgsl`) and the copy-engine figure beside it.
+//! - `profile`: each kernel's time per cycle (pass timestamps, or isolated dispatches) and the
+//!   byte model's row, for any engine's bench (`udec::gpu::profile`, `d3::gpu::profile`).
 //!
 //! The 2D engine's kernels, buffers and run are in `udec::gpu`.
 
