@@ -490,13 +490,7 @@ fn a_squeezed_block_splits_by_the_point_load_law_on_the_gpu_as_on_the_cpu() {
 #[test]
 fn a_struck_wall_cracks_on_the_gpu_and_keeps_its_energy() {
     let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6 TF=2E5\nBOX -1 2.6 -1 1.2 -1 0\n");
-    for course in 0..3 {
-        let shift = if course % 2 == 1 { 0.2 } else { 0.0 };
-        for k in 0..4 {
-            let (x, z) = (shift + 0.4 * k as f64, 0.2 * course as f64);
-            deck += &format!("BOX {x:.3} {:.3} 0 0.2 {z:.3} {:.3}\n", x + 0.4, z + 0.2);
-        }
-    }
+    deck += &common::d3_brick_courses(3, 4);
     deck += "PROP MAT=2 D=7800 KN=1E10 KS=1E10 F=0.3\nBOX 0.65 0.95 -0.5 -0.2 0.15 0.45 MAT 2\nFIX -0.5 2.1 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n\
              VELOCITY 0.6 1.0 -0.6 -0.1 0.1 0.5 0 30 0\nCYCLE 4400\n";
     for o in targets() {

@@ -439,13 +439,7 @@ fn a_point_on_a_sides_edge_within_round_off_is_dropped_by_both_sides() {
 #[test]
 fn two_blocks_pressing_down_side_by_side_are_no_point_load_pair() {
     let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6 TF=2E5\nBOX -1 3.6 -1 1.2 -1 0\n");
-    for course in 0..6 {
-        let shift = if course % 2 == 1 { 0.2 } else { 0.0 };
-        for k in 0..6 {
-            let (x, z) = (shift + 0.4 * k as f64, 0.2 * course as f64);
-            deck += &format!("BOX {x:.3} {:.3} 0 0.2 {z:.3} {:.3}\n", x + 0.4, z + 0.2);
-        }
-    }
+    deck += &crate::common::d3_brick_courses(6, 6);
     deck += "FIX -0.5 3.1 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\nCYCLE 300\n";
     let (m, log) = ok(&deck);
     assert!(!log.contains("CRACKED"), "{log}");

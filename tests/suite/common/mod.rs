@@ -231,3 +231,17 @@ pub fn run_wgsl(dev: &blockdem::gpu::GpuDevice, src: &str, entry: &str, cases: u
     dev.queue.submit([enc.finish()]);
     buffers.iter().zip(&bufs).filter(|((_, _, out), _)| *out).map(|((_, bytes, _), buf)| dev.read_buffer(buf, bytes.len() as u64).unwrap()).collect()
 }
+
+/// A D3 deck's BOX lines for `courses` courses of `per_course` bricks 0.4 × 0.2 × 0.2 m in
+/// running bond (every other course shifted half a brick), the first course on z = 0.
+pub fn d3_brick_courses(courses: usize, per_course: usize) -> String {
+    let mut deck = String::new();
+    for course in 0..courses {
+        let shift = if course % 2 == 1 { 0.2 } else { 0.0 };
+        for k in 0..per_course {
+            let (x, z) = (shift + 0.4 * k as f64, 0.2 * course as f64);
+            deck += &format!("BOX {x:.3} {:.3} 0 0.2 {z:.3} {:.3}\n", x + 0.4, z + 0.2);
+        }
+    }
+    deck
+}
