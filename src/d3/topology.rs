@@ -2,8 +2,9 @@
 //! widened by the neighbour margin, overlap is a contact: a degenerate one (a link between nearby
 //! blocks) until they touch. The pairs come from a uniform grid of cells as large as nearly every
 //! widened block, the few larger ones (a slab under a wall) tested against every block, so the
-//! search costs a number of operations proportional to the number of blocks N, not N². The lists are rebuilt only once some block has moved, since the last
-//! rebuild, by as much as the contact-forming distance (`Block::travel`): a pair further apart
+//! search costs a number of operations proportional to the number of blocks N, not N². The lists
+//! are rebuilt only once some block has moved, since the last rebuild, by as much as the
+//! contact-forming distance (`Block::travel`): a pair further apart
 //! than the margin (four times that distance) cannot come within touching distance before then.
 //! A contact kept across a rebuild keeps its id and its logical contacts (their shear forces).
 
@@ -97,10 +98,10 @@ pub fn grid_cell(sizes: &[f64]) -> Option<(f64, Vec<usize>)> {
     if n < 2 {
         return None;
     }
-    let mut sorted = sizes.to_vec();
-    sorted.sort_by(f64::total_cmp);
+    // The size of rank n − 1 − few, found in linear time (a full sort was N log N).
     let few = (n / LARGE_SHARE).max(16).min(n - 1);
-    let cell = sorted[n - 1 - few];
+    let mut ranked = sizes.to_vec();
+    let (_, &mut cell, _) = ranked.select_nth_unstable_by(n - 1 - few, f64::total_cmp);
     if !(cell > 0.0 && cell.is_finite()) {
         return None;
     }

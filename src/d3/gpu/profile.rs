@@ -28,7 +28,6 @@
 
 use crate::gpu::profile::{time_passes, DeviceProfile, Pass, StageBytes};
 use crate::gpu::real::Real;
-use crate::gpu::stream::{copy_bandwidth, stream_bandwidth, StreamBandwidth};
 use crate::gpu::{GpuError, Precision};
 
 use super::super::model::Model;
@@ -92,16 +91,6 @@ impl GpuBackend {
             Precision::F32 => bytes_per_cycle::<f32>(model),
             Precision::F64 => bytes_per_cycle::<f64>(model),
         }
-    }
-
-    /// The adapter's memory bandwidth by the streaming kernel (the roofline's yardstick).
-    pub fn stream_bandwidth(&self) -> Result<StreamBandwidth, GpuError> {
-        stream_bandwidth(&self.dev)
-    }
-
-    /// The adapter's `copy_buffer_to_buffer` bandwidth, bytes read + written per second.
-    pub fn copy_bandwidth(&self) -> Result<f64, GpuError> {
-        copy_bandwidth(&self.dev)
     }
 
     /// Each kernel's device time per cycle over `cycles` cycles, on the state the last run left
