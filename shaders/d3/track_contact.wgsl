@@ -314,23 +314,35 @@ fn near(first: bool, h: real, hi_a: real, lo_b: real, reach: real) -> bool {
 // The distance along n from p at which the line p + s·n leaves body i (the least s over the
 // planes it heads out through), or enters it (`entering`: the greatest over those it heads in
 // through) (Rust twin: `contact::ray_crossing` over the planes `contact::facing` sorts out once
-// per contact); `found` false where no plane qualifies. Planes
-// within GRAZING of parallel to n are passed over (the prelude says why; PART_GRAZING for a part
-// of a concave block, whose record lies after the blocks), and so are crossings farther along the
-// line than `reach`.
+// per contact); `found` false where no plane qualifies. Planes whose |n·normal| is no more than
+// `least` (`facing_least`) are passed over, and so are crossings farther along the line than
+// `reach`.
 struct Crossing {
     s: real,
     found: bool,
 }
 
-fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool, reach: real) -> Crossing {
+// The |n·normal| a plane of body i must exceed to count in `ray_crossing` (Rust twin: the
+// threshold `contact::facing` takes): GRAZING (the prelude says why; PART_GRAZING for a part of
+// a concave block, whose record lies after the blocks), and STEEP_SHARE of the squarest plane's
+// (a steep side face is crossed only where the point lies on its edge, at a distance its tilt
+// decides: the twin's doc). Once per contact and body.
+fn facing_least(i: u32, n: vec3<real>, entering: bool) -> real {
+    let sign = select(real(1.0), real(-1.0), entering);
+    var squarest: real = 0.0;
+    for (var k = 0u; k < blocks[i].plane_count; k++) {
+        squarest = max(squarest, sign * dot3(plane_normal(i, k), n));
+    }
+    return max(select(GRAZING, PART_GRAZING, i >= params.blocks), STEEP_SHARE * squarest);
+}
+
+fn ray_crossing(i: u32, p: vec3<real>, n: vec3<real>, entering: bool, reach: real, least: real) -> Crossing {
     var out = Crossing(0.0, false);
-    let grazing = select(GRAZING, PART_GRAZING, i >= params.blocks);
     for (var k = 0u; k < blocks[i].plane_count; k++) {
         let nf = plane_normal(i, k);
         let d = dot3(nf, n);
         let x = block_vertex(i, planes[blocks[i].plane_start + k].vertex);
-        if ((entering && d < -grazing) || (!entering && d > grazing)) {
+        if ((entering && d < -least) || (!entering && d > least)) {
             let s = dot3(nf, x - p) / d;
             // Farther than `reach`: a face nearly parallel to the line, seen from just outside
             // (Rust twin's doc).
@@ -354,7 +366,7 @@ struct Placed {
     gap: real,
 }
 
-fn place_logical(l: Logical, a: u32, b: u32, n: vec3<real>, hi_a: real, lo_b: real, separation: real) -> Placed {
+fn place_logical(l: Logical, a: u32, b: u32, n: vec3<real>, hi_a: real, lo_b: real, separation: real, least_a: real, least_b: real) -> Placed {
     let mid = 0.5 * (hi_a + lo_b);
     var x: vec3<real>;
     if (l.kind == LOGICAL_VERTEX_FIRST) {
@@ -375,8 +387,8 @@ fn place_logical(l: Logical, a: u32, b: u32, n: vec3<real>, hi_a: real, lo_b: re
     }
     let p = x + n * (mid - dot3(n, x));
     let reach = 2.0 * (blocks[a].radius + blocks[b].radius);
-    let leave = ray_crossing(a, p, n, false, reach);
-    let enter = ray_crossing(b, p, n, true, reach);
+    let leave = ray_crossing(a, p, n, false, reach, least_a);
+    let enter = ray_crossing(b, p, n, true, reach, least_b);
     var ls: real = 0.0;
     var es: real = separation;
     if (leave.found && enter.found) {
@@ -551,12 +563,14 @@ fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     let n = plane.normal;
     let hi_a = support(a, n, false);
     let lo_b = support(b, n, true);
+    let least_a = facing_least(a, n, false);
+    let least_b = facing_least(b, n, true);
     for (var j = 0u; j < c.logical_count; j++) {
         let k = c.logical_start + j;
         if (logicals[k].live == 0u) {
             continue;
         }
-        let placed = place_logical(logicals[k], a, b, n, hi_a, lo_b, plane.separation);
+        let placed = place_logical(logicals[k], a, b, n, hi_a, lo_b, plane.separation, least_a, least_b);
         var point = placed.point;
         if (RELATIVE) {
             // From the midpoint to block 1's centroid, where the points are kept.

@@ -453,15 +453,34 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
 /// the contact). Only one face of each plane is tried (`Shape::planes`): the faces of a convex
 /// block that share an outward normal lie in one supporting plane, so the others give the same
 /// crossing. `normals`: the body's [`PlaneNormals`].
+///
+/// Planes far steeper to the line than the flattest facing one (|n·normal| below [`STEEP_SHARE`]
+/// of the greatest) are passed over too: within the touching region the line leaves and enters
+/// through the touching features' faces, which face the line most squarely, and a steep side
+/// face is crossed only where the point lies on its edge, at a distance its tilt decides (the
+/// point's offset from the plane, up to the hulls' tolerance, over n·normal): a corner of two
+/// bricks' faces in touch, a side face tilting through parallel as the bricks rock, gave its
+/// logical contact a gap that jumped by 3·10⁻⁴ m from one cycle to the next, a spring force
+/// 3·10⁵ N for three cycles, and energy into the struck wall (`STEEP_SHARE`'s doc).
 fn facing(block: Body, normals: &[DVec3], n: DVec3, entering: bool, grazing: f64, planes: &mut Vec<Facing>) {
     planes.clear();
+    let sign = if entering { -1.0 } else { 1.0 };
+    let squarest = normals.iter().map(|nf| sign * nf.dot(n)).fold(0.0, f64::max);
+    let least = grazing.max(STEEP_SHARE * squarest);
     for (&f, &nf) in block.shape.planes.iter().zip(normals) {
         let d = nf.dot(n);
-        if (entering && d < -grazing) || (!entering && d > grazing) {
+        if sign * d > least {
             planes.push((nf, block.vertices[block.shape.faces[f as usize][0] as usize], d));
         }
     }
 }
+
+/// The share of the squarest facing plane's n·normal below which `facing` passes a plane
+/// over (the WGSL twin's STEEP_SHARE): the crossing of a plane the point lies on within a
+/// distance ε is uncertain by ε / (n·normal), at most ten times the squarest plane's. The
+/// touching features' own faces are kept: an edge's or a vertex's faces meet the line within a
+/// factor of a few of each other, a needle's tip's all alike.
+pub const STEEP_SHARE: f64 = 0.1;
 
 /// A face plane a line crosses ([`facing`]): its outward normal, a point of it, and the line's
 /// direction dotted with the normal.

@@ -359,17 +359,38 @@ pub fn contact_stage_with(model: &mut Model, dt: f64, unloaded: bool) -> Option<
     let mut placements = PLACEMENTS.take();
     placements.resize_with(model.blocks.len(), contact::Placement::default);
     placements.par_iter_mut().zip(model.blocks.par_iter()).with_min_len(grain::BLOCK).for_each(|(p, b)| p.renew(b));
-    contact_stage_placed(model, dt, unloaded, placements)
+    contact_stage_placed(model, dt, unloaded, placements, None)
+}
+
+/// [`contact_stage_with`] for the `selected` contacts only (a flag per contact), the others left
+/// as they are: the GPU's partial detections, whose contacts between blocks that have not moved
+/// keep the logical contacts the device tracks. Only the selected contacts' blocks are placed.
+pub fn contact_stage_of(model: &mut Model, dt: f64, unloaded: bool, selected: &[bool]) -> Option<usize> {
+    let mut wanted = vec![false; model.blocks.len()];
+    for c in model.contacts.iter().zip(selected).filter(|(_, &s)| s).map(|(c, _)| c) {
+        c.blocks.iter().for_each(|&b| wanted[b as usize] = true);
+    }
+    let mut placements = PLACEMENTS.take();
+    placements.resize_with(model.blocks.len(), contact::Placement::default);
+    placements
+        .par_iter_mut()
+        .zip(model.blocks.par_iter())
+        .zip(wanted.par_iter())
+        .with_min_len(grain::BLOCK)
+        .filter(|(_, &w)| w)
+        .for_each(|((p, b), _)| p.renew(b));
+    contact_stage_placed(model, dt, unloaded, placements, Some(selected))
 }
 
 /// [`contact_stage`] with the blocks' bodies `placements` renewed where they are (by the cycle's
-/// block pass); they go back to [`PLACEMENTS`] after.
-fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: Vec<contact::Placement>) -> Option<usize> {
+/// block pass); they go back to [`PLACEMENTS`] after. Every contact, or the `only` ones.
+fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: Vec<contact::Placement>, only: Option<&[bool]>) -> Option<usize> {
     let tol = model.contact_tolerance();
     let (blocks, materials) = (&model.blocks, &model.materials);
     let energy: Vec<(f64, f64, bool)> = model
         .contacts
         .par_iter_mut()
+        .enumerate()
         .with_min_len(grain::CONTACT)
         .map_init(
             || {
@@ -377,7 +398,10 @@ fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: 
                 s.unloaded = unloaded;
                 s
             },
-            |scratch, c| {
+            |scratch, (k, c)| {
+                if only.is_some_and(|o| !o[k]) {
+                    return (0.0, 0.0, false);
+                }
                 let [i, j] = c.blocks.map(|k| k as usize);
                 // The law block's material and whether its law is the joint law (the law's
                 // parameters follow from the touching region found).
@@ -527,7 +551,7 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
         report.contacts_created += created;
         report.contacts_dropped += dropped;
     }
-    if let Some(k) = contact_stage_placed(model, dt, true, placements) {
+    if let Some(k) = contact_stage_placed(model, dt, true, placements, None) {
         return Err(overlap_error(model, k));
     }
     cracks(model, report);

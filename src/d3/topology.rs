@@ -45,31 +45,10 @@ pub fn alone(model: &Model, k: usize, reach: f64) -> bool {
 /// not put in the grid: a cell as large as the largest block (a slab under the whole wall) would
 /// hold every block, and the search would cost N².
 pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
-    let boxes: Vec<(DVec3, DVec3)> = model.blocks.iter().map(|b| widened(b.bounds(), margin)).collect();
-    let n = boxes.len();
-    if n < 2 {
-        return Vec::new();
-    }
-    let sizes: Vec<f64> = boxes.iter().map(|(lo, hi)| (*hi - *lo).max_element()).collect();
-    let Some((cell, large)) = grid_cell(&sizes) else { return Vec::new() };
-    let cell_of = |p: DVec3| (p / cell).floor().as_i64vec3();
-    let mut grid: FxHashMap<(i64, i64, i64), Vec<u32>> = FxHashMap::default();
-    for (i, (lo, hi)) in boxes.iter().enumerate() {
-        if large.binary_search(&i).is_ok() {
-            continue;
-        }
-        let (a, b) = (cell_of(*lo), cell_of(*hi));
-        for x in a.x..=b.x {
-            for y in a.y..=b.y {
-                for z in a.z..=b.z {
-                    grid.entry((x, y, z)).or_default().push(i as u32);
-                }
-            }
-        }
-    }
-    let overlap = |i: usize, j: usize| boxes_overlap(boxes[i], boxes[j]);
+    let Some(grid) = Grid::new(model, margin) else { return Vec::new() };
+    let overlap = |i: usize, j: usize| boxes_overlap(grid.boxes[i], grid.boxes[j]);
     let mut pairs = Vec::new();
-    for members in grid.values() {
+    for members in grid.cells.values() {
         for (k, &i) in members.iter().enumerate() {
             for &j in &members[k + 1..] {
                 let (i, j) = (i.min(j), i.max(j));
@@ -79,7 +58,8 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
             }
         }
     }
-    for &i in &large {
+    let n = grid.boxes.len();
+    for &i in &grid.large {
         for j in (0..n).filter(|&j| j != i && overlap(i, j)) {
             pairs.push((i.min(j) as u32, i.max(j) as u32));
         }
@@ -87,6 +67,82 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
     pairs.sort_unstable();
     pairs.dedup();
     pairs
+}
+
+/// The pairs of [`neighbour_pairs`] of which at least one block is `moved` (a flag per block):
+/// the grid is built over every block, and only the moved blocks' boxes are looked up in it, so
+/// the search costs the grid's N inserts and a bounded number of tests per moved block (a large
+/// moved block: N tests). With every block moved, the same pairs as [`neighbour_pairs`].
+pub fn neighbour_pairs_of(model: &Model, margin: f64, moved: &[bool]) -> Vec<(u32, u32)> {
+    let Some(grid) = Grid::new(model, margin) else { return Vec::new() };
+    let n = grid.boxes.len();
+    let overlap = |i: usize, j: usize| boxes_overlap(grid.boxes[i], grid.boxes[j]);
+    let mut pairs = Vec::new();
+    for i in (0..n).filter(|&i| moved[i]) {
+        let mut near = |j: usize| {
+            if j != i && overlap(i, j) {
+                pairs.push((i.min(j) as u32, i.max(j) as u32));
+            }
+        };
+        if grid.large.binary_search(&i).is_ok() {
+            (0..n).for_each(&mut near);
+            continue;
+        }
+        let (lo, hi) = grid.cell_range(grid.boxes[i]);
+        for x in lo.x..=hi.x {
+            for y in lo.y..=hi.y {
+                for z in lo.z..=hi.z {
+                    if let Some(members) = grid.cells.get(&(x, y, z)) {
+                        members.iter().for_each(|&j| near(j as usize));
+                    }
+                }
+            }
+        }
+        grid.large.iter().for_each(|&j| near(j));
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
+}
+
+/// The broad phase's uniform grid ([`neighbour_pairs`]): each block's widened box, the cell's
+/// size, the blocks (not large) in each cell their boxes reach, and the large blocks left out.
+struct Grid {
+    boxes: Vec<(DVec3, DVec3)>,
+    cell: f64,
+    cells: FxHashMap<(i64, i64, i64), Vec<u32>>,
+    large: Vec<usize>,
+}
+
+impl Grid {
+    /// The grid of `model`'s blocks widened by half `margin`; None where there are fewer than two
+    /// or the cell has no size.
+    fn new(model: &Model, margin: f64) -> Option<Grid> {
+        let boxes: Vec<(DVec3, DVec3)> = model.blocks.iter().map(|b| widened(b.bounds(), margin)).collect();
+        let sizes: Vec<f64> = boxes.iter().map(|(lo, hi)| (*hi - *lo).max_element()).collect();
+        let (cell, large) = grid_cell(&sizes)?;
+        let mut grid = Grid { boxes, cell, cells: FxHashMap::default(), large };
+        for i in 0..grid.boxes.len() {
+            if grid.large.binary_search(&i).is_ok() {
+                continue;
+            }
+            let (a, b) = grid.cell_range(grid.boxes[i]);
+            for x in a.x..=b.x {
+                for y in a.y..=b.y {
+                    for z in a.z..=b.z {
+                        grid.cells.entry((x, y, z)).or_default().push(i as u32);
+                    }
+                }
+            }
+        }
+        Some(grid)
+    }
+
+    /// The first and last cells a box reaches along each axis.
+    fn cell_range(&self, (lo, hi): (DVec3, DVec3)) -> (glam::I64Vec3, glam::I64Vec3) {
+        let cell_of = |p: DVec3| (p / self.cell).floor().as_i64vec3();
+        (cell_of(lo), cell_of(hi))
+    }
 }
 
 /// The grid's cell for widened boxes of these `sizes` (their largest extents), and the large
@@ -129,16 +185,80 @@ fn boxes_overlap(a: (DVec3, DVec3), b: (DVec3, DVec3)) -> bool {
 /// A concave block is seen as its convex parts (`Block::parts`): a pair of neighbour blocks of
 /// which one or both are concave has a contact for each pair of their parts whose boxes, widened
 /// as the blocks' are, overlap (never one between two parts of one block: they move as one).
-/// Returns (created, dropped).
+/// Every block's travel starts again from zero. Returns (created, dropped).
 pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
     let margin = neighbour_margin(model);
     let pairs = neighbour_pairs(model, margin);
-    let mut old: FxHashMap<(u32, u32, [u32; 2]), Contact> =
-        std::mem::take(&mut model.contacts).into_iter().map(|c| ((c.blocks[0], c.blocks[1], c.parts), c)).collect();
+    let mut old: FxHashMap<ContactKey, Contact> = std::mem::take(&mut model.contacts).into_iter().map(|c| (key(&c), c)).collect();
     let mut created = 0;
+    model.contacts = contacts_of_pairs(model, &pairs, margin, &mut old, &mut created);
+    for b in &mut model.blocks {
+        b.travel = 0.0;
+    }
+    model.neighbours_stale = false;
+    (created, old.len() as u64)
+}
+
+/// [`update_neighbours`] for the `moved` blocks only (a flag per block): the pairs of which at
+/// least one block is moved are searched afresh ([`neighbour_pairs_of`]), kept, created or
+/// dropped as there; the contacts between blocks neither of which is moved are kept as they
+/// are; only the moved blocks' travel starts again from zero. The lists come out in the order
+/// [`update_neighbours`] gives (by blocks, then parts).
+///
+/// Why a pair of unmoved blocks may keep its status: it was last judged when one of its blocks
+/// last had its travel reset (its pairs were all searched then), and since then each has moved
+/// by less than its travel, which stays below the contact-forming distance (the caller moves
+/// every block whose travel has reached its limit): the two have closed on each other by less
+/// than twice that, well within the neighbour margin's four times. The caller must not take this
+/// path where the lists are stale (`Model::neighbours_stale`: blocks made, cut or deleted).
+/// Returns (created, dropped).
+pub fn update_neighbours_of(model: &mut Model, moved: &[bool]) -> (u64, u64) {
+    let margin = neighbour_margin(model);
+    let pairs = neighbour_pairs_of(model, margin, moved);
+    let touches_moved = |c: &Contact| moved[c.blocks[0] as usize] || moved[c.blocks[1] as usize];
+    let (of_moved, unmoved): (Vec<Contact>, Vec<Contact>) = std::mem::take(&mut model.contacts).into_iter().partition(touches_moved);
+    let mut old: FxHashMap<ContactKey, Contact> = of_moved.into_iter().map(|c| (key(&c), c)).collect();
+    let mut created = 0;
+    let fresh = contacts_of_pairs(model, &pairs, margin, &mut old, &mut created);
+    // Both lists are in key order: merged so.
+    let mut contacts = Vec::with_capacity(unmoved.len() + fresh.len());
+    let (mut a, mut b) = (unmoved.into_iter().peekable(), fresh.into_iter().peekable());
+    loop {
+        let next = match (a.peek(), b.peek()) {
+            (Some(x), Some(y)) => {
+                if key(x) < key(y) {
+                    a.next()
+                } else {
+                    b.next()
+                }
+            }
+            (Some(_), None) => a.next(),
+            (None, Some(_)) => b.next(),
+            (None, None) => break,
+        };
+        contacts.extend(next);
+    }
+    model.contacts = contacts;
+    for (b, _) in model.blocks.iter_mut().zip(moved).filter(|(_, &m)| m) {
+        b.travel = 0.0;
+    }
+    (created, old.len() as u64)
+}
+
+/// A contact's key in the neighbour lists: its blocks, then its parts.
+type ContactKey = (u32, u32, [u32; 2]);
+
+fn key(c: &Contact) -> ContactKey {
+    (c.blocks[0], c.blocks[1], c.parts)
+}
+
+/// The contacts of neighbour `pairs` (ascending), each pair's parts in touch range paired: the
+/// contact of `old` of the same key taken out of it where there is one, else a new degenerate
+/// contact (counted in `created`). Pairs of two fixed blocks have none. In key order.
+fn contacts_of_pairs(model: &mut Model, pairs: &[(u32, u32)], margin: f64, old: &mut FxHashMap<ContactKey, Contact>, created: &mut u64) -> Vec<Contact> {
     let mut contacts = Vec::with_capacity(pairs.len());
     let mut part_pairs: Vec<[u32; 2]> = Vec::new();
-    for (a, b) in pairs {
+    for &(a, b) in pairs {
         let (ba, bb) = (&model.blocks[a as usize], &model.blocks[b as usize]);
         // Two fixed blocks never act on each other.
         if ba.fixed && bb.fixed {
@@ -162,7 +282,7 @@ pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
             match old.remove(&(a, b, parts)) {
                 Some(c) => contacts.push(c),
                 None => {
-                    created += 1;
+                    *created += 1;
                     contacts.push(Contact {
                         id: model.next_contact_id,
                         blocks: [a, b],
@@ -177,10 +297,5 @@ pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
             }
         }
     }
-    model.contacts = contacts;
-    for b in &mut model.blocks {
-        b.travel = 0.0;
-    }
-    model.neighbours_stale = false;
-    (created, old.len() as u64)
+    contacts
 }

@@ -500,3 +500,65 @@ fn a_struck_wall_cracks_on_the_gpu_and_keeps_its_energy() {
         assert!(e.ledger().abs() < 0.015 * e.external_work, "{:?}: ledger {} of {} ({} blocks)", o.precision, e.ledger(), e.external_work, m.blocks.len());
     }
 }
+
+/// Partial detections ("Partial detections" in `d3::gpu`): a wall of twenty bricks struck by a
+/// cube. Only the contacts of the blocks that moved are found afresh at a detection (most of the
+/// wall stands still), and the run is the whole detections' run to within the impact's scatter:
+/// the cube's momentum, the ledger (within 1 % of the work on both), each near the CPU's.
+#[test]
+fn partial_detections_refresh_the_moved_blocks_and_run_as_whole_ones() {
+    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nBOX -1 5.2 -1 1.2 -1 0\n");
+    for row in 0..2 {
+        for k in 0..10 {
+            let x = k as f64 * 0.4 + if row == 1 { 0.2 } else { 0.0 };
+            let z = row as f64 * 0.2;
+            deck.push_str(&format!("BOX {x} {} 0 0.2 {z} {}\n", x + 0.4, z + 0.2));
+        }
+    }
+    deck.push_str("BOX 1.85 2.35 -0.51 -0.01 0.05 0.55\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n");
+    deck.push_str("VELOCITY 1.8 2.4 -0.6 -0.005 0 0.6 0 10 0\nFRACTION 0.1\n");
+    let built = run(&deck, None);
+    let run_on = |backend: &mut dyn blockdem::d3::backend::Backend| {
+        let mut m = built.clone();
+        backend.run(&mut m, 1500, &mut |_| true).unwrap_or_else(|e| panic!("{e}"));
+        m
+    };
+    let cpu = run_on(&mut blockdem::d3::cpu::CpuBackend::new());
+    let cube = |m: &Model| m.blocks.last().unwrap().velocity;
+    let ledger = |m: &Model| {
+        let e = m.energies();
+        e.ledger() / e.external_work
+    };
+    assert!(cube(&cpu).y < 9.0 && ledger(&cpu).abs() < 0.01, "cpu: the cube at {}, ledger {:e}", cube(&cpu), ledger(&cpu));
+    for o in targets() {
+        let mut runs = Vec::new();
+        for whole in [false, true] {
+            let mut backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+            backend.set_whole_detections(whole);
+            let m = run_on(&mut backend);
+            runs.push((m, backend.host_times()));
+        }
+        let [(partial, p), (whole, w)] = [runs.remove(0), runs.remove(0)];
+        let share = |h: &blockdem::d3::gpu::HostTimes| h.refreshed as f64 / h.listed as f64;
+        eprintln!(
+            "{:?} {:?}: detections {} / {}, refreshed {:.3} / {:.3}; cube {} / {} (cpu {}); ledger {:e} / {:e} (cpu {:e})",
+            o.adapter,
+            o.precision,
+            p.detections,
+            w.detections,
+            share(&p),
+            share(&w),
+            cube(&partial),
+            cube(&whole),
+            cube(&cpu),
+            ledger(&partial),
+            ledger(&whole),
+            ledger(&cpu)
+        );
+        assert!(p.detections > 3 && share(&w) == 1.0 && share(&p) < 0.5, "{:?}: {p:?} {w:?}", o.precision);
+        for m in [&partial, &whole] {
+            assert!((cube(m) - cube(&cpu)).length() < 0.05 * cube(&cpu).length(), "{:?}: the cube at {} (cpu {})", o.precision, cube(m), cube(&cpu));
+            assert!(ledger(m).abs() < 0.01, "{:?}: ledger {:e} of the work", o.precision, ledger(m));
+        }
+    }
+}

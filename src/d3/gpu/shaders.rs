@@ -58,6 +58,8 @@ pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
         Precision::F64 => ("f64", false, "1e-9"),
     };
     let part_grazing = crate::d3::contact::PART_GRAZING;
+    // STEEP_SHARE: `contact::STEEP_SHARE`, one constant with the Rust twin's.
+    let steep_share = crate::d3::contact::STEEP_SHARE;
     // ROUNDOFF: the kernel precision's machine epsilon (the common plane's margin, track_contact.wgsl).
     let roundoff = match precision {
         Precision::F32 => f32::EPSILON as f64,
@@ -72,7 +74,7 @@ pub fn prelude(precision: Precision, sdef: bool, boundary: bool) -> String {
         String::new()
     };
     format!(
-        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst PART_GRAZING: real = {part_grazing:e};\nconst ROUNDOFF: real = {roundoff:e};\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{screen}{}",
+        "alias real = {real};\nconst WORKGROUP_SIZE: u32 = {}u;\nconst GROUPS_PER_ROW: u32 = {MAX_GROUPS_PER_DIMENSION}u;\nconst COMPENSATED: bool = {compensated};\nconst RELATIVE: bool = {compensated};\nconst GRAZING: real = {grazing};\nconst PART_GRAZING: real = {part_grazing:e};\nconst STEEP_SHARE: real = {steep_share:e};\nconst ROUNDOFF: real = {roundoff:e};\nconst SDEF: bool = {sdef};\nconst BOUNDARY: bool = {boundary};\n{screen}{}",
         workgroup_size(),
         math_constants(precision)
     )
