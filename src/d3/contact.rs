@@ -465,13 +465,18 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
 fn facing(block: Body, normals: &[DVec3], n: DVec3, entering: bool, grazing: f64, planes: &mut Vec<Facing>) {
     planes.clear();
     let sign = if entering { -1.0 } else { 1.0 };
-    let squarest = normals.iter().map(|nf| sign * nf.dot(n)).fold(0.0, f64::max);
-    let least = grazing.max(STEEP_SHARE * squarest);
+    let mut squarest: f64 = 0.0;
     for (&f, &nf) in block.shape.planes.iter().zip(normals) {
         let d = nf.dot(n);
-        if sign * d > least {
+        squarest = squarest.max(sign * d);
+        if sign * d > grazing {
             planes.push((nf, block.vertices[block.shape.faces[f as usize][0] as usize], d));
         }
+    }
+    // The steep ones out, once the squarest is known (in one pass over the normals).
+    let least = STEEP_SHARE * squarest;
+    if least > grazing {
+        planes.retain(|&(_, _, d)| sign * d > least);
     }
 }
 
