@@ -480,24 +480,27 @@ fn a_squeezed_block_splits_by_the_point_load_law_on_the_gpu_as_on_the_cpu() {
 }
 
 /// A steel cube fired at 30 m/s into three courses of four bricks that crack by the point-load
-/// law: the ledger stays within 1.5 % of the cube's energy on the GPU, as on the CPU. Before each
+/// law: the ledger stays within 0.3 % of the cube's energy on the GPU, as on the CPU. Before each
 /// crack the device's logical contacts (kept from the last detection) were what the cut carried
 /// to the pieces: some of the parent's loaded corners were not found among them, their springs'
 /// energy was booked as let go, and the ledger then grew by as much (f32: +1.8e4 J of 9.5e4 after
 /// 71 cracks; the 60-brick wall +1.7e5 J). Now the CPU finds the logical contacts afresh on the
 /// state read back before it cuts (`cpu::contact_stage_with`, as a detection does): f32 765 J
-/// after 74 cracks, f64 25 J; the CPU 44 J after 60.
+/// after 74 cracks, f64 25 J; the CPU 44 J after 60. A gap measured through a brick's side face
+/// as it tilted through parallel to the normal (`contact::STEEP_SHARE`) made the rest: now the
+/// CPU 37.9 J (0.040 %), f32 30.2 J (0.032 %), f64 54.7 J (0.058 %).
 #[test]
 fn a_struck_wall_cracks_on_the_gpu_and_keeps_its_energy() {
     let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6 TF=2E5\nBOX -1 2.6 -1 1.2 -1 0\n");
     deck += &common::d3_brick_courses(3, 4);
     deck += "PROP MAT=2 D=7800 KN=1E10 KS=1E10 F=0.3\nBOX 0.65 0.95 -0.5 -0.2 0.15 0.45 MAT 2\nFIX -0.5 2.1 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n\
              VELOCITY 0.6 1.0 -0.6 -0.1 0.1 0.5 0 30 0\nCYCLE 4400\n";
-    for o in targets() {
-        let m = run(&deck, Some(&o));
+    let cpu = run(&deck, None);
+    for (name, m) in std::iter::once(("cpu".to_string(), cpu)).chain(targets().into_iter().map(|o| (format!("{:?} {:?}", o.adapter, o.precision), run(&deck, Some(&o))))) {
         let e = m.energies();
-        assert!(m.blocks.len() > 30 && e.external_work > 9e4, "{:?}: {} blocks, {e:?}", o.precision, m.blocks.len());
-        assert!(e.ledger().abs() < 0.015 * e.external_work, "{:?}: ledger {} of {} ({} blocks)", o.precision, e.ledger(), e.external_work, m.blocks.len());
+        eprintln!("{name}: {} blocks, ledger {:.1} J of {:.4e} J ({:.3} %)", m.blocks.len(), e.ledger(), e.external_work, 100.0 * e.ledger() / e.external_work);
+        assert!(m.blocks.len() > 30 && e.external_work > 9e4, "{name}: {} blocks, {e:?}", m.blocks.len());
+        assert!(e.ledger().abs() < 0.003 * e.external_work, "{name}: ledger {} of {} ({} blocks)", e.ledger(), e.external_work, m.blocks.len());
     }
 }
 
