@@ -613,10 +613,15 @@ pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut C
     if cracked.is_empty() {
         return;
     }
+    let first_new = model.next_contact_id;
     topology::update_neighbours(model);
     // The logical contacts the cracks make start unloaded, as those that appear in a cycle;
-    // those the parents had take their state back below.
-    contact_stage_with(model, 0.0, true);
+    // those the parents had take their state back below. Only the contacts the cut touched (of
+    // a cracked block or a piece) and the new ones: the others are as the cycle (or the GPU's
+    // read-back) left them, and the energies before and after the cut count them alike.
+    let touched = |k: u32| origin[k as usize] != k || cracked.contains(&k);
+    let selected: Vec<bool> = model.contacts.iter().map(|c| c.id >= first_new || c.blocks.iter().any(|&k| touched(k))).collect();
+    contact_stage_of(model, 0.0, true, &selected);
     carry_across_cracks(model, &origin, &cracked, &carried);
     let after = model.energies();
     model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);

@@ -1423,8 +1423,11 @@ impl driver::Stages<Model> for GpuBackend {
                 // not the device's, kept since the last detection with points the kernels placed,
                 // among which some loaded corners were not found (their springs' energy booked as
                 // let go at the cut, and the ledger then grew by as much: +1.8e4 J of 9.5e4 on a
-                // struck wall of twelve bricks in f32). So a detection's stage 4 first.
-                cpu::contact_stage_with(model, 0.0, true);
+                // struck wall of twelve bricks in f32). So a detection's stage 4 first, for the
+                // contacts of the blocks to crack: the cut's own stage 4 renews only the contacts
+                // it touches (`cpu::crack_blocks`), so the others count alike before and after.
+                let cracking: Vec<bool> = model.contacts.iter().map(|c| c.blocks.iter().any(|&k| due.iter().any(|d| d.block == k as usize))).collect();
+                cpu::contact_stage_of(model, 0.0, true, &cracking);
                 cpu::crack_blocks(model, due, report);
                 self.upload(model).map_err(device_error)?;
             }
