@@ -496,7 +496,9 @@ fn a_struck_wall_cracks_on_the_gpu_and_keeps_its_energy() {
     deck += "PROP MAT=2 D=7800 KN=1E10 KS=1E10 F=0.3\nBOX 0.65 0.95 -0.5 -0.2 0.15 0.45 MAT 2\nFIX -0.5 2.1 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n\
              VELOCITY 0.6 1.0 -0.6 -0.1 0.1 0.5 0 30 0\nCYCLE 4400\n";
     let cpu = run(&deck, None);
-    for (name, m) in std::iter::once(("cpu".to_string(), cpu)).chain(targets().into_iter().map(|o| (format!("{:?} {:?}", o.adapter, o.precision), run(&deck, Some(&o))))) {
+    for (name, m) in
+        std::iter::once(("cpu".to_string(), cpu)).chain(targets().into_iter().map(|o| (format!("{:?} {:?}", o.adapter, o.precision), run(&deck, Some(&o)))))
+    {
         let e = m.energies();
         eprintln!("{name}: {} blocks, ledger {:.1} J of {:.4e} J ({:.3} %)", m.blocks.len(), e.ledger(), e.external_work, 100.0 * e.ledger() / e.external_work);
         assert!(m.blocks.len() > 30 && e.external_work > 9e4, "{name}: {} blocks, {e:?}", m.blocks.len());
