@@ -188,24 +188,31 @@ fn the_neighbour_grid_finds_every_pair_a_search_of_all_finds() {
     assert_eq!(pairs, all);
 }
 
+/// A wall of `rows` courses of `per_row` bricks 0.999 × 0.4 × 0.499 m in running bond on a slab
+/// (block 1) as long as the wall; the next free block id.
+fn wall_on_slab(rows: usize, per_row: usize) -> (Model, u32) {
+    let mut model = Model::default();
+    let q = DQuat::IDENTITY;
+    model.blocks.push(block(1, &turned_box([0.0; 3], [per_row as f64 + 1.0, 1.0, 0.5], q, DVec3::new(-0.5, 0.0, -0.51))));
+    let mut id = 2;
+    for row in 0..rows {
+        for k in 0..per_row {
+            let x = k as f64 + if row % 2 == 1 { 0.5 } else { 0.0 };
+            model.blocks.push(block(id, &turned_box([0.0; 3], [0.999, 0.4, 0.499], q, DVec3::new(x, 0.3, row as f64 * 0.5))));
+            id += 1;
+        }
+    }
+    (model, id)
+}
+
 /// A wall of small blocks on a slab as long as the wall, and a few blocks of other sizes: the
 /// grid's cells are the small blocks' size (a cell as large as the slab held every block: the
 /// search cost N², 25 s for a wall of 10⁵ bricks), the slab is tested against every block
 /// apart, and the pairs are those a search of all pairs finds.
 #[test]
 fn a_slab_under_a_wall_is_kept_out_of_the_neighbour_grid_and_no_pair_is_lost() {
-    let mut model = Model::default();
+    let (mut model, id) = wall_on_slab(30, 60);
     let q = DQuat::IDENTITY;
-    model.blocks.push(block(1, &turned_box([0.0; 3], [61.0, 1.0, 0.5], q, DVec3::new(-0.5, 0.0, -0.51))));
-    let mut id = 2;
-    for row in 0..30 {
-        for k in 0..60 {
-            let x = k as f64 + if row % 2 == 1 { 0.5 } else { 0.0 };
-            let at = DVec3::new(x, 0.3, row as f64 * 0.5);
-            model.blocks.push(block(id, &turned_box([0.0; 3], [0.999, 0.4, 0.499], q, at)));
-            id += 1;
-        }
-    }
     // A projectile and two long beams across the wall's face.
     model.blocks.push(block(id, &turned_box([0.0; 3], [2.0, 2.0, 2.0], q, DVec3::new(29.0, -1.7, 6.0))));
     model.blocks.push(block(id + 1, &turned_box([0.0; 3], [20.0, 0.3, 0.3], q, DVec3::new(10.0, -0.005, 3.0))));
@@ -242,17 +249,8 @@ fn a_slab_under_a_wall_is_kept_out_of_the_neighbour_grid_and_no_pair_is_lost() {
 /// contacts (ids, blocks, order), created and dropped, and only the moved blocks' travel reset.
 #[test]
 fn a_partial_neighbour_update_finds_what_the_whole_one_finds_for_the_blocks_that_moved() {
-    let mut model = Model::default();
+    let (mut model, id) = wall_on_slab(12, 30);
     let q = DQuat::IDENTITY;
-    model.blocks.push(block(1, &turned_box([0.0; 3], [31.0, 1.0, 0.5], q, DVec3::new(-0.5, 0.0, -0.51))));
-    let mut id = 2;
-    for row in 0..12 {
-        for k in 0..30 {
-            let x = k as f64 + if row % 2 == 1 { 0.5 } else { 0.0 };
-            model.blocks.push(block(id, &turned_box([0.0; 3], [0.999, 0.4, 0.499], q, DVec3::new(x, 0.3, row as f64 * 0.5))));
-            id += 1;
-        }
-    }
     model.blocks.push(block(id, &turned_box([0.0; 3], [2.0, 2.0, 2.0], q, DVec3::new(14.0, -1.75, 2.0))));
     model.blocks[0].fixed = true;
     let n = model.blocks.len();
