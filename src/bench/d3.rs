@@ -67,6 +67,9 @@ pub struct D3Row {
     /// batches' read-backs of the blocks took.
     pub detections: u64,
     pub detection_share: f64,
+    /// GPU: the share of the listed contacts whose logical contacts those detections found afresh
+    /// (1 for whole detections; a partial one's, the moved blocks' contacts: `d3::gpu`).
+    pub refreshed_share: f64,
     pub readback_share: f64,
     pub error: Option<String>,
 }
@@ -222,6 +225,10 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
     }
     let host_after = host(&engine);
     row.detections = host_after.detections - host_before.detections;
+    let listed = host_after.listed - host_before.listed;
+    if listed > 0 {
+        row.refreshed_share = (host_after.refreshed - host_before.refreshed) as f64 / listed as f64;
+    }
     if timed_s > 0.0 {
         row.detection_share = (host_after.detection_s - host_before.detection_s) / timed_s;
         row.readback_share = (host_after.readback_s - host_before.readback_s) / timed_s;
@@ -299,10 +306,11 @@ pub fn table(rows: &[D3Row]) -> String {
             let _ = writeln!(s, "{:<9}   kernels ({timing}): {}{alone}", "", kernels.join(", "));
             let _ = writeln!(
                 s,
-                "{:<9}   host: {} detections in {} cycles, {} of the time; read-backs of the blocks {}",
+                "{:<9}   host: {} detections in {} cycles ({} of the listed contacts refreshed), {} of the time; read-backs of the blocks {}",
                 "",
                 r.detections,
                 r.cycles,
+                pct(r.refreshed_share),
                 pct(r.detection_share),
                 pct(r.readback_share)
             );
@@ -357,6 +365,7 @@ impl D3Row {
             ("roofline_kernels", self.roofline_kernels.map(e).unwrap_or_default()),
             ("detections", self.detections.to_string()),
             ("detection_share", e(self.detection_share)),
+            ("refreshed_share", e(self.refreshed_share)),
             ("readback_share", e(self.readback_share)),
         ]
     }

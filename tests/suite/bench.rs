@@ -429,7 +429,9 @@ fn the_d3_wall_times_its_kernels_and_gives_its_roofline_on_a_gpu() {
     assert!(r.bytes_per_cycle > 0 && r.bandwidth_bytes_per_s > 0.0 && r.roofline > 0.0, "{r:?}");
     assert!(r.roofline_kernels.is_some_and(|k| k > 0.0), "{r:?}");
     assert!((0.0..=1.0).contains(&r.detection_share) && (0.0..=1.0).contains(&r.readback_share), "{r:?}");
-    assert!(blockdem::bench::table(&report).contains("kernels ("));
+    assert!((0.0..=1.0).contains(&r.refreshed_share), "{r:?}");
+    let table = blockdem::bench::table(&report);
+    assert!(table.contains("kernels (") && table.contains("of the listed contacts refreshed"), "{table}");
 }
 
 /// The zoned family (`--scene zones`) at 10³ zones on the CPU and a GPU adapter: each GPU row
