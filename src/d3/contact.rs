@@ -454,7 +454,7 @@ fn extent(xs: &[DVec3], n: DVec3) -> (f64, f64) {
 /// block that share an outward normal lie in one supporting plane, so the others give the same
 /// crossing. `normals`: the body's [`PlaneNormals`].
 ///
-/// Planes far steeper to the line than the flattest facing one (|n·normal| below [`STEEP_SHARE`]
+/// Planes far steeper to the line than the squarest facing one (|n·normal| below [`STEEP_SHARE`]
 /// of the greatest) are passed over too: within the touching region the line leaves and enters
 /// through the touching features' faces, which face the line most squarely, and a steep side
 /// face is crossed only where the point lies on its edge, at a distance its tilt decides (the

@@ -382,6 +382,12 @@ pub fn contact_stage_of(model: &mut Model, dt: f64, unloaded: bool, selected: &[
     contact_stage_placed(model, dt, unloaded, placements, Some(selected))
 }
 
+/// A flag per contact: whether one of its blocks (indices) is one `block` says yes to (the
+/// contacts a partial detection or a crack renews, [`contact_stage_of`]).
+pub fn contacts_touching(model: &Model, block: impl Fn(usize) -> bool) -> Vec<bool> {
+    model.contacts.iter().map(|c| c.blocks.iter().any(|&k| block(k as usize))).collect()
+}
+
 /// [`contact_stage`] with the blocks' bodies `placements` renewed where they are (by the cycle's
 /// block pass); they go back to [`PLACEMENTS`] after. Every contact, or the `only` ones.
 fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: Vec<contact::Placement>, only: Option<&[bool]>) -> Option<usize> {
@@ -620,7 +626,10 @@ pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut C
     // a cracked block or a piece) and the new ones: the others are as the cycle (or the GPU's
     // read-back) left them, and the energies before and after the cut count them alike.
     let touched = |k: u32| origin[k as usize] != k || cracked.contains(&k);
-    let selected: Vec<bool> = model.contacts.iter().map(|c| c.id >= first_new || c.blocks.iter().any(|&k| touched(k))).collect();
+    let mut selected = contacts_touching(model, |k| touched(k as u32));
+    for (s, c) in selected.iter_mut().zip(&model.contacts) {
+        *s |= c.id >= first_new;
+    }
     contact_stage_of(model, 0.0, true, &selected);
     carry_across_cracks(model, &origin, &cracked, &carried);
     let after = model.energies();

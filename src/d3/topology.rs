@@ -88,14 +88,9 @@ pub fn neighbour_pairs_of(model: &Model, margin: f64, moved: &[bool]) -> Vec<(u3
             (0..n).for_each(&mut near);
             continue;
         }
-        let (lo, hi) = grid.cell_range(grid.boxes[i]);
-        for x in lo.x..=hi.x {
-            for y in lo.y..=hi.y {
-                for z in lo.z..=hi.z {
-                    if let Some(members) = grid.cells.get(&(x, y, z)) {
-                        members.iter().for_each(|&j| near(j as usize));
-                    }
-                }
+        for cell in grid.cells_of(grid.boxes[i]) {
+            if let Some(members) = grid.cells.get(&cell) {
+                members.iter().for_each(|&j| near(j as usize));
             }
         }
         grid.large.iter().for_each(|&j| near(j));
@@ -126,22 +121,18 @@ impl Grid {
             if grid.large.binary_search(&i).is_ok() {
                 continue;
             }
-            let (a, b) = grid.cell_range(grid.boxes[i]);
-            for x in a.x..=b.x {
-                for y in a.y..=b.y {
-                    for z in a.z..=b.z {
-                        grid.cells.entry((x, y, z)).or_default().push(i as u32);
-                    }
-                }
+            for cell in grid.cells_of(grid.boxes[i]) {
+                grid.cells.entry(cell).or_default().push(i as u32);
             }
         }
         Some(grid)
     }
 
-    /// The first and last cells a box reaches along each axis.
-    fn cell_range(&self, (lo, hi): (DVec3, DVec3)) -> (glam::I64Vec3, glam::I64Vec3) {
+    /// The cells a box reaches.
+    fn cells_of(&self, (lo, hi): (DVec3, DVec3)) -> impl Iterator<Item = (i64, i64, i64)> {
         let cell_of = |p: DVec3| (p / self.cell).floor().as_i64vec3();
-        (cell_of(lo), cell_of(hi))
+        let (a, b) = (cell_of(lo), cell_of(hi));
+        (a.x..=b.x).flat_map(move |x| (a.y..=b.y).flat_map(move |y| (a.z..=b.z).map(move |z| (x, y, z))))
     }
 }
 
@@ -220,24 +211,10 @@ pub fn update_neighbours_of(model: &mut Model, moved: &[bool]) -> (u64, u64) {
     let mut old: FxHashMap<ContactKey, Contact> = of_moved.into_iter().map(|c| (key(&c), c)).collect();
     let mut created = 0;
     let fresh = contacts_of_pairs(model, &pairs, margin, &mut old, &mut created);
-    // Both lists are in key order: merged so.
-    let mut contacts = Vec::with_capacity(unmoved.len() + fresh.len());
-    let (mut a, mut b) = (unmoved.into_iter().peekable(), fresh.into_iter().peekable());
-    loop {
-        let next = match (a.peek(), b.peek()) {
-            (Some(x), Some(y)) => {
-                if key(x) < key(y) {
-                    a.next()
-                } else {
-                    b.next()
-                }
-            }
-            (Some(_), None) => a.next(),
-            (None, Some(_)) => b.next(),
-            (None, None) => break,
-        };
-        contacts.extend(next);
-    }
+    // Both lists are in key order (keys are distinct): the stable sort merges the two runs.
+    let mut contacts = unmoved;
+    contacts.extend(fresh);
+    contacts.sort_by_key(key);
     model.contacts = contacts;
     for (b, _) in model.blocks.iter_mut().zip(moved).filter(|(_, &m)| m) {
         b.travel = 0.0;

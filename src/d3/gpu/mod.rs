@@ -834,7 +834,7 @@ impl GpuBackend {
             let (created, dropped) = topology::update_neighbours_of(model, &moved);
             report.contacts_created += created;
             report.contacts_dropped += dropped;
-            let selected: Vec<bool> = model.contacts.iter().map(|c| c.blocks.iter().any(|&b| moved[b as usize])).collect();
+            let selected = cpu::contacts_touching(model, |k| moved[k]);
             cpu::contact_stage_of(model, 0.0, true, &selected);
             self.host.refreshed += selected.iter().filter(|&&s| s).count() as u64;
         }
@@ -1426,8 +1426,9 @@ impl driver::Stages<Model> for GpuBackend {
                 // struck wall of twelve bricks in f32). So a detection's stage 4 first, for the
                 // contacts of the blocks to crack: the cut's own stage 4 renews only the contacts
                 // it touches (`cpu::crack_blocks`), so the others count alike before and after.
-                let cracking: Vec<bool> = model.contacts.iter().map(|c| c.blocks.iter().any(|&k| due.iter().any(|d| d.block == k as usize))).collect();
-                cpu::contact_stage_of(model, 0.0, true, &cracking);
+                let mut cracking = vec![false; model.blocks.len()];
+                due.iter().for_each(|d| cracking[d.block] = true);
+                cpu::contact_stage_of(model, 0.0, true, &cpu::contacts_touching(model, |k| cracking[k]));
                 cpu::crack_blocks(model, due, report);
                 self.upload(model).map_err(device_error)?;
             }
