@@ -71,6 +71,10 @@ pub struct D3Row {
     /// (1 for whole detections; a partial one's, the moved blocks' contacts: `d3::gpu`).
     pub refreshed_share: f64,
     pub readback_share: f64,
+    /// GPU: the energy checks (every hundred cycles and at each run's end: the contacts' sums on
+    /// the device, the blocks' on the CPU, the device checkpoint) and their share of the time.
+    pub checks: u64,
+    pub check_share: f64,
     pub error: Option<String>,
 }
 
@@ -232,7 +236,9 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
     if timed_s > 0.0 {
         row.detection_share = (host_after.detection_s - host_before.detection_s) / timed_s;
         row.readback_share = (host_after.readback_s - host_before.readback_s) / timed_s;
+        row.check_share = (host_after.checks_s - host_before.checks_s) / timed_s;
     }
+    row.checks = host_after.checks - host_before.checks;
     row.blocks = model.blocks.iter().filter(|b| !b.fixed).count();
     row.contacts = model.contacts.len();
     row.touching = model.contacts.iter().filter(|c| !c.logical.is_empty()).count();
@@ -306,13 +312,15 @@ pub fn table(rows: &[D3Row]) -> String {
             let _ = writeln!(s, "{:<9}   kernels ({timing}): {}{alone}", "", kernels.join(", "));
             let _ = writeln!(
                 s,
-                "{:<9}   host: {} detections in {} cycles ({} of the listed contacts refreshed), {} of the time; read-backs of the blocks {}",
+                "{:<9}   host: {} detections in {} cycles ({} of the listed contacts refreshed), {} of the time; read-backs of the blocks {}; {} energy checks {}",
                 "",
                 r.detections,
                 r.cycles,
                 pct(r.refreshed_share),
                 pct(r.detection_share),
-                pct(r.readback_share)
+                pct(r.readback_share),
+                r.checks,
+                pct(r.check_share)
             );
         }
     }
@@ -367,6 +375,8 @@ impl D3Row {
             ("detection_share", e(self.detection_share)),
             ("refreshed_share", e(self.refreshed_share)),
             ("readback_share", e(self.readback_share)),
+            ("checks", self.checks.to_string()),
+            ("check_share", e(self.check_share)),
         ]
     }
 }

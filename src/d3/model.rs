@@ -913,7 +913,17 @@ impl Model {
 
     /// The energy ledger now (see [`Energies`]).
     pub fn energies(&self) -> Energies {
-        let h = 0.5 * self.timestep();
+        self.energies_at(None, self.timestep())
+    }
+
+    /// The energy ledger now, the kinetic energy brought to the whole step with the time step
+    /// `dt` (the model's, [`Model::timestep`]: given where the caller has it), the contacts'
+    /// strain energy (the sum of [`contact_energy`] over them) taken as `contact_strain` where
+    /// given: the GPU's energy check sums it on the device, where the contacts' state is
+    /// (`contact_energy` in shaders/d3/contact_energy.wgsl), and the rest from the blocks it
+    /// reads back after each batch.
+    pub fn energies_at(&self, contact_strain: Option<f64>, dt: f64) -> Energies {
+        let h = 0.5 * dt;
         let kinetic: f64 = self
             .blocks
             .iter()
@@ -947,17 +957,10 @@ impl Model {
             }
         }
         let kinetic: f64 = kinetic + internal_kinetic;
-        for c in &self.contacts {
-            let m = self.contact_material(c);
-            for l in &c.logical {
-                if m.kn > 0.0 {
-                    strain += 0.5 * l.normal_force * l.normal_force / m.kn;
-                }
-                if m.ks > 0.0 {
-                    strain += 0.5 * l.shear_force.length_squared() / m.ks;
-                }
-            }
-        }
+        let strain = match contact_strain {
+            Some(contacts) => strain + contacts,
+            None => self.contacts.iter().fold(strain, |sum, c| add_contact_energy(sum, c, &self.contact_material(c))),
+        };
         let d = self.dissipated;
         Energies {
             kinetic,
@@ -969,6 +972,27 @@ impl Model {
             released: d.released,
         }
     }
+}
+
+/// The strain energy of contact `c`'s springs under the law `m` (its law block's material,
+/// [`Model::contact_material`]): ½Fn²/kn + ½|Fs|²/ks over its logical contacts. Twin of
+/// `contact_energy` (shaders/d3/contact_energy.wgsl), which sums it on the device.
+pub fn contact_energy(c: &Contact, m: &Material) -> f64 {
+    add_contact_energy(0.0, c, m)
+}
+
+/// `sum` plus [`contact_energy`] of `c`, term by term (the ledger's order of additions).
+fn add_contact_energy(sum: f64, c: &Contact, m: &Material) -> f64 {
+    let mut strain = sum;
+    for l in &c.logical {
+        if m.kn > 0.0 {
+            strain += 0.5 * l.normal_force * l.normal_force / m.kn;
+        }
+        if m.ks > 0.0 {
+            strain += 0.5 * l.shear_force.length_squared() / m.ks;
+        }
+    }
+    strain
 }
 
 /// Material `n` (numbered from 1) of `materials`, the default where there is none: the lookup of

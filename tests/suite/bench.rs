@@ -408,7 +408,8 @@ fn the_d3_scenes_run_and_write_their_files() {
 
 /// D3's wall on a GPU adapter: each kernel timed (pass timestamps or isolated dispatches), the
 /// byte model in the adapter's precision over the kernels alone and the whole cycle against the
-/// streaming kernel's bandwidth, and the host's share (detections, read-backs) of the timed runs.
+/// streaming kernel's bandwidth, and the host's share (detections, read-backs, energy checks) of
+/// the timed runs.
 #[test]
 fn the_d3_wall_times_its_kernels_and_gives_its_roofline_on_a_gpu() {
     let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
@@ -430,8 +431,10 @@ fn the_d3_wall_times_its_kernels_and_gives_its_roofline_on_a_gpu() {
     assert!(r.roofline_kernels.is_some_and(|k| k > 0.0), "{r:?}");
     assert!((0.0..=1.0).contains(&r.detection_share) && (0.0..=1.0).contains(&r.readback_share), "{r:?}");
     assert!((0.0..=1.0).contains(&r.refreshed_share), "{r:?}");
+    // Each timed run ends with an energy check (and one every hundred cycles).
+    assert!(r.checks > 0 && (0.0..=1.0).contains(&r.check_share), "{r:?}");
     let table = blockdem::bench::table(&report);
-    assert!(table.contains("kernels (") && table.contains("of the listed contacts refreshed"), "{table}");
+    assert!(table.contains("kernels (") && table.contains("of the listed contacts refreshed") && table.contains("energy checks"), "{table}");
 }
 
 /// The zoned family (`--scene zones`) at 10³ zones on the CPU and a GPU adapter: each GPU row

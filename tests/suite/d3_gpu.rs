@@ -567,3 +567,64 @@ fn partial_detections_refresh_the_moved_blocks_and_run_as_whole_ones() {
         }
     }
 }
+
+/// The energy check's contact terms on the device (`contact_energy`, "The energy check and the
+/// last good state" in `d3::gpu`): the springs' strain energy of a loaded stack summed on the
+/// device is the CPU's sum over the same state read back (`model::contact_energy`), and a contact
+/// driven through (two boxes built half inside each other) is found there, as
+/// `cpu::overlap_check` finds it.
+#[test]
+fn the_energy_check_sums_the_contacts_on_the_device_as_the_cpu_does() {
+    let stack = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.3\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nBOX 0.2 1.2 0.1 1.1 1 2\n\
+                 FIX -1 2 -1 2 -1 -0.1\nGRAV 1 2 -10\n";
+    let deep = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 -0.6 0.4\nFIX -1 2 -1 2 -1 -0.1\n";
+    for o in targets() {
+        for (deck, cycles, driven) in [(stack, 700, false), (deep, 0, true)] {
+            let mut model = run(deck, None);
+            let mut backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+            let mut report = blockdem::driver::CycleReport::default();
+            backend.run_into(&mut model, cycles, &mut |_| true, &mut report).unwrap_or_else(|e| panic!("{e}"));
+            let (strain, found) = backend.contact_energy(&mut model).unwrap_or_else(|e| panic!("{e}"));
+            let cpu: f64 = model.contacts.iter().map(|c| blockdem::d3::model::contact_energy(c, &model.contact_material(c))).sum();
+            let rel = (strain - cpu).abs() / cpu;
+            eprintln!("{:?} {:?}: strain {strain:e} J on the device, {cpu:e} J on the CPU ({rel:.1e}); driven through: {found}", o.adapter, o.precision);
+            assert!(cpu > 0.0 && rel < if is_f32(&o) { 1e-5 } else { 1e-12 }, "{:?}: {strain} against {cpu}", o.precision);
+            assert_eq!(found, driven, "{:?}: driven through", o.precision);
+            assert_eq!(blockdem::d3::cpu::overlap_check(&model).is_err(), driven);
+        }
+    }
+}
+
+/// A run that fails goes back to its last good state whole: the contacts' state of the last
+/// check comes from the device's checkpoint (the model the run keeps has the contacts only as a
+/// detection left them). A cube pushed into the slab at 20 m/s (BOUNDARY VELOCITY) is driven
+/// through at cycle 108; the state it leaves is that of a run of 100 cycles on the same device,
+/// bit for bit.
+#[test]
+fn a_failed_gpu_run_goes_back_to_the_last_checks_contacts() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nFIX -1 2 -1 2 -1 -0.1\n\
+                BOUNDARY VELOCITY 0 1 0 1 0 1 0 0 -20\n";
+    let built = run(deck, None);
+    for o in targets() {
+        let mut failed = built.clone();
+        let mut backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+        let mut report = blockdem::driver::CycleReport::default();
+        let e = backend.run_into(&mut failed, 3000, &mut |_| true, &mut report).expect_err("driven through");
+        assert!(e.to_string().contains("overlap"), "{e}");
+        let mut good = built.clone();
+        let mut backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+        backend.run_into(&mut good, failed.cycle, &mut |_| true, &mut report).unwrap_or_else(|e| panic!("{e}"));
+        eprintln!("{:?} {:?}: failed ({e}); back at cycle {}", o.adapter, o.precision, failed.cycle);
+        assert_eq!(failed.cycle, 100);
+        let loaded = |m: &Model| m.contacts.iter().flat_map(|c| &c.logical).map(|l| l.normal_force).sum::<f64>();
+        assert!(loaded(&good) > 0.0);
+        assert!(
+            failed.contacts == good.contacts,
+            "{:?}: the contacts are not the last check's: {} N against {} N",
+            o.precision,
+            loaded(&failed),
+            loaded(&good)
+        );
+        assert!(failed == good, "{:?}: the state is not the last check's", o.precision);
+    }
+}

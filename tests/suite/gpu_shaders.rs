@@ -377,6 +377,26 @@ fn the_d3_end_cycle_kernel_and_its_halting_record_match_their_twins() {
     }
 }
 
+/// D3's `contact_energy` (shaders/d3/contact_energy.wgsl, the energy check's contact sums)
+/// parses and validates in both precisions with its entry point, its record has the Rust twin's
+/// layout (`d3::gpu::layout::ContactEnergy`, `LogicalArm`), its items per invocation are the Rust
+/// side's, and it writes its own bindings 9 and 10.
+#[test]
+fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
+    use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
+    fn check<R: Real>(precision: Precision) {
+        let src = d3::contact_energy_source(precision);
+        let (module, _) = shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/contact_energy.wgsl ({precision}):\n{e}"));
+        assert!(module.entry_points.iter().any(|e| e.name == "contact_energy"));
+        check_layouts_in(&src, precision, d3_layout::energy_layouts::<R>());
+        assert!(src.contains("@binding(9) var<storage, read_write> energy_out: array<ContactEnergy>"));
+        assert!(src.contains("@binding(10) var<storage, read_write> arms: array<LogicalArm>"));
+        assert!(src.contains(&format!("const ENERGY_ITEMS: u32 = {}u;", d3_layout::ENERGY_ITEMS)));
+    }
+    check::<f32>(Precision::F32);
+    check::<f64>(Precision::F64);
+}
+
 /// D3's kernels with the boundary conditions (BOUNDARY, `d3::gpu::shaders::source_with`) parse
 /// and validate in both precisions, with and without the strain stage, and bind no buffer more
 /// than the kernels without them (the loaded faces are records in the plane buffer): at most

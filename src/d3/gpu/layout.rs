@@ -118,6 +118,35 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// The energy check's sums of one workgroup of `contact_energy` (shaders/d3/contact_energy.wgsl;
+    /// twin `d3::model::contact_energy`): the strain energy of its contacts' springs, and the
+    /// first of its contacts driven through (`cpu::overlap_check`'s test), [`NONE_DRIVEN`] where
+    /// none is.
+    ContactEnergy {
+        strain: R,
+        driven: u32, spare: u32,
+    }
+}
+
+gpu_struct! {
+    /// A logical contact's point and `live` flag as `contact_energy` copies them at an energy
+    /// check (one per logical contact, in the logical buffer's order): what the time step reads
+    /// of the contacts (the lever arms, and which logical contacts are left), brought back
+    /// without the rest of the record.
+    LogicalArm {
+        px: R, py: R, pz: R,
+        live: u32, spare: u32,
+    }
+}
+
+/// `ContactEnergy::driven` of a workgroup none of whose contacts is driven through.
+pub const NONE_DRIVEN: u32 = u32::MAX;
+
+/// Contacts a `contact_energy` invocation adds (ENERGY_ITEMS in shaders/d3/contact_energy.wgsl),
+/// neighbouring invocations on neighbouring contacts: a workgroup covers this many times its size.
+pub const ENERGY_ITEMS: u32 = 16;
+
 /// The byte offset of the screen's flag in the strain buffer of a scene of `blocks` blocks: the
 /// `spare` word of the record after theirs, raised by a block whose Griffith screen fires
 /// (sdef.wgsl's `crack_screen`), read by `end_cycle`, cleared by the CPU at each batch's start.
@@ -216,6 +245,12 @@ pub fn layouts<R: Real>() -> Vec<StructLayout> {
 /// naga check.
 pub fn sdef_layouts<R: Real>() -> Vec<StructLayout> {
     vec![SdefBlock::<R>::layout()]
+}
+
+/// `contact_energy`'s struct's layout (declared by `shaders/d3/contact_energy.wgsl`), for the
+/// naga check.
+pub fn energy_layouts<R: Real>() -> Vec<StructLayout> {
+    vec![ContactEnergy::<R>::layout(), LogicalArm::<R>::layout()]
 }
 
 /// `end_cycle`'s struct's layout (declared by `shaders/d3/end_cycle.wgsl`), for the naga check.

@@ -69,6 +69,25 @@
 //! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
 //! repeats bit for bit.
 //!
+//! # The energy check and the last good state
+//!
+//! Every hundred cycles the run checks that kinetic + strain energy has not outgrown the energy
+//! put in and that no contact has been driven through (`driver::cycles`), and keeps the state as
+//! the last good one. The blocks come back after every batch (travel, finiteness, the too-fast
+//! check), so their terms are the CPU's (`Model::energies_at`); the contacts' springs are summed
+//! on the device, where their state is (`contact_energy`, twin `model::contact_energy`, a record
+//! per workgroup read back), with the overlap test of `cpu::overlap_check` (a contact it finds
+//! brings the contacts back for the CPU's check to name it). The same kernel copies each logical
+//! contact's point and live flag (`layout::LogicalArm`), which come back into the model's
+//! logical contacts (`refresh_arms`): the time step the next batch takes (`Model::timestep`, the
+//! lever arms and which logical contacts are left) is the one a whole read-back gave, bit for
+//! bit, so runs split by CYCLE, SAVE and RESTART still take one run's steps. The last good state
+//! is the model (its blocks as read back) and a device copy of the contact and logical buffers
+//! (`Checkpoint`, with the keys and bases they were taken under), read back into it only when
+//! the run fails (`recover`). A check thus reads back 20 bytes a logical contact in f32 where it
+//! read its whole record and its contact's (~73), and makes no copy of the contacts on the CPU.
+//! Between checks and detections the model's contact forces are as the last read-back left them.
+//!
 //! # Cracking on the device
 //!
 //! A block may crack at the end of any cycle (stage 7, `cracking::due` on the CPU's state after
@@ -164,6 +183,8 @@
 pub mod layout;
 pub mod profile;
 pub mod shaders;
+
+use std::rc::Rc;
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -291,8 +312,9 @@ struct State {
     /// The kernels the scene runs: `GpuBackend::kernels[variant]`.
     variant: usize,
     bind: wgpu::BindGroup,
-    /// The logical contacts' kinds as uploaded, contact by contact (the read-back's keys).
-    keys: Vec<Vec<LogicalKind>>,
+    /// The logical contacts' kinds as uploaded, contact by contact (the read-back's keys;
+    /// shared with the device checkpoint taken under them).
+    keys: Rc<Vec<Vec<LogicalKind>>>,
     logical_count: usize,
     bases: Bases,
     /// The time step in the params buffer.
@@ -326,6 +348,34 @@ pub struct GpuBackend {
     /// Every detection between batches whole (all pairs searched, every contact's stage 4), as
     /// before partial detections: for comparison ([`GpuBackend::set_whole_detections`]).
     whole_detections: bool,
+    /// `contact_energy` (the energy check's contact sums and overlap test) and its bindings'
+    /// layout: the params, blocks, contacts, logical contacts and its records (binding 9).
+    energy_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    /// Its records, one per workgroup, and the logical contacts' points and live flags it copies
+    /// (`layout::LogicalArm`), kept from check to check, grown as needed.
+    energy_out: Option<wgpu::Buffer>,
+    energy_arms: Option<wgpu::Buffer>,
+    /// The contacts' part of the last good state, on the device ("The energy check and the last
+    /// good state").
+    checkpoint: Option<Checkpoint>,
+    /// The time step an energy check took from the model (`Model::timestep`), for the next
+    /// batch of the run to start with (the model is as the check left it): taken once.
+    next_timestep: Option<f64>,
+}
+
+/// The contacts' part of the last good state, on the device: copies of the contact and logical
+/// buffers taken when an energy check passed (device to device), with the keys, counts and bases
+/// they were taken under. The blocks' part is in the model the run keeps (read back after every
+/// batch); a failure reads these back into it (`recover`).
+struct Checkpoint {
+    contacts: wgpu::Buffer,
+    logicals: wgpu::Buffer,
+    keys: Rc<Vec<Vec<LogicalKind>>>,
+    contact_count: usize,
+    logical_count: usize,
+    bases: Bases,
+    /// Whether it holds a state of the current run (the buffers are kept from run to run).
+    valid: bool,
 }
 
 /// What a D3 GPU backend's runs spent on the host ([`GpuBackend::host_times`]).
@@ -341,6 +391,11 @@ pub struct HostTimes {
     /// moved).
     pub listed: u64,
     pub refreshed: u64,
+    /// Seconds in the energy checks (every hundred cycles: `contact_energy` on the device and
+    /// its records and the lever arms read back, the next batch's time step and the blocks'
+    /// terms on the CPU, the device checkpoint's copy after one passed), and how many there were.
+    pub checks_s: f64,
+    pub checks: u64,
 }
 
 fn device_error(e: GpuError) -> CycleError {
@@ -355,6 +410,7 @@ impl GpuBackend {
     pub fn new(choice: &AdapterChoice, precision: Precision) -> Result<Self, GpuError> {
         let dev = GpuDevice::open(choice, precision)?;
         let kernels = vec![Kernels::new(&dev, Variant { sdef: false, boundary: false })?];
+        let energy_kernel = energy_kernel(&dev)?;
         Ok(GpuBackend {
             dev,
             kernels,
@@ -366,6 +422,11 @@ impl GpuBackend {
             screened_cap: driver::CHECK_INTERVAL,
             host: HostTimes::default(),
             whole_detections: false,
+            energy_kernel,
+            energy_out: None,
+            energy_arms: None,
+            checkpoint: None,
+            next_timestep: None,
         })
     }
 
@@ -489,6 +550,7 @@ impl GpuBackend {
             }
             _ => None,
         };
+        let keys = Rc::new(keys);
         self.state =
             Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, halt, variant, bind, keys, logical_count, bases, dt });
         Ok(())
@@ -513,7 +575,7 @@ impl GpuBackend {
             f64_kernels: self.dev.precision == Precision::F64,
             dt: s.dt,
             bases: [b.external_work, b.mass_damping, b.contact_damping, b.friction, b.released],
-            keys: s.keys.clone(),
+            keys: (*s.keys).clone(),
             blocks,
             vertices,
             contacts,
@@ -627,7 +689,8 @@ impl GpuBackend {
         let Some(s) = self.state.as_ref() else { return Ok(()) };
         let bind = self.bind(s.variant, &[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency], s.sdef.as_ref());
         let s = self.state.as_mut().expect("state");
-        (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) = (blocks, contacts, logicals, adjacency, bind, keys, logical_count);
+        (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) =
+            (blocks, contacts, logicals, adjacency, bind, Rc::new(keys), logical_count);
         s.bases = bases(model);
         Ok(())
     }
@@ -769,11 +832,25 @@ impl GpuBackend {
 
     fn read_contacts_as<R: Real>(&self, model: &mut Model) -> Result<(), GpuError> {
         let Some(s) = self.state.as_ref() else { return Ok(()) };
+        self.read_contacts_from::<R>(model, (&s.contacts, &s.logicals), &s.keys, s.logical_count, s.bases)
+    }
+
+    /// Contacts and logical contacts read into the model from `buffers` (the state's, or the
+    /// device checkpoint's), uploaded under `keys` (`logical_count` logical contacts), their
+    /// energy accumulators counting from `bases`.
+    fn read_contacts_from<R: Real>(
+        &self,
+        model: &mut Model,
+        buffers: (&wgpu::Buffer, &wgpu::Buffer),
+        keys: &[Vec<LogicalKind>],
+        logical_count: usize,
+        bases: Bases,
+    ) -> Result<(), GpuError> {
         let n = model.contacts.len();
         let (contacts, logicals) = self.dev.read_parts(
             &[
-                (&s.contacts, (n * std::mem::size_of::<layout::Contact<R>>()) as u64),
-                (&s.logicals, (s.logical_count * std::mem::size_of::<layout::Logical<R>>()) as u64),
+                (buffers.0, (n * std::mem::size_of::<layout::Contact<R>>()) as u64),
+                (buffers.1, (logical_count * std::mem::size_of::<layout::Logical<R>>()) as u64),
             ],
             |bytes| (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1])),
         )?;
@@ -781,7 +858,7 @@ impl GpuBackend {
         let (mut friction, mut released) = (0.0, 0.0);
         // The points' origins: block 1's centroid in f32 (read back with the blocks, before).
         let origins: Vec<DVec3> = model.contacts.iter().map(|c| point_origin::<R>(model, c)).collect();
-        for (((c, g), keys), origin) in model.contacts.iter_mut().zip(&contacts).zip(&s.keys).zip(origins) {
+        for (((c, g), keys), origin) in model.contacts.iter_mut().zip(&contacts).zip(keys).zip(origins) {
             c.normal = DVec3::new(f(g.nx), f(g.ny), f(g.nz));
             friction += f(g.friction_work);
             released += f(g.released_work);
@@ -804,9 +881,129 @@ impl GpuBackend {
                 c.area = 0.0;
             }
         }
-        model.dissipated.friction = s.bases.friction + friction;
-        model.dissipated.released = s.bases.released + released;
+        model.dissipated.friction = bases.friction + friction;
+        model.dissipated.released = bases.released + released;
         Ok(())
+    }
+
+    /// The energy check's contact sums on the device (`contact_energy`, shaders/d3/contact_energy.wgsl)
+    /// for the state the device holds: the strain energy of the contacts' springs, and whether a
+    /// contact is driven through (by the device's test). The model's logical contacts take the
+    /// device's points and live flags (what the time step reads: `refresh_arms`); their forces
+    /// stay as the last read-back left them. A run takes them at each check; public for the tests
+    /// that hold them against the CPU's.
+    pub fn contact_energy(&mut self, model: &mut Model) -> Result<(f64, bool), GpuError> {
+        match self.dev.precision {
+            Precision::F32 => self.contact_energy_as::<f32>(model),
+            Precision::F64 => self.contact_energy_as::<f64>(model),
+        }
+    }
+
+    fn contact_energy_as<R: Real>(&mut self, model: &mut Model) -> Result<(f64, bool), GpuError> {
+        let n = model.contacts.len() as u32;
+        let Some(logical_count) = self.state.as_ref().map(|s| s.logical_count) else { return Ok((0.0, false)) };
+        if n == 0 {
+            return Ok((0.0, false));
+        }
+        let arm_bytes = (logical_count.max(1) * std::mem::size_of::<layout::LogicalArm<R>>()) as u64;
+        if self.energy_arms.as_ref().is_none_or(|b| b.size() < arm_bytes) {
+            self.energy_arms = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("d3 logical arms"),
+                size: (arm_bytes + arm_bytes / 2).next_multiple_of(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }));
+        }
+        let groups = n.div_ceil(workgroup_size() * layout::ENERGY_ITEMS);
+        let bytes = groups as u64 * std::mem::size_of::<layout::ContactEnergy<R>>() as u64;
+        if self.energy_out.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.energy_out = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("d3 contact energy"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }));
+        }
+        let (Some(s), Some(out), Some(arms)) = (self.state.as_ref(), self.energy_out.as_ref(), self.energy_arms.as_ref()) else { return Ok((0.0, false)) };
+        let entries = [
+            wgpu::BindGroupEntry { binding: 0, resource: s.params.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: s.blocks.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 5, resource: s.contacts.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 6, resource: s.logicals.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: out.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 10, resource: arms.as_entire_binding() },
+        ];
+        let bind = self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("d3 contact_energy"),
+            layout: &self.energy_kernel.0,
+            entries: &entries,
+        });
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("d3 contact_energy") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("d3 contact_energy"), timestamp_writes: None });
+            pass.set_pipeline(&self.energy_kernel.1);
+            pass.set_bind_group(0, &bind, &[]);
+            let (x, y) = dispatch_grid(groups);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        self.dev.queue.submit([enc.finish()]);
+        let (sums, arms) = self.dev.read_parts(&[(out, bytes), (arms, (logical_count * std::mem::size_of::<layout::LogicalArm<R>>()) as u64)], |bytes| {
+            (bytemuck::pod_collect_to_vec::<u8, layout::ContactEnergy<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::LogicalArm<R>>(bytes[1]))
+        })?;
+        refresh_arms::<R>(model, &s.keys, &arms);
+        let strain = sums.iter().map(|e| e.strain.to_f64()).sum();
+        Ok((strain, sums.iter().any(|e| e.driven != layout::NONE_DRIVEN)))
+    }
+
+    /// The contacts' part of the last good state kept on the device (`Checkpoint`): the contact
+    /// and logical buffers copied, with their keys and bases.
+    fn take_checkpoint(&mut self, model: &Model) {
+        let Some(s) = self.state.as_ref() else { return };
+        let (contact_size, logical_size) = match self.dev.precision {
+            Precision::F32 => (std::mem::size_of::<layout::Contact<f32>>(), std::mem::size_of::<layout::Logical<f32>>()),
+            Precision::F64 => (std::mem::size_of::<layout::Contact<f64>>(), std::mem::size_of::<layout::Logical<f64>>()),
+        };
+        let sizes = [(model.contacts.len() * contact_size) as u64, (s.logical_count * logical_size) as u64];
+        let make = |label: &str, size: u64| {
+            self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16).next_multiple_of(16),
+                usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let cp = match self.checkpoint.take() {
+            Some(cp) if cp.contacts.size() >= sizes[0] && cp.logicals.size() >= sizes[1] => cp,
+            _ => {
+                // Half again as large as now, so that a run whose contacts grow does not make
+                // new ones at every check.
+                Checkpoint {
+                    contacts: make("d3 checkpoint contacts", sizes[0] + sizes[0] / 2),
+                    logicals: make("d3 checkpoint logicals", sizes[1] + sizes[1] / 2),
+                    keys: Rc::clone(&s.keys),
+                    contact_count: 0,
+                    logical_count: 0,
+                    bases: s.bases,
+                    valid: false,
+                }
+            }
+        };
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("d3 checkpoint") });
+        if sizes[0] > 0 {
+            enc.copy_buffer_to_buffer(&s.contacts, 0, &cp.contacts, 0, sizes[0]);
+        }
+        if sizes[1] > 0 {
+            enc.copy_buffer_to_buffer(&s.logicals, 0, &cp.logicals, 0, sizes[1]);
+        }
+        self.dev.queue.submit([enc.finish()]);
+        self.checkpoint = Some(Checkpoint {
+            keys: Rc::clone(&s.keys),
+            contact_count: model.contacts.len(),
+            logical_count: s.logical_count,
+            bases: s.bases,
+            valid: true,
+            ..cp
+        });
     }
 
     /// The whole state read back into the model.
@@ -843,6 +1040,83 @@ impl GpuBackend {
         cpu::overlap_check(model)?;
         self.reupload(model).map_err(device_error)
     }
+}
+
+/// The model's logical contacts given the device's points and live flags (`arms`, as
+/// `contact_energy` copies them, in the logical buffer's order; `keys` the kinds uploaded): each
+/// contact's list is its live ones, in order, as a read-back leaves it (`read_contacts`), each
+/// keeping the rest of its state (gap, forces, offset) from the model's entry of its kind, or
+/// none. What the time step reads of the contacts (`Model::timestep`: the lever arms, which
+/// logical contacts are left, a contact with none losing its category and area) is then what the
+/// whole read-back gives.
+fn refresh_arms<R: Real>(model: &mut Model, keys: &[Vec<LogicalKind>], arms: &[layout::LogicalArm<R>]) {
+    use rayon::prelude::*;
+    let f = |x: R| x.to_f64();
+    let origins: Vec<DVec3> = model.contacts.iter().map(|c| point_origin::<R>(model, c)).collect();
+    let mut runs = Vec::with_capacity(keys.len());
+    let mut rest = arms;
+    for kinds in keys {
+        let (run, after) = rest.split_at(kinds.len());
+        runs.push(run);
+        rest = after;
+    }
+    model.contacts.par_iter_mut().zip(keys).zip(runs).zip(origins).with_min_len(super::grain::CHECK).for_each(|(((c, kinds), run), origin)| {
+        let point = |a: &layout::LogicalArm<R>| {
+            let p = DVec3::new(f(a.px), f(a.py), f(a.pz));
+            if relative::<R>() {
+                origin + p
+            } else {
+                p
+            }
+        };
+        let live = run.iter().zip(kinds).filter(|(a, _)| a.live != 0);
+        // Most often the live ones are the list the model has: their points moved.
+        if live.clone().count() == c.logical.len() && live.clone().zip(&c.logical).all(|((_, kind), l)| l.kind == *kind) {
+            for ((a, _), l) in live.zip(c.logical.iter_mut()) {
+                l.point = point(a);
+            }
+        } else {
+            let old = std::mem::take(&mut c.logical);
+            c.logical = live
+                .map(|(a, kind)| {
+                    let was = old.iter().find(|l| l.kind == *kind).copied();
+                    Logical {
+                        kind: *kind,
+                        point: point(a),
+                        ..was.unwrap_or(Logical { kind: *kind, point: DVec3::ZERO, gap: 0.0, normal_force: 0.0, shear_force: DVec3::ZERO, offset: 0.0 })
+                    }
+                })
+                .collect();
+        }
+        if c.logical.is_empty() {
+            c.category = None;
+            c.area = 0.0;
+        }
+    });
+}
+
+/// `contact_energy`'s pipeline and its bindings' layout (the params, blocks, contacts, logical
+/// contacts and its records at binding 9), in the device's precision.
+fn energy_kernel(dev: &GpuDevice) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
+    let scopes = dev.creation_scopes();
+    let src = shaders::contact_energy_source(dev.precision);
+    validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/contact_energy.wgsl: {e}")))?;
+    let (group, layout) = layouts(
+        &dev.device,
+        "d3 contact_energy",
+        &[uniform(0), storage(1, false), storage(5, false), storage(6, false), storage(9, false), storage(10, false)],
+    );
+    let module = dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("contact_energy"), source: wgpu::ShaderSource::Wgsl(src.into()) });
+    let pipeline = dev.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("contact_energy"),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some("contact_energy"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    scopes.check(dev)?;
+    Ok((group, pipeline))
 }
 
 /// The items of each buffer a D3 scene's kernels bind (`State`), as the upload makes them from
@@ -1306,8 +1580,13 @@ impl driver::Start<Model> for GpuBackend {
     }
 
     fn start(&mut self, model: &mut Model, resume: bool, report: &mut CycleReport) -> Result<(), CycleError> {
-        // Each run starts with batches as long as its detections and energy checks allow.
+        // Each run starts with batches as long as its detections and energy checks allow, and
+        // from a last good state that is the model it starts from, whole (no checkpoint yet).
         self.screened_cap = driver::CHECK_INTERVAL;
+        self.next_timestep = None;
+        if let Some(cp) = self.checkpoint.as_mut() {
+            cp.valid = false;
+        }
         let pending = self.pending.take();
         if resume && self.state.is_some() {
             return Ok(());
@@ -1352,10 +1631,11 @@ impl driver::Stages<Model> for GpuBackend {
         if screened {
             n = n.min(self.screened_cap);
         }
-        // The time step as the CPU takes it (`Model::timestep`, from the contacts there are), at
-        // the batch's start: the kernels hold it over the batch (the CPU renews it each cycle,
-        // as the logical contacts' lever arms move).
-        let dt = model.timestep();
+        // The time step as the CPU takes it (`Model::timestep`, from the contacts there are and
+        // their lever arms, as the last detection or energy check brought them back), at the
+        // batch's start: the kernels hold it over the batch (the CPU renews it each cycle, as
+        // the logical contacts' lever arms move).
+        let dt = self.next_timestep.take().unwrap_or_else(|| model.timestep());
         self.set_timestep(model, dt);
         let (ran, halted) = if screened {
             let (ran, halted) = match self.dispatch_halting(model, n).map_err(device_error)? {
@@ -1436,20 +1716,63 @@ impl driver::Stages<Model> for GpuBackend {
         Ok(ran)
     }
 
+    /// The energy check ("The energy check and the last good state"): the contacts' springs
+    /// summed on the device, where their state is, with the overlap test; the blocks' terms from
+    /// the blocks read back after the batch. A contact the device finds driven through brings
+    /// the contacts back, for the CPU's check to name it.
     fn energy(&mut self, model: &mut Model) -> Result<(f64, f64), CycleError> {
-        self.read_all(model).map_err(device_error)?;
-        cpu::overlap_check(model)?;
-        let e = model.energies();
+        let clock = std::time::Instant::now();
+        let (strain, driven) = self.contact_energy(model).map_err(device_error)?;
+        if driven {
+            self.read_contacts(model).map_err(device_error)?;
+            cpu::overlap_check(model)?;
+        }
+        // The step the next batch starts with (`advance`), from the lever arms brought back.
+        let dt = model.timestep();
+        self.next_timestep = Some(dt);
+        let e = model.energies_at(Some(strain), dt);
+        self.host.checks_s += clock.elapsed().as_secs_f64();
+        self.host.checks += 1;
         Ok((e.kinetic + e.strain, e.external_work))
     }
 
+    fn sync(&mut self, model: &mut Model) -> Result<(), CycleError> {
+        self.read_contacts(model).map_err(device_error)
+    }
+
+    /// The last good state: the model (its blocks as the batch left them, read back) and, on the
+    /// device, a copy of the contacts' state (`Checkpoint`).
     fn keep(&mut self, model: &Model, last_good: &mut Model) {
+        let clock = std::time::Instant::now();
         last_good.clone_from(model);
+        self.take_checkpoint(model);
+        self.host.checks_s += clock.elapsed().as_secs_f64();
     }
 
     fn finish(&mut self, model: &mut Model) -> Result<(), CycleError> {
         self.read_all(model).map_err(device_error)?;
         Ok(())
+    }
+
+    /// A failure: the contacts of the last good state read back from the device checkpoint
+    /// into it (where one was taken in this run; before the first, the model the run started
+    /// from is whole).
+    fn recover(&mut self, last_good: &mut Model) -> Result<(), CycleError> {
+        let Some(cp) = self.checkpoint.as_mut().filter(|cp| cp.valid) else { return Ok(()) };
+        cp.valid = false;
+        if cp.contact_count != last_good.contacts.len() {
+            return Err(CycleError::Setup(format!(
+                "GPU: the checkpoint holds {} contacts, the last good state {}",
+                cp.contact_count,
+                last_good.contacts.len()
+            )));
+        }
+        let Some(cp) = self.checkpoint.as_ref() else { return Ok(()) };
+        let read = match self.dev.precision {
+            Precision::F32 => self.read_contacts_from::<f32>(last_good, (&cp.contacts, &cp.logicals), &cp.keys, cp.logical_count, cp.bases),
+            Precision::F64 => self.read_contacts_from::<f64>(last_good, (&cp.contacts, &cp.logicals), &cp.keys, cp.logical_count, cp.bases),
+        };
+        read.map_err(device_error)
     }
 }
 

@@ -117,6 +117,17 @@ pub fn end_cycle_source(precision: Precision) -> String {
     format!("{}\n{MATH}\n{LAYOUT}\n{SDEF}\n{COMMON}\n{END_CYCLE}", prelude(precision, true, false))
 }
 
+/// `contact_energy`, the energy check's sums of the contacts' springs and its overlap test on
+/// the device (twin `d3::model::contact_energy`). Not in [`KERNELS`]: not a stage of the cycle,
+/// and it has a binding of its own (`contact_energy_source`).
+pub const CONTACT_ENERGY: &str = include_str!("../../../shaders/d3/contact_energy.wgsl");
+
+/// The full source of `contact_energy` in one precision (any scene's: it reads the blocks'
+/// radii, the contacts and their logical contacts, then writes its own binding 9).
+pub fn contact_energy_source(precision: Precision) -> String {
+    format!("{}\n{MATH}\n{LAYOUT}\n{RIGID}\n{COMMON}\n{CONTACT_ENERGY}", prelude(precision, false, false))
+}
+
 /// The full source of one kernel in one precision, for a rigid scene.
 pub fn source(kernel: &str, precision: Precision) -> Option<String> {
     source_for(kernel, precision, false)
