@@ -259,20 +259,7 @@ impl Kernels {
             }));
         }
         let end_cycle = if sdef {
-            let src = shaders::end_cycle_source(dev.precision);
-            validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/end_cycle.wgsl: {e}")))?;
-            let (group, layout) = layouts(&dev.device, "d3 end_cycle", &[uniform(0), storage(8, false), storage(9, false)]);
-            let module =
-                dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("end_cycle"), source: wgpu::ShaderSource::Wgsl(src.into()) });
-            let pipeline = dev.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("end_cycle"),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some("end_cycle"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
-            Some((group, pipeline))
+            Some(kernel_of_its_own(dev, "end_cycle", shaders::end_cycle_source(dev.precision), &[uniform(0), storage(8, false), storage(9, false)])?)
         } else {
             None
         };
@@ -1099,23 +1086,32 @@ fn refresh_arms<R: Real>(model: &mut Model, keys: &[Vec<LogicalKind>], arms: &[l
 /// contacts and its records at binding 9), in the device's precision.
 fn energy_kernel(dev: &GpuDevice) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
     let scopes = dev.creation_scopes();
-    let src = shaders::contact_energy_source(dev.precision);
-    validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/contact_energy.wgsl: {e}")))?;
-    let (group, layout) = layouts(
-        &dev.device,
-        "d3 contact_energy",
-        &[uniform(0), storage(1, false), storage(5, false), storage(6, false), storage(9, false), storage(10, false)],
-    );
-    let module = dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("contact_energy"), source: wgpu::ShaderSource::Wgsl(src.into()) });
+    let entries = [uniform(0), storage(1, false), storage(5, false), storage(6, false), storage(9, false), storage(10, false)];
+    let kernel = kernel_of_its_own(dev, "contact_energy", shaders::contact_energy_source(dev.precision), &entries)?;
+    scopes.check(dev)?;
+    Ok(kernel)
+}
+
+/// A kernel outside the cycle's bind group (`end_cycle`, `contact_energy`): its source `src`
+/// (shaders/d3/`name`.wgsl with the prelude) validated, its bindings' layout from `entries`, its
+/// pipeline with the entry point `name`.
+fn kernel_of_its_own(
+    dev: &GpuDevice,
+    name: &str,
+    src: String,
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
+    validate(&src, dev.precision).map_err(|e| GpuError::Shader(format!("d3/{name}.wgsl: {e}")))?;
+    let (group, layout) = layouts(&dev.device, &format!("d3 {name}"), entries);
+    let module = dev.device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some(name), source: wgpu::ShaderSource::Wgsl(src.into()) });
     let pipeline = dev.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("contact_energy"),
+        label: Some(name),
         layout: Some(&layout),
         module: &module,
-        entry_point: Some("contact_energy"),
+        entry_point: Some(name),
         compilation_options: Default::default(),
         cache: None,
     });
-    scopes.check(dev)?;
     Ok((group, pipeline))
 }
 
