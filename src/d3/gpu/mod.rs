@@ -186,6 +186,8 @@ pub mod shaders;
 
 use std::rc::Rc;
 
+use rayon::prelude::*;
+
 use glam::{DMat3, DQuat, DVec3};
 
 use super::cpu::{self, contact_stage};
@@ -774,10 +776,11 @@ impl GpuBackend {
                 }
             }
         }
-        let mut bad = None;
-        let mut peaks = Vec::with_capacity(gpu.len());
-        let (mut work, mut damping, mut dashpots) = (0.0, 0.0, 0.0);
-        for (k, (b, g)) in model.blocks.iter_mut().zip(&gpu).enumerate() {
+        // The first block left non-finite; the blocks before it are placed (the vertices from
+        // the state), in parallel: at 10⁶ blocks this pass is a batch's whole host time.
+        let bad = gpu.iter().position(|g| g.finite == 0);
+        let placed = bad.unwrap_or(gpu.len());
+        model.blocks.par_iter_mut().zip(&gpu).enumerate().with_min_len(super::grain::BLOCK).for_each(|(k, (b, g))| {
             b.centroid = DVec3::new(f(g.cx) + f(g.cx_lo), f(g.cy) + f(g.cy_lo), f(g.cz) + f(g.cz_lo));
             b.velocity = DVec3::new(f(g.vx), f(g.vy), f(g.vz));
             b.angular_momentum = DVec3::new(f(g.lx), f(g.ly), f(g.lz));
@@ -791,13 +794,14 @@ impl GpuBackend {
             b.force = DVec3::new(f(g.fx), f(g.fy), f(g.fz));
             b.moment = DVec3::new(f(g.mx), f(g.my), f(g.mz));
             b.travel = f(g.travel);
-            if g.finite == 0 && bad.is_none() {
-                bad = Some(k);
-            }
-            if bad.is_none() {
+            if k < placed {
                 b.place_vertices();
             }
-            peaks.push(f(g.peak_travel));
+        });
+        let peaks: Vec<f64> = gpu.iter().map(|g| f(g.peak_travel)).collect();
+        // The energy sums in the blocks' order (as the CPU adds them).
+        let (mut work, mut damping, mut dashpots) = (0.0, 0.0, 0.0);
+        for g in &gpu {
             work += f(g.work);
             damping += f(g.damping_work);
             dashpots += f(g.dashpot_work);
@@ -1037,7 +1041,6 @@ impl GpuBackend {
 /// logical contacts are left, a contact with none losing its category and area) is then what the
 /// whole read-back gives.
 fn refresh_arms<R: Real>(model: &mut Model, keys: &[Vec<LogicalKind>], arms: &[layout::LogicalArm<R>]) {
-    use rayon::prelude::*;
     let f = |x: R| x.to_f64();
     let origins: Vec<DVec3> = model.contacts.iter().map(|c| point_origin::<R>(model, c)).collect();
     let mut runs = Vec::with_capacity(keys.len());
