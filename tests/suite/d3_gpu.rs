@@ -628,3 +628,25 @@ fn a_failed_gpu_run_goes_back_to_the_last_checks_contacts() {
         assert!(failed == good, "{:?}: the state is not the last check's", o.precision);
     }
 }
+
+/// A detection that changes the number of contacts while the time step stays as it was (held
+/// by a simply-deformable block's own limit, which no contact changes): the kernels must see the
+/// new count (the params, which bound their loops and place each contact's bodies in the
+/// adjacency, were written only where the step changed). A cube moving at 5 m/s strikes a
+/// resting simply-deformable cube of stiff rock, no gravity: on the CPU the two swap their
+/// momentum (equal masses, a head-on elastic strike); the GPU did not see the new contact, every
+/// contact read its bodies from the wrong words, and the run stopped for growing energy.
+#[test]
+fn a_contact_made_while_the_step_holds_is_tracked_on_the_gpu() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.3\nPROP MAT=2 D=2000 K=1E12 G=6E11 KN=1E9 KS=1E9 F=0.3\n\
+                BOX 0 1 0 1 0 1 MAT 2\nCHANGE 0 1 0 1 0 1 SDEF\nBOX 1.3 2.3 0 1 0 1\nVELOCITY 1.2 2.5 -1 2 -1 2 -5 0 0\nCYCLE 12000\n";
+    let cpu = run(deck, None);
+    let vx = |m: &Model| [m.blocks[0].velocity.x, m.blocks[1].velocity.x];
+    assert!((vx(&cpu)[0] + 5.0).abs() < 1e-3 && vx(&cpu)[1].abs() < 1e-3, "cpu: {:?}", vx(&cpu));
+    for o in targets() {
+        let gpu = run(deck, Some(&o));
+        let (dx, dv) = state_difference(&cpu, &gpu, 1.0, 5.0);
+        eprintln!("{:?} {:?}: velocities {:?} (cpu {:?}); state {dx:.1e}, {dv:.1e}", o.adapter, o.precision, vx(&gpu), vx(&cpu));
+        assert!(dx < 1e-4 && dv < 1e-4, "{:?}: {:?} against {:?}", o.precision, vx(&gpu), vx(&cpu));
+    }
+}

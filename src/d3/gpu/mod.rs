@@ -681,6 +681,16 @@ impl GpuBackend {
         (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) =
             (blocks, contacts, logicals, adjacency, bind, Rc::new(keys), logical_count);
         s.bases = bases(model);
+        // The params hold the counts the kernels bound their loops and the contacts' bodies'
+        // place in the adjacency by (`contact_bodies`): the contacts may be more or fewer now.
+        // (They were written only where the time step changed, which hid this where the step
+        // moved at every batch; with a step held by a simply-deformable block's own limit, a
+        // new contact went untracked and every contact read its bodies from the wrong words.)
+        let dt = s.dt;
+        match self.dev.precision {
+            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, dt))),
+            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, dt))),
+        }
         Ok(())
     }
 
