@@ -4,8 +4,7 @@
 // exponentially) and that no contact has been driven through. The blocks' terms come from the
 // blocks the CPU reads back after every batch; the contacts' springs, ½Fn²/kn + ½|Fs|²/ks over
 // the live logical contacts, are summed here, so the check reads back one record per workgroup
-// and each logical contact's point and live flag (`arms`, for the time step: 20 bytes a logical
-// contact in f32, where its record is 60 and its share of its contact's ~13), not every record.
+// instead of every contact and logical contact (the time step comes from critical_rows.wgsl).
 //
 // Each invocation takes ENERGY_ITEMS contacts, WORKGROUP_SIZE apart (neighbouring invocations on
 // neighbouring contacts), adds them in a fixed order, and each workgroup reduces by a fixed
@@ -22,16 +21,7 @@ struct ContactEnergy {
     driven: u32, spare: u32,
 }
 
-// Twin of `d3::gpu::layout::LogicalArm`.
-struct LogicalArm {
-    px: real, py: real, pz: real,
-    live: u32, spare: u32,
-}
-
 @group(0) @binding(9) var<storage, read_write> energy_out: array<ContactEnergy>;
-// Each logical contact's point and live flag, copied for the time step the CPU takes at the
-// next batch's start (`Model::timestep`: the contacts' lever arms and which are left).
-@group(0) @binding(10) var<storage, read_write> arms: array<LogicalArm>;
 
 const ENERGY_ITEMS: u32 = 16u;
 const NONE: u32 = 0xffffffffu;
@@ -53,7 +43,6 @@ fn contact_energy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocatio
             var live = false;
             for (var i = c.logical_start; i < c.logical_start + c.logical_count; i++) {
                 let l = logicals[i];
-                arms[i] = LogicalArm(l.px, l.py, l.pz, l.live, 0u);
                 if (l.live == 0u) {
                     continue;
                 }

@@ -732,12 +732,25 @@ impl Energies {
 /// simply-deformable block, the least principal second moment of its mass. The step's sums
 /// over the logical contacts (added in order, on one thread) then read these few words a
 /// block, not the block, and divide once less.
-struct Give {
-    centroid: DVec3,
-    unyielding: bool,
-    inverse_mass: f64,
-    least: f64,
-    least_second: f64,
+pub struct Give {
+    pub centroid: DVec3,
+    pub unyielding: bool,
+    pub inverse_mass: f64,
+    pub least: f64,
+    pub least_second: f64,
+}
+
+impl Give {
+    /// The block's compliance at a lever arm r (r² given): 1/m + r²/I_min (+ r²/M_min for a
+    /// simply-deformable block); none for an unyielding block. Twin of `compliance` in
+    /// shaders/d3/critical_rows.wgsl.
+    pub fn compliance(&self, r2: f64) -> f64 {
+        if self.unyielding {
+            return 0.0;
+        }
+        let strain = if self.least_second > 0.0 { r2 / self.least_second } else { 0.0 };
+        self.inverse_mass + if self.least > 0.0 { r2 / self.least } else { 0.0 } + strain
+    }
 }
 
 impl Model {
@@ -797,28 +810,28 @@ impl Model {
         self.critical_timestep_with(true).or_else(|| self.critical_timestep_with(false))
     }
 
-    /// [`Model::critical_timestep`], a held block counted as unyielding (`held_stiff`) or free.
-    fn critical_timestep_with(&self, held_stiff: bool) -> Option<f64> {
-        // A joint-law block's face contact is stiffer the larger its area: no more than its
-        // radius squared (a touching region shared by three or more corners).
-        let k_max = self.blocks.iter().fold(0.0f64, |k, b| {
+    /// The stiffest contact a block's material can give (`k_max` of the critical step's rows):
+    /// KN, KS, and a joint-law block's face contact, stiffer the larger its area, no more than
+    /// its radius squared (a touching region shared by three or more corners). 0: none.
+    pub fn stiffest_contact(&self) -> f64 {
+        self.blocks.iter().fold(0.0f64, |k, b| {
             let m = self.material(b.material);
             let joint = if joint_contacts(b.constitutive) { m.jkn.max(m.jks) * b.shape.radius * b.shape.radius } else { 0.0 };
             k.max(m.kn).max(m.ks).max(joint)
-        });
-        if k_max <= 0.0 {
-            return None;
-        }
-        // Each free block's least principal moment (zero for a fixed or massless block, which
-        // does not give at a contact, nor a held one: BOUNDARY VELOCITY moves it whatever the
-        // forces on it, its strain held as it is, so it is a moving wall to its neighbours).
+        })
+    }
+
+    /// What the critical step reads of each block ([`Give`]), a held block counted as
+    /// unyielding (`held_stiff`) or free. Each free block's least principal moment (zero for a
+    /// fixed or massless block, which does not give at a contact, nor a held one: BOUNDARY
+    /// VELOCITY moves it whatever the forces on it, its strain held as it is, so it is a moving
+    /// wall to its neighbours) and, for a simply-deformable block, the least principal second
+    /// moment of its mass, M_min: it gives at a lever arm r by its strain too, by r²/M_min (no
+    /// strain mode has less inertia). Block by block, in parallel (the eigenvalues are most of
+    /// this).
+    pub fn step_gives(&self, held_stiff: bool) -> Vec<Give> {
         let unyielding = |b: &Block| b.fixed || (held_stiff && b.held) || b.mass <= 0.0;
-        // Each block's least principal moment and, for a simply-deformable block, the least
-        // principal second moment of its mass, M_min: it gives at a lever arm r by its strain too,
-        // by r²/M_min (no strain mode has less inertia). Block by block, in parallel (the
-        // eigenvalues are most of this).
-        let gives: Vec<Give> = self
-            .blocks
+        self.blocks
             .par_iter()
             .with_min_len(super::grain::BLOCK)
             .map(|b| {
@@ -827,16 +840,30 @@ impl Model {
                 let least_second = if b.is_sdef() && !stiff { least_eigenvalue(sdef::second_moments(b.inertia_ref)) } else { 0.0 };
                 Give { centroid: b.centroid, unyielding: stiff, inverse_mass: 1.0 / b.mass, least, least_second }
             })
-            .collect();
+            .collect()
+    }
+
+    /// The critical step of the stiffest mode λ (the Gershgorin bound's largest row): 2/ω, less
+    /// with stiffness-proportional damping β: 2/(ω(√(1 + ξ²) + ξ)), ξ = βω/2. None where λ is
+    /// not a positive number.
+    pub fn critical_step_of(&self, lambda: f64) -> Option<f64> {
+        if !(lambda > 0.0 && lambda.is_finite()) {
+            return None;
+        }
+        let omega = lambda.sqrt();
+        let xi = 0.5 * self.damping.beta * omega;
+        Some(2.0 / (omega * ((1.0 + xi * xi).sqrt() + xi)))
+    }
+
+    /// [`Model::critical_timestep`], a held block counted as unyielding (`held_stiff`) or free.
+    fn critical_timestep_with(&self, held_stiff: bool) -> Option<f64> {
+        let k_max = self.stiffest_contact();
+        if k_max <= 0.0 {
+            return None;
+        }
+        let gives = self.step_gives(held_stiff);
         // The compliance of block i at a lever arm r (r² given).
-        let compliance = |i: usize, r2: f64| -> f64 {
-            let g = &gives[i];
-            if g.unyielding {
-                return 0.0;
-            }
-            let strain = if g.least_second > 0.0 { r2 / g.least_second } else { 0.0 };
-            g.inverse_mass + if g.least > 0.0 { r2 / g.least } else { 0.0 } + strain
-        };
+        let compliance = |i: usize, r2: f64| -> f64 { gives[i].compliance(r2) };
         let mut row: Vec<f64> = (0..self.blocks.len()).map(|i| k_max * compliance(i, self.blocks[i].shape.radius.powi(2))).collect();
         // Each logical contact's terms on its two blocks' rows, k(a_i + √(a_i a_j)) and
         // k(a_j + √(a_i a_j)), worked out in parallel into one list in the contacts' order (each
@@ -878,18 +905,18 @@ impl Model {
             *r = r.max(*c);
         }
         let lambda = row.iter().copied().fold(0.0, f64::max);
-        if !(lambda > 0.0 && lambda.is_finite()) {
-            return None;
-        }
-        let omega = lambda.sqrt();
-        let xi = 0.5 * self.damping.beta * omega;
-        Some(2.0 / (omega * ((1.0 + xi * xi).sqrt() + xi)))
+        self.critical_step_of(lambda)
     }
 
     /// The time step the run takes: FRACTION × the critical one, and no more than the
     /// simply-deformable blocks' own limit ([`Model::internal_timestep`]).
     pub fn timestep(&self) -> f64 {
-        let dt = self.critical_timestep().map_or(0.0, |dt| self.frac * dt);
+        self.timestep_of(self.critical_timestep())
+    }
+
+    /// [`Model::timestep`] of the critical step `critical` (None: no contact stiffness).
+    pub fn timestep_of(&self, critical: Option<f64>) -> f64 {
+        let dt = critical.map_or(0.0, |dt| self.frac * dt);
         match self.internal_timestep() {
             Some(limit) if dt > 0.0 => dt.min(limit),
             _ => dt,

@@ -584,7 +584,7 @@ fn the_energy_check_sums_the_contacts_on_the_device_as_the_cpu_does() {
             let mut backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
             let mut report = blockdem::driver::CycleReport::default();
             backend.run_into(&mut model, cycles, &mut |_| true, &mut report).unwrap_or_else(|e| panic!("{e}"));
-            let (strain, found) = backend.contact_energy(&mut model).unwrap_or_else(|e| panic!("{e}"));
+            let (strain, found) = backend.contact_energy(&model).unwrap_or_else(|e| panic!("{e}"));
             let cpu: f64 = model.contacts.iter().map(|c| blockdem::d3::model::contact_energy(c, &model.contact_material(c))).sum();
             let rel = (strain - cpu).abs() / cpu;
             eprintln!("{:?} {:?}: strain {strain:e} J on the device, {cpu:e} J on the CPU ({rel:.1e}); driven through: {found}", o.adapter, o.precision);
@@ -648,5 +648,32 @@ fn a_contact_made_while_the_step_holds_is_tracked_on_the_gpu() {
         let (dx, dv) = state_difference(&cpu, &gpu, 1.0, 5.0);
         eprintln!("{:?} {:?}: velocities {:?} (cpu {:?}); state {dx:.1e}, {dv:.1e}", o.adapter, o.precision, vx(&gpu), vx(&cpu));
         assert!(dx < 1e-4 && dv < 1e-4, "{:?}: {:?} against {:?}", o.precision, vx(&gpu), vx(&cpu));
+    }
+}
+
+/// The time step each batch starts with comes from the state on the device (`critical_rows`,
+/// `GpuBackend::device_timestep`): the CPU's rule (`Model::timestep`) on the same state read
+/// back, to round-off in f64 and to f32's in f32, for a stack of a rigid and a simply-deformable
+/// box resting tilted on a slab (lever arms off the centroids, the strain modes' compliance) and
+/// for a box held by BOUNDARY VELOCITY against it (unyielding).
+#[test]
+fn the_time_step_from_the_device_is_the_cpus_rule() {
+    let stack = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.3\nPROP MAT=2 D=2000 K=1E8 G=6E7 KN=1E9 KS=1E9 F=0.3\n\
+                 BOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nBOX 0.2 1.2 0.1 1.1 1 2 MAT 2\nCHANGE 0 1.3 0 1.2 1.1 2 SDEF\n\
+                 FIX -1 2 -1 2 -1 -0.1\nGRAV 1 2 -10\n";
+    let held = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBOX -1 2 -1 2 -1 0\nBOX 0 1 0 1 0 1\nBOX 0 1 0 1 1 2\n\
+                FIX -1 2 -1 2 -1 -0.1\nBOUNDARY VELOCITY 0 1 0 1 1 2 0 0 -0.01\n";
+    for o in targets() {
+        for (name, deck) in [("stack", stack), ("held", held)] {
+            let mut model = run(deck, None);
+            let mut backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+            let mut report = blockdem::driver::CycleReport::default();
+            backend.run_into(&mut model, 500, &mut |_| true, &mut report).unwrap_or_else(|e| panic!("{e}"));
+            let device = backend.device_timestep(&model).unwrap_or_else(|e| panic!("{e}"));
+            let cpu = model.timestep();
+            let rel = (device - cpu).abs() / cpu;
+            eprintln!("{:?} {:?} {name}: step {device:e} on the device, {cpu:e} on the CPU ({rel:.1e})", o.adapter, o.precision);
+            assert!(cpu > 0.0 && rel < if is_f32(&o) { 1e-5 } else { 1e-12 }, "{:?} {name}: {device} against {cpu}", o.precision);
+        }
     }
 }

@@ -379,8 +379,9 @@ fn the_d3_end_cycle_kernel_and_its_halting_record_match_their_twins() {
 
 /// D3's `contact_energy` (shaders/d3/contact_energy.wgsl, the energy check's contact sums)
 /// parses and validates in both precisions with its entry point, its record has the Rust twin's
-/// layout (`d3::gpu::layout::ContactEnergy`, `LogicalArm`), its items per invocation are the Rust
-/// side's, and it writes its own bindings 9 and 10.
+/// layout (`d3::gpu::layout::ContactEnergy`), its items per invocation are the Rust side's, and
+/// it writes its own binding 9; so does `critical_rows` (shaders/d3/critical_rows.wgsl, the time
+/// step's rows on the device) with its record `StepGive` at binding 9.
 #[test]
 fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
     use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
@@ -390,11 +391,20 @@ fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
         assert!(module.entry_points.iter().any(|e| e.name == "contact_energy"));
         check_layouts_in(&src, precision, d3_layout::energy_layouts::<R>());
         assert!(src.contains("@binding(9) var<storage, read_write> energy_out: array<ContactEnergy>"));
-        assert!(src.contains("@binding(10) var<storage, read_write> arms: array<LogicalArm>"));
+
         assert!(src.contains(&format!("const ENERGY_ITEMS: u32 = {}u;", d3_layout::ENERGY_ITEMS)));
     }
     check::<f32>(Precision::F32);
     check::<f64>(Precision::F64);
+    fn check_rows<R: Real>(precision: Precision) {
+        let src = d3::critical_rows_source(precision);
+        let (module, _) = shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/critical_rows.wgsl ({precision}):\n{e}"));
+        assert!(module.entry_points.iter().any(|e| e.name == "critical_rows"));
+        check_layouts_in(&src, precision, d3_layout::step_layouts::<R>());
+        assert!(src.contains("@binding(9) var<storage, read_write> gives: array<StepGive>"));
+    }
+    check_rows::<f32>(Precision::F32);
+    check_rows::<f64>(Precision::F64);
 }
 
 /// D3's kernels with the boundary conditions (BOUNDARY, `d3::gpu::shaders::source_with`) parse

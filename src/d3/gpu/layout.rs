@@ -130,13 +130,15 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A logical contact's point and `live` flag as `contact_energy` copies them at an energy
-    /// check (one per logical contact, in the logical buffer's order): what the time step reads
-    /// of the contacts (the lever arms, and which logical contacts are left), brought back
-    /// without the rest of the record.
-    LogicalArm {
-        px: R, py: R, pz: R,
-        live: u32, spare: u32,
+    /// What the critical step reads of a block (`model::Give`), one per block, worked out on the
+    /// CPU when the state is uploaded (`critical_rows`, shaders/d3/critical_rows.wgsl): 1/m, the
+    /// least principal moment, the least principal second moment of a simply-deformable block's
+    /// mass, and `row0`, k_max times its compliance at its radius (its row's floor);
+    /// `unyielding` 1 for a fixed, held or massless block (held counted unyielding, as the CPU's
+    /// first try).
+    StepGive {
+        inverse_mass: R, least: R, least_second: R, row0: R,
+        unyielding: u32, spare: u32,
     }
 }
 
@@ -250,7 +252,13 @@ pub fn sdef_layouts<R: Real>() -> Vec<StructLayout> {
 /// `contact_energy`'s struct's layout (declared by `shaders/d3/contact_energy.wgsl`), for the
 /// naga check.
 pub fn energy_layouts<R: Real>() -> Vec<StructLayout> {
-    vec![ContactEnergy::<R>::layout(), LogicalArm::<R>::layout()]
+    vec![ContactEnergy::<R>::layout()]
+}
+
+/// `critical_rows`' struct's layout (declared by `shaders/d3/critical_rows.wgsl`), for the naga
+/// check.
+pub fn step_layouts<R: Real>() -> Vec<StructLayout> {
+    vec![StepGive::<R>::layout()]
 }
 
 /// `end_cycle`'s struct's layout (declared by `shaders/d3/end_cycle.wgsl`), for the naga check.

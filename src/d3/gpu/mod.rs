@@ -65,9 +65,10 @@
 //! Cycles run in batches sized to the next detection at the velocities of the batch's start
 //! (`cycles_to_detection`); after each the blocks are read back (travel, finiteness, the
 //! too-fast check). The time step is the CPU's rule (`Model::timestep`, from the logical
-//! contacts there are and their lever arms) taken at each batch's start and held over it, where
-//! the CPU renews it every cycle. Everything the device does is in a fixed order, so a rerun
-//! repeats bit for bit.
+//! contacts there are and their lever arms) worked out on the device from its state at each
+//! batch's start (`critical_rows`, `device_timestep`) and held over the batch, where the CPU
+//! renews it every cycle. Everything the device does is in a fixed order, so a rerun repeats bit
+//! for bit.
 //!
 //! # The energy check and the last good state
 //!
@@ -77,16 +78,16 @@
 //! check), so their terms are the CPU's (`Model::energies_at`); the contacts' springs are summed
 //! on the device, where their state is (`contact_energy`, twin `model::contact_energy`, a record
 //! per workgroup read back), with the overlap test of `cpu::overlap_check` (a contact it finds
-//! brings the contacts back for the CPU's check to name it). The same kernel copies each logical
-//! contact's point and live flag (`layout::LogicalArm`), which come back into the model's
-//! logical contacts (`refresh_arms`): the time step the next batch takes (`Model::timestep`, the
-//! lever arms and which logical contacts are left) is the one a whole read-back gave, bit for
-//! bit, so runs split by CYCLE, SAVE and RESTART still take one run's steps. The last good state
-//! is the model (its blocks as read back) and a device copy of the contact and logical buffers
-//! (`Checkpoint`, with the keys and bases they were taken under), read back into it only when
-//! the run fails (`recover`). A check thus reads back 20 bytes a logical contact in f32 where it
-//! read its whole record and its contact's (~73), and makes no copy of the contacts on the CPU.
-//! Between checks and detections the model's contact forces are as the last read-back left them.
+//! brings the contacts back for the CPU's check to name it). The time step comes from the device
+//! too (`critical_rows`, twin: the rows of `Model::critical_timestep`: each block's Gershgorin row
+//! over its adjacency list in the contacts' order, from what the step reads of each block,
+//! `layout::StepGive`, made at the upload; the largest row of each workgroup read back). The last
+//! good state is the model (its blocks as read back) and a device copy of the contact and
+//! logical buffers (`Checkpoint`, with the keys and bases they were taken under), read back into
+//! it only when the run fails (`recover`). So a check reads back a record per workgroup, where it
+//! read every contact and logical contact (at 10⁶ bricks about a gigabyte, every hundred
+//! cycles), and makes no copy of the contacts on the CPU. Between detections the model's contacts
+//! are as the last read-back left them.
 //!
 //! # Cracking on the device
 //!
@@ -308,6 +309,8 @@ struct State {
     bases: Bases,
     /// The time step in the params buffer.
     dt: f64,
+    /// What the critical step reads of each block (`layout::StepGive`), made at the upload.
+    gives: wgpu::Buffer,
 }
 
 /// The GPU backend for D3.
@@ -340,10 +343,14 @@ pub struct GpuBackend {
     /// `contact_energy` (the energy check's contact sums and overlap test) and its bindings'
     /// layout: the params, blocks, contacts, logical contacts and its records (binding 9).
     energy_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
-    /// Its records, one per workgroup, and the logical contacts' points and live flags it copies
-    /// (`layout::LogicalArm`), kept from check to check, grown as needed.
+    /// Its records, one per workgroup (kept from check to check, grown as needed).
     energy_out: Option<wgpu::Buffer>,
-    energy_arms: Option<wgpu::Buffer>,
+    /// `critical_rows` (the critical step's largest row on the device) and its bindings'
+    /// layout: the params, blocks, contacts, logical contacts, adjacency, the blocks' gives
+    /// (binding 9) and its records (binding 10).
+    step_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    /// Its records, one per workgroup (grown as needed).
+    step_out: Option<wgpu::Buffer>,
     /// The contacts' part of the last good state, on the device ("The energy check and the last
     /// good state").
     checkpoint: Option<Checkpoint>,
@@ -380,9 +387,9 @@ pub struct HostTimes {
     /// moved).
     pub listed: u64,
     pub refreshed: u64,
-    /// Seconds in the energy checks (every hundred cycles: `contact_energy` on the device and
-    /// its records and the lever arms read back, the next batch's time step and the blocks'
-    /// terms on the CPU, the device checkpoint's copy after one passed), and how many there were.
+    /// Seconds in the energy checks (every hundred cycles: `contact_energy` and `critical_rows`
+    /// on the device and their records read back, the blocks' terms on the CPU, the device
+    /// checkpoint's copy after one passed), and how many there were.
     pub checks_s: f64,
     pub checks: u64,
 }
@@ -400,6 +407,7 @@ impl GpuBackend {
         let dev = GpuDevice::open(choice, precision)?;
         let kernels = vec![Kernels::new(&dev, Variant { sdef: false, boundary: false })?];
         let energy_kernel = energy_kernel(&dev)?;
+        let step_kernel = step_kernel(&dev)?;
         Ok(GpuBackend {
             dev,
             kernels,
@@ -413,7 +421,8 @@ impl GpuBackend {
             whole_detections: false,
             energy_kernel,
             energy_out: None,
-            energy_arms: None,
+            step_kernel,
+            step_out: None,
             checkpoint: None,
             next_timestep: None,
         })
@@ -540,8 +549,26 @@ impl GpuBackend {
             _ => None,
         };
         let keys = Rc::new(keys);
-        self.state =
-            Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, halt, variant, bind, keys, logical_count, bases, dt });
+        let gives = self.buffer("d3 step gives", bytemuck::cast_slice(&step_gives::<R>(model)), storage_usage);
+        self.state = Some(State {
+            params,
+            blocks,
+            vertices,
+            planes,
+            edges,
+            contacts,
+            logicals,
+            adjacency,
+            sdef,
+            halt,
+            variant,
+            bind,
+            keys,
+            logical_count,
+            bases,
+            dt,
+            gives,
+        });
         Ok(())
     }
 
@@ -888,32 +915,20 @@ impl GpuBackend {
     }
 
     /// The energy check's contact sums on the device (`contact_energy`, shaders/d3/contact_energy.wgsl)
-    /// for the state the device holds: the strain energy of the contacts' springs, and whether a
-    /// contact is driven through (by the device's test). The model's logical contacts take the
-    /// device's points and live flags (what the time step reads: `refresh_arms`); their forces
-    /// stay as the last read-back left them. A run takes them at each check; public for the tests
-    /// that hold them against the CPU's.
-    pub fn contact_energy(&mut self, model: &mut Model) -> Result<(f64, bool), GpuError> {
+    /// for the state the device holds (`model`: its counts): the strain energy of the contacts'
+    /// springs, and whether a contact is driven through (by the device's test). A run takes them
+    /// at each check; public for the tests that hold them against the CPU's.
+    pub fn contact_energy(&mut self, model: &Model) -> Result<(f64, bool), GpuError> {
         match self.dev.precision {
             Precision::F32 => self.contact_energy_as::<f32>(model),
             Precision::F64 => self.contact_energy_as::<f64>(model),
         }
     }
 
-    fn contact_energy_as<R: Real>(&mut self, model: &mut Model) -> Result<(f64, bool), GpuError> {
+    fn contact_energy_as<R: Real>(&mut self, model: &Model) -> Result<(f64, bool), GpuError> {
         let n = model.contacts.len() as u32;
-        let Some(logical_count) = self.state.as_ref().map(|s| s.logical_count) else { return Ok((0.0, false)) };
-        if n == 0 {
+        if n == 0 || self.state.is_none() {
             return Ok((0.0, false));
-        }
-        let arm_bytes = (logical_count.max(1) * std::mem::size_of::<layout::LogicalArm<R>>()) as u64;
-        if self.energy_arms.as_ref().is_none_or(|b| b.size() < arm_bytes) {
-            self.energy_arms = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("d3 logical arms"),
-                size: (arm_bytes + arm_bytes / 2).next_multiple_of(16),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }));
         }
         let groups = n.div_ceil(workgroup_size() * layout::ENERGY_ITEMS);
         let bytes = groups as u64 * std::mem::size_of::<layout::ContactEnergy<R>>() as u64;
@@ -925,14 +940,13 @@ impl GpuBackend {
                 mapped_at_creation: false,
             }));
         }
-        let (Some(s), Some(out), Some(arms)) = (self.state.as_ref(), self.energy_out.as_ref(), self.energy_arms.as_ref()) else { return Ok((0.0, false)) };
+        let (Some(s), Some(out)) = (self.state.as_ref(), self.energy_out.as_ref()) else { return Ok((0.0, false)) };
         let entries = [
             wgpu::BindGroupEntry { binding: 0, resource: s.params.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 1, resource: s.blocks.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 5, resource: s.contacts.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 6, resource: s.logicals.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 9, resource: out.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 10, resource: arms.as_entire_binding() },
         ];
         let bind = self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("d3 contact_energy"),
@@ -948,12 +962,66 @@ impl GpuBackend {
             pass.dispatch_workgroups(x, y, 1);
         }
         self.dev.queue.submit([enc.finish()]);
-        let (sums, arms) = self.dev.read_parts(&[(out, bytes), (arms, (logical_count * std::mem::size_of::<layout::LogicalArm<R>>()) as u64)], |bytes| {
-            (bytemuck::pod_collect_to_vec::<u8, layout::ContactEnergy<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::LogicalArm<R>>(bytes[1]))
-        })?;
-        refresh_arms::<R>(model, &s.keys, &arms);
+        let sums: Vec<layout::ContactEnergy<R>> = self.dev.read_pod(out, groups as usize)?;
         let strain = sums.iter().map(|e| e.strain.to_f64()).sum();
         Ok((strain, sums.iter().any(|e| e.driven != layout::NONE_DRIVEN)))
+    }
+
+    /// The time step from the state on the device (`critical_rows`, shaders/d3/critical_rows.wgsl):
+    /// the CPU's rule (`Model::timestep`, held blocks unyielding) on the device's lever arms and
+    /// live logical contacts, FRACTION and the simply-deformable blocks' own limit applied on the
+    /// CPU; where no row is positive (nothing gives, or no stiffness), the CPU's rule on the model.
+    /// Public for the tests that hold it against the CPU's.
+    pub fn device_timestep(&mut self, model: &Model) -> Result<f64, GpuError> {
+        let lambda = match self.dev.precision {
+            Precision::F32 => self.critical_row_as::<f32>(model)?,
+            Precision::F64 => self.critical_row_as::<f64>(model)?,
+        };
+        Ok(match model.critical_step_of(lambda) {
+            Some(critical) if model.stiffest_contact() > 0.0 => model.timestep_of(Some(critical)),
+            _ => model.timestep(),
+        })
+    }
+
+    /// The largest row of the critical step's bound on the device (0 with no state).
+    fn critical_row_as<R: Real>(&mut self, model: &Model) -> Result<f64, GpuError> {
+        let n = model.blocks.len() as u32;
+        if n == 0 || self.state.is_none() {
+            return Ok(0.0);
+        }
+        let groups = n.div_ceil(workgroup_size());
+        let bytes = groups as u64 * std::mem::size_of::<R>() as u64;
+        if self.step_out.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.step_out = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("d3 critical rows"),
+                size: bytes.next_multiple_of(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }));
+        }
+        let (Some(s), Some(out)) = (self.state.as_ref(), self.step_out.as_ref()) else { return Ok(0.0) };
+        let entries = [
+            wgpu::BindGroupEntry { binding: 0, resource: s.params.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: s.blocks.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 5, resource: s.contacts.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 6, resource: s.logicals.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 7, resource: s.adjacency.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: s.gives.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 10, resource: out.as_entire_binding() },
+        ];
+        let bind =
+            self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("d3 critical_rows"), layout: &self.step_kernel.0, entries: &entries });
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("d3 critical_rows") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("d3 critical_rows"), timestamp_writes: None });
+            pass.set_pipeline(&self.step_kernel.1);
+            pass.set_bind_group(0, &bind, &[]);
+            let (x, y) = dispatch_grid(groups);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        self.dev.queue.submit([enc.finish()]);
+        let rows: Vec<R> = self.dev.read_pod(out, groups as usize)?;
+        Ok(rows.iter().map(|r| r.to_f64()).fold(0.0, f64::max))
     }
 
     /// The contacts' part of the last good state kept on the device (`Checkpoint`): the contact
@@ -1043,69 +1111,48 @@ impl GpuBackend {
     }
 }
 
-/// The model's logical contacts given the device's points and live flags (`arms`, as
-/// `contact_energy` copies them, in the logical buffer's order; `keys` the kinds uploaded): each
-/// contact's list is its live ones, in order, as a read-back leaves it (`read_contacts`), each
-/// keeping the rest of its state (gap, forces, offset) from the model's entry of its kind, or
-/// none. What the time step reads of the contacts (`Model::timestep`: the lever arms, which
-/// logical contacts are left, a contact with none losing its category and area) is then what the
-/// whole read-back gives.
-fn refresh_arms<R: Real>(model: &mut Model, keys: &[Vec<LogicalKind>], arms: &[layout::LogicalArm<R>]) {
-    let f = |x: R| x.to_f64();
-    let origins: Vec<DVec3> = model.contacts.iter().map(|c| point_origin::<R>(model, c)).collect();
-    let mut runs = Vec::with_capacity(keys.len());
-    let mut rest = arms;
-    for kinds in keys {
-        let (run, after) = rest.split_at(kinds.len());
-        runs.push(run);
-        rest = after;
-    }
-    model.contacts.par_iter_mut().zip(keys).zip(runs).zip(origins).with_min_len(super::grain::CHECK).for_each(|(((c, kinds), run), origin)| {
-        let point = |a: &layout::LogicalArm<R>| {
-            let p = DVec3::new(f(a.px), f(a.py), f(a.pz));
-            if relative::<R>() {
-                origin + p
-            } else {
-                p
-            }
-        };
-        let live = run.iter().zip(kinds).filter(|(a, _)| a.live != 0);
-        // Most often the live ones are the list the model has: their points moved.
-        if live.clone().count() == c.logical.len() && live.clone().zip(&c.logical).all(|((_, kind), l)| l.kind == *kind) {
-            for ((a, _), l) in live.zip(c.logical.iter_mut()) {
-                l.point = point(a);
-            }
-        } else {
-            let old = std::mem::take(&mut c.logical);
-            c.logical = live
-                .map(|(a, kind)| {
-                    let was = old.iter().find(|l| l.kind == *kind).copied();
-                    Logical {
-                        kind: *kind,
-                        point: point(a),
-                        ..was.unwrap_or(Logical { kind: *kind, point: DVec3::ZERO, gap: 0.0, normal_force: 0.0, shear_force: DVec3::ZERO, offset: 0.0 })
-                    }
-                })
-                .collect();
-        }
-        if c.logical.is_empty() {
-            c.category = None;
-            c.area = 0.0;
-        }
-    });
-}
-
 /// `contact_energy`'s pipeline and its bindings' layout (the params, blocks, contacts, logical
 /// contacts and its records at binding 9), in the device's precision.
 fn energy_kernel(dev: &GpuDevice) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
     let scopes = dev.creation_scopes();
-    let entries = [uniform(0), storage(1, false), storage(5, false), storage(6, false), storage(9, false), storage(10, false)];
+    let entries = [uniform(0), storage(1, false), storage(5, false), storage(6, false), storage(9, false)];
     let kernel = kernel_of_its_own(dev, "contact_energy", shaders::contact_energy_source(dev.precision), &entries)?;
     scopes.check(dev)?;
     Ok(kernel)
 }
 
-/// A kernel outside the cycle's bind group (`end_cycle`, `contact_energy`): its source `src`
+/// `critical_rows`' pipeline and its bindings' layout (the params, blocks, contacts, logical
+/// contacts, adjacency, the blocks' gives at binding 9 and its records at binding 10).
+fn step_kernel(dev: &GpuDevice) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
+    let scopes = dev.creation_scopes();
+    let entries = [uniform(0), storage(1, false), storage(5, false), storage(6, false), storage(7, false), storage(9, false), storage(10, false)];
+    let kernel = kernel_of_its_own(dev, "critical_rows", shaders::critical_rows_source(dev.precision), &entries)?;
+    scopes.check(dev)?;
+    Ok(kernel)
+}
+
+/// What the critical step reads of each block, as `critical_rows` takes it (`layout::StepGive`,
+/// from `Model::step_gives` with held blocks unyielding, the CPU's first try): `row0` is k_max
+/// times the block's compliance at its radius.
+fn step_gives<R: Real>(model: &Model) -> Vec<layout::StepGive<R>> {
+    let k_max = model.stiffest_contact();
+    let r = |x: f64| R::from_f64(x);
+    model
+        .step_gives(true)
+        .iter()
+        .zip(&model.blocks)
+        .map(|(g, b)| layout::StepGive::<R> {
+            inverse_mass: r(g.inverse_mass),
+            least: r(g.least),
+            least_second: r(g.least_second),
+            row0: r(k_max * g.compliance(b.shape.radius.powi(2))),
+            unyielding: g.unyielding as u32,
+            ..Default::default()
+        })
+        .collect()
+}
+
+/// A kernel outside the cycle's bind group (`end_cycle`, `contact_energy`, `critical_rows`): its source `src`
 /// (shaders/d3/`name`.wgsl with the prelude) validated, its bindings' layout from `entries`, its
 /// pipeline with the entry point `name`.
 fn kernel_of_its_own(
@@ -1641,10 +1688,13 @@ impl driver::Stages<Model> for GpuBackend {
             n = n.min(self.screened_cap);
         }
         // The time step as the CPU takes it (`Model::timestep`, from the contacts there are and
-        // their lever arms, as the last detection or energy check brought them back), at the
-        // batch's start: the kernels hold it over the batch (the CPU renews it each cycle, as
-        // the logical contacts' lever arms move).
-        let dt = self.next_timestep.take().unwrap_or_else(|| model.timestep());
+        // their lever arms), worked out on the device from its state at the batch's start (or
+        // by the energy check just before): the kernels hold it over the batch (the CPU renews
+        // it each cycle, as the logical contacts' lever arms move).
+        let dt = match self.next_timestep.take() {
+            Some(dt) => dt,
+            None => self.device_timestep(model).map_err(device_error)?,
+        };
         self.set_timestep(model, dt);
         let (ran, halted) = if screened {
             let (ran, halted) = match self.dispatch_halting(model, n).map_err(device_error)? {
@@ -1736,8 +1786,8 @@ impl driver::Stages<Model> for GpuBackend {
             self.read_contacts(model).map_err(device_error)?;
             cpu::overlap_check(model)?;
         }
-        // The step the next batch starts with (`advance`), from the lever arms brought back.
-        let dt = model.timestep();
+        // The step the next batch starts with (`advance`), from the state on the device.
+        let dt = self.device_timestep(model).map_err(device_error)?;
         self.next_timestep = Some(dt);
         let e = model.energies_at(Some(strain), dt);
         self.host.checks_s += clock.elapsed().as_secs_f64();

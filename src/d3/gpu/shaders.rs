@@ -128,6 +128,17 @@ pub fn contact_energy_source(precision: Precision) -> String {
     format!("{}\n{MATH}\n{LAYOUT}\n{RIGID}\n{COMMON}\n{CONTACT_ENERGY}", prelude(precision, false, false))
 }
 
+/// `critical_rows`, the critical time step's largest row on the device (twin: the rows of
+/// `Model::critical_timestep_with`). Not in [`KERNELS`]: not a stage of the cycle, and it has
+/// bindings of its own (`critical_rows_source`).
+pub const CRITICAL_ROWS: &str = include_str!("../../../shaders/d3/critical_rows.wgsl");
+
+/// The full source of `critical_rows` in one precision (any scene's: it reads the blocks, the
+/// contacts, their logical contacts and the adjacency, then its own bindings 9 and 10).
+pub fn critical_rows_source(precision: Precision) -> String {
+    format!("{}\n{MATH}\n{LAYOUT}\n{RIGID}\n{COMMON}\n{CRITICAL_ROWS}", prelude(precision, false, false))
+}
+
 /// The full source of one kernel in one precision, for a rigid scene.
 pub fn source(kernel: &str, precision: Precision) -> Option<String> {
     source_for(kernel, precision, false)
