@@ -385,26 +385,28 @@ fn the_d3_end_cycle_kernel_and_its_halting_record_match_their_twins() {
 #[test]
 fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
     use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
-    fn check<R: Real>(precision: Precision) {
-        let src = d3::contact_energy_source(precision);
-        let (module, _) = shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/contact_energy.wgsl ({precision}):\n{e}"));
-        assert!(module.entry_points.iter().any(|e| e.name == "contact_energy"));
-        check_layouts_in(&src, precision, d3_layout::energy_layouts::<R>());
-        assert!(src.contains("@binding(9) var<storage, read_write> energy_out: array<ContactEnergy>"));
-
-        assert!(src.contains(&format!("const ENERGY_ITEMS: u32 = {}u;", d3_layout::ENERGY_ITEMS)));
+    /// A kernel of its own (`name`, its source `src`) validates with its entry point, its records
+    /// have their Rust twins' layouts, and its source declares `binding`.
+    fn check(name: &str, src: String, precision: Precision, layouts: Vec<StructLayout>, binding: &str) {
+        let (module, _) = shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/{name}.wgsl ({precision}):\n{e}"));
+        assert!(module.entry_points.iter().any(|e| e.name == name));
+        check_layouts_in(&src, precision, layouts);
+        assert!(src.contains(binding), "{name}: {binding}");
     }
-    check::<f32>(Precision::F32);
-    check::<f64>(Precision::F64);
-    fn check_rows<R: Real>(precision: Precision) {
-        let src = d3::critical_rows_source(precision);
-        let (module, _) = shaders::validate(&src, precision).unwrap_or_else(|e| panic!("d3/critical_rows.wgsl ({precision}):\n{e}"));
-        assert!(module.entry_points.iter().any(|e| e.name == "critical_rows"));
-        check_layouts_in(&src, precision, d3_layout::step_layouts::<R>());
-        assert!(src.contains("@binding(9) var<storage, read_write> gives: array<StepGive>"));
+    fn both<R: Real>(precision: Precision) {
+        let energy = d3::contact_energy_source(precision);
+        assert!(energy.contains(&format!("const ENERGY_ITEMS: u32 = {}u;", d3_layout::ENERGY_ITEMS)));
+        check("contact_energy", energy, precision, d3_layout::energy_layouts::<R>(), "@binding(9) var<storage, read_write> energy_out: array<ContactEnergy>");
+        check(
+            "critical_rows",
+            d3::critical_rows_source(precision),
+            precision,
+            d3_layout::step_layouts::<R>(),
+            "@binding(9) var<storage, read_write> gives: array<StepGive>",
+        );
     }
-    check_rows::<f32>(Precision::F32);
-    check_rows::<f64>(Precision::F64);
+    both::<f32>(Precision::F32);
+    both::<f64>(Precision::F64);
 }
 
 /// D3's kernels with the boundary conditions (BOUNDARY, `d3::gpu::shaders::source_with`) parse

@@ -932,14 +932,7 @@ impl GpuBackend {
         }
         let groups = n.div_ceil(workgroup_size() * layout::ENERGY_ITEMS);
         let bytes = groups as u64 * std::mem::size_of::<layout::ContactEnergy<R>>() as u64;
-        if self.energy_out.as_ref().is_none_or(|b| b.size() < bytes) {
-            self.energy_out = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("d3 contact energy"),
-                size: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }));
-        }
+        records_buffer(&self.dev, &mut self.energy_out, "d3 contact energy", bytes);
         let (Some(s), Some(out)) = (self.state.as_ref(), self.energy_out.as_ref()) else { return Ok((0.0, false)) };
         let entries = [
             wgpu::BindGroupEntry { binding: 0, resource: s.params.as_entire_binding() },
@@ -948,20 +941,7 @@ impl GpuBackend {
             wgpu::BindGroupEntry { binding: 6, resource: s.logicals.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 9, resource: out.as_entire_binding() },
         ];
-        let bind = self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("d3 contact_energy"),
-            layout: &self.energy_kernel.0,
-            entries: &entries,
-        });
-        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("d3 contact_energy") });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("d3 contact_energy"), timestamp_writes: None });
-            pass.set_pipeline(&self.energy_kernel.1);
-            pass.set_bind_group(0, &bind, &[]);
-            let (x, y) = dispatch_grid(groups);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-        self.dev.queue.submit([enc.finish()]);
+        self.dispatch_own("contact_energy", &self.energy_kernel, &entries, groups);
         let sums: Vec<layout::ContactEnergy<R>> = self.dev.read_pod(out, groups as usize)?;
         let strain = sums.iter().map(|e| e.strain.to_f64()).sum();
         Ok((strain, sums.iter().any(|e| e.driven != layout::NONE_DRIVEN)))
@@ -991,14 +971,7 @@ impl GpuBackend {
         }
         let groups = n.div_ceil(workgroup_size());
         let bytes = groups as u64 * std::mem::size_of::<R>() as u64;
-        if self.step_out.as_ref().is_none_or(|b| b.size() < bytes) {
-            self.step_out = Some(self.dev.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("d3 critical rows"),
-                size: bytes.next_multiple_of(16),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }));
-        }
+        records_buffer(&self.dev, &mut self.step_out, "d3 critical rows", bytes);
         let (Some(s), Some(out)) = (self.state.as_ref(), self.step_out.as_ref()) else { return Ok(0.0) };
         let entries = [
             wgpu::BindGroupEntry { binding: 0, resource: s.params.as_entire_binding() },
@@ -1009,19 +982,25 @@ impl GpuBackend {
             wgpu::BindGroupEntry { binding: 9, resource: s.gives.as_entire_binding() },
             wgpu::BindGroupEntry { binding: 10, resource: out.as_entire_binding() },
         ];
-        let bind =
-            self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("d3 critical_rows"), layout: &self.step_kernel.0, entries: &entries });
-        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("d3 critical_rows") });
+        self.dispatch_own("critical_rows", &self.step_kernel, &entries, groups);
+        let rows: Vec<R> = self.dev.read_pod(out, groups as usize)?;
+        Ok(rows.iter().map(|r| r.to_f64()).fold(0.0, f64::max))
+    }
+
+    /// Dispatches `name`, a kernel of its own (`kernel_of_its_own`: its bindings' layout and
+    /// pipeline), over `groups` workgroups with the bindings `entries`, and submits it.
+    fn dispatch_own(&self, name: &str, kernel: &(wgpu::BindGroupLayout, wgpu::ComputePipeline), entries: &[wgpu::BindGroupEntry], groups: u32) {
+        let label = format!("d3 {name}");
+        let bind = self.dev.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some(&label), layout: &kernel.0, entries });
+        let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(&label) });
         {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("d3 critical_rows"), timestamp_writes: None });
-            pass.set_pipeline(&self.step_kernel.1);
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(&label), timestamp_writes: None });
+            pass.set_pipeline(&kernel.1);
             pass.set_bind_group(0, &bind, &[]);
             let (x, y) = dispatch_grid(groups);
             pass.dispatch_workgroups(x, y, 1);
         }
         self.dev.queue.submit([enc.finish()]);
-        let rows: Vec<R> = self.dev.read_pod(out, groups as usize)?;
-        Ok(rows.iter().map(|r| r.to_f64()).fold(0.0, f64::max))
     }
 
     /// The contacts' part of the last good state kept on the device (`Checkpoint`): the contact
@@ -1119,6 +1098,19 @@ fn energy_kernel(dev: &GpuDevice) -> Result<(wgpu::BindGroupLayout, wgpu::Comput
     let kernel = kernel_of_its_own(dev, "contact_energy", shaders::contact_energy_source(dev.precision), &entries)?;
     scopes.check(dev)?;
     Ok(kernel)
+}
+
+/// A kernel's records buffer of at least `bytes` (storage, read back), kept in `slot` from call
+/// to call and made anew where it is too small.
+fn records_buffer(dev: &GpuDevice, slot: &mut Option<wgpu::Buffer>, label: &str, bytes: u64) {
+    if slot.as_ref().is_none_or(|b| b.size() < bytes) {
+        *slot = Some(dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.next_multiple_of(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        }));
+    }
 }
 
 /// `critical_rows`' pipeline and its bindings' layout (the params, blocks, contacts, logical
