@@ -354,8 +354,8 @@ pub struct GpuBackend {
     /// The contacts' part of the last good state, on the device ("The energy check and the last
     /// good state").
     checkpoint: Option<Checkpoint>,
-    /// The time step an energy check took from the model (`Model::timestep`), for the next
-    /// batch of the run to start with (the model is as the check left it): taken once.
+    /// The time step an energy check took from the device (`device_timestep`), for the next
+    /// batch of the run to start with (the state is as the check left it): taken once.
     next_timestep: Option<f64>,
 }
 
@@ -713,11 +713,7 @@ impl GpuBackend {
         // (They were written only where the time step changed, which hid this where the step
         // moved at every batch; with a step held by a simply-deformable block's own limit, a
         // new contact went untracked and every contact read its bodies from the wrong words.)
-        let dt = s.dt;
-        match self.dev.precision {
-            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, dt))),
-            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, dt))),
-        }
+        self.write_params(model);
         Ok(())
     }
 
@@ -728,9 +724,15 @@ impl GpuBackend {
             return;
         }
         s.dt = dt;
+        self.write_params(model);
+    }
+
+    /// Writes the params (the step the state holds, the counts) for `model` into the device's.
+    fn write_params(&self, model: &Model) {
+        let Some(s) = self.state.as_ref() else { return };
         match self.dev.precision {
-            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, dt))),
-            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, dt))),
+            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, s.dt))),
+            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, s.dt))),
         }
     }
 
@@ -957,9 +959,10 @@ impl GpuBackend {
             Precision::F32 => self.critical_row_as::<f32>(model)?,
             Precision::F64 => self.critical_row_as::<f64>(model)?,
         };
+        // (With no stiffness, k_max = 0, every row is 0: the CPU's rule then.)
         Ok(match model.critical_step_of(lambda) {
-            Some(critical) if model.stiffest_contact() > 0.0 => model.timestep_of(Some(critical)),
-            _ => model.timestep(),
+            Some(critical) => model.timestep_of(Some(critical)),
+            None => model.timestep(),
         })
     }
 
@@ -1020,37 +1023,28 @@ impl GpuBackend {
                 mapped_at_creation: false,
             })
         };
-        let cp = match self.checkpoint.take() {
-            Some(cp) if cp.contacts.size() >= sizes[0] && cp.logicals.size() >= sizes[1] => cp,
-            _ => {
-                // Half again as large as now, so that a run whose contacts grow does not make
-                // new ones at every check.
-                Checkpoint {
-                    contacts: make("d3 checkpoint contacts", sizes[0] + sizes[0] / 2),
-                    logicals: make("d3 checkpoint logicals", sizes[1] + sizes[1] / 2),
-                    keys: Rc::clone(&s.keys),
-                    contact_count: 0,
-                    logical_count: 0,
-                    bases: s.bases,
-                    valid: false,
-                }
-            }
+        let (contacts, logicals) = match self.checkpoint.take() {
+            Some(cp) if cp.contacts.size() >= sizes[0] && cp.logicals.size() >= sizes[1] => (cp.contacts, cp.logicals),
+            // Half again as large as now, so that a run whose contacts grow does not make new
+            // ones at every check.
+            _ => (make("d3 checkpoint contacts", sizes[0] + sizes[0] / 2), make("d3 checkpoint logicals", sizes[1] + sizes[1] / 2)),
         };
         let mut enc = self.dev.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("d3 checkpoint") });
         if sizes[0] > 0 {
-            enc.copy_buffer_to_buffer(&s.contacts, 0, &cp.contacts, 0, sizes[0]);
+            enc.copy_buffer_to_buffer(&s.contacts, 0, &contacts, 0, sizes[0]);
         }
         if sizes[1] > 0 {
-            enc.copy_buffer_to_buffer(&s.logicals, 0, &cp.logicals, 0, sizes[1]);
+            enc.copy_buffer_to_buffer(&s.logicals, 0, &logicals, 0, sizes[1]);
         }
         self.dev.queue.submit([enc.finish()]);
         self.checkpoint = Some(Checkpoint {
+            contacts,
+            logicals,
             keys: Rc::clone(&s.keys),
             contact_count: model.contacts.len(),
             logical_count: s.logical_count,
             bases: s.bases,
             valid: true,
-            ..cp
         });
     }
 

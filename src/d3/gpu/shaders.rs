@@ -125,7 +125,7 @@ pub const CONTACT_ENERGY: &str = include_str!("../../../shaders/d3/contact_energ
 /// The full source of `contact_energy` in one precision (any scene's: it reads the blocks'
 /// radii, the contacts and their logical contacts, then writes its own binding 9).
 pub fn contact_energy_source(precision: Precision) -> String {
-    format!("{}\n{MATH}\n{LAYOUT}\n{RIGID}\n{COMMON}\n{CONTACT_ENERGY}", prelude(precision, false, false))
+    compose(CONTACT_ENERGY, precision, false, false)
 }
 
 /// `critical_rows`, the critical time step's largest row on the device (twin: the rows of
@@ -136,7 +136,7 @@ pub const CRITICAL_ROWS: &str = include_str!("../../../shaders/d3/critical_rows.
 /// The full source of `critical_rows` in one precision (any scene's: it reads the blocks, the
 /// contacts, their logical contacts and the adjacency, then its own bindings 9 and 10).
 pub fn critical_rows_source(precision: Precision) -> String {
-    format!("{}\n{MATH}\n{LAYOUT}\n{RIGID}\n{COMMON}\n{CRITICAL_ROWS}", prelude(precision, false, false))
+    compose(CRITICAL_ROWS, precision, false, false)
 }
 
 /// The full source of one kernel in one precision, for a rigid scene.
@@ -154,6 +154,12 @@ pub fn source_for(kernel: &str, precision: Precision, sdef: bool) -> Option<Stri
 /// simply-deformable blocks; with `boundary`, for a scene with boundary conditions (BOUNDARY).
 pub fn source_with(kernel: &str, precision: Precision, sdef: bool, boundary: bool) -> Option<String> {
     let body = KERNELS.iter().find(|(name, _)| *name == kernel)?.1;
+    Some(compose(body, precision, sdef, boundary))
+}
+
+/// A kernel file `body` behind the prelude, the shared math, the layout, the strain stage (or
+/// its rigid stand-ins) and the common helpers.
+fn compose(body: &str, precision: Precision, sdef: bool, boundary: bool) -> String {
     let strain = if sdef { SDEF } else { RIGID };
-    Some(format!("{}\n{MATH}\n{LAYOUT}\n{strain}\n{COMMON}\n{body}", prelude(precision, sdef, boundary)))
+    format!("{}\n{MATH}\n{LAYOUT}\n{strain}\n{COMMON}\n{body}", prelude(precision, sdef, boundary))
 }
