@@ -70,6 +70,9 @@ pub struct D3Row {
     /// GPU: the share of the listed contacts whose logical contacts those detections found afresh
     /// (1 for whole detections; a partial one's, the moved blocks' contacts: `d3::gpu`).
     pub refreshed_share: f64,
+    /// GPU: the bytes those detections moved between host and device (read back and uploaded:
+    /// a partial detection's the moved blocks' contacts, spliced; `d3::gpu::splice`).
+    pub detection_bytes: u64,
     pub readback_share: f64,
     /// GPU: the energy checks (every hundred cycles and at each run's end: the contacts' sums on
     /// the device, the blocks' on the CPU, the device checkpoint) and their share of the time.
@@ -229,6 +232,7 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
     }
     let host_after = host(&engine);
     row.detections = host_after.detections - host_before.detections;
+    row.detection_bytes = host_after.detection_bytes - host_before.detection_bytes;
     let listed = host_after.listed - host_before.listed;
     if listed > 0 {
         row.refreshed_share = (host_after.refreshed - host_before.refreshed) as f64 / listed as f64;
@@ -312,11 +316,12 @@ pub fn table(rows: &[D3Row]) -> String {
             let _ = writeln!(s, "{:<9}   kernels ({timing}): {}{alone}", "", kernels.join(", "));
             let _ = writeln!(
                 s,
-                "{:<9}   host: {} detections in {} cycles ({} of the listed contacts refreshed), {} of the time; read-backs of the blocks {}; {} energy checks {}",
+                "{:<9}   host: {} detections in {} cycles ({} of the listed contacts refreshed, {:.3} MB moved each), {} of the time; read-backs of the blocks {}; {} energy checks {}",
                 "",
                 r.detections,
                 r.cycles,
                 pct(r.refreshed_share),
+                r.detection_bytes as f64 / r.detections.max(1) as f64 / 1e6,
                 pct(r.detection_share),
                 pct(r.readback_share),
                 r.checks,
@@ -374,6 +379,7 @@ impl D3Row {
             ("detections", self.detections.to_string()),
             ("detection_share", e(self.detection_share)),
             ("refreshed_share", e(self.refreshed_share)),
+            ("detection_bytes", self.detection_bytes.to_string()),
             ("readback_share", e(self.readback_share)),
             ("checks", self.checks.to_string()),
             ("check_share", e(self.check_share)),

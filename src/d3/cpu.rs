@@ -145,8 +145,24 @@ pub fn preflight(model: &Model) -> Result<(), CycleError> {
 /// A contact driven through: a logical contact's overlap past half the smaller block's radius
 /// (checked after each stage 4).
 pub fn overlap_check(model: &Model) -> Result<(), CycleError> {
+    overlap_check_where(model, |_| true)
+}
+
+/// [`overlap_check`] of the `selected` contacts only (a flag per contact): the GPU's partial
+/// detection's, whose other contacts are as the device's last check found them.
+pub fn overlap_check_of(model: &Model, selected: &[bool]) -> Result<(), CycleError> {
+    overlap_check_where(model, |k| selected[k])
+}
+
+fn overlap_check_where(model: &Model, checked: impl Fn(usize) -> bool + Sync) -> Result<(), CycleError> {
     // The first contact driven through, in the contacts' order (searched in parallel).
-    match model.contacts.par_iter().enumerate().with_min_len(grain::CHECK).find_map_first(|(k, c)| driven_through(&model.blocks, c).map(|_| k)) {
+    let found = model
+        .contacts
+        .par_iter()
+        .enumerate()
+        .with_min_len(grain::CHECK)
+        .find_map_first(|(k, c)| (checked(k) && driven_through(&model.blocks, c).is_some()).then_some(k));
+    match found {
         Some(k) => Err(overlap_error(model, k)),
         None => Ok(()),
     }

@@ -506,12 +506,9 @@ fn a_struck_wall_cracks_on_the_gpu_and_keeps_its_energy() {
     }
 }
 
-/// Partial detections ("Partial detections" in `d3::gpu`): a wall of twenty bricks struck by a
-/// cube. Only the contacts of the blocks that moved are found afresh at a detection (most of the
-/// wall stands still), and the run is the whole detections' run to within the impact's scatter:
-/// the cube's momentum, the ledger (within 1 % of the work on both), each near the CPU's.
-#[test]
-fn partial_detections_refresh_the_moved_blocks_and_run_as_whole_ones() {
+/// A wall of twenty bricks on a slab, a cube moving at 10 m/s towards it (it strikes at cycle
+/// ~300 of the step the bricks take).
+fn struck_wall() -> String {
     let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nBOX -1 5.2 -1 1.2 -1 0\n");
     for row in 0..2 {
         for k in 0..10 {
@@ -522,7 +519,16 @@ fn partial_detections_refresh_the_moved_blocks_and_run_as_whole_ones() {
     }
     deck.push_str("BOX 1.85 2.35 -0.51 -0.01 0.05 0.55\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n");
     deck.push_str("VELOCITY 1.8 2.4 -0.6 -0.005 0 0.6 0 10 0\nFRACTION 0.1\n");
-    let built = run(&deck, None);
+    deck
+}
+
+/// Partial detections ("Partial detections" in `d3::gpu`): a wall of twenty bricks struck by a
+/// cube. Only the contacts of the blocks that moved are found afresh at a detection (most of the
+/// wall stands still), and the run is the whole detections' run to within the impact's scatter:
+/// the cube's momentum, the ledger (within 1 % of the work on both), each near the CPU's.
+#[test]
+fn partial_detections_refresh_the_moved_blocks_and_run_as_whole_ones() {
+    let built = run(&struck_wall(), None);
     let run_on = |backend: &mut dyn blockdem::d3::backend::Backend| {
         let mut m = built.clone();
         backend.run(&mut m, 1500, &mut |_| true).unwrap_or_else(|e| panic!("{e}"));
@@ -674,6 +680,136 @@ fn the_time_step_from_the_device_is_the_cpus_rule() {
             let rel = (device - cpu).abs() / cpu;
             eprintln!("{:?} {:?} {name}: step {device:e} on the device, {cpu:e} on the CPU ({rel:.1e})", o.adapter, o.precision);
             assert!(cpu > 0.0 && rel < if is_f32(&o) { 1e-5 } else { 1e-12 }, "{:?} {name}: {device} against {cpu}", o.precision);
+        }
+    }
+}
+
+/// Spliced detections (`d3::gpu::splice`): a partial detection reads back only the contacts of
+/// the blocks that moved and splices the fresh ones into the device's buffers, where it read
+/// back and uploaded every contact. The struck wall run both ways for 1500 cycles (contacts made
+/// and dropped as the cube goes through): every block's state and every contact (its normal and
+/// live logical contacts) bit for bit the same, the ledger's friction and released terms to
+/// round-off (banked by workgroup sums in the kernel precision), and the spliced detections moved
+/// fewer bytes.
+#[test]
+fn spliced_detections_leave_the_state_a_whole_upload_leaves() {
+    let built = run(&struck_wall(), None);
+    for o in targets() {
+        let mut runs = Vec::new();
+        for whole in [false, true] {
+            let mut backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+            backend.set_whole_uploads(whole);
+            let mut m = built.clone();
+            blockdem::d3::backend::Backend::run(&mut backend, &mut m, 1500, &mut |_| true).unwrap_or_else(|e| panic!("{e}"));
+            runs.push((m, backend.host_times()));
+        }
+        let [(spliced, s), (whole, w)] = [runs.remove(0), runs.remove(0)];
+        let (f, r) = (spliced.dissipated.friction, spliced.dissipated.released);
+        let (wf, wr) = (whole.dissipated.friction, whole.dissipated.released);
+        eprintln!(
+            "{:?} {:?}: {} / {} detections, {} / {} bytes moved ({:.3}); {} contacts; friction {f:e} / {wf:e} J, released {r:e} / {wr:e} J",
+            o.adapter,
+            o.precision,
+            s.detections,
+            w.detections,
+            s.detection_bytes,
+            w.detection_bytes,
+            s.detection_bytes as f64 / w.detection_bytes as f64,
+            spliced.contacts.len(),
+        );
+        assert!(s.detections > 3 && s.detections == w.detections, "{:?}: {s:?} {w:?}", o.precision);
+        assert!(spliced.blocks == whole.blocks, "{:?}: the blocks differ", o.precision);
+        assert!(spliced.contacts == whole.contacts, "{:?}: the contacts differ", o.precision);
+        let round = if is_f32(&o) { 1e-5 } else { 1e-12 };
+        assert!(f > 0.0 && (f - wf).abs() <= round * f && (r - wr).abs() <= round * (f + r), "{:?}: the ledger", o.precision);
+        assert!(s.detection_bytes < w.detection_bytes, "{:?}: {s:?} {w:?}", o.precision);
+    }
+}
+
+/// `splice_contacts` on the device is its Rust twin (`d3::gpu::splice::splice_contacts`) bit for
+/// bit: records kept and fresh in a shuffled order over several workgroups (a kept contact named
+/// twice, runs of no logical contacts, a subnormal and a negative zero among the values), the
+/// output's records, logical contacts and the workgroups' banks.
+#[test]
+fn the_splice_kernel_is_its_twin() {
+    use blockdem::d3::gpu::layout::{Contact, Logical, Real};
+    use blockdem::d3::gpu::splice::splice_contacts;
+    fn check<R: Real>(backend: &GpuBackend, what: &str) {
+        let r = R::from_f64;
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let records = |n: usize, next: &mut dyn FnMut() -> u64| {
+            let mut contacts = Vec::new();
+            let mut logicals = Vec::new();
+            for k in 0..n {
+                let count = (next() % 5) as u32;
+                let value = |next: &mut dyn FnMut() -> u64| r((next() % 20_001) as f64 / 1000.0 - 10.0);
+                contacts.push(Contact::<R> {
+                    nx: value(next),
+                    ny: if k == 3 { r(-0.0) } else { value(next) },
+                    nz: value(next),
+                    kn: r(1e9),
+                    ks: r(5e8),
+                    friction: r(0.5),
+                    friction_work: r((next() % 1000) as f64 / 7.0),
+                    released_work: r((next() % 1000) as f64 / 3.0),
+                    block1: k as u32,
+                    block2: k as u32 + 1,
+                    logical_start: logicals.len() as u32,
+                    logical_count: count,
+                    ..Default::default()
+                });
+                for j in 0..count {
+                    logicals.push(Logical::<R> {
+                        px: value(next),
+                        py: value(next),
+                        pz: value(next),
+                        gap: if j == 1 { r(1e-40) } else { value(next) },
+                        normal_force: value(next),
+                        sx: value(next),
+                        kind: j % 3,
+                        v1: (next() % 8) as u32,
+                        live: (next() % 4 != 0) as u32,
+                        ..Default::default()
+                    });
+                }
+            }
+            (contacts, logicals)
+        };
+        let kept = records(300, &mut next);
+        let fresh = records(120, &mut next);
+        let mut sources = Vec::new();
+        let mut start = 0u32;
+        for k in 0..400u32 {
+            let (source, count) = if next() % 3 == 0 {
+                let i = (next() % 120) as u32;
+                (blockdem::d3::gpu::layout::SPLICE_FRESH | i, fresh.0[i as usize].logical_count)
+            } else {
+                let i = if k == 7 { 5 } else { (next() % 300) as u32 };
+                (i, kept.0[i as usize].logical_count)
+            };
+            sources.push([source, start]);
+            start += count;
+        }
+        let twin = splice_contacts((&kept.0, &kept.1), (&fresh.0, &fresh.1), &sources);
+        let device = backend.splice_contacts_on_device((&kept.0, &kept.1), (&fresh.0, &fresh.1), &sources).unwrap_or_else(|e| panic!("{e}"));
+        let bits = |x: &[u8]| x.to_vec();
+        assert!(twin.2.len() > 1, "{what}: one workgroup");
+        assert!(bits(bytemuck::cast_slice(&device.0)) == bits(bytemuck::cast_slice(&twin.0)), "{what}: the contacts");
+        assert!(bits(bytemuck::cast_slice(&device.1)) == bits(bytemuck::cast_slice(&twin.1)), "{what}: the logical contacts");
+        assert!(bits(bytemuck::cast_slice(&device.2)) == bits(bytemuck::cast_slice(&twin.2)), "{what}: the banks {:?} against {:?}", device.2, twin.2);
+    }
+    for o in targets() {
+        let backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+        let what = format!("{:?} {:?}", o.adapter, o.precision);
+        match o.precision {
+            Precision::F32 => check::<f32>(&backend, &what),
+            Precision::F64 => check::<f64>(&backend, &what),
         }
     }
 }

@@ -381,7 +381,9 @@ fn the_d3_end_cycle_kernel_and_its_halting_record_match_their_twins() {
 /// parses and validates in both precisions with its entry point, its record has the Rust twin's
 /// layout (`d3::gpu::layout::ContactEnergy`), its items per invocation are the Rust side's, and
 /// it writes its own binding 9; so does `critical_rows` (shaders/d3/critical_rows.wgsl, the time
-/// step's rows on the device) with its record `StepGive` at binding 9.
+/// step's rows on the device) with its record `StepGive` at binding 9, and `splice_contacts`
+/// (shaders/d3/splice_contacts.wgsl, a partial detection's splice) with its `Banked` and
+/// `Splice`, and the fresh sources' bit of the Rust side.
 #[test]
 fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
     use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
@@ -404,6 +406,9 @@ fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
             d3_layout::step_layouts::<R>(),
             "@binding(9) var<storage, read_write> gives: array<StepGive>",
         );
+        let splice = d3::splice_contacts_source(precision);
+        assert!(splice.contains(&format!("const SPLICE_FRESH: u32 = {:#x}u;", d3_layout::SPLICE_FRESH)));
+        check("splice_contacts", splice, precision, d3_layout::splice_layouts::<R>(), "@binding(15) var<storage, read_write> banked: array<Banked>");
     }
     both::<f32>(Precision::F32);
     both::<f64>(Precision::F64);

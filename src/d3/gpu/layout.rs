@@ -142,6 +142,47 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// The sums of the energy accumulators (friction, released; `Contact`) that one workgroup of
+    /// `splice_contacts` zeroed (shaders/d3/splice_contacts.wgsl; twin `splice::splice_contacts`):
+    /// a detection adds them into the bases ("Partial detections" in `d3::gpu`).
+    Banked {
+        friction: R, released: R,
+    }
+}
+
+/// `splice_contacts`' uniform (shaders/d3/splice_contacts.wgsl, its binding 9): how many
+/// contacts the output holds. 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Splice {
+    pub contacts: u32,
+    pub spare0: u32,
+    pub spare1: u32,
+    pub spare2: u32,
+}
+
+impl Splice {
+    /// The WGSL struct name and each field with its byte offset (for the naga layout test).
+    pub fn layout() -> StructLayout {
+        use std::mem::offset_of;
+        StructLayout {
+            name: "Splice",
+            size: std::mem::size_of::<Self>(),
+            fields: vec![
+                ("contacts", offset_of!(Self, contacts)),
+                ("spare0", offset_of!(Self, spare0)),
+                ("spare1", offset_of!(Self, spare1)),
+                ("spare2", offset_of!(Self, spare2)),
+            ],
+        }
+    }
+}
+
+/// A source of `splice_contacts` (`sources[k].x`) with this bit is a fresh contact (its index
+/// in the fresh buffers below the bit); without, a contact of the buffers as they were.
+pub const SPLICE_FRESH: u32 = 1 << 31;
+
 /// `ContactEnergy::driven` of a workgroup none of whose contacts is driven through.
 pub const NONE_DRIVEN: u32 = u32::MAX;
 
@@ -259,6 +300,12 @@ pub fn energy_layouts<R: Real>() -> Vec<StructLayout> {
 /// check.
 pub fn step_layouts<R: Real>() -> Vec<StructLayout> {
     vec![StepGive::<R>::layout()]
+}
+
+/// `splice_contacts`' structs' layouts (declared by `shaders/d3/splice_contacts.wgsl`), for the
+/// naga check.
+pub fn splice_layouts<R: Real>() -> Vec<StructLayout> {
+    vec![Banked::<R>::layout(), Splice::layout()]
 }
 
 /// `end_cycle`'s struct's layout (declared by `shaders/d3/end_cycle.wgsl`), for the naga check.

@@ -31,11 +31,12 @@
 //! detects again once a block has travelled half the contact-forming distance since the last
 //! detection (`DETECTION_SHARE`): a feature further than that distance from the common plane
 //! at a detection (so not a logical contact) cannot then have reached it, the two blocks having
-//! closed on each other by less than the distance. A detection reads the state back, runs
-//! stage 7 and the CPU's stage 4 with Δt = 0 (new logical contacts, their shear forces carried
-//! by key; normal forces from the gaps) for the blocks that moved ("Partial detections"), and
-//! re-uploads the blocks (their travel and adjacency), the contacts, logical contacts and
-//! adjacency lists; vertices, planes and edges (the shapes) stay on the device.
+//! closed on each other by less than the distance. A detection runs stage 7 and the CPU's stage 4
+//! with Δt = 0 (new logical contacts, their shear forces carried by key; normal forces from the
+//! gaps) for the blocks that moved ("Partial detections"), on their contacts read back, splices
+//! the fresh contacts into the device's buffers (`splice`) and uploads the blocks (their travel
+//! and adjacency) and the adjacency lists; vertices, planes and edges (the shapes) stay on the
+//! device.
 //!
 //! # Partial detections
 //!
@@ -52,9 +53,12 @@
 //! blocks has travelled less than the allowance since the contact was last refreshed (a
 //! detection is called as soon as any block reaches it, and a block's refresh refreshes all its
 //! contacts), so the two have closed by less than the contact-forming distance. The transfers
-//! are still whole (the next step: splice the changed records into the buffers).
-//! `GpuBackend::set_whole_detections` makes every detection whole, for comparison;
-//! `HostTimes` counts the contacts refreshed.
+//! are the changed contacts alone (`splice`): the moved blocks' contacts are gathered on the
+//! device and read back, and the fresh ones uploaded and spliced among the kept ones by a
+//! kernel (`splice_contacts`), the state bit for bit a whole re-upload's.
+//! `GpuBackend::set_whole_detections` makes every detection whole and
+//! `GpuBackend::set_whole_uploads` every transfer, for comparison; `HostTimes` counts the
+//! contacts refreshed and the bytes moved.
 //!
 //! So the GPU's results are not the CPU's bit for bit even in f64: between detections a vertex
 //! that slides off its face keeps its logical contact (with the gap the ray through the other
@@ -86,8 +90,9 @@
 //! logical buffers (`Checkpoint`, with the keys and bases they were taken under), read back into
 //! it only when the run fails (`recover`). So a check reads back a record per workgroup, where it
 //! read every contact and logical contact (at 10⁶ bricks about a gigabyte, every hundred
-//! cycles), and makes no copy of the contacts on the CPU. Between detections the model's contacts
-//! are as the last read-back left them.
+//! cycles), and makes no copy of the contacts on the CPU. The model's contacts are as the last
+//! read-back left them: a detection reads back those of the blocks that moved, the run's end
+//! (and a SAVE, a crack, a failure) every one.
 //!
 //! # Cracking on the device
 //!
@@ -184,6 +189,7 @@
 pub mod layout;
 pub mod profile;
 pub mod shaders;
+pub mod splice;
 
 use std::rc::Rc;
 
@@ -193,13 +199,14 @@ use glam::{DMat3, DQuat, DVec3};
 
 use super::cpu::{self, contact_stage};
 use super::geometry::Shape;
-use super::model::{Logical, LogicalKind, Model};
+use super::model::{LogicalKind, Model};
 use super::restart::DeviceState;
 use super::topology;
 use crate::driver::{self, CycleError, CycleReport};
 use crate::gpu::real::Real;
 use crate::gpu::wgsl::{dispatch_grid, layouts, storage, uniform, validate, workgroup_size};
 use crate::gpu::{AdapterChoice, AdapterSummary, GpuDevice, GpuError, Precision};
+use splice::Keys;
 
 /// The share of the contact-forming distance a block may travel between detections.
 pub const DETECTION_SHARE: f64 = 0.5;
@@ -304,8 +311,7 @@ struct State {
     bind: wgpu::BindGroup,
     /// The logical contacts' kinds as uploaded, contact by contact (the read-back's keys;
     /// shared with the device checkpoint taken under them).
-    keys: Rc<Vec<Vec<LogicalKind>>>,
-    logical_count: usize,
+    keys: Rc<Keys>,
     bases: Bases,
     /// The time step in the params buffer.
     dt: f64,
@@ -340,6 +346,15 @@ pub struct GpuBackend {
     /// Every detection between batches whole (all pairs searched, every contact's stage 4), as
     /// before partial detections: for comparison ([`GpuBackend::set_whole_detections`]).
     whole_detections: bool,
+    /// Every partial detection's transfers whole (every contact read back and uploaded), as
+    /// before they were spliced: for comparison ([`GpuBackend::set_whole_uploads`]).
+    whole_uploads: bool,
+    /// `splice_contacts` (a partial detection's splice of the contact buffers, `splice`) and its
+    /// bindings' layout: its output at bindings 5 and 6, its own at 9 to 15.
+    splice_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    /// The contact and logical buffers the last splice replaced, the next one's output where
+    /// they hold it.
+    spare_contacts: Option<(wgpu::Buffer, wgpu::Buffer)>,
     /// `contact_energy` (the energy check's contact sums and overlap test) and its bindings'
     /// layout: the params, blocks, contacts, logical contacts and its records (binding 9).
     energy_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
@@ -366,9 +381,8 @@ pub struct GpuBackend {
 struct Checkpoint {
     contacts: wgpu::Buffer,
     logicals: wgpu::Buffer,
-    keys: Rc<Vec<Vec<LogicalKind>>>,
+    keys: Rc<Keys>,
     contact_count: usize,
-    logical_count: usize,
     bases: Bases,
     /// Whether it holds a state of the current run (the buffers are kept from run to run).
     valid: bool,
@@ -387,6 +401,10 @@ pub struct HostTimes {
     /// moved).
     pub listed: u64,
     pub refreshed: u64,
+    /// Bytes the detections moved between host and device (read back and uploaded): a whole
+    /// transfer's every contact and logical contact both ways, a spliced one's the moved
+    /// blocks' contacts (`splice`); the blocks and adjacency in both.
+    pub detection_bytes: u64,
     /// Seconds in the energy checks (every hundred cycles: `contact_energy` and `critical_rows`
     /// on the device and their records read back, the blocks' terms on the CPU, the device
     /// checkpoint's copy after one passed), and how many there were.
@@ -408,6 +426,7 @@ impl GpuBackend {
         let kernels = vec![Kernels::new(&dev, Variant { sdef: false, boundary: false })?];
         let energy_kernel = energy_kernel(&dev)?;
         let step_kernel = step_kernel(&dev)?;
+        let splice_kernel = splice_kernel(&dev)?;
         Ok(GpuBackend {
             dev,
             kernels,
@@ -419,6 +438,9 @@ impl GpuBackend {
             screened_cap: driver::CHECK_INTERVAL,
             host: HostTimes::default(),
             whole_detections: false,
+            whole_uploads: false,
+            splice_kernel,
+            spare_contacts: None,
             energy_kernel,
             energy_out: None,
             step_kernel,
@@ -433,6 +455,13 @@ impl GpuBackend {
     /// default: those of the blocks that moved; "Partial detections").
     pub fn set_whole_detections(&mut self, whole: bool) {
         self.whole_detections = whole;
+    }
+
+    /// Makes every partial detection's transfers whole (`true`: every contact and logical contact
+    /// read back and uploaded, as before they were spliced) or spliced (the default: the moved
+    /// blocks' contacts only, `splice`).
+    pub fn set_whole_uploads(&mut self, whole: bool) {
+        self.whole_uploads = whole;
     }
 
     pub fn adapter(&self) -> &AdapterSummary {
@@ -496,9 +525,9 @@ impl GpuBackend {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let (vertices, planes, edges) = shape_pods::<R>(model);
         let vertices = self.buffer("d3 vertices", bytemuck::cast_slice(&vertices), storage_usage);
-        let (blocks, contacts, logicals, adjacency, keys, logical_count) = self.topology_buffers::<R>(model);
+        let (blocks, contacts, logicals, adjacency, keys) = self.topology_buffers::<R>(model);
         let dt = model.timestep();
-        self.install::<R>(model, dt, vertices, [blocks, contacts, logicals, adjacency], keys, logical_count, (&planes, &edges), bases(model))
+        self.install::<R>(model, dt, vertices, [blocks, contacts, logicals, adjacency], keys, (&planes, &edges), bases(model))
     }
 
     /// The state made of its buffers: the shapes' planes and edges and the params (with the time
@@ -510,8 +539,7 @@ impl GpuBackend {
         dt: f64,
         vertices: wgpu::Buffer,
         [blocks, contacts, logicals, adjacency]: [wgpu::Buffer; 4],
-        keys: Vec<Vec<LogicalKind>>,
-        logical_count: usize,
+        keys: Keys,
         (planes, edges): (&[layout::Plane<R>], &[u32]),
         bases: Bases,
     ) -> Result<(), GpuError> {
@@ -550,25 +578,7 @@ impl GpuBackend {
         };
         let keys = Rc::new(keys);
         let gives = self.buffer("d3 step gives", bytemuck::cast_slice(&step_gives::<R>(model)), storage_usage);
-        self.state = Some(State {
-            params,
-            blocks,
-            vertices,
-            planes,
-            edges,
-            contacts,
-            logicals,
-            adjacency,
-            sdef,
-            halt,
-            variant,
-            bind,
-            keys,
-            logical_count,
-            bases,
-            dt,
-            gives,
-        });
+        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, halt, variant, bind, keys, bases, dt, gives });
         Ok(())
     }
 
@@ -580,7 +590,7 @@ impl GpuBackend {
             record_count(model) * std::mem::size_of::<layout::Block<R>>(),
             vertex_count(model) * std::mem::size_of::<layout::Vertex<R>>(),
             model.contacts.len() * std::mem::size_of::<layout::Contact<R>>(),
-            s.logical_count * std::mem::size_of::<layout::Logical<R>>(),
+            s.keys.logical_count() * std::mem::size_of::<layout::Logical<R>>(),
         ];
         let [blocks, vertices, contacts, logicals] = self.dev.read_parts(
             &[(&s.blocks, sizes[0] as u64), (&s.vertices, sizes[1] as u64), (&s.contacts, sizes[2] as u64), (&s.logicals, sizes[3] as u64)],
@@ -591,7 +601,7 @@ impl GpuBackend {
             f64_kernels: self.dev.precision == Precision::F64,
             dt: s.dt,
             bases: [b.external_work, b.mass_damping, b.contact_damping, b.friction, b.released],
-            keys: (*s.keys).clone(),
+            keys: s.keys.to_lists(),
             blocks,
             vertices,
             contacts,
@@ -658,7 +668,7 @@ impl GpuBackend {
         let vertices = self.buffer("d3 vertices", &device.vertices, storage_usage);
         let [external_work, mass_damping, contact_damping, friction, released] = device.bases;
         let bases = Bases { external_work, mass_damping, contact_damping, friction, released };
-        self.install::<R>(model, device.dt, vertices, buffers, device.keys.clone(), logical_count, (&planes, &edges), bases).map_err(|e| e.to_string())
+        self.install::<R>(model, device.dt, vertices, buffers, Keys::from_lists(&device.keys), (&planes, &edges), bases).map_err(|e| e.to_string())
     }
 
     /// The bind group of the buffers for the kernels `variant`, with the strain buffer `sdef` at
@@ -677,7 +687,7 @@ impl GpuBackend {
     /// The buffers a detection changes: blocks (their travel reset and adjacency lists),
     /// contacts, logical contacts and adjacency.
     #[allow(clippy::type_complexity)]
-    fn topology_buffers<R: Real>(&self, model: &Model) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, Vec<Vec<LogicalKind>>, usize) {
+    fn topology_buffers<R: Real>(&self, model: &Model) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, Keys) {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let (blocks, contacts, logicals, adjacency, keys) = topology_pods::<R>(model);
         (
@@ -686,7 +696,6 @@ impl GpuBackend {
             self.buffer("d3 logicals", bytemuck::cast_slice(&logicals), storage_usage),
             self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency), storage_usage),
             keys,
-            logicals.len(),
         )
     }
 
@@ -698,15 +707,15 @@ impl GpuBackend {
             Precision::F32 => fits::<f32>(model, cap)?,
             Precision::F64 => fits::<f64>(model, cap)?,
         }
-        let (blocks, contacts, logicals, adjacency, keys, logical_count) = match self.dev.precision {
+        let (blocks, contacts, logicals, adjacency, keys) = match self.dev.precision {
             Precision::F32 => self.topology_buffers::<f32>(model),
             Precision::F64 => self.topology_buffers::<f64>(model),
         };
+        self.host.detection_bytes += blocks.size() + contacts.size() + logicals.size() + adjacency.size();
         let Some(s) = self.state.as_ref() else { return Ok(()) };
         let bind = self.bind(s.variant, &[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency], s.sdef.as_ref());
         let s = self.state.as_mut().expect("state");
-        (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys, s.logical_count) =
-            (blocks, contacts, logicals, adjacency, bind, Rc::new(keys), logical_count);
+        (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys) = (blocks, contacts, logicals, adjacency, bind, Rc::new(keys));
         s.bases = bases(model);
         // The params hold the counts the kernels bound their loops and the contacts' bodies'
         // place in the adjacency by (`contact_bodies`): the contacts may be more or fewer now.
@@ -862,21 +871,15 @@ impl GpuBackend {
 
     fn read_contacts_as<R: Real>(&self, model: &mut Model) -> Result<(), GpuError> {
         let Some(s) = self.state.as_ref() else { return Ok(()) };
-        self.read_contacts_from::<R>(model, (&s.contacts, &s.logicals), &s.keys, s.logical_count, s.bases)
+        self.read_contacts_from::<R>(model, (&s.contacts, &s.logicals), &s.keys, s.bases)
     }
 
     /// Contacts and logical contacts read into the model from `buffers` (the state's, or the
-    /// device checkpoint's), uploaded under `keys` (`logical_count` logical contacts), their
-    /// energy accumulators counting from `bases`.
-    fn read_contacts_from<R: Real>(
-        &self,
-        model: &mut Model,
-        buffers: (&wgpu::Buffer, &wgpu::Buffer),
-        keys: &[Vec<LogicalKind>],
-        logical_count: usize,
-        bases: Bases,
-    ) -> Result<(), GpuError> {
+    /// device checkpoint's), uploaded under `keys`, their energy accumulators counting from
+    /// `bases`.
+    fn read_contacts_from<R: Real>(&self, model: &mut Model, buffers: (&wgpu::Buffer, &wgpu::Buffer), keys: &Keys, bases: Bases) -> Result<(), GpuError> {
         let n = model.contacts.len();
+        let logical_count = keys.logical_count();
         let (contacts, logicals) = self.dev.read_parts(
             &[
                 (buffers.0, (n * std::mem::size_of::<layout::Contact<R>>()) as u64),
@@ -884,32 +887,17 @@ impl GpuBackend {
             ],
             |bytes| (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1])),
         )?;
-        let f = |x: R| x.to_f64();
-        let (mut friction, mut released) = (0.0, 0.0);
         // The points' origins: block 1's centroid in f32 (read back with the blocks, before).
         let origins: Vec<DVec3> = model.contacts.iter().map(|c| point_origin::<R>(model, c)).collect();
-        for (((c, g), keys), origin) in model.contacts.iter_mut().zip(&contacts).zip(keys).zip(origins) {
-            c.normal = DVec3::new(f(g.nx), f(g.ny), f(g.nz));
-            friction += f(g.friction_work);
-            released += f(g.released_work);
+        model.contacts.par_iter_mut().zip(&contacts).zip(&origins).enumerate().with_min_len(super::grain::CONTACT).for_each(|(k, ((c, g), &origin))| {
             let run = &logicals[g.logical_start as usize..(g.logical_start + g.logical_count) as usize];
-            c.logical = run
-                .iter()
-                .zip(keys)
-                .filter(|(l, _)| l.live != 0)
-                .map(|(l, kind)| Logical {
-                    kind: *kind,
-                    point: if relative::<R>() { origin + DVec3::new(f(l.px), f(l.py), f(l.pz)) } else { DVec3::new(f(l.px), f(l.py), f(l.pz)) },
-                    gap: f(l.gap),
-                    normal_force: f(l.normal_force),
-                    shear_force: DVec3::new(f(l.sx), f(l.sy), f(l.sz)),
-                    offset: f(l.offset),
-                })
-                .collect();
-            if c.logical.is_empty() {
-                c.category = None;
-                c.area = 0.0;
-            }
+            splice::contact_from_pods(c, g, run, keys.run(k), origin);
+        });
+        // The accumulators in the contacts' order (reruns repeat bit for bit).
+        let (mut friction, mut released) = (0.0, 0.0);
+        for g in &contacts {
+            friction += g.friction_work.to_f64();
+            released += g.released_work.to_f64();
         }
         model.dissipated.friction = bases.friction + friction;
         model.dissipated.released = bases.released + released;
@@ -1014,7 +1002,7 @@ impl GpuBackend {
             Precision::F32 => (std::mem::size_of::<layout::Contact<f32>>(), std::mem::size_of::<layout::Logical<f32>>()),
             Precision::F64 => (std::mem::size_of::<layout::Contact<f64>>(), std::mem::size_of::<layout::Logical<f64>>()),
         };
-        let sizes = [(model.contacts.len() * contact_size) as u64, (s.logical_count * logical_size) as u64];
+        let sizes = [(model.contacts.len() * contact_size) as u64, (s.keys.logical_count() * logical_size) as u64];
         let make = |label: &str, size: u64| {
             self.dev.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -1037,15 +1025,7 @@ impl GpuBackend {
             enc.copy_buffer_to_buffer(&s.logicals, 0, &logicals, 0, sizes[1]);
         }
         self.dev.queue.submit([enc.finish()]);
-        self.checkpoint = Some(Checkpoint {
-            contacts,
-            logicals,
-            keys: Rc::clone(&s.keys),
-            contact_count: model.contacts.len(),
-            logical_count: s.logical_count,
-            bases: s.bases,
-            valid: true,
-        });
+        self.checkpoint = Some(Checkpoint { contacts, logicals, keys: Rc::clone(&s.keys), contact_count: model.contacts.len(), bases: s.bases, valid: true });
     }
 
     /// The whole state read back into the model.
@@ -1055,11 +1035,22 @@ impl GpuBackend {
         Ok(bad)
     }
 
-    /// A detection between cycles: the state read back, stage 7 (neighbour lists) and the CPU's
-    /// stage 4 with Δt = 0 (the logical contacts afresh), the changed buffers re-uploaded.
+    /// A detection between cycles: stage 7 (neighbour lists) and the CPU's stage 4 with Δt = 0
+    /// (the logical contacts afresh), for every block where the lists are stale or detections are
+    /// whole, else for the blocks that moved ("Partial detections"). A whole detection reads every
+    /// contact back and uploads them all; a partial one the moved blocks' contacts, spliced into
+    /// the device's buffers (`splice`), or every contact where uploads are whole.
     fn detect(&mut self, model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
+        let whole = model.neighbours_stale || self.whole_detections;
+        if !whole && !self.whole_uploads {
+            return match self.dev.precision {
+                Precision::F32 => self.detect_spliced::<f32>(model, report),
+                Precision::F64 => self.detect_spliced::<f64>(model, report),
+            };
+        }
         self.read_contacts(model).map_err(device_error)?;
-        if model.neighbours_stale || self.whole_detections {
+        self.host.detection_bytes += self.contact_bytes(model);
+        if whole {
             let (created, dropped) = topology::update_neighbours(model);
             report.contacts_created += created;
             report.contacts_dropped += dropped;
@@ -1082,6 +1073,37 @@ impl GpuBackend {
         cpu::overlap_check(model)?;
         self.reupload(model).map_err(device_error)
     }
+
+    /// The bytes of the contact and logical records the device holds for `model`'s contacts.
+    fn contact_bytes(&self, model: &Model) -> u64 {
+        let Some(s) = self.state.as_ref() else { return 0 };
+        let (contact, logical) = match self.dev.precision {
+            Precision::F32 => (std::mem::size_of::<layout::Contact<f32>>(), std::mem::size_of::<layout::Logical<f32>>()),
+            Precision::F64 => (std::mem::size_of::<layout::Contact<f64>>(), std::mem::size_of::<layout::Logical<f64>>()),
+        };
+        (model.contacts.len() * contact + s.keys.logical_count() * logical) as u64
+    }
+}
+
+/// `splice_contacts`' pipeline and its bindings' layout (its output, the contacts and logical
+/// contacts at bindings 5 and 6; its uniform at 9; the kept and fresh records, read, at 10 to
+/// 13; the sources at 14 and the banks at 15), in the device's precision.
+fn splice_kernel(dev: &GpuDevice) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
+    let scopes = dev.creation_scopes();
+    let entries = [
+        storage(5, false),
+        storage(6, false),
+        uniform(9),
+        storage(10, true),
+        storage(11, true),
+        storage(12, true),
+        storage(13, true),
+        storage(14, true),
+        storage(15, false),
+    ];
+    let kernel = kernel_of_its_own(dev, "splice_contacts", shaders::splice_contacts_source(dev.precision), &entries)?;
+    scopes.check(dev)?;
+    Ok(kernel)
 }
 
 /// `contact_energy`'s pipeline and its bindings' layout (the params, blocks, contacts, logical
@@ -1310,7 +1332,15 @@ fn vertex_count(model: &Model) -> usize {
 /// lists) and the parts' records after them, the contacts, their logical contacts, the adjacency
 /// (the blocks' lists, then the contacts' bodies), and each contact's keys.
 #[allow(clippy::type_complexity)]
-fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Vec<u32>, Vec<Vec<LogicalKind>>) {
+fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Vec<u32>, Keys) {
+    let (blocks, adjacency) = block_pods::<R>(model);
+    let (contacts, logicals, keys) = contact_pods::<R>(model, model.contacts.iter());
+    (blocks, contacts, logicals, adjacency, keys)
+}
+
+/// The blocks (their travel and adjacency lists) and the parts' records after them, and the
+/// adjacency (the blocks' lists, then the contacts' bodies), as the kernels take them.
+fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
     // Adjacency: each block's contacts in the contacts' order.
     let mut lists: Vec<Vec<u32>> = vec![Vec::new(); model.blocks.len()];
     for (k, c) in model.contacts.iter().enumerate() {
@@ -1428,10 +1458,19 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
             adjacency.push(if b.parts.is_empty() { i } else { first_part[i as usize] + part });
         }
     }
-    let mut contacts = Vec::with_capacity(model.contacts.len());
+    (blocks, adjacency)
+}
+
+/// The contacts `which` (of the model's) as the kernels take them: their records, each with the
+/// run of its logical contacts in the second list, and their keys.
+fn contact_pods<'m, R: Real>(
+    model: &'m Model,
+    which: impl ExactSizeIterator<Item = &'m super::model::Contact>,
+) -> (Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Keys) {
+    let mut contacts = Vec::with_capacity(which.len());
     let mut logicals = Vec::new();
-    let mut keys = Vec::with_capacity(model.contacts.len());
-    for c in &model.contacts {
+    let mut keys = Keys::with_capacity(which.len(), 0);
+    for c in which {
         let mat = model.contact_material(c);
         let r = |x: f64| R::from_f64(x);
         contacts.push(layout::Contact::<R> {
@@ -1448,7 +1487,7 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
             logical_count: c.logical.len() as u32,
             ..Default::default()
         });
-        keys.push(c.logical.iter().map(|l| l.kind).collect());
+        keys.push(c.logical.iter().map(|l| l.kind));
         let origin = point_origin::<R>(model, c);
         for l in &c.logical {
             let [kind, v1, v2, v3, v4] = logical_words(l.kind);
@@ -1472,7 +1511,7 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
             });
         }
     }
-    (blocks, contacts, logicals, adjacency, keys)
+    (contacts, logicals, keys)
 }
 
 /// The strain state as the kernels take it (`layout::SdefBlock`, one per block, `live` 0 for a
@@ -1591,11 +1630,10 @@ fn bases(model: &Model) -> Bases {
     }
 }
 
-/// How many cycles, at the velocities now, until the first free block has travelled
-/// `DETECTION_SHARE` of the contact-forming distance since the last detection (at least 1);
-/// None when nothing moves.
-pub fn cycles_to_detection(model: &Model) -> Option<u64> {
-    let dt = model.timestep();
+/// How many cycles of step `dt`, at the velocities now, until the first free block has
+/// travelled `DETECTION_SHARE` of the contact-forming distance since the last detection (at
+/// least 1); None when nothing moves.
+pub fn cycles_to_detection(model: &Model, dt: f64) -> Option<u64> {
     let limit = DETECTION_SHARE * model.contact_tolerance();
     model
         .blocks
@@ -1669,19 +1707,20 @@ impl driver::Stages<Model> for GpuBackend {
         // forces together, so such a scene runs cycle by cycle, its contacts read back after each.
         let point_load = cracking && super::cracking::has_point_load_candidates(model);
         let screened = cracking && !point_load && self.state.as_ref().is_some_and(|s| s.halt.is_some());
-        let mut n = if cracking && !screened { 1 } else { cycles_to_detection(model).unwrap_or(max).clamp(1, max.max(1)) };
-        if screened {
-            n = n.min(self.screened_cap);
-        }
         // The time step as the CPU takes it (`Model::timestep`, from the contacts there are and
         // their lever arms), worked out on the device from its state at the batch's start (or
         // by the energy check just before): the kernels hold it over the batch (the CPU renews
-        // it each cycle, as the logical contacts' lever arms move).
+        // it each cycle, as the logical contacts' lever arms move). The batch runs at it to the
+        // next detection (the model's contacts are the device's only as last read back).
         let dt = match self.next_timestep.take() {
             Some(dt) => dt,
             None => self.device_timestep(model).map_err(device_error)?,
         };
         self.set_timestep(model, dt);
+        let mut n = if cracking && !screened { 1 } else { cycles_to_detection(model, dt).unwrap_or(max).clamp(1, max.max(1)) };
+        if screened {
+            n = n.min(self.screened_cap);
+        }
         let (ran, halted) = if screened {
             let (ran, halted) = match self.dispatch_halting(model, n).map_err(device_error)? {
                 Some(h) => (h.cycles_done as u64, h.halted != 0),
@@ -1814,8 +1853,8 @@ impl driver::Stages<Model> for GpuBackend {
         }
         let Some(cp) = self.checkpoint.as_ref() else { return Ok(()) };
         let read = match self.dev.precision {
-            Precision::F32 => self.read_contacts_from::<f32>(last_good, (&cp.contacts, &cp.logicals), &cp.keys, cp.logical_count, cp.bases),
-            Precision::F64 => self.read_contacts_from::<f64>(last_good, (&cp.contacts, &cp.logicals), &cp.keys, cp.logical_count, cp.bases),
+            Precision::F32 => self.read_contacts_from::<f32>(last_good, (&cp.contacts, &cp.logicals), &cp.keys, cp.bases),
+            Precision::F64 => self.read_contacts_from::<f64>(last_good, (&cp.contacts, &cp.logicals), &cp.keys, cp.bases),
         };
         read.map_err(device_error)
     }

@@ -139,6 +139,19 @@ pub fn critical_rows_source(precision: Precision) -> String {
     compose(CRITICAL_ROWS, precision, false, false)
 }
 
+/// `splice_contacts`, a partial detection's splice of the contact buffers on the device (twin
+/// `d3::gpu::splice::splice_contacts`). Not in [`KERNELS`]: not a stage of the cycle, and it has
+/// bindings of its own (`splice_contacts_source`).
+pub const SPLICE_CONTACTS: &str = include_str!("../../../shaders/d3/splice_contacts.wgsl");
+
+/// The full source of `splice_contacts` in one precision (any scene's: it copies the contacts and
+/// logical contacts, bindings 5 and 6 its output, and its own bindings 9 to 15), with the fresh
+/// sources' bit (`layout::SPLICE_FRESH`).
+pub fn splice_contacts_source(precision: Precision) -> String {
+    let body = format!("const SPLICE_FRESH: u32 = {:#x}u;\n{SPLICE_CONTACTS}", super::layout::SPLICE_FRESH);
+    compose(&body, precision, false, false)
+}
+
 /// The full source of one kernel in one precision, for a rigid scene.
 pub fn source(kernel: &str, precision: Precision) -> Option<String> {
     source_for(kernel, precision, false)

@@ -1,0 +1,423 @@
+//! A partial detection's transfers, spliced ("Partial detections" in `d3::gpu`).
+//!
+//! A partial detection changes only the contacts of the blocks that moved: their pairs are
+//! searched afresh and their logical contacts found afresh (stage 7 and the CPU's stage 4); every
+//! other contact keeps the state the device tracks. So the detection moves only those across:
+//!
+//! 1. the contacts that touch a moved block are gathered on the device into short buffers and
+//!    read back (their shear forces carry over by key, their accumulators are banked);
+//! 2. the CPU runs stage 7 for the moved blocks and its stage 4 for their contacts;
+//! 3. the fresh contacts (those of the moved blocks, in the new list) are uploaded with a source
+//!    per contact of the new list, and `splice_contacts` (shaders/d3/splice_contacts.wgsl, twin
+//!    [`splice_contacts`]) makes the new contact and logical buffers: a kept contact's record and
+//!    logical contacts copied from the buffers as they were, a fresh one's from the upload;
+//! 4. the blocks (their travel and adjacency ranges) and the adjacency are uploaded whole, as
+//!    after any detection (a block record is read back after every batch anyway).
+//!
+//! The device's state after a splice is a whole re-upload's bit for bit (the test
+//! `d3_gpu::spliced_detections_leave_the_state_a_whole_upload_leaves`), but for two things that
+//! do not act: a kept contact's dead logical contacts stay in place (a whole upload drops them;
+//! the kernels skip both), and the energy accumulators are banked by workgroup sums in the
+//! kernel precision (a whole upload adds each contact's in f64), so the ledger's friction and
+//! released terms differ by round-off.
+//!
+//! The model's contacts that no detection reads back are as the last read-back left them: a
+//! contact between blocks that have stood still since is stale there until the run's end, a
+//! SAVE, a crack or a failure reads every contact back (`sync`, `finish`, `recover`). So a
+//! partial detection's overlap check covers the contacts it refreshed; the device's energy
+//! check covers every contact each hundred cycles (`contact_energy`).
+
+use std::rc::Rc;
+
+use glam::DVec3;
+
+use super::{layout, GpuBackend, State};
+use crate::d3::cpu;
+use crate::d3::model::{Logical, LogicalKind, Model};
+use crate::d3::topology;
+use crate::driver::{CycleError, CycleReport};
+use crate::gpu::real::Real;
+use crate::gpu::wgsl::workgroup_size;
+use crate::gpu::GpuError;
+
+/// The logical contacts' kinds as uploaded, contact by contact: contact k's are
+/// `kinds[starts[k]..starts[k + 1]]`, the run its logical contacts fill in the logical buffer
+/// (the read-back's keys, and where a splice puts each run).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Keys {
+    kinds: Vec<LogicalKind>,
+    starts: Vec<u32>,
+}
+
+impl Default for Keys {
+    fn default() -> Self {
+        Keys { kinds: Vec::new(), starts: vec![0] }
+    }
+}
+
+impl Keys {
+    /// Keys for `contacts` contacts and `logicals` logical contacts, none pushed yet.
+    pub fn with_capacity(contacts: usize, logicals: usize) -> Self {
+        let mut starts = Vec::with_capacity(contacts + 1);
+        starts.push(0);
+        Keys { kinds: Vec::with_capacity(logicals), starts }
+    }
+
+    /// The keys of a SAVE's lists (`restart::DeviceState::keys`).
+    pub fn from_lists(lists: &[Vec<LogicalKind>]) -> Self {
+        let mut keys = Keys::with_capacity(lists.len(), lists.iter().map(Vec::len).sum());
+        lists.iter().for_each(|run| keys.push(run.iter().copied()));
+        keys
+    }
+
+    /// The lists a SAVE keeps.
+    pub fn to_lists(&self) -> Vec<Vec<LogicalKind>> {
+        (0..self.contacts()).map(|k| self.run(k).to_vec()).collect()
+    }
+
+    /// The next contact's run.
+    pub fn push(&mut self, run: impl IntoIterator<Item = LogicalKind>) {
+        self.kinds.extend(run);
+        self.starts.push(self.kinds.len() as u32);
+    }
+
+    /// Contact `k`'s run.
+    pub fn run(&self, k: usize) -> &[LogicalKind] {
+        &self.kinds[self.starts[k] as usize..self.starts[k + 1] as usize]
+    }
+
+    /// Where contact `k`'s run starts in the logical buffer.
+    pub fn start(&self, k: usize) -> u32 {
+        self.starts[k]
+    }
+
+    /// How many contacts.
+    pub fn contacts(&self) -> usize {
+        self.starts.len() - 1
+    }
+
+    /// How many logical contacts (dead ones in place).
+    pub fn logical_count(&self) -> usize {
+        self.kinds.len()
+    }
+}
+
+/// Twin of `splice_contacts` (shaders/d3/splice_contacts.wgsl): the contacts `sources` names,
+/// each (its source: `layout::SPLICE_FRESH` with its index in `fresh`, else its index in `kept`;
+/// the start of its run in the output's logical contacts), their records and logical contacts
+/// copied, `logical_start` set, the energy accumulators zeroed; and each workgroup's sums of what
+/// was zeroed, by the kernel's tree in the kernel precision.
+#[allow(clippy::type_complexity)]
+pub fn splice_contacts<R: Real>(
+    kept: (&[layout::Contact<R>], &[layout::Logical<R>]),
+    fresh: (&[layout::Contact<R>], &[layout::Logical<R>]),
+    sources: &[[u32; 2]],
+) -> (Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Vec<layout::Banked<R>>) {
+    let record = |[source, _]: [u32; 2]| {
+        let i = (source & !layout::SPLICE_FRESH) as usize;
+        if source & layout::SPLICE_FRESH != 0 {
+            (fresh.0[i], fresh.1)
+        } else {
+            (kept.0[i], kept.1)
+        }
+    };
+    let logical_count = sources.iter().map(|&s| s[1] as usize + record(s).0.logical_count as usize).max().unwrap_or(0);
+    let mut logicals = vec![layout::Logical::<R>::default(); logical_count];
+    let mut contacts = Vec::with_capacity(sources.len());
+    let mut zeroed = Vec::with_capacity(sources.len());
+    for &s in sources {
+        let (mut c, from) = record(s);
+        let (start, run) = (s[1] as usize, c.logical_start as usize..(c.logical_start + c.logical_count) as usize);
+        logicals[start..start + run.len()].copy_from_slice(&from[run]);
+        zeroed.push([c.friction_work, c.released_work]);
+        c.friction_work = R::from_f64(0.0);
+        c.released_work = R::from_f64(0.0);
+        c.logical_start = s[1];
+        contacts.push(c);
+    }
+    // Each workgroup's tree, as the kernel's (an f32 sum rounded from f64 is f32's own sum).
+    let size = workgroup_size() as usize;
+    let add = |a: R, b: R| R::from_f64(a.to_f64() + b.to_f64());
+    let banked = zeroed
+        .chunks(size)
+        .map(|group| {
+            let mut parts = vec![[R::from_f64(0.0); 2]; size];
+            parts[..group.len()].copy_from_slice(group);
+            let mut s = size / 2;
+            while s > 0 {
+                for i in 0..s {
+                    parts[i] = [add(parts[i][0], parts[i + s][0]), add(parts[i][1], parts[i + s][1])];
+                }
+                s /= 2;
+            }
+            layout::Banked { friction: parts[0][0], released: parts[0][1] }
+        })
+        .collect();
+    (contacts, logicals, banked)
+}
+
+/// A contact of the model as its record and run of logical contacts on the device give it: the
+/// normal, and the live logical contacts under `keys` (points from `origin` in f32, where they
+/// are kept from block 1's centroid); a contact with none has no category or area.
+pub(super) fn contact_from_pods<R: Real>(
+    c: &mut crate::d3::model::Contact,
+    g: &layout::Contact<R>,
+    run: &[layout::Logical<R>],
+    keys: &[LogicalKind],
+    origin: DVec3,
+) {
+    let f = |x: R| x.to_f64();
+    c.normal = DVec3::new(f(g.nx), f(g.ny), f(g.nz));
+    c.logical = run
+        .iter()
+        .zip(keys)
+        .filter(|(l, _)| l.live != 0)
+        .map(|(l, kind)| Logical {
+            kind: *kind,
+            point: if super::relative::<R>() { origin + DVec3::new(f(l.px), f(l.py), f(l.pz)) } else { DVec3::new(f(l.px), f(l.py), f(l.pz)) },
+            gap: f(l.gap),
+            normal_force: f(l.normal_force),
+            shear_force: DVec3::new(f(l.sx), f(l.sy), f(l.sz)),
+            offset: f(l.offset),
+        })
+        .collect();
+    if c.logical.is_empty() {
+        c.category = None;
+        c.area = 0.0;
+    }
+}
+
+/// The sums of the workgroups' banks, in order, in f64: (friction, released).
+fn bank_sum<R: Real>(banked: &[layout::Banked<R>]) -> (f64, f64) {
+    banked.iter().fold((0.0, 0.0), |(f, r), b| (f + b.friction.to_f64(), r + b.released.to_f64()))
+}
+
+impl GpuBackend {
+    /// A partial detection whose transfers are the changed contacts (the module doc): the moved
+    /// blocks' contacts read back, stage 7 and the CPU's stage 4 for them, the fresh contacts
+    /// spliced into the device's buffers, the blocks and adjacency uploaded.
+    pub(super) fn detect_spliced<R: Real>(&mut self, model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
+        let device = super::device_error;
+        let limit = super::REFRESH_SHARE * super::DETECTION_SHARE * model.contact_tolerance();
+        let moved: Vec<bool> = model.blocks.iter().map(|b| b.travel >= limit).collect();
+        let touched = cpu::contacts_touching(model, |k| moved[k]);
+        let (gathered, read) = self.read_touched::<R>(model, &touched).map_err(device)?;
+        // The contacts kept as the device holds them: their indices in its buffers, and their
+        // ids, to check the new list against.
+        let (kept_at, kept_ids): (Vec<u32>, Vec<u32>) =
+            model.contacts.iter().zip(&touched).enumerate().filter(|(_, (_, &t))| !t).map(|(k, (c, _))| (k as u32, c.id)).unzip();
+        let before = (model.dissipated.friction, model.dissipated.released);
+        let (created, dropped) = topology::update_neighbours_of(model, &moved);
+        report.contacts_created += created;
+        report.contacts_dropped += dropped;
+        report.topology_updates += 1;
+        let selected = cpu::contacts_touching(model, |k| moved[k]);
+        cpu::contact_stage_of(model, 0.0, true, &selected);
+        // What the stage booked (logical contacts that went while loaded), on the model's totals.
+        let stage = (model.dissipated.friction - before.0, model.dissipated.released - before.1);
+        self.host.refreshed += selected.iter().filter(|&&s| s).count() as u64;
+        self.host.listed += model.contacts.len() as u64;
+        cpu::overlap_check_of(model, &selected)?;
+
+        // The new list's sources and keys: a kept contact's run as the device holds it, a fresh
+        // one's as the stage found it. The list is in key order, as the old one was, so the
+        // kept contacts come in their old order.
+        let Some(s) = self.state.as_ref() else { return Ok(()) };
+        let old_keys = Rc::clone(&s.keys);
+        let mut keys = Keys::with_capacity(model.contacts.len(), old_keys.logical_count());
+        let mut sources = Vec::with_capacity(model.contacts.len());
+        let mut fresh = Vec::new();
+        let mut kept = kept_at.iter().zip(&kept_ids);
+        for (c, &refreshed) in model.contacts.iter().zip(&selected) {
+            let start = keys.logical_count() as u32;
+            if refreshed {
+                sources.push([layout::SPLICE_FRESH | fresh.len() as u32, start]);
+                keys.push(c.logical.iter().map(|l| l.kind));
+                fresh.push(c);
+            } else {
+                match kept.next() {
+                    Some((&at, &id)) if id == c.id => {
+                        sources.push([at, start]);
+                        keys.push(old_keys.run(at as usize).iter().copied());
+                    }
+                    _ => return Err(CycleError::Setup(format!("GPU: contact {} of the detection is not the device's next kept contact", c.id))),
+                }
+            }
+        }
+        if kept.next().is_some() {
+            return Err(CycleError::Setup("GPU: a contact kept by the detection is missing from its list".into()));
+        }
+        let cap = crate::gpu::device::binding_cap(&self.dev);
+        let check = |label, item, count| crate::gpu::device::check_fits(label, item, count, cap, R::PRECISION).map_err(device);
+        check("contacts", std::mem::size_of::<layout::Contact<R>>(), model.contacts.len())?;
+        check("logical contacts", std::mem::size_of::<layout::Logical<R>>(), keys.logical_count())?;
+        check("adjacency", 4, 4 * model.contacts.len())?;
+        let (fresh_contacts, fresh_logicals, _) = super::contact_pods::<R>(model, fresh.iter().copied());
+        let (blocks, adjacency) = super::block_pods::<R>(model);
+        let (banked, moved_bytes) = self.splice_into_state::<R>((&fresh_contacts, &fresh_logicals), &sources, keys, &blocks, &adjacency).map_err(device)?;
+        self.host.detection_bytes += read + moved_bytes;
+
+        // The bases: the blocks' terms the model's (read back after the batch); the contacts',
+        // the bases before plus every accumulator the detection zeroed (those read back, those
+        // spliced) and what its stage booked, as a whole upload's.
+        let banked = bank_sum(&banked);
+        let Some(s) = self.state.as_mut() else { return Ok(()) };
+        model.dissipated.friction = s.bases.friction + gathered.0 + banked.0 + stage.0;
+        model.dissipated.released = s.bases.released + gathered.1 + banked.1 + stage.1;
+        s.bases = super::bases(model);
+        self.write_params(model);
+        Ok(())
+    }
+
+    /// The contacts `touched` flags (the old list's) gathered on the device by `splice_contacts`
+    /// and read back into the model; returns their accumulators' sums (friction, released) and
+    /// the bytes moved.
+    fn read_touched<R: Real>(&mut self, model: &mut Model, touched: &[bool]) -> Result<((f64, f64), u64), GpuError> {
+        let Some(s) = self.state.as_ref() else { return Ok(((0.0, 0.0), 0)) };
+        let keys = Rc::clone(&s.keys);
+        let mut at = Vec::new();
+        let mut sources = Vec::new();
+        let mut logical_count = 0u32;
+        for (k, _) in touched.iter().enumerate().filter(|(_, &t)| t) {
+            at.push(k);
+            sources.push([k as u32, logical_count]);
+            logical_count += keys.run(k).len() as u32;
+        }
+        if at.is_empty() {
+            return Ok(((0.0, 0.0), 0));
+        }
+        let sizes = [at.len() * std::mem::size_of::<layout::Contact<R>>(), logical_count as usize * std::mem::size_of::<layout::Logical<R>>()];
+        let out = [self.output_buffer("d3 gathered contacts", sizes[0] as u64), self.output_buffer("d3 gathered logicals", sizes[1] as u64)];
+        let banked = self.splice::<R>((&s.contacts, &s.logicals), None, &sources, (&out[0], &out[1]))?;
+        let (contacts, logicals) = self.dev.read_parts(&[(&out[0], sizes[0] as u64), (&out[1], sizes[1] as u64)], |bytes| {
+            (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1]))
+        })?;
+        let origins: Vec<DVec3> = at.iter().map(|&k| super::point_origin::<R>(model, &model.contacts[k])).collect();
+        for ((&k, g), origin) in at.iter().zip(&contacts).zip(origins) {
+            let run = &logicals[g.logical_start as usize..(g.logical_start + g.logical_count) as usize];
+            contact_from_pods(&mut model.contacts[k], g, run, keys.run(k), origin);
+        }
+        let bytes = (sources.len() * 8 + sizes[0] + sizes[1] + banked.len() * std::mem::size_of::<layout::Banked<R>>()) as u64;
+        Ok((bank_sum(&banked), bytes))
+    }
+
+    /// The state's contact and logical buffers made anew by `splice_contacts` from themselves and
+    /// the `fresh` contacts as `sources` says (under `keys`), the blocks written and the
+    /// adjacency uploaded, the bind group renewed; returns the banks and the bytes moved.
+    fn splice_into_state<R: Real>(
+        &mut self,
+        fresh: (&[layout::Contact<R>], &[layout::Logical<R>]),
+        sources: &[[u32; 2]],
+        keys: Keys,
+        blocks: &[layout::Block<R>],
+        adjacency: &[u32],
+    ) -> Result<(Vec<layout::Banked<R>>, u64), GpuError> {
+        let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let sizes =
+            [(sources.len() * std::mem::size_of::<layout::Contact<R>>()) as u64, (keys.logical_count() * std::mem::size_of::<layout::Logical<R>>()) as u64];
+        // The output: the buffers the last splice left, where they hold it (the state's two
+        // buffers and these take turns), else new ones with room to grow.
+        let out = match self.spare_contacts.take() {
+            Some((c, l)) if c.size() >= sizes[0] && l.size() >= sizes[1] => (c, l),
+            _ => {
+                let room = |size: u64| (size + size / 4).min(crate::gpu::device::binding_cap(&self.dev).max(size));
+                (self.output_buffer("d3 contacts", room(sizes[0])), self.output_buffer("d3 logicals", room(sizes[1])))
+            }
+        };
+        let fresh_buffers = (
+            self.buffer("d3 fresh contacts", bytemuck::cast_slice(fresh.0), wgpu::BufferUsages::STORAGE),
+            self.buffer("d3 fresh logicals", bytemuck::cast_slice(fresh.1), wgpu::BufferUsages::STORAGE),
+        );
+        let Some(s) = self.state.as_ref() else { return Ok((Vec::new(), 0)) };
+        let banked = self.splice::<R>((&s.contacts, &s.logicals), Some((&fresh_buffers.0, &fresh_buffers.1)), sources, (&out.0, &out.1))?;
+        self.dev.queue.write_buffer(&s.blocks, 0, bytemuck::cast_slice(blocks));
+        let adjacency_buffer = self.buffer("d3 adjacency", bytemuck::cast_slice(adjacency), storage_usage);
+        let bind = self.bind(s.variant, &[&s.params, &s.blocks, &s.vertices, &s.planes, &s.edges, &out.0, &out.1, &adjacency_buffer], s.sdef.as_ref());
+        let s: &mut State = self.state.as_mut().expect("state");
+        let old_contacts = std::mem::replace(&mut s.contacts, out.0);
+        let old_logicals = std::mem::replace(&mut s.logicals, out.1);
+        s.adjacency = adjacency_buffer;
+        s.bind = bind;
+        s.keys = Rc::new(keys);
+        self.spare_contacts = Some((old_contacts, old_logicals));
+        let bytes = std::mem::size_of_val(fresh.0)
+            + std::mem::size_of_val(fresh.1)
+            + std::mem::size_of_val(sources)
+            + std::mem::size_of_val(blocks)
+            + std::mem::size_of_val(adjacency)
+            + banked.len() * std::mem::size_of::<layout::Banked<R>>();
+        Ok((banked, bytes as u64))
+    }
+
+    /// A storage buffer of `bytes` the kernels write and the host reads back (at least 512
+    /// bytes, as `buffer` makes an empty list: a binding may not be shorter than its struct).
+    fn output_buffer(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.dev.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(512).next_multiple_of(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// `splice_contacts` on the device: `out` made from `kept` and `fresh` (the kept buffers
+    /// where None: a gather) as `sources` says; returns the workgroups' banks.
+    fn splice<R: Real>(
+        &self,
+        kept: (&wgpu::Buffer, &wgpu::Buffer),
+        fresh: Option<(&wgpu::Buffer, &wgpu::Buffer)>,
+        sources: &[[u32; 2]],
+        out: (&wgpu::Buffer, &wgpu::Buffer),
+    ) -> Result<Vec<layout::Banked<R>>, GpuError> {
+        if sources.is_empty() {
+            return Ok(Vec::new());
+        }
+        let fresh = fresh.unwrap_or(kept);
+        let groups = (sources.len() as u32).div_ceil(workgroup_size());
+        let bank_bytes = groups as u64 * std::mem::size_of::<layout::Banked<R>>() as u64;
+        let bank = self.output_buffer("d3 splice banks", bank_bytes);
+        let header = layout::Splice { contacts: sources.len() as u32, ..Default::default() };
+        let header = self.buffer("d3 splice", bytemuck::bytes_of(&header), wgpu::BufferUsages::UNIFORM);
+        let sources = self.buffer("d3 splice sources", bytemuck::cast_slice(sources), wgpu::BufferUsages::STORAGE);
+        let entries = [
+            wgpu::BindGroupEntry { binding: 5, resource: out.0.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 6, resource: out.1.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: header.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 10, resource: kept.0.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 11, resource: kept.1.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 12, resource: fresh.0.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 13, resource: fresh.1.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 14, resource: sources.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 15, resource: bank.as_entire_binding() },
+        ];
+        self.dispatch_own("splice_contacts", &self.splice_kernel, &entries, groups);
+        self.dev.read_pod(&bank, groups as usize)
+    }
+
+    /// `splice_contacts` on the device on records given here (for the test that holds it against
+    /// its twin, [`splice_contacts`]): the output's contacts, logical contacts and banks. Err
+    /// where `R` is not the device's precision.
+    #[allow(clippy::type_complexity)]
+    pub fn splice_contacts_on_device<R: Real>(
+        &self,
+        kept: (&[layout::Contact<R>], &[layout::Logical<R>]),
+        fresh: (&[layout::Contact<R>], &[layout::Logical<R>]),
+        sources: &[[u32; 2]],
+    ) -> Result<(Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Vec<layout::Banked<R>>), GpuError> {
+        if R::PRECISION != self.dev.precision {
+            return Err(GpuError::Setup(format!("records in {:?} for kernels in {:?}", R::PRECISION, self.dev.precision)));
+        }
+        let usage = wgpu::BufferUsages::STORAGE;
+        let upload = |label, bytes: &[u8]| self.buffer(label, bytes, usage);
+        let kept_buffers = (upload("d3 kept contacts", bytemuck::cast_slice(kept.0)), upload("d3 kept logicals", bytemuck::cast_slice(kept.1)));
+        let fresh_buffers = (upload("d3 fresh contacts", bytemuck::cast_slice(fresh.0)), upload("d3 fresh logicals", bytemuck::cast_slice(fresh.1)));
+        let (_, twin_logicals, _) = splice_contacts(kept, fresh, sources);
+        let sizes = [sources.len() * std::mem::size_of::<layout::Contact<R>>(), twin_logicals.len() * std::mem::size_of::<layout::Logical<R>>()];
+        let out = (self.output_buffer("d3 contacts", sizes[0] as u64), self.output_buffer("d3 logicals", sizes[1] as u64));
+        let banked = self.splice::<R>((&kept_buffers.0, &kept_buffers.1), Some((&fresh_buffers.0, &fresh_buffers.1)), sources, (&out.0, &out.1))?;
+        let (contacts, logicals) = self.dev.read_parts(&[(&out.0, sizes[0] as u64), (&out.1, sizes[1] as u64)], |bytes| {
+            (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1]))
+        })?;
+        Ok((contacts, logicals, banked))
+    }
+}
