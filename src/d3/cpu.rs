@@ -235,7 +235,7 @@ impl driver::Stages<Model> for Stages {
     }
 
     fn keep(&mut self, model: &Model, last_good: &mut Model) {
-        last_good.clone_from(model);
+        last_good.keep_from(model, true);
     }
 }
 

@@ -496,7 +496,7 @@ pub fn parts_of(shape: &Shape, volume: f64) -> Result<Vec<Part>, String> {
         }
         total += props.volume;
         let n = part.vertices.len();
-        parts.push(Part { shape: part, offset: props.centroid, vertices: vec![DVec3::ZERO; n] });
+        parts.push(Part { shape: std::sync::Arc::new(part), offset: props.centroid, vertices: vec![DVec3::ZERO; n] });
     }
     if (total - volume).abs() > 1e-9 * volume.abs() {
         return Err(format!("its convex parts' volumes sum to {total}, not its volume {volume}: the surface may touch or cross itself"));

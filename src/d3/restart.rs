@@ -465,9 +465,9 @@ pub fn load(path: &Path) -> Result<SaveFile, RestartError> {
     check(&saved.model).map_err(|reason| RestartError::Inconsistent { path: p(), reason })?;
     // What the shapes do not save (`Shape::inradius`), from what they do (the indices checked).
     for b in &mut saved.model.blocks {
-        b.shape.inradius = b.shape.compute_inradius();
+        std::sync::Arc::make_mut(&mut b.shape).inradius = b.shape.compute_inradius();
         for part in &mut b.parts {
-            part.shape.inradius = part.shape.compute_inradius();
+            std::sync::Arc::make_mut(&mut part.shape).inradius = part.shape.compute_inradius();
         }
     }
     Ok(saved)
