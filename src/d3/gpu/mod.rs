@@ -1341,99 +1341,49 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
 /// The blocks (their travel and adjacency lists) and the parts' records after them, and the
 /// adjacency (the blocks' lists, then the contacts' bodies), as the kernels take them.
 fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
-    // Adjacency: each block's contacts in the contacts' order.
-    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); model.blocks.len()];
-    for (k, c) in model.contacts.iter().enumerate() {
-        lists[c.blocks[0] as usize].push(2 * k as u32);
-        lists[c.blocks[1] as usize].push(2 * k as u32 + 1);
+    let n = model.blocks.len();
+    // Adjacency: each block's contacts in the contacts' order, block after block (counted,
+    // then placed), then each contact's two bodies.
+    let mut adjacency_start = vec![0u32; n + 1];
+    for c in &model.contacts {
+        adjacency_start[c.blocks[0] as usize + 1] += 1;
+        adjacency_start[c.blocks[1] as usize + 1] += 1;
     }
-    let mut adjacency = Vec::new();
-    let mut blocks = Vec::with_capacity(record_count(model));
-    // The parts' records, after the blocks', and the first of each block's (`body_record`).
+    for k in 0..n {
+        adjacency_start[k + 1] += adjacency_start[k];
+    }
+    let mut adjacency = vec![0u32; adjacency_start[n] as usize];
+    let mut next = adjacency_start.clone();
+    for (k, c) in model.contacts.iter().enumerate() {
+        for (side, b) in c.blocks.into_iter().enumerate() {
+            adjacency[next[b as usize] as usize] = 2 * k as u32 + side as u32;
+            next[b as usize] += 1;
+        }
+    }
+    // Where each block's vertices, planes and edges start (a pass of sums), and the parts'
+    // records, after the blocks', with the first of each block's (`body_record`).
+    #[derive(Clone, Copy)]
+    struct Starts {
+        vertex: u32,
+        plane: u32,
+        edge: u32,
+    }
+    let mut starts = Vec::with_capacity(n);
     let mut part_records = Vec::new();
-    let mut first_part = Vec::with_capacity(model.blocks.len());
+    let mut first_part = Vec::with_capacity(n);
     let (mut vertex_start, mut plane_start, mut edge_start) = (0u32, 0u32, 0u32);
-    for (b, list) in model.blocks.iter().zip(&lists) {
-        let inv = if b.inertia_ref.determinant() > 0.0 { b.inertia_ref.inverse() } else { DMat3::ZERO };
-        let r = |x: f64| R::from_f64(x);
-        let cols = inv.to_cols_array();
-        let feature_count = features_of(&b.shape);
-        let part_vertices: usize = b.parts.iter().map(|p| p.shape.vertices.len()).sum();
-        // The centroid in the kernel precision and what that leaves (the compensated pair).
-        let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
-        blocks.push(layout::Block::<R> {
-            cx: hi[0],
-            cy: hi[1],
-            cz: hi[2],
-            cx_lo: r(b.centroid.x - hi[0].to_f64()),
-            cy_lo: r(b.centroid.y - hi[1].to_f64()),
-            cz_lo: r(b.centroid.z - hi[2].to_f64()),
-            vx: r(b.velocity.x),
-            vy: r(b.velocity.y),
-            vz: r(b.velocity.z),
-            lx: r(b.angular_momentum.x),
-            ly: r(b.angular_momentum.y),
-            lz: r(b.angular_momentum.z),
-            wx: r(b.angular_velocity.x),
-            wy: r(b.angular_velocity.y),
-            wz: r(b.angular_velocity.z),
-            qx: r(b.orientation.x),
-            qy: r(b.orientation.y),
-            qz: r(b.orientation.z),
-            qw: r(b.orientation.w),
-            mass: r(b.mass),
-            inv0: r(cols[0]),
-            inv1: r(cols[1]),
-            inv2: r(cols[2]),
-            inv3: r(cols[3]),
-            inv4: r(cols[4]),
-            inv5: r(cols[5]),
-            inv6: r(cols[6]),
-            inv7: r(cols[7]),
-            inv8: r(cols[8]),
-            load_x: r(b.load.x),
-            load_y: r(b.load.y),
-            load_z: r(b.load.z),
-            radius: r(b.shape.radius),
-            fx: r(b.force.x),
-            fy: r(b.force.y),
-            fz: r(b.force.z),
-            mx: r(b.moment.x),
-            my: r(b.moment.y),
-            mz: r(b.moment.z),
-            travel: r(b.travel),
-            fixed: if b.fixed {
-                layout::BLOCK_FIXED
-            } else if b.held {
-                layout::BLOCK_HELD
-            } else {
-                layout::BLOCK_FREE
-            },
-            vertex_start,
-            // A concave block's parts' vertices too: stage 2 places them with its own.
-            vertex_count: (b.shape.vertices.len() + part_vertices) as u32,
-            plane_start,
-            plane_count: b.shape.planes.len() as u32,
-            edge_start,
-            edge_dir_count: b.shape.edge_directions.len() as u32,
-            feature_count,
-            adjacency_start: adjacency.len() as u32,
-            adjacency_count: list.len() as u32,
-            finite: 1,
-            stress_faces: b.boundary_stress.len() as u32,
-            ..Default::default()
-        });
-        adjacency.extend_from_slice(list);
+    for b in &model.blocks {
+        starts.push(Starts { vertex: vertex_start, plane: plane_start, edge: edge_start });
         // Its vertices, planes (then two records for each loaded face) and edges, then its
         // parts' (`shape_pods`), each part a record of its ranges and its radius.
         vertex_start += b.shape.vertices.len() as u32;
         plane_start += (b.shape.planes.len() + 2 * b.boundary_stress.len()) as u32;
-        edge_start += b.shape.edge_directions.len() as u32 + feature_count;
-        first_part.push((model.blocks.len() + part_records.len()) as u32);
+        edge_start += b.shape.edge_directions.len() as u32 + features_of(&b.shape);
+        first_part.push((n + part_records.len()) as u32);
         for p in &b.parts {
             let feature_count = features_of(&p.shape);
             part_records.push(layout::Block::<R> {
-                radius: r(p.shape.radius),
+                radius: R::from_f64(p.shape.radius),
                 vertex_start,
                 vertex_count: p.shape.vertices.len() as u32,
                 plane_start,
@@ -1449,9 +1399,91 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
             edge_start += p.shape.edge_directions.len() as u32 + feature_count;
         }
     }
+    // The blocks' records, in parallel (at 10⁶ blocks a serial pass was most of a partial
+    // detection's host time).
+    let mut blocks: Vec<layout::Block<R>> = Vec::with_capacity(n + part_records.len());
+    model
+        .blocks
+        .par_iter()
+        .zip(&starts)
+        .enumerate()
+        .with_min_len(super::grain::BLOCK)
+        .map(|(k, (b, at))| {
+            let inv = if b.inertia_ref.determinant() > 0.0 { b.inertia_ref.inverse() } else { DMat3::ZERO };
+            let r = |x: f64| R::from_f64(x);
+            let cols = inv.to_cols_array();
+            let feature_count = features_of(&b.shape);
+            let part_vertices: usize = b.parts.iter().map(|p| p.shape.vertices.len()).sum();
+            // The centroid in the kernel precision and what that leaves (the compensated pair).
+            let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
+            layout::Block::<R> {
+                cx: hi[0],
+                cy: hi[1],
+                cz: hi[2],
+                cx_lo: r(b.centroid.x - hi[0].to_f64()),
+                cy_lo: r(b.centroid.y - hi[1].to_f64()),
+                cz_lo: r(b.centroid.z - hi[2].to_f64()),
+                vx: r(b.velocity.x),
+                vy: r(b.velocity.y),
+                vz: r(b.velocity.z),
+                lx: r(b.angular_momentum.x),
+                ly: r(b.angular_momentum.y),
+                lz: r(b.angular_momentum.z),
+                wx: r(b.angular_velocity.x),
+                wy: r(b.angular_velocity.y),
+                wz: r(b.angular_velocity.z),
+                qx: r(b.orientation.x),
+                qy: r(b.orientation.y),
+                qz: r(b.orientation.z),
+                qw: r(b.orientation.w),
+                mass: r(b.mass),
+                inv0: r(cols[0]),
+                inv1: r(cols[1]),
+                inv2: r(cols[2]),
+                inv3: r(cols[3]),
+                inv4: r(cols[4]),
+                inv5: r(cols[5]),
+                inv6: r(cols[6]),
+                inv7: r(cols[7]),
+                inv8: r(cols[8]),
+                load_x: r(b.load.x),
+                load_y: r(b.load.y),
+                load_z: r(b.load.z),
+                radius: r(b.shape.radius),
+                fx: r(b.force.x),
+                fy: r(b.force.y),
+                fz: r(b.force.z),
+                mx: r(b.moment.x),
+                my: r(b.moment.y),
+                mz: r(b.moment.z),
+                travel: r(b.travel),
+                fixed: if b.fixed {
+                    layout::BLOCK_FIXED
+                } else if b.held {
+                    layout::BLOCK_HELD
+                } else {
+                    layout::BLOCK_FREE
+                },
+                vertex_start: at.vertex,
+                // A concave block's parts' vertices too: stage 2 places them with its own.
+                vertex_count: (b.shape.vertices.len() + part_vertices) as u32,
+                plane_start: at.plane,
+                plane_count: b.shape.planes.len() as u32,
+                edge_start: at.edge,
+                edge_dir_count: b.shape.edge_directions.len() as u32,
+                feature_count,
+                adjacency_start: adjacency_start[k],
+                adjacency_count: adjacency_start[k + 1] - adjacency_start[k],
+                finite: 1,
+                stress_faces: b.boundary_stress.len() as u32,
+                ..Default::default()
+            }
+        })
+        .collect_into_vec(&mut blocks);
     blocks.extend(part_records);
     // After the lists, each contact's two bodies' records (`layout.wgsl`'s `contact_bodies`): a
     // convex block's own, or the record of the part of a concave one it is between.
+    adjacency.reserve(2 * model.contacts.len());
     for c in &model.contacts {
         for (i, part) in c.blocks.into_iter().zip(c.parts) {
             let b = &model.blocks[i as usize];
