@@ -1372,13 +1372,28 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
     let mut part_records = Vec::new();
     let mut first_part = Vec::with_capacity(n);
     let (mut vertex_start, mut plane_start, mut edge_start) = (0u32, 0u32, 0u32);
-    for b in &model.blocks {
+    // Each block's own: its vertices, planes (then two records for each loaded face) and edges
+    // (counted in parallel), then its parts' (`shape_pods`), each part a record of its ranges
+    // and its radius.
+    let own: Vec<[u32; 4]> = model
+        .blocks
+        .par_iter()
+        .with_min_len(super::grain::BLOCK)
+        .map(|b| {
+            let feature_count = features_of(&b.shape);
+            [
+                b.shape.vertices.len() as u32,
+                (b.shape.planes.len() + 2 * b.boundary_stress.len()) as u32,
+                b.shape.edge_directions.len() as u32 + feature_count,
+                feature_count,
+            ]
+        })
+        .collect();
+    for (b, [vertices, planes, edges, _]) in model.blocks.iter().zip(&own) {
         starts.push(Starts { vertex: vertex_start, plane: plane_start, edge: edge_start });
-        // Its vertices, planes (then two records for each loaded face) and edges, then its
-        // parts' (`shape_pods`), each part a record of its ranges and its radius.
-        vertex_start += b.shape.vertices.len() as u32;
-        plane_start += (b.shape.planes.len() + 2 * b.boundary_stress.len()) as u32;
-        edge_start += b.shape.edge_directions.len() as u32 + features_of(&b.shape);
+        vertex_start += vertices;
+        plane_start += planes;
+        edge_start += edges;
         first_part.push((n + part_records.len()) as u32);
         for p in &b.parts {
             let feature_count = features_of(&p.shape);
@@ -1406,13 +1421,13 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
         .blocks
         .par_iter()
         .zip(&starts)
+        .zip(&own)
         .enumerate()
         .with_min_len(super::grain::BLOCK)
-        .map(|(k, (b, at))| {
+        .map(|(k, ((b, at), &[.., feature_count]))| {
             let inv = if b.inertia_ref.determinant() > 0.0 { b.inertia_ref.inverse() } else { DMat3::ZERO };
             let r = |x: f64| R::from_f64(x);
             let cols = inv.to_cols_array();
-            let feature_count = features_of(&b.shape);
             let part_vertices: usize = b.parts.iter().map(|p| p.shape.vertices.len()).sum();
             // The centroid in the kernel precision and what that leaves (the compensated pair).
             let hi = [r(b.centroid.x), r(b.centroid.y), r(b.centroid.z)];
