@@ -686,11 +686,14 @@ fn the_time_step_from_the_device_is_the_cpus_rule() {
 
 /// Spliced detections (`d3::gpu::splice`): a partial detection reads back only the contacts of
 /// the blocks that moved and splices the fresh ones into the device's buffers, where it read
-/// back and uploaded every contact. The struck wall run both ways for 1500 cycles (contacts made
-/// and dropped as the cube goes through): every block's state and every contact (its normal and
-/// live logical contacts) bit for bit the same, the ledger's friction and released terms to
-/// round-off (banked by workgroup sums in the kernel precision), and the spliced detections moved
-/// fewer bytes.
+/// back and uploaded every contact, and renews the block records on the device where it uploaded
+/// them. The struck wall run both ways for 1500 cycles (contacts made and dropped as the cube
+/// goes through): in f64 every block's state and every contact (its normal and live logical
+/// contacts) bit for bit the same; in f32 within 3.3e-8 m and 1.1e-4 m/s (a whole upload
+/// re-splits each centroid's compensated pair from the f64 sum read back, which loses the low
+/// part's last bits where it lies 2⁻³⁰ below the high one; the device keeps its pair); the
+/// ledger's friction and released terms to round-off (banked by workgroup sums in the kernel
+/// precision); and the spliced detections moved fewer bytes.
 #[test]
 fn spliced_detections_leave_the_state_a_whole_upload_leaves() {
     let built = run(&struck_wall(), None);
@@ -718,8 +721,16 @@ fn spliced_detections_leave_the_state_a_whole_upload_leaves() {
             spliced.contacts.len(),
         );
         assert!(s.detections > 3 && s.detections == w.detections, "{:?}: {s:?} {w:?}", o.precision);
-        assert!(spliced.blocks == whole.blocks, "{:?}: the blocks differ", o.precision);
-        assert!(spliced.contacts == whole.contacts, "{:?}: the contacts differ", o.precision);
+        let (dx, dv) = state_difference(&spliced, &whole, 1.0, 10.0);
+        eprintln!("{:?} {:?}: state {dx:.1e}, {dv:.1e}", o.adapter, o.precision);
+        if is_f32(&o) {
+            // A whole upload re-splits each centroid's compensated pair from the f64 sum read
+            // back, which does not hold a low part 2⁻³⁰ below a high one to its last bit.
+            assert!(dx < 1e-6 && dv < 1e-4 && spliced.contacts.len() == whole.contacts.len(), "{:?}: {dx:e} {dv:e}", o.precision);
+        } else {
+            assert!(spliced.blocks == whole.blocks, "{:?}: the blocks differ", o.precision);
+            assert!(spliced.contacts == whole.contacts, "{:?}: the contacts differ", o.precision);
+        }
         let round = if is_f32(&o) { 1e-5 } else { 1e-12 };
         assert!(f > 0.0 && (f - wf).abs() <= round * f && (r - wr).abs() <= round * (f + r), "{:?}: the ledger", o.precision);
         assert!(s.detection_bytes < w.detection_bytes, "{:?}: {s:?} {w:?}", o.precision);
@@ -803,6 +814,57 @@ fn the_splice_kernel_is_its_twin() {
         assert!(bits(bytemuck::cast_slice(&device.0)) == bits(bytemuck::cast_slice(&twin.0)), "{what}: the contacts");
         assert!(bits(bytemuck::cast_slice(&device.1)) == bits(bytemuck::cast_slice(&twin.1)), "{what}: the logical contacts");
         assert!(bits(bytemuck::cast_slice(&device.2)) == bits(bytemuck::cast_slice(&twin.2)), "{what}: the banks {:?} against {:?}", device.2, twin.2);
+    }
+    for o in targets() {
+        let backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
+        let what = format!("{:?} {:?}", o.adapter, o.precision);
+        match o.precision {
+            Precision::F32 => check::<f32>(&backend, &what),
+            Precision::F64 => check::<f64>(&backend, &what),
+        }
+    }
+}
+
+/// `renew_blocks` on the device is its Rust twin (`d3::gpu::splice::renew_blocks`) bit for bit:
+/// blocks of random state over several workgroups, moved and not, their adjacency ranges, travel
+/// and the sums that count from the upload renewed, the rest of each record left.
+#[test]
+fn the_renew_kernel_is_its_twin() {
+    use blockdem::d3::gpu::layout::{Block, Real, RENEW_MOVED};
+    use blockdem::d3::gpu::splice::renew_blocks;
+    fn check<R: Real>(backend: &GpuBackend, what: &str) {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let r = R::from_f64;
+        let mut value = || r((next() % 20_001) as f64 / 1000.0 - 10.0);
+        let blocks: Vec<Block<R>> = (0..300)
+            .map(|k| Block::<R> {
+                cx: value(),
+                vx: value(),
+                travel: value(),
+                peak_travel: value(),
+                work: value(),
+                damping_work: value(),
+                dashpot_work: value(),
+                radius: r(0.3),
+                adjacency_start: 7,
+                adjacency_count: 3,
+                vertex_start: k,
+                finite: 1,
+                ..Default::default()
+            })
+            .collect();
+        let renewals: Vec<[u32; 2]> = (0..300u32).map(|k| [5 * k, (k % 6) | if k % 3 == 0 { RENEW_MOVED } else { 0 }]).collect();
+        let mut twin = blocks.clone();
+        renew_blocks(&mut twin, &renewals);
+        let device = backend.renew_blocks_on_device(&blocks, &renewals).unwrap_or_else(|e| panic!("{e}"));
+        assert!(twin[3].travel == r(0.0) && twin[4].travel == blocks[4].travel && twin[4].adjacency_count == 4, "{what}: the twin");
+        assert!(bytemuck::cast_slice::<_, u8>(&device) == bytemuck::cast_slice::<_, u8>(&twin), "{what}: the records");
     }
     for o in targets() {
         let backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));

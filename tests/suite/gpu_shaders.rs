@@ -383,7 +383,7 @@ fn the_d3_end_cycle_kernel_and_its_halting_record_match_their_twins() {
 /// it writes its own binding 9; so does `critical_rows` (shaders/d3/critical_rows.wgsl, the time
 /// step's rows on the device) with its record `StepGive` at binding 9, and `splice_contacts`
 /// (shaders/d3/splice_contacts.wgsl, a partial detection's splice) with its `Banked` and
-/// `Splice`, and the fresh sources' bit of the Rust side.
+/// `Splice`, and the fresh sources' bit of the Rust side; `renew_blocks` (its moved blocks' bit).
 #[test]
 fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
     use blockdem::d3::gpu::{layout as d3_layout, shaders as d3};
@@ -409,6 +409,9 @@ fn the_d3_contact_energy_kernel_and_its_record_match_their_twins() {
         let splice = d3::splice_contacts_source(precision);
         assert!(splice.contains(&format!("const SPLICE_FRESH: u32 = {:#x}u;", d3_layout::SPLICE_FRESH)));
         check("splice_contacts", splice, precision, d3_layout::splice_layouts::<R>(), "@binding(15) var<storage, read_write> banked: array<Banked>");
+        let renew = d3::renew_blocks_source(precision);
+        assert!(renew.contains(&format!("const RENEW_MOVED: u32 = {:#x}u;", d3_layout::RENEW_MOVED)));
+        check("renew_blocks", renew, precision, d3_layout::layouts::<R>(), "@binding(9) var<storage, read> renewals: array<vec2<u32>>");
     }
     both::<f32>(Precision::F32);
     both::<f64>(Precision::F64);

@@ -179,6 +179,10 @@ impl Splice {
     }
 }
 
+/// A renewal of `renew_blocks` (`renewals[i].y`, the adjacency list's length) with this bit is a
+/// block that moved (its travel from zero again).
+pub const RENEW_MOVED: u32 = 1 << 31;
+
 /// A source of `splice_contacts` (`sources[k].x`) with this bit is a fresh contact (its index
 /// in the fresh buffers below the bit); without, a contact of the buffers as they were.
 pub const SPLICE_FRESH: u32 = 1 << 31;

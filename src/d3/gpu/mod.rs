@@ -352,6 +352,9 @@ pub struct GpuBackend {
     /// `splice_contacts` (a partial detection's splice of the contact buffers, `splice`) and its
     /// bindings' layout: its output at bindings 5 and 6, its own at 9 to 15.
     splice_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
+    /// `renew_blocks` (a partial detection's renewal of the block records, `splice`) and its
+    /// bindings' layout: the params, the blocks and its renewals at binding 9.
+    renew_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
     /// The contact and logical buffers the last splice replaced, the next one's output where
     /// they hold it.
     spare_contacts: Option<(wgpu::Buffer, wgpu::Buffer)>,
@@ -427,6 +430,7 @@ impl GpuBackend {
         let energy_kernel = energy_kernel(&dev)?;
         let step_kernel = step_kernel(&dev)?;
         let splice_kernel = splice_kernel(&dev)?;
+        let renew_kernel = renew_kernel(&dev)?;
         Ok(GpuBackend {
             dev,
             kernels,
@@ -440,6 +444,7 @@ impl GpuBackend {
             whole_detections: false,
             whole_uploads: false,
             splice_kernel,
+            renew_kernel,
             spare_contacts: None,
             energy_kernel,
             energy_out: None,
@@ -1085,6 +1090,16 @@ impl GpuBackend {
     }
 }
 
+/// `renew_blocks`' pipeline and its bindings' layout (the params, the blocks, its renewals at
+/// binding 9), in the device's precision.
+fn renew_kernel(dev: &GpuDevice) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
+    let scopes = dev.creation_scopes();
+    let entries = [uniform(0), storage(1, false), storage(9, true)];
+    let kernel = kernel_of_its_own(dev, "renew_blocks", shaders::renew_blocks_source(dev.precision), &entries)?;
+    scopes.check(dev)?;
+    Ok(kernel)
+}
+
 /// `splice_contacts`' pipeline and its bindings' layout (its output, the contacts and logical
 /// contacts at bindings 5 and 6; its uniform at 9; the kept and fresh records, read, at 10 to
 /// 13; the sources at 14 and the banks at 15), in the device's precision.
@@ -1342,26 +1357,9 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
 /// adjacency (the blocks' lists, then the contacts' bodies), as the kernels take them.
 fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
     let n = model.blocks.len();
-    // Adjacency: each block's contacts in the contacts' order, block after block (counted,
-    // then placed), then each contact's two bodies.
-    let mut adjacency_start = vec![0u32; n + 1];
-    for c in &model.contacts {
-        adjacency_start[c.blocks[0] as usize + 1] += 1;
-        adjacency_start[c.blocks[1] as usize + 1] += 1;
-    }
-    for k in 0..n {
-        adjacency_start[k + 1] += adjacency_start[k];
-    }
-    let mut adjacency = vec![0u32; adjacency_start[n] as usize];
-    let mut next = adjacency_start.clone();
-    for (k, c) in model.contacts.iter().enumerate() {
-        for (side, b) in c.blocks.into_iter().enumerate() {
-            adjacency[next[b as usize] as usize] = 2 * k as u32 + side as u32;
-            next[b as usize] += 1;
-        }
-    }
+    let (adjacency, adjacency_start) = adjacency_pods(model);
     // Where each block's vertices, planes and edges start (a pass of sums), and the parts'
-    // records, after the blocks', with the first of each block's (`body_record`).
+    // records, after the blocks'.
     #[derive(Clone, Copy)]
     struct Starts {
         vertex: u32,
@@ -1370,7 +1368,6 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
     }
     let mut starts = Vec::with_capacity(n);
     let mut part_records = Vec::new();
-    let mut first_part = Vec::with_capacity(n);
     let (mut vertex_start, mut plane_start, mut edge_start) = (0u32, 0u32, 0u32);
     // Each block's own: its vertices, planes (then two records for each loaded face) and edges
     // (counted in parallel), then its parts' (`shape_pods`), each part a record of its ranges
@@ -1394,7 +1391,6 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
         vertex_start += vertices;
         plane_start += planes;
         edge_start += edges;
-        first_part.push((n + part_records.len()) as u32);
         for p in &b.parts {
             let feature_count = features_of(&p.shape);
             part_records.push(layout::Block::<R> {
@@ -1496,16 +1492,45 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
         })
         .collect_into_vec(&mut blocks);
     blocks.extend(part_records);
-    // After the lists, each contact's two bodies' records (`layout.wgsl`'s `contact_bodies`): a
-    // convex block's own, or the record of the part of a concave one it is between.
-    adjacency.reserve(2 * model.contacts.len());
+    (blocks, adjacency)
+}
+
+/// The adjacency as the kernels take it: each block's contacts in the contacts' order, block
+/// after block (counted, then placed), then each contact's two bodies' records (`layout.wgsl`'s
+/// `contact_bodies`: a convex block's own, or the record of the part of a concave one it is
+/// between, the parts' records after the blocks'); and where each block's list starts (one more
+/// entry: the lists' end).
+fn adjacency_pods(model: &Model) -> (Vec<u32>, Vec<u32>) {
+    let n = model.blocks.len();
+    let mut starts = vec![0u32; n + 1];
     for c in &model.contacts {
-        for (i, part) in c.blocks.into_iter().zip(c.parts) {
-            let b = &model.blocks[i as usize];
-            adjacency.push(if b.parts.is_empty() { i } else { first_part[i as usize] + part });
+        starts[c.blocks[0] as usize + 1] += 1;
+        starts[c.blocks[1] as usize + 1] += 1;
+    }
+    for k in 0..n {
+        starts[k + 1] += starts[k];
+    }
+    let mut adjacency = vec![0u32; starts[n] as usize + 2 * model.contacts.len()];
+    let mut next = starts.clone();
+    for (k, c) in model.contacts.iter().enumerate() {
+        for (side, b) in c.blocks.into_iter().enumerate() {
+            adjacency[next[b as usize] as usize] = 2 * k as u32 + side as u32;
+            next[b as usize] += 1;
         }
     }
-    (blocks, adjacency)
+    let mut first_part = Vec::with_capacity(n);
+    let mut parts = n as u32;
+    for b in &model.blocks {
+        first_part.push(parts);
+        parts += b.parts.len() as u32;
+    }
+    let bodies = &mut adjacency[starts[n] as usize..];
+    for (c, pair) in model.contacts.iter().zip(bodies.chunks_exact_mut(2)) {
+        for ((i, part), body) in c.blocks.into_iter().zip(c.parts).zip(pair) {
+            *body = if model.blocks[i as usize].parts.is_empty() { i } else { first_part[i as usize] + part };
+        }
+    }
+    (adjacency, starts)
 }
 
 /// The contacts `which` (of the model's) as the kernels take them: their records, each with the

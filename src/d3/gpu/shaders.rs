@@ -152,6 +152,18 @@ pub fn splice_contacts_source(precision: Precision) -> String {
     compose(&body, precision, false, false)
 }
 
+/// `renew_blocks`, a partial detection's renewal of the block records on the device (twin
+/// `d3::gpu::splice::renew_blocks`). Not in [`KERNELS`]: not a stage of the cycle, and it has a
+/// binding of its own (`renew_blocks_source`).
+pub const RENEW_BLOCKS: &str = include_str!("../../../shaders/d3/renew_blocks.wgsl");
+
+/// The full source of `renew_blocks` in one precision (any scene's: the params and the blocks,
+/// and its own binding 9), with the moved blocks' bit (`layout::RENEW_MOVED`).
+pub fn renew_blocks_source(precision: Precision) -> String {
+    let body = format!("const RENEW_MOVED: u32 = {:#x}u;\n{RENEW_BLOCKS}", super::layout::RENEW_MOVED);
+    compose(&body, precision, false, false)
+}
+
 /// The full source of one kernel in one precision, for a rigid scene.
 pub fn source(kernel: &str, precision: Precision) -> Option<String> {
     source_for(kernel, precision, false)

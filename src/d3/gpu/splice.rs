@@ -11,15 +11,19 @@
 //!    per contact of the new list, and `splice_contacts` (shaders/d3/splice_contacts.wgsl, twin
 //!    [`splice_contacts`]) makes the new contact and logical buffers: a kept contact's record and
 //!    logical contacts copied from the buffers as they were, a fresh one's from the upload;
-//! 4. the blocks (their travel and adjacency ranges) and the adjacency are uploaded whole, as
-//!    after any detection (a block record is read back after every batch anyway).
+//! 4. the block records are renewed on the device by `renew_blocks` (shaders/d3/renew_blocks.wgsl,
+//!    twin [`renew_blocks`]) from 8 bytes a block (the adjacency range, whether it moved: its
+//!    travel from zero, and the sums that count from the upload zeroed, the CPU having moved the
+//!    values it read back after the batch into the bases), and the adjacency is uploaded whole.
 //!
-//! The device's state after a splice is a whole re-upload's bit for bit (the test
+//! In f64 the device's state after a splice is a whole re-upload's bit for bit (the test
 //! `d3_gpu::spliced_detections_leave_the_state_a_whole_upload_leaves`), but for two things that
 //! do not act: a kept contact's dead logical contacts stay in place (a whole upload drops them;
 //! the kernels skip both), and the energy accumulators are banked by workgroup sums in the
 //! kernel precision (a whole upload adds each contact's in f64), so the ledger's friction and
-//! released terms differ by round-off.
+//! released terms differ by round-off. In f32 the device keeps each centroid's compensated pair
+//! as it is, where a whole upload re-split it from the f64 sum read back (which does not hold a
+//! low part 2⁻³⁰ below the high one to its last bit): the runs part by round-off.
 //!
 //! The model's contacts that no detection reads back are as the last read-back left them: a
 //! contact between blocks that have stood still since is stale there until the run's end, a
@@ -156,6 +160,25 @@ pub fn splice_contacts<R: Real>(
     (contacts, logicals, banked)
 }
 
+/// Twin of `renew_blocks` (shaders/d3/renew_blocks.wgsl): each block's record (the first
+/// `renewals.len()`) given its adjacency range (`renewals[i]` = (start, length with
+/// `layout::RENEW_MOVED` where it moved)), its travel from zero where it moved, and the sums that
+/// count from the upload zeroed (the largest step's travel, the work, the dissipation).
+pub fn renew_blocks<R: Real>(blocks: &mut [layout::Block<R>], renewals: &[[u32; 2]]) {
+    let zero = R::from_f64(0.0);
+    for (b, &[start, length]) in blocks.iter_mut().zip(renewals) {
+        b.adjacency_start = start;
+        b.adjacency_count = length & !layout::RENEW_MOVED;
+        if length & layout::RENEW_MOVED != 0 {
+            b.travel = zero;
+        }
+        b.peak_travel = zero;
+        b.work = zero;
+        b.damping_work = zero;
+        b.dashpot_work = zero;
+    }
+}
+
 /// A contact of the model as its record and run of logical contacts on the device give it: the
 /// normal, and the live logical contacts under `keys` (points from `origin` in f32, where they
 /// are kept from block 1's centroid); a contact with none has no category or area.
@@ -253,11 +276,14 @@ impl GpuBackend {
         check("logical contacts", std::mem::size_of::<layout::Logical<R>>(), keys.logical_count())?;
         check("adjacency", 4, 4 * model.contacts.len())?;
         let (fresh_contacts, fresh_logicals, _) = super::contact_pods::<R>(model, fresh.iter().copied());
-        let (blocks, adjacency) = super::block_pods::<R>(model);
-        let (banked, moved_bytes) = self.splice_into_state::<R>((&fresh_contacts, &fresh_logicals), &sources, keys, &blocks, &adjacency).map_err(device)?;
+        let (adjacency, starts) = super::adjacency_pods(model);
+        let renewals: Vec<[u32; 2]> =
+            moved.iter().enumerate().map(|(k, &m)| [starts[k], (starts[k + 1] - starts[k]) | if m { layout::RENEW_MOVED } else { 0 }]).collect();
+        let (banked, moved_bytes) = self.splice_into_state::<R>((&fresh_contacts, &fresh_logicals), &sources, keys, &renewals, &adjacency).map_err(device)?;
         self.host.detection_bytes += read + moved_bytes;
 
-        // The bases: the blocks' terms the model's (read back after the batch); the contacts',
+        // The bases: the blocks' terms the model's (read back after the batch, their sums on the
+        // device zeroed by `renew_blocks`); the contacts',
         // the bases before plus every accumulator the detection zeroed (those read back, those
         // spliced) and what its stage booked, as a whole upload's.
         let banked = bank_sum(&banked);
@@ -302,14 +328,15 @@ impl GpuBackend {
     }
 
     /// The state's contact and logical buffers made anew by `splice_contacts` from themselves and
-    /// the `fresh` contacts as `sources` says (under `keys`), the blocks written and the
-    /// adjacency uploaded, the bind group renewed; returns the banks and the bytes moved.
+    /// the `fresh` contacts as `sources` says (under `keys`), the blocks renewed by
+    /// `renew_blocks` from `renewals` and the adjacency uploaded, the bind group renewed; returns
+    /// the banks and the bytes moved.
     fn splice_into_state<R: Real>(
         &mut self,
         fresh: (&[layout::Contact<R>], &[layout::Logical<R>]),
         sources: &[[u32; 2]],
         keys: Keys,
-        blocks: &[layout::Block<R>],
+        renewals: &[[u32; 2]],
         adjacency: &[u32],
     ) -> Result<(Vec<layout::Banked<R>>, u64), GpuError> {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
@@ -330,7 +357,7 @@ impl GpuBackend {
         );
         let Some(s) = self.state.as_ref() else { return Ok((Vec::new(), 0)) };
         let banked = self.splice::<R>((&s.contacts, &s.logicals), Some((&fresh_buffers.0, &fresh_buffers.1)), sources, (&out.0, &out.1))?;
-        self.dev.queue.write_buffer(&s.blocks, 0, bytemuck::cast_slice(blocks));
+        self.renew(&s.params, &s.blocks, renewals);
         let adjacency_buffer = self.buffer("d3 adjacency", bytemuck::cast_slice(adjacency), storage_usage);
         let bind = self.bind(s.variant, &[&s.params, &s.blocks, &s.vertices, &s.planes, &s.edges, &out.0, &out.1, &adjacency_buffer], s.sdef.as_ref());
         let s: &mut State = self.state.as_mut().expect("state");
@@ -343,10 +370,40 @@ impl GpuBackend {
         let bytes = std::mem::size_of_val(fresh.0)
             + std::mem::size_of_val(fresh.1)
             + std::mem::size_of_val(sources)
-            + std::mem::size_of_val(blocks)
+            + std::mem::size_of_val(renewals)
             + std::mem::size_of_val(adjacency)
             + banked.len() * std::mem::size_of::<layout::Banked<R>>();
         Ok((banked, bytes as u64))
+    }
+
+    /// `renew_blocks` on the device over the first `renewals.len()` records of `blocks` (the
+    /// params' block count).
+    fn renew(&self, params: &wgpu::Buffer, blocks: &wgpu::Buffer, renewals: &[[u32; 2]]) {
+        if renewals.is_empty() {
+            return;
+        }
+        let renewals = self.buffer("d3 renewals", bytemuck::cast_slice(renewals), wgpu::BufferUsages::STORAGE);
+        let entries = [
+            wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: blocks.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 9, resource: renewals.as_entire_binding() },
+        ];
+        let groups = (renewals.size() as u32 / 8).div_ceil(workgroup_size());
+        self.dispatch_own("renew_blocks", &self.renew_kernel, &entries, groups);
+    }
+
+    /// `renew_blocks` on the device on records given here (for the test that holds it against its
+    /// twin, [`renew_blocks`]): the records renewed. Err where `R` is not the device's precision.
+    pub fn renew_blocks_on_device<R: Real>(&self, blocks: &[layout::Block<R>], renewals: &[[u32; 2]]) -> Result<Vec<layout::Block<R>>, GpuError> {
+        if R::PRECISION != self.dev.precision {
+            return Err(GpuError::Setup(format!("records in {:?} for kernels in {:?}", R::PRECISION, self.dev.precision)));
+        }
+        let params = layout::Params::<R> { blocks: renewals.len() as u32, ..super::params::<R>(&Model::default(), 1e-6) };
+        let params = self.buffer("d3 params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let buffer = self.buffer("d3 blocks", bytemuck::cast_slice(blocks), usage);
+        self.renew(&params, &buffer, renewals);
+        self.dev.read_pod(&buffer, blocks.len())
     }
 
     /// A storage buffer of `bytes` the kernels write and the host reads back (at least 512
