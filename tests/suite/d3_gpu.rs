@@ -747,13 +747,7 @@ fn the_splice_kernel_is_its_twin() {
     use blockdem::d3::gpu::splice::splice_contacts;
     fn check<R: Real>(backend: &GpuBackend, what: &str) {
         let r = R::from_f64;
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
         let records = |n: usize, next: &mut dyn FnMut() -> u64| {
             let mut contacts = Vec::new();
             let mut logicals = Vec::new();
@@ -815,14 +809,7 @@ fn the_splice_kernel_is_its_twin() {
         assert!(bits(bytemuck::cast_slice(&device.1)) == bits(bytemuck::cast_slice(&twin.1)), "{what}: the logical contacts");
         assert!(bits(bytemuck::cast_slice(&device.2)) == bits(bytemuck::cast_slice(&twin.2)), "{what}: the banks {:?} against {:?}", device.2, twin.2);
     }
-    for o in targets() {
-        let backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
-        let what = format!("{:?} {:?}", o.adapter, o.precision);
-        match o.precision {
-            Precision::F32 => check::<f32>(&backend, &what),
-            Precision::F64 => check::<f64>(&backend, &what),
-        }
-    }
+    on_every_target(check::<f32>, check::<f64>);
 }
 
 /// `renew_blocks` on the device is its Rust twin (`d3::gpu::splice::renew_blocks`) bit for bit:
@@ -833,13 +820,7 @@ fn the_renew_kernel_is_its_twin() {
     use blockdem::d3::gpu::layout::{Block, Real, RENEW_MOVED};
     use blockdem::d3::gpu::splice::renew_blocks;
     fn check<R: Real>(backend: &GpuBackend, what: &str) {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
         let r = R::from_f64;
         let mut value = || r((next() % 20_001) as f64 / 1000.0 - 10.0);
         let blocks: Vec<Block<R>> = (0..300)
@@ -866,12 +847,28 @@ fn the_renew_kernel_is_its_twin() {
         assert!(twin[3].travel == r(0.0) && twin[4].travel == blocks[4].travel && twin[4].adjacency_count == 4, "{what}: the twin");
         assert!(bytemuck::cast_slice::<_, u8>(&device) == bytemuck::cast_slice::<_, u8>(&twin), "{what}: the records");
     }
+    on_every_target(check::<f32>, check::<f64>);
+}
+
+/// A xorshift generator from `seed` (the kernels' twin tests' records).
+fn xorshift(mut seed: u64) -> impl FnMut() -> u64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    }
+}
+
+/// A twin test's check on each target in its precision (`single` for f32, `double` for f64), with
+/// a backend of it and its name.
+fn on_every_target(single: fn(&GpuBackend, &str), double: fn(&GpuBackend, &str)) {
     for o in targets() {
         let backend = GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}"));
         let what = format!("{:?} {:?}", o.adapter, o.precision);
         match o.precision {
-            Precision::F32 => check::<f32>(&backend, &what),
-            Precision::F64 => check::<f64>(&backend, &what),
+            Precision::F32 => single(&backend, &what),
+            Precision::F64 => double(&backend, &what),
         }
     }
 }

@@ -34,9 +34,9 @@
 //! closed on each other by less than the distance. A detection runs stage 7 and the CPU's stage 4
 //! with Δt = 0 (new logical contacts, their shear forces carried by key; normal forces from the
 //! gaps) for the blocks that moved ("Partial detections"), on their contacts read back, splices
-//! the fresh contacts into the device's buffers (`splice`) and uploads the blocks (their travel
-//! and adjacency) and the adjacency lists; vertices, planes and edges (the shapes) stay on the
-//! device.
+//! the fresh contacts into the device's buffers (`splice`), renews the blocks' travel and
+//! adjacency ranges there and uploads the adjacency lists; vertices, planes and edges (the
+//! shapes) stay on the device.
 //!
 //! # Partial detections
 //!
@@ -54,8 +54,9 @@
 //! detection is called as soon as any block reaches it, and a block's refresh refreshes all its
 //! contacts), so the two have closed by less than the contact-forming distance. The transfers
 //! are the changed contacts alone (`splice`): the moved blocks' contacts are gathered on the
-//! device and read back, and the fresh ones uploaded and spliced among the kept ones by a
-//! kernel (`splice_contacts`), the state bit for bit a whole re-upload's.
+//! device and read back, the fresh ones uploaded and spliced among the kept ones by a kernel
+//! (`splice_contacts`), and the block records renewed in place (`renew_blocks`); in f64 the
+//! state bit for bit a whole re-upload's.
 //! `GpuBackend::set_whole_detections` makes every detection whole and
 //! `GpuBackend::set_whole_uploads` every transfer, for comparison; `HostTimes` counts the
 //! contacts refreshed and the bytes moved.
