@@ -101,6 +101,59 @@ pub fn neighbour_pairs_of(model: &Model, margin: f64, moved: &[bool]) -> Vec<(u3
     pairs
 }
 
+/// The broad phase's grid kept from one partial detection to the next (the GPU's,
+/// [`update_neighbours_kept`]): each block in the cells of its box as it was when last inserted,
+/// widened by half the margin and by `slack`, the most it may travel before it is moved (and
+/// re-inserted). A pair whose current boxes (widened by half the margin) overlap thus shares a
+/// cell with the moved block's current box, and the candidates are tested on their current
+/// boxes: the pairs [`neighbour_pairs_of`] finds, where only the moved blocks are re-inserted
+/// (at 10⁵ bricks the grid of every block was 50–63 ms of each partial detection here, its hash
+/// inserts serial).
+pub struct KeptGrid {
+    grid: Grid,
+    margin: f64,
+    slack: f64,
+}
+
+/// The pairs of [`neighbour_pairs_of`] from the grid `kept` (made where None or not of this
+/// model, margin or slack), the moved blocks re-inserted first.
+pub fn neighbour_pairs_kept(model: &Model, margin: f64, moved: &[bool], kept: &mut Option<KeptGrid>, slack: f64) -> Vec<(u32, u32)> {
+    let fits = |k: &KeptGrid| k.grid.boxes.len() == model.blocks.len() && k.margin == margin && k.slack == slack;
+    if !kept.as_ref().is_some_and(fits) {
+        *kept = Grid::new(model, margin + 2.0 * slack).map(|grid| KeptGrid { grid, margin, slack });
+    } else if let Some(k) = kept.as_mut() {
+        for i in (0..moved.len()).filter(|&i| moved[i]) {
+            k.grid.reinsert(i, widened(model.blocks[i].bounds(), margin + 2.0 * slack));
+        }
+    }
+    let Some(k) = kept.as_ref() else { return Vec::new() };
+    let grid = &k.grid;
+    let n = grid.boxes.len();
+    let now = |j: usize| widened(model.blocks[j].bounds(), margin);
+    let mut pairs = Vec::new();
+    for i in (0..n).filter(|&i| moved[i]) {
+        let at = now(i);
+        let mut near = |j: usize| {
+            if j != i && boxes_overlap(at, grid.boxes[j]) && boxes_overlap(at, now(j)) {
+                pairs.push((i.min(j) as u32, i.max(j) as u32));
+            }
+        };
+        if grid.large.binary_search(&i).is_ok() {
+            (0..n).for_each(&mut near);
+            continue;
+        }
+        for cell in grid.cells_of(at) {
+            if let Some(members) = grid.cells.get(&cell) {
+                members.iter().for_each(|&j| near(j as usize));
+            }
+        }
+        grid.large.iter().for_each(|&j| near(j));
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
+}
+
 /// The broad phase's uniform grid ([`neighbour_pairs`]): each block's widened box, the cell's
 /// size, the blocks (not large) in each cell their boxes reach, and the large blocks left out.
 struct Grid {
@@ -128,6 +181,21 @@ impl Grid {
             }
         }
         Some(grid)
+    }
+
+    /// Block `i` moved to the cells of its widened box `at` (a large block's box alone).
+    fn reinsert(&mut self, i: usize, at: (DVec3, DVec3)) {
+        if self.large.binary_search(&i).is_err() {
+            for cell in self.cells_of(self.boxes[i]).collect::<Vec<_>>() {
+                if let Some(members) = self.cells.get_mut(&cell) {
+                    members.retain(|&j| j as usize != i);
+                }
+            }
+            for cell in self.cells_of(at).collect::<Vec<_>>() {
+                self.cells.entry(cell).or_default().push(i as u32);
+            }
+        }
+        self.boxes[i] = at;
     }
 
     /// The cells a box reaches.
@@ -208,11 +276,27 @@ pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
 pub fn update_neighbours_of(model: &mut Model, moved: &[bool]) -> (u64, u64) {
     let margin = neighbour_margin(model);
     let pairs = neighbour_pairs_of(model, margin, moved);
+    renew_contacts_of(model, moved, &pairs, margin)
+}
+
+/// [`update_neighbours_of`] with the pairs from a grid kept from one partial detection to the
+/// next ([`KeptGrid`]: the moved blocks re-inserted, where [`neighbour_pairs_of`] builds a grid
+/// of every block), made where `kept` is None or not of this model; `slack` is the most any
+/// block not moved may have travelled since its last refresh (the caller's refresh limit).
+/// The same lists as [`update_neighbours_of`]'s.
+pub fn update_neighbours_kept(model: &mut Model, moved: &[bool], kept: &mut Option<KeptGrid>, slack: f64) -> (u64, u64) {
+    let margin = neighbour_margin(model);
+    let pairs = neighbour_pairs_kept(model, margin, moved, kept, slack);
+    renew_contacts_of(model, moved, &pairs, margin)
+}
+
+/// The contacts of the neighbour `pairs` of the `moved` blocks renewed (`update_neighbours_of`).
+fn renew_contacts_of(model: &mut Model, moved: &[bool], pairs: &[(u32, u32)], margin: f64) -> (u64, u64) {
     let touches_moved = |c: &Contact| moved[c.blocks[0] as usize] || moved[c.blocks[1] as usize];
     let (of_moved, unmoved): (Vec<Contact>, Vec<Contact>) = std::mem::take(&mut model.contacts).into_iter().partition(touches_moved);
     let mut old: FxHashMap<ContactKey, Contact> = of_moved.into_iter().map(|c| (key(&c), c)).collect();
     let mut created = 0;
-    let fresh = contacts_of_pairs(model, &pairs, margin, &mut old, &mut created);
+    let fresh = contacts_of_pairs(model, pairs, margin, &mut old, &mut created);
     // Both lists are in key order (keys are distinct): the stable sort merges the two runs.
     let mut contacts = unmoved;
     contacts.extend(fresh);

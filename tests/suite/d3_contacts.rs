@@ -290,6 +290,52 @@ fn a_partial_neighbour_update_finds_what_the_whole_one_finds_for_the_blocks_that
     }
 }
 
+/// The grid kept between the GPU's partial detections (`topology::KeptGrid`,
+/// `neighbour_pairs_kept`): over rounds in which the moved blocks go far (the projectile through
+/// the wall, a brick out of it: re-inserted) and every other block drifts by less than the slack
+/// (left where it was inserted), its pairs are those of the grid of every block built afresh
+/// (`neighbour_pairs_of`), round after round; the lists it gives are `update_neighbours_of`'s.
+#[test]
+fn a_kept_grid_finds_the_pairs_a_fresh_one_finds() {
+    let (mut model, id) = wall_on_slab(12, 30);
+    model.blocks.push(block(id, &turned_box([0.0; 3], [2.0, 2.0, 2.0], DQuat::IDENTITY, DVec3::new(14.0, -1.75, 2.0))));
+    model.blocks[0].fixed = true;
+    let n = model.blocks.len();
+    let margin = blockdem::d3::topology::neighbour_margin(&model);
+    let slack = 0.25 * margin;
+    let mut kept = None;
+    let (projectile, out) = (n - 1, 1 + 3 * 30 + 10);
+    for round in 0..5 {
+        let moved: Vec<bool> = (0..n).map(|k| k == projectile || k == out || k == 0 || (k + round) % 11 == 0).collect();
+        let fresh = blockdem::d3::topology::neighbour_pairs_of(&model, margin, &moved);
+        let from_kept = blockdem::d3::topology::neighbour_pairs_kept(&model, margin, &moved, &mut kept, slack);
+        assert!(fresh.len() > 50, "round {round}: {}", fresh.len());
+        assert_eq!(from_kept, fresh, "round {round}");
+        // The moved blocks far (the projectile into the wall, the brick out of it, the others a
+        // slack's worth), every other one by less than the slack, to and fro.
+        for (k, b) in model.blocks.iter_mut().enumerate() {
+            let sign = if (k + round) % 2 == 0 { 1.0 } else { -1.0 };
+            b.centroid += if k == projectile {
+                DVec3::new(0.0, 0.4, 0.0)
+            } else if k == out {
+                DVec3::new(0.0, -0.6, 0.0)
+            } else if moved[k] {
+                DVec3::new(0.0, 0.0, 1.5 * slack * sign)
+            } else {
+                DVec3::new(0.3 * slack * sign, 0.0, 0.0)
+            };
+            b.place_vertices();
+        }
+    }
+    // The lists from the kept grid are the fresh grid's.
+    let moved: Vec<bool> = (0..n).map(|k| k == projectile || k == out).collect();
+    blockdem::d3::topology::update_neighbours(&mut model);
+    let mut fresh = model.clone();
+    let counts = blockdem::d3::topology::update_neighbours_of(&mut fresh, &moved);
+    assert_eq!(blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &mut kept, slack), counts);
+    assert!(model.contacts == fresh.contacts);
+}
+
 /// Runs a deck; the model at its end.
 fn run(deck: &str) -> Model {
     let commands = parse_deck(deck, "t.dat").unwrap();

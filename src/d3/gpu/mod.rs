@@ -359,6 +359,10 @@ pub struct GpuBackend {
     /// The contact and logical buffers the last splice replaced, the next one's output where
     /// they hold it.
     spare_contacts: Option<(wgpu::Buffer, wgpu::Buffer)>,
+    /// The detection grid kept from one partial detection to the next (`topology::KeptGrid`: the
+    /// moved blocks re-inserted); None after an upload or a whole detection (made again at the
+    /// next partial one).
+    kept_grid: Option<topology::KeptGrid>,
     /// `contact_energy` (the energy check's contact sums and overlap test) and its bindings'
     /// layout: the params, blocks, contacts, logical contacts and its records (binding 9).
     energy_kernel: (wgpu::BindGroupLayout, wgpu::ComputePipeline),
@@ -447,6 +451,7 @@ impl GpuBackend {
             splice_kernel,
             renew_kernel,
             spare_contacts: None,
+            kept_grid: None,
             energy_kernel,
             energy_out: None,
             step_kernel,
@@ -527,6 +532,7 @@ impl GpuBackend {
     }
 
     fn upload_as<R: Real>(&mut self, model: &Model) -> Result<(), GpuError> {
+        self.kept_grid = None;
         fits::<R>(model, crate::gpu::device::binding_cap(&self.dev))?;
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let (vertices, planes, edges) = shape_pods::<R>(model);
@@ -1057,6 +1063,7 @@ impl GpuBackend {
         self.read_contacts(model).map_err(device_error)?;
         self.host.detection_bytes += self.contact_bytes(model);
         if whole {
+            self.kept_grid = None;
             let (created, dropped) = topology::update_neighbours(model);
             report.contacts_created += created;
             report.contacts_dropped += dropped;
@@ -1067,7 +1074,7 @@ impl GpuBackend {
             // searched and their contacts' logical contacts found afresh; the rest as tracked.
             let limit = REFRESH_SHARE * DETECTION_SHARE * model.contact_tolerance();
             let moved: Vec<bool> = model.blocks.iter().map(|b| b.travel >= limit).collect();
-            let (created, dropped) = topology::update_neighbours_of(model, &moved);
+            let (created, dropped) = topology::update_neighbours_kept(model, &moved, &mut self.kept_grid, limit);
             report.contacts_created += created;
             report.contacts_dropped += dropped;
             let selected = cpu::contacts_touching(model, |k| moved[k]);
@@ -1737,6 +1744,7 @@ impl driver::Start<Model> for GpuBackend {
         // from a last good state that is the model it starts from, whole (no checkpoint yet).
         self.screened_cap = driver::CHECK_INTERVAL;
         self.next_timestep = None;
+        self.kept_grid = None;
         if let Some(cp) = self.checkpoint.as_mut() {
             cp.valid = false;
         }

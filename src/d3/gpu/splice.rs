@@ -230,7 +230,7 @@ impl GpuBackend {
         let (kept_at, kept_ids): (Vec<u32>, Vec<u32>) =
             model.contacts.iter().zip(&touched).enumerate().filter(|(_, (_, &t))| !t).map(|(k, (c, _))| (k as u32, c.id)).unzip();
         let before = (model.dissipated.friction, model.dissipated.released);
-        let (created, dropped) = topology::update_neighbours_of(model, &moved);
+        let (created, dropped) = topology::update_neighbours_kept(model, &moved, &mut self.kept_grid, limit);
         report.contacts_created += created;
         report.contacts_dropped += dropped;
         report.topology_updates += 1;
