@@ -45,8 +45,9 @@
 //! contacts found afresh on the CPU) cost seconds at 10⁶ blocks, every ~160 cycles of the
 //! struck wall. So a detection is partial where the lists are not stale (blocks made, cut or
 //! deleted make them so): the blocks whose travel since their last refresh has reached
-//! `REFRESH_SHARE` of the allowance are the moved ones; their pairs are searched afresh in the
-//! grid of all blocks (`topology::update_neighbours_of`), the contacts that touch one of them
+//! `REFRESH_SHARE` of the allowance are the moved ones; their pairs are searched afresh in a
+//! grid of all blocks kept from one partial detection to the next, the moved ones re-inserted
+//! (`topology::update_neighbours_kept`, `kept_grid`), the contacts that touch one of them
 //! have their logical contacts found afresh (`cpu::contact_stage_of`), and only their travel
 //! starts again from zero. A contact between two blocks that did not move keeps the logical
 //! contacts the device tracks. The bound that made tracking safe holds per contact: each of its
