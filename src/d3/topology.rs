@@ -76,29 +76,7 @@ pub fn neighbour_pairs(model: &Model, margin: f64) -> Vec<(u32, u32)> {
 /// moved block: N tests). With every block moved, the same pairs as [`neighbour_pairs`].
 pub fn neighbour_pairs_of(model: &Model, margin: f64, moved: &[bool]) -> Vec<(u32, u32)> {
     let Some(grid) = Grid::new(model, margin) else { return Vec::new() };
-    let n = grid.boxes.len();
-    let overlap = |i: usize, j: usize| boxes_overlap(grid.boxes[i], grid.boxes[j]);
-    let mut pairs = Vec::new();
-    for i in (0..n).filter(|&i| moved[i]) {
-        let mut near = |j: usize| {
-            if j != i && overlap(i, j) {
-                pairs.push((i.min(j) as u32, i.max(j) as u32));
-            }
-        };
-        if grid.large.binary_search(&i).is_ok() {
-            (0..n).for_each(&mut near);
-            continue;
-        }
-        for cell in grid.cells_of(grid.boxes[i]) {
-            if let Some(members) = grid.cells.get(&cell) {
-                members.iter().for_each(|&j| near(j as usize));
-            }
-        }
-        grid.large.iter().for_each(|&j| near(j));
-    }
-    pairs.sort_unstable();
-    pairs.dedup();
-    pairs
+    grid.pairs_of_moved(moved, |i| grid.boxes[i], |at, j| boxes_overlap(at, grid.boxes[j]))
 }
 
 /// The broad phase's grid kept from one partial detection to the next (the GPU's,
@@ -128,30 +106,8 @@ pub fn neighbour_pairs_kept(model: &Model, margin: f64, moved: &[bool], kept: &m
     }
     let Some(k) = kept.as_ref() else { return Vec::new() };
     let grid = &k.grid;
-    let n = grid.boxes.len();
     let now = |j: usize| widened(model.blocks[j].bounds(), margin);
-    let mut pairs = Vec::new();
-    for i in (0..n).filter(|&i| moved[i]) {
-        let at = now(i);
-        let mut near = |j: usize| {
-            if j != i && boxes_overlap(at, grid.boxes[j]) && boxes_overlap(at, now(j)) {
-                pairs.push((i.min(j) as u32, i.max(j) as u32));
-            }
-        };
-        if grid.large.binary_search(&i).is_ok() {
-            (0..n).for_each(&mut near);
-            continue;
-        }
-        for cell in grid.cells_of(at) {
-            if let Some(members) = grid.cells.get(&cell) {
-                members.iter().for_each(|&j| near(j as usize));
-            }
-        }
-        grid.large.iter().for_each(|&j| near(j));
-    }
-    pairs.sort_unstable();
-    pairs.dedup();
-    pairs
+    grid.pairs_of_moved(moved, now, |at, j| boxes_overlap(at, grid.boxes[j]) && boxes_overlap(at, now(j)))
 }
 
 /// The broad phase's uniform grid ([`neighbour_pairs`]): each block's widened box, the cell's
@@ -181,6 +137,34 @@ impl Grid {
             }
         }
         Some(grid)
+    }
+
+    /// The pairs (ascending) of each `moved` block i whose box `at(i)`, looked up in the cells
+    /// (a large block's against every block), `overlaps(at(i), j)` block j's.
+    fn pairs_of_moved(&self, moved: &[bool], at: impl Fn(usize) -> (DVec3, DVec3), overlaps: impl Fn((DVec3, DVec3), usize) -> bool) -> Vec<(u32, u32)> {
+        let n = self.boxes.len();
+        let mut pairs = Vec::new();
+        for i in (0..n).filter(|&i| moved[i]) {
+            let at = at(i);
+            let mut near = |j: usize| {
+                if j != i && overlaps(at, j) {
+                    pairs.push((i.min(j) as u32, i.max(j) as u32));
+                }
+            };
+            if self.large.binary_search(&i).is_ok() {
+                (0..n).for_each(&mut near);
+                continue;
+            }
+            for cell in self.cells_of(at) {
+                if let Some(members) = self.cells.get(&cell) {
+                    members.iter().for_each(|&j| near(j as usize));
+                }
+            }
+            self.large.iter().for_each(|&j| near(j));
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        pairs
     }
 
     /// Block `i` moved to the cells of its widened box `at` (a large block's box alone).
