@@ -891,15 +891,7 @@ impl GpuBackend {
     /// device checkpoint's), uploaded under `keys`, their energy accumulators counting from
     /// `bases`.
     fn read_contacts_from<R: Real>(&self, model: &mut Model, buffers: (&wgpu::Buffer, &wgpu::Buffer), keys: &Keys, bases: Bases) -> Result<(), GpuError> {
-        let n = model.contacts.len();
-        let logical_count = keys.logical_count();
-        let (contacts, logicals) = self.dev.read_parts(
-            &[
-                (buffers.0, (n * std::mem::size_of::<layout::Contact<R>>()) as u64),
-                (buffers.1, (logical_count * std::mem::size_of::<layout::Logical<R>>()) as u64),
-            ],
-            |bytes| (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1])),
-        )?;
+        let (contacts, logicals) = self.read_records::<R>((buffers.0, model.contacts.len()), (buffers.1, keys.logical_count()))?;
         // The points' origins: block 1's centroid in f32 (read back with the blocks, before).
         let origins: Vec<DVec3> = model.contacts.iter().map(|c| point_origin::<R>(model, c)).collect();
         model.contacts.par_iter_mut().zip(&contacts).zip(&origins).enumerate().with_min_len(super::grain::CONTACT).for_each(|(k, ((c, g), &origin))| {
@@ -915,6 +907,23 @@ impl GpuBackend {
         model.dissipated.friction = bases.friction + friction;
         model.dissipated.released = bases.released + released;
         Ok(())
+    }
+
+    /// The first `contacts.1` contact records and `logicals.1` logical ones of two buffers, read
+    /// back.
+    #[allow(clippy::type_complexity)]
+    fn read_records<R: Real>(
+        &self,
+        contacts: (&wgpu::Buffer, usize),
+        logicals: (&wgpu::Buffer, usize),
+    ) -> Result<(Vec<layout::Contact<R>>, Vec<layout::Logical<R>>), GpuError> {
+        self.dev.read_parts(
+            &[
+                (contacts.0, (contacts.1 * std::mem::size_of::<layout::Contact<R>>()) as u64),
+                (logicals.0, (logicals.1 * std::mem::size_of::<layout::Logical<R>>()) as u64),
+            ],
+            |bytes| (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1])),
+        )
     }
 
     /// The energy check's contact sums on the device (`contact_energy`, shaders/d3/contact_energy.wgsl)
@@ -1073,8 +1082,7 @@ impl GpuBackend {
         } else {
             // Partial: the blocks that have used REFRESH_SHARE of their travel, their pairs
             // searched and their contacts' logical contacts found afresh; the rest as tracked.
-            let limit = REFRESH_SHARE * DETECTION_SHARE * model.contact_tolerance();
-            let moved: Vec<bool> = model.blocks.iter().map(|b| b.travel >= limit).collect();
+            let (moved, limit) = moved_blocks(model);
             let (created, dropped) = topology::update_neighbours_kept(model, &moved, &mut self.kept_grid, limit);
             report.contacts_created += created;
             report.contacts_dropped += dropped;
@@ -1709,6 +1717,14 @@ fn bases(model: &Model) -> Bases {
         friction: model.dissipated.friction,
         released: model.dissipated.released,
     }
+}
+
+/// The blocks a partial detection refreshes (those whose travel since their last refresh has
+/// reached `REFRESH_SHARE` of the allowance, a flag each), and that limit: the most a block not
+/// refreshed may have travelled (the kept grid's slack).
+fn moved_blocks(model: &Model) -> (Vec<bool>, f64) {
+    let limit = REFRESH_SHARE * DETECTION_SHARE * model.contact_tolerance();
+    (model.blocks.iter().map(|b| b.travel >= limit).collect(), limit)
 }
 
 /// How many cycles of step `dt`, at the velocities now, until the first free block has

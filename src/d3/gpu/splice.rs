@@ -218,11 +218,11 @@ fn bank_sum<R: Real>(banked: &[layout::Banked<R>]) -> (f64, f64) {
 impl GpuBackend {
     /// A partial detection whose transfers are the changed contacts (the module doc): the moved
     /// blocks' contacts read back, stage 7 and the CPU's stage 4 for them, the fresh contacts
-    /// spliced into the device's buffers, the blocks and adjacency uploaded.
+    /// spliced into the device's buffers, the block records renewed there, the adjacency
+    /// uploaded.
     pub(super) fn detect_spliced<R: Real>(&mut self, model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
         let device = super::device_error;
-        let limit = super::REFRESH_SHARE * super::DETECTION_SHARE * model.contact_tolerance();
-        let moved: Vec<bool> = model.blocks.iter().map(|b| b.travel >= limit).collect();
+        let (moved, limit) = super::moved_blocks(model);
         let touched = cpu::contacts_touching(model, |k| moved[k]);
         let (gathered, read) = self.read_touched::<R>(model, &touched).map_err(device)?;
         // The contacts kept as the device holds them: their indices in its buffers, and their
@@ -298,7 +298,7 @@ impl GpuBackend {
     /// The contacts `touched` flags (the old list's) gathered on the device by `splice_contacts`
     /// and read back into the model; returns their accumulators' sums (friction, released) and
     /// the bytes moved.
-    fn read_touched<R: Real>(&mut self, model: &mut Model, touched: &[bool]) -> Result<((f64, f64), u64), GpuError> {
+    fn read_touched<R: Real>(&self, model: &mut Model, touched: &[bool]) -> Result<((f64, f64), u64), GpuError> {
         let Some(s) = self.state.as_ref() else { return Ok(((0.0, 0.0), 0)) };
         let keys = Rc::clone(&s.keys);
         let mut at = Vec::new();
@@ -315,9 +315,7 @@ impl GpuBackend {
         let sizes = [at.len() * std::mem::size_of::<layout::Contact<R>>(), logical_count as usize * std::mem::size_of::<layout::Logical<R>>()];
         let out = [self.output_buffer("d3 gathered contacts", sizes[0] as u64), self.output_buffer("d3 gathered logicals", sizes[1] as u64)];
         let banked = self.splice::<R>((&s.contacts, &s.logicals), None, &sources, (&out[0], &out[1]))?;
-        let (contacts, logicals) = self.dev.read_parts(&[(&out[0], sizes[0] as u64), (&out[1], sizes[1] as u64)], |bytes| {
-            (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1]))
-        })?;
+        let (contacts, logicals) = self.read_records::<R>((&out[0], at.len()), (&out[1], logical_count as usize))?;
         let origins: Vec<DVec3> = at.iter().map(|&k| super::point_origin::<R>(model, &model.contacts[k])).collect();
         for ((&k, g), origin) in at.iter().zip(&contacts).zip(origins) {
             let run = &logicals[g.logical_start as usize..(g.logical_start + g.logical_count) as usize];
@@ -468,13 +466,18 @@ impl GpuBackend {
         let upload = |label, bytes: &[u8]| self.buffer(label, bytes, usage);
         let kept_buffers = (upload("d3 kept contacts", bytemuck::cast_slice(kept.0)), upload("d3 kept logicals", bytemuck::cast_slice(kept.1)));
         let fresh_buffers = (upload("d3 fresh contacts", bytemuck::cast_slice(fresh.0)), upload("d3 fresh logicals", bytemuck::cast_slice(fresh.1)));
-        let (_, twin_logicals, _) = splice_contacts(kept, fresh, sources);
-        let sizes = [sources.len() * std::mem::size_of::<layout::Contact<R>>(), twin_logicals.len() * std::mem::size_of::<layout::Logical<R>>()];
-        let out = (self.output_buffer("d3 contacts", sizes[0] as u64), self.output_buffer("d3 logicals", sizes[1] as u64));
+        // The output's logical contacts end where its last run does.
+        let count = |&[source, start]: &[u32; 2]| {
+            let i = (source & !layout::SPLICE_FRESH) as usize;
+            start as usize + if source & layout::SPLICE_FRESH != 0 { fresh.0[i].logical_count } else { kept.0[i].logical_count } as usize
+        };
+        let logical_count = sources.iter().map(count).max().unwrap_or(0);
+        let out = (
+            self.output_buffer("d3 contacts", (sources.len() * std::mem::size_of::<layout::Contact<R>>()) as u64),
+            self.output_buffer("d3 logicals", (logical_count * std::mem::size_of::<layout::Logical<R>>()) as u64),
+        );
         let banked = self.splice::<R>((&kept_buffers.0, &kept_buffers.1), Some((&fresh_buffers.0, &fresh_buffers.1)), sources, (&out.0, &out.1))?;
-        let (contacts, logicals) = self.dev.read_parts(&[(&out.0, sizes[0] as u64), (&out.1, sizes[1] as u64)], |bytes| {
-            (bytemuck::pod_collect_to_vec::<u8, layout::Contact<R>>(bytes[0]), bytemuck::pod_collect_to_vec::<u8, layout::Logical<R>>(bytes[1]))
-        })?;
+        let (contacts, logicals) = self.read_records::<R>((&out.0, sources.len()), (&out.1, logical_count))?;
         Ok((contacts, logicals, banked))
     }
 }
