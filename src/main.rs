@@ -263,6 +263,8 @@ enum BenchScene {
     D3Cubes,
     /// D3: a brick wall of 10^3 and 10^4 bricks struck by a cube (contact-cycles/s; CPU).
     D3Wall,
+    /// D3: the same wall timed through the cube's impact (contact-cycles/s, the detections' share, the energy ledger's closure).
+    D3Impact,
     All,
 }
 
@@ -323,9 +325,10 @@ fn bench(
     options.zones = wanted(&[BenchScene::Zones]);
     options.d3_cubes = wanted(&[BenchScene::D3Cubes]);
     options.d3_wall = wanted(&[BenchScene::D3Wall]);
-    // --sizes: the D3 wall's brick counts when it is asked for and no scaling family is (the
+    options.d3_impact = wanted(&[BenchScene::D3Impact]);
+    // --sizes: the D3 walls' brick counts when one is asked for and no scaling family is (the
     // families' sizes otherwise).
-    let d3_sizes = scenes.contains(&BenchScene::D3Wall) && !options.scaling && !options.sdef_scaling;
+    let d3_sizes = (scenes.contains(&BenchScene::D3Wall) || scenes.contains(&BenchScene::D3Impact)) && !options.scaling && !options.sdef_scaling;
     if let (true, Some(sizes)) = (d3_sizes, &sizes) {
         options.d3_wall_sizes = sizes.clone();
     }

@@ -8,7 +8,11 @@
 //! - `d3-wall`: a brick wall one brick thick (bricks 0.4 × 0.2 × 0.2 m in running bond, resting
 //!   on each other and on a fixed slab) struck at mid-height by a 0.5 m cube at 10 m/s, 10³ and
 //!   10⁴ bricks: contact-cycles per second (contacts in the neighbour lists, each one's stage 4
-//!   every cycle, × cycles / s).
+//!   every cycle, × cycles / s). The cube starts 0.1 m off the wall: the timed runs are the wall
+//!   standing and the cube on its way (at the wall's step, ~5000 cycles to the impact).
+//! - `d3-impact`: the same wall with the cube 2 mm off it, timed in one run through the impact
+//!   (blocks pushed out, contacts made and dropped at every detection): contact-cycles per
+//!   second with the detections' share, and how closely the energy ledger closes at the end.
 //!
 //! Each scene is built by its deck (`CYCLE 0`: the contacts detected), then run for a few cycles
 //! to find its pace, then timed over about `measure_s` of cycles. Each row has its roofline
@@ -73,11 +77,17 @@ pub struct D3Row {
     /// GPU: the bytes those detections moved between host and device (read back and uploaded:
     /// a partial detection's the moved blocks' contacts, spliced; `d3::gpu::splice`).
     pub detection_bytes: u64,
+    /// GPU: those detections whose lists kept their keys (no contact made or dropped: renewed
+    /// in place, the adjacency kept on the device).
+    pub kept_lists: u64,
     pub readback_share: f64,
     /// GPU: the energy checks (every hundred cycles and at each run's end: the contacts' sums on
     /// the device, the blocks' on the CPU, the device checkpoint) and their share of the time.
     pub checks: u64,
     pub check_share: f64,
+    /// The energy ledger at the end of the timed runs: its imbalance (what is there and what
+    /// went, less the work put in, `Energies::ledger`) over its largest term.
+    pub ledger_error: f64,
     pub error: Option<String>,
 }
 
@@ -99,8 +109,23 @@ pub fn cubes_deck(n: usize, frac: f64) -> String {
 }
 
 /// The deck of a wall of about `n` bricks (one brick thick, rows of `n / rows` bricks, every
-/// other row shifted half a brick) on a fixed slab, struck by a cube.
+/// other row shifted half a brick) on a fixed slab, struck by a cube 0.1 m off it.
 pub fn wall_deck(n: usize, frac: f64) -> String {
+    wall_deck_at(n, frac, 0.1)
+}
+
+/// The least cycles `d3-impact` times (a quarter with `--quick`): at the wall's step (2.0e-6 s
+/// at FRACTION 0.1) the cube strikes at about cycle 100, and has pushed 18 mm into the wall by
+/// cycle 1000.
+pub const IMPACT_CYCLES: u64 = 1000;
+
+/// [`wall_deck`] with the cube 2 mm off the wall: it strikes in the first ~100 cycles.
+pub fn impact_deck(n: usize, frac: f64) -> String {
+    wall_deck_at(n, frac, 0.002)
+}
+
+/// [`wall_deck`] with the cube `gap` m off the wall.
+fn wall_deck_at(n: usize, frac: f64, gap: f64) -> String {
     let (bx, bz, t) = (0.4, 0.2, 0.2);
     let rows = ((n as f64 / 8.0).sqrt().round() as usize).max(1);
     let per_row = n.div_ceil(rows).max(1);
@@ -118,19 +143,23 @@ pub fn wall_deck(n: usize, frac: f64) -> String {
             placed += 1;
         }
     }
-    // The projectile: a 0.5 m cube 0.1 m in front of the wall's middle, moving into it.
+    // The projectile: a 0.5 m cube `gap` in front of the wall's middle, moving into it.
     let (cx, cz) = (0.5 * length, (0.5 * rows as f64 * bz).max(0.3));
     let _ = write!(
         deck,
-        "BOX {} {} -0.6 -0.1 {} {}\nFIX -0.5 {} -0.5 {} -0.6 -0.4\nGRAV 0 0 -10\nVELOCITY {} {} -0.6 -0.1 {} {} 0 10 0\nFRACTION {frac}\n",
+        "BOX {} {} {} {} {} {}\nFIX -0.5 {} -0.5 {} -0.6 -0.4\nGRAV 0 0 -10\nVELOCITY {} {} {} {} {} {} 0 10 0\nFRACTION {frac}\n",
         cx - 0.25,
         cx + 0.25,
+        -0.5 - gap,
+        -gap,
         cz - 0.25,
         cz + 0.25,
         length + 0.5,
         t + 0.5,
         cx - 0.3,
         cx + 0.3,
+        -0.55 - gap,
+        -0.5 * gap,
         cz - 0.3,
         cz + 0.3
     );
@@ -168,9 +197,9 @@ fn backend_for(spec: &super::BackendSpec) -> (String, bool, Result<D3Engine, Str
 }
 
 /// Builds `deck` (`CYCLE 0`), runs it a few cycles to find its pace, then times `rounds` runs of
-/// about `measure_s` of cycles each on `backend` (`cycles`: all of them; `s_per_cycle`: the best
-/// run's).
-pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spec: &super::BackendSpec, bandwidth: Option<f64>) -> D3Row {
+/// about `measure_s` of cycles each, and at least `min_cycles`, on `backend` (`cycles`: all of
+/// them; `s_per_cycle`: the best run's).
+pub fn measure(scene: &'static str, deck: &str, (measure_s, min_cycles): (f64, u64), rounds: u32, spec: &super::BackendSpec, bandwidth: Option<f64>) -> D3Row {
     let (label, hardware_gpu, backend) = backend_for(spec);
     let mut row = D3Row { scene, backend: label, hardware_gpu, ..Default::default() };
     let mut engine = match backend {
@@ -212,7 +241,7 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
             return row;
         }
     };
-    let cycles = ((measure_s / pace.max(1e-9)) as u64).clamp(10, 1_000_000);
+    let cycles = ((measure_s / pace.max(1e-9)) as u64).clamp(min_cycles.max(10), 1_000_000.max(min_cycles));
     let host_before = host(&engine);
     // The best of `rounds` timed runs (this machine's two cores are shared: the least time is
     // the cycle's own).
@@ -233,6 +262,7 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
     let host_after = host(&engine);
     row.detections = host_after.detections - host_before.detections;
     row.detection_bytes = host_after.detection_bytes - host_before.detection_bytes;
+    row.kept_lists = host_after.kept_lists - host_before.kept_lists;
     let listed = host_after.listed - host_before.listed;
     if listed > 0 {
         row.refreshed_share = (host_after.refreshed - host_before.refreshed) as f64 / listed as f64;
@@ -243,6 +273,9 @@ pub fn measure(scene: &'static str, deck: &str, measure_s: f64, rounds: u32, spe
         row.check_share = (host_after.checks_s - host_before.checks_s) / timed_s;
     }
     row.checks = host_after.checks - host_before.checks;
+    // The ledger as the run left it (a GPU's run ends with every contact read back).
+    let energies = model.energies();
+    row.ledger_error = energies.ledger().abs() / energies.scale().max(f64::MIN_POSITIVE);
     row.blocks = model.blocks.iter().filter(|b| !b.fixed).count();
     row.contacts = model.contacts.len();
     row.touching = model.contacts.iter().filter(|c| !c.logical.is_empty()).count();
@@ -282,11 +315,11 @@ pub fn table(rows: &[D3Row]) -> String {
     if rows.is_empty() {
         return s;
     }
-    let _ = writeln!(s, "\nD3 (3D): cubes in a lattice falling on a slab; a brick wall struck by a cube");
+    let _ = writeln!(s, "\nD3 (3D): cubes in a lattice falling on a slab; a brick wall struck by a cube (d3-impact: timed through the impact)");
     let _ = writeln!(
         s,
-        "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11} {:>13} {:>13} {:>10} {:>9}",
-        "scene", "backend", "blocks", "contacts", "touching", "logical", "cycles", "s/cycle", "body-steps/s", "contact-c/s", "B/cycle", "roofline"
+        "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11} {:>13} {:>13} {:>10} {:>9} {:>8}",
+        "scene", "backend", "blocks", "contacts", "touching", "logical", "cycles", "s/cycle", "body-steps/s", "contact-c/s", "B/cycle", "roofline", "ledger"
     );
     let pct = |x: f64| if x > 0.0 { format!("{:.1}%", 100.0 * x) } else { "-".into() };
     for r in rows {
@@ -296,7 +329,7 @@ pub fn table(rows: &[D3Row]) -> String {
         }
         let _ = writeln!(
             s,
-            "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11.3e} {:>13.3e} {:>13.3e} {:>10.3e} {:>9}",
+            "{:<9} {:<34} {:>7} {:>8} {:>8} {:>8} {:>7} {:>11.3e} {:>13.3e} {:>13.3e} {:>10.3e} {:>9} {:>8.1e}",
             r.scene,
             r.backend,
             r.blocks,
@@ -308,7 +341,8 @@ pub fn table(rows: &[D3Row]) -> String {
             r.body_steps_per_s,
             r.contact_cycles_per_s,
             r.bytes_per_cycle as f64,
-            pct(r.roofline)
+            pct(r.roofline),
+            r.ledger_error
         );
         if let Some(timing) = &r.kernel_timing {
             let kernels: Vec<String> = r.kernels.iter().map(|(k, t)| format!("{k} {:.3e} s", t)).collect();
@@ -316,10 +350,11 @@ pub fn table(rows: &[D3Row]) -> String {
             let _ = writeln!(s, "{:<9}   kernels ({timing}): {}{alone}", "", kernels.join(", "));
             let _ = writeln!(
                 s,
-                "{:<9}   host: {} detections in {} cycles ({} of the listed contacts refreshed, {:.3} MB moved each), {} of the time; read-backs of the blocks {}; {} energy checks {}",
+                "{:<9}   host: {} detections in {} cycles ({} kept their lists; {} of the listed contacts refreshed, {:.3} MB moved each), {} of the time; read-backs of the blocks {}; {} energy checks {}",
                 "",
                 r.detections,
                 r.cycles,
+                r.kept_lists,
                 pct(r.refreshed_share),
                 r.detection_bytes as f64 / r.detections.max(1) as f64 / 1e6,
                 pct(r.detection_share),
@@ -380,9 +415,11 @@ impl D3Row {
             ("detection_share", e(self.detection_share)),
             ("refreshed_share", e(self.refreshed_share)),
             ("detection_bytes", self.detection_bytes.to_string()),
+            ("kept_lists", self.kept_lists.to_string()),
             ("readback_share", e(self.readback_share)),
             ("checks", self.checks.to_string()),
             ("check_share", e(self.check_share)),
+            ("ledger_error", e(self.ledger_error)),
         ]
     }
 }

@@ -83,6 +83,8 @@ pub struct BenchOptions {
     /// D3's brick wall struck by a cube (`d3::wall_deck`), and its sizes (bricks).
     pub d3_wall: bool,
     pub d3_wall_sizes: Vec<usize>,
+    /// D3's wall timed through the cube's impact (`d3::impact_deck`), at the wall's sizes.
+    pub d3_impact: bool,
     pub backends: Vec<BackendSpec>,
     /// Largest wall of the scaling family; None: 10⁴ with `quick`, else 10⁵ on the CPU and
     /// software adapters and 10⁶ on hardware GPUs.
@@ -119,6 +121,7 @@ impl BenchOptions {
             d3_cubes: true,
             d3_cubes_n: 1000,
             d3_wall: true,
+            d3_impact: true,
             d3_wall_sizes: if quick { vec![1_000] } else { vec![1_000, 10_000] },
             backends,
             max_blocks: None,
@@ -507,6 +510,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
             ("zones", opts.zones),
             ("d3-cubes", opts.d3_cubes),
             ("d3-wall", opts.d3_wall),
+            ("d3-impact", opts.d3_impact),
         ]
         .iter()
         .filter(|s| s.1)
@@ -532,7 +536,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         }
         info_of.push(report.backends.len());
         if let Some(e) = engine {
-            if opts.scaling || opts.sdef_scaling || opts.zones || opts.d3_cubes || opts.d3_wall {
+            if opts.scaling || opts.sdef_scaling || opts.zones || opts.d3_cubes || opts.d3_wall || opts.d3_impact {
                 measure_bandwidth(&mut info, &e, &say);
             }
             say(&format!("{} opened ({}), {}", info.label, info.driver, report::bandwidth_summary(&info)));
@@ -645,12 +649,23 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         };
         if opts.d3_cubes {
             say(&format!("d3-cubes ({} cubes) on {on}", opts.d3_cubes_n));
-            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), opts.measure_s, opts.rounds, spec, bandwidth));
+            report.d3.push(d3::measure("d3-cubes", &d3::cubes_deck(opts.d3_cubes_n, opts.frac), (opts.measure_s, 0), opts.rounds, spec, bandwidth));
         }
         if opts.d3_wall {
             for &n in &opts.d3_wall_sizes {
                 say(&format!("d3-wall ({n} bricks) on {on}"));
-                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), opts.measure_s, opts.rounds, spec, bandwidth));
+                report.d3.push(d3::measure("d3-wall", &d3::wall_deck(n, opts.frac), (opts.measure_s, 0), opts.rounds, spec, bandwidth));
+            }
+        }
+        if opts.d3_impact {
+            for &n in &opts.d3_wall_sizes {
+                say(&format!("d3-impact ({n} bricks) on {on}"));
+                // One timed run as long as the wall's rounds together (the state moves on
+                // through the impact, so rounds would time different stretches of it), and at
+                // least `d3::IMPACT_CYCLES`: the cube strikes in the first ~100.
+                let measure_s = opts.measure_s * opts.rounds.max(1) as f64;
+                let least = if opts.quick { d3::IMPACT_CYCLES / 4 } else { d3::IMPACT_CYCLES };
+                report.d3.push(d3::measure("d3-impact", &d3::impact_deck(n, opts.frac), (measure_s, least), 1, spec, bandwidth));
             }
         }
     }

@@ -145,24 +145,18 @@ pub fn preflight(model: &Model) -> Result<(), CycleError> {
 /// A contact driven through: a logical contact's overlap past half the smaller block's radius
 /// (checked after each stage 4).
 pub fn overlap_check(model: &Model) -> Result<(), CycleError> {
-    overlap_check_where(model, |_| true)
-}
-
-/// [`overlap_check`] of the `selected` contacts only (a flag per contact): the GPU's partial
-/// detection's, whose other contacts are as the device's last check found them.
-pub fn overlap_check_of(model: &Model, selected: &[bool]) -> Result<(), CycleError> {
-    overlap_check_where(model, |k| selected[k])
-}
-
-fn overlap_check_where(model: &Model, checked: impl Fn(usize) -> bool + Sync) -> Result<(), CycleError> {
     // The first contact driven through, in the contacts' order (searched in parallel).
-    let found = model
-        .contacts
-        .par_iter()
-        .enumerate()
-        .with_min_len(grain::CHECK)
-        .find_map_first(|(k, c)| (checked(k) && driven_through(&model.blocks, c).is_some()).then_some(k));
+    let found = model.contacts.par_iter().enumerate().with_min_len(grain::CHECK).find_map_first(|(k, c)| driven_through(&model.blocks, c).map(|_| k));
     match found {
+        Some(k) => Err(overlap_error(model, k)),
+        None => Ok(()),
+    }
+}
+
+/// [`overlap_check`] of the `selected` contacts only (their indices, ascending): the GPU's
+/// partial detection's, whose other contacts are as the device's last check found them.
+pub fn overlap_check_of(model: &Model, selected: &[usize]) -> Result<(), CycleError> {
+    match selected.iter().copied().find(|&k| driven_through(&model.blocks, &model.contacts[k]).is_some()) {
         Some(k) => Err(overlap_error(model, k)),
         None => Ok(()),
     }
@@ -378,13 +372,14 @@ pub fn contact_stage_with(model: &mut Model, dt: f64, unloaded: bool) -> Option<
     contact_stage_placed(model, dt, unloaded, placements, None)
 }
 
-/// [`contact_stage_with`] for the `selected` contacts only (a flag per contact), the others left
-/// as they are: the GPU's partial detections, whose contacts between blocks that have not moved
-/// keep the logical contacts the device tracks. Only the selected contacts' blocks are placed.
-pub fn contact_stage_of(model: &mut Model, dt: f64, unloaded: bool, selected: &[bool]) -> Option<usize> {
+/// [`contact_stage_with`] for the `selected` contacts only (their indices, ascending), the
+/// others left as they are: the GPU's partial detections, whose contacts between blocks that
+/// have not moved keep the logical contacts the device tracks. Only the selected contacts' blocks
+/// are placed; the work is the selected contacts' (and a flag per block), not the list's.
+pub fn contact_stage_of(model: &mut Model, dt: f64, unloaded: bool, selected: &[usize]) -> Option<usize> {
     let mut wanted = vec![false; model.blocks.len()];
-    for c in model.contacts.iter().zip(selected).filter(|(_, &s)| s).map(|(c, _)| c) {
-        c.blocks.iter().for_each(|&b| wanted[b as usize] = true);
+    for &k in selected {
+        model.contacts[k].blocks.iter().for_each(|&b| wanted[b as usize] = true);
     }
     let mut placements = PLACEMENTS.take();
     placements.resize_with(model.blocks.len(), contact::Placement::default);
@@ -398,43 +393,45 @@ pub fn contact_stage_of(model: &mut Model, dt: f64, unloaded: bool, selected: &[
     contact_stage_placed(model, dt, unloaded, placements, Some(selected))
 }
 
-/// A flag per contact: whether one of its blocks (indices) is one `block` says yes to (the
-/// contacts a partial detection or a crack renews, [`contact_stage_of`]).
-pub fn contacts_touching(model: &Model, block: impl Fn(usize) -> bool) -> Vec<bool> {
-    model.contacts.iter().map(|c| c.blocks.iter().any(|&k| block(k as usize))).collect()
+/// The contacts (indices, ascending) one of whose blocks (indices) is one `block` says yes to
+/// (the contacts a partial detection or a crack renews, [`contact_stage_of`]).
+pub fn contacts_touching(model: &Model, block: impl Fn(usize) -> bool) -> Vec<usize> {
+    model.contacts.iter().enumerate().filter(|(_, c)| c.blocks.iter().any(|&k| block(k as usize))).map(|(k, _)| k).collect()
 }
 
 /// [`contact_stage`] with the blocks' bodies `placements` renewed where they are (by the cycle's
 /// block pass); they go back to [`PLACEMENTS`] after. Every contact, or the `only` ones.
-fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: Vec<contact::Placement>, only: Option<&[bool]>) -> Option<usize> {
+fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: Vec<contact::Placement>, only: Option<&[usize]>) -> Option<usize> {
     let tol = model.contact_tolerance();
-    let (blocks, materials) = (&model.blocks, &model.materials);
-    let energy: Vec<(f64, f64, bool)> = model
-        .contacts
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(grain::CONTACT)
-        .map_init(
-            || {
-                let mut s = contact::Scratch::default();
-                s.unloaded = unloaded;
-                s
-            },
-            |scratch, (k, c)| {
-                if only.is_some_and(|o| !o[k]) {
-                    return (0.0, 0.0, false);
-                }
-                let [i, j] = c.blocks.map(|k| k as usize);
-                // The law block's material and whether its law is the joint law (the law's
-                // parameters follow from the touching region found).
-                let (mat, joint) = super::model::law_material(blocks, materials, c.blocks);
-                // The parts in touch (a convex block is its own one part).
-                let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
-                let (friction, released) = update_contact(c, a, b, &mat, joint, tol, dt, scratch);
-                (friction, released, driven_through(blocks, c).is_some())
-            },
-        )
-        .collect();
+    let (blocks, materials, contacts) = (&model.blocks, &model.materials, &mut model.contacts);
+    let scratch = || {
+        let mut s = contact::Scratch::default();
+        s.unloaded = unloaded;
+        s
+    };
+    let stage = |scratch: &mut contact::Scratch, c: &mut Contact| {
+        let [i, j] = c.blocks.map(|k| k as usize);
+        // The law block's material and whether its law is the joint law (the law's parameters
+        // follow from the touching region found).
+        let (mat, joint) = super::model::law_material(blocks, materials, c.blocks);
+        // The parts in touch (a convex block is its own one part).
+        let (a, b) = (placements[i].placed(&blocks[i], c.parts[0]), placements[j].placed(&blocks[j], c.parts[1]));
+        let (friction, released) = update_contact(c, a, b, &mat, joint, tol, dt, scratch);
+        (friction, released, driven_through(blocks, c).is_some())
+    };
+    let energy: Vec<(f64, f64, bool)> = match only {
+        None => contacts.par_iter_mut().with_min_len(grain::CONTACT).map_init(scratch, stage).collect(),
+        Some(at) => {
+            // The selected contacts taken out of the list (each move a few words), staged, put
+            // back: the work is theirs, not a pass over every contact.
+            let mut taken: Vec<Contact> = at.iter().map(|&k| std::mem::replace(&mut contacts[k], Contact::vacant())).collect();
+            let energy = taken.par_iter_mut().with_min_len(grain::CONTACT).map_init(scratch, stage).collect();
+            for (&k, c) in at.iter().zip(taken) {
+                contacts[k] = c;
+            }
+            energy
+        }
+    };
     PLACEMENTS.set(placements);
     // Summed in the contacts' order: reruns repeat bit for bit.
     let mut first_through = None;
@@ -442,7 +439,7 @@ fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: 
         model.dissipated.friction += friction;
         model.dissipated.released += released;
         if through && first_through.is_none() {
-            first_through = Some(k);
+            first_through = Some(only.map_or(k, |at| at[k]));
         }
     }
     first_through
@@ -642,10 +639,8 @@ pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut C
     // a cracked block or a piece) and the new ones: the others are as the cycle (or the GPU's
     // read-back) left them, and the energies before and after the cut count them alike.
     let touched = |k: u32| origin[k as usize] != k || cracked.contains(&k);
-    let mut selected = contacts_touching(model, |k| touched(k as u32));
-    for (s, c) in selected.iter_mut().zip(&model.contacts) {
-        *s |= c.id >= first_new;
-    }
+    let selected: Vec<usize> =
+        model.contacts.iter().enumerate().filter(|(_, c)| c.id >= first_new || c.blocks.iter().any(|&k| touched(k))).map(|(k, _)| k).collect();
     contact_stage_of(model, 0.0, true, &selected);
     carry_across_cracks(model, &origin, &cracked, &carried);
     let after = model.energies();

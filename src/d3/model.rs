@@ -646,6 +646,12 @@ pub struct Contact {
 }
 
 impl Contact {
+    /// A contact standing in a list's place while the contact there is taken out (no logical
+    /// contacts, so nothing allocated).
+    pub fn vacant() -> Contact {
+        Contact { id: 0, blocks: [0, 0], category: None, normal: DVec3::ZERO, area: 0.0, logical: Vec::new(), parts: [0, 0] }
+    }
+
     /// `self` made a copy of `source` in the allocation it has, its logical contacts where
     /// `with_logical` (else none: `Model::keep_from`).
     pub fn copy_from(&mut self, source: &Contact, with_logical: bool) {

@@ -260,7 +260,29 @@ pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
 pub fn update_neighbours_of(model: &mut Model, moved: &[bool]) -> (u64, u64) {
     let margin = neighbour_margin(model);
     let pairs = neighbour_pairs_of(model, margin, moved);
-    renew_contacts_of(model, moved, &pairs, margin)
+    let touched = contacts_of_blocks(model, moved);
+    let renewal = renew_contacts_of(model, moved, &touched, &pairs, margin);
+    (renewal.created, renewal.dropped)
+}
+
+/// The contacts (indices, ascending) with a block among the `moved` (a flag per block).
+fn contacts_of_blocks(model: &Model, moved: &[bool]) -> Vec<usize> {
+    model.contacts.iter().enumerate().filter(|(_, c)| moved[c.blocks[0] as usize] || moved[c.blocks[1] as usize]).map(|(k, _)| k).collect()
+}
+
+/// What a partial renewal of the neighbour lists did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Renewal {
+    pub created: u64,
+    pub dropped: u64,
+}
+
+impl Renewal {
+    /// Whether the list kept its contacts' keys (none created, none dropped): each contact where
+    /// it was, those of the moved blocks renewed in place.
+    pub fn in_place(&self) -> bool {
+        self.created == 0 && self.dropped == 0
+    }
 }
 
 /// [`update_neighbours_of`] with the pairs from a grid kept from one partial detection to the
@@ -268,28 +290,58 @@ pub fn update_neighbours_of(model: &mut Model, moved: &[bool]) -> (u64, u64) {
 /// of every block), made where `kept` is None or not of this model; `slack` is the most any
 /// block not moved may have travelled since its last refresh (the caller's refresh limit).
 /// The same lists as [`update_neighbours_of`]'s.
-pub fn update_neighbours_kept(model: &mut Model, moved: &[bool], kept: &mut Option<KeptGrid>, slack: f64) -> (u64, u64) {
+/// `touched`: the contacts (indices, ascending) with a block among the `moved`, as the caller
+/// knows them (the GPU's from the adjacency it uploaded), so that nothing here walks the list
+/// where its keys stay ([`Renewal::in_place`]).
+pub fn update_neighbours_kept(model: &mut Model, moved: &[bool], touched: &[usize], kept: &mut Option<KeptGrid>, slack: f64) -> Renewal {
     let margin = neighbour_margin(model);
     let pairs = neighbour_pairs_kept(model, margin, moved, kept, slack);
-    renew_contacts_of(model, moved, &pairs, margin)
+    renew_contacts_of(model, moved, touched, &pairs, margin)
 }
 
-/// The contacts of the neighbour `pairs` of the `moved` blocks renewed (`update_neighbours_of`).
-fn renew_contacts_of(model: &mut Model, moved: &[bool], pairs: &[(u32, u32)], margin: f64) -> (u64, u64) {
-    let touches_moved = |c: &Contact| moved[c.blocks[0] as usize] || moved[c.blocks[1] as usize];
-    let (of_moved, unmoved): (Vec<Contact>, Vec<Contact>) = std::mem::take(&mut model.contacts).into_iter().partition(touches_moved);
-    let mut old: FxHashMap<ContactKey, Contact> = of_moved.into_iter().map(|c| (key(&c), c)).collect();
+/// The contacts of the neighbour `pairs` of the `moved` blocks renewed (`update_neighbours_of`);
+/// `touched`: the contacts (indices, ascending) with a block among the moved.
+fn renew_contacts_of(model: &mut Model, moved: &[bool], touched: &[usize], pairs: &[(u32, u32)], margin: f64) -> Renewal {
+    // The moved blocks' contacts taken out of their places.
+    let mut list = std::mem::take(&mut model.contacts);
+    let mut old: FxHashMap<ContactKey, Contact> = touched
+        .iter()
+        .map(|&k| {
+            let c = std::mem::replace(&mut list[k], Contact::vacant());
+            (key(&c), c)
+        })
+        .collect();
     let mut created = 0;
     let fresh = contacts_of_pairs(model, pairs, margin, &mut old, &mut created);
-    // Both lists are in key order (keys are distinct): the stable sort merges the two runs.
-    let mut contacts = unmoved;
-    contacts.extend(fresh);
-    contacts.sort_by_key(key);
-    model.contacts = contacts;
+    let renewal = Renewal { created, dropped: old.len() as u64 };
+    if renewal.in_place() {
+        // The same keys: the fresh list (in key order) is the taken one's, place for place.
+        for (&k, c) in touched.iter().zip(fresh) {
+            list[k] = c;
+        }
+    } else {
+        // Both lists in key order (keys are distinct): merged in one pass.
+        let mut merged = Vec::with_capacity(list.len() - touched.len() + fresh.len());
+        let mut fresh = fresh.into_iter().peekable();
+        let mut taken = touched.iter().copied().peekable();
+        for (k, c) in list.into_iter().enumerate() {
+            if taken.next_if_eq(&k).is_some() {
+                continue;
+            }
+            let at = key(&c);
+            while let Some(f) = fresh.next_if(|f| key(f) < at) {
+                merged.push(f);
+            }
+            merged.push(c);
+        }
+        merged.extend(fresh);
+        list = merged;
+    }
+    model.contacts = list;
     for (b, _) in model.blocks.iter_mut().zip(moved).filter(|(_, &m)| m) {
         b.travel = 0.0;
     }
-    (created, old.len() as u64)
+    renewal
 }
 
 /// A contact's key in the neighbour lists: its blocks, then its parts.

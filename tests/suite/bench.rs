@@ -362,8 +362,9 @@ fn the_stage_shares_add_up_to_the_whole() {
     assert_eq!((share("law_of_motion"), share("contact_forces")), (25.0, 75.0), "{table}");
 }
 
-/// D3's scenes (`--scene d3-cubes`, `--scene d3-wall`) at tiny sizes: they run on the CPU, write
-/// their rows (bench_d3.csv, bench.json) and the TARGETS row of the cubes.
+/// D3's scenes (`--scene d3-cubes`, `--scene d3-wall`, `--scene d3-impact`) at tiny sizes: they
+/// run on the CPU, write their rows (bench_d3.csv, bench.json) and the TARGETS row of the cubes;
+/// the impact's cube strikes the wall in its timed run, and every row's energy ledger closes.
 #[test]
 fn the_d3_scenes_run_and_write_their_files() {
     let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu]);
@@ -373,8 +374,9 @@ fn the_d3_scenes_run_and_write_their_files() {
     options.d3_wall_sizes = vec![20];
     options.measure_s = 0.05;
     let report = blockdem::bench::run(&options);
-    assert_eq!(report.d3.len(), 2, "{:?}", report.d3);
+    assert_eq!(report.d3.len(), 3, "{:?}", report.d3);
     for r in &report.d3 {
+        eprintln!("{}: ledger {:e}", r.scene, r.ledger_error);
         assert!(r.error.is_none(), "{r:?}");
         assert!(r.cycles >= 10 && r.s_per_cycle > 0.0 && r.body_steps_per_s > 0.0, "{r:?}");
         // Every cube stands on another or on the slab; the bricks on each other.
@@ -382,14 +384,18 @@ fn the_d3_scenes_run_and_write_their_files() {
     }
     assert_eq!((report.d3[0].scene, report.d3[0].blocks), ("d3-cubes", 8));
     assert_eq!((report.d3[1].scene, report.d3[1].blocks), ("d3-wall", 21), "20 bricks and the projectile");
+    assert_eq!((report.d3[2].scene, report.d3[2].blocks), ("d3-impact", 21));
+    // The cube on the wall: contacts the standing wall does not have.
+    assert!(report.d3[2].touching > report.d3[1].touching, "{:?}", report.d3);
+    assert!(report.d3.iter().all(|r| r.ledger_error < 0.02), "{:?}", report.d3);
     let target = report.targets.iter().find(|t| t.target.starts_with("d3-cubes")).expect("a TARGETS row");
     assert!(target.met.is_some() && target.goal.contains("1e6"), "{target:?}");
     let dir = temp("d3");
     let (files, _) = blockdem::bench::write_outputs(&report, &dir).unwrap();
     let csv = std::fs::read_to_string(dir.join("bench_d3.csv")).unwrap();
-    assert!(files.contains(&dir.join("bench_d3.csv")) && csv.lines().count() == 3, "{csv}");
+    assert!(files.contains(&dir.join("bench_d3.csv")) && csv.lines().count() == 4, "{csv}");
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap();
-    assert_eq!(json["d3"].as_array().unwrap().len(), 2);
+    assert_eq!(json["d3"].as_array().unwrap().len(), 3);
     assert!(blockdem::bench::table(&report).contains("d3-wall"));
     // The roofline on the CPU: D3's byte model in f64 against the host's copy bandwidth.
     for r in &report.d3 {
@@ -416,8 +422,8 @@ fn the_d3_wall_times_its_kernels_and_gives_its_roofline_on_a_gpu() {
         return;
     };
     let mut options = BenchOptions::new(true, vec![BackendSpec::Gpu(gpu)]);
-    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones, options.d3_cubes) =
-        (false, false, false, false, false, false, false, false);
+    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones, options.d3_cubes, options.d3_impact) =
+        (false, false, false, false, false, false, false, false, false);
     options.d3_wall_sizes = vec![20];
     options.measure_s = 0.1;
     let report = blockdem::bench::run(&options);
@@ -447,8 +453,17 @@ fn the_zoned_scenes_time_their_kernels_on_a_gpu() {
         return;
     };
     let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
-    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.d3_cubes, options.d3_wall) =
-        (false, false, false, false, false, false, false, false);
+    (
+        options.settle,
+        options.impact,
+        options.sdef,
+        options.fluid,
+        options.scaling,
+        options.sdef_scaling,
+        options.d3_cubes,
+        options.d3_wall,
+        options.d3_impact,
+    ) = (false, false, false, false, false, false, false, false, false);
     options.zones = true;
     options.max_zones = Some(1_000);
     options.measure_s = 0.1;
@@ -484,8 +499,18 @@ fn the_reference_scenes_time_their_kernels_on_a_gpu() {
         return;
     };
     let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
-    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones, options.d3_cubes, options.d3_wall) =
-        (true, false, false, true, false, false, false, false, false);
+    (
+        options.settle,
+        options.impact,
+        options.sdef,
+        options.fluid,
+        options.scaling,
+        options.sdef_scaling,
+        options.zones,
+        options.d3_cubes,
+        options.d3_wall,
+        options.d3_impact,
+    ) = (true, false, false, true, false, false, false, false, false, false);
     options.settle_time = 0.01;
     let report = blockdem::bench::run(&options);
     assert_eq!(report.reference.len(), 4, "settle and fluid on two backends: {:?}", report.reference);

@@ -330,10 +330,31 @@ fn a_kept_grid_finds_the_pairs_a_fresh_one_finds() {
     // The lists from the kept grid are the fresh grid's.
     let moved: Vec<bool> = (0..n).map(|k| k == projectile || k == out).collect();
     blockdem::d3::topology::update_neighbours(&mut model);
+    // The projectile along the wall: pairs made on its way, dropped behind it.
+    for (k, shift) in [(projectile, DVec3::new(1.5, 0.0, 0.0)), (out, DVec3::new(0.0, -0.6, 0.0))] {
+        model.blocks[k].centroid += shift;
+        model.blocks[k].place_vertices();
+    }
     let mut fresh = model.clone();
     let counts = blockdem::d3::topology::update_neighbours_of(&mut fresh, &moved);
-    assert_eq!(blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &mut kept, slack), counts);
+    let touched = touching(&model, &moved);
+    let renewal = blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &touched, &mut kept, slack);
+    assert_eq!((renewal.created, renewal.dropped), counts);
+    assert!(counts.0 > 0 && counts.1 > 0 && !renewal.in_place(), "{counts:?}");
     assert!(model.contacts == fresh.contacts);
+    // Again, nothing moved since: the same pairs, the list renewed in place, as a whole
+    // update leaves it.
+    let touched = touching(&model, &moved);
+    let renewal = blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &touched, &mut kept, slack);
+    assert!(renewal.in_place(), "{renewal:?}");
+    let mut whole = model.clone();
+    blockdem::d3::topology::update_neighbours(&mut whole);
+    assert!(model.contacts == whole.contacts);
+}
+
+/// The contacts (indices, ascending) with a block among the `moved`.
+fn touching(model: &Model, moved: &[bool]) -> Vec<usize> {
+    model.contacts.iter().enumerate().filter(|(_, c)| c.blocks.iter().any(|&b| moved[b as usize])).map(|(k, _)| k).collect()
 }
 
 /// Runs a deck; the model at its end.

@@ -35,7 +35,7 @@
 //! with Δt = 0 (new logical contacts, their shear forces carried by key; normal forces from the
 //! gaps) for the blocks that moved ("Partial detections"), on their contacts read back, splices
 //! the fresh contacts into the device's buffers (`splice`), renews the blocks' travel and
-//! adjacency ranges there and uploads the adjacency lists; vertices, planes and edges (the
+//! adjacency ranges there and uploads the adjacency lists where they changed; vertices, planes and edges (the
 //! shapes) stay on the device.
 //!
 //! # Partial detections
@@ -302,6 +302,9 @@ struct State {
     contacts: wgpu::Buffer,
     logicals: wgpu::Buffer,
     adjacency: wgpu::Buffer,
+    /// The adjacency buffer's words as uploaded, kept on the host: a partial detection finds
+    /// the moved blocks' contacts in it without a pass over the list.
+    adjacency_host: Adjacency,
     /// The simply-deformable blocks' strain state (`layout::SdefBlock`, one per block, then the
     /// screen's record), in a scene with such blocks.
     sdef: Option<wgpu::Buffer>,
@@ -410,6 +413,9 @@ pub struct HostTimes {
     /// moved).
     pub listed: u64,
     pub refreshed: u64,
+    /// The spliced detections whose lists kept their keys (no contact made or dropped): the
+    /// moved blocks' contacts renewed in place, the adjacency kept on the device.
+    pub kept_lists: u64,
     /// Bytes the detections moved between host and device (read back and uploaded): a whole
     /// transfer's every contact and logical contact both ways, a spliced one's the moved
     /// blocks' contacts (`splice`); the blocks and adjacency in both.
@@ -538,9 +544,9 @@ impl GpuBackend {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let (vertices, planes, edges) = shape_pods::<R>(model);
         let vertices = self.buffer("d3 vertices", bytemuck::cast_slice(&vertices), storage_usage);
-        let (blocks, contacts, logicals, adjacency, keys) = self.topology_buffers::<R>(model);
+        let (blocks, contacts, logicals, adjacency, keys, host) = self.topology_buffers::<R>(model);
         let dt = model.timestep();
-        self.install::<R>(model, dt, vertices, [blocks, contacts, logicals, adjacency], keys, (&planes, &edges), bases(model))
+        self.install::<R>(model, dt, vertices, ([blocks, contacts, logicals, adjacency], host), keys, (&planes, &edges), bases(model))
     }
 
     /// The state made of its buffers: the shapes' planes and edges and the params (with the time
@@ -551,7 +557,7 @@ impl GpuBackend {
         model: &Model,
         dt: f64,
         vertices: wgpu::Buffer,
-        [blocks, contacts, logicals, adjacency]: [wgpu::Buffer; 4],
+        ([blocks, contacts, logicals, adjacency], adjacency_host): ([wgpu::Buffer; 4], Adjacency),
         keys: Keys,
         (planes, edges): (&[layout::Plane<R>], &[u32]),
         bases: Bases,
@@ -591,7 +597,25 @@ impl GpuBackend {
         };
         let keys = Rc::new(keys);
         let gives = self.buffer("d3 step gives", bytemuck::cast_slice(&step_gives::<R>(model)), storage_usage);
-        self.state = Some(State { params, blocks, vertices, planes, edges, contacts, logicals, adjacency, sdef, halt, variant, bind, keys, bases, dt, gives });
+        self.state = Some(State {
+            params,
+            blocks,
+            vertices,
+            planes,
+            edges,
+            contacts,
+            logicals,
+            adjacency,
+            adjacency_host,
+            sdef,
+            halt,
+            variant,
+            bind,
+            keys,
+            bases,
+            dt,
+            gives,
+        });
         Ok(())
     }
 
@@ -676,12 +700,12 @@ impl GpuBackend {
             self.buffer("d3 blocks", &device.blocks, storage_usage),
             self.buffer("d3 contacts", &device.contacts, storage_usage),
             self.buffer("d3 logicals", &device.logicals, storage_usage),
-            self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency), storage_usage),
+            self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency.words), storage_usage),
         ];
         let vertices = self.buffer("d3 vertices", &device.vertices, storage_usage);
         let [external_work, mass_damping, contact_damping, friction, released] = device.bases;
         let bases = Bases { external_work, mass_damping, contact_damping, friction, released };
-        self.install::<R>(model, device.dt, vertices, buffers, Keys::from_lists(&device.keys), (&planes, &edges), bases).map_err(|e| e.to_string())
+        self.install::<R>(model, device.dt, vertices, (buffers, adjacency), Keys::from_lists(&device.keys), (&planes, &edges), bases).map_err(|e| e.to_string())
     }
 
     /// The bind group of the buffers for the kernels `variant`, with the strain buffer `sdef` at
@@ -700,15 +724,16 @@ impl GpuBackend {
     /// The buffers a detection changes: blocks (their travel reset and adjacency lists),
     /// contacts, logical contacts and adjacency.
     #[allow(clippy::type_complexity)]
-    fn topology_buffers<R: Real>(&self, model: &Model) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, Keys) {
+    fn topology_buffers<R: Real>(&self, model: &Model) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, Keys, Adjacency) {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let (blocks, contacts, logicals, adjacency, keys) = topology_pods::<R>(model);
         (
             self.buffer("d3 blocks", bytemuck::cast_slice(&blocks), storage_usage),
             self.buffer("d3 contacts", bytemuck::cast_slice(&contacts), storage_usage),
             self.buffer("d3 logicals", bytemuck::cast_slice(&logicals), storage_usage),
-            self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency), storage_usage),
+            self.buffer("d3 adjacency", bytemuck::cast_slice(&adjacency.words), storage_usage),
             keys,
+            adjacency,
         )
     }
 
@@ -720,7 +745,7 @@ impl GpuBackend {
             Precision::F32 => fits::<f32>(model, cap)?,
             Precision::F64 => fits::<f64>(model, cap)?,
         }
-        let (blocks, contacts, logicals, adjacency, keys) = match self.dev.precision {
+        let (blocks, contacts, logicals, adjacency, keys, host) = match self.dev.precision {
             Precision::F32 => self.topology_buffers::<f32>(model),
             Precision::F64 => self.topology_buffers::<f64>(model),
         };
@@ -729,6 +754,7 @@ impl GpuBackend {
         let bind = self.bind(s.variant, &[&s.params, &blocks, &s.vertices, &s.planes, &s.edges, &contacts, &logicals, &adjacency], s.sdef.as_ref());
         let s = self.state.as_mut().expect("state");
         (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys) = (blocks, contacts, logicals, adjacency, bind, Rc::new(keys));
+        s.adjacency_host = host;
         s.bases = bases(model);
         // The params hold the counts the kernels bound their loops and the contacts' bodies'
         // place in the adjacency by (`contact_bodies`): the contacts may be more or fewer now.
@@ -1083,12 +1109,13 @@ impl GpuBackend {
             // Partial: the blocks that have used REFRESH_SHARE of their travel, their pairs
             // searched and their contacts' logical contacts found afresh; the rest as tracked.
             let (moved, limit) = moved_blocks(model);
-            let (created, dropped) = topology::update_neighbours_kept(model, &moved, &mut self.kept_grid, limit);
-            report.contacts_created += created;
-            report.contacts_dropped += dropped;
+            let touched = cpu::contacts_touching(model, |k| moved[k]);
+            let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, limit);
+            report.contacts_created += renewal.created;
+            report.contacts_dropped += renewal.dropped;
             let selected = cpu::contacts_touching(model, |k| moved[k]);
             cpu::contact_stage_of(model, 0.0, true, &selected);
-            self.host.refreshed += selected.iter().filter(|&&s| s).count() as u64;
+            self.host.refreshed += selected.len() as u64;
         }
         self.host.listed += model.contacts.len() as u64;
         report.topology_updates += 1;
@@ -1364,7 +1391,7 @@ fn vertex_count(model: &Model) -> usize {
 /// lists) and the parts' records after them, the contacts, their logical contacts, the adjacency
 /// (the blocks' lists, then the contacts' bodies), and each contact's keys.
 #[allow(clippy::type_complexity)]
-fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Vec<u32>, Keys) {
+fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::Contact<R>>, Vec<layout::Logical<R>>, Adjacency, Keys) {
     let (blocks, adjacency) = block_pods::<R>(model);
     let (contacts, logicals, keys) = contact_pods::<R>(model, model.contacts.iter());
     (blocks, contacts, logicals, adjacency, keys)
@@ -1372,9 +1399,10 @@ fn topology_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<layout::
 
 /// The blocks (their travel and adjacency lists) and the parts' records after them, and the
 /// adjacency (the blocks' lists, then the contacts' bodies), as the kernels take them.
-fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
+fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Adjacency) {
     let n = model.blocks.len();
-    let (adjacency, adjacency_start) = adjacency_pods(model);
+    let adjacency = adjacency_pods(model);
+    let adjacency_start = &adjacency.starts;
     // Where each block's vertices, planes and edges start (a pass of sums), and the parts'
     // records, after the blocks'.
     #[derive(Clone, Copy)]
@@ -1512,12 +1540,8 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Vec<u32>) {
     (blocks, adjacency)
 }
 
-/// The adjacency as the kernels take it: each block's contacts in the contacts' order, block
-/// after block (counted, then placed), then each contact's two bodies' records (`layout.wgsl`'s
-/// `contact_bodies`: a convex block's own, or the record of the part of a concave one it is
-/// between, the parts' records after the blocks'); and where each block's list starts (one more
-/// entry: the lists' end).
-fn adjacency_pods(model: &Model) -> (Vec<u32>, Vec<u32>) {
+/// The adjacency as the kernels take it ([`Adjacency`]).
+fn adjacency_pods(model: &Model) -> Adjacency {
     let n = model.blocks.len();
     let mut starts = vec![0u32; n + 1];
     for c in &model.contacts {
@@ -1547,7 +1571,34 @@ fn adjacency_pods(model: &Model) -> (Vec<u32>, Vec<u32>) {
             *body = if model.blocks[i as usize].parts.is_empty() { i } else { first_part[i as usize] + part };
         }
     }
-    (adjacency, starts)
+    Adjacency { words: adjacency, starts }
+}
+
+/// The adjacency as the kernels take it: `words`, each block's contacts in the contacts' order
+/// (`2k + side`), block after block (counted, then placed), then each contact's two bodies'
+/// records (`layout.wgsl`'s `contact_bodies`: a convex block's own, or the record of the part
+/// of a concave one it is between, the parts' records after the blocks'); and where each
+/// block's list starts (one more entry: the lists' end).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Adjacency {
+    words: Vec<u32>,
+    starts: Vec<u32>,
+}
+
+impl Adjacency {
+    /// The contacts (indices, ascending) with a block among the `moved` (a flag per block):
+    /// their lists, no pass over the contacts.
+    fn contacts_of(&self, moved: &[bool]) -> Vec<usize> {
+        let mut at: Vec<usize> = moved
+            .iter()
+            .enumerate()
+            .filter(|(_, &m)| m)
+            .flat_map(|(b, _)| self.words[self.starts[b] as usize..self.starts[b + 1] as usize].iter().map(|&w| (w / 2) as usize))
+            .collect();
+        at.sort_unstable();
+        at.dedup();
+        at
+    }
 }
 
 /// The contacts `which` (of the model's) as the kernels take them: their records, each with the
@@ -2065,7 +2116,7 @@ mod tests {
             let (_, _, logicals, adjacency, _) = topology_pods::<R>(model);
             let (vertices, planes, edges) = shape_pods::<R>(model);
             assert_eq!((count("blocks"), count("vertices"), count("face planes"), count("edges")), (5, vertices.len(), planes.len(), edges.len()));
-            assert_eq!((count("contacts"), count("logical contacts"), count("adjacency")), (model.contacts.len(), logicals.len(), adjacency.len()));
+            assert_eq!((count("contacts"), count("logical contacts"), count("adjacency")), (model.contacts.len(), logicals.len(), adjacency.words.len()));
             // Every buffer fits a binding of 128 MiB. The logical contacts' is the largest (four
             // a face–face contact): a binding a byte short of it refuses that buffer alone,
             // named, with the way out.

@@ -4,17 +4,22 @@
 //! searched afresh and their logical contacts found afresh (stage 7 and the CPU's stage 4); every
 //! other contact keeps the state the device tracks. So the detection moves only those across:
 //!
-//! 1. the contacts that touch a moved block are gathered on the device into short buffers and
+//! 1. the contacts that touch a moved block (found in the adjacency the device was given, kept
+//!    on the host: no pass over the list) are gathered on the device into short buffers and
 //!    read back (their shear forces carry over by key, their accumulators are banked);
-//! 2. the CPU runs stage 7 for the moved blocks and its stage 4 for their contacts;
+//! 2. the CPU runs stage 7 for the moved blocks and its stage 4 for their contacts: where no
+//!    contact was made or dropped, the moved blocks' contacts renewed where they lie in the list
+//!    (`topology::Renewal::in_place`), else the list merged with the fresh ones in one pass;
 //! 3. the fresh contacts (those of the moved blocks, in the new list) are uploaded with a source
 //!    per contact of the new list, and `splice_contacts` (shaders/d3/splice_contacts.wgsl, twin
 //!    [`splice_contacts`]) makes the new contact and logical buffers: a kept contact's record and
-//!    logical contacts copied from the buffers as they were, a fresh one's from the upload;
+//!    logical contacts copied from the buffers as they were, a fresh one's from the upload
+//!    (the sources and keys made a stretch of kept contacts at a time, [`splice_plan`]);
 //! 4. the block records are renewed on the device by `renew_blocks` (shaders/d3/renew_blocks.wgsl,
 //!    twin [`renew_blocks`]) from 8 bytes a block (the adjacency range, whether it moved: its
 //!    travel from zero, and the sums that count from the upload zeroed, the CPU having moved the
-//!    values it read back after the batch into the bases), and the adjacency is uploaded whole.
+//!    values it read back after the batch into the bases), and the adjacency is uploaded whole
+//!    where the list changed (where it kept its keys, the device's stands).
 //!
 //! In f64 the device's state after a splice is a whole re-upload's bit for bit (the test
 //! `d3_gpu::spliced_detections_leave_the_state_a_whole_upload_leaves`), but for two things that
@@ -37,7 +42,7 @@ use glam::DVec3;
 
 use super::{layout, GpuBackend, State};
 use crate::d3::cpu;
-use crate::d3::model::{Logical, LogicalKind, Model};
+use crate::d3::model::{Contact, Logical, LogicalKind, Model};
 use crate::d3::topology;
 use crate::driver::{CycleError, CycleReport};
 use crate::gpu::real::Real;
@@ -83,6 +88,15 @@ impl Keys {
     pub fn push(&mut self, run: impl IntoIterator<Item = LogicalKind>) {
         self.kinds.extend(run);
         self.starts.push(self.kinds.len() as u32);
+    }
+
+    /// The runs of `old`'s contacts `from..from + count` pushed as the next contacts' (one copy
+    /// of the kinds, the starts moved by as much).
+    pub fn extend_runs(&mut self, old: &Keys, from: usize, count: usize) {
+        let (a, b) = (old.starts[from], old.starts[from + count]);
+        let shift = self.kinds.len() as u32;
+        self.kinds.extend_from_slice(&old.kinds[a as usize..b as usize]);
+        self.starts.extend(old.starts[from + 1..=from + count].iter().map(|&x| x - a + shift));
     }
 
     /// Contact `k`'s run.
@@ -210,6 +224,56 @@ pub(super) fn contact_from_pods<R: Real>(
     }
 }
 
+/// A splice's sources and keys (`splice_contacts`): for each contact of the new list `contacts`,
+/// `layout::SPLICE_FRESH` with its index among the `fresh` ones (indices in the new list,
+/// ascending), else its index in the old list of `old_count` contacts, where the kept contacts
+/// are the old ones but the `taken` (indices, ascending) in their order; and the start of its
+/// run. A kept contact's run is its old one (`old`), a fresh one's its logical contacts'.
+/// Made a stretch of kept contacts at a time (one copy of their runs). `moved` says whether a
+/// contact is one of the moved blocks': each stretch's ends are checked not to be.
+pub fn splice_plan(
+    contacts: &[Contact],
+    fresh: &[usize],
+    (taken, old_count): (&[usize], usize),
+    old: &Keys,
+    moved: impl Fn(&Contact) -> bool,
+) -> Result<(Vec<[u32; 2]>, Keys), String> {
+    let n = contacts.len();
+    if n - fresh.len() != old_count - taken.len() {
+        return Err(format!("GPU: the detection kept {} contacts of {}, the device {} of {}", n - fresh.len(), n, old_count - taken.len(), old_count));
+    }
+    let fresh_logicals: usize = fresh.iter().map(|&k| contacts[k].logical.len()).sum();
+    let mut keys = Keys::with_capacity(n, old.logical_count() + fresh_logicals);
+    let mut sources = Vec::with_capacity(n);
+    let (mut fresh, mut taken) = (fresh.iter().copied().peekable(), taken.iter().copied().peekable());
+    // The next contact of the new list, and of the old.
+    let (mut p, mut a) = (0usize, 0usize);
+    let mut fresh_count = 0u32;
+    while p < n {
+        if fresh.next_if_eq(&p).is_some() {
+            sources.push([layout::SPLICE_FRESH | fresh_count, keys.logical_count() as u32]);
+            keys.push(contacts[p].logical.iter().map(|l| l.kind));
+            fresh_count += 1;
+            p += 1;
+            continue;
+        }
+        while taken.next_if_eq(&a).is_some() {
+            a += 1;
+        }
+        // A stretch of kept contacts: up to the next fresh one in the new list, the next taken
+        // one in the old.
+        let count = (fresh.peek().copied().unwrap_or(n) - p).min(taken.peek().copied().unwrap_or(old_count) - a);
+        if count == 0 || moved(&contacts[p]) || moved(&contacts[p + count - 1]) {
+            return Err(format!("GPU: contact {} of the detection is not the device's next kept contact", contacts[p].id));
+        }
+        keys.extend_runs(old, a, count);
+        sources.extend((0..count).map(|i| [(a + i) as u32, keys.starts[p + i]]));
+        p += count;
+        a += count;
+    }
+    Ok((sources, keys))
+}
+
 /// The sums of the workgroups' banks, in order, in f64: (friction, released).
 fn bank_sum<R: Real>(banked: &[layout::Banked<R>]) -> (f64, f64) {
     banked.iter().fold((0.0, 0.0), |(f, r), b| (f + b.friction.to_f64(), r + b.released.to_f64()))
@@ -223,63 +287,50 @@ impl GpuBackend {
     pub(super) fn detect_spliced<R: Real>(&mut self, model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
         let device = super::device_error;
         let (moved, limit) = super::moved_blocks(model);
-        let touched = cpu::contacts_touching(model, |k| moved[k]);
+        let Some(s) = self.state.as_ref() else { return Ok(()) };
+        if s.keys.contacts() != model.contacts.len() {
+            return Err(CycleError::Setup(format!("GPU: {} contacts on the device, {} in the model", s.keys.contacts(), model.contacts.len())));
+        }
+        // The moved blocks' contacts, from the adjacency the device holds (its list is the
+        // model's): no pass over the list.
+        let touched = s.adjacency_host.contacts_of(&moved);
         let (gathered, read) = self.read_touched::<R>(model, &touched).map_err(device)?;
-        // The contacts kept as the device holds them: their indices in its buffers, and their
-        // ids, to check the new list against.
-        let (kept_at, kept_ids): (Vec<u32>, Vec<u32>) =
-            model.contacts.iter().zip(&touched).enumerate().filter(|(_, (_, &t))| !t).map(|(k, (c, _))| (k as u32, c.id)).unzip();
+        let old_count = model.contacts.len();
         let before = (model.dissipated.friction, model.dissipated.released);
-        let (created, dropped) = topology::update_neighbours_kept(model, &moved, &mut self.kept_grid, limit);
-        report.contacts_created += created;
-        report.contacts_dropped += dropped;
+        let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, limit);
+        report.contacts_created += renewal.created;
+        report.contacts_dropped += renewal.dropped;
         report.topology_updates += 1;
-        let selected = cpu::contacts_touching(model, |k| moved[k]);
+        // The contacts renewed: those taken where the list kept its keys, else the moved blocks'
+        // in the new list.
+        let selected = if renewal.in_place() { touched.clone() } else { cpu::contacts_touching(model, |k| moved[k]) };
         cpu::contact_stage_of(model, 0.0, true, &selected);
         // What the stage booked (logical contacts that went while loaded), on the model's totals.
         let stage = (model.dissipated.friction - before.0, model.dissipated.released - before.1);
-        self.host.refreshed += selected.iter().filter(|&&s| s).count() as u64;
+        self.host.refreshed += selected.len() as u64;
         self.host.listed += model.contacts.len() as u64;
+        self.host.kept_lists += renewal.in_place() as u64;
         cpu::overlap_check_of(model, &selected)?;
 
         // The new list's sources and keys: a kept contact's run as the device holds it, a fresh
         // one's as the stage found it. The list is in key order, as the old one was, so the
         // kept contacts come in their old order.
         let Some(s) = self.state.as_ref() else { return Ok(()) };
-        let old_keys = Rc::clone(&s.keys);
-        let mut keys = Keys::with_capacity(model.contacts.len(), old_keys.logical_count());
-        let mut sources = Vec::with_capacity(model.contacts.len());
-        let mut fresh = Vec::new();
-        let mut kept = kept_at.iter().zip(&kept_ids);
-        for (c, &refreshed) in model.contacts.iter().zip(&selected) {
-            let start = keys.logical_count() as u32;
-            if refreshed {
-                sources.push([layout::SPLICE_FRESH | fresh.len() as u32, start]);
-                keys.push(c.logical.iter().map(|l| l.kind));
-                fresh.push(c);
-            } else {
-                match kept.next() {
-                    Some((&at, &id)) if id == c.id => {
-                        sources.push([at, start]);
-                        keys.push(old_keys.run(at as usize).iter().copied());
-                    }
-                    _ => return Err(CycleError::Setup(format!("GPU: contact {} of the detection is not the device's next kept contact", c.id))),
-                }
-            }
-        }
-        if kept.next().is_some() {
-            return Err(CycleError::Setup("GPU: a contact kept by the detection is missing from its list".into()));
-        }
+        let (sources, keys) =
+            splice_plan(&model.contacts, &selected, (&touched, old_count), &s.keys, |c| moved[c.blocks[0] as usize] || moved[c.blocks[1] as usize])
+                .map_err(CycleError::Setup)?;
         let cap = crate::gpu::device::binding_cap(&self.dev);
         let check = |label, item, count| crate::gpu::device::check_fits(label, item, count, cap, R::PRECISION).map_err(device);
         check("contacts", std::mem::size_of::<layout::Contact<R>>(), model.contacts.len())?;
         check("logical contacts", std::mem::size_of::<layout::Logical<R>>(), keys.logical_count())?;
         check("adjacency", 4, 4 * model.contacts.len())?;
-        let (fresh_contacts, fresh_logicals, _) = super::contact_pods::<R>(model, fresh.iter().copied());
-        let (adjacency, starts) = super::adjacency_pods(model);
+        let (fresh_contacts, fresh_logicals, _) = super::contact_pods::<R>(model, selected.iter().map(|&k| &model.contacts[k]));
+        // The adjacency: as the device holds it where the list kept its keys, else made anew.
+        let adjacency = (!renewal.in_place()).then(|| super::adjacency_pods(model));
+        let starts = &adjacency.as_ref().unwrap_or(&s.adjacency_host).starts;
         let renewals: Vec<[u32; 2]> =
             moved.iter().enumerate().map(|(k, &m)| [starts[k], (starts[k + 1] - starts[k]) | if m { layout::RENEW_MOVED } else { 0 }]).collect();
-        let (banked, moved_bytes) = self.splice_into_state::<R>((&fresh_contacts, &fresh_logicals), &sources, keys, &renewals, &adjacency).map_err(device)?;
+        let (banked, moved_bytes) = self.splice_into_state::<R>((&fresh_contacts, &fresh_logicals), &sources, keys, &renewals, adjacency).map_err(device)?;
         self.host.detection_bytes += read + moved_bytes;
 
         // The bases: the blocks' terms the model's (read back after the batch, their sums on the
@@ -295,17 +346,15 @@ impl GpuBackend {
         Ok(())
     }
 
-    /// The contacts `touched` flags (the old list's) gathered on the device by `splice_contacts`
-    /// and read back into the model; returns their accumulators' sums (friction, released) and
-    /// the bytes moved.
-    fn read_touched<R: Real>(&self, model: &mut Model, touched: &[bool]) -> Result<((f64, f64), u64), GpuError> {
+    /// The contacts `at` (indices in the old list, ascending) gathered on the device by
+    /// `splice_contacts` and read back into the model; returns their accumulators' sums
+    /// (friction, released) and the bytes moved.
+    fn read_touched<R: Real>(&self, model: &mut Model, at: &[usize]) -> Result<((f64, f64), u64), GpuError> {
         let Some(s) = self.state.as_ref() else { return Ok(((0.0, 0.0), 0)) };
         let keys = Rc::clone(&s.keys);
-        let mut at = Vec::new();
-        let mut sources = Vec::new();
+        let mut sources = Vec::with_capacity(at.len());
         let mut logical_count = 0u32;
-        for (k, _) in touched.iter().enumerate().filter(|(_, &t)| t) {
-            at.push(k);
+        for &k in at {
             sources.push([k as u32, logical_count]);
             logical_count += keys.run(k).len() as u32;
         }
@@ -327,15 +376,15 @@ impl GpuBackend {
 
     /// The state's contact and logical buffers made anew by `splice_contacts` from themselves and
     /// the `fresh` contacts as `sources` says (under `keys`), the blocks renewed by
-    /// `renew_blocks` from `renewals` and the adjacency uploaded, the bind group renewed; returns
-    /// the banks and the bytes moved.
+    /// `renew_blocks` from `renewals` and the adjacency uploaded where it changed (Some), the
+    /// bind group renewed; returns the banks and the bytes moved.
     fn splice_into_state<R: Real>(
         &mut self,
         fresh: (&[layout::Contact<R>], &[layout::Logical<R>]),
         sources: &[[u32; 2]],
         keys: Keys,
         renewals: &[[u32; 2]],
-        adjacency: &[u32],
+        adjacency: Option<super::Adjacency>,
     ) -> Result<(Vec<layout::Banked<R>>, u64), GpuError> {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let sizes =
@@ -356,12 +405,20 @@ impl GpuBackend {
         let Some(s) = self.state.as_ref() else { return Ok((Vec::new(), 0)) };
         let banked = self.splice::<R>((&s.contacts, &s.logicals), Some((&fresh_buffers.0, &fresh_buffers.1)), sources, (&out.0, &out.1))?;
         self.renew(&s.params, &s.blocks, renewals);
-        let adjacency_buffer = self.buffer("d3 adjacency", bytemuck::cast_slice(adjacency), storage_usage);
-        let bind = self.bind(s.variant, &[&s.params, &s.blocks, &s.vertices, &s.planes, &s.edges, &out.0, &out.1, &adjacency_buffer], s.sdef.as_ref());
+        let adjacency_bytes = adjacency.as_ref().map_or(0, |a| std::mem::size_of_val(&a.words[..]));
+        let adjacency_buffer = adjacency.as_ref().map(|a| self.buffer("d3 adjacency", bytemuck::cast_slice(&a.words), storage_usage));
+        let bind = self.bind(
+            s.variant,
+            &[&s.params, &s.blocks, &s.vertices, &s.planes, &s.edges, &out.0, &out.1, adjacency_buffer.as_ref().unwrap_or(&s.adjacency)],
+            s.sdef.as_ref(),
+        );
         let s: &mut State = self.state.as_mut().expect("state");
         let old_contacts = std::mem::replace(&mut s.contacts, out.0);
         let old_logicals = std::mem::replace(&mut s.logicals, out.1);
-        s.adjacency = adjacency_buffer;
+        if let (Some(buffer), Some(host)) = (adjacency_buffer, adjacency) {
+            s.adjacency = buffer;
+            s.adjacency_host = host;
+        }
         s.bind = bind;
         s.keys = Rc::new(keys);
         self.spare_contacts = Some((old_contacts, old_logicals));
@@ -369,7 +426,7 @@ impl GpuBackend {
             + std::mem::size_of_val(fresh.1)
             + std::mem::size_of_val(sources)
             + std::mem::size_of_val(renewals)
-            + std::mem::size_of_val(adjacency)
+            + adjacency_bytes
             + banked.len() * std::mem::size_of::<layout::Banked<R>>();
         Ok((banked, bytes as u64))
     }
