@@ -746,6 +746,55 @@ fn spliced_detections_leave_the_state_a_whole_upload_leaves() {
     }
 }
 
+/// A splice's plan (`d3::gpu::splice::splice_plan`): for each contact of the new list its
+/// source (kept: its index in the old list; fresh: its index among the fresh) and the start of
+/// its run. A contact renewed in its place with its run's keys leaves the old keys standing (none
+/// copied); one more logical contact moves every run after it by one; a contact dropped shifts
+/// the kept ones past it; counts that do not add up are an error, not a panic.
+#[test]
+fn a_splice_plan_names_each_contact_its_source_and_run() {
+    use blockdem::d3::gpu::layout::SPLICE_FRESH;
+    use blockdem::d3::gpu::splice::{splice_plan, Keys};
+    let model = run(&format!("{}CYCLE 10\n", struck_wall()), None);
+    let n = model.contacts.len();
+    let lists: Vec<Vec<_>> = model.contacts.iter().map(|c| c.logical.iter().map(|l| l.kind).collect()).collect();
+    let old = Keys::from_lists(&lists);
+    let k = model.contacts.iter().position(|c| c.logical.len() >= 2).expect("a touching contact");
+    assert!(k + 2 < n, "{k} of {n}");
+    // Renewed in place, the same keys.
+    let (sources, keys) = splice_plan(&model.contacts, &[k], (&[k], n), &old, |_| false).unwrap();
+    assert!(keys.is_none());
+    let expected: Vec<[u32; 2]> = (0..n).map(|i| [if i == k { SPLICE_FRESH } else { i as u32 }, old.start(i)]).collect();
+    assert_eq!(sources, expected);
+    // One logical contact more on the fresh contact.
+    let mut more = model.clone();
+    let extra = more.contacts[k].logical[0];
+    more.contacts[k].logical.push(extra);
+    let (sources, keys) = splice_plan(&more.contacts, &[k], (&[k], n), &old, |_| false).unwrap();
+    let keys = keys.expect("keys made anew");
+    assert_eq!(keys.run(k).len(), old.run(k).len() + 1);
+    for i in 0..n {
+        let shift = u32::from(i > k);
+        assert_eq!(sources[i], [if i == k { SPLICE_FRESH } else { i as u32 }, old.start(i) + shift], "contact {i}");
+        if i != k {
+            assert_eq!(keys.run(i), old.run(i), "contact {i}");
+        }
+    }
+    // Contact k dropped, none fresh.
+    let mut fewer = model.clone();
+    fewer.contacts.remove(k);
+    let (sources, keys) = splice_plan(&fewer.contacts, &[], (&[k], n), &old, |_| false).unwrap();
+    let keys = keys.expect("keys made anew");
+    for i in 0..n - 1 {
+        let from = if i < k { i } else { i + 1 };
+        assert_eq!(sources[i][0], from as u32, "contact {i}");
+        assert_eq!(keys.run(i), old.run(from), "contact {i}");
+    }
+    // Counts that do not add up, or a kept stretch that ends on a moved block's contact.
+    assert!(splice_plan(&fewer.contacts, &[], (&[], n), &old, |_| false).is_err());
+    assert!(splice_plan(&fewer.contacts, &[], (&[k], n), &old, |_| true).is_err());
+}
+
 /// `splice_contacts` on the device is its Rust twin (`d3::gpu::splice::splice_contacts`) bit for
 /// bit: records kept and fresh in a shuffled order over several workgroups (a kept contact named
 /// twice, runs of no logical contacts, a subnormal and a negative zero among the values), the

@@ -230,17 +230,28 @@ pub(super) fn contact_from_pods<R: Real>(
 /// are the old ones but the `taken` (indices, ascending) in their order; and the start of its
 /// run. A kept contact's run is its old one (`old`), a fresh one's its logical contacts'.
 /// Made a stretch of kept contacts at a time (one copy of their runs). `moved` says whether a
-/// contact is one of the moved blocks': each stretch's ends are checked not to be.
+/// contact is one of the moved blocks': each stretch's ends are checked not to be. The keys are
+/// None where they are `old`'s: each fresh contact in the place of the one taken and with its
+/// run's keys (a detection that made and dropped nothing and found each contact's logical
+/// contacts as the device had them; no copy of the keys then).
 pub fn splice_plan(
     contacts: &[Contact],
     fresh: &[usize],
     (taken, old_count): (&[usize], usize),
     old: &Keys,
     moved: impl Fn(&Contact) -> bool,
-) -> Result<(Vec<[u32; 2]>, Keys), String> {
+) -> Result<(Vec<[u32; 2]>, Option<Keys>), String> {
     let n = contacts.len();
     if n - fresh.len() != old_count - taken.len() {
         return Err(format!("GPU: the detection kept {} contacts of {}, the device {} of {}", n - fresh.len(), n, old_count - taken.len(), old_count));
+    }
+    let same_keys = n == old_count && fresh == taken && fresh.iter().all(|&k| contacts[k].logical.iter().map(|l| l.kind).eq(old.run(k).iter().copied()));
+    if same_keys {
+        let mut sources: Vec<[u32; 2]> = old.starts[..n].iter().enumerate().map(|(k, &start)| [k as u32, start]).collect();
+        for (i, &k) in fresh.iter().enumerate() {
+            sources[k][0] = layout::SPLICE_FRESH | i as u32;
+        }
+        return Ok((sources, None));
     }
     let fresh_logicals: usize = fresh.iter().map(|&k| contacts[k].logical.len()).sum();
     let mut keys = Keys::with_capacity(n, old.logical_count() + fresh_logicals);
@@ -271,7 +282,7 @@ pub fn splice_plan(
         p += count;
         a += count;
     }
-    Ok((sources, keys))
+    Ok((sources, Some(keys)))
 }
 
 /// The sums of the workgroups' banks, in order, in f64: (friction, released).
@@ -322,6 +333,7 @@ impl GpuBackend {
         let cap = crate::gpu::device::binding_cap(&self.dev);
         let check = |label, item, count| crate::gpu::device::check_fits(label, item, count, cap, R::PRECISION).map_err(device);
         check("contacts", std::mem::size_of::<layout::Contact<R>>(), model.contacts.len())?;
+        let keys = keys.map_or_else(|| Rc::clone(&s.keys), Rc::new);
         check("logical contacts", std::mem::size_of::<layout::Logical<R>>(), keys.logical_count())?;
         check("adjacency", 4, 4 * model.contacts.len())?;
         let (fresh_contacts, fresh_logicals, _) = super::contact_pods::<R>(model, selected.iter().map(|&k| &model.contacts[k]));
@@ -382,7 +394,7 @@ impl GpuBackend {
         &mut self,
         fresh: (&[layout::Contact<R>], &[layout::Logical<R>]),
         sources: &[[u32; 2]],
-        keys: Keys,
+        keys: Rc<Keys>,
         renewals: &[[u32; 2]],
         adjacency: Option<super::Adjacency>,
     ) -> Result<(Vec<layout::Banked<R>>, u64), GpuError> {
@@ -420,7 +432,7 @@ impl GpuBackend {
             s.adjacency_host = host;
         }
         s.bind = bind;
-        s.keys = Rc::new(keys);
+        s.keys = keys;
         self.spare_contacts = Some((old_contacts, old_logicals));
         let bytes = std::mem::size_of_val(fresh.0)
             + std::mem::size_of_val(fresh.1)
