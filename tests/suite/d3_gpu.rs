@@ -773,9 +773,9 @@ fn a_splice_plan_names_each_contact_its_source_and_run() {
     let (sources, keys) = splice_plan(&more.contacts, &[k], (&[k], n), &old, |_| false).unwrap();
     let keys = keys.expect("keys made anew");
     assert_eq!(keys.run(k).len(), old.run(k).len() + 1);
-    for i in 0..n {
+    for (i, &source) in sources.iter().enumerate() {
         let shift = u32::from(i > k);
-        assert_eq!(sources[i], [if i == k { SPLICE_FRESH } else { i as u32 }, old.start(i) + shift], "contact {i}");
+        assert_eq!(source, [if i == k { SPLICE_FRESH } else { i as u32 }, old.start(i) + shift], "contact {i}");
         if i != k {
             assert_eq!(keys.run(i), old.run(i), "contact {i}");
         }
@@ -785,9 +785,10 @@ fn a_splice_plan_names_each_contact_its_source_and_run() {
     fewer.contacts.remove(k);
     let (sources, keys) = splice_plan(&fewer.contacts, &[], (&[k], n), &old, |_| false).unwrap();
     let keys = keys.expect("keys made anew");
-    for i in 0..n - 1 {
+    assert_eq!(sources.len(), n - 1);
+    for (i, &[source, _]) in sources.iter().enumerate() {
         let from = if i < k { i } else { i + 1 };
-        assert_eq!(sources[i][0], from as u32, "contact {i}");
+        assert_eq!(source, from as u32, "contact {i}");
         assert_eq!(keys.run(i), old.run(from), "contact {i}");
     }
     // Counts that do not add up, or a kept stretch that ends on a moved block's contact.
