@@ -369,14 +369,15 @@ pub fn contact_stage_with(model: &mut Model, dt: f64, unloaded: bool) -> Option<
     let mut placements = PLACEMENTS.take();
     placements.resize_with(model.blocks.len(), contact::Placement::default);
     placements.par_iter_mut().zip(model.blocks.par_iter()).with_min_len(grain::BLOCK).for_each(|(p, b)| p.renew(b));
-    contact_stage_placed(model, dt, unloaded, placements, None)
+    contact_stage_placed(model, model.contact_tolerance(), dt, unloaded, placements, None)
 }
 
 /// [`contact_stage_with`] for the `selected` contacts only (their indices, ascending), the
 /// others left as they are: the GPU's partial detections, whose contacts between blocks that
 /// have not moved keep the logical contacts the device tracks. Only the selected contacts' blocks
 /// are placed; the work is the selected contacts' (and a flag per block), not the list's.
-pub fn contact_stage_of(model: &mut Model, dt: f64, unloaded: bool, selected: &[usize]) -> Option<usize> {
+/// `tol`: the model's contact-forming distance (`Model::contact_tolerance`), as the caller has it.
+pub fn contact_stage_of(model: &mut Model, tol: f64, dt: f64, unloaded: bool, selected: &[usize]) -> Option<usize> {
     let mut wanted = vec![false; model.blocks.len()];
     for &k in selected {
         model.contacts[k].blocks.iter().for_each(|&b| wanted[b as usize] = true);
@@ -390,7 +391,7 @@ pub fn contact_stage_of(model: &mut Model, dt: f64, unloaded: bool, selected: &[
         .with_min_len(grain::BLOCK)
         .filter(|(_, &w)| w)
         .for_each(|((p, b), _)| p.renew(b));
-    contact_stage_placed(model, dt, unloaded, placements, Some(selected))
+    contact_stage_placed(model, tol, dt, unloaded, placements, Some(selected))
 }
 
 /// The contacts (indices, ascending) one of whose blocks (indices) is one `block` says yes to
@@ -401,8 +402,7 @@ pub fn contacts_touching(model: &Model, block: impl Fn(usize) -> bool) -> Vec<us
 
 /// [`contact_stage`] with the blocks' bodies `placements` renewed where they are (by the cycle's
 /// block pass); they go back to [`PLACEMENTS`] after. Every contact, or the `only` ones.
-fn contact_stage_placed(model: &mut Model, dt: f64, unloaded: bool, placements: Vec<contact::Placement>, only: Option<&[usize]>) -> Option<usize> {
-    let tol = model.contact_tolerance();
+fn contact_stage_placed(model: &mut Model, tol: f64, dt: f64, unloaded: bool, placements: Vec<contact::Placement>, only: Option<&[usize]>) -> Option<usize> {
     let (blocks, materials, contacts) = (&model.blocks, &model.materials, &mut model.contacts);
     let scratch = || {
         let mut s = contact::Scratch::default();
@@ -564,13 +564,14 @@ pub fn cycle(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleErr
     }
     model.cycle += 1;
     model.time += dt;
-    if topology::rebuild_due(model) {
+    // The shapes are as they were at the step's check (cracks come after the contacts).
+    if topology::rebuild_due(model, tol) {
         let (created, dropped) = topology::update_neighbours(model);
         report.topology_updates += 1;
         report.contacts_created += created;
         report.contacts_dropped += dropped;
     }
-    if let Some(k) = contact_stage_placed(model, dt, true, placements, None) {
+    if let Some(k) = contact_stage_placed(model, tol, dt, true, placements, None) {
         return Err(overlap_error(model, k));
     }
     cracks(model, report);
@@ -641,7 +642,7 @@ pub fn crack_blocks(model: &mut Model, due: Vec<cracking::Crack>, report: &mut C
     let touched = |k: u32| origin[k as usize] != k || cracked.contains(&k);
     let selected: Vec<usize> =
         model.contacts.iter().enumerate().filter(|(_, c)| c.id >= first_new || c.blocks.iter().any(|&k| touched(k))).map(|(k, _)| k).collect();
-    contact_stage_of(model, 0.0, true, &selected);
+    contact_stage_of(model, model.contact_tolerance(), 0.0, true, &selected);
     carry_across_cracks(model, &origin, &cracked, &carried);
     let after = model.energies();
     model.dissipated.released = released + (before.kinetic + before.strain) - (after.kinetic + after.strain);

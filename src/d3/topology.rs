@@ -16,12 +16,17 @@ use super::model::{Contact, Model};
 
 /// The neighbour margin: four times the contact-forming distance.
 pub fn neighbour_margin(model: &Model) -> f64 {
-    4.0 * model.contact_tolerance()
+    margin_of(model.contact_tolerance())
 }
 
-/// Whether a block has moved far enough since the last rebuild to need one.
-pub fn rebuild_due(model: &Model) -> bool {
-    let tol = model.contact_tolerance();
+/// The neighbour margin of the contact-forming distance `tol` ([`neighbour_margin`]).
+fn margin_of(tol: f64) -> f64 {
+    4.0 * tol
+}
+
+/// Whether a block has moved far enough since the last rebuild to need one; `tol`: the model's
+/// contact-forming distance (`Model::contact_tolerance`), as the caller has it.
+pub fn rebuild_due(model: &Model, tol: f64) -> bool {
     model.neighbours_stale || model.blocks.iter().any(|b| b.travel >= tol)
 }
 
@@ -293,8 +298,10 @@ impl Renewal {
 /// `touched`: the contacts (indices, ascending) with a block among the `moved`, as the caller
 /// knows them (the GPU's from the adjacency it uploaded), so that nothing here walks the list
 /// where its keys stay ([`Renewal::in_place`]).
-pub fn update_neighbours_kept(model: &mut Model, moved: &[bool], touched: &[usize], kept: &mut Option<KeptGrid>, slack: f64) -> Renewal {
-    let margin = neighbour_margin(model);
+/// `tol`: the model's contact-forming distance (`Model::contact_tolerance`, a pass over every
+/// block's shape), as the caller has it.
+pub fn update_neighbours_kept(model: &mut Model, moved: &[bool], touched: &[usize], kept: &mut Option<KeptGrid>, (tol, slack): (f64, f64)) -> Renewal {
+    let margin = margin_of(tol);
     let pairs = neighbour_pairs_kept(model, margin, moved, kept, slack);
     renew_contacts_of(model, moved, touched, &pairs, margin)
 }

@@ -337,15 +337,15 @@ fn a_kept_grid_finds_the_pairs_a_fresh_one_finds() {
     }
     let mut fresh = model.clone();
     let counts = blockdem::d3::topology::update_neighbours_of(&mut fresh, &moved);
-    let touched = touching(&model, &moved);
-    let renewal = blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &touched, &mut kept, slack);
+    let (touched, tol) = (touching(&model, &moved), model.contact_tolerance());
+    let renewal = blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &touched, &mut kept, (tol, slack));
     assert_eq!((renewal.created, renewal.dropped), counts);
     assert!(counts.0 > 0 && counts.1 > 0 && !renewal.in_place(), "{counts:?}");
     assert!(model.contacts == fresh.contacts);
     // Again, nothing moved since: the same pairs, the list renewed in place, as a whole
     // update leaves it.
-    let touched = touching(&model, &moved);
-    let renewal = blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &touched, &mut kept, slack);
+    let (touched, tol) = (touching(&model, &moved), model.contact_tolerance());
+    let renewal = blockdem::d3::topology::update_neighbours_kept(&mut model, &moved, &touched, &mut kept, (tol, slack));
     assert!(renewal.in_place(), "{renewal:?}");
     let mut whole = model.clone();
     blockdem::d3::topology::update_neighbours(&mut whole);

@@ -322,6 +322,10 @@ struct State {
     dt: f64,
     /// What the critical step reads of each block (`layout::StepGive`), made at the upload.
     gives: wgpu::Buffer,
+    /// The contact-forming distance (`Model::contact_tolerance`, a pass over every block's
+    /// shape: 2 ms at 10⁵ blocks) as of the upload: the shapes change only where the topology
+    /// does, which uploads again; each run's start renews it too.
+    tol: f64,
 }
 
 /// The GPU backend for D3.
@@ -564,7 +568,8 @@ impl GpuBackend {
     ) -> Result<(), GpuError> {
         let storage_usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
         let uniform_usage = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
-        let params = self.buffer("d3 params", bytemuck::bytes_of(&params::<R>(model, dt)), uniform_usage);
+        let tol = model.contact_tolerance();
+        let params = self.buffer("d3 params", bytemuck::bytes_of(&params::<R>(model, dt, tol)), uniform_usage);
         let planes = self.buffer("d3 planes", bytemuck::cast_slice(planes), storage_usage);
         let edges = self.buffer("d3 edges", bytemuck::cast_slice(edges), storage_usage);
         // The strain buffer where the scene has simply-deformable blocks (its kernels compiled
@@ -615,6 +620,7 @@ impl GpuBackend {
             bases,
             dt,
             gives,
+            tol,
         });
         Ok(())
     }
@@ -756,6 +762,7 @@ impl GpuBackend {
         (s.blocks, s.contacts, s.logicals, s.adjacency, s.bind, s.keys) = (blocks, contacts, logicals, adjacency, bind, Rc::new(keys));
         s.adjacency_host = host;
         s.bases = bases(model);
+        s.tol = model.contact_tolerance();
         // The params hold the counts the kernels bound their loops and the contacts' bodies'
         // place in the adjacency by (`contact_bodies`): the contacts may be more or fewer now.
         // (They were written only where the time step changed, which hid this where the step
@@ -779,8 +786,8 @@ impl GpuBackend {
     fn write_params(&self, model: &Model) {
         let Some(s) = self.state.as_ref() else { return };
         match self.dev.precision {
-            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, s.dt))),
-            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, s.dt))),
+            Precision::F32 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f32>(model, s.dt, s.tol))),
+            Precision::F64 => self.dev.queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params::<f64>(model, s.dt, s.tol))),
         }
     }
 
@@ -1108,13 +1115,14 @@ impl GpuBackend {
         } else {
             // Partial: the blocks that have used REFRESH_SHARE of their travel, their pairs
             // searched and their contacts' logical contacts found afresh; the rest as tracked.
-            let (moved, limit) = moved_blocks(model);
+            let tol = model.contact_tolerance();
+            let (moved, limit) = moved_blocks(model, tol);
             let touched = cpu::contacts_touching(model, |k| moved[k]);
-            let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, limit);
+            let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, (tol, limit));
             report.contacts_created += renewal.created;
             report.contacts_dropped += renewal.dropped;
             let selected = cpu::contacts_touching(model, |k| moved[k]);
-            cpu::contact_stage_of(model, 0.0, true, &selected);
+            cpu::contact_stage_of(model, tol, 0.0, true, &selected);
             self.host.refreshed += selected.len() as u64;
         }
         self.host.listed += model.contacts.len() as u64;
@@ -1743,7 +1751,7 @@ fn pods<T: bytemuck::Pod>(bytes: &[u8], n: usize, what: &str) -> Result<Vec<T>, 
 }
 
 /// The run's constants as the kernels take them, with the time step `dt`.
-fn params<R: Real>(model: &Model, dt: f64) -> layout::Params<R> {
+fn params<R: Real>(model: &Model, dt: f64, tol: f64) -> layout::Params<R> {
     let r = |x: f64| R::from_f64(x);
     layout::Params::<R> {
         gx: r(model.gravity.x),
@@ -1752,7 +1760,7 @@ fn params<R: Real>(model: &Model, dt: f64) -> layout::Params<R> {
         alpha: r(model.damping.alpha),
         beta: r(model.damping.beta),
         dt: r(dt),
-        tol: r(model.contact_tolerance()),
+        tol: r(tol),
         one: r(1.0),
         blocks: model.blocks.len() as u32,
         contacts: model.contacts.len() as u32,
@@ -1773,8 +1781,8 @@ fn bases(model: &Model) -> Bases {
 /// The blocks a partial detection refreshes (those whose travel since their last refresh has
 /// reached `REFRESH_SHARE` of the allowance, a flag each), and that limit: the most a block not
 /// refreshed may have travelled (the kept grid's slack).
-fn moved_blocks(model: &Model) -> (Vec<bool>, f64) {
-    let limit = REFRESH_SHARE * DETECTION_SHARE * model.contact_tolerance();
+fn moved_blocks(model: &Model, tol: f64) -> (Vec<bool>, f64) {
+    let limit = REFRESH_SHARE * DETECTION_SHARE * tol;
     (model.blocks.iter().map(|b| b.travel >= limit).collect(), limit)
 }
 
@@ -1818,6 +1826,9 @@ impl driver::Start<Model> for GpuBackend {
         }
         let pending = self.pending.take();
         if resume && self.state.is_some() {
+            if let Some(s) = self.state.as_mut() {
+                s.tol = model.contact_tolerance();
+            }
             return Ok(());
         }
         if let Some(device) = pending.filter(|_| resume) {
@@ -1941,7 +1952,7 @@ impl driver::Stages<Model> for GpuBackend {
                 // it touches (`cpu::crack_blocks`), so the others count alike before and after.
                 let mut cracking = vec![false; model.blocks.len()];
                 due.iter().for_each(|d| cracking[d.block] = true);
-                cpu::contact_stage_of(model, 0.0, true, &cpu::contacts_touching(model, |k| cracking[k]));
+                cpu::contact_stage_of(model, model.contact_tolerance(), 0.0, true, &cpu::contacts_touching(model, |k| cracking[k]));
                 cpu::crack_blocks(model, due, report);
                 self.upload(model).map_err(device_error)?;
             }

@@ -297,8 +297,9 @@ impl GpuBackend {
     /// uploaded.
     pub(super) fn detect_spliced<R: Real>(&mut self, model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
         let device = super::device_error;
-        let (moved, limit) = super::moved_blocks(model);
         let Some(s) = self.state.as_ref() else { return Ok(()) };
+        let tol = s.tol;
+        let (moved, limit) = super::moved_blocks(model, tol);
         if s.keys.contacts() != model.contacts.len() {
             return Err(CycleError::Setup(format!("GPU: {} contacts on the device, {} in the model", s.keys.contacts(), model.contacts.len())));
         }
@@ -308,14 +309,14 @@ impl GpuBackend {
         let (gathered, read) = self.read_touched::<R>(model, &touched).map_err(device)?;
         let old_count = model.contacts.len();
         let before = (model.dissipated.friction, model.dissipated.released);
-        let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, limit);
+        let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, (tol, limit));
         report.contacts_created += renewal.created;
         report.contacts_dropped += renewal.dropped;
         report.topology_updates += 1;
         // The contacts renewed: those taken where the list kept its keys, else the moved blocks'
         // in the new list.
         let selected = if renewal.in_place() { touched.clone() } else { cpu::contacts_touching(model, |k| moved[k]) };
-        cpu::contact_stage_of(model, 0.0, true, &selected);
+        cpu::contact_stage_of(model, tol, 0.0, true, &selected);
         // What the stage booked (logical contacts that went while loaded), on the model's totals.
         let stage = (model.dissipated.friction - before.0, model.dissipated.released - before.1);
         self.host.refreshed += selected.len() as u64;
@@ -465,7 +466,7 @@ impl GpuBackend {
         if R::PRECISION != self.dev.precision {
             return Err(GpuError::Setup(format!("records in {:?} for kernels in {:?}", R::PRECISION, self.dev.precision)));
         }
-        let params = layout::Params::<R> { blocks: renewals.len() as u32, ..super::params::<R>(&Model::default(), 1e-6) };
+        let params = layout::Params::<R> { blocks: renewals.len() as u32, ..super::params::<R>(&Model::default(), 1e-6, 0.0) };
         let params = self.buffer("d3 params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         let buffer = self.buffer("d3 blocks", bytemuck::cast_slice(blocks), usage);
