@@ -201,10 +201,8 @@ fn scaling_rounds_alternate_the_backends() {
     let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
         return;
     };
-    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
-    options.settle = false;
-    options.impact = false;
-    options.sdef_scaling = false;
+    let mut options = no_scenes(vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
+    options.scaling = true;
     options.sizes = vec![1_000];
     options.measure_s = 0.3;
     options.rounds = 3;
@@ -367,9 +365,8 @@ fn the_stage_shares_add_up_to_the_whole() {
 /// the impact's cube strikes the wall in its timed run, and every row's energy ledger closes.
 #[test]
 fn the_d3_scenes_run_and_write_their_files() {
-    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu]);
-    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones) =
-        (false, false, false, false, false, false, false);
+    let mut options = no_scenes(vec![BackendSpec::Cpu]);
+    (options.d3_cubes, options.d3_wall, options.d3_impact) = (true, true, true);
     options.d3_cubes_n = 8;
     options.d3_wall_sizes = vec![20];
     options.measure_s = 0.05;
@@ -421,9 +418,8 @@ fn the_d3_wall_times_its_kernels_and_gives_its_roofline_on_a_gpu() {
     let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
         return;
     };
-    let mut options = BenchOptions::new(true, vec![BackendSpec::Gpu(gpu)]);
-    (options.settle, options.impact, options.sdef, options.fluid, options.scaling, options.sdef_scaling, options.zones, options.d3_cubes, options.d3_impact) =
-        (false, false, false, false, false, false, false, false, false);
+    let mut options = no_scenes(vec![BackendSpec::Gpu(gpu)]);
+    options.d3_wall = true;
     options.d3_wall_sizes = vec![20];
     options.measure_s = 0.1;
     let report = blockdem::bench::run(&options);
@@ -452,18 +448,7 @@ fn the_zoned_scenes_time_their_kernels_on_a_gpu() {
     let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
         return;
     };
-    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
-    (
-        options.settle,
-        options.impact,
-        options.sdef,
-        options.fluid,
-        options.scaling,
-        options.sdef_scaling,
-        options.d3_cubes,
-        options.d3_wall,
-        options.d3_impact,
-    ) = (false, false, false, false, false, false, false, false, false);
+    let mut options = no_scenes(vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
     options.zones = true;
     options.max_zones = Some(1_000);
     options.measure_s = 0.1;
@@ -498,19 +483,8 @@ fn the_reference_scenes_time_their_kernels_on_a_gpu() {
     let Some(Target::Gpu(gpu)) = Target::gpu("vulkan", blockdem::udec::gpu::Precision::F32) else {
         return;
     };
-    let mut options = BenchOptions::new(true, vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
-    (
-        options.settle,
-        options.impact,
-        options.sdef,
-        options.fluid,
-        options.scaling,
-        options.sdef_scaling,
-        options.zones,
-        options.d3_cubes,
-        options.d3_wall,
-        options.d3_impact,
-    ) = (true, false, false, true, false, false, false, false, false, false);
+    let mut options = no_scenes(vec![BackendSpec::Cpu, BackendSpec::Gpu(gpu)]);
+    (options.settle, options.fluid) = (true, true);
     options.settle_time = 0.01;
     let report = blockdem::bench::run(&options);
     assert_eq!(report.reference.len(), 4, "settle and fluid on two backends: {:?}", report.reference);
@@ -526,4 +500,12 @@ fn the_reference_scenes_time_their_kernels_on_a_gpu() {
     }
     let table = blockdem::bench::table(&report);
     assert!(table.contains("fluid on vulkan") && table.contains("kernels (us/cycle"), "{table}");
+}
+
+/// The quick bench's options with every scene off, for a test to turn on what it measures.
+fn no_scenes(backends: Vec<BackendSpec>) -> BenchOptions {
+    let mut o = BenchOptions::new(true, backends);
+    (o.settle, o.impact, o.sdef, o.fluid, o.scaling, o.sdef_scaling, o.zones) = (false, false, false, false, false, false, false);
+    (o.d3_cubes, o.d3_wall, o.d3_impact) = (false, false, false);
+    o
 }
