@@ -45,10 +45,11 @@ source scripts/device-env.sh
 # scenes:limit, in order of need: the scaling walls, rigid and SDEF in one run (the per-kernel
 # profile at 10^6 blocks; the SDEF rows against the rigid ones), the zoned family, D3 on every
 # backend, D3's wall of 10^5 and 10^6 bricks on the GPU alone (issue 31's H100 target: its
-# contact-cycles/s, roofline and kernel times), then the reference scenes (each measured against
-# the dry settle of the same run). An item scenes/backend/sizes:limit runs only that backend,
-# at those sizes, one round.
-for item in ${SCENES:-scaling,sdef-scaling:170 zones:80 d3-wall,d3-cubes:80 d3-wall/gpu/100000,1000000:120 settle,impact,sdef,fluid:80}; do
+# contact-cycles/s, roofline and kernel times), the 10^5-brick wall through the cube's impact on
+# the GPU (its detections' share and bytes, the ledger), then the reference scenes (each measured
+# against the dry settle of the same run). An item scenes/backend/sizes:limit runs only that
+# backend, at those sizes, one round.
+for item in ${SCENES:-scaling,sdef-scaling:170 zones:80 d3-wall,d3-cubes:80 d3-wall/gpu/100000,1000000:120 d3-impact/gpu/100000:50 settle,impact,sdef,fluid:80}; do
     spec="${item%%:*}"
     scene="${spec%%/*}"
     name="bench-${scene//,/-}"
