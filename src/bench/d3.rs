@@ -10,9 +10,10 @@
 //!   10⁴ bricks: contact-cycles per second (contacts in the neighbour lists, each one's stage 4
 //!   every cycle, × cycles / s). The cube starts 0.1 m off the wall: the timed runs are the wall
 //!   standing and the cube on its way (at the wall's step, ~5000 cycles to the impact).
-//! - `d3-impact`: the same wall with the cube 2 mm off it, timed in one run through the impact
-//!   (blocks pushed out, contacts made and dropped at every detection): contact-cycles per
-//!   second with the detections' share, and how closely the energy ledger closes at the end.
+//! - `d3-impact`: the same wall with the cube 2 mm off it, timed in one run through the start of
+//!   the impact (the struck bricks pushed in, their contacts and the cube's refreshed at each
+//!   detection): contact-cycles per second with the detections' share, and how closely the
+//!   energy ledger closes at the end.
 //!
 //! Each scene is built by its deck (`CYCLE 0`: the contacts detected), then run for a few cycles
 //! to find its pace, then timed over about `measure_s` of cycles. Each row has its roofline
@@ -115,8 +116,8 @@ pub fn wall_deck(n: usize, frac: f64) -> String {
 }
 
 /// The least cycles `d3-impact` times (a quarter with `--quick`): at the wall's step (2.0e-6 s
-/// at FRACTION 0.1) the cube strikes at about cycle 100, and has pushed 18 mm into the wall by
-/// cycle 1000.
+/// at FRACTION 0.1) the cube strikes at about cycle 100, and by cycle 1000 it has gone at most
+/// 18 mm past the wall's face (its speed at the start, 10 m/s).
 pub const IMPACT_CYCLES: u64 = 1000;
 
 /// [`wall_deck`] with the cube 2 mm off the wall: it strikes in the first ~100 cycles.

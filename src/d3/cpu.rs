@@ -394,12 +394,6 @@ pub fn contact_stage_of(model: &mut Model, tol: f64, dt: f64, unloaded: bool, se
     contact_stage_placed(model, tol, dt, unloaded, placements, Some(selected))
 }
 
-/// The contacts (indices, ascending) one of whose blocks (indices) is one `block` says yes to
-/// (the contacts a partial detection or a crack renews, [`contact_stage_of`]).
-pub fn contacts_touching(model: &Model, block: impl Fn(usize) -> bool) -> Vec<usize> {
-    model.contacts.iter().enumerate().filter(|(_, c)| c.blocks.iter().any(|&k| block(k as usize))).map(|(k, _)| k).collect()
-}
-
 /// [`contact_stage`] with the blocks' bodies `placements` renewed where they are (by the cycle's
 /// block pass); they go back to [`PLACEMENTS`] after. Every contact, or the `only` ones.
 fn contact_stage_placed(model: &mut Model, tol: f64, dt: f64, unloaded: bool, placements: Vec<contact::Placement>, only: Option<&[usize]>) -> Option<usize> {

@@ -265,14 +265,15 @@ pub fn update_neighbours(model: &mut Model) -> (u64, u64) {
 pub fn update_neighbours_of(model: &mut Model, moved: &[bool]) -> (u64, u64) {
     let margin = neighbour_margin(model);
     let pairs = neighbour_pairs_of(model, margin, moved);
-    let touched = contacts_of_blocks(model, moved);
+    let touched = contacts_touching(model, |k| moved[k]);
     let renewal = renew_contacts_of(model, moved, &touched, &pairs, margin);
     (renewal.created, renewal.dropped)
 }
 
-/// The contacts (indices, ascending) with a block among the `moved` (a flag per block).
-fn contacts_of_blocks(model: &Model, moved: &[bool]) -> Vec<usize> {
-    model.contacts.iter().enumerate().filter(|(_, c)| moved[c.blocks[0] as usize] || moved[c.blocks[1] as usize]).map(|(k, _)| k).collect()
+/// The contacts (indices, ascending) one of whose blocks (indices) is one `block` says yes to
+/// (the contacts a partial detection or a crack renews, `cpu::contact_stage_of`).
+pub fn contacts_touching(model: &Model, block: impl Fn(usize) -> bool) -> Vec<usize> {
+    model.contacts.iter().enumerate().filter(|(_, c)| c.blocks.iter().any(|&k| block(k as usize))).map(|(k, _)| k).collect()
 }
 
 /// What a partial renewal of the neighbour lists did.

@@ -1117,11 +1117,11 @@ impl GpuBackend {
             // searched and their contacts' logical contacts found afresh; the rest as tracked.
             let tol = model.contact_tolerance();
             let (moved, limit) = moved_blocks(model, tol);
-            let touched = cpu::contacts_touching(model, |k| moved[k]);
+            let touched = topology::contacts_touching(model, |k| moved[k]);
             let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, (tol, limit));
             report.contacts_created += renewal.created;
             report.contacts_dropped += renewal.dropped;
-            let selected = cpu::contacts_touching(model, |k| moved[k]);
+            let selected = topology::contacts_touching(model, |k| moved[k]);
             cpu::contact_stage_of(model, tol, 0.0, true, &selected);
             self.host.refreshed += selected.len() as u64;
         }
@@ -1952,7 +1952,7 @@ impl driver::Stages<Model> for GpuBackend {
                 // it touches (`cpu::crack_blocks`), so the others count alike before and after.
                 let mut cracking = vec![false; model.blocks.len()];
                 due.iter().for_each(|d| cracking[d.block] = true);
-                cpu::contact_stage_of(model, model.contact_tolerance(), 0.0, true, &cpu::contacts_touching(model, |k| cracking[k]));
+                cpu::contact_stage_of(model, model.contact_tolerance(), 0.0, true, &topology::contacts_touching(model, |k| cracking[k]));
                 cpu::crack_blocks(model, due, report);
                 self.upload(model).map_err(device_error)?;
             }

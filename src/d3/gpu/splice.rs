@@ -315,7 +315,7 @@ impl GpuBackend {
         report.topology_updates += 1;
         // The contacts renewed: those taken where the list kept its keys, else the moved blocks'
         // in the new list.
-        let selected = if renewal.in_place() { touched.clone() } else { cpu::contacts_touching(model, |k| moved[k]) };
+        let selected = if renewal.in_place() { touched.clone() } else { topology::contacts_touching(model, |k| moved[k]) };
         cpu::contact_stage_of(model, tol, 0.0, true, &selected);
         // What the stage booked (logical contacts that went while loaded), on the model's totals.
         let stage = (model.dissipated.friction - before.0, model.dissipated.released - before.1);
