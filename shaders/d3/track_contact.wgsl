@@ -409,10 +409,12 @@ fn slip_work(held: vec3<real>, new_force: vec3<real>, slide: vec3<real>, ks: rea
 
 // The force–displacement law for the contact's live logical contacts (Rust twin:
 // `contact::force_law`), at its normal n; `old` is the normal of the cycle before. Returns the
-// energy friction took.
-fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
+// energy friction took and the energy the normal springs of those that opened loaded held
+// (released: an edge–edge contact's stepped force can stand above kn times its overlap there).
+fn force_law(c: Contact, old: vec3<real>, dt: real) -> vec2<real> {
     let n = normal_of(c);
     var friction: real = 0.0;
+    var released: real = 0.0;
     for (var j = 0u; j < c.logical_count; j++) {
         let k = c.logical_start + j;
         var l = logicals[k];
@@ -425,6 +427,9 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
             let fs = shear_of(l);
             if (c.ks > 0.0) {
                 friction += 0.5 * dot3(fs, fs) / c.ks;
+            }
+            if (c.kn > 0.0 && l.normal_force > 0.0) {
+                released += 0.5 * l.normal_force * l.normal_force / c.kn;
             }
             l.normal_force = 0.0;
             l.sx = 0.0;
@@ -479,7 +484,7 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> real {
         l.sz = fs.z;
         logicals[k] = l;
     }
-    return friction;
+    return vec2<real>(friction, released);
 }
 
 // The strain energy of a logical contact's springs, Fn²/2kn + |Fs|²/2ks (`cpu::spring_energy`).
@@ -581,6 +586,8 @@ fn track_contact(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
         logicals[k].pz = point.z;
         logicals[k].gap = placed.gap;
     }
-    c.friction_work += force_law(c, old, params.dt);
+    let work = force_law(c, old, params.dt);
+    c.friction_work += work.x;
+    c.released_work += work.y;
     contacts[ci] = c;
 }

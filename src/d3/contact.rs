@@ -914,7 +914,12 @@ pub const NEW_NORMAL_FORCE: f64 = f64::NAN;
 /// contact's current normal; `old_normal` is the normal of the previous cycle (for the rotation
 /// of the shear force). The forces are stored in the logical contacts; returns the energy
 /// friction took (the ledger's `friction`): what a spring at the Coulomb limit gives up
-/// ([`slip_work`]), and the shear spring's energy of a contact that opens.
+/// ([`slip_work`]), and the shear spring's energy of a contact that opens; and the energy its
+/// normal spring held when it opened (the ledger's `released`, as a contact gone while loaded):
+/// an edge–edge logical contact's stepped force can stand above kn times its overlap when its
+/// gap passes its offset (below), and that spring's ½Fn²/kn goes with it. Unbooked, it was the
+/// struck wall's ledger imbalance: 2·10⁻³ of the cube's energy, not shrinking with the step
+/// (docs/BENCHMARKS.md).
 ///
 /// The normal force (eq. 16): a vertex–face logical contact's is kn times its overlap beyond its
 /// offset (the whole overlap at a run's first detection, none where it appeared inside a face
@@ -930,15 +935,19 @@ pub const NEW_NORMAL_FORCE: f64 = f64::NAN;
 /// the lesser of that and one step's approach (it touched within the step). (A vertex–face
 /// contact stepped so too drifted off its overlap in f32 on the GPU: an L resting on an L moved
 /// 0.3 mm from the CPU's.) Either opens, its force dropped, where its gap passes its offset.
-pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block, mat: &Material, dt: f64) -> f64 {
+pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block, mat: &Material, dt: f64) -> (f64, f64) {
     let n = contact.normal;
-    let mut friction = 0.0;
+    let (mut friction, mut released) = (0.0, 0.0);
     for l in &mut contact.logical {
         if l.gap > l.offset {
             // Open: no force, and the shear history is lost; the spring reloads from here.
             l.offset = l.gap.min(0.0);
             if mat.ks > 0.0 {
                 friction += 0.5 * l.shear_force.length_squared() / mat.ks;
+            }
+            // (A new one's force, not yet loaded, holds nothing.)
+            if mat.kn > 0.0 && l.normal_force > 0.0 {
+                released += 0.5 * l.normal_force * l.normal_force / mat.kn;
             }
             l.normal_force = 0.0;
             l.shear_force = DVec3::ZERO;
@@ -979,7 +988,7 @@ pub fn force_law(contact: &mut Contact, old_normal: DVec3, a: &Block, b: &Block,
         }
         l.shear_force = fs;
     }
-    friction
+    (friction, released)
 }
 
 /// The energy a shear spring gave up to slip in one step (as 2D's `law::slip_dissipation`, in
@@ -1073,7 +1082,7 @@ pub fn track_contact(c: &mut Contact, a: Body, b: Body, mat: &Material, tol: f64
     for l in &mut c.logical {
         (l.point, l.gap) = place_logical(l.kind, a, b, n, hi_a, lo_b, plane.separation);
     }
-    (force_law(c, old_normal, a.block, b.block, mat, dt), 0.0)
+    force_law(c, old_normal, a.block, b.block, mat, dt)
 }
 
 /// The strain energy of a logical contact's springs, Fn²/2kn + |Fs|²/2ks.

@@ -476,7 +476,7 @@ pub fn update_contact(
     let (category, area) = contact::logical_contacts_with(&a, &b, &plane, tol, scratch);
     let contact::Scratch { previous, found, unloaded, .. } = scratch;
     let unloaded = *unloaded;
-    let released = if found.len() == c.logical.len() && found.iter().zip(&c.logical).all(|(f, l)| f.0 == l.kind) {
+    let released: f64 = if found.len() == c.logical.len() && found.iter().zip(&c.logical).all(|(f, l)| f.0 == l.kind) {
         // The same logical contacts in the same order (a settled contact, most cycles): each
         // keeps its shear force, none is released. (A contact's logical contacts have distinct
         // keys, so the search below would pair them so too.)
@@ -511,7 +511,8 @@ pub fn update_contact(
     c.category = Some(category);
     c.area = area;
     let law = mat.contact_law(joint, area, c.logical.len());
-    (contact::force_law(c, old_normal, a.body.block, b.body.block, &law, dt), released)
+    let (friction, opened) = contact::force_law(c, old_normal, a.body.block, b.body.block, &law, dt);
+    (friction, released + opened)
 }
 
 /// One cycle: stages 6, 1–2, 7 as due, 4.
