@@ -428,7 +428,7 @@ fn force_law(c: Contact, old: vec3<real>, dt: real) -> vec2<real> {
             if (c.ks > 0.0) {
                 friction += 0.5 * dot3(fs, fs) / c.ks;
             }
-            if (c.kn > 0.0 && l.normal_force > 0.0) {
+            if (c.kn > 0.0 && l.normal_force > 0.0 && l.kind == LOGICAL_EDGE_EDGE) {
                 released += 0.5 * l.normal_force * l.normal_force / c.kn;
             }
             l.normal_force = 0.0;

@@ -616,9 +616,11 @@ pub struct Logical {
     pub gap: f64,
     pub normal_force: f64,
     pub shear_force: DVec3,
-    /// The gap at which its normal spring is unloaded (≤ 0): the overlap it had when it first
-    /// appeared inside a loaded face, ratcheted up as it opens (eq. 16 as an increment). Saved
-    /// after the model (`d3::restart::Offsets`, format 9).
+    /// The gap at which its normal spring is unloaded: the overlap it had when it first
+    /// appeared inside a loaded face (≤ 0), ratcheted up as it opens (eq. 16 as an increment),
+    /// or where it took a swapped corner's force Fn, its gap then plus Fn/kn (which may be
+    /// above 0: `contact::carry_swapped`). Saved after the model (`d3::restart::Offsets`,
+    /// format 9).
     #[serde(skip)]
     pub offset: f64,
 }

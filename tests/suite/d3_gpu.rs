@@ -508,9 +508,10 @@ fn a_struck_wall_cracks_on_the_gpu_and_keeps_its_energy() {
 
 /// The struck wall's ledger through the impact (1.5 ms at FRACTION 0.1, then 0.05) on the GPU
 /// in f64: an edge–edge logical contact that opens loaded lets its normal spring's energy go as
-/// released (`force_law` in track_contact.wgsl, as the CPU's `contact::force_law`), and what
-/// is left shrinks with the step. Unbooked, the ledger stood at −1.6e-4 and −3.9e-4 of the work
-/// at FRACTION 0.1 and 0.05 (booked: 5.9e-4, 3.1e-4).
+/// released (`force_law` in track_contact.wgsl, as the CPU's `contact::force_law`), a corner
+/// the detection finds under a new key keeps its springs (`contact::carry_swapped`), and what
+/// is left shrinks with the step. Before, the ledger stood at −1.6e-4 and −3.9e-4 of the work at
+/// FRACTION 0.1 and 0.05, and released 4.3 % (now 1.2e-4, 7.3e-5 and 0.07 %).
 #[test]
 fn the_struck_walls_ledger_closes_with_the_step_on_the_gpu() {
     let Some(Target::Gpu(o)) = Target::gpu("vulkan", Precision::F64) else { return };
@@ -522,7 +523,7 @@ fn the_struck_walls_ledger_closes_with_the_step_on_the_gpu() {
     let (coarse, _) = ledger(0.1, 1500);
     let (fine, e) = ledger(0.05, 3000);
     eprintln!("struck wall on the GPU: ledger {coarse:e} (FRACTION 0.1), {fine:e} (0.05) of the work; {e:?}");
-    assert!(e.released > 0.0 && e.friction > 0.0 && e.external_work > 1e4, "{e:?}");
+    assert!(e.friction > 0.0 && e.external_work > 1e4 && e.released < 0.01 * e.external_work, "{e:?}");
     assert!(fine.abs() < 5e-4 && fine.abs() < 0.75 * coarse.abs(), "the imbalance shrinks with the step: {coarse:e} → {fine:e}");
 }
 

@@ -261,16 +261,19 @@ fn struck_wall_ledger(fraction: f64, cycles: u64) -> (f64, blockdem::d3::model::
 }
 
 #[test]
-fn a_struck_walls_ledger_closes_as_the_step_shrinks() {
-    // Through the impact (3 ms: the cube strikes, the bricks rock and slide, edge–edge logical
-    // contacts come and go). An edge–edge contact's force is stepped (eq. 16) and can stand
-    // above kn times its overlap when it opens; the energy its normal spring then let go was
-    // not booked, and the ledger stood at −1.8e-3 and −2.0e-3 of the work at FRACTION 0.1 and
-    // 0.05. Booked as released, what is left is the slip's O(Δt): 5.8e-4 and 3.4e-4 here.
-    let (coarse, e) = struck_wall_ledger(0.1, 3000);
-    let (fine, _) = struck_wall_ledger(0.05, 6000);
+fn a_struck_walls_ledger_closes_and_its_corners_keep_their_springs() {
+    // Through the impact (3 ms: the cube strikes, the bricks rock and slide, the corners of the
+    // touching regions change their keys as vertices slide off faces). Two losses went unbooked
+    // or were made up: an edge–edge contact's stepped force (eq. 16) can stand above kn times
+    // its overlap when it opens, and its normal spring's energy went unbooked (the ledger stood
+    // at −1.8e-3 and −2.0e-3 of the work at FRACTION 0.1 and 0.05); and a corner under a new key
+    // was a new spring, unloaded, the old one's energy let go (released: 7.9 % of the work).
+    // Now the first is booked as released and the second keeps its springs
+    // (`contact::carry_swapped`): the ledger within 1e-5 and 3e-5 here, released 0.5 %.
+    let (coarse, _) = struck_wall_ledger(0.1, 3000);
+    let (fine, e) = struck_wall_ledger(0.05, 6000);
     eprintln!("struck wall: ledger {coarse:e} (FRACTION 0.1), {fine:e} (0.05) of the work; {e:?}");
-    assert!(e.friction > 0.0 && e.released > 0.0 && e.external_work > 1e4, "{e:?}");
-    assert!(fine.abs() < 1e-3, "ledger {fine:e} of the work at FRACTION 0.05 ({coarse:e} at 0.1)");
-    assert!(fine.abs() < 0.75 * coarse.abs(), "the imbalance shrinks with the step: {coarse:e} → {fine:e}");
+    assert!(e.friction > 0.0 && e.external_work > 1e4, "{e:?}");
+    assert!(coarse.abs() < 2e-4 && fine.abs() < 2e-4, "ledger {coarse:e} and {fine:e} of the work at FRACTION 0.1 and 0.05");
+    assert!(e.released < 0.02 * e.external_work, "released {} of {} J: corners let go as they change keys", e.released, e.external_work);
 }

@@ -199,6 +199,7 @@ use rayon::prelude::*;
 
 use glam::{DMat3, DQuat, DVec3};
 
+use super::contact::Appearing;
 use super::cpu::{self, contact_stage};
 use super::geometry::Shape;
 use super::model::{LogicalKind, Model};
@@ -1110,7 +1111,7 @@ impl GpuBackend {
             let (created, dropped) = topology::update_neighbours(model);
             report.contacts_created += created;
             report.contacts_dropped += dropped;
-            cpu::contact_stage_with(model, 0.0, true);
+            cpu::contact_stage_with(model, 0.0, Appearing::Carried);
             self.host.refreshed += model.contacts.len() as u64;
         } else {
             // Partial: the blocks that have used REFRESH_SHARE of their travel, their pairs
@@ -1122,7 +1123,7 @@ impl GpuBackend {
             report.contacts_created += renewal.created;
             report.contacts_dropped += renewal.dropped;
             let selected = topology::contacts_touching(model, |k| moved[k]);
-            cpu::contact_stage_of(model, tol, 0.0, true, &selected);
+            cpu::contact_stage_of(model, tol, 0.0, Appearing::Carried, &selected);
             self.host.refreshed += selected.len() as u64;
         }
         self.host.listed += model.contacts.len() as u64;
@@ -1952,7 +1953,7 @@ impl driver::Stages<Model> for GpuBackend {
                 // it touches (`cpu::crack_blocks`), so the others count alike before and after.
                 let mut cracking = vec![false; model.blocks.len()];
                 due.iter().for_each(|d| cracking[d.block] = true);
-                cpu::contact_stage_of(model, model.contact_tolerance(), 0.0, true, &topology::contacts_touching(model, |k| cracking[k]));
+                cpu::contact_stage_of(model, model.contact_tolerance(), 0.0, Appearing::Carried, &topology::contacts_touching(model, |k| cracking[k]));
                 cpu::crack_blocks(model, due, report);
                 self.upload(model).map_err(device_error)?;
             }

@@ -41,6 +41,7 @@ use std::rc::Rc;
 use glam::DVec3;
 
 use super::{layout, GpuBackend, State};
+use crate::d3::contact::Appearing;
 use crate::d3::cpu;
 use crate::d3::model::{Contact, Logical, LogicalKind, Model};
 use crate::d3::topology;
@@ -316,7 +317,7 @@ impl GpuBackend {
         // The contacts renewed: those taken where the list kept its keys, else the moved blocks'
         // in the new list.
         let selected = if renewal.in_place() { touched.clone() } else { topology::contacts_touching(model, |k| moved[k]) };
-        cpu::contact_stage_of(model, tol, 0.0, true, &selected);
+        cpu::contact_stage_of(model, tol, 0.0, Appearing::Carried, &selected);
         // What the stage booked (logical contacts that went while loaded), on the model's totals.
         let stage = (model.dissipated.friction - before.0, model.dissipated.released - before.1);
         self.host.refreshed += selected.len() as u64;
