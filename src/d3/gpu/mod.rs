@@ -1122,7 +1122,9 @@ impl GpuBackend {
             let renewal = topology::update_neighbours_kept(model, &moved, &touched, &mut self.kept_grid, (tol, limit));
             report.contacts_created += renewal.created;
             report.contacts_dropped += renewal.dropped;
-            let selected = topology::contacts_touching(model, |k| moved[k]);
+            // Where the list kept its keys the contacts found before the renewal are the moved
+            // blocks' still (the spliced path's rule); else their indices moved with the merge.
+            let selected = if renewal.in_place() { touched } else { topology::contacts_touching(model, |k| moved[k]) };
             cpu::contact_stage_of(model, tol, 0.0, Appearing::Carried, &selected);
             self.host.refreshed += selected.len() as u64;
         }
@@ -1588,7 +1590,7 @@ fn adjacency_pods(model: &Model) -> Adjacency {
 /// records (`layout.wgsl`'s `contact_bodies`: a convex block's own, or the record of the part
 /// of a concave one it is between, the parts' records after the blocks'); and where each
 /// block's list starts (one more entry: the lists' end).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Debug)]
 pub(crate) struct Adjacency {
     words: Vec<u32>,
     starts: Vec<u32>,
