@@ -531,8 +531,11 @@ pub fn update_contact(
     c.category = Some(category);
     c.area = area;
     let law = mat.contact_law(joint, area, c.logical.len());
+    // The joint law's stiffness per corner is its share of the region (JKN·area over the
+    // corners): where that changed, the springs held alter their energy with no work done.
+    let restiffened = if law.kn != old_law.kn || law.ks != old_law.ks { contact::restiffening(&c.logical, &old_law, &law) } else { 0.0 };
     let (friction, opened) = contact::force_law(c, old_normal, a.body.block, b.body.block, &law, dt);
-    (friction, released + opened)
+    (friction, released + opened - restiffened)
 }
 
 /// One cycle: stages 6, 1–2, 7 as due, 4.

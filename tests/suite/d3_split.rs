@@ -489,9 +489,10 @@ fn struck_wall(jkn: &str, cycles: u64) -> String {
 /// the same overlaps, each switch putting spring energy in, and the run stopped with `energy
 /// growing without a source` at the same simulated time at FRACTION 0.1, 0.05 and 0.025 (cycle
 /// 2100 at 0.1). With the rule it runs. With JKN = 10¹¹ (the joint law on the bricks' faces) it
-/// runs too. The ledger: 0.14 % and 0.64 % of the cube's energy (−0.56 % and 0.26 % before the
+/// runs too. The ledger: 0.14 % and −0.07 % of the cube's energy (−0.56 % and 0.26 % before the
 /// opened edge–edge springs were booked and swapped corners kept their springs, which the point
-/// law of JKN = 10¹⁰ does and the joint law does not: `contact::carry_swapped`; 9.7 % and 7.3 %
+/// law of JKN = 10¹⁰ does and the joint law does not: `contact::carry_swapped`; 0.64 % under the
+/// joint law before its stiffness changes were booked: `contact::restiffening`; 9.7 % and 7.3 %
 /// while the normal force of an edge–edge logical contact was kn times its gap:
 /// `contact::force_law`).
 #[test]
@@ -505,7 +506,7 @@ fn a_joint_softer_than_a_point_contact_is_one_and_a_struck_wall_keeps_its_energy
         let e = m.energies();
         // The cube (210.6 kg at 30 m/s) struck the wall: the bricks move, friction took some.
         assert!(e.external_work > 9e4 && e.friction > 1e3, "JKN {jkn}: {e:?}\n{log}");
-        assert!(e.ledger().abs() < 0.03 * e.external_work, "JKN {jkn}: ledger {} of {}", e.ledger(), e.external_work);
+        assert!(e.ledger().abs() < 0.004 * e.external_work, "JKN {jkn}: ledger {} of {}", e.ledger(), e.external_work);
         let faces =
             m.contacts.iter().filter(|c| c.area > 0.01 && m.blocks[c.blocks[0] as usize].constitutive == 2 && m.blocks[c.blocks[1] as usize].constitutive == 2);
         let joints = faces.filter(|c| m.contact_material(c).kn != 1e9).count();
