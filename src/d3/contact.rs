@@ -548,6 +548,8 @@ struct Hull {
     pts: Vec<DVec2>,
     /// The length of each of its [`Hull::edges`], in their order ([`Hull::measure`]).
     lengths: Vec<f64>,
+    /// Each of its [`Hull::edges`] as a vector, end less start ([`Hull::measure`]).
+    sides: Vec<DVec2>,
 }
 
 impl Hull {
@@ -573,11 +575,10 @@ impl Hull {
         match pts.len() {
             1 => (p - pts[0]).length() <= tol,
             2 => segment_distance(p, pts[0], pts[1]) <= tol,
-            n => {
-                // Each edge from its corner a to the next, b.
-                for i in 0..n {
-                    let (a, b) = (pts[i], pts[if i + 1 == n { 0 } else { i + 1 }]);
-                    let inside = (b - a).perp_dot(p - a) >= -tol * lengths[i];
+            _ => {
+                // Each edge from its corner a to the next (b − a its side).
+                for ((&a, side), length) in pts.iter().zip(&self.sides).zip(lengths) {
+                    let inside = side.perp_dot(p - a) >= -tol * length;
                     if !inside {
                         return false;
                     }
@@ -592,8 +593,11 @@ impl Hull {
     fn measure(&mut self) {
         let n = self.pts.len();
         self.lengths.clear();
+        self.sides.clear();
         for i in 0..Hull::edge_count(n) {
-            self.lengths.push((self.pts[if i + 1 == n { 0 } else { i + 1 }] - self.pts[i]).length());
+            let side = self.pts[if i + 1 == n { 0 } else { i + 1 }] - self.pts[i];
+            self.sides.push(side);
+            self.lengths.push(side.length());
         }
     }
 
@@ -806,10 +810,8 @@ fn project_near(pts: &mut Vec<Projected>, verts: &[DVec3], n: DVec3, bound: f64,
 }
 
 /// The crossing of segments p0p1 and q0q1 strictly inside both (parameters on each), if any;
-/// `lengths`: |p1 − p0| and |q1 − q0|.
-fn crossing(p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2, lengths: (f64, f64)) -> Option<(f64, f64)> {
-    let r = p1 - p0;
-    let s = q1 - q0;
+/// given as their starts and sides, `r` = p1 − p0 and `s` = q1 − q0; `lengths`: |r| and |s|.
+fn crossing((p0, r): (DVec2, DVec2), (q0, s): (DVec2, DVec2), lengths: (f64, f64)) -> Option<(f64, f64)> {
     let den = r.perp_dot(s);
     if den.abs() <= 1e-12 * lengths.0 * lengths.1 {
         return None;
@@ -868,8 +870,8 @@ pub fn logical_contacts_with(a: &Placed, b: &Placed, plane: &CommonPlane, tolera
     let key = |x: u32, y: u32| (x.min(y), x.max(y));
     for (e, (i, j)) in ha.edges().enumerate() {
         for (f, (k, l)) in hb.edges().enumerate() {
-            if let Some((t, _)) = crossing(ha.pts[i], ha.pts[j], hb.pts[k], hb.pts[l], (ha.lengths[e], hb.lengths[f])) {
-                let p = ha.pts[i] + (ha.pts[j] - ha.pts[i]) * t;
+            if let Some((t, _)) = crossing((ha.pts[i], ha.sides[e]), (hb.pts[k], hb.sides[f]), (ha.lengths[e], hb.lengths[f])) {
+                let p = ha.pts[i] + ha.sides[e] * t;
                 if !on_plane.iter().any(|(_, q)| !farther_than(*q - p, flat)) {
                     on_plane.push((LogicalKind::EdgeEdge { first: key(ha.ids[i], ha.ids[j]), second: key(hb.ids[k], hb.ids[l]) }, p));
                 }
