@@ -668,9 +668,10 @@ pub enum Appearing {
     Carried,
 }
 
-/// The logical contacts of a contact that appeared this cycle (`appeared`, in `logical`'s order)
-/// each take the forces of the nearest loaded one of the last cycle's (`previous`) that is
-/// neither found again (`kept`) nor taken by one before it, within `reach` (the contact-forming
+/// The logical contacts of a contact that appeared this cycle (those of `logical` whose keys
+/// `previous` has not), in `logical`'s order, each take the forces of the nearest loaded one of
+/// the last cycle's (`previous`) that is neither found again (its key in `logical`) nor taken
+/// by one before it, within `reach` (the contact-forming
 /// distance): their shear force and normal force, the normal force as kn times an overlap beyond
 /// an offset (offset = gap + Fn/kn, kn the law the force was made under, `law`), so that either
 /// law of eq. (16) goes on from it. A corner of the touching region changes its key where a
@@ -682,9 +683,13 @@ pub enum Appearing {
 /// spring goes to at most one new one: where a vertex gives way to two crossings, one takes its
 /// forces and the other starts unloaded (no spring energy is made). Returns the strain energy of
 /// the last cycle's logical contacts neither found again nor carried (released).
-pub fn carry_swapped(previous: &[Logical], kept: &[bool], logical: &mut [Logical], appeared: &[bool], reach: f64, law: &Material) -> f64 {
-    let mut taken: SmallVec<[bool; 16]> = kept.iter().copied().collect();
-    for (l, _) in logical.iter_mut().zip(appeared).filter(|(_, &new)| new) {
+pub fn carry_swapped(previous: &[Logical], logical: &mut [Logical], reach: f64, law: &Material) -> f64 {
+    // The last cycle's found again, and those a new one took.
+    let mut taken: SmallVec<[bool; 16]> = previous.iter().map(|old| logical.iter().any(|l| l.kind == old.kind)).collect();
+    for l in logical.iter_mut() {
+        if previous.iter().any(|old| old.kind == l.kind) {
+            continue;
+        }
         let mut nearest: Option<(usize, f64)> = None;
         for (k, old) in previous.iter().enumerate() {
             let d = old.point.distance(l.point);
@@ -1230,13 +1235,11 @@ mod tests {
             at(vertex(2), 5.0, -1e-4, 1e5, 0.0),
             at(vertex(3), 2.0, 1e-3, 0.0, 0.0),
         ];
-        let kept = [false, true, false, false];
         // This cycle: the vertex at 1 again, two crossings near 0 (the nearer takes its springs),
         // a crossing near the open one at 2 (nothing to take).
         let new = |kind, x: f64| Logical { shear_force: DVec3::ZERO, ..at(kind, x, -3e-4, NEW_NORMAL_FORCE, -3e-4) };
         let mut logical = [new(edges(0, 1), 0.004), at(vertex(1), 1.0, -1e-4, 1e5, 0.0), new(edges(0, 2), 0.001), new(edges(3, 6), 2.0)];
-        let appeared = [true, false, true, true];
-        let released = carry_swapped(&previous, &kept, &mut logical, &appeared, 0.01, &law);
+        let released = carry_swapped(&previous, &mut logical, 0.01, &law);
         // The crossing at 0.004 comes first and is within reach: it takes vertex 0's springs
         // (one old spring to one new one), the crossing at 0.001 starts unloaded.
         let taken = &logical[0];

@@ -466,8 +466,9 @@ pub fn update_contact(
     let old_law = mat.contact_law(joint, c.area, c.logical.len());
     // Swapped corners take their forces under the point law only (`Appearing::Carried`): under
     // the joint law a corner's stiffness is its share of the region, which the swap changes, and
-    // a force carried at the old share put energy in (5.3 % of the cube's on a struck wall of
-    // jointed bricks, against 1.2 % with the swapped corners let go).
+    // forces carried at the old share put energy in (`d3_split`'s struck wall of jointed bricks:
+    // the stiffness changes, `contact::restiffening`, put in 1582 J more than every release took
+    // out, where with the swapped corners let go they take out 13 270 J; docs/BENCHMARKS.md).
     let carried = scratch.appearing == Appearing::Carried && !mat.joint_law(joint, c.area, c.logical.len());
     // Boxes apart by more than the contact-forming distance: the blocks are (a lower bound of
     // their distance), and the common plane is not needed.
@@ -521,9 +522,7 @@ pub fn update_contact(
         // ones too, where the touching region lost a loaded corner); in a run, less those whose
         // corner a new one took (`contact::carry_swapped`).
         if carried {
-            let kept: smallvec::SmallVec<[bool; 16]> = previous.iter().map(|l| c.logical.iter().any(|n| n.kind == l.kind)).collect();
-            let appeared: smallvec::SmallVec<[bool; 16]> = c.logical.iter().map(|n| !previous.iter().any(|l| l.kind == n.kind)).collect();
-            contact::carry_swapped(previous, &kept, &mut c.logical, &appeared, tol, &old_law)
+            contact::carry_swapped(previous, &mut c.logical, tol, &old_law)
         } else {
             previous.iter().filter(|l| !c.logical.iter().any(|n| n.kind == l.kind)).map(|l| spring_energy(l, &old_law)).sum()
         }
