@@ -527,31 +527,30 @@ fn the_struck_walls_ledger_closes_with_the_step_on_the_gpu() {
     assert!(fine.abs() < 5e-4 && fine.abs() < 0.75 * coarse.abs(), "the imbalance shrinks with the step: {coarse:e} → {fine:e}");
 }
 
-/// A wall of twenty bricks on a slab, a cube moving at 10 m/s towards it (it strikes at cycle
-/// ~300 of the step the bricks take).
+/// How near the CPU's the kinetic energy of the struck wall after the impact lies on the GPU
+/// (a share of the CPU's). The GPU moves its logical contacts with the blocks between
+/// detections where the CPU finds them afresh every cycle, so the impact's scatter differs: 1.1 %
+/// apart with partial detections, 0.1–0.2 % with whole ones, in f32 and f64 alike (lavapipe,
+/// 1500 cycles; 1.9 % apart before corners changing their keys kept their springs,
+/// `contact::carry_swapped`).
+const KINETIC_AGREEMENT: f64 = 0.015;
+
+/// The struck wall of twenty bricks (`common::d3_struck_wall`), the cube 1 cm off it (it
+/// strikes at cycle ~300).
 fn struck_wall() -> String {
     struck_wall_from(0.0)
 }
 
 /// [`struck_wall`] with the cube `gap` m farther from the wall.
 fn struck_wall_from(gap: f64) -> String {
-    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nBOX -1 5.2 -1 1.2 -1 0\n");
-    for row in 0..2 {
-        for k in 0..10 {
-            let x = k as f64 * 0.4 + if row == 1 { 0.2 } else { 0.0 };
-            let z = row as f64 * 0.2;
-            deck.push_str(&format!("BOX {x} {} 0 0.2 {z} {}\n", x + 0.4, z + 0.2));
-        }
-    }
-    deck.push_str(&format!("BOX 1.85 2.35 {} {} 0.05 0.55\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n", -0.51 - gap, -0.01 - gap));
-    deck.push_str(&format!("VELOCITY 1.8 2.4 {} {} 0 0.6 0 10 0\nFRACTION 0.1\n", -0.6 - gap, -0.005 - gap));
-    deck
+    common::d3_struck_wall(0.01 + gap, 0.1)
 }
 
 /// Partial detections ("Partial detections" in `d3::gpu`): a wall of twenty bricks struck by a
 /// cube. Only the contacts of the blocks that moved are found afresh at a detection (most of the
 /// wall stands still), and the run is the whole detections' run to within the impact's scatter:
-/// the cube's momentum, the ledger (within 1 % of the work on both), each near the CPU's.
+/// the cube's momentum, the ledger (within 1 % of the work on both), and the kinetic energy left
+/// after the impact, each near the CPU's.
 #[test]
 fn partial_detections_refresh_the_moved_blocks_and_run_as_whole_ones() {
     let built = run(&struck_wall(), None);
@@ -596,6 +595,10 @@ fn partial_detections_refresh_the_moved_blocks_and_run_as_whole_ones() {
         for m in [&partial, &whole] {
             assert!((cube(m) - cube(&cpu)).length() < 0.05 * cube(&cpu).length(), "{:?}: the cube at {} (cpu {})", o.precision, cube(m), cube(&cpu));
             assert!(ledger(m).abs() < 0.01, "{:?}: ledger {:e} of the work", o.precision, ledger(m));
+            // The energy the impact left in motion, the CPU's to within KINETIC_AGREEMENT.
+            let (k, k_cpu) = (m.energies().kinetic, cpu.energies().kinetic);
+            eprintln!("{:?} {:?}: kinetic {k:.6e} J (cpu {k_cpu:.6e} J, {:.2e} apart)", o.adapter, o.precision, (k - k_cpu).abs() / k_cpu);
+            assert!((k - k_cpu).abs() < KINETIC_AGREEMENT * k_cpu, "{:?}: kinetic {k} J against the cpu's {k_cpu} J", o.precision);
         }
     }
 }

@@ -250,12 +250,7 @@ fn the_ledger_books_damping() {
 /// Twenty bricks in two courses on a slab, struck by a 0.5 m cube at 10 m/s 2 mm off the wall,
 /// at FRACTION `fraction` for `cycles` cycles: the ledger's imbalance over the work put in.
 fn struck_wall_ledger(fraction: f64, cycles: u64) -> (f64, blockdem::d3::model::Energies) {
-    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nBOX -1 5.2 -1 1.2 -1 0\n");
-    deck += &crate::common::d3_brick_courses(2, 10);
-    deck += &format!(
-        "BOX 1.85 2.35 -0.502 -0.002 0.05 0.55\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n\
-         VELOCITY 1.8 2.4 -0.6 -0.001 0 0.6 0 10 0\nFRACTION {fraction}\nCYCLE {cycles}\n"
-    );
+    let deck = crate::common::d3_struck_wall(0.002, fraction) + &format!("CYCLE {cycles}\n");
     let e = run(&deck).energies();
     (e.ledger() / e.external_work, e)
 }

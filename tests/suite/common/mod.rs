@@ -232,6 +232,18 @@ pub fn run_wgsl(dev: &blockdem::gpu::GpuDevice, src: &str, entry: &str, cases: u
     buffers.iter().zip(&bufs).filter(|((_, _, out), _)| *out).map(|((_, bytes, _), buf)| dev.read_buffer(buf, bytes.len() as u64).unwrap()).collect()
 }
 
+/// A D3 wall of twenty bricks (two courses of ten, [`d3_brick_courses`]) on a fixed slab under
+/// gravity, and a 0.5 m cube `off` m in front of its face (y = 0) moving at 10 m/s towards it,
+/// at FRACTION `fraction`; no CYCLE. At FRACTION 0.1 the bricks' step is ~3.3 µs, so the cube
+/// strikes at cycle ~300 per centimetre off.
+pub fn d3_struck_wall(off: f64, fraction: f64) -> String {
+    let mut deck = String::from("START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.6\nBOX -1 5.2 -1 1.2 -1 0\n");
+    deck += &d3_brick_courses(2, 10);
+    deck += &format!("BOX 1.85 2.35 {} {} 0.05 0.55\nFIX -0.5 4.7 -0.5 0.7 -0.6 -0.4\nGRAV 0 0 -10\n", -0.5 - off, -off);
+    deck += &format!("VELOCITY 1.8 2.4 {} {} 0 0.6 0 10 0\nFRACTION {fraction}\n", -0.6 - off, -0.5 * off);
+    deck
+}
+
 /// A D3 deck's BOX lines for `courses` courses of `per_course` bricks 0.4 × 0.2 × 0.2 m in
 /// running bond (every other course shifted half a brick), the first course on z = 0.
 pub fn d3_brick_courses(courses: usize, per_course: usize) -> String {
