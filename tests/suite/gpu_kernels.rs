@@ -220,7 +220,7 @@ fn track_feature_matches_rust<R: Real>(dev: &GpuDevice) {
         let g = track_feature(&ref_corners, feature, c, r);
         let mut own_corner = ref_corners1[0];
         own_corner.circle = c;
-        let counts = |gap: f64| counts_force(start1, &own_corner, gap, &ref_corners1, start1, &ref_corners, start, g.feature);
+        let counts = |gap: f64| counts_force(start1, &own_corner, gap, &ref_corners1, start1, true, &ref_corners, start, g.feature);
         let counted = counts(g.gap);
         // A view of a corner pair: its count depends on its depth. Decided within round-off of
         // the band's edges, the f32 kernel may decide the other way (checked only where sure).

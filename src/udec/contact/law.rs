@@ -27,7 +27,9 @@ impl BlockMotion {
     pub fn velocity_at(&self, p: [f64; 2]) -> [f64; 2] {
         let r = sub(p, self.centroid);
         let v = [self.velocity[0] - self.angular_velocity * r[1], self.velocity[1] + self.angular_velocity * r[0]];
-        if self.strain_rate == [0.0; 3] {
+        // Three comparisons rather than an array's (which compiles to a slice comparison).
+        let [e11, e12, e22] = self.strain_rate;
+        if e11 == 0.0 && e12 == 0.0 && e22 == 0.0 {
             return v;
         }
         let e = crate::udec::model::sdef::strain_velocity(self.strain_rate, r);
@@ -82,7 +84,7 @@ pub fn normal_force(gap: f64, kn: f64, cohesion: f64) -> f64 {
 /// JKS·l_c, JCOH·l_c and JFRIC, a point contact KN, KS, COHESION and FRICTION. A contact whose law
 /// changed at the last contact update keeps its shear force and displacement: the increments of
 /// eq. (17) take the new stiffness and the cap of eq. (20) the new strength from here on.
-#[inline]
+#[inline(always)]
 pub fn contact_force_law(contact: &mut Contact, mat: &Material, a: &BlockMotion, b: &BlockMotion, damping: &Damping, dt: f64, active: bool) {
     let law = law_parameters(contact.joint_length, mat);
     let n = contact.normal;

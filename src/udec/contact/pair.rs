@@ -4,8 +4,8 @@
 //! shaders/udec/contact_forces.wgsl.
 
 use super::geometry::track_feature;
-use crate::udec::model::geometry::{dot, next, sub};
-use crate::udec::model::{Contact, Corner, Feature, Model};
+use crate::udec::model::geometry::{cross, dot, length, next, prev, sub};
+use crate::udec::model::{BlockKind, Contact, Corner, Feature, Model};
 
 /// Whether a corner–corner contact is the counted one of its mirrored pair: the corner with the
 /// lower global index owns the touch.
@@ -40,8 +40,9 @@ pub const PAIR_BAND: f64 = 1e-4;
 /// equal, so the normal force (kn times the overlap) does not jump.
 ///
 /// `own_gap` is this view's gap (negative: overlap) as stage 4 measured it; `corners1` are block
-/// 1's corners (the own corner's), `start1` the global index of its first; `corners2`, `start2`
-/// block 2's.
+/// 1's corners (the own corner's), `start1` the global index of its first, `rigid1` whether
+/// block 1 is rigid (its rounding circles are then tangent to its edges to round-off, which
+/// [`arc_view_verdict`] relies on); `corners2`, `start2` block 2's.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn counts_force(
@@ -50,6 +51,7 @@ pub fn counts_force(
     own_gap: f64,
     corners1: &[Corner],
     start1: u32,
+    rigid1: bool,
     corners2: &[Corner],
     start2: u32,
     feature: Feature,
@@ -69,7 +71,7 @@ pub fn counts_force(
         b
     };
     let own_local = own_corner_global.wrapping_sub(start1) as usize;
-    deeper_view_counts(own_corner_global, own, own_gap, corners1, own_local, &corners2[b], start2 + b as u32)
+    deeper_view_counts(own_corner_global, own, own_gap, corners1, own_local, rigid1, &corners2[b], start2 + b as u32)
 }
 
 /// Of the two views of the corner pair (a, b), whether a's counts: a's gap against block 2 is
@@ -77,19 +79,100 @@ pub fn counts_force(
 /// a−1, arc a, edge a: b's circle overlaps a's, so b's nearest feature is among them unless an
 /// edge is shorter than the rounding), as b's own view tracks it. The deeper view counts; within
 /// [`PAIR_BAND`] the lower index does, so exactly one view of a pair counts.
+///
+/// Where block 1 is rigid, [`arc_view_verdict`] first tries to settle the comparison from b's
+/// distance to a's arc alone (a wall's aligned corners, most pair views), which gives the verdict
+/// the tracked gap would, bit for bit; the GPU's twin always tracks.
 #[inline]
-pub fn deeper_view_counts(a: u32, own: &Corner, own_gap: f64, corners1: &[Corner], a_local: usize, corner_b: &Corner, b: u32) -> bool {
+#[allow(clippy::too_many_arguments)]
+pub fn deeper_view_counts(a: u32, own: &Corner, own_gap: f64, corners1: &[Corner], a_local: usize, rigid1: bool, corner_b: &Corner, b: u32) -> bool {
     if a_local >= corners1.len() {
         return owns_corner_corner(a, b);
     }
-    let other_gap = track_feature(corners1, 2 * a_local as Feature, corner_b.circle, corner_b.radius).gap;
     let band = PAIR_BAND * (own.radius + corner_b.radius);
+    let verdict = match rigid1.then(|| arc_view_verdict(own_gap, corners1, a_local, corner_b, band)).flatten() {
+        Some(v) => v,
+        None => tracked_verdict(own_gap, corners1, a_local, corner_b, band),
+    };
+    match verdict {
+        Deeper::Own => true,
+        Deeper::Other => false,
+        Deeper::Level => owns_corner_corner(a, b),
+    }
+}
+
+/// Which view of a corner pair is the deeper, as [`deeper_view_counts`] compares them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Deeper {
+    /// This view's overlap exceeds the other's by more than the band.
+    Own,
+    /// The other view's does.
+    Other,
+    /// Within the band of each other: the lower index decides.
+    Level,
+}
+
+/// The comparison with b's view tracked as that view tracks it (from a's arc, `track_feature`).
+#[inline]
+pub fn tracked_verdict(own_gap: f64, corners1: &[Corner], a_local: usize, corner_b: &Corner, band: f64) -> Deeper {
+    let other_gap = track_feature(corners1, 2 * a_local as Feature, corner_b.circle, corner_b.radius).gap;
     if own_gap < other_gap - band {
-        true
+        Deeper::Own
     } else if other_gap < own_gap - band {
-        false
+        Deeper::Other
     } else {
-        owns_corner_corner(a, b)
+        Deeper::Level
+    }
+}
+
+/// The verdict of [`tracked_verdict`] without tracking b's view, where it is certain; `None`
+/// where it is not (then track). `corners1` must be a rigid block's: each rounding circle tangent
+/// to its two edges at `round` from the corner, to round-off.
+///
+/// Why it holds. Let r = (b's centre − a's centre) and d = |r| − r_a, b's distance to a's arc. If
+/// a is a convex corner and r lies in a's wedge (between the outward normals n0, n1 of its two
+/// edges), a's rounded boundary is nearest to b's centre on the arc: each edge's straight part
+/// starts at its tangent point on the circle and runs away from the wedge, so b's centre is at
+/// least d from it (triangle inequality about a's centre). Where r lies outside the wedge by an
+/// angle θ with |r| sin θ ≤ `slack` (aligned corners sit on its boundary, either side by
+/// round-off), the edge's line is nearer, by at most |r|(1 − cos θ) ≤ slack²/|r|. The tracked
+/// view takes the nearest of the three features up to `better`'s tie tolerance (1e-9 (1 + d),
+/// twice at most), so its gap lies within `guard` of d − r_b, the round-off of both computations
+/// (1e-10 of the coordinates' size, many times theirs) included. A verdict that holds for every
+/// gap within `guard` of d − r_b is then the tracked one's; near the band's edges it is left to
+/// the tracked comparison. Where d is small the features' signed and unsigned distances could
+/// differ (the centre inside a's circle): left to it as well.
+#[inline]
+pub fn arc_view_verdict(own_gap: f64, corners1: &[Corner], a_local: usize, corner_b: &Corner, band: f64) -> Option<Deeper> {
+    let n = corners1.len();
+    let corner_a = &corners1[a_local];
+    let (e0, e1) = (corners1[prev(a_local, n)].edge_dir, corners1[a_local].edge_dir);
+    let (n0, n1) = ([e0[1], -e0[0]], [e1[1], -e1[0]]);
+    if cross(n0, n1) <= 0.0 {
+        return None;
+    }
+    let (ca, cb) = (corner_a.circle, corner_b.circle);
+    let size = 1.0 + ca[0].abs() + ca[1].abs() + cb[0].abs() + cb[1].abs();
+    let radii = corner_a.radius + corner_b.radius;
+    let slack = 1e-12 * size + 1e-9 * radii;
+    let r = sub(cb, ca);
+    if cross(n0, r) < -slack || cross(r, n1) < -slack {
+        return None;
+    }
+    let d = length(r) - corner_a.radius;
+    if !(d > 1e-3 * radii) {
+        return None;
+    }
+    let guard = 1e-8 * (1.0 + d) + 1e-10 * size + slack * slack / d;
+    let estimate = d - corner_b.radius;
+    if own_gap < estimate - band - guard {
+        Some(Deeper::Own)
+    } else if estimate < own_gap - band - guard {
+        Some(Deeper::Other)
+    } else if (own_gap - estimate).abs() < band - guard {
+        Some(Deeper::Level)
+    } else {
+        None
     }
 }
 
@@ -105,9 +188,89 @@ impl Model {
             c.gap,
             self.block_corners(c.block1 as usize),
             b1.corner_start,
+            b1.kind == BlockKind::Rigid,
             self.block_corners(c.block2 as usize),
             b2.corner_start,
             c.feature,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenes::run_deck_on;
+
+    /// `arc_view_verdict`, where it gives a verdict, gives the tracked one: b's circle placed
+    /// round every corner of rigid blocks (a brick's right angles, a rotated hexagon's, a
+    /// triangle's sharp ones, far from the origin too), along each wedge boundary exactly and
+    /// round-off either side of it (a wall's aligned corners), inside and outside the wedge, at
+    /// overlaps from none to beyond the run's limit; this view's gap at the band's edges, a
+    /// round-off either side, and anywhere. It settles most aligned pairs (the wall's case).
+    #[test]
+    fn the_arc_verdict_is_the_tracked_one() {
+        let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9\nROUND 0.1\nBLOCK 0,0 0,0.5 1,0.5 1,0\n\
+                    BLOCK 3,0 4.2,0.7 3.9,1.9 2.7,2.6 1.5,1.9 1.8,0.7\nBLOCK 6,0 8,0 7,3\n\
+                    BLOCK 2000.3,1000 2000.3,1000.5 2001.3,1000.5 2001.3,1000\nCYCLE 0\n";
+        let model = run_deck_on(deck, Box::new(crate::udec::cpu::CpuBackend::new())).unwrap();
+        let mut next = crate::udec::topology::xorshift(0x2545_F491_4F6C_DD1D);
+        let mut unit = || next(1 << 53) as f64 / (1u64 << 53) as f64;
+        let (mut settled, mut aligned, mut aligned_settled) = (0, 0, 0);
+        for b in 0..model.blocks.len() {
+            let corners = model.block_corners(b);
+            let n = corners.len();
+            for a in 0..n {
+                let ca = corners[a].circle;
+                let (e0, e1) = (corners[prev(a, n)].edge_dir, corners[a].edge_dir);
+                let (n0, n1) = ([e0[1], -e0[0]], [e1[1], -e1[0]]);
+                let (a0, a1) = (n0[1].atan2(n0[0]), n1[1].atan2(n1[0]));
+                let turn = (a1 - a0).rem_euclid(std::f64::consts::TAU);
+                for i in 0..300 {
+                    // Directions: along n0 or n1 exactly (aligned corners), a round-off or a
+                    // little either side, or anywhere from before n0 to past n1.
+                    let nudge = [0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6][i % 8];
+                    let on_edge = i % 3 != 2;
+                    let dir = if on_edge {
+                        let base = if i % 2 == 0 { a0 } else { a1 };
+                        let t = base + nudge;
+                        [t.cos(), t.sin()]
+                    } else {
+                        let t = a0 - 0.4 + (turn + 0.8) * unit();
+                        [t.cos(), t.sin()]
+                    };
+                    let rb = [0.1, 0.05, corners[a].radius, 0.3][i % 4];
+                    // From no overlap to past the run's limit (half the rounding length).
+                    let depth = [0.0, 1e-6, 1e-3, 0.02, 0.049, 0.2 * unit()][i % 6];
+                    let rho = corners[a].radius + rb - depth;
+                    let mut corner_b = corners[a];
+                    corner_b.circle = [ca[0] + rho * dir[0], ca[1] + rho * dir[1]];
+                    corner_b.radius = rb;
+                    let band = PAIR_BAND * (corners[a].radius + rb);
+                    let other = track_feature(corners, 2 * a as Feature, corner_b.circle, rb).gap;
+                    let mut gaps = vec![other, other - 5.0 * band, other + 5.0 * band, -0.1 + 0.2 * unit()];
+                    for s in [-1.0, 1.0] {
+                        for t in [0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 1e-7, -1e-7] {
+                            gaps.push(other + s * band + t);
+                            gaps.push(other + s * band * (1.0 + t));
+                        }
+                        gaps.push(other + s * 1e-9);
+                    }
+                    for own_gap in gaps {
+                        let tracked = tracked_verdict(own_gap, corners, a, &corner_b, band);
+                        let quick = arc_view_verdict(own_gap, corners, a, &corner_b, band);
+                        if let Some(v) = quick {
+                            assert_eq!(v, tracked, "block {b} corner {a}: b at {:?} r {rb}, own gap {own_gap:e}, tracked gap {other:e}", corner_b.circle);
+                            settled += 1;
+                        }
+                        if on_edge && nudge.abs() <= 1e-12 && depth < 0.01 && own_gap == other {
+                            aligned += 1;
+                            aligned_settled += quick.is_some() as usize;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(settled > 10_000, "the arc verdict was exercised ({settled})");
+        assert!(aligned_settled * 10 >= aligned * 9, "aligned corners of equal gaps are settled ({aligned_settled} of {aligned})");
     }
 }

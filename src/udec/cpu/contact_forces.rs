@@ -48,8 +48,11 @@ struct ContactInputs<'a> {
 /// corners are at hand, and where the domains are given its flow (stage 5's first step, ¶6:
 /// each contact alone, from its force just set and the pressures of the last stage 5) into
 /// `flows`. Returns the first contact of the piece (lowest index) whose overlap passes the
-/// limit.
-fn contact_piece(
+/// limit. `RIGID` says that the scene has neither simply- nor fully-deformable blocks (no `sdef`,
+/// no `fdef`): the law's block motions are then rigid ones, known so when compiled, which keeps
+/// the deformable blocks' cost out of a rigid scene's loop (same results: a rigid block's strain
+/// rate is zero either way).
+fn contact_piece<const RIGID: bool>(
     first: usize,
     contacts: &mut [Contact],
     forces: &mut [ContactForce],
@@ -63,7 +66,7 @@ fn contact_piece(
         velocity: b.velocity,
         angular_velocity: b.angular_velocity,
         strain_rate: match inp.sdef.get(k as usize) {
-            Some(s) if b.kind == BlockKind::SimplyDeformable => s.strain_rate,
+            Some(s) if !RIGID && b.kind == BlockKind::SimplyDeformable => s.strain_rate,
             _ => [0.0; 3],
         },
     };
@@ -86,8 +89,8 @@ fn contact_piece(
         let mat = &inp.materials[material_slot(contact.material, inp.materials.len())];
         let corners1 = &inp.corners[b1.corner_start as usize..(b1.corner_start + b1.corner_count) as usize];
         let active = (g.gap > 0.0 && force_free_either_way(contact, g.gap, law_parameters(contact.joint_length, mat).kn))
-            || counts_force(contact.corner, corner, g.gap, corners1, b1.corner_start, corners2, b2.corner_start, g.feature);
-        let (m1, m2) = if inp.fdef.is_empty() {
+            || counts_force(contact.corner, corner, g.gap, corners1, b1.corner_start, b1.kind == BlockKind::Rigid, corners2, b2.corner_start, g.feature);
+        let (m1, m2) = if RIGID || inp.fdef.is_empty() {
             (motion(contact.block1, b1), motion(contact.block2, b2))
         } else {
             // A zoned block's boundary moves with its grid points (`cpu::zones`).
@@ -157,6 +160,7 @@ pub(super) fn contact_stage(
             SharedMut::new(f)
         });
         let zoned = !features.is_empty();
+        let rigid = inp.sdef.is_empty() && inp.fdef.is_empty();
         let shared_features = SharedMut::new(features);
         let shared_flows = flows.as_deref_mut().map(SharedMut::new);
         team.for_chunks(n, MIN_CONTACTS_PER_THREAD, MIN_CHUNK, &|r| {
@@ -169,7 +173,12 @@ pub(super) fn contact_stage(
             let feet = shared_feet.as_ref().map(|f| unsafe { f.range(r.clone()) });
             // SAFETY: as above.
             let flows = shared_flows.as_ref().map(|f| unsafe { f.range(r.clone()) });
-            if let Some(k) = contact_piece(r.start, piece, forces, features, feet, flows, &inp) {
+            let failure = if rigid {
+                contact_piece::<true>(r.start, piece, forces, features, feet, flows, &inp)
+            } else {
+                contact_piece::<false>(r.start, piece, forces, features, feet, flows, &inp)
+            };
+            if let Some(k) = failure {
                 first.fetch_min(k, Ordering::Relaxed);
             }
         });
