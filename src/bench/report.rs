@@ -5,6 +5,12 @@ use std::path::{Path, PathBuf};
 
 use super::{BenchReport, ScalingRow, TargetRow};
 
+/// The peers' drift on the reference settle as issue 4 quotes them (m): Box2D drifts 7 mm,
+/// Rapier2D lets the wall sink by 9 cm. The settle's drift is judged against them, beyond the
+/// elastic settlement (the project's decision; see `scene::WallMeasures`).
+pub const PEER_DRIFT_BOX2D: f64 = 7e-3;
+pub const PEER_DRIFT_RAPIER: f64 = 9e-2;
+
 fn gpu_hardware_labels(r: &BenchReport) -> Vec<String> {
     r.backends.iter().filter(|b| b.kind == "gpu" && !b.software && b.error.is_none()).map(|b| b.label.clone()).collect()
 }
@@ -233,15 +239,20 @@ pub fn targets(r: &BenchReport) -> Vec<TargetRow> {
                     met: full.then_some(projected < 4.0),
                     note: if full { format!("{} cycles, {} cores", row.cycles, r.machine.cores) } else { shortened.clone() },
                 });
+                // The drift is judged beyond the elastic settlement and side by side with the
+                // peers (a project decision, not an absolute 1 mm): the undamped wall dropped
+                // onto unloaded joints rings and spreads (`scene::WallMeasures` says why), where
+                // the inelastic solvers of Box2D and Rapier creep and sink instead.
                 t.push(TargetRow {
-                    target: "reference settle drift, CPU backend".into(),
+                    target: "reference settle drift beyond elastic, CPU".into(),
                     backend: row.backend.clone(),
-                    goal: "< 1 mm".into(),
-                    measured: format!("{:.2} mm", 1e3 * m.drift),
-                    met: full.then_some(m.drift < 1e-3),
+                    goal: format!("< peers: Box2D {:.0} mm, Rapier {:.0} mm", 1e3 * PEER_DRIFT_BOX2D, 1e3 * PEER_DRIFT_RAPIER),
+                    measured: format!("{:.2} mm", 1e3 * m.drift_beyond_elastic),
+                    met: full.then_some(m.drift_beyond_elastic < PEER_DRIFT_BOX2D.min(PEER_DRIFT_RAPIER)),
                     note: format!(
-                        "{}top-row sink {:.2} mm, elastic estimate {:.2} mm",
+                        "{}drift {:.2} mm, top-row sink {:.2} mm, elastic estimate {:.2} mm",
                         if full { String::new() } else { format!("{shortened}; ") },
+                        1e3 * m.drift,
                         1e3 * m.top_sink,
                         1e3 * m.elastic_estimate
                     ),
@@ -763,6 +774,7 @@ pub fn write_outputs(r: &BenchReport, dir: &Path) -> std::io::Result<(Vec<PathBu
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bench::ReferenceRow;
 
     fn row(rounds: &[f64]) -> ScalingRow {
         ScalingRow { s_per_cycle: rounds.first().copied().unwrap_or(1.0), round_s_per_cycle: rounds.to_vec(), ..Default::default() }
@@ -785,5 +797,31 @@ mod tests {
         // One run each: the rows' own times.
         let (ratio, how) = round_ratio(&row(&[3.0]), &row(&[2.0]));
         assert!((ratio - 1.5).abs() < 1e-12 && how.contains("one run"), "{ratio} {how}");
+    }
+
+    /// The settle's drift is judged beyond the elastic settlement against the peers' (Box2D's
+    /// 7 mm the nearer), not against an absolute 1 mm: the wall's 2.96 mm of drift, 2.85 mm
+    /// beyond the elastic settlement, meets it; 8 mm beyond would not; a shortened run is not
+    /// judged.
+    #[test]
+    fn the_settle_drift_is_judged_beyond_the_elastic_settlement_against_the_peers() {
+        let settle = |simulated_s: f64, drift_beyond_elastic: f64| ReferenceRow {
+            scene: "settle".into(),
+            backend: "cpu f64".into(),
+            simulated_s,
+            wall_s: 3.0,
+            measures: Some(super::super::scene::WallMeasures { drift: 2.96e-3, drift_beyond_elastic, elastic_estimate: 0.88e-3, ..Default::default() }),
+            ..Default::default()
+        };
+        let drift_row = |row: ReferenceRow| {
+            let report = BenchReport { reference: vec![row], ..Default::default() };
+            targets(&report).into_iter().find(|t| t.target.starts_with("reference settle drift")).expect("the drift's row")
+        };
+        let full = super::super::scene::SETTLE_TIME;
+        let met = drift_row(settle(full, 2.85e-3));
+        assert_eq!((met.met, met.measured.as_str()), (Some(true), "2.85 mm"), "{met:?}");
+        assert!(met.goal.contains("Box2D 7 mm") && met.goal.contains("Rapier 90 mm") && met.note.contains("drift 2.96 mm"), "{met:?}");
+        assert_eq!(drift_row(settle(full, 8e-3)).met, Some(false));
+        assert_eq!(drift_row(settle(0.1, 2.85e-3)).met, None);
     }
 }
