@@ -160,7 +160,8 @@ pub fn arc_view_verdict(own_gap: f64, corners1: &[Corner], a_local: usize, corne
         return None;
     }
     let d = length(r) - corner_a.radius;
-    if !(d > 1e-3 * radii) {
+    // (Not greater: also a NaN, which is left to the tracked comparison.)
+    if d.partial_cmp(&(1e-3 * radii)) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let guard = 1e-8 * (1.0 + d) + 1e-10 * size + slack * slack / d;
