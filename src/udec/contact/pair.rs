@@ -57,7 +57,10 @@ pub fn counts_force(
     feature: Feature,
 ) -> bool {
     let n = corners2.len();
-    let k = (feature / 2) as usize % n;
+    // (k mod n without a division where k < n, as it is for a tracked feature: stage 4 asks
+    // this of every closed contact every cycle.)
+    let k = (feature / 2) as usize;
+    let k = if k < n { k } else { k % n };
     let b = if feature % 2 == 0 {
         k
     } else {

@@ -113,7 +113,7 @@ fn contact_piece<const RIGID: bool>(
         if let Some(f) = features.get_mut(k) {
             *f = [contact.corner, g.feature];
         }
-        if failure.is_none() && active && -g.gap > inp.limit {
+        if -g.gap > inp.limit && active && failure.is_none() {
             failure = Some(first + k);
         }
     }
