@@ -8,8 +8,8 @@ use super::{BenchReport, ScalingRow, TargetRow};
 /// The peers' drift on the reference settle as issue 4 quotes them (m): Box2D drifts 7 mm,
 /// Rapier2D lets the wall sink by 9 cm. The settle's drift is judged against them, beyond the
 /// elastic settlement (the project's decision; see `scene::WallMeasures`).
-pub const PEER_DRIFT_BOX2D: f64 = 7e-3;
-pub const PEER_DRIFT_RAPIER: f64 = 9e-2;
+const PEER_DRIFT_BOX2D: f64 = 7e-3;
+const PEER_DRIFT_RAPIER: f64 = 9e-2;
 
 fn gpu_hardware_labels(r: &BenchReport) -> Vec<String> {
     r.backends.iter().filter(|b| b.kind == "gpu" && !b.software && b.error.is_none()).map(|b| b.label.clone()).collect()

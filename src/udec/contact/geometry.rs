@@ -141,6 +141,13 @@ fn arc_distance(corner: &Corner, before: &Edge, after: &Edge, c: [f64; 2]) -> Me
     }
 }
 
+/// The outward unit normal of edge k (from corner k to k+1) of a counter-clockwise outline, as
+/// the geometry stage left its direction: the normal every feature measurement here uses.
+#[inline]
+pub fn edge_normal(corners: &[Corner], k: usize) -> [f64; 2] {
+    Edge::of(corners, k).normal()
+}
+
 /// Measures feature f with the edges supplied by `edge(k)`.
 #[inline]
 fn feature_distance(corners: &[Corner], f: Feature, c: [f64; 2], edge: impl Fn(usize) -> Edge) -> Measure {

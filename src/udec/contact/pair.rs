@@ -3,7 +3,7 @@
 //! touch's force, or it counts twice. Twin of `counts_force` and `deeper_view_counts` in
 //! shaders/udec/contact_forces.wgsl.
 
-use super::geometry::track_feature;
+use super::geometry::{edge_normal, track_feature};
 use crate::udec::model::geometry::{cross, dot, length, next, prev, sub};
 use crate::udec::model::{BlockKind, Contact, Corner, Feature, Model};
 
@@ -93,10 +93,8 @@ pub fn deeper_view_counts(a: u32, own: &Corner, own_gap: f64, corners1: &[Corner
         return owns_corner_corner(a, b);
     }
     let band = PAIR_BAND * (own.radius + corner_b.radius);
-    let verdict = match rigid1.then(|| arc_view_verdict(own_gap, corners1, a_local, corner_b, band)).flatten() {
-        Some(v) => v,
-        None => tracked_verdict(own_gap, corners1, a_local, corner_b, band),
-    };
+    let quick = if rigid1 { arc_view_verdict(own_gap, corners1, a_local, corner_b, band) } else { None };
+    let verdict = quick.unwrap_or_else(|| tracked_verdict(own_gap, corners1, a_local, corner_b, band));
     match verdict {
         Deeper::Own => true,
         Deeper::Other => false,
@@ -149,8 +147,7 @@ pub fn tracked_verdict(own_gap: f64, corners1: &[Corner], a_local: usize, corner
 pub fn arc_view_verdict(own_gap: f64, corners1: &[Corner], a_local: usize, corner_b: &Corner, band: f64) -> Option<Deeper> {
     let n = corners1.len();
     let corner_a = &corners1[a_local];
-    let (e0, e1) = (corners1[prev(a_local, n)].edge_dir, corners1[a_local].edge_dir);
-    let (n0, n1) = ([e0[1], -e0[0]], [e1[1], -e1[0]]);
+    let (n0, n1) = (edge_normal(corners1, prev(a_local, n)), edge_normal(corners1, a_local));
     if cross(n0, n1) <= 0.0 {
         return None;
     }
@@ -225,8 +222,7 @@ mod tests {
             let n = corners.len();
             for a in 0..n {
                 let ca = corners[a].circle;
-                let (e0, e1) = (corners[prev(a, n)].edge_dir, corners[a].edge_dir);
-                let (n0, n1) = ([e0[1], -e0[0]], [e1[1], -e1[0]]);
+                let (n0, n1) = (edge_normal(corners, prev(a, n)), edge_normal(corners, a));
                 let (a0, a1) = (n0[1].atan2(n0[0]), n1[1].atan2(n1[0]));
                 let turn = (a1 - a0).rem_euclid(std::f64::consts::TAU);
                 for i in 0..300 {
