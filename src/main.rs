@@ -793,7 +793,7 @@ fn run_d3(
     };
     if let Err(e) = &result {
         // Never lose work (as in 2D): the last good state, or the state an interrupt stopped at.
-        let numerical = matches!(e, blockdem::d3::exec::RunError::Cycle(_));
+        let numerical = matches!(e, blockdem::d3::exec::RunError::Cycle { .. });
         if numerical || e.is_interrupted() {
             let _ = std::fs::create_dir_all(&out);
             let path = out.join("last_good.sav");

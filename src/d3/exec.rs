@@ -26,9 +26,10 @@ pub enum RunError {
     /// A command that cannot be carried out (its file, line and why).
     #[error("{0}")]
     Input(DeckError),
-    /// A numerical failure during CYCLE; the model holds the last good state.
-    #[error("{0}")]
-    Cycle(CycleError),
+    /// A numerical failure during the CYCLE at `line` of `file` (named as 2D's are); the model
+    /// holds the last good state.
+    #[error("{file}:{line}: {failure}")]
+    Cycle { file: String, line: usize, failure: CycleError },
     /// Ctrl-C or SIGTERM stopped the run at an energy check.
     #[error("interrupted at cycle {0}")]
     Interrupted(u64),
@@ -150,7 +151,7 @@ impl<'a> Executor<'a> {
                 let typed = geometry::box_faces(range.min, range.max);
                 self.add_block(cmd, &typed, *material, *constitutive, |_| cmd.line)?;
             }
-            Command::Property { material, values } => self.property(*material, values),
+            Command::Property { material, values } => self.property(cmd, *material, values)?,
             Command::Gravity { g } => self.model.gravity = DVec3::from_array(*g),
             Command::Fix { range } => {
                 for b in self.in_range(range) {
@@ -335,19 +336,56 @@ impl<'a> Executor<'a> {
         // A concave block (¶13) is cut once into the convex parts contact detection sees.
         let parts = super::decompose::parts_if_concave(&shape, props.volume)
             .map_err(|why| self.error(cmd, format!("BLOCK: block {id} is concave and cannot be made of convex parts: {why}")))?;
-        self.model.blocks.push(Block::new(id, material, constitutive, shape, &props, density).with_parts(parts));
+        let block = Block::new(id, material, constitutive, shape, &props, density).with_parts(parts);
+        if !(block.mass.is_finite() && block.inertia_ref.is_finite()) {
+            return Err(self.error(
+                cmd,
+                format!(
+                    "BLOCK: the mass of block {id} (density {density:e} of material {material} × volume {:e}) or its inertia overflows f64; check DENSITY and the units of lengths",
+                    props.volume
+                ),
+            ));
+        }
+        self.model.blocks.push(block);
         self.id_hint = Some((self.model.blocks.len(), id, id));
         self.model.neighbours_stale = true;
         Ok(())
     }
 
-    /// PROPERTY: the material's values; blocks of the material take a new density's mass.
-    fn property(&mut self, material: u32, values: &[(PropKey, f64)]) {
+    /// The error for the first of `blocks` whose mass or inertia would overflow f64 at density
+    /// `new` (its material's now `old`): CYCLE would take an infinite mass, and a fixed block's
+    /// angular velocity I⁻¹·0 would be NaN (found by tests/suite/d3_random_decks.rs). As 2D's
+    /// `mass_overflow`; the command fails whole.
+    fn density_overflow(&self, cmd: &Located, what: &str, blocks: impl Iterator<Item = usize>, material: u32, old: f64, new: f64) -> Option<RunError> {
+        let b = blocks.into_iter().find(|&b| {
+            let mut trial = self.model.blocks[b].clone();
+            trial.set_density(old, new);
+            !(trial.mass.is_finite() && trial.inertia_ref.is_finite())
+        })?;
+        let blk = &self.model.blocks[b];
+        Some(self.error(
+            cmd,
+            format!(
+                "{what}: the mass of block {} (density {new:e} of material {material} × volume {:e}) or its inertia overflows f64; check DENSITY and the units of lengths",
+                blk.id, blk.volume
+            ),
+        ))
+    }
+
+    /// PROPERTY: the material's values; blocks of the material take a new density's mass (a
+    /// density that would overflow one's mass or inertia is refused, the material left as it was).
+    fn property(&mut self, cmd: &Located, material: u32, values: &[(PropKey, f64)]) -> Result<(), RunError> {
         let n = material as usize;
         if self.model.materials.len() < n {
             self.model.materials.resize(n, Material::default());
         }
         let old_density = self.model.materials[n - 1].density;
+        if let Some(&(_, density)) = values.iter().rev().find(|(key, _)| *key == PropKey::Density) {
+            let own = (0..self.model.blocks.len()).filter(|&b| self.model.blocks[b].material == material);
+            if let Some(e) = self.density_overflow(cmd, "PROPERTY", own, material, old_density, density) {
+                return Err(e);
+            }
+        }
         let m = &mut self.model.materials[n - 1];
         for &(key, v) in values {
             match key {
@@ -373,6 +411,7 @@ impl<'a> Executor<'a> {
                 b.set_density(old_density, density);
             }
         }
+        Ok(())
     }
 
     /// CHANGE: the blocks in the range take the material and constitutive numbers given (a new
@@ -398,6 +437,15 @@ impl<'a> Executor<'a> {
                         cmd,
                         format!("CHANGE SDEF: block {id}'s material {n} has no BULK and G (a simply-deformable block's strain needs both moduli): give them with PROPERTY first"),
                     ));
+                }
+            }
+        }
+        if let Some(n) = material {
+            let new = self.model.material(n).density;
+            for &b in &chosen {
+                let old = self.model.material(self.model.blocks[b].material).density;
+                if let Some(e) = self.density_overflow(cmd, "CHANGE", std::iter::once(b), n, old, new) {
+                    return Err(e);
                 }
             }
         }
@@ -520,6 +568,14 @@ impl<'a> Executor<'a> {
             return Err(self.error(cmd, "CYCLE: there are no blocks (BLOCK or BOX first)"));
         }
         let Some(_) = self.model.critical_timestep() else {
+            // The step comes from the blocks that give at their contacts: with none free there is
+            // none to find (2D's step reads every block's mass; D3's the free blocks' modes).
+            if self.model.blocks.iter().all(|b| b.fixed || b.held) {
+                return Err(self.error(
+                    cmd,
+                    "CYCLE: every block is fixed (FIX) or held (BOUNDARY VELOCITY): there is no free block to take the time step from; FREE x1 x2 y1 y2 z1 z2 the blocks that are to move",
+                ));
+            }
             return Err(self.error(
                 cmd,
                 "CYCLE: the time step cannot be found: the free blocks need a DENSITY and the contacts the stiffnesses KN and KS (PROPERTY MATERIAL n ...)",
@@ -581,7 +637,7 @@ impl<'a> Executor<'a> {
             Err(e) => {
                 self.echo(&step)?;
                 self.echo(&format!("CURRENT CYCLE COUNT = {}", self.model.cycle))?;
-                return Err(RunError::Cycle(e));
+                return Err(RunError::Cycle { file: self.file.clone(), line: cmd.line, failure: e });
             }
         }
         self.echo(&step)?;

@@ -136,6 +136,47 @@ fn ranges_load_and_velocity_take_three_components() {
 fn a_deck_errs_without_a_panic_on_cycle_without_properties() {
     let e = error_of("START\nBOX 0 1 0 1 0 1\nCYCLE 10\nSTOP\n");
     assert!(e.starts_with("t.dat:3:") && e.contains("time step"), "{e}");
+    // Every block fixed: said so, not blamed on the properties.
+    let e = error_of("START\nPROP MAT 1 D 1000 KN 1E8 KS 1E8\nBOX 0 1 0 1 0 1\nFIX -1 2 -1 2 -1 2\nCYCLE 10\nSTOP\n");
+    assert!(e.starts_with("t.dat:5:") && e.contains("every block is fixed") && e.contains("FREE"), "{e}");
+}
+
+/// A density whose mass or inertia overflows f64 is refused where it is given (PROPERTY on a
+/// material blocks have, a BOX of it, CHANGE to it), naming the line and the block, and leaves
+/// the model as it was; one that does not overflow runs. Found by tests/suite/d3_random_decks.rs:
+/// a density of 1e300 made a fixed slab's inertia 3.5e302 kg·m², whose determinant overflows,
+/// and its angular velocity I⁻¹·0 NaN (`motion::inertia_inverse` now inverts it at unit scale).
+#[test]
+fn a_density_that_overflows_a_blocks_mass_is_refused_at_its_line() {
+    let base = "START\nPROP MAT 1 D 1000 KN 1E8 KS 1E8\nBOX -2 6 -2 6 -1 0\nFIX -3 7 -3 7 -2 0\n";
+    let e = error_of(&format!("{base}PROP MAT 1 D 1E307\nSTOP\n"));
+    assert!(e.starts_with("t.dat:5:") && e.contains("PROPERTY") && e.contains("block 1") && e.contains("overflows"), "{e}");
+    let e = error_of(&format!("{base}PROP MAT 2 D 1E307 KN 1E8 KS 1E8\nBOX 0 10 0 10 0 1 MAT 2\nSTOP\n"));
+    assert!(e.starts_with("t.dat:6:") && e.contains("BLOCK") && e.contains("block 2"), "{e}");
+    let e = error_of(&format!("{base}PROP MAT 2 D 1E307 KN 1E8 KS 1E8\nCHANGE -3 7 -3 7 -2 0 MAT 2\nSTOP\n"));
+    assert!(e.starts_with("t.dat:6:") && e.contains("CHANGE") && e.contains("block 1"), "{e}");
+    // Refused whole: the material keeps its density, the slab its mass.
+    let deck = format!("{base}BOX 0 1 0 1 0 1\nPROP MAT 1 D 1E307\nSTOP\n");
+    let mut exec = Executor::new(Box::new(std::io::sink()), "t.dat");
+    assert!(exec.run(&parse_deck(&deck, "t.dat").unwrap()).is_err());
+    assert_eq!(exec.model.blocks[0].mass, 1000.0 * 64.0);
+    assert_eq!(exec.model.material(1).density, 1000.0);
+    // A density of 1e300 does not overflow: the fixed slab of it stays at rest (its angular
+    // velocity was NaN), the box of material 2 on it runs, everything finite.
+    let deck = format!("{base}PROP MAT 2 D 1000 KN 1E8 KS 1E8\nBOX 0 1 0 1 0 1 MAT 2\nGRAV 0 0 -10\nPROP MAT 1 D 1E300\nCYCLE 30\nSTOP\n");
+    let mut exec = Executor::new(Box::new(std::io::sink()), "t.dat");
+    exec.run(&parse_deck(&deck, "t.dat").unwrap()).unwrap();
+    for b in &exec.model.blocks {
+        assert!(
+            b.angular_velocity.is_finite() && b.velocity.is_finite() && b.centroid.is_finite(),
+            "block {}: {:?} {:?}",
+            b.id,
+            b.velocity,
+            b.angular_velocity
+        );
+    }
+    assert_eq!(exec.model.blocks[0].angular_velocity, glam::DVec3::ZERO);
+    assert!(exec.model.blocks[1].velocity.length() > 0.0, "the box moves");
 }
 
 /// `blockdem run` picks the engine: the sample runs as D3 and prints its tables; `--dim 2` on it

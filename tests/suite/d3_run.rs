@@ -80,8 +80,10 @@ fn a_numerical_failure_leaves_the_last_good_state_savable() {
     // bound being safe, lies near 1.5): the ringing grows until the energy check stops it.
     let deck = format!("{UNSTABLE}CYCLE 100000\n");
     let (exec, r) = run_with(&deck, RunOptions::default());
-    let Err(RunError::Cycle(e)) = r else { panic!("the run should fail: {r:?}") };
+    let Err(e @ RunError::Cycle { .. }) = r else { panic!("the run should fail: {r:?}") };
+    // Named as 2D's are: the deck's file and its CYCLE's line, then what went wrong.
     let message = e.to_string();
+    assert!(message.starts_with(&format!("t.dat:{}: ", deck.lines().count())), "{message}");
     assert!(message.contains("overlap") || message.contains("fast") || message.contains("energy"), "{message}");
     // The model holds the last good state: a check's cycle, a state with finite numbers.
     let m = &exec.model;

@@ -21,6 +21,7 @@ mod d3_geometry;
 mod d3_gpu;
 mod d3_motion;
 mod d3_outputs;
+mod d3_random_decks;
 mod d3_run;
 mod d3_sdef;
 mod d3_split;
