@@ -141,6 +141,18 @@ fn a_deck_errs_without_a_panic_on_cycle_without_properties() {
     assert!(e.starts_with("t.dat:5:") && e.contains("every block is fixed") && e.contains("FREE"), "{e}");
 }
 
+/// Boxes given overlapping past the limit are an input error at their CYCLE, said so (as 2D's
+/// are), not a divergence to cure by a smaller FRACTION; boxes touching run.
+#[test]
+fn blocks_given_overlapping_are_named_at_the_cycle() {
+    let base = "START\nPROP MAT 1 D 2000 KN 1E8 KS 1E8 F 0.5\nBOX -2 6 -2 6 -1 0\nFIX -3 7 -3 7 -2 0\nBOX 0 1 0 1 0 1\n";
+    let e = error_of(&format!("{base}BOX 0.5 1.5 0 1 0.5 1.5\nGRAV 0 0 -10\nCYCLE 100\nSTOP\n"));
+    assert!(e.starts_with("t.dat:8:") && e.contains("blocks 2 and 3 overlap") && e.contains("before any motion") && e.contains("given overlapping"), "{e}");
+    assert!(!e.contains("FRACTION"), "{e}");
+    let (_, r) = run(&format!("{base}BOX 1 2 0 1 0 1\nGRAV 0 0 -10\nCYCLE 100\nSTOP\n"));
+    r.unwrap();
+}
+
 /// A density whose mass or inertia overflows f64 is refused where it is given (PROPERTY on a
 /// material blocks have, a BOX of it, CHANGE to it), naming the line and the block, and leaves
 /// the model as it was; one that does not overflow runs. Found by tests/suite/d3_random_decks.rs:
