@@ -15,7 +15,7 @@ use crate::udec::contact::law::{contact_force_law, force_free_either_way, BlockM
 use crate::udec::contact::pair::counts_force;
 use crate::udec::model::domain::{ContactFlow, Domains};
 use crate::udec::model::fdef::Fdef;
-use crate::udec::model::fluid::{contact_flow_of, contact_foot_in};
+use crate::udec::model::fluid::{contact_feet, contact_flow_of};
 use crate::udec::model::sdef::Sdef;
 use crate::udec::model::{material_slot, Block, BlockKind, Contact, Corner, Damping, Material, Model};
 
@@ -79,7 +79,7 @@ fn contact_piece<const RIGID: bool>(
         contact.feature = g.feature;
         contact.kind = g.kind;
         if let Some(feet) = feet.as_deref_mut() {
-            feet[k] = [contact_foot_in(inp.corners, b2, contact, 0), contact_foot_in(inp.corners, b2, contact, 1)];
+            feet[k] = contact_feet(inp.corners, b2, contact, corner.position);
         }
         contact.gap = g.gap;
         contact.normal = g.normal;
@@ -108,7 +108,7 @@ fn contact_piece<const RIGID: bool>(
         contact_force_law(contact, mat, &m1, &m2, &inp.damping, inp.dt, active);
         *force = ContactForce::from(&*contact);
         if let (Some(flows), Some(domains)) = (flows.as_deref_mut(), inp.domains) {
-            flows[k] = contact_flow_of(contact, inp.materials, domains, first + k);
+            flows[k] = contact_flow_of(contact, mat, domains, first + k);
         }
         if let Some(f) = features.get_mut(k) {
             *f = [contact.corner, g.feature];

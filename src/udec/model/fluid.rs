@@ -127,14 +127,27 @@ pub fn contact_foot(model: &Model, c: &Contact, side: u32) -> [f64; 2] {
     contact_foot_in(&model.corners, &model.blocks[c.block2 as usize], c, side)
 }
 
-/// [`contact_foot`] from the corners and contact `c`'s block 2 (stage 4 takes each contact's feet
-/// where it has just read them, `cpu::contact_forces`).
+/// [`contact_foot`] from the corners and contact `c`'s block 2.
 #[inline]
 pub fn contact_foot_in(corners: &[super::Corner], b2: &super::Block, c: &Contact, side: u32) -> [f64; 2] {
     let corner = corners[c.corner as usize].position;
     if side == 0 {
         return corner;
     }
+    foot_on_block2(corners, b2, c, corner)
+}
+
+/// Both feet of contact `c` ([`contact_foot`], side 0 then 1), its corner at `corner` (stage 4
+/// takes each contact's feet where it has just read its corner and block 2, `cpu::contact_forces`).
+#[inline]
+pub fn contact_feet(corners: &[super::Corner], b2: &super::Block, c: &Contact, corner: [f64; 2]) -> [[f64; 2]; 2] {
+    [corner, foot_on_block2(corners, b2, c, corner)]
+}
+
+/// Side 1's foot of contact `c` whose corner is at `corner`: block 2's corner it touches, or the
+/// corner's foot on block 2's edge, within the edge.
+#[inline]
+fn foot_on_block2(corners: &[super::Corner], b2: &super::Block, c: &Contact, corner: [f64; 2]) -> [f64; 2] {
     let n = b2.corner_count.max(1);
     // (k mod n and k + 1 mod n without a division where k < n, as it always is: stage 4 takes
     // this for every contact every cycle.)
@@ -477,14 +490,15 @@ pub fn contact_flows(model: &Model, domains: &mut Domains, inflow: &mut Vec<f64>
 /// aperture and length: each contact alone (stage 5 takes them on its threads).
 #[inline]
 pub fn contact_flow(model: &Model, domains: &Domains, k: usize) -> ContactFlow {
-    contact_flow_of(&model.contacts[k], &model.materials, domains, k)
+    let c = &model.contacts[k];
+    contact_flow_of(c, &model.materials[material_slot(c.material, model.materials.len())], domains, k)
 }
 
-/// [`contact_flow`] of contact `c`, the `k`-th, from the materials (stage 4 takes each contact's
-/// flow right after its force, `cpu::contact_forces`: the joint's aperture reads that force).
+/// [`contact_flow`] of contact `c`, the `k`-th, of material `mat` (its own: stage 4 takes each
+/// contact's flow right after its force, `cpu::contact_forces`, with the material it has at
+/// hand; the joint's aperture reads that force).
 #[inline]
-pub fn contact_flow_of(c: &Contact, materials: &[Material], domains: &Domains, k: usize) -> ContactFlow {
-    let mat = &materials[material_slot(c.material, materials.len())];
+pub fn contact_flow_of(c: &Contact, mat: &Material, domains: &Domains, k: usize) -> ContactFlow {
     let a = aperture(c, mat);
     let mut f = ContactFlow { flow: 0.0, aperture: a, length: c.joint_length };
     if let Some(&[d0, d1]) = domains.sides.get(k) {
