@@ -339,6 +339,26 @@ pub fn principal_moments(m: DMat3) -> [f64; 3] {
     e
 }
 
+/// The inverse of an inertia tensor `i` (symmetric positive definite, so no entry larger than
+/// the largest on its diagonal), None where it is singular. Where the determinant, the cube of
+/// the tensor's scale, overflows or underflows f64 (a block of inertia past ~1e102 kg·m², made of
+/// a density of 1e300, or below ~1e-102), the tensor is inverted at unit scale and scaled back:
+/// glam's inverse of it was NaN (its adjugate over an infinite determinant), and so was the
+/// block's angular velocity, even at rest (found by tests/suite/d3_random_decks.rs). Within that
+/// range it is glam's inverse, bit for bit.
+pub fn inertia_inverse(i: DMat3) -> Option<DMat3> {
+    let det = i.determinant();
+    if det.is_finite() && det >= f64::MIN_POSITIVE {
+        return Some(i.inverse());
+    }
+    let scale = i.x_axis.x.abs().max(i.y_axis.y.abs()).max(i.z_axis.z.abs());
+    if !(scale > 0.0 && scale.is_finite()) {
+        return None;
+    }
+    let unit = i * (1.0 / scale);
+    (unit.determinant() > 0.0).then(|| unit.inverse() * (1.0 / scale))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -494,7 +494,7 @@ impl Block {
 
     /// ω = I⁻¹ L in global axes (zero for a block without inertia).
     pub fn angular_velocity_from(&self, l: DVec3) -> DVec3 {
-        super::motion::inertia_inverse(self.inertia()).map_or(DVec3::ZERO, |inv| inv * l)
+        super::geometry::inertia_inverse(self.inertia()).map_or(DVec3::ZERO, |inv| inv * l)
     }
 
     /// Velocity of the material point at `p` (eq. 11): v + ω × (p − c), and ε̇·(p − c) of a

@@ -214,8 +214,14 @@ impl EnergyCheck {
     /// After a failure: names the cause (a block flying off may be the symptom of an unstable
     /// step) and puts the last good state back in `model`.
     pub fn roll_back<M: RunModel>(&mut self, mut e: CycleError, model: &mut M, last_good: M) -> CycleError {
-        if let CycleError::TooFast { .. } = e {
-            if let Err(energy) = self.check(model) {
+        if let CycleError::TooFast { cycle, .. } = e {
+            if let Err(mut energy) = self.check(model) {
+                // At the too-fast block's cycle: the model may have stopped inside it (D3's
+                // check comes before its cycle count steps), which read as "at cycle 0" for a
+                // failure in the first step.
+                if let CycleError::EnergyGrowth { cycle: at, .. } = &mut energy {
+                    *at = cycle;
+                }
                 e = energy;
             }
         }

@@ -157,7 +157,7 @@ fn blocks_given_overlapping_are_named_at_the_cycle() {
 /// material blocks have, a BOX of it, CHANGE to it), naming the line and the block, and leaves
 /// the model as it was; one that does not overflow runs. Found by tests/suite/d3_random_decks.rs:
 /// a density of 1e300 made a fixed slab's inertia 3.5e302 kg·m², whose determinant overflows,
-/// and its angular velocity I⁻¹·0 NaN (`motion::inertia_inverse` now inverts it at unit scale).
+/// and its angular velocity I⁻¹·0 NaN (`geometry::inertia_inverse` now inverts it at unit scale).
 #[test]
 fn a_density_that_overflows_a_blocks_mass_is_refused_at_its_line() {
     let base = "START\nPROP MAT 1 D 1000 KN 1E8 KS 1E8\nBOX -2 6 -2 6 -1 0\nFIX -3 7 -3 7 -2 0\n";

@@ -1477,7 +1477,7 @@ fn block_pods<R: Real>(model: &Model) -> (Vec<layout::Block<R>>, Adjacency) {
         .enumerate()
         .with_min_len(super::grain::BLOCK)
         .map(|(k, ((b, at), &[.., feature_count]))| {
-            let inv = crate::d3::motion::inertia_inverse(b.inertia_ref).unwrap_or(DMat3::ZERO);
+            let inv = crate::d3::geometry::inertia_inverse(b.inertia_ref).unwrap_or(DMat3::ZERO);
             let r = |x: f64| R::from_f64(x);
             let cols = inv.to_cols_array();
             let part_vertices: usize = b.parts.iter().map(|p| p.shape.vertices.len()).sum();
