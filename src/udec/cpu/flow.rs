@@ -59,8 +59,9 @@ pub struct FluidScratch {
 }
 
 /// `out[i] = f(i)` for every `i`, on the team's threads: each element alone, so the result is
-/// what a serial loop gives.
-fn fill_on_team<T: Send>(team: &mut Team, out: &mut [T], min_per_thread: usize, f: &(dyn Fn(usize) -> T + Sync)) {
+/// what a serial loop gives. (`f` generic, not `dyn`: it is called per domain and per block,
+/// where a call through a vtable kept each domain's area out of line.)
+fn fill_on_team<T: Send, F: Fn(usize) -> T + Sync>(team: &mut Team, out: &mut [T], min_per_thread: usize, f: &F) {
     let n = out.len();
     let shared = SharedMut::new(out);
     team.for_chunks(n, min_per_thread, MIN_CHUNK, &|r| {
