@@ -658,52 +658,23 @@ impl Executor<'_> {
     /// Where a CYCLE stopped on an overlap past the limit and the model, rolled back, is where
     /// the CYCLE started: whether that state, its contacts detected afresh on a copy, has a
     /// contact driven through already. Then the blocks were given overlapping (BLOCK or BOX
-    /// corners, a SPLIT's pieces moved into a neighbour): an input error, said so, not a
-    /// divergence to cure by a smaller FRACTION (as 2D's `overlap_before_motion`).
-    ///
-    /// Likewise an energy growth from where the CYCLE started whose excess the overlaps of that
-    /// state, as springs, hold at least half of: a run's first detection takes each overlap
-    /// whole (kn times it), so blocks given overlapping by less than the limit start with strain
-    /// energy no work put in, which the first steps turn into motion.
+    /// corners): an input error, said so, not a divergence to cure by a smaller FRACTION (as
+    /// 2D's `overlap_before_motion`). (An overlap under the limit needs no such word: the run's
+    /// energy check starts from the state with its contacts detected, their springs in it.)
     fn given_overlapping(&self, failure: &CycleError, start_cycle: u64) -> Option<String> {
-        if self.model.cycle != start_cycle {
+        if !matches!(failure, CycleError::Overlap { .. }) || self.model.cycle != start_cycle {
             return None;
         }
-        let excess = match *failure {
-            CycleError::Overlap { .. } => None,
-            CycleError::EnergyGrowth { energy, budget, .. } => Some(energy - budget.max(0.0)),
-            _ => return None,
-        };
         let mut probe = self.model.clone();
         super::topology::update_neighbours(&mut probe);
         super::cpu::contact_stage(&mut probe, 0.0);
-        let near = |p: &[f64]| p.iter().map(|&x| fmt_e(x)).collect::<Vec<_>>().join(", ");
-        let Some(excess) = excess else {
-            let Err(CycleError::Overlap { block1, block2, overlap, limit, at, .. }) = super::cpu::overlap_check(&probe) else { return None };
-            return Some(format!(
-                "CYCLE: blocks {block1} and {block2} overlap by {} near ({}) before any motion, more than half the smaller block's radius ({}): \
-                 they were given overlapping (BLOCK or BOX corners); blocks may touch but not overlap",
-                fmt_e(overlap),
-                near(at.coords()),
-                fmt_e(limit)
-            ));
-        };
-        let strain = probe.energies().strain;
-        if !(strain > 0.0 && strain >= 0.5 * excess) {
-            return None;
-        }
-        let (c, l) = probe.contacts.iter().flat_map(|c| c.logical.iter().map(move |l| (c, l))).min_by(|x, y| x.1.gap.total_cmp(&y.1.gap))?;
-        let overlapping = probe.contacts.iter().filter(|c| c.logical.iter().any(|l| l.gap < 0.0)).count();
-        let id = |b: u32| probe.blocks[b as usize].id;
+        let Err(CycleError::Overlap { block1, block2, overlap, limit, at, .. }) = super::cpu::overlap_check(&probe) else { return None };
+        let near = at.coords().iter().map(|&x| fmt_e(x)).collect::<Vec<_>>().join(", ");
         Some(format!(
-            "CYCLE: blocks {} and {} overlap by {} near ({}) before any motion ({overlapping} contact(s) overlapping in all, their springs holding {} \
-             of strain energy that no work put in, which the first steps turn into motion): they were given overlapping (BLOCK or BOX corners); \
-             blocks may touch but not overlap",
-            id(c.blocks[0]),
-            id(c.blocks[1]),
-            fmt_e(-l.gap),
-            near(&l.point.to_array()),
-            fmt_e(strain)
+            "CYCLE: blocks {block1} and {block2} overlap by {} near ({near}) before any motion, more than half the smaller block's radius ({}): \
+             they were given overlapping (BLOCK or BOX corners); blocks may touch but not overlap",
+            fmt_e(overlap),
+            fmt_e(limit)
         ))
     }
 }
