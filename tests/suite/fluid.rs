@@ -376,6 +376,28 @@ fn fluid_bits(m: &blockdem::udec::model::Model) -> Vec<u8> {
     b
 }
 
+/// GENERATE after the domains are built (with fluid) gives its blocks new corners and drops
+/// their contacts: the domains are rebuilt with them, so a SAVE then restarts. They were kept,
+/// naming contacts that were gone, and RESTART refused the file ("domain link 0 names contact
+/// 1 of 0"; found by tests/suite/random_decks.rs).
+#[test]
+fn a_save_after_generate_in_a_fluid_scene_restarts() {
+    let dir = std::env::temp_dir().join(format!("blockdem-fluid-generate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("zoned.sav");
+    let deck = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5 K=1E9 G=1E9 CPERM=1E-7\nROUND 0.05\nBLOCK 0,0 0,1 8,1 8,0\nFIX 0 8 0 1\nGRAV 0 -10\n\
+         BLOCK 1,1 1,2 3,2 3,1\nFLUID 1000 2E5\nPFIX OUTER 0\nCYCLE 1\nCHANGE -1 10 0.5 7 FDEF\nGEN -1 10 0.5 7 AUTO 0.3\nSAVE {}\nSTOP\n",
+        file.display()
+    );
+    let (saved, _) = run_ok(&deck);
+    saved.validate().unwrap();
+    let (resumed, log) = run_ok(&format!("RESTART {}\nCYCLE 10\nSTOP\n", file.display()));
+    assert!(log.contains("THIS IS A RESTART RUN") && resumed.cycle == 11, "{log}");
+    assert!(resumed.fdef.iter().any(|f| !f.zones.is_empty()) && resumed.domains.is_some());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// CYCLE N, SAVE, RESTART (another run), CYCLE M is CYCLE N + M bit for bit on the CPU (save
 /// format 6 keeps the fluid and the domains as the cycle carries them): on sample 2, and on a
 /// scene whose pressures PFIX holds.

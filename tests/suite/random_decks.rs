@@ -342,6 +342,15 @@ fn scaled_command(s: Scale) -> impl Strategy<Value = String> {
             .prop_map(String::from),
         2 => prop_oneof![Just("PLOT"), Just("PLOT NOFIX VEL"), Just("PLOT NC ZONES"), Just("VTK"), Just("DUMP"), Just("DUMP 0 2147483647"), Just("DUMP 5 0"), Just("PRINT LIST")]
             .prop_map(String::from),
+        // The later block kinds and the fluid at this scale: SDEF blocks, blocks zoned where they
+        // are made, fluid with the outer domain held.
+        1 => Just(format!("CHANGE {} SDEF", s.range(-1.0, 10.0, 0.5, 7.0))),
+        1 => prop_oneof![Just(0.3), Just(0.7), Just(1.5)].prop_map(move |a| {
+            let r = s.range(-1.0, 10.0, 0.5, 7.0);
+            format!("CHANGE {r} FDEF\nGEN {r} AUTO {}", s.len(a))
+        }),
+        1 => Just("FLUID 1000 2E5\nPFIX OUTER 0".to_string()),
+        1 => Just("PRINT DOMAINS FLOWS".to_string()),
     ]
 }
 
@@ -350,7 +359,9 @@ fn scaled_deck() -> impl Strategy<Value = String> {
     scale().prop_flat_map(|s| {
         (prop::collection::vec(scaled_command(s), 0..30)).prop_map(move |commands| {
             format!(
-                "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND {}\nBLOCK {},{} {},{} {},{} {},{}\nFIX {}\nGRAV 0 -10\n{}\nCYCLE 50\nSTOP\n",
+                // (Moduli and flow laws for the decks that make SDEF or zoned blocks or fluid.)
+                "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5 K=1E9 G=1E9 CPERM=1E-7 JPERM=100 AZERO=1E-4 ARES=1E-5\n\
+                 ROUND {}\nBLOCK {},{} {},{} {},{} {},{}\nFIX {}\nGRAV 0 -10\n{}\nCYCLE 50\nSTOP\n",
                 s.len(0.05),
                 s.x(0.0),
                 s.x(0.0),
