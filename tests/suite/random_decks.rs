@@ -24,6 +24,8 @@ every_backend!(random_decks_never_panic_and_stop_with_a_line_and_a_finite_model,
 /// whether the deck ran to its end.
 fn run_naming_its_line(t: &Target, deck: &str, file: &str, out: &std::path::Path) -> Result<(Executor<'static>, bool), TestCaseError> {
     let lines = deck.lines().count();
+    // The deck being run, where a hung campaign leaves it to be read.
+    let _ = std::fs::write(std::env::temp_dir().join(format!("blockdem-running-{}-{}-{file}", std::process::id(), t.name().replace(' ', "_"))), deck);
     let parsed = blockdem::udec::deck::parse_deck(deck, file).map_err(|e| TestCaseError::fail(format!("the deck does not parse: {e}")))?;
     let _ = std::fs::remove_dir_all(out);
     let options = RunOptions { out_dir: out.to_path_buf(), ..Default::default() };
@@ -36,6 +38,8 @@ fn run_naming_its_line(t: &Target, deck: &str, file: &str, out: &std::path::Path
             RunError::Interrupted { .. } => return Err(TestCaseError::fail("interrupted without a signal")),
         };
         prop_assert!(text.starts_with(&format!("{file}:")) && (1..=lines).contains(&line), "{text}");
+        // A file the deck's own SAVE wrote restarts.
+        prop_assert!(!text.contains("is inconsistent"), "a SAVE that RESTART refuses: {text}\n{deck}");
         return Ok((exec, false));
     }
     Ok((exec, true))
@@ -168,8 +172,11 @@ fn kind_command(kind: Kind) -> BoxedStrategy<String> {
             2 => (prop_oneof![Just("OUTER".to_string()), (1u32..12).prop_map(|d| d.to_string()), (0.0f64..8.0, 0.0f64..5.0).prop_map(|(x, y)| format!("AT {x:.2} {y:.2}"))], any_value())
                 .prop_map(|(d, p)| format!("PFIX {d} {p}")),
             1 => prop_oneof![Just("OUTER".to_string()), (1u32..5).prop_map(|d| d.to_string())].prop_map(|d| format!("PFREE {d}")),
-            1 => (1u32..3, positive(), positive(), positive(), positive())
-                .prop_map(|(m, jp, cp, a0, ar)| format!("PROP MAT={m} JPERM={jp} CPERM={cp} AZERO={a0} ARES={ar}")),
+            // (Flow laws of ordinary size: a conductance of 1e300 overflows the flows where a
+            // CYCLE sets out, before the energy check can go back to a good state; see
+            // tests/suite/fluid.rs `a_non_finite_pressure_stops_the_run_at_the_last_good_state`.)
+            1 => (1u32..3, 0.01f64..5.0, prop_oneof![Just(1e-7), Just(1e-3), Just(1.0)], 1e-5f64..1e-2, 1e-6f64..1e-4)
+                .prop_map(|(m, jp, cp, a0, ar)| format!("PROP MAT={m} JPERM={jp:.3} CPERM={cp:e} AZERO={a0:e} ARES={ar:e}")),
             1 => joints,
             1 => Just("PRINT FLOWS DOMAINS DLIST".to_string()),
             1 => Just("PLOT PRESSURE".to_string()),
@@ -231,6 +238,8 @@ fn random_decks_never_panic_and_stop_with_a_line_and_a_finite_model(t: &Target) 
             let state = b.centroid.iter().chain(&b.velocity).chain([&b.angular_velocity, &b.rotation]);
             prop_assert!(state.into_iter().all(|x| x.is_finite()), "block {} not finite: {:?}", b.id, b);
         }
+        // Whatever the deck left is a model RESTART takes back (a SAVE of it would restart).
+        prop_assert!(exec.model.validate().is_ok(), "the model cannot be restarted: {:?}\n{deck}", exec.model.validate());
         Ok(())
     });
     let _ = std::fs::remove_dir_all(&out);

@@ -510,6 +510,22 @@ pub fn contact_flow_of(c: &Contact, mat: &Material, domains: &Domains, k: usize)
     f
 }
 
+/// The first domain (in list order) whose pressure is not finite, and a block it bounds (the
+/// block of its first corner or contact link), as their ids: a flow law or a fluid stiff past
+/// f64 (CPERM = 1e300: its step underflowed to 1e-308 and a flow of 1e300 × Δp overflowed) made
+/// NaN pressures and, around fixed blocks that nothing moved, NaN forces that no step check saw
+/// (found by tests/suite/random_decks.rs). None without domains.
+pub fn non_finite_pressure(model: &Model) -> Option<(u32, u32)> {
+    let domains = model.domains.as_ref()?;
+    let d = domains.list.iter().find(|d| !d.pressure.is_finite())?;
+    let block = domains.links_of(d).iter().find_map(|l| match *l {
+        DomainLink::Corner { corner } => model.corners.get(corner as usize).map(|c| c.block),
+        DomainLink::Contact { index, .. } => model.contacts.get(index as usize).map(|c| c.block1),
+    });
+    let id = block.and_then(|b| model.blocks.get(b as usize)).or(model.blocks.first()).map_or(0, |b| b.id);
+    Some((d.id, id))
+}
+
 /// Each domain's net inflow Q from `domains.flows` into `inflow`, summed in contact order, so a
 /// run repeats bit for bit.
 pub fn sum_inflows(domains: &Domains, inflow: &mut Vec<f64>) {

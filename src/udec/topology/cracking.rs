@@ -74,7 +74,18 @@ pub fn find_crack(model: &Model, adjacency: &Adjacency, b: usize) -> Option<Crac
 /// reaches the tensile strength t_f: through the centroid, parallel to the minimum principal
 /// stress s_p2, from boundary to boundary. Its value is the criterion's equivalent tensile stress
 /// (`sdef::griffith_stress`).
+///
+/// The fragment floor: a block whose area is under that of a square of side twice the rounding
+/// length does not crack (its corners' arcs already meet, so a crack would make corners that
+/// interfere, which ¶13's splitting logic rejects). Without it a strength far below the stress
+/// (TF = 1e-300) halved every piece every cycle, 2ⁿ blocks after n cycles, and a run of 17
+/// cycles never ended (found by tests/suite/random_decks.rs). D3 has its own
+/// (`d3::cracking`, a share of the block as built).
 fn find_griffith_crack(model: &Model, b: usize) -> Option<Crack> {
+    let round = model.tol.round;
+    if model.blocks[b].area < 4.0 * round * round {
+        return None;
+    }
     let s = model.sdef_of(b)?;
     let tf = model.material(model.blocks[b].material).block.tf;
     let (s1, s2, angle) = crate::udec::model::sdef::principal_values(s.stress);
