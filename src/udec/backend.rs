@@ -68,6 +68,16 @@ impl CycleError {
         CycleError::NonFinite { cycle: model.cycle, block: block.id, what: what.into() }
     }
 
+    /// The failure of a model with a non-finite domain pressure
+    /// (`model::fluid::non_finite_pressure`), named by the domain and a block beside it; None
+    /// where every pressure is finite. The CPU's energy check asks it, and the executor after a
+    /// GPU run.
+    pub fn non_finite_pressure(model: &Model) -> Option<CycleError> {
+        let (domain, block) = crate::udec::model::fluid::non_finite_pressure(model)?;
+        let what = format!("a non-finite fluid pressure in domain {domain} beside it (check CPERM, JPERM and AZERO against the fluid's bulk modulus, FLUID)");
+        Some(CycleError::NonFinite { cycle: model.cycle, block, what })
+    }
+
     /// The failure of a cycle in which contact `flagged` (an index) overlapped by more than
     /// `limit`: the message names the contact that overlaps most (ties: the lowest index, on every
     /// backend), not merely the first past the limit, so it does not understate how far the blocks

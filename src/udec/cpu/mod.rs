@@ -629,14 +629,8 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
     fn energy(&mut self, model: &mut Model) -> Result<(f64, f64), CycleError> {
         self.gather(model);
         let _p = crate::profile::scope(crate::profile::Stage::Checks);
-        if let Some((domain, block)) = crate::udec::model::fluid::non_finite_pressure(model) {
-            return Err(CycleError::NonFinite {
-                cycle: model.cycle,
-                block,
-                what: format!(
-                    "a non-finite fluid pressure in domain {domain} beside it (check CPERM, JPERM and AZERO against the fluid's bulk modulus, FLUID)"
-                ),
-            });
+        if let Some(failure) = CycleError::non_finite_pressure(model) {
+            return Err(failure);
         }
         let e = model.energies();
         Ok((e.kinetic + e.strain, e.external_work + e.fluid_work))

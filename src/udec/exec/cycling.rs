@@ -57,14 +57,7 @@ impl Executor<'_> {
         // The CPU's energy checks stop a run at a non-finite pressure and go back to the last
         // good state; the GPU's sums do not see the pressures, so a run there that ends with one
         // is stopped here, at the state it reached (to do: the check on the device).
-        if let Some((domain, block)) = crate::udec::model::fluid::non_finite_pressure(&self.model) {
-            let failure = CycleError::NonFinite {
-                cycle: self.model.cycle,
-                block,
-                what: format!(
-                    "a non-finite fluid pressure in domain {domain} beside it (check CPERM, JPERM and AZERO against the fluid's bulk modulus, FLUID)"
-                ),
-            };
+        if let Some(failure) = CycleError::non_finite_pressure(&self.model) {
             return Err(RunError::Numerical { file: self.file.clone(), line: cmd.line, failure, advice: String::new() });
         }
         self.echo_report(&report);
