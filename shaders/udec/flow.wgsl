@@ -86,6 +86,13 @@ fn flow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
     var q = real(0.0);
     if (d0 != NO_INDEX && d0 != d1) {
         q = conductance(c, f, a) * (domains[d0].pressure - domains[d1].pressure);
+        // A pressure or flow past the precision (a flow law or a fluid stiff past it) stops the
+        // run, as the CPU's energy check does (`CycleError::non_finite_pressure`): between fixed
+        // blocks no step would see it. The error names the read-back domain (`error_from_flags`).
+        if (!is_finite(q)) {
+            atomicOr(&flags.errors, ERR_NONFINITE);
+            atomicMin(&flags.nonfinite_block, c.block1);
+        }
     }
     // Field by field: the domains' pressures in the slot (`p0`, `p1`) are `domain_pressures`'.
     contact_flows_out[k].flow = q;

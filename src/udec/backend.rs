@@ -78,6 +78,19 @@ impl CycleError {
         Some(CycleError::NonFinite { cycle: model.cycle, block, what })
     }
 
+    /// The failure of a cycle in which the fluid's work (pressure × change of a domain's volume,
+    /// `cpu::flow::fluid_work`) was not finite, named by the domain of the largest pressure and a
+    /// block beside it: a pressure whose push on the blocks overflows their energies (PFIX 1E300),
+    /// not an unstable step, so not an "energy growing" whose cure would be a lower FRACTION.
+    pub fn non_finite_fluid_work(model: &Model) -> CycleError {
+        let (domain, pressure, block) = crate::udec::model::fluid::largest_pressure(model).unwrap_or((0, f64::NAN, model.blocks.first().map_or(0, |b| b.id)));
+        let what = format!(
+            "a step whose fluid work (pressure × change of volume) is not finite, under the pressure {pressure:e} of domain {domain} beside it \
+             (check PFIX, FLUID and the units)"
+        );
+        CycleError::NonFinite { cycle: model.cycle, block, what }
+    }
+
     /// The failure of a cycle in which contact `flagged` (an index) overlapped by more than
     /// `limit`: the message names the contact that overlaps most (ties: the lowest index, on every
     /// backend), not merely the first past the limit, so it does not understate how far the blocks

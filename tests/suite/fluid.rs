@@ -309,7 +309,8 @@ common::every_backend!(
     sample_2_pressures_follow_the_cpu_along_the_run,
     a_rerun_repeats_bit_for_bit,
     a_restarted_run_agrees_with_the_run_straight_through,
-    the_energy_check_counts_the_fluid_work_since_the_cycle_began
+    the_energy_check_counts_the_fluid_work_since_the_cycle_began,
+    a_non_finite_pressure_stops_the_run_at_the_last_good_state
 );
 
 #[test]
@@ -376,23 +377,72 @@ fn fluid_bits(m: &blockdem::udec::model::Model) -> Vec<u8> {
     b
 }
 
-/// A flow law past f64 (CPERM = 1e300: the fluid's step underflows, a flow overflows) makes a
-/// pressure NaN; between two fixed blocks nothing moved and no step check saw it, and the run
-/// ended with NaN pressures and forces (found by tests/suite/random_decks.rs). The CPU's energy
-/// check now stops it, naming the domain and a block beside it, at the last good state.
+/// Runs `deck` through the executor on `backend`: the error's text and the model it leaves.
+fn run_failing(deck: &str, backend: Box<dyn blockdem::udec::backend::Backend>) -> (String, blockdem::udec::model::Model) {
+    let parsed = blockdem::udec::deck::parse_deck(deck, "t.dat").unwrap();
+    let mut exec = blockdem::udec::exec::Executor::new(backend, Box::new(std::io::sink()), Default::default(), "t.dat");
+    let e = exec.run(&parsed).unwrap_err().to_string();
+    (e, exec.model)
+}
+
+/// A flow law past f64 (CPERM = 1e300 against bulkw = 2e5): the fluid's limit on the time step
+/// underflows (1e-308), so no time would pass while a flow of 1e300 × Δp overflows. It made NaN
+/// pressures, and between two fixed blocks nothing moved and no step check saw them (found by
+/// tests/suite/random_decks.rs). Now the run's start refuses it, naming the line, the limit and
+/// the constants, and hands back the model as the CYCLE found it (the rebuilt domains held the
+/// overflowing flows, which no SAVE can hold): restartable, its flows and pressures finite.
 #[test]
-fn a_non_finite_pressure_stops_the_run_at_the_last_good_state() {
+fn a_fluid_step_that_underflows_is_refused_before_any_cycle() {
     let deck = "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 8,1 8,0\nFIX 0 8 0 1\nFLUID 1000 2E5\n\
                 PROP MAT=1 JPERM=0.01 CPERM=1E300 AZERO=0.01 ARES=0.01\nSPLIT 0 0 8.37 2.78\nPFIX OUTER 1E30\nCYCLE 50\nSTOP\n";
-    let parsed = blockdem::udec::deck::parse_deck(deck, "t.dat").unwrap();
-    let cpu = Box::new(blockdem::udec::cpu::CpuBackend::new());
-    let mut exec = blockdem::udec::exec::Executor::new(cpu, Box::new(std::io::sink()), Default::default(), "t.dat");
-    let e = exec.run(&parsed).unwrap_err().to_string();
-    assert!(e.starts_with("t.dat:10:") && e.contains("non-finite fluid pressure in domain") && e.contains("CPERM"), "{e}");
-    // The last good state's pressures are finite. (Its flows are not: the flow 1e300 × 1e30
-    // overflowed already where the CYCLE set out, before any step; to do: refuse that there.)
-    assert!(exec.model.domains.as_ref().unwrap().list.iter().all(|d| d.pressure.is_finite()));
-    assert!(exec.model.blocks.iter().all(|b| b.force.iter().all(|f| f.is_finite()) && b.moment.is_finite()));
+    let (e, m) = run_failing(deck, Box::new(blockdem::udec::cpu::CpuBackend::new()));
+    assert!(e.starts_with("t.dat:10:") && e.contains("limit on the time step") && e.contains("underflows f64") && e.contains("CPERM 1e300"), "{e}");
+    assert_eq!(m.cycle, 0);
+    m.validate().unwrap();
+    assert!(m.domains.as_ref().unwrap().flows.iter().all(|f| f.flow.is_finite()));
+}
+
+/// A flow past f64 where the run sets out (PFIX OUTER 1E300 beside CPERM 10: the step is
+/// ordinary) is refused there, naming the contact's blocks and the domains' pressures; a pressure
+/// whose push on the blocks overflows their energies (PFIX OUTER 1E300 beside CPERM 1E-7) stops
+/// the first step as a non-finite fluid work under that pressure, not as an "energy growing"
+/// whose cure would be a lower FRACTION. Both leave a state a RESTART takes.
+#[test]
+fn a_pressure_past_f64_is_named_not_taken_for_an_instability() {
+    let scene = |cperm: &str| {
+        format!(
+            "START\nPROP MAT=1 DENS=2000 KN=1e9 KS=1e9 F=0.6 CPERM={cperm}\nROUND 0.02\nBLOCK 0 -1 0 0 4 0 4 -1\nBLOCK 1 0 1 1 2 1 2 0\n\
+             BLOCK 2 0 2 1 3 1 3 0\nBLOCK 1 1 1 2 3 2 3 1\nFIX 0 4 -1 0\nGRAVITY 0 -10\nFLUID 1000 2E9\nPFIX OUTER 1E300\nCYCLE 10\nSTOP\n"
+        )
+    };
+    let (e, m) = run_failing(&scene("1E10"), Box::new(blockdem::udec::cpu::CpuBackend::new()));
+    assert!(e.starts_with("t.dat:12:") && e.contains("the flow across the contact of blocks") && e.contains("pressure 1e300") && e.contains("overflows f64"), "{e}");
+    assert_eq!(m.cycle, 0);
+    m.validate().unwrap();
+    let (e, m) = run_failing(&scene("1E-7"), Box::new(blockdem::udec::cpu::CpuBackend::new()));
+    assert!(e.starts_with("t.dat:12:") && e.contains("fluid work") && e.contains("pressure 1e300 of domain 1") && !e.contains("energy growing"), "{e}");
+    assert_eq!(m.cycle, 0);
+    m.validate().unwrap();
+}
+
+/// A pressure raised between two CYCLEs past what the flows can hold (PFIX OUTER 1E300 in f64,
+/// 1E30 in f32, beside CPERM 1E9: the flow 1e39 is past f32, 1e309 past f64) makes the pressure
+/// in the joint between two fixed blocks non-finite, where no step sees it. Every backend stops
+/// the run at the last good state (cycle 10), naming the domain: the CPU's energy check, the
+/// device's `flow` kernel by its error flag (before, the GPU ran on and only the executor saw
+/// the pressure after the run, at the state it reached, which no RESTART took).
+fn a_non_finite_pressure_stops_the_run_at_the_last_good_state(t: &Target) {
+    let pressure = if t.is_f32() { "1E30" } else { "1E300" };
+    let deck = format!(
+        "START\nPROP MAT=1 D=2000 KN=1E9 KS=1E9 F=0.5\nROUND 0.05\nBLOCK 0,0 0,1 8,1 8,0\nFIX 0 8 0 1\nFLUID 1000 2E5\n\
+         PROP MAT=1 JPERM=0.01 CPERM=1E9 AZERO=0.01 ARES=0.01\nSPLIT 0 0 8.37 2.78\nPFIX OUTER 0\nCYCLE 10\nPFIX OUTER {pressure}\nCYCLE 10\nSTOP\n"
+    );
+    let (e, m) = run_failing(&deck, t.backend());
+    assert!(e.starts_with("t.dat:12:") && e.contains("non-finite fluid pressure in domain") && e.contains("CPERM"), "{}: {e}", t.name());
+    assert_eq!(m.cycle, 10, "{}", t.name());
+    m.validate().unwrap_or_else(|e| panic!("{}: {e}", t.name()));
+    assert!(m.domains.as_ref().unwrap().list.iter().all(|d| d.pressure.is_finite()));
+    assert!(m.blocks.iter().all(|b| b.force.iter().all(|f| f.is_finite()) && b.moment.is_finite()));
 }
 
 /// GENERATE after the domains are built (with fluid) gives its blocks new corners and drops

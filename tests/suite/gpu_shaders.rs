@@ -169,7 +169,7 @@ fn each_cycle_kernel_binds_only_what_it_uses() {
         );
         assert_eq!(slots("gather", "gather_fluid"), [Params, Blocks, AdjOffsets, AdjEntries, ContactForces, ContactFlows, FluidLoads]);
         assert_eq!(slots("energy_sums", "energy_sums_fluid"), [Params, EnergySums, FluidLoads]);
-        assert_eq!(slots("flow", "flow"), [Params, Blocks, Corners, Contacts, Materials, FluidMaterials, Domains, ContactSides, ContactFlows]);
+        assert_eq!(slots("flow", "flow"), [Params, Blocks, Corners, Contacts, Materials, Flags, FluidMaterials, Domains, ContactSides, ContactFlows]);
         // A long domain's sums from the terms `domain_terms` computed (`gpu::flow::LONG_WALK`).
         assert_eq!(
             slots("flow", "domain_terms"),

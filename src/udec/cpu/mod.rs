@@ -410,6 +410,9 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
             .unwrap_or_else(|| steps.iter().enumerate().max_by(|x, y| x.1.external_work.abs().total_cmp(&y.1.external_work.abs())).map_or(0, |(b, _)| b));
         return Err(CycleError::non_finite_step(model, b));
     }
+    if has_fluid && !model.fluid.is_some_and(|f| f.work.is_finite()) {
+        return Err(CycleError::non_finite_fluid_work(model));
+    }
     if let Some((b, z)) = inverted {
         return Err(CycleError::ZoneInverted { cycle: model.cycle, block: model.blocks[b].id, zone: z + 1 });
     }
@@ -434,13 +437,13 @@ fn cycle_once(model: &mut Model, adjacency: &Adjacency, scratch: &mut Scratch, g
 /// domains rebuilt from the new lists (keeping ids, pressures and PFIX), the blocks' loads at
 /// them, and the time step cut where the new domains need a shorter one
 /// (`model::fluid::fluid_timestep`). Nothing in a dry scene.
-fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow::FluidScratch, report: &mut CycleReport) {
+fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow::FluidScratch, report: &mut CycleReport) -> Result<(), CycleError> {
     if model.fluid.is_none() {
-        return;
+        return Ok(());
     }
     topology::refresh_domains(model);
     flow::all_pressure_loads(model, &topology.lists, fluid);
-    fluid_timestep_cut(model, report);
+    fluid_timestep_cut(model, report)
 }
 
 /// The contact lists a run starts from when it does not go on from the last: a full detection
@@ -470,18 +473,44 @@ pub(crate) fn mark_as_run_left(model: &mut Model) {
 }
 
 /// The time step cut where the domains as they are now need a shorter one
-/// (`model::fluid::fluid_timestep`): after each rebuild of the domains, on either backend.
-pub(crate) fn fluid_timestep_cut(model: &mut Model, report: &mut CycleReport) {
+/// (`model::fluid::fluid_timestep`): after each rebuild of the domains, on either backend. A
+/// limit that underflows f64 (CPERM = 1e300 against bulkw = 2e9: the step would be 0, the run
+/// would cycle without time passing while its flows overflow) stops the run before the cycle.
+pub(crate) fn fluid_timestep_cut(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
     if model.fluid.is_none() {
-        return;
+        return Ok(());
     }
     let k_contact = model.contact_stiffness_max();
     if let Some(dt) = crate::udec::model::fluid::fluid_timestep(model, k_contact) {
+        if !(dt >= f64::MIN_POSITIVE) {
+            return Err(CycleError::Setup(crate::udec::model::fluid::step_underflow_text(model, dt)));
+        }
+        // Likewise a flow, conductance × Δp, past f64 (PFIX OUTER 1E300 beside CPERM 10): the
+        // rebuild has just computed each contact's.
+        if let Some(text) = crate::udec::model::fluid::flow_overflow_text(model) {
+            return Err(CycleError::Setup(text));
+        }
         if dt < model.timestep {
             model.timestep = dt;
             report.timestep_changes.push((model.cycle, dt));
         }
     }
+    Ok(())
+}
+
+/// `driver::prepare` for the 2D backends: a start that fails in a scene with fluid (a step that
+/// underflows or a flow that overflows, found on the domains the start built,
+/// `fluid_timestep_cut`) hands the model back as it was given, so that the last good state of
+/// the failed CYCLE is the one before it, which a SAVE holds and a RESTART takes (the rebuilt
+/// domains held the overflowing flows). A dry start writes nothing a SAVE cannot hold, and
+/// keeps no copy.
+pub(crate) fn prepare_run<S: driver::Start<Model> + ?Sized>(start: &mut S, model: &mut Model, report: &mut CycleReport) -> Result<bool, CycleError> {
+    let before = model.fluid.is_some().then(|| model.clone());
+    driver::prepare(start, model, report).inspect_err(|_| {
+        if let Some(before) = before {
+            *model = before;
+        }
+    })
 }
 
 impl Backend for CpuBackend {
@@ -500,7 +529,7 @@ impl Backend for CpuBackend {
             last_good: &self.last_good,
             resumable: &mut self.resumable,
         };
-        let resume = driver::prepare(&mut start, model, report)?;
+        let resume = prepare_run(&mut start, model, report)?;
         let mut kept = std::mem::take(&mut self.last_good);
         let mut topology = std::mem::take(&mut self.topology);
         let scratch = &mut self.scratch;
@@ -555,7 +584,7 @@ impl driver::Start<Model> for CpuStart<'_> {
         if kept {
             flow::all_pressure_loads(model, &self.topology.lists, self.fluid);
         } else {
-            fluid_after_topology(model, self.topology, self.fluid, report);
+            fluid_after_topology(model, self.topology, self.fluid, report)?;
         }
         mark_as_run_left(model);
         Ok(())
@@ -603,7 +632,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
                     assert!(corners_in_block_order(model), "corners are stored in block order");
                     *self.topology = Topology::build(model.blocks.len(), &model.contacts);
                     sync_forces(model, &mut self.scratch.forces, &mut self.scratch.features);
-                    fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report);
+                    fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report)?;
                     self.gathered = false;
                     if let Some(dt) = model.critical_timestep() {
                         if dt < model.timestep {
@@ -619,7 +648,7 @@ impl driver::Stages<Model> for CpuStages<'_, '_> {
                 self.gather(model);
                 update_topology(model, self.topology, report, false);
                 sync_forces(model, &mut self.scratch.forces, &mut self.scratch.features);
-                fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report);
+                fluid_after_topology(model, self.topology, &mut self.scratch.fluid, report)?;
                 self.gathered = false;
             }
         }

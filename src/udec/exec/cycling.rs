@@ -54,9 +54,9 @@ impl Executor<'_> {
         if let Err(failure) = result {
             return Err(self.cycle_failure(cmd, failure, start_cycle));
         }
-        // The CPU's energy checks stop a run at a non-finite pressure and go back to the last
-        // good state; the GPU's sums do not see the pressures, so a run there that ends with one
-        // is stopped here, at the state it reached (to do: the check on the device).
+        // The CPU's energy checks and the device's `flow` kernel (its error flag) stop a run at
+        // a non-finite pressure and go back to the last good state; a pressure neither sees (a
+        // domain without flows) still stops the run here, at the state it reached.
         if let Some(failure) = CycleError::non_finite_pressure(&self.model) {
             return Err(RunError::Numerical { file: self.file.clone(), line: cmd.line, failure, advice: String::new() });
         }

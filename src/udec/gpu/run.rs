@@ -93,6 +93,34 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
     if !normal(model.timestep) {
         return refuse("the time step".into(), model.timestep);
     }
+    // The fluid (FLUID, PFIX and the flow laws): bulkw scales each pressure step, the rest
+    // may not pass f32's largest value.
+    if let Some(f) = &model.fluid {
+        if !normal(f.bulk) {
+            return refuse("the fluid's bulk modulus (FLUID)".into(), f.bulk);
+        }
+        if !bounded(f.density) {
+            return refuse("the fluid's density (FLUID)".into(), f.density);
+        }
+        for m in (1..used.len()).filter(|&m| used[m]) {
+            let fm = &model.material(m as u32).fluid;
+            let laws = [("CPERM", fm.cperm), ("JPERM", fm.jperm), ("AZERO", fm.azero), ("ARES", fm.ares)];
+            if let Some((name, x)) = laws.into_iter().find(|&(_, x)| !bounded(x)) {
+                return refuse(format!("material {m}'s {name}"), x);
+            }
+        }
+        if let Some(d) = model.domains.iter().flat_map(|d| &d.list).find(|d| !bounded(d.pressure)) {
+            return refuse(format!("domain {}'s pressure (PFIX)", d.id), d.pressure);
+        }
+        // The flows as the domains were last built (CPERM·Δp): the device's first step starts
+        // from them, and its last good state holds them.
+        let flows = model.domains.iter().flat_map(|d| d.flows.iter().enumerate());
+        if let Some((k, f)) = flows.into_iter().find(|(_, f)| !bounded(f.flow)) {
+            let c = &model.contacts[k.min(model.contacts.len().saturating_sub(1))];
+            let id = |b: u32| model.blocks.get(b as usize).map_or(0, |b| b.id);
+            return refuse(format!("the flow across the contact of blocks {} and {} (CPERM·Δp, PFIX)", id(c.block1), id(c.block2)), f.flow);
+        }
+    }
     // The law of motion scales the velocities by (1 − αΔt/2)/(1 + αΔt/2) (eqs. 9–10, UDEC's CON1/CON2).
     let (alpha, dt) = (model.damping.alpha, model.timestep);
     let scalars = [
@@ -124,6 +152,11 @@ impl<R: Real> Engine<R> {
     pub(super) fn error_from_flags(model: &Model, flags: &Flags) -> CycleError {
         let cycle = model.cycle;
         if flags.errors & layout::ERR_NONFINITE != 0 {
+            // The `flow` kernel flags a non-finite pressure or flow by a block of its contact:
+            // the read-back domains name it.
+            if let Some(failure) = CycleError::non_finite_pressure(model) {
+                return failure;
+            }
             return CycleError::non_finite_step(model, flags.nonfinite_block as usize);
         }
         if flags.errors & layout::ERR_ZONE_INVERTED != 0 {
@@ -175,7 +208,7 @@ impl<R: Real> Engine<R> {
             *topology = Topology::build(model.blocks.len(), &model.contacts);
             if model.fluid.is_some() {
                 crate::udec::topology::refresh_domains(model);
-                cpu::fluid_timestep_cut(model, report);
+                cpu::fluid_timestep_cut(model, report)?;
             }
             if let Some(dt) = model.critical_timestep() {
                 if dt < model.timestep {
@@ -195,7 +228,7 @@ impl<R: Real> Engine<R> {
             self.read_live_state(model, false).map_err(device_error)?;
         }
         if cpu::maybe_update_topology(model, topology, report, false) {
-            cpu::fluid_timestep_cut(model, report);
+            cpu::fluid_timestep_cut(model, report)?;
             self.list_in_order = true;
             *expected_update = cycles_to_next_update(model);
             self.upload_reset_distances(model);
@@ -272,7 +305,7 @@ impl<R: Real> Engine<R> {
         // Refused before the start (the time step, a model past the binding limit or the
         // precision's range), the backend is as it was; a start that failed (an upload) leaves
         // no contact lists to go on from.
-        let resume = driver::prepare(&mut run, model, report)?;
+        let resume = cpu::prepare_run(&mut run, model, report)?;
         let mut last_good = std::mem::take(&mut run.engine.last_good);
         let result = driver::cycles(&mut run, model, cycles, resume, &mut last_good, report, progress);
         let GpuRun { topology, .. } = run;
@@ -360,7 +393,9 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
             // loads go up with them), or those of a state a run left (`cpu::start_detection`).
             if !cpu::start_detection(model, &mut self.topology, report) && model.fluid.is_some() {
                 crate::udec::topology::refresh_domains(model);
-                cpu::fluid_timestep_cut(model, report);
+                cpu::fluid_timestep_cut(model, report)?;
+                // The flows of the domains just built, which the preflight did not see.
+                representable::<R>(model).map_err(device_error)?;
             }
             cpu::mark_as_run_left(model);
             e.list_in_order = true;

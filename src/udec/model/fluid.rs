@@ -27,7 +27,7 @@
 //!   fully saturated (the domain pressures are then the excess over hydrostatic), so every
 //!   block does.
 
-use super::domain::{ContactFlow, DomainKind, DomainLink, Domains, LOOP_START, NO_DOMAIN};
+use super::domain::{ContactFlow, Domain, DomainKind, DomainLink, Domains, LOOP_START, NO_DOMAIN};
 use super::{material_slot, Contact, Material, Model};
 
 /// The fluid of a scene (FLUID rhow bulkw) and its accounts.
@@ -518,12 +518,25 @@ pub fn contact_flow_of(c: &Contact, mat: &Material, domains: &Domains, k: usize)
 pub fn non_finite_pressure(model: &Model) -> Option<(u32, u32)> {
     let domains = model.domains.as_ref()?;
     let d = domains.list.iter().find(|d| !d.pressure.is_finite())?;
+    Some((d.id, block_beside(model, domains, d)))
+}
+
+/// The domain of the largest pressure in magnitude (the first in list order of equals), its
+/// pressure, and a block it bounds, as ids: where the fluid's work overflowed (PFIX OUTER 1E300
+/// pushing on a block of a few metres), the pressure that did it. None without domains.
+pub fn largest_pressure(model: &Model) -> Option<(u32, f64, u32)> {
+    let domains = model.domains.as_ref()?;
+    let d = domains.list.iter().reduce(|a, b| if b.pressure.abs() > a.pressure.abs() { b } else { a })?;
+    Some((d.id, d.pressure, block_beside(model, domains, d)))
+}
+
+/// A block domain `d` bounds (that of its first corner or contact link), as its id.
+fn block_beside(model: &Model, domains: &Domains, d: &Domain) -> u32 {
     let block = domains.links_of(d).iter().find_map(|l| match *l {
         DomainLink::Corner { corner } => model.corners.get(corner as usize).map(|c| c.block),
         DomainLink::Contact { index, .. } => model.contacts.get(index as usize).map(|c| c.block1),
     });
-    let id = block.and_then(|b| model.blocks.get(b as usize)).or(model.blocks.first()).map_or(0, |b| b.id);
-    Some((d.id, id))
+    block.and_then(|b| model.blocks.get(b as usize)).or(model.blocks.first()).map_or(0, |b| b.id)
 }
 
 /// Each domain's net inflow Q from `domains.flows` into `inflow`, summed in contact order, so a
@@ -674,6 +687,51 @@ pub fn fluid_timestep(model: &Model, k_contact: f64) -> Option<f64> {
         }
     }
     dt.is_finite().then_some(dt)
+}
+
+/// The failure of a fluid limit on the time step (`fluid_timestep`) that underflows f64: with
+/// it no time would pass while the flows, conductance × Δp, overflow. Names the fluid's bulk
+/// modulus and the largest flow-law constants the contacts use, where such a limit comes from.
+pub fn step_underflow_text(model: &Model, dt: f64) -> String {
+    let bulk = model.fluid.map_or(0.0, |f| f.bulk);
+    let (mut cperm, mut jperm) = ((0.0f64, 0u32), (0.0f64, 0u32));
+    for c in &model.contacts {
+        let f = &model.material(c.material).fluid;
+        if f.cperm > cperm.0 {
+            cperm = (f.cperm, c.material);
+        }
+        if f.jperm > jperm.0 {
+            jperm = (f.jperm, c.material);
+        }
+    }
+    let largest = |(k, m): (f64, u32), name: &str| if k > 0.0 { format!(", the largest {name} {k:e} of material {m}") } else { String::new() };
+    format!(
+        "the fluid's explicit limit on the time step (A_d/(bulkw·Σc) over the domains, ¶7, and the domains' stiffness bulkw·L²/A_d on the \
+         blocks) is {dt:e} at cycle {}: it underflows f64, and no time would pass; the fluid's bulk modulus ({bulk:e}, FLUID) or the \
+         flow laws' conductances (q = c·Δp{}{}) are too large for the domains' areas — check the units of CPERM, JPERM and FLUID",
+        model.cycle,
+        largest(cperm, "CPERM"),
+        largest(jperm, "JPERM"),
+    )
+}
+
+/// The failure of a contact flow past f64 (q = c·Δp; PFIX OUTER 1E300 beside CPERM 10), the
+/// first in contact order, naming its blocks, domains and their pressures; None where every
+/// flow `domains.flows` holds is finite.
+pub fn flow_overflow_text(model: &Model) -> Option<String> {
+    let domains = model.domains.as_ref()?;
+    let k = domains.flows.iter().position(|f| !f.flow.is_finite())?;
+    let c = model.contacts.get(k)?;
+    let id = |b: u32| model.blocks.get(b as usize).map_or(0, |b| b.id);
+    let [d0, d1] = domains.sides.get(k).copied().unwrap_or([NO_DOMAIN; 2]);
+    let domain = |d: u32| domains.list.get(d as usize).map_or((0, f64::NAN), |d| (d.id, d.pressure));
+    let ((i0, p0), (i1, p1)) = (domain(d0), domain(d1));
+    Some(format!(
+        "the flow across the contact of blocks {} and {} (q = c·Δp, ¶6), from domain {i0} at pressure {p0:e} to domain {i1} at {p1:e}, \
+         overflows f64; check PFIX, CPERM, JPERM and the units",
+        id(c.block1),
+        id(c.block2)
+    ))
 }
 
 /// The domain PFIX … AT x y names: the regular domain whose void holds the point (the smallest
