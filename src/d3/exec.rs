@@ -338,13 +338,7 @@ impl<'a> Executor<'a> {
             .map_err(|why| self.error(cmd, format!("BLOCK: block {id} is concave and cannot be made of convex parts: {why}")))?;
         let block = Block::new(id, material, constitutive, shape, &props, density).with_parts(parts);
         if !(block.mass.is_finite() && block.inertia_ref.is_finite()) {
-            return Err(self.error(
-                cmd,
-                format!(
-                    "BLOCK: the mass of block {id} (density {density:e} of material {material} × volume {:e}) or its inertia overflows f64; check DENSITY and the units of lengths",
-                    props.volume
-                ),
-            ));
+            return Err(self.error(cmd, density_overflow_text("BLOCK", &block, density, material)));
         }
         self.model.blocks.push(block);
         self.id_hint = Some((self.model.blocks.len(), id, id));
@@ -358,18 +352,10 @@ impl<'a> Executor<'a> {
     /// `mass_overflow`; the command fails whole.
     fn density_overflow(&self, cmd: &Located, what: &str, blocks: impl Iterator<Item = usize>, material: u32, old: f64, new: f64) -> Option<RunError> {
         let b = blocks.into_iter().find(|&b| {
-            let mut trial = self.model.blocks[b].clone();
-            trial.set_density(old, new);
-            !(trial.mass.is_finite() && trial.inertia_ref.is_finite())
+            let (mass, inertia) = self.model.blocks[b].at_density(old, new);
+            !(mass.is_finite() && inertia.is_finite())
         })?;
-        let blk = &self.model.blocks[b];
-        Some(self.error(
-            cmd,
-            format!(
-                "{what}: the mass of block {} (density {new:e} of material {material} × volume {:e}) or its inertia overflows f64; check DENSITY and the units of lengths",
-                blk.id, blk.volume
-            ),
-        ))
+        Some(self.error(cmd, density_overflow_text(what, &self.model.blocks[b], new, material)))
     }
 
     /// PROPERTY: the material's values; blocks of the material take a new density's mass (a
@@ -696,4 +682,13 @@ impl Pieces for Executor<'_> {
             let _ = writeln!(std::io::stderr(), "blockdem: the running restart file was not written ({e}); the run goes on");
         }
     }
+}
+
+/// The error text of a density whose mass or inertia overflows f64 on `block` (BLOCK, PROPERTY,
+/// CHANGE).
+fn density_overflow_text(what: &str, block: &Block, density: f64, material: u32) -> String {
+    format!(
+        "{what}: the mass of block {} (density {density:e} of material {material} × volume {:e}) or its inertia overflows f64; check DENSITY and the units of lengths",
+        block.id, block.volume
+    )
 }

@@ -479,17 +479,24 @@ impl Block {
 
     /// Sets the density: mass and inertia scale with it.
     pub fn set_density(&mut self, old: f64, new: f64) {
-        if old > 0.0 {
-            self.inertia_ref *= new / old;
+        (self.mass, self.inertia_ref) = self.at_density(old, new);
+        self.angular_velocity = self.angular_velocity_from(self.angular_momentum);
+    }
+
+    /// The mass and the inertia tensor (reference axes) the block takes when its material's
+    /// density goes from `old` to `new`, the block left as it is (a density past f64's range is
+    /// refused on them before it is set).
+    pub fn at_density(&self, old: f64, new: f64) -> (f64, DMat3) {
+        let inertia = if old > 0.0 {
+            self.inertia_ref * (new / old)
         } else {
             // From a zero density the tensor is lost: rebuild it per unit density from the shape.
-            let props = super::geometry::mass_properties(&self.shape.vertices, &self.shape.faces);
-            self.inertia_ref = props.inertia * new;
-        }
+            super::geometry::mass_properties(&self.shape.vertices, &self.shape.faces).inertia * new
+        };
         // A cracked simply-deformable block's piece weighs its share of its parent's mass, not
         // ρ·V (`split::cut`): its mass scales with the density too.
-        self.mass = if old > 0.0 && self.mass != old * self.volume { self.mass * (new / old) } else { new * self.volume };
-        self.angular_velocity = self.angular_velocity_from(self.angular_momentum);
+        let mass = if old > 0.0 && self.mass != old * self.volume { self.mass * (new / old) } else { new * self.volume };
+        (mass, inertia)
     }
 
     /// ω = I⁻¹ L in global axes (zero for a block without inertia).
