@@ -35,6 +35,7 @@
 
 pub mod bench;
 pub mod compare;
+pub mod cracking;
 pub mod d3;
 pub mod deck;
 pub mod driver;

@@ -34,32 +34,23 @@
 //! line is round (the two second moments within 10⁻⁹ of each other) the plane holds the centroid
 //! too, or, where the centroid lies on the line, takes a fixed direction across it.
 //!
-//! **The fragment floor** (extension). A crack's pieces can crack in turn, and under a load that
-//! keeps rising (a press, a projectile's push) each generation cracks sooner than the last: the
-//! point-load value grows as 1/d² as the pieces shrink, and a Griffith piece, its stress set to
-//! zero under contacts that keep pressing, is loaded afresh within a quarter period of its
-//! internal mode, which shortens with its size. Left alone such a cascade doubles the blocks every
-//! cycle or two (a cube pressed at 0.5 m/s with TF = 2·10⁴ Pa: 5 blocks, then 12 at cycle 3 and
-//! 66 at cycle 6), and the run never ends. In 2D the rounding length ends it (a split needs room
-//! for the rounding arcs beside its ends); D3 has no rounding, so a crack is made only where each
-//! piece keeps at least [`FRAGMENT_FLOOR`] of the volume of the block the deck built (`Block::
-//! built_volume`, which a crack's pieces inherit; `split::crack` leaves the block whole
-//! otherwise): a built block yields at most 64 fragments. A block under twice the floor is not
-//! checked at all ([`above_floor`]).
+//! **The fragment floor** (extension, `crate::cracking`, which the 2D engine shares): D3 has no
+//! rounding length to end a cascade of cracks, so a crack is made only where each piece keeps at
+//! least [`FRAGMENT_FLOOR`] of the volume of the block the deck built (`Block::built_volume`,
+//! which a crack's pieces inherit; `split::crack` leaves the block whole otherwise). A block under
+//! twice the floor is not checked at all ([`above_floor`]).
 
 use glam::{DMat3, DVec3};
 
 use super::model::Model;
 use super::sdef;
 
-/// The least share of its block's volume as built that each piece of a crack must keep (module
-/// doc, "The fragment floor").
-pub const FRAGMENT_FLOOR: f64 = 1.0 / 64.0;
+pub use crate::cracking::FRAGMENT_FLOOR;
 
 /// Whether block `b` holds enough of its block as built to leave two pieces at the floor: one
-/// that does not cracks no further (module doc).
+/// that does not cracks no further (`crate::cracking`).
 pub fn above_floor(b: &super::model::Block) -> bool {
-    b.volume >= 2.0 * FRAGMENT_FLOOR * b.built_volume
+    crate::cracking::above_floor(b.volume, b.built_volume)
 }
 
 /// Which law a crack came from, as the log names it.

@@ -273,7 +273,7 @@ pub fn split(model: &mut Model, point: DVec3, normal: DVec3, material: Option<u3
 /// in more), or None where the cut would not give valid pieces (the block is left whole).
 pub fn crack(model: &mut Model, b: usize, point: DVec3, normal: DVec3) -> Option<(u32, u32)> {
     let built = model.blocks[b].built_volume;
-    let outcome = cut(model, &[b], point, normal.normalize(), None, None, super::cracking::FRAGMENT_FLOOR * built);
+    let outcome = cut(model, &[b], point, normal.normalize(), None, None, crate::cracking::least_piece(built));
     // The pieces are the block's as built (the cracking floor, `cracking::FRAGMENT_FLOOR`): the
     // one that keeps its index and the new ones at the end.
     if !outcome.split.is_empty() {

@@ -552,10 +552,10 @@ fn split_block_along_a_chord() {
     let mut m = model_with(&rect(0.0, 0.0, 10.0, 10.0));
     m.add_block(&rect(20.0, 0.0, 30.0, 10.0), 1, 1, None).unwrap();
     // Along an edge (rejected) and off the boundary (refused): nothing changes.
-    assert!(split_block_along(&mut m, 0, [0.0, 0.0], [10.0, 0.0], 4, 5).is_none());
-    assert!(split_block_along(&mut m, 0, [1.0, 1.0], [10.0, 5.0], 4, 5).is_none());
+    assert!(split_block_along(&mut m, 0, [0.0, 0.0], [10.0, 0.0], 4, 5, 0.0).is_none());
+    assert!(split_block_along(&mut m, 0, [1.0, 1.0], [10.0, 5.0], 4, 5, 0.0).is_none());
     assert_eq!(m.blocks.len(), 2);
-    let pieces = split_block_along(&mut m, 0, [0.0, 3.0], [10.0, 7.0 + 1e-12], 4, 5).unwrap();
+    let pieces = split_block_along(&mut m, 0, [0.0, 3.0], [10.0, 7.0 + 1e-12], 4, 5, 0.0).unwrap();
     valid(&m);
     assert_eq!(pieces, vec![1, 2]);
     assert_eq!(m.blocks[0].id, 2); // the other block shifted down
@@ -563,6 +563,16 @@ fn split_block_along_a_chord() {
     assert_relative_eq!(m.blocks[1].area + m.blocks[2].area, 100.0, max_relative = 1e-12);
     let joints = m.corners.iter().filter(|c| (c.edge_material, c.edge_constitutive) == (4, 5)).count();
     assert_eq!(joints, 2);
+    // The pieces are a crack's: they keep the area the block was built with, and a chord that
+    // would leave a piece under the floor is refused (the fragment floor, `blockdem::cracking`).
+    assert_eq!((m.blocks[1].built_area, m.blocks[2].built_area), (100.0, 100.0));
+    // The lower piece (0,0) (10,0) (10,7) (0,3): a chord from (0,1) to (10,5) leaves 30 and 20.
+    let lower = if m.blocks[1].centroid[1] < m.blocks[2].centroid[1] { 1 } else { 2 };
+    assert!(split_block_along(&mut m, lower, [0.0, 1.0], [10.0, 5.0], 4, 5, 25.0).is_none());
+    assert_eq!(m.blocks.len(), 3);
+    let again = split_block_along(&mut m, lower, [0.0, 1.0], [10.0, 5.0], 4, 5, 10.0).unwrap();
+    assert!(again.iter().all(|&p| m.blocks[p].built_area == 100.0 && m.blocks[p].area < 50.0));
+    valid(&m);
 }
 
 /// ¶13 on a sliver (the case proptest found): the line crosses the top edge 0.54 from the corner

@@ -332,7 +332,42 @@ fn bad_sdef_input_is_named() {
     assert!(e.contains(":4:") && e.contains("block 1 is rigid") && e.contains("CHANGE"), "{e}");
 }
 
+/// The fragment floor (`blockdem::cracking`): a block of 1 m² on a base, Griffith strength far
+/// below any stress (TF = 1e-300), ROUND 0.003 (whose own floor, a square of twice the rounding,
+/// stops nothing here). Every piece cracks again each time its stress rises from zero: before the
+/// floor the run reached 17 924 blocks in 40 cycles and took eleven minutes. Now no crack leaves
+/// a piece under 1/64 of the block built, so it ends with at most 64 of them, each keeping the
+/// built block's area, on every backend; SAVE keeps that area (format 7), so the pieces of a
+/// RESTART crack no further.
+fn a_cascade_of_cracks_ends_at_the_fragment_floor(t: &Target) {
+    let deck = "START\nPROP MAT=1 DENS=2000 K=1E9 G=1E9 KN=1E9 KS=1E9 F=0.5 TF=1E-300\nROUND 0.003\nBLOCK 0 -1 0 0 4 0 4 -1\n\
+                BLOCK CONS=4 1 0 1 1 2 1 2 0\nFIX 0 4 -1 0\nCHANGE 0 4 0 1 SDEF CONS=4\nGRAVITY 0 -1\nCYCLE 40\n";
+    let m = t.run(deck);
+    let pieces: Vec<_> = m.blocks.iter().filter(|b| !b.fixed).collect();
+    assert!(pieces.len() > 8 && pieces.len() <= 64, "{}: {} pieces", t.name(), pieces.len());
+    for b in &pieces {
+        assert_eq!(b.built_area, 1.0, "{}: block {}", t.name(), b.id);
+        assert!(b.area >= blockdem::cracking::least_piece(1.0) * (1.0 - 1e-9), "{}: block {} of area {}", t.name(), b.id, b.area);
+    }
+    let area: f64 = pieces.iter().map(|b| b.area).sum();
+    // (Each piece is cut from its parent as strained: the areas add up to the strained whole.)
+    assert!((area - 1.0).abs() < 1e-5, "{}: the pieces make {area} m²", t.name());
+    if matches!(t, Target::Cpu) {
+        let dir = std::env::temp_dir().join(format!("blockdem-fragment-floor-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("f.sav");
+        let saved = run_deck_on(&format!("{deck}SAVE {}\n", file.display()), cpu()).unwrap();
+        let loaded = blockdem::udec::output::load(&file).unwrap();
+        assert!(loaded.model == saved, "the saved model is the model, areas as built included");
+        let resumed = run_deck_on(&format!("RESTART {}\nCYCLE 40\n", file.display()), cpu()).unwrap();
+        let n = |m: &Model| m.blocks.iter().filter(|b| !b.fixed).count();
+        assert!(n(&resumed) <= 64 && resumed.blocks.iter().all(|b| b.built_area == 1.0 || b.fixed), "{} pieces", n(&resumed));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
 every_backend!(
+    a_cascade_of_cracks_ends_at_the_fragment_floor,
     uniaxial_stress_and_strain_match_plane_strain,
     a_free_square_rings_at_its_volumetric_frequency,
     griffith_threshold_in_compression,

@@ -42,6 +42,9 @@ pub(crate) struct BlockSeed {
     pub angular_velocity: f64,
     pub load: [f64; 2],
     pub moved_since_update: f64,
+    /// The area of the block the deck built that a crack's piece comes from (`Block::built_area`);
+    /// None for a block the deck builds (BLOCK, SPLIT), whose own area it is.
+    pub built_area: Option<f64>,
 }
 
 impl Model {
@@ -97,6 +100,7 @@ impl Model {
             angular_velocity: 0.0,
             load: [0.0, 0.0],
             moved_since_update: 0.0,
+            built_area: None,
         };
         Ok(self.push_block(&pts, &tags, seed))
     }
@@ -149,6 +153,7 @@ impl Model {
             update_rotation: 0.0,
             update_margin: 0.0,
             damping_work: 0.0,
+            built_area: seed.built_area.unwrap_or(props.area),
         });
         // The extension array follows the blocks once one is simply deformable (a new piece of
         // an SDEF block starts unstrained, ¶17: "the block stresses are set to zero").
@@ -416,6 +421,9 @@ impl Model {
         let mut local: Vec<[f64; 2]> = Vec::new();
         let mut next_corner = 0usize;
         for (b, blk) in self.blocks.iter().enumerate() {
+            if !(blk.built_area.is_finite() && blk.built_area > 0.0) {
+                return Err(format!("block {b} (id {}) has an area as built of {}", blk.id, blk.built_area));
+            }
             let (s, n) = (blk.corner_start as usize, blk.corner_count as usize);
             if n < 3 {
                 return Err(format!("block {b} (id {}) has {n} corners", blk.id));

@@ -225,6 +225,12 @@ pub struct Block {
     /// since START (J, summed each step; see `law_of_motion`).
     #[serde(default)]
     pub damping_work: f64,
+    /// The area of the block as the deck built it (BLOCK, SPLIT): a crack's pieces keep their
+    /// parent's, so that a block cracks only while it holds at least
+    /// [`crate::cracking::FRAGMENT_FLOOR`] of it (`topology::cracking`). Saved after the model
+    /// (`output::restart`, format 7).
+    #[serde(skip)]
+    pub built_area: f64,
 }
 
 impl Block {

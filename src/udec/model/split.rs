@@ -258,9 +258,10 @@ fn cut_outline(outline: &Outline, chords: &[(OnBoundary, OnBoundary)], joint: (u
 /// Appends the pieces of block `b` with the carry-over rules of a split: material, constitutive,
 /// kind and fixed flag inherited; velocity of the rigid motion v + ω × (c_piece − c_parent) with the
 /// same ω; load shared in proportion to area; the first piece keeps the parent's id. Pieces have
-/// no contacts yet, so they are marked as due for a contact update (moved at least ETOL).
-/// Does not remove the parent.
-fn push_pieces(model: &mut Model, b: usize, pieces: &[Outline]) {
+/// no contacts yet, so they are marked as due for a contact update (moved at least ETOL). The
+/// pieces of a crack (`cracked`) keep the parent's area as built (`Block::built_area`); a SPLIT's
+/// are built by the deck, each its own. Does not remove the parent.
+fn push_pieces(model: &mut Model, b: usize, pieces: &[Outline], cracked: bool) {
     let parent = model.blocks[b].clone();
     // A simply-deformable parent's points also moved at ε̇·r: its pieces take that velocity at
     // their centroids (momentum is kept, Σ m·r = 0 about the parent's centroid).
@@ -291,6 +292,7 @@ fn push_pieces(model: &mut Model, b: usize, pieces: &[Outline]) {
             load: scale(parent.load, props.area / total),
             // New pieces have no contacts yet: due for detection at the next update.
             moved_since_update: f64::INFINITY,
+            built_area: cracked.then_some(parent.built_area),
         };
         model.push_block(&piece.pts, &piece.tags, seed);
     }
@@ -345,7 +347,7 @@ pub fn split_line(model: &mut Model, from: [f64; 2], to: [f64; 2], material: Opt
         }
     }
     for (b, pieces) in &cuts {
-        push_pieces(model, *b, pieces);
+        push_pieces(model, *b, pieces, false);
     }
     let parents: Vec<usize> = cuts.iter().map(|c| c.0).collect();
     model.remove_blocks(&parents);
@@ -375,10 +377,14 @@ fn locate_on_boundary(pts: &[[f64; 2]], p: [f64; 2]) -> Option<OnBoundary> {
 /// the new joint gets (material, constitutive). Ends closer than the rounding length to a corner are
 /// diverted through it, as for SPLIT. Same carry-over rules as [`split_line`].
 ///
+/// The pieces are a crack's: they keep the block's area as built (`Block::built_area`), and a
+/// chord that would leave a piece under `floor` in area is rejected (the fragment floor,
+/// `crate::cracking`).
+///
 /// Returns the indices of the two pieces after compaction (they are the last two blocks; blocks
 /// after `b` shift down by one), or None, leaving the model untouched, when p or q is not on the
 /// boundary or the chord is rejected.
-pub fn split_block_along(model: &mut Model, b: usize, p: [f64; 2], q: [f64; 2], material: u32, constitutive: u32) -> Option<Vec<usize>> {
+pub fn split_block_along(model: &mut Model, b: usize, p: [f64; 2], q: [f64; 2], material: u32, constitutive: u32, floor: f64) -> Option<Vec<usize>> {
     let outline = block_outline(model, b);
     let eps = round_off(&outline.pts);
     let d = model.tol.round;
@@ -386,7 +392,10 @@ pub fn split_block_along(model: &mut Model, b: usize, p: [f64; 2], q: [f64; 2], 
     let c = divert(&outline.pts, locate_on_boundary(&outline.pts, q)?, d, eps);
     check_chord(&outline.pts, a, c, eps).ok()?;
     let pieces = cut_outline(&outline, &[(a, c)], (material, constitutive)).ok()?;
-    push_pieces(model, b, &pieces);
+    if pieces.iter().any(|p| geometry::signed_area(&p.pts) < floor) {
+        return None;
+    }
+    push_pieces(model, b, &pieces, true);
     model.remove_blocks(&[b]);
     let n = model.blocks.len();
     Some((n - pieces.len()..n).collect())

@@ -9,7 +9,7 @@
 //! | 4 | format version (u32), [`FORMAT_VERSION`] |
 //! | 8 | payload length in bytes (u64) |
 //! | 8 | checksum of the payload (u64): CRC-32 (IEEE) in versions 3 to 5, FNV-1a 64 in version 2 |
-//! | n | payload: [`SaveFile`] serialized with postcard, then (version 4) the contacts' laws and the model's simply-deformable extension array (`Model::sdef`, a list), then (version 5) the fully-deformable one (`Model::fdef`, a list), then (version 6) the fluid (`Model::fluid`) and the domains (`Model::domains`), each an option |
+//! | n | payload: [`SaveFile`] serialized with postcard, then (version 4) the contacts' laws and the model's simply-deformable extension array (`Model::sdef`, a list), then (version 5) the fully-deformable one (`Model::fdef`, a list), then (version 6) the fluid (`Model::fluid`) and the domains (`Model::domains`), each an option, then (version 7) the areas as built of a crack's pieces (`Block::built_area`, a list) |
 //!
 //! postcard writes every f64 as its 8 IEEE bytes, so the round trip is bit-exact (NaN payloads
 //! and −0.0 included). The length and checksum make a truncated or damaged file an error, never
@@ -36,6 +36,11 @@
 //! CYCLE N, SAVE, RESTART, CYCLE M is CYCLE N + M bit for bit. A scene without fluid that had
 //! its domains built (PRINT DOMAINS) keeps them too, with their ids. Files of versions 2 to 5
 //! read as a model without fluid, whose domains RESTART builds again when asked.
+//!
+//! Version 7 appends the area as built of each block a crack made (`Block::built_area`, the
+//! fragment floor's measure, `crate::cracking`: index and area, for the blocks whose own area it
+//! is not), so that a restarted run cracks its pieces as the run that saved them would have.
+//! Files of versions 2 to 6 read with every block built as it is.
 
 use std::fs;
 use std::io::{self, Read, Seek, SeekFrom, Write};
@@ -48,14 +53,16 @@ use crate::udec::model::Model;
 
 /// The first eight bytes of every save file.
 pub const MAGIC: [u8; 8] = *b"BLOCKDEM";
-/// The save format this program writes (and reads, with versions 2 to 5, which have no fluid,
-/// and 2 and 3 no joints and no simply-deformable blocks).
-pub const FORMAT_VERSION: u32 = 6;
+/// The save format this program writes (and reads, with versions 2 to 6, which keep no areas
+/// as built, 2 to 5 no fluid, and 2 and 3 no joints and no simply-deformable blocks).
+pub const FORMAT_VERSION: u32 = 7;
+/// The first version with the blocks' areas as built (this one).
+const BUILT_VERSION: u32 = FORMAT_VERSION;
 /// Version 5: the zones, no fluid and no domains (read as a dry model whose domains are built
 /// again when asked).
 const FDEF_VERSION: u32 = 5;
-/// The first version with the fluid and the domains (this one).
-const FLUID_VERSION: u32 = FORMAT_VERSION;
+/// Version 6: the fluid and the domains, no areas as built (read with each block built as it is).
+const FLUID_VERSION: u32 = 6;
 /// Version 4: the joints and the simply-deformable extension, no zones (read as a model
 /// without fully-deformable blocks' zones).
 const SDEF_VERSION: u32 = 4;
@@ -182,6 +189,14 @@ struct SaveView<'a> {
     /// Version 6's: the fluid (`Model::fluid`), then the domains (`Model::domains`).
     fluid: &'a Option<crate::udec::model::fluid::Fluid>,
     domains: &'a Option<crate::udec::model::domain::Domains>,
+    /// Version 7's: the area as built of each block a crack made (`built_areas_of`).
+    built_areas: Vec<(u32, f64)>,
+}
+
+/// The area as built (`Block::built_area`, the fragment floor's measure) of each block whose
+/// own area it is not (a crack's pieces), by block index, ascending: what version 7 appends.
+fn built_areas_of(model: &Model) -> Vec<(u32, f64)> {
+    model.blocks.iter().enumerate().filter(|(_, b)| b.built_area != b.area).map(|(i, b)| (i as u32, b.built_area)).collect()
 }
 
 /// The contacts of `model` that follow the joint law, as version 4 files list them.
@@ -201,8 +216,17 @@ pub fn save(path: &Path, file: &SaveFile) -> Result<(), RestartError> {
 /// file (a FIFO) is written in place and cannot seek: the payload is then serialized twice,
 /// once for its length and checksum, written first, and once to the file.
 pub fn save_state(path: &Path, model: &Model, plot: &PlotSettings, plot_count: usize) -> Result<(), RestartError> {
-    let file =
-        SaveView { model, plot, plot_count, joints: joints_of(model), sdef: &model.sdef, fdef: &model.fdef, fluid: &model.fluid, domains: &model.domains };
+    let file = SaveView {
+        model,
+        plot,
+        plot_count,
+        joints: joints_of(model),
+        sdef: &model.sdef,
+        fdef: &model.fdef,
+        fluid: &model.fluid,
+        domains: &model.domains,
+        built_areas: built_areas_of(model),
+    };
     let io_err = |source| RestartError::Io { path: path.to_path_buf(), source };
     super::write_atomically(path, |w| {
         let seekable = w.get_ref().metadata()?.is_file();
@@ -305,7 +329,7 @@ fn decode_header(bytes: &[u8]) -> Result<Header, DecodeError> {
     let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
     let u64_at = |i: usize| u64::from_le_bytes(bytes[i..i + 8].try_into().expect("8 bytes"));
     let version = u32_at(8);
-    if ![FORMAT_VERSION, FDEF_VERSION, SDEF_VERSION, POINT_VERSION, FNV_VERSION].contains(&version) {
+    if ![FORMAT_VERSION, FLUID_VERSION, FDEF_VERSION, SDEF_VERSION, POINT_VERSION, FNV_VERSION].contains(&version) {
         return Err(DecodeError::UnsupportedVersion(version));
     }
     Ok(Header { version, length: u64_at(12), checksum: u64_at(20) })
@@ -337,6 +361,19 @@ fn decode_payload(version: u32, expected: u64, payload: &[u8]) -> Result<SaveFil
     if version >= FLUID_VERSION {
         (file.model.fluid, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad fluid: {e}")))?;
         (file.model.domains, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad domains: {e}")))?;
+    }
+    // Each block built as it is, but for a crack's pieces (version 7).
+    for b in &mut file.model.blocks {
+        b.built_area = b.area;
+    }
+    if version >= BUILT_VERSION {
+        let built: Vec<(u32, f64)>;
+        (built, rest) = postcard::take_from_bytes(rest).map_err(|e| DecodeError::Corrupt(format!("bad areas as built: {e}")))?;
+        let n = file.model.blocks.len();
+        for (i, area) in built {
+            let b = file.model.blocks.get_mut(i as usize).ok_or_else(|| DecodeError::Inconsistent(format!("an area as built names block index {i} of {n}")))?;
+            b.built_area = area;
+        }
     }
     if !rest.is_empty() {
         return Err(DecodeError::Corrupt(format!("{} unread bytes after the payload", rest.len())));

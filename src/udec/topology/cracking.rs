@@ -34,20 +34,23 @@ pub struct Crack {
     pub value: f64,
 }
 
-/// Whether block `b` is checked for point-load cracking at all.
+/// Whether block `b` is checked for point-load cracking at all (a piece of a crack under twice
+/// the fragment floor is not, `crate::cracking`).
 pub fn is_point_load_candidate(model: &Model, b: usize) -> bool {
     let blk = &model.blocks[b];
-    blk.kind != BlockKind::FullyDeformable
+    crate::cracking::above_floor(blk.area, blk.built_area)
+        && blk.kind != BlockKind::FullyDeformable
         && Constitutive::from_number(blk.constitutive).is_some_and(|c| c.cracking == CrackingLaw::PointLoad)
         && model.material(blk.material).block.tf > 0.0
 }
 
 /// Whether block `b` is checked for Griffith cracking (Appendix A ¶17; constitutive numbers 3, 4
 /// and 5): a simply-deformable block, whose internal stress the criterion reads, with a tensile
-/// strength factor.
+/// strength factor, above the fragment floor (`crate::cracking`).
 pub fn is_griffith_candidate(model: &Model, b: usize) -> bool {
     let blk = &model.blocks[b];
-    model.sdef_of(b).is_some()
+    crate::cracking::above_floor(blk.area, blk.built_area)
+        && model.sdef_of(b).is_some()
         && Constitutive::from_number(blk.constitutive).is_some_and(|c| c.cracking == CrackingLaw::Griffith)
         && model.material(blk.material).block.tf > 0.0
 }
@@ -75,12 +78,15 @@ pub fn find_crack(model: &Model, adjacency: &Adjacency, b: usize) -> Option<Crac
 /// stress s_p2, from boundary to boundary. Its value is the criterion's equivalent tensile stress
 /// (`sdef::griffith_stress`).
 ///
-/// The fragment floor: a block whose area is under that of a square of side twice the rounding
-/// length does not crack (its corners' arcs already meet, so a crack would make corners that
-/// interfere, which ¶13's splitting logic rejects). Without it a strength far below the stress
-/// (TF = 1e-300) halved every piece every cycle, 2ⁿ blocks after n cycles, and a run of 17
-/// cycles never ended (found by tests/suite/random_decks.rs). D3 has its own
-/// (`d3::cracking`, a share of the block as built).
+/// Two floors end a cascade of cracks: a block whose area is under that of a square of side
+/// twice the rounding length does not crack (its corners' arcs already meet, so a crack would
+/// make corners that interfere, which ¶13's splitting logic rejects), and no crack leaves a piece
+/// under [`crate::cracking::FRAGMENT_FLOOR`] of the block the deck built (`split_block_along`),
+/// nor is a block under twice that checked (`is_griffith_candidate`). Without the first a
+/// strength far below the stress (TF = 1e-300) halved every piece every cycle, 2ⁿ blocks after n
+/// cycles, and a run of 17 cycles never ended (found by tests/suite/random_decks.rs); with it
+/// alone a small ROUND let the halving go on (ROUND 0.003: 17 924 blocks from one of 1 m² after
+/// 40 cycles and eleven minutes). D3 has the second alone (it has no rounding).
 fn find_griffith_crack(model: &Model, b: usize) -> Option<Crack> {
     let round = model.tol.round;
     if model.blocks[b].area < 4.0 * round * round {
@@ -224,7 +230,8 @@ pub fn apply_crack(model: &mut Model, crack: &Crack) -> Option<Vec<usize>> {
             history.push((model.blocks[other as usize].id, model.corners[c.corner as usize].position, c.shear_force, c.shear_displacement, c.bonded));
         }
     }
-    let pieces = split_block_along(model, b, crack.from, crack.to, material, constitutive)?;
+    let floor = crate::cracking::least_piece(model.blocks[b].built_area);
+    let pieces = split_block_along(model, b, crack.from, crack.to, material, constitutive, floor)?;
     // Re-examine the pieces and every former neighbour.
     for blk in model.blocks.iter_mut() {
         if blk.id == cracked_id || neighbours.contains(&blk.id) {
