@@ -24,13 +24,17 @@ every_backend!(random_decks_never_panic_and_stop_with_a_line_and_a_finite_model,
 /// whether the deck ran to its end.
 fn run_naming_its_line(t: &Target, deck: &str, file: &str, out: &std::path::Path) -> Result<(Executor<'static>, bool), TestCaseError> {
     let lines = deck.lines().count();
-    // The deck being run, where a hung campaign leaves it to be read.
-    let _ = std::fs::write(std::env::temp_dir().join(format!("blockdem-running-{}-{}-{file}", std::process::id(), t.name().replace(' ', "_"))), deck);
+    // The deck being run, where a hung campaign (or one that crashed inside the run) leaves it
+    // to be read; gone once the run returns.
+    let running = std::env::temp_dir().join(format!("blockdem-running-{}-{}-{file}", std::process::id(), t.name().replace(' ', "_")));
+    let _ = std::fs::write(&running, deck);
     let parsed = blockdem::udec::deck::parse_deck(deck, file).map_err(|e| TestCaseError::fail(format!("the deck does not parse: {e}")))?;
     let _ = std::fs::remove_dir_all(out);
     let options = RunOptions { out_dir: out.to_path_buf(), ..Default::default() };
     let mut exec = Executor::new(t.backend(), Box::new(std::io::sink()), options, file);
-    if let Err(e) = exec.run(&parsed) {
+    let result = exec.run(&parsed);
+    let _ = std::fs::remove_file(&running);
+    if let Err(e) = result {
         let text = e.to_string();
         let line = match &e {
             RunError::Input(d) => d.line,
