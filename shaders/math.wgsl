@@ -2,8 +2,10 @@
 // engine's prelude, which defines `real`, FINITE_MAX and PIO2_1..3: `gpu::wgsl::math_constants`).
 
 // Finite test without isnan/isinf (which compilers may fold away): false for NaN and ±inf.
+// (`exponent_finite`, from the prelude: in f32 the exponent's bits, which a compiler that takes
+// NaN for impossible cannot fold; `gpu::wgsl::math_constants`.)
 fn is_finite(x: real) -> bool {
-    return abs(x) <= FINITE_MAX;
+    return exponent_finite(x) && abs(x) <= FINITE_MAX;
 }
 
 // Exact sum of two reals as (sum, rounding error): Knuth's TwoSum, six additions. Shader

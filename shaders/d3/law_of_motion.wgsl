@@ -37,6 +37,14 @@ fn all_finite(v: vec3<real>) -> bool {
     return is_finite(v.x) && is_finite(v.y) && is_finite(v.z);
 }
 
+// A turn past the precision (a spin so fast that |ω|·Δt overflows f32 in the axis-angle
+// quaternion: VELOCITY's 1e30 rad/s on a 5 cm block) leaves a NaN orientation, whose travel no
+// too-fast check sees (a NaN compares false): the block is flagged not finite instead, as the
+// CPU stops such a step.
+fn turn_finite(q: vec4<real>, omega: vec3<real>, travel: real) -> bool {
+    return is_finite(q.x) && is_finite(q.y) && is_finite(q.z) && is_finite(q.w) && all_finite(omega) && is_finite(travel);
+}
+
 // The centroid c of a block at the step's start in the frame of its vertices (`face_load`): c
 // in f64, 0 in f32 (RELATIVE: the vertices are offsets from it).
 fn vertex_frame_centroid(b: Block) -> vec3<real> {
@@ -131,7 +139,7 @@ fn held_motion(i: u32) {
     b.travel += travel;
     b.peak_travel = max(b.peak_travel, travel);
     b.work += work;
-    if (!(is_finite(work) && all_finite(c))) {
+    if (!(is_finite(work) && all_finite(c) && turn_finite(q, omega, travel))) {
         b.finite = 0u;
     }
     blocks[i] = b;
@@ -247,7 +255,7 @@ fn law_of_motion(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation
     b.peak_travel = max(b.peak_travel, travel);
     b.work += work;
     b.damping_work += damping;
-    if (!(is_finite(work) && all_finite(c) && all_finite(v) && all_finite(l))) {
+    if (!(is_finite(work) && all_finite(c) && all_finite(v) && all_finite(l) && turn_finite(turn.q, turn.omega, travel))) {
         b.finite = 0u;
     }
     blocks[i] = b;

@@ -53,7 +53,7 @@ pub const MATH: &str = include_str!("../../shaders/math.wgsl");
 ///
 /// FINITE_MAX: the largest magnitude `is_finite` takes as finite, a little under each precision's
 /// largest value (f64 kernels held the work of a step to f32's, and a value of 1.6e39 was
-/// reported as not finite).
+/// reported as not finite); `exponent_finite`, the bit test of NaN and ±∞ it adds in f32.
 ///
 /// PIO2_1 + PIO2_2 + PIO2_3 is π/2 split for `sin_cos`'s reduction θ − k·π/2 (Cody–Waite): each
 /// part has few enough bits that k times it is exact (see the 2D prelude, `udec::gpu::shaders`).
@@ -66,7 +66,14 @@ pub fn math_constants(precision: Precision) -> String {
         Precision::F32 => ("1.5703125", "4.837512969970703125e-4", "7.54978995489188216e-8"),
         Precision::F64 => ("1.57079632673412561417e+00", "6.07710050650619224932e-11", "0.0"),
     };
-    format!("const PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst FINITE_MAX: real = {finite_max};\n")
+    // In f32 `is_finite` also reads the exponent's bits: a GL compiler may take NaN and ±∞ for
+    // impossible and fold `abs(x) <= FINITE_MAX` to true (llvmpipe through GL let a NaN
+    // orientation through, tests/suite/d3_gpu.rs), which a bit test it cannot fold away.
+    let exponent = match precision {
+        Precision::F32 => "fn exponent_finite(x: real) -> bool {\n    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;\n}\n",
+        Precision::F64 => "fn exponent_finite(x: real) -> bool {\n    return true;\n}\n",
+    };
+    format!("const PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst FINITE_MAX: real = {finite_max};\n{exponent}")
 }
 
 /// Parses and validates WGSL with naga, with f64 allowed only in the f64 variant. Returns the

@@ -955,3 +955,30 @@ fn on_every_target(single: fn(&GpuBackend, &str), double: fn(&GpuBackend, &str))
         }
     }
 }
+
+/// A spin past what the kernels hold (VELOCITY's 1e30 rad/s on a 5 cm tetrahedron: |ω|·Δt
+/// overflows f32 in the turn's axis-angle quaternion) made the orientation NaN, whose travel no
+/// too-fast check saw (a NaN compares false): the run went on 30 cycles and left a NaN angular
+/// velocity (found by tests/suite/d3_random_decks.rs). The law of motion now flags the block not
+/// finite: the run stops at cycle 1, naming the line, and hands back the last good state.
+#[test]
+fn a_spin_past_the_precision_stops_the_run_at_the_last_good_state() {
+    let deck = "START\nPROP MAT=1 D=2000 KN=1E8 KS=1E8 F=0.5\nBOX -2 6 -2 6 -1 0\nFIX -3 7 -3 7 -2 0\nGRAV 0 0 -10\n\
+                BLOCK (0,2.678,0.2) (0.05,2.678,0.2) (0,2.728,0.2)\n+ (0,2.678,0.2) (0,2.678,0.25) (0.05,2.678,0.2)\n\
+                + (0,2.678,0.2) (0,2.728,0.2) (0,2.678,0.25)\n+ (0.05,2.678,0.2) (0,2.678,0.25) (0,2.728,0.2)\n\
+                VELOCITY 0 0.05 0 4.72 0 3.86 0 0 0 1E30 0 0\nCYCLE 30\nSTOP\n";
+    let commands = blockdem::d3::deck::parse_deck(deck, "t.dat").unwrap();
+    for o in targets() {
+        let backend = Box::new(GpuBackend::new(&o.adapter, o.precision).unwrap_or_else(|e| panic!("{e}")));
+        let mut exec = Executor::with_backend(Box::new(std::io::sink()), "t.dat", backend);
+        let e = match exec.run(&commands) {
+            Ok(()) => panic!("{:?} {}: the run went on to cycle {}", o.adapter, o.precision, exec.model.cycle),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.starts_with("t.dat:11:") && e.contains("at cycle 1") && e.contains("block 2"), "{:?} {}: {e}", o.adapter, o.precision);
+        assert_eq!(exec.model.cycle, 0, "{:?} {}", o.adapter, o.precision);
+        for b in &exec.model.blocks {
+            assert!(b.centroid.is_finite() && b.velocity.is_finite() && b.angular_velocity.is_finite(), "{:?} {}: block {}", o.adapter, o.precision, b.id);
+        }
+    }
+}
