@@ -73,7 +73,9 @@ pub fn math_constants(precision: Precision) -> String {
         Precision::F32 => "fn exponent_finite(x: real) -> bool {\n    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;\n}\n",
         Precision::F64 => "fn exponent_finite(x: real) -> bool {\n    return true;\n}\n",
     };
-    format!("const PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst FINITE_MAX: real = {finite_max};\n{exponent}")
+    format!(
+        "const PIO2_1: real = {pio2_1};\nconst PIO2_2: real = {pio2_2};\nconst PIO2_3: real = {pio2_3};\nconst FINITE_MAX: real = {finite_max};\n{exponent}"
+    )
 }
 
 /// Parses and validates WGSL with naga, with f64 allowed only in the f64 variant. Returns the

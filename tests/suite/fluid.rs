@@ -416,7 +416,10 @@ fn a_pressure_past_f64_is_named_not_taken_for_an_instability() {
         )
     };
     let (e, m) = run_failing(&scene("1E10"), Box::new(blockdem::udec::cpu::CpuBackend::new()));
-    assert!(e.starts_with("t.dat:12:") && e.contains("the flow across the contact of blocks") && e.contains("pressure 1e300") && e.contains("overflows f64"), "{e}");
+    assert!(
+        e.starts_with("t.dat:12:") && e.contains("the flow across the contact of blocks") && e.contains("pressure 1e300") && e.contains("overflows f64"),
+        "{e}"
+    );
     assert_eq!(m.cycle, 0);
     m.validate().unwrap();
     let (e, m) = run_failing(&scene("1E-7"), Box::new(blockdem::udec::cpu::CpuBackend::new()));

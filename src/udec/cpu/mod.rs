@@ -476,6 +476,8 @@ pub(crate) fn mark_as_run_left(model: &mut Model) {
 /// (`model::fluid::fluid_timestep`): after each rebuild of the domains, on either backend. A
 /// limit that underflows f64 (CPERM = 1e300 against bulkw = 2e9: the step would be 0, the run
 /// would cycle without time passing while its flows overflow) stops the run before the cycle.
+// `!(dt >= …)` on purpose: a NaN limit fails the check too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub(crate) fn fluid_timestep_cut(model: &mut Model, report: &mut CycleReport) -> Result<(), CycleError> {
     if model.fluid.is_none() {
         return Ok(());
