@@ -179,6 +179,15 @@ fn a_value_f32_cannot_hold_is_refused_before_the_run(t: &Target) {
         (deck.to_string(), "block 1's mass is 1e40", true),
         (format!("{wall}DAMP 0.13 1E300 MASS\nCYCLE 10\n"), "the mass damping α (DAMPING) is 8.16", true),
         (format!("{wall}DAMP 0.1 1E-300 STIFF\nCYCLE 10\n"), "material 1's stiffness damping β·KN (DAMPING) is 1.59", false),
+        // And the fluid's: a flow law, and A_d(min) (SET DAMIN 1E300 made every area the device
+        // gave back infinite, and the last good state of a failing run one no RESTART took;
+        // found by fuzzing random decks).
+        (format!("{wall}FLUID 1000 2E5\nPROP MAT=1 CPERM=1E200\nPFIX OUTER 0\nCYCLE 10\n"), "material 1's CPERM is 1e200", true),
+        (
+            format!("{wall}FLUID 1000 2E5\nPROP MAT=1 CPERM=1E-7\nPFIX OUTER 0\nSET DAMIN 1E300\nCYCLE 10\n"),
+            "the domains' minimum area (SET DAMIN) is 1e300",
+            true,
+        ),
     ];
     for (deck, named, f64_runs) in &cases {
         if !t.is_f32() {

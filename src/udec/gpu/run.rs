@@ -112,6 +112,11 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
         if let Some(d) = model.domains.iter().flat_map(|d| &d.list).find(|d| !bounded(d.pressure)) {
             return refuse(format!("domain {}'s pressure (PFIX)", d.id), d.pressure);
         }
+        // A_d(min), every domain's least area (SET DAMIN 1E300 was infinite on the device, and
+        // so every area the device gave back).
+        if let Some(d) = model.domains.as_ref().filter(|d| !bounded(d.min_area)) {
+            return refuse("the domains' minimum area (SET DAMIN)".into(), d.min_area);
+        }
         // The flows as the domains were last built (CPERM·Δp): the device's first step starts
         // from them, and its last good state holds them.
         let flows = model.domains.iter().flat_map(|d| d.flows.iter().enumerate());
