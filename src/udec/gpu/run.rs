@@ -121,9 +121,9 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
         // from them, and its last good state holds them.
         let flows = model.domains.iter().flat_map(|d| d.flows.iter().enumerate());
         if let Some((k, f)) = flows.into_iter().find(|(_, f)| !bounded(f.flow)) {
-            let c = &model.contacts[k.min(model.contacts.len().saturating_sub(1))];
             let id = |b: u32| model.blocks.get(b as usize).map_or(0, |b| b.id);
-            return refuse(format!("the flow across the contact of blocks {} and {} (CPERM·Δp, PFIX)", id(c.block1), id(c.block2)), f.flow);
+            let (b1, b2) = model.contacts.get(k).map_or((0, 0), |c| (id(c.block1), id(c.block2)));
+            return refuse(format!("the flow across the contact of blocks {b1} and {b2} (CPERM·Δp, PFIX)"), f.flow);
         }
     }
     // The law of motion scales the velocities by (1 − αΔt/2)/(1 + αΔt/2) (eqs. 9–10, UDEC's CON1/CON2).
