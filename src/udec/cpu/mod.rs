@@ -504,10 +504,12 @@ pub(crate) fn fluid_timestep_cut(model: &mut Model, report: &mut CycleReport) ->
 /// underflows or a flow that overflows, found on the domains the start built,
 /// `fluid_timestep_cut`) hands the model back as it was given, so that the last good state of
 /// the failed CYCLE is the one before it, which a SAVE holds and a RESTART takes (the rebuilt
-/// domains held the overflowing flows). A dry start writes nothing a SAVE cannot hold, and
-/// keeps no copy.
+/// domains held the overflowing flows). Only a start that rebuilds the domains keeps the copy:
+/// a dry start writes nothing a SAVE cannot hold, and one that goes on from the state a run left
+/// (a piece of a CYCLE, a RESTART of its SAVE: `start_detection`) keeps its domains as they are.
 pub(crate) fn prepare_run<S: driver::Start<Model> + ?Sized>(start: &mut S, model: &mut Model, report: &mut CycleReport) -> Result<bool, CycleError> {
-    let before = model.fluid.is_some().then(|| model.clone());
+    let rebuilds = model.fluid.is_some_and(|f| !(f.as_run_left && model.domains.is_some()));
+    let before = rebuilds.then(|| model.clone());
     driver::prepare(start, model, report).inspect_err(|_| {
         if let Some(before) = before {
             *model = before;
