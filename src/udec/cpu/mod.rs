@@ -455,13 +455,19 @@ fn fluid_after_topology(model: &mut Model, topology: &Topology, fluid: &mut flow
 /// such a state's contacts, domains and step are kept, as in a run that went on, and CYCLE N,
 /// SAVE, RESTART, CYCLE M is CYCLE N + M bit for bit. Returns whether they were kept.
 pub(crate) fn start_detection(model: &mut Model, topology: &mut Topology, report: &mut CycleReport) -> bool {
-    let kept = model.fluid.is_some_and(|f| f.as_run_left) && model.domains.is_some();
+    let kept = keeps_run_state(model);
     if kept {
         *topology = Topology::build(model.blocks.len(), &model.contacts);
     } else {
         update_topology(model, topology, report, true);
     }
     kept
+}
+
+/// Whether a run's start keeps the contacts, domains and step of `model` (`start_detection`): a
+/// scene with fluid whose state is as a run left it, domains included.
+fn keeps_run_state(model: &Model) -> bool {
+    model.fluid.is_some_and(|f| f.as_run_left) && model.domains.is_some()
 }
 
 /// A run has started: in a scene with fluid its state is as a run left it from here on
@@ -508,8 +514,7 @@ pub(crate) fn fluid_timestep_cut(model: &mut Model, report: &mut CycleReport) ->
 /// a dry start writes nothing a SAVE cannot hold, and one that goes on from the state a run left
 /// (a piece of a CYCLE, a RESTART of its SAVE: `start_detection`) keeps its domains as they are.
 pub(crate) fn prepare_run<S: driver::Start<Model> + ?Sized>(start: &mut S, model: &mut Model, report: &mut CycleReport) -> Result<bool, CycleError> {
-    let rebuilds = model.fluid.is_some_and(|f| !(f.as_run_left && model.domains.is_some()));
-    let before = rebuilds.then(|| model.clone());
+    let before = (model.fluid.is_some() && !keeps_run_state(model)).then(|| model.clone());
     driver::prepare(start, model, report).inspect_err(|_| {
         if let Some(before) = before {
             *model = before;

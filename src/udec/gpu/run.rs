@@ -46,11 +46,7 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
     let (tiny, huge) = (f32::MIN_POSITIVE as f64, f32::MAX as f64);
     let normal = |x: f64| (tiny..=huge).contains(&x.abs());
     let bounded = |x: f64| x.abs() <= huge;
-    let refuse = |what: String, x: f64| {
-        Err(GpuError::DoesNotFit(format!(
-            "{what} is {x:e}, outside the range of the f32 kernels ({tiny:.1e} to {huge:.1e}); run with --precision f64 or --backend cpu, or check the units"
-        )))
-    };
+    let refuse = |what: String, x: f64| Err(f32_refusal(&what, x));
     for b in &model.blocks {
         let scales = [("mass", b.mass), ("moment of inertia", b.inertia)];
         let values = [
@@ -117,14 +113,7 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
         if let Some(d) = model.domains.as_ref().filter(|d| !bounded(d.min_area)) {
             return refuse("the domains' minimum area (SET DAMIN)".into(), d.min_area);
         }
-        // The flows as the domains were last built (CPERM·Δp): the device's first step starts
-        // from them, and its last good state holds them.
-        let flows = model.domains.iter().flat_map(|d| d.flows.iter().enumerate());
-        if let Some((k, f)) = flows.into_iter().find(|(_, f)| !bounded(f.flow)) {
-            let id = |b: u32| model.blocks.get(b as usize).map_or(0, |b| b.id);
-            let (b1, b2) = model.contacts.get(k).map_or((0, 0), |c| (id(c.block1), id(c.block2)));
-            return refuse(format!("the flow across the contact of blocks {b1} and {b2} (CPERM·Δp, PFIX)"), f.flow);
-        }
+        flows_representable::<R>(model)?;
     }
     // The law of motion scales the velocities by (1 − αΔt/2)/(1 + αΔt/2) (eqs. 9–10, UDEC's CON1/CON2).
     let (alpha, dt) = (model.damping.alpha, model.timestep);
@@ -139,6 +128,31 @@ pub(super) fn representable<R: Real>(model: &Model) -> Result<(), GpuError> {
         Some((name, x)) => refuse(name.to_string(), x),
         None => Ok(()),
     }
+}
+
+/// The refusal of a value the f32 kernels cannot hold (`representable`).
+fn f32_refusal(what: &str, x: f64) -> GpuError {
+    let (tiny, huge) = (f32::MIN_POSITIVE as f64, f32::MAX as f64);
+    GpuError::DoesNotFit(format!(
+        "{what} is {x:e}, outside the range of the f32 kernels ({tiny:.1e} to {huge:.1e}); run with --precision f64 or --backend cpu, or check the units"
+    ))
+}
+
+/// The flows as the domains were last built (CPERM·Δp), which the f32 kernels must hold: the
+/// device's first step starts from them, and its last good state holds them. Part of
+/// `representable`, and taken again where a run's start has just rebuilt the domains (the rest
+/// of the model is as the preflight saw it).
+fn flows_representable<R: Real>(model: &Model) -> Result<(), GpuError> {
+    if R::WGSL != "f32" {
+        return Ok(());
+    }
+    let flows = model.domains.iter().flat_map(|d| d.flows.iter().enumerate());
+    if let Some((k, f)) = flows.into_iter().find(|(_, f)| f.flow.abs() > f32::MAX as f64 || f.flow.is_nan()) {
+        let id = |b: u32| model.blocks.get(b as usize).map_or(0, |b| b.id);
+        let (b1, b2) = model.contacts.get(k).map_or((0, 0), |c| (id(c.block1), id(c.block2)));
+        return Err(f32_refusal(&format!("the flow across the contact of blocks {b1} and {b2} (CPERM·Δp, PFIX)"), f.flow));
+    }
+    Ok(())
 }
 
 /// How the state came back for stage 7: `cracking`, the scene has point-load candidates (the
@@ -400,7 +414,7 @@ impl<R: Real> driver::Start<Model> for GpuRun<'_, R> {
                 crate::udec::topology::refresh_domains(model);
                 cpu::fluid_timestep_cut(model, report)?;
                 // The flows of the domains just built, which the preflight did not see.
-                representable::<R>(model).map_err(device_error)?;
+                flows_representable::<R>(model).map_err(device_error)?;
             }
             cpu::mark_as_run_left(model);
             e.list_in_order = true;
